@@ -1,0 +1,62 @@
+"""``tdicam verilog BLOCK [--PARAM VALUE ...] -o FILE.v``"""
+
+import sys
+
+from .. import blocks
+from ..errors import TdicamError
+from ..verilog import generate
+
+
+def register(sub):
+    p = sub.add_parser("verilog", help="generate deterministic Verilog for a block",
+                       description="Generate deterministic Verilog for a block. "
+                                   "'tdicam verilog BLOCK --help' lists its parameters.",
+                       add_help=False)
+    p.add_argument("block", nargs="?", help=f"one of: {', '.join(blocks.names())}")
+    p.add_argument("-o", "--output", help="output file (default: stdout)")
+    p.add_argument("-h", "--help", action="store_true", help="show the block's parameters")
+    p.set_defaults(func=_run, _parser=p, _raw=True)
+
+
+def parse_block_params(block, extra):
+    """``--name value`` / ``--name=value`` pairs for ``block`` into a raw dict."""
+    out = {}
+    it = iter(extra)
+    for tok in it:
+        if not tok.startswith("--"):
+            raise TdicamError(f"unexpected argument {tok!r}; parameters are --NAME VALUE")
+        name, eq, value = tok[2:].partition("=")
+        if not eq:
+            value = next(it, None)
+            if value is None:
+                raise TdicamError(f"--{name} needs a value")
+        out[name.replace("-", "_")] = value
+    return block.resolve(out)
+
+
+def block_help(block):
+    lines = [f"{block.name}: {block.summary}", "parameters:"]
+    lines += [f"  {p.describe()}" for p in block.params] or ["  (none)"]
+    return "\n".join(lines)
+
+
+def _run(args):
+    if args.block is None:
+        if args.help:
+            args._parser.print_help()
+            return 0
+        raise TdicamError(f"which block? valid: {', '.join(blocks.names())}")
+    blk = blocks.get(args.block)
+    if args.help:
+        print(block_help(blk))
+        return 0
+    params = parse_block_params(blk, args.extra)
+    text = generate(blk, params)
+    if args.output:
+        with open(args.output, "w") as fh:
+            fh.write(text)
+        print(f"wrote {args.output}: module {blk.name}, "
+              + ", ".join(f"{k}={v}" for k, v in params.items()), file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0

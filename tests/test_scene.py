@@ -1,0 +1,387 @@
+"""Scene-file schema and loader (tdicam/scene.py)."""
+
+import dataclasses
+import math
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from tdicam.errors import TdicamError
+from tdicam.model import plan as P
+from tdicam.scene import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+BUNDLED_SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"
+ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
+
+
+def write(tmp_path, text, name="scene.toml"):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def load_text(tmp_path, text):
+    return load_scene(write(tmp_path, text))
+
+
+def error_of(tmp_path, text):
+    with pytest.raises(TdicamError) as exc:
+        load_text(tmp_path, text)
+    message = str(exc.value)
+    assert "\n" not in message
+    return message
+
+
+# ------------------------------------------------------------------ good scenes
+
+
+def test_bundled_scene():
+    sc = load_scene(BUNDLED_SCENE)
+    assert isinstance(sc, Scene)
+    assert sc.orbit.altitude_km == 600.0 and sc.orbit.gsd_m == 1.0 and sc.turntable is None
+    assert (sc.sensor.columns, sc.sensor.rows, sc.sensor.bits) == (1280, 1024, 12)
+    assert sc.tdi.stages == (96,) and sc.tdi.domain == "digital"
+    assert sc.line_period_s == pytest.approx(1.0 / P.ground_speed(600e3), rel=1e-15)
+    assert sc.timing.m0 == 96
+    assert sc.target.kind == "bars" and sc.target.period_px == 4.0
+    assert sc.source.endswith("orbit_600km_1m_96.toml")
+
+
+def test_defaults(tmp_path):
+    sc = load_text(tmp_path, ORBIT)
+    s = sc.sensor
+    assert (s.columns, s.rows, s.bits, s.pitch_um) == (1280, 1024, 12, 5.5)
+    assert s.conversion_gain_e_per_dn == pytest.approx(20000 / 4096)
+    assert (s.read_noise_e, s.dark_current_e_per_s, s.prnu, s.dsnu_e) == (0, 0, 0, 0)
+    assert s.row_blanking_us == 3.5 and s.pixel_clock_mhz is None and s.row_time_s is None
+    assert s.gains == (1.0,) and s.shutter == "rolling"
+    assert sc.timing is None
+    assert sc.tdi.stages == (1,) and sc.tdi.direction == "forward" and sc.tdi.output_bits == 12
+    assert sc.motion.dv_over_v == (0.0,) and sc.motion.drift_deg == 0.0
+    assert sc.target.kind == "flat" and sc.target.signal_e == 1000.0
+    assert sc.pipeline.blocks == ("tdi",) and sc.pipeline.median_after_tdi is None
+    assert sc.pipeline.hdr.threshold_dn == 3072
+    assert (sc.run.lines, sc.run.seed, sc.run.fidelity, sc.run.rtl) == (256, 0, "auto", None)
+
+
+def test_full_scene_and_sweeps(tmp_path):
+    (tmp_path / "img").mkdir()
+    (tmp_path / "img" / "field.PNG").write_bytes(b"\x89PNG\r\n\x1a\n")
+    sc = load_text(tmp_path, """
+        [turntable]
+        angular_speed_rad_s = 0.05
+        distance_m = 0.5
+        [target]
+        kind = "image"
+        path = "img/field.PNG"
+        signal_e = 0
+        [sensor]
+        columns = 640
+        rows = 512
+        pitch_um = 5.2
+        gains = [4.9, 0.8]
+        pixel_clock_mhz = 48
+        row_blanking_us = 3.5
+        shutter = "global"
+        [tdi]
+        stages = [1, 4, 8]
+        domain = "charge"
+        direction = "reverse"
+        output = "saturate"
+        output_bits = 10
+        [motion]
+        dv_over_v = [0.0, -0.1, 0.25]
+        drift_deg = 1.5
+        [pipeline]
+        blocks = ["cds", "nuc", "hdr", "median3", "tdi"]
+        [pipeline.hdr]
+        threshold_dn = 3500
+        band_dn = 100
+        [pipeline.median3]
+        edge_enhance = true
+        [run]
+        lines = 64
+        fidelity = "exact"
+        [run.rtl]
+        crop = [0, 0, 32, 16]
+        simulator = "icarus"
+        pixels_per_clock = 4
+    """)
+    assert sc.orbit is None
+    assert sc.line_period_s == pytest.approx(5.2e-6 / (0.05 * 0.5))
+    assert sc.target.path == (tmp_path / "img" / "field.PNG").resolve()
+    assert sc.tdi.stages == (1, 4, 8) and sc.motion.dv_over_v == (0.0, -0.1, 0.25)
+    assert sc.sensor.row_time_s == pytest.approx(3.5e-6 + 640 / 48e6)
+    assert sc.timing.m0 == 12
+    assert sc.pipeline.median_after_tdi is False and sc.pipeline.median3.edge_enhance
+    assert sc.pipeline.hdr.threshold_dn == 3500 and sc.pipeline.hdr.band_dn == 100
+    assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 4
+    d = sc.to_dict()
+    assert d["tdi"]["stages"] == [1, 4, 8] and isinstance(d["target"]["path"], str)
+
+
+def test_scene_is_frozen(tmp_path):
+    sc = load_text(tmp_path, ORBIT)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sc.sensor.rows = 5
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        sc.tdi = None
+
+
+def test_bundled_image_and_max_frame_rate(tmp_path):
+    sc = load_text(tmp_path, ORBIT + """
+        [target]
+        kind = "image"
+        image = "camera"
+        [sensor]
+        max_frame_rate_hz = 650
+        [tdi]
+        stages = 96
+    """)
+    assert sc.target.image == "camera" and "camera" in BUNDLED_IMAGES
+    assert sc.sensor.available_frame_rate_hz == pytest.approx(650.0)
+
+
+def test_overrides_and_labels(tmp_path):
+    path = write(tmp_path, ORBIT + "[tdi]\nstages = 8\n")
+    sc = load_scene(path, overrides={"tdi": {"stages": 16}})
+    assert sc.tdi.stages == (16,) and sc.orbit.gsd_m == 1.0
+    with pytest.raises(TdicamError, match=r"^--stages: must be >= 1, got 0$"):
+        load_scene(path, overrides={"tdi": {"stages": 0}}, labels={"tdi.stages": "--stages"})
+    sc = load_scene(path, overrides={"orbit": None,
+                                     "turntable": {"angular_speed_rad_s": 1.0, "distance_m": 1.0}})
+    assert sc.orbit is None and sc.turntable.distance_m == 1.0
+
+
+def test_scene_from_dict():
+    sc = scene_from_dict({"orbit": {"altitude_km": 500, "gsd_m": 2}, "tdi": {"stages": 4}})
+    assert sc.orbit.line_period_s == pytest.approx(float(P.orbit_line_period(500e3, 2.0)))
+
+
+# ------------------------------------------------------------------ file-level errors
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(TdicamError, match="scene file not found"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_invalid_toml(tmp_path):
+    assert "invalid TOML" in error_of(tmp_path, "[orbit\naltitude_km = 600\n")
+
+
+def test_unknown_section_did_you_mean(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[sensr]\nrows = 10\n")
+    assert msg == "[sensr]: unknown section; did you mean 'sensor'?"
+
+
+def test_section_not_a_table(tmp_path):
+    assert error_of(tmp_path, "sensor = 5\n" + ORBIT) == "[sensor]: must be a table, got 5"
+
+
+@pytest.mark.parametrize("text, expected", [
+    (ORBIT + "[turntable]\nangular_speed_rad_s = 1\ndistance_m = 1\n", "got both"),
+    ("[sensor]\nrows = 10\n", "got neither"),
+])
+def test_exactly_one_motion_section(tmp_path, text, expected):
+    msg = error_of(tmp_path, text)
+    assert msg.startswith("[orbit]: a scene needs exactly one of [orbit] and [turntable]")
+    assert expected in msg
+
+
+# ------------------------------------------------------------------ key-level errors
+
+
+@pytest.mark.parametrize("extra, expected", [
+    # out of range (the brief's example form)
+    ("[sensor]\nread_noise_e = -1\n", "[sensor].read_noise_e: must be >= 0, got -1"),
+    ("[orbit]\n", None),  # placeholder replaced below
+])
+def _unused(extra, expected):  # pragma: no cover - keeps parametrize lists readable
+    pass
+
+
+BAD_KEYS = [
+    # range
+    ("[sensor]\nread_noise_e = -1\n", "[sensor].read_noise_e: must be >= 0, got -1"),
+    ("[sensor]\nfill_factor = 0\n", "[sensor].fill_factor: must be in (0, 1], got 0"),
+    ("[sensor]\nbits = 40\n", "[sensor].bits: must be in 1..24, got 40"),
+    ("[sensor]\nprnu = 1.0\n", "[sensor].prnu: must be in [0, 1), got 1.0"),
+    ("[sensor]\npitch_um = -5.5\n", "[sensor].pitch_um: must be > 0, got -5.5"),
+    ("[target]\nsignal_e = -3.0\n", "[target].signal_e: must be >= 0, got -3.0"),
+    ("[tdi]\nstages = 0\n", "[tdi].stages: must be >= 1, got 0"),
+    ("[tdi]\nstages = [4, 0]\n", "[tdi].stages: must be >= 1 (entry 1 of the list), got 0"),
+    ("[tdi]\nstages = []\n", "[tdi].stages: must not be an empty list"),
+    ("[motion]\ndv_over_v = [0.0, 1.0]\n",
+     "[motion].dv_over_v: must be in (-1, 1) (entry 1 of the list), got 1.0"),
+    ("[motion]\ndrift_deg = 90\n", "[motion].drift_deg: must be in (-90, 90), got 90"),
+    ("[run]\nlines = 0\n", "[run].lines: must be >= 1, got 0"),
+    ("[run]\ntolerance = 0\n", "[run].tolerance: must be in (0, 1), got 0"),
+    ("[target]\nkind = \"bars\"\nperiod_px = 1\n", "[target].period_px: must be >= 2, got 1"),
+    ("[target]\nkind = \"bars\"\ncontrast = 1.5\n",
+     "[target].contrast: must be in (0, 1], got 1.5"),
+    ("[target]\nkind = \"siemens\"\nspokes = 2\n", "[target].spokes: must be in 4..720, got 2"),
+    # types
+    ("[sensor]\nrows = 1024.0\n", "[sensor].rows: must be an integer, got 1024.0"),
+    ("[sensor]\nrows = true\n", "[sensor].rows: must be an integer, got true"),
+    ("[sensor]\nread_noise_e = \"5\"\n", "[sensor].read_noise_e: must be a number, got '5'"),
+    ("[sensor]\nread_noise_e = nan\n", "[sensor].read_noise_e: must be a finite number, got nan"),
+    ("[pipeline.median3]\nedge_enhance = 1\n", None),  # checked separately (block not listed)
+    # choices
+    ("[sensor]\nshutter = \"rolling-shutter\"\n",
+     "[sensor].shutter: must be one of 'rolling', 'global', got 'rolling-shutter'; "
+     "did you mean 'rolling'?"),
+    ("[tdi]\ndomain = \"analog\"\n", "[tdi].domain: must be one of 'digital', 'charge', "
+     "got 'analog'"),
+    ("[run]\nfidelity = 3\n", "[run].fidelity: must be one of 'exact', 'fast', 'auto', got 3"),
+    # unknown keys, with and without a close match
+    ("[sensor]\nread_noise = 3\n",
+     "[sensor].read_noise: unknown key; did you mean 'read_noise_e'?"),
+    ("[tdi]\nzzz = 3\n", "[tdi].zzz: unknown key; valid: direction, domain, output, "
+     "output_bits, stages"),
+    ("[orbit]\n", None),
+]
+
+
+@pytest.mark.parametrize("extra, expected", [c for c in BAD_KEYS if c[1] is not None])
+def test_bad_keys(tmp_path, extra, expected):
+    assert error_of(tmp_path, ORBIT + extra) == expected
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("[orbit]\naltitude_km = -1\ngsd_m = 1\n", "[orbit].altitude_km: must be >= 0, got -1"),
+    ("[orbit]\naltitude_km = 600\ngsd_m = 0\n", "[orbit].gsd_m: must be > 0, got 0"),
+    ("[orbit]\naltitude_km = 600\n", "[orbit].gsd_m: missing (required)"),
+    ("[orbit]\naltitude_km = 600\ngsd = 1\n", "[orbit].gsd: unknown key; did you mean 'gsd_m'?"),
+    ("[turntable]\nangular_speed_rad_s = 0\ndistance_m = 1\n",
+     "[turntable].angular_speed_rad_s: must be > 0, got 0"),
+    ("[turntable]\nangular_speed_rad_s = 1\ndistance_m = 0.0\n",
+     "[turntable].distance_m: must be > 0, got 0.0"),
+])
+def test_bad_motion_platform(tmp_path, text, expected):
+    assert error_of(tmp_path, text) == expected
+
+
+# ------------------------------------------------------------------ target
+
+
+def test_image_file_must_exist(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[target]\nkind = \"image\"\npath = \"missing.png\"\n")
+    assert msg.startswith("[target].path: file not found:") and "missing.png" in msg
+
+
+def test_image_path_relative_to_scene_file(tmp_path, monkeypatch):
+    sub = tmp_path / "scenes"
+    sub.mkdir()
+    (sub / "a.tif").write_bytes(b"II*\x00")
+    monkeypatch.chdir(tmp_path)  # the cwd must not matter
+    sc = load_scene(write(sub, ORBIT + "[target]\nkind = \"image\"\npath = \"a.tif\"\n"))
+    assert sc.target.path == (sub / "a.tif").resolve()
+
+
+def test_image_must_be_png_or_tiff(tmp_path):
+    (tmp_path / "a.jpg").write_bytes(b"x")
+    msg = error_of(tmp_path, ORBIT + "[target]\nkind = \"image\"\npath = \"a.jpg\"\n")
+    assert msg == "[target].path: must be a PNG or TIFF file (.png, .tif, .tiff), got 'a.jpg'"
+
+
+@pytest.mark.parametrize("target, expected", [
+    ("kind = \"image\"\n", "[target].path: kind = 'image' needs exactly one of"),
+    ("kind = \"image\"\nimage = \"camera\"\npath = \"x.png\"\n", "got both"),
+    ("kind = \"image\"\nimage = \"camra\"\n",
+     "[target].image: unknown bundled image 'camra'; did you mean 'camera'?"),
+    ("kind = \"edge\"\nperiod_px = 4\n",
+     "[target].period_px: not used with kind = 'edge' (it belongs to kind 'bars')"),
+    ("kind = \"flat\"\ncontrast = 0.5\n", "[target].contrast: not used with kind = 'flat'"),
+    ("kind = \"barz\"\n", "[target].kind: must be one of 'image', 'bars', 'edge', 'siemens', "
+     "'flat', got 'barz'; did you mean 'bars'?"),
+])
+def test_bad_target(tmp_path, target, expected):
+    assert error_of(tmp_path, ORBIT + "[target]\n" + target).startswith(expected)
+
+
+# ------------------------------------------------------------------ sensor cross-checks
+
+
+@pytest.mark.parametrize("sensor, expected", [
+    ("gains = [1.0, 2.0, 3.0]\n", "[sensor].gains: must be a list of one or two gains"),
+    ("gains = 4.9\n", "[sensor].gains: must be a list of one or two gains, got 4.9"),
+    ("gains = [0.8, 4.9]\n",
+     "[sensor].gains: two gains must be [high, low] with high > low, got [0.8, 4.9]"),
+    ("gains = [4.9, 0]\n", "[sensor].gains: must be > 0 (entry 1 of the list), got 0"),
+    ("pixel_clock_mhz = 100\nmax_frame_rate_hz = 650\n",
+     "[sensor].max_frame_rate_hz: give either [sensor].pixel_clock_mhz"),
+    ("pixel_clock_mhz = 0\n", "[sensor].pixel_clock_mhz: must be > 0, got 0"),
+])
+def test_bad_sensor(tmp_path, sensor, expected):
+    assert error_of(tmp_path, ORBIT + "[sensor]\n" + sensor).startswith(expected)
+
+
+# ------------------------------------------------------------------ stages vs window
+
+
+def test_stages_above_sensor_rows(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[sensor]\nrows = 64\n[tdi]\nstages = [8, 65]\n")
+    assert msg.startswith("[tdi].stages: must be <= 64 (the sensor rows")
+
+
+def test_stages_above_m0(tmp_path):
+    # 1280 px at 100 MHz plus 3.5 us blanking: T_row 16.3 us, 144.76 us / 16.3 us -> M0 = 8
+    msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 100\n[tdi]\nstages = 9\n")
+    assert msg.startswith("[tdi].stages: must be <= M0 = 8 (rows read in one line period")
+    assert msg.endswith("got 9")
+    sc = load_text(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 100\n[tdi]\nstages = 8\n")
+    assert sc.timing.m0 == 8
+
+
+def test_stages_with_m0_zero(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 1\n")
+    assert msg.startswith("[tdi].stages: no TDI is possible") and "M0 = 0" in msg
+
+
+def test_seed003_default_blanking_limits_96_stages(tmp_path):
+    # with seed 003's 3.5 us blanking even an infinitely fast pixel clock gives M0 = 41
+    msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 1e9\n[tdi]\nstages = 96\n")
+    assert "M0 = 41" in msg
+    assert math.floor(P.orbit_line_period(600e3, 1.0) / 3.5e-6) == 41
+
+
+# ------------------------------------------------------------------ pipeline and run
+
+
+@pytest.mark.parametrize("pipeline, expected", [
+    ("blocks = [\"cds\", \"nuc\"]\n", "[pipeline].blocks: must contain 'tdi' once"),
+    ("blocks = [\"tdi\", \"tdi\"]\n", "[pipeline].blocks: block 'tdi' is listed 2 times"),
+    ("blocks = [\"tdi\", \"median5\"]\n",
+     "[pipeline].blocks: unknown block 'median5'; did you mean 'median3'?"),
+    ("blocks = [\"tdi\", \"cds\"]\n", "[pipeline].blocks: cds, nuc and hdr act on single"),
+    ("blocks = [\"nuc\", \"cds\", \"tdi\"]\n", "[pipeline].blocks: cds, nuc and hdr act on single"),
+    ("blocks = \"tdi\"\n", "[pipeline].blocks: must be a list of block names, got 'tdi'"),
+    ("blocks = [\"tdi\"]\n[pipeline.hdr]\nthreshold_dn = 100\n",
+     "[pipeline].hdr: options given but 'hdr' is not in [pipeline].blocks"),
+    ("blocks = [\"hdr\", \"tdi\"]\n[pipeline.hdr]\nthreshold_dn = 4095\n",
+     "[pipeline.hdr].threshold_dn: must be in 1..4094, got 4095"),
+    ("blocks = [\"hdr\", \"tdi\"]\n[pipeline.hdr]\nthreshold = 100\n",
+     "[pipeline.hdr].threshold: unknown key; did you mean 'threshold_dn'?"),
+    ("blocks = [\"tdi\"]\n[pipeline.tdi]\nx = 1\n", "[pipeline].tdi: unknown key"),
+])
+def test_bad_pipeline(tmp_path, pipeline, expected):
+    assert error_of(tmp_path, ORBIT + "[pipeline]\n" + pipeline).startswith(expected)
+
+
+def test_median_after_tdi(tmp_path):
+    sc = load_text(tmp_path, ORBIT + "[pipeline]\nblocks = [\"cds\", \"tdi\", \"median3\"]\n")
+    assert sc.pipeline.median_after_tdi is True
+
+
+@pytest.mark.parametrize("rtl, expected", [
+    ("crop = [0, 0, 2000, 16]\n", "[run.rtl].crop: must lie inside the 1280 x 256 output"),
+    ("crop = [0, 0, 16]\n", "[run.rtl].crop: must be four integers"),
+    ("crop = [-1, 0, 16, 16]\n", "[run.rtl].crop: needs x0, y0 >= 0"),
+    ("simulator = \"modelsim\"\n", "[run.rtl].simulator: must be one of 'icarus', 'verilator'"),
+    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be one of 1, 2, 4, 8, got 3"),
+])
+def test_bad_rtl(tmp_path, rtl, expected):
+    assert error_of(tmp_path, ORBIT + "[run.rtl]\n" + rtl).startswith(expected)
