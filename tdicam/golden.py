@@ -1,7 +1,6 @@
 """Golden-vector store: ``golden/<block>/<case>.npz`` and ``golden/manifest.json``.
 
-Each case file is an uncompressed-header, deflate-compressed ``.npz`` written
-deterministically (fixed zip timestamps, sorted members) holding the case's input and
+Each case file is a deflate-compressed ``.npz`` written deterministically (fixed zip timestamps, sorted members) holding the case's input and
 expected-output arrays with their exact dtypes, plus ``__params__`` (the block parameters
 as JSON). The manifest records, per case, the file, block, parameters, generator, seed,
 model version and, per array, dtype, shape and ``sha256(dtype.str | shape | bytes)``.
@@ -11,6 +10,7 @@ model version and, per array, dtype, shape and ``sha256(dtype.str | shape | byte
 or tampered file is reported in one line naming the file.
 """
 
+import fcntl
 import hashlib
 import io
 import json
@@ -140,6 +140,13 @@ def _selected(names):
 
 def regen(names=None):
     """Regenerate the golden files of the named blocks (all when empty); returns case count."""
+    golden_dir().mkdir(parents=True, exist_ok=True)
+    with open(golden_dir() / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return _regen(names)
+
+
+def _regen(names):
     man = _read_manifest()
     count = 0
     for block in _selected(names):
