@@ -815,10 +815,12 @@ def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
     for name, table in overrides.items():
         if table is None:
             out.pop(name, None)
-        elif isinstance(table, Mapping) and isinstance(out.get(name), dict):
-            out[name].update(table)
+        elif isinstance(table, Mapping):
+            merged = dict(out[name]) if isinstance(out.get(name), dict) else {}
+            merged.update(table)
+            out[name] = {k: v for k, v in merged.items() if v is not None}
         else:
-            out[name] = dict(table) if isinstance(table, Mapping) else table
+            out[name] = table
     return out
 
 
@@ -833,7 +835,7 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
         ``[orbit]`` or ``[turntable]``).
     overrides : mapping, optional
         ``{section: {key: value}}`` applied over the file before validation (used by the
-        command line); a section mapped to None is removed.
+        command line); a section or a key mapped to None is removed.
     labels : mapping, optional
         Error-message names for overridden keys, see :func:`scene_from_dict`.
 

@@ -110,8 +110,11 @@ def test_row_time_and_timing_example():
 
 
 def test_timing_exact_multiple_gives_zero_back_porch():
-    tm = P.rolling_timing(3 * 0.1e-6, 0.1e-6)  # 0.3/0.1 is 2.9999999999999996 in floats
+    assert 0.3 / 0.1 < 3 and (13 * 0.1e-6) / 0.1e-6 < 13  # float rounding falls short
+    tm = P.rolling_timing(0.3, 0.1)
     assert tm.n_lines == 3 and tm.back_porch_s == 0.0
+    tm = P.rolling_timing(13 * 0.1e-6, 0.1e-6)
+    assert tm.n_lines == 13 and tm.back_porch_s == 0.0
 
 
 def test_timing_capped_by_rows_and_frame_rate_equivalence():
@@ -364,7 +367,7 @@ def test_cli_scene(capsys):
 
 
 def test_cli_json(capsys):
-    code, out, _ = run_cli(capsys, "--scene", str(SCENE), "--dv-over-v", "0", "0.010416666666666666",
+    code, out, _ = run_cli(capsys, "--scene", str(SCENE), "--dv-over-v", "0", str(1 / 96),
                            "--onchip-kbit", "4096", "--json")
     assert code == 0
     rep = json.loads(out)
@@ -382,6 +385,16 @@ def test_cli_overrides_scene_stages(capsys):
     code, out, _ = run_cli(capsys, "--scene", str(SCENE), "--stages", "8", "48", "--json")
     rep = json.loads(out)
     assert code == 0 and [p["stages"] for p in rep["points"]] == [8, 48]
+
+
+def test_cli_row_timing_option_replaces_scene_timing(capsys):
+    # the scene gives max_frame_rate_hz; --pixel-clock-mhz replaces it instead of clashing
+    code, out, err = run_cli(capsys, "--scene", str(SCENE), "--pixel-clock-mhz", "1280",
+                             "--row-blanking-us", "0.3", "--json")
+    assert code == 0, err
+    rep = json.loads(out)
+    assert rep["sensor"]["row_time_s"] == pytest.approx(1.3e-6)
+    assert rep["design"]["window"]["m0"] == 111
 
 
 def test_cli_turntable(capsys):

@@ -76,18 +76,20 @@ def register(subparsers) -> None:
     """Add the ``plan`` subcommand to an argparse ``subparsers`` object."""
     p = subparsers.add_parser(
         "plan", help="size a digital-TDI camera: line/frame rate, window, memory, SNR, MTF",
-        description=__doc__.split("\n\n")[0] + " " + __doc__.split("\n\n")[1])
+        description=" ".join(__doc__.split("\n\n")[:2]).replace("``", ""))
     p.add_argument("--scene", metavar="FILE", help="scene TOML file (options override it)")
+    metavars = {int: "N", float: "X", str: "NAME"}
     for dest, _sec, _key, opt, typ, nargs, text in _SCENE_OPTIONS:
-        p.add_argument(opt, dest=dest, type=typ, nargs=nargs, default=None, help=text)
-    p.add_argument("--onchip-kbit", type=float, default=None,
+        p.add_argument(opt, dest=dest, type=typ, nargs=nargs, default=None,
+                       metavar=metavars[typ], help=text)
+    p.add_argument("--onchip-kbit", type=float, default=None, metavar="X",
                    help="on-chip RAM available for the partial sums, kbit (1 kbit = 1024 bit; "
                         "the report's kbit/Mbit are binary too)")
-    p.add_argument("--ddr-bits", type=int, default=P.DDR_WORD_BITS,
+    p.add_argument("--ddr-bits", type=int, default=P.DDR_WORD_BITS, metavar="N",
                    help="DDR user-interface width in bits (default 256)")
-    p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6,
+    p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6, metavar="X",
                    help="DDR user-interface clock in MHz (default 100)")
-    p.add_argument("--ddr-efficiency", type=float, default=P.DDR_EFFICIENCY,
+    p.add_argument("--ddr-efficiency", type=float, default=P.DDR_EFFICIENCY, metavar="X",
                    help="DDR interface efficiency in (0, 1] (default 0.8)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
@@ -117,6 +119,11 @@ def _scenes(args):
                 value = value[0]
             overrides.setdefault(sec, {})[key] = value
             labels[f"{sec}.{key}"] = opt
+    # one way of giving the row time replaces the other one from the scene file
+    if "pixel_clock_mhz" in given and "max_frame_rate_hz" not in given:
+        overrides.setdefault("sensor", {})["max_frame_rate_hz"] = None
+    if "max_frame_rate_hz" in given and "pixel_clock_mhz" not in given:
+        overrides.setdefault("sensor", {})["pixel_clock_mhz"] = None
     base = None
     if args.scene is not None:
         base = load_scene(args.scene)  # validates the file on its own first
