@@ -50,6 +50,7 @@ def test_model_bad_input():
         cds(np.zeros(3), np.zeros(3))
 
 
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_component_params():
     dut = Cds(pixel_bits=10)
     assert dut.pixel_bits == 10
