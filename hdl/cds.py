@@ -4,7 +4,7 @@ from amaranth.hdl import Module, Mux, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import check_range
+from tdicam.errors import TdicamError, check_range
 from .stream import channels_shape, pixel_signature
 
 __all__ = ["Cds"]
@@ -35,7 +35,11 @@ class Cds(wiring.Component):
     """
 
     def __init__(self, *, pixel_bits=12):
-        self._pixel_bits = check_range("pixel_bits", pixel_bits, 8, 16)
+        try:
+            self._pixel_bits = check_range("pixel_bits", pixel_bits, 8, 16)
+        except TdicamError:
+            self._MustUse__silence = True  # never built: no "unused elaboratable" warning
+            raise
         super().__init__({
             "i_stream": In(pixel_signature(channels_shape(pixel_bits, 2))),
             "o_stream": Out(pixel_signature(unsigned(pixel_bits))),
