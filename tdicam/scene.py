@@ -27,7 +27,9 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     Chart keys, only with their kind: ``contrast`` [1.0] (bars, edge, siemens), Michelson
     contrast in (0, 1] — the dark level is ``signal_e (1 - c) / (1 + c)``; ``period_px``
     [8.0] (bars), bar period in output pixels, >= 2; ``direction`` ["along_track"] (bars),
-    the axis the bar pattern varies along, ``along_track`` or ``cross_track``; ``angle_deg``
+    the axis the bar pattern varies along, ``along_track`` or ``cross_track``; ``profile``
+    ["square"] (bars), ``square`` bars or a ``sine`` grating (one spatial frequency, for
+    measuring the MTF at exactly ``1/period_px``); ``angle_deg``
     [5.0] (edge), slant of the edge from the cross-track axis, in [-45, 45]; ``spokes`` [36]
     (siemens), number of spoke pairs, 4..720. ``kind = "image"`` needs exactly one of
     ``image`` (a bundled scikit-image picture, see :data:`BUNDLED_IMAGES`) or ``path`` (a
@@ -42,13 +44,19 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     Impairments default to zero so that a scene simulates only what it asks for:
     ``read_noise_e`` [0] >= 0 (RMS), ``dark_current_e_per_s`` [0] >= 0, ``prnu`` [0]
     (fraction, 0.015 = 1.5 %, in [0, 1)), ``dsnu_e`` [0] >= 0 (RMS). ``shutter``
-    ["rolling"]: ``rolling`` or ``global`` (global assumed pipelined).
+    ["rolling"]: ``rolling`` or ``global`` (global assumed pipelined). ``black_level_dn``
+    [0], >= 0 and < 2**bits: ADC offset (pedestal) added to every sample, so that read noise
+    around a dark level is not clipped at code 0.
     Row timing (optional): ``row_blanking_us`` [3.5, seed 003's typical value] >= 0 and
     ``pixel_clock_mhz`` (> 0, pixels per second over all channels, in MHz) give
     ``T_row = t_rb + columns / f_s``; or ``max_frame_rate_hz`` (> 0, the datasheet
     full-frame rate) gives ``T_row = 1 / (rows F)``; not both. With a row time the window
     limit ``M0`` is known (seed 003 eq 13). ``gains`` [[1.0]]: one gain, or two as
     ``[high, low]`` with high > low (seed 002: ``[4.9, 0.8]``), each > 0.
+
+``[optics]`` (optional)
+    ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
+    perfect lens; the optics effect is skipped).
 
 ``[tdi]``
     ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep); each must not
@@ -67,7 +75,8 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     act on single exposures, so they come before ``tdi`` and in that order; ``median3`` may
     come before or after ``tdi``. Block options, only for listed blocks:
     ``[pipeline.cds]`` ``reset_level_dn`` [0.0], >= 0 and < 2**bits;
-    ``[pipeline.nuc]`` ``gain_frac_bits`` [12], 0..24, ``ecc`` [true];
+    ``[pipeline.nuc]`` ``gain_frac_bits`` [12], 4..16 (the golden model's range), ``ecc``
+    [true];
     ``[pipeline.hdr]`` ``threshold_dn`` [3/4 of full scale], 1..2**bits-1, ``band_dn``
     [64], 1..threshold_dn, ``slope_frac_bits`` [8], 0..16;
     ``[pipeline.median3]`` ``edge_enhance`` [false].
@@ -104,6 +113,7 @@ __all__ = [
     "Turntable",
     "Target",
     "Sensor",
+    "Optics",
     "Tdi",
     "Motion",
     "CdsOptions",
@@ -127,11 +137,12 @@ TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
 #: Names allowed in ``[pipeline].blocks``.
 BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
 
-_SECTIONS = ("orbit", "turntable", "target", "sensor", "tdi", "motion", "pipeline", "run")
+_SECTIONS = ("orbit", "turntable", "target", "sensor", "optics", "tdi", "motion", "pipeline",
+             "run")
 _IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
 _KIND_KEYS = {
     "image": ("image", "path"),
-    "bars": ("period_px", "contrast", "direction"),
+    "bars": ("period_px", "contrast", "direction", "profile"),
     "edge": ("contrast", "angle_deg"),
     "siemens": ("contrast", "spokes"),
     "flat": (),
@@ -186,6 +197,7 @@ class Target:
     period_px: float | None = None
     contrast: float | None = None
     direction: str | None = None
+    profile: str | None = None
     angle_deg: float | None = None
     spokes: int | None = None
 
@@ -210,6 +222,7 @@ class Sensor:
     pixel_clock_mhz: float | None
     max_frame_rate_hz: float | None
     gains: tuple[float, ...]
+    black_level_dn: float = 0.0
 
     @property
     def pitch_m(self) -> float:
@@ -241,6 +254,13 @@ class Sensor:
         """Full-frame rate ``1 / (rows T_row)``; None without row timing."""
         t = self.row_time_s
         return None if t is None else 1.0 / (self.rows * t)
+
+
+@dataclass(frozen=True)
+class Optics:
+    """``[optics]``: Gaussian PSF standard deviation in pixels (0: none)."""
+
+    psf_sigma_px: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -349,6 +369,7 @@ class Scene:
     pipeline: Pipeline
     run: Run
     source: str = "<dict>"
+    optics: Optics = Optics()
 
     @property
     def line_period_s(self) -> float:
@@ -578,6 +599,7 @@ def _target(sec: _Section, base_dir: Path) -> Target:
         fields["period_px"] = sec.number("period_px", 8.0, lo=2.0)
         fields["direction"] = sec.choice("direction", "along_track",
                                          ("along_track", "cross_track"))
+        fields["profile"] = sec.choice("profile", "square", ("square", "sine"))
     elif kind == "edge":
         fields["angle_deg"] = sec.number("angle_deg", 5.0, lo=-45.0, hi=45.0)
     elif kind == "siemens":
@@ -588,7 +610,7 @@ def _target(sec: _Section, base_dir: Path) -> Target:
 _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well_e",
                 "conversion_gain_e_per_dn", "read_noise_e", "dark_current_e_per_s", "prnu",
                 "dsnu_e", "shutter", "row_blanking_us", "pixel_clock_mhz",
-                "max_frame_rate_hz", "gains")
+                "max_frame_rate_hz", "gains", "black_level_dn")
 
 
 def _sensor(sec: _Section) -> Sensor:
@@ -625,7 +647,14 @@ def _sensor(sec: _Section) -> Sensor:
         pixel_clock_mhz=sec.number("pixel_clock_mhz", None, lo=0.0, lo_open=True),
         max_frame_rate_hz=sec.number("max_frame_rate_hz", None, lo=0.0, lo_open=True),
         gains=gains,
+        black_level_dn=sec.number("black_level_dn", 0.0, lo=0.0, hi=float(1 << bits),
+                                  hi_open=True),
     )
+
+
+def _optics(sec: _Section) -> Optics:
+    sec.check_keys(("psf_sigma_px",))
+    return Optics(psf_sigma_px=sec.number("psf_sigma_px", 0.0, lo=0.0))
 
 
 def _tdi(sec: _Section, sensor: Sensor) -> Tdi:
@@ -688,7 +717,7 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
         blocks=tuple(raw),
         cds=CdsOptions(reset_level_dn=cds.number("reset_level_dn", 0.0, lo=0.0,
                                                  hi=float(full + 1), hi_open=True)),
-        nuc=NucOptions(gain_frac_bits=nuc.integer("gain_frac_bits", 12, lo=0, hi=24),
+        nuc=NucOptions(gain_frac_bits=nuc.integer("gain_frac_bits", 12, lo=4, hi=16),
                        ecc=nuc.boolean("ecc", True)),
         hdr=HdrOptions(threshold_dn=threshold,
                        band_dn=hdr.integer("band_dn", min(64, threshold), lo=1, hi=threshold),
@@ -799,13 +828,14 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     turntable = _turntable(section("turntable")) if "turntable" in data else None
     target = _target(section("target"), base)
     sensor = _sensor(section("sensor"))
+    optics = _optics(section("optics"))
     tdi_sec = section("tdi")
     tdi = _tdi(tdi_sec, sensor)
     motion = _motion(section("motion"))
     pipeline = _pipeline(section("pipeline"), sensor, labels)
     run = _run(section("run"), sensor, labels)
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
-                  motion=motion, pipeline=pipeline, run=run, source=source)
+                  motion=motion, pipeline=pipeline, run=run, source=source, optics=optics)
     _check_stages(tdi_sec, scene)
     return scene
 
