@@ -1,0 +1,196 @@
+"""Block ``hdr``: high/low-gain HDR merge with a frame-to-frame junction (SPEC 3.4)."""
+
+import numpy as np
+
+from ..cosim.codec import frames_to_beats, mark_resets
+from ..hdl.axis import AxisTop
+from ..hdl.hdr import Hdr
+from ..model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
+from . import Block, Case, Param
+
+__all__ = ["BLOCK", "ramp_frame", "scene_frames"]
+
+
+def _top(**params):
+    return AxisTop(Hdr(**params))
+
+
+def _ratio(cfg, sel):
+    return cfg.slopes[sel] / (1 << cfg.slope_frac_bits)
+
+
+def ramp_frame(cfg, sel=0):
+    """Every LG code once, HG = round(LG * ratio) clamped at full scale; shape (rows, 64)."""
+    full = (1 << cfg.pixel_bits) - 1
+    lg = np.arange(full + 1, dtype=np.int64)
+    hg = np.minimum(np.floor(lg * _ratio(cfg, sel) + 0.5), full).astype(np.int64)
+    return hg.reshape(-1, 64), lg.reshape(-1, 64)
+
+
+def scene_frames(cfg, rng, frames, rows, cols, sels=None, noise=2.0, span=None):
+    """A noisy scene: light level ramps across the frame, LG is the light in LG codes,
+    HG = LG * ratio of the frame's gain pair, both with Gaussian noise, quantized and
+    clipped. ``span = (lo, hi)`` is the light range in units of the threshold's light level
+    (default: dark to twice HG full scale)."""
+    full = (1 << cfg.pixel_bits) - 1
+    sels = np.zeros(frames, np.int64) if sels is None else np.asarray(sels)
+    hg = np.empty((frames, rows, cols), np.int64)
+    lg = np.empty_like(hg)
+    for k in range(frames):
+        r = _ratio(cfg, int(sels[k]))
+        lo, hi = (0.0, 2.0 * full / cfg.threshold) if span is None else span
+        light = np.linspace(lo * cfg.threshold / r, hi * cfg.threshold / r,
+                            rows * cols).reshape(rows, cols)
+        light = light * rng.uniform(0.8, 1.2) + rng.normal(0, noise, (rows, cols))
+        lg[k] = np.clip(np.floor(light + rng.normal(0, noise, light.shape) + 0.5), 0, full)
+        hg[k] = np.clip(np.floor(light * r + rng.normal(0, noise * 2, light.shape) + 0.5),
+                        0, full)
+    return hg, lg
+
+
+
+def _pack(params, hg, lg, sels, reset_frame=None, cut=None):
+    """Arrays of a case; with a reset the frames after ``reset_frame`` restart from reset."""
+    hg = np.asarray(hg, np.uint16)
+    lg = np.asarray(lg, np.uint16)
+    sels = np.asarray(sels, np.int64)
+    if reset_frame is None:
+        out = hdr(hg, lg, gain_sel=sels, **params)
+    else:
+        r = reset_frame
+        out = np.concatenate([hdr(hg[:r + 1], lg[:r + 1], gain_sel=sels[:r + 1], **params),
+                              hdr(hg[r + 1:], lg[r + 1:], gain_sel=sels[r + 1:], **params)])
+    arrays = {"hg": hg, "lg": lg, "gain_sel": sels, "out": out}
+    if reset_frame is not None:
+        arrays["reset_frame"] = np.array([reset_frame], np.int64)
+        arrays["reset_before"] = np.array([cut], np.int64)
+    return arrays
+
+
+def _ramp(params, rng):
+    """The full LG sweep twice (reset junction, then the measured one) plus threshold edges:
+    HG at T-band-1, T-band, T-1, T, T+1 with LG below, at and above the junction."""
+    cfg = hdr_config(**params)
+    hg, lg = ramp_frame(cfg)
+    t, b, full = cfg.threshold, cfg.band, (1 << cfg.pixel_bits) - 1
+    hgs = np.clip([t - b - 1, t - b, t - 1, t, t + 1], 0, full)
+    lgs = np.clip(np.round(t / _ratio(cfg, 0)) + np.arange(-6, 7) * 3, 0, full)
+    edge = np.array(np.meshgrid(hgs, lgs, indexing="ij")).reshape(2, -1)  # 65 pixels
+    pad = 2 * 64 - edge.shape[1]
+    eh = np.concatenate([edge[0], np.full(pad, t)]).reshape(2, 64)
+    el = np.concatenate([edge[1], np.full(pad, full)]).reshape(2, 64)
+    hgf = np.stack([np.concatenate([hg, eh])] * 2)
+    lgf = np.stack([np.concatenate([lg, el])] * 2)
+    return _pack(params, hgf, lgf, np.zeros(2, np.int64))
+
+
+def _scene(frames, rows, cols, sels=None, span=None):
+    def make(params, rng):
+        cfg = hdr_config(**params)
+        s = np.zeros(frames, np.int64) if sels is None else np.asarray(sels)
+        hg, lg = scene_frames(cfg, rng, frames, rows, cols, s, span=span)
+        return _pack(params, hg, lg, s)
+    return make
+
+
+def _empty_band(params, rng):
+    """Frame 0 fills the band; frames 1 and 2 have none (L_T kept, no division by zero);
+    frame 3 has band pixels again."""
+    cfg = hdr_config(**params)
+    hg, lg = scene_frames(cfg, rng, 4, 12, 20)
+    t, b = cfg.threshold, cfg.band
+    for k in (1, 2):
+        inside = (hg[k] >= t - b) & (hg[k] < t)
+        hg[k][inside] = np.where(rng.random(int(inside.sum())) < 0.5, t - b - 1, t)
+    return _pack(params, hg, lg, np.zeros(4, np.int64))
+
+
+def _extremes(params, rng):
+    """Constant frames: zeros, full scale on both, HG full with LG 0, HG 0 with LG full,
+    then a frame of random codes."""
+    full = (1 << params["pixel_bits"]) - 1
+    pairs = [(0, 0), (full, full), (full, 0), (0, full), (full, full)]
+    hg = np.stack([np.full((6, 10), h) for h, _ in pairs] + [rng.integers(0, full + 1, (6, 10))])
+    lg = np.stack([np.full((6, 10), v) for _, v in pairs] + [rng.integers(0, full + 1, (6, 10))])
+    return _pack(params, hg, lg, np.zeros(len(hg), np.int64))
+
+
+def _reset_mid_frame(sels):
+    """Frames 0-1 build up a measured junction (and gain pair), a reset cuts frame 1, then
+    frames 2-3 start clean from the reset state."""
+    def make(params, rng):
+        cfg = hdr_config(**params)
+        s = np.asarray(sels, np.int64)
+        hg, lg = scene_frames(cfg, rng, 4, 10, 16, s)
+        return _pack(params, hg, lg, s, reset_frame=1, cut=93)
+    return make
+
+
+def _to_beats(arrays, params):
+    cfg = hdr_config(**params)
+    hg, lg, sels = arrays["hg"], arrays["lg"], arrays["gain_sel"]
+    stim = frames_to_beats(np.stack([hg, lg], axis=-1), channels=2)
+    exp = frames_to_beats(arrays["out"])
+    per = hg[0].size
+    frame_of = np.arange(len(stim)) // per
+    if cfg.sel_bits:
+        # only the value presented with a frame's first pixel counts: every other beat
+        # carries a random gain_sel that the block must ignore
+        noise = np.random.default_rng(12345).integers(0, 1 << cfg.sel_bits, len(stim))
+        stim.ctrl = np.where(stim.first, sels[frame_of], noise).astype(np.uint64)
+    if "reset_frame" in arrays:
+        r, cut = int(arrays["reset_frame"][0]), int(arrays["reset_before"][0])
+        keep = np.ones(len(stim), bool)
+        keep[r * per + cut:(r + 1) * per] = False
+        stim, exp = stim.select(keep), exp.select(keep)
+        mark_resets(stim, exp, [r * per + cut])
+    return stim, exp
+
+
+def _check(params):
+    hdr_config(**params)
+
+
+MULTI = {"gain_pairs": "4.9:0.8,4.9:1.6,2.45:0.8", "count_bits": 4}
+COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_frac_bits": 0,
+          "out_bits": 16, "band": 64}
+
+BLOCK = Block(
+    name="hdr",
+    summary="HG/LG dual-gain merge, junction measured on the previous frame (SPEC 3.4)",
+    params=(
+        Param("pixel_bits", 12, "HG and LG pixel width", lo=8, hi=16),
+        Param("threshold", None, "threshold T on HG (default 3/4 of full scale)", lo=1,
+              hi=65535),
+        Param("band", None, "band [T - band, T) of the junction statistics (default "
+              "2**(pixel_bits-5))", lo=1, hi=65535),
+        Param("gain_pairs", DEFAULT_GAINS, "slope table: programmed gain pairs 'hg:lg,...' "
+              "selected by the gain_sel port", type=str),
+        Param("slope_frac_bits", 8, "fraction bits of the slope", lo=0, hi=12),
+        Param("lgt_frac_bits", 4, "fraction bits of L_T and H_T", lo=0, hi=8),
+        Param("anchor", "band", "HG level of the junction: band mean or threshold T",
+              choices=ANCHORS, type=str),
+        Param("count_bits", 24, "band pixel counter width (saturating)", lo=4, hi=32),
+        Param("out_bits", None, "output width (default: enough for the largest slope)",
+              lo=8, hi=24),
+    ),
+    top=_top,
+    cases=lambda: [
+        Case("ramp_12b", {}, _ramp, seed=1, tags=("monotonic", "threshold", "fullscale")),
+        Case("scene_12b", {}, _scene(3, 16, 32), seed=2),
+        Case("empty_band_12b", {}, _empty_band, seed=3, tags=("empty-band",)),
+        Case("extremes_12b", {}, _extremes, seed=4, tags=("fullscale", "zeros")),
+        Case("reset_mid_frame_12b", {}, _reset_mid_frame([0, 0, 0, 0]), seed=5,
+             tags=("reset",)),
+        Case("gain_change_multi", MULTI, _scene(8, 8, 24, [0, 0, 1, 1, 2, 3, 3, 0], span=(0.8, 1.2)), seed=6,
+             tags=("runtime", "count-saturation")),
+        Case("ramp_multi", MULTI, _ramp, seed=7, tags=("monotonic", "count-saturation")),
+        Case("reset_mid_frame_multi", MULTI, _reset_mid_frame([2, 2, 1, 0]), seed=8,
+             tags=("reset", "runtime")),
+        Case("scene_coarse_16b", COARSE, _scene(3, 12, 24), seed=9, tags=("clamp",)),
+        Case("extremes_coarse_16b", COARSE, _extremes, seed=10, tags=("fullscale", "zeros")),
+    ],
+    to_beats=_to_beats,
+    check=_check,
+    model_version="hdr-1",
+)

@@ -1,0 +1,151 @@
+"""Block ``nuc``: per-pixel gain/offset (non-uniformity) correction (SPEC 3.3)."""
+
+import numpy as np
+
+from ..cosim.codec import frames_to_beats, mark_resets
+from ..hdl.axis import AxisTop
+from ..hdl.nuc import Nuc
+from ..model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
+from . import Block, Case, Param
+
+__all__ = ["BLOCK", "cut_frame0"]
+
+_FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
+
+
+def _top(**params):
+    return AxisTop(Nuc(**params))
+
+
+def _fmt(params):
+    return NucFormat(**{k: params[k] for k in _FMT_KEYS})
+
+
+def _coeff_dtypes(fmt):
+    gdt = np.uint16 if fmt.gain_bits <= 16 else np.uint32
+    odt = np.int16 if fmt.offset_bits <= 16 else np.int32
+    return gdt, odt
+
+
+def _arrays(params, x, gain, offset):
+    fmt = _fmt(params)
+    gdt, odt = _coeff_dtypes(fmt)
+    x = np.asarray(x).astype(np.uint16 if params["pixel_bits"] <= 16 else np.uint32)
+    gain, offset = np.asarray(gain).astype(gdt), np.asarray(offset).astype(odt)
+    return {"x": x, "gain": gain, "offset": offset, "out": nuc(x, gain, offset, **params)}
+
+
+def _random(frames, rows, cols):
+    """Calibration-like coefficients (gain 0.5..2, offset +-1/16 full scale) in most pixels,
+    any code at all in every 7th pixel."""
+    def make(params, rng):
+        fmt, pb = _fmt(params), params["pixel_bits"]
+        shape = (frames, rows, cols)
+        x = rng.integers(0, 1 << pb, shape)
+        gain = fmt.gain_code(rng.uniform(0.5, 2.0, shape))
+        span = 1 << (pb - 4)
+        offset = fmt.offset_code(rng.uniform(-span, span, shape))
+        wild = rng.random(shape) < 1 / 7
+        gain = np.where(wild, rng.integers(0, fmt.gain_max + 1, shape), gain)
+        offset = np.where(wild, rng.integers(fmt.offset_min, fmt.offset_max + 1, shape), offset)
+        return _arrays(params, x, gain, offset)
+    return make
+
+
+def _identity(params, rng):
+    """Default coefficients (gain 1.0, offset 0): output equals input exactly, including 0 and
+    full scale."""
+    pb = params["pixel_bits"]
+    x = rng.integers(0, 1 << pb, (2, 8, 16))
+    x[0, 0, :4] = [0, 1, (1 << pb) - 2, (1 << pb) - 1]
+    gain, offset = identity_coeffs(x.shape, _fmt(params))
+    return _arrays(params, x, gain, offset)
+
+
+def _saturate(params, rng):
+    """Every combination of extreme x (0, 1, mid, full-1, full), gain (0, 1 LSB, 1.0, max-1,
+    max) and offset (min, min+1, -1, 0, 1, max-1, max): saturates at both ends, never wraps."""
+    fmt, pb = _fmt(params), params["pixel_bits"]
+    full = (1 << pb) - 1
+    xs = [0, 1, full // 2, full - 1, full]
+    gs = [0, 1, fmt.gain_one, fmt.gain_max - 1, fmt.gain_max]
+    os_ = [fmt.offset_min, fmt.offset_min + 1, -1, 0, 1, fmt.offset_max - 1, fmt.offset_max]
+    grid = np.array(np.meshgrid(xs, gs, os_, indexing="ij")).reshape(3, -1)  # 175 pixels
+    n = grid.shape[1]
+    cols = 25
+    rows = -(-n // cols)
+    pad = rows * cols - n
+    x, g, o = (np.concatenate([grid[k], np.full(pad, v)]).reshape(1, rows, cols)
+               for k, v in ((0, full), (1, fmt.gain_max), (2, fmt.offset_max)))
+    return _arrays(params, x, g, o)
+
+
+def cut_frame0(stim, exp, frame_beats, cut):
+    """Keep beats ``[0, cut)`` of frame 0, drop the rest of it, reset before the next frame.
+
+    ``stim``/``exp`` hold whole frames of ``frame_beats`` beats each (one output beat per input
+    beat); the result models a reset mid-frame followed by clean frames.
+    """
+    keep = np.ones(len(stim), bool)
+    keep[cut:frame_beats] = False
+    stim, exp = stim.select(keep), exp.select(keep)
+    mark_resets(stim, exp, [cut])
+    return stim, exp
+
+
+def _reset_mid_frame(params, rng):
+    """Frame 0 is cut by a reset after ``cut`` pixels; frames 1 and 2 follow clean."""
+    out = _random(3, 10, 16)(params, rng)
+    out["reset_before"] = np.array([77], np.int64)
+    return out
+
+
+def _to_beats(arrays, params):
+    fmt = _fmt(params)
+    off = arrays["offset"].astype(np.int64) & ((1 << fmt.offset_bits) - 1)  # two's complement
+    stim = frames_to_beats(np.stack([arrays["x"].astype(np.int64),
+                                     arrays["gain"].astype(np.int64), off], axis=-1), channels=3)
+    exp = frames_to_beats(arrays["out"])
+    if "reset_before" in arrays:
+        frame_beats = arrays["x"][0].size
+        stim, exp = cut_frame0(stim, exp, frame_beats, int(arrays["reset_before"][0]))
+    return stim, exp
+
+
+def _check(params):
+    check_nuc_params(**params)
+
+
+_WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 16, "offset_bits": 18,
+         "offset_frac_bits": 8, "out_bits": 20}
+_NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bits": 10,
+           "offset_frac_bits": 2, "out_bits": 8}
+
+BLOCK = Block(
+    name="nuc",
+    summary="per-pixel correction y = gain*x + offset, round half up, saturated (SPEC 3.3)",
+    params=(
+        Param("pixel_bits", 12, "input pixel width", lo=8, hi=16),
+        Param("gain_int_bits", 2, "integer bits of the unsigned gain", lo=1, hi=4),
+        Param("gain_frac_bits", 14, "fraction bits of the gain (1.0 = 2**frac)", lo=4, hi=16),
+        Param("offset_bits", 16, "width of the signed two's-complement offset", lo=2, hi=18),
+        Param("offset_frac_bits", 0, "fraction bits of the offset", lo=0, hi=8),
+        Param("out_bits", None, "output width (default: pixel_bits)", lo=8, hi=20),
+    ),
+    top=_top,
+    cases=lambda: [
+        Case("random_12b", {}, _random(3, 16, 24), seed=1),
+        Case("identity_12b", {}, _identity, seed=2, tags=("identity", "zeros", "fullscale")),
+        Case("identity_16b", {"pixel_bits": 16}, _identity, seed=3,
+             tags=("identity", "zeros", "fullscale")),
+        Case("saturate_12b", {}, _saturate, seed=4, tags=("saturation", "fullscale", "zeros")),
+        Case("saturate_wide", _WIDE, _saturate, seed=5, tags=("saturation", "fullscale")),
+        Case("saturate_narrow", _NARROW, _saturate, seed=6, tags=("saturation", "fullscale")),
+        Case("random_wide", _WIDE, _random(2, 12, 20), seed=7),
+        Case("random_narrow", _NARROW, _random(2, 12, 20), seed=8),
+        Case("reset_mid_frame_12b", {}, _reset_mid_frame, seed=10, tags=("reset",)),
+    ],
+    to_beats=_to_beats,
+    check=_check,
+    model_version="nuc-1",
+)
