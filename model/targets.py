@@ -209,7 +209,7 @@ def make_target(target, *, columns, lines):
             if profile == "sine":
                 return mid + amp * ph
             return np.where(ph >= 0.0, 1.0, dark)
-        return Target("bars", f, "y" if along else "x", 1 if profile == "sine" else 16,
+        return Target("bars", f, "y" if along else "x", 16,
                       dark_level=dark)
     if kind == "edge":
         t = math.tan(math.radians(target.angle_deg))

@@ -1,0 +1,139 @@
+"""Image-quality measurements of a simulated run next to the planning model's predictions.
+
+``measure(scene, result)`` returns a dict for the report:
+
+* flat targets — SNR (mean minus the known zero-light pedestal, over the standard deviation;
+  seed 002 eq 1) of the TDI output and of a single exposure, their difference (the measured
+  TDI gain in dB), and the predictions: seed 003 eq 28 ``20 log10 G(m)``
+  (:func:`tdicam.model.plan.snr_gain_digital`, with the scene's own ``s_AD`` and ``s_CMOS``)
+  or the charge-domain :func:`~tdicam.model.plan.snr_gain_charge`, plus the quadrature model
+  of :mod:`tdicam.model.sensor` (see its docstring for why they differ);
+* bar targets — the MTF at the bar frequency from a least-squares sinusoid fit to the
+  profile across the bars (amplitude over the pedestal-free mean, divided by the input
+  modulation of the fundamental: ``c`` for a sine grating, ``4c/pi`` for square bars), the
+  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions: seed 001's product
+  :func:`tdicam.model.plan.mtf_system` with the effective mismatch (velocity mismatch plus
+  rolling-shutter skew) and the exact footprint model of :class:`tdicam.model.optics.Geometry`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tdicam.model import plan as _plan
+
+__all__ = ["measure", "snr_prediction", "fit_modulation"]
+
+
+def _snr_db(img, pedestal, trim):
+    a = np.asarray(img, np.float64)
+    if trim and min(a.shape) > 2 * trim + 2:
+        a = a[trim:-trim, trim:-trim]
+    mean = a.mean() - pedestal
+    std = a.std()
+    if std == 0 or mean <= 0:
+        return None
+    return 20.0 * math.log10(mean / std)
+
+
+def snr_prediction(scene, stages, *, cds=False):
+    """Predicted flat-field SNR gain (dB) of ``stages`` over one exposure.
+
+    Returns a dict: ``eq28_db`` (seed 003 eq 28 or its charge-domain form from
+    :mod:`tdicam.model.plan`), ``quadrature_db`` (noise in quadrature), ``sigma_ad_e`` and
+    ``sigma_cmos_e`` (electrons) used, and ``snr1_db`` (single-exposure SNR, quadrature).
+    """
+    from tdicam.model import sensor as _sensor
+    sen = scene.sensor
+    S = scene.target.signal_e
+    n = 2 if cds else 1
+    dark = sen.dark_current_e_per_s * scene.line_period_s
+    s_ad = _sensor.quantization_sigma_e(sen.conversion_gain_e_per_dn, sen.gains[0]) \
+        * math.sqrt(n)
+    read_var = n * sen.read_noise_e ** 2
+    s_cmos = math.sqrt(S + dark + read_var)
+    fpn_var = (S * sen.prnu) ** 2 + sen.dsnu_e ** 2
+    snr1 = S / math.sqrt(S + dark + read_var + s_ad ** 2 + fpn_var)
+    m = stages
+    if scene.tdi.domain == "charge":
+        eq = float(_plan.snr_gain_charge(m, s_ad, math.sqrt(S + dark),
+                                         math.sqrt(read_var)))
+        quad = float(_sensor.snr_gain_charge_quadrature(
+            m, signal_e=S, shot_var_e2=S + dark, read_var_e2=read_var,
+            quant_var_e2=s_ad ** 2, fpn_var_e2=fpn_var))
+    else:
+        eq = float(_plan.snr_gain_digital(m, s_ad, s_cmos))
+        quad = float(_sensor.snr_gain_digital_quadrature(m))
+    return {"eq28_db": 20 * math.log10(eq), "quadrature_db": 20 * math.log10(quad),
+            "sigma_ad_e": s_ad, "sigma_cmos_e": s_cmos, "snr1_db": 20 * math.log10(snr1)}
+
+
+def fit_modulation(profile, freq, pedestal=0.0):
+    """Amplitude / (mean - pedestal) of ``profile`` at ``freq`` cycles/sample (least squares).
+
+    Returns None when the mean is not above the pedestal.
+    """
+    p = np.asarray(profile, np.float64)
+    u = np.arange(len(p), dtype=np.float64)
+    ph = 2 * np.pi * freq * u
+    a = np.stack([np.cos(ph), np.sin(ph), np.ones_like(u)], axis=1)
+    coef, *_ = np.linalg.lstsq(a, p, rcond=1e-9)
+    mean = coef[2] - pedestal
+    if mean <= 0:
+        return None
+    return float(math.hypot(coef[0], coef[1]) / mean)
+
+
+def measure(scene, res):
+    """Measured image quality of a :class:`~tdicam.engine.SimResult` and its predictions."""
+    out = {"stages": res.stages, "dv_over_v": res.dv_over_v}
+    tgt = scene.target
+    m = res.stages
+    trim = 2 if "median3" in scene.pipeline.blocks else 0
+    cds = any(e.name == "reset_frames" and e.ran for e in res.effects)
+    if tgt.kind == "flat":
+        s_out = _snr_db(res.output, res.pedestal_output, trim)
+        s_one = _snr_db(res.single, res.pedestal_single, trim)
+        pred = snr_prediction(scene, m, cds=cds)
+        out["snr"] = {
+            "output_db": s_out, "single_db": s_one,
+            "gain_db": None if s_out is None or s_one is None else s_out - s_one,
+            **pred,
+        }
+    if tgt.kind == "bars":
+        g = res.geometry
+        period = tgt.period_px
+        f = 1.0 / period                                  # cycles per pitch
+        c = tgt.contrast
+        along = tgt.direction == "along_track"
+        img = np.asarray(res.output, np.float64)
+        if along:
+            prof = img.mean(axis=1)
+            f_out = f * g.speed                               # cycles per output line
+        else:
+            prof = img.mean(axis=0)
+            f_out = f
+        if trim:
+            prof = prof[trim:-trim]
+        mod_in = c * (4 / math.pi if tgt.profile != "sine" else 1.0)
+        mod = fit_modulation(prof - 0.0, f_out, res.pedestal_output)
+        mtf_fit = None if mod is None else mod / mod_in
+        ctf_mtf = None
+        if tgt.profile != "sine":
+            lo, hi = float(prof.min()) - res.pedestal_output, float(prof.max()) \
+                - res.pedestal_output
+            if hi + lo > 0 and lo >= 0:
+                ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
+        dv_eff = g.stage_lag
+        model_seed001 = float(_plan.mtf_system(f, m, dv_eff, scene.sensor.q_over_p))
+        exact = float(abs(g.mtf_along(f) if along else g.mtf_cross(f)))
+        out["mtf"] = {
+            "frequency_cyc_per_px": f, "axis": "along" if along else "cross",
+            "measured": mtf_fit, "measured_ctf": ctf_mtf,
+            "seed001_model": model_seed001 if along else None,
+            "footprint_model": exact,
+            "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * dv_eff,
+        }
+    return out
