@@ -39,8 +39,11 @@ def test_every_stream_block_lints_clean(name, tmp_path):
 
 def test_lint_catches_a_real_problem(tmp_path):
     path = tmp_path / "bad.v"
-    path.write_text("module bad(input a, output [1:0] y); assign y = a; endmodule\n")
-    assert any("WIDTH" in line for line in lint(path))
+    path.write_text("module bad(input [2:0] a, output [1:0] y, output z);\n"
+                    "  assign y = a;\nendmodule\n")
+    found = lint(path)
+    assert any("WIDTHTRUNC" in line for line in found)  # 3 bits into 2
+    assert any("UNDRIVEN" in line for line in found)  # z
 
 
 @pytest.mark.parametrize("args,expect", [
