@@ -687,6 +687,8 @@ def _exact_digital(cfg, on, lines, ncols, gain_map, dark_map, S, timer, expose, 
     from tdicam.model import tdi as tdi_model
     _check_bits("tdi", pb, *tdi_model.PIXEL_BITS,
                 "[sensor].bits" if pb == bits else "[pipeline].blocks (hdr output)")
+    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
+        out_bits = None          # saturating at or above the full width never saturates
     if out_bits is not None and not pb <= out_bits <= tdi_model.full_bits(pb, m):
         raise TdicamError(f"[tdi].output_bits: must be in {pb}..{tdi_model.full_bits(pb, m)} "
                           f"for {pb}-bit pixels and {m} stages, got {out_bits}")

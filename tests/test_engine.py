@@ -1,0 +1,205 @@
+"""Scene simulator engine (tdicam/engine.py): effect decisions, skip == forced-at-zero,
+fast TDI sum bit-exact with the golden model, fidelity selection, bad scenes."""
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from tdicam import engine
+from tdicam.errors import TdicamError
+from tdicam.model import tdi as tdi_model
+from tdicam.scene import load_scene
+
+ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
+
+
+def scene(tmp_path, text):
+    p = tmp_path / "s.toml"
+    p.write_text(textwrap.dedent(text))
+    return load_scene(p)
+
+
+def small(tmp_path, extra="", stages=4, dv=0.0, kind='kind = "bars"\nperiod_px = 4.0'):
+    return scene(tmp_path, ORBIT + f"""
+[target]
+{kind}
+signal_e = 800.0
+[sensor]
+columns = 48
+rows = 64
+bits = 12
+read_noise_e = 5.0
+prnu = 0.01
+dsnu_e = 1.0
+dark_current_e_per_s = 2000.0
+black_level_dn = 32.0
+shutter = "global"
+[tdi]
+stages = {stages}
+[motion]
+dv_over_v = {dv}
+[run]
+lines = 24
+seed = 7
+""" + extra)
+
+
+def rec(res, name):
+    return next(e for e in res.effects if e.name == name)
+
+
+@pytest.mark.parametrize("direction", [0, 1])
+@pytest.mark.parametrize("m", [1, 2, 5, 16])
+def test_tdi_sum_bit_exact_with_golden(m, direction):
+    rng = np.random.default_rng(m * 10 + direction)
+    frames = rng.integers(0, 4096, (m + 37, m, 24)).astype(np.uint16)
+    gold = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction)
+    mine = engine.tdi_sum(frames, stages=m, direction=direction)
+    assert mine.shape == gold.shape
+    assert np.array_equal(mine, gold.astype(np.int64))
+    out_bits = 12 + max(0, (m - 1).bit_length() - 1)
+    if m > 1:
+        sat_g = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction,
+                              out_bits=out_bits)
+        sat = engine.tdi_sum(frames, stages=m, direction=direction, out_bits=out_bits)
+        assert np.array_equal(sat, sat_g.astype(np.int64))
+
+
+def test_skips_and_reasons(tmp_path):
+    res = engine.simulate(small(tmp_path), fidelity="exact", impact=False)
+    assert not rec(res, "smear").ran and "dV/V = 0 and no drift" in rec(res, "smear").why
+    assert not rec(res, "hdr").ran and not rec(res, "dual_gain").ran
+    assert "one-gain" in rec(res, "dual_gain").why
+    assert not rec(res, "rolling_skew").ran and "global shutter" in rec(res, "rolling_skew").why
+    assert not rec(res, "optics").ran
+    assert rec(res, "prnu").ran and rec(res, "shot_noise").ran and rec(res, "tdi").ran
+    assert res.output.shape == (24, 48) and res.raw.shape == (24, 48)
+
+
+def test_one_gain_skips_hdr_even_when_listed(tmp_path):
+    sc = small(tmp_path, '[pipeline]\nblocks = ["hdr", "tdi"]\n')
+    res = engine.simulate(sc, fidelity="exact", impact=False)
+    assert not rec(res, "hdr").ran and "one-gain sensor" in rec(res, "hdr").why
+
+
+@pytest.mark.parametrize("fid", ["exact", "fast"])
+@pytest.mark.parametrize("effect", ["smear", "optics", "rolling_skew"])
+def test_skipped_equals_forced_at_zero(tmp_path, fid, effect):
+    sc = small(tmp_path)
+    a = engine.simulate(sc, fidelity=fid, impact=False)
+    b = engine.simulate(sc, fidelity=fid, impact=False, force=[effect])
+    assert not rec(a, effect).ran and rec(b, effect).ran and "forced" in rec(b, effect).why
+    assert np.array_equal(a.output, b.output)
+    assert np.array_equal(a.raw, b.raw)
+
+
+def test_zero_strength_impairments_equal_skipped(tmp_path):
+    clean = scene(tmp_path, ORBIT + """
+[target]
+kind = "flat"
+signal_e = 500.0
+[sensor]
+columns = 32
+rows = 64
+black_level_dn = 16.0
+[tdi]
+stages = 3
+[run]
+lines = 16
+""")
+    a = engine.simulate(clean, fidelity="exact", impact=False)
+    forced = ["prnu", "dsnu", "dark_current", "read_noise", "full_well"]
+    b = engine.simulate(clean, fidelity="exact", impact=False, force=forced)
+    for n in forced:
+        assert not rec(a, n).ran and rec(b, n).ran
+    assert np.array_equal(a.output, b.output)
+
+
+def test_smear_runs_with_mismatch(tmp_path):
+    res = engine.simulate(small(tmp_path, dv=0.1), fidelity="exact", impact=False)
+    assert rec(res, "smear").ran and "M dV/V = 0.4" in rec(res, "smear").why
+
+
+def test_impact_measured(tmp_path):
+    res = engine.simulate(small(tmp_path), fidelity="exact", impact=True)
+    r = rec(res, "read_noise")
+    assert r.impact["psnr_db"] > 20 and r.impact["rms_dn"] > 0
+    assert rec(res, "quantization").impact["note"]
+
+
+def test_auto_picks_exact_for_per_exposure_blocks(tmp_path):
+    sc = small(tmp_path, '[pipeline]\nblocks = ["nuc", "tdi"]\n')
+    res = engine.simulate(sc, fidelity="fast", impact=False)
+    assert res.fidelity == "exact"
+    assert any("not applicable" in n for n in res.notes)
+    assert rec(res, "nuc").ran
+
+
+def test_auto_picks_fast_when_dithered(tmp_path):
+    res = engine.simulate(small(tmp_path), fidelity="auto", impact=False)
+    assert res.fidelity == "fast"
+    assert rec(res, "quantization").bound < 1e-3
+
+
+def test_fast_matches_exact_statistics(tmp_path):
+    sc = small(tmp_path, kind='kind = "flat"', stages=8)
+    ex = engine.simulate(sc, fidelity="exact", impact=False, lines=200)
+    fa = engine.simulate(sc, fidelity="fast", impact=False, lines=200)
+    assert abs(ex.output.mean() - fa.output.mean()) / ex.output.mean() < 2e-3
+    assert abs(ex.output.std() / fa.output.std() - 1) < 0.05
+
+
+def test_cds_nuc_hdr_median_chain_runs(tmp_path):
+    sc = scene(tmp_path, ORBIT + """
+[target]
+kind = "siemens"
+signal_e = 20000.0
+[sensor]
+columns = 40
+rows = 64
+bits = 10
+full_well_e = 40000.0
+gains = [4.9, 0.8]
+prnu = 0.02
+read_noise_e = 4.0
+shutter = "global"
+[tdi]
+stages = 3
+output = "saturate"
+output_bits = 16
+[pipeline]
+blocks = ["cds", "nuc", "hdr", "tdi", "median3"]
+[pipeline.hdr]
+threshold_dn = 768
+band_dn = 32
+[run]
+lines = 20
+fidelity = "auto"
+""")
+    res = engine.simulate(sc, impact=False)
+    for n in ("cds", "nuc", "hdr", "tdi", "median3_post", "reset_frames", "dual_gain"):
+        assert rec(res, n).ran, n
+    assert not rec(res, "median3_pre").ran
+    assert res.fidelity == "exact"
+    assert res.single.max() > 1.5 * 1023    # HDR output extends past the 10-bit HG range
+    assert res.raw.max() == 1023            # while the raw HG channel saturates
+
+
+def test_bad_inputs(tmp_path):
+    sc = small(tmp_path)
+    with pytest.raises(TdicamError, match="unknown effect"):
+        engine.simulate(sc, force=["smeer"])
+    with pytest.raises(TdicamError, match="fidelity"):
+        engine.simulate(sc, fidelity="medium")
+    with pytest.raises(TdicamError, match=r"\[sensor\]\.bits"):
+        engine.simulate(small(tmp_path, "").__class__(**{**small(tmp_path).__dict__,
+                        "sensor": small(tmp_path).sensor.__class__(
+                            **{**small(tmp_path).sensor.__dict__, "bits": 16})}),
+                        fidelity="exact", impact=False)
+
+
+def test_median_after_wide_tdi_is_a_clear_error(tmp_path):
+    sc = small(tmp_path, '[pipeline]\nblocks = ["tdi", "median3"]\n', stages=32)
+    with pytest.raises(TdicamError, match=r"\[tdi\]\.output"):
+        engine.simulate(sc, fidelity="exact", impact=False)
