@@ -1,0 +1,296 @@
+"""Block ``tdi``: the optimized digital TDI accumulator (SPEC 3.1).
+
+Golden cases store the input *beats* (pixels, tuser, tlast and the run-time settings presented
+with each beat) and the expected output beats from :func:`~tdicam.model.tdi.tdi_stream`, plus
+the expected ``frame_errors`` count. Stimulus frames are generated per case:
+
+* ``random``/``fullscale``/``stages``/``errors`` — small (64 x 4) cases, per-beat and fast.
+* ``mixed_256x32`` — m = 32 with a full-scale column band (sums reach 32 x 4095 exactly),
+  then a reverse-scan run at m = 8, then m = 1. Fast only.
+* ``texture_1280x96`` — the paper's sensor (1280 wide, 96 stages): 98 frames, the fewest that
+  give several output lines (96 to fill + 2). Every row is the same random 12-bit line rotated
+  by a random amount, so each row is distinct (a wrong frame, row or column changes the sums)
+  while the deflate-compressed file stays small. Fast only.
+"""
+
+import numpy as np
+
+from ..cosim.codec import Beats, mark_resets
+from ..hdl.axis import AxisTop
+from ..hdl.tdi import TdiAccumulator
+from ..model.cds import pixel_dtype
+from ..model.tdi import check_params, tdi_stream
+from . import Block, Case, Param
+
+__all__ = ["BLOCK", "pack_ctrl", "stream_arrays"]
+
+CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
+
+
+def _top(*, width, stages, pixel_bits, out_bits, ppc):
+    return AxisTop(TdiAccumulator(width=width, stages=stages, pixel_bits=pixel_bits,
+                                  out_bits=out_bits, ppc=ppc))
+
+
+def _check(p):
+    check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                 out_bits=p["out_bits"], ppc=p["ppc"])
+
+
+def pack_ctrl(stages_active, direction):
+    """``Beats.ctrl`` of the block's run-time ports: ``{stages_active, direction}``."""
+    return (np.asarray(stages_active, np.uint64) << np.uint64(1)) \
+        | np.asarray(direction, np.uint64)
+
+
+def stream_arrays(frames, settings, params):
+    """Input beat arrays for a list of frames (m_t, W) with per-frame (m, direction)."""
+    ppc, W = params["ppc"], params["width"]
+    dt = pixel_dtype(params["pixel_bits"])
+    wb = W // ppc
+    pix, first, last, sa, dr = [], [], [], [], []
+    for fr, (m, d) in zip(frames, settings):
+        fr = np.asarray(fr)
+        n = fr.shape[0] * wb
+        pix.append(fr.astype(dt, copy=False).reshape(n, ppc))
+        f = np.zeros(n, bool)
+        f[0] = True
+        first.append(f)
+        last.append(np.arange(n) % wb == wb - 1)
+        sa.append(np.full(n, m, np.uint8))
+        dr.append(np.full(n, d, np.uint8))
+    return {"pixels": np.concatenate(pix), "first": np.concatenate(first),
+            "last": np.concatenate(last), "stages_active": np.concatenate(sa),
+            "direction": np.concatenate(dr)}
+
+
+def _expect(arrays, params, lo=0, hi=None):
+    sl = slice(lo, hi)
+    res = tdi_stream(arrays["pixels"][sl], arrays["first"][sl], arrays["last"][sl],
+                     arrays["stages_active"][sl], arrays["direction"][sl],
+                     width=params["width"], stages=params["stages"],
+                     pixel_bits=params["pixel_bits"], out_bits=params["out_bits"],
+                     ppc=params["ppc"])
+    return res
+
+
+def _finish(arrays, params):
+    res = _expect(arrays, params)
+    arrays.update({"out": res.data, "out_first": res.first, "out_last": res.last,
+                   "frame_errors": np.array(res.frame_errors, np.int64)})
+    return arrays
+
+
+def _rand_frames(rng, params, settings):
+    b = params["pixel_bits"]
+    return [rng.integers(0, 1 << b, (m, params["width"])) for m, _ in settings]
+
+
+def _random(n, m=None, direction=0):
+    def make(params, rng):
+        mm = params["stages"] if m is None else m
+        settings = [(mm, direction)] * n
+        return _finish(stream_arrays(_rand_frames(rng, params, settings), settings, params),
+                       params)
+    return make
+
+
+def _fullscale(params, rng):
+    """All-full-scale frames at m_max, then zeros, then full scale again, then random."""
+    mm, full = params["stages"], (1 << params["pixel_bits"]) - 1
+    W = params["width"]
+    frames = [np.full((mm, W), full)] * (mm + 2) + [np.zeros((mm, W), int)] * 2 \
+        + [np.full((mm, W), full)] * (mm + 1)
+    settings = [(mm, 0)] * len(frames)
+    return _finish(stream_arrays(frames, settings, params), params)
+
+
+def _stages(seq):
+    """Stage count and direction changing mid-stream: ``seq`` = [(m, direction, frames)]."""
+    def make(params, rng):
+        settings = [(m, d) for m, d, n in seq for _ in range(n)]
+        return _finish(stream_arrays(_rand_frames(rng, params, settings), settings, params),
+                       params)
+    return make
+
+
+def _errors(params, rng):
+    """Malformed input: stray beats, cut frames, bad tlast, long frames, invalid settings."""
+    mm, W, ppc = params["stages"], params["width"], params["ppc"]
+    wb = W // ppc
+    b = params["pixel_bits"]
+    m = max(1, mm - 1) if mm > 2 else mm
+
+    def frame(mv=m, d=0):
+        return stream_arrays([rng.integers(0, 1 << b, (max(mv, 1), W))], [(mv, d)], params)
+
+    def cat(parts):
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+    def good(k, mv=m, d=0):
+        return [frame(mv, d) for _ in range(k)]
+
+    def cut(a, n):
+        return {k: v[:n] for k, v in a.items()}
+
+    parts = []
+    stray = frame()
+    parts.append(cut({**stray, "first": np.zeros_like(stray["first"])}, 3))  # no tuser
+    parts += good(m + 1)
+    parts.append(cut(frame(), wb // 2))           # cut inside the output row (forward)
+    parts += good(m + 1)
+    f = frame()
+    f["last"][wb // 2] = True                     # early tlast in the output row
+    parts.append(f)
+    parts += good(m + 1)
+    f = frame()
+    f["last"][wb - 1] = False                     # missing tlast at the end of row 1
+    parts.append(f)
+    parts += good(m)
+    f = frame()
+    parts.append(f)                               # a good frame followed by extra beats
+    parts.append(cut({**frame(), "first": np.zeros_like(f["first"])}, 2))
+    parts += good(m)
+    parts.append(frame(0))                        # invalid: stages_active = 0
+    parts += good(m)
+    parts.append(frame(mm + 1))                   # invalid: above m_max
+    if mm >= 2:
+        parts.append(frame(mm, 1))                # invalid: reverse at m_max
+    parts += good(m + 1, m, 1 if m < mm else 0)
+    last = frame(m, 1 if m < mm else 0)
+    parts.append(cut(last, (m - 1) * wb + wb // 2))  # reverse: cut in the output row (m)
+    parts += good(m + 1)
+    arrays = cat(parts)
+    return _finish(arrays, params)
+
+
+def _reset(params, rng):
+    """Reset mid-frame (inside an output row); the block refills from the frames after it."""
+    mm = params["stages"]
+    settings = [(mm, 0)] * (mm + 3) + [(mm, 0)] * (mm + 2)
+    arrays = stream_arrays(_rand_frames(rng, params, settings), settings, params)
+    wb = params["width"] // params["ppc"]
+    per_frame = mm * wb
+    cut = (mm + 2) * per_frame + wb // 2          # inside row 1 (the output row) of a frame
+    before = _expect(arrays, params, 0, cut)
+    after = _expect(arrays, params, cut)
+    arrays.update({
+        "out": np.concatenate([before.data, after.data]),
+        "out_first": np.concatenate([before.first, after.first]),
+        "out_last": np.concatenate([before.last, after.last]),
+        "frame_errors": np.array(after.frame_errors, np.int64),
+        "reset_before": np.array([cut], np.int64),
+        "exp_before": np.array([len(before.first)], np.int64),
+    })
+    return arrays
+
+
+def _texture_frames(rng, params, settings):
+    """Frames whose rows are one random line rotated by random amounts (distinct rows that
+    deflate well: see the module docstring)."""
+    W, b = params["width"], params["pixel_bits"]
+    tex = rng.integers(0, 1 << b, W).astype(pixel_dtype(b))
+    windows = np.lib.stride_tricks.sliding_window_view(np.concatenate([tex, tex]), W)
+    out = []
+    for m, _ in settings:
+        shifts = rng.integers(0, W, m)
+        out.append(windows[(W - shifts) % W])   # row = tex rotated right by its shift
+    return out
+
+
+def _mixed(params, rng):
+    """m_max with a full-scale column band, then reverse at m = 8, then m = 1."""
+    mm, W, b = params["stages"], params["width"], params["pixel_bits"]
+    full = (1 << b) - 1
+    settings = [(mm, 0)] * (mm + 1) + [(8, 1)] * 10 + [(1, 0)] * 2
+    frames = [fr.copy() for fr in _texture_frames(rng, params, settings)]
+    band = W // 4
+    for fr, (m, _) in zip(frames, settings):
+        if m == mm:
+            fr[:, :band] = full
+    return _finish(stream_arrays(frames, settings, params), params)
+
+
+def _texture(n_frames):
+    def make(params, rng):
+        settings = [(params["stages"], 0)] * n_frames
+        return _finish(stream_arrays(_texture_frames(rng, params, settings), settings, params),
+                       params)
+    return make
+
+
+def _to_beats(arrays, params):
+    stim = Beats(arrays["pixels"], arrays["first"], arrays["last"],
+                 ctrl=pack_ctrl(arrays["stages_active"], arrays["direction"]))
+    exp = Beats(arrays["out"], arrays["out_first"], arrays["out_last"])
+    if "reset_before" in arrays:
+        mark_resets(stim, exp, arrays["reset_before"], arrays["exp_before"])
+    return stim, exp
+
+
+def _p(width, stages, ppc, out_bits=None, pixel_bits=12):
+    return {"width": width, "stages": stages, "pixel_bits": pixel_bits, "out_bits": out_bits,
+            "ppc": ppc}
+
+
+_A = _p(64, 4, 1)                   # full width (14 bits)
+_B = _p(64, 4, 4, out_bits=13)      # saturating at 8191
+_C1, _C4 = _p(256, 32, 1), _p(256, 32, 4)
+_D1, _D4 = _p(1280, 96, 1), _p(1280, 96, 4)
+_E = _p(48, 5, 2, pixel_bits=14)    # 14-bit, 2 pixels per clock, full width 17
+_F = _p(64, 3, 8, out_bits=9, pixel_bits=8)   # 8-bit, 8 pixels per clock, saturating
+
+_CHANGES = [(4, 0, 6), (2, 0, 4), (3, 0, 5), (3, 1, 5), (1, 0, 2), (1, 1, 2), (2, 1, 3),
+            (4, 0, 5), (3, 1, 4)]
+
+
+def _cases():
+    return [
+        Case("random_64x4_p1", _A, _random(10), seed=1),
+        Case("fullscale_64x4_p1", _A, _fullscale, seed=2, tags=("fullscale", "zeros")),
+        Case("stages_64x4_p1", _A, _stages(_CHANGES), seed=3, tags=("stages", "direction")),
+        Case("reset_64x4_p1", _A, _reset, seed=4, tags=("reset",)),
+        Case("errors_64x4_p1", _A, _errors, seed=5, tags=("errors", "direction")),
+        Case("random_64x4_p4_sat", _B, _random(10), seed=6, tags=("saturate",)),
+        Case("fullscale_64x4_p4_sat", _B, _fullscale, seed=7,
+             tags=("fullscale", "saturate")),
+        Case("stages_64x4_p4_sat", _B, _stages(_CHANGES), seed=8,
+             tags=("stages", "direction", "saturate")),
+        Case("errors_64x4_p4_sat", _B, _errors, seed=9, tags=("errors",)),
+        Case("mixed_256x32_p1", _C1, _mixed, seed=10,
+             tags=("fast-only", "fullscale", "direction", "stages")),
+        Case("mixed_256x32_p4", _C4, _mixed, seed=11,
+             tags=("fast-only", "fullscale", "direction", "stages")),
+        Case("texture_1280x96_p1", _D1, _texture(98), seed=12, tags=("fast-only", "big")),
+        Case("texture_1280x96_p4", _D4, _texture(98), seed=13, tags=("fast-only", "big")),
+        Case("mixed_48x5_p2_14b", _E, _stages([(5, 0, 7), (2, 1, 4), (4, 1, 6), (3, 0, 4)]),
+             seed=14, tags=("stages", "direction")),
+        Case("errors_48x5_p2_14b", _E, _errors, seed=15, tags=("errors",)),
+        Case("mixed_64x3_p8_8b_sat", _F, _stages([(3, 0, 6), (2, 1, 4), (1, 0, 2), (3, 0, 4)]),
+             seed=16, tags=("stages", "direction", "saturate")),
+        Case("fullscale_64x3_p8_8b_sat", _F, _fullscale, seed=17,
+             tags=("fullscale", "saturate")),
+    ]
+
+
+BLOCK = Block(
+    name="tdi",
+    summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
+            "direction (SPEC 3.1)",
+    params=(
+        Param("width", 1280, "pixels per line W (a multiple of ppc, >= 2*ppc)", lo=2,
+              hi=8192),
+        Param("stages", 96, "m_max, the largest stage count; sizes the (stages-1)-line "
+                            "partial-sum memory", lo=1, hi=128),
+        Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
+        Param("out_bits", None, "saturate the output at 2^N-1 (pixel_bits..full width); "
+                                "default: full width pixel_bits+ceil(log2(stages))",
+              lo=8, hi=21),
+        Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+    ),
+    top=_top,
+    cases=_cases,
+    to_beats=_to_beats,
+    check=_check,
+    model_version="tdi-1",
+)
