@@ -322,3 +322,13 @@ def test_golden_cases_exercise_what_they_claim():
     arrays, params = golden.load("hdr", "reset_mid_frame_12b")
     assert 0 < int(arrays["reset_before"][0]) < arrays["hg"][0].size
     assert cfg.threshold == 3072
+
+
+def test_compare_reports_a_missing_segment_instead_of_crashing():
+    """An output with no beat in the last segment (e.g. a reset the testbench missed) is a
+    count mismatch, not an exception (the reset_mid_frame cases rely on this)."""
+    from tdicam.cosim.codec import Beats
+    exp = Beats(np.zeros((4, 1)), [1, 0, 1, 0], [0, 1, 0, 1], np.array([0, 0, 1, 1]))
+    got = exp.select(exp.seg == 0)
+    cmp = compare(got, exp)
+    assert not cmp.ok and cmp.message == "segment 1: 0 beats out, expected 2"

@@ -54,7 +54,10 @@ class Beats:
 
     def __post_init__(self):
         n = len(self.first)
-        self.data = np.asarray(self.data, dtype=np.uint64).reshape(n, -1)
+        data = np.asarray(self.data, dtype=np.uint64)
+        # an empty selection keeps its element count (reshape(0, -1) is ambiguous)
+        width = data.shape[-1] if data.ndim > 1 else 1
+        self.data = data.reshape(n, -1) if n else data.reshape(0, width)
         self.first = np.asarray(self.first, dtype=bool)
         self.last = np.asarray(self.last, dtype=bool)
         if self.seg is None:

@@ -90,7 +90,7 @@ module {TB_TOP};
   reg [3:0] rst_cnt = 0;
   reg rst_served = 1'b0;
   wire [SW-1:0] cur = mem[in_idx % DEPTH];
-  wire cur_rst = cur[SW-1];
+  wire cur_rst = cur[IW+2+CW];
   wire f_rst = !running || rst_cnt != 0;
   wire f_present = running && !f_rst && in_idx < n_in && !(cur_rst && !rst_served);
   wire f_tvalid = f_present && (lv[7:0] >= idle_thr[7:0]);
