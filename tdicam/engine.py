@@ -1006,6 +1006,10 @@ def _impacts(cfg, res):
         on = set(cfg.on) - {r.name}
         if r.name == "dual_gain":
             on -= {"hdr"}
+        if r.name == "reset_frames":
+            on -= {"cds"}          # no reset frame: no CDS
+        if r.name == "cds":
+            on -= {"reset_frames"}
         if r.name == "quantization":
             r.impact = {"note": "the ADC cannot be removed; see the fast-vs-exact error"}
             continue
