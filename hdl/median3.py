@@ -1,0 +1,662 @@
+"""3x3 median filter with optional edge enhancement (SPEC 3.5, seed 002 §4.4.3).
+
+The median is a pipelined compare-exchange network on sorted columns (sort each 3-pixel
+column once, then take ``med3(max of lows, med3 of mids, min of highs)`` across the 3
+columns of a window). It is better than the paper's network (column 3-sorts, a 6-value
+merge of <= 7 compares, a selection of <= 5): 13 comparators per output pixel instead of
+15, 8 compare stages deep, one comparator per pipeline stage on every path. The network is
+the table :data:`COLUMN_SORT` + :data:`WINDOW_MEDIAN`, which the gateware is built from and
+which the tests prove correct over all 0/1 inputs (0-1 principle for min/max networks).
+"""
+
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.lib import data, wiring
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
+from .stream import pixel_signature
+
+__all__ = ["Median3", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
+           "reciprocal_25"]
+
+#: Sort one column (t, m, b: top, middle, bottom) into (lo, mid, hi). Each stage is a
+#: tuple of ``(dst, "min"|"max", a, b)``; a stage is one register stage in the gateware.
+COLUMN_SORT = (
+    (("s_lo", "min", "t", "m"), ("s_hi", "max", "t", "m")),
+    (("u_lo", "min", "s_hi", "b"), ("hi", "max", "s_hi", "b")),
+    (("lo", "min", "s_lo", "u_lo"), ("mid", "max", "s_lo", "u_lo")),
+)
+
+#: Median of a window of three sorted columns (suffix 0 = left, 1 = centre, 2 = right):
+#: ``med3(max(lo0, lo1, lo2), med3(mid0, mid1, mid2), min(hi0, hi1, hi2))``.
+WINDOW_MEDIAN = (
+    (("x1", "max", "lo0", "lo1"), ("a", "min", "mid0", "mid1"), ("b", "max", "mid0", "mid1"),
+     ("z1", "min", "hi0", "hi1")),
+    (("x", "max", "x1", "lo2"), ("c", "min", "b", "mid2"), ("z", "min", "z1", "hi2")),
+    (("y", "max", "a", "c"), ("p", "min", "x", "z"), ("q", "max", "x", "z")),
+    (("t", "min", "q", "y"),),
+    (("med", "max", "p", "t"),),
+)
+
+_HMAX = 16  # bits of the run-time height port
+
+
+def run_network(stages, env, outputs, *, minmax, reg=None):
+    """Evaluate a min/max network stage by stage.
+
+    ``minmax(fn, a, b)`` implements ``"min"``/``"max"``; ``reg(name, value)`` (optional)
+    registers every wire live after a stage (new results and carried inputs). Returns the
+    ``outputs`` wires. Used by the gateware (Amaranth values) and the tests (numpy).
+    """
+    env = dict(env)
+    for k, stage in enumerate(stages):
+        later = set(outputs) | {x for st in stages[k + 1:] for op in st for x in op[2:]}
+        new = {dst: minmax(fn, env[a], env[b]) for dst, fn, a, b in stage}
+        live = {n: v for n, v in {**env, **new}.items() if n in later}
+        env = {n: (reg(n, v) if reg else v) for n, v in live.items()}
+    return [env[o] for o in outputs]
+
+
+def network_stats():
+    """(compare stages, comparators per output pixel) of the median network.
+
+    A comparator is one distinct (a, b) pair in a stage (a min and a max of the same pair
+    share it); the column sort counts once per pixel because each column is sorted once
+    and reused by the three windows that contain it.
+    """
+    stages = len(COLUMN_SORT) + len(WINDOW_MEDIAN)
+    comps = sum(len({(a, b) for _, _, a, b in st}) for st in COLUMN_SORT + WINDOW_MEDIAN)
+    return stages, comps
+
+
+def reciprocal_25(n_max):
+    """(k, s) with ``(n * k) >> s == n // 25`` for every ``0 <= n <= n_max``.
+
+    ``k = ceil(2**s / 25)``, ``e = 25 k - 2**s``; ``n_max * e < 2**s`` is sufficient
+    (n = 25 q + r: ``n k / 2**s = q + (r + n e / 2**s) / 25`` and ``r <= 24``).
+    """
+    s = 0
+    while True:
+        k = -(-(1 << s) // 25)
+        if n_max * (25 * k - (1 << s)) < (1 << s):
+            return k, s
+        s += 1
+
+
+def _minmax(fn, a, b):
+    lt = b < a
+    return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
+
+
+class _Pipe:
+    """Registers that all move on one global advance (the pipeline's clock enable)."""
+
+    def __init__(self, m, adv, prefix):
+        self.m, self.adv, self.prefix, self.n = m, adv, prefix, 0
+
+    def reg(self, value, shape=None, name=None, reset=False):
+        if shape is None:
+            shape = value.shape() if isinstance(value, (Value, data.View)) else \
+                Value.cast(value).shape()
+        self.n += 1
+        sig = Signal(shape, name=f"{self.prefix}_{name or 'r'}_{self.n}", reset_less=not reset)
+        with self.m.If(self.adv):
+            self.m.d.sync += sig.eq(value)
+        return sig
+
+    def delay(self, value, n, name=None, reset=False):
+        for _ in range(n):
+            value = self.reg(value, name=name, reset=reset)
+        return value
+
+
+class _Neighbourhood(wiring.Component):
+    """Streaming (2R+1) x (2R+1) neighbourhood stage with replicated borders, 1 pixel/clock.
+
+    Input beats carry ``tap`` (the value the neighbourhood is formed of), ``pay`` (a value
+    only needed for the centre pixel) and ``hm1`` (frame height - 1, sampled on the first
+    pixel of each frame); output beats ``val`` (and ``hm1`` of the frame when
+    ``carry_hm1``).
+
+    ``col_fn(pipe, taps, pay) -> (value, depth)`` reduces one column (taps top to bottom,
+    border rows already replicated) in ``depth`` register stages; ``win_fn(pipe, cols) ->
+    (value, depth)`` reduces the 2R+1 column values of a window (left to right, border
+    columns already replicated). ``pay`` rides in the column value; the window function
+    takes it from the centre column.
+
+    Line buffers: 2R memories of ``width`` taps, used circularly (row q of the stream in
+    memory q mod 2R) and R memories of ``width`` payloads. Output row y needs input rows
+    up to y + R: the last R rows of a frame are produced by a self-timed flush that reads
+    the buffers while the next frame's first R rows are written behind it (a row of the new
+    frame writes column c only after the flush has read the old row there for the last
+    time), so frames follow each other at 1 pixel/clock and the last frame of a stream is
+    not held back. Likewise the last R pixels of a row are produced by pad steps that
+    overlap the next row's first R columns (which produce no output).
+    """
+
+    def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
+                 carry_hm1=False, name="nb"):
+        self._r, self._w = radius, width
+        self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
+        self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
+        self._name = name
+        fields = {"tap": tap_shape, "hm1": unsigned(_HMAX)}
+        if pay_shape is not None:
+            fields["pay"] = pay_shape
+        ofields = {"val": out_shape}
+        if carry_hm1:
+            ofields["hm1"] = unsigned(_HMAX)
+        super().__init__({
+            "i_stream": In(pixel_signature(data.StructLayout(fields))),
+            "o_stream": Out(pixel_signature(data.StructLayout(ofields))),
+            "marker_error": Out(unsigned(1)),
+        })
+        self.depth = None  # set by elaborate: register stages from input to output
+
+    def elaborate(self, platform):
+        m = Module()
+        R, W, N = self._r, self._w, 2 * self._r
+        i, o = self.i_stream, self.o_stream
+        nb = N.bit_length() - 1  # N is 2 or 4
+        adv = Signal(name=f"{self._name}_adv")
+        m.d.comb += adv.eq(~o.valid | o.ready)
+        pipe = _Pipe(m, adv, self._name)
+        has_pay = self._pay_shape is not None
+        pay_bits = Shape.cast(self._pay_shape).width if has_pay else 0
+        tap_bits = self._tap_shape.width
+
+        # ---- sequencer (S0)
+        in_row = Signal(_HMAX)
+        in_col = Signal(range(W))
+        wslot = Signal(nb)              # memory of the row being written
+        base_in = Signal(nb)            # memory of row 0 of the frame being input
+        hm1_in = Signal(_HMAX)          # height - 1 of the frame being input
+        oy = Signal(_HMAX)              # output row of the next column
+        flush = Signal()                # producing the last rows of the previous frame
+        frem = Signal(range(R + 1))     # flush rows remaining, the current one included
+        fc = Signal(range(W))           # flush column
+        fbase = Signal(nb)
+        fhm1 = Signal(_HMAX)
+
+        first_px = (in_row == 0) & (in_col == 0)
+        row_end = in_col == W - 1
+        hm1_cur = Mux(first_px, i.payload.data.hm1, hm1_in)
+        frame_end = row_end & (in_row == hm1_cur)
+        flush_ends = (frem == 1) & (fc == W - 1)
+        # a new frame's row j (< R) may overwrite column c of the line that held the old
+        # frame's row H + j - 2R once the flush has read it there for the last time (output
+        # row H + j - R); a frame that ends during a flush ends with it (its own flush next)
+        ok_during_flush = (in_row < R) & (
+            (in_row + frem < R) | ((in_row + frem == R) & (in_col <= fc))) & \
+            (~frame_end | flush_ends)
+        m.d.comb += i.ready.eq(adv & (~flush | ok_during_flush))
+        take = i.valid & i.ready
+
+        col_ev = Signal()
+        m.d.comb += col_ev.eq(Mux(flush, adv, take & (in_row >= R)))
+        ev_c = Mux(flush, fc, in_col)
+        ev_base = Mux(flush, fbase, base_in)
+        ev_hm1 = Mux(flush, fhm1, hm1_in)
+
+        # where each tap of the column comes from: tap t is row clamp(oy + t - R, 0, hm1)
+        taps_sel, taps_stream = [], []
+        for t in range(2 * R + 1):
+            d = t - R
+            if d < 0:
+                q = Mux(oy < -d, 0, oy + d)
+            elif d > 0:
+                # only the flush reaches past the last row (frem rows are left)
+                q = Mux(flush & (frem <= d), ev_hm1, oy + d)
+            else:
+                q = oy
+            taps_sel.append((ev_base + q)[:nb])
+            taps_stream.append(~flush if d == R else Const(0))
+        psel = (ev_base + oy)[:nb - 1] if R > 1 else Const(0, 1)
+        cc = Mux(ev_c >= 2 * R, 2 * R, ev_c)  # column, saturated (enough for the borders)
+
+        with m.If(adv):
+            # the flush first: a frame ending in the flush's last cycle overrides it
+            with m.If(flush):
+                with m.If(fc == W - 1):
+                    m.d.sync += fc.eq(0)
+                    with m.If(frem == 1):
+                        m.d.sync += [flush.eq(0), oy.eq(0)]
+                    with m.Else():
+                        m.d.sync += oy.eq(oy + 1)
+                    m.d.sync += frem.eq(frem - 1)
+                with m.Else():
+                    m.d.sync += fc.eq(fc + 1)
+            with m.If(take):
+                with m.If(first_px):
+                    m.d.sync += [base_in.eq(wslot), hm1_in.eq(i.payload.data.hm1)]
+                with m.If(row_end):
+                    m.d.sync += [in_col.eq(0), wslot.eq(wslot + 1)]
+                    with m.If(frame_end):
+                        m.d.sync += [in_row.eq(0), flush.eq(1), fc.eq(0),
+                                     fbase.eq(Mux(first_px, wslot, base_in)),
+                                     fhm1.eq(hm1_cur),
+                                     frem.eq(Mux(hm1_cur >= R - 1, R, hm1_cur + 1))]
+                        with m.If(in_row >= R):
+                            m.d.sync += oy.eq(oy + 1)
+                    with m.Else():
+                        m.d.sync += in_row.eq(in_row + 1)
+                        with m.If(in_row >= R):
+                            m.d.sync += oy.eq(oy + 1)
+                with m.Else():
+                    m.d.sync += in_col.eq(in_col + 1)
+                with m.If((i.payload.first != first_px) | (i.payload.last != row_end)):
+                    m.d.sync += self.marker_error.eq(1)
+
+        # ---- line buffers: read at S0, data at S1; written at S1 (one cycle after the read
+        # of the same pixel, so a read never meets a write to the same address)
+        tap_rd, pay_rd = [], []
+        s1_we = pipe.reg(take, name="we", reset=True)
+        s1_waddr = pipe.reg(in_col, name="waddr")
+        s1_wslot = pipe.reg(wslot, name="wslot")
+        s1_tap = pipe.reg(i.payload.data.tap, shape=unsigned(tap_bits), name="tap")
+        s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
+        rd_addr = Mux(flush, fc, in_col)
+        for k in range(N):
+            mem = Memory(shape=unsigned(tap_bits), depth=W, init=[])
+            m.submodules[f"{self._name}_lb{k}"] = mem
+            rp = mem.read_port()
+            wp = mem.write_port()
+            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
+                         wp.addr.eq(s1_waddr), wp.data.eq(s1_tap),
+                         wp.en.eq(adv & s1_we & (s1_wslot == k))]
+            tap_rd.append(rp.data)
+        for k in range(R if has_pay else 0):
+            mem = Memory(shape=unsigned(pay_bits), depth=W, init=[])
+            m.submodules[f"{self._name}_pb{k}"] = mem
+            rp = mem.read_port()
+            wp = mem.write_port()
+            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
+                         wp.addr.eq(s1_waddr), wp.data.eq(s1_pay),
+                         wp.en.eq(adv & s1_we & ((s1_wslot % R) == k))]
+            pay_rd.append(rp.data)
+
+        s1_valid = pipe.reg(col_ev, name="cv", reset=True)
+        s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
+        s1_lastc = pipe.reg(ev_c == W - 1, name="lastc")
+        s1_row0 = pipe.reg(oy == 0, name="row0")
+        s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
+        s1_str = [pipe.reg(s, shape=1, name=f"str{t}") for t, s in enumerate(taps_stream)]
+        s1_psel = pipe.reg(psel, name="psel")
+        s1_hm1 = pipe.reg(ev_hm1, name="hm1") if self._carry else None
+
+        # ---- S2: the column with its border rows replicated
+        rd = Array(tap_rd)
+        taps = [pipe.reg(Mux(s1_str[t], s1_tap, rd[s1_sel[t]]), shape=unsigned(tap_bits),
+                         name=f"tap{t}") for t in range(2 * R + 1)]
+        pay = pipe.reg(Array(pay_rd)[s1_psel] if R > 1 else pay_rd[0],
+                       shape=unsigned(pay_bits), name="cpay") if has_pay else None
+        meta = [pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
+                ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))]
+        hm1 = pipe.reg(s1_hm1, name="hm1") if self._carry else None
+
+        # ---- column reduction
+        col, dc = self._col_fn(pipe, taps, pay)
+        col = Value.cast(col)
+        hv, hcc, hlast, hrow0 = [pipe.delay(v, dc, name=n, reset=(n == "cv")) for v, n in
+                                 zip(meta, ("cv", "cc", "lastc", "row0"))]
+        if self._carry:
+            hm1 = pipe.delay(hm1, dc, name="hm1")
+
+        # ---- window: sr[0] is the column at the head of the pipeline, sr[1..2R] the columns
+        # taken before it (sr[1] the latest). Only real columns shift in. After a row's last
+        # column, R pad steps produce its last R pixels; they overlap the next row's first
+        # R columns (which produce no output) or run alone, and find the old row's columns
+        # 1 + npad deeper, npad = columns of the next row taken since.
+        sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
+                      for j in range(1, 2 * R + 1)]
+        pend = Signal(range(R + 1), name=f"{self._name}_pend")
+        npad = Signal(range(R + 1), name=f"{self._name}_npad")
+        is_pad = pend != 0
+        is_norm = hv & (hcc >= R) & ~is_pad
+        win_valid = is_pad | is_norm
+        with m.If(adv):
+            with m.If(hv):
+                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * R + 1)]
+            with m.If(hv & hlast):
+                m.d.sync += [pend.eq(R), npad.eq(0)]
+            with m.Elif(is_pad):
+                m.d.sync += pend.eq(pend - 1)
+                with m.If(hv):
+                    m.d.sync += npad.eq(npad + 1)
+        cols = []
+        for t in range(2 * R + 1):
+            d = t - R
+            sel = Signal(range(2 * R + 1), name=f"{self._name}_hsel{t}")
+            with m.If(is_pad):
+                with m.Switch(Cat(npad, pend)):
+                    for p in range(1, R + 1):
+                        k = R - p + 1       # pad k produces column x = W-1-R+k
+                        x = W - 1 - R + k
+                        for sh in range(k):
+                            with m.Case(sh | (p << len(npad))):
+                                if x + d < 0:
+                                    j = sh + W                 # column 0
+                                elif d > R - k:
+                                    j = sh + 1                 # column W-1
+                                else:
+                                    j = sh + 1 + R - k - d     # column x+d
+                                assert 1 <= j <= 2 * R
+                                m.d.comb += sel.eq(j)
+            with m.Else():
+                with m.Switch(hcc):
+                    for c in range(R, 2 * R + 1):
+                        x = c - R           # c = 2R stands for every x >= R
+                        with m.Case(c):
+                            m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
+                    with m.Default():
+                        m.d.comb += sel.eq(R - d)
+            cols.append(Array(sr)[sel])
+        first = is_norm & (hcc == R) & hrow0
+        last = is_pad & (pend == 1)
+
+        val, dw = self._win_fn(pipe, cols)
+        ov = pipe.delay(win_valid, dw, name="ov", reset=True)
+        of = pipe.delay(first, dw, name="of")
+        ol = pipe.delay(last, dw, name="ol")
+        m.d.comb += [o.valid.eq(ov), o.payload.first.eq(of), o.payload.last.eq(ol),
+                     o.payload.data.val.eq(val)]
+        if self._carry:
+            m.d.comb += o.payload.data.hm1.eq(pipe.delay(hm1, dw, name="hm1"))
+        self.depth = 2 + dc + dw
+        return m
+
+
+# ---- the median network and the enhancement arithmetic as column / window functions
+
+def _sorted_layout(bits):
+    return data.StructLayout({"lo": bits, "mid": bits, "hi": bits})
+
+
+def _sort_column(pipe, taps):
+    t, mm, b = taps
+    lo, mid, hi = run_network(COLUMN_SORT, {"t": t, "m": mm, "b": b}, ["lo", "mid", "hi"],
+                              minmax=_minmax, reg=lambda n, v: pipe.reg(v, name=n))
+    return lo, mid, hi
+
+
+def _window_median(pipe, cols, bits):
+    env = {}
+    for j, c in enumerate(cols):
+        v = data.View(_sorted_layout(bits), c)
+        env.update({f"lo{j}": v.lo, f"mid{j}": v.mid, f"hi{j}": v.hi})
+    med, = run_network(WINDOW_MEDIAN, env, ["med"], minmax=_minmax,
+                       reg=lambda n, v: pipe.reg(v, name=n))
+    return med
+
+
+def _median_fns(bits):
+    def col_fn(pipe, taps, pay):
+        lo, mid, hi = _sort_column(pipe, taps)
+        return Cat(lo, mid, hi), len(COLUMN_SORT)
+
+    def win_fn(pipe, cols):
+        return _window_median(pipe, cols, bits), len(WINDOW_MEDIAN)
+    return col_fn, win_fn
+
+
+def _stage_a_fns(bits):
+    """Median + Laplacian + Sobel magnitude of the 3x3 window (enhance mode, stage A)."""
+    lay = data.StructLayout({
+        "lo": bits, "mid": bits, "hi": bits,
+        "cs": bits + 2,            # t + 2m + b
+        "dv": signed(bits + 1),    # b - t
+        "mm": bits,                # m
+        "tb": bits + 1,            # t + b
+    })
+
+    def col_fn(pipe, taps, pay):
+        t, mm, b = taps
+        lo, mid, hi = _sort_column(pipe, taps)
+        tb1 = pipe.reg(t + b, shape=unsigned(bits + 1), name="tb")
+        dv1 = pipe.reg(b - t, shape=signed(bits + 1), name="dv")
+        mm1 = pipe.reg(mm, name="mm")
+        cs2 = pipe.reg(tb1 + (mm1 << 1), shape=unsigned(bits + 2), name="cs")
+        tb2, dv2, mm2 = pipe.reg(tb1), pipe.reg(dv1), pipe.reg(mm1)
+        cs3, tb3, dv3, mm3 = pipe.reg(cs2), pipe.reg(tb2), pipe.reg(dv2), pipe.reg(mm2)
+        v = Signal(lay, name="a_col")
+        pipe.m.d.comb += [v.lo.eq(lo), v.mid.eq(mid), v.hi.eq(hi), v.cs.eq(cs3), v.dv.eq(dv3),
+                          v.mm.eq(mm3), v.tb.eq(tb3)]
+        return v, len(COLUMN_SORT)
+
+    def win_fn(pipe, cols):
+        c = [data.View(lay, x) for x in cols]
+        sorted_cols = [Cat(x.lo, x.mid, x.hi) for x in c]
+        med = _window_median(pipe, sorted_cols, bits)
+        wb = bits + 3
+        gx = pipe.reg(c[2].cs - c[0].cs, shape=signed(wb), name="gx")
+        gyp = pipe.reg(c[0].dv + c[2].dv, shape=signed(wb), name="gyp")
+        gyc = pipe.reg(c[1].dv << 1, shape=signed(wb), name="gyc")
+        lap_a = pipe.reg((c[1].mm << 2) - c[1].tb, shape=signed(wb), name="lapa")
+        lap_b = pipe.reg(c[0].mm + c[2].mm, shape=unsigned(bits + 1), name="lapb")
+        agx = pipe.reg(Mux(gx < 0, -gx, gx), shape=unsigned(wb), name="agx")
+        gy = pipe.reg(gyp + gyc, shape=signed(wb), name="gy")
+        lap = pipe.reg(lap_a - lap_b, shape=signed(wb), name="lap")
+        agy = pipe.reg(Mux(gy < 0, -gy, gy), shape=unsigned(wb), name="agy")
+        agx3, lap3 = pipe.reg(agx), pipe.reg(lap)
+        g = pipe.reg(agx3 + agy, shape=unsigned(wb), name="g")
+        lap4 = pipe.reg(lap3)
+        g5, lap5 = pipe.reg(g), pipe.reg(lap4)
+        out = Signal(_a_out_layout(bits), name="a_out")
+        pipe.m.d.comb += [out.med.eq(med), out.lap.eq(lap5), out.g.eq(g5)]
+        return out, len(WINDOW_MEDIAN)
+    return col_fn, win_fn
+
+
+def _a_out_layout(bits):
+    return data.StructLayout({"med": bits, "lap": signed(bits + 3), "g": bits + 3})
+
+
+def _pay_layout(bits):
+    return data.StructLayout({"med": bits, "lap": signed(bits + 3)})
+
+
+def _stage_b_fns(bits, gain, shift):
+    """5x5 box sum of the gradient, mean, mask and final add (enhance mode, stage B)."""
+    full = (1 << bits) - 1
+    gb = bits + 3
+    k, s = reciprocal_25(200 * full + 12)
+    play = _pay_layout(bits)
+    clay = data.StructLayout({"v": gb + 3, "pay": play})
+
+    def add_tree(pipe, vals, width, name):
+        a = pipe.reg(vals[0] + vals[1], shape=unsigned(width), name=name)
+        b = pipe.reg(vals[2] + vals[3], shape=unsigned(width), name=name)
+        e = pipe.reg(vals[4], name=name)
+        ab = pipe.reg(a + b, shape=unsigned(width), name=name)
+        e2 = pipe.reg(e, name=name)
+        return pipe.reg(ab + e2, shape=unsigned(width), name=name)
+
+    def col_fn(pipe, taps, pay):
+        v = add_tree(pipe, taps, gb + 3, "vs")
+        p = pipe.delay(data.View(play, pay), 3, name="bpay")
+        col = Signal(clay, name="b_col")
+        pipe.m.d.comb += [col.v.eq(v), col.pay.eq(p)]
+        return col, 3
+
+    def win_fn(pipe, cols):
+        c = [data.View(clay, x) for x in cols]
+        box = add_tree(pipe, [x.v for x in c], gb + 5, "box")                  # 3 stages
+        pay = pipe.delay(c[2].pay, 3, name="wpay")
+        nb = box.shape().width + 1
+        t = pipe.reg(box + 12, shape=unsigned(nb), name="box12")               # 4
+        pay = pipe.reg(pay, shape=play)
+        gmean = pipe.reg((t * k) >> s, shape=unsigned(gb), name="gmean")      # 5
+        pay = pipe.reg(pay, shape=play)
+        pw = 2 * bits + 7
+        prod = pipe.reg(pay.lap * gmean, shape=signed(pw), name="prod")       # 6
+        med = pipe.reg(pay.med)
+        sw = max(pw + 9, shift + 2)
+        rnd = (1 << (shift - 1)) if shift else 0
+        sc = pipe.reg(prod * gain + rnd, shape=signed(sw), name="scaled")      # 7
+        med = pipe.reg(med)
+        tot = pipe.reg(med + (sc >> shift), shape=signed(sw + 1), name="tot")  # 8
+        out = pipe.reg(Mux(tot < 0, 0, Mux(tot > full, full, tot)), shape=unsigned(bits),
+                       name="clamp")                                            # 9
+        return out, 9
+    return col_fn, win_fn
+
+
+class Median3(wiring.Component):
+    """3x3 median filter, replicated borders, 1 pixel/clock; optional edge enhancement.
+
+    Equals :func:`tdicam.model.median3.median3` bit for bit (``scipy.ndimage.median_filter
+    (frame, size=3, mode="nearest")`` without ``enhance``).
+
+    Parameters
+    ----------
+    width : int
+        Pixels per line, 3..8192 (elaboration: it sizes the line buffers).
+    pixel_bits : int
+        Input and output pixel width, 8..16.
+    enhance : bool
+        Add the edge-enhancement detail of :func:`~tdicam.model.median3.median3`.
+    enhance_gain : int
+        0..255 (only with ``enhance``).
+    enhance_shift : int or None
+        0..48, ``None`` = ``pixel_bits + 2`` (only with ``enhance``).
+
+    Attributes
+    ----------
+    i_stream : In(pixel stream of ``unsigned(pixel_bits)``)
+    o_stream : Out(pixel stream of ``unsigned(pixel_bits)``)
+        Same frame geometry as the input; ``first`` on pixel (0, 0) of each frame,
+        ``last`` on the last pixel of each line.
+    height : In(16)
+        Rows of the frame, run time; sampled with the frame's first pixel (``first``), so it
+        may change from frame to frame. 0 counts as 1. The block must know which row is a
+        frame's last to replicate it, and it then finishes the frame on its own: no output
+        waits for the next frame.
+    marker_error : Out(1)
+        Sticky (until reset): an accepted input beat had ``first``/``last`` where the
+        block's own counters (``width``, ``height``) did not, or lacked them where they did.
+        Geometry always comes from ``width``/``height``; the input markers are only checked.
+
+    Notes
+    -----
+    **Latency.** Without ``enhance``, output pixel (y, x) becomes valid :attr:`latency`
+    = 10 cycles after input pixel (min(y+1, H-1), min(x+1, W-1)) was accepted, when nothing
+    stalls (one more cycle for x = W-1, produced by a pad step; the last row comes from the
+    flush, which starts the cycle after the frame's last pixel): register stages are line
+    buffer read (1), column with border rows (1), column sort (3), window median (5). With
+    ``enhance`` the Laplacian/gradient stage (10 stages) feeds the 5x5 stage (box sum 3+3,
+    mean 2, mask 2, add and clamp 2, line buffers and column 2 = 14 stages): output (y, x)
+    is valid 24 cycles after input (min(y+3, H-1), min(x+3, W-1)).
+
+    **Throughput and backpressure.** One pixel per clock in and out, across rows and frames
+    (the borders of one frame overlap the start of the next). One exception, with
+    ``enhance`` only: a frame of a single row arriving while the 5x5 stage still produces
+    the previous frame's last two rows waits for them (at most ``width`` cycles). The whole pipeline moves on
+    ``advance = ~o_stream.valid | o_stream.ready``; ``i_stream.ready`` is ``advance`` and,
+    while the previous frame's last rows are being produced, the condition that the new
+    frame does not overwrite a line still needed. No pixel is lost or duplicated whatever
+    ``ready`` does.
+
+    **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With
+    ``enhance`` in addition: 4 lines of the gradient (``pixel_bits + 3``) for the 5x5 mean
+    and 2 lines of the centre pixel's median and Laplacian (``2 pixel_bits + 3``), i.e.
+    ``width * (10 pixel_bits + 18)`` bits in total (1280 x 12 bits: 176,640 bits).
+
+    **Reset** (synchronous) clears the pipeline and the counters: the next pixel accepted
+    is pixel (0, 0) of a new frame. Line buffer contents are never read before they are
+    written within the same frame, so nothing leaks across frames or resets.
+    """
+
+    def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
+                 enhance_shift=None):
+        self._width = check_range("width", width, 3, MAX_WIDTH)
+        self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
+        if not isinstance(enhance, bool):
+            raise TdicamError(f"enhance must be true or false, got {enhance!r}")
+        self._enhance = enhance
+        self._gain = check_range("enhance_gain", enhance_gain, 0, MAX_GAIN)
+        shift = default_enhance_shift(pixel_bits) if enhance_shift is None else enhance_shift
+        self._shift = check_range("enhance_shift", shift, 0, MAX_SHIFT)
+        super().__init__({
+            "i_stream": In(pixel_signature(unsigned(pixel_bits))),
+            "o_stream": Out(pixel_signature(unsigned(pixel_bits))),
+            "height": In(unsigned(_HMAX)),
+            "marker_error": Out(unsigned(1)),
+        })
+
+    @property
+    def width(self):
+        return self._width
+
+    @property
+    def pixel_bits(self):
+        return self._bits
+
+    @property
+    def enhance(self):
+        return self._enhance
+
+    @property
+    def enhance_gain(self):
+        return self._gain
+
+    @property
+    def enhance_shift(self):
+        return self._shift
+
+    @property
+    def latency(self):
+        """Register stages from the input pixel that completes a window to its output."""
+        plain = 2 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
+        return plain + 2 + 3 + 9 if self._enhance else plain
+
+    @property
+    def line_buffer_bits(self):
+        """Bits of line-buffer memory (see Notes)."""
+        b, w = self._bits, self._width
+        return w * (10 * b + 18) if self._enhance else 2 * w * b
+
+    def elaborate(self, platform):
+        m = Module()
+        b, w = self._bits, self._width
+        i, o = self.i_stream, self.o_stream
+        hm1 = Mux(self.height == 0, 0, self.height - 1)
+        if not self._enhance:
+            col_fn, win_fn = _median_fns(b)
+            m.submodules.a = a = _Neighbourhood(
+                radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a")
+            last = a
+        else:
+            col_fn, win_fn = _stage_a_fns(b)
+            m.submodules.a = a = _Neighbourhood(
+                radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
+                out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
+                name="a")
+            col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
+            m.submodules.b = bb = _Neighbourhood(
+                radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b")
+            ao, bi = a.o_stream, bb.i_stream
+            m.d.comb += [
+                bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
+                bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
+                bi.payload.data.tap.eq(ao.payload.data.val.g),
+                bi.payload.data.pay.med.eq(ao.payload.data.val.med),
+                bi.payload.data.pay.lap.eq(ao.payload.data.val.lap),
+                bi.payload.data.hm1.eq(ao.payload.data.hm1),
+            ]
+            last = bb
+        ai = a.i_stream
+        m.d.comb += [
+            ai.valid.eq(i.valid), i.ready.eq(ai.ready),
+            ai.payload.first.eq(i.payload.first), ai.payload.last.eq(i.payload.last),
+            ai.payload.data.tap.eq(i.payload.data), ai.payload.data.hm1.eq(hm1),
+            o.valid.eq(last.o_stream.valid), last.o_stream.ready.eq(o.ready),
+            o.payload.first.eq(last.o_stream.payload.first),
+            o.payload.last.eq(last.o_stream.payload.last),
+            o.payload.data.eq(last.o_stream.payload.data.val),
+            self.marker_error.eq(a.marker_error),
+        ]
+        return m

@@ -1,0 +1,219 @@
+"""Block ``median3``: 3x3 median filter, replicated borders, optional edge enhancement.
+
+Golden cases hold a stream of frames of possibly different heights (the block's run-time
+``height`` port): ``frames`` (all rows, concatenated), ``heights`` (rows per frame),
+``keep`` (pixels of each frame actually sent: fewer means the frame is cut by a reset),
+``reset_after`` (1 = reset the block before the next frame) and ``out`` (golden output of
+every frame, whole).
+"""
+
+import numpy as np
+
+from ..cosim.codec import Beats, mark_resets
+from ..errors import TdicamError
+from ..hdl.axis import AxisTop
+from ..hdl.median3 import Median3
+from ..model.cds import pixel_dtype
+from ..model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
+from . import Block, Case, Param
+
+__all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
+
+
+def _top(**params):
+    return AxisTop(Median3(**params))
+
+
+def _model_kw(params):
+    return {k: params[k] for k in ("pixel_bits", "enhance", "enhance_gain", "enhance_shift")}
+
+
+def stream_case(frames, params, *, keep=None, reset_after=None):
+    """Arrays of a case from a list of 2-D frames (same width, any heights)."""
+    w = params["width"]
+    for f in frames:
+        if f.ndim != 2 or f.shape[1] != w:
+            raise TdicamError(f"every frame must be 2-D and {w} wide, got {f.shape}")
+    dt = pixel_dtype(params["pixel_bits"])
+    out = [median3(f, **_model_kw(params)) for f in frames]
+    n = len(frames)
+    heights = np.array([f.shape[0] for f in frames], np.int64)
+    keep = heights * w if keep is None else np.asarray(keep, np.int64)
+    reset_after = np.zeros(n, np.uint8) if reset_after is None else \
+        np.asarray(reset_after, np.uint8)
+    return {"frames": np.concatenate(frames).astype(dt), "heights": heights,
+            "keep": keep, "reset_after": reset_after, "out": np.concatenate(out)}
+
+
+def case_beats(arrays, params):
+    """(stimulus, expected) Beats of a case; ``height`` rides in ``ctrl`` with every beat."""
+    w = params["width"]
+    heights, keep, reset_after = arrays["heights"], arrays["keep"], arrays["reset_after"]
+    img, out = arrays["frames"], arrays["out"]
+    stim_parts, exp_parts, resets, exp_resets = [], [], [], []
+    row = n_stim = n_exp = 0
+    for f, h in enumerate(heights.tolist()):
+        n = h * w
+        idx = np.arange(n)
+        first, last = idx == 0, idx % w == w - 1
+        px = img[row:row + h].reshape(-1)
+        k = int(keep[f])
+        stim_parts.append(Beats(px[:k], first[:k], last[:k],
+                                ctrl=np.full(k, h, np.uint64)))
+        exp_parts.append(Beats(out[row:row + h].reshape(-1), first, last))
+        n_stim += k
+        n_exp += n
+        row += h
+        if reset_after[f] and f + 1 < len(heights):
+            resets.append(n_stim)
+            exp_resets.append(n_exp)
+    stim, exp = Beats.concat(stim_parts), Beats.concat(exp_parts)
+    if resets:
+        mark_resets(stim, exp, resets, exp_resets)
+    return stim, exp
+
+
+def _rand(rng, bits, h, w):
+    return rng.integers(0, 1 << bits, (h, w))
+
+
+def _random(heights):
+    def make(params, rng):
+        b, w = params["pixel_bits"], params["width"]
+        return stream_case([_rand(rng, b, h, w) for h in heights], params)
+    return make
+
+
+def _salt_pepper(heights, density=0.2):
+    """Mid-grey texture with a fraction of pixels forced to 0 or full scale."""
+    def make(params, rng):
+        b, w = params["pixel_bits"], params["width"]
+        full = (1 << b) - 1
+        frames = []
+        for h in heights:
+            f = rng.integers(full // 3, 2 * full // 3, (h, w))
+            hit = rng.random((h, w)) < density
+            f[hit] = np.where(rng.random(hit.sum()) < 0.5, 0, full)
+            frames.append(f)
+        return stream_case(frames, params)
+    return make
+
+
+def _flat_and_full(params, rng):
+    """Zeros, full scale, a constant, a 0/full checkerboard and random 0/full pixels."""
+    b, w = params["pixel_bits"], params["width"]
+    full = (1 << b) - 1
+    yy, xx = np.mgrid[0:6, 0:w]
+    frames = [np.zeros((5, w), np.int64), np.full((4, w), full), np.full((3, w), full // 3 + 1),
+              ((yy + xx) % 2) * full, rng.integers(0, 2, (7, w)) * full,
+              np.full((1, w), full)]
+    return stream_case(frames, params)
+
+
+def _edges(params, rng):
+    """Step edges, thin lines and ramps plus noise: where the enhancement acts."""
+    b, w = params["pixel_bits"], params["width"]
+    full = (1 << b) - 1
+    h = 12
+    yy, xx = np.mgrid[0:h, 0:w]
+    step = np.where(xx >= w // 2, full, full // 8)
+    lines = np.where((xx % 5 == 2) | (yy % 4 == 1), 3 * full // 4, full // 4)
+    ramp = (xx * full) // max(w - 1, 1)
+    frames = []
+    for base in (step, lines, ramp):
+        noise = rng.integers(-(full // 32), full // 32 + 1, (h, w))
+        frames.append(np.clip(base + noise, 0, full))
+    frames.append(np.where((yy == h // 2) & (xx == w // 2), full, 0))   # one hot pixel
+    return stream_case(frames, params)
+
+
+def _reset_mid_frame(params, rng):
+    """Frame 0 cut after 2.5 rows by a reset; frame 1 clean; frame 2 ends and a reset hits
+    while its last row is still being produced (flush); frame 3 clean."""
+    b, w = params["pixel_bits"], params["width"]
+    frames = [_rand(rng, b, h, w) for h in (6, 5, 4, 3)]
+    keep = [5 * w // 2, 5 * w, 4 * w, 3 * w]
+    return stream_case(frames, params, keep=keep, reset_after=[1, 0, 1, 0])
+
+
+def _top_params(**kw):
+    base = {"width": 24, "pixel_bits": 12, "enhance": False, "enhance_gain": 1,
+            "enhance_shift": None}
+    base.update(kw)
+    return base
+
+
+#: Parameter sets of the golden cases (each one is a simulator build).
+BUILDS = {
+    "w3_16b": _top_params(width=3, pixel_bits=16),
+    "w24_12b": _top_params(width=24, pixel_bits=12),
+    "w8192_8b": _top_params(width=MAX_WIDTH, pixel_bits=8),
+    "enh_w16_12b": _top_params(width=16, pixel_bits=12, enhance=True),
+    "enh_w3_16b": _top_params(width=3, pixel_bits=16, enhance=True, enhance_gain=200,
+                              enhance_shift=30),
+}
+
+
+def _wide(params, rng):
+    """Two frames at the widest line: random rows, then one row of 0/full-scale runs."""
+    b, w = params["pixel_bits"], params["width"]
+    full = (1 << b) - 1
+    runs = (np.arange(w) // 7 % 2) * full
+    return stream_case([_rand(rng, b, 2, w), runs[None, :]], params)
+
+
+def _cases():
+    b = BUILDS
+    return [
+        Case("w3_3x3_and_tall", b["w3_16b"], _random([3, 1, 2, 3, 64]), seed=1,
+             tags=("smallest", "height-change")),
+        Case("w3_flat_full", b["w3_16b"], _flat_and_full, seed=2, tags=("fullscale", "zeros")),
+        Case("w3_salt_pepper", b["w3_16b"], _salt_pepper([12, 5], 0.35), seed=3),
+        Case("random_12b", b["w24_12b"], _random([16, 9, 1, 2, 3]), seed=4,
+             tags=("height-change",)),
+        Case("salt_pepper_12b", b["w24_12b"], _salt_pepper([20, 7]), seed=5),
+        Case("flat_full_12b", b["w24_12b"], _flat_and_full, seed=6, tags=("fullscale", "zeros")),
+        Case("reset_mid_frame_12b", b["w24_12b"], _reset_mid_frame, seed=7, tags=("reset",)),
+        Case("w8192_8b", b["w8192_8b"], _wide, seed=8, tags=("widest", "fullscale")),
+        Case("enh_edges_12b", b["enh_w16_12b"], _edges, seed=9, tags=("enhance",)),
+        Case("enh_random_12b", b["enh_w16_12b"], _random([9, 1, 2, 3, 4, 6]), seed=10,
+             tags=("enhance", "height-change")),
+        Case("enh_salt_pepper_12b", b["enh_w16_12b"], _salt_pepper([10]), seed=11,
+             tags=("enhance",)),
+        Case("enh_flat_full_12b", b["enh_w16_12b"], _flat_and_full, seed=12,
+             tags=("enhance", "fullscale", "zeros")),
+        Case("enh_reset_12b", b["enh_w16_12b"], _reset_mid_frame, seed=13,
+             tags=("enhance", "reset")),
+        Case("enh_w3_edges_16b", b["enh_w3_16b"], _edges, seed=14,
+             tags=("enhance", "smallest", "fullscale")),
+        Case("enh_w3_random_16b", b["enh_w3_16b"], _random([6, 1, 2, 3, 4]), seed=15,
+             tags=("enhance", "smallest")),
+        Case("enh_w3_flat_full_16b", b["enh_w3_16b"], _flat_and_full, seed=16,
+             tags=("enhance", "fullscale", "zeros")),
+    ]
+
+
+def _check(params):
+    if not params["enhance"] and (params["enhance_gain"] != 1
+                                  or params["enhance_shift"] is not None):
+        raise TdicamError("--enhance-gain and --enhance-shift need --enhance true")
+
+
+BLOCK = Block(
+    name="median3",
+    summary="3x3 median, replicated borders, 1 pixel/clock, optional edge enhancement "
+            "(SPEC 3.5)",
+    params=(
+        Param("width", 1280, "pixels per line (sizes the line buffers)", lo=3, hi=MAX_WIDTH),
+        Param("pixel_bits", 12, "input and output pixel width", lo=8, hi=16),
+        Param("enhance", False, "add the Laplacian x smoothed-gradient detail", type=bool),
+        Param("enhance_gain", 1, "mask gain (with --enhance)", lo=0, hi=MAX_GAIN),
+        Param("enhance_shift", None, "mask right shift (with --enhance; default "
+              "pixel_bits + 2)", lo=0, hi=MAX_SHIFT),
+    ),
+    top=_top,
+    cases=_cases,
+    to_beats=case_beats,
+    check=_check,
+    model_version="median3-1",
+)

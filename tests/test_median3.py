@@ -1,0 +1,346 @@
+"""Golden model, median network and Amaranth simulation of the ``median3`` block."""
+
+import itertools
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import scipy.ndimage as ndi
+from amaranth.sim import Simulator
+
+from tdicam import blocks
+from tdicam.blocks.median3 import case_beats, stream_case
+from tdicam.errors import TdicamError
+from tdicam.hdl.median3 import (COLUMN_SORT, WINDOW_MEDIAN, Median3, network_stats,
+                                reciprocal_25, run_network)
+from tdicam.model.median3 import enhance_parts, median3
+
+SIZES = [(3, 3), (1, 3), (2, 3), (3, 4), (7, 3), (3, 17), (17, 33), (64, 1280)]
+
+
+def _images(rng, rows, cols, bits):
+    full = (1 << bits) - 1
+    sp = rng.integers(full // 3, 2 * full // 3, (rows, cols))
+    hit = rng.random((rows, cols)) < 0.25
+    sp[hit] = np.where(rng.random(hit.sum()) < 0.5, 0, full)
+    return {
+        "random": rng.integers(0, full + 1, (rows, cols)),
+        "constant": np.full((rows, cols), int(rng.integers(0, full + 1))),
+        "zeros": np.zeros((rows, cols), np.int64),
+        "full": np.full((rows, cols), full),
+        "salt_pepper": sp,
+        "binary_full": rng.integers(0, 2, (rows, cols)) * full,
+    }
+
+
+# ---------------------------------------------------------------- golden model
+
+
+@pytest.mark.parametrize("bits", [8, 12, 16])
+@pytest.mark.parametrize("rows,cols", SIZES)
+def test_model_equals_scipy_median_filter(rows, cols, bits):
+    rng = np.random.default_rng(rows * 1000 + cols + bits)
+    for name, img in _images(rng, rows, cols, bits).items():
+        out = median3(img, pixel_bits=bits)
+        ref = ndi.median_filter(img, size=3, mode="nearest")
+        assert out.dtype == (np.uint8 if bits == 8 else np.uint16), name
+        np.testing.assert_array_equal(out, ref, err_msg=name)
+
+
+def test_model_filters_each_frame_of_a_stack_alone():
+    rng = np.random.default_rng(3)
+    stack = rng.integers(0, 4096, (4, 5, 9))
+    out = median3(stack, pixel_bits=12, width=9, height=5)
+    for k in range(4):
+        np.testing.assert_array_equal(out[k], ndi.median_filter(stack[k], 3, mode="nearest"))
+
+
+@pytest.mark.parametrize("rows,cols", [(1, 3), (3, 3), (4, 7), (9, 5), (33, 64)])
+def test_enhance_parts_equal_scipy_operators(rows, cols):
+    rng = np.random.default_rng(rows + cols)
+    for bits in (8, 16):
+        for name, img in _images(rng, rows, cols, bits).items():
+            p = enhance_parts(img, pixel_bits=bits)
+            lap_k = np.array([[0, -1, 0], [-1, 4, -1], [0, -1, 0]])
+            np.testing.assert_array_equal(p["lap"], ndi.correlate(img, lap_k, mode="nearest"))
+            np.testing.assert_array_equal(p["gx"], ndi.sobel(img, axis=1, mode="nearest"))
+            np.testing.assert_array_equal(p["gy"], ndi.sobel(img, axis=0, mode="nearest"))
+            box = ndi.correlate(p["grad"], np.ones((5, 5), np.int64), mode="nearest")
+            np.testing.assert_array_equal(p["box"], box)
+            # rounded mean: never more than 1/2 away from the exact mean (no ties: 25 odd)
+            assert np.all(np.abs(p["gmean"] * 25 - box) <= 12), name
+            full = (1 << bits) - 1
+            for key, lo, hi in (("lap", -4 * full, 4 * full), ("grad", 0, 8 * full),
+                                ("gmean", 0, 8 * full)):
+                assert p[key].min() >= lo and p[key].max() <= hi, (name, key)
+
+
+def test_enhance_definition_arithmetic():
+    rng = np.random.default_rng(11)
+    img = rng.integers(0, 4096, (12, 15))
+    p = enhance_parts(img, pixel_bits=12, enhance_gain=37, enhance_shift=13)
+    want = np.floor((p["lap"] * p["gmean"] * 37 + 2 ** 12) / 2 ** 13).astype(np.int64)
+    np.testing.assert_array_equal(p["detail"], want)
+    np.testing.assert_array_equal(p["out"], np.clip(p["median"] + want, 0, 4095))
+    out = median3(img, pixel_bits=12, enhance=True, enhance_gain=37, enhance_shift=13)
+    np.testing.assert_array_equal(out, p["out"])
+    assert (p["out"] != p["median"]).any()
+    # gain 0: the median; shift 0: no rounding term
+    np.testing.assert_array_equal(median3(img, enhance=True, enhance_gain=0), median3(img))
+    p0 = enhance_parts(img, pixel_bits=12, enhance_gain=2, enhance_shift=0)
+    np.testing.assert_array_equal(p0["detail"], p0["prod"] * 2)
+    # default shift = pixel_bits + 2
+    np.testing.assert_array_equal(median3(img, enhance=True),
+                                  median3(img, enhance=True, enhance_shift=14))
+
+
+def test_enhance_extremes_saturate_both_ways_without_wrap():
+    full = 65535
+    img = np.zeros((7, 9), np.int64)
+    img[3, 4] = full                       # hot pixel: the median removes it...
+    img[:, 6:] = full                      # ...a full-scale edge: detail pushes both ways
+    out = median3(img, pixel_bits=16, enhance=True, enhance_gain=255, enhance_shift=0)
+    med = median3(img, pixel_bits=16)
+    assert out.dtype == np.uint16
+    assert set(np.unique(out).tolist()) <= {0, full}
+    assert (out[:, 5] == 0).all() and (out[:, 6] == full).all()   # clamped, not wrapped
+    assert med[3, 4] == 0
+
+
+def test_model_no_uint_wrap_and_dtypes():
+    img = np.array([[0, 255, 0], [255, 0, 255], [0, 255, 0]], np.uint8)
+    assert median3(img, pixel_bits=8).dtype == np.uint8
+    out = median3(img, pixel_bits=8, enhance=True, enhance_gain=255, enhance_shift=0)
+    assert out.dtype == np.uint8 and out.min() >= 0
+
+
+@pytest.mark.parametrize("kwargs,frames,match", [
+    ({"pixel_bits": 7}, np.zeros((3, 3), int), "pixel_bits = 7 is out of range; valid: 8..16"),
+    ({"pixel_bits": 8}, np.full((3, 3), 256), "frames has values outside 0..255"),
+    ({}, np.zeros((3, 3)), "frames must be an integer array"),
+    ({}, np.zeros((3, 2), int), "at least 1 row and 3 columns, got 3x2"),
+    ({}, np.zeros(5, int), "one image .* or a stack"),
+    ({"width": 4}, np.zeros((3, 3), int), "frames are 3 pixels wide, width = 4"),
+    ({"height": 2}, np.zeros((3, 3), int), "frames are 3 rows high, height = 2"),
+    ({"width": 2}, np.zeros((3, 3), int), "width = 2 is out of range; valid: 3..8192"),
+    ({"enhance": True, "enhance_gain": 256}, np.zeros((3, 3), int), "enhance_gain = 256"),
+    ({"enhance": True, "enhance_shift": 49}, np.zeros((3, 3), int), "enhance_shift = 49"),
+    ({"enhance_gain": -1}, np.zeros((3, 3), int), "enhance_gain = -1"),
+])
+def test_model_bad_input_is_one_line_error(kwargs, frames, match):
+    with pytest.raises(TdicamError, match=match) as exc:
+        median3(frames, **kwargs)
+    assert "\n" not in str(exc.value)
+
+
+# ---------------------------------------------------------------- the network
+
+
+def _net_median(win):
+    """The gateware's network evaluated on numpy arrays; ``win`` shape (..., 3, 3)."""
+    def mm(fn, a, b):
+        return np.minimum(a, b) if fn == "min" else np.maximum(a, b)
+    env = {}
+    for j in range(3):
+        col = win[..., :, j]
+        lo, mid, hi = run_network(COLUMN_SORT, {"t": col[..., 0], "m": col[..., 1],
+                                                "b": col[..., 2]}, ["lo", "mid", "hi"],
+                                  minmax=mm)
+        env.update({f"lo{j}": lo, f"mid{j}": mid, f"hi{j}": hi})
+    return run_network(WINDOW_MEDIAN, env, ["med"], minmax=mm)[0]
+
+
+def test_network_is_a_median_for_all_binary_inputs():
+    """0-1 principle: a min/max network selects rank 5 of 9 for every input iff it does for
+    every 0/1 input (min and max commute with every monotone threshold)."""
+    wins = np.array(list(itertools.product((0, 1), repeat=9))).reshape(-1, 3, 3)
+    want = (wins.reshape(-1, 9).sum(axis=1) >= 5).astype(int)
+    np.testing.assert_array_equal(_net_median(wins), want)
+
+
+def test_network_random_and_stats():
+    rng = np.random.default_rng(2)
+    wins = rng.integers(0, 7, (20000, 3, 3))
+    np.testing.assert_array_equal(_net_median(wins), np.median(wins.reshape(-1, 9), axis=1))
+    assert network_stats() == (8, 13)   # compare stages, comparators per output pixel
+    assert len(COLUMN_SORT) == 3 and len(WINDOW_MEDIAN) == 5
+
+
+@pytest.mark.parametrize("bits", [8, 12, 16])
+def test_reciprocal_of_25_is_exact_over_the_whole_range(bits):
+    n_max = 200 * ((1 << bits) - 1) + 12
+    k, s = reciprocal_25(n_max)
+    assert n_max * (25 * k - (1 << s)) < (1 << s)        # the sufficient condition
+    # exhaustive up to 2**21, then the top 2**20 values and every 7th value between
+    n = np.unique(np.concatenate([np.arange(min(n_max, 1 << 21) + 1),
+                                  np.arange(max(0, n_max - (1 << 20)), n_max + 1),
+                                  np.arange(0, n_max + 1, 7)])).astype(np.uint64)
+    np.testing.assert_array_equal((n * np.uint64(k)) >> np.uint64(s), n // np.uint64(25))
+
+
+# ---------------------------------------------------------------- the component
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+def test_component_params_and_errors():
+    dut = Median3(width=640, pixel_bits=10)
+    assert (dut.width, dut.pixel_bits, dut.enhance) == (640, 10, False)
+    assert dut.latency == 10
+    assert dut.line_buffer_bits == 2 * 640 * 10
+    e = Median3(width=1280, pixel_bits=12, enhance=True)
+    assert e.latency == 24 and e.enhance_shift == 14 and e.enhance_gain == 1
+    assert e.line_buffer_bits == 1280 * (10 * 12 + 18) == 176_640
+    for kw, match in (({"width": 2}, "width = 2 is out of range; valid: 3..8192"),
+                      ({"width": 8193}, "width = 8193"),
+                      ({"pixel_bits": 17}, "pixel_bits = 17"),
+                      ({"enhance": 1}, "enhance must be true or false"),
+                      ({"enhance_gain": 300}, "enhance_gain = 300"),
+                      ({"enhance_shift": -1}, "enhance_shift = -1")):
+        with pytest.raises(TdicamError, match=match):
+            Median3(**kw)
+
+
+@pytest.mark.parametrize("args,expect", [
+    (["--width", "2"], "--width = 2 is out of range; valid: 3..8192"),
+    (["--enhance-gain", "4"], "--enhance-gain and --enhance-shift need --enhance true"),
+    (["--enhance", "maybe"], "--enhance must be true or false"),
+    (["--enhance", "true", "--enhance-shift", "99"], "--enhance-shift = 99 is out of range"),
+])
+def test_cli_bad_params_one_line(args, expect):
+    proc = subprocess.run([sys.executable, "-m", "tdicam", "verilog", "median3", *args],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    err = proc.stderr.strip()
+    assert len(err.splitlines()) == 1 and expect in err and "Traceback" not in err
+
+
+def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, bad_last_at=None, heights=None):
+    """Run the component on frames; returns (outputs, stats)."""
+    dut = Median3(**params)
+    arrays = stream_case(frames, params)
+    stim, exp = case_beats(arrays, params)
+    if heights is not None:
+        stim.ctrl[:] = heights
+    rng = np.random.default_rng(seed)
+    got, acc_cycle, out_cycle, marker = [], [], [], []
+
+    async def source(ctx):
+        for k in range(len(stim)):
+            while idle and rng.random() < idle:
+                ctx.set(dut.i_stream.valid, 0)
+                await ctx.tick()
+            ctx.set(dut.i_stream.payload.data, int(stim.data[k, 0]))
+            ctx.set(dut.i_stream.payload.first, bool(stim.first[k]))
+            ctx.set(dut.i_stream.payload.last, bool(stim.last[k]) ^ (k == bad_last_at))
+            ctx.set(dut.height, int(stim.ctrl[k]))
+            ctx.set(dut.i_stream.valid, 1)
+            await ctx.tick().until(dut.i_stream.ready)
+        ctx.set(dut.i_stream.valid, 0)
+
+    async def sink(ctx):
+        while True:
+            ctx.set(dut.o_stream.ready, int(not bp or rng.random() >= bp))
+            await ctx.tick()
+
+    async def monitor(ctx):
+        """Samples right before each clock edge: transfers and the cycle they happen in."""
+        cycle = 0
+        async for _, _, iv, ir, v, r, d, f, last, me in ctx.tick().sample(
+                dut.i_stream.valid, dut.i_stream.ready,
+                dut.o_stream.valid, dut.o_stream.ready, dut.o_stream.payload.data,
+                dut.o_stream.payload.first, dut.o_stream.payload.last, dut.marker_error):
+            cycle += 1
+            marker.append(me)
+            if iv and ir:
+                acc_cycle.append(cycle)
+            if v and r:
+                got.append((d, f, last))
+                out_cycle.append(cycle)
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(source)
+    sim.add_testbench(sink, background=True)
+    sim.add_testbench(monitor, background=True)
+    slow = 1 / ((1 - idle) * (1 - bp))
+    sim.run_until(1e-8 * int((len(stim) + 40 * params["width"]) * 3 * slow + 200))
+    return got, exp, {"acc": acc_cycle, "out": out_cycle, "marker": marker,
+                      "latency": dut.latency}
+
+
+def _assert_equal(got, exp):
+    assert len(got) == len(exp), f"{len(got)} outputs, expected {len(exp)}"
+    np.testing.assert_array_equal(np.array([g[0] for g in got], np.uint64), exp.data[:, 0])
+    np.testing.assert_array_equal([bool(g[1]) for g in got], exp.first)
+    np.testing.assert_array_equal([bool(g[2]) for g in got], exp.last)
+
+
+def _params(**kw):
+    p = {"width": 7, "pixel_bits": 12, "enhance": False, "enhance_gain": 1,
+         "enhance_shift": None}
+    p.update(kw)
+    return p
+
+
+@pytest.mark.parametrize("enhance", [False, True])
+def test_full_rate_latency_and_no_bubbles(enhance):
+    """No stalls: every input accepted at once, output contiguous, latency as documented."""
+    rng = np.random.default_rng(4)
+    params = _params(width=6, enhance=enhance, enhance_gain=9)
+    # (with enhance a 1-row frame waits for the previous frame's 2-row flush: see Notes)
+    frames = [rng.integers(0, 4096, (h, 6)) for h in ((5, 2, 4, 3) if enhance else (5, 1, 4, 2))]
+    got, exp, st = _simulate(params, frames)
+    _assert_equal(got, exp)
+    acc = np.array(st["acc"])
+    assert len(acc) == len(exp) and (np.diff(acc) == 1).all()   # 1 pixel/clock in
+    out = np.array(st["out"])
+    assert (np.diff(out) == 1).all()               # 1 pixel/clock out, no gap anywhere
+    r = 3 if enhance else 1                        # output (0,0) waits for input (r, r)
+    assert out[0] - acc[r * 6 + r] == st["latency"]
+
+
+@pytest.mark.parametrize("enhance", [False, True])
+@pytest.mark.parametrize("width,idle,bp,seed", [(3, 0.3, 0.3, 1), (5, 0.6, 0.1, 2),
+                                                (4, 0.1, 0.7, 3), (9, 0.5, 0.5, 4)])
+def test_amaranth_sim_matches_model_with_stalls(enhance, width, idle, bp, seed):
+    rng = np.random.default_rng(seed)
+    bits = (8, 12, 16)[seed % 3]
+    params = _params(width=width, pixel_bits=bits, enhance=enhance,
+                     enhance_gain=int(rng.integers(0, 256)), enhance_shift=int(seed * 7))
+    if not enhance:
+        params.update(enhance_gain=1, enhance_shift=None)
+    full = (1 << bits) - 1
+    frames = [rng.integers(0, full + 1, (1, width)), rng.integers(0, 2, (5, width)) * full,
+              rng.integers(0, full + 1, (2, width)), np.full((3, width), full),
+              rng.integers(0, full + 1, (4, width))]
+    got, exp, st = _simulate(params, frames, idle=idle, bp=bp, seed=seed)
+    _assert_equal(got, exp)
+
+
+def test_height_zero_counts_as_one():
+    rng = np.random.default_rng(6)
+    frames = [rng.integers(0, 4096, (1, 5)) for _ in range(3)]
+    got, exp, _ = _simulate(_params(width=5), frames, heights=0)
+    _assert_equal(got, exp)
+
+
+def test_marker_error_flags_a_misplaced_last_and_only_that():
+    rng = np.random.default_rng(7)
+    frames = [rng.integers(0, 4096, (3, 5)) for _ in range(2)]
+    got, exp, st = _simulate(_params(width=5), frames)
+    assert not any(st["marker"])
+    got, exp, st = _simulate(_params(width=5), frames, bad_last_at=7)
+    assert st["marker"][-1] == 1
+    _assert_equal(got, exp)        # geometry comes from width/height: output unaffected
+
+
+def test_block_cases_cover_what_the_issue_asks():
+    blk = blocks.get("median3")
+    cases = blk.cases()
+    tags = {t for c in cases for t in c.tags}
+    assert {"smallest", "fullscale", "zeros", "reset", "enhance", "widest",
+            "height-change"} <= tags
+    widths = {c.params["width"] for c in cases}
+    assert min(widths) == 3 and max(widths) == 8192
+    assert {c.params["pixel_bits"] for c in cases} == {8, 12, 16}
