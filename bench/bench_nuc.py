@@ -39,8 +39,8 @@ def run(rows=64, cols=1280, frames=4, repeat=3, beat_frames=1, sims=cosim.SIMULA
     modes = (("fast", frames),) + ((("beat", beat_frames),) if beat else ())
     for sim in sims:
         for mode, nf in modes:
-            stim = frames_to_beats(np.stack([x[:nf], g[:nf],
-                                             o[:nf].astype(np.int64) & 0xFFFF], -1), channels=3)
+            stim = frames_to_beats(DEFAULT_FORMAT.stream_elements(x[:nf], g[:nf], o[:nf]),
+                                   channels=3)
             exp = frames_to_beats(ref[:nf])
             runs = [cosim.run_stream("nuc", params, stim, n_out=len(exp), sim=sim, mode=mode,
                                      idle=0.2, backpressure=0.2, seed=k + 1)

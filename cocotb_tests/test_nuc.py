@@ -42,7 +42,7 @@ def test_long_stream_1280_wide():
     g = DEFAULT_FORMAT.gain_code(rng.normal(1.0, 0.05, shape))
     o = rng.integers(-300, 300, shape)
     params = blocks.get("nuc").resolve({})
-    stim = frames_to_beats(np.stack([x, g, o & 0xFFFF], -1), channels=3)
+    stim = frames_to_beats(DEFAULT_FORMAT.stream_elements(x, g, o), channels=3)
     exp = frames_to_beats(nuc(x, g, o))
     assert len(stim) > 65536
     check_beats("nuc", params, stim, exp, sim="verilator", mode="fast", idle=0.1,

@@ -34,8 +34,9 @@ class Hdr(wiring.Component):
 
     Notes
     -----
-    Pixel pipeline: three register stages (junction subtract, multiply, round/clamp/select)
-    advancing together when the output register is empty or taken; :attr:`latency` = 3
+    Pixel pipeline: four register stages (junction subtract, multiply, sum with rounding,
+    clamp/select) advancing together when the output register is empty or taken;
+    :attr:`latency` = 4
     cycles, 1 pixel/clock.
 
     Frame start: when a pixel with ``first`` is presented and the previous frame had band
@@ -84,7 +85,7 @@ class Hdr(wiring.Component):
     @property
     def latency(self):
         """Cycles from an input transfer to the corresponding output being valid."""
-        return 3
+        return 4
 
     @property
     def frame_start_cycles(self):
@@ -185,9 +186,10 @@ class Hdr(wiring.Component):
         sh = f + sf
         acc = (ht2 << sf) + p2
         if sh:
-            acc = (acc + (1 << (sh - 1))) >> sh
-        y = Signal(signed(acc.shape().width))
-        m.d.comb += y.eq(acc)
+            acc = acc + (1 << (sh - 1))
+        v3, f3, l3, below3, hg3 = Signal(), Signal(), Signal(), Signal(), Signal(pb)
+        acc3 = Signal(signed(acc.shape().width))
+        y = acc3 >> sh  # flooring shift: round half up together with the added half
         sat = Mux(y < 0, 0, Mux(y > top, top, y))
 
         with m.If(en):
@@ -197,7 +199,8 @@ class Hdr(wiring.Component):
                 d1.eq((lg << f) - lt_eff), ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
                 v2.eq(v1), f2.eq(f1), l2.eq(l1), below2.eq(below1), hg2.eq(hg1), ht2.eq(ht1),
                 p2.eq(d1 * s1),
-                o.valid.eq(v2), o.payload.first.eq(f2), o.payload.last.eq(l2),
-                o.payload.data.eq(Mux(below2, hg2, sat)),
+                v3.eq(v2), f3.eq(f2), l3.eq(l2), below3.eq(below2), hg3.eq(hg2), acc3.eq(acc),
+                o.valid.eq(v3), o.payload.first.eq(f3), o.payload.last.eq(l3),
+                o.payload.data.eq(Mux(below3, hg3, sat)),
             ]
         return m

@@ -177,6 +177,14 @@ class NucFormat:
         o = np.where(o >> (self.offset_bits - 1), o - (1 << self.offset_bits), o)
         return g, o
 
+    def stream_elements(self, x, gain, offset):
+        """The ``nuc`` input stream's three elements per pixel, ``(..., 3)`` int64:
+        ``[x, gain, offset as offset_bits-bit two's complement]`` (what ``tdata`` carries,
+        element 0 in the least significant bits)."""
+        g, o = self.check_coeffs(gain, offset)
+        xa = np.asarray(x).astype(np.int64)
+        return np.stack([xa, g, o & ((1 << self.offset_bits) - 1)], axis=-1)
+
     def default_word(self):
         """The flash word holding default coefficients (gain 1.0, offset 0) for 2 pixels."""
         return int(self.pack_words([self.gain_one] * 2, [0, 0])[0])

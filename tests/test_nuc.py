@@ -282,3 +282,10 @@ def test_golden_cases_cover_the_hard_cases():
     assert out.min() == 0 and out.max() == 4095
     arrays, _ = golden.load(blk, "reset_mid_frame_12b")
     assert 0 < int(arrays["reset_before"][0]) < arrays["x"][0].size
+
+
+def test_stream_elements_two_complement_offset():
+    e = DEFAULT_FORMAT.stream_elements([5, 6], [16384, 1], [-1, 7])
+    assert e.tolist() == [[5, 16384, 0xFFFF], [6, 1, 7]]
+    with pytest.raises(TdicamError, match="offset has codes outside"):
+        DEFAULT_FORMAT.stream_elements([0], [0], [1 << 20])

@@ -68,20 +68,19 @@ def _pack(params, hg, lg, sels, reset_frame=None, cut=None):
 
 
 def _ramp(params, rng):
-    """The full LG sweep twice (reset junction, then the measured one) plus threshold edges:
-    HG at T-band-1, T-band, T-1, T, T+1 with LG below, at and above the junction."""
+    """The full LG sweep twice (reset junction, then the one measured on the sweep), then a
+    frame starting with threshold edges: HG at T-band-1, T-band, T-1, T, T+1 with LG below,
+    at and above the junction (the rest of that frame is the sweep again)."""
     cfg = hdr_config(**params)
     hg, lg = ramp_frame(cfg)
     t, b, full = cfg.threshold, cfg.band, (1 << cfg.pixel_bits) - 1
     hgs = np.clip([t - b - 1, t - b, t - 1, t, t + 1], 0, full)
     lgs = np.clip(np.round(t / _ratio(cfg, 0)) + np.arange(-6, 7) * 3, 0, full)
     edge = np.array(np.meshgrid(hgs, lgs, indexing="ij")).reshape(2, -1)  # 65 pixels
-    pad = 2 * 64 - edge.shape[1]
-    eh = np.concatenate([edge[0], np.full(pad, t)]).reshape(2, 64)
-    el = np.concatenate([edge[1], np.full(pad, full)]).reshape(2, 64)
-    hgf = np.stack([np.concatenate([hg, eh])] * 2)
-    lgf = np.stack([np.concatenate([lg, el])] * 2)
-    return _pack(params, hgf, lgf, np.zeros(2, np.int64))
+    eh, el = hg.copy(), lg.copy()
+    eh.flat[:edge.shape[1]] = edge[0]
+    el.flat[:edge.shape[1]] = edge[1]
+    return _pack(params, np.stack([hg, hg, eh]), np.stack([lg, lg, el]), np.zeros(3, np.int64))
 
 
 def _scene(frames, rows, cols, sels=None, span=None):

@@ -101,10 +101,8 @@ def _reset_mid_frame(params, rng):
 
 
 def _to_beats(arrays, params):
-    fmt = _fmt(params)
-    off = arrays["offset"].astype(np.int64) & ((1 << fmt.offset_bits) - 1)  # two's complement
-    stim = frames_to_beats(np.stack([arrays["x"].astype(np.int64),
-                                     arrays["gain"].astype(np.int64), off], axis=-1), channels=3)
+    elems = _fmt(params).stream_elements(arrays["x"], arrays["gain"], arrays["offset"])
+    stim = frames_to_beats(elems, channels=3)
     exp = frames_to_beats(arrays["out"])
     if "reset_before" in arrays:
         frame_beats = arrays["x"][0].size
