@@ -85,6 +85,17 @@ def reciprocal_25(n_max):
         s += 1
 
 
+def _is0(v):
+    # not v == 0: yosys prints that as a multi-bit logical not (lint WIDTHTRUNC)
+    return ~v.any()
+
+
+def _pick(values, sel):
+    """``values[sel]`` through a mux whose case statement covers every ``sel`` value."""
+    n = 1 << (len(values) - 1).bit_length()
+    return Array(list(values) + [values[-1]] * (n - len(values)))[sel]
+
+
 def _minmax(fn, a, b):
     lt = b < a
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
@@ -180,7 +191,7 @@ class _Neighbourhood(wiring.Component):
         fbase = Signal(nb)
         fhm1 = Signal(_HMAX)
 
-        first_px = (in_row == 0) & (in_col == 0)
+        first_px = _is0(in_row) & _is0(in_col)
         row_end = in_col == W - 1
         hm1_cur = Mux(first_px, i.payload.data.hm1, hm1_in)
         frame_end = row_end & (in_row == hm1_cur)
@@ -208,7 +219,8 @@ class _Neighbourhood(wiring.Component):
                 q = Mux(oy < -d, 0, oy + d)
             elif d > 0:
                 # only the flush reaches past the last row (frem rows are left)
-                q = Mux(flush & (frem <= d), ev_hm1, oy + d)
+                q = Mux(flush & (frem <= d), ev_hm1, oy + d) if d < R else \
+                    Mux(flush, ev_hm1, oy + d)    # frem <= R always
             else:
                 q = oy
             taps_sel.append((ev_base + q)[:nb])
@@ -237,7 +249,8 @@ class _Neighbourhood(wiring.Component):
                         m.d.sync += [in_row.eq(0), flush.eq(1), fc.eq(0),
                                      fbase.eq(Mux(first_px, wslot, base_in)),
                                      fhm1.eq(hm1_cur),
-                                     frem.eq(Mux(hm1_cur >= R - 1, R, hm1_cur + 1))]
+                                     frem.eq(R if R == 1 else
+                                             Mux(hm1_cur >= R - 1, R, hm1_cur + 1))]
                         with m.If(in_row >= R):
                             m.d.sync += oy.eq(oy + 1)
                     with m.Else():
@@ -265,7 +278,7 @@ class _Neighbourhood(wiring.Component):
             wp = mem.write_port()
             m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
                          wp.addr.eq(s1_waddr), wp.data.eq(s1_tap),
-                         wp.en.eq(adv & s1_we & (s1_wslot == k))]
+                         wp.en.eq(adv & s1_we & (s1_wslot == k if k else _is0(s1_wslot)))]
             tap_rd.append(rp.data)
         for k in range(R if has_pay else 0):
             mem = Memory(shape=unsigned(pay_bits), depth=W, init=[])
@@ -274,23 +287,23 @@ class _Neighbourhood(wiring.Component):
             wp = mem.write_port()
             m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
                          wp.addr.eq(s1_waddr), wp.data.eq(s1_pay),
-                         wp.en.eq(adv & s1_we & ((s1_wslot % R) == k))]
+                         wp.en.eq(adv & s1_we & (s1_wslot[0] == k if R == 2 else 1))]
             pay_rd.append(rp.data)
 
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
         s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
         s1_lastc = pipe.reg(ev_c == W - 1, name="lastc")
-        s1_row0 = pipe.reg(oy == 0, name="row0")
+        s1_row0 = pipe.reg(_is0(oy), name="row0")
         s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
         s1_str = [pipe.reg(s, shape=1, name=f"str{t}") for t, s in enumerate(taps_stream)]
         s1_psel = pipe.reg(psel, name="psel")
         s1_hm1 = pipe.reg(ev_hm1, name="hm1") if self._carry else None
 
         # ---- S2: the column with its border rows replicated
-        rd = Array(tap_rd)
-        taps = [pipe.reg(Mux(s1_str[t], s1_tap, rd[s1_sel[t]]), shape=unsigned(tap_bits),
+        taps = [pipe.reg(Mux(s1_str[t], s1_tap, _pick(tap_rd, s1_sel[t])),
+                         shape=unsigned(tap_bits),
                          name=f"tap{t}") for t in range(2 * R + 1)]
-        pay = pipe.reg(Array(pay_rd)[s1_psel] if R > 1 else pay_rd[0],
+        pay = pipe.reg(_pick(pay_rd, s1_psel) if R > 1 else pay_rd[0],
                        shape=unsigned(pay_bits), name="cpay") if has_pay else None
         meta = [pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
                 ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))]
@@ -344,6 +357,8 @@ class _Neighbourhood(wiring.Component):
                                     j = sh + 1 + R - k - d     # column x+d
                                 assert 1 <= j <= 2 * R
                                 m.d.comb += sel.eq(j)
+                    with m.Default():
+                        m.d.comb += sel.eq(R)
             with m.Else():
                 with m.Switch(hcc):
                     for c in range(R, 2 * R + 1):
@@ -352,7 +367,7 @@ class _Neighbourhood(wiring.Component):
                             m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
                     with m.Default():
                         m.d.comb += sel.eq(R - d)
-            cols.append(Array(sr)[sel])
+            cols.append(_pick(sr, sel))
         first = is_norm & (hcc == R) & hrow0
         last = is_pad & (pend == 1)
 
@@ -621,7 +636,7 @@ class Median3(wiring.Component):
         m = Module()
         b, w = self._bits, self._width
         i, o = self.i_stream, self.o_stream
-        hm1 = Mux(self.height == 0, 0, self.height - 1)
+        hm1 = Mux(_is0(self.height), 0, self.height - 1)
         if not self._enhance:
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(

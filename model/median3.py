@@ -63,7 +63,7 @@ def _shifted(p, r, dy, dx):
 def _median(a):
     p = _pad(a, 1)
     stack = np.stack([_shifted(p, 1, dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
-    return np.sort(stack, axis=0)[4]
+    return np.partition(stack, 4, axis=0)[4]
 
 
 def enhance_parts(frames, *, pixel_bits=12, enhance_gain=1, enhance_shift=None):

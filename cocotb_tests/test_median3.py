@@ -1,0 +1,101 @@
+"""Co-simulation of the generated ``median3`` Verilog against its golden model.
+
+Every golden case runs per beat (cocotb drives each cycle, random idle and backpressure) on
+both simulators; in fast mode the cases of each parameter set run as one stream (frames are
+independent, so back to back they also check that no line leaks from one case to the next).
+The 1280 x 64 stream (issue 5) is marked slow: set TDICAM_FULL=1 to run it (the benchmark
+``bench/bench_median3.py`` runs it too, and asserts equality).
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+from tdicam import blocks, golden
+from tdicam.blocks.median3 import BUILDS, case_beats, stream_case
+from tdicam.cosim.codec import Beats
+from tdicam.cosim.testing import check_beats, check_case
+from tdicam.hdl.median3 import Median3
+
+BLOCK = blocks.get("median3")
+CASES = [c.name for c in BLOCK.cases()]
+FULL = os.environ.get("TDICAM_FULL") == "1"
+
+
+def _build_stream(build):
+    """(params, stimulus, expected, resets, one-row frames) of all cases of one build."""
+    params = BLOCK.resolve(BUILDS[build])
+    stims, exps, resets, single = [], [], 0, 0
+    offset = 0
+    for case in BLOCK.cases():
+        if case.params != BUILDS[build]:
+            continue
+        arrays, _ = golden.load(BLOCK, case.name)
+        stim, exp = case_beats(arrays, params)
+        stim.seg += offset
+        exp.seg += offset
+        offset = int(stim.seg.max())
+        resets += int(stim.rst.sum())
+        single += int((arrays["heights"] == 1).sum())
+        stims.append(stim)
+        exps.append(exp)
+    return params, Beats.concat(stims), Beats.concat(exps), resets, single
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_golden_per_beat(case, sim):
+    """Every golden case, cocotb driving each beat with random idle and backpressure."""
+    check_case("median3", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+
+
+@pytest.mark.parametrize("build", sorted(BUILDS))
+def test_golden_fast(build, sim):
+    params, stim, exp, _, _ = _build_stream(build)
+    check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=0.25,
+                backpressure=0.25, seed=7)
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+@pytest.mark.parametrize("build", ["w24_12b", "enh_w16_12b"])
+@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
+def test_extreme_stalls(sim, build, idle, bp):
+    """Full throughput, nearly always stalled sink, nearly always idle source."""
+    params, stim, exp, resets, single = _build_stream(build)
+    res = check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=idle,
+                      backpressure=bp, seed=3)
+    if idle == bp == 0.0:
+        w = params["width"]
+        lat = Median3(**params).latency
+        # 1 pixel/clock: the inputs, a reset's cycles, the last frame's border rows and
+        # latency, the drain window (2000 quiet cycles); with enhance a 1-row frame may wait
+        # for the previous frame's last 2 rows (<= width cycles, documented)
+        tail = (3 * w if params["enhance"] else w) + lat + 4
+        bound = len(stim) + 4 * resets + tail + single * w * params["enhance"] + 2000
+        assert res.cycles <= bound, (res.cycles, bound)
+
+
+def test_reset_cases_are_really_cut():
+    arrays, _ = golden.load("median3", "reset_mid_frame_12b")
+    sent, full = arrays["keep"], arrays["heights"] * 24
+    assert sent[0] < full[0] and arrays["reset_after"][0] == 1     # cut mid-frame
+    assert sent[2] == full[2] and arrays["reset_after"][2] == 1    # reset during its flush
+    stim, exp = case_beats(arrays, BLOCK.resolve(BUILDS["w24_12b"]))
+    assert stim.rst.sum() == 2 and exp.seg.max() == 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("enhance", [False, True])
+def test_1280x64_stream(sim, enhance):
+    """Three 1280 x 64 frames back to back, generated on the fly (TDICAM_FULL=1)."""
+    if not FULL:
+        pytest.skip("full form only (TDICAM_FULL=1); the w8192_8b golden case is the short form")
+    flag = "CFG_CXXFLAGS_PCH_I=-include"   # see bench/bench_median3.py
+    if flag not in os.environ.get("MAKEFLAGS", ""):
+        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " " + flag).strip()
+    params = BLOCK.resolve({"width": 1280, "pixel_bits": 12, "enhance": enhance})
+    rng = np.random.default_rng(64)
+    frames = [rng.integers(0, 4096, (64, 1280)) for _ in range(3)]
+    stim, exp = case_beats(stream_case(frames, params), params)
+    check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=0.1,
+                backpressure=0.1)
