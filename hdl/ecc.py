@@ -384,8 +384,8 @@ class SecdedEndToEndProof(_Proof):
 
 
 def secded_proofs(*, registered=False, end_to_end=False):
-    """The proofs of the SECDED claim, as ``{name: (elaboratable, mode, depth)}`` for
-    :func:`tdicam.formal.prove`.
+    """The proofs of the SECDED claim, as ``{name: (make, mode, depth)}``: ``make()`` builds
+    the harness to pass to :func:`tdicam.formal.prove` with that ``mode`` and ``depth``.
 
     Lemmas 1-3 together prove, for every data word and every injection of at most two bit
     flips ``e``, that flags and corrected data are right: the decoder sees
@@ -403,11 +403,13 @@ def secded_proofs(*, registered=False, end_to_end=False):
     depth = 3 if registered else 1
     sfx = "_reg" if registered else ""
     out = {
-        f"secded_dec_table{sfx}": (SecdedDecoderProof(registered=registered), "bmc", depth),
-        f"secded_enc_codeword{sfx}": (SecdedEncoderProof(registered=registered), "bmc", depth),
-        "secded_distance": (SecdedDistanceProof(), "bmc", 1),
+        f"secded_dec_table{sfx}": (lambda: SecdedDecoderProof(registered=registered), "bmc",
+                                   depth),
+        f"secded_enc_codeword{sfx}": (lambda: SecdedEncoderProof(registered=registered),
+                                      "bmc", depth),
+        "secded_distance": (SecdedDistanceProof, "bmc", 1),
     }
     if end_to_end:
-        out[f"secded_end_to_end{sfx}"] = (SecdedEndToEndProof(registered=registered), "bmc",
-                                          depth)
+        out[f"secded_end_to_end{sfx}"] = (lambda: SecdedEndToEndProof(registered=registered),
+                                          "bmc", depth)
     return out
