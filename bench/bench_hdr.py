@@ -10,6 +10,7 @@ bit with the golden model.
 """
 
 import argparse
+import os
 
 import numpy as np
 
@@ -57,6 +58,7 @@ def main(argv=None):
     rows = run(rows=a.rows, frames=a.frames, repeat=a.repeat, sims=a.sims.split(","),
                beat=not a.no_beat)
     print(machine())
+    print("load average (1/5/15 min) at the end: %.1f %.1f %.1f" % os.getloadavg())
     print_table(rows, [("engine", "engine", "s"), ("mode", "mode", "s"),
                        ("pixels", "pixels", "d"), ("seconds", "median s", ".3f"),
                        ("pixels_s", "pixels/s", ",.0f"), ("mismatches", "mismatches", "d"),

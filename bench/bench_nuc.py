@@ -9,6 +9,7 @@ backpressure; every co-simulation row is compared bit for bit with the golden mo
 """
 
 import argparse
+import os
 
 import numpy as np
 
@@ -64,6 +65,7 @@ def main(argv=None):
     rows = run(rows=a.rows, frames=a.frames, repeat=a.repeat, sims=a.sims.split(","),
                beat=not a.no_beat)
     print(machine())
+    print("load average (1/5/15 min) at the end: %.1f %.1f %.1f" % os.getloadavg())
     print_table(rows, [("engine", "engine", "s"), ("mode", "mode", "s"),
                        ("pixels", "pixels", "d"), ("seconds", "median s", ".3f"),
                        ("pixels_s", "pixels/s", ",.0f"), ("mismatches", "mismatches", "d"),

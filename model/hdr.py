@@ -225,7 +225,6 @@ def hdr(hg, lg, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_
     if h.ndim not in (2, 3):
         raise TdicamError(f"hg and lg must be (rows, cols) or (frames, rows, cols), got "
                           f"shape {h.shape}")
-    single = h.ndim == 2
     h3 = h.reshape((-1,) + h.shape[-2:]).astype(np.int64)
     l3 = lo.reshape(h3.shape).astype(np.int64)
     nf = h3.shape[0]
