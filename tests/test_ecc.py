@@ -247,3 +247,23 @@ def test_blocks_registered():
     assert _built("secded_dec", {"stream": 1, "registered": 1}).latency == 2
     with pytest.raises(TdicamError, match="--registered must be true or false"):
         enc.resolve({"registered": "maybe"})
+
+
+def test_verilog_plain_ports(tmp_path):
+    import re
+
+    from tdicam.cli import main
+    for block, ports in (("secded_enc", [("input", 63, "data"), ("output", 71, "code")]),
+                         ("secded_dec", [("input", 71, "code"), ("output", 63, "data"),
+                                         ("output", None, "corrected"),
+                                         ("output", None, "uncorrectable"),
+                                         ("output", 7, "syndrome")])):
+        for reg in ("0", "1"):
+            path = tmp_path / f"{block}{reg}.v"
+            assert main(["verilog", block, "--registered", reg, "-o", str(path)]) == 0
+            text = path.read_text()
+            assert re.search(rf"^module {block}\(", text, re.M)
+            for direction, msb, name in ports:
+                width = rf"\[{msb}:0\] " if msb else ""
+                assert re.search(rf"^\s*{direction} {width}{name};", text, re.M), (block, name)
+            assert ("input clk;" in text) == (reg == "1")

@@ -1,0 +1,223 @@
+"""Calibration store reader: ECC-protected flash words in, ``nuc`` coefficients out
+(SPEC 3.3 and 3.6, seed 002 §4.3). Image format and golden model:
+:mod:`tdicam.model.calib`."""
+
+from amaranth.hdl import Cat, Module, Mux, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, header_words,
+                                payload_words)
+from tdicam.model.nuc import NucFormat
+from .ecc import SecdedDecoder
+from .stream import channels_shape, pixel_signature
+
+__all__ = ["CalibReader", "DEBUG_ELEMENTS"]
+
+#: output elements with ``debug``: gain, offset, corrected count, uncorrectable count, flags
+DEBUG_ELEMENTS = 5
+
+
+class CalibReader(wiring.Component):
+    """Read a calibration image from a stream of flash words; stream the decoded
+    coefficients in raster order to the ``nuc`` block.
+
+    Parameters
+    ----------
+    rows, cols : int
+        Image size the reader is built for, 1..65535 each (default 3800 x 5144, the
+        GMAX0504 of seed 002).
+    gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits : int
+        Coefficient format, the ``nuc`` block's parameters (:class:`~tdicam.model.nuc.
+        NucFormat`; gain and offset at most 16 bits each for the flash packing).
+    count_bits : int
+        Width of the saturating word counters, 8..32 (default 32).
+    debug : bool
+        Also carry, on every output pixel, the counters and flags (see ``o_stream``): the
+        co-simulation checks them pixel by pixel.
+
+    Attributes
+    ----------
+    i_stream : In(pixel stream)
+        One flash word per transfer: ``data`` = 9 bytes, element ``k < 8`` = data byte ``k``
+        (least significant first), element 8 = the check byte (the image file's bytes in
+        order; AXI ``tdata[71:0]`` = the 72-bit code word ``{check, data}``). ``first`` and
+        ``last`` are ignored: the reader counts words from reset -- 4 header words, then
+        ``ceil(rows*cols/2)`` payload words, then the next image's header.
+    o_stream : Out(pixel stream)
+        One pixel's coefficients per transfer, raster order; ``first`` on pixel 0 of an
+        image, ``last`` on the last pixel of each row. ``data`` elements of
+        ``max(gain_bits, offset_bits)`` bits (``count_bits`` with ``debug``):
+        ``data[0]`` = gain code, ``data[1]`` = offset code (two's complement in the low
+        ``offset_bits``, zero above): the ``nuc`` input's gain and offset elements. With
+        ``debug``: ``data[2]``/``data[3]`` = corrected/uncorrectable counts up to and
+        including this pixel's word, ``data[4]`` bit 0 = default coefficients substituted,
+        bit 1 = the image's header was bad.
+    corrected_count, uncorrectable_count : Out(count_bits)
+        Words (header and payload) decoded with a corrected single error / with an
+        uncorrectable error since reset; saturating.
+    header_error : Out(1)
+        The last header read was bad: a header word uncorrectable or its decoded contents
+        differing from this reader's parameters (magic, version, size, format, packing,
+        word count; the CRC field is not checked). Every pixel of that image then gets the
+        default coefficients.
+
+    Notes
+    -----
+    An uncorrectable payload word gives its two pixels (four coefficients) the defaults,
+    gain 1.0 (``1 << gain_frac_bits``) and offset 0. The decoder is combinational on the
+    input word; a pending and a current word register follow: :attr:`latency` = 2 cycles
+    from the transfer of a payload word to its first pixel being valid. One pixel per clock
+    while the source delivers a word every other clock and ``o_stream.ready`` is high;
+    ``i_stream.ready`` depends only on registers; no word or pixel is lost or duplicated
+    whatever ``ready`` does.
+    """
+
+    def __init__(self, *, rows=3800, cols=5144, gain_int_bits=2, gain_frac_bits=14,
+                 offset_bits=16, offset_frac_bits=0, count_bits=DEFAULT_COUNT_BITS,
+                 debug=False):
+        try:
+            self._rows = check_range("rows", rows, 1, MAX_SIDE)
+            self._cols = check_range("cols", cols, 1, MAX_SIDE)
+            self._fmt = NucFormat(gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits)
+            self._fmt._check_slots()
+            self._count_bits = check_range("count_bits", count_bits, 8, 32)
+        except TdicamError:
+            self._MustUse__silence = True
+            raise
+        self._debug = bool(debug)
+        fmt = self._fmt
+        ebits = max(fmt.gain_bits, fmt.offset_bits, self._count_bits if debug else 0)
+        self._elem_bits = ebits
+        super().__init__({
+            "i_stream": In(pixel_signature(channels_shape(8, 9))),
+            "o_stream": Out(pixel_signature(channels_shape(ebits,
+                                                           DEBUG_ELEMENTS if debug else 2))),
+            "corrected_count": Out(self._count_bits),
+            "uncorrectable_count": Out(self._count_bits),
+            "header_error": Out(1),
+        })
+
+    rows = property(lambda self: self._rows)
+    cols = property(lambda self: self._cols)
+    fmt = property(lambda self: self._fmt, doc="The coefficient format (NucFormat).")
+    count_bits = property(lambda self: self._count_bits)
+    debug = property(lambda self: self._debug)
+    elem_bits = property(lambda self: self._elem_bits)
+
+    @property
+    def latency(self):
+        """Cycles from a payload word's transfer to its first pixel being valid."""
+        return 2
+
+    def elaborate(self, platform):
+        m = Module()
+        i, o = self.i_stream, self.o_stream
+        fmt, cb = self._fmt, self._count_bits
+        rows, cols = self._rows, self._cols
+        n_pay = payload_words(rows, cols)
+        odd = (rows * cols) % 2 == 1
+
+        m.submodules.dec = dec = SecdedDecoder()
+        m.d.comb += dec.code.eq(Cat(i.payload.data))
+
+        # ---- input side: header check, counters, pending word
+        in_header = Signal(init=1)
+        hidx = Signal(range(HEADER_WORDS))
+        widx = Signal(range(max(n_pay, 2)))
+        hdr_bad = Signal()
+        cor = Signal(cb)
+        unc = Signal(cb)
+        top = (1 << cb) - 1
+        cor_next = Signal(cb)
+        unc_next = Signal(cb)
+        m.d.comb += [
+            cor_next.eq(Mux(dec.corrected & (cor != top), cor + 1, cor)),
+            unc_next.eq(Mux(dec.uncorrectable & (unc != top), unc + 1, unc)),
+            self.corrected_count.eq(cor), self.uncorrectable_count.eq(unc),
+            self.header_error.eq(hdr_bad),
+        ]
+
+        p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64), Signal(), Signal()
+        p_cor, p_unc, p_single = Signal(cb), Signal(cb), Signal()
+        m.d.comb += i.ready.eq(in_header | ~p_valid)
+
+        expect = header_words(rows, cols, fmt)
+        mismatch = Signal()
+        with m.Switch(hidx):
+            for k, word in enumerate(expect):
+                mask = 0xFFFF_FFFF if k == 3 else (1 << 64) - 1  # word 3: CRC not checked
+                with m.Case(k):
+                    m.d.comb += mismatch.eq(dec.uncorrectable
+                                            | ((dec.data & mask) != (word & mask)))
+
+        # ---- output side: current word, pixel position
+        c_valid, c_data, c_bad, c_hbad = Signal(), Signal(64), Signal(), Signal()
+        c_cor, c_unc, c_single, c_idx = Signal(cb), Signal(cb), Signal(), Signal()
+        row = Signal(range(max(rows, 2)))  # >= 1 bit: no zero-width vectors in Verilog
+        col = Signal(range(max(cols, 2)))
+        take = Signal()
+        cur_done = Signal()
+        load_cur = Signal()
+        m.d.comb += [
+            take.eq(o.valid & o.ready),
+            cur_done.eq(take & (c_idx | c_single)),
+            load_cur.eq(p_valid & (~c_valid | cur_done)),
+        ]
+
+        with m.If(load_cur):
+            m.d.sync += p_valid.eq(0)
+        with m.If(i.valid & i.ready):
+            m.d.sync += [cor.eq(cor_next), unc.eq(unc_next)]
+            with m.If(in_header):
+                m.d.sync += hdr_bad.eq(Mux(~hidx.any(), mismatch, hdr_bad | mismatch))
+                with m.If(hidx == HEADER_WORDS - 1):
+                    m.d.sync += [hidx.eq(0), in_header.eq(0), widx.eq(0)]
+                with m.Else():
+                    m.d.sync += hidx.eq(hidx + 1)
+            with m.Else():
+                m.d.sync += [p_valid.eq(1), p_data.eq(dec.data),
+                             p_bad.eq(dec.uncorrectable | hdr_bad), p_hbad.eq(hdr_bad),
+                             p_cor.eq(cor_next), p_unc.eq(unc_next),
+                             p_single.eq(int(odd) & (widx == n_pay - 1))]
+                with m.If(widx == n_pay - 1):
+                    m.d.sync += [widx.eq(0), in_header.eq(1)]
+                with m.Else():
+                    m.d.sync += widx.eq(widx + 1)
+
+        with m.If(load_cur):
+            m.d.sync += [c_valid.eq(1), c_data.eq(p_data), c_bad.eq(p_bad), c_hbad.eq(p_hbad),
+                         c_cor.eq(p_cor), c_unc.eq(p_unc), c_single.eq(p_single),
+                         c_idx.eq(0)]
+        with m.Elif(cur_done):
+            m.d.sync += c_valid.eq(0)
+        with m.Elif(take):
+            m.d.sync += c_idx.eq(1)
+
+        with m.If(take):
+            with m.If(col == cols - 1):
+                m.d.sync += col.eq(0)
+                m.d.sync += row.eq(Mux(row == rows - 1, 0, row + 1))
+            with m.Else():
+                m.d.sync += col.eq(col + 1)
+
+        # slots of the current word: gain0, offset0, gain1, offset1 (16 bits each)
+        half = Mux(c_idx, c_data[32:], c_data[:32])
+        gain = Mux(c_bad, fmt.gain_one, half[:fmt.gain_bits])
+        offset = Mux(c_bad, 0, half[16:16 + fmt.offset_bits])
+        elems = [gain, offset]
+        if self._debug:
+            elems += [c_cor, c_unc, Cat(c_bad, c_hbad)]
+        slots = []
+        for e in elems:
+            sig = Signal(self._elem_bits)
+            m.d.comb += sig.eq(e)  # unsigned: zero-extended
+            slots.append(sig)
+        m.d.comb += [
+            o.valid.eq(c_valid),
+            o.payload.first.eq(~row.any() & ~col.any()),
+            o.payload.last.eq(col == cols - 1),
+            Cat(o.payload.data).eq(Cat(slots)),
+        ]
+        return m
