@@ -543,30 +543,35 @@ class LvdsXilinx(wiring.Component):
             common = dict(
                 p_DATA_RATE="DDR", p_INTERFACE_TYPE="NETWORKING", p_NUM_CE=2,
                 p_OFB_USED="FALSE", p_DYN_CLKDIV_INV_EN="FALSE", p_DYN_CLK_INV_EN="FALSE",
-                p_INIT_Q1=0, p_INIT_Q2=0, p_INIT_Q3=0, p_INIT_Q4=0,
-                p_SRVAL_Q1=0, p_SRVAL_Q2=0, p_SRVAL_Q3=0, p_SRVAL_Q4=0,
+                **{f"p_{init}_Q{j}": Const(0, 1) for init in ("INIT", "SRVAL")
+                   for j in range(1, 5)},
                 i_CLK=self.clk_bit, i_CLKB=~self.clk_bit, i_CLKDIV=clk_div,
                 i_CLKDIVP=Const(0), i_OCLK=Const(0), i_OCLKB=Const(0), i_RST=rst,
                 i_CE1=Const(1), i_CE2=Const(1), i_BITSLIP=Const(0), i_DYNCLKDIVSEL=Const(0),
                 i_DYNCLKSEL=Const(0), i_OFB=Const(0), i_D=Const(0))
+            # every output pin connected (unused ones to named, unloaded wires)
+            unused = {f"o_{pin}": Signal(name=f"nc{i}_{pin.lower()}")
+                      for pin in ("O", "SHIFTOUT1", "SHIFTOUT2")}
             if w == 10:
                 so1, so2 = Signal(name=f"shift{i}_1"), Signal(name=f"shift{i}_2")
-                sq3, sq4 = Signal(name=f"sq{i}_3"), Signal(name=f"sq{i}_4")
+                sq = [Signal(name=f"sq{i}_{j}") for j in range(1, 9)]
                 m.submodules[f"iserdes{i}"] = Instance(
                     "ISERDESE2", p_DATA_WIDTH=10, p_SERDES_MODE="MASTER", p_IOBDELAY="IFD",
                     i_DDLY=dly, i_SHIFTIN1=Const(0), i_SHIFTIN2=Const(0),
-                    o_SHIFTOUT1=so1, o_SHIFTOUT2=so2,
+                    o_SHIFTOUT1=so1, o_SHIFTOUT2=so2, o_O=unused["o_O"],
                     **{f"o_Q{j}": q[j - 1] for j in range(1, 9)}, **common)
                 m.submodules[f"iserdes{i}_slave"] = Instance(
                     "ISERDESE2", p_DATA_WIDTH=10, p_SERDES_MODE="SLAVE", p_IOBDELAY="NONE",
-                    i_DDLY=Const(0), i_SHIFTIN1=so1, i_SHIFTIN2=so2, o_Q3=sq3, o_Q4=sq4,
-                    **common)
-                raw = Cat(*q, sq3, sq4)
+                    i_DDLY=Const(0), i_SHIFTIN1=so1, i_SHIFTIN2=so2,
+                    o_O=Signal(name=f"nc{i}_slave_o"),
+                    o_SHIFTOUT1=unused["o_SHIFTOUT1"], o_SHIFTOUT2=unused["o_SHIFTOUT2"],
+                    **{f"o_Q{j}": sq[j - 1] for j in range(1, 9)}, **common)
+                raw = Cat(*q, sq[2], sq[3])  # slave Q3, Q4 extend the master's 8 bits
             else:
                 m.submodules[f"iserdes{i}"] = Instance(
                     "ISERDESE2", p_DATA_WIDTH=6, p_SERDES_MODE="MASTER", p_IOBDELAY="IFD",
-                    i_DDLY=dly, i_SHIFTIN1=Const(0), i_SHIFTIN2=Const(0),
-                    **{f"o_Q{j}": q[j - 1] for j in range(1, 7)}, **common)
+                    i_DDLY=dly, i_SHIFTIN1=Const(0), i_SHIFTIN2=Const(0), **unused,
+                    **{f"o_Q{j}": q[j - 1] for j in range(1, 9)}, **common)
                 half, hold, pair, phase = (Signal(6, name=f"half{i}"), Signal(6, name=f"hold{i}"),
                                            Signal(12, name=f"pair{i}"),
                                            Signal(name=f"phase{i}"))
