@@ -11,6 +11,7 @@ with the golden model included in every row; the decoder runs the exhaustive swe
 """
 
 import argparse
+import resource
 
 import numpy as np
 
@@ -30,29 +31,42 @@ def _random(n, seed=1):
     return data, *ecc.flip(data, ecc.encode(data), pos)
 
 
+def _child_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def run(words=1_000_000, sweep_words=64, enc_words=200_000, repeat=3, sims=("verilator",),
         registered=False):
-    """Rows of {unit, engine, words, seconds, words_s, mismatches, build_s}."""
+    """Rows of {unit, engine, words, seconds, words_s, cpu_s, words_cpu_s, mismatches,
+    build_s}: wall time and simulator CPU time (child processes; robust on a shared machine;
+    numpy rows: wall time)."""
     out = []
     data, d, c = _random(words)
     t, _ = median_time(lambda: ecc.encode(data), repeat)
     out.append({"unit": "encoder", "engine": "numpy golden", "words": words, "seconds": t,
-                "words_s": words / t, "mismatches": 0})
+                "words_s": words / t, "cpu_s": t, "words_cpu_s": words / t, "mismatches": 0})
     t, _ = median_time(lambda: ecc.decode(d, c), repeat)
     out.append({"unit": "decoder", "engine": "numpy golden", "words": words, "seconds": t,
-                "words_s": words / t, "mismatches": 0})
+                "words_s": words / t, "cpu_s": t, "words_cpu_s": words / t, "mismatches": 0})
     sd, sc, _ = sweep_codes(ecc.sweep_words(sweep_words))
     jobs = (("encoder", "secded_enc", enc_beats(data[:enc_words])),
             ("decoder", "secded_dec", dec_beats(sd, sc)))
     for sim in sims:
         for unit, block, (stim, exp) in jobs:
             params = blocks.get(block).resolve({"stream": True, "registered": registered})
-            runs = [cosim.run_stream(block, params, stim, n_out=len(exp), sim=sim,
-                                     mode="fast", seed=k + 1) for k in range(repeat)]
+            runs, cpu = [], []
+            for k in range(repeat):
+                c0 = _child_cpu()
+                runs.append(cosim.run_stream(block, params, stim, n_out=len(exp), sim=sim,
+                                             mode="fast", seed=k + 1))
+                cpu.append(_child_cpu() - c0)
             cmp = cosim.compare(runs[-1].out, exp)
             t = float(np.median([r.wall for r in runs]))
+            c = float(np.median(cpu[1:] if len(cpu) > 1 else cpu))  # first may build
             out.append({"unit": unit, "engine": f"{sim} fast", "words": len(exp),
-                        "seconds": t, "words_s": len(exp) / t, "mismatches": cmp.mismatches,
+                        "seconds": t, "words_s": len(exp) / t, "cpu_s": c,
+                        "words_cpu_s": len(exp) / c, "mismatches": cmp.mismatches,
                         "build_s": max(r.build_time for r in runs),
                         "cycles": runs[-1].cycles})
     return out
@@ -72,7 +86,8 @@ def main(argv=None):
     print(machine())
     print_table(rows, [("unit", "unit", "s"), ("engine", "engine", "s"),
                        ("words", "words", ",d"), ("seconds", "median s", ".3f"),
-                       ("words_s", "words/s", ",.0f"), ("mismatches", "mismatches", "d"),
+                       ("words_s", "words/s", ",.0f"), ("cpu_s", "sim CPU s", ".3f"),
+                       ("words_cpu_s", "words/CPU s", ",.0f"), ("mismatches", "mismatches", "d"),
                        ("build_s", "build s", ".1f")],
                 title=f"SECDED (72,64): golden on {a.words:,} random words; co-simulation "
                       f"fast mode, no stalls, encoder on {a.enc_words:,} words, decoder on "
