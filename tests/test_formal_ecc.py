@@ -62,8 +62,8 @@ def test_secded_proof_passes(name):
         columns=list(COLUMNS[:63]) + [0b00001111] + list(COLUMNS[64:]))),
     ("mutant_end_to_end", lambda: SecdedEndToEndProof(decoder=_DoubleAsSingle())),
 ])
-def test_broken_designs_fail_the_proof(name, top):
-    res = formal.prove(top(), name=name, mode="bmc", depth=1)
+def test_broken_designs_fail_the_proof(name, top, tmp_path):
+    res = formal.prove(top(), name=name, mode="bmc", depth=1, workdir=tmp_path)
     assert res.status == "FAIL", res.summary() + "\n" + res.log[-3000:]
     assert (res.workdir / name / "engine_0" / "trace.vcd").exists()  # counterexample kept
 
