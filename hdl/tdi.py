@@ -4,7 +4,8 @@ Golden model: :mod:`tdicam.model.tdi` (:func:`~tdicam.model.tdi.tdi_stream` is t
 contract this component implements bit for bit).
 """
 
-from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, unsigned
+from amaranth.asserts import AnySeq
+from amaranth.hdl import Assert, Assume, Cat, Const, Elaboratable, Module, Mux, Signal, Value, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
@@ -13,9 +14,9 @@ from amaranth.utils import bits_for
 from tdicam.model.tdi import check_params, full_bits, out_width
 from .stream import channels_shape, pixel_signature
 
-__all__ = ["TdiAccumulator"]
+__all__ = ["TdiAccumulator", "TdiNoWrapProof"]
 
-_WAIT, _RUN, _DROP, _PAD = range(4)
+_WAIT, _RUN, _DROP, _PAD = range(4)   # (x == 0 written ~x.any(): yosys prints x == 0 as !x)
 
 
 class TdiAccumulator(wiring.Component):
@@ -174,44 +175,51 @@ class TdiAccumulator(wiring.Component):
         b_data = Signal(PPC * PB)
         b_addr = Signal(aw)
         sk_valid = Signal()
-        b_adv = b_valid & (~b_out | ~sk_valid)
-        b_can = ~b_valid | b_adv
+        def wire(name, value, shape=1):
+            w = Signal(shape, name=name)
+            m.d.comb += w.eq(value)
+            return w
+
+        b_adv = wire("b_adv", b_valid & (~b_out | ~sk_valid))
+        b_can = wire("b_can", ~b_valid | b_adv)
 
         # ---- decode A's beat
         start = a_first
-        new_ok = (a_m >= 1) & (a_m <= M)
+        new_ok = a_m.any()
+        if M < (1 << len(a_m)) - 1:
+            new_ok &= a_m <= M
         if M >= 2:
             new_ok &= ~(a_dir & (a_m == M))
-        same = (a_m == m_reg) & (a_dir == dir_reg) & (run != 0)
-        base_step = base + WB
-        base_next = Mux(same & (base_step < lim), base_step, 0)
-        e_m = Mux(start, a_m, m_reg)
-        e_dir = Mux(start, a_dir, dir_reg)
-        e_f = Mux(start, Mux(same, run, 0), f)
-        e_row = Mux(start, 0, row)
-        e_col = Mux(start, 0, col)
-        e_rowaddr = Mux(start, base_next, row_addr)
-        age = Signal(mb)
-        m.d.comb += age.eq(Mux(e_dir, e_row, e_m - 1 - e_row))
-        out_row = age == e_m - 1
-        out_en = e_f >= e_m - 1
-        use_mem = (age != 0) & (age <= e_f)
-        last_col = e_col == WB - 1
-        tlast_ok = a_last == last_col
-        frame_end = last_col & (e_row == e_m - 1)
+        new_ok = wire("new_ok", new_ok)
+        same = wire("same", (a_m == m_reg) & (a_dir == dir_reg) & run.any())
+        base_step = wire("base_step", base + WB, aw + 1)
+        base_next = wire("base_next", Mux(same & (base_step < lim), base_step, 0), aw)
+        e_m = wire("e_m", Mux(start, a_m, m_reg), mb)
+        e_dir = wire("e_dir", Mux(start, a_dir, dir_reg))
+        e_f = wire("e_f", Mux(start, Mux(same, run, 0), f), mb)
+        e_row = wire("e_row", Mux(start, 0, row), mb)
+        e_col = wire("e_col", Mux(start, 0, col), range(WB))
+        e_rowaddr = wire("e_rowaddr", Mux(start, base_next, row_addr), aw)
+        age = wire("age", Mux(e_dir, e_row, e_m - 1 - e_row), mb)
+        out_row = wire("out_row", age == e_m - 1)
+        out_en = wire("out_en", e_f >= e_m - 1)
+        use_mem = wire("use_mem", age.any() & (age <= e_f))
+        last_col = wire("last_col", e_col == WB - 1)
+        tlast_ok = wire("tlast_ok", a_last == last_col)
+        frame_end = wire("frame_end", last_col & (e_row == e_m - 1))
         # the current frame's output line has started (only meaningful in _RUN)
-        line_open = (Mux(dir_reg, row, m_reg - 1 - row) == m_reg - 1) & (f >= m_reg - 1) \
-            & (col != 0)
+        line_open = wire("line_open", (Mux(dir_reg, row, m_reg - 1 - row) == m_reg - 1)
+                         & (f >= m_reg - 1) & col.any())
 
-        busy = a_valid & (state != _PAD)
-        proc = busy & Mux(start, (state != _RUN) & new_ok, state == _RUN)
-        cut = busy & start & (state == _RUN)
-        invalid = busy & start & (state != _RUN) & ~new_ok
-        stray = busy & ~start & (state != _RUN)
-        anomaly = proc & ~tlast_ok
-        step = proc & tlast_ok & b_can
-        pad_now = (state == _PAD) & b_can
-        error = cut | invalid | anomaly | (stray & (state == _WAIT))
+        busy = wire("busy", a_valid & (state != _PAD))
+        proc = wire("proc", busy & Mux(start, (state != _RUN) & new_ok, state == _RUN))
+        cut = wire("cut", busy & start & (state == _RUN))
+        invalid = wire("invalid", busy & start & (state != _RUN) & ~new_ok)
+        stray = wire("stray", busy & ~start & (state != _RUN))
+        anomaly = wire("anomaly", proc & ~tlast_ok)
+        step = wire("step", proc & tlast_ok & b_can)
+        pad_now = wire("pad_now", (state == _PAD) & b_can)
+        error = wire("error", cut | invalid | anomaly | (stray & ~state.any()))  # _WAIT == 0
 
         with m.If(error):
             m.d.sync += run.eq(0)
@@ -229,8 +237,9 @@ class TdiAccumulator(wiring.Component):
         m.d.comb += a_take.eq(step | invalid | stray | (anomaly & (start | ~line_open)))
 
         n_new = Mux(a_m == 1, 0, a_m - 1 + a_dir)
-        nxt_fwd = Mux(e_rowaddr + WB < lim, e_rowaddr + WB, 0)
-        nxt_rev = Mux(e_rowaddr != 0, e_rowaddr - WB, Mux(lim != 0, lim - WB, 0))
+        nxt_fwd = wire("nxt_fwd", Mux(e_rowaddr + WB < lim, e_rowaddr + WB, 0), aw)
+        nxt_rev = wire("nxt_rev", Mux(e_rowaddr.any(), e_rowaddr - WB,
+                                      Mux(lim.any(), lim - WB, 0)), aw)
         with m.If(step):
             with m.If(start):
                 m.d.sync += [m_reg.eq(a_m), dir_reg.eq(a_dir), f.eq(e_f), base.eq(base_next),
@@ -254,7 +263,8 @@ class TdiAccumulator(wiring.Component):
             self.memory = mem = Memory(shape=unsigned(PPC * PS), depth=depth, init=[])
             m.submodules.psum = mem
             rd, wr = mem.read_port(), mem.write_port()
-            m.d.comb += [rd.addr.eq(e_rowaddr + e_col), rd.en.eq(step)]
+            addr = wire("addr", e_rowaddr + e_col, aw)
+            m.d.comb += [rd.addr.eq(addr), rd.en.eq(step)]
             mem_word = rd.data
         else:
             mem_word = Const(0, PPC * PS)
@@ -262,7 +272,7 @@ class TdiAccumulator(wiring.Component):
         with m.If(step):
             m.d.sync += [b_valid.eq(1), b_data.eq(a_data), b_addr.eq(e_rowaddr + e_col),
                          b_use.eq(use_mem), b_wr.eq(~out_row), b_out.eq(out_row & out_en),
-                         b_first.eq(e_col == 0), b_last.eq(last_col), b_zero.eq(0)]
+                         b_first.eq(~e_col.any()), b_last.eq(last_col), b_zero.eq(0)]
         with m.Elif(pad_now):
             m.d.sync += [b_valid.eq(1), b_use.eq(0), b_wr.eq(0), b_out.eq(1), b_first.eq(0),
                          b_last.eq(pad_col == WB - 1), b_zero.eq(1)]
@@ -312,4 +322,61 @@ class TdiAccumulator(wiring.Component):
 
         self.probe = {"wrap": Cat(*wraps), "b_valid": b_valid, "b_use": b_use, "b_wr": b_wr,
                       "sums": Cat(*sums), "state": state, "run": run}
+        return m
+
+
+class TdiNoWrapProof(Elaboratable):
+    """Formal harness: the partial-sum adders never carry out of the partial-sum width.
+
+    Every input (pixels, tuser, tlast, valid, ``stages_active``, ``direction``, the sink's
+    ``ready``, the reset) is free on every cycle. Asserted on every cycle: the sum that a
+    pipeline beat writes back or outputs (stored partial sum + pixel, per lane) fits
+    :attr:`TdiAccumulator.psum_bits`, and every stored partial sum is at most
+    ``(stages - 1) * (2**pixel_bits - 1)``. Run as a bounded model check from the initial
+    state (:func:`tdicam.formal.prove` ``mode="bmc"``) deep enough for ``stages`` whole
+    frames plus the pipeline, so every stage count, direction, setting change and
+    malformed-frame path reachable in that many cycles is covered.
+
+    ``psum_bits`` overrides the partial-sum width (a deliberately too narrow mutant must
+    fail).
+    """
+
+    def __init__(self, *, width=2, stages=3, pixel_bits=8, ppc=1, psum_bits=None,
+                 full_scale=False, valid_settings=False):
+        self.dut = TdiAccumulator(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc,
+                                  _psum_bits=psum_bits)
+        self.full_scale = full_scale
+        self.valid_settings = valid_settings
+
+    def depth(self, frames=None):
+        """BMC depth covering ``frames`` whole frames (default ``stages + 1``) + pipeline."""
+        d = self.dut
+        frames = d.stages + 1 if frames is None else frames
+        return frames * d.stages * (d.width // d.ppc) + d.latency + 2
+
+    def elaborate(self, platform):
+        m = Module()
+        dut = self.dut
+        dut._MustUse__silence = True      # elaborated by hand to reach its probes
+        m.submodules.dut = dut.elaborate(platform)
+        i, o = dut.i_stream, dut.o_stream
+        m.d.comb += [
+            i.valid.eq(AnySeq(1)),
+            Value.cast(i.payload).eq(AnySeq(len(Value.cast(i.payload)))),
+            dut.stages_active.eq(AnySeq(len(dut.stages_active))),
+            dut.direction.eq(AnySeq(1)),
+            o.ready.eq(AnySeq(1)),
+        ]
+        if self.full_scale:
+            pmax = (1 << dut.pixel_bits) - 1
+            m.d.comb += Assume(Value.cast(i.payload.data) == Cat(*([Const(pmax, dut.pixel_bits)] * dut.ppc)))
+        if self.valid_settings:
+            m.d.comb += Assume((dut.stages_active >= 1) & (dut.stages_active <= dut.stages))
+        p = dut.probe
+        m.d.comb += Assert(~(p["b_valid"] & p["wrap"].any()))
+        bound = (dut.stages - 1) * ((1 << dut.pixel_bits) - 1)
+        ps = dut.psum_bits
+        for k in range(dut.ppc):
+            lane = p["sums"][k * ps:(k + 1) * ps]
+            m.d.comb += Assert(~(p["b_valid"] & p["b_wr"]) | (lane <= bound))
         return m
