@@ -139,6 +139,12 @@ class Hdr(wiring.Component):
             en.eq(~o.valid | o.ready),
             i.ready.eq(en & ~busy & ~need_div),
         ]
+        # numerator (sum << f) + n // 2 < n << q: its bits above q start the remainder
+        starts = []
+        for rem, num, _, total in divs:
+            numer = Signal(pb + cb + f)
+            m.d.comb += numer.eq((total << f) + (n >> 1))
+            starts += [rem.eq(numer[q:]), num.eq(numer[:q])]
         with m.If(busy):
             with m.If(cnt != 0):
                 m.d.sync += cnt.eq(cnt - 1)
@@ -150,30 +156,24 @@ class Hdr(wiring.Component):
                         quo.eq(Cat(ge, quo[:q - 1])),
                         num.eq(num << 1),
                     ]
-            with m.Else():
-                m.d.sync += [
-                    busy.eq(0), lt.eq(quo_l), n.eq(0), sum_l.eq(0), sum_h.eq(0),
-                    ht.eq(quo_h if len(divs) == 2 else cfg.h_seed),
-                ]
+            with m.Else():  # write back; n = 0 lets the waiting first pixel in
+                m.d.sync += [busy.eq(0), lt.eq(quo_l), n.eq(0),
+                             ht.eq(quo_h if len(divs) == 2 else cfg.h_seed)]
         with m.Elif(need_div):
-            # numerator (sum << f) + n // 2 < n << q: its bits above q start the remainder
-            for rem, num, _, total in divs:
-                numer = Signal(pb + cb + f)
-                m.d.comb += numer.eq((total << f) + (n >> 1))
-                m.d.sync += [rem.eq(numer[q:]), num.eq(numer[:q])]
-            m.d.sync += [busy.eq(1), cnt.eq(q)]
+            m.d.sync += [busy.eq(1), cnt.eq(q), *starts]
 
         # ---- band statistics and frame registers, on accepted pixels
         in_band = (hg < t) if t == cfg.band else (hg >= t - cfg.band) & (hg < t)
         take = in_band & (n != cfg.count_max)
         with m.If(i.valid & i.ready):
             with m.If(first):
+                m.d.sync += [cur.eq(sel_now), lt.eq(lt_eff), ht.eq(ht_eff)]
+            with m.If(first | take):  # a frame's first pixel restarts the statistics
                 m.d.sync += [
-                    cur.eq(sel_now), lt.eq(lt_eff), ht.eq(ht_eff),
-                    sum_l.eq(Mux(take, lg, 0)), sum_h.eq(Mux(take, hg, 0)), n.eq(take),
+                    sum_l.eq(Mux(first, 0, sum_l) + Mux(take, lg, 0)),
+                    sum_h.eq(Mux(first, 0, sum_h) + Mux(take, hg, 0)),
+                    n.eq(Mux(first, 0, n) + take),
                 ]
-            with m.Elif(take):
-                m.d.sync += [sum_l.eq(sum_l + lg), sum_h.eq(sum_h + hg), n.eq(n + 1)]
 
         # ---- pixel pipeline (global enable)
         v1, f1, l1, below1 = Signal(), Signal(), Signal(), Signal()
