@@ -10,6 +10,7 @@ Random lanes: Verilator runs the full form (500 lanes of 10-bit words and 104 la
 behind ``@pytest.mark.slow`` (``TDICAM_FULL=1``).
 """
 
+import functools
 import os
 
 import numpy as np
@@ -25,7 +26,9 @@ FULL = os.environ.get("TDICAM_FULL") == "1"
 DATA_WORDS = 10_000
 
 
+@functools.lru_cache(maxsize=None)
 def _run_case(name, sim):
+    """Simulate golden case ``name`` once per simulator (later tests reuse the run)."""
     arrays, params = golden.load("lvds", name)
     link, cycles, retrains, n_check = link_from_arrays(arrays)
     gold = model.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
