@@ -2,7 +2,11 @@
 
 A proof is an Amaranth elaboratable whose ``elaborate`` instantiates the design under test
 and states properties with :class:`~amaranth.hdl.Assert` / :class:`~amaranth.hdl.Assume`
-over free inputs (:func:`amaranth.asserts.AnyConst` / ``AnySeq``). :func:`prove` writes it
+over free inputs (:func:`amaranth.asserts.AnyConst` / ``AnySeq``). Sequential designs use
+the implicit ``sync`` domain: its ``clk`` and ``rst`` become free inputs (every register
+steps once per solver step; ``Assume(~ResetSignal())`` where resets are not wanted). A
+domain declared inside the harness would get its clock tied to 0 -- registers that never
+change, a vacuous proof -- so :func:`prove` refuses that. :func:`prove` writes it
 as RTLIL with a ``.sby`` file into a work folder, runs ``yowasp-sby`` (k-induction
 ``prove`` or bounded ``bmc`` to ``depth`` cycles, engine ``smtbmc boolector``) and returns
 a :class:`FormalResult` (PASS / FAIL / ERROR, seconds, log).
@@ -165,8 +169,13 @@ def prove(top, *, name="proof", mode="prove", depth=1, workdir=None, timeout=900
     base = Path(workdir) if workdir else BUILD_ROOT / name
     base.mkdir(parents=True, exist_ok=True)
     run_dir = Path(tempfile.mkdtemp(prefix=f"{name}-", dir=base))
-    (run_dir / f"{name}.il").write_text(rtlil.convert(top, name=name, ports=[],
-                                                      emit_src=False))
+    text = rtlil.convert(top, name=name, ports=[], emit_src=False)
+    tied = re.search(r"^\s*connect \\(\S*clk\S*) \d+'[01]+$", text, re.M)
+    if tied:
+        raise TdicamError(f"proof {name}: clock {tied.group(1)} is tied to a constant, so no "
+                          f"register would ever change (a vacuous proof); use the implicit "
+                          f"'sync' domain, whose clk and rst become free inputs")
+    (run_dir / f"{name}.il").write_text(text)
     (run_dir / f"{name}.sby").write_text(_sby_text(name, mode, depth, timeout))
     env = dict(os.environ)
     # yowasp-sby runs "yosys", "yosys-smtbmc"... from PATH unless told: point it at the

