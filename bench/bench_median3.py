@@ -12,8 +12,10 @@ import os
 import platform
 import sys
 import time
+import warnings
 
 import numpy as np
+from amaranth.hdl._ir import UnusedElaboratable
 
 from tdicam import blocks, cosim
 from tdicam.blocks.median3 import case_beats, stream_case
@@ -65,12 +67,18 @@ def run(*, width=1280, height=64, frames=3, pixel_bits=12, sims=("verilator",), 
         params = blk.resolve({"width": width, "pixel_bits": pixel_bits, **extra})
         kw = {k: params[k] for k in ("pixel_bits", "enhance", "enhance_gain", "enhance_shift")}
         median3(stack[:1], **kw)                      # warm-up
-        t0 = time.perf_counter()
-        median3(stack, **kw)
-        golden_s = time.perf_counter() - t0
+        golden_s = float("inf")
+        for _ in range(3):                            # best of 3 (shared machines)
+            t0 = time.perf_counter()
+            median3(stack, **kw)
+            golden_s = min(golden_s, time.perf_counter() - t0)
         arrays = stream_case(imgs, params)
         stim, exp = case_beats(arrays, params)
-        dut = Median3(**params)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UnusedElaboratable)
+            dut = Median3(**params)     # only for its latency and memory figures
+            latency, lb_bits = dut.latency, dut.line_buffer_bits
+            del dut
         for sim in sims:
             res = cosim.run_stream("median3", params, stim, n_out=len(exp), sim=sim,
                                    mode="fast", idle=idle, backpressure=backpressure,
@@ -82,10 +90,9 @@ def run(*, width=1280, height=64, frames=3, pixel_bits=12, sims=("verilator",), 
                 "golden_px_s": n_px / golden_s, "sim_px_s": n_px / res.wall,
                 "sim_wall_s": res.wall, "build_s": res.build_time,
                 "cycles_per_px": (res.cycles - 200) / n_px, "mismatches": cmp.mismatches,
-                "latency": dut.latency, "line_buffer_bits": dut.line_buffer_bits,
+                "latency": latency, "line_buffer_bits": lb_bits,
                 "timeout": res.timeout,
             })
-        del dut
     return rows
 
 

@@ -178,7 +178,8 @@ class _Neighbourhood(wiring.Component):
         pay_bits = Shape.cast(self._pay_shape).width if has_pay else 0
         tap_bits = self._tap_shape.width
 
-        # ---- sequencer (S0)
+        # ---- sequencer (S0). Everything i.ready depends on is a register or shallow logic
+        # of registers (flags below are computed from next-state values), for timing.
         in_row = Signal(_HMAX)
         in_col = Signal(range(W))
         wslot = Signal(nb)              # memory of the row being written
@@ -190,23 +191,27 @@ class _Neighbourhood(wiring.Component):
         fc = Signal(range(W))           # flush column
         fbase = Signal(nb)
         fhm1 = Signal(_HMAX)
+        at_first = Signal(init=1)       # in_row == 0 and in_col == 0
+        at_rend = Signal()              # in_col == W - 1
+        at_lrow = Signal()              # in_row == hm1 of the frame being input
+        rsmall = Signal(range(R + 1))   # min(in_row, R)
+        f_rend = Signal()               # fc == W - 1
+        col_le = Signal(init=1)         # in_col <= fc
 
-        first_px = _is0(in_row) & _is0(in_col)
-        row_end = in_col == W - 1
-        hm1_cur = Mux(first_px, i.payload.data.hm1, hm1_in)
-        frame_end = row_end & (in_row == hm1_cur)
-        flush_ends = (frem == 1) & (fc == W - 1)
+        frame_end = at_rend & at_lrow
+        flush_ends = (frem == 1) & f_rend
         # a new frame's row j (< R) may overwrite column c of the line that held the old
         # frame's row H + j - 2R once the flush has read it there for the last time (output
         # row H + j - R); a frame that ends during a flush ends with it (its own flush next)
-        ok_during_flush = (in_row < R) & (
-            (in_row + frem < R) | ((in_row + frem == R) & (in_col <= fc))) & \
+        ok_during_flush = (rsmall < R) & (
+            (rsmall + frem < R) | ((rsmall + frem == R) & col_le)) & \
             (~frame_end | flush_ends)
         m.d.comb += i.ready.eq(adv & (~flush | ok_during_flush))
         take = i.valid & i.ready
+        hm1_port = i.payload.data.hm1
 
         col_ev = Signal()
-        m.d.comb += col_ev.eq(Mux(flush, adv, take & (in_row >= R)))
+        m.d.comb += col_ev.eq(Mux(flush, adv, take & (rsmall == R)))
         ev_c = Mux(flush, fc, in_col)
         ev_base = Mux(flush, fbase, base_in)
         ev_hm1 = Mux(flush, fhm1, hm1_in)
@@ -228,38 +233,47 @@ class _Neighbourhood(wiring.Component):
         psel = (ev_base + oy)[:nb - 1] if R > 1 else Const(0, 1)
         cc = Mux(ev_c >= 2 * R, 2 * R, ev_c)  # column, saturated (enough for the borders)
 
+        # next-state values of the counters (for the registered flags)
+        fadv = adv & flush
+        n_in_col = Mux(take, Mux(at_rend, 0, in_col + 1), in_col)
+        n_fc = Mux(fadv, Mux(f_rend, 0, fc + 1), fc)
+        # col_le of the next cycle, from registers only: 4 outcomes, selected by the moves
+        le_take = at_rend | (in_col < fc)                        # in_col + 1 <= fc
+        le_fadv = Mux(f_rend, _is0(in_col), col_le | (in_col == fc + 1))
+        le_both = at_rend | (~f_rend & col_le)
+        m.d.sync += col_le.eq(Mux(take, Mux(fadv, le_both, le_take),
+                                  Mux(fadv, le_fadv, col_le)))
         with m.If(adv):
             # the flush first: a frame ending in the flush's last cycle overrides it
             with m.If(flush):
-                with m.If(fc == W - 1):
-                    m.d.sync += fc.eq(0)
+                m.d.sync += [fc.eq(n_fc), f_rend.eq(n_fc == W - 1)]
+                with m.If(f_rend):
                     with m.If(frem == 1):
                         m.d.sync += [flush.eq(0), oy.eq(0)]
                     with m.Else():
                         m.d.sync += oy.eq(oy + 1)
                     m.d.sync += frem.eq(frem - 1)
-                with m.Else():
-                    m.d.sync += fc.eq(fc + 1)
             with m.If(take):
-                with m.If(first_px):
-                    m.d.sync += [base_in.eq(wslot), hm1_in.eq(i.payload.data.hm1)]
-                with m.If(row_end):
-                    m.d.sync += [in_col.eq(0), wslot.eq(wslot + 1)]
-                    with m.If(frame_end):
-                        m.d.sync += [in_row.eq(0), flush.eq(1), fc.eq(0),
-                                     fbase.eq(Mux(first_px, wslot, base_in)),
-                                     fhm1.eq(hm1_cur),
+                m.d.sync += [in_col.eq(n_in_col), at_rend.eq(n_in_col == W - 1),
+                             at_first.eq(0)]
+                with m.If(at_first):
+                    m.d.sync += [base_in.eq(wslot), hm1_in.eq(hm1_port),
+                                 at_lrow.eq(_is0(hm1_port))]
+                with m.If(at_rend):
+                    m.d.sync += wslot.eq(wslot + 1)
+                    with m.If(at_lrow):
+                        m.d.sync += [in_row.eq(0), rsmall.eq(0), at_first.eq(1),
+                                     at_lrow.eq(0), flush.eq(1), fc.eq(0), f_rend.eq(0),
+                                     fbase.eq(base_in), fhm1.eq(hm1_in),
                                      frem.eq(R if R == 1 else
-                                             Mux(hm1_cur >= R - 1, R, hm1_cur + 1))]
-                        with m.If(in_row >= R):
-                            m.d.sync += oy.eq(oy + 1)
+                                             Mux(hm1_in >= R - 1, R, hm1_in + 1))]
                     with m.Else():
-                        m.d.sync += in_row.eq(in_row + 1)
-                        with m.If(in_row >= R):
-                            m.d.sync += oy.eq(oy + 1)
-                with m.Else():
-                    m.d.sync += in_col.eq(in_col + 1)
-                with m.If((i.payload.first != first_px) | (i.payload.last != row_end)):
+                        m.d.sync += [in_row.eq(in_row + 1),
+                                     rsmall.eq(Mux(rsmall == R, R, rsmall + 1)),
+                                     at_lrow.eq(in_row + 1 == hm1_in)]
+                    with m.If(rsmall == R):
+                        m.d.sync += oy.eq(oy + 1)
+                with m.If((i.payload.first != at_first) | (i.payload.last != at_rend)):
                     m.d.sync += self.marker_error.eq(1)
 
         # ---- line buffers: read at S0, data at S1; written at S1 (one cycle after the read
@@ -292,12 +306,24 @@ class _Neighbourhood(wiring.Component):
 
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
         s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
-        s1_lastc = pipe.reg(ev_c == W - 1, name="lastc")
+        s1_lastc = pipe.reg(Mux(flush, f_rend, at_rend), name="lastc")
         s1_row0 = pipe.reg(_is0(oy), name="row0")
         s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
         s1_str = [pipe.reg(s, shape=1, name=f"str{t}") for t, s in enumerate(taps_stream)]
         s1_psel = pipe.reg(psel, name="psel")
         s1_hm1 = pipe.reg(ev_hm1, name="hm1") if self._carry else None
+
+        # ---- S1b: the block RAM outputs registered with nothing in between (the RAM's
+        # clock-to-out is slow: ~4.3 ns on ECP5 without its output register)
+        tap_rd = [pipe.reg(v, name="rd") for v in tap_rd]
+        pay_rd = [pipe.reg(v, name="prd") for v in pay_rd]
+        s1_tap = pipe.reg(s1_tap, name="tapb")
+        s1_valid = pipe.reg(s1_valid, name="cv", reset=True)
+        s1_cc, s1_lastc, s1_row0, s1_psel = (pipe.reg(v) for v in (s1_cc, s1_lastc, s1_row0,
+                                                                    s1_psel))
+        s1_sel = [pipe.reg(v) for v in s1_sel]
+        s1_str = [pipe.reg(v) for v in s1_str]
+        s1_hm1 = pipe.reg(s1_hm1) if self._carry else None
 
         # ---- S2: the column with its border rows replicated
         taps = [pipe.reg(Mux(s1_str[t], s1_tap, _pick(tap_rd, s1_sel[t])),
@@ -379,7 +405,7 @@ class _Neighbourhood(wiring.Component):
                      o.payload.data.val.eq(val)]
         if self._carry:
             m.d.comb += o.payload.data.hm1.eq(pipe.delay(hm1, dw, name="hm1"))
-        self.depth = 2 + dc + dw
+        self.depth = 3 + dc + dw
         return m
 
 
@@ -556,13 +582,14 @@ class Median3(wiring.Component):
     Notes
     -----
     **Latency.** Without ``enhance``, output pixel (y, x) becomes valid :attr:`latency`
-    = 10 cycles after input pixel (min(y+1, H-1), min(x+1, W-1)) was accepted, when nothing
+    = 11 cycles after input pixel (min(y+1, H-1), min(x+1, W-1)) was accepted, when nothing
     stalls (one more cycle for x = W-1, produced by a pad step; the last row comes from the
     flush, which starts the cycle after the frame's last pixel): register stages are line
-    buffer read (1), column with border rows (1), column sort (3), window median (5). With
-    ``enhance`` the Laplacian/gradient stage (10 stages) feeds the 5x5 stage (box sum 3+3,
-    mean 2, mask 2, add and clamp 2, line buffers and column 2 = 14 stages): output (y, x)
-    is valid 24 cycles after input (min(y+3, H-1), min(x+3, W-1)).
+    buffer read (1), its output register (1), column with border rows (1), column sort (3),
+    window median (5). With ``enhance`` the Laplacian/gradient stage (11 stages) feeds the
+    5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 2, mask 2,
+    add and clamp 2 = 15 stages): output (y, x) is valid 26 cycles after input
+    (min(y+3, H-1), min(x+3, W-1)).
 
     **Throughput and backpressure.** One pixel per clock in and out, across rows and frames
     (the borders of one frame overlap the start of the next). One exception, with
@@ -623,8 +650,8 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input pixel that completes a window to its output."""
-        plain = 2 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
-        return plain + 2 + 3 + 9 if self._enhance else plain
+        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
+        return plain + 3 + 3 + 9 if self._enhance else plain
 
     @property
     def line_buffer_bits(self):

@@ -8,6 +8,9 @@ import numpy as np
 import pytest
 import scipy.ndimage as ndi
 from amaranth.sim import Simulator
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from tdicam import blocks
 from tdicam.blocks.median3 import case_beats, stream_case
@@ -46,6 +49,16 @@ def test_model_equals_scipy_median_filter(rows, cols, bits):
         ref = ndi.median_filter(img, size=3, mode="nearest")
         assert out.dtype == (np.uint8 if bits == 8 else np.uint16), name
         np.testing.assert_array_equal(out, ref, err_msg=name)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(8, 16).flatmap(lambda bits: st.tuples(st.just(bits), arrays(
+    np.int64, st.tuples(st.integers(1, 9), st.integers(3, 11)),
+    elements=st.integers(0, (1 << bits) - 1)))))
+def test_model_equals_scipy_property(case):
+    bits, img = case
+    np.testing.assert_array_equal(median3(img, pixel_bits=bits),
+                                  ndi.median_filter(img, size=3, mode="nearest"))
 
 
 def test_model_filters_each_frame_of_a_stack_alone():
@@ -186,10 +199,10 @@ def test_reciprocal_of_25_is_exact_over_the_whole_range(bits):
 def test_component_params_and_errors():
     dut = Median3(width=640, pixel_bits=10)
     assert (dut.width, dut.pixel_bits, dut.enhance) == (640, 10, False)
-    assert dut.latency == 10
+    assert dut.latency == 11
     assert dut.line_buffer_bits == 2 * 640 * 10
     e = Median3(width=1280, pixel_bits=12, enhance=True)
-    assert e.latency == 24 and e.enhance_shift == 14 and e.enhance_gain == 1
+    assert e.latency == 26 and e.enhance_shift == 14 and e.enhance_gain == 1
     assert e.line_buffer_bits == 1280 * (10 * 12 + 18) == 176_640
     for kw, match in (({"width": 2}, "width = 2 is out of range; valid: 3..8192"),
                       ({"width": 8193}, "width = 8193"),
