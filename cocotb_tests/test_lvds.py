@@ -5,7 +5,7 @@ model in HDL (see :mod:`tdicam.cosim.lvds`); ``test_link_matches_model`` proves 
 exactly the words of :func:`tdicam.model.lvds.raw_words`.
 
 Random lanes: Verilator runs the full form (500 lanes of 10-bit words and 104 lanes of
-12-bit words, each trained then >= 10^4 checked words); Icarus (about 1 k word clocks/s for
+12-bit words, each trained then >= 10^4 checked words); Icarus (0.5-2 k word clocks/s for
 8 lanes) runs 504 lanes' training and 64 checked words each in CI, and the full form
 behind ``@pytest.mark.slow`` (``TDICAM_FULL=1``).
 """

@@ -88,6 +88,7 @@ class LaneTrainer(wiring.Component):
     """
 
     def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5):
+        self._MustUse__silence = True  # a rejected parameter is not an unused elaboratable
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
         w = word_bits
@@ -98,6 +99,7 @@ class LaneTrainer(wiring.Component):
             "locked": Out(1), "error": Out(1), "run": Out(RUN_BITS), "scan": Out(N_TAPS),
             "word": Out(w), "word_sync": Out(1),
         })
+        self._MustUse__silence = False
 
     @property
     def word_bits(self):
@@ -277,6 +279,7 @@ class Deskew(wiring.Component):
     """
 
     def __init__(self, *, lanes, word_bits=10, depth=8):
+        self._MustUse__silence = True
         self._n = check_range("lanes", lanes, 1, 256)
         self._w = check_choice("word_bits", word_bits, (10, 12))
         self._depth = check_choice("deskew_depth", depth, (8, 16, 32))
@@ -286,6 +289,7 @@ class Deskew(wiring.Component):
             "o_valid": Out(1), "o_sync": Out(1), "o_data": Out(lanes * word_bits),
             "aligned": Out(1), "error": Out(1),
         })
+        self._MustUse__silence = False
 
     @property
     def latency(self):
@@ -409,6 +413,7 @@ class LvdsRx(wiring.Component):
 
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
                  deskew_depth=8):
+        self._MustUse__silence = True
         _check_common(word_bits, settle, min_run, pick)
         self._n = check_range("lanes", lanes, 1, 128)
         self._w = word_bits
@@ -418,6 +423,7 @@ class LvdsRx(wiring.Component):
                  "lane_ld": Out(lanes)}
         ports.update(_rx_ports(lanes, word_bits))
         super().__init__(ports)
+        self._MustUse__silence = False
 
     @property
     def lanes(self):
