@@ -29,20 +29,23 @@ def test_golden_fast(block, case, sim):
     check_case(block, case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
 
 
-def _params(block, registered):
-    return blocks.get(block).resolve({"stream": True, "registered": registered})
+def _params(block, registered, pipelined=False):
+    given = {"stream": True, "registered": registered}
+    if pipelined:
+        given["pipelined"] = True
+    return blocks.get(block).resolve(given)
 
 
-@pytest.mark.parametrize("registered", [False, True])
-def test_exhaustive_sweep(sim, registered):
+@pytest.mark.parametrize("registered,pipelined", [(False, False), (True, False), (True, True)])
+def test_exhaustive_sweep(sim, registered, pipelined):
     """All single and double flips of >= 64 words: singles corrected with the flag, doubles
     flagged uncorrectable and never 'corrected', error-free words untouched."""
     n_words = 256 if FULL else 64
     words = ecc.sweep_words(n_words)
     d, c, n_flips = sweep_codes(words)
     stim, exp = dec_beats(d, c)
-    res = check_beats("secded_dec", _params("secded_dec", registered), stim, exp, sim=sim,
-                      mode="fast", idle=0.1, backpressure=0.1, seed=5 + registered)
+    res = check_beats("secded_dec", _params("secded_dec", registered, pipelined), stim, exp,
+                      sim=sim, mode="fast", idle=0.1, backpressure=0.1, seed=5 + registered)
     # the simulator's own output against the claim (not only against the model)
     out = res.out.data.astype(np.uint64)
     data = np.zeros(len(out), np.uint64)

@@ -181,10 +181,12 @@ def _vectors(n, seed):
     return (data,) + ecc.flip(data, ecc.encode(data), pos)
 
 
-@pytest.mark.parametrize("registered", [False, True])
-def test_plain_components_match_model(registered):
-    enc, dec = SecdedEncoder(registered=registered), SecdedDecoder(registered=registered)
-    assert enc.latency == dec.latency == int(registered)
+@pytest.mark.parametrize("registered,pipelined", [(False, False), (True, False), (True, True)])
+def test_plain_components_match_model(registered, pipelined):
+    enc = SecdedEncoder(registered=registered)
+    dec = SecdedDecoder(registered=registered, pipelined=pipelined)
+    assert enc.latency == int(registered)
+    assert dec.latency == int(registered) + int(pipelined)
     _, d, c = _vectors(150, seed=int(registered))
     want = ecc.decode(d, c)
     got_check, got = [], []
@@ -193,7 +195,7 @@ def test_plain_components_match_model(registered):
         for k in range(len(d)):
             ctx.set(enc.data, int(d[k]))
             ctx.set(dec.code, int(d[k]) | int(c[k]) << 64)
-            if registered:
+            for _ in range(dec.latency):
                 await ctx.tick()
             code = ctx.get(enc.code)
             got_check.append(code >> 64)
@@ -216,12 +218,14 @@ def test_plain_components_match_model(registered):
     assert [g[3] for g in got] == want.syndrome.tolist()
 
 
-@pytest.mark.parametrize("registered", [False, True])
-def test_stream_wrappers_match_model_with_stalls(registered):
+@pytest.mark.parametrize("registered,pipelined", [(False, False), (True, False), (True, True)])
+def test_stream_wrappers_match_model_with_stalls(registered, pipelined):
     data, d, c = _vectors(120, seed=5 + registered)
-    for dut, (stim, exp) in ((SecdedEncoderStream(registered=registered), enc_beats(data)),
-                             (SecdedDecoderStream(registered=registered), dec_beats(d, c))):
-        assert dut.latency == 1 + registered
+    for dut, (stim, exp), lat in (
+            (SecdedEncoderStream(registered=registered), enc_beats(data), 1 + registered),
+            (SecdedDecoderStream(registered=registered, pipelined=pipelined), dec_beats(d, c),
+             1 + registered + pipelined)):
+        assert dut.latency == lat
         out, lat, _ = run_stream_component(dut, stim, len(exp), seed=3)
         assert [r for r, _, _ in out] == exp.data.astype(int).tolist()
         assert [f for _, f, _ in out] == exp.first.tolist()

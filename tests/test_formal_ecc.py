@@ -46,6 +46,7 @@ class _DroppedTap(SecdedEncoder):
 def _proofs():
     out = dict(secded_proofs(registered=False, end_to_end=FULL))
     out.update(secded_proofs(registered=True, end_to_end=False))
+    out.update(secded_proofs(registered=True, pipelined=True, end_to_end=False))
     return out
 
 
@@ -66,9 +67,12 @@ def test_secded_proof_passes(name):
         registered=True, decoder=_DoubleAsSingle(registered=True))),
     ("mutant_enc_codeword_reg", lambda: SecdedEncoderProof(
         registered=True, encoder=_DroppedTap(registered=True))),
+    ("mutant_dec_table_reg_pipe", lambda: SecdedDecoderProof(
+        registered=True, decoder=_DoubleAsSingle(registered=True, pipelined=True))),
 ])
 def test_broken_designs_fail_the_proof(name, top, tmp_path):
-    res = formal.prove(top(), name=name, mode="bmc", depth=3 if "reg" in name else 1,
+    harness = top()
+    res = formal.prove(harness, name=name, mode="bmc", depth=harness.latency + 1,
                        workdir=tmp_path)
     assert res.status == "FAIL", res.summary() + "\n" + res.log[-3000:]
     assert (res.workdir / name / "engine_0" / "trace.vcd").exists()  # counterexample kept

@@ -30,10 +30,10 @@ def _enc_top(*, registered, stream):
     return SecdedEncoder(registered=registered)
 
 
-def _dec_top(*, registered, stream):
+def _dec_top(*, registered, pipelined, stream):
     if stream:
-        return AxisTop(SecdedDecoderStream(registered=registered))
-    return SecdedDecoder(registered=registered)
+        return AxisTop(SecdedDecoderStream(registered=registered, pipelined=pipelined))
+    return SecdedDecoder(registered=registered, pipelined=pipelined)
 
 
 def _markers(n, line=16):
@@ -145,7 +145,9 @@ BLOCKS = [
     Block(
         name="secded_dec",
         summary="SECDED (72,64) Hsiao decoder: corrects 1 flipped bit, flags 2 (SPEC 3.6)",
-        params=_PARAMS,
+        params=_PARAMS[:1] + (Param("pipelined", False, "register the syndrome before the "
+                                    "correction (latency +1, for >= 200 MHz)", type=bool),)
+        + _PARAMS[1:],
         top=_dec_top,
         cases=lambda: [
             Case("sweep_4words", {"stream": True}, _dec_sweep(4), seed=3,
