@@ -25,7 +25,7 @@ def _data(frames, rows, cols, bits=12, seed=1):
     return sig, rst
 
 
-def run(rows=64, cols=1280, frames=8, repeat=3, beat_frames=1, sims=cosim.SIMULATORS):
+def run(rows=64, cols=1280, frames=32, repeat=3, beat_frames=1, sims=cosim.SIMULATORS):
     """Rows of {engine, mode, pixels, seconds, pixels_s, mismatches}."""
     out = []
     sig, rst = _data(frames, rows, cols)
@@ -54,7 +54,7 @@ def run(rows=64, cols=1280, frames=8, repeat=3, beat_frames=1, sims=cosim.SIMULA
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", type=int, default=64)
-    ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--frames", type=int, default=32)
     ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args(argv)
     rows = run(rows=a.rows, frames=a.frames, repeat=a.repeat)
