@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from amaranth.hdl import Shape
 
 from .. import blocks
 from ..errors import TdicamError
@@ -76,7 +77,7 @@ def stream_ports(top):
     ctrl = []
     for name, member in top.signature.members.items():
         if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_")):
-            ctrl.append((name, member.shape.width))
+            ctrl.append((name, Shape.cast(member.shape).width))
     return top._in[3], top._out[3], ctrl
 
 
