@@ -6,10 +6,10 @@ What runs by default (CI budget: every distinct Verilator parameter set is a ~30
 * 64 x 4 cases (random, full scale, stage and direction changes, reset mid-frame,
   malformed frames; ppc 1 full width and ppc 4 saturating): per-beat and fast, both
   simulators.
-* 14-bit/ppc 2 and 8-bit/ppc 8 cases: per-beat and fast on Icarus (Verilator with
-  TDICAM_FULL=1); the Amaranth simulator runs them too (tests/test_tdi.py).
-* 256 x 32 cases (m_max with a full-scale band, reverse scan, m = 1): fast on Icarus
-  (Verilator with TDICAM_FULL=1).
+* 14-bit/ppc 2 and 8-bit/ppc 8 cases: fast (and two of them per-beat) on Icarus
+  (Verilator with TDICAM_FULL=1); the Amaranth simulator runs them too (tests/test_tdi.py).
+* 256 x 32 cases (m_max with a full-scale band, reverse scan, m = 1; ppc 1 and 4): fast
+  without stalls on Icarus, checking one beat per clock (Verilator with TDICAM_FULL=1).
 * the paper's 1280 x 96 cases (98 frames, 12 M / 3 M beats): fast on Verilator; on Icarus a
   short form (the same 1280 x 96 design run at small stage counts, both directions), the
   full ppc 4 case with TDICAM_FULL=1 (ppc 1 is 12 M beats: several minutes).
@@ -50,17 +50,34 @@ def _budget(case, sim):
         pytest.skip("another Verilator build (~30 s): runs with TDICAM_FULL=1")
 
 
-@pytest.mark.parametrize("case", SMALL)
+PER_BEAT = [n for n in SMALL if n not in ("fullscale_64x3_p8_8b_sat", "mixed_48x5_p2_14b")]
+
+
+@pytest.mark.parametrize("case", PER_BEAT)
 def test_golden_per_beat(case, sim):
     """cocotb drives each beat, 30 % idle and 40 % backpressure."""
     _budget(case, sim)
     check_case("tdi", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
-@pytest.mark.parametrize("case", SMALL + MEDIUM)
+@pytest.mark.parametrize("case", SMALL)
 def test_golden_fast(case, sim):
     _budget(case, sim)
     check_case("tdi", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
+
+
+@pytest.mark.parametrize("case", MEDIUM)
+def test_golden_fast_full_rate(case, sim):
+    """256 x 32 cases without stalls: one beat per clock, so the cycle count is the beat
+    count plus the latency and the drain window (2000 quiet cycles) — the same frames take
+    4x fewer cycles at ppc = 4 (pixels per clock scale with ppc)."""
+    _budget(case, sim)
+    res = check_case("tdi", case, sim=sim, mode="fast", idle=0.0, backpressure=0.0, seed=1)
+    arrays, params = golden.load("tdi", case)
+    n = len(arrays["first"])
+    assert n + 2000 <= res.cycles <= n + 2000 + 5
+    # the same pixels at ppc 1 and 4: 33 frames of 32 rows, 10 of 8, 2 of 1, 256 wide
+    assert n * params["ppc"] == (33 * 32 + 10 * 8 + 2 * 1) * 256
 
 
 @pytest.mark.parametrize("ppc", [1, 4])
@@ -118,20 +135,6 @@ def test_extreme_stalls(sim, idle, bp):
         assert res.cycles <= n + 3 + 2000 + 2
 
 
-def test_throughput_scales_with_ppc():
-    """Same frames at ppc = 1 and 4 without stalls: one beat per clock, so the cycle count
-    is the beat count (plus latency and the drain window) and drops 4x with ppc = 4."""
-    cyc = {}
-    for ppc in (1, 4):
-        res = check_case("tdi", f"mixed_256x32_p{ppc}", sim="icarus", mode="fast", idle=0.0,
-                         backpressure=0.0, seed=1)
-        arrays, _ = golden.load("tdi", f"mixed_256x32_p{ppc}")
-        n = len(arrays["first"])
-        assert n + 2000 <= res.cycles <= n + 2000 + 5
-        cyc[ppc] = res.cycles - 2000
-    assert cyc[1] / cyc[4] == pytest.approx(4.0, rel=1e-3)
-
-
 def test_random_malformed_stream(sim):
     """A random stream with invalid settings, cut and long frames, wrong tlast and missing
     tuser, generated here (not stored), against the beat-level model."""
@@ -140,19 +143,19 @@ def test_random_malformed_stream(sim):
                                         "ppc": 1})
     parts = []
     m, d = 4, 0
-    for _ in range(40):
-        if rng.random() < 0.2:
+    for _ in range(60):
+        if rng.random() < 0.08:
             m, d = int(rng.integers(0, 6)), int(rng.integers(0, 2))
         a = stream_arrays([rng.integers(0, 4096, (max(m, 1), 64))], [(m, d)], params)
         n = len(a["first"])
         r = rng.random()
-        if r < 0.1:
+        if r < 0.06:
             c = int(rng.integers(1, n))
             a = {k: v[:c] for k, v in a.items()}
-        elif r < 0.2:
+        elif r < 0.12:
             j = int(rng.integers(0, n))
             a["last"][j] = ~a["last"][j]
-        elif r < 0.25:
+        elif r < 0.15:
             a["first"][0] = False
         parts.append(a)
     a = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -160,7 +163,8 @@ def test_random_malformed_stream(sim):
                  ctrl=pack_ctrl(a["stages_active"], a["direction"]))
     want = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
                       **params)
-    assert want.frame_errors >= 5 and len(want.first) > 500
+    assert want.frame_errors >= 10 and len(want.first) >= 30 * 64   # errors and output
+    assert (want.data == 0).all(axis=1).sum() >= 64                  # zero-padded lines
     exp = Beats(want.data, want.first, want.last)
     check_beats("tdi", params, stim, exp, sim=sim, mode="fast", idle=0.2, backpressure=0.3,
                 seed=2)

@@ -56,11 +56,14 @@ class TdiAccumulator(wiring.Component):
 
     Notes
     -----
-    *Structure.* One memory of exactly ``stages - 1`` partial-sum lines, W words of
-    :attr:`psum_bits` each (``ppc`` words per memory row), one synchronous read port and one
-    write port. Every input row reads one line and writes its update back to the same
-    address one cycle later (read-modify-write); which line a row uses rotates by one per
-    frame (a base pointer), so partial sums are never copied. Row r of a frame has age a
+    *Structure.* On-chip memory of exactly ``stages - 1`` partial-sum lines of W words of
+    :attr:`psum_bits`: ``ppc`` banks (one per pixel lane, ``(stages-1) * W/ppc`` words
+    each), each with one synchronous read port and one write port sharing the address
+    (``lib.memory``; word width stays :attr:`psum_bits` whatever ``ppc``). Every input row
+    reads one line and writes its update back to the same address one cycle later
+    (read-modify-write: one read and one write per bank per beat, never to the same address
+    in the same cycle since a row is at least 2 beats); which line a row uses rotates by one
+    per frame (a base pointer), so partial sums are never copied. Row r of a frame has age a
     (``m-1-r`` forward, ``r`` reverse): age 0 starts a sum (the memory read is ignored), age
     m-1 completes it (the output row, nothing written), the others add. A stored sum is only
     used if its ground line was first seen after the last (re)start, so stale memory never
@@ -71,6 +74,11 @@ class TdiAccumulator(wiring.Component):
     settings. Malformed frames are handled as documented in
     :func:`~tdicam.model.tdi.tdi_stream` (dropped, counted in :attr:`frame_errors`, fill
     restarted, a started output line completed with zeros).
+
+    *Reverse scan* needs m partial-sum lines for m stages (see
+    :func:`~tdicam.model.tdi.slots_needed`), so with ``stages - 1`` lines it runs up to
+    ``stages - 1`` stages; ``direction = 1`` with ``stages_active = stages`` is an invalid
+    setting (frame dropped and counted).
 
     *Throughput and latency.* ``ppc`` pixels per clock sustained while ``o_stream.ready`` is
     high: a 3-stage pipeline (input register, memory read, output register with a skid
@@ -97,7 +105,7 @@ class TdiAccumulator(wiring.Component):
         self._saturate = out_bits is not None
         # _psum_bits: test hook only (a deliberately too narrow, wrapping mutant)
         self._psum_bits = full_bits(pixel_bits, stages) if _psum_bits is None else _psum_bits
-        self.memory = None
+        self.memories = []
         self.probe = {}
         super().__init__({
             "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
@@ -128,8 +136,9 @@ class TdiAccumulator(wiring.Component):
 
     @property
     def memory_shape(self):
-        """(depth, word bits) of the partial-sum memory: ``((stages-1) * W/ppc, ppc*psum_bits)``."""
-        return (self.memory_lines * (self._width // self._ppc), self._ppc * self._psum_bits)
+        """(banks, depth, word bits) of the partial-sum memory: ``ppc`` banks of
+        ``(stages-1) * W/ppc`` words of :attr:`psum_bits` (bank k holds pixel lane k)."""
+        return (self._ppc, self.memory_lines * (self._width // self._ppc), self._psum_bits)
 
     def elaborate(self, platform):
         m = Module()
@@ -258,14 +267,21 @@ class TdiAccumulator(wiring.Component):
             with m.If(pad_col == WB - 1):
                 m.d.sync += state.eq(_DROP)
 
-        # ---- memory: exactly (M-1) lines x WB words of PPC x PS bits
+        # ---- memory: exactly (M-1) lines x W words of PS bits, one bank per pixel lane
+        # (bank k holds pixels k, k+PPC, ...; all banks share the address)
+        self.memories = []
         if depth:
-            self.memory = mem = Memory(shape=unsigned(PPC * PS), depth=depth, init=[])
-            m.submodules.psum = mem
-            rd, wr = mem.read_port(), mem.write_port()
             addr = wire("addr", e_rowaddr + e_col, aw)
-            m.d.comb += [rd.addr.eq(addr), rd.en.eq(step)]
-            mem_word = rd.data
+            rds, wrs = [], []
+            for k in range(PPC):
+                mem = Memory(shape=unsigned(PS), depth=depth, init=[])
+                m.submodules[f"psum{k}"] = mem
+                self.memories.append(mem)
+                rd, wr = mem.read_port(), mem.write_port()
+                m.d.comb += [rd.addr.eq(addr), rd.en.eq(step)]
+                rds.append(rd)
+                wrs.append(wr)
+            mem_word = Cat(*(rd.data for rd in rds))
         else:
             mem_word = Const(0, PPC * PS)
 
@@ -292,8 +308,8 @@ class TdiAccumulator(wiring.Component):
             else:
                 v = s[:OB]
             outs.append(Mux(b_zero, 0, v))
-        if depth:
-            m.d.comb += [wr.addr.eq(b_addr), wr.data.eq(Cat(*sums)),
+        for wr, lane in zip(wrs if depth else [], sums):
+            m.d.comb += [wr.addr.eq(b_addr), wr.data.eq(lane),
                          wr.en.eq(b_valid & b_wr & ~b_zero)]
 
         # ---- output register + skid buffer
@@ -328,23 +344,29 @@ class TdiAccumulator(wiring.Component):
 class TdiNoWrapProof(Elaboratable):
     """Formal harness: the partial-sum adders never carry out of the partial-sum width.
 
-    Every input (pixels, tuser, tlast, valid, ``stages_active``, ``direction``, the sink's
-    ``ready``, the reset) is free on every cycle. Asserted on every cycle: the sum that a
-    pipeline beat writes back or outputs (stored partial sum + pixel, per lane) fits
-    :attr:`TdiAccumulator.psum_bits`, and every stored partial sum is at most
-    ``(stages - 1) * (2**pixel_bits - 1)``. Run as a bounded model check from the initial
-    state (:func:`tdicam.formal.prove` ``mode="bmc"``) deep enough for ``stages`` whole
-    frames plus the pipeline, so every stage count, direction, setting change and
-    malformed-frame path reachable in that many cycles is covered.
+    Inputs (pixels, tuser, tlast, valid, ``stages_active``, ``direction``, the sink's
+    ``ready``, the synchronous reset) are free on every cycle. Asserted on every cycle: the
+    sum a pipeline beat writes back or outputs (stored partial sum + pixel, per lane) fits
+    :attr:`TdiAccumulator.psum_bits`, and every partial sum written is at most
+    ``(stages - 1) * (2**pixel_bits - 1)``. Meant for a bounded model check from the initial
+    state (:func:`tdicam.formal.prove` ``mode="bmc"``, :meth:`depth` cycles: ``stages + 1``
+    whole frames plus the pipeline), which covers every stage count, direction, setting
+    change, reset and malformed-frame path reachable in that many cycles.
 
-    ``psum_bits`` overrides the partial-sum width (a deliberately too narrow mutant must
-    fail).
+    ``full_scale`` assumes every pixel is ``2**pixel_bits - 1``: sound for this property,
+    because no control decision depends on pixel values and every sum is a sum of pixels,
+    so the largest sum of any control trace is the one with full-scale pixels; it makes the
+    check several times faster. ``valid_settings`` assumes ``1 <= stages_active <= stages``
+    (an invalid setting only drops its frame and restarts the fill, like a change of
+    setting). ``psum_bits`` overrides the partial-sum width: a deliberately too narrow,
+    wrapping mutant must fail.
     """
 
     def __init__(self, *, width=2, stages=3, pixel_bits=8, ppc=1, psum_bits=None,
                  full_scale=False, valid_settings=False):
         self.dut = TdiAccumulator(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc,
                                   _psum_bits=psum_bits)
+        self.dut._MustUse__silence = True   # elaborated by hand in elaborate()
         self.full_scale = full_scale
         self.valid_settings = valid_settings
 
@@ -357,8 +379,7 @@ class TdiNoWrapProof(Elaboratable):
     def elaborate(self, platform):
         m = Module()
         dut = self.dut
-        dut._MustUse__silence = True      # elaborated by hand to reach its probes
-        m.submodules.dut = dut.elaborate(platform)
+        m.submodules.dut = dut.elaborate(platform)   # by hand, to reach its probes
         i, o = dut.i_stream, dut.o_stream
         m.d.comb += [
             i.valid.eq(AnySeq(1)),

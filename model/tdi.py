@@ -18,11 +18,20 @@ Three bit-exact integer implementations of that formula, tested against each oth
   m-1 running partial-sum lines, updated in place with a rotating base pointer exactly as
   the gateware does (:class:`OptimizedTdi`).
 * :func:`tdi` — the formula evaluated for whole blocks of output lines at once (numpy,
-  exact, the fast one used for golden vectors and benchmarks).
+  exact; the fast one, >= 2x the real-time line rate of the paper's camera).
 
-:func:`tdi_stream` models the whole block at beat level: settings latched per frame,
-refill after a change, the handling of malformed frames, and the output beats (see its
-docstring for the contract the gateware ``hdl/tdi.py`` implements).
+:func:`tdi_stream` models the whole block at beat level — settings latched per frame,
+refill after a change, malformed frames, the output beats — and produces the golden
+vectors (see its docstring for the contract the gateware ``hdl/tdi.py`` implements);
+:func:`tdi_frames` is the frame-level equivalent for well-formed frames.
+
+Reverse scan and memory. The m-1 line saving relies on the row that completes a ground
+line (row 1) arriving first in each frame, so its line is free before the row that starts
+one (row m) arrives last. In reverse, with rows still read out 1..m, the starting row comes
+first: just after it, m independent sums are alive, so the optimized structure needs m
+lines (:func:`slots_needed`). A block built with m_max - 1 lines therefore runs reverse
+scans up to m_max - 1 stages (:func:`settings_valid`); a camera that reverses the sensor's
+window readout order instead can use direction 0 at the full m_max.
 
 Widths. Pixels are ``pixel_bits`` (8..14) unsigned. The partial sums and the full-width
 output are ``pixel_bits + ceil(log2(stages))`` bits (:func:`full_bits`; 12-bit pixels and 96
@@ -329,12 +338,10 @@ class OptimizedTdi:
         return out
 
 
-def _run_structure(cls, frames, stages, pixel_bits, out_bits, stages_active, direction,
-                   **kw):
+def _run_structure(cls, frames, stages, pixel_bits, out_bits, stages_active, direction):
     f, stages, m, direction = _resolve(frames, stages, pixel_bits, out_bits, stages_active,
                                        direction)
-    eng = cls(m, direction=direction, **kw) if cls is BasicTdi else \
-        cls(m, f.shape[2], direction=direction)
+    eng = BasicTdi(m, direction) if cls is BasicTdi else OptimizedTdi(m, f.shape[2], direction)
     lines = [eng.push(fr) for fr in f]
     lines = [x for x in lines if x is not None]
     acc = np.array(lines, np.int64).reshape(len(lines), f.shape[2])

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from tdicam import blocks, golden
 from tdicam.errors import TdicamError
 from tdicam.hdl.tdi import TdiAccumulator
+from tdicam.model import plan
 from tdicam.model.tdi import (BasicTdi, OptimizedTdi, basic_line_buffers, full_bits,
                               optimized_line_buffers, settings_valid, slots_needed, tdi,
                               tdi_basic, tdi_frames, tdi_optimized, tdi_stream)
@@ -250,7 +251,7 @@ def test_component_properties():
     assert dut.psum_bits == dut.out_bits == 19 and not dut.saturating
     assert dut.latency == 3
     assert dut.memory_lines == 95
-    assert dut.memory_shape == (95 * 320, 4 * 19)
+    assert dut.memory_shape == (4, 95 * 320, 19)
     sat = TdiAccumulator(width=64, stages=4, out_bits=12)
     assert sat.out_bits == 12 and sat.psum_bits == 14 and sat.saturating
     assert len(dut.stages_active) == 7 and len(dut.direction) == 1
@@ -274,26 +275,30 @@ def _memories(dut):
     (64, 4, 12, 1), (64, 4, 12, 4), (256, 32, 12, 1), (1280, 96, 12, 1), (1280, 96, 12, 8),
     (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1)])
 def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
-    """The elaborated design holds exactly (m_max-1) x W partial sums of the full width,
-    (m_max-1)(m_max-2)/2 lines fewer than the basic structure; one read + one write port."""
+    """The elaborated design holds exactly (m_max-1) x W partial sums of the full width —
+    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc banks (one per pixel
+    lane), each with one read and one write port."""
     mems = _memories(TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc))
-    assert len(mems) == 1
-    depth, word, nr, nw = mems[0]
     psum = bits + (stages - 1).bit_length()
-    assert word == ppc * psum and depth == (stages - 1) * width // ppc
-    assert (nr, nw) == (1, 1)
-    words = depth * ppc
+    assert mems == [((stages - 1) * width // ppc, psum, 1, 1)] * ppc
+    words = sum(depth for depth, *_ in mems)
     assert words == (stages - 1) * width
+    assert words * psum == (stages - 1) * width * full_bits(bits, stages)
     assert basic_line_buffers(stages) * width - words == \
         (stages - 1) * (stages - 2) // 2 * width
+    # agrees with the planning model's line-buffer count and partial-sum width
+    assert plan.tdi_line_buffer_lines(stages) == stages - 1
+    assert plan.tdi_line_buffer_lines(stages, "basic") == basic_line_buffers(stages)
+    assert plan.partial_sum_bits(bits, stages) == psum
 
 
 def test_memory_in_generated_verilog():
     from tdicam.hdl.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
-    decls = [ln.strip() for ln in text.splitlines() if ln.strip().startswith("reg [")
-             and ln.strip().endswith("];") and "] psum [" in ln]
-    assert decls == ["reg [25:0] psum [159:0];"]     # 5 lines x 32 words of 2 x 13 bits
+    decls = sorted(ln.strip() for ln in text.splitlines() if ln.strip().startswith("reg [")
+                   and ln.strip().endswith("];") and "] psum" in ln)
+    # 5 lines x 64 pixels of 13 bits, as 2 banks of 160 words
+    assert decls == ["reg [12:0] psum0 [159:0];", "reg [12:0] psum1 [159:0];"]
 
 
 def test_stages_one_has_no_memory():
