@@ -41,7 +41,9 @@ computed in unsigned integers wide enough to be exact (uint32/int64), never in t
 dtype.
 """
 
+import os
 from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +57,7 @@ __all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", 
            "tdi", "tdi_basic", "tdi_optimized", "tdi_frames", "tdi_stream", "StreamOut",
            "basic_line_buffers", "optimized_line_buffers"]
 
+_WORKERS = max(1, min(4, os.cpu_count() or 1))   # threads for large tdi() calls
 MAX_STAGES = 128
 MAX_WIDTH = 8192
 PIXEL_BITS = (8, 14)
@@ -219,7 +222,8 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
     -----
     Sums up to 65535 // (2**pixel_bits - 1) terms in uint16 (exact: they cannot exceed
     65535), then widens to uint32 (the full width is at most 21 bits), in blocks of output
-    lines so the working set stays in cache.
+    lines so the working set stays in cache; large inputs spread the blocks over up to
+    4 threads (one per core; the result does not depend on it).
     """
     f, stages, m, direction = _resolve(frames, stages, pixel_bits, out_bits, stages_active,
                                        direction)
@@ -229,21 +233,32 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
     group = max(1, 0xFFFF // ((1 << pixel_bits) - 1))
     f16 = f.astype(np.uint16, copy=False)
     block = max(1, (1 << 17) // max(W, 1))
-    buf = np.empty((min(block, n), W), np.uint16)
-    for lo in range(0, n, block):
-        hi = min(n, lo + block)
-        # output i completes in frame i + m - 1; term j comes from frame i + m - 1 - j
-        terms = [f16[lo + m - 1 - j:hi + m - 1 - j, _row_of(j, m, direction), :]
-                 for j in range(m)]
-        for g in range(0, m, group):
-            part = terms[g:g + group]
-            if len(part) == 1:
-                acc = part[0]
-            else:
-                acc = np.add(part[0], part[1], out=buf[:hi - lo])
-                for src in part[2:]:
-                    np.add(acc, src, out=acc)
-            np.add(total[lo:hi], acc, out=total[lo:hi])
+
+    def run(lo_blocks):
+        buf = np.empty((min(block, n), W), np.uint16)
+        for lo in lo_blocks:
+            hi = min(n, lo + block)
+            # output i completes in frame i + m - 1; term j comes from frame i + m - 1 - j
+            terms = [f16[lo + m - 1 - j:hi + m - 1 - j, _row_of(j, m, direction), :]
+                     for j in range(m)]
+            for g in range(0, m, group):
+                part = terms[g:g + group]
+                if len(part) == 1:
+                    acc = part[0]
+                else:
+                    acc = np.add(part[0], part[1], out=buf[:hi - lo])
+                    for src in part[2:]:
+                        np.add(acc, src, out=acc)
+                np.add(total[lo:hi], acc, out=total[lo:hi])
+
+    starts = list(range(0, n, block))
+    workers = min(_WORKERS, len(starts)) if n * m * W >= 1 << 24 else 1
+    if workers > 1:
+        # numpy releases the GIL in these loops; each thread owns whole output blocks
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run, [starts[k::workers] for k in range(workers)]))
+    else:
+        run(starts)
     return _saturate(total, pixel_bits, stages, out_bits)
 
 
