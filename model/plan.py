@@ -55,6 +55,8 @@ __all__ = [
     "quantization_noise",
     "temporal_noise",
     "snr_gain_digital",
+    "quantization_correlated_fraction",
+    "snr_gain_digital_predicted",
     "snr_gain_charge",
     "gain_db",
     "snr_db",
@@ -750,6 +752,83 @@ def snr_gain_digital(stages, sigma_ad, sigma_cmos):
         raise TdicamError("sigma_ad + sigma_cmos = 0 is out of range; valid: > 0 "
                           "(a noiseless exposure has no SNR)")
     return m * (a + c) / (m * a + np.sqrt(m) * c)
+
+
+def quantization_correlated_fraction(sigma_dn):
+    """Fraction of the quantization-error variance that the m exposures of one point share.
+
+    An ADC of step 1 (DN) adds the error ``e(x) = round(x) - x`` to ``x = mu + n``, ``n`` the
+    noise in front of it (Gaussian, RMS ``sigma_dn``). Split ``e`` into its conditional mean
+    ``b(mu) = E[e | mu] = sum_k (-1)^k / (pi k) exp(-2 pi^2 k^2 s^2) sin(2 pi k mu)`` and the
+    rest. The rest is independent from exposure to exposure (the noise is), so it adds in
+    quadrature like the temporal noise; ``b(mu)`` is the same for every exposure that sees the
+    same level ``mu`` and adds linearly, growing as m. Over a scene whose levels spread over
+    many steps its share of the uniform ``1/12`` variance is
+    ``rho = (6 / pi^2) sum_k exp(-4 pi^2 k^2 s^2) / k^2``: 1 without noise (seed 003 eq 28's
+    case: every error is shared), ``6/pi^2 exp(-4 pi^2 s^2)`` < 3e-5 from ``s = 0.5`` on.
+
+    Parameters
+    ----------
+    sigma_dn : float or array_like
+        RMS noise in front of the ADC in steps (DN), >= 0. Noise that differs between the
+        exposures of one point but is fixed in time (PRNU/DSNU of different window rows)
+        decorrelates ``b`` as well and may be included.
+
+    Returns
+    -------
+    numpy.float64 or numpy.ndarray
+        ``rho`` in [0, 1].
+    """
+    s = np.asarray(_real("sigma_dn", sigma_dn, lo=0.0), np.float64)
+    k = np.arange(1, 257, dtype=np.float64).reshape((-1,) + (1,) * s.ndim)
+    c = 4.0 * np.pi ** 2 * (s * s)
+    # terms k <= 256, then the tail as an integral from 256.5 (error O(256^-3))
+    tail = np.exp(-c * 256.5 ** 2) / 256.5
+    rho = (6.0 / np.pi ** 2) * (np.sum(np.exp(-c * k * k) / (k * k), axis=0) + tail)
+    return np.clip(rho, 0.0, 1.0)[()]
+
+
+def snr_gain_digital_predicted(stages, sigma_ad, sigma_cmos, correlated=0.0):
+    """Linear SNR gain of m-stage digital TDI with quantization split as it really adds.
+
+    ``G(m) = m sqrt(a^2 + c^2) / sqrt(m (c^2 + (1 - rho) a^2) + m^2 rho a^2)``: the temporal
+    (and row-to-row fixed-pattern) noise ``c`` and the independent part ``(1 - rho) a^2`` of
+    the quantization variance grow as ``sqrt(m)``; only the shared part ``rho a^2``
+    (:func:`quantization_correlated_fraction`) grows as m. ``rho = 0`` gives ``sqrt(m)``;
+    ``rho = 1`` with ``c = 0`` gives 1, the limit of seed 003 eq 28
+    (:func:`snr_gain_digital`), which lets all of ``a`` grow as m (and adds it linearly to
+    ``c``): the paper's worst case, ``G_eq28 <= sqrt(m)``, right only when the noise does not
+    dither the ADC and the scene has detail.
+
+    A flat field has one level: ``b(mu)`` is then the same for every pixel, a bias of the
+    mean and no noise at all, so its measured gain has ``rho = 0`` whatever the noise; a
+    scene with detail has ``rho = quantization_correlated_fraction(sigma_DN)``.
+
+    Parameters
+    ----------
+    stages : int or array_like of int
+        TDI stages m, >= 1.
+    sigma_ad : float
+        Quantization noise of one exposure, >= 0 (:func:`quantization_noise`).
+    sigma_cmos : float
+        Noise of one exposure that is independent between exposures (temporal, and fixed
+        pattern of different window rows), >= 0, same units.
+    correlated : float, optional
+        ``rho`` in [0, 1] (default 0).
+
+    Returns
+    -------
+    numpy.float64 or numpy.ndarray
+    """
+    m = np.asarray(_count("stages", stages, lo=1), dtype=np.float64)
+    a = _real("sigma_ad", sigma_ad, lo=0.0)
+    c = _real("sigma_cmos", sigma_cmos, lo=0.0)
+    rho = _real("correlated", correlated, lo=0.0, hi=1.0)
+    if np.any(a + c <= 0):
+        raise TdicamError("sigma_ad + sigma_cmos = 0 is out of range; valid: > 0 "
+                          "(a noiseless exposure has no SNR)")
+    a2, c2 = a * a, c * c
+    return m * np.sqrt(a2 + c2) / np.sqrt(m * (c2 + (1.0 - rho) * a2) + m * m * rho * a2)
 
 
 def snr_gain_charge(stages, sigma_ad, sigma_shot, sigma_read=0.0):

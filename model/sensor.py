@@ -27,7 +27,13 @@ quantization, and the column-wise fixed pattern of PRNU/DSNU summed over m rows 
 quadrature and grow as ``sqrt(m)``: the measured digital gain is ``sqrt(m)``
 (:func:`snr_gain_digital_quadrature`). Eq 28 then agrees with the measurement within
 ``20 log10((1 + r sqrt(m)) / (1 + r))`` dB, ``r = s_AD / s_CMOS``: under 0.5 dB at m = 96
-only when ``r < 0.0068``. :func:`eq28_validity_db` gives that difference.
+only when ``r < 0.0068``. :func:`eq28_validity_db` gives that difference. Below about half a
+step of noise the rounding error has a signal-dependent mean ``b(mu)`` that the m exposures of
+one level share and that grows as m; on a flat field it is a bias, not noise, and in a scene
+with detail its variance is the fraction ``rho`` of :func:`tdicam.model.plan.
+quantization_correlated_fraction`; :func:`tdicam.model.plan.snr_gain_digital_predicted`
+is the planning model that accounts for both parts, :func:`quantized_moments` the exact
+moments of one rounding.
 
 Charge-domain TDI (seed 004) sums charge before one read and one conversion:
 :func:`snr_gain_charge_quadrature`.
@@ -40,7 +46,8 @@ import math
 import numpy as np
 
 __all__ = ["fixed_pattern", "adc", "dither_defect", "snr_gain_digital_quadrature",
-           "snr_gain_charge_quadrature", "eq28_validity_db", "quantization_sigma_e"]
+           "snr_gain_charge_quadrature", "eq28_validity_db", "quantization_sigma_e",
+           "quantized_moments"]
 
 
 def fixed_pattern(rng, shape, *, prnu, dsnu_e, dark_e):
@@ -105,6 +112,48 @@ def dither_defect(sigma_dn):
     """
     s = np.asarray(sigma_dn, np.float64)
     return np.exp(-2.0 * np.pi ** 2 * s * s)
+
+
+def quantized_moments(mu_dn, sigma_dn):
+    """Mean and variance of ``floor(mu + sigma z + 1/2)``, ``z`` standard normal (no clipping).
+
+    Exact for Gaussian noise in front of a round-half-up ADC in any regime: from the
+    probabilities ``P(Q = f + d) = Phi((d + 1/2 - u) / s) - Phi((d - 1/2 - u) / s)``
+    (``f = floor(mu)``, ``u = mu - f``) over ``|d| <= 6 s + 2``. Where the noise dithers the
+    ADC (``s >= 1.5``: Widrow defect < 1e-19) it is ``(mu, s^2 + 1/12)``.
+
+    Parameters
+    ----------
+    mu_dn, sigma_dn : array_like (broadcast)
+        Mean and RMS of the value in front of the ADC, DN; ``sigma_dn >= 0``.
+
+    Returns
+    -------
+    (mean, var) : float64 arrays of the broadcast shape
+    """
+    from scipy.special import ndtr
+    mu, s = np.broadcast_arrays(np.asarray(mu_dn, np.float64), np.asarray(sigma_dn, np.float64))
+    mean = np.array(mu, np.float64)
+    var = np.array(s * s + 1.0 / 12.0, np.float64)
+    low = s < 1.5
+    if not np.any(low):
+        return mean, var
+    m, sl = mu[low], s[low]
+    f = np.floor(m)
+    u = m - f
+    n = int(math.ceil(6.0 * float(sl.max()))) + 2
+    d = np.arange(-n, n + 1, dtype=np.float64)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = (d + 0.5 - u) / sl
+    z = np.where(sl > 0, z, np.where(d + 0.5 - u > 0, np.inf, -np.inf))
+    cdf = ndtr(z)                                  # P(Q <= f + d)
+    p = np.diff(cdf, axis=0, prepend=0.0)
+    p[0] = cdf[0]
+    e1 = (d * p).sum(axis=0)
+    e2 = (d * d * p).sum(axis=0)
+    mean[low] = f + e1
+    var[low] = np.maximum(e2 - e1 * e1, 0.0)
+    return mean, var
 
 
 def snr_gain_digital_quadrature(stages):

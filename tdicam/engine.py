@@ -33,7 +33,10 @@ Fidelity
     approximated where it is not: the m roundings of the ADC become one rounding of the
     summed value plus ``Normal(0, (n - 1)/12)`` DN (``n`` conversions), which is exact in mean
     and variance when the temporal noise dithers the ADC. The stated bound is the Widrow
-    dependence ``exp(-2 pi^2 sigma_DN^2)`` at the darkest level of the scene; per-exposure
+    dependence ``exp(-2 pi^2 sigma_DN^2)`` at the darkest level of the scene; where it
+    exceeds :data:`MOMENTS_BELOW_DITHER` the sum is drawn instead as integers with the exact
+    mean and variance of every rounding (:func:`tdicam.model.sensor.quantized_moments`,
+    Gaussian noise in front of the ADC), so the undithered rounding bias is kept; per-exposure
     clipping (full well, ADC range, CDS clamp) is not reproduced, with its probability as the
     bound. A Poisson sum of mean >= ``1 / (4 tolerance^2)`` (Berry-Esseen distance <
     tolerance) is drawn as a Normal of the same mean and variance. Blocks that act on single
@@ -99,6 +102,8 @@ _IMPACT_LINES = 32
 #: In fast fidelity the raw single exposure covers at most this many ground lines.
 RAW_LINES = 256
 _IMPACT_COLS = 256
+#: Fast fidelity sums exact per-rounding moments where the Widrow defect exceeds this.
+MOMENTS_BELOW_DITHER = 1e-4
 
 
 def golden_available(block):
@@ -208,6 +213,7 @@ class _Cfg:
     offset_dn: float
     notes: list
     fast_fpn_mean: bool = False
+    quant_moments: bool = False      # fast: exact moments of every rounding (noise < ~0.7 DN)
 
 
 def _seq(seed, name):
@@ -372,7 +378,15 @@ def _configure(scene, m, dv, fidelity, force, disable):
                               "prnu", "dsnu", "dark_current", "smear", "rolling_skew", "tdi",
                               "cds"):
             r.fidelity = mode
-    if fast:
+    moments = fast and bounds["quantization"] > MOMENTS_BELOW_DITHER
+    if moments:
+        rec["quantization"].bound = bounds["quantization"]
+        rec["quantization"].why += (f"; fast: the noise does not dither the ADC (Widrow "
+                                    f"defect {bounds['quantization']:.2g}): the sum of the "
+                                    f"roundings drawn as a Normal with the exact mean and "
+                                    f"variance of each rounding (shape not reproduced), "
+                                    f"clipping probability {bounds['clipping']:.2g}")
+    elif fast:
         rec["quantization"].bound = bounds["quantization"]
         rec["quantization"].why += (f"; fast: m roundings -> 1 rounding + Normal((n-1)/12) "
                                     f"DN, Widrow bound {bounds['quantization']:.2g}, "
@@ -393,7 +407,7 @@ def _configure(scene, m, dv, fidelity, force, disable):
         notes.append("two gains but no hdr merge: the HG channel feeds the chain")
     return _Cfg(scene, m, dv, fidelity, {n for n, r in rec.items() if r.ran}, set(force),
                 fast, rec, skew, dark_e, gains, n_reads, offset, notes,
-                fast_fpn_mean=fast and "prnu_smear" in bounds)
+                fast_fpn_mean=fast and "prnu_smear" in bounds, quant_moments=moments)
 
 
 # --------------------------------------------------------------------------------------
@@ -855,30 +869,22 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
             lam = np.broadcast_to(lam, (hi - lo, ncols)).copy()
         timer.add("render", time.perf_counter() - t)
         t = time.perf_counter()
-        # shot noise (Normal where the summed mean is large, Poisson elsewhere), read noise
-        # and the n roundings, drawn as one Normal of the summed variance in DN
-        z = rng_q.standard_normal(lam.shape, dtype=np.float32)
-        small = None
-        if "shot_noise" in on:
-            small = np.flatnonzero(lam < gauss_min)
-            sd = lam * (k * k)
-            if small.size:
-                sd.flat[small] = 0.0
+        if cfg.quant_moments:
+            # noise too small to dither the ADC: sum the exact mean and variance of every
+            # rounding (model.sensor.quantized_moments) instead of m roundings -> 1 + (n-1)/12
+            if moving:
+                rel_s = [rend_x.sample(grid, g_lines, s) for s in range(m)]
+            else:
+                rel_s = [rel] * m
+            x = _moment_sum(cfg, on, S, rel_s, gain_map, dark_map, r_rows, k, r_e,
+                            (hi - lo, ncols), rng_q)
+            np.clip(x, 0.0, top + 0.5, out=x)
+            out[lo:hi] = x
+            timer.add("quantization", time.perf_counter() - t)
         else:
-            sd = np.zeros(lam.shape)
-        sd += var_dn
-        np.sqrt(sd, out=sd)
-        sd *= z
-        x = lam * k
-        if small is not None and small.size:
-            x.flat[small] = rng_shot.poisson(lam.flat[small]) * k
-        if "full_well" in on and not digital and small is not None:
-            np.minimum(x, fw * k, out=x)
-        x += sd
-        x += pedm + 0.5
-        np.clip(x, 0.0, top + 0.5, out=x)
-        out[lo:hi] = x                      # truncation of x >= 0: round half up
-        timer.add("shot_noise", time.perf_counter() - t)
+            _fast_draw(cfg, on, lam, k, var_dn, gauss_min, pedm, top, fw, digital, rng_q,
+                       rng_shot, out[lo:hi])
+            timer.add("shot_noise", time.perf_counter() - t)
         # the raw exposure of the first RAW_LINES ground lines: stage 0 alone, exact
         if lo >= n_raw:
             if progress is not None:
@@ -908,6 +914,91 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
     crop = {}
     out, fs = _post_tdi(cfg, on, out, fs, timer, crop, None)
     return out, raw, single, ped, pedm, fs, lines * m * ncols
+
+
+def _fast_draw(cfg, on, lam, k, var_dn, gauss_min, pedm, top, fw, digital, rng_q, rng_shot,
+               out):
+    """Shot noise (Normal where the summed mean is large, Poisson elsewhere), read noise and
+    the n roundings, drawn as one Normal of the summed variance in DN, rounded into ``out``."""
+    z = rng_q.standard_normal(lam.shape, dtype=np.float32)
+    small = None
+    if "shot_noise" in on:
+        small = np.flatnonzero(lam < gauss_min)
+        sd = lam * (k * k)
+        if small.size:
+            sd.flat[small] = 0.0
+    else:
+        sd = np.zeros(lam.shape)
+    sd += var_dn
+    np.sqrt(sd, out=sd)
+    sd *= z
+    x = lam * k
+    if small is not None and small.size:
+        x.flat[small] = rng_shot.poisson(lam.flat[small]) * k
+    if "full_well" in on and not digital and small is not None:
+        np.minimum(x, fw * k, out=x)
+    x += sd
+    x += pedm + 0.5
+    np.clip(x, 0.0, top + 0.5, out=x)
+    out[...] = x                        # truncation of x >= 0: round half up
+
+
+def _moment_sum(cfg, on, S, rel_s, gain_map, dark_map, r_rows, k, r_e, shape, rng_q):
+    """Sum of the m (digital) or 1 (charge) conversions of each output pixel, drawn as a
+    Normal with the exact mean and variance of every rounding, plus 1/2 (for truncation)."""
+    sc = cfg.scene
+    fw = sc.sensor.full_well_e
+    digital = sc.tdi.domain == "digital"
+    shot = "shot_noise" in on
+    mean = np.zeros((1, 1))
+    var = np.zeros((1, 1))
+    lam_all = 0.0
+
+    def flat(rel):
+        # a target constant along the lines: one row of moments serves every line
+        return rel[:1] if rel.shape[0] > 1 and np.all(rel == rel[:1]) else rel
+    for s, rr in enumerate(r_rows):
+        lam = (S * flat(rel_s[s])) * gain_map[rr] + dark_map[rr]
+        if "full_well" in on:
+            lam = np.minimum(lam, fw)
+        if not digital:
+            lam_all = lam_all + lam
+            continue
+        mu_s, v_s = _sensor.quantized_moments(
+            lam * k + cfg.offset_dn, k * np.sqrt((lam if shot else 0.0) + r_e * r_e))
+        mean = mean + mu_s
+        var = var + v_s
+    if not digital:
+        if "full_well" in on:
+            lam_all = np.minimum(lam_all, fw)
+        mean, var = _sensor.quantized_moments(lam_all * k + cfg.offset_dn,
+                                              k * np.sqrt((lam_all if shot else 0.0)
+                                                          + r_e * r_e))
+    n_sig = len(r_rows) if digital else 1
+    if "reset_frames" in on:
+        mu_r, v_r = _sensor.quantized_moments(cfg.offset_dn, k * r_e)
+        mean = mean - n_sig * mu_r
+        var = var + n_sig * v_r
+    return _integer_draw(np.broadcast_to(mean, shape), np.broadcast_to(var, shape), rng_q)
+
+
+def _integer_draw(mean, var, rng):
+    """Integers with exactly the given mean and variance (plus 1/2, for truncation).
+
+    Variance <= 3/4: ``F + Y``, ``F = round(mean)``, ``Y`` in {-1, 0, 1} with
+    ``P(+-1) = (var + d^2 +- d) / 2``, ``d = mean - F`` (valid for every integer variable's
+    moments). Above: ``round(Normal(mean, var - 1/12))``, whose rounding the Normal dithers
+    (Widrow defect < 2e-6).
+    """
+    f = np.floor(mean + 0.5)
+    d = mean - f
+    u = rng.random(mean.shape)
+    p_dn = np.clip((var + d * d - d) * 0.5, 0.0, 1.0)
+    p_up = np.clip((var + d * d + d) * 0.5, 0.0, 1.0)
+    small = f + (u < p_up) - ((u >= p_up) & (u < p_up + p_dn))
+    z = rng.standard_normal(mean.shape)
+    big = mean + np.sqrt(np.maximum(var - 1.0 / 12.0, 0.0)) * z
+    return np.where(var <= 0.75, small, big) + 0.5
 
 
 def _tdi_bits(cfg, bits, m):

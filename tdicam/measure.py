@@ -4,10 +4,11 @@
 
 * flat targets — SNR (mean minus the known zero-light pedestal, over the standard deviation;
   seed 002 eq 1) of the TDI output and of a single exposure, their difference (the measured
-  TDI gain in dB), and the predictions: seed 003 eq 28 ``20 log10 G(m)``
-  (:func:`tdicam.model.plan.snr_gain_digital`, with the scene's own ``s_AD`` and ``s_CMOS``)
-  or the charge-domain :func:`~tdicam.model.plan.snr_gain_charge`, plus the quadrature model
-  of :mod:`tdicam.model.sensor` (see its docstring for why they differ);
+  TDI gain in dB), and the predictions (:func:`snr_prediction`): the planning model's
+  ``G(m)`` (:func:`tdicam.model.plan.snr_gain_digital_predicted`, quantization split into
+  its independent and shared parts) and, next to it, seed 003 eq 28
+  (:func:`tdicam.model.plan.snr_gain_digital`, the paper's worst case) or their
+  charge-domain forms;
 * bar targets — the MTF at the bar frequency from a least-squares sinusoid fit to the
   profile across the bars (amplitude over the pedestal-free mean, divided by the input
   modulation of the fundamental: ``c`` for a sine grating, ``4c/pi`` for square bars), the
@@ -41,33 +42,51 @@ def _snr_db(img, pedestal, trim):
 def snr_prediction(scene, stages, *, cds=False):
     """Predicted flat-field SNR gain (dB) of ``stages`` over one exposure.
 
-    Returns a dict: ``eq28_db`` (seed 003 eq 28 or its charge-domain form from
-    :mod:`tdicam.model.plan`), ``quadrature_db`` (noise in quadrature), ``sigma_ad_e`` and
-    ``sigma_cmos_e`` (electrons) used, and ``snr1_db`` (single-exposure SNR, quadrature).
+    Returns a dict:
+
+    * ``predicted_db`` — the planning model: digital TDI
+      :func:`tdicam.model.plan.snr_gain_digital_predicted` (temporal noise, the row-to-row
+      fixed pattern and the independent part of the quantization noise grow as ``sqrt(m)``,
+      only the shared part ``rho`` as m), charge domain
+      :func:`tdicam.model.sensor.snr_gain_charge_quadrature`;
+    * ``eq28_db`` — seed 003 eq 28 (:func:`tdicam.model.plan.snr_gain_digital`) or its
+      charge-domain form, the paper's worst case (all quantization noise growing as m);
+    * ``rho`` — the shared fraction of the quantization variance used (0 on a flat field:
+      one level, so the signal-dependent rounding error is a bias of the mean, not noise) and
+      ``rho_detail`` — what a scene with detail at this light level would have;
+    * ``sigma_ad_e``, ``sigma_cmos_e`` (temporal), ``sigma_fpn_e`` (electrons) and
+      ``snr1_db`` (single-exposure SNR, noise in quadrature).
     """
     from tdicam.model import sensor as _sensor
     sen = scene.sensor
     S = scene.target.signal_e
     n = 2 if cds else 1
     dark = sen.dark_current_e_per_s * scene.line_period_s
+    step_e = sen.conversion_gain_e_per_dn / sen.gains[0]
     s_ad = _sensor.quantization_sigma_e(sen.conversion_gain_e_per_dn, sen.gains[0]) \
         * math.sqrt(n)
     read_var = n * sen.read_noise_e ** 2
     s_cmos = math.sqrt(S + dark + read_var)
     fpn_var = (S * sen.prnu) ** 2 + sen.dsnu_e ** 2
+    s_ind = math.sqrt(S + dark + read_var + fpn_var)
     snr1 = S / math.sqrt(S + dark + read_var + s_ad ** 2 + fpn_var)
+    # only the signal conversion sees the scene's levels (a CDS reset sample is one level)
+    s_sig = math.sqrt(S + dark + sen.read_noise_e ** 2 + fpn_var)
+    rho_detail = float(_plan.quantization_correlated_fraction(s_sig / step_e)) / n
+    rho = 0.0 if scene.target.kind == "flat" else rho_detail
     m = stages
     if scene.tdi.domain == "charge":
         eq = float(_plan.snr_gain_charge(m, s_ad, math.sqrt(S + dark),
                                          math.sqrt(read_var)))
-        quad = float(_sensor.snr_gain_charge_quadrature(
+        pred = float(_sensor.snr_gain_charge_quadrature(
             m, signal_e=S, shot_var_e2=S + dark, read_var_e2=read_var,
             quant_var_e2=s_ad ** 2, fpn_var_e2=fpn_var))
     else:
         eq = float(_plan.snr_gain_digital(m, s_ad, s_cmos))
-        quad = float(_sensor.snr_gain_digital_quadrature(m))
-    return {"eq28_db": 20 * math.log10(eq), "quadrature_db": 20 * math.log10(quad),
-            "sigma_ad_e": s_ad, "sigma_cmos_e": s_cmos, "snr1_db": 20 * math.log10(snr1)}
+        pred = float(_plan.snr_gain_digital_predicted(m, s_ad, s_ind, rho))
+    return {"predicted_db": 20 * math.log10(pred), "eq28_db": 20 * math.log10(eq),
+            "rho": rho, "rho_detail": rho_detail, "sigma_ad_e": s_ad, "sigma_cmos_e": s_cmos,
+            "sigma_fpn_e": math.sqrt(fpn_var), "snr1_db": 20 * math.log10(snr1)}
 
 
 def fit_modulation(profile, freq, pedestal=0.0):

@@ -184,6 +184,12 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
     g_chg = float(P.snr_gain_charge(stages, sigma_ad, sigma_shot, s.read_noise_e))
     single = (float(20 * np.log10(signal / (sigma_ad + sigma_cmos))) if signal > 0 else None)
     gain = g_dig if scene.tdi.domain == "digital" else g_chg
+    # the planning model's prediction (quantization split into independent and shared
+    # parts, noise in quadrature); eq 28 above is the paper's worst case
+    pred = None
+    if signal > 0:
+        from tdicam.measure import snr_prediction
+        pred = snr_prediction(scene, stages)
     f = P.NYQUIST
     aperture = float(P.mtf_aperture(f, s.q_over_p))
     temporal = float(P.mtf_temporal(f, stages))
@@ -221,7 +227,11 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
             "single_db": single, "gain_digital": g_dig,
             "gain_digital_db": float(P.gain_db(g_dig)), "gain_charge": g_chg,
             "gain_charge_db": float(P.gain_db(g_chg)),
-            "tdi_db": None if single is None else single + float(P.gain_db(gain))},
+            "tdi_db": None if single is None else single + float(P.gain_db(gain)),
+            "predicted": None if pred is None else {
+                "single_db": pred["snr1_db"], "gain_db": pred["predicted_db"],
+                "tdi_db": pred["snr1_db"] + pred["predicted_db"], "rho": pred["rho"],
+                "sigma_fpn_e": pred["sigma_fpn_e"]}},
         "mtf_nyquist": {"aperture": aperture, "temporal": temporal, "mismatch": mismatch},
     }
 
@@ -377,11 +387,18 @@ def _text(rep) -> str:
         lines.append(f"  SNR            no signal ({sig})")
     else:
         lines.append(f"  SNR            one exposure {snr['single_db']:.2f} dB ({sig})")
-    lines.append(f"                 digital TDI G({d['stages']}) = {snr['gain_digital']:.3f} "
-                 f"(+{snr['gain_digital_db']:.2f} dB); charge domain {snr['gain_charge']:.3f} "
-                 f"(+{snr['gain_charge_db']:.2f} dB); sqrt(m) = {math.sqrt(d['stages']):.3f}")
+    pr = snr["predicted"]
+    if pr is not None:
+        lines.append(f"                 predicted {snr['domain']} TDI gain "
+                     f"+{pr['gain_db']:.2f} dB (quantization shared by the m exposures: "
+                     f"{pr['rho']:.3g} of it), SNR {pr['single_db']:.2f} -> "
+                     f"{pr['tdi_db']:.2f} dB")
+    lines.append(f"                 paper's worst case: digital TDI G({d['stages']}) = "
+                 f"{snr['gain_digital']:.3f} (+{snr['gain_digital_db']:.2f} dB, seed 003 eq 28); "
+                 f"charge domain {snr['gain_charge']:.3f} (+{snr['gain_charge_db']:.2f} dB); "
+                 f"sqrt(m) = {math.sqrt(d['stages']):.3f}")
     if snr["tdi_db"] is not None:
-        lines.append(f"                 expected SNR after {snr['domain']} TDI "
+        lines.append(f"                 eq 28 SNR after {snr['domain']} TDI "
                      f"{snr['tdi_db']:.2f} dB")
     for mm in mtf["mismatch"]:
         lines.append(f"  MTF @ Nyquist  aperture {mtf['aperture']:.3f} x temporal "
@@ -415,8 +432,12 @@ def _plots(rep, scenes, outdir) -> list[Path]:
     shot = math.sqrt(snr["signal_e"] + snr["dark_e"])
     fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot()
+    if snr["predicted"] is not None:
+        ax.plot(m, P.gain_db(P.snr_gain_digital_predicted(
+            m, snr["sigma_ad_e"], math.hypot(snr["sigma_cmos_e"], snr["predicted"]["sigma_fpn_e"]),
+            snr["predicted"]["rho"])), label="digital TDI (planning model)")
     ax.plot(m, P.gain_db(P.snr_gain_digital(m, snr["sigma_ad_e"], snr["sigma_cmos_e"])),
-            label="digital TDI (seed 003 eq 28)")
+            "--", label="digital TDI (seed 003 eq 28, worst case)")
     ax.plot(m, P.gain_db(P.snr_gain_charge(m, snr["sigma_ad_e"], shot, snr["read_noise_e"])),
             label="charge-domain TDI")
     ax.plot(m, 10 * np.log10(m), "k:", label="sqrt(m)")
