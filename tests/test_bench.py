@@ -1,0 +1,144 @@
+"""``tdicam bench``: the fidelity table through the CLI (short inputs, both simulators)."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from tdicam import bench
+from tdicam.cli import main
+
+SIM_LEVELS = ["icarus beat", "icarus fast", "verilator beat", "verilator fast"]
+
+
+def _bench(tmp_path, capsys, *args):
+    js, png = tmp_path / "b.json", tmp_path / "b.png"
+    code = main(["bench", *args, "--quick", "--json", str(js), "--png", str(png)])
+    out = capsys.readouterr().out
+    return code, json.loads(js.read_text()), png, out
+
+
+def _check_png(png):
+    data = png.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_cds_quick_both_simulators(tmp_path, capsys):
+    code, doc, png, out = _bench(tmp_path, capsys, "cds")
+    assert code == 0
+    rows = doc["rows"]
+    assert [r["level"] for r in rows] == ["golden", "pysim"] + SIM_LEVELS
+    assert {r["block"] for r in rows} == {"cds"}
+    for r in rows[1:]:
+        assert r["accuracy"] == "bit-exact" and r["mismatches"] == 0
+        assert r["units"] > 0 and r["seconds"] > 0
+        assert r["rate"] == pytest.approx(r["units"] / r["seconds"])
+    # the golden model and the fast runs see the whole input, the slow levels a prefix
+    assert rows[0]["units"] == rows[3]["units"] == rows[5]["units"] > rows[1]["units"]
+    assert rows[0]["accuracy"] == "reference" and rows[0]["x_ref"] == 1.0
+    for r in rows[3], rows[5]:
+        assert r["x_beat"] == pytest.approx(r["rate"] / rows[rows.index(r) - 1]["rate"])
+        assert r["build_s"] is not None
+    assert doc["settings"]["repeat"] == 1 and doc["settings"]["build_time"] == "cached"
+    assert "cores" in doc["machine"] and "Verilator" in doc["machine"]
+    # printed: machine line, header, one line per row, legend, wall time
+    lines = out.splitlines()
+    assert lines[0] == doc["machine"]
+    assert lines[1].split()[:4] == ["block", "level", "input", "median"]
+    assert sum(ln.startswith("cds ") for ln in lines) == 6
+    assert out.count("bit-exact") == 5 and "px/s" in out
+    _check_png(png)
+
+
+def test_secded_words_and_json_to_stdout(tmp_path, capsys):
+    code = main(["bench", "secded_dec", "--quick", "--sims", "verilator,icarus", "--json",
+                 "--png", str(tmp_path / "s.png")])
+    cap = capsys.readouterr()
+    assert code == 0
+    doc = json.loads(cap.out)                      # stdout is the JSON alone
+    assert "secded_dec" in cap.err and "bit-exact" in cap.err
+    assert [r["level"] for r in doc["rows"]] == ["golden", "pysim"] + SIM_LEVELS[2:] \
+        + SIM_LEVELS[:2]
+    assert bench._expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
+    assert {r["unit"] for r in doc["rows"]} == {"word"}
+    assert all(r["accuracy"] == "bit-exact" for r in doc["rows"] if r["level"] != "golden")
+    _check_png(tmp_path / "s.png")
+
+
+def test_a_wrong_golden_model_is_counted_not_passed(monkeypatch, tmp_path, capsys):
+    """Corrupt three output pixels of the golden model: every simulator row must count
+    exactly those three mismatches and the command must fail."""
+    cds = next(w for w in bench.STREAM_WORKS if w.name == "cds")
+
+    def wrong(inp, params):
+        a = cds.golden(inp, params)
+        out = a["out"].copy()
+        out.reshape(-1)[[5, 700, 5000]] ^= 1
+        return {**a, "out": out}
+
+    works = tuple(dataclasses.replace(w, golden=wrong) if w is cds else w
+                  for w in bench.STREAM_WORKS)
+    monkeypatch.setattr(bench, "STREAM_WORKS", works)
+    js = tmp_path / "w.json"
+    assert main(["bench", "cds", "--quick", "--sims", "verilator", "--png", "none",
+                 "--json", str(js)]) == 1
+    rows = json.loads(js.read_text())["rows"]
+    assert len(rows) == 4
+    for r in rows[1:]:
+        assert (r["mismatches"], r["accuracy"]) == (3, "3 mismatching"), r["level"]
+    assert "3 mismatching" in capsys.readouterr().out
+
+
+def test_scene_and_ddr_rows(tmp_path, capsys):
+    code, doc, png, out = _bench(tmp_path, capsys, "scene", "ddr", "--sims", "none")
+    assert code == 0
+    rows = {r["level"]: r for r in doc["rows"]}
+    assert rows["scene exact"]["x_ref"] == 1.0
+    assert rows["scene exact"]["accuracy"].startswith("reference; other seed: PSNR")
+    for fid in ("scene fast", "scene auto"):
+        acc = rows[fid]["accuracy"]
+        psnr, snr = float(acc.split()[1]), float(acc.split("SNR ")[-1].split()[0])
+        assert psnr > 60 and abs(snr) < 0.5, acc        # fast agrees with exact in noise
+        assert rows[fid]["x_ref"] > 10
+        assert "x real time" in rows[fid]["note"]
+    ddr = [r for r in doc["rows"] if r["block"].startswith("ddr")]
+    if not any(n.startswith("ddr") for n in bench.blocks.names()):
+        assert len(ddr) == 1 and ddr[0]["accuracy"] == "n/a"
+        assert "not available" in ddr[0]["note"]
+    _check_png(png)
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["nope"], "unknown benchmark 'nope'; valid: cds, tdi, nuc, hdr, median3, secded, lvds, "
+               "ddr, scene"),
+    (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
+                                    "verilator, none"),
+    (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: 0 <= p < 1"),
+    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1.."),
+])
+def test_errors_are_one_line(args, msg, capsys):
+    assert main(["bench", *args]) == 2
+    err = capsys.readouterr().err
+    assert err == f"tdicam: error: {msg}\n"
+
+
+def test_table_formatting():
+    rows = [bench._row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
+                       input="1,000 px"),
+            bench._row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
+                       accuracy="bit-exact", input="1,000 px", build_s=12.34)]
+    text = bench.format_table(rows).splitlines()
+    assert "10 Mpx/s" in text[2] and "100 ns/px" in text[2]
+    assert "1/5k" in text[3] and "12.0" in text[3] and "12.3" in text[3]
+    md = bench.format_table(rows, markdown=True).splitlines()
+    assert md[0].startswith("| block | level |") and len(md) == 4
+
+
+def test_lvds_quick_both_simulators(tmp_path, capsys):
+    code, doc, _, _ = _bench(tmp_path, capsys, "lvds")
+    assert code == 0
+    got = {r["level"]: r for r in doc["rows"]}
+    assert got["verilator fast"]["accuracy"] == got["icarus fast"]["accuracy"] == "bit-exact"
+    assert got["pysim"]["accuracy"] == "n/a"
+    assert np.isclose(got["golden"]["x_ref"], 1.0)
