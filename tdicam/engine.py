@@ -51,6 +51,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import math
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -152,6 +153,7 @@ class SimResult:
     geometry: _optics.Geometry
     notes: list = field(default_factory=list)
     frames_crop: dict | None = None   # per-block golden inputs/outputs on the RTL crop
+    cpu_seconds: float = 0.0          # process CPU time (all threads) of the simulation
 
     @property
     def lines_per_s(self):
@@ -654,6 +656,116 @@ def _nuc_coeffs(cfg, on, gain_map, dark_map):
     return out
 
 
+def threads():
+    """Worker threads of the exact exposure loop: ``TDICAM_THREADS`` or the CPU count (<= 4).
+
+    The result never depends on it: every block of rows draws from its own generator."""
+    v = os.environ.get("TDICAM_THREADS")
+    if v:
+        try:
+            return max(1, int(v))
+        except ValueError:
+            raise TdicamError(f"TDICAM_THREADS = {v!r}: must be an integer >= 1") from None
+    return max(1, min(os.cpu_count() or 1, 4))
+
+
+#: Rows per random-number block of the exact loop: ~64 k pixels, fixed by the width only.
+_BLOCK_PIXELS = 1 << 16
+
+
+def _block_rng(seed, name, stage, block):
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+        [int(seed), _STREAM[name], int(stage), int(block)])))
+
+
+def _expose_frames(cfg, on, frames, resets, rend_x, grid, gain_map, dark_map, S, moving,
+                   timer, progress):
+    """Every exposure of every frame row: Poisson charge, full-well clip, read noise, ADC.
+
+    Rows are cut in blocks of ``_BLOCK_PIXELS``; block ``j`` of stage ``s`` draws its shot,
+    read and reset noise from generators seeded ``(seed, stream, s, j)``, so the frames are
+    the same whatever the thread count and timing. numpy's Generator releases the GIL while
+    it fills an array, so the blocks run on :func:`threads` threads.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+    sc, m = cfg.scene, cfg.m
+    sen = sc.sensor
+    n_f, ncols = frames[0].shape[0], frames[0].shape[2]
+    seed = sc.run.seed
+    rows = max(1, _BLOCK_PIXELS // max(ncols, 1))
+    blocks = [(j, a, min(n_f, a + rows)) for j, a in enumerate(range(0, n_f, rows))]
+    shot = "shot_noise" in on
+    fw = sen.full_well_e if "full_well" in on else None
+    r_e = sen.read_noise_e if "read_noise" in on else 0.0
+    top = float(sen.full_scale_dn)
+    scale = [g / sen.conversion_gain_e_per_dn for g in cfg.gains]
+    add = cfg.offset_dn + 0.5
+    rst_read = ("read_reset", "read_reset_lg")
+    sig_read = ("read", "read_lg")
+
+    def adc_into(x, k, dst):
+        x *= k
+        x += add
+        np.floor(x, out=x)
+        np.clip(x, 0.0, top, out=x)
+        dst[...] = x
+
+    def task(s, j, a, b):
+        dt = {}
+        r = _stage_row(s, m, sc.tdi.direction)
+        t = time.perf_counter()
+        # frame tau, stage s sees ground line tau - s
+        rel = rend_x.sample(grid, np.arange(a, b) - s, s if moving else None)
+        lam = np.multiply(S * rel, gain_map[r])
+        lam += dark_map[r]
+        lam = np.broadcast_to(lam, (b - a, ncols))
+        dt["render"] = time.perf_counter() - t
+        t = time.perf_counter()
+        e = _block_rng(seed, "shot", s, j).poisson(lam).astype(np.float64) if shot \
+            else np.array(lam, np.float64)
+        t1 = time.perf_counter()
+        dt["shot_noise"] = t1 - t
+        if fw is not None:
+            np.minimum(e, fw, out=e)
+        for ch, k in enumerate(scale):
+            t = time.perf_counter()
+            x = e.copy() if ch + 1 < len(scale) else e
+            if r_e > 0:
+                z = _block_rng(seed, sig_read[ch], s, j).standard_normal(x.shape, np.float32)
+                z *= np.float32(r_e)
+                x += z
+            t1 = time.perf_counter()
+            adc_into(x, k, frames[ch][a:b, r, :])
+            t2 = time.perf_counter()
+            dt["read_noise"] = dt.get("read_noise", 0.0) + t1 - t
+            dt["quantization"] = dt.get("quantization", 0.0) + t2 - t1
+            if resets is not None:
+                if r_e > 0:
+                    x = _block_rng(seed, rst_read[ch], s, j).standard_normal(
+                        x.shape, np.float32).astype(np.float64)
+                    x *= r_e
+                else:
+                    x = np.zeros(x.shape)
+                adc_into(x, k, resets[ch][a:b, r, :])
+                dt["reset_frames"] = dt.get("reset_frames", 0.0) + time.perf_counter() - t2
+        return dt
+
+    args = [(s, j, a, b) for s in range(m) for j, a, b in blocks]
+    n_thr = min(threads(), len(args))
+    pool = ThreadPoolExecutor(n_thr) if n_thr > 1 else None
+    try:
+        done = pool.map(lambda x: task(*x), args) if pool is not None \
+            else (task(*x) for x in args)
+        for (s, j, a, b), dt in zip(args, done):
+            for name, v in dt.items():
+                timer.add(name, v)
+            if progress is not None:
+                progress((b - a) * ncols)
+    finally:
+        if pool is not None:
+            pool.shutdown()
+
+
 def _exact_digital(cfg, on, lines, ncols, gain_map, dark_map, S, timer, expose, convert,
                    render_grid, progress, keep_frames):
     sc, m = cfg.scene, cfg.m
@@ -666,21 +778,8 @@ def _exact_digital(cfg, on, lines, ncols, gain_map, dark_map, S, timer, expose, 
     frames = [np.empty((n_f, m, ncols), dt) for _ in range(n_ch)]
     resets = [np.empty((n_f, m, ncols), dt) for _ in range(n_ch)] if "reset_frames" in on \
         else None
-    for s in range(m):
-        r = _stage_row(s, m, sc.tdi.direction)
-        g_lines = np.arange(n_f) - s            # frame tau, stage s sees ground line tau - s
-        t = time.perf_counter()
-        rel = rend_x.sample(grid, g_lines, s if geom_moving else None)
-        lam = (S * rel) * gain_map[r] + dark_map[r]
-        timer.add("render", time.perf_counter() - t)
-        e = expose(lam, (n_f, ncols))
-        for ch in range(n_ch):
-            dn, rst = convert(e, ch)
-            frames[ch][:, r, :] = dn
-            if resets is not None:
-                resets[ch][:, r, :] = rst
-        if progress is not None:
-            progress(n_f * ncols)
+    _expose_frames(cfg, on, frames, resets, rend_x, grid, gain_map, dark_map, S, geom_moving,
+                   timer, progress)
     r0 = _stage_row(0, m, sc.tdi.direction)
     raw = frames[0][:lines, r0, :].astype(np.int64)
     crop_arrays = {}
@@ -1055,10 +1154,11 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     n_lines = int(scene.run.lines if lines is None else lines)
     cfg = _configure(scene, m, dv, fid, force, disable)
     timer = _Timer()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     target, raw, single, out, ped1, pedm, fs, expo, crop_arrays = _core(
         cfg, cfg.on, n_lines, 0, scene.sensor.columns, timer, progress, keep_crop)
     seconds = time.perf_counter() - t0
+    cpu_seconds = time.process_time() - c0
     records = [cfg.records[n] for n in EFFECTS]
     for r in records:
         if r.ran:
@@ -1074,7 +1174,8 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
         notes.append(f"the raw single exposure (exact, stage 0 of every line) took "
                      f"{timer.t['raw_exposure']:.3g} s of the fast run")
     res = SimResult(m, dv, "fast" if cfg.fast else "exact", target, raw, single, out, records,
-                    ped1, pedm, fs, seconds, expo, _geometry(cfg, cfg.on), notes, crop_arrays)
+                    ped1, pedm, fs, seconds, expo, _geometry(cfg, cfg.on), notes, crop_arrays,
+                    cpu_seconds)
     if impact:
         _impacts(cfg, res)
     return res

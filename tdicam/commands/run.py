@@ -145,7 +145,11 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
                   "exposure_pixels_per_s": main.exposure_pixels_per_s,
                   "lines": int(main.output.shape[0]), "width": int(main.output.shape[1]),
                   "stages": main.stages, "seconds": main.seconds,
-                  "fidelity": main.fidelity},
+                  "fidelity": main.fidelity, "cpu_seconds": main.cpu_seconds,
+                  "exposure_pixels_per_cpu_s": (main.exposure_pixels / main.cpu_seconds
+                                                if main.cpu_seconds > 0 else None),
+                  "threads": engine.threads(), "cpus": os.cpu_count(),
+                  "load_average_1min": _loadavg()},
         "rtl": rtl_report,
         "wall_seconds": time.perf_counter() - t_all,
         "files": files,
@@ -155,6 +159,13 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json))
     (out_dir / "report.md").write_text(_markdown(scene, report))
     return report
+
+
+def _loadavg():
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return None
 
 
 def _json(o):
@@ -431,7 +442,11 @@ def _markdown(scene, rep):
            f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
            f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "
            f"{sp['x_real_time']:.2f}x the real-time {sp['real_time_lines_per_s']:.0f} lines/s; "
-           f"{sp['exposure_pixels_per_s'] / 1e6:.1f} M exposure-pixels/s.", ""]
+           f"{sp['exposure_pixels_per_s'] / 1e6:.1f} M exposure-pixels/s"
+           + (f" ({sp['exposure_pixels_per_cpu_s'] / 1e6:.1f} M per CPU-second; "
+              f"{sp['threads']} threads on {sp['cpus']} CPUs, load average "
+              f"{_fmt(sp['load_average_1min'], '.2f')})"
+              if sp.get("exposure_pixels_per_cpu_s") else "") + ".", ""]
     if rep["rtl"]:
         md += ["## RTL co-simulation", "",
                f"Simulator {rep['rtl']['simulator']}, crop (y0, h, x0, w) = "
