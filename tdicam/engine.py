@@ -481,7 +481,6 @@ def _core(cfg, on, lines, col0, ncols, timer, progress=None, keep_frames=None):
     rng_shot = _seq(seed, "shot")
     rng_read = [_seq(seed, "read"), _seq(seed, "read_lg")]
     rng_reset = [_seq(seed, "read_reset"), _seq(seed, "read_reset_lg")]
-    rng_q = _seq(seed, "quant")
     conv = sen.conversion_gain_e_per_dn
     fw = sen.full_well_e
     r_e = sen.read_noise_e if "read_noise" in on else 0.0
@@ -527,8 +526,7 @@ def _core(cfg, on, lines, col0, ncols, timer, progress=None, keep_frames=None):
     crop_arrays = {}
     if cfg.fast:
         out, raw, single, ped1, pedm, fs, exposures = _fast_path(
-            cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, render_grid,
-            rng_shot, rng_q, progress)
+            cfg, on, lines, ncols, gain_map, dark_map, S, timer, rend, progress)
     elif digital:
         out, raw, single, ped1, pedm, fs, exposures, crop_arrays = _exact_digital(
             cfg, on, lines, ncols, gain_map, dark_map, S, timer, expose, convert, render_grid,
@@ -687,7 +685,6 @@ def _expose_frames(cfg, on, frames, resets, rend_x, grid, gain_map, dark_map, S,
     the same whatever the thread count and timing. numpy's Generator releases the GIL while
     it fills an array, so the blocks run on :func:`threads` threads.
     """
-    from concurrent.futures import ThreadPoolExecutor
     sc, m = cfg.scene, cfg.m
     sen = sc.sensor
     n_f, ncols = frames[0].shape[0], frames[0].shape[2]
@@ -703,13 +700,6 @@ def _expose_frames(cfg, on, frames, resets, rend_x, grid, gain_map, dark_map, S,
     rst_read = ("read_reset", "read_reset_lg")
     sig_read = ("read", "read_lg")
 
-    def adc_into(x, k, dst):
-        x *= k
-        x += add
-        np.floor(x, out=x)
-        np.clip(x, 0.0, top, out=x)
-        dst[...] = x
-
     def task(s, j, a, b):
         dt = {}
         r = _stage_row(s, m, sc.tdi.direction)
@@ -723,44 +713,68 @@ def _expose_frames(cfg, on, frames, resets, rend_x, grid, gain_map, dark_map, S,
         t = time.perf_counter()
         e = _block_rng(seed, "shot", s, j).poisson(lam).astype(np.float64) if shot \
             else np.array(lam, np.float64)
-        t1 = time.perf_counter()
-        dt["shot_noise"] = t1 - t
         if fw is not None:
             np.minimum(e, fw, out=e)
+        dt["shot_noise"] = time.perf_counter() - t
         for ch, k in enumerate(scale):
-            t = time.perf_counter()
-            x = e.copy() if ch + 1 < len(scale) else e
-            if r_e > 0:
-                z = _block_rng(seed, sig_read[ch], s, j).standard_normal(x.shape, np.float32)
-                z *= np.float32(r_e)
-                x += z
-            t1 = time.perf_counter()
-            adc_into(x, k, frames[ch][a:b, r, :])
-            t2 = time.perf_counter()
-            dt["read_noise"] = dt.get("read_noise", 0.0) + t1 - t
-            dt["quantization"] = dt.get("quantization", 0.0) + t2 - t1
-            if resets is not None:
-                if r_e > 0:
-                    x = _block_rng(seed, rst_read[ch], s, j).standard_normal(
-                        x.shape, np.float32).astype(np.float64)
-                    x *= r_e
-                else:
-                    x = np.zeros(x.shape)
-                adc_into(x, k, resets[ch][a:b, r, :])
-                dt["reset_frames"] = dt.get("reset_frames", 0.0) + time.perf_counter() - t2
+            times = _read_convert(e.copy() if ch + 1 < len(scale) else e, k, r_e, add, top,
+                                  _block_rng(seed, sig_read[ch], s, j), frames[ch][a:b, r, :],
+                                  _block_rng(seed, rst_read[ch], s, j),
+                                  None if resets is None else resets[ch][a:b, r, :])
+            for name, v in times.items():
+                dt[name] = dt.get(name, 0.0) + v
         return dt
 
-    args = [(s, j, a, b) for s in range(m) for j, a, b in blocks]
+    _run_blocks(task, [(s, j, a, b) for s in range(m) for j, a, b in blocks], timer,
+                progress, lambda s, j, a, b: (b - a) * ncols)
+
+
+def _read_convert(x, k, r_e, add, top, rng_read, dst, rng_reset=None, dst_reset=None):
+    """Read noise (float32 Normal, in place on the charge ``x``) and the ADC
+    ``clamp(floor(v k + add), 0, top)`` into ``dst``; with ``dst_reset`` also the reset
+    sample (read noise alone) into it. Returns ``{effect: seconds}``."""
+    t0 = time.perf_counter()
+    if r_e > 0:
+        z = rng_read.standard_normal(x.shape, np.float32)
+        z *= np.float32(r_e)
+        x += z
+    t1 = time.perf_counter()
+    _adc_into(x, k, add, top, dst)
+    t2 = time.perf_counter()
+    dt = {"read_noise": t1 - t0, "quantization": t2 - t1}
+    if dst_reset is not None:
+        if r_e > 0:
+            v = rng_reset.standard_normal(x.shape, np.float32).astype(np.float64)
+            v *= r_e
+        else:
+            v = np.zeros(x.shape)
+        _adc_into(v, k, add, top, dst_reset)
+        dt["reset_frames"] = time.perf_counter() - t2
+    return dt
+
+
+def _adc_into(x, k, add, top, dst):
+    x *= k
+    x += add
+    np.floor(x, out=x)
+    np.clip(x, 0.0, top, out=x)
+    dst[...] = x
+
+
+def _run_blocks(fn, args, timer, progress, work_of):
+    """``fn(*a)`` for every ``a`` in ``args`` on :func:`threads` threads; each returns
+    ``{effect: seconds}``. Timings and progress are collected in order, here."""
+    from concurrent.futures import ThreadPoolExecutor
     n_thr = min(threads(), len(args))
     pool = ThreadPoolExecutor(n_thr) if n_thr > 1 else None
     try:
-        done = pool.map(lambda x: task(*x), args) if pool is not None \
-            else (task(*x) for x in args)
-        for (s, j, a, b), dt in zip(args, done):
+        done = pool.map(lambda a: fn(*a), args) if pool is not None \
+            else (fn(*a) for a in args)
+        for a, dt in zip(args, done):
             for name, v in dt.items():
                 timer.add(name, v)
             if progress is not None:
-                progress((b - a) * ncols)
+                progress(work_of(*a))
     finally:
         if pool is not None:
             pool.shutdown()
@@ -904,8 +918,7 @@ def _exact_charge(cfg, on, lines, ncols, gain_map, dark_map, S, timer, expose, c
     return out, raw, single, ped, ped, fs, lines * m * ncols, crop_arrays
 
 
-def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, render_grid,
-               rng_shot, rng_q, progress):
+def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, rend, progress):
     """Aggregate the m exposures of each ground line (see the module docstring)."""
     sc, m = cfg.scene, cfg.m
     sen = sc.sensor
@@ -924,7 +937,7 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
     n_raw = min(lines, RAW_LINES)
     raw = np.empty((n_raw, ncols), np.int64)
     single = np.empty((n_raw, ncols), np.int64)
-    chunk = max(1, min(lines, (1 << 17) // max(ncols, 1)))
+    chunk = max(1, min(lines, _BLOCK_PIXELS // max(ncols, 1)))
     ped = cfg.offset_dn if "reset_frames" not in on else 0.0
     pedm = ped * (m if digital else 1)
     fw = sen.full_well_e
@@ -933,11 +946,18 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
     var_dn = var_read * k * k + (n_conv - 1) / 12.0
     gmat = gain_map[r_rows] if moving else None        # (m, W): row weight of each stage
     gsum_all = gain_map[r_rows].sum(axis=0)
-    for lo in range(0, lines, chunk):
-        hi = min(lines, lo + chunk)
+    seed = sc.run.seed
+    add1 = cfg.offset_dn + 0.5
+    top1 = float(sen.full_scale_dn)
+
+    def work(ci, lo, hi):
+        """Output lines lo..hi-1 (and their raw exposure) from the generators of chunk ci."""
+        dt = {}
+        rng_q = _block_rng(seed, "quant", 0, ci)
+        rng_shot = _block_rng(seed, "shot", 0, ci)
         g_lines = np.arange(lo, hi)
-        rend_x, grid = render_grid(lo, hi - 1)
         t = time.perf_counter()
+        rend_x, grid = rend, rend.grid(lo, hi - 1)
         if moving and cfg.fast_fpn_mean and "full_well" not in on:
             # sum_s rel_s w_s ~ mean_s(rel_s) sum_s w_s: error prnu std_s(rel)/sqrt(m)
             first = rend_x.sample(grid, g_lines, 0)
@@ -966,11 +986,12 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
         lam = mu + dsum
         if lam.shape != (hi - lo, ncols):
             lam = np.broadcast_to(lam, (hi - lo, ncols)).copy()
-        timer.add("render", time.perf_counter() - t)
+        dt["render"] = time.perf_counter() - t
         t = time.perf_counter()
-        if cfg.quant_moments:
+        if cfg.quant_moments and n_conv > 1:
             # noise too small to dither the ADC: sum the exact mean and variance of every
             # rounding (model.sensor.quantized_moments) instead of m roundings -> 1 + (n-1)/12
+            # (one conversion is drawn exactly below: Poisson, Normal read noise, 1 rounding)
             if moving:
                 rel_s = [rend_x.sample(grid, g_lines, s) for s in range(m)]
             else:
@@ -979,33 +1000,36 @@ def _fast_path(cfg, on, lines, ncols, gain_map, dark_map, S, timer, convert, ren
                             (hi - lo, ncols), rng_q)
             np.clip(x, 0.0, top + 0.5, out=x)
             out[lo:hi] = x
-            timer.add("quantization", time.perf_counter() - t)
+            dt["quantization"] = time.perf_counter() - t
         else:
             _fast_draw(cfg, on, lam, k, var_dn, gauss_min, pedm, top, fw, digital, rng_q,
                        rng_shot, out[lo:hi])
-            timer.add("shot_noise", time.perf_counter() - t)
+            dt["shot_noise"] = time.perf_counter() - t
         # the raw exposure of the first RAW_LINES ground lines: stage 0 alone, exact
         if lo >= n_raw:
-            if progress is not None:
-                progress((hi - lo) * ncols * m)
-            continue
+            return dt
         t = time.perf_counter()
         hi = min(hi, n_raw)
         first = first[:hi - lo]
         lam1 = np.broadcast_to((S * first) * gain_map[r0] + dark_map[r0], (hi - lo, ncols))
-        e1 = rng_shot.poisson(lam1).astype(np.float64) if "shot_noise" in on else lam1.copy()
+        e1 = rng_shot.poisson(lam1).astype(np.float64) if "shot_noise" in on \
+            else np.array(lam1, np.float64)
         if "full_well" in on:
             np.minimum(e1, fw, out=e1)
-        d1, rst1 = convert(e1, 0)
-        raw[lo:hi] = d1
+        rst1 = np.empty((hi - lo, ncols), np.int64) if "reset_frames" in on else None
+        _read_convert(e1, k, r_e, add1, top1, _block_rng(seed, "read", 0, ci), raw[lo:hi],
+                      _block_rng(seed, "read_reset", 0, ci), rst1)
         if rst1 is not None:
             from tdicam.model.cds import cds
-            single[lo:hi] = cds(d1, rst1, pixel_bits=sen.bits)
+            single[lo:hi] = cds(raw[lo:hi], rst1, pixel_bits=sen.bits)
         else:
-            single[lo:hi] = d1
-        timer.add("raw_exposure", time.perf_counter() - t)
-        if progress is not None:
-            progress((hi - lo) * ncols * m)
+            single[lo:hi] = raw[lo:hi]
+        dt["raw_exposure"] = time.perf_counter() - t
+        return dt
+
+    _run_blocks(work, [(ci, lo, min(lines, lo + chunk))
+                       for ci, lo in enumerate(range(0, lines, chunk))],
+                timer, progress, lambda ci, lo, hi: (hi - lo) * ncols * m)
     fs = top
     if digital and sc.tdi.output == "saturate":
         np.minimum(out, (1 << sc.tdi.output_bits) - 1, out=out)
