@@ -582,8 +582,8 @@ def _pre_tdi_blocks(cfg, on, frames_ch, resets_ch, timer, crop_arrays, keep):
         _check_bits("median3", pb, 8, 16, "[sensor].bits")
         y = median3(x, pixel_bits=pb, enhance=sc.pipeline.median3.edge_enhance)
         if keep is not None:
-            crop_arrays["median3"] = {"frames": keep(x), "out": keep(y),
-                                      "params": {"pixel_bits": pb}}
+            crop_arrays["median3"] = {"frames": keep(x), "out": None, "params": {
+                "pixel_bits": pb, "enhance": bool(sc.pipeline.median3.edge_enhance)}}
         x = y
         timer.add("median3_pre", time.perf_counter() - t)
     return x, pb
@@ -849,7 +849,10 @@ def _post_tdi(cfg, on, out, fs, timer, crop_arrays, keep_frames):
         if keep_frames is not None:
             y0, h, x0, w = keep_frames
             crop_arrays["median3"] = {"frames": out[y0:y0 + h, x0:x0 + w].copy(),
-                                      "out": None, "params": {"pixel_bits": pb}}
+                                      "out": None, "params": {
+                                          "pixel_bits": pb,
+                                          "enhance": bool(cfg.scene.pipeline.median3
+                                                          .edge_enhance)}}
         out = y
         timer.add("median3_post", time.perf_counter() - t)
     return out, fs
