@@ -745,13 +745,18 @@ def snr_gain_digital(stages, sigma_ad, sigma_cmos):
     -------
     numpy.float64 or numpy.ndarray
     """
+    m, a, c = _digital_args(stages, sigma_ad, sigma_cmos)
+    return m * (a + c) / (m * a + np.sqrt(m) * c)
+
+
+def _digital_args(stages, sigma_ad, sigma_cmos):
     m = np.asarray(_count("stages", stages, lo=1), dtype=np.float64)
     a = _real("sigma_ad", sigma_ad, lo=0.0)
     c = _real("sigma_cmos", sigma_cmos, lo=0.0)
     if np.any(a + c <= 0):
         raise TdicamError("sigma_ad + sigma_cmos = 0 is out of range; valid: > 0 "
                           "(a noiseless exposure has no SNR)")
-    return m * (a + c) / (m * a + np.sqrt(m) * c)
+    return m, a, c
 
 
 def quantization_correlated_fraction(sigma_dn):
@@ -820,13 +825,8 @@ def snr_gain_digital_predicted(stages, sigma_ad, sigma_cmos, correlated=0.0):
     -------
     numpy.float64 or numpy.ndarray
     """
-    m = np.asarray(_count("stages", stages, lo=1), dtype=np.float64)
-    a = _real("sigma_ad", sigma_ad, lo=0.0)
-    c = _real("sigma_cmos", sigma_cmos, lo=0.0)
+    m, a, c = _digital_args(stages, sigma_ad, sigma_cmos)
     rho = _real("correlated", correlated, lo=0.0, hi=1.0)
-    if np.any(a + c <= 0):
-        raise TdicamError("sigma_ad + sigma_cmos = 0 is out of range; valid: > 0 "
-                          "(a noiseless exposure has no SNR)")
     a2, c2 = a * a, c * c
     return m * np.sqrt(a2 + c2) / np.sqrt(m * (c2 + (1.0 - rho) * a2) + m * m * rho * a2)
 
