@@ -14,8 +14,8 @@
     the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene.
 
 Every level of a block runs on the same generated input: the slow levels (Python simulator,
-per-beat) on its first frames (a prefix), the golden model and the fast co-simulations on all
-of it. Times are medians of ``repeat`` runs; simulator rows are wall times of the simulator
+per-beat, Icarus fast) on its first frames or words (a prefix), the golden model and the fast
+Verilator co-simulation on all of it. Times are medians of ``repeat`` runs; simulator rows are wall times of the simulator
 run (start-up and stimulus load included, build excluded). Every simulator row is compared
 with the golden model bit for bit in every repeat: ``accuracy`` is ``bit-exact`` or the
 number of mismatching output samples (worst repeat). Scene rows report their error against
@@ -52,7 +52,7 @@ __all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "run", "describe_machine", "fo
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
 FLAT = Path(__file__).resolve().parents[1] / "scenes" / "flat_snr_sweep_96.toml"
-_UNIT_ABBR = {"pixel": "px", "word": "word", "lane": "lane", "line": "line"}
+_UNIT_ABBR = {"pixel": "px", "word": "word", "lane": "lane", "line": "line", "beat": "beat"}
 
 
 def _amount(n, unit):
@@ -68,7 +68,8 @@ class StreamWork:
     ``golden(inputs, params)`` runs the golden model and returns the arrays the block's
     ``to_beats`` takes; ``count(inputs)`` is the number of units (pixels, words) of the
     input. ``sizes`` / ``quick`` give the items per level kind (``fast`` = the whole input,
-    also the golden model's; ``beat`` and ``pysim`` = the prefix those levels run).
+    also the golden model's; ``beat`` and ``pysim`` = the prefix those levels run; a key
+    ``"<sim> <mode>"`` overrides the size for one simulator, e.g. ``"icarus fast"``).
     """
 
     name: str
@@ -170,9 +171,9 @@ def _size(arr_key, per=1):
     return lambda inp: int(inp[arr_key].size // per)
 
 
-_PX = {"pysim": 1, "beat": 3, "fast": 64}
+_PX = {"pysim": 1, "beat": 3, "fast": 64, "icarus fast": 16}
 _PX_QUICK = {"pysim": 1, "beat": 1, "fast": 4}
-_WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000}
+_WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000, "icarus fast": 60_000}
 _WORDS_QUICK = {"pysim": 1000, "beat": 2000, "fast": 20_000}
 
 #: The stream blocks' benchmarks, in table order.
@@ -183,14 +184,16 @@ STREAM_WORKS = (
     StreamWork("tdi", "tdi", {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
                "pixel", "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
                _frames({"frames": (4, 256)}), _tdi_golden, _size("frames"),
-               {"pysim": 6, "beat": 12, "fast": 300}, {"pysim": 5, "beat": 5, "fast": 20}),
+               {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60},
+               {"pysim": 5, "beat": 5, "fast": 20}),
     StreamWork("nuc", "nuc", {}, "pixel", "frames of 1280 x 4, 12-bit, gain Q2.14",
                _nuc_make, _nuc_golden, _size("x"), _PX, _PX_QUICK),
     StreamWork("hdr", "hdr", {}, "pixel", "frames of 1280 x 4, 12-bit HG/LG light ramp",
                _hdr_make, _hdr_golden, _size("hg"), _PX, _PX_QUICK),
     StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12}, "pixel",
                "frames of 1280 x 8, 12-bit", _frames({"frames": (8, 1280)}),
-               _median3_golden, _size("frames"), {"pysim": 1, "beat": 2, "fast": 32},
+               _median3_golden, _size("frames"), {"pysim": 1, "beat": 2, "fast": 32,
+                                                  "icarus fast": 8},
                {"pysim": 1, "beat": 1, "fast": 2}),
     StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
                "random 64-bit words", _words, _enc_golden, _size("data"), _WORDS,
@@ -284,7 +287,7 @@ def _stream_rows(w, *, sims, repeat, quick, stalls, build, pysim=True):
     for sim in sims:
         first = None
         for mode in ("beat", "fast"):
-            stim, exp, n = beats(sizes[mode])
+            stim, exp, n = beats(sizes.get(f"{sim} {mode}", sizes[mode]))
             res = [cosim.run_stream(w.block, params, stim, n_out=len(exp), sim=sim, mode=mode,
                                     seed=k + 1, **kw) for k in range(repeat)]
             first = res[0].build_time if first is None else first
@@ -309,9 +312,18 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
     cycles = model.training_words(10, n_check, 8) + 8
     t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
     name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
-    rows = [_row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0),
-            _na(name, "pysim", "lane", "no stream ports: own HDL testbench")]
     params = blocks.get("lvds").resolve({"phy": "none"})
+    rows = [_row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
+    # the Python simulator trains the first group of lanes (a prefix of the same link)
+    k = params["lanes"]
+    part = model.Link(link.lanes[:k])
+    gold_k = model.run(part, cycles=cycles, n_check=n_check)
+    res = [_lvds_pysim(part, cycles, n_check, params) for _ in range(repeat)]
+    bad = max(len(set(ev) ^ set(gold_k.events)) for ev, _ in res)
+    rows.append(_row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
+                     input=f"{k} lanes, training (n_check {n_check})",
+                     accuracy="bit-exact" if bad == 0 else f"{bad} status events differ",
+                     mismatches=bad))
 
     def sources():
         top = blocks.get("lvds").build(params)
@@ -331,35 +343,93 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
     return rows
 
 
+def _lvds_pysim(link, cycles, n_check, params):
+    """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
+    Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
+    from amaranth.sim import Simulator
+
+    from .hdl.lvds import LvdsRx
+    from .model import lvds as model
+    n, w = len(link.lanes), link.word_bits
+    dut = LvdsRx(lanes=n, word_bits=w, settle=params["settle"], min_run=params["min_run"],
+                 pick=params["pick"])
+    events = []
+
+    async def bench(ctx):
+        for port, v in (("train_word", link.train_word), ("sync_word", link.sync_word),
+                        ("n_check", n_check), ("line_words", link.line_words)):
+            ctx.set(getattr(dut, port), v)
+        tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
+        for k in range(cycles):
+            ctx.set(dut.lane_raw, sum(int(model.raw_words(link, i, tap2[i], k)) << (i * w)
+                                      for i in range(n)))
+            ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
+            lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
+            sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
+            for i in range(n):
+                st = ((lk >> i) & 1, (er >> i) & 1)
+                if st != prev[i]:
+                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
+                                   (rn >> 6 * i) & 63))
+                    prev[i] = st
+            await ctx.tick()
+            for i in range(n):      # the tap a load selects reaches the sampler 2 words later
+                tap2[i] = tapq[i]
+                if (ld >> i) & 1:
+                    tapq[i] = (tap >> 5 * i) & 31
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    t0 = time.perf_counter()
+    sim.run()
+    return events, time.perf_counter() - t0
+
+
 # ------------------------------------------------------------------------------ ddr
+def _ddr_names():
+    return [b for b in blocks.names() if "ddr" in b.split("_")]
+
+
 def _ddr_rows(*, sims, repeat, quick, stalls, build):
-    """The DDR reader/writer blocks once they are registered (``ddr*`` in the registry)."""
-    names = [b for b in blocks.names() if b.startswith("ddr")]
+    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) once they are there."""
+    names = _ddr_names()
     if not names:
-        return [_na("ddr", "golden", "word", "not available: no ddr block registered yet")]
+        return [_na("ddr", "golden", "pixel", "not available: no ddr block registered yet")]
     rows = []
     for b in names:
         blk = blocks.get(b)
-        if blk.to_beats is None:
-            rows.append(_na(b, "golden", "word", "not available: no stream co-simulation"))
-            continue
-        case = next((c for c in blk.cases() if "fast-only" not in c.tags), None)
+        case = _largest_case(blk, 2000 if quick else 20_000)
         if case is None:
-            rows.append(_na(b, "golden", "word", "not available: no golden case"))
+            rows.append(_na(b, "golden", "pixel", "not available: no stream golden case"))
             continue
         rows += _case_rows(blk, case, sims=sims, repeat=repeat, stalls=stalls, build=build)
     return rows
 
 
+def _largest_case(blk, max_beats):
+    """The golden case with the most stimulus beats up to ``max_beats`` (per-beat budget)."""
+    if blk.to_beats is None:
+        return None
+    best = (0, None)
+    for c in blk.cases():
+        p = blk.resolve(c.params)
+        n = len(blk.to_beats(c.make(p, np.random.default_rng(c.seed)), p)[0])
+        if best[0] < n <= max_beats:
+            best = (n, c)
+    return best[1]
+
+
 def _case_rows(blk, case, **kw):
-    """Benchmark a block on one of its golden cases (all levels on the whole case)."""
+    """Every level on one golden case of a block (golden time = case generation + model)."""
     params = blk.resolve(case.params)
-    make = lambda: case.make(params, np.random.default_rng(case.seed))  # noqa: E731
-    n = len(blk.to_beats(make(), params)[0])
-    w = StreamWork(blk.name, blk.name, case.params, "word", f"golden case {case.name}",
-                   lambda rng, k: {"_": np.zeros(k)}, lambda inp, p: make(),
-                   lambda inp: n, {"pysim": 1, "beat": 1, "fast": 1},
-                   {"pysim": 1, "beat": 1, "fast": 1})
+    arrays = case.make(params, np.random.default_rng(case.seed))
+    n = len(blk.to_beats(arrays, params)[0])
+    one = {"pysim": 1, "beat": 1, "fast": 1}
+    w = StreamWork(blk.name, blk.name, case.params, "beat", f"golden case {case.name}",
+                   lambda rng, k: {"_": np.zeros(k)},
+                   lambda inp, p: case.make(p, np.random.default_rng(case.seed)),
+                   lambda inp: n, one, one)
     return _stream_rows(w, quick=False, **kw)
 
 
@@ -521,7 +591,8 @@ def _cells(r):
             "x_ref": _ratio(r["x_ref"]),
             "x_beat": "" if r["x_beat"] is None else f"{r['x_beat']:.1f}",
             "accuracy": r["accuracy"] or "", "note": r["note"],
-            "build_s": "" if r["build_s"] is None else f"{r['build_s']:.1f}"}
+            "build_s": "" if r["build_s"] is None else
+            f"{r['build_s']:.{1 if r['build_s'] >= 1 else 2}f}"}
 
 
 def format_table(rows, *, markdown=False):

@@ -90,10 +90,11 @@ def test_a_wrong_golden_model_is_counted_not_passed(monkeypatch, tmp_path, capsy
     assert "3 mismatching" in capsys.readouterr().out
 
 
-def test_scene_and_ddr_rows(tmp_path, capsys):
-    code, doc, png, out = _bench(tmp_path, capsys, "scene", "ddr", "--sims", "none")
+def test_scene_rows(tmp_path, capsys):
+    code, doc, png, out = _bench(tmp_path, capsys, "scene", "--sims", "none")
     assert code == 0
     rows = {r["level"]: r for r in doc["rows"]}
+    assert list(rows) == ["scene fast", "scene auto", "scene exact"]
     assert rows["scene exact"]["x_ref"] == 1.0
     assert rows["scene exact"]["accuracy"].startswith("reference; other seed: PSNR")
     for fid in ("scene fast", "scene auto"):
@@ -102,11 +103,22 @@ def test_scene_and_ddr_rows(tmp_path, capsys):
         assert psnr > 60 and abs(snr) < 0.5, acc        # fast agrees with exact in noise
         assert rows[fid]["x_ref"] > 10
         assert "x real time" in rows[fid]["note"]
-    ddr = [r for r in doc["rows"] if r["block"].startswith("ddr")]
-    if not any(n.startswith("ddr") for n in bench.blocks.names()):
-        assert len(ddr) == 1 and ddr[0]["accuracy"] == "n/a"
-        assert "not available" in ddr[0]["note"]
     _check_png(png)
+
+
+def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
+    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    assert main(["bench", "ddr", "--png", "none"]) == 0
+    out = capsys.readouterr().out
+    row = next(ln for ln in out.splitlines() if ln.startswith("ddr "))
+    assert "n/a" in row and "not available: no ddr block registered yet" in row
+
+
+def test_ddr_blocks_are_found_in_the_registry():
+    names = bench._ddr_names()
+    assert all("ddr" in n.split("_") for n in names)
+    assert set(names) == {n for n in bench.blocks.names() if n == "ddr" or
+                          n.endswith("_ddr") or n.startswith("ddr_")}
 
 
 @pytest.mark.parametrize("args, msg", [
@@ -140,5 +152,6 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
     assert code == 0
     got = {r["level"]: r for r in doc["rows"]}
     assert got["verilator fast"]["accuracy"] == got["icarus fast"]["accuracy"] == "bit-exact"
-    assert got["pysim"]["accuracy"] == "n/a"
+    assert got["pysim"]["accuracy"] == "bit-exact" and got["pysim"]["units"] == 8
+    assert got["verilator beat"]["accuracy"] == "n/a"
     assert np.isclose(got["golden"]["x_ref"], 1.0)
