@@ -121,6 +121,18 @@ def test_ddr_blocks_are_found_in_the_registry():
                           n.endswith("_ddr") or n.startswith("ddr_")}
 
 
+def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
+    def broken(**kw):
+        raise RuntimeError("simulator exploded")
+    monkeypatch.setitem(bench._RUNNERS, "scene", broken)
+    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    assert main(["bench", "ddr", "scene", "--png", "none", "--sims", "none"]) == 1
+    cap = capsys.readouterr()
+    row = next(ln for ln in cap.out.splitlines() if ln.startswith("scene "))
+    assert "error" in row and "RuntimeError: simulator exploded" in row
+    assert cap.err.endswith("bench: 1 row(s) not bit-exact or failed: scene error\n")
+
+
 @pytest.mark.parametrize("args, msg", [
     (["nope"], "unknown benchmark 'nope'; valid: cds, tdi, nuc, hdr, median3, secded, lvds, "
                "ddr, scene"),

@@ -80,5 +80,8 @@ def _run(args):
             Path(args.json).parent.mkdir(parents=True, exist_ok=True)
             Path(args.json).write_text(text + "\n")
             print(f"wrote {args.json}", file=log)
-    bad = [r for r in rows if r["mismatches"]]
+    bad = [r for r in rows if r["mismatches"] or r["accuracy"] == "error"]
+    if bad:
+        print(f"bench: {len(bad)} row(s) not bit-exact or failed: "
+              + ", ".join(f"{r['block']} {r['level']}" for r in bad), file=sys.stderr)
     return 1 if bad else 0
