@@ -5,9 +5,18 @@ Python, to check it before any Verilog is generated and to read its plain status
 """
 
 import numpy as np
+from amaranth.lib import data as _data
 from amaranth.sim import Simulator
 
-__all__ = ["run_stream_component"]
+__all__ = ["run_stream_component", "probe_latency"]
+
+
+def _elements(payload_data):
+    """Element count of a stream's data field: its ArrayLayout length, or None for a plain
+    value."""
+    if isinstance(payload_data, _data.View) and isinstance(payload_data.shape(), _data.ArrayLayout):
+        return payload_data.shape().length
+    return None
 
 
 def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, timeout=1e-3,
@@ -52,13 +61,13 @@ def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, 
 
     async def monitor(ctx):
         o = dut.o_stream
-        n_o = len(o.payload.data) if hasattr(o.payload.data, "__len__") else 1
+        n_o = _elements(o.payload.data)
         cycles = 0
         async for _, _, valid, ready, data, first, last in ctx.tick().sample(
                 o.valid, o.ready, o.payload.data, o.payload.first, o.payload.last):
             cycles += 1
             if valid and ready:
-                row = [int(data[e]) for e in range(n_o)] if n_o > 1 else [int(data)]
+                row = [int(data)] if n_o is None else [int(data[e]) for e in range(n_o)]
                 out.append((row, bool(first), bool(last)))
             if len(out) >= n_out:
                 break
@@ -73,3 +82,30 @@ def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, 
     sim.add_testbench(monitor)
     sim.run_until(timeout)
     return out, lat, final
+
+
+def probe_latency(dut, data, *, cycles=8, first=True):
+    """Offer one beat (elements ``data``, tuser ``first``) with the sink always ready, and
+    return ``[(o_stream.valid, element 0 of o_stream data)]`` for the ``cycles`` cycles after
+    the accepting edge: a block of latency L shows ``valid`` at index ``L - 1``."""
+    seen = []
+
+    async def bench(ctx):
+        ctx.set(dut.o_stream.ready, 1)
+        for e, v in enumerate(data):
+            ctx.set(dut.i_stream.payload.data[e], int(v))
+        ctx.set(dut.i_stream.payload.first, first)
+        ctx.set(dut.i_stream.valid, 1)
+        await ctx.tick()  # accepted on this edge
+        ctx.set(dut.i_stream.valid, 0)
+        o = dut.o_stream.payload.data
+        d = o if _elements(o) is None else o[0]
+        for _ in range(cycles):
+            seen.append((ctx.get(dut.o_stream.valid), ctx.get(d)))
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    return seen

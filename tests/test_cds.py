@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 from amaranth.hdl import Fragment
-from amaranth.sim import Simulator
 
+from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds
+from tdicam.streamsim import run_stream_component
 
 
 def test_model_matches_definition():
@@ -68,48 +69,13 @@ def test_amaranth_sim_matches_model_with_stalls():
     sig = rng.integers(0, 4096, n)
     rst = rng.integers(0, 4096, n)
     want = cds(sig, rst, pixel_bits=12).tolist()
-    got, first_valid = [], []
-
-    async def source(ctx):
-        for k in range(n):
-            ctx.set(dut.i_stream.payload.data[0], int(sig[k]))
-            ctx.set(dut.i_stream.payload.data[1], int(rst[k]))
-            ctx.set(dut.i_stream.payload.first, k == 0)
-            ctx.set(dut.i_stream.payload.last, k % 10 == 9)
-            ctx.set(dut.i_stream.valid, 1)
-            await ctx.tick().until(dut.i_stream.ready)
-            if k == 0:
-                first_valid.append(ctx.get(dut.o_stream.valid))
-            ctx.set(dut.i_stream.valid, 0)
-            for _ in range(int(rng.integers(0, 3))):
-                await ctx.tick()
-
-    async def sink(ctx):
-        while len(got) < n:
-            ctx.set(dut.o_stream.ready, int(rng.random() < 0.6))
-            await ctx.tick()
-            # sampled values are those present before the edge
-        ctx.set(dut.o_stream.ready, 0)
-
-    async def monitor(ctx):
-        async for clk_edge, rst_v, valid, ready, data, first, last in ctx.tick().sample(
-                dut.o_stream.valid, dut.o_stream.ready, dut.o_stream.payload.data,
-                dut.o_stream.payload.first, dut.o_stream.payload.last):
-            if valid and ready:
-                got.append((data, first, last))
-            if len(got) == n:
-                break
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(source)
-    sim.add_testbench(sink)
-    sim.add_testbench(monitor)
-    sim.run_until(1e-3)
-    assert [g[0] for g in got] == want
-    assert [g[1] for g in got] == [k == 0 for k in range(n)]
-    assert [g[2] for g in got] == [k % 10 == 9 for k in range(n)]
-    assert first_valid == [1]  # output valid exactly `latency` = 1 cycle after acceptance
+    k = np.arange(n)
+    stim = Beats(np.stack([sig, rst], axis=1), k == 0, k % 10 == 9)
+    got, lat, _ = run_stream_component(dut, stim, n, seed=1)
+    assert [g[0][0] for g in got] == want
+    assert [g[1] for g in got] == (k == 0).tolist()
+    assert [g[2] for g in got] == (k % 10 == 9).tolist()
+    assert lat == [dut.latency] == [1]
 
 
 def test_amaranth_pysim_of_verilog_top_matches_golden_cases():

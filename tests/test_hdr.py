@@ -17,6 +17,7 @@ from tdicam.cosim.pysim import run_pysim
 from tdicam.errors import TdicamError
 from tdicam.hdl.hdr import Hdr
 from tdicam.model.hdr import hdr, hdr_config
+from tdicam.streamsim import probe_latency
 
 MULTI = dict(gain_pairs="4.9:0.8,4.9:1.6,2.45:0.8")
 
@@ -275,23 +276,7 @@ def test_frame_start_stall():
 
 def test_latency_is_four_cycles():
     dut = Hdr()
-    seen = []
-
-    async def bench(ctx):
-        ctx.set(dut.o_stream.ready, 1)
-        ctx.set(dut.i_stream.payload.data[0], 1234)
-        ctx.set(dut.i_stream.payload.first, 1)
-        ctx.set(dut.i_stream.valid, 1)
-        await ctx.tick()  # accepted on this edge
-        ctx.set(dut.i_stream.valid, 0)
-        for _ in range(5):
-            seen.append((ctx.get(dut.o_stream.valid), ctx.get(dut.o_stream.payload.data)))
-            await ctx.tick()
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(bench)
-    sim.run()
+    seen = probe_latency(dut, [1234], cycles=5)
     assert [v for v, _ in seen] == [0, 0, 0, 1, 0] and seen[3][1] == 1234
     assert dut.latency == 4
 

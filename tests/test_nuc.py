@@ -6,14 +6,15 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from amaranth.hdl import Fragment
-from amaranth.sim import Simulator
 
 from tdicam import blocks, golden
 from tdicam.cosim import compare
+from tdicam.cosim.codec import Beats
 from tdicam.cosim.pysim import run_pysim
 from tdicam.errors import TdicamError
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat, identity_coeffs, nuc
+from tdicam.streamsim import probe_latency, run_stream_component
 
 FORMATS = [
     dict(pixel_bits=12),
@@ -176,50 +177,26 @@ def test_component_params_and_latency():
 
 
 def _run_core(dut, x, g, o, *, pad_garbage, rng, p_valid=0.7, p_ready=0.6):
-    """Async Amaranth testbench with random valid/ready; returns the output transfers."""
+    """Random valid/ready in the Amaranth simulator; returns the output transfers. With
+    ``pad_garbage`` the element bits above each field's width carry random junk."""
     n = len(x)
     w = dut.elem_bits
-    got = []
 
     def garbage(bits):
-        return int(rng.integers(0, 1 << (w - bits))) << bits if pad_garbage and w > bits else 0
+        if not pad_garbage or w <= bits:
+            return np.zeros(n, np.uint64)
+        return rng.integers(0, 1 << (w - bits), n).astype(np.uint64) << np.uint64(bits)
 
-    async def source(ctx):
-        for k in range(n):
-            while rng.random() > p_valid:
-                await ctx.tick()
-            ctx.set(dut.i_stream.payload.data[0], int(x[k]) | garbage(dut.pixel_bits))
-            ctx.set(dut.i_stream.payload.data[1], int(g[k]) | garbage(dut.gain_bits))
-            ctx.set(dut.i_stream.payload.data[2],
-                    (int(o[k]) & ((1 << dut.offset_bits) - 1)) | garbage(dut.offset_bits))
-            ctx.set(dut.i_stream.payload.first, k == 0)
-            ctx.set(dut.i_stream.payload.last, k % 7 == 6)
-            ctx.set(dut.i_stream.valid, 1)
-            await ctx.tick().until(dut.i_stream.ready)
-            ctx.set(dut.i_stream.valid, 0)
-
-    async def sink(ctx):
-        while len(got) < n:
-            ready = rng.random() < p_ready
-            ctx.set(dut.o_stream.ready, ready)
-            await ctx.tick()
-
-    async def monitor(ctx):
-        async for _, _, valid, ready, data, first, last in ctx.tick().sample(
-                dut.o_stream.valid, dut.o_stream.ready, dut.o_stream.payload.data,
-                dut.o_stream.payload.first, dut.o_stream.payload.last):
-            if valid and ready:
-                got.append((data, first, last))
-            if len(got) == n:
-                break
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(source)
-    sim.add_testbench(sink)
-    sim.add_testbench(monitor)
-    sim.run_until(1e-8 * (40 * n + 200))
-    return got
+    off = np.asarray(o, np.int64) & ((1 << dut.offset_bits) - 1)
+    data = np.stack([np.asarray(x, np.uint64) | garbage(dut.pixel_bits),
+                     np.asarray(g, np.uint64) | garbage(dut.gain_bits),
+                     off.astype(np.uint64) | garbage(dut.offset_bits)], axis=1)
+    k = np.arange(n)
+    got, _, _ = run_stream_component(dut, Beats(data, k == 0, k % 7 == 6), n,
+                                     seed=int(rng.integers(1 << 31)), p_valid=p_valid,
+                                     p_ready=p_ready, timeout=1e-8 * (40 * n + 200),
+                                     latency_from=None)
+    return [(row[0], first, last) for row, first, last in got]
 
 
 @pytest.mark.parametrize("p", [FORMATS[0], FORMATS[2], FORMATS[3]])
@@ -240,23 +217,7 @@ def test_amaranth_sim_with_stalls_and_padding_garbage(p):
 
 def test_latency_is_three_cycles_at_full_rate():
     dut = Nuc()
-    seen = []
-
-    async def bench(ctx):
-        ctx.set(dut.o_stream.ready, 1)
-        ctx.set(dut.i_stream.payload.data[0], 1000)
-        ctx.set(dut.i_stream.payload.data[1], DEFAULT_FORMAT.gain_one)
-        ctx.set(dut.i_stream.valid, 1)
-        await ctx.tick()  # accepted on this edge
-        ctx.set(dut.i_stream.valid, 0)
-        for _ in range(6):
-            seen.append((ctx.get(dut.o_stream.valid), ctx.get(dut.o_stream.payload.data)))
-            await ctx.tick()
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(bench)
-    sim.run()
+    seen = probe_latency(dut, [1000, DEFAULT_FORMAT.gain_one], cycles=6)
     # output valid `latency` edges after the accepting edge, for exactly one cycle
     assert [v for v, _ in seen] == [0, 0, 1, 0, 0, 0]
     assert seen[2][1] == 1000
