@@ -22,7 +22,7 @@ from amaranth.lib import memory, wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
-from tdicam.model.lvds import LINK_LATENCY, MONITOR_WORDS, N_TAPS, VERDICT_WORDS
+from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
            "RUN_BITS"]

@@ -59,7 +59,6 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 from tdicam.model import optics as _optics
-from tdicam.model import plan as _plan
 from tdicam.model import sensor as _sensor
 from tdicam.model import targets as _targets
 
@@ -487,7 +486,6 @@ def _core(cfg, on, lines, col0, ncols, timer, progress=None, keep_frames=None):
     bits = sen.bits
     gains = cfg.gains
     digital = sc.tdi.domain == "digital"
-    direction = sc.tdi.direction
     t0 = time.perf_counter()
     target_img = rend.ideal(np.arange(lines))
     timer.add("render", time.perf_counter() - t0)
@@ -1216,7 +1214,7 @@ def _impacts(cfg, res):
     col0 = (sc.sensor.columns - ncols) // 2
     base = _core(cfg, cfg.on, lines, col0, ncols, _Timer())[3].astype(np.float64)
     peak = float(res.output_full_scale)
-    skip = {"quantization", "tdi", "aperture", "shot_noise"} if False else {"tdi"}
+    skip = {"tdi"}
     for r in res.effects:
         if not r.ran or r.name in skip:
             continue

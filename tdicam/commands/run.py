@@ -222,13 +222,11 @@ def _figures(out_dir, scene, rows, main):
     from tdicam.model import plan as P
     files = []
     flat = [r for r in rows if "snr" in r and r["snr"]["gain_db"] is not None]
-    stages = sorted({r["stages"] for r in flat})
     if scene.target.kind == "flat" and flat:
         fig, ax = plt.subplots(figsize=(6, 4))
         ms = np.array([r["stages"] for r in flat])
         ax.plot(ms, [r["snr"]["gain_db"] for r in flat], "o", label=f"measured ({main.fidelity})")
         mm = np.arange(1, max(ms) + 1)
-        pr = [r["snr"] for r in flat][0]
         from tdicam.measure import snr_prediction
         cds = any(e["name"] == "reset_frames" and e["ran"] for e in
                   [x.to_dict() for x in main.effects])
@@ -247,7 +245,6 @@ def _figures(out_dir, scene, rows, main):
         fig.savefig(out_dir / "snr_vs_stages.png", dpi=110)
         plt.close(fig)
         files.append("snr_vs_stages.png")
-        del pr, stages
     bars = [r for r in rows if "mtf" in r]
     if bars:
         fig, ax = plt.subplots(figsize=(6, 4))
@@ -287,7 +284,6 @@ def _cosim(scene, res, crop):
     """Run each chosen block that has a registered stream block on the crop through the
     simulator and compare with its golden model on the same input."""
     from tdicam import blocks
-    from tdicam.cosim import compare, run_stream
     rt = scene.run.rtl
     arrays = res.frames_crop or {}
     out = {"simulator": rt.simulator, "crop": list(crop), "blocks": []}

@@ -62,9 +62,9 @@ def testbench(top, *, name="lvds"):
     conns = []
     for pname, flow, width in _ports(top):
         if pname == "lane_raw":
-            conns.append(f"    .lane_raw(lane_raw),")
+            conns.append("    .lane_raw(lane_raw),")
         elif pname == "retrain":
-            conns.append(f"    .retrain(retrain),")
+            conns.append("    .retrain(retrain),")
         elif pname in ("train_word", "sync_word", "n_check", "line_words"):
             conns.append(f"    .{pname}({pname}),")
         else:
