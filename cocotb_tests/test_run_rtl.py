@@ -1,5 +1,5 @@
 """``tdicam run`` with ``[run.rtl]``: the median3 and tdi blocks of a scene's chain are
-co-simulated on a crop (Verilator) against their golden models on the same crop input, and
+co-simulated on a crop (both simulators) against their golden models on the same crop input, and
 the check can fail (a corrupted expected output gives mismatches)."""
 
 from pathlib import Path
@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam import blocks, engine
+from tdicam import blocks, cosim, engine
 from tdicam.commands.run import _cosim_block, run_scene
 from tdicam.scene import load_scene
 
@@ -15,21 +15,22 @@ ROOT = Path(__file__).resolve().parents[1]
 CROP = [8, 2, 16, 6]                     # x0, y0, width, height of the output
 
 
-def _scene(pipeline):
+def _scene(pipeline, simulator):
     return load_scene(ROOT / "scenes" / "orbit_600km_1m_96.toml", overrides={
         "sensor": {"columns": 64}, "tdi": {"stages": 4}, "pipeline": {"blocks": pipeline},
         "run": {"lines": 16, "fidelity": "exact",
-                "rtl": {"crop": CROP, "simulator": "verilator"}}})
+                "rtl": {"crop": CROP, "simulator": simulator}}})
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
+@pytest.fixture(scope="module", params=cosim.SIMULATORS)
+def report(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("rtl")
-    return run_scene(_scene(["tdi", "median3"]), out, impact=False, progress=False), out
+    sc = _scene(["tdi", "median3"], request.param)
+    return run_scene(sc, out, impact=False, progress=False), out, request.param
 
 
 def test_run_cosimulates_tdi_and_median3_on_the_crop(report):
-    rep, out = report
+    rep, out, simulator = report
     got = {b["block"]: b for b in rep["rtl"]["blocks"]}
     assert set(got) == {"tdi", "median3"}
     for name, b in got.items():
@@ -39,13 +40,13 @@ def test_run_cosimulates_tdi_and_median3_on_the_crop(report):
         assert b["pixels_compared"] == CROP[2] * CROP[3]        # the whole output crop
     md = (out / "report.md").read_text()
     assert "## RTL co-simulation" in md and "| tdi | ran | 96 | 0 |" in md
-    assert "RTL median3 on verilator: 96 pixels compared, 0 mismatches" in rep["summary"]
+    assert f"RTL median3 on {simulator}: 96 pixels compared, 0 mismatches" in rep["summary"]
 
 
 @pytest.mark.parametrize("name", ["tdi", "median3"])
 def test_corrupted_expected_gives_mismatches(report, name):
-    # same scene, same crop: the Verilator builds of the module fixture are reused
-    sc = _scene(["tdi", "median3"])
+    # same scene, same crop: the simulator builds of the module fixture are reused
+    sc = _scene(["tdi", "median3"], report[2])
     x0, y0, w, h = CROP
     res = engine.simulate(sc, impact=False, keep_crop=(y0, h, x0, w))
 
