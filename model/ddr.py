@@ -1,0 +1,448 @@
+"""DDR line/frame buffers behind a MIG-style user interface (SPEC 3.8, seed 002 §4.2).
+
+Golden models and configuration checks for :mod:`tdicam.hdl.ddr`.
+
+Interface and addresses
+-----------------------
+The user interface is AMD MIG's native UI: ``app_cmd`` (0 write, 1 read), ``app_addr``,
+``app_en``/``app_rdy``; ``app_wdf_data`` (256 bit), ``app_wdf_wren``, ``app_wdf_end``,
+``app_wdf_rdy``; ``app_rd_data`` (256 bit), ``app_rd_data_valid`` (no backpressure).
+``app_addr`` counts in the controller's address unit, **one 32-bit column** as in seed 002
+Table 2 (two x16 DDR3 chips, BL8): a 256-bit UI word spans :data:`ADDR_PER_WORD` = 8
+address steps, so word addresses are 0, 8, 16, ... and must be multiples of 8. ``app_addr``
+is :data:`ADDR_BITS` = 28 bits wide (2**28 units of 4 bytes = 1 GiB: two 4 Gbit x16 chips,
+:data:`CAPACITY_BYTES`).
+
+Packing (seed 002 Table 2)
+--------------------------
+A line holds ``width`` pixels of ``channels`` channels each, ``pixel_bits`` per value. The
+values are taken in the order (pixel, channel) — channel 1..C of pixel 1, then of pixel 2,
+... — and ``pixels_per_word`` (24) of them fill one 256-bit word, so with the paper's 72
+channels word 0 holds channels 1-24 of pixel 1, word 1 channels 25-48, word 2 channels
+49-72, word 3 channels 1-24 of pixel 2. Within a word the values are concatenated as the
+table writes them, ``{v1, v2, ..., v24}``: the first value in the most significant used
+bits, ``v1`` at bits ``[24*10-1 : 23*10]`` = [239:230], ``v24`` at [9:0]; the 16 bits above
+the 240 used are zero. A line's last word is zero-padded when ``width * channels`` is not a
+multiple of ``pixels_per_word``. Line ``y`` starts at ``base + y * line_stride`` (address
+units; Table 2 uses 4096 = 512 words).
+
+On the Amaranth/AXI4-Stream side a beat carries ``elements`` values (element 0 in the least
+significant bits of tdata): the channels of one pixel, or several single-channel pixels;
+beats follow the same (pixel, channel) order.
+
+Memory model
+------------
+:class:`MigSim` is the cycle-stepped Python model of the controller (the HDL model is
+:class:`tdicam.hdl.ddr.MigModel`; both draw their stalls from the same xorshift32 sequence,
+so their ready patterns are identical cycle for cycle): in-order reads with a latency drawn
+from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the end of every
+``refresh_period`` cycles with ``app_rdy`` low, random drops of ``app_rdy`` and
+``app_wdf_rdy`` (probability ``drop / 256`` each, independent), write data that must be
+accepted before its write command (MIG allows data first), capacity and alignment checks.
+An address outside the memory or not word aligned raises :class:`TdicamError` naming it.
+"""
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from tdicam.errors import TdicamError, check_range
+
+__all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_BITS",
+           "PIXELS_PER_WORD", "PAPER_CHANNELS", "PAPER_LINE_STRIDE", "DEFAULT_STALLS",
+           "LineLayout", "pack_words", "unpack_words", "pack_lines", "unpack_lines",
+           "words_to_ints", "ints_to_words", "psums_per_word", "check_capacity",
+           "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check"]
+
+WORD_BITS = 256
+ADDR_PER_WORD = 8           # 32-bit address unit (seed 002 Table 2: 0~7, 8~15, ...)
+ADDR_BITS = 28
+CAPACITY_BYTES = 1 << 30    # 1 GiB
+PIXEL_BITS = 10
+PIXELS_PER_WORD = 24
+PAPER_CHANNELS = 72
+PAPER_LINE_STRIDE = 4096
+_LIMBS = WORD_BITS // 64
+
+#: Default stall pattern of the memory model: read latency 20..60 cycles, a 26-cycle refresh
+#: (tRFC 260 ns) every 780 cycles (tREFI 7.8 us) at 100 MHz, each ready dropped with
+#: probability 16/256 per cycle.
+DEFAULT_STALLS = {"lat_lo": 20, "lat_hi": 60, "refresh_period": 780, "refresh_cycles": 26,
+                  "drop": 16, "seed": 1}
+
+
+@dataclass(frozen=True)
+class LineLayout:
+    """Packing and addressing of one kind of line (see the module docstring).
+
+    Parameters
+    ----------
+    width : int
+        Pixels per line, >= 1.
+    channels : int
+        Values per pixel, >= 1 (72 in seed 002).
+    pixel_bits : int
+        Bits per value, 1..32.
+    pixels_per_word : int
+        Values per 256-bit word, 1 .. 256 // pixel_bits.
+    line_stride : int or None
+        Address units between line starts, a multiple of 8 and >= the line's words x 8;
+        None: the line's words x 8 rounded up to a power of two.
+    base : int
+        Address of line 0, a multiple of 8.
+    """
+
+    width: int
+    channels: int = 1
+    pixel_bits: int = PIXEL_BITS
+    pixels_per_word: int = PIXELS_PER_WORD
+    line_stride: int | None = None
+    base: int = 0
+
+    def __post_init__(self):
+        check_range("width", self.width, 1, None)
+        check_range("channels", self.channels, 1, None)
+        check_range("pixel_bits", self.pixel_bits, 1, 32)
+        check_range("pixels_per_word", self.pixels_per_word, 1, WORD_BITS // self.pixel_bits)
+        check_range("base", self.base, 0, None)
+        if self.base % ADDR_PER_WORD:
+            raise TdicamError(f"base = {self.base} is not a multiple of {ADDR_PER_WORD} "
+                              f"(one 256-bit word = {ADDR_PER_WORD} address units)")
+        need = self.words_per_line * ADDR_PER_WORD
+        if self.line_stride is None:
+            object.__setattr__(self, "line_stride", 1 << (need - 1).bit_length())
+        stride = check_range("line_stride", self.line_stride, 1, None)
+        if stride < need:
+            raise TdicamError(f"line_stride = {stride} is smaller than a line: "
+                              f"{self.words_per_line} words = {need} address units")
+        if stride % ADDR_PER_WORD:
+            raise TdicamError(f"line_stride = {stride} is not a multiple of {ADDR_PER_WORD} "
+                              f"(one 256-bit word = {ADDR_PER_WORD} address units)")
+
+    @property
+    def values_per_line(self):
+        return self.width * self.channels
+
+    @property
+    def words_per_line(self):
+        return -(-self.values_per_line // self.pixels_per_word)
+
+    def line_addr(self, y):
+        """Address of line ``y``'s first word."""
+        return self.base + int(y) * self.line_stride
+
+    def end_addr(self, lines):
+        """First address past ``lines`` lines (the last one counted to its last word)."""
+        if lines <= 0:
+            return self.base
+        return self.line_addr(lines - 1) + self.words_per_line * ADDR_PER_WORD
+
+
+def check_capacity(layout, lines, capacity_bytes=CAPACITY_BYTES, what="buffer"):
+    """Raise a one-line :class:`TdicamError` when ``lines`` lines do not fit the memory."""
+    units = capacity_bytes * 8 // (WORD_BITS // ADDR_PER_WORD)
+    end = layout.end_addr(lines)
+    if end > units or end > 1 << ADDR_BITS:
+        lim = min(units, 1 << ADDR_BITS)
+        raise TdicamError(f"address space too small: the {what} needs addresses up to "
+                          f"{end - 1} ({lines} lines x stride {layout.line_stride} from "
+                          f"{layout.base}), the memory has {lim} address units "
+                          f"({lim * 4 // (1 << 20)} MiB)")
+    return end
+
+
+def _bit_offsets(pixels_per_word, pixel_bits):
+    """Bit offset of value j of a word: ``(P - 1 - j) * B`` (first value most significant)."""
+    return [(pixels_per_word - 1 - j) * pixel_bits for j in range(pixels_per_word)]
+
+
+def pack_words(values, *, pixel_bits=PIXEL_BITS, pixels_per_word=PIXELS_PER_WORD):
+    """Pack a flat sequence of values into 256-bit words (zero-padded at the end).
+
+    Returns
+    -------
+    ndarray uint64, shape (n_words, 4)
+        Little-endian 64-bit limbs of each word (limb 0 = bits [63:0]).
+    """
+    v = np.asarray(values)
+    if v.size and (v.min() < 0 or int(v.max()) >> pixel_bits):
+        raise TdicamError(f"values outside 0..{(1 << pixel_bits) - 1}")
+    v = v.astype(np.uint64).ravel()
+    n = -(-v.size // pixels_per_word)
+    pad = np.zeros(n * pixels_per_word, np.uint64)
+    pad[:v.size] = v
+    pad = pad.reshape(n, pixels_per_word)
+    out = np.zeros((n, _LIMBS), np.uint64)
+    for j, off in enumerate(_bit_offsets(pixels_per_word, pixel_bits)):
+        limb, sh = divmod(off, 64)
+        out[:, limb] |= pad[:, j] << np.uint64(sh)
+        if sh + pixel_bits > 64:
+            out[:, limb + 1] |= pad[:, j] >> np.uint64(64 - sh)
+    return out
+
+
+def unpack_words(words, count=None, *, pixel_bits=PIXEL_BITS, pixels_per_word=PIXELS_PER_WORD):
+    """Inverse of :func:`pack_words`: the first ``count`` values (default all), uint64."""
+    w = np.asarray(words, np.uint64).reshape(-1, _LIMBS)
+    mask = np.uint64((1 << pixel_bits) - 1)
+    out = np.zeros((len(w), pixels_per_word), np.uint64)
+    for j, off in enumerate(_bit_offsets(pixels_per_word, pixel_bits)):
+        limb, sh = divmod(off, 64)
+        val = w[:, limb] >> np.uint64(sh)
+        if sh + pixel_bits > 64:
+            val |= w[:, limb + 1] << np.uint64(64 - sh)
+        out[:, j] = val & mask
+    out = out.ravel()
+    return out if count is None else out[:count]
+
+
+def pack_lines(frame, layout):
+    """Words of every line of ``frame`` (rows, width[, channels]): (rows, words_per_line, 4)."""
+    f = np.asarray(frame)
+    rows = f.shape[0]
+    flat = f.reshape(rows, -1)
+    if flat.shape[1] != layout.values_per_line:
+        raise TdicamError(f"frame lines have {flat.shape[1]} values, the layout "
+                          f"{layout.values_per_line}")
+    return np.stack([pack_words(line, pixel_bits=layout.pixel_bits,
+                                pixels_per_word=layout.pixels_per_word) for line in flat]) \
+        if rows else np.zeros((0, layout.words_per_line, _LIMBS), np.uint64)
+
+
+def unpack_lines(words, layout):
+    """Inverse of :func:`pack_lines`: (rows, width * channels) uint64."""
+    w = np.asarray(words, np.uint64)
+    return np.stack([unpack_words(line, layout.values_per_line, pixel_bits=layout.pixel_bits,
+                                  pixels_per_word=layout.pixels_per_word) for line in w]) \
+        if len(w) else np.zeros((0, layout.values_per_line), np.uint64)
+
+
+def words_to_ints(words):
+    """(n, 4) limbs -> list of Python ints (256-bit words)."""
+    w = np.asarray(words, np.uint64).reshape(-1, _LIMBS)
+    return [sum(int(x) << (64 * k) for k, x in enumerate(row)) for row in w]
+
+
+def ints_to_words(ints):
+    """List of 256-bit Python ints -> (n, 4) uint64 limbs."""
+    m = (1 << 64) - 1
+    return np.array([[(int(v) >> (64 * k)) & m for k in range(_LIMBS)] for v in ints],
+                    np.uint64).reshape(-1, _LIMBS)
+
+
+def psums_per_word(psum_bits, ppc=1):
+    """Partial sums per 256-bit word for TDI in DDR: ``floor(256 / psum_bits)`` rounded down
+    to a multiple of ``ppc`` (so a beat's pixels never straddle two words)."""
+    k = WORD_BITS // int(psum_bits)
+    k -= k % int(ppc)
+    if k < 1:
+        raise TdicamError(f"{psum_bits}-bit partial sums x ppc = {ppc} do not fit one "
+                          f"{WORD_BITS}-bit word")
+    return k
+
+
+# ---------------------------------------------------------------------------------------
+# memory model
+# ---------------------------------------------------------------------------------------
+
+def xorshift32(s):
+    """One step of the xorshift32 generator shared by :class:`MigSim` and the HDL model."""
+    s ^= (s << 13) & 0xFFFFFFFF
+    s ^= s >> 17
+    s ^= (s << 5) & 0xFFFFFFFF
+    return s
+
+
+def _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed):
+    check_range("lat_lo", lat_lo, 2, 1000)
+    check_range("lat_hi", lat_hi, lat_lo, 1000)
+    check_range("refresh_period", refresh_period, 1, 1 << 20)
+    check_range("refresh_cycles", refresh_cycles, 0, refresh_period - 1)
+    check_range("drop", drop, 0, 255)
+    check_range("seed", seed, 0, 0xFFFFFFFF)
+
+
+def stall_pattern(cycles, *, lat_lo=20, lat_hi=60, refresh_period=780, refresh_cycles=26,
+                  drop=16, seed=1):
+    """Per-cycle (app_rdy allowed, app_wdf_rdy allowed, read latency) of the stall pattern.
+
+    ``app_rdy`` is further low while the model's return queue is full and ``app_wdf_rdy``
+    while its write-data FIFO is full (not included here). Identical to the HDL model.
+    """
+    _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
+    s = (seed | 1) & 0xFFFFFFFF
+    a = np.zeros(cycles, bool)
+    w = np.zeros(cycles, bool)
+    lat = np.zeros(cycles, np.int64)
+    span = lat_hi - lat_lo + 1
+    for t in range(cycles):
+        refresh = (t % refresh_period) >= refresh_period - refresh_cycles
+        a[t] = not refresh and (s & 0xFF) >= drop
+        w[t] = ((s >> 8) & 0xFF) >= drop
+        lat[t] = lat_lo + ((((s >> 16) & 0xFFFF) * span) >> 16)
+        s = xorshift32(s)
+    return a, w, lat
+
+
+class MigSim:
+    """Cycle-stepped model of a MIG-style DDR3 controller's user interface.
+
+    Call :meth:`outputs` for the values the controller drives in the current cycle (they
+    depend on its state only), then :meth:`step` with what the user drove in that cycle.
+    Memory is a dict of 256-bit Python ints keyed by word address; unwritten words read 0.
+
+    Parameters
+    ----------
+    capacity_bytes : int
+        Memory size; addresses ``>= capacity_bytes / 4`` are out of range.
+    lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed
+        The stall pattern (:data:`DEFAULT_STALLS`).
+    wdf_depth, ret_depth : int
+        Write-data FIFO and read-return queue depths (``app_wdf_rdy``/``app_rdy`` low when
+        full).
+
+    Raises
+    ------
+    TdicamError
+        From :meth:`step`: an out-of-range or unaligned address, a write command without
+        write data accepted before it, ``app_wdf_end`` missing on a data beat.
+    """
+
+    WDF_DEPTH = 16
+    RET_DEPTH = 128
+
+    def __init__(self, *, capacity_bytes=CAPACITY_BYTES, lat_lo=20, lat_hi=60,
+                 refresh_period=780, refresh_cycles=26, drop=16, seed=1):
+        _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
+        self.units = min(capacity_bytes // 4, 1 << ADDR_BITS)
+        self.lat_lo, self.lat_hi = lat_lo, lat_hi
+        self.refresh_period, self.refresh_cycles = refresh_period, refresh_cycles
+        self.drop = drop
+        self.s = (seed | 1) & 0xFFFFFFFF
+        self.t = 0
+        self.mem = {}
+        self.wdf = deque()
+        self.ret = deque()          # (due cycle, data)
+        self.last_due = -1
+        self.stats = {"writes": 0, "reads": 0, "cycles": 0}
+
+    def outputs(self):
+        """dict: app_rdy, app_wdf_rdy, app_rd_data_valid, app_rd_data for this cycle."""
+        refresh = (self.t % self.refresh_period) >= self.refresh_period - self.refresh_cycles
+        rdy = (not refresh and (self.s & 0xFF) >= self.drop
+               and len(self.ret) < self.RET_DEPTH - 2)
+        wrdy = ((self.s >> 8) & 0xFF) >= self.drop and len(self.wdf) < self.WDF_DEPTH
+        valid = bool(self.ret) and self.ret[0][0] <= self.t
+        return {"app_rdy": rdy, "app_wdf_rdy": wrdy, "app_rd_data_valid": valid,
+                "app_rd_data": self.ret[0][1] if valid else 0}
+
+    def _addr(self, addr):
+        if addr % ADDR_PER_WORD or addr >= self.units:
+            raise TdicamError(f"DDR address {addr} is out of range or not word aligned "
+                              f"(valid: multiples of {ADDR_PER_WORD} below {self.units})")
+        return addr
+
+    def step(self, *, app_en=0, app_cmd=0, app_addr=0, app_wdf_wren=0, app_wdf_data=0,
+             app_wdf_end=1):
+        """Advance one clock edge with the user's signals of this cycle; returns the read
+        data delivered in this cycle (int) or None."""
+        o = self.outputs()
+        span = self.lat_hi - self.lat_lo + 1
+        lat = self.lat_lo + ((((self.s >> 16) & 0xFFFF) * span) >> 16)
+        out = None
+        if o["app_rd_data_valid"]:
+            out = self.ret.popleft()[1]
+        if app_en and o["app_rdy"]:
+            a = self._addr(int(app_addr))
+            if int(app_cmd) == 0:
+                if not self.wdf:
+                    raise TdicamError(f"DDR write command to {a} without write data "
+                                      "accepted before it")
+                self.mem[a] = self.wdf.popleft()
+                self.stats["writes"] += 1
+            elif int(app_cmd) == 1:
+                due = max(self.t + lat, self.last_due + 1)
+                self.last_due = due
+                self.ret.append((due, self.mem.get(a, 0)))
+                self.stats["reads"] += 1
+            else:
+                raise TdicamError(f"app_cmd = {int(app_cmd)} is not valid; valid: 0 (write), "
+                                  "1 (read)")
+        if app_wdf_wren and o["app_wdf_rdy"]:
+            if not app_wdf_end:
+                raise TdicamError("app_wdf_end low on a 256-bit data beat (one beat per "
+                                  "burst: it must be high with every app_wdf_wren)")
+            self.wdf.append(int(app_wdf_data))
+        self.s = xorshift32(self.s)
+        self.t += 1
+        self.stats["cycles"] += 1
+        return out
+
+    def read_word(self, addr):
+        return self.mem.get(self._addr(addr), 0)
+
+
+# ---------------------------------------------------------------------------------------
+# golden models of the users
+# ---------------------------------------------------------------------------------------
+
+def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
+    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.ddr.CdsDdr`).
+
+    ``frames`` (n, rows, width) with ``kinds[i]`` = 1 for a reset frame (stored, no output)
+    and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored
+    reset frame; before any reset frame the reset level is 0). Returns (k, rows, width).
+    """
+    from .cds import cds, pixel_dtype
+    out, reset = [], None
+    for fr, k in zip(frames, kinds):
+        if int(k):
+            reset = np.asarray(fr)
+        else:
+            r = np.zeros_like(fr) if reset is None else reset
+            out.append(cds(fr, r, pixel_bits=pixel_bits))
+    if not out:
+        return np.zeros((0,) + np.asarray(frames).shape[1:], pixel_dtype(pixel_bits))
+    return np.stack(out)
+
+
+def tdi_ddr_check(*, width, stages, pixel_bits, ppc, line_period_s=None,
+                  clock_hz=100e6, efficiency=0.8, lookahead=128):
+    """Check a TDI configuration for partial sums in DDR; returns a dict of its figures.
+
+    Refuses (one-line :class:`TdicamError`) when a row is shorter than the read look-ahead
+    (``width / ppc`` beats must exceed ``lookahead`` + one word: a partial sum is read again
+    one row after it is written back), and, with ``line_period_s`` given, when the DDR
+    interface cannot move the ``2 (m_max - 1)`` partial-sum lines per line period at
+    ``clock_hz * efficiency`` words per second, or the clock cannot take the ``m_max * width
+    / ppc`` input beats of a line period.
+    """
+    from .tdi import full_bits
+    ps = full_bits(pixel_bits, stages)
+    k = psums_per_word(ps, ppc)
+    wb = width // ppc
+    j = k // ppc
+    wpl = -(-wb // j)
+    if stages > 1 and wb <= lookahead + j:
+        raise TdicamError(f"width = {width} with ppc = {ppc} is {wb} beats per row: DDR "
+                          f"partial sums need more than {lookahead + j} (the read look-ahead "
+                          f"plus one word); use the on-chip accumulator")
+    words = 2 * (stages - 1) * wpl
+    info = {"psum_bits": ps, "psums_per_word": k, "words_per_line": wpl,
+            "words_per_line_period": words, "beats_per_line_period": stages * wb}
+    if line_period_s is not None:
+        avail = line_period_s * clock_hz * efficiency
+        if words > avail:
+            raise TdicamError(
+                f"DDR bandwidth short: {stages - 1} partial-sum lines read and written per "
+                f"line period = {words} words ({words * WORD_BITS * 1e-9 / line_period_s:.2f}"
+                f" Gbit/s), the interface moves {avail:.0f} words "
+                f"({WORD_BITS * clock_hz * efficiency * 1e-9:.2f} Gbit/s at "
+                f"{clock_hz / 1e6:g} MHz x {efficiency * 100:g} %)")
+        cyc = line_period_s * clock_hz
+        if stages * wb > cyc:
+            raise TdicamError(f"clock too slow: {stages * wb} input beats per line period, "
+                              f"{cyc:.0f} cycles at {clock_hz / 1e6:g} MHz")
+        info["ddr_load"] = words / avail
+    return info
