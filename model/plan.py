@@ -49,6 +49,8 @@ __all__ = [
     "partial_sum_bits",
     "tdi_line_buffer_bits",
     "ddr_bandwidth_needed",
+    "ONCHIP_RAM_BITS",
+    "onchip_budget",
     "ddr_bandwidth_available",
     "TdiMemory",
     "tdi_memory",
@@ -581,6 +583,29 @@ def ddr_bandwidth_available(word_bits=DDR_WORD_BITS, user_clock_hz=DDR_USER_CLOC
     return wb * f * eff
 
 
+#: Block RAM of FPGA parts, bits (the whole device: the partial sums may use all of it at
+#: most). ECP5: 18 kbit EBRs (25F: 56, 45F: 108, 85F: 208); 7-series: 36 kbit blocks
+#: (XC7A35T: 50, XC7A100T: 135, XC7A200T: 365, XC7K325T: 445).
+ONCHIP_RAM_BITS = {
+    "ecp5-25f": 56 * 18 * 1024,
+    "ecp5-45f": 108 * 18 * 1024,
+    "ecp5-85f": 208 * 18 * 1024,
+    "xc7a35t": 50 * 36 * 1024,
+    "xc7a100t": 135 * 36 * 1024,
+    "xc7a200t": 365 * 36 * 1024,
+    "xc7k325t": 445 * 36 * 1024,
+}
+
+
+def onchip_budget(device):
+    """On-chip RAM bits of ``device`` (a key of :data:`ONCHIP_RAM_BITS`, case-insensitive)."""
+    key = str(device).lower()
+    if key not in ONCHIP_RAM_BITS:
+        raise TdicamError(f"device = {device!r} is not known; valid: "
+                          f"{', '.join(ONCHIP_RAM_BITS)}")
+    return ONCHIP_RAM_BITS[key]
+
+
 @dataclass(frozen=True)
 class TdiMemory:
     """Memory and bandwidth summary of one TDI configuration (see :func:`tdi_memory`).
@@ -616,6 +641,13 @@ class TdiMemory:
     fits_onchip: bool | None
     ddr_needed_bps: float
     ddr_available_bps: float
+    device: str | None = None
+
+    @property
+    def must_spill(self) -> bool:
+        """True when the optimized structure's partial sums exceed the on-chip budget, so
+        they have to live in DDR (False without a budget)."""
+        return self.fits_onchip is False
 
     @property
     def saving_bits(self) -> int:
@@ -630,7 +662,7 @@ class TdiMemory:
 
 def tdi_memory(width, stages, pixel_bits, line_period_s, *, onchip_budget_bits=None,
                word_bits=DDR_WORD_BITS, user_clock_hz=DDR_USER_CLOCK_HZ,
-               efficiency=DDR_EFFICIENCY):
+               efficiency=DDR_EFFICIENCY, device=None):
     """Line-buffer memory of both structures, on-chip fit and DDR bandwidth in one call.
 
     Parameters
@@ -647,11 +679,18 @@ def tdi_memory(width, stages, pixel_bits, line_period_s, *, onchip_budget_bits=N
         On-chip RAM bits available for the partial sums, >= 0.
     word_bits, user_clock_hz, efficiency
         DDR interface, see :func:`ddr_bandwidth_available`.
+    device : str, optional
+        FPGA part (:data:`ONCHIP_RAM_BITS`): its block RAM is the budget when
+        ``onchip_budget_bits`` is not given. :attr:`TdiMemory.must_spill` says whether the
+        partial sums go to DDR (``tdicam.hdl.ddr.TdiDdr``), :attr:`TdiMemory.ddr_ok`
+        whether the interface sustains them.
 
     Returns
     -------
     TdiMemory
     """
+    if onchip_budget_bits is None and device is not None:
+        onchip_budget_bits = onchip_budget(device)
     budget = None if onchip_budget_bits is None else _count(
         "onchip_budget_bits", onchip_budget_bits, lo=0)
     m = _count("stages", stages, lo=1)
@@ -669,6 +708,7 @@ def tdi_memory(width, stages, pixel_bits, line_period_s, *, onchip_budget_bits=N
         ddr_needed_bps=float(ddr_bandwidth_needed(width, m, pixel_bits, line_period_s,
                                                   word_bits=word_bits)),
         ddr_available_bps=float(ddr_bandwidth_available(word_bits, user_clock_hz, efficiency)),
+        device=None if device is None else str(device).lower(),
     )
 
 

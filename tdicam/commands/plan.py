@@ -85,6 +85,9 @@ def register(subparsers) -> None:
     p.add_argument("--onchip-kbit", type=float, default=None, metavar="X",
                    help="on-chip RAM available for the partial sums, kbit (1 kbit = 1024 bit; "
                         "the report's kbit/Mbit are binary too)")
+    p.add_argument("--device", default=None, metavar="NAME",
+                   help="FPGA part whose block RAM is the on-chip budget when --onchip-kbit "
+                        "is not given: " + ", ".join(P.ONCHIP_RAM_BITS))
     p.add_argument("--ddr-bits", type=int, default=P.DDR_WORD_BITS, metavar="N",
                    help="DDR user-interface width in bits (default 256)")
     p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6, metavar="X",
@@ -217,7 +220,7 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
             "optimized_lines": mem.optimized_lines, "saving_lines": mem.saving_lines,
             "basic_bits": mem.basic_bits, "optimized_bits": mem.optimized_bits,
             "saving_bits": mem.saving_bits, "onchip_budget_bits": mem.onchip_budget_bits,
-            "fits_onchip": mem.fits_onchip},
+            "fits_onchip": mem.fits_onchip, "must_spill": mem.must_spill},
         "ddr": {"needed_bps": mem.ddr_needed_bps, "available_bps": mem.ddr_available_bps,
                 "ok": mem.ddr_ok, "word_bits": ddr_bits, "user_clock_hz": ddr_clock_hz,
                 "efficiency": ddr_eff},
@@ -381,6 +384,13 @@ def _text(rep) -> str:
                  f"(read + write {mem['optimized_lines']} lines per line period); "
                  f"{ddr['word_bits']}-bit @ {ddr['user_clock_hz'] / 1e6:g} MHz x "
                  f"{ddr['efficiency'] * 100:g} % = {_rate(ddr['available_bps'])}: {_ok(ddr['ok'])}")
+    if mem.get("must_spill"):
+        verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
+                   "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "
+                   "DDR interface")
+        lines.append(f"  spill          partial sums must spill to DDR: {verdict}")
+    elif mem["onchip_budget_bits"] is not None:
+        lines.append("  spill          partial sums stay on chip")
     sig = (f"signal {snr['signal_e']:g} e-, read {snr['read_noise_e']:g} e-, "
            f"quantization {snr['sigma_ad_e']:.3g} e-")
     if snr["single_db"] is None:
@@ -514,6 +524,8 @@ def run(args) -> int:
         if not math.isfinite(args.onchip_kbit) or args.onchip_kbit < 0:
             raise TdicamError(f"--onchip-kbit: must be >= 0, got {args.onchip_kbit:g}")
         budget = int(round(args.onchip_kbit * 1024))
+    elif getattr(args, "device", None) is not None:
+        budget = P.onchip_budget(args.device)
     if args.ddr_bits < 1:
         raise TdicamError(f"--ddr-bits: must be >= 1, got {args.ddr_bits}")
     if not (math.isfinite(args.ddr_clock_mhz) and args.ddr_clock_mhz > 0):
