@@ -82,6 +82,19 @@ def _sel(options, index):
     return v
 
 
+def _checked(init):
+    """Constructor wrapper: a rejected component is never elaborated, so it must not warn
+    as an unused elaboratable."""
+    def wrapper(self, *args, **kwargs):
+        try:
+            init(self, *args, **kwargs)
+        except TdicamError:
+            self._MustUse__silence = True
+            raise
+    wrapper.__doc__ = init.__doc__
+    return wrapper
+
+
 def _xorshift(s):
     a = s ^ (s << 13)[:32]
     b = a ^ (a >> 17)
@@ -108,6 +121,7 @@ class MigModel(wiring.Component):
     WDF_DEPTH = 16
     RET_DEPTH = 128
 
+    @_checked
     def __init__(self, *, depth_words, addr_bits=ADDR_BITS, lat_lo=20, lat_hi=60,
                  refresh_period=780, refresh_cycles=26, drop=16, seed=1):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
@@ -314,6 +328,7 @@ class LineWriter(wiring.Component):
     Lines are cut by count; a ``last`` that disagrees counts in ``line_errors``.
     """
 
+    @_checked
     def __init__(self, *, layout, elements, rows, addr_bits=ADDR_BITS):
         self._lay, self._e, self._rows, self._aw = layout, elements, rows, addr_bits
         if layout.values_per_line % elements:
@@ -442,6 +457,7 @@ class LineReader(wiring.Component):
     last read was queued.
     """
 
+    @_checked
     def __init__(self, *, layout, elements, addr_bits=ADDR_BITS, max_lines=66):
         self._lay, self._e, self._aw, self._fl = layout, elements, addr_bits, max_lines
         self._g, self._r = _gear(elements, layout.pixels_per_word)
@@ -569,6 +585,7 @@ class DdrFrameBuffer(wiring.Component):
     cycle each way at best, shared by reads and writes (writes first).
     """
 
+    @_checked
     def __init__(self, *, width, rows, channels=1, elements=None, pixel_bits=10,
                  pixels_per_word=24, line_stride=None, base=0, capacity_bytes=CAPACITY_BYTES,
                  rd_depth=64):
@@ -712,6 +729,7 @@ class CdsDdr(wiring.Component):
     per ``pixels_per_word`` pixels.
     """
 
+    @_checked
     def __init__(self, *, width, rows, pixel_bits=12, pixels_per_word=None, line_stride=None,
                  base=0, capacity_bytes=CAPACITY_BYTES):
         check_range("pixel_bits", pixel_bits, 8, 16)
@@ -818,6 +836,7 @@ class TdiDdr(wiring.Component):
 
     LOOKAHEAD = 128
 
+    @_checked
     def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, base=0,
                  line_period_s=None, clock_hz=100e6, capacity_bytes=CAPACITY_BYTES):
         from tdicam.model.ddr import psums_per_word, tdi_ddr_check

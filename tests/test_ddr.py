@@ -1,0 +1,282 @@
+"""DDR buffers: packing vs seed 002 Table 2, configuration errors, the controller models,
+and Amaranth simulations of the writer/reader/CDS/TDI users."""
+
+import numpy as np
+import pytest
+from amaranth.sim import Simulator
+
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.hdl.ddr import CdsDdr, DdrFrameBuffer, MigModel, SimTop, TdiDdr
+from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, cds_ddr_frames,
+                              check_capacity, ints_to_words, pack_lines, pack_words,
+                              psums_per_word, stall_pattern, tdi_ddr_check, unpack_lines,
+                              unpack_words, words_to_ints)
+
+
+# ---- packing
+
+def _table2_word(values):
+    """Hand-written Table 2 word: the 240-bit concatenation {v1, v2, ..., v24} of 10-bit
+    values, zero-extended to 256 bits (v1 most significant)."""
+    w = 0
+    for v in values:
+        w = (w << 10) | int(v)
+    return w
+
+
+def test_pack_matches_table2_word_for_word():
+    """72 channels: word 0 = channels 1-24 of pixel 1, word 1 = 25-48, word 2 = 49-72,
+    word 3 = channels 1-24 of pixel 2."""
+    rng = np.random.default_rng(0)
+    px = rng.integers(0, 1024, (5, 72))            # 5 pixels x 72 channels, one line
+    lay = LineLayout(width=5, channels=72, line_stride=4096)
+    words = words_to_ints(pack_lines(px[None], lay)[0])
+    assert len(words) == 15 == lay.words_per_line
+    for p in range(5):
+        for g in range(3):
+            assert words[3 * p + g] == _table2_word(px[p, 24 * g:24 * (g + 1)])
+    # channel 1 of pixel 1 is the top 10 of the 240 used bits; bits 255..240 are zero
+    assert words[0] >> 230 == px[0, 0] and words[0] >> 240 == 0
+    assert lay.line_addr(1) == 4096 and lay.line_addr(0) == 0
+
+
+def test_pack_round_trip_and_partial_word():
+    rng = np.random.default_rng(1)
+    for bits, ppw, n in ((10, 24, 50), (12, 21, 100), (16, 16, 33), (1, 256, 300),
+                         (7, 36, 1)):
+        v = rng.integers(0, 1 << bits, n)
+        w = pack_words(v, pixel_bits=bits, pixels_per_word=ppw)
+        assert w.shape == (-(-n // ppw), 4) and w.dtype == np.uint64
+        np.testing.assert_array_equal(unpack_words(w, n, pixel_bits=bits,
+                                                   pixels_per_word=ppw), v)
+        ints = words_to_ints(w)
+        np.testing.assert_array_equal(ints_to_words(ints), w)
+        # reference: value j of a word at bits (ppw-1-j)*bits, the padding is zero
+        for k, word in enumerate(ints):
+            ref = 0
+            for j in range(ppw):
+                idx = k * ppw + j
+                ref |= (int(v[idx]) if idx < n else 0) << ((ppw - 1 - j) * bits)
+            assert word == ref
+
+
+def test_unpack_lines_inverse():
+    lay = LineLayout(width=37, channels=2, pixel_bits=12, pixels_per_word=20)
+    fr = np.random.default_rng(2).integers(0, 4096, (3, 37, 2))
+    np.testing.assert_array_equal(unpack_lines(pack_lines(fr, lay), lay), fr.reshape(3, -1))
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    ({"width": 1280, "line_stride": 64}, "line_stride = 64 is smaller than a line: 54 words"),
+    ({"width": 1280, "line_stride": 436}, "not a multiple of 8"),
+    ({"width": 10, "base": 4}, "base = 4 is not a multiple of 8"),
+    ({"width": 10, "pixels_per_word": 26}, "pixels_per_word = 26 is out of range"),
+    ({"width": 0}, "width = 0 is out of range"),
+])
+def test_layout_errors_are_one_line(kwargs, match):
+    with pytest.raises(TdicamError, match=match) as e:
+        LineLayout(**kwargs)
+    assert "\n" not in str(e.value)
+
+
+def test_capacity_errors():
+    lay = LineLayout(width=1280)                       # stride 512 address units
+    assert check_capacity(lay, 1024, 1 << 30) == 1023 * 512 + 54 * 8
+    with pytest.raises(TdicamError, match="address space too small"):
+        check_capacity(lay, 1024, 1 << 20)
+    with pytest.raises(TdicamError, match="address space too small"):
+        DdrFrameBuffer(width=1280, rows=4096, elements=8, capacity_bytes=1 << 20)
+
+
+def test_tdi_ddr_check_refuses_short_bandwidth_and_short_rows():
+    info = tdi_ddr_check(width=512, stages=16, pixel_bits=12, ppc=1)
+    assert info["psum_bits"] == 16 and info["psums_per_word"] == 16
+    assert info["words_per_line"] == 32 and info["words_per_line_period"] == 2 * 15 * 32
+    with pytest.raises(TdicamError, match="DDR bandwidth short"):
+        tdi_ddr_check(width=4096, stages=96, pixel_bits=12, ppc=4, line_period_s=144.8e-6)
+    with pytest.raises(TdicamError, match="beats per row"):
+        tdi_ddr_check(width=64, stages=4, pixel_bits=12, ppc=1)
+    with pytest.raises(TdicamError, match="clock too slow"):
+        tdi_ddr_check(width=1024, stages=8, pixel_bits=12, ppc=1, line_period_s=50e-6)
+    assert psums_per_word(19, 1) == 13 and psums_per_word(19, 4) == 12
+
+
+def test_block_bad_configs_one_line():
+    for name, p, match in [
+            ("ddr", {"line_stride": 64}, "smaller than a line"),
+            ("ddr", {"rows": 4096, "capacity_mib": 1}, "address space too small"),
+            ("ddr", {"ppc": 5}, "one must divide the other"),
+            ("tdi_ddr", {"width": 4096, "stages": 32, "ppc": 4, "line_period_ns": 144800},
+             "DDR bandwidth short"),
+            ("cds_ddr", {"lat_lo": 50, "lat_hi": 20}, "lat_hi = 20 is out of range")]:
+        with pytest.raises(TdicamError, match=match) as e:
+            blocks.get(name).resolve(p)
+        assert "\n" not in str(e.value)
+
+
+# ---- controller models
+
+def test_migsim_in_order_reads_latency_and_errors():
+    mig = MigSim(lat_lo=20, lat_hi=60, drop=0, refresh_cycles=0)
+    mig.step(app_wdf_wren=1, app_wdf_data=123)
+    mig.step(app_en=1, app_cmd=0, app_addr=64)
+    sent, got = [], []
+    t = 0
+    for a in range(0, 80, 8):
+        mig.step(app_en=1, app_cmd=1, app_addr=a)
+        sent.append(t)
+        t += 1
+    for _ in range(200):
+        out = mig.step()
+        if out is not None:
+            got.append((out, t))
+        t += 1
+    assert [g for g, _ in got] == [0] * 8 + [123, 0]          # in order, address 64 = word
+    lat = [t1 - t0 for (_, t1), t0 in zip(got, sent)]
+    assert all(20 <= x <= 62 for x in lat) and len(set(lat)) > 1
+    with pytest.raises(TdicamError, match="DDR address 1024 is out of range"):
+        MigSim(capacity_bytes=4096, drop=0).step(app_en=1, app_cmd=1, app_addr=1024)
+    with pytest.raises(TdicamError, match="not word aligned"):
+        MigSim(drop=0).step(app_en=1, app_cmd=1, app_addr=4)
+    with pytest.raises(TdicamError, match="without write data"):
+        MigSim(drop=0).step(app_en=1, app_cmd=0, app_addr=0)
+
+
+def test_stall_pattern_rates():
+    a, w, lat = stall_pattern(78000, **DEFAULT_STALLS)
+    assert 0.88 < a.mean() < 0.92          # 26/780 refresh + 16/256 drops
+    assert 0.92 < w.mean() < 0.95
+    assert lat.min() >= 20 and lat.max() <= 60
+
+
+def test_hdl_model_has_the_python_models_ready_pattern():
+    """MigModel (Amaranth) and MigSim: identical app_rdy/app_wdf_rdy for 2000 cycles."""
+    dut = MigModel(depth_words=64, seed=5)
+    ref = MigSim(seed=5)
+    trace = []
+
+    async def tb(ctx):
+        for _ in range(2000):
+            trace.append((ctx.get(dut.app_rdy), ctx.get(dut.app_wdf_rdy)))
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(tb)
+    sim.run()
+    want = []
+    for _ in range(2000):
+        o = ref.outputs()
+        want.append((int(o["app_rdy"]), int(o["app_wdf_rdy"])))
+        ref.step()
+    assert trace == want
+
+
+# ---- Amaranth simulations of the users
+
+def _run_stream(top, beats, first, last, ctrl=None, n_out=None, bp=0.3, idle=0.2, seed=1,
+                limit=200000):
+    rng = np.random.default_rng(seed)
+    got = []
+    n = len(beats)
+    E = beats.shape[1]
+    data = top.i_stream.payload.data
+
+    async def src(ctx):
+        for k in range(n):
+            for e in range(E):
+                ctx.set(data[e] if E > 1 else data, int(beats[k, e]))
+            ctx.set(top.i_stream.payload.first, bool(first[k]))
+            ctx.set(top.i_stream.payload.last, bool(last[k]))
+            for name, val in (ctrl or {}).items():
+                ctx.set(getattr(top, name), int(val[k]))
+            ctx.set(top.i_stream.valid, 1)
+            await ctx.tick().until(top.i_stream.ready)
+            ctx.set(top.i_stream.valid, 0)
+            if rng.random() < idle:
+                await ctx.tick()
+
+    async def sink(ctx):
+        od = top.o_stream.payload.data
+        ctx.set(top.o_stream.ready, 1)
+        cycles = 0
+        async for _, _, v, r, d, f, la in ctx.tick().sample(
+                top.o_stream.valid, top.o_stream.ready, od, top.o_stream.payload.first,
+                top.o_stream.payload.last):
+            if v and r:
+                vals = [int(x) for x in d] if not isinstance(d, int) else [int(d)]
+                got.append((vals, int(f), int(la)))
+            ctx.set(top.o_stream.ready, int(rng.random() >= bp))
+            cycles += 1
+            if len(got) == n_out or cycles > limit:
+                break
+
+    sim = Simulator(top)
+    sim.add_clock(1e-8)
+    sim.add_testbench(src)
+    sim.add_testbench(sink)
+    sim.run()
+    return got
+
+
+def test_frame_buffer_amaranth_sim_72ch_and_memory_layout():
+    """2 frames of 3 lines x 4 pixels x 72 channels through writer, MigModel and reader;
+    afterwards the model memory holds the last frame packed as Table 2."""
+    core = DdrFrameBuffer(width=4, rows=3, channels=72)
+    top = SimTop(core, depth_words=core.layout.end_addr(3) // 8)
+    fr = np.random.default_rng(3).integers(0, 1024, (2, 3, 4, 72))
+    beats = fr.reshape(-1, 72)
+    n = len(beats)
+    first = np.arange(n) % 12 == 0
+    last = np.arange(n) % 4 == 3
+    got = _run_stream(top, beats, first, last, n_out=n)
+    assert [g[0] for g in got] == beats.tolist()
+    assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()
+    assert core.elements == 72 and core.layout.words_per_line == 12
+
+
+def test_cds_ddr_amaranth_sim():
+    core = CdsDdr(width=30, rows=2, pixel_bits=12)
+    top = SimTop(core, depth_words=core.layout.end_addr(2) // 8)
+    rng = np.random.default_rng(4)
+    kinds = [0, 1, 0, 0, 1, 0]
+    fr = rng.integers(0, 4096, (len(kinds), 2, 30))
+    fr[2] = 0                                      # reset > signal: clamps to 0
+    want = cds_ddr_frames(fr, kinds, pixel_bits=12)
+    beats = fr.reshape(-1, 1)
+    n = len(beats)
+    first = np.arange(n) % 60 == 0
+    last = np.arange(n) % 30 == 29
+    got = _run_stream(top, beats, first, last, ctrl={"frame_kind": np.repeat(kinds, 60)},
+                      n_out=want.size)
+    assert [g[0][0] for g in got] == want.ravel().tolist()
+    assert sum(g[1] for g in got) == 4 and (want[1] == 0).all()
+
+
+def test_tdi_ddr_amaranth_sim_matches_tdi_stream():
+    """m_max = 3, W = 160 (> the look-ahead), stage and direction change mid-stream."""
+    from tdicam.blocks.tdi import stream_arrays
+    from tdicam.model.tdi import tdi_stream
+    params = {"width": 160, "stages": 3, "pixel_bits": 8, "out_bits": None, "ppc": 1}
+    core = TdiDdr(**{k: params[k] for k in params}, base=256)
+    top = SimTop(core, depth_words=32 + core.ddr_words)
+    rng = np.random.default_rng(6)
+    settings = [(3, 0)] * 4 + [(2, 1)] * 3
+    frames = [rng.integers(0, 256, (m, 160)) for m, _ in settings]
+    a = stream_arrays(frames, settings, params)
+    want = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
+                      **params)
+    got = _run_stream(top, a["pixels"].reshape(-1, 1), a["first"], a["last"],
+                      ctrl={"stages_active": a["stages_active"], "direction": a["direction"]},
+                      n_out=len(want.first), bp=0.2, idle=0.1)
+    assert [g[0][0] for g in got] == want.data.ravel().tolist()
+    assert [g[1] for g in got] == want.first.astype(int).tolist()
+    assert core.psums_per_word == 25 and core.words_per_line == 7 and core.ddr_words == 14
+
+
+def test_tdi_ddr_refuses_what_it_cannot_do():
+    with pytest.raises(TdicamError, match="beats per row"):
+        TdiDdr(width=64, stages=4)
+    with pytest.raises(TdicamError, match="address space too small"):
+        TdiDdr(width=8192, stages=128, capacity_bytes=1 << 16)
