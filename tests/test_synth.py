@@ -2,10 +2,17 @@
 
 import json
 
+import numpy as np
+
 import pytest
 
+from amaranth.sim import Simulator
+
 from tdicam.cli import main
-from tdicam.synth import parse_xilinx, synth, tools_available
+from tdicam.hdl.ecc import SecdedEncoder
+from tdicam.model import ecc
+from tdicam.synth import REFERENCE, parse_xilinx, synth, timing_harness, tools_available
+from tdicam import blocks
 
 needs_tools = pytest.mark.skipif(
     not tools_available(),
@@ -21,16 +28,33 @@ def test_synth_cds_parses_tool_output(tmp_path):
     assert r.dp16kd == 0 and r.mult18 == 0
     assert 100 < r.fmax_mhz < 1000 and len(r.fmax_seeds) == 1
     assert r.xilinx["FF"] == 15 and r.xilinx["LUT"] > 0
-    rep = json.loads((tmp_path / "nextpnr_seed1.json").read_text())
+    rep = json.loads((tmp_path / "nextpnr_harness_seed1.json").read_text())
     assert round(rep["fmax"]["clk"]["achieved"], 1) == r.fmax_mhz
+    # the placed design is the harnessed one: 15 core + one flip-flop per port bit
+    assert rep["utilization"]["TRELLIS_FF"]["used"] > r.ff
+    assert r.critical and r.critical[0][0] == "clk-to-q"
+    # a second run reuses every step's output
+    assert synth("cds", {"pixel_bits": 12}, seeds=1, workdir=tmp_path).seconds < 5
+
+
+@needs_tools
+def test_synth_reference_markdown_row(capsys):
+    assert main(["synth", "--reference", "cds", "--seeds", "1", "--no-xilinx",
+                 "--markdown"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("| block | parameters | LUT4 |")
+    row = [c.strip() for c in out[2].split("|")[1:-1]]
+    assert row[0] == "cds" and row[1] == "pixel_bits=12" and row[5] == "15"
+    assert row[9].startswith("150: ")
 
 
 @needs_tools
 def test_synth_cli_json(capsys):
     assert main(["synth", "cds", "--pixel-bits", "8", "--seeds", "1", "--no-xilinx",
-                 "--json"]) == 0
+                 "--no-harness", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["block"] == "cds" and out["params"] == {"pixel_bits": 8} and out["ff"] == 11
+    assert out["harness"] is False and out["xilinx"] == {} and out["fmax_mhz"] > 100
 
 
 def test_synth_bad_block_is_one_line(capsys):
@@ -44,3 +68,39 @@ def test_parse_xilinx_groups_cells(tmp_path):
         "LUT2": 3, "LUT6": 2, "FDRE": 7, "RAMB36E1": 1, "DSP48E1": 2, "IBUF": 9}}}))
     assert parse_xilinx(p, "x") == {"LUT": 5, "FF": 7, "CARRY4": 0, "RAMB18": 0,
                                     "RAMB36": 1, "DSP48": 2, "LUTRAM": 0, "SRL": 0}
+
+
+def test_reference_rows_resolve():
+    labels = [r.label for r in REFERENCE]
+    assert len(set(labels)) == len(labels)
+    for ref in REFERENCE:
+        blocks.get(ref.block).resolve(ref.params)
+    assert {r.block for r in REFERENCE} >= {"tdi", "median3", "hdr", "nuc", "secded_enc",
+                                            "secded_dec", "lvds", "cds"}
+
+
+def test_synth_reference_unknown_row_is_one_line(capsys):
+    assert main(["synth", "--reference", "nosuch"]) == 2
+    assert capsys.readouterr().err.startswith("tdicam: error: no reference row for nosuch")
+
+
+def test_timing_harness_registers_every_port():
+    """Encoder (combinational) in the harness: code appears 2 clocks after data (one
+    register in, one out), not earlier."""
+    dut = timing_harness(SecdedEncoder())
+    words = [0x0123456789ABCDEF, 0xFFFFFFFFFFFFFFFF, 0, 0x8000000000000001]
+    got = []
+
+    async def bench(ctx):
+        for w in words + [0, 0]:
+            ctx.set(dut.data, w)
+            await ctx.tick()
+            got.append(ctx.get(dut.code))
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-6)
+    sim.add_testbench(bench)
+    sim.run()
+    check = ecc.encode(np.array(words, np.uint64))
+    exp = [w | (int(c) << 64) for w, c in zip(words, check)]     # code = {check, data}
+    assert got[0] == 0 and got[1:1 + len(words)] == exp

@@ -1,48 +1,179 @@
-"""``tdicam synth BLOCK [--PARAM VALUE ...]``: LUTs, FFs, block RAM, multipliers, Fmax."""
+"""``tdicam synth BLOCK [--PARAM VALUE ...]``: LUTs, FFs, block RAM, multipliers, Fmax.
 
+``tdicam synth --reference [BLOCK|LABEL ...]``: every block at its reference parameters
+(:data:`tdicam.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
+"""
+
+import datetime
 import json
+import sys
 
 from .. import blocks
-from ..synth import synth
+from ..errors import TdicamError
+from ..synth import REFERENCE, reference_table, synth, tool_versions
 from .verilog import parse_block_params
 
 
 def register(sub):
     p = sub.add_parser("synth", help="synthesize a block for ECP5 (+ Xilinx 7 cell counts)",
                        description="yosys synth_ecp5 + nextpnr-ecp5 (LFE5U-85F, speed 8, out "
-                                   "of context; median Fmax over placement seeds) and yosys "
-                                   "synth_xilinx cell counts. Needs pip install '.[synth]'.")
-    p.add_argument("block", help=f"one of: {', '.join(blocks.names())}")
+                                   "of context, ports registered by a timing harness; median "
+                                   "Fmax over placement seeds) and yosys synth_xilinx cell "
+                                   "counts. --reference: every block at its reference "
+                                   "parameters. Needs pip install '.[synth]'.")
+    p.add_argument("block", nargs="?",
+                   help=f"one of: {', '.join(blocks.names())} (with --reference: optional "
+                        f"block names or row labels to run)")
+    p.add_argument("--reference", action="store_true",
+                   help="run the reference table: "
+                        + "; ".join(f"{r.label}" for r in REFERENCE))
     p.add_argument("--seeds", type=int, default=3, help="placement seeds (3)")
-    p.add_argument("--freq", type=float, default=150, help="target MHz for nextpnr (150)")
+    p.add_argument("--freq", type=float, default=150,
+                   help="target MHz for nextpnr (150; --reference uses each row's target)")
     p.add_argument("--no-xilinx", action="store_true", help="skip the synth_xilinx count")
+    p.add_argument("--no-harness", action="store_true",
+                   help="place and route the bare top (port paths are then not timed)")
+    p.add_argument("--markdown", action="store_true", help="print a markdown table")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_run, _raw=True)
 
 
-def format_row(r):
+def _xc7(r):
     x = r.xilinx
-    return (f"{r.block:12s} {r.comb:6d} {r.lut4:6d} {r.ccu2c:5d} {r.ff:6d} {r.dp16kd:6d} "
-            f"{r.mult18:5d} {r.fmax_mhz:7.1f}  " +
-            (f"{x.get('LUT', 0):6d} {x.get('FF', 0):6d} {x.get('RAMB18', 0) + 2 * x.get('RAMB36', 0):6d} "
-             f"{x.get('DSP48', 0):4d}" if x else ""))
+    return (x.get("LUT", 0), x.get("FF", 0), x.get("RAMB36", 0), x.get("RAMB18", 0),
+            x.get("DSP48", 0), x.get("LUTRAM", 0) + x.get("SRL", 0)) if x else None
 
 
-HEADER = (f"{'block':12s} {'COMB':>6s} {'LUT4':>6s} {'CCU2C':>5s} {'FF':>6s} {'DP16KD':>6s} "
-          f"{'MULT':>5s} {'Fmax':>7s}  {'xc7LUT':>6s} {'xc7FF':>6s} {'RAMB18':>6s} {'DSP':>4s}")
+def _xc7_lut(x):
+    return f"{x[0]}" + (f" +{x[5]} LUTRAM/SRL" if x[5] else "")
+
+
+def format_row(r, label=None):
+    x = _xc7(r)
+    return (f"{(label or r.block):22s} {r.comb:6d} {r.lut4:6d} {r.ccu2c:5d} {r.ff:6d} "
+            f"{r.dp16kd:6d} {r.mult18:5d} {r.fmax_mhz:7.1f}  "
+            + (f"{x[0]:6d} {x[1]:6d} {x[2]:6d} {x[3]:6d} {x[4]:4d}" if x else ""))
+
+
+HEADER = (f"{'block':22s} {'COMB':>6s} {'LUT4':>6s} {'CCU2C':>5s} {'FF':>6s} {'DP16KD':>6s} "
+          f"{'MULT':>5s} {'Fmax':>7s}  {'xc7LUT':>6s} {'xc7FF':>6s} {'RAMB36':>6s} "
+          f"{'RAMB18':>6s} {'DSP':>4s}")
+
+
+def critical_summary(steps):
+    """One line from a :attr:`SynthResult.critical` path: ends, levels, logic/route ns."""
+    if not steps:
+        return "no critical path reported"
+    logic = sum(s[3] for s in steps if s[0] in ("logic", "clk-to-q", "setup"))
+    route = sum(s[3] for s in steps if s[0] == "routing")
+    levels = sum(1 for s in steps if s[0] == "logic")
+    return (f"{steps[0][1]} -> {steps[-1][2]}: {levels} logic steps, "
+            f"{logic:.2f} ns cells + {route:.2f} ns routing")
+
+
+def _params_text(params, block):
+    blk = blocks.get(block)
+    defaults = {p.name: p.default for p in blk.params}
+    shown = {k: v for k, v in params.items() if v is not None}
+    text = " ".join(f"{k}={int(v) if isinstance(v, bool) else v}" for k, v in shown.items()
+                    if k in ("width", "stages", "pixel_bits", "ppc", "lanes", "pipelined")
+                    or v != defaults.get(k))
+    return text or "defaults"
+
+
+def _sum(label, a, b):
+    xa, xb = _xc7(a), _xc7(b)
+    return {"label": label, "lut4": a.lut4 + b.lut4, "ccu2c": a.ccu2c + b.ccu2c,
+            "comb": a.comb + b.comb, "ff": a.ff + b.ff, "dp16kd": a.dp16kd + b.dp16kd,
+            "mult18": a.mult18 + b.mult18, "fmax_mhz": min(a.fmax_mhz, b.fmax_mhz),
+            "xc7": [p + q for p, q in zip(xa, xb)] if xa and xb else None}
+
+
+def _secded_sums(rows):
+    by = {ref.label: res for ref, res in rows}
+    enc = by.get("secded_enc")
+    out = []
+    for dec, label in (("secded_dec", "secded enc + dec"),
+                       ("secded_dec pipelined", "secded enc + dec pipelined")):
+        if enc is not None and dec in by:
+            out.append(_sum(label, enc, by[dec]))
+    return out
+
+
+def _markdown(rows):
+    head = ("| block | parameters | LUT4 | CCU2C | COMB | FF | DP16KD | MULT18X18D "
+            "| Fmax MHz (min–max) | target | xc7 LUT | xc7 FF | xc7 RAMB36/18 | xc7 DSP48 "
+            "| run s |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for ref, r in rows:
+        x = _xc7(r)
+        met = "met" if r.fmax_mhz >= ref.target_mhz else "**not met**"
+        lines.append(
+            f"| {ref.label} | {_params_text(r.params, ref.block)} | {r.lut4} | {r.ccu2c} "
+            f"| {r.comb} | {r.ff} | {r.dp16kd} | {r.mult18} "
+            f"| {r.fmax_mhz:.1f} ({min(r.fmax_seeds):.1f}–{max(r.fmax_seeds):.1f}) "
+            f"| {ref.target_mhz:.0f}: {met} "
+            + (f"| {_xc7_lut(x)} | {x[1]} | {x[2]}/{x[3]} | {x[4]} " if x else "| | | | ")
+            + f"| {r.tool_seconds:.0f} |")
+    for s in _secded_sums(rows):
+        x = s["xc7"]
+        met = "met" if s["fmax_mhz"] >= 200 else "**not met**"
+        lines.append(
+            f"| {s['label']} | sum | {s['lut4']} | {s['ccu2c']} | {s['comb']} | {s['ff']} "
+            f"| {s['dp16kd']} | {s['mult18']} | {s['fmax_mhz']:.1f} (slower of the two) "
+            f"| 200: {met} "
+            + (f"| {_xc7_lut(x)} | {x[1]} | {x[2]}/{x[3]} | {x[4]} " if x else "| | | | ")
+            + "| |")
+    return "\n".join(lines)
 
 
 def _run(args):
+    if args.reference:
+        return _run_reference(args)
+    if args.block is None:
+        raise TdicamError(f"which block? valid: {', '.join(blocks.names())} (or --reference)")
     blk = blocks.get(args.block)
     params = parse_block_params(blk, args.extra)
     res = synth(blk.name, params, seeds=args.seeds, freq_mhz=args.freq,
-                xilinx=not args.no_xilinx)
+                xilinx=not args.no_xilinx, harness=not args.no_harness)
     if args.json:
         print(json.dumps(res.to_dict(), indent=1))
         return 0
     print(f"{blk.name} " + " ".join(f"{k}={v}" for k, v in params.items()))
     print(HEADER)
     print(format_row(res))
-    print(f"Fmax per seed: {res.fmax_seeds} MHz (ECP5-85F speed 8, out of context); "
-          f"COMB = LUT4 slots after packing (logic + carry + distributed RAM); {res.seconds} s")
+    print(f"Fmax per seed: {res.fmax_seeds} MHz (ECP5-85F speed 8, out of context, "
+          f"{'ports registered' if res.harness else 'bare top: port paths not timed'}); "
+          f"COMB = LUT4 slots after packing (logic + carry + distributed RAM); "
+          f"{res.tool_seconds} s of yosys + nextpnr")
+    print(f"critical path (slowest seed): {critical_summary(res.critical)}")
+    return 0
+
+
+def _run_reference(args):
+    only = [args.block] + list(args.extra) if args.block else list(args.extra)
+    if args.no_harness or args.freq != 150:
+        raise TdicamError("--reference always uses the timing harness and each row's target; "
+                          "drop --no-harness / --freq")
+    rows = reference_table(seeds=args.seeds, xilinx=not args.no_xilinx, only=only or None,
+                           progress=lambda t: print(t, file=sys.stderr, flush=True))
+    versions = tool_versions()
+    if args.json:
+        print(json.dumps({"tools": versions, "rows": [
+            {"label": ref.label, "target_mhz": ref.target_mhz, "note": ref.note,
+             **res.to_dict()} for ref, res in rows], "sums": _secded_sums(rows)}, indent=1))
+        return 0
+    if args.markdown:
+        print(_markdown(rows))
+    else:
+        print(HEADER)
+        for ref, res in rows:
+            print(format_row(res, ref.label))
+    print(f"\n{versions['yosys']}, {versions['nextpnr']}; LFE5U-85F speed 8 CABGA381, out of "
+          f"context, every port registered; Fmax = median of {args.seeds} placement seeds "
+          f"(min–max); {datetime.date.today().isoformat()}")
+    for ref, res in rows:
+        if res.fmax_mhz < ref.target_mhz:
+            print(f"{ref.label}: {res.fmax_mhz} MHz < {ref.target_mhz:.0f}; critical path: "
+                  f"{critical_summary(res.critical)}")
     return 0
