@@ -257,7 +257,7 @@ def _build_s(first_build, build, name, params, sim, sources):
 
 
 # ------------------------------------------------------------------------------ stream blocks
-def _stream_rows(w, *, sims, repeat, quick, stalls, build, pysim=True):
+def _stream_rows(w, *, sims, repeat, quick, stalls, build):
     from .cosim.pysim import run_pysim
     blk = blocks.get(w.block)
     params = blk.resolve(w.params)
@@ -267,7 +267,7 @@ def _stream_rows(w, *, sims, repeat, quick, stalls, build, pysim=True):
     t, arrays = median_time(lambda: w.golden(inputs, params), repeat)
     n_all = w.count(inputs)
     rows = [_row(w.name, "golden", w.unit, n_all, t, input=_amount(n_all, w.unit),
-                 accuracy="reference", x_ref=1.0)]
+                 accuracy="reference", x_ref=1.0, note=w.what)]
 
     def beats(n):
         a = arrays if n == sizes["fast"] else \
@@ -276,14 +276,11 @@ def _stream_rows(w, *, sims, repeat, quick, stalls, build, pysim=True):
         return stim, exp, w.count({k: v[:n] for k, v in inputs.items()})
 
     kw = {"idle": stalls, "backpressure": stalls}
-    if pysim:
-        stim, exp, n = beats(sizes["pysim"])
-        res = [run_pysim(w.block, params, stim, seed=k + 1, **kw) for k in range(repeat)]
-        acc, bad = _accuracy([cosim.compare(o, exp).mismatches for o, _, _ in res])
-        rows.append(_row(w.name, "pysim", w.unit, n, float(np.median([r[2] for r in res])),
-                         input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
-    else:
-        rows.append(_na(w.name, "pysim", w.unit, "not a stream block"))
+    stim, exp, n = beats(sizes["pysim"])
+    res = [run_pysim(w.block, params, stim, seed=k + 1, **kw) for k in range(repeat)]
+    acc, bad = _accuracy([cosim.compare(o, exp).mismatches for o, _, _ in res])
+    rows.append(_row(w.name, "pysim", w.unit, n, float(np.median([r[2] for r in res])),
+                     input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
     for sim in sims:
         first = None
         for mode in ("beat", "fast"):
@@ -426,7 +423,8 @@ def _case_rows(blk, case, **kw):
     arrays = case.make(params, np.random.default_rng(case.seed))
     n = len(blk.to_beats(arrays, params)[0])
     one = {"pysim": 1, "beat": 1, "fast": 1}
-    w = StreamWork(blk.name, blk.name, case.params, "beat", f"golden case {case.name}",
+    w = StreamWork(blk.name, blk.name, case.params, "beat",
+                   f"golden case {case.name}; time = case generation + model",
                    lambda rng, k: {"_": np.zeros(k)},
                    lambda inp, p: case.make(p, np.random.default_rng(case.seed)),
                    lambda inp: n, one, one)
@@ -664,7 +662,8 @@ def plot(rows, path, *, title="", real_time=None):
     ax.set_ylabel("throughput (units/s, log scale)")
     ax.set_title(title or "tdicam bench: throughput per fidelity level", fontsize=9)
     ax.grid(axis="y", which="both", alpha=0.3)
-    ax.legend(fontsize=7, ncol=3)
+    ax.legend(fontsize=7, ncol=min(9, len(levels)), loc="upper center",
+              bbox_to_anchor=(0.5, -0.14), frameon=False)
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import time
 
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def test_cds_quick_both_simulators(tmp_path, capsys):
 
 def test_secded_words_and_json_to_stdout(tmp_path, capsys):
     code = main(["bench", "secded_dec", "--quick", "--sims", "verilator,icarus", "--json",
-                 "--png", str(tmp_path / "s.png")])
+                 "-", "--png", str(tmp_path / "s.png")])
     cap = capsys.readouterr()
     assert code == 0
     doc = json.loads(cap.out)                      # stdout is the JSON alone
@@ -119,6 +120,23 @@ def test_ddr_blocks_are_found_in_the_registry():
     assert all("ddr" in n.split("_") for n in names)
     assert set(names) == {n for n in bench.blocks.names() if n == "ddr" or
                           n.endswith("_ddr") or n.startswith("ddr_")}
+
+
+def test_fresh_build_is_timed_in_its_own_folder():
+    """Build seconds: the first run's own build when it built, else (fresh) a build from
+    scratch in <block>.bench-* (Icarus here: cheap); cached reports the first run's 0."""
+    blk = bench.blocks.get("cds")
+    params = blk.resolve({"pixel_bits": 12})
+    stamp = bench.cosim.build_dir_for("cds.bench", params, "icarus") / "stamp"
+
+    def sources():
+        return bench.stream_sources(blk, params)
+    assert bench._build_s(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
+    assert bench._build_s(0.0, "cached", "cds", params, "icarus", sources) == 0.0
+    t0 = time.time()
+    assert bench._build_s(0.0, "fresh", "cds", params, "icarus", sources) > 0
+    assert stamp.stat().st_mtime >= t0 - 1
+    assert bench.fresh_build("cds", params, "icarus", sources()) > 0      # every time
 
 
 def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):

@@ -30,8 +30,9 @@ def register(sub):
                         "the first run spent building (--quick default)")
     p.add_argument("-o", "--out-dir", default="out/bench", help="folder for the PNG (out/bench)")
     p.add_argument("--png", help="PNG path (default OUT_DIR/bench.png); 'none' to skip")
-    p.add_argument("--json", nargs="?", const="-", metavar="FILE",
-                   help="write JSON to FILE, or to stdout (instead of the table) without FILE")
+    p.add_argument("--json", metavar="FILE",
+                   help="write the rows as JSON to FILE; '-': to stdout (the table then goes "
+                        "to stderr)")
     p.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     p.set_defaults(func=_run)
 
