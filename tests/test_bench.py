@@ -50,6 +50,9 @@ def test_cds_quick_both_simulators(tmp_path, capsys):
     assert sum(ln.startswith("cds ") for ln in lines) == 6
     assert out.count("bit-exact") == 5 and "px/s" in out
     _check_png(png)
+    # the same table again from the JSON, without running anything
+    assert main(["bench", "--from-json", str(tmp_path / "b.json"), "--png", "none"]) == 0
+    assert capsys.readouterr().out.splitlines()[:8] == lines[:8]
 
 
 def test_secded_words_and_json_to_stdout(tmp_path, capsys):
@@ -163,6 +166,14 @@ def test_errors_are_one_line(args, msg, capsys):
     assert main(["bench", *args]) == 2
     err = capsys.readouterr().err
     assert err == f"tdicam: error: {msg}\n"
+
+
+def test_from_json_needs_a_bench_file(tmp_path, capsys):
+    bad = tmp_path / "x.json"
+    bad.write_text("{}")
+    assert main(["bench", "--from-json", str(bad)]) == 2
+    assert capsys.readouterr().err == (f"tdicam: error: --from-json {bad}: not a tdicam bench "
+                                       f"JSON file (KeyError: 'rows')\n")
 
 
 def test_table_formatting():

@@ -1,5 +1,6 @@
 """``tdicam bench [BLOCK ...]``: what accuracy costs in time, every fidelity level side by side."""
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -34,6 +35,8 @@ def register(sub):
                    help="write the rows as JSON to FILE; '-': to stdout (the table then goes "
                         "to stderr)")
     p.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    p.add_argument("--from-json", metavar="FILE",
+                   help="print the table (and PNG) of an earlier --json FILE; runs nothing")
     p.set_defaults(func=_run)
 
 
@@ -46,25 +49,42 @@ def _sims(text):
     return sims
 
 
+def _load(path):
+    try:
+        doc = json.loads(Path(path).read_text())
+        return doc["rows"], doc["machine"], doc["settings"], doc["wall_s"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file "
+                          f"({type(exc).__name__}: {exc})") from None
+
+
 def _run(args):
+    if args.from_json:
+        rows, mline, settings, wall = _load(args.from_json)
+        return _report(args, rows, mline, settings, wall)
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     build = args.build_time or ("cached" if args.quick else "fresh")
     if not 0 <= args.stalls < 1:
         raise TdicamError(f"--stalls = {args.stalls} is out of range; valid: 0 <= p < 1")
     bench._expand(args.names)        # unknown names fail before anything runs
     sims = _sims(args.sims)
-    to_stdout = args.json == "-"
-    log = sys.stderr if to_stdout else sys.stdout
     t0 = time.perf_counter()
     rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
                      stalls=args.stalls, build=build,
                      progress=lambda n: print(f"bench: {n} ...", file=sys.stderr, flush=True))
     wall = time.perf_counter() - t0
-    mline = bench.describe_machine()
     settings = {"names": list(args.names) or list(bench.NAMES), "sims": list(sims),
                 "repeat": repeat, "quick": args.quick, "stalls": args.stalls,
                 "build_time": build}
-    legend = bench.legend(repeat=repeat, stalls=args.stalls, build=build, quick=args.quick)
+    return _report(args, rows, bench.describe_machine(), settings, wall)
+
+
+def _report(args, rows, mline, settings, wall):
+    """Table, legend, PNG and JSON of ``rows``; exit status 1 if any row is not exact."""
+    to_stdout = args.json == "-"
+    log = sys.stderr if to_stdout else sys.stdout
+    legend = bench.legend(repeat=settings["repeat"], stalls=settings["stalls"],
+                          build=settings["build_time"], quick=settings["quick"])
     print(mline, file=log)
     print(bench.format_table(rows, markdown=args.markdown), file=log)
     print(legend, file=log)
