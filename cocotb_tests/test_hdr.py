@@ -32,7 +32,7 @@ def test_extreme_stalls(sim, idle, bp):
         arrays, params = golden.load("hdr", "scene_12b")
         n = arrays["hg"].size
         starts = len(arrays["hg"]) - 1  # frame starts after a measured band
-        stall = 12 + 4 + 2
+        stall = 12 + 4 + 3
         # 1 pixel/clock apart from the frame-start divisions; latency 4; drain 2000
         assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 

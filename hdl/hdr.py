@@ -39,12 +39,13 @@ class Hdr(wiring.Component):
     :attr:`latency` = 4
     cycles, 1 pixel/clock.
 
-    Frame start: when a pixel with ``first`` is presented and the previous frame had band
-    pixels, ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles while two
-    restoring dividers (one quotient bit per cycle, ``pixel_bits + lgt_frac_bits`` bits) turn
-    the band sums into ``L_T`` and ``H_T``; the pixel is then accepted with them. Pixels of
-    the previous frame still in the pipeline are unaffected (each carries its own junction
-    values). With an empty band there is no stall. Pixels before the first ``first`` after
+    Band statistics are updated one cycle after a pixel is accepted (registered band
+    decision). Frame start: when a pixel with ``first`` is presented and the previous frame
+    had band pixels, ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles
+    while two restoring dividers (one quotient bit per cycle, ``pixel_bits + lgt_frac_bits``
+    bits) turn the band sums into ``L_T`` and ``H_T``; the pixel is then accepted with them.
+    Pixels of the previous frame still in the pipeline are unaffected (each carries its own
+    junction values). With an empty band there is no stall. Pixels before the first ``first`` after
     reset are merged with the reset values and counted as a frame.
     """
 
@@ -90,8 +91,8 @@ class Hdr(wiring.Component):
     @property
     def frame_start_cycles(self):
         """Cycles ``i_stream.ready`` is held low at a frame start after a non-empty band
-        (start, one per quotient bit, write-back)."""
-        return self._cfg.lt_bits + 2
+        (last pixel counted, divider load, one per quotient bit, write-back)."""
+        return self._cfg.lt_bits + 3
 
     def elaborate(self, platform):
         m = Module()
@@ -129,7 +130,13 @@ class Hdr(wiring.Component):
         rem_l, rem_h = Signal(cb + 1), Signal(cb + 1)
         num_l, num_h = Signal(q), Signal(q)
         quo_l, quo_h = Signal(q), Signal(q)
-        need_div = i.valid & first & (n != 0)
+        # band statistics run one stage behind the accepted pixel (timing): s_* hold the
+        # pixel accepted last cycle, not yet counted; n_nz is n != 0 once it is counted
+        s_v, s_first, s_band = Signal(), Signal(), Signal()
+        s_hg, s_lg = Signal(pb), Signal(pb)
+        n_nz = Mux(s_v, s_band | (~s_first & (n != 0)), n != 0)
+        need_div = i.valid & first & n_nz
+        load = Signal()
         divs = [(rem_l, num_l, quo_l, sum_l)]
         if cfg.anchor == "band":  # H_T = T otherwise: no HG statistics at all
             divs.append((rem_h, num_h, quo_h, sum_h))
@@ -145,7 +152,9 @@ class Hdr(wiring.Component):
             numer = Signal(pb + cb + f)
             m.d.comb += numer.eq((total << f) + (n >> 1))
             starts += [rem.eq(numer[q:]), num.eq(numer[:q])]
-        with m.If(busy):
+        with m.If(load):  # statistics complete: the stage emptied while ready was low
+            m.d.sync += [load.eq(0), cnt.eq(q), *starts]
+        with m.Elif(busy):
             with m.If(cnt != 0):
                 m.d.sync += cnt.eq(cnt - 1)
                 for rem, num, quo, _ in divs:
@@ -160,20 +169,21 @@ class Hdr(wiring.Component):
                 m.d.sync += [busy.eq(0), lt.eq(quo_l), n.eq(0),
                              ht.eq(quo_h if len(divs) == 2 else cfg.h_seed)]
         with m.Elif(need_div):
-            m.d.sync += [busy.eq(1), cnt.eq(q), *starts]
+            m.d.sync += [busy.eq(1), load.eq(1)]
 
         # ---- band statistics and frame registers, on accepted pixels
         in_band = (hg < t) if t == cfg.band else (hg >= t - cfg.band) & (hg < t)
-        take = in_band & (n != cfg.count_max)
-        with m.If(i.valid & i.ready):
-            with m.If(first):
-                m.d.sync += [cur.eq(sel_now), lt.eq(lt_eff), ht.eq(ht_eff)]
-            with m.If(first | take):  # a frame's first pixel restarts the statistics
-                m.d.sync += [
-                    sum_l.eq(Mux(first, 0, sum_l) + Mux(take, lg, 0)),
-                    sum_h.eq(Mux(first, 0, sum_h) + Mux(take, hg, 0)),
-                    n.eq(Mux(first, 0, n) + take),
-                ]
+        m.d.sync += [s_v.eq(i.valid & i.ready), s_first.eq(first), s_band.eq(in_band),
+                     s_hg.eq(hg), s_lg.eq(lg)]
+        with m.If(i.valid & i.ready & first):
+            m.d.sync += [cur.eq(sel_now), lt.eq(lt_eff), ht.eq(ht_eff)]
+        take = s_band & (n != cfg.count_max)
+        with m.If(s_v & (s_first | take)):  # a frame's first pixel restarts the statistics
+            m.d.sync += [
+                sum_l.eq(Mux(s_first, 0, sum_l) + Mux(take, s_lg, 0)),
+                sum_h.eq(Mux(s_first, 0, sum_h) + Mux(take, s_hg, 0)),
+                n.eq(Mux(s_first, 0, n) + take),
+            ]
 
         # ---- pixel pipeline (global enable)
         v1, f1, l1, below1 = Signal(), Signal(), Signal(), Signal()

@@ -222,7 +222,7 @@ def test_cli_bad_param_is_one_line():
 def test_component_ports_and_properties():
     dut = Hdr(**MULTI)
     assert "gain_sel" in dut.signature.members and dut.latency == 4
-    assert dut.frame_start_cycles == 12 + 4 + 2
+    assert dut.frame_start_cycles == 12 + 4 + 3
     assert dut.config.sel_bits == 2 and dut.out_bits == 15
     Fragment.get(dut, None)
     one = Hdr()
