@@ -48,7 +48,7 @@ from .benchutil import machine, median_time
 from .errors import TdicamError
 
 __all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "run", "describe_machine", "format_table",
-           "plot", "to_json", "fresh_build", "stream_sources", "script"]
+           "plot", "to_json", "fresh_build", "stream_sources", "script", "DDR_WORKS"]
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
 FLAT = Path(__file__).resolve().parents[1] / "scenes" / "flat_snr_sweep_96.toml"
@@ -85,11 +85,11 @@ class StreamWork:
     to_beats: Callable | None = None
 
 
-def _frames(shape_fn):
-    """``make`` of random 12-bit frames for each named input: {name: (rows, cols)}."""
+def _frames(shapes, bits=12):
+    """``make`` of random ``bits``-bit frames for each named input: {name: (rows, cols)}."""
     def make(rng, n):
-        return {k: rng.integers(0, 4096, (n, *s), dtype=np.uint16)
-                for k, s in shape_fn.items()}
+        return {k: rng.integers(0, 1 << bits, (n, *s), dtype=np.uint16)
+                for k, s in shapes.items()}
     return make
 
 
@@ -201,6 +201,53 @@ STREAM_WORKS = (
     StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
                "72-bit code words with 0/1/2 flips", _received, _dec_golden,
                _size("data_in"), _WORDS, _WORDS_QUICK),
+)
+
+def _ddr_golden(inp, params):
+    """The DDR line packing round trip (Table 2 words and back)."""
+    from .model.ddr import LineLayout, pack_lines, unpack_lines
+    lay = LineLayout(width=params["width"], channels=params["channels"],
+                     pixel_bits=params["pixel_bits"], pixels_per_word=params["pixels_per_word"])
+    f = inp["frames"]
+    lines = f.reshape(-1, lay.values_per_line)
+    return {"frames": f, "out": unpack_lines(pack_lines(lines, lay), lay).reshape(f.shape)}
+
+
+def _ddr_beats(a, params):
+    from .blocks.ddr import ddr_to_beats
+    return (ddr_to_beats({"frames": a["frames"]}, params)[0],
+            ddr_to_beats({"frames": a["out"]}, params)[1])
+
+
+def _cds_ddr_make(rng, n):
+    """10-bit frames, every 4th a reset frame (stored in DDR, no output)."""
+    return {"frames": rng.integers(0, 1024, (n, 8, 512), dtype=np.uint16),
+            "kinds": (np.arange(n) % 4 == 0).astype(np.int64)}
+
+
+def _cds_ddr_golden(inp, params):
+    from .model.ddr import cds_ddr_frames
+    return {**inp, "out": cds_ddr_frames(inp["frames"], inp["kinds"],
+                                         pixel_bits=params["pixel_bits"])}
+
+
+#: The DDR blocks' benchmarks (used when the blocks are registered).
+DDR_WORKS = (
+    StreamWork("ddr", "ddr", {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10}, "pixel",
+               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat",
+               _frames({"frames": (4, 1280, 1)}, bits=10), _ddr_golden, _size("frames"),
+               {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
+               {"pysim": 1, "beat": 1, "fast": 2}, to_beats=_ddr_beats),
+    StreamWork("cds_ddr", "cds_ddr", {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel",
+               "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit",
+               _cds_ddr_make, _cds_ddr_golden, _size("frames"),
+               {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
+               {"pysim": 2, "beat": 2, "fast": 4}),
+    StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
+               "TDI partial sums in DDR, the tdi row's input",
+               _frames({"frames": (4, 256)}), _tdi_golden, _size("frames"),
+               {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60},
+               {"pysim": 5, "beat": 5, "fast": 20}),
 )
 
 #: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
@@ -389,12 +436,18 @@ def _ddr_names():
 
 
 def _ddr_rows(*, sims, repeat, quick, stalls, build):
-    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) once they are there."""
+    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) once they are there:
+    :data:`DDR_WORKS`, or a block's largest golden case for one not listed there."""
     names = _ddr_names()
     if not names:
         return [_na("ddr", "golden", "pixel", "not available: no ddr block registered yet")]
     rows = []
+    works = {w.block: w for w in DDR_WORKS}
     for b in names:
+        if b in works:
+            rows += _stream_rows(works[b], sims=sims, repeat=repeat, quick=quick,
+                                 stalls=stalls, build=build)
+            continue
         blk = blocks.get(b)
         case = _largest_case(blk, 2000 if quick else 20_000)
         if case is None:
