@@ -1,0 +1,133 @@
+"""Benchmark: DDR line/frame buffers (SPEC 3.8) — interface efficiency and simulation speed.
+
+Table 1, interface efficiency under the default stall pattern of the controller model
+(read latency 20..60 cycles, 26-cycle refresh every 780, each ready dropped with
+probability 16/256): the frame buffer's MIG ports driven by the Python model in cocotb,
+one frame written alone then read (data beats / cycles of each phase; seed 002 reports
+> 80 % at 100 MHz). Table 2, pixels/s of the golden packing and of fast-mode
+co-simulation (HDL controller model inside the design) for the round trip, CDS with the
+reset frame in DDR and TDI with partial sums in DDR, with the sustained rate in input
+beats per clock (TDI on chip: 1 beat/clock).
+
+    python bench/bench_ddr.py [--quick]
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from tdicam import blocks, cosim
+from tdicam.benchutil import machine, print_table
+from tdicam.blocks.ddr import run_ui_cosim
+from tdicam.blocks.tdi import pack_ctrl, stream_arrays
+from tdicam.cosim.codec import Beats, frames_to_beats
+from tdicam.model.ddr import LineLayout, pack_lines
+from tdicam.model.tdi import tdi_stream
+
+
+def efficiency(sims=cosim.SIMULATORS, quick=False):
+    """Rows {config, sim, words, write_eff, read_eff, mem_ok, wall}."""
+    out = []
+    cfgs = [("1296 px x 10 bit, 24 px/beat", dict(width=1296, rows=8 if quick else 32,
+                                                   ppc=24), sims),
+            ("72 ch x 170 px (Table 2), 1 px/beat", dict(width=170, rows=4, channels=72,
+                                                         line_stride=4096), ("verilator",))]
+    for name, kw, ss in cfgs:
+        for sim in ss:
+            r = run_ui_cosim(sim=sim, seed=2, **kw)
+            out.append({"config": name, "sim": sim, "words": r["words"],
+                        "write_eff": 100 * r["write_eff"], "read_eff": 100 * r["read_eff"],
+                        "mem_ok": r["mem_mismatches"] == 0 and r["data_ok"],
+                        "wall": r["wall"]})
+    return out
+
+
+def _tdi(params, seq, seed=1):
+    rng = np.random.default_rng(seed)
+    settings = [(m, d) for m, d, n in seq for _ in range(n)]
+    frames = [rng.integers(0, 1 << params["pixel_bits"], (m, params["width"]))
+              for m, _ in settings]
+    a = stream_arrays(frames, settings, params)
+    want = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
+                      **{k: params[k] for k in ("width", "stages", "pixel_bits", "out_bits",
+                                                "ppc")})
+    stim = Beats(a["pixels"], a["first"], a["last"],
+                 ctrl=pack_ctrl(a["stages_active"], a["direction"]))
+    return stim, Beats(want.data, want.first, want.last)
+
+
+def speed(sims=cosim.SIMULATORS, quick=False):
+    """Rows {engine, mode, design, pixels, seconds, pixels_s, beats_per_clock, mismatches}."""
+    out = []
+    rng = np.random.default_rng(1)
+    fr = rng.integers(0, 1024, (4, 1024, 1280))
+    lay = LineLayout(width=1280)
+    t0 = time.perf_counter()
+    pack_lines(fr.reshape(-1, 1280), lay)
+    t = time.perf_counter() - t0
+    out.append({"engine": "numpy", "mode": "-", "design": "pack 1280x1024 10-bit",
+                "pixels": fr.size, "seconds": t, "pixels_s": fr.size / t})
+    runs = []
+    for sim in sims:
+        rows = 64 if (quick or sim == "icarus") else 1024
+        p = blocks.get("ddr").resolve({"width": 1280, "rows": rows, "ppc": 8})
+        f = rng.integers(0, 1024, (2, rows, 1280, 1))
+        s = frames_to_beats(f, ppc=8)
+        runs.append(("ddr", p, s, s, sim, f.size, f"round trip 1280x{rows}, 8 px/beat"))
+        p = blocks.get("cds_ddr").resolve({"width": 512, "rows": 16, "pixel_bits": 10})
+        arr = {"frames": rng.integers(0, 1024, (4, 16, 512)), "kinds": np.array([1, 0, 0, 0])}
+        from tdicam.model.ddr import cds_ddr_frames
+        arr["out"] = cds_ddr_frames(arr["frames"], arr["kinds"], pixel_bits=10)
+        st, ex = blocks.get("cds_ddr").to_beats(arr, p)
+        runs.append(("cds_ddr", p, st, ex, sim, arr["frames"].size, "CDS 512x16, reset in DDR"))
+        p = blocks.get("tdi_ddr").resolve({"width": 512, "stages": 16})
+        nfr = 18 if (quick or sim == "icarus") else 40
+        st, ex = _tdi(p, [(16, 0, nfr)])
+        runs.append(("tdi_ddr", p, st, ex, sim, len(st), f"TDI 512x16 DDR psums, {nfr} frames"))
+        if sim == "verilator" and not quick:
+            p = blocks.get("tdi_ddr").resolve({"width": 4096, "stages": 32, "ppc": 4})
+            st, ex = _tdi(p, [(32, 0, 35)])
+            runs.append(("tdi_ddr", p, st, ex, sim, 4 * len(st), "TDI 4096x32 ppc4 (spill)"))
+    for block, p, st, ex, sim, pixels, name in runs:
+        res = cosim.run_stream(block, p, st, n_out=len(ex), sim=sim, mode="fast", idle=0.0,
+                               backpressure=0.0, seed=1)
+        cmp = cosim.compare(res.out, ex)
+        out.append({"engine": sim, "mode": "fast", "design": name, "pixels": pixels,
+                    "seconds": res.wall, "pixels_s": pixels / res.wall,
+                    "beats_per_clock": len(st) / max(res.cycles - 2000, 1),
+                    "mismatches": cmp.mismatches, "build_s": res.build_time})
+    return out
+
+
+def run(sims=cosim.SIMULATORS, quick=False):
+    """Both tables as one list of dicts (``table`` = "efficiency" or "speed")."""
+    return ([{"table": "efficiency", **r} for r in efficiency(sims, quick)]
+            + [{"table": "speed", **r} for r in speed(sims, quick)])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smaller runs")
+    a = ap.parse_args(argv)
+    rows = run(quick=a.quick)
+    print(machine())
+    print_table([r for r in rows if r["table"] == "efficiency"],
+                [("config", "config", "s"), ("sim", "sim", "s"), ("words", "words", "d"),
+                 ("write_eff", "write eff %", ".1f"), ("read_eff", "read eff %", ".1f"),
+                 ("mem_ok", "bit-exact", ""), ("wall", "wall s", ".1f")],
+                title="MIG UI efficiency, default stall pattern (target >= 80 %)")
+    print()
+    print_table([r for r in rows if r["table"] == "speed"],
+                [("engine", "engine", "s"), ("mode", "mode", "s"), ("design", "design", "s"),
+                 ("pixels", "pixels", "d"), ("seconds", "wall s", ".2f"),
+                 ("pixels_s", "pixels/s", ",.0f"), ("beats_per_clock", "beats/clk", ".3f"),
+                 ("mismatches", "mismatches", "d"), ("build_s", "build s", ".1f")],
+                title="simulation speed (fast mode, no idle/backpressure; wall incl. start-up)")
+    eff = [r for r in rows if r["table"] == "efficiency"]
+    ok = all(r["write_eff"] >= 80 and r["read_eff"] >= 80 for r in eff)
+    print(f"interface efficiency >= 80 % for writes and reads: {'met' if ok else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
