@@ -280,3 +280,31 @@ def test_tdi_ddr_refuses_what_it_cannot_do():
         TdiDdr(width=64, stages=4)
     with pytest.raises(TdicamError, match="address space too small"):
         TdiDdr(width=8192, stages=128, capacity_bytes=1 << 16)
+
+
+# ---- the plan's spill decision
+
+def _plan(capsys, *args):
+    from tdicam.cli import main
+    code = main(["plan", *args])
+    return code, capsys.readouterr()
+
+
+def test_plan_says_the_wide_case_must_spill(capsys):
+    """W = 4096, m = 32, 12-bit (the wide co-simulated case): 31 lines x 17 bits = 2.06
+    Mbit > an ECP5-25F's 1008 kbit of block RAM -> partial sums in DDR, which sustains them
+    at GSD 5 m (6 Gbit/s of 20.48) but not at GSD 1 m; on an 85F they stay on chip."""
+    import json
+    code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-25f",
+                      "--gsd-m", "5", "--json")
+    assert code == 0
+    d = json.loads(cap.out)["design"]
+    assert d["memory"]["must_spill"] is True and d["ddr"]["ok"] is True
+    code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-25f",
+                      "--gsd-m", "1")
+    assert "partial sums must spill to DDR: DDR bandwidth SHORT" in cap.out
+    code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-85f",
+                      "--gsd-m", "5")
+    assert "partial sums stay on chip" in cap.out
+    code, cap = _plan(capsys, "--device", "nope")
+    assert code == 2 and "device = 'nope' is not known" in cap.err
