@@ -70,11 +70,11 @@ def speed(sims=cosim.SIMULATORS, quick=False):
                 "pixels": fr.size, "seconds": t, "pixels_s": fr.size / t})
     runs = []
     for sim in sims:
-        rows = 64 if (quick or sim == "icarus") else 1024
-        p = blocks.get("ddr").resolve({"width": 1280, "rows": rows, "ppc": 8})
-        f = rng.integers(0, 1024, (2, rows, 1280, 1))
+        lines = 128 if (quick or sim == "icarus") else 1024
+        p = blocks.get("ddr").resolve({"width": 1280, "rows": 64, "ppc": 8})
+        f = rng.integers(0, 1024, (1, lines, 1280, 1))
         s = frames_to_beats(f, ppc=8)
-        runs.append(("ddr", p, s, s, sim, f.size, f"round trip 1280x{rows}, 8 px/beat"))
+        runs.append(("ddr", p, s, s, sim, f.size, f"round trip 1280x{lines}, 8 px/beat"))
         p = blocks.get("cds_ddr").resolve({"width": 512, "rows": 16, "pixel_bits": 10})
         arr = {"frames": rng.integers(0, 1024, (4, 16, 512)), "kinds": np.array([1, 0, 0, 0])}
         from tdicam.model.ddr import cds_ddr_frames
