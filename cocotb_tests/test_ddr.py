@@ -182,7 +182,6 @@ def test_out_of_range_access_stops_the_stream():
     from tdicam.hdl.axis import AxisTop
     from tdicam.hdl.ddr import DdrFrameBuffer, SimTop
     from tdicam.verilog import convert
-    from tdicam.cosim import build_sources
     core = DdrFrameBuffer(width=48, rows=4, elements=8)
     top = SimTop(core, depth_words=4)        # 4 words: line 1 is already outside
     text = convert(AxisTop(top), "ddr_oob")

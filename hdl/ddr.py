@@ -381,7 +381,6 @@ class LineWriter(wiring.Component):
         ofire = o_valid & self.wr_ready
         cur_addr = Mux(line_start, next_base, waddr)
         cur_first = Mux(line_start, i.payload.first, first_flag)
-        sl = _word_slices(P, B)
         if R == 1:
             k = Signal(range(max(G, 2)))
             vals = [Signal(B, name=f"v{j}") for j in range(P)]
