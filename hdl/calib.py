@@ -67,8 +67,9 @@ class CalibReader(wiring.Component):
     -----
     An uncorrectable payload word gives its two pixels (four coefficients) the defaults,
     gain 1.0 (``1 << gain_frac_bits``) and offset 0. The decoder is combinational on the
-    input word; a pending and a current word register follow: :attr:`latency` = 2 cycles
-    from the transfer of a payload word to its first pixel being valid. One pixel per clock
+    input word; a decoded word register (header check and counters work from it), a
+    pending and a current word register follow: :attr:`latency` = 3 cycles from the
+    transfer of a payload word to its first pixel being valid. One pixel per clock
     while the source delivers a word every other clock and ``o_stream.ready`` is high;
     ``i_stream.ready`` depends only on registers; no word or pixel is lost or duplicated
     whatever ``ready`` does.
@@ -109,7 +110,7 @@ class CalibReader(wiring.Component):
     @property
     def latency(self):
         """Cycles from a payload word's transfer to its first pixel being valid."""
-        return 2
+        return 3
 
     def elaborate(self, platform):
         m = Module()
@@ -122,6 +123,10 @@ class CalibReader(wiring.Component):
         m.submodules.dec = dec = SecdedDecoder()
         m.d.comb += dec.code.eq(Cat(i.payload.data))
 
+        # ---- decode stage: the decoded word is registered before it is parsed (timing)
+        d_valid, d_data, d_cor, d_unc = Signal(), Signal(64), Signal(), Signal()
+        d_go = Signal()  # the decoded word is consumed this cycle
+
         # ---- input side: header check, counters, pending word
         in_header = Signal(init=1)
         hidx = Signal(range(HEADER_WORDS))
@@ -133,15 +138,21 @@ class CalibReader(wiring.Component):
         cor_next = Signal(cb)
         unc_next = Signal(cb)
         m.d.comb += [
-            cor_next.eq(Mux(dec.corrected & (cor != top), cor + 1, cor)),
-            unc_next.eq(Mux(dec.uncorrectable & (unc != top), unc + 1, unc)),
+            cor_next.eq(Mux(d_cor & (cor != top), cor + 1, cor)),
+            unc_next.eq(Mux(d_unc & (unc != top), unc + 1, unc)),
             self.corrected_count.eq(cor), self.uncorrectable_count.eq(unc),
             self.header_error.eq(hdr_bad),
         ]
 
         p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64), Signal(), Signal()
         p_cor, p_unc, p_single = Signal(cb), Signal(cb), Signal()
-        m.d.comb += i.ready.eq(in_header | ~p_valid)
+        m.d.comb += [
+            d_go.eq(d_valid & (in_header | ~p_valid)),
+            i.ready.eq(~d_valid | d_go),
+        ]
+        with m.If(i.ready):
+            m.d.sync += [d_valid.eq(i.valid), d_data.eq(dec.data), d_cor.eq(dec.corrected),
+                         d_unc.eq(dec.uncorrectable)]
 
         expect = header_words(rows, cols, fmt)
         mismatch = Signal()
@@ -149,8 +160,7 @@ class CalibReader(wiring.Component):
             for k, word in enumerate(expect):
                 mask = 0xFFFF_FFFF if k == 3 else (1 << 64) - 1  # word 3: CRC not checked
                 with m.Case(k):
-                    m.d.comb += mismatch.eq(dec.uncorrectable
-                                            | ((dec.data & mask) != (word & mask)))
+                    m.d.comb += mismatch.eq(d_unc | ((d_data & mask) != (word & mask)))
 
         # ---- output side: current word, pixel position
         c_valid, c_data, c_bad, c_hbad = Signal(), Signal(64), Signal(), Signal()
@@ -168,7 +178,7 @@ class CalibReader(wiring.Component):
 
         with m.If(load_cur):
             m.d.sync += p_valid.eq(0)
-        with m.If(i.valid & i.ready):
+        with m.If(d_go):
             m.d.sync += [cor.eq(cor_next), unc.eq(unc_next)]
             with m.If(in_header):
                 m.d.sync += hdr_bad.eq(Mux(~hidx.any(), mismatch, hdr_bad | mismatch))
@@ -177,8 +187,8 @@ class CalibReader(wiring.Component):
                 with m.Else():
                     m.d.sync += hidx.eq(hidx + 1)
             with m.Else():
-                m.d.sync += [p_valid.eq(1), p_data.eq(dec.data),
-                             p_bad.eq(dec.uncorrectable | hdr_bad), p_hbad.eq(hdr_bad),
+                m.d.sync += [p_valid.eq(1), p_data.eq(d_data),
+                             p_bad.eq(d_unc | hdr_bad), p_hbad.eq(hdr_bad),
                              p_cor.eq(cor_next), p_unc.eq(unc_next),
                              p_single.eq(int(odd) & (widx == n_pay - 1))]
                 with m.If(widx == n_pay - 1):

@@ -196,7 +196,7 @@ def test_amaranth_reader_matches_model_with_stalls():
     assert final["uncorrectable_count"] == int((arrays["flips"] == 2).sum())
     assert final["header_error"] == 0
     # the first payload word is the 5th word: its pixel is valid `latency` cycles later
-    assert lat == [dut.latency] == [2]
+    assert lat == [dut.latency] == [3]
 
 
 def test_amaranth_reader_bad_headers_and_plain_build():
@@ -217,8 +217,8 @@ def test_amaranth_reader_full_rate():
                                            latency_from=None)
     assert [r[0] for r, _, _ in out] == g.ravel().tolist()
     assert [r[1] for r, _, _ in out] == (o.ravel() & 0xFFFF).tolist()
-    # 4 header words + 2-cycle latency + 60 pixels at 1/clock
-    assert final["cycles"] <= 4 + 2 + 60 + 1
+    # 4 header words + 3-cycle latency + 60 pixels at 1/clock
+    assert final["cycles"] <= 4 + 3 + 60 + 1
 
 
 @pytest.mark.parametrize("rows,cols", [(1, 1), (1, 3), (2, 1), (3, 5)])
