@@ -85,6 +85,8 @@ class LaneTrainer(wiring.Component):
     Step timing (see :mod:`tdicam.model.lvds`): a step lasts
     :meth:`step_words` ``= settle + max(n_check, 1) + 3``; 32 scan steps, 1 decide cycle,
     up to W slip steps. Error after lock shows 3 cycles after the offending raw word.
+    ``train_word``, ``sync_word``, ``n_check`` and ``line_words`` are registered in the lane
+    (timing): a change takes effect one cycle later; hold them while training.
     """
 
     def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5):
@@ -122,9 +124,18 @@ class LaneTrainer(wiring.Component):
         w, settle = self._w, self._settle
         state = Signal(3, init=_SCAN)
         cnt = Signal(range(settle + 256 + VERDICT_WORDS))
+        # quasi-static settings registered in the lane (local fanout, timing): they take
+        # effect one cycle after they change; the first use is >= settle cycles into a step
+        top = settle + 255 + VERDICT_WORDS - 1
+        chk_end = Signal(range(top + 1), init=settle + 1, reset_less=True)
+        last_at = Signal(range(top + 1), init=top, reset_less=True)
+        train_word, sync_word = (Signal(w, reset_less=True), Signal(w, reset_less=True))
+        line_words = Signal(16, reset_less=True)
         n_eff = Mux(self.n_check.any(), self.n_check, 1)
-        chk_end = settle + n_eff
-        last = cnt == chk_end + (VERDICT_WORDS - 1)
+        m.d.sync += [chk_end.eq(settle + n_eff), last_at.eq(settle + n_eff + (VERDICT_WORDS - 1)),
+                     train_word.eq(self.train_word), sync_word.eq(self.sync_word),
+                     line_words.eq(self.line_words)]
+        last = cnt == last_at
         in_step = (state == _SCAN) | (state == _SLIP)
 
         # gearbox: word = samples (k-1)*W + slip .. of {previous raw, raw}
@@ -146,7 +157,7 @@ class LaneTrainer(wiring.Component):
             scan_a.eq(state == _SCAN),
         ]
         # stage B: comparisons
-        rots = [Cat(self.train_word[w - r:], self.train_word[:w - r]) if r else self.train_word
+        rots = [Cat(train_word[w - r:], train_word[:w - r]) if r else train_word
                 for r in range(w)]
         w_b, chk_b, first_b, mon_b, scan_b = (Signal(w), Signal(), Signal(), Signal(),
                                               Signal())
@@ -155,16 +166,18 @@ class LaneTrainer(wiring.Component):
             w_b.eq(w_a), chk_b.eq(chk_a), first_b.eq(first_a), mon_b.eq(mon_a),
             scan_b.eq(scan_a),
             eq_rot.eq(Cat(w_a == r for r in rots)),
-            eq_train.eq(w_a == self.train_word),
-            eq_sync.eq(w_a == self.sync_word),
+            eq_train.eq(w_a == train_word),
+            eq_sync.eq(w_a == sync_word),
         ]
         m.d.comb += [self.word.eq(w_b), self.word_sync.eq(eq_sync)]
 
         # stage C: verdict accumulation
-        ok, ref = Signal(), Signal(w)
+        ok, ref, cur_word = Signal(), Signal(w), Signal(w)
+        same = Signal()  # ref == cur_word, written with ref
         with m.If(chk_b):
             with m.If(first_b):
-                m.d.sync += [ok.eq(Mux(scan_b, eq_rot.any(), eq_train)), ref.eq(w_b)]
+                m.d.sync += [ok.eq(Mux(scan_b, eq_rot.any(), eq_train)), ref.eq(w_b),
+                             same.eq(w_b == cur_word)]
             with m.Else():
                 m.d.sync += ok.eq(ok & Mux(scan_b, w_b == ref, eq_train))
 
@@ -172,10 +185,15 @@ class LaneTrainer(wiring.Component):
         prev_pass = Signal()
         cur_start, cur_len = Signal(TAP_BITS), Signal(RUN_BITS)
         best_start, best_len = Signal(TAP_BITS), Signal(RUN_BITS)
-        cur_word = Signal(w)
-        extend = ok & prev_pass & (ref == cur_word)
-        new_len = Mux(ok, Mux(extend, cur_len + 1, 1), 0)
+        # comparisons precomputed from registers that only change at a step's end
+        len_inc, inc_gt, one_gt = Signal(RUN_BITS), Signal(), Signal()
+        tap_hot = Signal(N_TAPS)
+        m.d.sync += [len_inc.eq(cur_len + 1), inc_gt.eq(cur_len + 1 > best_len),
+                     one_gt.eq(~best_len.any()), tap_hot.eq(1 << self.tap)]
+        extend = ok & prev_pass & same
+        new_len = Mux(ok, Mux(extend, len_inc, 1), 0)
         new_start = Mux(extend, cur_start, self.tap)
+        better = ok & Mux(extend, inc_gt, one_gt)
         m.d.comb += [self.run.eq(best_len)]
 
         # locked-lane supervision
@@ -186,14 +204,14 @@ class LaneTrainer(wiring.Component):
         with m.If(mon_b & (state == _LOCKED)):
             with m.If(~mphase):
                 with m.If(eq_sync):
-                    m.d.sync += [mphase.eq(1), lpos.eq(Mux(lpos_next >= self.line_words,
+                    m.d.sync += [mphase.eq(1), lpos.eq(Mux(lpos_next >= line_words,
                                                            0, lpos_next))]
                 with m.Elif(~eq_train):
                     m.d.comb += go_error_mon.eq(1)
             with m.Else():
                 with m.If(eq_sync == lpos.any()):
                     m.d.comb += go_error_mon.eq(1)
-                m.d.sync += lpos.eq(Mux(lpos_next >= self.line_words, 0, lpos_next))
+                m.d.sync += lpos.eq(Mux(lpos_next >= line_words, 0, lpos_next))
 
         m.d.sync += self.ld.eq(0)
         with m.If(state == _SCAN):
@@ -203,9 +221,9 @@ class LaneTrainer(wiring.Component):
                     cnt.eq(0),
                     prev_pass.eq(ok), cur_word.eq(ref), cur_len.eq(new_len),
                     cur_start.eq(new_start),
-                    self.scan.eq(self.scan | (ok << self.tap)),
+                    self.scan.eq(self.scan | Mux(ok, tap_hot, 0)),
                 ]
-                with m.If(ok & (new_len > best_len)):
+                with m.If(better):
                     m.d.sync += [best_len.eq(new_len), best_start.eq(new_start)]
                 with m.If(self.tap == N_TAPS - 1):
                     m.d.sync += state.eq(_DECIDE)
