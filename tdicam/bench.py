@@ -390,44 +390,10 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
 def _lvds_pysim(link, cycles, n_check, params):
     """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
     Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
-    from amaranth.sim import Simulator
-
-    from .hdl.lvds import LvdsRx
-    from .model import lvds as model
-    n, w = len(link.lanes), link.word_bits
-    dut = LvdsRx(lanes=n, word_bits=w, settle=params["settle"], min_run=params["min_run"],
-                 pick=params["pick"])
-    events = []
-
-    async def bench(ctx):
-        for port, v in (("train_word", link.train_word), ("sync_word", link.sync_word),
-                        ("n_check", n_check), ("line_words", link.line_words)):
-            ctx.set(getattr(dut, port), v)
-        tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
-        for k in range(cycles):
-            ctx.set(dut.lane_raw, sum(int(model.raw_words(link, i, tap2[i], k)) << (i * w)
-                                      for i in range(n)))
-            ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
-            lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
-            sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
-            for i in range(n):
-                st = ((lk >> i) & 1, (er >> i) & 1)
-                if st != prev[i]:
-                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
-                                   (rn >> 6 * i) & 63))
-                    prev[i] = st
-            await ctx.tick()
-            for i in range(n):      # the tap a load selects reaches the sampler 2 words later
-                tap2[i] = tapq[i]
-                if (ld >> i) & 1:
-                    tapq[i] = (tap >> 5 * i) & 31
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(bench)
-    t0 = time.perf_counter()
-    sim.run()
-    return events, time.perf_counter() - t0
+    from .cosim.lvds import run_amaranth
+    events, _, seconds = run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
+                                      min_run=params["min_run"], pick=params["pick"])
+    return events, seconds
 
 
 # ------------------------------------------------------------------------------ ddr

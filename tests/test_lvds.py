@@ -7,7 +7,6 @@ import sys
 
 import numpy as np
 import pytest
-from amaranth.sim import Simulator
 
 from tdicam import blocks
 from tdicam.cli import main
@@ -181,43 +180,8 @@ def test_run_errors_are_one_line():
 
 # ---------------------------------------------------------------- Amaranth simulation
 def _amaranth_run(link, cycles, retrains=(), n_check=4, settle=4):
-    n, w = len(link.lanes), link.word_bits
-    dut = LvdsRx(lanes=n, word_bits=w, settle=settle)
-    events, outs = [], []
-
-    async def bench(ctx):
-        ctx.set(dut.train_word, link.train_word)
-        ctx.set(dut.sync_word, link.sync_word)
-        ctx.set(dut.n_check, n_check)
-        ctx.set(dut.line_words, link.line_words)
-        tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
-        for k in range(cycles):
-            raw = 0
-            for i in range(n):
-                raw |= int(model.raw_words(link, i, tap2[i], k)) << (i * w)
-            ctx.set(dut.lane_raw, raw)
-            ctx.set(dut.retrain, int(k in retrains))
-            ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
-            lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
-            sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
-            for i in range(n):
-                st = ((lk >> i) & 1, (er >> i) & 1)
-                if st != prev[i]:
-                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
-                                   (rn >> 6 * i) & 63))
-                    prev[i] = st
-            if ctx.get(dut.o_valid):
-                outs.append((k, ctx.get(dut.o_sync), ctx.get(dut.o_data)))
-            await ctx.tick()
-            for i in range(n):
-                tap2[i] = tapq[i]
-                if (ld >> i) & 1:
-                    tapq[i] = (tap >> 5 * i) & 31
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(bench)
-    sim.run()
+    events, outs, _ = cl.run_amaranth(link, cycles, retrains=retrains, n_check=n_check,
+                                      settle=settle)
     return events, outs
 
 

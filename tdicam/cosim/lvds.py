@@ -36,7 +36,7 @@ from ..verilog import convert
 from . import build_sources, run_cocotb, tbgen
 from .codec import _digits, _undigits
 
-__all__ = ["LinkRun", "run_link", "check_run", "expected_outputs", "testbench", "LMAX",
+__all__ = ["LinkRun", "run_link", "run_amaranth", "check_run", "expected_outputs", "testbench", "LMAX",
            "linkcheck_tap"]
 
 LMAX = 1024          # lanes the testbench tables hold (all groups of one run)
@@ -522,3 +522,54 @@ def check_run(link, run, golden, *, cycles, retrains=()):
             problems.append(f"group {grp}: {int((~covered).sum())} output words outside the "
                             f"expected segments (first at cycle {int(ks[~covered][0])})")
     return problems
+
+
+def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params):
+    """Train ``link`` on :class:`~tdicam.hdl.lvds.LvdsRx` in Amaranth's Python simulator, the
+    link's raw words evaluated by the golden model every cycle (the tap a load selects reaches
+    the sampler 2 words later, as in the HDL testbench).
+
+    Returns ``(events, outs, seconds)``: status events as :func:`tdicam.model.lvds.run` lists
+    them ``(cycle, lane, locked, error, tap, slip, run)``, the aligned output words
+    ``(cycle, sync, data)``, and the simulator's wall time. ``rx_params`` go to ``LvdsRx``
+    (``min_run``, ``pick``, ...); ``retrains`` are the cycles ``retrain`` is high.
+    """
+    from amaranth.sim import Simulator
+
+    from ..hdl.lvds import LvdsRx
+    n, w = len(link.lanes), link.word_bits
+    dut = LvdsRx(lanes=n, word_bits=w, settle=settle, **rx_params)
+    events, outs = [], []
+
+    async def bench(ctx):
+        for port, v in (("train_word", link.train_word), ("sync_word", link.sync_word),
+                        ("n_check", n_check), ("line_words", link.line_words)):
+            ctx.set(getattr(dut, port), v)
+        tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
+        for k in range(cycles):
+            ctx.set(dut.lane_raw, sum(int(model.raw_words(link, i, tap2[i], k)) << (i * w)
+                                      for i in range(n)))
+            ctx.set(dut.retrain, int(k in retrains))
+            ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
+            lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
+            sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
+            for i in range(n):
+                st = ((lk >> i) & 1, (er >> i) & 1)
+                if st != prev[i]:
+                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
+                                   (rn >> 6 * i) & 63))
+                    prev[i] = st
+            if ctx.get(dut.o_valid):
+                outs.append((k, ctx.get(dut.o_sync), ctx.get(dut.o_data)))
+            await ctx.tick()
+            for i in range(n):
+                tap2[i] = tapq[i]
+                if (ld >> i) & 1:
+                    tapq[i] = (tap >> 5 * i) & 31
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    t0 = time.perf_counter()
+    sim.run()
+    return events, outs, time.perf_counter() - t0
