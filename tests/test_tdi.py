@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from amaranth.hdl import ClockDomain, Fragment, Module, Shape
+from amaranth.hdl import ClockDomain, Fragment, Module
 from amaranth.sim import Simulator
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -249,64 +249,39 @@ def test_component_properties():
     dut = TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=4)
     assert (dut.width, dut.stages, dut.pixel_bits, dut.ppc) == (1280, 96, 12, 4)
     assert dut.psum_bits == dut.out_bits == 19 and not dut.saturating
-    assert dut.latency == 7
+    assert dut.latency == 3
     assert dut.memory_lines == 95
     assert dut.memory_shape == (4, 95 * 320, 19)
-    assert dut.memory_parts == (18, 1)
-    assert TdiAccumulator(width=64, stages=4, pixel_bits=14).memory_parts == (9, 4, 2, 1)
     sat = TdiAccumulator(width=64, stages=4, out_bits=12)
     assert sat.out_bits == 12 and sat.psum_bits == 14 and sat.saturating
     assert len(dut.stages_active) == 7 and len(dut.direction) == 1
 
 
 def _memories(dut):
-    """(name, depth, width, read ports, write ports) of the partial-sum memories (named
-    psum<lane>_b<bit offset>_<block RAM index>) of the elaborated design."""
     frag = Fragment.get(dut, None)
     found = []
 
-    def walk(f, name):
-        if type(f).__name__ == "MemoryInstance" and name.startswith("psum"):
-            found.append((name, f._data.depth, Shape.cast(f._data.shape).width,
-                          len(f._read_ports), len(f._write_ports)))
-        for sub, sub_name, *_ in f.subfragments:
-            walk(sub, str(sub_name))
-    walk(frag, "")
+    def walk(f):
+        if type(f).__name__ == "MemoryInstance":
+            found.append((f._data.depth, f._data.shape.width, len(f._read_ports),
+                          len(f._write_ports)))
+        for sub, *_ in f.subfragments:
+            walk(sub)
+    walk(frag)
     return found
 
 
 @pytest.mark.parametrize("width,stages,bits,ppc", [
     (64, 4, 12, 1), (64, 4, 12, 4), (256, 32, 12, 1), (1280, 96, 12, 1), (1280, 96, 12, 8),
-    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1), (64, 4, 14, 1)])
+    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1)])
 def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     """The elaborated design holds exactly (m_max-1) x W partial sums of the full width —
     (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc banks (one per pixel
-    lane). A bank's words are split by bits into parts of a DP16KD data width (18, 9, 4, 2,
-    1; 19 bits = 18 + 1) and each part by address into memories of at most one block RAM
-    (1024 x 18 ... 16384 x 1), each with one read and one write port: every bit of a bank
-    is stored exactly once, (m-1) W/ppc words x psum bits per lane."""
+    lane), each with one read and one write port."""
     mems = _memories(TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc))
     psum = bits + (stages - 1).bit_length()
-    depth = (stages - 1) * width // ppc
-    ram_depth = {18: 1024, 9: 2048, 4: 4096, 2: 8192, 1: 16384}
-    assert all((r, w) == (1, 1) for *_, r, w in mems)
-    for lane in range(ppc):
-        parts = {}
-        for name, d, bw, *_ in mems:
-            if name.startswith(f"psum{lane}_"):
-                _, offset, index = name.split("_")
-                assert bw in ram_depth and d <= ram_depth[bw]
-                assert d == min(ram_depth[bw], depth - int(index) * ram_depth[bw])
-                parts.setdefault((int(offset[1:]), bw), []).append(d)
-        # the parts tile the word's bits, each holds every word of the bank
-        offsets = sorted(parts)
-        assert [o for o, _ in offsets] == [sum(w for _, w in offsets[:i])
-                                           for i in range(len(offsets))]
-        assert sum(w for _, w in offsets) == psum
-        assert all(sum(ds) == depth for ds in parts.values())
-        bank_bits = sum(sum(ds) * w for (_, w), ds in parts.items())
-        assert bank_bits == depth * psum
-    words = depth * ppc
+    assert mems == [((stages - 1) * width // ppc, psum, 1, 1)] * ppc
+    words = sum(depth for depth, *_ in mems)
     assert words == (stages - 1) * width
     assert words * psum == (stages - 1) * width * full_bits(bits, stages)
     assert basic_line_buffers(stages) * width - words == \
@@ -317,24 +292,13 @@ def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     assert plan.partial_sum_bits(bits, stages) == psum
 
 
-def test_reference_memory_block_rams():
-    """At the reference parameters the partial sums take 127 DP16KD-sized memories for
-    ppc=1 (119 of 1024 x 18 + 8 of 16384 x 1) and 128 for ppc=4; the floor is
-    ceil(95 x 1280 x 19 / 18432) = 126."""
-    for ppc, n in ((1, 127), (4, 128)):
-        mems = _memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
-        assert len(mems) == n
-        assert sum(1 for _, _, w, *_ in mems if w == 18) == (119 if ppc == 1 else 120)
-
-
 def test_memory_in_generated_verilog():
     from tdicam.hdl.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
     decls = sorted(ln.strip() for ln in text.splitlines() if ln.strip().startswith("reg [")
                    and ln.strip().endswith("];") and "] psum" in ln)
-    # 5 lines x 64 pixels of 13 bits, as 2 banks of 160 words, each 9 + 4 bits
-    assert decls == ["reg [3:0] psum0_b9_0 [159:0];", "reg [3:0] psum1_b9_0 [159:0];",
-                     "reg [8:0] psum0_b0_0 [159:0];", "reg [8:0] psum1_b0_0 [159:0];"]
+    # 5 lines x 64 pixels of 13 bits, as 2 banks of 160 words
+    assert decls == ["reg [12:0] psum0 [159:0];", "reg [12:0] psum1 [159:0];"]
 
 
 def test_stages_one_has_no_memory():
@@ -507,9 +471,8 @@ def test_latency_and_full_throughput():
 
 def test_nonoutput_rows_flow_while_output_stalled():
     """With o_stream.ready held low, frames that produce no output stream in at one beat per
-    clock; the first output row stalls the input once its output credits (read pipeline and
-    output FIFO), the issue register and the input register are full — and nothing is lost
-    when ready returns."""
+    clock; the first output row stalls the input once the output register, the skid buffer
+    and the two pipeline registers are full — and nothing is lost when ready returns."""
     from tdicam.blocks.tdi import stream_arrays
     rng = np.random.default_rng(2)
     params = {"width": 8, "stages": 4, "pixel_bits": 12, "out_bits": None, "ppc": 1}
@@ -544,9 +507,7 @@ def test_nonoutput_rows_flow_while_output_stalled():
     sim.add_testbench(bench)
     sim.run()
     stalled = [c for c in accepted if c < 200]
-    # 3 frames + 8 beats of the output row: input register, issue register and the 6 output
-    # credits (4 read-pipeline stages, the output FIFO)
-    assert stalled == list(range(3 * 32 + 8))
+    assert stalled == list(range(3 * 32 + 4))       # 3 frames + 4 beats of the output row
     assert len(accepted) == n
     want = tdi_stream(a["pixels"], a["first"], a["last"], 4, 0, **params)
     assert got == want.data[:, 0].tolist() and len(got) == 2 * 8
