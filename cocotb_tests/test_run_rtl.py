@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from tdicam import blocks, cosim, engine
-from tdicam.commands.run import _cosim_block, run_scene
+from tdicam.commands.run import run_scene
+from tdicam.rtl import cosim_block
 from tdicam.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,9 +55,9 @@ def test_corrupted_expected_gives_mismatches(report, name):
         a["out"] = np.array(a["out"], copy=True)
         a["out"].reshape(-1)[7] ^= 1
 
-    bad = _cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl,
+    bad = cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl,
                        corrupt=corrupt)
     assert bad["status"] == "ran"
     assert bad["mismatches"] > 0
-    good = _cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl)
+    good = cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl)
     assert good["mismatches"] == 0
