@@ -42,7 +42,8 @@ Model MTF
 :meth:`Geometry.mtf_along` / :meth:`Geometry.mtf_cross` give the transfer function of that
 footprint summed over the M stages: ``sinc(f q/p) * sinc(f v) * exp(-2 pi^2 sigma^2 f^2) *
 D_M(f Delta)`` with the discrete-stage kernel ``D_M(u) = sin(pi M u) / (M sin(pi u))``
-(``-> sinc(M u)`` for small ``u``, seed 001 eq 8). ``f`` is in cycles per pitch.
+(``-> sinc(M u)`` for small ``u``, seed 001 eq 8). ``f`` is in cycles per pitch. The along-track
+form is :func:`tdicam.model.mtf.transfer_along`, the same model ``tdicam plan`` prints.
 """
 
 from __future__ import annotations
@@ -53,17 +54,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from .mtf import check_dv_over_v, dirichlet, transfer_along
+
 __all__ = ["Geometry", "Renderer", "box_kernel", "gauss_kernel", "dirichlet"]
-
-
-def dirichlet(u, m):
-    """Normalised discrete-stage kernel ``sin(pi m u) / (m sin(pi u))`` (1 at ``u = 0``)."""
-    u = np.asarray(u, np.float64)
-    den = m * np.sin(np.pi * u)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(np.abs(den) < 1e-300, 1.0, np.sin(np.pi * m * u) / np.where(
-            den == 0, 1.0, den))
-    return out[()] if out.ndim == 0 else out
 
 
 @dataclass(frozen=True)
@@ -75,7 +68,8 @@ class Geometry:
     stages : int
         M, >= 1.
     dv_over_v : float
-        Velocity mismatch, in (-1, 1).
+        Velocity mismatch, in (-1, 1) (checked: anything else raises
+        :class:`~tdicam.errors.TdicamError`).
     drift_deg : float
         Drift angle, degrees.
     skew : float
@@ -93,6 +87,9 @@ class Geometry:
     skew: float = 0.0
     q_over_p: float = 1.0
     psf_sigma_px: float = 0.0
+
+    def __post_init__(self):
+        check_dv_over_v(self.dv_over_v)
 
     @property
     def speed(self) -> float:
@@ -136,13 +133,10 @@ class Geometry:
         return self.stages > 1 and (self.stage_lag != 0.0 or self.stage_cross != 0.0)
 
     def mtf_along(self, f, *, stages=True):
-        """Model along-track MTF at ``f`` cycles/pitch (signed transfer; take ``abs``)."""
-        f = np.asarray(f, np.float64)
-        h = (np.sinc(f * self.q_over_p) * np.sinc(f * self.speed)
-             * np.exp(-2.0 * np.pi ** 2 * self.psf_sigma_px ** 2 * f * f))
-        if stages:
-            h = h * dirichlet(f * self.stage_lag, self.stages)
-        return h
+        """Model along-track MTF at ``f`` cycles/pitch (signed transfer; take ``abs``): the
+        camera model :func:`tdicam.model.mtf.transfer_along` with a full-period exposure."""
+        return transfer_along(f, self.stages, self.dv_over_v, self.skew, self.q_over_p, 1.0,
+                              self.psf_sigma_px, include_stages=stages)
 
     def mtf_cross(self, f, *, stages=True):
         """Model cross-track MTF at ``f`` cycles/pitch (signed transfer; take ``abs``)."""
