@@ -47,16 +47,16 @@ EXIT_INFEASIBLE = 1
 #: whose arithmetic would be garbage, and nothing a real camera or lab rig does.
 BOUNDS = {
     "orbit.altitude_km": (0, 100_000),          # ground to 2.8 x geostationary
-    "orbit.gsd_m": (1e-3, 1e5),
-    "turntable.angular_speed_rad_s": (1e-6, 1e3),
-    "turntable.distance_m": (1e-3, 1e3),
-    "target.signal_e": (0, 1e12),
-    "sensor.full_well_e": (1, 1e9),
-    "sensor.read_noise_e": (0, 1e6),
-    "sensor.dark_current_e_per_s": (0, 1e12),
-    "sensor.row_blanking_us": (0, 1e6),
-    "sensor.pixel_clock_mhz": (1e-3, 1e6),
-    "sensor.max_frame_rate_hz": (1e-3, 1e9),
+    "orbit.gsd_m": (1e-3, 100_000),
+    "turntable.angular_speed_rad_s": (1e-6, 1000),
+    "turntable.distance_m": (1e-3, 1000),
+    "target.signal_e": (0, 10**12),
+    "sensor.full_well_e": (1, 10**9),
+    "sensor.read_noise_e": (0, 10**6),
+    "sensor.dark_current_e_per_s": (0, 10**12),
+    "sensor.row_blanking_us": (0, 10**6),
+    "sensor.pixel_clock_mhz": (1e-3, 10**6),
+    "sensor.max_frame_rate_hz": (1e-3, 10**9),
 }
 
 #: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the README's
