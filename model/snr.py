@@ -85,7 +85,7 @@ def snr_gain_digital(stages, sigma_ad, sigma_cmos):
     quantization noise ``s_AD`` as m (Tao 2012 eq 27 adds the two standard deviations
     linearly; this follows the paper). ``G(1) = 1`` exactly; ``G -> sqrt(m)`` when
     ``s_AD = 0``; ``G -> 1`` when quantization dominates. In decibels the gain is
-    ``20 log10 G`` *added* to the single-exposure SNR (see SPEC section 2 on eq 28).
+    ``20 log10 G`` *added* to the single-exposure SNR (Tao 2012 eq 29).
 
     Parameters
     ----------

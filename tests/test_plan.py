@@ -309,13 +309,16 @@ def test_metrics_bad_input(call, match):
 
 
 @pytest.mark.parametrize("call, text", [
-    (lambda: P.orbit_line_period(H_600, 0.0), "gsd_m = 0 is out of range; valid: 0..inf, excluding 0"),
-    (lambda: P.orbit_line_period(H_600, -2.0), "gsd_m = -2 is out of range; valid: 0..inf, excluding 0"),
+    (lambda: P.orbit_line_period(H_600, 0.0),
+     "gsd_m = 0 is out of range; valid: 0..inf, excluding 0"),
+    (lambda: P.orbit_line_period(H_600, -2.0),
+     "gsd_m = -2 is out of range; valid: 0..inf, excluding 0"),
     (lambda: P.ground_speed(-1.0), "altitude_m = -1 is out of range; valid: 0\\.\\."),
     (lambda: P.required_frame_rate(0, 1024, 1e-4), "stages = 0 is out of range; valid: 1..1024"),
     (lambda: P.required_frame_rate(1025, 1024, 1e-4),
      "stages = 1025 is out of range; valid: 1..1024"),
-    (lambda: P.line_period(1.0, 0.0), "ground_speed_m_s = 0 is out of range; valid: 0..inf, excluding 0"),
+    (lambda: P.line_period(1.0, 0.0),
+     "ground_speed_m_s = 0 is out of range; valid: 0..inf, excluding 0"),
     (lambda: P.turntable_line_period(5e-6, 0.0, 1.0),
      "angular_speed_rad_s = 0 is out of range; valid: 0..inf, excluding 0"),
     (lambda: P.tdi_line_buffer_lines(0), "stages = 0 is out of range; valid: 1..inf"),
@@ -351,7 +354,7 @@ def test_cli_default_prints_table2(capsys):
     code, out, err = run_cli(capsys)
     # the reference TDI synthesis does not reach 849 M pixel/s: the plan says NO, exit 1
     assert code == 1 and err == ""
-    assert "feasible: NO (gateware pixel rate); exit status 1" in out
+    assert "feasible: NO (gateware pixel rate)" in out
     assert "v_g = 6.9080 km/s" in out
     for _gsd, t1, m, ff in TABLE2:
         assert ff in out and t1 in out
