@@ -227,7 +227,9 @@ def mtf_prediction(scene, stages, dv_over_v, f=_mtf.NYQUIST) -> dict:
     s = scene.sensor
     dv = float(_mtf.check_dv_over_v(dv_over_v, "dv_over_v"))
     skew = 0.0
-    if stages > 1:
+    skew_note = ("global shutter" if s.shutter == "global" else "one stage" if stages == 1
+                 else "row time unknown" if s.row_time_s is None else None)
+    if skew_note is None:
         skew = _mtf.rolling_skew(s.row_time_s, scene.line_period_s, shutter=s.shutter,
                                  direction=scene.tdi.direction)
     cam = _mtf.camera_mtf_terms(f, stages, dv, skew, s.q_over_p, 1.0,
@@ -237,7 +239,7 @@ def mtf_prediction(scene, stages, dv_over_v, f=_mtf.NYQUIST) -> dict:
              "mismatch": float(_mtf.mtf_velocity_mismatch(f, stages, dv)),
              "system": float(_mtf.mtf_system(f, stages, dv, s.q_over_p))}
     return {"f_cyc_per_px": float(f), "dv_over_v": dv, "m_dv_over_v": stages * dv,
-            "skew_px": cam.skew_px, "m_delta": cam.m_delta, "exposure": cam.exposure,
+            "skew_px": cam.skew_px, "no_skew_because": skew_note, "m_delta": cam.m_delta, "exposure": cam.exposure,
             "aperture": cam.aperture, "smear": cam.smear, "optics": cam.optics,
             "stages": cam.stages, "system": cam.system, "reversed": bool(cam.reversed),
             "paper": paper}

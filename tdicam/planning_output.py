@@ -70,10 +70,12 @@ def _mtf_lines(d) -> list[str]:
         head = "  MTF @ Nyquist  " if i == 0 else "                 "
         opt = "" if mm["optics"] == 1.0 else f" x optics {mm['optics']:.3f}"
         rev = ", contrast reversed" if mm["reversed"] else ""
+        skew = (f"rolling skew {mm['skew_px']:.3g} px" if mm["no_skew_because"] is None
+                else f"no rolling skew: {mm['no_skew_because']}")
         lines.append(f"{head}aperture {mm['aperture']:.3f} x smear {mm['smear']:.3f}{opt} x "
                      f"stages {mm['stages']:.3f} = {mm['system']:.3f}{rev} "
-                     f"(M dV/V = {mm['m_dv_over_v']:.3g}, rolling skew "
-                     f"{mm['skew_px']:.3g} px, M Delta = {mm['m_delta']:.3g} px; full-period "
+                     f"(M dV/V = {mm['m_dv_over_v']:.3g}, {skew}, "
+                     f"M Delta = {mm['m_delta']:.3g} px; full-period "
                      f"exposure, image speed 1 - dV/V)")
         p = mm["paper"]
         lines.append(f"                 paper's model (Yuan 2013): aperture {p['aperture']:.3f} x "
