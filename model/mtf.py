@@ -37,7 +37,8 @@ mismatch factor gives 0.637 at ``M dV/V = 1`` and 0 at ``M dV/V = 2`` at Nyquist
 M = 1 / 8 / 32 / 96 (the exposure it assumes is shorter than the line period).
 
 Every function returns a modulus unless ``signed=True`` is asked for. A velocity mismatch
-must lie in (-1, 1): at ``dV/V = 1`` the image stands still and there is no line period.
+must lie in (-1, 1): at ``dV/V = 1`` the image stands still and there is no line period
+(:func:`check_dv_over_v`; the paper's formulas alone take any finite value).
 """
 
 from __future__ import annotations
@@ -269,11 +270,13 @@ def mtf_velocity_mismatch(f, stages, dv_over_v, *, signed=False):
     """Velocity-mismatch MTF, Yuan 2013 eq 8: ``|sinc(f M dV/V)|``.
 
     At Nyquist: ``M dV/V = 1`` gives ``2/pi = 0.637``, ``M dV/V = 2`` gives 0 (the TDI-CCD
-    tolerance), ``dV/V = 0`` gives exactly 1. Even in dV/V. ``dv_over_v`` in (-1, 1).
+    tolerance), ``dV/V = 0`` gives exactly 1. Even in dV/V. The paper's formula is a
+    function of ``M dV/V`` and is evaluated for any finite ``dv_over_v`` (curves drawn past a
+    scene's own range); the camera model and ``tdicam plan`` accept only (-1, 1).
     """
     f = real("f", f, lo=0.0)
     m = np.asarray(count("stages", stages, lo=1), dtype=np.float64)
-    dv = check_dv_over_v(dv_over_v)
+    dv = real("dv_over_v", dv_over_v)
     return _out(np.sinc(f * m * dv), signed)
 
 

@@ -137,7 +137,7 @@ def test_geometry_uses_the_planning_model():
     lambda: Geometry(stages=4, dv_over_v=1.0),
     lambda: Geometry(stages=4, dv_over_v=-1.5),
     lambda: P.camera_mtf(0.5, 8, 1.0),
-    lambda: P.mtf_system(0.5, 8, 1.0),
+    lambda: P.stage_lag(1.0),
     lambda: planning.mtf_prediction(bar_scene(8, 0, "global"), 1, 1.0),
 ])
 def test_dv_out_of_range(call):
