@@ -28,6 +28,8 @@ def show(value) -> str:
 
 
 def _valid(lo, hi, lo_open, hi_open) -> str:
+    if lo is None and hi is None:
+        return "any finite number"
     text = f"{'-inf' if lo is None else show(lo)}..{show(hi)}"
     ex = [show(b) for b, o in ((lo, lo_open), (hi, hi_open)) if o and b is not None]
     return text + (", excluding " + " and ".join(ex) if ex else "")

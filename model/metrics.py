@@ -20,19 +20,14 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
+from ._args import real
+
 __all__ = ["snr", "snr_db", "prnu", "ctf", "mtf_from_ctf", "bar_ctf", "bar_mtf"]
 
 
 def _region(name, values):
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TdicamError(f"{name} must be an array of numbers") from None
-    if arr.size == 0:
-        raise TdicamError(f"{name} must not be empty")
-    if not np.all(np.isfinite(arr)):
-        raise TdicamError(f"{name} must contain only finite values")
-    return arr
+    """``values`` as a float64 array: non-empty, all finite (the planning models' check)."""
+    return np.asarray(real(name, values), dtype=np.float64)
 
 
 def snr(region):
