@@ -331,11 +331,11 @@ def write_store(words, geometry=MT29F4G08, *, bad_blocks=(), fail_program=(), de
             while block < g.blocks and dev.is_bad(block):
                 block += 1
             if block >= g.blocks:
-                good = g.blocks - 1 - len(dev.bad_blocks())
+                nbad = len(dev.bad_blocks())
                 raise TdicamError(
-                    f"nand: too many bad blocks: {len(dev.bad_blocks())} of {g.blocks} "
-                    f"({good} good after block 0), the calibration needs {need} blocks of "
-                    f"{g.pages_per_block} pages; logical block {k} has no good block left")
+                    f"nand: too many bad blocks: {nbad} of {g.blocks} ({g.blocks - 1 - nbad} "
+                    f"good after block 0), the calibration needs {need} blocks of "
+                    f"{g.pages_per_block} pages (logical block {k} found no good block)")
             if _program_block(dev, block, pages):
                 break
             dev.mark_bad(block)
@@ -608,31 +608,31 @@ class Timing:
 
 
 #: clocks of the controller steps (hdl/nand.py): a bus cycle (command, address or data) is
-#: 2 clocks; a page read = 7 command/address cycles, then t_WB + busy + 1 (R/B# sampled)
-RESET_CLOCKS = 2 + 2 + 1
+#: 2 clocks; a page read = 7 command/address cycles, then R/B# low for the busy time
+RESET_CLOCKS = 4
 CMD_ADDR_CLOCKS = 7 * 2
-WAIT_OVERHEAD = 2 + 1
-FIND_CLOCKS = 2
+MAP_CLOCKS = 2
+DONE_CLOCKS = 1
 
 
-def timing(rows, cols, geometry=MT29F4G08, *, clock_hz=CONTROLLER_CLOCK_HZ, busy_cycles=None,
-           bad_blocks=0):
+def timing(rows, cols, geometry=MT29F4G08, *, clock_hz=CONTROLLER_CLOCK_HZ, busy_cycles=None):
     """Power-up scan and calibration load time of the gateware, from its cycle model.
 
-    The scan issues, per block, a page read of page 0 (7 bus cycles of 2 clocks, t_WB,
-    the busy time, one R/B# sample) and reads one byte (2 clocks); the load issues the same
-    read per data page and reads ``9 * words`` bytes (2 clocks each; the calibration reader
-    never stalls it: it takes a word every other clock). ``busy_cycles`` defaults to
-    ``ceil(t_R * clock_hz)``. Exact for a clean part (equality asserted against the
-    Amaranth simulation in tests/test_nand.py); each bad block crossed adds
-    :data:`FIND_CLOCKS` to the load.
+    ``scan_cycles``: from the clock ``start`` is seen to ``scan_done``: ``FFh`` and its busy
+    time, then per block a page read of page 0 at the marker column (7 bus cycles of 2
+    clocks, the busy time) and one data-out cycle (2 clocks). ``load_cycles``: from
+    ``scan_done`` to ``done``: per logical block 2 clocks of map look-up, per page the read
+    command (14 clocks + busy), per word 9 data-out cycles (18 clocks; the calibration
+    reader takes a word every other clock, so it never stalls the bus), and 1 clock. Bad
+    blocks cost nothing beyond their scan read: the map is built during the scan.
+    ``busy_cycles`` defaults to ``ceil(t_R * clock_hz)``. Exact: equality with the
+    Amaranth simulation is asserted in tests/test_nand.py.
     """
     g = geometry
     busy = int(np.ceil(g.t_r_s * clock_hz - 1e-9)) if busy_cycles is None else int(busy_cycles)
-    per_read = CMD_ADDR_CLOCKS + WAIT_OVERHEAD + busy
-    scan_cycles = RESET_CLOCKS + busy + g.blocks * (per_read + 2)
+    scan_cycles = RESET_CLOCKS + busy + g.blocks * (CMD_ADDR_CLOCKS + busy + 2)
     n = calib.HEADER_WORDS + calib.payload_words(rows, cols)
     pages = -(-n // g.words_per_page)
     nblk = blocks_needed(n, g)
-    load = pages * per_read + n * 9 * 2 + nblk * FIND_CLOCKS + bad_blocks * FIND_CLOCKS
+    load = pages * (CMD_ADDR_CLOCKS + busy) + n * 9 * 2 + nblk * MAP_CLOCKS + DONE_CLOCKS
     return Timing(clock_hz, busy, scan_cycles, load, pages, nblk)
