@@ -22,26 +22,26 @@ from tdicam.model import calib, nand
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
-CASES = [c.name for c in blocks.get("nand").cases()]
+CASES = [c.name for c in blocks.get("nand_store").cases()]
 ICARUS_PER_BEAT = ("clean", "double")
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_golden_fast(case, sim):
-    check_case("nand", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
+    check_case("nand_store", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_golden_per_beat(case, sim):
     if sim == "icarus" and case not in ICARUS_PER_BEAT and not FULL:
         pytest.skip("Icarus per-beat short form: clean and double (TDICAM_FULL=1 for all)")
-    check_case("nand", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+    check_case("nand_store", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
 def test_cases_exercise_what_they_claim():
     """The golden cases really hold what their names say (a case that cannot fail is a
     defect): bad-block counts, the grown block, every word corrected, doubles defaulted."""
-    arr = {c: golden.load("nand", c)[0] for c in CASES}
+    arr = {c: golden.load("nand_store", c)[0] for c in CASES}
     assert [int(arr[c]["bad_blocks"]) for c in ("clean", "bad1", "bad10", "bad100")] == \
         [0, 1, 10, 100]
     assert arr["bad1"]["l2p"][0] != 1 or arr["bad1"]["l2p"][1] != 2  # skipped a data block
@@ -62,7 +62,7 @@ def test_round_trip_against_maps(sim):
     """Maps -> image with doubles and bad blocks -> NAND -> store Verilog -> the maps back:
     exact where the word was clean or corrected, gain 1.0 / offset 0 for exactly the two
     pixels of each uncorrectable word."""
-    params = blocks.get("nand").resolve(blocks.get("nand").cases()[0].params)
+    params = blocks.get("nand_store").resolve(blocks.get("nand_store").cases()[0].params)
     rng = np.random.default_rng(31)
     g_val = 1 + 0.1 * rng.standard_normal((30, 40))
     o_val = 50 * rng.standard_normal((30, 40))
@@ -77,7 +77,7 @@ def test_round_trip_against_maps(sim):
                                         "defaulted", "header_error", "first", "last")}
     exp["bad_blocks"] = sr.bad_count
     stim, want = store_beats(load_beats(dev, params["slots"]), exp, params)
-    res = check_beats("nand", params, stim, want, sim=sim, mode="fast", idle=0.2,
+    res = check_beats("nand_store", params, stim, want, sim=sim, mode="fast", idle=0.2,
                       backpressure=0.2, seed=3)
     got = res.out.data.astype(np.int64)
     bad = np.repeat(k[calib.HEADER_WORDS:] == 2, 2)[:1200]

@@ -55,6 +55,11 @@ word   data bytes (little-endian)
        padding
 =====  ===================================================================================
 
+Bad-block replacement (copying a failing block's pages to a spare block, updating the
+map) happens in the writer only: as in the paper, whose FPGA drops the replacement logic
+because the calibration is written once, the gateware only builds the bad-block table and
+the block map and reads.
+
 Reading (the gateware and :func:`store_stream`): a *power-up scan* reads the marker byte of
 every block (blocks 0 .. blocks-1) and lists the good blocks after block 0 in order: that
 list is the logical-to-physical map (the writer's rule makes it equal to the stored map,
@@ -609,7 +614,7 @@ class Timing:
 
 #: clocks of the controller steps (hdl/nand.py): a bus cycle (command, address or data) is
 #: 2 clocks; a page read = 7 command/address cycles, then R/B# low for the busy time
-RESET_CLOCKS = 4
+RESET_CLOCKS = 3
 CMD_ADDR_CLOCKS = 7 * 2
 MAP_CLOCKS = 2
 DONE_CLOCKS = 1

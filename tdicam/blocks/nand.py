@@ -1,9 +1,12 @@
-"""Block ``nand``: the calibration store in NAND flash (SPEC 3.3 and 3.6, seed 002 §4.3).
+"""Block ``nand_store``: the calibration store in NAND flash (SPEC 3.3 and 3.6, seed 002 §4.3).
+
+(Not ``nand``: the Verilog top is named after the block, and ``nand`` is a Verilog gate
+primitive.)
 
 ``hdl/nand.py`` (:class:`~tdicam.hdl.nand.NandCalibTop`: the store, with the simulation
 model of the part attached when ``--device 1``), ``model/nand.py`` (device, stored image,
 golden model :func:`~tdicam.model.nand.store_stream`), ``cocotb_tests/test_nand.py``,
-``golden/nand/``. The stimulus loads the part's contents into the simulation model
+``golden/nand_store/``. The stimulus loads the part's contents into the simulation model
 (:func:`load_beats`) and ends with the start beat; the output is the coefficient stream
 of :class:`~tdicam.hdl.calib.CalibReader` (plus, with ``--debug 1``, its counters and
 flags and the bad-block count).
@@ -167,7 +170,7 @@ def _cases():
 
 
 BLOCK = Block(
-    name="nand",
+    name="nand_store",
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "
             "through SECDED into the nuc coefficient stream (SPEC 3.3, 3.6)",
     params=(
