@@ -4,8 +4,9 @@ part attached) against its golden model.
 Every golden case runs in fast mode on both simulators (clean part; 1, 10 and 100 random
 bad blocks; a grown bad block after a program failure; one flipped bit in every word of
 every page; double flips defaulting exactly 4 coefficients; more bad blocks than the
-stream's blocks -> ``error``). Per-beat mode: every case on Verilator, the clean and
-double-flip cases on Icarus (short form; every case with ``TDICAM_FULL=1``). Besides the
+stream's blocks -> ``error``). Per-beat mode (short form): the clean, double-flip and
+100-bad-block cases on Verilator, clean and double on Icarus; every case on both with
+``TDICAM_FULL=1``. Besides the
 golden cases, a round trip checks the outputs against the original maps, not only the
 model.
 """
@@ -23,7 +24,7 @@ from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 CASES = [c.name for c in blocks.get("nand_store").cases()]
-ICARUS_PER_BEAT = ("clean", "double")
+PER_BEAT = {"icarus": ("clean", "double"), "verilator": ("clean", "double", "bad100")}
 
 
 @pytest.mark.parametrize("case", CASES)
@@ -33,8 +34,9 @@ def test_golden_fast(case, sim):
 
 @pytest.mark.parametrize("case", CASES)
 def test_golden_per_beat(case, sim):
-    if sim == "icarus" and case not in ICARUS_PER_BEAT and not FULL:
-        pytest.skip("Icarus per-beat short form: clean and double (TDICAM_FULL=1 for all)")
+    if case not in PER_BEAT[sim] and not FULL:
+        pytest.skip(f"{sim} per-beat short form: {', '.join(PER_BEAT[sim])} (TDICAM_FULL=1 "
+                    f"for all)")
     check_case("nand_store", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
