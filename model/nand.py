@@ -91,7 +91,7 @@ __all__ = ["Geometry", "MT29F4G08", "NandDevice", "STATUS_PASS", "STATUS_FAIL", 
            "MARKER_BAD", "MAP_MAGIC", "FILE_MAGIC", "write_store", "scan", "ScanResult",
            "stream_words", "store_stream", "read_store", "StoreResult", "relayout",
            "save_image", "load_image", "read_image_bytes", "Timing", "timing",
-           "load_coefficients", "blocks_needed", "CONTROLLER_CLOCK_HZ"]
+           "load_coefficients", "store_roundtrip", "blocks_needed", "CONTROLLER_CLOCK_HZ"]
 
 MARKER_GOOD = 0xFF
 MARKER_BAD = 0x00
@@ -588,6 +588,28 @@ def load_coefficients(image_path, *, rows=None, cols=None):
                           f"pixels, the sensor is {rows} x {cols}")
     f = img.fmt
     return img.gain / f.gain_one, img.offset / (1 << f.offset_frac_bits), res
+
+
+def store_roundtrip(gain, offset, fmt=DEFAULT_FORMAT, *, geometry=MT29F4G08, bad_blocks=0,
+                    p_single=0.0, p_double=0.0, seed=1):
+    """Coefficient codes as the camera loads them after storing them in NAND with faults:
+    the calibration image of ``gain``/``offset`` (codes of ``fmt``), random bit flips in its
+    payload words (:func:`tdicam.model.calib.inject_flips`), ``bad_blocks`` random factory
+    bad blocks (never block 0), the writer, the power-up scan and the read.
+
+    Returns
+    -------
+    (gain, offset, StoreResult)
+        int64 code maps (defaults where a word was uncorrectable) and the counters.
+    """
+    rng = np.random.default_rng(seed)
+    words = calib.encode_image(gain, offset, fmt)
+    if p_single or p_double:
+        words, _ = calib.inject_flips(rng, words, p_single=p_single, p_double=p_double)
+    check_range("bad_blocks", bad_blocks, 0, geometry.blocks - 1)
+    bad = rng.choice(np.arange(1, geometry.blocks), int(bad_blocks), replace=False)
+    res = read_store(write_store(words, geometry, bad_blocks=bad))
+    return res.image.gain, res.image.offset, res
 
 
 # ---------------------------------------------------------------- timing

@@ -180,6 +180,18 @@ def test_relayout_and_load_coefficients(tmp_path):
         nand.load_coefficients(tmp_path / "n.nand", rows=10, cols=40)
 
 
+def test_store_roundtrip_for_the_scene_pipeline():
+    words, g, o = _words(30, 40, seed=4)
+    gain, offset, res = nand.store_roundtrip(g, o, geometry=nand.Geometry(pages_per_block=2,
+                                                                          blocks=64),
+                                             bad_blocks=20, p_double=0.05, seed=3)
+    assert res.scan.bad_count == 20 and res.image.uncorrectable > 0
+    d = res.image.defaulted
+    assert d.sum() == 2 * res.image.uncorrectable
+    np.testing.assert_array_equal(gain[~d], g[~d])
+    assert (gain[d] == FMT.gain_one).all() and (offset[d] == 0).all()
+
+
 def test_timing_figures():
     """The stated load times at 50 MHz (t_R = 25 us), from the cycle model."""
     t = nand.timing(1024, 1280)
