@@ -21,6 +21,7 @@ from ..model import calib, nand
 from ..model.nuc import NucFormat
 from ..errors import TdicamError
 from . import Block, Case, Param
+from .calib import BLOCK as CALIB
 from .calib import random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
@@ -174,15 +175,7 @@ BLOCK = Block(
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "
             "through SECDED into the nuc coefficient stream (SPEC 3.3, 3.6)",
     params=(
-        Param("rows", 3800, "image rows of the stored calibration", lo=1, hi=calib.MAX_SIDE),
-        Param("cols", 5144, "image columns", lo=1, hi=calib.MAX_SIDE),
-        Param("gain_int_bits", 2, "integer bits of the unsigned gain (nuc format)", lo=1,
-              hi=4),
-        Param("gain_frac_bits", 14, "fraction bits of the gain (1.0 = 2**frac)", lo=4, hi=16),
-        Param("offset_bits", 16, "width of the signed offset", lo=2, hi=16),
-        Param("offset_frac_bits", 0, "fraction bits of the offset", lo=0, hi=8),
-        Param("count_bits", calib.DEFAULT_COUNT_BITS, "width of the saturating word counters",
-              lo=8, hi=32),
+        *(p for p in CALIB.params if p.name != "debug"),  # the reader's, as block calib
         Param("debug", False, "carry counters, flags and the bad-block count on every pixel",
               type=bool),
         Param("page_bytes", 2048, "data bytes per page (power of two)", lo=512, hi=16384),
