@@ -342,6 +342,17 @@ def test_cli_nand_write_read_inject(tmp_path):
     assert d.sum() > 0 and d.sum() % 2 == 0
 
 
+def test_cli_read_output_is_the_name_given(tmp_path):
+    """``calib read IMG -o X`` writes X (it used to print "wrote X" and write X.npz)."""
+    words, g, _ = _words(6, 8)
+    (tmp_path / "p.cal").write_bytes(words.tobytes())
+    p = _tdicam("calib", "read", tmp_path / "p.cal", "-o", tmp_path / "X")
+    assert p.returncode == 0 and f"wrote {tmp_path / 'X'}:" in p.stdout
+    assert not (tmp_path / "X.npz").exists()
+    with np.load(tmp_path / "X") as z:
+        np.testing.assert_array_equal(z["gain_code"], g)
+
+
 def test_cli_nand_reports_times(tmp_path):
     np.savez(tmp_path / "m.npz", gain=np.ones((16, 16)), offset=np.zeros((16, 16)))
     p = _tdicam("calib", "write", tmp_path / "m.npz", "-o", tmp_path / "a.nand", "--nand")
@@ -356,6 +367,8 @@ def test_cli_nand_reports_times(tmp_path):
     (["read", "{d}/a.nand", "-o", "{d}/no/such/x"], "cannot write"),
     (["inject", "{d}/a.nand", "-o", "{d}/x", "--seed", "-1"],
      "--seed = -1 is out of range"),
+    (["inject", "{d}/p.cal", "-o", "{d}/x", "--seed", "-1"],
+     "--seed = -1 is out of range"),   # issue 18: was a traceback
     (["inject", "{d}/p.cal", "-o", "{d}/x", "--bad-blocks", "2"],
      "need a NAND image"),
     (["write", "{d}/m.npz", "--nand", "-o", "{d}/x", "--blocks", "2", "--pages-per-block",
