@@ -332,6 +332,7 @@ REFERENCE = (
     RefRun("lvds", "lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),
     RefRun("calib", "calib", {}, note="defaults (not in issue 10's list): 3800 x 5144, "
                                       "SECDED decoder inside"),
+    RefRun("nand_store", "nand_store", {}, note="3800 x 5144 from 4 Gb NAND, bus as ports"),
     RefRun("secded_enc", "secded_enc", {}, target_mhz=200, note="(72,64) encoder"),
     RefRun("secded_dec", "secded_dec", {}, target_mhz=200, note="decoder, single stage"),
     RefRun("secded_dec pipelined", "secded_dec", {"pipelined": True}, target_mhz=200,

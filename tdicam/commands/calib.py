@@ -4,12 +4,16 @@
 ``read`` decodes an image, reports corrected and uncorrectable words and can save the
 decoded maps; ``check`` only reports (exit 1 if any word was uncorrectable or the payload
 CRC does not match); ``inject`` flips random bits in an image (to test a reader).
+With ``--nand`` the image is the NAND part as the camera stores it (:mod:`tdicam.model.nand`:
+pages with spare areas, bad blocks skipped and marked, block map in block 0); ``read`` and
+``check`` recognise NAND images by their magic and also report the bad-block scan and the
+power-up scan and load times of the gateware; ``inject`` adds bad blocks to a NAND image.
 """
 
 import numpy as np
 
-from ..errors import TdicamError
-from ..model import calib
+from ..errors import TdicamError, check_range
+from ..model import calib, nand
 from ..model.nuc import DEFAULT_FORMAT, NucFormat
 
 
@@ -36,16 +40,19 @@ def register(sub):
                    help=f"width of the signed offset ({d.offset_bits})")
     w.add_argument("--offset-frac-bits", type=int, default=d.offset_frac_bits,
                    help=f"fraction bits of the offset ({d.offset_frac_bits})")
+    _nand_args(w)
     w.set_defaults(func=_write)
 
     r = csub.add_parser("read", help="decode an image: counts, and the maps with -o")
     r.add_argument("image")
-    r.add_argument("-o", "--output", help=".npz to write: gain/offset codes and values, "
-                                          "defaulted mask")
+    r.add_argument("-o", "--output", help=".npz to write (this exact name): gain/offset "
+                                          "codes and values, defaulted mask")
+    _clock_arg(r)
     r.set_defaults(func=_read)
 
     c = csub.add_parser("check", help="decode an image and report; exit 1 if damaged")
     c.add_argument("image")
+    _clock_arg(c)
     c.set_defaults(func=_check)
 
     j = csub.add_parser("inject", help="flip random bits in an image (reader testing)")
@@ -56,8 +63,32 @@ def register(sub):
     j.add_argument("--double", type=float, default=0.0,
                    help="probability that a word gets two flipped bits (0)")
     j.add_argument("--header", action="store_true", help="also flip bits in the header")
-    j.add_argument("--seed", type=int, default=1)
+    j.add_argument("--bad-blocks", type=int, default=0,
+                   help="NAND images: mark this many more random blocks bad (never block 0) "
+                        "and re-lay the data out around them (0)")
+    j.add_argument("--fail-program", default="",
+                   help="NAND images: comma-separated blocks whose programs fail while the "
+                        "image is re-laid out (grown bad blocks)")
+    j.add_argument("--seed", type=int, default=1, help="random seed, >= 0 (1)")
     j.set_defaults(func=_inject)
+
+
+def _clock_arg(p):
+    p.add_argument("--clock-mhz", type=float, default=nand.CONTROLLER_CLOCK_HZ / 1e6,
+                   help=f"NAND images: controller clock of the reported scan and load times "
+                        f"({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
+
+
+def _nand_args(p):
+    g = nand.MT29F4G08
+    p.add_argument("--nand", action="store_true",
+                   help="write a NAND image (pages + spare, bad blocks, block map) instead "
+                        "of a plain word image")
+    p.add_argument("--blocks", type=int, default=g.blocks,
+                   help=f"NAND: blocks of the part ({g.blocks}: 4 Gb x8, MT29F4G08)")
+    p.add_argument("--pages-per-block", type=int, default=g.pages_per_block,
+                   help=f"NAND: pages per block ({g.pages_per_block})")
+    _clock_arg(p)
 
 
 def _load_array(path, what):
@@ -110,12 +141,68 @@ def _write(args):
         g, o = fmt.check_coeffs(gain, offset)
     else:
         g, o = calib.codes_from_values(gain, offset, fmt)
-    n = calib.write_image(args.output, g, o, fmt)
     rows, cols = g.shape
+    if args.nand:
+        return _write_nand(args, calib.encode_image(g, o, fmt), rows, cols)
+    n = _guard_write(args.output, lambda: calib.write_image(args.output, g, o, fmt))
     print(f"wrote {args.output}: {rows} x {cols} pixels, gain Q{fmt.gain_int_bits}."
           f"{fmt.gain_frac_bits}, offset {fmt.offset_bits} bits ({fmt.offset_frac_bits} "
           f"fraction), {n // calib.WORD_BYTES} flash words of 72 bits, {n} bytes")
     return 0
+
+
+def _guard_write(path, write):
+    try:
+        return write()
+    except OSError as exc:
+        raise TdicamError(f"{path}: cannot write ({exc.strerror})") from None
+
+
+def _clock(args):
+    return check_range("--clock-mhz", args.clock_mhz, 1, 1000, integer=False) * 1e6
+
+
+def _timing_line(rows, cols, geometry, clock_hz):
+    t = nand.timing(rows, cols, geometry, clock_hz=clock_hz)
+    return (f"gateware at {clock_hz / 1e6:g} MHz (t_R {geometry.t_r_s * 1e6:g} us = "
+            f"{t.busy_cycles} clocks): power-up scan of {geometry.blocks} blocks "
+            f"{t.scan_s * 1e3:.1f} ms, calibration load of {t.pages} pages in {t.blocks} "
+            f"blocks {t.load_s * 1e3:.1f} ms")
+
+
+def _write_nand(args, words, rows, cols):
+    try:
+        geo = nand.Geometry(pages_per_block=args.pages_per_block, blocks=args.blocks)
+    except TdicamError as exc:
+        raise TdicamError(f"--nand geometry: {exc}") from None
+    clock = _clock(args)
+    dev = nand.write_store(words, geo)
+    n = nand.save_image(dev, args.output)
+    print(f"wrote {args.output}: NAND image, {rows} x {cols} pixels, {len(words)} flash words "
+          f"in {-(-len(words) // geo.words_per_page)} pages of {geo.page_bytes}+"
+          f"{geo.spare_bytes} bytes, part of {geo.blocks} blocks x {geo.pages_per_block} "
+          f"pages, block map in block 0, {n} bytes")
+    print(_timing_line(rows, cols, geo, clock))
+    return 0
+
+
+def _load_any(args):
+    """(CalibImage, StoreResult or None, geometry or None) of a plain or NAND image."""
+    raw = calib.read_file(args.image)
+    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
+        dev = nand.read_image_bytes(raw, name=args.image)
+        res = nand.read_store(dev, name=args.image)
+        return res.image, res, dev.geometry
+    return calib.read_image(raw, name=args.image), None, None
+
+
+def _nand_summary(args, img, res, geo):
+    rows, cols = img.shape
+    sr = res.scan
+    print(f"{args.image}: NAND, {geo.blocks} blocks x {geo.pages_per_block} pages: "
+          f"{sr.bad_count} bad blocks (markers), data in {nand.blocks_needed(res.words, geo)} "
+          f"blocks, {res.pages} pages, the stored block map agrees with the scan")
+    print(_timing_line(rows, cols, geo, _clock(args)))
 
 
 def _summary(path, res):
@@ -126,22 +213,32 @@ def _summary(path, res):
             f"{'ok' if res.crc_ok else 'MISMATCH'}")
 
 
-def _read(args):
-    res = calib.load_image(args.image)
+def _report(args):
+    res, store, geo = _load_any(args)
     print(_summary(args.image, res))
+    if store is not None:
+        _nand_summary(args, res, store, geo)
+    return res
+
+
+def _read(args):
+    res = _report(args)
     if args.output:
         f = res.fmt
-        np.savez_compressed(
-            args.output, gain_code=res.gain, offset_code=res.offset,
-            gain=res.gain / f.gain_one, offset=res.offset / (1 << f.offset_frac_bits),
-            defaulted=res.defaulted)
+
+        def write():
+            with open(args.output, "wb") as fh:  # exactly this name (savez adds .npz)
+                np.savez_compressed(
+                    fh, gain_code=res.gain, offset_code=res.offset,
+                    gain=res.gain / f.gain_one, offset=res.offset / (1 << f.offset_frac_bits),
+                    defaulted=res.defaulted)
+        _guard_write(args.output, write)
         print(f"wrote {args.output}: gain_code, offset_code, gain, offset, defaulted")
     return 0
 
 
 def _check(args):
-    res = calib.load_image(args.image)
-    print(_summary(args.image, res))
+    res = _report(args)
     return 1 if res.uncorrectable or not res.crc_ok else 0
 
 
@@ -152,11 +249,55 @@ def _inject(args):
             raise TdicamError(f"--{name} = {p} is out of range; valid: 0..1")
     if args.single + args.double > 1:
         raise TdicamError("--single + --double must be at most 1")
-    words = calib.image_words(calib.read_file(args.image), args.image)
-    out, k = calib.inject_flips(np.random.default_rng(args.seed), words, p_single=args.single,
+    check_range("--seed", args.seed, 0, 2**63 - 1)
+    check_range("--bad-blocks", args.bad_blocks, 0, 65535)
+    rng = np.random.default_rng(args.seed)
+    raw = calib.read_file(args.image)
+    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
+        return _inject_nand(args, nand.read_image_bytes(raw, name=args.image), rng)
+    if args.bad_blocks or args.fail_program:
+        raise TdicamError(f"{args.image}: --bad-blocks and --fail-program need a NAND image "
+                          f"(calib write --nand)")
+    words = calib.image_words(raw, args.image)
+    out, k = calib.inject_flips(rng, words, p_single=args.single,
                                 p_double=args.double, skip_header=not args.header)
-    with open(args.output, "wb") as fh:
-        fh.write(out.tobytes())
+
+    def write():
+        with open(args.output, "wb") as fh:
+            fh.write(out.tobytes())
+    _guard_write(args.output, write)
     print(f"wrote {args.output}: {int((k == 1).sum())} words with 1 flipped bit, "
           f"{int((k == 2).sum())} with 2, of {len(words)}")
+    return 0
+
+
+def _block_list(text, geo):
+    try:
+        out = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise TdicamError(f"--fail-program must be comma-separated block numbers, got "
+                          f"{text!r}") from None
+    for b in out:
+        check_range("--fail-program block", b, 1, geo.blocks - 1)
+    return out
+
+
+def _inject_nand(args, dev, rng):
+    geo = dev.geometry
+    if args.header:
+        raise TdicamError("--header is for plain images; a NAND image's header words stay "
+                          "clean")
+    fail = _block_list(args.fail_program, geo)
+    free = [b for b in range(1, geo.blocks) if not dev.is_bad(b)]
+    if args.bad_blocks > len(free):
+        raise TdicamError(f"--bad-blocks {args.bad_blocks}: only {len(free)} good blocks "
+                          f"left after block 0")
+    new_bad = rng.choice(free, args.bad_blocks, replace=False) if args.bad_blocks else []
+    flips = (args.single, args.double) if args.single or args.double else None
+    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng)
+    nand.save_image(out, args.output)
+    print(f"wrote {args.output}: NAND image, {len(new_bad)} more bad blocks "
+          f"({len(out.bad_blocks())} in all, {len(out.grown)} grown by program failures), "
+          f"{int((k == 1).sum())} words with 1 flipped bit, {int((k == 2).sum())} with 2, "
+          f"of {len(k)}")
     return 0
