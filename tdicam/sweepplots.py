@@ -9,9 +9,10 @@
   the bar frequency of every repeat, mean and standard deviation, the velocity-mismatch
   model of Yuan Gaobin et al., "MTF velocity-mismatch model of TDI area-array CMOS image
   sensors", 2013 (line: aperture x temporal sampling x mismatch, mismatch only) and the same
-  model at each run's effective mismatch with the rolling-shutter skew (crosses).
-* ``time_vs_fidelity.png`` — every finished run's task time against the fidelity requested
-  and used (``auto -> fast``), coloured by stage count.
+  model at each run's effective mismatch with the rolling-shutter skew (crosses) and the
+  exact footprint model of :class:`tdicam.model.optics.Geometry` (plus signs).
+* ``time_vs_fidelity.png`` — every finished run's task time (simulate and measure) against
+  the fidelity requested and used (``auto -> fast``), coloured by stage count; bar: median.
 
 Groups beyond :data:`MAX_GROUPS` are left out of a figure, and its title says so.
 """
@@ -106,7 +107,10 @@ def _mtf(sweep, df, plt):
         _spread(ax, x, sub["mtf_measured"].to_numpy(np.float64), c,
                 f"measured {label}".strip())
         ax.plot(x, sub["mtf_model_yuan2013"], "x", color=c, ms=6,
-                label="model at the effective mismatch (with row skew)" if i == 0 else None)
+                label="Yuan et al. 2013 at the effective mismatch (with row skew)"
+                if i == 0 else None)
+        ax.plot(x, sub["mtf_model_footprint"], "+", color="k", ms=7,
+                label="exact footprint model (what the engine simulates)" if i == 0 else None)
         scene = sweep.runs[int(sub.index[0])].scene
         m = int(sub["stages"].iloc[0])
         f = float(sub["mtf_frequency_cyc_per_px"].iloc[0])
@@ -133,13 +137,18 @@ def _time(sweep, df, plt):
     pos = np.array([names.index(c) for c in cat], np.float64)
     jitter = ((np.arange(len(pos)) * 0.618034) % 1.0 - 0.5) * 0.4
     fig, ax = plt.subplots(figsize=(6, 4))
-    sc = ax.scatter(pos + jitter, ok["task_seconds"], c=np.log2(ok["stages"].astype(float)),
-                    cmap="viridis", s=14)
+    stages = ok["stages"].astype(float).to_numpy()
+    if len(set(stages)) > 1:
+        from matplotlib.colors import LogNorm
+        sc = ax.scatter(pos + jitter, ok["task_seconds"], c=stages, cmap="viridis", s=14,
+                        norm=LogNorm(vmin=stages.min(), vmax=max(stages.max(), 2)))
+        fig.colorbar(sc, ax=ax).set_label("TDI stages")
+    else:
+        ax.scatter(pos + jitter, ok["task_seconds"], s=14, label=f"{int(stages[0])} stages")
+        ax.legend(fontsize=8)
     for i, n in enumerate(names):
         t = ok["task_seconds"][pos == i]
         ax.plot([i - 0.3, i + 0.3], [t.median()] * 2, "k-", lw=1.5)
-    cb = fig.colorbar(sc, ax=ax)
-    cb.set_label("log2 stages")
     ax.set_xticks(range(len(names)), names)
     ax.set_yscale("log")
     ax.set_xlabel("fidelity (requested -> used)")
