@@ -27,6 +27,7 @@ import os
 import socket
 import sys
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -127,6 +128,7 @@ class SweepResult:
     failed: list
     missing: int
     files: list
+    compute_seconds: float
     wall_seconds: float
     where: str
 
@@ -137,13 +139,13 @@ class SweepResult:
         if sw.zipped:
             axes += (", zip " + "+".join(z.key for z in sw.zipped)
                      + f" ({len(sw.zipped[0].values)})")
-        rate = (f", {self.computed / self.wall_seconds:.2f} runs/s" if self.computed and
-                self.wall_seconds > 0 else "")
+        rate = (f" ({self.computed / self.compute_seconds:.2f} runs/s)"
+                if self.computed and self.compute_seconds > 0 else "")
         lines = [f"sweep {sw.name}: {len(sw.points)} points x {sw.repeats} repeats = "
                  f"{self.total} runs over {axes or 'no axes'}",
                  f"computed {self.computed}, reused {self.reused} from {self.out_dir}/points, "
-                 f"failed {len(self.failed)}, missing {self.missing}; {self.where}, "
-                 f"{self.wall_seconds:.1f} s{rate}"]
+                 f"failed {len(self.failed)}, missing {self.missing}; {self.where}: "
+                 f"{self.compute_seconds:.1f} s{rate}, {self.wall_seconds:.1f} s in all"]
         if sw.promoted:
             lines.append("axes taken from the scene's own lists: " + ", ".join(sw.promoted))
         for f in self.failed[:20]:
@@ -173,10 +175,9 @@ def _local_cluster(workers):
     import logging
 
     from dask.distributed import LocalCluster
-    n = check_range("--workers", workers, 1, 256) if workers is not None \
-        else max(1, os.cpu_count() or 1)
+    n = workers if workers is not None else max(1, os.cpu_count() or 1)
     return LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                        dashboard_address=None, silence_logs=logging.ERROR,
+                        dashboard_address=None, silence_logs=logging.CRITICAL,
                         env={"TDICAM_THREADS": "1"}), f"local Dask cluster of {n} workers"
 
 
@@ -190,31 +191,37 @@ def _connect(scheduler, timeout):
 
 
 def _execute_dask(todo, sweep, client, on_done):
-    """Submit every run in ``todo`` and pass each result to ``on_done`` as it finishes."""
+    """Submit every run in ``todo`` and pass each result to ``on_done`` as it finishes.
+
+    Results are fetched in batches of whatever has finished (one round trip per batch, not
+    per run); a batch that cannot be fetched whole is fetched run by run, and a run whose
+    task failed (its worker died :data:`ALLOWED_FAILURES` times) becomes a failed record.
+    """
     from dask.distributed import as_completed
-    futures = {}
-    for run in todo:
-        if run.hash in futures:
-            continue
-        fut = client.submit(_run_task, run.scene, sweep.impact, key=f"tdicam-run-{run.hash}",
-                            pure=False, retries=0)
-        futures[fut.key] = (fut, run)
-    pending = as_completed([f for f, _ in futures.values()], loop=client.loop)
+    runs = list({r.hash: r for r in todo}.values())
+    futures = client.map(_run_task, [r.scene for r in runs], [sweep.impact] * len(runs),
+                         key=[f"tdicam-run-{r.hash}" for r in runs], pure=False)
+    by_key = {f.key: r for f, r in zip(futures, runs)}
+    pending = as_completed(futures, loop=client.loop)
     try:
-        for fut in pending:
-            _, run = futures[fut.key]
+        for batch in pending.batches():
             try:
-                result = fut.result()
-            except Exception as exc:  # noqa: BLE001 - KilledWorker and the like
-                result = {"status": "failed", "error": _one_line(exc), "row": None,
-                          "worker": None}
-            fut.release()
-            if not on_done(run, result):
-                break
+                results = client.gather(batch)
+            except Exception:  # noqa: BLE001 - one bad future: fetch the batch one by one
+                results = [_result(f) for f in batch]
+            for fut, result in zip(batch, results):
+                fut.release()
+                if not on_done(by_key[fut.key], result):
+                    return
     finally:
-        for fut, _ in futures.values():
-            if not fut.done():
-                fut.cancel()
+        client.cancel([f for f in futures if not f.done()])
+
+
+def _result(fut):
+    try:
+        return fut.result()
+    except Exception as exc:  # noqa: BLE001 - KilledWorker and the like
+        return {"status": "failed", "error": _one_line(exc), "row": None, "worker": None}
 
 
 def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=False,
@@ -252,6 +259,10 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         ``out_dir`` cannot be created, or the scheduler cannot be reached.
     """
     t0 = time.perf_counter()
+    if workers is not None:
+        check_range("--workers", workers, 1, 256)
+    if limit is not None:
+        check_range("--limit", limit, 0, None)
     out_dir = Path(out_dir)
     store = out_dir / "points"
     try:
@@ -267,9 +278,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
                 done[run.hash] = rec
     reused = sum(1 for r in sweep.runs if r.hash in done)
     todo = [r for r in sweep.runs if r.hash not in done]
-    if limit is not None:
-        check_range("--limit", limit, 0, None)
     computed = 0
+    runs_of = Counter(r.hash for r in sweep.runs)
     bar = _progress(len(sweep.runs), reused, sweep.name, progress)
 
     def on_done(run, result):
@@ -277,12 +287,13 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         done[run.hash] = _store_record(store, sweep, run, result)
         computed += 1
         if bar is not None:
-            bar.update(sum(1 for r in sweep.runs if r.hash == run.hash))
+            bar.update(runs_of[run.hash])
         if on_run is not None:
             on_run(run, done[run.hash])
         return limit is None or computed < limit
 
     where = "serial"
+    t_exec = time.perf_counter()
     try:
         if todo and (limit is None or limit > 0):
             if serial:
@@ -302,19 +313,21 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
     finally:
         if bar is not None:
             bar.close()
+    t_exec = time.perf_counter() - t_exec
     files = write_results(sweep, out_dir, done)
     failed = [{"point": r.point, "repeat": r.repeat, "hash": r.hash,
                "axes": sweep.points[r.point], "error": done[r.hash]["error"]}
               for r in sweep.runs if r.hash in done and done[r.hash]["status"] != "ok"]
     missing = sum(1 for r in sweep.runs if r.hash not in done)
     result = SweepResult(sweep, out_dir, len(sweep.runs), computed, reused, failed, missing,
-                         files, time.perf_counter() - t0, where)
+                         files, t_exec, time.perf_counter() - t0, where)
     summary = {"name": sweep.name, "sweep": str(sweep.path), "scene": str(sweep.scene_path),
                "axes": {a.key: list(a.values) for a in sweep.axes},
                "zip": {z.key: list(z.values) for z in sweep.zipped},
                "repeats": sweep.repeats, "runs": result.total, "computed": computed,
                "reused": reused, "failed": failed, "missing": missing, "where": where,
-               "wall_seconds": result.wall_seconds, "files": files,
+               "compute_seconds": t_exec, "wall_seconds": result.wall_seconds,
+               "files": files,
                "tdicam": __version__}
     _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1, default=_jsonable))
     result.files = files + ["summary.json"]
@@ -324,7 +337,10 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
 def _run_on_dask(todo, sweep, on_done, workers, scheduler, connect_timeout):
     import dask
     from dask.distributed import Client
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES - 1}):
+    # a local scheduler: every run queued on the workers at once (fewer round trips; Dask
+    # steals work from a busy worker), a run that kills its worker tried ALLOWED_FAILURES times
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES - 1,
+                          "distributed.scheduler.worker-saturation": "inf"}):
         if scheduler:
             client, cluster = _connect(scheduler, connect_timeout), None
         else:

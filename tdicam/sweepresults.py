@@ -8,7 +8,8 @@ tdicam version. The file is written to a temporary name in the same directory, f
 disk and renamed, so a file under a final name is always complete; files that do not parse
 or hold another hash are treated as missing. A rerun (after a crash, Ctrl-C, ``limit``, or
 an edit of the sweep file) computes only the runs without a finished record and reports how
-many it reused; failed runs are tried again. Each record is the run's report: the scene
+many it reused; failed runs are tried again. The engine's code is not part of the hash:
+after changing it without a new tdicam version, write to a fresh DIR to recompute. Each record is the run's report: the scene
 settings, the effects table (ran or skipped and why), notes, measurements with the planning
 model's predictions, speed and the table row.
 

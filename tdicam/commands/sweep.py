@@ -10,6 +10,7 @@ unreachable scheduler.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from tdicam.errors import TdicamError
@@ -50,8 +51,13 @@ def sweep(args):
         raise TdicamError(f"--connect-timeout must be > 0, got {args.connect_timeout:g}")
     sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact)
     out = Path(args.out) if args.out else Path("out") / "sweeps" / sw.name
-    res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
-                    serial=args.serial, limit=args.limit, progress=not args.no_progress,
-                    connect_timeout=args.connect_timeout)
+    try:
+        res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
+                        serial=args.serial, limit=args.limit, progress=not args.no_progress,
+                        connect_timeout=args.connect_timeout)
+    except KeyboardInterrupt:
+        print(f"tdicam sweep: the finished runs are kept in {out}/points; run the same "
+              f"command again to finish", file=sys.stderr)
+        raise
     print(res.summary())
     return 1 if res.failed else 0
