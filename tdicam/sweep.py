@@ -334,6 +334,22 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
     return result
 
 
+def _ignore_sigint_plugin():
+    """A worker plugin (:class:`dask.distributed.WorkerPlugin`) for a local cluster: Ctrl-C
+    reaches the whole process group, and only ``tdicam sweep`` itself should stop (it closes
+    its workers, without their tracebacks)."""
+    from dask.distributed import WorkerPlugin
+
+    class IgnoreSigint(WorkerPlugin):
+        def setup(self, worker):
+            import signal
+            try:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+            except ValueError:      # not the worker process's main thread: leave it
+                pass
+    return IgnoreSigint()
+
+
 def _run_on_dask(todo, sweep, on_done, workers, scheduler, connect_timeout):
     import dask
     from dask.distributed import Client
@@ -346,6 +362,7 @@ def _run_on_dask(todo, sweep, on_done, workers, scheduler, connect_timeout):
         else:
             cluster, _ = _local_cluster(workers)
             client = Client(cluster)
+            client.register_plugin(_ignore_sigint_plugin(), name="tdicam-ignore-sigint")
         try:
             _execute_dask(todo, sweep, client, on_done)
         finally:
