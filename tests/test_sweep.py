@@ -116,6 +116,8 @@ def test_points_ranges_zip_promotion_and_seeds(tmp_path):
     seeds = [r.seed for r in sw.runs]
     assert len(set(seeds)) == len(seeds) and len({r.hash for r in sw.runs}) == len(seeds)
     assert all(r.scene.run.seed == r.seed for r in sw.runs)
+    imp = load_sweep(path, impact=True)           # impact is part of the hash, not the seed
+    assert [r.seed for r in imp.runs] == seeds and imp.runs[0].hash != sw.runs[0].hash
     # seeds follow the point's scene, not its position: reorder the axes, same seeds
     path2 = write(tmp_path, path.read_text().replace(
         "target.signal_e = { start = 100, stop = 400, step = 100 }\n", "").replace(
