@@ -206,7 +206,7 @@ def test_outputs_table_dataset_plots_reports(reference):
     assert len(df) == 12 and (df["status"] == "ok").all() and df["error"].isna().all()
     assert (df["stages"] == df["tdi.stages"]).all() and (df["fidelity"] == "exact").all()
     assert (df["task_seconds"] > 0).all() and (df["snr_predicted_gain_db"][df["stages"] == 1] == 0).all()
-    assert (df["snr_gain_db"][df["stages"] == 1] == 0).all()     # one stage: the exposure itself
+    assert (abs(df["snr_gain_db"][df["stages"] == 1]) < 0.3).all()   # one stage: no gain
     assert (df["snr_gain_db"][df["stages"] > 1] > 1.5).all()
     m4 = df[df["stages"] == 4]
     assert (abs(m4["snr_gain_db"] - m4["snr_predicted_gain_db"]) < 3).all()
@@ -330,17 +330,19 @@ def test_ctrl_c_then_rerun(reference, tmp_path):
 
 
 def test_failed_run_recorded_sweep_goes_on(tmp_path, capsys):
-    # 6-bit pixels pass the scene loader but the tdi golden model takes 8..14 bits
-    path = sweep_file(tmp_path, 'scene = "tiny.toml"\n[axes]\n"sensor.bits" = [10, 6, 12]\n')
+    # valid scenes, but 8 stages of 14-bit pixels make 17 bits, over median3's 16
+    scene = TINY.replace("max_frame_rate_hz = 650", "max_frame_rate_hz = 650\nbits = 14")
+    scene += '[pipeline]\nblocks = ["tdi", "median3"]\n'
+    path = sweep_file(tmp_path, 'scene = "tiny.toml"\n[axes]\n"tdi.stages" = [1, 8, 2]\n', scene)
     assert main(["sweep", str(path), "-o", str(tmp_path / "o"), "--serial"]) == 1
     out = capsys.readouterr().out
-    assert "failed 1" in out and "failed: point 1 (sensor.bits = 6) repeat 0:" in out
-    assert "tdi golden model takes 8..14-bit pixels" in out
+    assert "failed 1" in out and "failed: point 1 (tdi.stages = 8) repeat 0:" in out
+    assert "median3 after TDI takes at most 16-bit pixels" in out
     df = read_table(tmp_path / "o")
     assert list(df["status"]) == ["ok", "failed", "ok"] and df["snr_gain_db"].isna()[1]
-    assert "8..14" in df["error"][1]
+    assert "17 bits" in df["error"][1] and df["error"].isna()[[0, 2]].all()
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
-    assert summary["failed"][0]["axes"] == {"sensor.bits": 6}
+    assert summary["failed"][0]["axes"] == {"tdi.stages": 8}
     res = run_sweep(load_sweep(path), tmp_path / "o", serial=True, progress=False)
     assert (res.computed, res.reused, len(res.failed)) == (1, 2, 1)   # failed runs retried
 
@@ -397,6 +399,8 @@ def test_bundled_sweeps_reproduce_the_papers_curves(tmp_path):
     assert not res.failed and not res.missing
     df = read_table(tmp_path / "yuan")
     assert list(df["m_dv_over_v"].unique()) == [0.25 * i for i in range(9)]
-    assert (abs(df["mtf_measured"] - df["mtf_model_footprint"]) < 0.02).all()
-    assert (abs(df["mtf_measured"] - df["mtf_model_yuan2013"]) < 0.06).all()
-    assert df.groupby("m_dv_over_v")["mtf_measured"].mean().is_monotonic_decreasing
+    meas = df[df["mtf_measured"].notna()]             # near M dV/V = 2 the MTF is ~0
+    assert set(meas["m_dv_over_v"]) >= {0.25 * i for i in range(8)}
+    assert (abs(meas["mtf_measured"] - meas["mtf_model_footprint"]) < 0.02).all()
+    assert (abs(meas["mtf_measured"] - meas["mtf_model_yuan2013"]) < 0.06).all()
+    assert meas.groupby("m_dv_over_v")["mtf_measured"].mean().is_monotonic_decreasing
