@@ -81,13 +81,15 @@ class Axis:
 @dataclass(frozen=True)
 class Run:
     """One task: point ``point`` (index into :attr:`Sweep.points`), repeat ``repeat``, its
-    validated scene (seed set), ``seed`` and the store ``hash``."""
+    validated scene (seed set), ``seed``, the store ``hash`` and ``settings``, the scene as
+    the plain dict that was hashed."""
 
     point: int
     repeat: int
     scene: object
     seed: int
     hash: str
+    settings: dict = dataclasses.field(repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -366,9 +368,10 @@ def load_sweep(path, *, force=False, impact=False) -> Sweep:
             seed = int.from_bytes(hashlib.sha256(
                 _canon({"scene": key, "repeat": r}).encode()).digest()[:8], "big") >> 1
             sc = dataclasses.replace(scene, run=dataclasses.replace(scene.run, seed=seed))
+            settings = {**key, "run": {**key["run"], "seed": seed}}
             h = _sha({"format": STORE_FORMAT, "tdicam": __version__, "impact": bool(impact),
-                      "scene": {**key, "run": {**key["run"], "seed": seed}}})
-            runs.append(Run(index, r, sc, seed, h))
+                      "scene": settings})
+            runs.append(Run(index, r, sc, seed, h, settings))
         points.append(point)
     return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
                  axes=tuple(axes), zipped=tuple(zipped), points=tuple(points),

@@ -4,12 +4,13 @@ Store and resume
 ----------------
 Each finished run is written to ``DIR/points/<hash>.json``, ``hash`` = sha256 of the run's
 fully validated scene (seed included), the ``impact`` option, :data:`STORE_FORMAT` and the
-tdicam version. The file is written to a temporary name in the same directory, flushed to
-disk and renamed, so a file under a final name is always complete; files that do not parse
-or hold another hash are treated as missing. A rerun (after a crash, Ctrl-C, ``limit``, or
-an edit of the sweep file) computes only the runs without a finished record and reports how
-many it reused; failed runs are tried again. The engine's code is not part of the hash:
-after changing it without a new tdicam version, write to a fresh DIR to recompute. Each record is the run's report: the scene
+tdicam version. The file is written to a temporary name in the same directory and renamed,
+so a process that dies never leaves a partial file under a final name; a file that does not
+parse or holds another hash (one torn by an operating-system crash, say) is treated as
+missing. A rerun (after a crash, Ctrl-C, ``limit``, or an edit of the sweep file) computes
+only the runs without a finished record and reports how many it reused; failed runs are
+tried again. The engine's code is not part of the hash: after changing it without a new
+tdicam version, write to a fresh DIR to recompute. Each record is the run's report: the scene
 settings, the effects table (ran or skipped and why), notes, measurements with the planning
 model's predictions, speed and the table row.
 
@@ -40,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam import __version__
-from tdicam.sweepfile import STORE_FORMAT, Run, Sweep, _scene_key
+from tdicam.sweepfile import STORE_FORMAT, Run, Sweep
 
 __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "table", "dataset", "read_table",
            "write_results"]
@@ -87,8 +88,6 @@ def _write_atomic(path: Path, text: str) -> None:
     try:
         with open(tmp, "w") as fh:
             fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -99,7 +98,7 @@ def _store_record(store: Path, sweep: Sweep, run: Run, result: dict) -> dict:
     point = sweep.points[run.point]
     rec = {"format": STORE_FORMAT, "tdicam": __version__, "hash": run.hash,
            "sweep": str(sweep.path), "axes": point, "repeat": run.repeat, "seed": run.seed,
-           "scene_settings": _scene_key(run.scene), "impact": sweep.impact, **result}
+           "scene_settings": run.settings, "impact": sweep.impact, **result}
     _write_atomic(_record_path(store, run.hash),
                   json.dumps(rec, indent=1, default=_jsonable, allow_nan=False))
     return rec
