@@ -1,0 +1,63 @@
+"""``tdicam sweep SWEEP.toml [-o DIR]``: a trade study over scene keys, run on Dask.
+
+The sweep file names a base scene, the scene keys to vary (lists or ranges, products and a
+zip group) and the Monte-Carlo repeats (:mod:`tdicam.sweep`). Every run is stored as it
+finishes, so a rerun computes only what is missing. Writes DIR/results.parquet, results.csv,
+sweep.nc, summary.json, plots and DIR/points/<hash>.json (each run's report). Exit status 0
+when every run succeeded, 1 when some failed (listed), 2 for a bad sweep file or an
+unreachable scheduler.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from tdicam.errors import TdicamError
+
+__all__ = ["register", "sweep"]
+
+
+def register(subparsers) -> None:
+    """Add the ``sweep`` subcommand."""
+    p = subparsers.add_parser(
+        "sweep", help="trade study: simulate a scene over axes of scene keys on Dask",
+        description=__doc__.split("\n\n")[0].replace("``", ""))
+    p.add_argument("sweep_file", metavar="SWEEP", help="sweep TOML file (see scenes/sweeps/)")
+    p.add_argument("-o", "--out", metavar="DIR", default=None,
+                   help="results directory (default out/sweeps/<sweep name>)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="processes of the local Dask cluster (default: the CPU count)")
+    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="use a running Dask scheduler, e.g. tcp://host:8786")
+    where.add_argument("--serial", action="store_true",
+                       help="run every point in this process, in order (debugging)")
+    p.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
+                   help="seconds to wait for --scheduler (default 10)")
+    p.add_argument("--force", action="store_true",
+                   help="accept more runs (points x repeats) than the limit")
+    p.add_argument("--limit", type=int, default=None, metavar="N",
+                   help="stop after computing N runs (a rerun finishes the sweep)")
+    p.add_argument("--impact", action="store_true",
+                   help="measure every effect's impact in each run (one crop run per effect)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=sweep)
+
+
+def sweep(args):
+    from tdicam.sweep import load_sweep, run_sweep
+    if args.connect_timeout <= 0:
+        raise TdicamError(f"--connect-timeout must be > 0, got {args.connect_timeout:g}")
+    sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact)
+    out = Path(args.out) if args.out else Path("out") / "sweeps" / sw.name
+    try:
+        res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
+                        serial=args.serial, limit=args.limit, progress=not args.no_progress,
+                        connect_timeout=args.connect_timeout)
+    except KeyboardInterrupt:
+        print(f"tdicam sweep: the finished runs are kept in {out}/points; run the same "
+              f"command again to finish", file=sys.stderr)
+        raise
+    print(res.summary())
+    return 1 if res.failed else 0
