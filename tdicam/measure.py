@@ -106,7 +106,7 @@ def fit_modulation(profile, freq, pedestal=0.0):
 
 
 def measure(scene, res):
-    """Measured image quality of a :class:`~tdicam.engine.SimResult` and its predictions."""
+    """Measured image quality of a :class:`~tdicam.engine.SceneResult` and its predictions."""
     out = {"stages": res.stages, "dv_over_v": res.dv_over_v}
     tgt = scene.target
     m = res.stages

@@ -111,7 +111,7 @@ __all__ = [
     "BLOCKS",
     "Orbit",
     "Turntable",
-    "Target",
+    "TargetSpec",
     "Sensor",
     "Optics",
     "Tdi",
@@ -184,7 +184,7 @@ class Turntable:
 
 
 @dataclass(frozen=True)
-class Target:
+class TargetSpec:
     """What the camera looks at and how bright it is (see the module docstring).
 
     Keys that do not apply to ``kind`` are None.
@@ -362,7 +362,7 @@ class Scene:
 
     orbit: Orbit | None
     turntable: Turntable | None
-    target: Target
+    target: TargetSpec
     sensor: Sensor
     tdi: Tdi
     motion: Motion
@@ -558,7 +558,7 @@ def _turntable(sec: _Section) -> Turntable:
                      distance_m=sec.number("distance_m", lo=0.0, lo_open=True))
 
 
-def _target(sec: _Section, base_dir: Path) -> Target:
+def _target(sec: _Section, base_dir: Path) -> TargetSpec:
     kind = sec.choice("kind", "flat", TARGET_KINDS)
     common = ("kind", "signal_e")
     all_keys = set(common).union(*_KIND_KEYS.values())
@@ -604,7 +604,7 @@ def _target(sec: _Section, base_dir: Path) -> Target:
         fields["angle_deg"] = sec.number("angle_deg", 5.0, lo=-45.0, hi=45.0)
     elif kind == "siemens":
         fields["spokes"] = sec.integer("spokes", 36, lo=4, hi=720)
-    return Target(kind=kind, signal_e=signal, **fields)
+    return TargetSpec(kind=kind, signal_e=signal, **fields)
 
 
 _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well_e",

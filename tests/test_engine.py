@@ -1,5 +1,5 @@
-"""Scene simulator engine (tdicam/engine.py): effect decisions, skip == forced-at-zero,
-fast TDI sum bit-exact with the golden model, fidelity selection, bad scenes."""
+"""Scene simulator engine (tdicam/engine/): the table of effects, effect decisions,
+skip == forced-at-zero, fidelity selection, bad scenes."""
 
 import textwrap
 
@@ -8,7 +8,6 @@ import pytest
 
 from tdicam import engine
 from tdicam.errors import TdicamError
-from tdicam.model import tdi as tdi_model
 from tdicam.scene import load_scene
 
 ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
@@ -47,23 +46,6 @@ seed = 7
 
 def rec(res, name):
     return next(e for e in res.effects if e.name == name)
-
-
-@pytest.mark.parametrize("direction", [0, 1])
-@pytest.mark.parametrize("m", [1, 2, 5, 16])
-def test_tdi_sum_bit_exact_with_golden(m, direction):
-    rng = np.random.default_rng(m * 10 + direction)
-    frames = rng.integers(0, 4096, (m + 37, m, 24)).astype(np.uint16)
-    gold = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction)
-    mine = engine.tdi_sum(frames, stages=m, direction=direction)
-    assert mine.shape == gold.shape
-    assert np.array_equal(mine, gold.astype(np.int64))
-    out_bits = 12 + max(0, (m - 1).bit_length() - 1)
-    if m > 1:
-        sat_g = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction,
-                              out_bits=out_bits)
-        sat = engine.tdi_sum(frames, stages=m, direction=direction, out_bits=out_bits)
-        assert np.array_equal(sat, sat_g.astype(np.int64))
 
 
 def test_skips_and_reasons(tmp_path):
@@ -203,3 +185,33 @@ def test_median_after_wide_tdi_is_a_clear_error(tmp_path):
     sc = small(tmp_path, '[pipeline]\nblocks = ["tdi", "median3"]\n', stages=32)
     with pytest.raises(TdicamError, match=r"\[tdi\]\.output"):
         engine.simulate(sc, fidelity="exact", impact=False)
+
+
+def test_effect_table_is_in_physical_order_and_complete():
+    names = [e.name for e in engine.EFFECTS]
+    assert names == ["optics", "aperture", "smear", "rolling_skew", "prnu", "dark_current",
+                     "dsnu", "shot_noise", "full_well", "reset_frames", "read_noise",
+                     "dual_gain", "quantization", "cds", "nuc", "hdr", "median3_pre", "tdi",
+                     "median3_post"]
+    stages = ["render", "pattern", "charge", "conversion", "blocks", "tdi", "output"]
+    order = [stages.index(e.stage) for e in engine.EFFECTS if e.stage]
+    assert order == sorted(order)                  # the stages follow the physical order
+    for e in engine.EFFECTS:
+        if e.stage:
+            assert e.exact is not None, e.name     # every acting effect runs in exact
+        if e.per_exposure:
+            assert e.fast is None, e.name          # non-linear single-exposure blocks
+    assert engine.FORCIBLE == ("optics", "smear", "rolling_skew", "prnu", "dark_current",
+                               "dsnu", "full_well", "read_noise")
+
+
+def test_every_record_states_why(tmp_path):
+    res = engine.simulate(small(tmp_path), fidelity="fast", impact=False)
+    assert [r.name for r in res.effects] == list(engine.EFFECT_NAMES)
+    assert all(r.why for r in res.effects)
+    assert rec(res, "quantization").why.count("fast:") == 1
+
+
+def test_tdi_cannot_be_disabled(tmp_path):
+    with pytest.raises(TdicamError, match="disable tdi"):
+        engine.simulate(small(tmp_path), disable=["tdi"], impact=False)

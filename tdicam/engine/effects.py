@@ -1,0 +1,593 @@
+"""The scene simulator's table of effects, in physical order, and the context of a run.
+
+Each :class:`Effect` entry says, in one place, what one physical effect is: its name and
+label, when a scene needs it and why (:attr:`Effect.need`, the reason the report prints),
+its stated error bound in the fast aggregate (:attr:`Effect.bound`, with what fast does
+instead, :attr:`Effect.fast_note`), and its implementations: ``render`` (how it shapes what
+each exposure sees, the same in both fidelities), ``pattern`` (its share of the fixed
+pattern), ``exact`` (what it does to one block of exposures in the exact path) and ``fast``
+(what it does to the aggregated sum of the m exposures). The engine runs the entries that
+ran, in table order; no code outside this table decides by effect name.
+
+Pipeline blocks (cds, nuc, hdr, median3, tdi) are entries too; their golden-model wiring is
+in :mod:`tdicam.engine.blocks`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from tdicam.errors import TdicamError
+from tdicam.model import sensor as _sensor
+
+from . import blocks as _blocks
+from .streams import stream
+
+__all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "EffectRecord", "Context",
+           "decide", "RAW_LINES", "MOMENTS_BELOW_DITHER"]
+
+#: In fast fidelity the raw single exposure covers at most this many ground lines.
+RAW_LINES = 256
+#: Fast fidelity sums exact per-rounding moments where the Widrow defect exceeds this.
+MOMENTS_BELOW_DITHER = 1e-4
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One physical effect (or pipeline block) of the scene simulator.
+
+    Attributes
+    ----------
+    name, label : str
+        Key (``--force``, ``--disable``, report) and the report's label.
+    need : callable(Context) -> (bool, str)
+        Whether the scene needs the effect, and why (printed in the report).
+    bound : callable(Context) -> dict, optional
+        Named error bounds of the fast aggregate for this effect (``{}``: exact in
+        distribution); ``auto`` runs fast when the largest is within ``[run].tolerance``.
+    fast_note : callable(Context, dict) -> (float, str) or None, optional
+        The bound the record states in fast fidelity and what fast does instead.
+    stage : str
+        Where its implementations act: ``render`` (keywords of
+        :class:`~tdicam.model.optics.Geometry` and the renderer), ``pattern`` (the window
+        rows' :class:`FixedPattern`), ``charge`` and ``conversion`` (one
+        :class:`~tdicam.engine.exact.Exposure` block in the exact path, the
+        :class:`~tdicam.engine.fast.Aggregate` in the fast path), ``blocks`` (frame stacks
+        before TDI), ``tdi``, ``output`` (after TDI).
+    exact, fast : callable, optional
+        Its implementation in the exact path and on the fast aggregate (the same function
+        where fast fidelity does not change it; None where it has no step of its own there).
+    forcible : bool
+        Can run at zero strength (``--force``; the output must equal the skipped one).
+    aggregated : bool
+        Fast fidelity changes how it is computed (the record shows the fidelity used).
+    per_exposure : bool
+        A non-linear block on single exposures: fast cannot aggregate it (runs exact).
+    """
+
+    name: str
+    label: str
+    need: Callable
+    bound: Callable | None = None
+    fast_note: Callable | None = None
+    stage: str = ""
+    exact: Callable | None = None
+    fast: Callable | None = None
+    forcible: bool = False
+    aggregated: bool = False
+    per_exposure: bool = False
+
+
+@dataclass
+class EffectRecord:
+    """One row of the effects table."""
+
+    name: str
+    label: str
+    ran: bool
+    why: str
+    fidelity: str = "-"
+    seconds: float = 0.0
+    bound: float | None = None
+    impact: dict | None = None
+
+    def to_dict(self):
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class Context:
+    """Everything one run of the engine needs, passed through instead of positional tuples.
+
+    The configuration (:func:`decide`) fixes the scene point, the records and the fidelity;
+    :meth:`with_effects` gives the context of one pass with another set of effects (the
+    impact study). Effect strengths are read here (``read_noise_e`` ...) and are zero (or
+    None) where the effect does not run in this pass.
+    """
+
+    scene: object
+    m: int
+    dv: float
+    fidelity: str                 # requested: exact | fast | auto
+    records: dict
+    on: frozenset                 # effects that run in this pass
+    forced: frozenset
+    fast: bool                    # aggregate the exposures
+    skew: float
+    dark_e: float
+    n_reads: int                  # conversions per exposure (2 with a reset frame)
+    offset_dn: float              # ADC pedestal (black level + CDS reset level)
+    notes: list
+    bounds: dict
+    fast_fpn_mean: bool = False   # fast: moving stages weighted by the mean row gain
+    quant_moments: bool = False   # fast: exact moments of every rounding (noise < ~0.7 DN)
+    nuc_coeffs: list | None = None   # per channel (gain code, offset code) of the nuc block
+
+    # ---- the effects of this pass, in table order
+    def ran(self, name):
+        return name in self.on
+
+    def steps(self, stage, fast=False, named=False):
+        """Implementations of the running effects of ``stage``, in physical order (with
+        ``named``: ``(name, implementation)`` pairs)."""
+        out = []
+        for e in EFFECTS:
+            fn = e.fast if fast else e.exact
+            if e.stage == stage and fn is not None and e.name in self.on:
+                out.append((e.name, fn) if named else fn)
+        return out
+
+    def with_effects(self, on):
+        return dataclasses.replace(self, on=frozenset(on), nuc_coeffs=None)
+
+    # ---- strengths in this pass
+    @property
+    def sensor(self):
+        return self.scene.sensor
+
+    @property
+    def digital(self):
+        return self.scene.tdi.domain == "digital"
+
+    @property
+    def seed(self):
+        return self.scene.run.seed
+
+    @property
+    def signal_e(self):
+        return self.scene.target.signal_e
+
+    @property
+    def gains(self):
+        """Channel gains converted: both with dual gain, else the high gain alone."""
+        g = self.sensor.gains
+        return tuple(g) if self.ran("dual_gain") else tuple(g[:1])
+
+    @property
+    def read_noise_e(self):
+        return self.sensor.read_noise_e if self.ran("read_noise") else 0.0
+
+    @property
+    def full_well_e(self):
+        return self.sensor.full_well_e if self.ran("full_well") else None
+
+    @property
+    def resets(self):
+        """Every exposure also converts a reset sample (for CDS)."""
+        return self.ran("reset_frames")
+
+    @property
+    def zero_dn(self):
+        """DN of zero light after the exposure blocks: 0 with CDS, else the pedestal."""
+        return 0.0 if self.ran("cds") else self.offset_dn
+
+    def stage_row(self, s):
+        """0-based window row that makes stage s (first exposure s = 0) of a ground line."""
+        return self.m - 1 - s if self.scene.tdi.direction == "forward" else s
+
+
+# --------------------------------------------------------------------------------------
+# when each effect is needed, and why
+# --------------------------------------------------------------------------------------
+
+
+def _dark_e(sc):
+    return sc.sensor.dark_current_e_per_s * sc.line_period_s
+
+
+def _skew(sc, m):
+    """Rolling-shutter skew per stage (line periods), 0 where it does not apply."""
+    t_row = sc.sensor.row_time_s
+    if sc.sensor.shutter == "global" or m == 1 or t_row is None:
+        return 0.0
+    return (t_row / sc.line_period_s) * (1.0 if sc.tdi.direction == "forward" else -1.0)
+
+
+def _need_optics(c):
+    sig = c.scene.optics.psf_sigma_px
+    return sig > 0, (f"Gaussian PSF sigma {sig:g} px" if sig > 0
+                     else "[optics].psf_sigma_px = 0: perfect lens")
+
+
+def _need_aperture(c):
+    return True, (f"every pixel integrates its active area (q/p = {c.sensor.q_over_p:.3g}) "
+                  f"while the image moves {1 - c.dv:.4g} px in the line period")
+
+
+def _need_smear(c):
+    m, dv, drift = c.m, c.dv, c.scene.motion.drift_deg
+    if m == 1:
+        return False, "1 stage: nothing to misregister"
+    if dv == 0 and drift == 0:
+        return False, "dV/V = 0 and no drift"
+    return True, (f"dV/V = {dv:g}, drift {drift:g} deg: M dV/V = {m * dv:.3g} px along, "
+                  f"M tan(drift) = {m * math.tan(math.radians(drift)):.3g} px across")
+
+
+def _need_rolling_skew(c):
+    sen, m = c.sensor, c.m
+    t_row, t_line = sen.row_time_s, c.scene.line_period_s
+    if sen.shutter == "global":
+        return False, "global shutter: all rows expose together"
+    if m == 1:
+        return False, "1 stage: no stage-to-stage skew"
+    if t_row is None:
+        return False, ("rolling shutter but no row time ([sensor].pixel_clock_mhz or "
+                       "max_frame_rate_hz): skew unknown")
+    return True, (f"T_row/T_line = {t_row / t_line:.4g} per stage, {m * t_row / t_line:.3g} px "
+                  f"over {m} stages ({c.scene.tdi.direction} scan)")
+
+
+def _need_prnu(c):
+    p = c.sensor.prnu
+    return p > 0, (f"PRNU {100 * p:g} % RMS" if p > 0 else "PRNU = 0")
+
+
+def _need_dark_current(c):
+    d = c.sensor.dark_current_e_per_s
+    return d > 0, (f"{d:g} e-/s x {c.scene.line_period_s * 1e6:.4g} us = {c.dark_e:.3g} e- "
+                   f"per exposure" if d > 0 else "dark current = 0")
+
+
+def _need_dsnu(c):
+    d = c.sensor.dsnu_e
+    return d > 0, (f"DSNU {d:g} e- RMS" if d > 0 else "DSNU = 0")
+
+
+def _need_shot_noise(c):
+    lit = c.signal_e > 0 or c.dark_e > 0
+    return lit, ("charge is Poisson" if lit else "no light and no dark current")
+
+
+def _need_full_well(c):
+    sen = c.sensor
+    peak = c.signal_e * (1 + 4 * sen.prnu) + c.dark_e + 4 * sen.dsnu_e
+    if not c.digital:
+        peak *= c.m
+    reach = peak + 5 * math.sqrt(max(peak, 0.0))
+    need = reach >= sen.full_well_e
+    return need, (f"{'brightest exposure' if c.digital else 'charge sum'} reaches {reach:.4g} "
+                  f"e- (mean + 5 sigma) {'>=' if need else '<'} full well "
+                  f"{sen.full_well_e:g} e-")
+
+
+def _need_reset_frames(c):
+    cds = "cds" in c.scene.pipeline.blocks
+    return cds, ("the cds block subtracts a reset frame" if cds
+                 else "no cds block in the pipeline")
+
+
+def _need_read_noise(c):
+    r = c.sensor.read_noise_e
+    return r > 0, (f"{r:g} e- RMS per sample" if r > 0 else "read noise = 0")
+
+
+def _need_dual_gain(c):
+    g = c.sensor.gains
+    return len(g) == 2, (f"gains HG x{g[0]:g} / LG x{g[1]:g}" if len(g) == 2
+                         else "one-gain sensor")
+
+
+def _need_quantization(c):
+    sen = c.sensor
+    return True, f"{sen.bits}-bit ADC, {sen.conversion_gain_e_per_dn:.4g} e-/DN at gain 1"
+
+
+# --------------------------------------------------------------------------------------
+# fast-aggregate bounds
+# --------------------------------------------------------------------------------------
+
+
+def _dark_rel(sc):
+    """Darkest level of the scene relative to the bright one (1 for flat, 0 for pictures)."""
+    kind = sc.target.kind
+    if kind == "flat":
+        return 1.0
+    if kind in ("bars", "edge", "siemens"):
+        cc = sc.target.contrast
+        return (1 - cc) / (1 + cc)
+    return 0.0
+
+
+def _sigma_dn(c):
+    """Temporal noise in front of the ADC at the darkest level of the scene, in DN."""
+    sen, S = c.sensor, c.signal_e
+    conv = sen.conversion_gain_e_per_dn / sen.gains[0]
+    shot = c.records["shot_noise"].ran
+    var_e = (S * _dark_rel(c.scene) if shot else 0.0) + (c.dark_e if shot else 0.0) \
+        + (sen.read_noise_e ** 2 if c.records["read_noise"].ran else 0.0)
+    return math.sqrt(var_e) / conv
+
+
+def _bound_quantization(c):
+    """Widrow defect of the summed roundings, and the per-exposure clipping (ADC range,
+    CDS clamp at 0) the aggregate cannot reproduce."""
+    sen, S = c.sensor, c.signal_e
+    conv = sen.conversion_gain_e_per_dn / sen.gains[0]
+    dark_rel = _dark_rel(c.scene)
+    sigma_dn = _sigma_dn(c)
+    n_reads = 2 if c.records["reset_frames"].ran else 1
+    lo_level = (S * dark_rel + c.dark_e) / conv + sen.black_level_dn
+    hi_level = (S + c.dark_e) / conv + sen.black_level_dn
+    sd = max(sigma_dn, 1e-9)
+    p_lo = 0.5 * math.erfc(lo_level / sd / math.sqrt(2)) if n_reads == 1 else \
+        0.5 * math.erfc((S * dark_rel + c.dark_e) / conv / (sd * math.sqrt(2)) / math.sqrt(2))
+    p_hi = 0.5 * math.erfc((sen.full_scale_dn - hi_level) / sd / math.sqrt(2))
+    return {"quantization": float(_sensor.dither_defect(sigma_dn)),
+            "clipping": min(1.0, p_lo + p_hi)}
+
+
+def _bound_full_well(c):
+    # clipping of single exposures: cannot aggregate
+    return {"full_well": 1.0} if c.records["full_well"].ran else {}
+
+
+def _moving(c):
+    return c.m > 1 and (c.records["smear"].ran or c.records["rolling_skew"].ran)
+
+
+def _bound_prnu(c):
+    if not (_moving(c) and c.records["prnu"].ran):
+        return {}
+    # sum_s rel_s w_s taken as mean(rel) sum(w): error std prnu sqrt(m) std_s(rel) S,
+    # std_s(rel) <= (1 - dark)/2, relative to the bright level m S
+    return {"prnu_smear": c.sensor.prnu * (1.0 - _dark_rel(c.scene)) / 2.0 / math.sqrt(c.m)}
+
+
+def _note_quantization(c, b):
+    if c.quant_moments:
+        return b["quantization"], (
+            f"; fast: the noise does not dither the ADC (Widrow defect "
+            f"{b['quantization']:.2g}): the sum of the roundings drawn as a Normal with the "
+            f"exact mean and variance of each rounding (shape not reproduced), clipping "
+            f"probability {b['clipping']:.2g}")
+    return b["quantization"], (f"; fast: m roundings -> 1 rounding + Normal((n-1)/12) DN, "
+                               f"Widrow bound {b['quantization']:.2g}, clipping probability "
+                               f"{b['clipping']:.2g}")
+
+
+def _note_full_well(c, b):
+    if c.quant_moments or not c.records["full_well"].ran:
+        return None
+    return 1.0, "; fast: clipped on the mean per exposure (approximate)"
+
+
+def _note_prnu(c, b):
+    if c.quant_moments or "prnu_smear" not in b:
+        return None
+    return b["prnu_smear"], (f"; fast: moving stages weighted by the mean row gain, error <= "
+                             f"{b['prnu_smear']:.2g} of the bright level")
+
+
+# --------------------------------------------------------------------------------------
+# implementations: rendering and fixed pattern (both fidelities)
+# --------------------------------------------------------------------------------------
+
+
+def _render_optics(c, kw):
+    kw["psf_sigma_px"] = c.scene.optics.psf_sigma_px
+    kw["optics"] = True
+
+
+def _render_aperture(c, kw):
+    kw["aperture"] = True
+
+
+def _render_smear(c, kw):
+    kw["dv_over_v"] = c.dv
+    kw["drift_deg"] = c.scene.motion.drift_deg
+
+
+def _render_rolling_skew(c, kw):
+    kw["skew"] = c.skew
+
+
+@dataclass
+class FixedPattern:
+    """Gain and dark-charge maps of the window rows (whole sensor width)."""
+
+    gain: np.ndarray
+    dark: np.ndarray
+
+
+def _pattern_prnu(c, fp):
+    fp.gain = np.maximum(1.0 + c.sensor.prnu * stream(c.seed, "fpn_prnu").standard_normal(
+        fp.gain.shape), 0.0)
+
+
+def _pattern_dark_current(c, fp):
+    fp.dark = np.full(fp.dark.shape, c.dark_e)
+
+
+def _pattern_dsnu(c, fp):
+    fp.dark = np.maximum(fp.dark + c.sensor.dsnu_e * stream(c.seed, "fpn_dsnu")
+                         .standard_normal(fp.dark.shape), 0.0)
+
+
+# --------------------------------------------------------------------------------------
+# implementations: charge and conversion on one block of exposures (exact)
+# --------------------------------------------------------------------------------------
+
+
+def _exact_shot(c, x):
+    x.e = x.rng("shot").poisson(x.lam).astype(np.float64)
+
+
+def _exact_full_well(c, x):
+    x.e = np.minimum(x.e, c.sensor.full_well_e)
+
+
+def _exact_reset(c, x, ch):
+    """The reset sample of channel ``ch``: read noise alone, converted."""
+    v = x.reset_noise(ch, c.read_noise_e)
+    _adc_into(v, x.k[ch], x.add, x.top, x.reset_dst[ch])
+
+
+def _exact_read(c, x, ch):
+    r_e = c.read_noise_e
+    if r_e > 0:
+        x.v += x.read_noise(ch, r_e)
+
+
+def _exact_quantization(c, x, ch):
+    _adc_into(x.v, x.k[ch], x.add, x.top, x.dst[ch])
+
+
+def _adc_into(x, k, add, top, dst):
+    """``clamp(floor(x k + add), 0, top)`` into ``dst`` (``x`` is overwritten)."""
+    x *= k
+    x += add
+    np.floor(x, out=x)
+    np.clip(x, 0.0, top, out=x)
+    dst[...] = x
+
+
+# --------------------------------------------------------------------------------------
+# the table
+# --------------------------------------------------------------------------------------
+
+
+def _fast(name):
+    """Fast implementation ``name`` of :mod:`tdicam.engine.fast` (imported late)."""
+    def call(*a):
+        from . import fast
+        return getattr(fast, name)(*a)
+    call.__name__ = name
+    return call
+
+
+#: Every effect in the fixed physical order.
+EFFECTS = (
+    Effect("optics", "optics PSF (Gaussian)", _need_optics, stage="render",
+           exact=_render_optics, fast=_render_optics, forcible=True),
+    Effect("aperture", "pixel aperture + exposure motion", _need_aperture, stage="render",
+           exact=_render_aperture, fast=_render_aperture),
+    Effect("smear", "motion smear (dV/V, drift)", _need_smear, stage="render",
+           exact=_render_smear, fast=_render_smear, forcible=True, aggregated=True),
+    Effect("rolling_skew", "rolling-shutter row skew", _need_rolling_skew, stage="render",
+           exact=_render_rolling_skew, fast=_render_rolling_skew, forcible=True,
+           aggregated=True),
+    Effect("prnu", "PRNU", _need_prnu, bound=_bound_prnu, fast_note=_note_prnu,
+           stage="pattern", exact=_pattern_prnu, fast=_pattern_prnu, forcible=True,
+           aggregated=True),
+    Effect("dark_current", "dark current", _need_dark_current, stage="pattern",
+           exact=_pattern_dark_current, fast=_pattern_dark_current, forcible=True,
+           aggregated=True),
+    Effect("dsnu", "DSNU", _need_dsnu, stage="pattern", exact=_pattern_dsnu,
+           fast=_pattern_dsnu, forcible=True, aggregated=True),
+    Effect("shot_noise", "photon/dark shot noise", _need_shot_noise, stage="charge",
+           exact=_exact_shot, fast=_fast("shot_noise"), aggregated=True),
+    Effect("full_well", "full-well clipping", _need_full_well, bound=_bound_full_well,
+           fast_note=_note_full_well, stage="charge", exact=_exact_full_well,
+           fast=_fast("full_well"), forcible=True, aggregated=True),
+    Effect("reset_frames", "reset frames for CDS", _need_reset_frames, stage="conversion",
+           exact=_exact_reset),
+    Effect("read_noise", "read noise", _need_read_noise, stage="conversion",
+           exact=_exact_read, fast=_fast("read_noise"), forcible=True, aggregated=True),
+    Effect("dual_gain", "dual-gain channels (HG/LG)", _need_dual_gain),
+    Effect("quantization", "ADC quantization per exposure", _need_quantization,
+           bound=_bound_quantization, fast_note=_note_quantization, stage="conversion",
+           exact=_exact_quantization, fast=_fast("quantization"), aggregated=True),
+    Effect("cds", "block cds (golden model)", _blocks.need("cds"), stage="blocks",
+           exact=_blocks.cds, aggregated=True),
+    Effect("nuc", "block nuc (golden model)", _blocks.need("nuc"), stage="blocks",
+           exact=_blocks.nuc, per_exposure=True),
+    Effect("hdr", "block hdr (golden model)", _blocks.need("hdr"), stage="blocks",
+           exact=_blocks.hdr, per_exposure=True),
+    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3_pre"),
+           stage="blocks", exact=_blocks.median3_pre, per_exposure=True),
+    Effect("tdi", "TDI accumulation", _blocks.need("tdi"), stage="tdi", exact=_blocks.tdi,
+           fast=_fast("tdi"), aggregated=True),
+    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3_post"),
+           stage="output", exact=_blocks.median3_post, fast=_blocks.median3_post),
+)
+EFFECT_NAMES = tuple(e.name for e in EFFECTS)
+#: Effects that can be forced on at zero strength (to check that skipping them is exact).
+FORCIBLE = tuple(e.name for e in EFFECTS if e.forcible)
+
+
+# --------------------------------------------------------------------------------------
+# configuration of one run
+# --------------------------------------------------------------------------------------
+
+
+def decide(scene, m, dv, fidelity, force, disable):
+    """The context of one scene point: which effects run and why, the fidelity, the bounds."""
+    force, disable = frozenset(force), frozenset(disable)
+    c = Context(scene, m, dv, fidelity, {}, frozenset(), force, False, _skew(scene, m),
+                _dark_e(scene), 1, 0.0, [], {})
+    for eff in EFFECTS:
+        need, why = eff.need(c)
+        if eff.name in disable:
+            need, why = False, f"disabled by request ({why})"
+        elif eff.name in force and not need:
+            if not eff.forcible:
+                raise TdicamError(f"--force {eff.name}: only {', '.join(FORCIBLE)} can be "
+                                  f"forced on")
+            need, why = True, f"forced on at zero strength ({why})"
+        c.records[eff.name] = EffectRecord(eff.name, eff.label, bool(need), why)
+    rec = c.records
+    c.on = frozenset(n for n, r in rec.items() if r.ran)
+    c.n_reads = 2 if rec["reset_frames"].ran else 1
+    c.offset_dn = scene.sensor.black_level_dn + (scene.pipeline.cds.reset_level_dn
+                                                 if rec["reset_frames"].ran else 0.0)
+    bounds = c.bounds
+    for eff in EFFECTS:
+        if eff.bound is not None:
+            bounds.update(eff.bound(c))
+    tol = scene.run.tolerance
+    per_exposure = [e.name for e in EFFECTS if e.per_exposure and rec[e.name].ran] \
+        if c.digital else []     # charge sum happens before any block
+    fast = fidelity == "fast"
+    if fidelity == "auto":
+        worst = max(bounds.values())
+        fast = worst <= tol and not per_exposure
+        c.notes.append(f"auto: {'fast' if fast else 'exact'} (largest fast-aggregate bound "
+                       f"{worst:.3g} vs tolerance {tol:g}"
+                       + (f"; per-exposure blocks {', '.join(per_exposure)}" if per_exposure
+                          else "") + ")")
+    if fast and per_exposure:
+        c.notes.append(f"fast aggregate not applicable: {', '.join(per_exposure)} act on "
+                       f"single exposures and are not linear; ran exact")
+        fast = False
+    c.fast = fast
+    mode = "fast" if fast else "exact"
+    for eff in EFFECTS:
+        if eff.aggregated and rec[eff.name].ran:
+            rec[eff.name].fidelity = mode
+    c.quant_moments = fast and bounds["quantization"] > MOMENTS_BELOW_DITHER
+    c.fast_fpn_mean = fast and "prnu_smear" in bounds
+    if fast:
+        for eff in EFFECTS:
+            note = eff.fast_note(c, bounds) if eff.fast_note is not None else None
+            if note is not None:
+                rec[eff.name].bound, extra = note
+                rec[eff.name].why += extra
+    if len(scene.sensor.gains) == 2 and not rec["hdr"].ran:
+        c.notes.append("two gains but no hdr merge: the HG channel feeds the chain")
+    return c
