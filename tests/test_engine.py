@@ -215,3 +215,12 @@ def test_every_record_states_why(tmp_path):
 def test_tdi_cannot_be_disabled(tmp_path):
     with pytest.raises(TdicamError, match="disable tdi"):
         engine.simulate(small(tmp_path), disable=["tdi"], impact=False)
+
+
+def test_stages_beyond_the_sweep(tmp_path):
+    """stages=m larger than every [tdi].stages of the scene (issue 18: IndexError before)."""
+    sc = small(tmp_path, stages=2)
+    for fid in ("exact", "fast"):
+        res = engine.simulate(sc, stages=6, fidelity=fid, impact=False)
+        assert res.stages == 6 and res.output.shape == (24, 48)
+        assert rec(res, "tdi").ran

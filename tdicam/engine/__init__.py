@@ -139,9 +139,11 @@ class Pass:
         tgt = _targets.make_target(sc.target, columns=sen.columns, lines=lines)
         self.renderer = _optics.Renderer(tgt, self.geometry, ncols, col0=col0, **flags)
         timer.add("render", time.perf_counter() - t0)
-        # fixed pattern of the window rows (first rows of the sensor), whole width, cropped
+        # fixed pattern of the window rows (first rows of the sensor), whole width, cropped;
+        # drawn for the largest window of the sweep (or of this run) so that every stage
+        # count of a sweep sees the same pattern
         t0 = time.perf_counter()
-        rows_fp = max(sc.tdi.stages)
+        rows_fp = max(max(sc.tdi.stages), c.m)
         fp = FixedPattern(np.ones((rows_fp, sen.columns)), np.zeros((rows_fp, sen.columns)))
         for step in c.steps("pattern"):
             step(c, fp)
