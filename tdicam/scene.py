@@ -60,7 +60,9 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
 
 ``[tdi]``
     ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep); each must not
-    exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one. ``domain``
+    exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one; digital TDI takes at
+    most 128 stages and, unless an hdr merge feeds it, 8..14-bit pixels (``[sensor].bits``):
+    the golden accumulator's limits, the same for every fidelity. ``domain``
     ["digital"]: ``digital`` or ``charge``. ``direction`` ["forward"]: ``forward`` or
     ``reverse``. ``output`` ["full"]: ``full`` (``bits + ceil(log2 m)`` bits) or
     ``saturate`` to ``output_bits`` [= ``[sensor].bits``], 1..32.
@@ -112,6 +114,7 @@ __all__ = [
     "Orbit",
     "Turntable",
     "TargetSpec",
+    "digital_tdi_limits_error",
     "Sensor",
     "Optics",
     "Tdi",
@@ -777,6 +780,36 @@ def _check_stages(sec: _Section, scene: Scene) -> None:
                                f"T_line {t_line_us:.4g} us / T_row {t_row_us:.4g} us), got {m}")
 
 
+def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
+    """Why digital TDI of ``stages`` stages cannot run on ``scene``'s pixels (None: it can).
+
+    The one rule for every fidelity (exact runs the golden accumulator
+    :func:`tdicam.model.tdi.tdi`; fast must not accept what exact refuses): at most
+    :data:`tdicam.model.tdi.MAX_STAGES` stages, and, when the ADC feeds TDI directly (no hdr
+    merge in between), ``[sensor].bits`` in :data:`tdicam.model.tdi.PIXEL_BITS`.
+    """
+    from tdicam.model import tdi as _tdi_model
+    if scene.tdi.domain != "digital":
+        return None
+    if stages > _tdi_model.MAX_STAGES:
+        return (f"stages: must be <= {_tdi_model.MAX_STAGES} for digital TDI (the "
+                f"accumulator's limit), got {stages}")
+    lo, hi = _tdi_model.PIXEL_BITS
+    hdr = "hdr" in scene.pipeline.blocks and len(scene.sensor.gains) == 2
+    if not hdr and not lo <= scene.sensor.bits <= hi:
+        return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
+                f"got {scene.sensor.bits}")
+    return None
+
+
+def _check_digital_tdi(tdi_sec: _Section, sensor_sec: _Section, scene: Scene) -> None:
+    for m in scene.tdi.stages:
+        why = digital_tdi_limits_error(scene, m)
+        if why is not None:
+            key, _, msg = why.partition(": ")
+            (tdi_sec if key == "stages" else sensor_sec).fail(key, msg)
+
+
 # --------------------------------------------------------------------------------------
 # public entry points
 # --------------------------------------------------------------------------------------
@@ -837,6 +870,7 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics)
     _check_stages(tdi_sec, scene)
+    _check_digital_tdi(tdi_sec, section("sensor"), scene)
     return scene
 
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["run_scene", "main_tiff_shift"]
+__all__ = ["run_scene", "main_tiff_shift", "strict_json"]
 
 
 def _progress_bar(total, desc):
@@ -124,7 +124,9 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
         "tiff_shift": main_tiff_shift(main),
     }
     report["summary"] = _summary(scene, report)
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json))
+    report = strict_json(report)
+    (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
+                                                    allow_nan=False))
     (out_dir / "report.md").write_text(_markdown(scene, report))
     return report
 
@@ -134,6 +136,27 @@ def _loadavg():
         return os.getloadavg()[0]
     except OSError:
         return None
+
+
+def strict_json(report):
+    """``report`` with every non-finite number (inf, nan) replaced by null, and the reason
+    listed under ``"nulls"`` (JSON path -> what the value was): report.json is strict JSON,
+    readable by every parser."""
+    nulls = {}
+
+    def walk(v, path):
+        if isinstance(v, (float, np.floating)) and not math.isfinite(v):
+            nulls[path] = f"{float(v)!r}: not a finite number"
+            return None
+        if isinstance(v, dict):
+            return {k: walk(x, f"{path}.{k}") for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [walk(x, f"{path}[{i}]") for i, x in enumerate(v)]
+        return v
+    out = walk(report, "$")
+    if nulls:
+        out["nulls"] = nulls
+    return out
 
 
 def _json(o):
@@ -299,7 +322,7 @@ def _markdown(scene, rep):
         imp = e["impact"]
         if imp is None:
             imp_s = "-"
-        elif "psnr_db" in imp:
+        elif imp.get("psnr_db") is not None:
             imp_s = f"{_fmt(imp['psnr_db'], '.1f')} / {imp['rms_dn']:.3g}"
         else:
             imp_s = imp.get("note", "-")
@@ -342,6 +365,8 @@ def _markdown(scene, rep):
                       f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
                       f"{_fmt(t['seed001_model'], '.3f')} | {t['footprint_model']:.3f} |")
         md.append("")
+        md += [f"* stages {r['stages']}, M dV/V {r['mtf']['m_dv_over_v']:.3g}: "
+               f"{r['mtf']['note']}" for r in mtf if r["mtf"].get("note")]
     md += ["## Speed", "",
            f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
            f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "

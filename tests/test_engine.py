@@ -224,3 +224,41 @@ def test_stages_beyond_the_sweep(tmp_path):
         res = engine.simulate(sc, stages=6, fidelity=fid, impact=False)
         assert res.stages == 6 and res.output.shape == (24, 48)
         assert rec(res, "tdi").ran
+
+
+@pytest.mark.parametrize("over,msg", [
+    ({"tdi": {"stages": 200}, "sensor": {"rows": 256}},
+     r"^\[tdi\]\.stages: must be <= 128 for digital TDI"),
+    ({"sensor": {"bits": 16}}, r"^\[sensor\]\.bits: digital TDI takes 8\.\.14-bit pixels"),
+    ({"sensor": {"bits": 4, "black_level_dn": 0.0}},
+     r"^\[sensor\]\.bits: digital TDI takes 8\.\.14-bit pixels"),
+])
+def test_validity_does_not_depend_on_fidelity(over, msg):
+    """One rule in the schema: what exact refuses, fast and auto refuse too (issue 18)."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    with pytest.raises(TdicamError, match=msg):
+        load_scene(root / "scenes" / "orbit_600km_1m_96.toml",
+                   overrides={**over, "sensor": {**over.get("sensor", {}),
+                                                 "max_frame_rate_hz": None}})
+    # charge-domain TDI has no accumulator: the same values are valid there
+    sc = load_scene(root / "scenes" / "orbit_600km_1m_96.toml", overrides={
+        **over, "tdi": {**over.get("tdi", {}), "domain": "charge"},
+        "sensor": {**over.get("sensor", {}), "max_frame_rate_hz": None, "columns": 16,
+                   "full_well_e": 1e7}})
+    for fid in ("fast", "exact"):
+        engine.simulate(sc, fidelity=fid, lines=4, impact=False)
+
+
+def test_stage_override_checked_like_the_schema(tmp_path):
+    with pytest.raises(TdicamError, match=r"^\[tdi\]\.stages: must be <= 128"):
+        engine.simulate(small(tmp_path, "").__class__(**{
+            **small(tmp_path).__dict__, "sensor": small(tmp_path).sensor.__class__(
+                **{**small(tmp_path).sensor.__dict__, "rows": 400})}), stages=200,
+            fidelity="fast", impact=False)
+
+
+def test_huge_psf_is_a_one_line_error(tmp_path):
+    sc = small(tmp_path, "[optics]\npsf_sigma_px = 1e6\n")
+    with pytest.raises(TdicamError, match=r"^\[optics\]\.psf_sigma_px: must be <= 64"):
+        engine.simulate(sc, fidelity="fast", impact=False)
