@@ -39,9 +39,12 @@ Fidelity
     smear enter exactly through the mean), read noise sums to ``Normal(0, m r^2)`` — and
     approximated where it is not: the m roundings of the ADC become one rounding of the
     summed value plus ``Normal(0, (n - 1)/12)`` DN (``n`` conversions), which is exact in mean
-    and variance when the temporal noise dithers the ADC. The stated bound is the Widrow
-    dependence ``exp(-2 pi^2 sigma_DN^2)`` at the darkest level of the scene; where it
-    exceeds :data:`MOMENTS_BELOW_DITHER` the sum is drawn instead as integers with the exact
+    and variance when the temporal noise dithers the ADC. The stated bound is the rounding
+    defect at the darkest level of the scene
+    (:func:`~tdicam.engine.effects.rounding_defect`: the Poisson charge lattice and the
+    Gaussian read noise at every harmonic of the DN grid, and with CDS the reset sample's
+    read noise alone — Widrow's ``exp(-2 pi^2 sigma_DN^2)`` is its first Gaussian term); where
+    it exceeds :data:`MOMENTS_BELOW_DITHER` the sum is drawn instead as integers with the exact
     mean and variance of every rounding (:func:`tdicam.model.sensor.quantized_moments`,
     Gaussian noise in front of the ADC), so the undithered rounding bias is kept; per-exposure
     clipping (full well, ADC range, CDS clamp) is not reproduced, with its probability as the

@@ -23,7 +23,6 @@ from typing import Callable
 import numpy as np
 
 from tdicam.errors import TdicamError
-from tdicam.model import sensor as _sensor
 
 from . import blocks as _blocks
 from .streams import stream
@@ -316,30 +315,65 @@ def _dark_rel(sc):
 
 def _sigma_dn(c):
     """Temporal noise in front of the ADC at the darkest level of the scene, in DN."""
-    sen, S = c.sensor, c.signal_e
+    sen = c.sensor
     conv = sen.conversion_gain_e_per_dn / sen.gains[0]
-    shot = c.records["shot_noise"].ran
-    var_e = (S * _dark_rel(c.scene) if shot else 0.0) + (c.dark_e if shot else 0.0) \
-        + (sen.read_noise_e ** 2 if c.records["read_noise"].ran else 0.0)
+    var_e = _shot_e(c) + (sen.read_noise_e ** 2 if c.records["read_noise"].ran else 0.0)
     return math.sqrt(var_e) / conv
 
 
+def _shot_e(c):
+    """Mean charge (Poisson) at the darkest level of the scene, electrons (0 without shot
+    noise)."""
+    if not c.records["shot_noise"].ran:
+        return 0.0
+    return c.signal_e * _dark_rel(c.scene) + c.dark_e
+
+
+def rounding_defect(shot_e, e_per_dn, read_dn):
+    """Largest dependence of the ADC's rounding error on the signal, for Poisson charge of
+    mean ``shot_e`` (electrons, ``e_per_dn`` per DN) plus Normal read noise ``read_dn`` DN.
+
+    The rounding error's mean and correlation deviate from a uniform, independent error by
+    the characteristic function of the value in front of the ADC at the harmonics
+    ``2 pi j`` of the DN grid: ``|phi_j| = exp(-shot_e (1 - cos(2 pi j / e_per_dn)))
+    exp(-2 pi^2 j^2 read_dn^2)``. The Poisson factor does not decay with ``j``: the charge is
+    a lattice of ``1 / e_per_dn`` DN spacing, whose harmonics near ``j = n e_per_dn`` are
+    barely damped at low light (Widrow's Gaussian bound ``exp(-2 pi^2 sigma^2)``, the
+    ``j = 1`` term, misses them). Returns ``max_j |phi_j|`` over ``j = 1 ..
+    max(8, 2 e_per_dn + 2)`` (at most 4096).
+    """
+    n = int(min(4096, max(8, math.ceil(2.0 * e_per_dn) + 2)))
+    j = np.arange(1, n + 1, dtype=np.float64)
+    log = -shot_e * (1.0 - np.cos(2.0 * np.pi * j / e_per_dn)) \
+        - 2.0 * np.pi ** 2 * j * j * read_dn * read_dn
+    return float(np.exp(log.max()))
+
+
 def _bound_quantization(c):
-    """Widrow defect of the summed roundings, and the per-exposure clipping (ADC range,
-    CDS clamp at 0) the aggregate cannot reproduce."""
+    """Rounding defect of the summed roundings (signal and, with CDS, reset conversions:
+    :func:`rounding_defect`), and the per-exposure clipping (ADC range, CDS clamp at 0) the
+    aggregate cannot reproduce."""
     sen, S = c.sensor, c.signal_e
     conv = sen.conversion_gain_e_per_dn / sen.gains[0]
     dark_rel = _dark_rel(c.scene)
     sigma_dn = _sigma_dn(c)
+    read_dn = (sen.read_noise_e if c.records["read_noise"].ran else 0.0) / conv
+    defect = rounding_defect(_shot_e(c), conv, read_dn)
+    if c.records["reset_frames"].ran:
+        # the reset sample: read noise alone in front of the ADC (a fractional pedestal with
+        # little read noise is rounded the same way every time)
+        defect = max(defect, rounding_defect(0.0, conv, read_dn))
     n_reads = 2 if c.records["reset_frames"].ran else 1
     lo_level = (S * dark_rel + c.dark_e) / conv + sen.black_level_dn
     hi_level = (S + c.dark_e) / conv + sen.black_level_dn
     sd = max(sigma_dn, 1e-9)
     p_lo = 0.5 * math.erfc(lo_level / sd / math.sqrt(2)) if n_reads == 1 else \
         0.5 * math.erfc((S * dark_rel + c.dark_e) / conv / (sd * math.sqrt(2)) / math.sqrt(2))
+    if n_reads == 2:
+        # the reset sample (read noise around the pedestal) clipped at code 0
+        p_lo += 0.5 * math.erfc((c.offset_dn + 0.5) / max(read_dn, 1e-9) / math.sqrt(2))
     p_hi = 0.5 * math.erfc((sen.full_scale_dn - hi_level) / sd / math.sqrt(2))
-    return {"quantization": float(_sensor.dither_defect(sigma_dn)),
-            "clipping": min(1.0, p_lo + p_hi)}
+    return {"quantization": defect, "clipping": min(1.0, p_lo + p_hi)}
 
 
 def _bound_full_well(c):
@@ -362,12 +396,12 @@ def _bound_prnu(c):
 def _note_quantization(c, b):
     if c.quant_moments:
         return b["quantization"], (
-            f"; fast: the noise does not dither the ADC (Widrow defect "
+            f"; fast: the noise does not dither the ADC (rounding defect "
             f"{b['quantization']:.2g}): the sum of the roundings drawn as a Normal with the "
             f"exact mean and variance of each rounding (shape not reproduced), clipping "
             f"probability {b['clipping']:.2g}")
     return b["quantization"], (f"; fast: m roundings -> 1 rounding + Normal((n-1)/12) DN, "
-                               f"Widrow bound {b['quantization']:.2g}, clipping probability "
+                               f"rounding defect {b['quantization']:.2g}, clipping probability "
                                f"{b['clipping']:.2g}")
 
 
