@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from tdicam import engine
-from tdicam.engine.effects import decide, rounding_defect
+from tdicam.engine.context import decide
+from tdicam.engine.effects import rounding_defect
 from tdicam.scene import load_scene
 
 SIGNALS = (3.0, 6.0, 15.0, 40.0, 200.0)

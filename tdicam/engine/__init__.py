@@ -10,8 +10,8 @@ time, the fidelity used and its stated error bound, and its impact on the output
 RMS change of the output against the output without that effect, on a crop, with the same
 random numbers for every other effect).
 
-Package layout: :mod:`~tdicam.engine.effects` (the table, the run :class:`Context`, the
-configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
+Package layout: :mod:`~tdicam.engine.effects` (the table), :mod:`~tdicam.engine.context`
+(the run :class:`Context` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
 fidelities), :mod:`~tdicam.engine.blocks` (golden-model wiring of the pipeline blocks),
 :mod:`~tdicam.engine.streams` (random numbers, threads, timing), this module (the entry
 point and the impact study).
@@ -72,8 +72,8 @@ from tdicam.scene import digital_tdi_limits_error
 
 from . import exact as _exact
 from . import fast as _fast
-from .effects import (EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES,
-                      Context, EffectRecord, FixedPattern, decide)
+from .context import Context, EffectRecord, decide
+from .effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
 from .streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
