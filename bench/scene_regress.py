@@ -129,8 +129,6 @@ def _dump_result(res, where):
         for k, v in sorted(arrs.items()):
             if isinstance(v, np.ndarray):
                 np.save(where / f"crop_{block}_{k}.npy", v)
-            elif k == "params":
-                pass
     g = res.geometry
     rec = {
         "stages": res.stages, "dv_over_v": res.dv_over_v, "fidelity": res.fidelity,
@@ -148,13 +146,12 @@ def _dump_result(res, where):
 def dump(out):
     """Run every bundled scene in every variant and write the results under ``out``."""
     from tdicam.engine import FORCIBLE, simulate
-    from tdicam.errors import TdicamError
     from tdicam.scene import load_scene
     out = Path(out)
+    crop = (1, 4, 3, 9)
     for path in sorted((ROOT / "scenes").glob("*.toml")):
         sc = load_scene(path)
         m = max(sc.tdi.stages)
-        crop = (1, 4, 3, 9)
         for var in _VARIANTS:
             kw = {"stages": m, "lines": _LINES, "keep_crop": crop}
             if var in ("exact", "fast"):
@@ -164,32 +161,24 @@ def dump(out):
             elif var == "disabled":
                 kw.update(disable=["read_noise", "shot_noise"],
                           dv_over_v=sc.motion.dv_over_v[-1])
-            where = out / f"{path.stem}-{var}"
-            try:
-                res = simulate(sc, **kw)
-            except TdicamError as exc:
-                where.mkdir(parents=True, exist_ok=True)
-                (where / "error.txt").write_text(str(exc) + "\n")
-                print(f"{where.name}: error: {exc}")
-                continue
-            _dump_result(res, where)
-            print(f"{where.name}: {res.fidelity}, output {res.output.shape}")
+            _dump_one(simulate, sc, kw, out / f"{path.stem}-{var}")
     for name, stem, over, kw in EXTRA:
-        if (out / name).exists():
-            continue
         sc = load_scene(ROOT / "scenes" / f"{stem}.toml", overrides=over)
-        where = out / name
-        if where.exists():
-            continue
-        try:
-            res = simulate(sc, **{"lines": _LINES, "keep_crop": (1, 4, 3, 9), **kw})
-        except TdicamError as exc:
-            where.mkdir(parents=True, exist_ok=True)
-            (where / "error.txt").write_text(str(exc) + "\n")
-            print(f"{where.name}: error: {exc}")
-            continue
-        _dump_result(res, where)
-        print(f"{where.name}: {res.fidelity}, output {res.output.shape}")
+        _dump_one(simulate, sc, {"lines": _LINES, "keep_crop": crop, **kw}, out / name)
+
+
+def _dump_one(simulate, sc, kw, where):
+    """One run into ``where`` (its one-line error into ``error.txt`` if it refuses)."""
+    from tdicam.errors import TdicamError
+    try:
+        res = simulate(sc, **kw)
+    except TdicamError as exc:
+        where.mkdir(parents=True, exist_ok=True)
+        (where / "error.txt").write_text(str(exc) + "\n")
+        print(f"{where.name}: error: {exc}")
+        return
+    _dump_result(res, where)
+    print(f"{where.name}: {res.fidelity}, output {res.output.shape}")
 
 
 def compare(a, b):

@@ -1,23 +1,8 @@
 """``tdicam run SCENE [-o DIR]``: the main job — a scene file in, the camera's images, figures
 and a report out.
 
-For every point of the scene's sweep (``[tdi].stages`` x ``[motion].dv_over_v``) the scene
-simulator (:mod:`tdicam.engine`) runs only the effects the scene needs, at the scene's
-fidelity; the run writes into DIR (default ``out/<scene name>``):
-
-* ``target.png``, ``raw_exposure.png``, ``tdi.png`` (8-bit, scaled for viewing) and
-  ``raw_exposure.tif``, ``tdi.tif`` (16-bit TIFF of the DN values; wider outputs are shifted
-  right to fit, the shift is in the report) of the largest stage count of the sweep;
-* ``snr_vs_stages.png`` when the scene sweeps stages on a flat target, ``mtf.png`` on a bar
-  target (model curves and measured points, vs M dV/V when the mismatch is swept);
-* ``report.json`` and ``report.md``: the effects table (ran/skipped, why, fidelity and error
-  bound, time, impact), measured SNR/MTF next to the planning model's prediction, speed
-  (lines/s against the orbit's real-time line rate, exposure-pixels/s) and, with
-  ``[run.rtl]``, the RTL co-simulation of the chosen blocks on the crop (pixels compared,
-  mismatches).
-
-A progress bar (tqdm) is shown on a terminal and stays quiet when stdout is not a TTY or
-``CI`` is set. This module parses the arguments; the work is :func:`tdicam.scenerun.run_scene`.
+This module parses the arguments; the work, and the list of what it writes, is
+:func:`tdicam.scenerun.run_scene`.
 """
 
 from __future__ import annotations
