@@ -64,7 +64,7 @@ def test_secded_words_and_json_to_stdout(tmp_path, capsys):
     assert "secded_dec" in cap.err and "bit-exact" in cap.err
     assert [r["level"] for r in doc["rows"]] == ["golden", "pysim"] + SIM_LEVELS[2:] \
         + SIM_LEVELS[:2]
-    assert bench._expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
+    assert bench.expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
     assert {r["unit"] for r in doc["rows"]} == {"word"}
     assert all(r["accuracy"] == "bit-exact" for r in doc["rows"] if r["level"] != "golden")
     _check_png(tmp_path / "s.png")
@@ -111,7 +111,7 @@ def test_scene_rows(tmp_path, capsys):
 
 
 def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    monkeypatch.setattr(bench, "ddr_names", lambda: [])
     assert main(["bench", "ddr", "--png", "none"]) == 0
     out = capsys.readouterr().out
     row = next(ln for ln in out.splitlines() if ln.startswith("ddr "))
@@ -119,7 +119,7 @@ def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
 
 
 def test_ddr_blocks_are_found_in_the_registry():
-    names = bench._ddr_names()
+    names = bench.ddr_names()
     assert all("ddr" in n.split("_") for n in names)
     assert set(names) == {n for n in bench.blocks.names() if n == "ddr" or
                           n.endswith("_ddr") or n.startswith("ddr_")}
@@ -134,10 +134,10 @@ def test_fresh_build_is_timed_in_its_own_folder():
 
     def sources():
         return bench.stream_sources(blk, params)
-    assert bench._build_s(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
-    assert bench._build_s(0.0, "cached", "cds", params, "icarus", sources) == 0.0
+    assert bench.build_seconds(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
+    assert bench.build_seconds(0.0, "cached", "cds", params, "icarus", sources) == 0.0
     t0 = time.time()
-    assert bench._build_s(0.0, "fresh", "cds", params, "icarus", sources) > 0
+    assert bench.build_seconds(0.0, "fresh", "cds", params, "icarus", sources) > 0
     assert stamp.stat().st_mtime >= t0 - 1
     assert bench.fresh_build("cds", params, "icarus", sources()) > 0      # every time
 
@@ -166,8 +166,8 @@ def test_ddr_works_feed_their_blocks():
 def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
     def broken(**kw):
         raise RuntimeError("simulator exploded")
-    monkeypatch.setitem(bench._RUNNERS, "scene", broken)
-    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    monkeypatch.setitem(bench.RUNNERS, "scene", broken)
+    monkeypatch.setattr(bench, "ddr_names", lambda: [])
     assert main(["bench", "ddr", "scene", "--png", "none", "--sims", "none"]) == 1
     cap = capsys.readouterr()
     row = next(ln for ln in cap.out.splitlines() if ln.startswith("scene "))
@@ -198,9 +198,9 @@ def test_from_json_needs_a_bench_file(tmp_path, capsys):
 
 
 def test_table_formatting():
-    rows = [bench._row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
+    rows = [bench.row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
                        input="1,000 px"),
-            bench._row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
+            bench.row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
                        accuracy="bit-exact", input="1,000 px", build_s=12.34)]
     text = bench.format_table(rows).splitlines()
     assert "10 Mpx/s" in text[2] and "100 ns/px" in text[2]
