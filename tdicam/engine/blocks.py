@@ -1,7 +1,11 @@
-"""Golden-model wiring of the pipeline blocks in the scene simulator (cds, nuc, hdr, median3,
-tdi): when a block runs, how scene frame stacks become its inputs, the ideal NUC
-coefficients, the ECC round trip of the coefficients, and the crops kept for RTL
-co-simulation. All block knowledge of the engine is in this module.
+"""The pipeline blocks in the scene simulator (cds, nuc, hdr, median3, tdi): when a block
+runs, which of the engine's frame stacks are its scene arrays (stream and side inputs, as the
+block registry :mod:`tdicam.blocks` names them) and its parameters from the scene, the ideal
+NUC coefficients, the ECC round trip of the coefficients, and the crops kept for RTL
+co-simulation. The golden models run through the registry entries (:func:`golden`); TDI
+runs :func:`tdicam.model.tdi.tdi` directly: the registry's TDI golden function is the
+cycle-level stream model, built for co-simulation crops, far slower on whole scenes (the
+two are tested equal in ``tests/test_tdi.py``). All block knowledge of the engine is here.
 """
 
 from __future__ import annotations
@@ -11,16 +15,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
-from tdicam.model import cds as _cds
 from tdicam.model import ecc as _ecc
 from tdicam.model import hdr as _hdr
-from tdicam.model import median3 as _median3
 from tdicam.model import nuc as _nuc
 from tdicam.model import tdi as _tdi
 
-__all__ = ["need", "Frames", "cds", "nuc", "hdr", "median3_pre", "tdi", "median3_post",
-           "nuc_coeffs", "tdi_bits"]
+__all__ = ["need", "Frames", "golden", "cds", "nuc", "hdr", "median3_pre", "tdi",
+           "median3_post", "prepare", "nuc_coeffs", "tdi_bits", "subtract_reset"]
 
 _BLOCK_OF = {"cds": "cds", "nuc": "nuc", "hdr": "hdr", "median3_pre": "median3",
              "median3_post": "median3", "tdi": "tdi"}
@@ -68,6 +71,12 @@ class Frames:
     keep_out: tuple | None = None        # (y0, h, x0, w) of the output crop
 
 
+def golden(block, arrays, params):
+    """Output of registry block ``block``'s golden function on scene ``arrays``."""
+    blk = _registry.get(block)
+    return blk.run_golden(arrays, blk.resolve(params))["out"]
+
+
 def _check_bits(block, bits, lo, hi, key):
     if not lo <= bits <= hi:
         raise TdicamError(f"{key}: the {block} golden model takes {lo}..{hi}-bit pixels, "
@@ -86,12 +95,17 @@ def _timed(name):
     return wrap
 
 
+def subtract_reset(signal, reset, bits):
+    """The cds block's golden model on one frame and its reset frame."""
+    return golden("cds", {"signal": signal, "reset": reset}, {"pixel_bits": bits})
+
+
 @_timed("cds")
 def cds(c, fr):
     """Digital CDS of every channel: signal minus reset frame."""
     bits = c.sensor.bits
     for ch, x in enumerate(fr.channels):
-        y = _cds.cds(x, fr.resets[ch], pixel_bits=bits)
+        y = subtract_reset(x, fr.resets[ch], bits)
         if fr.keep is not None and ch == 0:
             fr.crop["cds"] = {"signal": fr.keep(x), "reset": fr.keep(fr.resets[ch]),
                               "out": fr.keep(y), "params": {"pixel_bits": bits}}
@@ -114,7 +128,8 @@ def nuc(c, fr):
             gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
         g = np.broadcast_to(gain_c, x.shape)
         o = np.broadcast_to(off_c, x.shape)
-        y = _nuc.nuc(x, g, o, pixel_bits=bits, **fmt.params())
+        y = golden("nuc", {"x": x, "gain": g, "offset": o},
+                   dict(pixel_bits=bits, **fmt.params()))
         if fr.keep is not None and ch == 0:
             fr.crop["nuc"] = {"x": fr.keep(x), "gain": fr.keep(np.ascontiguousarray(g)),
                               "offset": fr.keep(np.ascontiguousarray(o)), "out": fr.keep(y),
@@ -131,6 +146,12 @@ def _ecc_roundtrip(fmt, gain, offset):
     g, o = fmt.unpack_words(np.asarray(dec.data, np.uint64))
     n = np.size(gain)
     return g[:n].reshape(np.shape(gain)), o[:n].reshape(np.shape(offset))
+
+
+def prepare(c, gain_map, dark_map):
+    """Side inputs the blocks of context ``c`` take from the fixed pattern (``gain_map`` and
+    ``dark_map`` of the rows each output pixel sums): the ideal NUC coefficients."""
+    c.nuc_coeffs = nuc_coeffs(c, gain_map, dark_map) if c.ran("nuc") else None
 
 
 def nuc_coeffs(c, gain_map, dark_map):
@@ -160,7 +181,7 @@ def hdr(c, fr):
     g = c.sensor.gains
     params = dict(pixel_bits=fr.bits, threshold=h.threshold_dn, band=h.band_dn,
                   gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits)
-    merged = _hdr.hdr(fr.channels[0], fr.channels[1], **params)
+    merged = golden("hdr", {"hg": fr.channels[0], "lg": fr.channels[1]}, params)
     if fr.keep is not None:
         fr.crop["hdr"] = {"hg": fr.keep(fr.channels[0]), "lg": fr.keep(fr.channels[1]),
                           "out": fr.keep(merged), "params": params}
@@ -174,7 +195,8 @@ def median3_pre(c, fr):
     x = fr.channels[0]
     _check_bits("median3", fr.bits, 8, 16, "[sensor].bits")
     enhance = c.scene.pipeline.median3.edge_enhance
-    y = _median3.median3(x, pixel_bits=fr.bits, enhance=enhance)
+    y = golden("median3", {"frames": x}, {"width": x.shape[-1], "pixel_bits": fr.bits,
+                                          "enhance": bool(enhance)})
     if fr.keep is not None:
         fr.crop["median3"] = {"frames": fr.keep(x), "out": None, "params": {
             "pixel_bits": fr.bits, "enhance": bool(enhance)}}
@@ -222,7 +244,8 @@ def median3_post(c, fr):
                           f"output_bits <= 16")
     pb = max(pb, 8)
     enhance = c.scene.pipeline.median3.edge_enhance
-    y = _median3.median3(fr.out, pixel_bits=pb, enhance=enhance).astype(np.int64)
+    y = golden("median3", {"frames": fr.out}, {"width": fr.out.shape[-1], "pixel_bits": pb,
+                                               "enhance": bool(enhance)}).astype(np.int64)
     if fr.keep_out is not None:
         y0, h, x0, w = fr.keep_out
         fr.crop["median3"] = {"frames": fr.out[y0:y0 + h, x0:x0 + w].copy(), "out": None,

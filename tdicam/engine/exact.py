@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from .blocks import Frames, nuc_coeffs
+from .blocks import Frames, prepare
 from .streams import BLOCK_PIXELS, block_rng, run_blocks, stream
 
 __all__ = ["Exposure", "digital", "charge", "expose", "convert"]
@@ -144,7 +144,7 @@ def digital(c, p):
                p.progress, lambda s, j, a, b: (b - a) * ncols)
     r0 = c.stage_row(0)
     raw = frames[0][:lines, r0, :].astype(np.int64)
-    c.nuc_coeffs = nuc_coeffs(c, gain_map, dark_map) if c.ran("nuc") else None
+    prepare(c, gain_map, dark_map)
     fr = Frames(frames, resets, bits, p.timer, _keeper(p.keep_crop, m, True),
                 keep_out=p.keep_crop)
     for step in c.steps("blocks"):
@@ -205,18 +205,14 @@ def charge(c, p):
     out_x, one_x = xs
     raw = one_x.dst[0].astype(np.int64)
     keep = _keeper(p.keep_crop, m, False)
-    c.nuc_coeffs = None
-    if c.ran("nuc"):
-        # charge TDI: each output pixel's response is the column mean of the window's gains
-        c.nuc_coeffs = nuc_coeffs(c, gain_map.mean(axis=0, keepdims=True),
-                                  dark_map.sum(axis=0, keepdims=True))
+    # charge TDI: each output pixel's response is the column mean of the window's gains
+    prepare(c, gain_map.mean(axis=0, keepdims=True), dark_map.sum(axis=0, keepdims=True))
     fr = Frames([d[None] for d in out_x.dst], None if not cds else
                 [d[None] for d in out_x.reset_dst], c.sensor.bits, p.timer, keep,
                 keep_out=p.keep_crop)
     for step in c.steps("blocks"):
         step(c, fr)
-    if c.ran("nuc"):
-        c.nuc_coeffs = nuc_coeffs(c, gain_map[:1], dark_map[:1])
+    prepare(c, gain_map[:1], dark_map[:1])           # the single exposure: its own row
     fr1 = Frames([d[None] for d in one_x.dst], None if not cds else
                  [d[None] for d in one_x.reset_dst], c.sensor.bits, p.timer)
     for step in c.steps("blocks"):

@@ -18,10 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.model import cds as _cds
 from tdicam.model import sensor as _sensor
 
-from .blocks import Frames
+from .blocks import Frames, subtract_reset
 from .effects import RAW_LINES
 from .exact import Exposure, convert, expose
 from .streams import BLOCK_PIXELS, block_rng, run_blocks
@@ -192,7 +191,7 @@ def path(c, p):
         expose(c1, x)
         convert(c1, x)
         if rst1 is not None:
-            single[lo:hi] = _cds.cds(raw[lo:hi], rst1[0], pixel_bits=sen.bits)
+            single[lo:hi] = subtract_reset(raw[lo:hi], rst1[0], sen.bits)
         else:
             single[lo:hi] = raw[lo:hi]
         dt["raw_exposure"] = time.perf_counter() - t
