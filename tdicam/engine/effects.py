@@ -132,9 +132,15 @@ def _need_rolling_skew(c):
                   f"over {m} stages ({c.scene.tdi.direction} scan)")
 
 
-def _need_prnu(c):
-    p = c.sensor.prnu
-    return p > 0, (f"PRNU {100 * p:g} % RMS" if p > 0 else "PRNU = 0")
+def _when_positive(key, said, zero):
+    """``need`` of an impairment that runs when ``[sensor].<key>`` is > 0."""
+    def need(c):
+        v = getattr(c.sensor, key)
+        return v > 0, (said(v) if v > 0 else zero)
+    return need
+
+
+_need_prnu = _when_positive("prnu", lambda p: f"PRNU {100 * p:g} % RMS", "PRNU = 0")
 
 
 def _need_dark_current(c):
@@ -143,9 +149,7 @@ def _need_dark_current(c):
                    f"per exposure" if d > 0 else "dark current = 0")
 
 
-def _need_dsnu(c):
-    d = c.sensor.dsnu_e
-    return d > 0, (f"DSNU {d:g} e- RMS" if d > 0 else "DSNU = 0")
+_need_dsnu = _when_positive("dsnu_e", lambda d: f"DSNU {d:g} e- RMS", "DSNU = 0")
 
 
 def _need_shot_noise(c):
@@ -171,9 +175,8 @@ def _need_reset_frames(c):
                  else "no cds block in the pipeline")
 
 
-def _need_read_noise(c):
-    r = c.sensor.read_noise_e
-    return r > 0, (f"{r:g} e- RMS per sample" if r > 0 else "read noise = 0")
+_need_read_noise = _when_positive("read_noise_e", lambda r: f"{r:g} e- RMS per sample",
+                                  "read noise = 0")
 
 
 def _need_dual_gain(c):
