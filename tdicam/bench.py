@@ -45,7 +45,7 @@ import numpy as np
 
 from . import blocks, cosim
 from .benchutil import machine, median_time
-from .errors import TdicamError
+from .errors import TdicamError, check_range
 
 __all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "to_json", "fresh_build",
@@ -388,8 +388,7 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
     for s in sims:
         cosim.tool_env(s)
-    if repeat < 1:
-        raise TdicamError(f"--repeat = {repeat} is out of range; valid: 1..")
+    check_range("--repeat", repeat, 1, None)
     works = {w.name: w for w in STREAM_WORKS}
     rows = []
     for name in expand(names):

@@ -17,7 +17,7 @@ states ``v_c``, ``r_c``:
 * ``idle_thr = round(idle * 256)``, ``bp_thr = round(backpressure * 256)``.
 """
 
-from .errors import TdicamError
+from .errors import check_range
 
 __all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R"]
 
@@ -36,8 +36,7 @@ def xorshift32(s):
 def thresholds(idle, backpressure):
     """``(idle_thr, bp_thr)`` in 1/256 of the probabilities, checked to be in [0, 1)."""
     for name, p in (("idle", idle), ("backpressure", backpressure)):
-        if not 0 <= p < 1:
-            raise TdicamError(f"{name} = {p} is out of range; valid: 0 <= p < 1")
+        check_range(name, p, 0, 1, integer=False, hi_open=True)
     return round(idle * 256), round(backpressure * 256)
 
 

@@ -75,13 +75,10 @@ def test_a_wrong_golden_model_is_counted_not_passed(monkeypatch, tmp_path, capsy
     exactly those three mismatches and the command must fail."""
     cds = next(w for w in bench.STREAM_WORKS if w.name == "cds")
 
-    def wrong(inp, params):
-        a = cds.golden(inp, params)
-        out = a["out"].copy()
-        out.reshape(-1)[[5, 700, 5000]] ^= 1
-        return {**a, "out": out}
+    def wrong(arrays):
+        arrays["out"].reshape(-1)[[5, 700, 5000]] ^= 1
 
-    works = tuple(dataclasses.replace(w, golden=wrong) if w is cds else w
+    works = tuple(dataclasses.replace(w, corrupt=wrong) if w is cds else w
                   for w in bench.STREAM_WORKS)
     monkeypatch.setattr(bench, "STREAM_WORKS", works)
     js = tmp_path / "w.json"
@@ -149,11 +146,9 @@ def test_ddr_works_feed_their_blocks():
     for w in bench.DDR_WORKS:
         if w.block not in registered:
             continue
-        blk = bench.blocks.get(w.block)
-        params = blk.resolve(w.params)
-        inp = w.make(np.random.default_rng(1), w.sizes["fast"])
-        stim, exp = (w.to_beats or blk.to_beats)(w.golden(inp, params), params)
-        px = w.count(inp)
+        blk, params, inp = bench.work_inputs(w)
+        stim, exp = blk.to_beats(blk.case_arrays(inp, params), params)
+        px = inp["frames"].size
         assert stim.data.size == px, w.name
         if w.name == "ddr":
             assert np.array_equal(stim.data, exp.data)
@@ -180,8 +175,8 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
                "ddr, scene"),
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
-    (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: 0 <= p < 1"),
-    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1.."),
+    (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
+    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1..inf"),
 ])
 def test_errors_are_one_line(args, msg, capsys):
     assert main(["bench", *args]) == 2

@@ -33,6 +33,7 @@ from ..errors import TdicamError
 from ..hdl.axis import AxisTop
 from ..verilog import convert
 from ..beats import Beats
+from ..pauses import thresholds
 from . import codec, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "AMARANTH", "SimResult", "Comparison", "CaseRun",
@@ -206,9 +207,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
-    for name, p in (("idle", idle), ("backpressure", backpressure)):
-        if not 0 <= p < 1:
-            raise TdicamError(f"{name} = {p} is out of range; valid: 0 <= p < 1")
+    thresholds(idle, backpressure)
     blk = blocks.get(block)
     params = blk.resolve(params)
     bdir, build_time, top = _build(blk, params, sim)
