@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks, cosim, engine
-from tdicam.commands.run import run_scene
+from tdicam.scenerun import run_scene
 from tdicam.rtl import cosim_block
 from tdicam.scene import load_scene
 

@@ -176,7 +176,7 @@ def make_target(target, *, columns, lines):
 
     Parameters
     ----------
-    target : tdicam.scene.Target
+    target : tdicam.scene.TargetSpec
     columns : int
         Sensor width in pixels (pictures are scaled to it; charts are centred on it).
     lines : int

@@ -15,6 +15,9 @@
   seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions: seed 001's product
   :func:`tdicam.model.plan.mtf_system` with the effective mismatch (velocity mismatch plus
   rolling-shutter skew) and the exact footprint model of :class:`tdicam.model.optics.Geometry`.
+  Where the fitted amplitude is below :data:`MIN_MODULATION_SNR` standard deviations of its
+  estimate (or the mean is not above the pedestal) both measured values are None and
+  ``note`` says why.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import numpy as np
 
 from tdicam.model import plan as _plan
 
-__all__ = ["measure", "snr_prediction", "fit_modulation"]
+__all__ = ["measure", "snr_prediction", "fit_modulation", "MIN_MODULATION_SNR"]
 
 
 def _snr_db(img, pedestal, trim):
@@ -55,7 +58,8 @@ def snr_prediction(scene, stages, *, cds=False):
       one level, so the signal-dependent rounding error is a bias of the mean, not noise) and
       ``rho_detail`` — what a scene with detail at this light level would have;
     * ``sigma_ad_e``, ``sigma_cmos_e`` (temporal), ``sigma_fpn_e`` (electrons) and
-      ``snr1_db`` (single-exposure SNR, noise in quadrature).
+      ``snr1_db`` (single-exposure SNR, noise in quadrature; None, with a ``note``, when
+      ``signal_e = 0``).
     """
     from tdicam.model import sensor as _sensor
     sen = scene.sensor
@@ -84,9 +88,32 @@ def snr_prediction(scene, stages, *, cds=False):
     else:
         eq = float(_plan.snr_gain_digital(m, s_ad, s_cmos))
         pred = float(_plan.snr_gain_digital_predicted(m, s_ad, s_ind, rho))
-    return {"predicted_db": 20 * math.log10(pred), "eq28_db": 20 * math.log10(eq),
-            "rho": rho, "rho_detail": rho_detail, "sigma_ad_e": s_ad, "sigma_cmos_e": s_cmos,
-            "sigma_fpn_e": math.sqrt(fpn_var), "snr1_db": 20 * math.log10(snr1)}
+    out = {"predicted_db": 20 * math.log10(pred), "eq28_db": 20 * math.log10(eq),
+           "rho": rho, "rho_detail": rho_detail, "sigma_ad_e": s_ad, "sigma_cmos_e": s_cmos,
+           "sigma_fpn_e": math.sqrt(fpn_var),
+           "snr1_db": 20 * math.log10(snr1) if snr1 > 0 else None}
+    if snr1 <= 0:
+        out["note"] = "signal_e = 0: no signal, so no SNR (the gains are noise ratios)"
+    return out
+
+
+#: A modulation is measurable when its fitted amplitude is at least this many standard
+#: deviations of the amplitude estimate (from the fit residual) above zero.
+MIN_MODULATION_SNR = 5.0
+
+
+def _fit(profile, freq):
+    """Least-squares ``(amplitude, mean, amplitude standard deviation)`` of a sinusoid at
+    ``freq`` cycles/sample; the deviation is ``rms residual * sqrt(2 / n)``."""
+    p = np.asarray(profile, np.float64)
+    u = np.arange(len(p), dtype=np.float64)
+    ph = 2 * np.pi * freq * u
+    a = np.stack([np.cos(ph), np.sin(ph), np.ones_like(u)], axis=1)
+    coef, *_ = np.linalg.lstsq(a, p, rcond=1e-9)
+    resid = p - a @ coef
+    dof = max(len(p) - 3, 1)
+    sd = math.sqrt(float(resid @ resid) / dof) * math.sqrt(2.0 / max(len(p), 1))
+    return float(math.hypot(coef[0], coef[1])), float(coef[2]), sd
 
 
 def fit_modulation(profile, freq, pedestal=0.0):
@@ -94,19 +121,15 @@ def fit_modulation(profile, freq, pedestal=0.0):
 
     Returns None when the mean is not above the pedestal.
     """
-    p = np.asarray(profile, np.float64)
-    u = np.arange(len(p), dtype=np.float64)
-    ph = 2 * np.pi * freq * u
-    a = np.stack([np.cos(ph), np.sin(ph), np.ones_like(u)], axis=1)
-    coef, *_ = np.linalg.lstsq(a, p, rcond=1e-9)
-    mean = coef[2] - pedestal
+    amp, mean, _ = _fit(profile, freq)
+    mean -= pedestal
     if mean <= 0:
         return None
-    return float(math.hypot(coef[0], coef[1]) / mean)
+    return float(amp / mean)
 
 
 def measure(scene, res):
-    """Measured image quality of a :class:`~tdicam.engine.SimResult` and its predictions."""
+    """Measured image quality of a :class:`~tdicam.engine.SceneResult` and its predictions."""
     out = {"stages": res.stages, "dv_over_v": res.dv_over_v}
     tgt = scene.target
     m = res.stages
@@ -137,14 +160,21 @@ def measure(scene, res):
         if trim:
             prof = prof[trim:-trim]
         mod_in = c * (4 / math.pi if tgt.profile != "sine" else 1.0)
-        mod = fit_modulation(prof - 0.0, f_out, res.pedestal_output)
-        mtf_fit = None if mod is None else mod / mod_in
-        ctf_mtf = None
-        if tgt.profile != "sine":
-            lo, hi = float(prof.min()) - res.pedestal_output, float(prof.max()) \
-                - res.pedestal_output
-            if hi + lo > 0 and lo >= 0:
-                ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
+        amp, mean, amp_sd = _fit(prof, f_out)
+        mean -= res.pedestal_output
+        mtf_fit = ctf_mtf = note = None
+        if mean <= 0:
+            note = "not measurable: the mean output is not above the zero-light pedestal"
+        elif amp < MIN_MODULATION_SNR * amp_sd:
+            note = (f"not measurable: the modulation at the bar frequency ({amp:.3g} DN) is "
+                    f"below {MIN_MODULATION_SNR:g}x its noise ({amp_sd:.3g} DN RMS)")
+        else:
+            mtf_fit = amp / mean / mod_in
+            if tgt.profile != "sine":
+                lo, hi = float(prof.min()) - res.pedestal_output, float(prof.max()) \
+                    - res.pedestal_output
+                if hi + lo > 0 and lo >= 0:
+                    ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
         dv_eff = g.stage_lag
         model_seed001 = float(_plan.mtf_system(f, m, dv_eff, scene.sensor.q_over_p))
         exact = float(abs(g.mtf_along(f) if along else g.mtf_cross(f)))
@@ -155,4 +185,6 @@ def measure(scene, res):
             "footprint_model": exact,
             "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * dv_eff,
         }
+        if note is not None:
+            out["mtf"]["note"] = note
     return out

@@ -60,7 +60,9 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
 
 ``[tdi]``
     ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep); each must not
-    exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one. ``domain``
+    exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one; digital TDI takes at
+    most 128 stages and, unless an hdr merge feeds it, 8..14-bit pixels (``[sensor].bits``):
+    the golden accumulator's limits, the same for every fidelity. ``domain``
     ["digital"]: ``digital`` or ``charge``. ``direction`` ["forward"]: ``forward`` or
     ``reverse``. ``output`` ["full"]: ``full`` (``bits + ceil(log2 m)`` bits) or
     ``saturate`` to ``output_bits`` [= ``[sensor].bits``], 1..32.
@@ -102,7 +104,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, check_range
 from tdicam.model import plan as _plan
 
 __all__ = [
@@ -111,7 +113,8 @@ __all__ = [
     "BLOCKS",
     "Orbit",
     "Turntable",
-    "Target",
+    "TargetSpec",
+    "digital_tdi_limits_error",
     "Sensor",
     "Optics",
     "Tdi",
@@ -184,7 +187,7 @@ class Turntable:
 
 
 @dataclass(frozen=True)
-class Target:
+class TargetSpec:
     """What the camera looks at and how bright it is (see the module docstring).
 
     Keys that do not apply to ``kind`` are None.
@@ -362,7 +365,7 @@ class Scene:
 
     orbit: Orbit | None
     turntable: Turntable | None
-    target: Target
+    target: TargetSpec
     sensor: Sensor
     tdi: Tdi
     motion: Motion
@@ -418,23 +421,6 @@ def _show(value) -> str:
     return str(value)
 
 
-def _num(value) -> str:
-    if isinstance(value, float) and value.is_integer() and abs(value) < 1e16:
-        return str(int(value))
-    return str(value)
-
-
-def _range_text(lo, hi, lo_open, hi_open, integer) -> str:
-    if lo is not None and hi is not None:
-        if integer:
-            return f"in {lo}..{hi}"
-        return f"in {'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}"
-    if lo is not None:
-        return f"{'>' if lo_open else '>='} {_num(lo)}"
-    if hi is not None:
-        return f"{'<' if hi_open else '<='} {_num(hi)}"
-    return "a finite number"
-
 
 def _hint(key, valid) -> str:
     close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.6)
@@ -487,13 +473,11 @@ class _Section:
         where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             self.fail(key, f"must be a number{where}, got {_show(v)}")
-        shown, v = _show(v), float(v)
+        raw, shown, v = v, _show(v), float(v)
         if not math.isfinite(v):
             self.fail(key, f"must be a finite number{where}, got {shown}")
-        if ((lo is not None and (v <= lo if lo_open else v < lo))
-                or (hi is not None and (v >= hi if hi_open else v > hi))):
-            self.fail(key, f"must be {_range_text(lo, hi, lo_open, hi_open, False)}{where}, "
-                           f"got {shown}")
+        check_range(f"{self.label(key)}{where}", raw, lo, hi, integer=False,
+                    lo_open=lo_open, hi_open=hi_open)
         return v
 
     def integer(self, key, default=_REQUIRED, *, lo=None, hi=None, value=_REQUIRED, what=None):
@@ -503,10 +487,7 @@ class _Section:
         where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, int):
             self.fail(key, f"must be an integer{where}, got {_show(v)}")
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            self.fail(key, f"must be {_range_text(lo, hi, False, False, True)}{where}, "
-                           f"got {_show(v)}")
-        return v
+        return check_range(f"{self.label(key)}{where}", v, lo, hi)
 
     def choice(self, key, default, choices):
         v = self.raw(key, default)
@@ -558,7 +539,7 @@ def _turntable(sec: _Section) -> Turntable:
                      distance_m=sec.number("distance_m", lo=0.0, lo_open=True))
 
 
-def _target(sec: _Section, base_dir: Path) -> Target:
+def _target(sec: _Section, base_dir: Path) -> TargetSpec:
     kind = sec.choice("kind", "flat", TARGET_KINDS)
     common = ("kind", "signal_e")
     all_keys = set(common).union(*_KIND_KEYS.values())
@@ -604,7 +585,7 @@ def _target(sec: _Section, base_dir: Path) -> Target:
         fields["angle_deg"] = sec.number("angle_deg", 5.0, lo=-45.0, hi=45.0)
     elif kind == "siemens":
         fields["spokes"] = sec.integer("spokes", 36, lo=4, hi=720)
-    return Target(kind=kind, signal_e=signal, **fields)
+    return TargetSpec(kind=kind, signal_e=signal, **fields)
 
 
 _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well_e",
@@ -777,6 +758,36 @@ def _check_stages(sec: _Section, scene: Scene) -> None:
                                f"T_line {t_line_us:.4g} us / T_row {t_row_us:.4g} us), got {m}")
 
 
+def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
+    """Why digital TDI of ``stages`` stages cannot run on ``scene``'s pixels (None: it can).
+
+    The one rule for every fidelity (exact runs the golden accumulator
+    :func:`tdicam.model.tdi.tdi`; fast must not accept what exact refuses): at most
+    :data:`tdicam.model.tdi.MAX_STAGES` stages, and, when the ADC feeds TDI directly (no hdr
+    merge in between), ``[sensor].bits`` in :data:`tdicam.model.tdi.PIXEL_BITS`.
+    """
+    from tdicam.model import tdi as _tdi_model
+    if scene.tdi.domain != "digital":
+        return None
+    if stages > _tdi_model.MAX_STAGES:
+        return (f"stages: must be <= {_tdi_model.MAX_STAGES} for digital TDI (the "
+                f"accumulator's limit), got {stages}")
+    lo, hi = _tdi_model.PIXEL_BITS
+    hdr = "hdr" in scene.pipeline.blocks and len(scene.sensor.gains) == 2
+    if not hdr and not lo <= scene.sensor.bits <= hi:
+        return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
+                f"got {scene.sensor.bits}")
+    return None
+
+
+def _check_digital_tdi(tdi_sec: _Section, sensor_sec: _Section, scene: Scene) -> None:
+    for m in scene.tdi.stages:
+        why = digital_tdi_limits_error(scene, m)
+        if why is not None:
+            key, _, msg = why.partition(": ")
+            (tdi_sec if key == "stages" else sensor_sec).fail(key, msg)
+
+
 # --------------------------------------------------------------------------------------
 # public entry points
 # --------------------------------------------------------------------------------------
@@ -837,6 +848,7 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics)
     _check_stages(tdi_sec, scene)
+    _check_digital_tdi(tdi_sec, section("sensor"), scene)
     return scene
 
 

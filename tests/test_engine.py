@@ -1,5 +1,5 @@
-"""Scene simulator engine (tdicam/engine.py): effect decisions, skip == forced-at-zero,
-fast TDI sum bit-exact with the golden model, fidelity selection, bad scenes."""
+"""Scene simulator engine (tdicam/engine/): the table of effects, effect decisions,
+skip == forced-at-zero, fidelity selection, bad scenes."""
 
 import textwrap
 
@@ -8,7 +8,6 @@ import pytest
 
 from tdicam import engine
 from tdicam.errors import TdicamError
-from tdicam.model import tdi as tdi_model
 from tdicam.scene import load_scene
 
 ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
@@ -47,23 +46,6 @@ seed = 7
 
 def rec(res, name):
     return next(e for e in res.effects if e.name == name)
-
-
-@pytest.mark.parametrize("direction", [0, 1])
-@pytest.mark.parametrize("m", [1, 2, 5, 16])
-def test_tdi_sum_bit_exact_with_golden(m, direction):
-    rng = np.random.default_rng(m * 10 + direction)
-    frames = rng.integers(0, 4096, (m + 37, m, 24)).astype(np.uint16)
-    gold = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction)
-    mine = engine.tdi_sum(frames, stages=m, direction=direction)
-    assert mine.shape == gold.shape
-    assert np.array_equal(mine, gold.astype(np.int64))
-    out_bits = 12 + max(0, (m - 1).bit_length() - 1)
-    if m > 1:
-        sat_g = tdi_model.tdi(frames, stages=m, pixel_bits=12, direction=direction,
-                              out_bits=out_bits)
-        sat = engine.tdi_sum(frames, stages=m, direction=direction, out_bits=out_bits)
-        assert np.array_equal(sat, sat_g.astype(np.int64))
 
 
 def test_skips_and_reasons(tmp_path):
@@ -203,3 +185,80 @@ def test_median_after_wide_tdi_is_a_clear_error(tmp_path):
     sc = small(tmp_path, '[pipeline]\nblocks = ["tdi", "median3"]\n', stages=32)
     with pytest.raises(TdicamError, match=r"\[tdi\]\.output"):
         engine.simulate(sc, fidelity="exact", impact=False)
+
+
+def test_effect_table_is_in_physical_order_and_complete():
+    names = [e.name for e in engine.EFFECTS]
+    assert names == ["optics", "aperture", "smear", "rolling_skew", "prnu", "dark_current",
+                     "dsnu", "shot_noise", "full_well", "reset_frames", "read_noise",
+                     "dual_gain", "quantization", "cds", "nuc", "hdr", "median3_pre", "tdi",
+                     "median3_post"]
+    stages = ["render", "pattern", "charge", "conversion", "blocks", "tdi", "output"]
+    order = [stages.index(e.stage) for e in engine.EFFECTS if e.stage]
+    assert order == sorted(order)                  # the stages follow the physical order
+    for e in engine.EFFECTS:
+        if e.stage:
+            assert e.exact is not None, e.name     # every acting effect runs in exact
+        if e.per_exposure:
+            assert e.fast is None, e.name          # non-linear single-exposure blocks
+    assert engine.FORCIBLE == ("optics", "smear", "rolling_skew", "prnu", "dark_current",
+                               "dsnu", "full_well", "read_noise")
+
+
+def test_every_record_states_why(tmp_path):
+    res = engine.simulate(small(tmp_path), fidelity="fast", impact=False)
+    assert [r.name for r in res.effects] == list(engine.EFFECT_NAMES)
+    assert all(r.why for r in res.effects)
+    assert rec(res, "quantization").why.count("fast:") == 1
+
+
+def test_tdi_cannot_be_disabled(tmp_path):
+    with pytest.raises(TdicamError, match="disable tdi"):
+        engine.simulate(small(tmp_path), disable=["tdi"], impact=False)
+
+
+def test_stages_beyond_the_sweep(tmp_path):
+    """stages=m larger than every [tdi].stages of the scene (issue 18: IndexError before)."""
+    sc = small(tmp_path, stages=2)
+    for fid in ("exact", "fast"):
+        res = engine.simulate(sc, stages=6, fidelity=fid, impact=False)
+        assert res.stages == 6 and res.output.shape == (24, 48)
+        assert rec(res, "tdi").ran
+
+
+@pytest.mark.parametrize("over,msg", [
+    ({"tdi": {"stages": 200}, "sensor": {"rows": 256}},
+     r"^\[tdi\]\.stages: must be <= 128 for digital TDI"),
+    ({"sensor": {"bits": 16}}, r"^\[sensor\]\.bits: digital TDI takes 8\.\.14-bit pixels"),
+    ({"sensor": {"bits": 4, "black_level_dn": 0.0}},
+     r"^\[sensor\]\.bits: digital TDI takes 8\.\.14-bit pixels"),
+])
+def test_validity_does_not_depend_on_fidelity(over, msg):
+    """One rule in the schema: what exact refuses, fast and auto refuse too (issue 18)."""
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    with pytest.raises(TdicamError, match=msg):
+        load_scene(root / "scenes" / "orbit_600km_1m_96.toml",
+                   overrides={**over, "sensor": {**over.get("sensor", {}),
+                                                 "max_frame_rate_hz": None}})
+    # charge-domain TDI has no accumulator: the same values are valid there
+    sc = load_scene(root / "scenes" / "orbit_600km_1m_96.toml", overrides={
+        **over, "tdi": {**over.get("tdi", {}), "domain": "charge"},
+        "sensor": {**over.get("sensor", {}), "max_frame_rate_hz": None, "columns": 16,
+                   "full_well_e": 1e7}})
+    for fid in ("fast", "exact"):
+        engine.simulate(sc, fidelity=fid, lines=4, impact=False)
+
+
+def test_stage_override_checked_like_the_schema(tmp_path):
+    with pytest.raises(TdicamError, match=r"^\[tdi\]\.stages: must be <= 128"):
+        engine.simulate(small(tmp_path, "").__class__(**{
+            **small(tmp_path).__dict__, "sensor": small(tmp_path).sensor.__class__(
+                **{**small(tmp_path).sensor.__dict__, "rows": 400})}), stages=200,
+            fidelity="fast", impact=False)
+
+
+def test_huge_psf_is_a_one_line_error(tmp_path):
+    sc = small(tmp_path, "[optics]\npsf_sigma_px = 1e6\n")
+    with pytest.raises(TdicamError, match=r"^\[optics\]\.psf_sigma_px: must be <= 64"):
+        engine.simulate(sc, fidelity="fast", impact=False)

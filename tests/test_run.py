@@ -1,6 +1,7 @@
 """``tdicam run``: end to end on small scenes, files and report, one-line errors."""
 
 import json
+import math
 import textwrap
 from pathlib import Path
 
@@ -70,9 +71,9 @@ BAD = [
     ("[target]\nkind = \"flat\"\nsignal = 3\n", "[target].signal: unknown key"),
     ("[sensor]\ncolumns = \"wide\"\n", "[sensor].columns: must be an integer"),
     ("[tdi]\nstages = 200\n[sensor]\nmax_frame_rate_hz = 650\n", "[tdi].stages: must be <= M0"),
-    ("[target]\nsignal_e = -5\n", "[target].signal_e: must be >= 0"),
+    ("[target]\nsignal_e = -5\n", "[target].signal_e = -5 is out of range; valid: 0..inf"),
     ("[target]\nkind = \"image\"\npath = \"nope.png\"\n", "[target].path: file not found"),
-    ("[optics]\npsf_sigma_px = -1\n", "[optics].psf_sigma_px: must be >= 0"),
+    ("[optics]\npsf_sigma_px = -1\n", "[optics].psf_sigma_px = -1 is out of range; valid: 0..inf"),
     ("[target]\nkind = \"bars\"\nprofile = \"triangle\"\n", "[target].profile: must be one of"),
 ]
 
@@ -115,3 +116,56 @@ def test_bundled_images_load():
     for name in BUNDLED_IMAGES:
         a = bundled_image(name)
         assert a.ndim == 2 and 0.0 <= a.min() and a.max() <= 1.0 and a.max() > 0.2, name
+
+
+def _strict_load(path):
+    def bad(name):
+        raise ValueError(f"{path}: non-strict JSON constant {name}")
+    return json.loads(Path(path).read_text(), parse_constant=bad)
+
+
+@pytest.mark.parametrize("scene", sorted(p.name for p in (ROOT / "scenes").glob("*.toml")))
+def test_bundled_scene_reports_are_strict_json(tmp_path, scene):
+    """Every bundled scene's report.json parses with a strict parser (no Infinity/NaN;
+    issue 18: flat_snr_sweep_96 wrote "psnr_db": Infinity)."""
+    from tdicam.scene import load_scene
+    from tdicam.scenerun import run_scene
+    sc = load_scene(ROOT / "scenes" / scene)
+    run_scene(sc, tmp_path, lines=16, rtl=False, progress=False)
+    rep = _strict_load(tmp_path / "report.json")
+    for e in rep["effects"]:
+        imp = e["impact"] or {}
+        if "psnr_db" in imp and imp["psnr_db"] is None:
+            assert "no change" in imp["note"]
+
+
+def test_flat_zero_signal_reports_no_snr(tmp_path, capsys):
+    """signal_e = 0 on a flat target: a report, not a math domain error (issue 18)."""
+    text = SMALL.replace("signal_e = 2000.0", "signal_e = 0.0")
+    for extra in ("", "dark_current_e_per_s = 100.0\n"):
+        src = text.replace("[tdi]", extra + "[tdi]")
+        out = tmp_path / f"out{len(extra)}"
+        assert main(["run", str(write(tmp_path, src)), "-o", str(out)]) == 0
+        rep = _strict_load(out / "report.json")
+        for r in rep["measurements"]:
+            assert r["snr"]["snr1_db"] is None and "no signal" in r["snr"]["note"]
+            assert r["snr"]["single_db"] is None or math.isfinite(r["snr"]["single_db"])
+
+
+def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
+    """A bar contrast far below the noise: no MTF number, a note saying why (issue 18:
+    contrast 1e-6 reported a measured MTF of 23.9 and a CTF-based MTF of 2106)."""
+    bars = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0\ncontrast = 1e-6')
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, bars)), "-o", str(out)]) == 0
+    rep = _strict_load(out / "report.json")
+    for r in rep["measurements"]:
+        t = r["mtf"]
+        assert t["measured"] is None and t["measured_ctf"] is None
+        assert "not measurable" in t["note"] and "noise" in t["note"]
+    assert "not measurable" in (out / "report.md").read_text()
+    full = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0\ncontrast = 1.0')
+    out2 = tmp_path / "out2"
+    assert main(["run", str(write(tmp_path, full, "f.toml")), "-o", str(out2)]) == 0
+    for r in _strict_load(out2 / "report.json")["measurements"]:
+        assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]

@@ -1,0 +1,253 @@
+"""The pipeline blocks in the scene simulator (cds, nuc, hdr, median3, tdi): when a block
+runs, which of the engine's frame stacks are its scene arrays (stream and side inputs, as the
+block registry :mod:`tdicam.blocks` names them) and its parameters from the scene, the ideal
+NUC coefficients, the ECC round trip of the coefficients, and the crops kept for RTL
+co-simulation. The golden models run through the registry entries (:func:`golden`); TDI
+runs :func:`tdicam.model.tdi.tdi` directly: the registry's TDI golden function is the
+cycle-level stream model, built for co-simulation crops, far slower on whole scenes (the
+two are tested equal in ``tests/test_tdi.py``). All block knowledge of the engine is here.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tdicam import blocks as _registry
+from tdicam.errors import TdicamError
+from tdicam.model import ecc as _ecc
+from tdicam.model import hdr as _hdr
+from tdicam.model import nuc as _nuc
+from tdicam.model import tdi as _tdi
+
+__all__ = ["need", "Frames", "golden", "cds", "nuc", "hdr", "median3_pre", "tdi",
+           "median3_post", "prepare", "nuc_coeffs", "tdi_bits", "subtract_reset"]
+
+_BLOCK_OF = {"cds": "cds", "nuc": "nuc", "hdr": "hdr", "median3_pre": "median3",
+             "median3_post": "median3", "tdi": "tdi"}
+
+
+def need(name):
+    """The ``need`` of block entry ``name``: listed in ``[pipeline].blocks`` (and where)."""
+    block = _BLOCK_OF[name]
+
+    def need_block(c):
+        pipe, m = c.scene.pipeline, c.m
+        listed = block in pipe.blocks
+        if block == "median3" and listed:
+            listed = (name == "median3_post") == bool(pipe.median_after_tdi)
+        if name == "tdi" and not c.digital:
+            return True, (f"charge domain: {m} stages summed as charge before one readout "
+                          f"(seed 004); the FPGA accumulator is not used")
+        if not listed:
+            where = "" if block != "median3" or block not in pipe.blocks else \
+                (" here (it runs " + ("after" if pipe.median_after_tdi else "before") + " TDI)")
+            return False, f"not in [pipeline].blocks{where}"
+        if name == "hdr" and len(c.sensor.gains) != 2:
+            return False, "one-gain sensor: nothing to merge"
+        return True, f"in [pipeline].blocks, golden model tdicam.model.{block}"
+    return need_block
+
+
+@dataclass
+class Frames:
+    """Frame stacks on their way through the blocks.
+
+    ``channels`` holds one stack per ADC channel (HG, LG) until hdr merges them; ``resets``
+    the reset frames (with CDS); ``bits`` the pixel width the next block gets; ``keep`` cuts
+    the RTL crop out of a stack (None: keep nothing) into ``crop``.
+    """
+
+    channels: list
+    resets: list | None
+    bits: int
+    timer: object
+    keep: object = None
+    crop: dict = field(default_factory=dict)
+    out: np.ndarray | None = None        # TDI output
+    full_scale: int = 0                  # of ``out``
+    keep_out: tuple | None = None        # (y0, h, x0, w) of the output crop
+
+
+def golden(block, arrays, params):
+    """Output of registry block ``block``'s golden function on scene ``arrays``."""
+    blk = _registry.get(block)
+    return blk.run_golden(arrays, blk.resolve(params))["out"]
+
+
+def _check_bits(block, bits, lo, hi, key):
+    if not lo <= bits <= hi:
+        raise TdicamError(f"{key}: the {block} golden model takes {lo}..{hi}-bit pixels, "
+                          f"this chain gives it {bits}-bit pixels")
+
+
+def _timed(name):
+    def wrap(fn):
+        def step(c, fr):
+            t = time.perf_counter()
+            fn(c, fr)
+            fr.timer.add(name, time.perf_counter() - t)
+        step.__name__ = name
+        step.__doc__ = fn.__doc__
+        return step
+    return wrap
+
+
+def subtract_reset(signal, reset, bits):
+    """The cds block's golden model on one frame and its reset frame."""
+    return golden("cds", {"signal": signal, "reset": reset}, {"pixel_bits": bits})
+
+
+@_timed("cds")
+def cds(c, fr):
+    """Digital CDS of every channel: signal minus reset frame."""
+    bits = c.sensor.bits
+    for ch, x in enumerate(fr.channels):
+        y = subtract_reset(x, fr.resets[ch], bits)
+        if fr.keep is not None and ch == 0:
+            fr.crop["cds"] = {"signal": fr.keep(x), "reset": fr.keep(fr.resets[ch]),
+                              "out": fr.keep(y), "params": {"pixel_bits": bits}}
+        fr.channels[ch] = y
+
+
+def _nuc_format(c):
+    return _nuc.NucFormat(gain_int_bits=2, gain_frac_bits=c.scene.pipeline.nuc.gain_frac_bits,
+                          offset_bits=16, offset_frac_bits=0)
+
+
+@_timed("nuc")
+def nuc(c, fr):
+    """Golden nuc of every channel with the ideal coefficients (``c.nuc_coeffs``)."""
+    fmt = _nuc_format(c)
+    bits = c.sensor.bits
+    for ch, x in enumerate(fr.channels):
+        gain_c, off_c = c.nuc_coeffs[ch]
+        if c.scene.pipeline.nuc.ecc:
+            gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
+        g = np.broadcast_to(gain_c, x.shape)
+        o = np.broadcast_to(off_c, x.shape)
+        y = golden("nuc", {"x": x, "gain": g, "offset": o},
+                   dict(pixel_bits=bits, **fmt.params()))
+        if fr.keep is not None and ch == 0:
+            fr.crop["nuc"] = {"x": fr.keep(x), "gain": fr.keep(np.ascontiguousarray(g)),
+                              "offset": fr.keep(np.ascontiguousarray(o)), "out": fr.keep(y),
+                              "params": dict(pixel_bits=bits, **fmt.params())}
+        fr.channels[ch] = y
+
+
+def _ecc_roundtrip(fmt, gain, offset):
+    """Store the coefficients as 64/72 SECDED words and read them back (no flips injected)."""
+    data = np.asarray(fmt.pack_words(gain, offset), np.uint64)
+    dec = _ecc.decode(data, _ecc.encode(data))
+    if np.any(dec.uncorrectable):
+        raise TdicamError("nuc coefficients: ECC round trip reported an uncorrectable word")
+    g, o = fmt.unpack_words(np.asarray(dec.data, np.uint64))
+    n = np.size(gain)
+    return g[:n].reshape(np.shape(gain)), o[:n].reshape(np.shape(offset))
+
+
+def prepare(c, gain_map, dark_map):
+    """Side inputs the blocks of context ``c`` take from the fixed pattern (``gain_map`` and
+    ``dark_map`` of the rows each output pixel sums): the ideal NUC coefficients."""
+    c.nuc_coeffs = nuc_coeffs(c, gain_map, dark_map) if c.ran("nuc") else None
+
+
+def nuc_coeffs(c, gain_map, dark_map):
+    """Per-channel (gain, offset) codes that map each pixel onto the mean response.
+
+    Pixel response (DN, before quantization): ``y = a/c (S (1+P) + d) + B``; the corrected
+    target is ``a/c (S + mean d) + B``. Least squares over signal levels gives exactly
+    ``gain = 1/(1+P)`` and ``offset = B + a/c mean(d) - gain (B + a/c d)``.
+    """
+    fmt = _nuc_format(c)
+    out = []
+    base = c.zero_dn
+    for g in c.gains:
+        k = g / c.sensor.conversion_gain_e_per_dn
+        gr = 1.0 / np.maximum(gain_map, 1e-6)
+        off = base + k * dark_map.mean() - gr * (base + k * dark_map)
+        out.append((fmt.gain_code(gr), fmt.offset_code(off)))
+    return out
+
+
+@_timed("hdr")
+def hdr(c, fr):
+    """Golden HDR merge of the HG and LG channels into one."""
+    if len(fr.channels) != 2:
+        return
+    h = c.scene.pipeline.hdr
+    g = c.sensor.gains
+    params = dict(pixel_bits=fr.bits, threshold=h.threshold_dn, band=h.band_dn,
+                  gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits)
+    merged = golden("hdr", {"hg": fr.channels[0], "lg": fr.channels[1]}, params)
+    if fr.keep is not None:
+        fr.crop["hdr"] = {"hg": fr.keep(fr.channels[0]), "lg": fr.keep(fr.channels[1]),
+                          "out": fr.keep(merged), "params": params}
+    fr.bits = _hdr.hdr_config(**params).out_bits
+    fr.channels = [merged]
+
+
+@_timed("median3_pre")
+def median3_pre(c, fr):
+    """Golden 3x3 median on single exposures (before TDI)."""
+    x = fr.channels[0]
+    _check_bits("median3", fr.bits, 8, 16, "[sensor].bits")
+    enhance = c.scene.pipeline.median3.edge_enhance
+    y = golden("median3", {"frames": x}, {"width": x.shape[-1], "pixel_bits": fr.bits,
+                                          "enhance": bool(enhance)})
+    if fr.keep is not None:
+        fr.crop["median3"] = {"frames": fr.keep(x), "out": None, "params": {
+            "pixel_bits": fr.bits, "enhance": bool(enhance)}}
+    fr.channels = [y]
+
+
+def tdi_bits(bits, m):
+    """Full TDI output width of ``m`` stages of ``bits``-bit pixels."""
+    return _tdi.full_bits(bits, m)
+
+
+@_timed("tdi")
+def tdi(c, fr):
+    """Golden digital TDI of the frame stack (saturating when ``[tdi].output`` says so)."""
+    m, pb, x = c.m, fr.bits, fr.channels[0]
+    tdi_cfg = c.scene.tdi
+    out_bits = tdi_cfg.output_bits if tdi_cfg.output == "saturate" else None
+    _check_bits("tdi", pb, *_tdi.PIXEL_BITS,
+                "[sensor].bits" if pb == c.sensor.bits else "[pipeline].blocks (hdr output)")
+    full = _tdi.full_bits(pb, m)
+    if out_bits is not None and out_bits >= full:
+        out_bits = None          # saturating at or above the full width never saturates
+    if out_bits is not None and not pb <= out_bits <= full:
+        raise TdicamError(f"[tdi].output_bits: must be in {pb}..{full} for {pb}-bit pixels "
+                          f"and {m} stages, got {out_bits}")
+    direction = 0 if tdi_cfg.direction == "forward" else 1
+    out = _tdi.tdi(x, stages=m, pixel_bits=pb, out_bits=out_bits,
+                   direction=direction).astype(np.int64)
+    if fr.keep is not None:
+        y0, h, x0, w = fr.keep_out
+        fr.crop["tdi"] = {"frames": fr.keep(x), "params": dict(
+            width=None, stages=m, pixel_bits=pb, out_bits=out_bits, direction=direction),
+            "out": out[y0:y0 + h, x0:x0 + w].copy()}
+    fr.out = out
+    fr.full_scale = (1 << (out_bits if out_bits is not None else full)) - 1
+
+
+@_timed("median3_post")
+def median3_post(c, fr):
+    """Golden 3x3 median on the TDI output."""
+    pb = max(1, int(fr.full_scale).bit_length())
+    if pb > 16:
+        raise TdicamError(f"[tdi].output: median3 after TDI takes at most 16-bit pixels; "
+                          f"the TDI output is {pb} bits: set output = 'saturate' with "
+                          f"output_bits <= 16")
+    pb = max(pb, 8)
+    enhance = c.scene.pipeline.median3.edge_enhance
+    y = golden("median3", {"frames": fr.out}, {"width": fr.out.shape[-1], "pixel_bits": pb,
+                                               "enhance": bool(enhance)}).astype(np.int64)
+    if fr.keep_out is not None:
+        y0, h, x0, w = fr.keep_out
+        fr.crop["median3"] = {"frames": fr.out[y0:y0 + h, x0:x0 + w].copy(), "out": None,
+                              "params": {"pixel_bits": pb, "enhance": bool(enhance)}}
+    fr.out = y

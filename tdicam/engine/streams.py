@@ -1,0 +1,82 @@
+"""Random numbers, worker threads and timing of the scene simulator — in one place.
+
+Every random draw of a run comes from a generator named by its stream: a fixed stream per
+effect, so disabling one effect never changes another's random numbers. Whole-pass streams
+(:func:`stream`) serve the fixed pattern and the charge-domain loop; the block-parallel loops
+draw block ``j`` of stage ``s`` from :func:`block_rng` ``(seed, stream, s, j)``, so their
+output does not depend on the thread count or timing (numpy's Generator releases the GIL
+while it fills an array, so blocks run on :func:`threads` threads through
+:func:`run_blocks`).
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from tdicam.errors import TdicamError
+
+__all__ = ["STREAMS", "BLOCK_PIXELS", "stream", "block_rng", "threads", "run_blocks", "Timer"]
+
+#: Fixed random stream of each use: disabling one effect never changes another's numbers.
+STREAMS = {"fpn_prnu": 1, "fpn_dsnu": 2, "shot": 3, "read": 4, "read_reset": 5, "quant": 6,
+           "read_lg": 7, "read_reset_lg": 8}
+#: Pixels per random-number block of the block-parallel loops (rows = this // width).
+BLOCK_PIXELS = 1 << 16
+
+
+def stream(seed, name):
+    """The whole-pass generator of stream ``name``."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), STREAMS[name]]))
+
+
+def block_rng(seed, name, stage, block):
+    """The generator of stream ``name`` for block ``block`` of stage ``stage``."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+        [int(seed), STREAMS[name], int(stage), int(block)])))
+
+
+def threads():
+    """Worker threads of the block-parallel loops: ``TDICAM_THREADS`` or the CPU count (<= 4).
+
+    The result never depends on it: every block of rows draws from its own generator."""
+    v = os.environ.get("TDICAM_THREADS")
+    if v:
+        try:
+            return max(1, int(v))
+        except ValueError:
+            raise TdicamError(f"TDICAM_THREADS = {v!r}: must be an integer >= 1") from None
+    return max(1, min(os.cpu_count() or 1, 4))
+
+
+class Timer:
+    """Seconds spent per effect (and ``render``, ``raw_exposure``) in one pass."""
+
+    def __init__(self):
+        self.t = {}
+
+    def add(self, name, dt):
+        self.t[name] = self.t.get(name, 0.0) + dt
+
+    def merge(self, times):
+        for name, v in times.items():
+            self.add(name, v)
+
+
+def run_blocks(fn, args, timer, progress, work_of):
+    """``fn(*a)`` for every ``a`` in ``args`` on :func:`threads` threads; each returns
+    ``{effect: seconds}``. Timings and progress are collected in order, here."""
+    n_thr = min(threads(), len(args))
+    pool = ThreadPoolExecutor(n_thr) if n_thr > 1 else None
+    try:
+        done = pool.map(lambda a: fn(*a), args) if pool is not None \
+            else (fn(*a) for a in args)
+        for a, dt in zip(args, done):
+            timer.merge(dt)
+            if progress is not None:
+                progress(work_of(*a))
+    finally:
+        if pool is not None:
+            pool.shutdown()
