@@ -17,11 +17,91 @@ The clock is generated in HDL (10 ns period) in both modes. While reset is asser
 testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 """
 
-__all__ = ["stream_testbench", "TB_TOP", "RST_CYCLES", "DEPTH"]
+from dataclasses import dataclass
+
+__all__ = ["stream_testbench", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
 TB_TOP = "tdicam_tb"
 RST_CYCLES = 3
 DEPTH = 1 << 16
+
+
+@dataclass(frozen=True)
+class SelfCheck:
+    """Settings of a stand-alone, self-checking run of the fast-mode testbench.
+
+    The testbench reads the stimulus chunks ``stim_NNNNNN.hex`` and ``expected.hex`` (one
+    hex word ``{seg[7:0], 2'b00, tuser, tlast, tdata}`` per expected output transfer) from
+    the simulator's working folder, compares each output transfer as it happens, prints
+    ``PASS <n> beats`` and ends with ``$finish`` (exit status 0), or prints ``FAIL`` with the
+    first bad beat (index, segment, expected and received tuser/tlast/tdata) and ends with
+    ``$fatal(1)`` (non-zero exit status). A segment cut short by a mid-stream reset may end
+    early (data in flight when reset hit is dropped); the last segment must be complete and
+    nothing may be added. Every field is also a plusarg (``+seed=``, ``+idle=``, ``+bp=``
+    in 1/256 units, ``+max_cycles=``, ``+drain=``); ``+dump`` writes ``tdicam_tb.vcd``.
+    """
+
+    n_in: int
+    n_out: int
+    max_cycles: int
+    drain: int = 2000
+    idle: int = 26
+    bp: int = 26
+    seed: int = 1
+
+
+def _selfcheck_text(sc):
+    return f"""
+  // ---- self-check: compare each output transfer with expected.hex
+  localparam N_EXP = {sc.n_out};
+  localparam EW = 12 + OW;
+  reg [EW-1:0] exp_mem [0:{max(sc.n_out, 1) - 1}];
+  reg [EW-1:0] e;
+  integer exp_ptr = 0, checked = 0;
+  reg finished = 1'b0;
+  initial begin
+    if (N_EXP > 0) $readmemh("expected.hex", exp_mem);
+    if ($test$plusargs("dump")) begin
+      $dumpfile("tdicam_tb.vcd");
+      $dumpvars(0, {TB_TOP});
+    end
+    repeat (2) @(negedge clk);
+    start = 1'b1;
+  end
+  always @(posedge clk) begin
+    if (running && m_fire) begin
+      while (exp_ptr < N_EXP && exp_mem[exp_ptr][EW-1:EW-8] < seg)
+        exp_ptr = exp_ptr + 1;
+      e = exp_mem[exp_ptr < N_EXP ? exp_ptr : 0];
+      if (exp_ptr >= N_EXP || e[EW-1:EW-8] != seg) begin
+        $display("FAIL beat %0d (segment %0d): an output transfer beyond the expected %0d",
+                 checked, seg, N_EXP);
+        $fatal(1);
+      end
+      if (e[OW+1:0] != {{m_tuser, m_tlast, m_tdata}}) begin
+        $display("FAIL beat %0d (segment %0d): expected tuser %0d tlast %0d tdata %h, got tuser %0d tlast %0d tdata %h",
+                 checked, seg, e[OW+1], e[OW], e[OW-1:0], m_tuser, m_tlast, m_tdata);
+        $fatal(1);
+      end
+      exp_ptr = exp_ptr + 1;
+      checked = checked + 1;
+    end
+    if (done && !finished) begin
+      finished = 1'b1;
+      if (timeout) begin
+        $display("FAIL timeout after %0d cycles: %0d of %0d input beats accepted, %0d of %0d outputs",
+                 cycles, in_idx, n_in, checked, N_EXP);
+        $fatal(1);
+      end
+      if (exp_ptr != N_EXP) begin
+        $display("FAIL beat %0d: %0d output transfers, expected %0d", checked, checked, N_EXP);
+        $fatal(1);
+      end
+      $display("PASS %0d beats (%0d input beats, %0d cycles)", checked, in_idx, cycles);
+      $finish;
+    end
+  end
+"""
 
 
 def _chunk_name_expr():
@@ -30,7 +110,7 @@ def _chunk_name_expr():
     return f'{{"stim_", {digits}, ".hex"}}'
 
 
-def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH):
+def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None):
     """Verilog text of the testbench around module ``dut_name``.
 
     Parameters
@@ -40,7 +120,16 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH):
     ctrl_ports : list of (name, width)
         DUT input ports besides the streams; their values ride with each stimulus beat
         (concatenated in list order, first port in the most significant bits).
+    selfcheck : SelfCheck or None
+        None: the cocotb-driven testbench. Otherwise the same fast-mode engine runs on its
+        own from time 0 with the run settings of ``selfcheck`` as plusarg defaults, and
+        compares every output transfer in HDL with ``expected.hex`` (see :class:`SelfCheck`).
     """
+    sc = selfcheck
+    d = (dict(n_in=0, n_out=0, max_cycles=1000000, drain=1000, idle=0, bp=0, seed=1)
+         if sc is None else dict(n_in=sc.n_in, n_out=sc.n_out, max_cycles=sc.max_cycles,
+                                 drain=sc.drain, idle=sc.idle, bp=sc.bp, seed=sc.seed))
+    out_file = sc is None  # the cocotb run reads out.hex; a self-checking run compares in HDL
     cw = max(1, sum(w for _, w in ctrl_ports))
     hdr = -(-(cw + 3) // 4) * 4
     sw = hdr + in_bits
@@ -69,7 +158,7 @@ module {TB_TOP};
   endfunction
 
   // ---- per-beat mode: written by cocotb
-  reg beat_mode = 1'b1;
+  reg beat_mode = 1'b{int(sc is None)};
   reg b_rst = 1'b1;
   reg [IW-1:0] b_tdata = 0;
   reg b_tvalid = 1'b0, b_tuser = 1'b0, b_tlast = 1'b0, b_tready = 1'b0;
@@ -128,20 +217,19 @@ module {TB_TOP};
 
   always @(posedge clk) begin
     if (start && !running && !done) begin
-      if (!$value$plusargs("n_in=%d", n_in)) n_in = 0;
-      if (!$value$plusargs("n_out=%d", n_out)) n_out = 0;
-      if (!$value$plusargs("max_cycles=%d", max_cycles)) max_cycles = 1000000;
-      if (!$value$plusargs("drain=%d", drain)) drain = 1000;
-      if (!$value$plusargs("idle=%d", idle_thr)) idle_thr = 0;
-      if (!$value$plusargs("bp=%d", bp_thr)) bp_thr = 0;
-      if (!$value$plusargs("seed=%d", lv)) lv = 1;
+      if (!$value$plusargs("n_in=%d", n_in)) n_in = {d["n_in"]};
+      if (!$value$plusargs("n_out=%d", n_out)) n_out = {d["n_out"]};
+      if (!$value$plusargs("max_cycles=%d", max_cycles)) max_cycles = {d["max_cycles"]};
+      if (!$value$plusargs("drain=%d", drain)) drain = {d["drain"]};
+      if (!$value$plusargs("idle=%d", idle_thr)) idle_thr = {d["idle"]};
+      if (!$value$plusargs("bp=%d", bp_thr)) bp_thr = {d["bp"]};
+      if (!$value$plusargs("seed=%d", lv)) lv = {d["seed"]};
       lv = lv | 32'h1;
       lr = lv ^ 32'h9e3779b9;
       chunk = 0;
       fname = {_chunk_name_expr()};
       if (n_in != 0) $readmemh(fname, mem);
-      fd = $fopen("out.hex", "w");
-      running <= 1'b1;
+{'      fd = $fopen("out.hex", "w");' + chr(10) if out_file else ""}      running <= 1'b1;
     end else if (running) begin
       cycles <= cycles + 1;
       lv = lv ^ (lv << 13); lv = lv ^ (lv >> 17); lv = lv ^ (lv << 5);
@@ -163,18 +251,16 @@ module {TB_TOP};
         end
       end
       if (m_fire) begin
-        $fwrite(fd, "%h %h %h\\n", seg, {{2'b00, m_tuser, m_tlast}}, m_tdata);
-        out_count <= out_count + 1;
+{f'        $fwrite(fd, "%h %h %h{chr(92)}n", seg, {{2{chr(39)}b00, m_tuser, m_tlast}}, m_tdata);' + chr(10) if out_file else ""}        out_count <= out_count + 1;
         drain_cnt <= 0;
       end else if (in_idx >= n_in)
         drain_cnt <= drain_cnt + 1;
       if (drain_cnt >= drain || cycles >= max_cycles) begin
         timeout <= (cycles >= max_cycles);
-        $fclose(fd);
-        running <= 1'b0;
+{'        $fclose(fd);' + chr(10) if out_file else ""}        running <= 1'b0;
         done <= 1'b1;
       end
     end
   end
-endmodule
+{"" if sc is None else _selfcheck_text(sc)}endmodule
 """
