@@ -32,10 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__, blocks, golden
-from .cosim import stream_ports
-from .cosim import codec, tbgen
+from .beats import Beats
+from .cosim import codec, stream_ports, tbgen
 from .errors import TdicamError
 from .hdl.axis import AxisTop
+from .pauses import thresholds
 from .verilog import convert
 
 __all__ = ["Export", "export_block", "select_vectors", "golden_params", "MAX_BEATS"]
@@ -97,7 +98,7 @@ def golden_params(blk):
 
 
 def select_vectors(blk, params, *, max_beats=MAX_BEATS):
-    """Stimulus and expected :class:`~tdicam.cosim.codec.Beats` of the golden cases of
+    """Stimulus and expected :class:`~tdicam.beats.Beats` of the golden cases of
     ``blk`` at ``params``, one after the other with a testbench reset between cases.
 
     Cases are taken in registry order while the stimulus stays within ``max_beats`` input
@@ -129,7 +130,7 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     if not names:
         raise TdicamError(f"block {blk.name}: the smallest golden case at these parameters "
                           f"has {smallest} input beats, over the export limit of {max_beats}")
-    return codec.Beats.concat(stims), codec.Beats.concat(exps), names
+    return Beats.concat(stims), Beats.concat(exps), names
 
 
 def _expected_text(exp, out_padded, count):
@@ -207,7 +208,6 @@ def _readme_text(blk, params, top, cases, n_in, n_out, sc, version):
     rows = [f"| `{p.name}` | {params[p.name]} | {p.help} |" for p in blk.params]
     ctrl_rows = "".join(f"| `{n}` | in | {w} | run-time setting, sampled with each input "
                         f"beat |\n" for n, w in ctrl)
-    src = " ".join(["tb/tdicam_tb.v", f"rtl/{blk.name}.v"])
     return f"""# tdicam block `{blk.name}` ({_param_text(params)})
 
 {blk.summary}. Exported by tdicam {__version__}; FuseSoC core
@@ -284,11 +284,12 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
     stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
     in_bits, out_bits, ctrl = stream_ports(top)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
-    padded, count = top._in[2], top._in[1]
+    padded = top._in[2]
+    idle_thr, bp_thr = thresholds(idle, backpressure)
     slow = 1.0 / ((1 - idle) * (1 - backpressure))
     sc = tbgen.SelfCheck(n_in=len(stim), n_out=len(exp),
                          max_cycles=int((len(stim) + len(exp)) * 4 * slow) + 100_000,
-                         idle=round(idle * 256), bp=round(backpressure * 256), seed=int(seed))
+                         idle=idle_thr, bp=bp_thr, seed=int(seed))
     # one chunk as deep as the stimulus, or full chunks (the last one zero-padded), so that
     # every $readmemh fills its memory exactly
     depth = min(tbgen.DEPTH, max(len(stim), 1))
