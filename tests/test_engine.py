@@ -103,6 +103,22 @@ def test_smear_runs_with_mismatch(tmp_path):
     assert rec(res, "smear").ran and "M dV/V = 0.4" in rec(res, "smear").why
 
 
+def test_one_stage_image_moves_at_one_minus_dv(tmp_path):
+    # issue 20: at M = 1 the smear effect used to be off, so the image moved 1 px per line
+    # period whatever dV/V; the ideal along-track bars must now repeat every 4 / (1 - dV/V)
+    # lines and the exposure smear must follow (tests/test_plan_mtf.py checks the MTF)
+    kind = 'kind = "bars"\nperiod_px = 4.0\ndirection = "along_track"'
+    res = engine.simulate(small(tmp_path, stages=1, dv=0.5, kind=kind), fidelity="exact",
+                          impact=False)
+    assert rec(res, "smear").ran and "moves 0.5 px along" in rec(res, "smear").why
+    assert res.geometry.speed == 0.5
+    col = res.target[:, 0]
+    assert np.allclose(col[8:], col[:-8]) and not np.allclose(col[4:], col[:-4])
+    still = engine.simulate(small(tmp_path, stages=1, kind=kind), fidelity="exact",
+                            impact=False)
+    assert not rec(still, "smear").ran and still.geometry.speed == 1.0
+
+
 def test_impact_measured(tmp_path):
     res = engine.simulate(small(tmp_path), fidelity="exact", impact=True)
     r = rec(res, "read_noise")
