@@ -12,9 +12,15 @@
 * bar targets — the MTF at the bar frequency from a least-squares sinusoid fit to the
   profile across the bars (amplitude over the pedestal-free mean, divided by the input
   modulation of the fundamental: ``c`` for a sine grating, ``4c/pi`` for square bars), the
-  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions: seed 001's product
-  :func:`tdicam.model.plan.mtf_system` with the effective mismatch (velocity mismatch plus
-  rolling-shutter skew) and the exact footprint model of :class:`tdicam.model.optics.Geometry`.
+  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions, all moduli (an MTF
+  is never negative; ``planned_reversed`` flags contrast reversal): ``planned`` — the planning
+  model :func:`tdicam.planning.mtf_prediction` (full-line-period exposure, smear at the image
+  speed ``1 - dV/V``, rolling-shutter skew, the M-stage term, optics; along track), the
+  exact footprint model of :class:`tdicam.model.optics.Geometry` the simulator renders
+  (``footprint_model``, either axis), and ``seed001_model`` — the paper's model, Yuan et al.,
+  "MTF velocity-mismatch model of TDI area-array CMOS image sensors" (2013):
+  ``aperture x temporal x mismatch`` with the plain velocity mismatch dV/V (no skew, no
+  image speed; ``mtf_prediction(...)["paper"]["system"]``).
   Where the fitted amplitude is below :data:`MIN_MODULATION_SNR` standard deviations of its
   estimate (or the mean is not above the pedestal) both measured values are None and
   ``note`` says why.
@@ -26,6 +32,7 @@ import math
 
 import numpy as np
 
+from tdicam import planning as _planning
 from tdicam.model import plan as _plan
 
 __all__ = ["measure", "snr_prediction", "fit_modulation", "MIN_MODULATION_SNR"]
@@ -175,15 +182,16 @@ def measure(scene, res):
                     - res.pedestal_output
                 if hi + lo > 0 and lo >= 0:
                     ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
-        dv_eff = g.stage_lag
-        model_seed001 = float(_plan.mtf_system(f, m, dv_eff, scene.sensor.q_over_p))
+        plan = _planning.mtf_prediction(scene, m, res.dv_over_v, f) if along else None
         exact = float(abs(g.mtf_along(f) if along else g.mtf_cross(f)))
         out["mtf"] = {
             "frequency_cyc_per_px": f, "axis": "along" if along else "cross",
             "measured": mtf_fit, "measured_ctf": ctf_mtf,
-            "seed001_model": model_seed001 if along else None,
+            "planned": plan["system"] if along else None,
+            "planned_reversed": plan["reversed"] if along else None,
+            "seed001_model": plan["paper"]["system"] if along else None,
             "footprint_model": exact,
-            "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * dv_eff,
+            "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
         }
         if note is not None:
             out["mtf"]["note"] = note

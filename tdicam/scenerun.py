@@ -210,7 +210,7 @@ def _figures(out_dir, scene, rows, main):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from tdicam.model import plan as P
+    from tdicam.planning import mtf_prediction
     files = []
     flat = [r for r in rows if "snr" in r and r["snr"]["gain_db"] is not None]
     if scene.target.kind == "flat" and flat:
@@ -242,19 +242,24 @@ def _figures(out_dir, scene, rows, main):
         if len({r["dv_over_v"] for r in bars}) > 1:
             x = [r["mtf"]["m_dv_over_v"] for r in bars]
             ax.plot(x, [r["mtf"]["measured"] for r in bars], "o", label="measured")
-            xx = np.linspace(0, max(max(x), 2.0), 200)
             f = bars[0]["mtf"]["frequency_cyc_per_px"]
             for m in sorted({r["stages"] for r in bars}):
-                ax.plot(xx, [float(P.mtf_system(f, m, v / m, scene.sensor.q_over_p))
-                             for v in xx], "-", label=f"seed 001 model, M={m}")
+                # dV/V in (-1, 1): the image moves forward
+                xx = np.linspace(0, min(max(max(x), 2.0), 0.999 * m), 200)
+                pred = [mtf_prediction(scene, m, v / m, f) for v in xx]
+                ax.plot(xx, [p["system"] for p in pred], "-", label=f"planned, M={m}")
+                ax.plot(xx, [p["paper"]["system"] for p in pred], ":",
+                        label=f"paper's model (Yuan 2013), M={m}")
             ax.set_xlabel("M dV/V (pixels)")
             ax.set_title(f"MTF at {f:g} cycles/px vs velocity mismatch")
         else:
             g = main.geometry
             ff = np.linspace(0, 0.5, 101)
             ax.plot(ff, np.abs(g.mtf_along(ff)), "-", label="footprint model (along)")
-            ax.plot(ff, [float(P.mtf_system(v, g.stages, g.stage_lag, g.q_over_p)) for v in ff],
-                    "--", label="seed 001 product (along)")
+            pred = [mtf_prediction(scene, g.stages, g.dv_over_v, v) for v in ff]
+            ax.plot(ff, [p["system"] for p in pred], "--", label="planned (along)")
+            ax.plot(ff, [p["paper"]["system"] for p in pred], ":",
+                    label="paper's model, Yuan 2013 (along)")
             for r in bars:
                 ax.plot([r["mtf"]["frequency_cyc_per_px"]], [r["mtf"]["measured"]], "o",
                         label=f"measured M={r['stages']}")
@@ -279,6 +284,10 @@ def _fmt(v, f=".3g"):
     return format(v, f)
 
 
+def _reversed(t):
+    return " (contrast reversed)" if t.get("planned_reversed") else ""
+
+
 def _summary(scene, rep):
     sp = rep["speed"]
     lines = [f"{Path(scene.source).name}: {sp['lines']} lines x {sp['width']} px, "
@@ -296,7 +305,8 @@ def _summary(scene, rep):
         if "mtf" in r:
             t = r["mtf"]
             lines.append(f"  m={r['stages']} M dV/V={t['m_dv_over_v']:.3g}: MTF "
-                         f"{_fmt(t['measured'], '.3f')} (seed 001 {_fmt(t['seed001_model'], '.3f')}"
+                         f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
+                         f"{_reversed(t)}, paper's model {_fmt(t['seed001_model'], '.3f')}"
                          f", footprint {t['footprint_model']:.3f})")
     if rep["rtl"]:
         for b in rep["rtl"]["blocks"]:
@@ -357,14 +367,23 @@ def _markdown(scene, rep):
     mtf = [r for r in rep["measurements"] if "mtf" in r]
     if mtf:
         md += ["## MTF at the bar frequency", "",
-               "| stages | M dV/V | M Delta (with skew) | measured | (pi/4) CTF | seed 001 model | "
-               "footprint model |", "|---|---|---|---|---|---|---|"]
+               "| stages | M dV/V | M Delta (with skew) | measured | (pi/4) CTF | planned | "
+               "paper's model | footprint model |", "|---|---|---|---|---|---|---|---|"]
         for r in mtf:
             t = r["mtf"]
             md.append(f"| {r['stages']} | {t['m_dv_over_v']:.3g} | {t['m_delta_effective']:.3g} "
                       f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
+                      f"{_fmt(t['planned'], '.3f')}{_reversed(t)} | "
                       f"{_fmt(t['seed001_model'], '.3f')} | {t['footprint_model']:.3f} |")
-        md.append("")
+        md += ["", "All MTF values are moduli (contrast reversal is flagged). Planned: the "
+               "planning model (tdicam.planning.mtf_prediction, the same as `tdicam plan`): "
+               "full-line-period exposure, smear at the image speed 1 - dV/V, rolling-shutter "
+               "skew, the M-stage term and the optics, along track. Paper's model: Yuan, Li, "
+               "Xu and Nie, \"MTF velocity-mismatch model of TDI area-array CMOS image "
+               "sensors\" (2013), aperture x temporal x sinc(f M dV/V) with the plain "
+               "velocity mismatch. Footprint model: the exact stage footprint the simulator "
+               "renders (tdicam.model.optics.Geometry). M Delta: the stage misregistration "
+               "over M stages including the rolling-shutter skew.", ""]
         md += [f"* stages {r['stages']}, M dV/V {r['mtf']['m_dv_over_v']:.3g}: "
                f"{r['mtf']['note']}" for r in mtf if r["mtf"].get("note")]
     md += ["## Speed", "",

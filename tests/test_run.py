@@ -169,3 +169,50 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
     assert main(["run", str(write(tmp_path, full, "f.toml")), "-o", str(out2)]) == 0
     for r in _strict_load(out2 / "report.json")["measurements"]:
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
+
+
+def _numbers(obj, path=""):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _numbers(v, f"{path}.{k}")
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _numbers(v, f"{path}[{i}]")
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield path, obj
+
+
+def test_bar_mtf_planned_and_paper_model(tmp_path):
+    """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
+    paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
+    negative MTF anywhere while M dV/V sweeps through 2, 3 and 6 (contrast reversal at the
+    bar frequency 0.25, flagged) (issue 20)."""
+    from tdicam.model.mtf import mtf_system
+    from tdicam.planning import mtf_prediction
+    from tdicam.scene import load_scene
+    src = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0') \
+        .replace("[tdi]", 'shutter = "rolling"\n[tdi]') \
+        .replace("stages = [1, 4]", "stages = [1, 8]\n[motion]\ndv_over_v = [0.0, 0.25, "
+                 "0.375, 0.75]")
+    p = write(tmp_path, src)
+    out = tmp_path / "out"
+    assert main(["run", str(p), "-o", str(out), "--no-impact"]) == 0
+    rep = _strict_load(out / "report.json")
+    sc = load_scene(p)
+    rows = [r for r in rep["measurements"] if "mtf" in r]
+    assert len(rows) == 8
+    for r in rows:
+        t, m, dv = r["mtf"], r["stages"], r["dv_over_v"]
+        pred = mtf_prediction(sc, m, dv, 0.25)
+        assert t["planned"] == pytest.approx(pred["system"])
+        assert t["planned_reversed"] == pred["reversed"]
+        assert t["seed001_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
+        if m == 8 and dv == 0.75:
+            assert t["planned_reversed"]
+        if m == 8 and dv == 0.0:       # rolling-shutter skew: the camera, not the paper
+            assert t["m_delta_effective"] != 0 and t["planned"] < t["seed001_model"]
+    for path, v in _numbers(rep["measurements"]):
+        if "mtf" in path and "m_d" not in path and "dv" not in path:
+            assert v >= 0, (path, v)
+    md = (out / "report.md").read_text()
+    assert "paper's model" in md and "| planned |" in md and "contrast reversed" in md
