@@ -86,6 +86,8 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
             meas.update({"fidelity": res.fidelity, "seconds": res.seconds,
                          "lines_per_s": res.lines_per_s,
                          "exposure_pixels_per_s": res.exposure_pixels_per_s})
+            if res.flash is not None:
+                meas["nand"] = res.flash
             rows.append(meas)
             results[(m, dv)] = res
     finally:
@@ -386,6 +388,21 @@ def _markdown(scene, rep):
                "over M stages including the rolling-shutter skew.", ""]
         md += [f"* stages {r['stages']}, M dV/V {r['mtf']['m_dv_over_v']:.3g}: "
                f"{r['mtf']['note']}" for r in mtf if r["mtf"].get("note")]
+    nand = [(r, f) for r in rep["measurements"] for f in r.get("nand") or ()]
+    if nand:
+        md += ["## NUC coefficients from NAND flash", "",
+               "| stages | M dV/V | channel | bad blocks | words | corrected | uncorrectable | "
+               "defaulted pixels |", "|---|---|---|---|---|---|---|---|"]
+        md += [f"| {r['stages']} | {r['stages'] * r['dv_over_v']:.3g} | {f['channel']} | "
+               f"{f['bad_blocks']} | {f['words']} | {f['corrected_words']} | "
+               f"{f['uncorrectable_words']} | {f['defaulted_pixels']} of {f['pixels']} |"
+               for r, f in nand]
+        md += ["", "The coefficients of the window rows are stored in a 4 Gb NAND flash "
+               "(2,048 + 64-byte pages, 64 pages per block, 4,096 blocks) with the scene's "
+               "faults and loaded back as the camera does at power-up: bad-block scan, "
+               "block map, 64/72 SECDED words (one flipped bit corrected), the default "
+               "coefficients (gain 1, offset 0: that pixel uncorrected) for a word with two.",
+               ""]
     md += ["## Speed", "",
            f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
            f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "

@@ -216,3 +216,19 @@ def test_bar_mtf_planned_and_paper_model(tmp_path):
             assert v >= 0, (path, v)
     md = (out / "report.md").read_text()
     assert "paper's model" in md and "| planned |" in md and "contrast reversed" in md
+
+
+def test_nand_flash_scene_reports_counters(tmp_path):
+    """The bundled NAND scene: report.json and report.md give the flash counters (bad
+    blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
+    from tdicam.scene import load_scene
+    from tdicam.scenerun import run_scene
+    sc = load_scene(ROOT / "scenes" / "seed002_nand_calib_faults.toml")
+    rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
+    f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
+    assert f == rep["measurements"][0]["nand"][0]
+    assert f["bad_blocks"] == 200 and f["corrected_words"] > 0
+    assert f["defaulted_pixels"] == 2 * f["uncorrectable_words"] > 0
+    md = (tmp_path / "report.md").read_text()
+    assert "## NUC coefficients from NAND flash" in md
+    assert f"| {f['defaulted_pixels']} of {f['pixels']} |" in md
