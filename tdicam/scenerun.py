@@ -357,7 +357,9 @@ def _markdown(scene, rep):
                       f"{_fmt(s['single_db'], '.2f')} | {_fmt(s['gain_db'], '.2f')} | "
                       f"{s['predicted_db']:.2f} | {_fmt(d, '+.2f')} | {s['eq28_db']:.2f} |")
         s0 = snr[0]["snr"]
-        md += ["", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
+        md += ["", f"SNR: {s0['signal_definition']} (mean dark charge {s0['dark_e']:.3g} e- "
+               "per exposure); the same for measured and predicted values.",
+               "", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
                f"{s0['sigma_cmos_e']:.3g} e-, fixed pattern {s0['sigma_fpn_e']:.3g} e- "
                f"(s_AD / s_CMOS = {s0['sigma_ad_e'] / s0['sigma_cmos_e']:.3g}). Predicted: "
                "temporal noise, the row-to-row fixed pattern and the independent part of the "

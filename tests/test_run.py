@@ -232,3 +232,27 @@ def test_nand_flash_scene_reports_counters(tmp_path):
     md = (tmp_path / "report.md").read_text()
     assert "## NUC coefficients from NAND flash" in md
     assert f"| {f['defaulted_pixels']} of {f['pixels']} |" in md
+
+
+@pytest.mark.parametrize("dsnu", [0.0, 1.5])
+def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
+    """One SNR definition (issue 18): signal = photo-electrons, dark charge excluded, in the
+    measured and the predicted SNR alike. At 20 e- light and 2 e- dark the measured
+    single-exposure SNR counted the dark as signal (+0.83 dB over the prediction)."""
+    from tdicam.measure import SNR_DEFINITION, mean_dark_e, measure
+    from tdicam import engine
+    from tdicam.scene import load_scene
+    src = SMALL.replace("signal_e = 2000.0", "signal_e = 20.0") \
+        .replace("read_noise_e = 5.0", "read_noise_e = 1.0\nconversion_gain_e_per_dn = 0.5\n"
+                 f"dark_current_e_per_s = {2.0 / 144.76e-6:.6g}\ndsnu_e = {dsnu}") \
+        .replace("columns = 64", "columns = 512").replace("lines = 32", "lines = 64") \
+        .replace("stages = [1, 4]", "stages = 1")
+    sc = load_scene(write(tmp_path, src))
+    assert abs(sc.line_period_s - 144.76e-6) < 1e-7
+    assert mean_dark_e(sc) == pytest.approx(2.0, abs=0.01 if dsnu == 0 else 0.2)
+    s = measure(sc, engine.simulate(sc, fidelity="exact", impact=False))["snr"]
+    assert s["signal_definition"] == SNR_DEFINITION and "dark charge excluded" in SNR_DEFINITION
+    assert abs(s["single_db"] - s["snr1_db"]) < 0.15, s
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(out), "--no-impact"]) == 0
+    assert "dark charge excluded" in (out / "report.md").read_text()
