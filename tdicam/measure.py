@@ -2,8 +2,13 @@
 
 ``measure(scene, result)`` returns a dict for the report:
 
-* flat targets — SNR (mean minus the known zero-light pedestal, over the standard deviation;
-  seed 002 eq 1) of the TDI output and of a single exposure, their difference (the measured
+* flat targets — SNR of the TDI output and of a single exposure, one definition for the
+  measurement and the prediction: signal = the mean photo-electron charge (the light only,
+  dark charge excluded), noise = the standard deviation of everything (shot noise of light
+  and dark, read noise, quantization, fixed pattern). Measured: the mean above the known
+  zero-light pedestal times ``S / (S + D)`` — the light's share of it, ``S`` the signal and
+  ``D`` the mean dark charge per exposure (:func:`mean_dark_e`) — over the standard
+  deviation (seed 002 eq 1 with the dark level removed); their difference (the measured
   TDI gain in dB), and the predictions (:func:`snr_prediction`): the planning model's
   ``G(m)`` (:func:`tdicam.model.plan.snr_gain_digital_predicted`, quantization split into
   its independent and shared parts) and, next to it, seed 003 eq 28
@@ -12,9 +17,15 @@
 * bar targets — the MTF at the bar frequency from a least-squares sinusoid fit to the
   profile across the bars (amplitude over the pedestal-free mean, divided by the input
   modulation of the fundamental: ``c`` for a sine grating, ``4c/pi`` for square bars), the
-  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions: seed 001's product
-  :func:`tdicam.model.plan.mtf_system` with the effective mismatch (velocity mismatch plus
-  rolling-shutter skew) and the exact footprint model of :class:`tdicam.model.optics.Geometry`.
+  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions, all moduli (an MTF
+  is never negative; ``planned_reversed`` flags contrast reversal): ``planned`` — the planning
+  model :func:`tdicam.planning.mtf_prediction` (full-line-period exposure, smear at the image
+  speed ``1 - dV/V``, rolling-shutter skew, the M-stage term, optics; along track), the
+  exact footprint model of :class:`tdicam.model.optics.Geometry` the simulator renders
+  (``footprint_model``, either axis), and ``seed001_model`` — the paper's model, Yuan et al.,
+  "MTF velocity-mismatch model of TDI area-array CMOS image sensors" (2013):
+  ``aperture x temporal x mismatch`` with the plain velocity mismatch dV/V (no skew, no
+  image speed; ``mtf_prediction(...)["paper"]["system"]``).
   Where the fitted amplitude is below :data:`MIN_MODULATION_SNR` standard deviations of its
   estimate (or the mean is not above the pedestal) both measured values are None and
   ``note`` says why.
@@ -26,16 +37,32 @@ import math
 
 import numpy as np
 
+from tdicam import planning as _planning
 from tdicam.model import plan as _plan
 
-__all__ = ["measure", "snr_prediction", "fit_modulation", "MIN_MODULATION_SNR"]
+__all__ = ["measure", "snr_prediction", "fit_modulation", "mean_dark_e", "MIN_MODULATION_SNR",
+           "SNR_DEFINITION"]
 
 
-def _snr_db(img, pedestal, trim):
+def mean_dark_e(scene):
+    """Mean dark charge of one exposure, electrons: the dark current over a line period,
+    with the DSNU (Normal, clipped at 0 charge) adding ``E[max(D + s Z, 0)] - D``."""
+    d = scene.sensor.dark_current_e_per_s * scene.line_period_s
+    s = scene.sensor.dsnu_e
+    if s <= 0:
+        return d
+    u = d / s
+    return d * 0.5 * math.erfc(-u / math.sqrt(2)) + s * math.exp(-u * u / 2) \
+        / math.sqrt(2 * math.pi)
+
+
+def _snr_db(img, pedestal, trim, light=1.0):
+    """SNR (dB) of a flat image: ``light * (mean - pedestal) / std`` (``light``: the share
+    of the mean that is signal), None when there is no signal or no noise."""
     a = np.asarray(img, np.float64)
     if trim and min(a.shape) > 2 * trim + 2:
         a = a[trim:-trim, trim:-trim]
-    mean = a.mean() - pedestal
+    mean = (a.mean() - pedestal) * light
     std = a.std()
     if std == 0 or mean <= 0:
         return None
@@ -58,8 +85,10 @@ def snr_prediction(scene, stages, *, cds=False):
       one level, so the signal-dependent rounding error is a bias of the mean, not noise) and
       ``rho_detail`` — what a scene with detail at this light level would have;
     * ``sigma_ad_e``, ``sigma_cmos_e`` (temporal), ``sigma_fpn_e`` (electrons) and
-      ``snr1_db`` (single-exposure SNR, noise in quadrature; None, with a ``note``, when
-      ``signal_e = 0``).
+      ``snr1_db`` (single-exposure SNR: signal the photo-electrons ``S`` only, dark charge
+      excluded, over the noise in quadrature — shot noise of light and dark, read,
+      quantization, fixed pattern; the definition the measured SNR follows; None, with a
+      ``note``, when ``signal_e = 0``).
     """
     from tdicam.model import sensor as _sensor
     sen = scene.sensor
@@ -96,6 +125,11 @@ def snr_prediction(scene, stages, *, cds=False):
         out["note"] = "signal_e = 0: no signal, so no SNR (the gains are noise ratios)"
     return out
 
+
+#: What report.json's SNR values mean (measured and predicted alike).
+SNR_DEFINITION = ("signal = mean photo-electrons (dark charge excluded: measured as the mean "
+                  "above the zero-light pedestal times S / (S + dark)); noise = the standard "
+                  "deviation of everything, dark shot noise and fixed pattern included")
 
 #: A modulation is measurable when its fitted amplitude is at least this many standard
 #: deviations of the amplitude estimate (from the fit residual) above zero.
@@ -136,12 +170,15 @@ def measure(scene, res):
     trim = 2 if "median3" in scene.pipeline.blocks else 0
     cds = any(e.name == "reset_frames" and e.ran for e in res.effects)
     if tgt.kind == "flat":
-        s_out = _snr_db(res.output, res.pedestal_output, trim)
-        s_one = _snr_db(res.single, res.pedestal_single, trim)
+        S, dark = tgt.signal_e, mean_dark_e(scene)
+        light = S / (S + dark) if S + dark > 0 else 0.0
+        s_out = _snr_db(res.output, res.pedestal_output, trim, light)
+        s_one = _snr_db(res.single, res.pedestal_single, trim, light)
         pred = snr_prediction(scene, m, cds=cds)
         out["snr"] = {
             "output_db": s_out, "single_db": s_one,
             "gain_db": None if s_out is None or s_one is None else s_out - s_one,
+            "signal_definition": SNR_DEFINITION, "dark_e": dark,
             **pred,
         }
     if tgt.kind == "bars":
@@ -175,15 +212,16 @@ def measure(scene, res):
                     - res.pedestal_output
                 if hi + lo > 0 and lo >= 0:
                     ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
-        dv_eff = g.stage_lag
-        model_seed001 = float(_plan.mtf_system(f, m, dv_eff, scene.sensor.q_over_p))
+        plan = _planning.mtf_prediction(scene, m, res.dv_over_v, f) if along else None
         exact = float(abs(g.mtf_along(f) if along else g.mtf_cross(f)))
         out["mtf"] = {
             "frequency_cyc_per_px": f, "axis": "along" if along else "cross",
             "measured": mtf_fit, "measured_ctf": ctf_mtf,
-            "seed001_model": model_seed001 if along else None,
+            "planned": plan["system"] if along else None,
+            "planned_reversed": plan["reversed"] if along else None,
+            "seed001_model": plan["paper"]["system"] if along else None,
             "footprint_model": exact,
-            "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * dv_eff,
+            "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
         }
         if note is not None:
             out["mtf"]["note"] = note

@@ -78,7 +78,16 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     come before or after ``tdi``. Block options, only for listed blocks:
     ``[pipeline.cds]`` ``reset_level_dn`` [0.0], >= 0 and < 2**bits;
     ``[pipeline.nuc]`` ``gain_frac_bits`` [12], 4..16 (the golden model's range), ``ecc``
-    [true];
+    [true] (the coefficients pass a 64/72 SECDED round trip without faults), ``flash``
+    ["none"]: ``"nand"`` stores them in a 4 Gb NAND flash (MT29F4G08 geometry, the camera's
+    calibration store: bad-block scan, block map, 64/72 ECC pages, default coefficients
+    gain 1 / offset 0 for a word with an uncorrectable error) and loads them back
+    (:func:`tdicam.model.nand.store_roundtrip`), with ``ecc`` true and ``gain_frac_bits``
+    <= 14 (16-bit gain words); its faults: ``bad_blocks`` [0] random factory bad blocks,
+    0..4095 (never block 0), ``flip_single`` / ``flip_double`` [0.0] probability that a
+    coefficient word gets one / two flipped bits, each in 0..1 and their sum <= 1, ``seed``
+    [1] >= 0 (the faults' random numbers; channel ``k`` of a dual-gain sensor uses
+    ``seed + k``);
     ``[pipeline.hdr]`` ``threshold_dn`` [3/4 of full scale], 1..2**bits-1, ``band_dn``
     [64], 1..threshold_dn, ``slope_frac_bits`` [8], 0..16;
     ``[pipeline.median3]`` ``edge_enhance`` [false].
@@ -299,10 +308,16 @@ class CdsOptions:
 
 @dataclass(frozen=True)
 class NucOptions:
-    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, and the 64/72 ECC path."""
+    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, the 64/72 ECC path, and
+    where the coefficients are stored (``flash``: ``none`` or ``nand``, with its faults)."""
 
     gain_frac_bits: int = 12
     ecc: bool = True
+    flash: str = "none"
+    bad_blocks: int = 0
+    flip_single: float = 0.0
+    flip_double: float = 0.0
+    seed: int = 1
 
 
 @dataclass(frozen=True)
@@ -689,7 +704,7 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
 
     full = sensor.full_scale_dn
     cds = opts("cds", ("reset_level_dn",))
-    nuc = opts("nuc", ("gain_frac_bits", "ecc"))
+    nuc = opts("nuc", ("gain_frac_bits", "ecc") + _NAND_KEYS)
     hdr = opts("hdr", ("threshold_dn", "band_dn", "slope_frac_bits"))
     med = opts("median3", ("edge_enhance",))
     threshold = hdr.integer("threshold_dn", 3 * (full + 1) // 4 if full > 1 else 1, lo=1,
@@ -698,13 +713,41 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
         blocks=tuple(raw),
         cds=CdsOptions(reset_level_dn=cds.number("reset_level_dn", 0.0, lo=0.0,
                                                  hi=float(full + 1), hi_open=True)),
-        nuc=NucOptions(gain_frac_bits=nuc.integer("gain_frac_bits", 12, lo=4, hi=16),
-                       ecc=nuc.boolean("ecc", True)),
+        nuc=_nuc_options(nuc),
         hdr=HdrOptions(threshold_dn=threshold,
                        band_dn=hdr.integer("band_dn", min(64, threshold), lo=1, hi=threshold),
                        slope_frac_bits=hdr.integer("slope_frac_bits", 8, lo=0, hi=16)),
         median3=Median3Options(edge_enhance=med.boolean("edge_enhance", False)),
     )
+
+
+#: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
+_NAND_KEYS = ("flash", "bad_blocks", "flip_single", "flip_double", "seed")
+
+
+def _nuc_options(sec: _Section) -> NucOptions:
+    frac = sec.integer("gain_frac_bits", 12, lo=4, hi=16)
+    ecc = sec.boolean("ecc", True)
+    flash = sec.choice("flash", "none", ("none", "nand"))
+    if flash == "none":
+        for k in _NAND_KEYS[1:]:
+            if sec.has(k):
+                sec.fail(k, "is a NAND flash fault: set flash = \"nand\" to use it")
+        return NucOptions(gain_frac_bits=frac, ecc=ecc)
+    if not ecc:
+        sec.fail("ecc", "must be true with flash = \"nand\" (the flash words are 64/72 ECC)")
+    if frac > 14:
+        sec.fail("gain_frac_bits", f"must be <= 14 with flash = \"nand\" (2 + {frac} bits "
+                                   "do not fit the 16-bit gain of a flash word)")
+    single = sec.number("flip_single", 0.0, lo=0.0, hi=1.0)
+    double = sec.number("flip_double", 0.0, lo=0.0, hi=1.0)
+    if single + double > 1.0:
+        sec.fail("flip_double", f"flip_single + flip_double must be <= 1 (probabilities of "
+                                f"one word), got {single:g} + {double:g}")
+    return NucOptions(gain_frac_bits=frac, ecc=ecc, flash=flash,
+                      bad_blocks=sec.integer("bad_blocks", 0, lo=0, hi=4095),
+                      flip_single=single, flip_double=double,
+                      seed=sec.integer("seed", 1, lo=0))
 
 
 def _run(sec: _Section, sensor: Sensor, labels) -> Run:

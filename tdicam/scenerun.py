@@ -86,6 +86,8 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
             meas.update({"fidelity": res.fidelity, "seconds": res.seconds,
                          "lines_per_s": res.lines_per_s,
                          "exposure_pixels_per_s": res.exposure_pixels_per_s})
+            if res.flash is not None:
+                meas["nand"] = res.flash
             rows.append(meas)
             results[(m, dv)] = res
     finally:
@@ -210,7 +212,7 @@ def _figures(out_dir, scene, rows, main):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from tdicam.model import plan as P
+    from tdicam.planning import mtf_prediction
     files = []
     flat = [r for r in rows if "snr" in r and r["snr"]["gain_db"] is not None]
     if scene.target.kind == "flat" and flat:
@@ -242,19 +244,24 @@ def _figures(out_dir, scene, rows, main):
         if len({r["dv_over_v"] for r in bars}) > 1:
             x = [r["mtf"]["m_dv_over_v"] for r in bars]
             ax.plot(x, [r["mtf"]["measured"] for r in bars], "o", label="measured")
-            xx = np.linspace(0, max(max(x), 2.0), 200)
             f = bars[0]["mtf"]["frequency_cyc_per_px"]
             for m in sorted({r["stages"] for r in bars}):
-                ax.plot(xx, [float(P.mtf_system(f, m, v / m, scene.sensor.q_over_p))
-                             for v in xx], "-", label=f"seed 001 model, M={m}")
+                # dV/V in (-1, 1): the image moves forward
+                xx = np.linspace(0, min(max(max(x), 2.0), 0.999 * m), 200)
+                pred = [mtf_prediction(scene, m, v / m, f) for v in xx]
+                ax.plot(xx, [p["system"] for p in pred], "-", label=f"planned, M={m}")
+                ax.plot(xx, [p["paper"]["system"] for p in pred], ":",
+                        label=f"paper's model (Yuan 2013), M={m}")
             ax.set_xlabel("M dV/V (pixels)")
             ax.set_title(f"MTF at {f:g} cycles/px vs velocity mismatch")
         else:
             g = main.geometry
             ff = np.linspace(0, 0.5, 101)
             ax.plot(ff, np.abs(g.mtf_along(ff)), "-", label="footprint model (along)")
-            ax.plot(ff, [float(P.mtf_system(v, g.stages, g.stage_lag, g.q_over_p)) for v in ff],
-                    "--", label="seed 001 product (along)")
+            pred = [mtf_prediction(scene, g.stages, g.dv_over_v, v) for v in ff]
+            ax.plot(ff, [p["system"] for p in pred], "--", label="planned (along)")
+            ax.plot(ff, [p["paper"]["system"] for p in pred], ":",
+                    label="paper's model, Yuan 2013 (along)")
             for r in bars:
                 ax.plot([r["mtf"]["frequency_cyc_per_px"]], [r["mtf"]["measured"]], "o",
                         label=f"measured M={r['stages']}")
@@ -279,6 +286,10 @@ def _fmt(v, f=".3g"):
     return format(v, f)
 
 
+def _reversed(t):
+    return " (contrast reversed)" if t.get("planned_reversed") else ""
+
+
 def _summary(scene, rep):
     sp = rep["speed"]
     lines = [f"{Path(scene.source).name}: {sp['lines']} lines x {sp['width']} px, "
@@ -296,7 +307,8 @@ def _summary(scene, rep):
         if "mtf" in r:
             t = r["mtf"]
             lines.append(f"  m={r['stages']} M dV/V={t['m_dv_over_v']:.3g}: MTF "
-                         f"{_fmt(t['measured'], '.3f')} (seed 001 {_fmt(t['seed001_model'], '.3f')}"
+                         f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
+                         f"{_reversed(t)}, paper's model {_fmt(t['seed001_model'], '.3f')}"
                          f", footprint {t['footprint_model']:.3f})")
     if rep["rtl"]:
         for b in rep["rtl"]["blocks"]:
@@ -345,7 +357,9 @@ def _markdown(scene, rep):
                       f"{_fmt(s['single_db'], '.2f')} | {_fmt(s['gain_db'], '.2f')} | "
                       f"{s['predicted_db']:.2f} | {_fmt(d, '+.2f')} | {s['eq28_db']:.2f} |")
         s0 = snr[0]["snr"]
-        md += ["", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
+        md += ["", f"SNR: {s0['signal_definition']} (mean dark charge {s0['dark_e']:.3g} e- "
+               "per exposure); the same for measured and predicted values.",
+               "", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
                f"{s0['sigma_cmos_e']:.3g} e-, fixed pattern {s0['sigma_fpn_e']:.3g} e- "
                f"(s_AD / s_CMOS = {s0['sigma_ad_e'] / s0['sigma_cmos_e']:.3g}). Predicted: "
                "temporal noise, the row-to-row fixed pattern and the independent part of the "
@@ -357,16 +371,40 @@ def _markdown(scene, rep):
     mtf = [r for r in rep["measurements"] if "mtf" in r]
     if mtf:
         md += ["## MTF at the bar frequency", "",
-               "| stages | M dV/V | M Delta (with skew) | measured | (pi/4) CTF | seed 001 model | "
-               "footprint model |", "|---|---|---|---|---|---|---|"]
+               "| stages | M dV/V | M Delta (with skew) | measured | (pi/4) CTF | planned | "
+               "paper's model | footprint model |", "|---|---|---|---|---|---|---|---|"]
         for r in mtf:
             t = r["mtf"]
             md.append(f"| {r['stages']} | {t['m_dv_over_v']:.3g} | {t['m_delta_effective']:.3g} "
                       f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
+                      f"{_fmt(t['planned'], '.3f')}{_reversed(t)} | "
                       f"{_fmt(t['seed001_model'], '.3f')} | {t['footprint_model']:.3f} |")
-        md.append("")
+        md += ["", "All MTF values are moduli (contrast reversal is flagged). Planned: the "
+               "planning model (tdicam.planning.mtf_prediction, the same as `tdicam plan`): "
+               "full-line-period exposure, smear at the image speed 1 - dV/V, rolling-shutter "
+               "skew, the M-stage term and the optics, along track. Paper's model: Yuan, Li, "
+               "Xu and Nie, \"MTF velocity-mismatch model of TDI area-array CMOS image "
+               "sensors\" (2013), aperture x temporal x sinc(f M dV/V) with the plain "
+               "velocity mismatch. Footprint model: the exact stage footprint the simulator "
+               "renders (tdicam.model.optics.Geometry). M Delta: the stage misregistration "
+               "over M stages including the rolling-shutter skew.", ""]
         md += [f"* stages {r['stages']}, M dV/V {r['mtf']['m_dv_over_v']:.3g}: "
                f"{r['mtf']['note']}" for r in mtf if r["mtf"].get("note")]
+    nand = [(r, f) for r in rep["measurements"] for f in r.get("nand") or ()]
+    if nand:
+        md += ["## NUC coefficients from NAND flash", "",
+               "| stages | M dV/V | channel | bad blocks | words | corrected | uncorrectable | "
+               "defaulted pixels |", "|---|---|---|---|---|---|---|---|"]
+        md += [f"| {r['stages']} | {r['stages'] * r['dv_over_v']:.3g} | {f['channel']} | "
+               f"{f['bad_blocks']} | {f['words']} | {f['corrected_words']} | "
+               f"{f['uncorrectable_words']} | {f['defaulted_pixels']} of {f['pixels']} |"
+               for r, f in nand]
+        md += ["", "The coefficients of the window rows are stored in a 4 Gb NAND flash "
+               "(2,048 + 64-byte pages, 64 pages per block, 4,096 blocks) with the scene's "
+               "faults and loaded back as the camera does at power-up: bad-block scan, "
+               "block map, 64/72 SECDED words (one flipped bit corrected), the default "
+               "coefficients (gain 1, offset 0: that pixel uncorrected) for a word with two.",
+               ""]
     md += ["## Speed", "",
            f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
            f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "

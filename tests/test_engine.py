@@ -103,6 +103,22 @@ def test_smear_runs_with_mismatch(tmp_path):
     assert rec(res, "smear").ran and "M dV/V = 0.4" in rec(res, "smear").why
 
 
+def test_one_stage_image_moves_at_one_minus_dv(tmp_path):
+    # issue 20: at M = 1 the smear effect used to be off, so the image moved 1 px per line
+    # period whatever dV/V; the ideal along-track bars must now repeat every 4 / (1 - dV/V)
+    # lines and the exposure smear must follow (tests/test_plan_mtf.py checks the MTF)
+    kind = 'kind = "bars"\nperiod_px = 4.0\ndirection = "along_track"'
+    res = engine.simulate(small(tmp_path, stages=1, dv=0.5, kind=kind), fidelity="exact",
+                          impact=False)
+    assert rec(res, "smear").ran and "moves 0.5 px along" in rec(res, "smear").why
+    assert res.geometry.speed == 0.5
+    col = res.target[:, 0]
+    assert np.allclose(col[8:], col[:-8]) and not np.allclose(col[4:], col[:-4])
+    still = engine.simulate(small(tmp_path, stages=1, kind=kind), fidelity="exact",
+                            impact=False)
+    assert not rec(still, "smear").ran and still.geometry.speed == 1.0
+
+
 def test_impact_measured(tmp_path):
     res = engine.simulate(small(tmp_path), fidelity="exact", impact=True)
     r = rec(res, "read_noise")
@@ -262,3 +278,51 @@ def test_huge_psf_is_a_one_line_error(tmp_path):
     sc = small(tmp_path, "[optics]\npsf_sigma_px = 1e6\n")
     with pytest.raises(TdicamError, match=r"^\[optics\]\.psf_sigma_px: must be <= 64"):
         engine.simulate(sc, fidelity="fast", impact=False)
+
+
+def _nuc_flat(tmp_path, nuc):
+    return scene(tmp_path, ORBIT + f"""
+[target]
+kind = "flat"
+signal_e = 2000.0
+[sensor]
+columns = 64
+rows = 64
+prnu = 0.05
+black_level_dn = 32.0
+[tdi]
+stages = 4
+[pipeline]
+blocks = ["nuc", "tdi"]
+[pipeline.nuc]
+{nuc}
+[run]
+lines = 16
+seed = 3
+fidelity = "exact"
+""")
+
+
+def test_nuc_coefficients_from_nand_flash(tmp_path):
+    """[pipeline.nuc] flash = "nand" (issue 22): bad blocks and single flips are invisible
+    (mapped around, corrected: the output equals the in-memory ECC path bit for bit); a
+    double flip gives its two pixels the default coefficients, so their columns keep the
+    PRNU and only those columns change; the counters are reported."""
+    ref = engine.simulate(_nuc_flat(tmp_path, ""), impact=False)
+    assert ref.flash is None
+    clean = engine.simulate(_nuc_flat(tmp_path, 'flash = "nand"\nbad_blocks = 100\n'
+                                                'flip_single = 0.5'), impact=False)
+    f = clean.flash[0]
+    assert f["bad_blocks"] == 100 and f["corrected_words"] > 30
+    assert f["uncorrectable_words"] == 0 and f["defaulted_pixels"] == 0
+    assert f["pixels"] == 4 * 64 and f["words"] == 4 + 4 * 64 // 2
+    assert np.array_equal(clean.output, ref.output) and clean.output.dtype == ref.output.dtype
+    bad = engine.simulate(_nuc_flat(tmp_path, 'flash = "nand"\nflip_double = 0.2'),
+                          impact=False)
+    f = bad.flash[0]
+    assert f["uncorrectable_words"] > 5 and f["defaulted_pixels"] == 2 * f["uncorrectable_words"]
+    assert any("uncorrectable" in n for n in bad.notes)
+    changed = np.nonzero((bad.output != ref.output).any(axis=0))[0]
+    assert 0 < len(changed) <= f["defaulted_pixels"]
+    # uncorrected PRNU (5 %) shows: the columns' spread grows
+    assert bad.output.mean(axis=0).std() > 2 * ref.output.mean(axis=0).std()

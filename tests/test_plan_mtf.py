@@ -52,14 +52,9 @@ def cases():
     for shutter in ("global", "rolling"):
         for m in STAGES:
             for mdv in M_DV:
-                marks = ()
                 if m == 1 and mdv >= 1.0:
                     continue            # dV/V >= 1: rejected (test_dv_out_of_range)
-                if m == 1 and mdv > 0:
-                    marks = pytest.mark.xfail(
-                        strict=True, reason="the simulator ignores dV/V at M = 1 (its smear "
-                        "effect is off for one stage, so the image speed stays 1)")
-                yield pytest.param(m, mdv, shutter, marks=marks, id=f"{shutter}-M{m}-{mdv}")
+                yield pytest.param(m, mdv, shutter, id=f"{shutter}-M{m}-{mdv}")
 
 
 @pytest.mark.parametrize("m, mdv, shutter", list(cases()))

@@ -169,3 +169,79 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
     assert main(["run", str(write(tmp_path, full, "f.toml")), "-o", str(out2)]) == 0
     for r in _strict_load(out2 / "report.json")["measurements"]:
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
+
+
+def test_bar_mtf_planned_and_paper_model(tmp_path):
+    """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
+    paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
+    negative MTF anywhere while M dV/V sweeps through 2, 3 and 6 (contrast reversal at the
+    bar frequency 0.25, flagged) (issue 20)."""
+    from tdicam.model.mtf import mtf_system
+    from tdicam.planning import mtf_prediction
+    from tdicam.scene import load_scene
+    src = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0') \
+        .replace("[tdi]", 'shutter = "rolling"\n[tdi]') \
+        .replace("stages = [1, 4]", "stages = [1, 8]\n[motion]\ndv_over_v = [0.0, 0.25, "
+                 "0.375, 0.75]")
+    p = write(tmp_path, src)
+    out = tmp_path / "out"
+    assert main(["run", str(p), "-o", str(out), "--no-impact"]) == 0
+    rep = _strict_load(out / "report.json")
+    sc = load_scene(p)
+    rows = [r for r in rep["measurements"] if "mtf" in r]
+    assert len(rows) == 8
+    for r in rows:
+        t, m, dv = r["mtf"], r["stages"], r["dv_over_v"]
+        pred = mtf_prediction(sc, m, dv, 0.25)
+        assert t["planned"] == pytest.approx(pred["system"])
+        assert t["planned_reversed"] == pred["reversed"]
+        assert t["seed001_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
+        if m == 8 and dv == 0.75:
+            assert t["planned_reversed"]
+        if m == 8 and dv == 0.0:       # rolling-shutter skew: the camera, not the paper
+            assert t["m_delta_effective"] != 0 and t["planned"] < t["seed001_model"]
+    for r in rows:                     # every MTF value of the report is a modulus
+        for k in ("measured", "measured_ctf", "planned", "seed001_model", "footprint_model"):
+            assert r["mtf"][k] is None or r["mtf"][k] >= 0, (r, k)
+    md = (out / "report.md").read_text()
+    assert "paper's model" in md and "| planned |" in md and "contrast reversed" in md
+
+
+def test_nand_flash_scene_reports_counters(tmp_path):
+    """The bundled NAND scene: report.json and report.md give the flash counters (bad
+    blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
+    from tdicam.scene import load_scene
+    from tdicam.scenerun import run_scene
+    sc = load_scene(ROOT / "scenes" / "seed002_nand_calib_faults.toml")
+    rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
+    f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
+    assert f == rep["measurements"][0]["nand"][0]
+    assert f["bad_blocks"] == 200 and f["corrected_words"] > 0
+    assert f["defaulted_pixels"] == 2 * f["uncorrectable_words"] > 0
+    md = (tmp_path / "report.md").read_text()
+    assert "## NUC coefficients from NAND flash" in md
+    assert f"| {f['defaulted_pixels']} of {f['pixels']} |" in md
+
+
+@pytest.mark.parametrize("dsnu", [0.0, 1.5])
+def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
+    """One SNR definition (issue 18): signal = photo-electrons, dark charge excluded, in the
+    measured and the predicted SNR alike. At 20 e- light and 2 e- dark the measured
+    single-exposure SNR counted the dark as signal (+0.83 dB over the prediction)."""
+    from tdicam.measure import SNR_DEFINITION, mean_dark_e, measure
+    from tdicam import engine
+    from tdicam.scene import load_scene
+    src = SMALL.replace("signal_e = 2000.0", "signal_e = 20.0") \
+        .replace("read_noise_e = 5.0", "read_noise_e = 1.0\nconversion_gain_e_per_dn = 0.5\n"
+                 f"dark_current_e_per_s = {2.0 / 144.76e-6:.6g}\ndsnu_e = {dsnu}") \
+        .replace("columns = 64", "columns = 512").replace("lines = 32", "lines = 64") \
+        .replace("stages = [1, 4]", "stages = 1")
+    sc = load_scene(write(tmp_path, src))
+    assert abs(sc.line_period_s - 144.76e-6) < 1e-7
+    assert mean_dark_e(sc) == pytest.approx(2.0, abs=0.01 if dsnu == 0 else 0.2)
+    s = measure(sc, engine.simulate(sc, fidelity="exact", impact=False))["snr"]
+    assert s["signal_definition"] == SNR_DEFINITION and "dark charge excluded" in SNR_DEFINITION
+    assert abs(s["single_db"] - s["snr1_db"]) < 0.15, s
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(out), "--no-impact"]) == 0
+    assert "dark charge excluded" in (out / "report.md").read_text()

@@ -367,6 +367,42 @@ def test_bad_pipeline(tmp_path, pipeline, expected):
     assert error_of(tmp_path, ORBIT + "[pipeline]\n" + pipeline).startswith(expected)
 
 
+NUC = "blocks = [\"nuc\", \"tdi\"]\n[pipeline.nuc]\n"
+
+
+@pytest.mark.parametrize("nuc, expected", [
+    ("flash = \"usb\"\n", "[pipeline.nuc].flash: "),
+    ("bad_blocks = 3\n", "[pipeline.nuc].bad_blocks: is a NAND flash fault: set flash"),
+    ("flash = \"none\"\nflip_single = 0.1\n", "[pipeline.nuc].flip_single: is a NAND"),
+    ("flash = \"nand\"\nflip_single = 1.5\n",
+     "[pipeline.nuc].flip_single = 1.5 is out of range; valid: 0..1"),
+    ("flash = \"nand\"\nflip_single = 0.6\nflip_double = 0.6\n",
+     "[pipeline.nuc].flip_double: flip_single + flip_double must be <= 1"),
+    ("flash = \"nand\"\nbad_blocks = 4096\n",
+     "[pipeline.nuc].bad_blocks = 4096 is out of range; valid: 0..4095"),
+    ("flash = \"nand\"\nbad_blocks = 1.5\n", "[pipeline.nuc].bad_blocks"),
+    ("flash = \"nand\"\nseed = -1\n", "[pipeline.nuc].seed = -1 is out of range"),
+    ("flash = \"nand\"\necc = false\n", "[pipeline.nuc].ecc: must be true with flash"),
+    ("flash = \"nand\"\ngain_frac_bits = 15\n",
+     "[pipeline.nuc].gain_frac_bits: must be <= 14 with flash"),
+    ("flash = \"nand\"\nbad_block = 3\n",
+     "[pipeline.nuc].bad_block: unknown key; did you mean 'bad_blocks'?"),
+])
+def test_bad_nuc_flash(tmp_path, nuc, expected):
+    """[pipeline.nuc] flash options: one-line errors naming the key (issue 22)."""
+    msg = error_of(tmp_path, ORBIT + "[pipeline]\n" + NUC + nuc)
+    assert msg.startswith(expected) and "\n" not in msg, msg
+
+
+def test_nuc_flash_options(tmp_path):
+    sc = load_text(tmp_path, ORBIT + "[pipeline]\n" + NUC + "flash = \"nand\"\n"
+                   "bad_blocks = 10\nflip_single = 0.1\nflip_double = 0.01\nseed = 4\n")
+    o = sc.pipeline.nuc
+    assert (o.flash, o.bad_blocks, o.flip_single, o.flip_double, o.seed) == \
+        ("nand", 10, 0.1, 0.01, 4)
+    assert load_text(tmp_path, ORBIT).pipeline.nuc.flash == "none"
+
+
 def test_median_after_tdi(tmp_path):
     sc = load_text(tmp_path, ORBIT + "[pipeline]\nblocks = [\"cds\", \"tdi\", \"median3\"]\n")
     assert sc.pipeline.median_after_tdi is True

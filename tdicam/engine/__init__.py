@@ -110,6 +110,7 @@ class SceneResult:
     notes: list = field(default_factory=list)
     frames_crop: dict | None = None   # per-block golden inputs/outputs on the RTL crop
     cpu_seconds: float = 0.0          # process CPU time (all threads) of the simulation
+    flash: list | None = None         # NAND store counters per channel (flash = "nand")
 
     @property
     def lines_per_s(self):
@@ -265,7 +266,14 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
                      f"{timer.t['raw_exposure']:.3g} s of the fast run")
     res = SceneResult(m, dv, "fast" if c.fast else "exact", r.target, r.raw, r.single,
                       r.output, records, r.pedestal_single, r.pedestal_output, r.full_scale,
-                      seconds, r.exposure_pixels, geometry(c)[0], notes, r.crop, cpu_seconds)
+                      seconds, r.exposure_pixels, geometry(c)[0], notes, r.crop, cpu_seconds,
+                      [c.flash[k] for k in sorted(c.flash)] or None)
+    for f in res.flash or ():
+        notes.append(f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
+                     f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "
+                     f"{f['uncorrectable_words']} uncorrectable words of {f['words']}, "
+                     f"{f['defaulted_pixels']} of {f['pixels']} pixels on the default "
+                     f"coefficients (gain 1, offset 0)")
     if impact:
         _impacts(c, res)
     return res

@@ -1,7 +1,8 @@
 """The pipeline blocks in the scene simulator (cds, nuc, hdr, median3, tdi): when a block
 runs, which of the engine's frame stacks are its scene arrays (stream and side inputs, as the
 block registry :mod:`tdicam.blocks` names them) and its parameters from the scene, the ideal
-NUC coefficients, the ECC round trip of the coefficients, and the crops kept for RTL
+NUC coefficients, the ECC round trip of the coefficients or their store in NAND flash
+(``[pipeline.nuc] flash = "nand"``), and the crops kept for RTL
 co-simulation. The golden models run through the registry entries (:func:`golden`); TDI
 runs :func:`tdicam.model.tdi.tdi` directly: the registry's TDI golden function is the
 cycle-level stream model, built for co-simulation crops, far slower on whole scenes (the
@@ -18,6 +19,7 @@ import numpy as np
 from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 from tdicam.model import ecc as _ecc
+from tdicam.model import nand as _nand
 from tdicam.model import hdr as _hdr
 from tdicam.model import nuc as _nuc
 from tdicam.model import tdi as _tdi
@@ -124,7 +126,9 @@ def nuc(c, fr):
     bits = c.sensor.bits
     for ch, x in enumerate(fr.channels):
         gain_c, off_c = c.nuc_coeffs[ch]
-        if c.scene.pipeline.nuc.ecc:
+        if c.scene.pipeline.nuc.flash == "nand":
+            gain_c, off_c = _nand_roundtrip(c, ch, fmt, gain_c, off_c)
+        elif c.scene.pipeline.nuc.ecc:
             gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
         g = np.broadcast_to(gain_c, x.shape)
         o = np.broadcast_to(off_c, x.shape)
@@ -146,6 +150,31 @@ def _ecc_roundtrip(fmt, gain, offset):
     g, o = fmt.unpack_words(np.asarray(dec.data, np.uint64))
     n = np.size(gain)
     return g[:n].reshape(np.shape(gain)), o[:n].reshape(np.shape(offset))
+
+
+def _nand_roundtrip(c, ch, fmt, gain, offset):
+    """Store channel ``ch``'s coefficient codes in NAND flash with the ``[pipeline.nuc]``
+    faults and load them back as the camera does (:func:`tdicam.model.nand.store_roundtrip`:
+    bad-block scan, block map, ECC, defaults gain 1 / offset 0 for an uncorrectable word).
+
+    The first store of each channel in a run (the output's coefficients) is counted in
+    ``c.flash[ch]``: corrected and uncorrectable words, defaulted pixels, bad blocks found.
+    """
+    o = c.scene.pipeline.nuc
+    shape = np.shape(gain)
+    g2 = np.asarray(gain, np.int64).reshape(-1, shape[-1])
+    o2 = np.asarray(offset, np.int64).reshape(-1, shape[-1])
+    g, off, res = _nand.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
+                                        p_single=o.flip_single, p_double=o.flip_double,
+                                        seed=o.seed + ch)
+    if ch not in c.flash:
+        img = res.image
+        c.flash[ch] = {"channel": ch, "pixels": int(g2.size), "words": int(res.words),
+                       "pages": int(res.pages), "bad_blocks": int(res.scan.bad_count),
+                       "corrected_words": int(img.corrected),
+                       "uncorrectable_words": int(img.uncorrectable),
+                       "defaulted_pixels": int(np.count_nonzero(img.defaulted))}
+    return g.reshape(shape), off.reshape(shape)
 
 
 def prepare(c, gain_map, dark_map):

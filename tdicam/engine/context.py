@@ -63,6 +63,7 @@ class Context:
     fast_fpn_mean: bool = False   # fast: moving stages weighted by the mean row gain
     quant_moments: bool = False   # fast: exact moments of every rounding (noise < ~0.7 DN)
     nuc_coeffs: list | None = None   # per channel (gain code, offset code) of the nuc block
+    flash: dict = dataclasses.field(default_factory=dict)  # NAND store counters per channel
 
     # ---- the effects of this pass, in table order
     def ran(self, name):

@@ -110,10 +110,14 @@ def _need_aperture(c):
 
 def _need_smear(c):
     m, dv, drift = c.m, c.dv, c.scene.motion.drift_deg
-    if m == 1:
-        return False, "1 stage: nothing to misregister"
     if dv == 0 and drift == 0:
         return False, "dV/V = 0 and no drift"
+    if m == 1:
+        # one stage: nothing to misregister, but the image still moves 1 - dV/V px (and
+        # tan(drift) across) per line period, which sets the exposure smear and line spacing
+        return True, (f"1 stage: the image moves {1 - dv:.4g} px along and "
+                      f"{(1 - dv) * math.tan(math.radians(drift)):.3g} px across per line "
+                      f"period (dV/V = {dv:g}, drift {drift:g} deg); no stages to misregister")
     return True, (f"dV/V = {dv:g}, drift {drift:g} deg: M dV/V = {m * dv:.3g} px along, "
                   f"M tan(drift) = {m * math.tan(math.radians(drift)):.3g} px across")
 
