@@ -30,6 +30,7 @@ from amaranth.hdl import Shape
 
 from .. import blocks
 from ..errors import TdicamError
+from ..paths import REPO
 from ..hdl.axis import AxisTop
 from ..verilog import convert
 from ..beats import Beats
@@ -42,7 +43,6 @@ __all__ = ["SIMULATORS", "MODES", "AMARANTH", "SimResult", "Comparison", "CaseRu
 
 SIMULATORS = ("icarus", "verilator")
 MODES = ("beat", "fast")
-REPO = Path(__file__).resolve().parents[2]
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
 _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
                    "-CFLAGS", "-std=c++20 -fcoroutines -O2", "--x-assign", "fast",

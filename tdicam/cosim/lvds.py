@@ -31,6 +31,7 @@ from amaranth.hdl import Shape
 
 from .. import blocks
 from ..errors import TdicamError
+from ..hdl.lvds import SLIP_BITS, TAP_BITS
 from ..model import lvds as model
 from ..verilog import convert
 from . import build_sources, run_cocotb, tbgen
@@ -76,7 +77,8 @@ def testbench(top, *, name="lvds"):
     out_args = ", ".join(f"d_o_data[{i * w} +: {w}]" for i in range(n))
     st_lines = "\n".join(
         f'        $fwrite(fd_st, "%h %h %h %h %h %h %h %h\\n", g[15:0], 8\'d{i}, '
-        f'{{3\'b0, d_lane_tap[{i * 5} +: 5]}}, {{4\'b0, d_lane_slip[{i * 4} +: 4]}}, '
+        f'{{{8 - TAP_BITS}\'b0, d_lane_tap[{i * TAP_BITS} +: {TAP_BITS}]}}, '
+        f'{{{8 - SLIP_BITS}\'b0, d_lane_slip[{i * SLIP_BITS} +: {SLIP_BITS}]}}, '
         f'{{3\'b0, d_lane_locked[{i}]}}, {{3\'b0, d_lane_error[{i}]}}, '
         f'{{2\'b0, d_lane_run[{i * 6} +: 6]}}, d_lane_scan[{i * 32} +: 32]);'
         for i in range(n))
@@ -174,10 +176,10 @@ module {tbgen.TB_TOP};
   generate
     for (gi = 0; gi < N; gi = gi + 1) begin : ln
       wire [31:0] li = g * N + gi;
-      reg [4:0] tapq = 5'd0, tap2 = 5'd0;
+      reg [{TAP_BITS - 1}:0] tapq = {TAP_BITS}'d0, tap2 = {TAP_BITS}'d0;
       reg pl = 1'b0, pe = 1'b0;
-      wire [4:0] tap_src = (linkcheck != 0) ? ((((k >> 2) * 5) + gi * 11) & 31)
-                                            : d_lane_tap[gi*5 +: 5];
+      wire [{TAP_BITS - 1}:0] tap_src = (linkcheck != 0) ? ((((k >> 2) * 5) + gi * 11) & 31)
+                                            : d_lane_tap[gi*{TAP_BITS} +: {TAP_BITS}];
       wire ld_src = (linkcheck != 0) ? 1'b1 : d_lane_ld[gi];
       wire [95:0] inf = info[li];
       wire ep = (k >= inf[95:64]);
@@ -204,8 +206,8 @@ module {tbgen.TB_TOP};
       assign lane_raw[gi*W +: W] = raw;
       always @(posedge clk) begin
         if (rst) begin
-          tapq <= 5'd0;
-          tap2 <= 5'd0;
+          tapq <= {TAP_BITS}'d0;
+          tap2 <= {TAP_BITS}'d0;
           pl <= 1'b0;
           pe <= 1'b0;
         end else if (running) begin
@@ -216,7 +218,8 @@ module {tbgen.TB_TOP};
           if (linkcheck == 0 && {{pl, pe}} != {{d_lane_locked[gi], d_lane_error[gi]}})
             $fwrite(fd_ev, "%h %h %h %h %h %h %h %h\\n", g[15:0], k, li[15:0],
                     {{3'b0, d_lane_locked[gi]}}, {{3'b0, d_lane_error[gi]}},
-                    {{3'b0, d_lane_tap[gi*5 +: 5]}}, {{4'b0, d_lane_slip[gi*4 +: 4]}},
+                    {{{8 - TAP_BITS}'b0, d_lane_tap[gi*{TAP_BITS} +: {TAP_BITS}]}},
+                    {{{8 - SLIP_BITS}'b0, d_lane_slip[gi*{SLIP_BITS} +: {SLIP_BITS}]}},
                     {{2'b0, d_lane_run[gi*6 +: 6]}});
         end
       end
