@@ -31,7 +31,7 @@ from amaranth.hdl import Shape
 
 from .. import blocks
 from ..errors import TdicamError
-from ..hdl.lvds import SLIP_BITS, TAP_BITS
+from ..hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from ..model import lvds as model
 from ..verilog import convert
 from . import build_sources, run_cocotb, tbgen
@@ -543,6 +543,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
     n, w = len(link.lanes), link.word_bits
     dut = LvdsRx(lanes=n, word_bits=w, settle=settle, **rx_params)
     events, outs = [], []
+    tmask, smask, rmask = ((1 << b) - 1 for b in (TAP_BITS, SLIP_BITS, RUN_BITS))
 
     async def bench(ctx):
         for port, v in (("train_word", link.train_word), ("sync_word", link.sync_word),
@@ -559,8 +560,8 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
             for i in range(n):
                 st = ((lk >> i) & 1, (er >> i) & 1)
                 if st != prev[i]:
-                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
-                                   (rn >> 6 * i) & 63))
+                    events.append((k, i, *st, (tap >> TAP_BITS * i) & tmask,
+                                   (sl >> SLIP_BITS * i) & smask, (rn >> RUN_BITS * i) & rmask))
                     prev[i] = st
             if ctx.get(dut.o_valid):
                 outs.append((k, ctx.get(dut.o_sync), ctx.get(dut.o_data)))
@@ -568,7 +569,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
             for i in range(n):
                 tap2[i] = tapq[i]
                 if (ld >> i) & 1:
-                    tapq[i] = (tap >> 5 * i) & 31
+                    tapq[i] = (tap >> TAP_BITS * i) & tmask
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
