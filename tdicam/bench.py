@@ -46,13 +46,14 @@ import numpy as np
 from . import blocks, cosim
 from .benchutil import machine, median_time
 from .errors import TdicamError, check_range
+from .paths import SCENES
 
 __all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "to_json", "fresh_build",
            "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS"]
 
-SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
-FLAT = Path(__file__).resolve().parents[1] / "scenes" / "flat_snr_sweep_96.toml"
+SCENE = SCENES / "orbit_600km_1m_96.toml"
+FLAT = SCENES / "flat_snr_sweep_96.toml"
 _UNIT_ABBR = {"pixel": "px", "word": "word", "lane": "lane", "line": "line", "beat": "beat"}
 
 

@@ -22,16 +22,17 @@ import numpy as np
 
 from . import blocks as _blocks
 from .errors import TdicamError
+from .paths import GOLDEN, REPO
 
-__all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names"]
+__all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
+           "write_npz", "PARAMS_KEY"]
 
-REPO = Path(__file__).resolve().parent.parent
 MANIFEST = "manifest.json"
-_PARAMS = "__params__"
+PARAMS_KEY = "__params__"
 
 
 def golden_dir():
-    return REPO / "golden"
+    return GOLDEN
 
 
 def array_sha256(a):
@@ -41,7 +42,7 @@ def array_sha256(a):
     return h.hexdigest()
 
 
-def _write_npz(path, arrays):
+def write_npz(path, arrays):
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as zf:
         for name in sorted(arrays):
@@ -115,7 +116,7 @@ def generate(block, case):
         case = _find_case(block, case)
     params = block.resolve(case.params)
     arrays = dict(case.make(params, np.random.default_rng(case.seed)))
-    arrays[_PARAMS] = np.array(json.dumps(params, sort_keys=True))
+    arrays[PARAMS_KEY] = np.array(json.dumps(params, sort_keys=True))
     return arrays
 
 
@@ -153,7 +154,7 @@ def _regen(names):
         keep = set()
         for case in block.cases():
             arrays = generate(block, case)
-            _write_npz(golden_dir() / block.name / f"{case.name}.npz", arrays)
+            write_npz(golden_dir() / block.name / f"{case.name}.npz", arrays)
             man["cases"][f"{block.name}/{case.name}"] = _entry(block, case, arrays)
             keep.add(case.name)
             count += 1
@@ -178,7 +179,7 @@ def load(block, case):
                           f"(run 'tdicam golden regen {name}')")
     arrays = _read_npz(path)
     _verify(path, arrays, man["cases"][key]["arrays"])
-    params = json.loads(str(arrays.pop(_PARAMS)))
+    params = json.loads(str(arrays.pop(PARAMS_KEY)))
     return arrays, params
 
 

@@ -57,8 +57,8 @@ def test_tampered_array_is_named(store):
     arrays, params = golden.load("cds", "random_12b")
     arrays["out"] = arrays["out"].copy()
     arrays["out"][0, 1, 2] ^= 1
-    arrays[golden._PARAMS] = np.array(__import__("json").dumps(params, sort_keys=True))
-    golden._write_npz(store / "cds" / "random_12b.npz", arrays)
+    arrays[golden.PARAMS_KEY] = np.array(__import__("json").dumps(params, sort_keys=True))
+    golden.write_npz(store / "cds" / "random_12b.npz", arrays)
     with pytest.raises(TdicamError, match=r"random_12b.npz: array 'out' does not match"):
         golden.load("cds", "random_12b")
 

@@ -8,7 +8,6 @@ import sys
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
-from amaranth.sim import Simulator
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -19,6 +18,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.median3 import (COLUMN_SORT, WINDOW_MEDIAN, Median3, network_stats,
                                 reciprocal_25, run_network)
 from tdicam.model.median3 import enhance_parts, median3
+from tdicam.streamsim import run_stream_component
 
 SIZES = [(3, 3), (1, 3), (2, 3), (3, 4), (7, 3), (3, 17), (17, 33), (64, 1280)]
 
@@ -230,62 +230,27 @@ def test_cli_bad_params_one_line(args, expect):
 
 
 def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, bad_last_at=None, heights=None):
-    """Run the component on frames; returns (outputs, stats)."""
+    """Run the component on frames (tdicam.streamsim, ``height`` riding with each beat);
+    returns (outputs, expected, stats). Runs 50 + 4 * width cycles past the last expected
+    output, so extra outputs show."""
     dut = Median3(**params)
     arrays = stream_case(frames, params)
     stim, exp = case_beats(arrays, params)
     if heights is not None:
         stim.ctrl[:] = heights
-    rng = np.random.default_rng(seed)
-    got, acc_cycle, out_cycle, marker = [], [], [], []
-
-    async def source(ctx):
-        for k in range(len(stim)):
-            while idle and rng.random() < idle:
-                ctx.set(dut.i_stream.valid, 0)
-                await ctx.tick()
-            ctx.set(dut.i_stream.payload.data, int(stim.data[k, 0]))
-            ctx.set(dut.i_stream.payload.first, bool(stim.first[k]))
-            ctx.set(dut.i_stream.payload.last, bool(stim.last[k]) ^ (k == bad_last_at))
-            ctx.set(dut.height, int(stim.ctrl[k]))
-            ctx.set(dut.i_stream.valid, 1)
-            await ctx.tick().until(dut.i_stream.ready)
-        ctx.set(dut.i_stream.valid, 0)
-
-    async def sink(ctx):
-        while True:
-            ctx.set(dut.o_stream.ready, int(not bp or rng.random() >= bp))
-            await ctx.tick()
-
-    async def monitor(ctx):
-        """Samples right before each clock edge: transfers and the cycle they happen in.
-        Ends 50 + 4 * width cycles after the last expected output (extra outputs show)."""
-        cycle, quiet = 0, None
-        async for _, _, iv, ir, v, r, d, f, last, me in ctx.tick().sample(
-                dut.i_stream.valid, dut.i_stream.ready,
-                dut.o_stream.valid, dut.o_stream.ready, dut.o_stream.payload.data,
-                dut.o_stream.payload.first, dut.o_stream.payload.last, dut.marker_error):
-            cycle += 1
-            marker.append(me)
-            if iv and ir:
-                acc_cycle.append(cycle)
-            if v and r:
-                got.append((d, f, last))
-                out_cycle.append(cycle)
-            if quiet is None and len(got) >= len(exp):
-                quiet = cycle + 50 + 4 * params["width"]
-            if quiet is not None and cycle >= quiet:
-                return
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(source)
-    sim.add_testbench(sink, background=True)
-    sim.add_testbench(monitor)
+    if bad_last_at is not None:
+        stim.last[bad_last_at] ^= True
+    trace = []
     slow = 1 / ((1 - idle) * (1 - bp))
-    sim.run_until(1e-8 * int((len(stim) + 40 * params["width"]) * 3 * slow + 200))
-    return got, exp, {"acc": acc_cycle, "out": out_cycle, "marker": marker,
-                      "latency": dut.latency}
+    got, _, final = run_stream_component(
+        dut, stim, len(exp), seed=seed, p_valid=1 - idle, p_ready=1 - bp,
+        timeout=1e-8 * int((len(stim) + 40 * params["width"]) * 3 * slow + 200),
+        latency_from=None, ports=("height",), drain=50 + 4 * params["width"], trace=trace,
+        watch=("marker_error",))
+    got = [(row[0], first, last) for row, first, last in got]
+    return got, exp, {"acc": [c for k, c in trace if k == "i"],
+                      "out": [c for k, c in trace if k == "o"],
+                      "marker": final["watch"]["marker_error"], "latency": dut.latency}
 
 
 def _assert_equal(got, exp):

@@ -237,6 +237,12 @@ class Block:
             self.check(out)
         return out
 
+    def describe(self):
+        """``tdicam verilog BLOCK --help``: the summary and every parameter."""
+        lines = [f"{self.name}: {self.summary}", "parameters:"]
+        lines += [f"  {p.describe()}" for p in self.params] or ["  (none)"]
+        return "\n".join(lines)
+
     def build(self, params=None):
         """Elaborable Verilog top for checked ``params``."""
         return self.top(**self.resolve(params))

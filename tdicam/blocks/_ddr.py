@@ -12,7 +12,7 @@ error) blocks the input, so a bad access shows as a stalled run.
 from ..model.ddr import DEFAULT_STALLS, _check_stalls
 from . import Param
 
-__all__ = ["STALL_PARAMS", "stalls_of", "check_stalls", "sim_top"]
+__all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top"]
 
 STALL_PARAMS = (
     Param("lat_lo", DEFAULT_STALLS["lat_lo"], "model: shortest read latency, cycles", lo=2,
@@ -29,6 +29,17 @@ STALL_PARAMS = (
           hi=0xFFFFFFFF),
 )
 _STALL_NAMES = tuple(p.name for p in STALL_PARAMS)
+
+
+def address_params(base_help):
+    """The ``line_stride``, ``base`` and ``capacity_mib`` parameters of a DDR buffer."""
+    return (
+        Param("line_stride", None, "address units between lines (8 per word); default "
+                                   "the line rounded up to a power of two", lo=8,
+              hi=1 << 28),
+        Param("base", 0, base_help, lo=0, hi=(1 << 28) - 8),
+        Param("capacity_mib", 1024, "DDR size for the address check, MiB", lo=1, hi=1024),
+    )
 
 
 def stalls_of(p):

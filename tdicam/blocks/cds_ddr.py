@@ -13,7 +13,7 @@ from ..beats import Beats, frames_to_beats, mark_resets
 from ..model.cds import pixel_dtype
 from ..model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
 from . import Block, Case, Param, SideInput
-from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+from ._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
 
@@ -144,12 +144,7 @@ BLOCK = Block(
         Param("pixel_bits", 12, "pixel width", lo=8, hi=16),
         Param("pixels_per_word", None, "values per 256-bit word; default 24 for 10 bit, "
                                        "else 256 // pixel_bits", lo=1, hi=32),
-        Param("line_stride", None, "address units between lines (8 per word)", lo=8,
-              hi=1 << 28),
-        Param("base", 0, "address of the reset frame's line 0", lo=0, hi=(1 << 28) - 8),
-        Param("capacity_mib", 1024, "DDR size for the address check, MiB", lo=1,
-              hi=1024),
-    ) + STALL_PARAMS,
+    ) + address_params("address of the reset frame's line 0") + STALL_PARAMS,
     top=_top,
     cases=_cases,
     check=_check,

@@ -13,7 +13,7 @@ from ..errors import TdicamError
 from ..model.cds import pixel_dtype
 from ..model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
 from . import Block, Case, Param
-from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+from ._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "ddr_frames", "ddr_to_beats"]
 
@@ -163,13 +163,7 @@ BLOCK = Block(
                         "pixels_per_word)", lo=1, hi=256),
         Param("pixel_bits", 10, "bits per value", lo=1, hi=32),
         Param("pixels_per_word", 24, "values per 256-bit word", lo=1, hi=256),
-        Param("line_stride", None, "address units between lines (8 per word); default "
-                                   "the line rounded up to a power of two", lo=8,
-              hi=1 << 28),
-        Param("base", 0, "address of line 0 (a multiple of 8)", lo=0, hi=(1 << 28) - 8),
-        Param("capacity_mib", 1024, "DDR size for the address check, MiB", lo=1,
-              hi=1024),
-    ) + STALL_PARAMS,
+    ) + address_params("address of line 0 (a multiple of 8)") + STALL_PARAMS,
     top=_top,
     cases=_cases,
     check=_check,

@@ -34,12 +34,6 @@ def parse_block_params(block, extra):
     return block.resolve(out)
 
 
-def block_help(block):
-    lines = [f"{block.name}: {block.summary}", "parameters:"]
-    lines += [f"  {p.describe()}" for p in block.params] or ["  (none)"]
-    return "\n".join(lines)
-
-
 def _run(args):
     if args.block is None:
         if args.help:
@@ -48,7 +42,7 @@ def _run(args):
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())}")
     blk = blocks.get(args.block)
     if args.help:
-        print(block_help(blk))
+        print(blk.describe())
         return 0
     params = parse_block_params(blk, args.extra)
     text = generate(blk, params)

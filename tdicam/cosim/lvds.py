@@ -31,6 +31,7 @@ from amaranth.hdl import Shape
 
 from .. import blocks
 from ..errors import TdicamError
+from ..hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from ..model import lvds as model
 from ..verilog import convert
 from . import build_sources, run_cocotb, tbgen
@@ -76,7 +77,8 @@ def testbench(top, *, name="lvds"):
     out_args = ", ".join(f"d_o_data[{i * w} +: {w}]" for i in range(n))
     st_lines = "\n".join(
         f'        $fwrite(fd_st, "%h %h %h %h %h %h %h %h\\n", g[15:0], 8\'d{i}, '
-        f'{{3\'b0, d_lane_tap[{i * 5} +: 5]}}, {{4\'b0, d_lane_slip[{i * 4} +: 4]}}, '
+        f'{{{8 - TAP_BITS}\'b0, d_lane_tap[{i * TAP_BITS} +: {TAP_BITS}]}}, '
+        f'{{{8 - SLIP_BITS}\'b0, d_lane_slip[{i * SLIP_BITS} +: {SLIP_BITS}]}}, '
         f'{{3\'b0, d_lane_locked[{i}]}}, {{3\'b0, d_lane_error[{i}]}}, '
         f'{{2\'b0, d_lane_run[{i * 6} +: 6]}}, d_lane_scan[{i * 32} +: 32]);'
         for i in range(n))
@@ -174,10 +176,10 @@ module {tbgen.TB_TOP};
   generate
     for (gi = 0; gi < N; gi = gi + 1) begin : ln
       wire [31:0] li = g * N + gi;
-      reg [4:0] tapq = 5'd0, tap2 = 5'd0;
+      reg [{TAP_BITS - 1}:0] tapq = {TAP_BITS}'d0, tap2 = {TAP_BITS}'d0;
       reg pl = 1'b0, pe = 1'b0;
-      wire [4:0] tap_src = (linkcheck != 0) ? ((((k >> 2) * 5) + gi * 11) & 31)
-                                            : d_lane_tap[gi*5 +: 5];
+      wire [{TAP_BITS - 1}:0] tap_src = (linkcheck != 0) ? ((((k >> 2) * 5) + gi * 11) & 31)
+                                            : d_lane_tap[gi*{TAP_BITS} +: {TAP_BITS}];
       wire ld_src = (linkcheck != 0) ? 1'b1 : d_lane_ld[gi];
       wire [95:0] inf = info[li];
       wire ep = (k >= inf[95:64]);
@@ -204,8 +206,8 @@ module {tbgen.TB_TOP};
       assign lane_raw[gi*W +: W] = raw;
       always @(posedge clk) begin
         if (rst) begin
-          tapq <= 5'd0;
-          tap2 <= 5'd0;
+          tapq <= {TAP_BITS}'d0;
+          tap2 <= {TAP_BITS}'d0;
           pl <= 1'b0;
           pe <= 1'b0;
         end else if (running) begin
@@ -216,7 +218,8 @@ module {tbgen.TB_TOP};
           if (linkcheck == 0 && {{pl, pe}} != {{d_lane_locked[gi], d_lane_error[gi]}})
             $fwrite(fd_ev, "%h %h %h %h %h %h %h %h\\n", g[15:0], k, li[15:0],
                     {{3'b0, d_lane_locked[gi]}}, {{3'b0, d_lane_error[gi]}},
-                    {{3'b0, d_lane_tap[gi*5 +: 5]}}, {{4'b0, d_lane_slip[gi*4 +: 4]}},
+                    {{{8 - TAP_BITS}'b0, d_lane_tap[gi*{TAP_BITS} +: {TAP_BITS}]}},
+                    {{{8 - SLIP_BITS}'b0, d_lane_slip[gi*{SLIP_BITS} +: {SLIP_BITS}]}},
                     {{2'b0, d_lane_run[gi*6 +: 6]}});
         end
       end
@@ -540,6 +543,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
     n, w = len(link.lanes), link.word_bits
     dut = LvdsRx(lanes=n, word_bits=w, settle=settle, **rx_params)
     events, outs = [], []
+    tmask, smask, rmask = ((1 << b) - 1 for b in (TAP_BITS, SLIP_BITS, RUN_BITS))
 
     async def bench(ctx):
         for port, v in (("train_word", link.train_word), ("sync_word", link.sync_word),
@@ -556,8 +560,8 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
             for i in range(n):
                 st = ((lk >> i) & 1, (er >> i) & 1)
                 if st != prev[i]:
-                    events.append((k, i, *st, (tap >> 5 * i) & 31, (sl >> 4 * i) & 15,
-                                   (rn >> 6 * i) & 63))
+                    events.append((k, i, *st, (tap >> TAP_BITS * i) & tmask,
+                                   (sl >> SLIP_BITS * i) & smask, (rn >> RUN_BITS * i) & rmask))
                     prev[i] = st
             if ctx.get(dut.o_valid):
                 outs.append((k, ctx.get(dut.o_sync), ctx.get(dut.o_data)))
@@ -565,7 +569,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
             for i in range(n):
                 tap2[i] = tapq[i]
                 if (ld >> i) & 1:
-                    tapq[i] = (tap >> 5 * i) & 31
+                    tapq[i] = (tap >> TAP_BITS * i) & tmask
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)

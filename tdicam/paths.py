@@ -1,0 +1,12 @@
+"""Where the repository's folders are (the package runs from a checkout)."""
+
+from pathlib import Path
+
+__all__ = ["REPO", "SCENES", "GOLDEN"]
+
+#: The repository root (``tdicam/``'s parent).
+REPO = Path(__file__).resolve().parent.parent
+#: Bundled scene files.
+SCENES = REPO / "scenes"
+#: Golden vectors.
+GOLDEN = REPO / "golden"
