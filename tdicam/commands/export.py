@@ -6,7 +6,7 @@ import sys
 from .. import blocks
 from ..errors import TdicamError
 from ..export import export_block
-from .verilog import block_help, parse_block_params
+from .verilog import parse_block_params
 
 
 def register(sub):
@@ -37,13 +37,14 @@ def _run(args):
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())}")
     blk = blocks.get(args.block)
     if args.help:
-        print(block_help(blk))
+        print(blk.describe())
+        print("without parameters: those of most of the block's golden cases")
         return 0
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
     if args.seed < 1 or args.seed > 0x7fffffff:
         raise TdicamError(f"--seed = {args.seed} is out of range; valid: 1..2147483647")
-    params = parse_block_params(blk, args.extra)
+    params = parse_block_params(blk, args.extra) if args.extra else {}
     ex = export_block(blk, params, args.output, force=args.force, seed=args.seed)
     print(f"wrote {ex.path}: {ex.block} ({', '.join(f'{k}={v}' for k, v in ex.params.items())}"
           f"), {ex.n_in} stimulus beats, {ex.n_out} expected beats from golden cases "
