@@ -26,6 +26,7 @@ import hashlib
 import json
 import os
 import shutil
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,7 +40,8 @@ from .hdl.axis import AxisTop
 from .pauses import thresholds
 from .verilog import convert
 
-__all__ = ["Export", "export_block", "select_vectors", "golden_params", "MAX_BEATS"]
+__all__ = ["Export", "export_block", "export_files", "run_binary", "select_vectors",
+           "golden_params", "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
 
 #: Input beats an export carries at most (cases that would pass it are left out), so that
 #: Icarus runs the testbench in about a minute.
@@ -267,7 +269,8 @@ fusesoc --cores-root .. run --target sim_icarus tdicam:blocks:{blk.name}
 
 def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backpressure=0.1,
                  max_beats=MAX_BEATS):
-    """Write the export folder of ``block`` at ``params`` (raw values, checked here).
+    """Write the export folder of ``block`` at ``params`` (raw values, checked here; none:
+    :func:`golden_params`).
 
     Raises :class:`TdicamError` for an unknown block or parameter, a block without a
     stream testbench, parameters without golden vectors, an output folder that cannot be
@@ -275,13 +278,27 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
     """
     blk = blocks.get(block) if isinstance(block, str) else block
     params = blk.resolve(params) if params else golden_params(blk)
+    top = _stream_top(blk, params)
+    out = Path(out_dir)
+    _check_target(out, blk.name, params, force)
+    stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
+    files = export_files(blk, params, top, stim, exp, cases=cases, seed=seed, idle=idle,
+                         backpressure=backpressure)
+    _write(out, files)
+    return Export(out, blk.name, params, cases, len(stim), len(exp), sorted(files))
+
+
+def _stream_top(blk, params):
     top = blk.build(params)
     if not isinstance(top, AxisTop) or blk.to_beats is None:
         raise TdicamError(f"block {blk.name} has no stream testbench to export (it is "
                           f"verified with its own harness); export a stream block")
-    out = Path(out_dir)
-    _check_target(out, blk.name, params, force)
-    stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
+    return top
+
+
+def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpressure=0.1):
+    """{relative path: text} of the export folder for stimulus ``stim`` and expected
+    output ``exp`` (:class:`~tdicam.beats.Beats`) of ``blk``'s Verilog top ``top``."""
     in_bits, out_bits, ctrl = stream_ports(top)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     padded = top._in[2]
@@ -313,8 +330,42 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
                                       version)
     mark = {"tdicam": __version__, "block": blk.name, "params": params}
     files[_MARK] = json.dumps(mark, indent=1, sort_keys=True) + "\n"
-    _write(out, files)
-    return Export(out, blk.name, params, cases, len(stim), len(exp), sorted(files))
+    return files
+
+
+#: Verilator arguments of a stand-alone (``--binary``) build of an exported testbench.
+VERILATOR_BINARY_ARGS = ("--binary", "--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
+                         "-CFLAGS", "-std=c++20 -fcoroutines -O2", "--x-assign", "fast",
+                         "--top-module", tbgen.TB_TOP)
+
+
+def run_binary(blk, params, stim, exp, folder, *, seed=1, idle=0.1, backpressure=0.1):
+    """Export ``stim``/``exp`` into ``folder``, build it with ``verilator --binary`` and run
+    it (no Python in the simulation loop). Returns (build seconds, run seconds, passed,
+    last line printed)."""
+    import subprocess
+    from .cosim import tool_env
+    top = _stream_top(blk, params)
+    folder = Path(folder)
+    shutil.rmtree(folder, ignore_errors=True)
+    _write(folder, export_files(blk, params, top, stim, exp, cases=["bench"], seed=seed,
+                                idle=idle, backpressure=backpressure))
+    tool_env("verilator")
+    vec = folder / "vectors"
+    t0 = time.perf_counter()
+    b = subprocess.run(["verilator", *VERILATOR_BINARY_ARGS, "-Mdir", "obj_dir",
+                        "../tb/tdicam_tb.v", f"../rtl/{blk.name}.v"], cwd=vec,
+                       capture_output=True, text=True)
+    build_s = time.perf_counter() - t0
+    if b.returncode != 0:
+        raise TdicamError(f"verilator --binary build of the {blk.name} export failed: "
+                          f"{(b.stderr.strip().splitlines() or [''])[-1]}")
+    t0 = time.perf_counter()
+    r = subprocess.run([f"./obj_dir/V{tbgen.TB_TOP}"], cwd=vec, capture_output=True, text=True)
+    run_s = time.perf_counter() - t0
+    last = (r.stdout.strip().splitlines() or [""])[-1]
+    passed = r.returncode == 0 and last.startswith("PASS")
+    return build_s, run_s, passed, last
 
 
 def _check_target(out, block, params, force):
