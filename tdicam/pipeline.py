@@ -1,0 +1,668 @@
+"""A scene's ``[pipeline]`` as one design: its gateware top, its golden chain, and the
+whole-scene co-simulation of the one against the other.
+
+:func:`plan` turns a scene into a :class:`Plan` (the blocks in order with their registry
+parameters, run-time settings and side inputs). From a plan, :func:`top` builds the Verilog
+top (:class:`tdicam.hdl.pipeline.Pipeline` behind :class:`~tdicam.hdl.axis.AxisTop`),
+:func:`golden` runs the golden chain (:func:`tdicam.model.pipeline.chain`) and
+:func:`cosimulate` runs raw scene frames through the generated top in fast mode, comparing
+every stage's tap with its golden stage; on a mismatch it names the first block that
+differs, where, and writes a VCD waveform of the cycles around it.
+
+What each block contributes (its stage kind, parameters from the scene, side inputs, golden
+call) is one entry of :data:`USES`, keyed by block name; the orchestration below names no
+block. (The architecture issue's block registry is to hold these entries; until it does,
+they live here.)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+
+from .errors import TdicamError
+
+__all__ = ["Step", "Plan", "SceneData", "USES", "plan", "top", "golden", "stimulus",
+           "cosimulate", "verilog", "identity_data"]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One block of a plan: registry ``params``, run-time port values ``ports``, ``group``
+    (incoming frames per frame, or None) and ``after_tdi`` (its frames are output lines)."""
+
+    block: str
+    params: dict
+    ports: dict = field(default_factory=dict)
+    group: int | None = None
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A scene's chain: ``steps`` in order; input ``lanes`` (channels) of ``lane_elems``
+    elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them."""
+
+    steps: tuple
+    lanes: int
+    lane_elems: int
+    in_bits: int
+    rows: int
+    width: int
+    frames: int
+    lines: int
+    source: str = ""
+
+    @property
+    def input_pixels(self):
+        return self.frames * self.rows * self.width * self.lanes
+
+
+@dataclass
+class SceneData:
+    """Raw scene data for the chain: per lane (channel) the signal frames and, with CDS,
+    the reset frames, ``(frames, rows, width)``; per lane the NUC coefficient codes
+    ``(gain, offset)``, ``(rows, width)`` each, or None."""
+
+    signal: list
+    reset: list | None = None
+    coeffs: list | None = None
+
+    def lane_arrays(self, plan):
+        out = []
+        for k in range(plan.lanes):
+            arrs = [np.asarray(self.signal[k])]
+            if plan.lane_elems == 2:
+                if self.reset is None:
+                    raise TdicamError("pipeline: the chain starts with a two-element block "
+                                      "(CDS) but the scene data has no reset frames")
+                arrs.append(np.asarray(self.reset[k]))
+            out.append(arrs)
+        return out
+
+    def crop(self, x0, w, f0, nf):
+        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``."""
+        cut = (lambda a: np.ascontiguousarray(np.asarray(a)[f0:f0 + nf, :, x0:x0 + w]))
+        return SceneData([cut(s) for s in self.signal],
+                         None if self.reset is None else [cut(r) for r in self.reset],
+                         None if self.coeffs is None else
+                         [(np.ascontiguousarray(g[:, x0:x0 + w]),
+                           np.ascontiguousarray(o[:, x0:x0 + w])) for g, o in self.coeffs])
+
+
+# --------------------------------------------------------------------------------------
+# what each block contributes
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Use:
+    """How a block takes part in a pipeline.
+
+    ``step(ctx) -> (Step, out_bits)`` makes its parameters from the scene context (the
+    chain's pixel width so far in ``ctx.bits``); ``hw(step, data) -> stage`` its
+    :mod:`tdicam.hdl.pipeline` stage; ``gold(step, data) -> GoldenStage`` its golden stage.
+    ``merge``: takes every lane; ``elems``: input elements per lane; ``lines``: its output
+    frames are single lines (one per input frame, after a fill); ``per_frame``: acts on each
+    exposure frame (must come before a ``lines`` block).
+    """
+
+    step: Callable
+    hw: Callable
+    gold: Callable
+    merge: bool = False
+    elems: int = 1
+    lines: bool = False
+    per_frame: bool = False
+
+
+@dataclass
+class _Ctx:
+    scene: object
+    m: int
+    width: int
+    lines: int
+    bits: int
+    after_tdi: bool = False
+
+
+def _bits_of(maxval):
+    return max(1, int(maxval).bit_length())
+
+
+def _step_cds(ctx):
+    return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
+
+
+def _hw_lane(kind_name, elems=1, side=None):
+    """A :class:`~tdicam.hdl.pipeline.LaneStage` (or ``"merge"``: ``MergeStage``) of the
+    block's registered component; ``side(step, data)`` gives its joined side stream."""
+    def make(step, data):
+        from .hdl.pipeline import LaneStage, MergeStage
+        comp = _component(step)
+        kind = MergeStage if kind_name == "merge" else LaneStage
+        return kind(step.block, lambda lane: comp(),
+                    elems=elems, ports=tuple(step.ports),
+                    side=None if side is None else side(step, data),
+                    group="height" if step.group is not None else None)
+    return make
+
+
+def _component(step):
+    """The core (behind AxisTop) of the block's registered Verilog top."""
+    from . import blocks
+    blk = blocks.get(step.block)
+    params = blk.resolve(step.params)
+
+    def make():
+        wrapper = blk.top(**params)
+        wrapper._MustUse__silence = True   # only its core is used
+        return wrapper.core
+    return make
+
+
+def _step_nuc(ctx):
+    opt = ctx.scene.pipeline.nuc
+    return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
+                        "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
+                        "offset_frac_bits": 0}), ctx.bits
+
+
+def _nuc_fmt(step):
+    from .model.nuc import NucFormat
+    p = step.params
+    return NucFormat(p["gain_int_bits"], p["gain_frac_bits"], p["offset_bits"],
+                     p["offset_frac_bits"])
+
+
+def _nuc_side(step, data):
+    """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
+    from .hdl.calib import CalibReader
+    from .hdl.pipeline import CalibRom, Link
+    from .model.calib import encode_image
+    fmt = _nuc_fmt(step)
+
+    def side(m, lane):
+        gain, offset = data.coeffs[lane]
+        rom = CalibRom(encode_image(gain, offset, fmt))
+        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], **fmt.params())
+        m.submodules[f"nuc_calib_rom{lane}"] = rom
+        m.submodules[f"nuc_calib{lane}"] = rd
+        m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),
+                     rom.o_stream.ready.eq(rd.i_stream.ready),
+                     rd.i_stream.payload.eq(rom.o_stream.payload)]
+        return Link.of_output(rd.o_stream)
+    return side
+
+
+def _gold_nuc(step, data):
+    from .model.nuc import nuc
+    from .model.pipeline import GoldenStage
+
+    def fn(arrays, lane):
+        x = arrays[0]
+        g, o = data.coeffs[lane]
+        return nuc(x, np.broadcast_to(g, x.shape), np.broadcast_to(o, x.shape),
+                   **step.params)
+    return GoldenStage("nuc", fn)
+
+
+def _hdr_params(ctx):
+    h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
+    if len(g) != 2:
+        raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "
+                          f"{len(g)}")
+    return {"pixel_bits": ctx.bits, "threshold": h.threshold_dn, "band": h.band_dn,
+            "gain_pairs": f"{g[0]}:{g[1]}", "slope_frac_bits": h.slope_frac_bits}
+
+
+def _step_hdr(ctx):
+    from .model.hdr import hdr_config
+    p = _hdr_params(ctx)
+    return Step("hdr", p), hdr_config(**p).out_bits
+
+
+def _step_tdi(ctx):
+    from .model import tdi as tdi_model
+    t = ctx.scene.tdi
+    m, pb = ctx.m, ctx.bits
+    out_bits = t.output_bits if t.output == "saturate" else None
+    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
+        out_bits = None
+    step = Step("tdi", {"width": ctx.width, "stages": m, "pixel_bits": pb,
+                        "out_bits": out_bits, "ppc": 1},
+                {"stages_active": m, "direction": 0 if t.direction == "forward" else 1})
+    return step, tdi_model.out_width(pb, m, out_bits)
+
+
+def _gold_tdi(step, data):
+    from .model.pipeline import GoldenStage
+    from .model.tdi import tdi
+    p = step.params
+
+    def fn(arrays, lane):
+        out = tdi(arrays[0], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                  out_bits=p["out_bits"], direction=step.ports["direction"])
+        return out[:, None, :]
+    return GoldenStage("tdi", fn)
+
+
+def _step_median3(ctx):
+    pb = max(ctx.bits, 8)
+    enh = bool(ctx.scene.pipeline.median3.edge_enhance)
+    p = {"width": ctx.width, "pixel_bits": pb, "enhance": enh}
+    if ctx.after_tdi:
+        return Step("median3", p, {"height": ctx.lines}, group=ctx.lines), pb
+    return Step("median3", p, {"height": ctx.m}), pb
+
+
+def _gold_median3(step, data):
+    from .model.median3 import median3
+    from .model.pipeline import GoldenStage
+    return GoldenStage("median3", lambda arrays, lane: median3(arrays[0], **{
+        k: step.params[k] for k in ("pixel_bits", "enhance")}), group=step.group)
+
+
+def _gold_simple(fn_path, names):
+    """Golden stage calling ``model.<block>.<fn>`` on the lane's arrays with the step's
+    parameters ``names``."""
+    def make(step, data):
+        import importlib
+        from .model.pipeline import GoldenStage
+        mod, fn = fn_path.rsplit(".", 1)
+        f = getattr(importlib.import_module(f"tdicam.model.{mod}"), fn)
+        return GoldenStage(step.block, lambda arrays, lane: f(
+            *arrays, **{k: step.params[k] for k in names}))
+    return make
+
+
+#: Block name -> how it takes part in a pipeline (see :class:`Use`).
+USES = {
+    "cds": Use(_step_cds, _hw_lane("lane", elems=2),
+               _gold_simple("cds.cds", ("pixel_bits",)), elems=2, per_frame=True),
+    "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), _gold_nuc, per_frame=True),
+    "hdr": Use(_step_hdr, _hw_lane("merge"),
+               _gold_simple("hdr.hdr", ("pixel_bits", "threshold", "band", "gain_pairs",
+                                        "slope_frac_bits")), merge=True, per_frame=True),
+    "tdi": Use(_step_tdi, _hw_lane("lane"), _gold_tdi, lines=True),
+    "median3": Use(_step_median3, _hw_lane("lane"), _gold_median3),
+}
+
+
+def _use(name):
+    if name not in USES:
+        raise TdicamError(f"pipeline: block {name!r} has no gateware stage; blocks with one: "
+                          f"{', '.join(USES)}")
+    return USES[name]
+
+
+# --------------------------------------------------------------------------------------
+# plan, top, golden chain
+# --------------------------------------------------------------------------------------
+
+
+def plan(scene, *, stages=None, lines=None, width=None, blocks=None):
+    """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+
+    Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
+    a block without a gateware stage, a per-exposure block after a line-making one, a
+    merging block without two channels, a pixel width a block cannot take.
+    """
+    from . import blocks as registry
+    names = list(scene.pipeline.blocks if blocks is None else blocks)
+    if scene.tdi.domain != "digital":
+        raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
+                          "digital-TDI chain has a gateware pipeline")
+    m = int(scene.tdi.stages[0] if stages is None else stages)
+    n_lines = int(scene.run.lines if lines is None else lines)
+    w = int(scene.sensor.columns if width is None else width)
+    rt = scene.run.rtl
+    if rt is not None and rt.pixels_per_clock != 1:
+        raise TdicamError("pipeline: [run.rtl].pixels_per_clock must be 1 for the whole-chain "
+                          "top (the blocks other than tdi take one pixel per clock)")
+    uses = [_use(n) for n in names]
+    merge = any(u.merge for u in uses)
+    ctx = _Ctx(scene, m, w, n_lines, scene.sensor.bits)
+    steps, prev = [], "input"
+    for name, u in zip(names, uses):
+        if u.per_frame and ctx.after_tdi:
+            raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
+                              f"{prev}, which sums them into lines")
+        try:
+            step, out_bits = u.step(ctx)
+            registry.get(name).resolve(step.params)
+        except TdicamError as exc:
+            raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
+        steps.append(step)
+        ctx.bits = out_bits
+        ctx.after_tdi = ctx.after_tdi or u.lines
+        prev = name
+    return Plan(tuple(steps), lanes=2 if merge else 1,
+                lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
+                rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
+                source=str(scene.source))
+
+
+def identity_data(p):
+    """Scene data placeholder for elaboration: identity NUC coefficients (gain 1, offset 0)
+    and no frames."""
+    from .model.nuc import identity_coeffs
+    coeffs = None
+    for st in p.steps:
+        if "gain_frac_bits" in st.params:
+            g, o = identity_coeffs((p.rows, p.width), _nuc_fmt(st))
+            coeffs = [(g, o)] * p.lanes
+    return SceneData([], None, coeffs)
+
+
+def top(p, data=None, *, taps=False):
+    """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``)."""
+    from .hdl.axis import AxisTop
+    from .hdl.pipeline import Pipeline
+    data = identity_data(p) if data is None or data.coeffs is None else data
+    stages = [USES[s.block].hw(s, data) for s in p.steps]
+    try:
+        core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
+                        taps=taps)
+    except TdicamError as exc:
+        raise TdicamError(str(exc)) from None
+    return AxisTop(core)
+
+
+def verilog(p, data=None, *, taps=False):
+    """Deterministic Verilog text of the top (module ``pipeline``)."""
+    from .verilog import convert
+    return convert(top(p, data, taps=taps), "pipeline")
+
+
+def golden(p, data):
+    """Every stage's golden output, in the order of the top's taps: list of [tap name,
+    block, ndarray (frames, rows, width)]."""
+    from .model.pipeline import chain
+    stages = [replace(USES[s.block].gold(s, data), merge=USES[s.block].merge)
+              for s in p.steps]
+    out = []
+    for (name, lanes), st in zip(chain(data.lane_arrays(p), stages), p.steps):
+        for k, a in enumerate(lanes):
+            out.append([name + (f"_{k}" if len(lanes) > 1 else ""), st.block, a])
+    return out
+
+
+def _ctrl(axis_top, p):
+    """Packed run-time port values (first port in the most significant bits)."""
+    from .cosim import stream_ports
+    _, _, ctrl = stream_ports(axis_top)
+    values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+    word = 0
+    for name, width in ctrl:
+        if name not in values:
+            raise TdicamError(f"pipeline: no value for the top's input port {name}")
+        word = (word << width) | (int(values[name]) & ((1 << width) - 1))
+    return ctrl, word
+
+
+def stimulus(p, data, axis_top):
+    """Input beats of the scene data (every lane's elements in each beat)."""
+    from .cosim.codec import frames_to_beats
+    arrs = [a for lane in data.lane_arrays(p) for a in lane]
+    stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
+    _, word = _ctrl(axis_top, p)
+    stim.ctrl = np.full(len(stim), word, np.uint64)
+    return stim
+
+
+# --------------------------------------------------------------------------------------
+# co-simulation with taps
+# --------------------------------------------------------------------------------------
+
+#: Cycles of waveform kept before and after the first mismatch.
+WAVE_WINDOW = 64
+
+
+def _testbench(axis_top, taps, *, wave):
+    """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
+    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` a VCD ``wave.vcd`` of
+    cycles ``+wave_from .. +wave_to``."""
+    from .cosim import stream_ports, tbgen
+    in_bits, out_bits, ctrl = stream_ports(axis_top)
+    tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
+                                ctrl_ports=ctrl)
+    decl, conn, opens, writes, closes = [], [], [], [], []
+    for k, (name, bits, count) in enumerate(taps):
+        padded = -(-bits // 8) * 8
+        base = f"tap{k}_{name}"
+        decl.append(f"  wire {base}_valid, {base}_ready, {base}_first, {base}_last;\n"
+                    f"  wire [{bits * count - 1}:0] {base}_data;\n"
+                    f"  integer tfd{k}, tcd{k};\n")
+        conn += [f"    .{base}_{s}({base}_{s})," for s in ("valid", "ready", "first", "last",
+                                                         "data")]
+        parts = []
+        for e in range(count - 1, -1, -1):
+            piece = f"{base}_data[{bits * (e + 1) - 1}:{bits * e}]"
+            parts.append(piece if padded == bits else f"{padded - bits}'d0, {piece}")
+        opens.append(f'    tfd{k} = $fopen("tap{k}.hex", "w"); tcd{k} = $fopen("tap{k}.cyc", '
+                     f'"w");')
+        writes.append(
+            f"      if ({base}_valid && {base}_ready) begin\n"
+            f'        $fwrite(tfd{k}, "%h %h %h\\n", seg, {{2\'b00, {base}_first, {base}_last}},'
+            f" {{{', '.join(parts)}}});\n"
+            f'        $fwrite(tcd{k}, "%h\\n", cycles);\n'
+            f"      end")
+        closes.append(f"      $fclose(tfd{k}); $fclose(tcd{k});")
+    extra = "".join(decl)
+    if wave:
+        extra += ("  reg [31:0] wave_from = 0, wave_to = 0;\n  reg wave = 1'b0;\n"
+                  "  initial begin\n"
+                  '    if ($value$plusargs("wave_from=%d", wave_from) && '
+                  '$value$plusargs("wave_to=%d", wave_to)) begin\n'
+                  '      wave = 1\'b1; $dumpfile("wave.vcd"); $dumpvars(0, tdicam_tb); '
+                  "$dumpoff;\n    end\n  end\n")
+    marker = "  pipeline dut (\n    .clk(clk),\n"
+    if marker not in tb:
+        raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
+                          "tdicam.pipeline._testbench")
+    tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
+    body = ["  initial begin", *opens, "  end",
+            "  always @(posedge clk) begin",
+            "    if (running && !rst) begin", *writes, "    end",
+            "    if (running && (drain_cnt >= drain || cycles >= max_cycles)) begin",
+            *closes, "    end"]
+    if wave:
+        body += ["    if (wave && running && cycles == wave_from) $dumpon;",
+                 "    if (wave && running && cycles == wave_to) begin $dumpoff; $dumpflush; "
+                 "end"]
+    body.append("  end\n")
+    i = tb.rindex("endmodule")
+    return tb[:i] + "\n".join(body) + tb[i:]
+
+
+def _hexcol(raw, digits):
+    table = np.full(256, 0, np.uint64)
+    for i, c in enumerate(b"0123456789abcdef"):
+        table[c] = i
+    lines = np.frombuffer(raw, np.uint8).reshape(-1, digits + 1)[:, :digits]
+    out = np.zeros(len(lines), np.uint64)
+    for k in range(digits):
+        out = (out << np.uint64(4)) | table[lines[:, k]]
+    return out
+
+
+def _simulate(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
+              keep=False):
+    """Build (cached) and run the top on the scene data; returns (taps got, info).
+
+    ``wave = (from, to)`` writes ``wave.vcd`` of those cycles (Icarus) and stops there.
+    """
+    from . import cosim
+    from .cosim import codec, tbgen
+    from .verilog import convert
+    t0 = time.perf_counter()
+    ax = top(p, data, taps=taps)
+    tap_shapes = ax.core.tap_shapes if taps else []
+    dut = convert(ax, "pipeline")
+    tb = _testbench(ax, tap_shapes, wave=wave is not None)
+    key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
+           "taps": taps, "wave": wave is not None}
+    elab = time.perf_counter() - t0
+    bdir, build_s = cosim.build_sources("pipeline", key, sim,
+                                        {"pipeline.v": dut, "tb.v": tb})
+    stim = stimulus(p, data, ax)
+    _, _, ctrl = cosim.stream_ports(ax)
+    ctrl_bits = max(1, sum(w for _, w in ctrl))
+    bits, count, padded, _ = ax._in
+    n_in = len(stim)
+    n_out = int(np.prod(golden_shape_last(p)))
+    max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    text = codec.encode_stimulus(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits)
+    line = len(text) // max(n_in, 1)
+    for k in range(0, max(n_in, 1), tbgen.DEPTH):
+        (rundir / f"stim_{k // tbgen.DEPTH:06d}.hex").write_bytes(
+            text[k * line:(k + tbgen.DEPTH) * line])
+    job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
+           "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
+           "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
+           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": ax._out[2],
+           "out_count": ax._out[1]}
+    (rundir / "job.json").write_text(json.dumps(job))
+    plus = [f"+n_in={n_in}", f"+n_out={n_out}", f"+max_cycles={max_cycles}", "+drain=2000",
+            f"+idle={round(idle * 256)}", f"+bp={round(backpressure * 256)}",
+            f"+seed={int(seed) & 0x7fffffff}"]
+    if wave is not None:
+        plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
+    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus)
+    summary = rundir / "summary.json"
+    if not ok or not summary.exists():
+        raise TdicamError(f"{sim} simulation of the pipeline failed; see "
+                          f"{rundir / 'sim.log'}")
+    info = json.loads(summary.read_text())
+    got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
+                                      elem_padded_bits=ax._out[2], count=ax._out[1])}
+    for k, (name, b, c) in enumerate(tap_shapes):
+        got[k] = (codec.decode_output((rundir / f"tap{k}.hex").read_bytes(),
+                                      elem_padded_bits=-(-b // 8) * 8, count=c),
+                  _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
+    info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
+                 "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
+    if not keep and wave is None:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return got, info
+
+
+def golden_shape_last(p):
+    """(frames, rows, width) of the chain's output."""
+    frames, rows = p.frames, p.rows
+    for s in p.steps:
+        if USES[s.block].lines:
+            frames, rows = max(frames - s.params["stages"] + 1, 0), 1
+        if s.group is not None:
+            frames, rows = frames // s.group, rows * s.group
+    return frames, rows, p.width
+
+
+def _first_diff(got, exp):
+    """Index of the first differing beat (or of the first missing/extra one), or None."""
+    n = min(len(got), len(exp))
+    bad = (got.data[:n] != exp.data[:n]).any(axis=1) | (got.first[:n] != exp.first[:n]) \
+        | (got.last[:n] != exp.last[:n])
+    if bad.any():
+        return int(np.argmax(bad))
+    return None if len(got) == len(exp) else n
+
+
+def cosimulate(p, data, sim="verilator", *, corrupt=None, wave_dir=None, seed=1,
+               idle=0.0, backpressure=0.0):
+    """Run ``data`` through the generated top and compare every tap with the golden chain.
+
+    Parameters
+    ----------
+    corrupt : callable(list of (name, ndarray)) or None
+        Alters the golden stages before the comparison (to show the check can fail).
+    wave_dir : path or None
+        Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.vcd``);
+        None: no waveform.
+
+    Returns
+    -------
+    dict
+        ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
+        missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
+        ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
+        mismatches) and, on a mismatch, ``first_mismatch`` (block, tap, frame, line, column,
+        expected, received, cycle) and ``waveform``.
+    """
+    from .cosim.codec import frames_to_beats
+    gold = golden(p, data)
+    if corrupt is not None:
+        corrupt(gold)
+    got, info = _simulate(p, data, sim, seed=seed, idle=idle, backpressure=backpressure)
+    rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
+           "input_pixels": int(sum(a.size for lane in data.lane_arrays(p) for a in lane)),
+           "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
+           "build_seconds": info["build_seconds"], "run_seconds": info["run_seconds"],
+           "taps": []}
+    rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
+    first = None
+    for k, (name, block, arr) in enumerate(gold):
+        exp = frames_to_beats(arr)
+        g, cyc = got[k]
+        d = _first_diff(g, exp)
+        n = min(len(g), len(exp))
+        bad = int(((g.data[:n] != exp.data[:n]).any(axis=1)).sum()) + abs(len(g) - len(exp))
+        rep["taps"].append({"tap": name, "beats": len(exp), "received": len(g),
+                            "mismatches": bad})
+        if d is not None and first is None:
+            fr, rows, w = arr.shape
+            cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
+            first = {"block": block, "tap": name, "beat": d,
+                     "frame": d // (rows * w), "line": (d // w) % rows, "column": d % w,
+                     "expected": int(exp.data[d, 0]) if d < len(exp) else None,
+                     "received": int(g.data[d, 0]) if d < len(g) else None,
+                     "cycle": cycle}
+    exp_out = frames_to_beats(gold[-1][2])
+    out = got["out"]
+    d = _first_diff(out, exp_out)
+    n = min(len(out), len(exp_out))
+    rep["pixels_compared"] = int(n) * int(out.data.shape[1])
+    rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
+                             | (out.first[:n] != exp_out.first[:n])
+                             | (out.last[:n] != exp_out.last[:n])).sum()) \
+        + abs(len(out) - len(exp_out))
+    if first is not None:
+        rep["first_mismatch"] = first
+        rep["message"] = (f"first mismatch in block {first['block']} (tap {first['tap']}): "
+                          f"frame {first['frame']}, line {first['line']}, column "
+                          f"{first['column']}: expected {first['expected']}, received "
+                          f"{first['received']} (cycle {first['cycle']})")
+        if wave_dir is not None:
+            rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
+                                        backpressure)
+            rep["message"] += f"; waveform {rep['waveform']}"
+    elif d is not None:
+        rep["message"] = f"output beat {d} differs"
+    else:
+        rep["message"] = "match"
+    return rep
+
+
+def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
+    """Re-run on Icarus (same stimulus, same idle/backpressure seed: the same cycles) up to
+    the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to a VCD."""
+    from pathlib import Path
+    lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
+    _, info = _simulate(p, data, "icarus", wave=(lo, hi), seed=seed, idle=idle,
+                        backpressure=backpressure)
+    src = Path(info["rundir"]) / "wave.vcd"
+    dst = Path(wave_dir) / "pipeline_mismatch.vcd"
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    if not src.exists():
+        raise TdicamError(f"pipeline: Icarus wrote no waveform; see {info['rundir']}")
+    shutil.move(str(src), dst)
+    shutil.rmtree(info["rundir"], ignore_errors=True)
+    return str(dst)
