@@ -7,7 +7,7 @@ top (:class:`tdicam.hdl.pipeline.Pipeline` behind :class:`~tdicam.hdl.axis.AxisT
 :func:`golden` runs the golden chain (:func:`tdicam.model.pipeline.chain`) and
 :func:`cosimulate` runs raw scene frames through the generated top in fast mode, comparing
 every stage's tap with its golden stage; on a mismatch it names the first block that
-differs, where, and writes a VCD waveform of the cycles around it.
+differs, where, and writes an FST waveform of the cycles around it.
 
 What each block contributes (its stage kind, parameters from the scene, side inputs, golden
 call) is one entry of :data:`USES`, keyed by block name; the orchestration below names no
@@ -426,7 +426,7 @@ WAVE_WINDOW = 64
 
 def _testbench(axis_top, taps, *, wave):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
-    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` a VCD ``wave.vcd`` of
+    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` an FST ``wave.fst`` of
     cycles ``+wave_from .. +wave_to``."""
     from .cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
@@ -460,7 +460,7 @@ def _testbench(axis_top, taps, *, wave):
                   "  initial begin\n"
                   '    if ($value$plusargs("wave_from=%d", wave_from) && '
                   '$value$plusargs("wave_to=%d", wave_to)) begin\n'
-                  '      wave = 1\'b1; $dumpfile("wave.vcd"); $dumpvars(0, tdicam_tb); '
+                  '      wave = 1\'b1; $dumpfile("wave.fst"); $dumpvars(0, tdicam_tb); '
                   "$dumpoff;\n    end\n  end\n")
     marker = "  pipeline dut (\n    .clk(clk),\n"
     if marker not in tb:
@@ -496,7 +496,7 @@ def _simulate(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpress
               keep=False):
     """Build (cached) and run the top on the scene data; returns (taps got, info).
 
-    ``wave = (from, to)`` writes ``wave.vcd`` of those cycles (Icarus) and stops there.
+    ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
     """
     from . import cosim
     from .cosim import codec, tbgen
@@ -536,7 +536,16 @@ def _simulate(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpress
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus)
+    saved = os.environ.get("WAVES")
+    if wave is not None:
+        os.environ["WAVES"] = "1"   # the runner's "-fst" (else it passes "-none": no dump)
+    try:
+        ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus)
+    finally:
+        if saved is None:
+            os.environ.pop("WAVES", None)
+        else:
+            os.environ["WAVES"] = saved
     summary = rundir / "summary.json"
     if not ok or not summary.exists():
         raise TdicamError(f"{sim} simulation of the pipeline failed; see "
@@ -576,16 +585,18 @@ def _first_diff(got, exp):
     return None if len(got) == len(exp) else n
 
 
-def cosimulate(p, data, sim="verilator", *, corrupt=None, wave_dir=None, seed=1,
+def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
                idle=0.0, backpressure=0.0):
     """Run ``data`` through the generated top and compare every tap with the golden chain.
 
     Parameters
     ----------
+    gold : list or None
+        :func:`golden` of ``(p, data)`` if already computed.
     corrupt : callable(list of (name, ndarray)) or None
         Alters the golden stages before the comparison (to show the check can fail).
     wave_dir : path or None
-        Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.vcd``);
+        Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.fst``, FST: GTKWave, Surfer);
         None: no waveform.
 
     Returns
@@ -598,7 +609,7 @@ def cosimulate(p, data, sim="verilator", *, corrupt=None, wave_dir=None, seed=1,
         expected, received, cycle) and ``waveform``.
     """
     from .cosim.codec import frames_to_beats
-    gold = golden(p, data)
+    gold = golden(p, data) if gold is None else [list(g) for g in gold]
     if corrupt is not None:
         corrupt(gold)
     got, info = _simulate(p, data, sim, seed=seed, idle=idle, backpressure=backpressure)
@@ -653,13 +664,13 @@ def cosimulate(p, data, sim="verilator", *, corrupt=None, wave_dir=None, seed=1,
 
 def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
     """Re-run on Icarus (same stimulus, same idle/backpressure seed: the same cycles) up to
-    the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to a VCD."""
+    the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to an FST file."""
     from pathlib import Path
     lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
     _, info = _simulate(p, data, "icarus", wave=(lo, hi), seed=seed, idle=idle,
                         backpressure=backpressure)
-    src = Path(info["rundir"]) / "wave.vcd"
-    dst = Path(wave_dir) / "pipeline_mismatch.vcd"
+    src = Path(info["rundir"]) / "wave.fst"
+    dst = Path(wave_dir) / "pipeline_mismatch.fst"
     dst.parent.mkdir(parents=True, exist_ok=True)
     if not src.exists():
         raise TdicamError(f"pipeline: Icarus wrote no waveform; see {info['rundir']}")
