@@ -677,3 +677,109 @@ def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
     shutil.move(str(src), dst)
     shutil.rmtree(info["rundir"], ignore_errors=True)
     return str(dst)
+
+
+# --------------------------------------------------------------------------------------
+# commands: tdicam verilog|synth pipeline --scene S.toml
+# --------------------------------------------------------------------------------------
+
+#: ECP5-85F (LFE5U-85F) resources: LUT4 slots, flip-flops, 18 kbit EBRs, 18x18 multipliers.
+ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
+
+
+def _scene_args(prog, extra, more=()):
+    import argparse
+    ap = argparse.ArgumentParser(prog=prog, description="The whole pipeline of a scene "
+                                 "([pipeline] blocks in order, NUC coefficients identity "
+                                 "unless --calib).")
+    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
+                    "[tdi].stages)")
+    ap.add_argument("--lines", type=int, help="output lines per median image (default "
+                    "[run].lines)")
+    ap.add_argument("--calib", action="append", default=[],
+                    help="calibration image file (tdicam calib write), one per channel")
+    ap.add_argument("--taps", action="store_true", help="expose every block's output")
+    for args, kw in more:
+        ap.add_argument(*args, **kw)
+    try:
+        ns = ap.parse_args(list(extra))
+    except SystemExit as exc:
+        if exc.code:
+            raise TdicamError(f"{prog}: bad arguments (see {prog} --help)") from None
+        raise
+    from .scene import load_scene
+    sc = load_scene(ns.scene)
+    p = plan(sc, stages=ns.stages, lines=ns.lines)
+    data = None
+    if ns.calib:
+        from .model.calib import load_image
+        if len(ns.calib) != p.lanes:
+            raise TdicamError(f"--calib: the pipeline has {p.lanes} channel(s), got "
+                              f"{len(ns.calib)} image(s)")
+        coeffs = []
+        for path in ns.calib:
+            img = load_image(path)
+            if img.shape != (p.rows, p.width):
+                raise TdicamError(f"--calib {path}: a {img.shape[0]} x {img.shape[1]} image; "
+                                  f"the pipeline's frames are {p.rows} x {p.width}")
+            coeffs.append((np.asarray(img.gain), np.asarray(img.offset)))
+        data = SceneData([], None, coeffs)
+    return ns, p, data
+
+
+def verilog_command(extra, output, *, show_help=False):
+    """``tdicam verilog pipeline --scene S.toml [-o FILE]``; returns the exit status."""
+    import sys
+    if show_help:
+        extra = ["--help"]
+    from .verilog import convert
+    ns, p, data = _scene_args("tdicam verilog pipeline", extra)
+    ax = top(p, data, taps=ns.taps)
+    ax_lat = ax.latency
+    text = convert(ax, "pipeline")
+    if output:
+        with open(output, "w") as fh:
+            fh.write(text)
+        print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
+              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat} cycles",
+              file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+class _PipelineBlock:
+    """The registry face of a plan for :func:`tdicam.synth.synth` (name, resolve, build)."""
+
+    def __init__(self, p, data):
+        self.name, self._p, self._data = "pipeline", p, data
+
+    def resolve(self, params=None):
+        return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
+                                                   for s in self._p.steps]}
+
+    def build(self, params=None):
+        return top(self._p, self._data)
+
+
+def synth_command(extra):
+    """``tdicam synth pipeline --scene S.toml``: the whole chain's cost and whether it fits
+    an ECP5-85F."""
+    from .synth import synth
+    ns, p, data = _scene_args("tdicam synth pipeline", extra, more=(
+        (("--seeds",), {"type": int, "default": 1, "help": "placement seeds (1)"}),
+        (("--freq",), {"type": float, "default": 100.0, "help": "target MHz (100)"}),
+        (("--json",), {"action": "store_true", "help": "print JSON"})))
+    res = synth(_PipelineBlock(p, data), seeds=ns.seeds, freq_mhz=ns.freq)
+    fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
+    if ns.json:
+        print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
+        return 0
+    print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
+          f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
+          f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
+          f"{res.fmax_mhz:.1f} MHz; xc7 {res.xilinx}")
+    print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
+        f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
+    return 0
