@@ -162,6 +162,7 @@ def _component(step):
     def make():
         wrapper = blk.top(**params)
         wrapper._MustUse__silence = True   # only its core is used
+        wrapper.core._MustUse__silence = True   # elaborated with the pipeline, if it is
         return wrapper.core
     return make
 
