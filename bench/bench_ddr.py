@@ -19,7 +19,7 @@ import numpy as np
 
 from tdicam import blocks, cosim
 from tdicam.benchutil import machine, print_table
-from tdicam.blocks.ddr import run_ui_cosim
+from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
 from tdicam.model.ddr import LineLayout, pack_lines

@@ -17,7 +17,8 @@ import numpy as np
 
 from tdicam import blocks, cosim
 from tdicam.benchutil import machine, median_time, print_table
-from tdicam.blocks.ecc import dec_beats, enc_beats, sweep_codes
+from tdicam.blocks.secded_dec import dec_beats, sweep_codes
+from tdicam.blocks.secded_enc import enc_beats
 from tdicam.model import ecc
 
 

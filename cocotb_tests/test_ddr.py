@@ -6,7 +6,7 @@ Two kinds of runs:
   stalls on every MIG ready signal with the default pattern, plus random idle input and
   output backpressure), against the golden models;
 * the bare frame buffer with its MIG ports driven by the Python controller model
-  (:func:`tdicam.blocks.ddr.run_ui_cosim`): memory checked word for word against the
+  (:func:`tdicam.cosim.ddr.run_ui_cosim`): memory checked word for word against the
   Table 2 packing, interface efficiency measured per phase (>= 80 % required).
 
 Budget (every distinct parameter set is a simulator build; Verilator ~30-100 s each): all
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks, golden
-from tdicam.blocks.ddr import run_ui_cosim
+from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
 from tdicam.cosim.testing import check_beats, check_case

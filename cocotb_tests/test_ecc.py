@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.blocks.ecc import dec_beats, enc_beats, sweep_codes
+from tdicam.blocks.secded_dec import dec_beats, sweep_codes
+from tdicam.blocks.secded_enc import enc_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model import ecc
 

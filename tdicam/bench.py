@@ -45,10 +45,11 @@ import numpy as np
 
 from . import blocks, cosim
 from .benchutil import machine, median_time
-from .errors import TdicamError
+from .errors import TdicamError, check_range
 
-__all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "run", "describe_machine", "format_table",
-           "plot", "to_json", "fresh_build", "stream_sources", "script", "DDR_WORKS"]
+__all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
+           "describe_machine", "format_table", "plot", "to_json", "fresh_build",
+           "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS"]
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
 FLAT = Path(__file__).resolve().parents[1] / "scenes" / "flat_snr_sweep_96.toml"
@@ -62,14 +63,17 @@ def _amount(n, unit):
 # ------------------------------------------------------------------------------ workloads
 @dataclass(frozen=True)
 class StreamWork:
-    """A stream block's benchmark input, driven by the block registry.
+    """A stream block's benchmark input; the block registry does the rest.
 
-    ``make(rng, n)`` returns the input arrays of ``n`` items (frames or words, axis 0);
-    ``golden(inputs, params)`` runs the golden model and returns the arrays the block's
-    ``to_beats`` takes; ``count(inputs)`` is the number of units (pixels, words) of the
-    input. ``sizes`` / ``quick`` give the items per level kind (``fast`` = the whole input,
-    also the golden model's; ``beat`` and ``pysim`` = the prefix those levels run; a key
-    ``"<sim> <mode>"`` overrides the size for one simulator, e.g. ``"icarus fast"``).
+    The input is ``n`` items (frames or words) of the block's
+    :attr:`~tdicam.blocks.Block.example` for frame ``shape``; the golden row times
+    :meth:`~tdicam.blocks.Block.case_arrays` (the golden model plus the case form) and every
+    simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the elements of the
+    block's main stream input. ``sizes`` / ``quick`` give the items per level kind (``fast`` =
+    the whole input, also the golden model's; ``beat`` and ``pysim`` = the prefix those
+    levels run; a key ``"<sim> <mode>"`` overrides the size for one simulator, e.g.
+    ``"icarus fast"``). ``corrupt(case arrays)``, when set, alters the expected arrays before
+    the comparison (to show that a wrong golden model is counted).
     """
 
     name: str
@@ -77,178 +81,68 @@ class StreamWork:
     params: dict
     unit: str
     what: str
-    make: Callable
-    golden: Callable
-    count: Callable
+    shape: tuple
     sizes: dict
     quick: dict
-    to_beats: Callable | None = None
-
-
-def _frames(shapes, bits=12):
-    """``make`` of random ``bits``-bit frames for each named input: {name: (rows, cols)}."""
-    def make(rng, n):
-        return {k: rng.integers(0, 1 << bits, (n, *s), dtype=np.uint16)
-                for k, s in shapes.items()}
-    return make
-
-
-def _cds_golden(inp, params):
-    from .model.cds import cds
-    return {**inp, "out": cds(inp["signal"], inp["reset"], pixel_bits=params["pixel_bits"])}
-
-
-def _nuc_make(rng, n):
-    from .model.nuc import DEFAULT_FORMAT
-    shape = (n, 4, 1280)
-    return {"x": rng.integers(0, 4096, shape, dtype=np.uint16),
-            "gain": DEFAULT_FORMAT.gain_code(rng.normal(1.0, 0.05, shape)).astype(np.uint16),
-            "offset": rng.integers(-300, 300, shape).astype(np.int16)}
-
-
-def _nuc_golden(inp, params):
-    from .model.nuc import nuc
-    return {**inp, "out": nuc(inp["x"], inp["gain"], inp["offset"], **params)}
-
-
-def _hdr_make(rng, n):
-    from .blocks.hdr import scene_frames
-    from .model.hdr import hdr_config
-    hg, lg = scene_frames(hdr_config(), rng, n, 4, 1280)
-    return {"hg": hg.astype(np.uint16), "lg": lg.astype(np.uint16)}
-
-
-def _hdr_golden(inp, params):
-    from .model.hdr import hdr
-    sel = np.zeros(len(inp["hg"]), np.int64)
-    return {**inp, "gain_sel": sel, "out": hdr(inp["hg"], inp["lg"], gain_sel=sel, **params)}
-
-
-def _median3_golden(inp, params):
-    from .blocks.median3 import stream_case
-    return stream_case(list(inp["frames"]), params)
-
-
-def _tdi_golden(inp, params):
-    from .blocks.tdi import stream_arrays
-    from .model.tdi import tdi_stream
-    m = params["stages"]
-    a = stream_arrays(list(inp["frames"]), [(m, 0)] * len(inp["frames"]), params)
-    res = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
-                     width=params["width"], stages=m, pixel_bits=params["pixel_bits"],
-                     out_bits=params["out_bits"], ppc=params["ppc"])
-    return {**a, "out": res.data, "out_first": res.first, "out_last": res.last}
-
-
-def _words(rng, n):
-    return {"data": rng.integers(0, 1 << 64, n, dtype=np.uint64)}
-
-
-def _enc_golden(inp, params):
-    from .model import ecc
-    return {"data": inp["data"], "check": ecc.encode(inp["data"])}
-
-
-def _received(rng, n):
-    """Random code words with 0, 1 or 2 flipped bits (a third each)."""
-    from .model import ecc
-    data = rng.integers(0, 1 << 64, n, dtype=np.uint64)
-    k = rng.integers(0, 3, n)
-    first = rng.integers(0, 72, n)
-    second = (first + rng.integers(1, 72, n)) % 72
-    pos = np.stack([np.where(k >= 1, first, -1), np.where(k >= 2, second, -1)], axis=1)
-    d, c = ecc.flip(data, ecc.encode(data), pos)
-    return {"data_in": d, "check_in": c}
-
-
-def _dec_golden(inp, params):
-    from .model import ecc
-    res = ecc.decode(inp["data_in"], inp["check_in"])
-    return {**inp, "data": res.data, "syndrome": res.syndrome}
-
-
-def _size(arr_key, per=1):
-    return lambda inp: int(inp[arr_key].size // per)
+    corrupt: Callable | None = None
 
 
 _PX = {"pysim": 1, "beat": 3, "fast": 64, "icarus fast": 16}
 _PX_QUICK = {"pysim": 1, "beat": 1, "fast": 4}
 _WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000, "icarus fast": 60_000}
 _WORDS_QUICK = {"pysim": 1000, "beat": 2000, "fast": 20_000}
+_TDI = {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60}
+_TDI_QUICK = {"pysim": 5, "beat": 5, "fast": 20}
 
 #: The stream blocks' benchmarks, in table order.
 STREAM_WORKS = (
     StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel", "frames of 1280 x 4, 12-bit",
-               _frames({"signal": (4, 1280), "reset": (4, 1280)}), _cds_golden,
-               _size("signal"), _PX, _PX_QUICK),
+               (4, 1280), _PX, _PX_QUICK),
     StreamWork("tdi", "tdi", {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
                "pixel", "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
-               _frames({"frames": (4, 256)}), _tdi_golden, _size("frames"),
-               {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60},
-               {"pysim": 5, "beat": 5, "fast": 20}),
+               (4, 256), _TDI, _TDI_QUICK),
     StreamWork("nuc", "nuc", {}, "pixel", "frames of 1280 x 4, 12-bit, gain Q2.14",
-               _nuc_make, _nuc_golden, _size("x"), _PX, _PX_QUICK),
+               (4, 1280), _PX, _PX_QUICK),
     StreamWork("hdr", "hdr", {}, "pixel", "frames of 1280 x 4, 12-bit HG/LG light ramp",
-               _hdr_make, _hdr_golden, _size("hg"), _PX, _PX_QUICK),
+               (4, 1280), _PX, _PX_QUICK),
     StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12}, "pixel",
-               "frames of 1280 x 8, 12-bit", _frames({"frames": (8, 1280)}),
-               _median3_golden, _size("frames"), {"pysim": 1, "beat": 2, "fast": 32,
-                                                  "icarus fast": 8},
+               "frames of 1280 x 8, 12-bit", (8, 1280),
+               {"pysim": 1, "beat": 2, "fast": 32, "icarus fast": 8},
                {"pysim": 1, "beat": 1, "fast": 2}),
     StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
-               "random 64-bit words", _words, _enc_golden, _size("data"), _WORDS,
-               _WORDS_QUICK),
+               "random 64-bit words", (), _WORDS, _WORDS_QUICK),
     StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
-               "72-bit code words with 0/1/2 flips", _received, _dec_golden,
-               _size("data_in"), _WORDS, _WORDS_QUICK),
+               "72-bit code words with 0/1/2 flips", (), _WORDS, _WORDS_QUICK),
 )
-
-def _ddr_golden(inp, params):
-    """The DDR line packing round trip (Table 2 words and back)."""
-    from .model.ddr import LineLayout, pack_lines, unpack_lines
-    lay = LineLayout(width=params["width"], channels=params["channels"],
-                     pixel_bits=params["pixel_bits"], pixels_per_word=params["pixels_per_word"])
-    f = inp["frames"]
-    lines = f.reshape(-1, lay.values_per_line)
-    return {"frames": f, "out": unpack_lines(pack_lines(lines, lay), lay).reshape(f.shape)}
-
-
-def _ddr_beats(a, params):
-    from .blocks.ddr import ddr_to_beats
-    return (ddr_to_beats({"frames": a["frames"]}, params)[0],
-            ddr_to_beats({"frames": a["out"]}, params)[1])
-
-
-def _cds_ddr_make(rng, n):
-    """10-bit frames, every 4th a reset frame (stored in DDR, no output)."""
-    return {"frames": rng.integers(0, 1024, (n, 8, 512), dtype=np.uint16),
-            "kinds": (np.arange(n) % 4 == 0).astype(np.int64)}
-
-
-def _cds_ddr_golden(inp, params):
-    from .model.ddr import cds_ddr_frames
-    return {**inp, "out": cds_ddr_frames(inp["frames"], inp["kinds"],
-                                         pixel_bits=params["pixel_bits"])}
-
 
 #: The DDR blocks' benchmarks (used when the blocks are registered).
 DDR_WORKS = (
     StreamWork("ddr", "ddr", {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10}, "pixel",
-               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat",
-               _frames({"frames": (4, 1280, 1)}, bits=10), _ddr_golden, _size("frames"),
+               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat", (4, 1280),
                {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
-               {"pysim": 1, "beat": 1, "fast": 2}, to_beats=_ddr_beats),
+               {"pysim": 1, "beat": 1, "fast": 2}),
     StreamWork("cds_ddr", "cds_ddr", {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel",
-               "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit",
-               _cds_ddr_make, _cds_ddr_golden, _size("frames"),
+               "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit", (8, 512),
                {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
                {"pysim": 2, "beat": 2, "fast": 4}),
     StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
-               "TDI partial sums in DDR, the tdi row's input",
-               _frames({"frames": (4, 256)}), _tdi_golden, _size("frames"),
-               {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60},
-               {"pysim": 5, "beat": 5, "fast": 20}),
+               "TDI partial sums in DDR, the tdi row's input", (4, 256), _TDI, _TDI_QUICK),
 )
+
+
+def work_inputs(w, n=None, *, quick=False):
+    """(block, resolved params, scene arrays of ``n`` items (default: the whole input))
+    of workload ``w``."""
+    blk = blocks.get(w.block)
+    params = blk.resolve(w.params)
+    n = (w.quick if quick else w.sizes)["fast"] if n is None else n
+    inputs = blk.example(np.random.default_rng(1), n, w.shape, params)
+    return blk, blk.scene_params(inputs, w.params), inputs
+
+
+def _units(blk, inputs):
+    return int(np.size(inputs[blk.stream]))
+
 
 #: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
 NAMES = ("cds", "tdi", "nuc", "hdr", "median3", "secded", "lvds", "ddr", "scene")
@@ -256,7 +150,7 @@ _ALIASES = {"secded": ("secded_enc", "secded_dec")}
 
 
 # ------------------------------------------------------------------------------ helpers
-def _row(name, level, unit, units, seconds, **kw):
+def row(name, level, unit, units, seconds, **kw):
     r = {"block": name, "level": level, "unit": unit, "units": int(units),
          "seconds": seconds, "per_unit_s": seconds / units if units and seconds else None,
          "rate": units / seconds if units and seconds else None, "x_ref": None,
@@ -267,7 +161,7 @@ def _row(name, level, unit, units, seconds, **kw):
 
 
 def _na(name, level, unit, why):
-    return _row(name, level, unit, 0, None, accuracy="n/a", note=why)
+    return row(name, level, unit, 0, None, accuracy="n/a", note=why)
 
 
 def _accuracy(mismatches):
@@ -296,7 +190,7 @@ def fresh_build(name, params, sim, sources):
     return time.perf_counter() - t0
 
 
-def _build_s(first_build, build, name, params, sim, sources):
+def build_seconds(first_build, build, name, params, sim, sources):
     """Build seconds to report: the first run's own build, else a fresh timed build."""
     if first_build > 0 or build != "fresh":
         return first_build
@@ -305,42 +199,41 @@ def _build_s(first_build, build, name, params, sim, sources):
 
 # ------------------------------------------------------------------------------ stream blocks
 def _stream_rows(w, *, sims, repeat, quick, stalls, build):
-    from .cosim.pysim import run_pysim
-    blk = blocks.get(w.block)
-    params = blk.resolve(w.params)
-    to_beats = w.to_beats or blk.to_beats
     sizes = w.quick if quick else w.sizes
-    inputs = w.make(np.random.default_rng(1), sizes["fast"])
-    t, arrays = median_time(lambda: w.golden(inputs, params), repeat)
-    n_all = w.count(inputs)
-    rows = [_row(w.name, "golden", w.unit, n_all, t, input=_amount(n_all, w.unit),
+    blk, params, inputs = work_inputs(w, quick=quick)
+    t, arrays = median_time(lambda: blk.case_arrays(inputs, params), repeat)
+    n_all = _units(blk, inputs)
+    rows = [row(w.name, "golden", w.unit, n_all, t, input=_amount(n_all, w.unit),
                  accuracy="reference", x_ref=1.0, note=w.what)]
 
     def beats(n):
-        a = arrays if n == sizes["fast"] else \
-            w.golden({k: v[:n] for k, v in inputs.items()}, params)
-        stim, exp = to_beats(a, params)
-        return stim, exp, w.count({k: v[:n] for k, v in inputs.items()})
+        part = {k: v[:n] for k, v in inputs.items()}
+        a = arrays if n == sizes["fast"] else blk.case_arrays(part, params)
+        if w.corrupt is not None:
+            a = {k: np.array(v, copy=True) for k, v in a.items()}
+            w.corrupt(a)
+        stim, exp = blk.to_beats(a, params)
+        return stim, exp, _units(blk, part)
+
+    def level(name, n, runs):
+        acc, bad = _accuracy([r.mismatches for r in runs])
+        rows.append(row(w.name, name, w.unit, n,
+                         float(np.median([r.result.wall for r in runs])),
+                         input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
 
     kw = {"idle": stalls, "backpressure": stalls}
     stim, exp, n = beats(sizes["pysim"])
-    res = [run_pysim(w.block, params, stim, seed=k + 1, **kw) for k in range(repeat)]
-    acc, bad = _accuracy([cosim.compare(o, exp).mismatches for o, _, _ in res])
-    rows.append(_row(w.name, "pysim", w.unit, n, float(np.median([r[2] for r in res])),
-                     input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
+    level("pysim", n, [cosim.run_beats(blk, params, stim, exp, sim=cosim.AMARANTH, seed=k + 1,
+                                       **kw) for k in range(repeat)])
     for sim in sims:
         first = None
         for mode in ("beat", "fast"):
             stim, exp, n = beats(sizes.get(f"{sim} {mode}", sizes[mode]))
-            res = [cosim.run_stream(w.block, params, stim, n_out=len(exp), sim=sim, mode=mode,
-                                    seed=k + 1, **kw) for k in range(repeat)]
-            first = res[0].build_time if first is None else first
-            acc, bad = _accuracy([cosim.compare(r.out, exp).mismatches
-                                  + (len(exp) if r.timeout else 0) for r in res])
-            rows.append(_row(w.name, f"{sim} {mode}", w.unit, n,
-                             float(np.median([r.wall for r in res])), input=_amount(n, w.unit),
-                             accuracy=acc, mismatches=bad))
-        b = _build_s(first, build, w.block, params, sim, lambda: stream_sources(blk, params))
+            runs = [cosim.run_beats(blk, params, stim, exp, sim=sim, mode=mode, seed=k + 1,
+                                    **kw) for k in range(repeat)]
+            first = runs[0].result.build_time if first is None else first
+            level(f"{sim} {mode}", n, runs)
+        b = build_seconds(first, build, w.block, params, sim, lambda: stream_sources(blk, params))
         rows[-1]["build_s"] = rows[-2]["build_s"] = b
     return rows
 
@@ -357,14 +250,14 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
     t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
     name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
     params = blocks.get("lvds").resolve({"phy": "none"})
-    rows = [_row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
+    rows = [row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
     # the Python simulator trains the first group of lanes (a prefix of the same link)
     k = params["lanes"]
     part = model.Link(link.lanes[:k])
     gold_k = model.run(part, cycles=cycles, n_check=n_check)
     res = [_lvds_pysim(part, cycles, n_check, params) for _ in range(repeat)]
     bad = max(len(set(ev) ^ set(gold_k.events)) for ev, _ in res)
-    rows.append(_row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
+    rows.append(row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
                      input=f"{k} lanes, training (n_check {n_check})",
                      accuracy="bit-exact" if bad == 0 else f"{bad} status events differ",
                      mismatches=bad))
@@ -379,10 +272,10 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
                for _ in range(repeat)]
         bad = [len(cl.check_run(link, r, gold, cycles=cycles)) for r in res]
         acc = "bit-exact" if max(bad) == 0 else f"{max(bad)} lanes/segments differ"
-        rows.append(_row(name, f"{sim} fast", "lane", n,
+        rows.append(row(name, f"{sim} fast", "lane", n,
                          float(np.median([r.wall for r in res])), input=inp, accuracy=acc,
                          mismatches=max(bad),
-                         build_s=_build_s(res[0].build_time, build, "lvds", params, sim,
+                         build_s=build_seconds(res[0].build_time, build, "lvds", params, sim,
                                           sources)))
     return rows
 
@@ -397,57 +290,25 @@ def _lvds_pysim(link, cycles, n_check, params):
 
 
 # ------------------------------------------------------------------------------ ddr
-def _ddr_names():
+def ddr_names():
     return [b for b in blocks.names() if "ddr" in b.split("_")]
 
 
 def _ddr_rows(*, sims, repeat, quick, stalls, build):
-    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) once they are there:
-    :data:`DDR_WORKS`, or a block's largest golden case for one not listed there."""
-    names = _ddr_names()
+    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) with a workload in
+    :data:`DDR_WORKS`."""
+    names = ddr_names()
     if not names:
         return [_na("ddr", "golden", "pixel", "not available: no ddr block registered yet")]
-    rows = []
     works = {w.block: w for w in DDR_WORKS}
+    rows = []
     for b in names:
-        if b in works:
-            rows += _stream_rows(works[b], sims=sims, repeat=repeat, quick=quick,
-                                 stalls=stalls, build=build)
+        if b not in works:
+            rows.append(_na(b, "golden", "pixel", "no benchmark workload (bench.DDR_WORKS)"))
             continue
-        blk = blocks.get(b)
-        case = _largest_case(blk, 2000 if quick else 20_000)
-        if case is None:
-            rows.append(_na(b, "golden", "pixel", "not available: no stream golden case"))
-            continue
-        rows += _case_rows(blk, case, sims=sims, repeat=repeat, stalls=stalls, build=build)
+        rows += _stream_rows(works[b], sims=sims, repeat=repeat, quick=quick,
+                             stalls=stalls, build=build)
     return rows
-
-
-def _largest_case(blk, max_beats):
-    """The golden case with the most stimulus beats up to ``max_beats`` (per-beat budget)."""
-    if blk.to_beats is None:
-        return None
-    best = (0, None)
-    for c in blk.cases():
-        p = blk.resolve(c.params)
-        n = len(blk.to_beats(c.make(p, np.random.default_rng(c.seed)), p)[0])
-        if best[0] < n <= max_beats:
-            best = (n, c)
-    return best[1]
-
-
-def _case_rows(blk, case, **kw):
-    """Every level on one golden case of a block (golden time = case generation + model)."""
-    params = blk.resolve(case.params)
-    arrays = case.make(params, np.random.default_rng(case.seed))
-    n = len(blk.to_beats(arrays, params)[0])
-    one = {"pysim": 1, "beat": 1, "fast": 1}
-    w = StreamWork(blk.name, blk.name, case.params, "beat",
-                   f"golden case {case.name}; time = case generation + model",
-                   lambda rng, k: {"_": np.zeros(k)},
-                   lambda inp, p: case.make(p, np.random.default_rng(case.seed)),
-                   lambda inp: n, one, one)
-    return _stream_rows(w, quick=False, **kw)
 
 
 # ------------------------------------------------------------------------------ scene engine
@@ -482,7 +343,7 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
             same = simulate(sc, fidelity=fid, lines=n_exact, impact=False)
             acc = (f"PSNR {_psnr(same.output, ref.output, ref.output_full_scale):.1f} dB, "
                    f"SNR {snr[fid] - snr['exact']:+.2f} dB")
-        rows.append(_row("scene", f"scene {fid}", "line", n, t, input=f"{n:,} lines",
+        rows.append(row("scene", f"scene {fid}", "line", n, t, input=f"{n:,} lines",
                          accuracy=acc, note=f"{n / t / real:.3g}x real time"
                          + (f" (ran {res[0].fidelity})" if fid == "auto" else "")))
     ex = rows[-1]["rate"]
@@ -491,10 +352,10 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     return rows
 
 
-_RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows}
+RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows}
 
 
-def _expand(names):
+def expand(names):
     names = list(names) or list(NAMES)
     out = []
     valid = list(NAMES) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
@@ -527,18 +388,17 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
     for s in sims:
         cosim.tool_env(s)
-    if repeat < 1:
-        raise TdicamError(f"--repeat = {repeat} is out of range; valid: 1..")
+    check_range("--repeat", repeat, 1, None)
     works = {w.name: w for w in STREAM_WORKS}
     rows = []
-    for name in _expand(names):
+    for name in expand(names):
         if progress:
             progress(name)
         kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
               "build": build}
         try:
             rows += _stream_rows(works[name], **kw) if name in works else \
-                _RUNNERS[name](**kw)
+                RUNNERS[name](**kw)
         except Exception as exc:      # one failing benchmark must not lose the others' rows
             rows.append(_na(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
             rows[-1]["accuracy"] = "error"
@@ -693,17 +553,3 @@ def plot(rows, path, *, title="", real_time=None):
 def _scene_line_period():
     from .scene import load_scene
     return load_scene(SCENE).line_period_s
-
-
-def script(name):
-    """``(run, main)`` of a ``bench/bench_<name>.py`` wrapper: ``run(**kw)`` returns this
-    benchmark's rows, ``main(argv)`` is ``tdicam bench <name> ARGV``."""
-    def run_one(**kw):
-        return run([name], **kw)
-
-    def main(argv=None):
-        import sys
-        from .cli import main as cli_main
-        return cli_main(["bench", name, *(sys.argv[1:] if argv is None else argv)])
-    run_one.__doc__ = f"Rows (dicts) of :func:`tdicam.bench.run` for ``{name}``."
-    return run_one, main

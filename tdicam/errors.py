@@ -6,7 +6,7 @@ that names the problem. The CLI prints it as ``tdicam: error: <message>`` and ex
 it never shows a traceback for these.
 """
 
-__all__ = ["TdicamError", "check_range", "check_choice"]
+__all__ = ["TdicamError", "check_range", "valid_range", "check_choice"]
 
 
 class TdicamError(ValueError):
@@ -16,22 +16,44 @@ class TdicamError(ValueError):
         super().__init__(" ".join(str(message).split()))
 
 
-def check_range(name, value, lo, hi, *, integer=True):
-    """Return ``value`` if ``lo <= value <= hi`` (and integral when ``integer``), else raise.
+def _num(v):
+    if isinstance(v, float) and v.is_integer() and abs(v) < 1e16:
+        return str(int(v))
+    return str(v)
 
-    ``lo`` or ``hi`` may be None for an open end.
+
+def valid_range(lo, hi, *, lo_open=False, hi_open=False):
+    """The ``valid:`` text of a range: ``lo..hi`` (inclusive; no bound is ``-inf``/``inf``),
+    interval notation when a bound is exclusive (``(0, 1]``, ``> 0``)."""
+    if not lo_open and not hi_open:
+        return f"{'-inf' if lo is None else _num(lo)}..{'inf' if hi is None else _num(hi)}"
+    if lo is not None and hi is not None:
+        return f"{'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {_num(lo)}"
+    return f"{'<' if hi_open else '<='} {_num(hi)}"
+
+
+def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=False):
+    """Return ``value`` if it lies in the range (and is integral when ``integer``), else
+    raise ``"NAME = V is out of range; valid: lo..hi"`` (see :func:`valid_range`).
+
+    The project's one range check: block parameters, scene keys, plan options and model
+    arguments all go through it. ``lo`` or ``hi`` may be None for an open end;
+    ``lo_open``/``hi_open`` make a bound exclusive (floats, e.g. ``(0, 1]``).
     """
     if integer and (isinstance(value, bool) or not isinstance(value, int)):
         try:
             if int(value) != value:
                 raise ValueError
             value = int(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise TdicamError(f"{name} must be an integer, got {value!r}") from None
-    if (lo is not None and value < lo) or (hi is not None and value > hi):
-        lo_s = "-inf" if lo is None else lo
-        hi_s = "inf" if hi is None else hi
-        raise TdicamError(f"{name} = {value} is out of range; valid: {lo_s}..{hi_s}")
+    below = lo is not None and (value <= lo if lo_open else value < lo)
+    above = hi is not None and (value >= hi if hi_open else value > hi)
+    if below or above:
+        raise TdicamError(f"{name} = {value} is out of range; valid: "
+                          f"{valid_range(lo, hi, lo_open=lo_open, hi_open=hi_open)}")
     return value
 
 

@@ -102,7 +102,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, check_range
 from tdicam.model import plan as _plan
 
 __all__ = [
@@ -418,23 +418,6 @@ def _show(value) -> str:
     return str(value)
 
 
-def _num(value) -> str:
-    if isinstance(value, float) and value.is_integer() and abs(value) < 1e16:
-        return str(int(value))
-    return str(value)
-
-
-def _range_text(lo, hi, lo_open, hi_open, integer) -> str:
-    if lo is not None and hi is not None:
-        if integer:
-            return f"in {lo}..{hi}"
-        return f"in {'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}"
-    if lo is not None:
-        return f"{'>' if lo_open else '>='} {_num(lo)}"
-    if hi is not None:
-        return f"{'<' if hi_open else '<='} {_num(hi)}"
-    return "a finite number"
-
 
 def _hint(key, valid) -> str:
     close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.6)
@@ -487,13 +470,11 @@ class _Section:
         where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             self.fail(key, f"must be a number{where}, got {_show(v)}")
-        shown, v = _show(v), float(v)
+        raw, shown, v = v, _show(v), float(v)
         if not math.isfinite(v):
             self.fail(key, f"must be a finite number{where}, got {shown}")
-        if ((lo is not None and (v <= lo if lo_open else v < lo))
-                or (hi is not None and (v >= hi if hi_open else v > hi))):
-            self.fail(key, f"must be {_range_text(lo, hi, lo_open, hi_open, False)}{where}, "
-                           f"got {shown}")
+        check_range(f"{self.label(key)}{where}", raw, lo, hi, integer=False,
+                    lo_open=lo_open, hi_open=hi_open)
         return v
 
     def integer(self, key, default=_REQUIRED, *, lo=None, hi=None, value=_REQUIRED, what=None):
@@ -503,10 +484,7 @@ class _Section:
         where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, int):
             self.fail(key, f"must be an integer{where}, got {_show(v)}")
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            self.fail(key, f"must be {_range_text(lo, hi, False, False, True)}{where}, "
-                           f"got {_show(v)}")
-        return v
+        return check_range(f"{self.label(key)}{where}", v, lo, hi)
 
     def choice(self, key, default, choices):
         v = self.raw(key, default)

@@ -64,7 +64,7 @@ def test_secded_words_and_json_to_stdout(tmp_path, capsys):
     assert "secded_dec" in cap.err and "bit-exact" in cap.err
     assert [r["level"] for r in doc["rows"]] == ["golden", "pysim"] + SIM_LEVELS[2:] \
         + SIM_LEVELS[:2]
-    assert bench._expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
+    assert bench.expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
     assert {r["unit"] for r in doc["rows"]} == {"word"}
     assert all(r["accuracy"] == "bit-exact" for r in doc["rows"] if r["level"] != "golden")
     _check_png(tmp_path / "s.png")
@@ -75,13 +75,10 @@ def test_a_wrong_golden_model_is_counted_not_passed(monkeypatch, tmp_path, capsy
     exactly those three mismatches and the command must fail."""
     cds = next(w for w in bench.STREAM_WORKS if w.name == "cds")
 
-    def wrong(inp, params):
-        a = cds.golden(inp, params)
-        out = a["out"].copy()
-        out.reshape(-1)[[5, 700, 5000]] ^= 1
-        return {**a, "out": out}
+    def wrong(arrays):
+        arrays["out"].reshape(-1)[[5, 700, 5000]] ^= 1
 
-    works = tuple(dataclasses.replace(w, golden=wrong) if w is cds else w
+    works = tuple(dataclasses.replace(w, corrupt=wrong) if w is cds else w
                   for w in bench.STREAM_WORKS)
     monkeypatch.setattr(bench, "STREAM_WORKS", works)
     js = tmp_path / "w.json"
@@ -111,7 +108,7 @@ def test_scene_rows(tmp_path, capsys):
 
 
 def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    monkeypatch.setattr(bench, "ddr_names", lambda: [])
     assert main(["bench", "ddr", "--png", "none"]) == 0
     out = capsys.readouterr().out
     row = next(ln for ln in out.splitlines() if ln.startswith("ddr "))
@@ -119,7 +116,7 @@ def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
 
 
 def test_ddr_blocks_are_found_in_the_registry():
-    names = bench._ddr_names()
+    names = bench.ddr_names()
     assert all("ddr" in n.split("_") for n in names)
     assert set(names) == {n for n in bench.blocks.names() if n == "ddr" or
                           n.endswith("_ddr") or n.startswith("ddr_")}
@@ -134,10 +131,10 @@ def test_fresh_build_is_timed_in_its_own_folder():
 
     def sources():
         return bench.stream_sources(blk, params)
-    assert bench._build_s(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
-    assert bench._build_s(0.0, "cached", "cds", params, "icarus", sources) == 0.0
+    assert bench.build_seconds(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
+    assert bench.build_seconds(0.0, "cached", "cds", params, "icarus", sources) == 0.0
     t0 = time.time()
-    assert bench._build_s(0.0, "fresh", "cds", params, "icarus", sources) > 0
+    assert bench.build_seconds(0.0, "fresh", "cds", params, "icarus", sources) > 0
     assert stamp.stat().st_mtime >= t0 - 1
     assert bench.fresh_build("cds", params, "icarus", sources()) > 0      # every time
 
@@ -149,11 +146,9 @@ def test_ddr_works_feed_their_blocks():
     for w in bench.DDR_WORKS:
         if w.block not in registered:
             continue
-        blk = bench.blocks.get(w.block)
-        params = blk.resolve(w.params)
-        inp = w.make(np.random.default_rng(1), w.sizes["fast"])
-        stim, exp = (w.to_beats or blk.to_beats)(w.golden(inp, params), params)
-        px = w.count(inp)
+        blk, params, inp = bench.work_inputs(w)
+        stim, exp = blk.to_beats(blk.case_arrays(inp, params), params)
+        px = inp["frames"].size
         assert stim.data.size == px, w.name
         if w.name == "ddr":
             assert np.array_equal(stim.data, exp.data)
@@ -166,8 +161,8 @@ def test_ddr_works_feed_their_blocks():
 def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
     def broken(**kw):
         raise RuntimeError("simulator exploded")
-    monkeypatch.setitem(bench._RUNNERS, "scene", broken)
-    monkeypatch.setattr(bench, "_ddr_names", lambda: [])
+    monkeypatch.setitem(bench.RUNNERS, "scene", broken)
+    monkeypatch.setattr(bench, "ddr_names", lambda: [])
     assert main(["bench", "ddr", "scene", "--png", "none", "--sims", "none"]) == 1
     cap = capsys.readouterr()
     row = next(ln for ln in cap.out.splitlines() if ln.startswith("scene "))
@@ -180,8 +175,8 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
                "ddr, scene"),
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
-    (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: 0 <= p < 1"),
-    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1.."),
+    (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
+    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1..inf"),
 ])
 def test_errors_are_one_line(args, msg, capsys):
     assert main(["bench", *args]) == 2
@@ -198,9 +193,9 @@ def test_from_json_needs_a_bench_file(tmp_path, capsys):
 
 
 def test_table_formatting():
-    rows = [bench._row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
+    rows = [bench.row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
                        input="1,000 px"),
-            bench._row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
+            bench.row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
                        accuracy="bit-exact", input="1,000 px", build_s=12.34)]
     text = bench.format_table(rows).splitlines()
     assert "10 Mpx/s" in text[2] and "100 ns/px" in text[2]

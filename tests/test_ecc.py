@@ -11,7 +11,8 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.ecc import (DEC_OUT_BYTES, SecdedDecoder, SecdedDecoderStream, SecdedEncoder,
                             SecdedEncoderStream)
 from tdicam.model import ecc
-from tdicam.blocks.ecc import dec_beats, enc_beats, sweep_codes
+from tdicam.blocks.secded_dec import dec_beats, sweep_codes
+from tdicam.blocks.secded_enc import enc_beats
 from tdicam.streamsim import run_stream_component
 
 FULL = os.environ.get("TDICAM_FULL") == "1"

@@ -70,9 +70,9 @@ BAD = [
     ("[target]\nkind = \"flat\"\nsignal = 3\n", "[target].signal: unknown key"),
     ("[sensor]\ncolumns = \"wide\"\n", "[sensor].columns: must be an integer"),
     ("[tdi]\nstages = 200\n[sensor]\nmax_frame_rate_hz = 650\n", "[tdi].stages: must be <= M0"),
-    ("[target]\nsignal_e = -5\n", "[target].signal_e: must be >= 0"),
+    ("[target]\nsignal_e = -5\n", "[target].signal_e = -5 is out of range; valid: 0..inf"),
     ("[target]\nkind = \"image\"\npath = \"nope.png\"\n", "[target].path: file not found"),
-    ("[optics]\npsf_sigma_px = -1\n", "[optics].psf_sigma_px: must be >= 0"),
+    ("[optics]\npsf_sigma_px = -1\n", "[optics].psf_sigma_px = -1 is out of range; valid: 0..inf"),
     ("[target]\nkind = \"bars\"\nprofile = \"triangle\"\n", "[target].profile: must be one of"),
 ]
 

@@ -148,7 +148,7 @@ def test_overrides_and_labels(tmp_path):
     path = write(tmp_path, ORBIT + "[tdi]\nstages = 8\n")
     sc = load_scene(path, overrides={"tdi": {"stages": 16}})
     assert sc.tdi.stages == (16,) and sc.orbit.gsd_m == 1.0
-    with pytest.raises(TdicamError, match=r"^--stages: must be >= 1, got 0$"):
+    with pytest.raises(TdicamError, match=r"^--stages = 0 is out of range; valid: 1..inf$"):
         load_scene(path, overrides={"tdi": {"stages": 0}}, labels={"tdi.stages": "--stages"})
     sc = load_scene(path, overrides={"orbit": None,
                                      "turntable": {"angular_speed_rad_s": 1.0, "distance_m": 1.0}})
@@ -196,24 +196,27 @@ def test_exactly_one_motion_section(tmp_path, text, expected):
 
 BAD_KEYS = [
     # range
-    ("[sensor]\nread_noise_e = -1\n", "[sensor].read_noise_e: must be >= 0, got -1"),
-    ("[sensor]\nfill_factor = 0\n", "[sensor].fill_factor: must be in (0, 1], got 0"),
-    ("[sensor]\nbits = 40\n", "[sensor].bits: must be in 1..24, got 40"),
-    ("[sensor]\nprnu = 1.0\n", "[sensor].prnu: must be in [0, 1), got 1.0"),
-    ("[sensor]\npitch_um = -5.5\n", "[sensor].pitch_um: must be > 0, got -5.5"),
-    ("[target]\nsignal_e = -3.0\n", "[target].signal_e: must be >= 0, got -3.0"),
-    ("[tdi]\nstages = 0\n", "[tdi].stages: must be >= 1, got 0"),
-    ("[tdi]\nstages = [4, 0]\n", "[tdi].stages: must be >= 1 (entry 1 of the list), got 0"),
+    ("[sensor]\nread_noise_e = -1\n", "[sensor].read_noise_e = -1 is out of range; valid: 0..inf"),
+    ("[sensor]\nfill_factor = 0\n", "[sensor].fill_factor = 0 is out of range; valid: (0, 1]"),
+    ("[sensor]\nbits = 40\n", "[sensor].bits = 40 is out of range; valid: 1..24"),
+    ("[sensor]\nprnu = 1.0\n", "[sensor].prnu = 1.0 is out of range; valid: [0, 1)"),
+    ("[sensor]\npitch_um = -5.5\n", "[sensor].pitch_um = -5.5 is out of range; valid: > 0"),
+    ("[target]\nsignal_e = -3.0\n", "[target].signal_e = -3.0 is out of range; valid: 0..inf"),
+    ("[tdi]\nstages = 0\n", "[tdi].stages = 0 is out of range; valid: 1..inf"),
+    ("[tdi]\nstages = [4, 0]\n",
+     "[tdi].stages (entry 1 of the list) = 0 is out of range; valid: 1..inf"),
     ("[tdi]\nstages = []\n", "[tdi].stages: must not be an empty list"),
     ("[motion]\ndv_over_v = [0.0, 1.0]\n",
-     "[motion].dv_over_v: must be in (-1, 1) (entry 1 of the list), got 1.0"),
-    ("[motion]\ndrift_deg = 90\n", "[motion].drift_deg: must be in (-90, 90), got 90"),
-    ("[run]\nlines = 0\n", "[run].lines: must be >= 1, got 0"),
-    ("[run]\ntolerance = 0\n", "[run].tolerance: must be in (0, 1), got 0"),
-    ("[target]\nkind = \"bars\"\nperiod_px = 1\n", "[target].period_px: must be >= 2, got 1"),
+     "[motion].dv_over_v (entry 1 of the list) = 1.0 is out of range; valid: (-1, 1)"),
+    ("[motion]\ndrift_deg = 90\n", "[motion].drift_deg = 90 is out of range; valid: (-90, 90)"),
+    ("[run]\nlines = 0\n", "[run].lines = 0 is out of range; valid: 1..inf"),
+    ("[run]\ntolerance = 0\n", "[run].tolerance = 0 is out of range; valid: (0, 1)"),
+    ("[target]\nkind = \"bars\"\nperiod_px = 1\n",
+     "[target].period_px = 1 is out of range; valid: 2..inf"),
     ("[target]\nkind = \"bars\"\ncontrast = 1.5\n",
-     "[target].contrast: must be in (0, 1], got 1.5"),
-    ("[target]\nkind = \"siemens\"\nspokes = 2\n", "[target].spokes: must be in 4..720, got 2"),
+     "[target].contrast = 1.5 is out of range; valid: (0, 1]"),
+    ("[target]\nkind = \"siemens\"\nspokes = 2\n",
+     "[target].spokes = 2 is out of range; valid: 4..720"),
     # types
     ("[sensor]\nrows = 1024.0\n", "[sensor].rows: must be an integer, got 1024.0"),
     ("[sensor]\nrows = true\n", "[sensor].rows: must be an integer, got true"),
@@ -242,14 +245,15 @@ def test_bad_keys(tmp_path, extra, expected):
 
 
 @pytest.mark.parametrize("text, expected", [
-    ("[orbit]\naltitude_km = -1\ngsd_m = 1\n", "[orbit].altitude_km: must be >= 0, got -1"),
-    ("[orbit]\naltitude_km = 600\ngsd_m = 0\n", "[orbit].gsd_m: must be > 0, got 0"),
+    ("[orbit]\naltitude_km = -1\ngsd_m = 1\n",
+     "[orbit].altitude_km = -1 is out of range; valid: 0..inf"),
+    ("[orbit]\naltitude_km = 600\ngsd_m = 0\n", "[orbit].gsd_m = 0 is out of range; valid: > 0"),
     ("[orbit]\naltitude_km = 600\n", "[orbit].gsd_m: missing (required)"),
     ("[orbit]\naltitude_km = 600\ngsd = 1\n", "[orbit].gsd: unknown key; did you mean 'gsd_m'?"),
     ("[turntable]\nangular_speed_rad_s = 0\ndistance_m = 1\n",
-     "[turntable].angular_speed_rad_s: must be > 0, got 0"),
+     "[turntable].angular_speed_rad_s = 0 is out of range; valid: > 0"),
     ("[turntable]\nangular_speed_rad_s = 1\ndistance_m = 0.0\n",
-     "[turntable].distance_m: must be > 0, got 0.0"),
+     "[turntable].distance_m = 0.0 is out of range; valid: > 0"),
 ])
 def test_bad_motion_platform(tmp_path, text, expected):
     assert error_of(tmp_path, text) == expected
@@ -302,10 +306,10 @@ def test_bad_target(tmp_path, target, expected):
     ("gains = 4.9\n", "[sensor].gains: must be a list of one or two gains, got 4.9"),
     ("gains = [0.8, 4.9]\n",
      "[sensor].gains: two gains must be [high, low] with high > low, got [0.8, 4.9]"),
-    ("gains = [4.9, 0]\n", "[sensor].gains: must be > 0 (entry 1 of the list), got 0"),
+    ("gains = [4.9, 0]\n", "[sensor].gains (entry 1 of the list) = 0 is out of range; valid: > 0"),
     ("pixel_clock_mhz = 100\nmax_frame_rate_hz = 650\n",
      "[sensor].max_frame_rate_hz: give either [sensor].pixel_clock_mhz"),
-    ("pixel_clock_mhz = 0\n", "[sensor].pixel_clock_mhz: must be > 0, got 0"),
+    ("pixel_clock_mhz = 0\n", "[sensor].pixel_clock_mhz = 0 is out of range; valid: > 0"),
 ])
 def test_bad_sensor(tmp_path, sensor, expected):
     assert error_of(tmp_path, ORBIT + "[sensor]\n" + sensor).startswith(expected)
@@ -354,7 +358,7 @@ def test_seed003_default_blanking_limits_96_stages(tmp_path):
     ("blocks = [\"tdi\"]\n[pipeline.hdr]\nthreshold_dn = 100\n",
      "[pipeline].hdr: options given but 'hdr' is not in [pipeline].blocks"),
     ("blocks = [\"hdr\", \"tdi\"]\n[pipeline.hdr]\nthreshold_dn = 4095\n",
-     "[pipeline.hdr].threshold_dn: must be in 1..4094, got 4095"),
+     "[pipeline.hdr].threshold_dn = 4095 is out of range; valid: 1..4094"),
     ("blocks = [\"hdr\", \"tdi\"]\n[pipeline.hdr]\nthreshold = 100\n",
      "[pipeline.hdr].threshold: unknown key; did you mean 'threshold_dn'?"),
     ("blocks = [\"tdi\"]\n[pipeline.tdi]\nx = 1\n", "[pipeline].tdi: unknown key"),

@@ -1,27 +1,61 @@
-"""Registry of gateware blocks: what ``tdicam verilog|golden|sim|bench`` know about.
+"""Registry of gateware blocks: everything the tools know about a block, in one entry.
 
-Every module in this package defines ``BLOCK = Block(...)`` (or ``BLOCKS = [...]``) and is
+Every module in this package registers one block with ``BLOCK = Block(...)`` and is
 discovered automatically. A :class:`Block` ties together, under one name, the Amaranth
 component (``hdl/<name>.py``), the golden model (``model/<name>.py``), the golden cases
-(``golden/<name>/``) and the co-simulation (``cocotb_tests/test_<name>.py``).
+(``golden/<name>/``), the co-simulation (``cocotb_tests/test_<name>.py``) and how arrays of a
+scene (frame stacks and the block's side inputs) become the block's stream and back.
+
+Two array forms
+---------------
+*Scene arrays* are what a camera model hands a block: named numpy arrays, frames as
+``(..., rows, cols)`` stacks (any leading axes are frames), side inputs beside them
+(:attr:`Block.side_inputs`). :attr:`Block.golden` runs the golden model on them.
+
+*Case arrays* are what a golden case stores (``golden/<name>/<case>.npz``): the inputs in
+whatever form the block's stream needs (e.g. ``tdi`` stores beat arrays), the expected
+outputs, and optional reset marks. :attr:`Block.to_beats` turns them into the stimulus and
+expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arrays from
+scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
+and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
 """
 
 import importlib
 import pkgutil
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Callable
 
-from ..errors import TdicamError
+import numpy as np
 
-__all__ = ["Param", "Case", "Block", "get", "names", "all_blocks"]
+from ..errors import TdicamError, check_range
+from ..model.cds import pixel_dtype
+
+__all__ = ["Param", "Case", "SideInput", "Block", "get", "names", "all_blocks",
+           "frame_stack"]
+
+
+def _flag(name):
+    return "--" + name.replace("_", "-")
 
 
 @dataclass(frozen=True)
 class Param:
     """One elaboration parameter of a block.
 
-    ``lo``/``hi`` bound integers (inclusive); ``choices`` lists the valid values instead;
-    ``default = None`` means optional (the block derives it).
+    Attributes
+    ----------
+    name : str
+        Python name (``--name-with-dashes`` on the command line).
+    default : object
+        Value when not given; ``None`` means optional (the block derives it).
+    help : str
+        One line for ``tdicam verilog BLOCK --help``.
+    lo, hi : int or None
+        Inclusive bounds of an integer (``None``: open end).
+    choices : tuple or None
+        The valid values instead of a range.
+    type : type
+        ``int``, ``bool`` or ``str``; command-line strings are converted to it.
     """
 
     name: str
@@ -33,6 +67,7 @@ class Param:
     type: type = int
 
     def describe(self):
+        """``--name (range, default D): help`` for the block's help text."""
         if self.choices is not None:
             rng = "{" + ", ".join(str(c) for c in self.choices) + "}"
         elif self.lo is not None or self.hi is not None:
@@ -43,30 +78,29 @@ class Param:
         return f"--{self.name.replace('_', '-')} ({rng}, default {dflt}): {self.help}"
 
     def check(self, value):
+        """``value`` converted to :attr:`type` and checked, or a :class:`TdicamError`
+        naming ``--name`` (ranges through :func:`tdicam.errors.check_range`)."""
         if value is None and self.default is None:
             return None
+        flag = _flag(self.name)
         if self.type is int:
-            if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, str):
                 try:
-                    value = int(str(value), 0)
+                    value = int(value, 0)
                 except ValueError:
-                    raise TdicamError(f"--{self.name.replace('_', '-')} must be an integer, "
-                                      f"got {value!r}") from None
+                    raise TdicamError(f"{flag} must be an integer, got {value!r}") from None
+            value = check_range(flag, value, self.lo, self.hi)
         elif self.type is bool:
             if isinstance(value, str):
                 if value.lower() not in ("0", "1", "true", "false", "yes", "no"):
-                    raise TdicamError(f"--{self.name.replace('_', '-')} must be true or false, "
-                                      f"got {value!r}")
+                    raise TdicamError(f"{flag} must be true or false, got {value!r}")
                 value = value.lower() in ("1", "true", "yes")
             value = bool(value)
         else:
             value = self.type(value)
         if self.choices is not None and value not in self.choices:
-            raise TdicamError(f"--{self.name.replace('_', '-')} = {value} is not valid; "
+            raise TdicamError(f"{flag} = {value} is not valid; "
                               f"valid: {', '.join(str(c) for c in self.choices)}")
-        if (self.lo is not None and value < self.lo) or (self.hi is not None and value > self.hi):
-            raise TdicamError(f"--{self.name.replace('_', '-')} = {value} is out of range; "
-                              f"valid: {self.lo}..{self.hi}")
         return value
 
 
@@ -74,9 +108,19 @@ class Param:
 class Case:
     """A golden case: parameters + a deterministic generator of its arrays.
 
-    ``make(params, rng)`` returns a dict of named numpy arrays: the inputs and the expected
-    outputs computed by the golden model. ``tags`` mark what a case exercises
-    (e.g. ``"reset"``, ``"fullscale"``) and ``"fast-only"`` for cases too long for per-beat.
+    Attributes
+    ----------
+    name : str
+        File name under ``golden/<block>/`` (without ``.npz``).
+    params : dict
+        Block parameters (resolved against the block's defaults).
+    make : callable(params, rng) -> dict of ndarray
+        The case arrays: inputs and the expected outputs computed by the golden model.
+    seed : int
+        Seed of the ``numpy.random.default_rng`` passed to ``make``.
+    tags : tuple of str
+        What the case exercises (e.g. ``"reset"``, ``"fullscale"``); ``"fast-only"`` marks
+        cases too long for per-beat co-simulation.
     """
 
     name: str
@@ -87,22 +131,78 @@ class Case:
 
 
 @dataclass(frozen=True)
+class SideInput:
+    """An input of a block besides its main pixel stream.
+
+    Attributes
+    ----------
+    name : str
+        Key of the array in the block's scene arrays.
+    per : {"pixel", "frame", "run"}
+        ``pixel``: same shape as the main stream's frames (e.g. the CDS reset frame, the NUC
+        coefficients, HDR's low-gain channel); ``frame``: one value per frame (HDR's
+        ``gain_sel``); ``run``: one scalar for the whole run (TDI's ``stages``).
+    what : str
+        What it is and how the gateware receives it (stream channel, run-time port, DDR).
+    default : object
+        Value used when the scene arrays leave it out (``None``: required).
+    """
+
+    name: str
+    per: str
+    what: str
+    default: Any = None
+
+
+@dataclass(frozen=True)
 class Block:
-    """A registered gateware block.
+    """A registered gateware block: the contract the tools and the pipeline build on.
 
     Attributes
     ----------
     name : str
         One name everywhere: ``hdl/<name>.py``, ``model/<name>.py``, ``golden/<name>/``.
+    summary : str
+        One line for ``tdicam verilog`` and the docs.
+    params : tuple of Param
+        Elaboration parameters (the gateware's, with the golden model's names and units).
     top : callable(**params) -> wiring.Component
-        The Verilog top (AXI4-Stream names) for stream blocks, or a plain-port component.
-    cases : callable() -> list[Case]
-    to_beats : callable(arrays, params) -> (stimulus Beats, expected Beats) or None
-        For stream blocks: the stream co-simulation stimulus and expected output of a case.
+        The Verilog top: :class:`~tdicam.hdl.axis.AxisTop` (AXI4-Stream names) for stream
+        blocks, or a plain-port component.
+    cases : callable() -> list of Case
+        The golden cases (``tdicam golden``).
     check : callable(params) or None
-        Cross-parameter checks, raising :class:`TdicamError` before elaboration.
+        Cross-parameter checks on a resolved dict, raising :class:`TdicamError` before
+        elaboration.
     model_version : str
         Bump when the golden model's definition changes (recorded in the manifest).
+    to_beats : callable(case arrays, params) -> (stim Beats, expected Beats) or None
+        Stream blocks: the stimulus (pixels, run-time settings in ``ctrl``, resets) and the
+        expected output of case arrays. ``None``: not a video stream (co-simulated by its
+        own cocotb test).
+    stream : str or None
+        Key of the main stream input in the scene arrays (e.g. ``"signal"``, ``"x"``).
+    side_inputs : tuple of SideInput
+        The block's other inputs, by scene-array key (see :class:`SideInput`).
+    golden : callable(scene arrays, params) -> dict or None
+        The golden model on scene arrays (frames ``(..., rows, cols)``, side inputs per
+        :attr:`side_inputs`): ``{"out": ndarray}`` with the output frames, leading axes
+        kept (``tdi``: one output line per frame).
+    to_case : callable(scene arrays, params) -> case arrays, or None
+        Scene arrays -> the case form :attr:`to_beats` reads, expected outputs included.
+        ``None``: the case form is the scene arrays with the frames flattened to
+        ``(n, rows, cols)`` plus :attr:`golden`'s output (see :meth:`case_arrays`).
+    fit : callable(scene arrays) -> dict, or None
+        Parameters a scene's arrays fix (e.g. ``width`` from the frames' last axis);
+        :meth:`scene_params` lays them under the given ones.
+    unstream : callable(out Beats, scene arrays, params) -> dict, or None
+        Output beats -> ``{"out": ndarray}`` shaped like :attr:`golden`'s output. ``None``:
+        one output element per input pixel, reshaped like the main stream (see
+        :meth:`from_beats`).
+    example : callable(rng, n, shape, params) -> scene arrays, or None
+        ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
+        frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
+        ignore it).
     """
 
     name: str
@@ -110,11 +210,16 @@ class Block:
     params: tuple
     top: Callable
     cases: Callable
-    to_beats: Callable | None = None
     check: Callable | None = None
     model_version: str = "1"
-    elem_bits: Callable | None = None
-    extra: dict = field(default_factory=dict)
+    to_beats: Callable | None = None
+    stream: str | None = None
+    side_inputs: tuple = ()
+    golden: Callable | None = None
+    to_case: Callable | None = None
+    fit: Callable | None = None
+    unstream: Callable | None = None
+    example: Callable | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""
@@ -122,9 +227,9 @@ class Block:
         known = {p.name: p for p in self.params}
         for key in given:
             if key not in known:
-                valid = ", ".join("--" + k.replace("_", "-") for k in known) or "none"
-                raise TdicamError(f"block {self.name} has no parameter "
-                                  f"--{key.replace('_', '-')}; valid: {valid}")
+                valid = ", ".join(_flag(k) for k in known) or "none"
+                raise TdicamError(f"block {self.name} has no parameter {_flag(key)}; "
+                                  f"valid: {valid}")
         out = {}
         for p in self.params:
             out[p.name] = p.check(given[p.name]) if p.name in given else p.default
@@ -135,6 +240,83 @@ class Block:
     def build(self, params=None):
         """Elaborable Verilog top for checked ``params``."""
         return self.top(**self.resolve(params))
+
+    def scene_params(self, arrays, params=None):
+        """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`fit`
+        derives from the arrays' shapes."""
+        fitted = self.fit(self.inputs(arrays)) if self.fit is not None else {}
+        return self.resolve({**fitted, **dict(params or {})})
+
+    def inputs(self, arrays):
+        """Scene arrays with every side input present (defaults filled in) and ``pixel``
+        side inputs broadcast to the stream's shape, or a :class:`TdicamError` naming the
+        missing one."""
+        if self.stream not in arrays:
+            raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
+        out = dict(arrays)
+        main = np.asarray(out[self.stream])
+        for side in self.side_inputs:
+            if side.name not in out:
+                if side.default is None:
+                    raise TdicamError(f"block {self.name} needs input {side.name!r} "
+                                      f"({side.what})")
+                out[side.name] = side.default(main) if callable(side.default) \
+                    else side.default
+            if side.per == "pixel" and np.shape(out[side.name]) != main.shape:
+                try:
+                    out[side.name] = np.broadcast_to(out[side.name], main.shape)
+                except ValueError:
+                    raise TdicamError(
+                        f"block {self.name}: input {side.name!r} has shape "
+                        f"{np.shape(out[side.name])}, the stream {self.stream!r} "
+                        f"{main.shape}") from None
+        return out
+
+    def run_golden(self, arrays, params):
+        """:attr:`golden` on scene arrays (side-input defaults filled in)."""
+        if self.golden is None:
+            raise TdicamError(f"block {self.name} has no golden function on scene arrays")
+        return self.golden(self.inputs(arrays), params)
+
+    def case_arrays(self, arrays, params):
+        """Case arrays (inputs + expected outputs, what :attr:`to_beats` reads) of scene
+        ``arrays`` for resolved ``params``."""
+        arrays = self.inputs(arrays)
+        if self.to_case is not None:
+            return self.to_case(arrays, params)
+        flat = {}
+        for key in self._keys():
+            a = np.asarray(arrays[key])
+            per = "pixel" if key == self.stream else self._per(key)
+            flat[key] = _flat_frames(a) if per == "pixel" and a.ndim >= 2 else \
+                (a.ravel() if per == "frame" else a)
+        return {**flat, **self.golden(flat, params)}
+
+    def from_beats(self, out, arrays, params):
+        """Output beats of a run on scene ``arrays`` -> ``{"out": ndarray}``."""
+        if self.unstream is not None:
+            return self.unstream(out, arrays, params)
+        bits = params.get("out_bits") or params["pixel_bits"]
+        return {"out": out.data.reshape(np.shape(arrays[self.stream])).astype(
+            pixel_dtype(bits))}
+
+    def _per(self, key):
+        return next((s.per for s in self.side_inputs if s.name == key), None)
+
+    def _keys(self):
+        return (self.stream, *(s.name for s in self.side_inputs))
+
+
+def frame_stack(a):
+    """``a`` as ``(n, rows, cols)``: every leading axis is a frame axis."""
+    return _flat_frames(a)
+
+
+def _flat_frames(a):
+    a = np.asarray(a)
+    if a.ndim < 2:
+        raise TdicamError(f"frames must have at least 2 axes (rows, cols), got shape {a.shape}")
+    return a.reshape((-1,) + a.shape[-2:])
 
 
 _REGISTRY = None
@@ -148,22 +330,25 @@ def _load():
             if info.name.startswith("_"):
                 continue
             mod = importlib.import_module(f"{__name__}.{info.name}")
-            for blk in getattr(mod, "BLOCKS", [getattr(mod, "BLOCK", None)]):
-                if blk is not None:
-                    reg[blk.name] = blk
+            blk = getattr(mod, "BLOCK", None)
+            if blk is not None:
+                reg[blk.name] = blk
         _REGISTRY = reg
     return _REGISTRY
 
 
 def names():
+    """Names of the registered blocks, sorted."""
     return sorted(_load())
 
 
 def all_blocks():
+    """The registered :class:`Block` entries, by name."""
     return [_load()[n] for n in names()]
 
 
 def get(name):
+    """The block called ``name``, or a :class:`TdicamError` listing the valid names."""
     reg = _load()
     if name not in reg:
         raise TdicamError(f"unknown block {name!r}; valid: {', '.join(sorted(reg))}")

@@ -8,7 +8,7 @@ output is one pixel's (gain, offset) per beat (plus counters and flags with ``--
 
 import numpy as np
 
-from ..cosim.codec import Beats, mark_resets
+from ..beats import Beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.calib import CalibReader
 from ..model import calib, ecc
@@ -156,6 +156,32 @@ def reader_beats(arrays, params):
     return stim, exp
 
 
+def _to_case(arrays, params):
+    words = np.asarray(arrays["words"])
+    exp, _ = _expected(words, params, None)
+    return {"words": words, **{f"out_{k}": v for k, v in exp.items()}}
+
+
+def _golden(arrays, params):
+    """The reader's (gain, offset) code maps (uint64; the offset as its ``offset_bits``
+    two's-complement code), one (rows, cols) map per image in ``words``."""
+    case = _to_case(arrays, params)
+    shape = (-1, params["rows"], params["cols"])
+    return {"gain": case["out_gain"].reshape(shape), "offset": case["out_offset"].reshape(shape)}
+
+
+def _unstream(out, arrays, params):
+    shape = (-1, params["rows"], params["cols"])
+    return {"gain": out.data[:, 0].reshape(shape), "offset": out.data[:, 1].reshape(shape)}
+
+
+def _example(rng, n, shape, params):
+    """``n`` clean flash images of random codes for the block's rows x cols."""
+    fmt = _fmt(params)
+    return {"words": np.concatenate([calib.encode_image(*random_codes(
+        rng, params["rows"], params["cols"], fmt), fmt) for _ in range(n)])}
+
+
 _DBG = {"rows": 7, "cols": 9, "debug": True}
 _PLAIN = {"rows": 6, "cols": 10}
 
@@ -192,7 +218,12 @@ BLOCK = Block(
     ),
     top=_top,
     cases=_cases,
-    to_beats=reader_beats,
     check=_check,
     model_version="calib-1",
+    to_beats=reader_beats,
+    stream="words",
+    golden=_golden,
+    to_case=_to_case,
+    unstream=_unstream,
+    example=_example,
 )

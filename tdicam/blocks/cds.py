@@ -2,11 +2,11 @@
 
 import numpy as np
 
-from ..cosim.codec import frames_to_beats, mark_resets
+from ..beats import frames_to_beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.cds import Cds
 from ..model.cds import cds, pixel_dtype
-from . import Block, Case, Param
+from . import Block, Case, Param, SideInput
 
 __all__ = ["BLOCK"]
 
@@ -48,6 +48,16 @@ def _reset_mid_frame(params, rng):
     return out
 
 
+def _golden(arrays, params):
+    return {"out": cds(arrays["signal"], arrays["reset"], pixel_bits=params["pixel_bits"])}
+
+
+def _example(rng, n, shape, params):
+    hi = 1 << params["pixel_bits"]
+    return {k: rng.integers(0, hi, (n, *shape), dtype=pixel_dtype(params["pixel_bits"]))
+            for k in ("signal", "reset")}
+
+
 def _to_beats(arrays, params):
     stim = frames_to_beats(np.stack([arrays["signal"], arrays["reset"]], axis=-1), channels=2)
     exp = frames_to_beats(arrays["out"])
@@ -69,6 +79,11 @@ BLOCK = Block(
         Case("reset_mid_frame_12b", {"pixel_bits": 12}, _reset_mid_frame, seed=6,
              tags=("reset",)),
     ],
-    to_beats=_to_beats,
     model_version="cds-1",
+    to_beats=_to_beats,
+    stream="signal",
+    side_inputs=(SideInput("reset", "pixel", "the pixel's reset sample (CDS reset frame), "
+                           "element 1 of each input beat"),),
+    golden=_golden,
+    example=_example,
 )

@@ -2,11 +2,12 @@
 
 import numpy as np
 
-from ..cosim.codec import frames_to_beats, mark_resets
+from ..beats import frames_to_beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.hdr import Hdr
+from ..model.cds import pixel_dtype
 from ..model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
-from . import Block, Case, Param
+from . import Block, Case, Param, SideInput, frame_stack
 
 __all__ = ["BLOCK", "ramp_frame", "scene_frames"]
 
@@ -125,6 +126,30 @@ def _reset_mid_frame(sels):
     return make
 
 
+def _golden(arrays, params):
+    """hdr on (..., rows, cols) stacks; ``gain_sel`` one value per frame."""
+    hg = np.asarray(arrays["hg"])
+    sels = np.asarray(arrays["gain_sel"], np.int64).ravel()
+    out = hdr(frame_stack(hg), frame_stack(arrays["lg"]), gain_sel=sels, **params)
+    return {"out": out.reshape(hg.shape[:-2] + out.shape[-2:])}
+
+
+def _zeros_per_frame(hg):
+    return np.zeros(frame_stack(hg).shape[0], np.int64)
+
+
+def _unstream(out, arrays, params):
+    bits = hdr_config(**params).out_bits
+    return {"out": out.data.reshape(np.shape(arrays["hg"])).astype(pixel_dtype(bits))}
+
+
+def _example(rng, n, shape, params):
+    """A light ramp across each frame, HG/LG with noise (:func:`scene_frames`)."""
+    hg, lg = scene_frames(hdr_config(**params), rng, n, *shape)
+    dt = pixel_dtype(params["pixel_bits"])
+    return {"hg": hg.astype(dt), "lg": lg.astype(dt)}
+
+
 def _to_beats(arrays, params):
     cfg = hdr_config(**params)
     hg, lg, sels = arrays["hg"], arrays["lg"], arrays["gain_sel"]
@@ -190,7 +215,18 @@ BLOCK = Block(
         Case("scene_coarse_16b", COARSE, _scene(3, 12, 24), seed=9, tags=("clamp",)),
         Case("extremes_coarse_16b", COARSE, _extremes, seed=10, tags=("fullscale", "zeros")),
     ],
-    to_beats=_to_beats,
     check=_check,
     model_version="hdr-1",
+    to_beats=_to_beats,
+    stream="hg",
+    side_inputs=(
+        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 1 of each "
+                  "input beat (the high-gain channel is the stream)"),
+        SideInput("gain_sel", "frame", "index of the frame's programmed gain pair "
+                  "(--gain-pairs), on the gain_sel port with the frame's first pixel",
+                  default=_zeros_per_frame),
+    ),
+    golden=_golden,
+    unstream=_unstream,
+    example=_example,
 )

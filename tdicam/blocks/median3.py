@@ -9,13 +9,13 @@ every frame, whole).
 
 import numpy as np
 
-from ..cosim.codec import Beats, mark_resets
+from ..beats import Beats, mark_resets
 from ..errors import TdicamError
 from ..hdl.axis import AxisTop
 from ..hdl.median3 import Median3
 from ..model.cds import pixel_dtype
 from ..model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from . import Block, Case, Param
+from . import Block, Case, Param, frame_stack
 
 __all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
 
@@ -71,6 +71,22 @@ def case_beats(arrays, params):
     if resets:
         mark_resets(stim, exp, resets, exp_resets)
     return stim, exp
+
+
+def _golden(arrays, params):
+    fr = np.asarray(arrays["frames"])
+    out = [median3(f, **_model_kw(params)) for f in frame_stack(fr)]
+    return {"out": np.stack(out).reshape(fr.shape) if out else fr.copy()}
+
+
+def _to_case(arrays, params):
+    return stream_case(list(frame_stack(arrays["frames"])), params)
+
+
+def _example(rng, n, shape, params):
+    b = params["pixel_bits"]
+    return {"frames": rng.integers(0, 1 << b, (n, shape[0], params["width"]),
+                                   dtype=pixel_dtype(b))}
 
 
 def _rand(rng, bits, h, w):
@@ -213,7 +229,12 @@ BLOCK = Block(
     ),
     top=_top,
     cases=_cases,
-    to_beats=case_beats,
     check=_check,
     model_version="median3-1",
+    to_beats=case_beats,
+    stream="frames",
+    golden=_golden,
+    to_case=_to_case,
+    fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
+    example=_example,
 )

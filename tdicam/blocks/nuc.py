@@ -2,11 +2,11 @@
 
 import numpy as np
 
-from ..cosim.codec import frames_to_beats, mark_resets
+from ..beats import frames_to_beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.nuc import Nuc
 from ..model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from . import Block, Case, Param
+from . import Block, Case, Param, SideInput
 
 __all__ = ["BLOCK", "cut_frame0"]
 
@@ -100,6 +100,20 @@ def _reset_mid_frame(params, rng):
     return out
 
 
+def _golden(arrays, params):
+    return {"out": nuc(arrays["x"], arrays["gain"], arrays["offset"], **params)}
+
+
+def _example(rng, n, shape, params):
+    """Sensor-like input: gain ~ N(1, 0.05), offset +-300 codes."""
+    fmt, full = _fmt(params), (1 << params["pixel_bits"]) - 1
+    shape = (n, *shape)
+    gdt, odt = _coeff_dtypes(fmt)
+    return {"x": rng.integers(0, full + 1, shape, dtype=np.uint16),
+            "gain": fmt.gain_code(rng.normal(1.0, 0.05, shape)).astype(gdt),
+            "offset": rng.integers(-300, 300, shape).astype(odt)}
+
+
 def _to_beats(arrays, params):
     elems = _fmt(params).stream_elements(arrays["x"], arrays["gain"], arrays["offset"])
     stim = frames_to_beats(elems, channels=3)
@@ -143,7 +157,17 @@ BLOCK = Block(
         Case("random_narrow", _NARROW, _random(2, 12, 20), seed=8),
         Case("reset_mid_frame_12b", {}, _reset_mid_frame, seed=10, tags=("reset",)),
     ],
-    to_beats=_to_beats,
     check=_check,
     model_version="nuc-1",
+    to_beats=_to_beats,
+    stream="x",
+    side_inputs=(
+        SideInput("gain", "pixel", "per-pixel unsigned gain code (gain_int_bits."
+                  "gain_frac_bits), element 1 of each input beat; in the camera read from "
+                  "the ECC-protected calibration image (block calib)"),
+        SideInput("offset", "pixel", "per-pixel signed offset code (offset_bits, "
+                  "offset_frac_bits), element 2 of each input beat"),
+    ),
+    golden=_golden,
+    example=_example,
 )

@@ -15,14 +15,14 @@ the expected ``frame_errors`` count. Stimulus frames are generated per case:
 
 import numpy as np
 
-from ..cosim.codec import Beats, mark_resets
+from ..beats import Beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.tdi import TdiAccumulator
 from ..model.cds import pixel_dtype
-from ..model.tdi import check_params, tdi_stream
-from . import Block, Case, Param
+from ..model.tdi import check_params, out_width, tdi_stream
+from . import Block, Case, Param, SideInput, frame_stack
 
-__all__ = ["BLOCK", "pack_ctrl", "stream_arrays"]
+__all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_makers"]
 
 CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
 
@@ -219,6 +219,68 @@ def _texture(n_frames):
     return make
 
 
+def _scene_frames(arrays):
+    """(frames (n, m, W), m, direction) of scene arrays."""
+    fr = frame_stack(arrays["frames"])
+    return fr, int(arrays["stages"]), int(arrays["direction"])
+
+
+def _to_case(arrays, params):
+    fr, m, d = _scene_frames(arrays)
+    return _finish(stream_arrays(list(fr), [(m, d)] * len(fr), params), params)
+
+
+def _golden(arrays, params):
+    """One output line per frame after the pipeline filled (:func:`tdi_stream`)."""
+    case = _to_case(arrays, params)
+    return {"out": case["out"].reshape(-1, params["width"])}
+
+
+def _unstream(out, arrays, params):
+    bits = out_width(params["pixel_bits"], params["stages"], params["out_bits"])
+    return {"out": out.data.reshape(-1, params["width"]).astype(pixel_dtype(bits))}
+
+
+def _fit(arrays):
+    return {"width": int(np.shape(arrays["frames"])[-1]), "stages": int(arrays["stages"])}
+
+
+def _example(rng, n, shape, params):
+    b = params["pixel_bits"]
+    return {"frames": rng.integers(0, 1 << b, (n, params["stages"], params["width"]),
+                                   dtype=pixel_dtype(b))}
+
+
+#: The scene-array contract shared by ``tdi`` and ``tdi_ddr`` (same stream, same model).
+SCENE = dict(
+    stream="frames",
+    side_inputs=(
+        SideInput("stages", "run", "active stages m (1..stages), on the stages_active port "
+                  "with every beat; each input frame holds m rows",
+                  default=lambda fr: np.shape(fr)[-2]),
+        SideInput("direction", "run", "scan direction (0 forward, 1 reverse), on the "
+                  "direction port with every beat", default=0),
+    ),
+    golden=_golden,
+    to_case=_to_case,
+    fit=_fit,
+    unstream=_unstream,
+    example=_example,
+)
+
+
+def to_beats(arrays, params):
+    """(stimulus, expected) Beats of case arrays (``pixels``, ``first``, ``last``,
+    ``stages_active``, ``direction``, ``out*``; optional ``reset_before``/``exp_before``)."""
+    return _to_beats(arrays, params)
+
+
+def case_makers():
+    """The case generators ``tdi_ddr`` reuses, by name."""
+    return {"random": _random, "stages": _stages, "errors": _errors, "reset": _reset,
+            "fullscale": _fullscale}
+
+
 def _to_beats(arrays, params):
     stim = Beats(arrays["pixels"], arrays["first"], arrays["last"],
                  ctrl=pack_ctrl(arrays["stages_active"], arrays["direction"]))
@@ -290,7 +352,8 @@ BLOCK = Block(
     ),
     top=_top,
     cases=_cases,
-    to_beats=_to_beats,
     check=_check,
     model_version="tdi-1",
+    to_beats=_to_beats,
+    **SCENE,
 )

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from .. import bench, cosim
-from ..errors import TdicamError
+from ..errors import TdicamError, check_range
 
 
 def register(sub):
@@ -64,9 +64,8 @@ def _run(args):
         return _report(args, rows, mline, settings, wall)
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     build = args.build_time or ("cached" if args.quick else "fresh")
-    if not 0 <= args.stalls < 1:
-        raise TdicamError(f"--stalls = {args.stalls} is out of range; valid: 0 <= p < 1")
-    bench._expand(args.names)        # unknown names fail before anything runs
+    check_range("--stalls", args.stalls, 0, 1, integer=False, hi_open=True)
+    bench.expand(args.names)        # unknown names fail before anything runs
     sims = _sims(args.sims)
     t0 = time.perf_counter()
     rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,

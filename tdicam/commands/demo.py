@@ -5,7 +5,7 @@ from pathlib import Path
 from .. import blocks, golden
 from ..lint import lint
 from ..verilog import write
-from .sim import run_cases
+from ..cosim.cases import run_cases
 
 
 def register(sub):

@@ -2,8 +2,8 @@
 
 import time
 
-from .. import blocks, cosim, golden
-from ..errors import TdicamError
+from .. import blocks, cosim
+from ..cosim.cases import run_cases
 
 
 def register(sub):
@@ -20,37 +20,6 @@ def register(sub):
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--case", action="append", help="only these cases (repeatable)")
     p.set_defaults(func=_run)
-
-
-def run_cases(block, *, sim, mode, idle, backpressure, seed, cases=None, report=print):
-    """Co-simulate golden cases; returns a list of row dicts (one per case)."""
-    blk = blocks.get(block)
-    if blk.to_beats is None:
-        raise TdicamError(f"block {block} has no stream co-simulation; run its cocotb tests "
-                          f"(pytest cocotb_tests/test_{block}.py)")
-    names = [c.name for c in blk.cases()]
-    for c in cases or []:
-        if c not in names:
-            raise TdicamError(f"block {block} has no golden case {c!r}; valid: "
-                              f"{', '.join(names)}")
-    rows = []
-    for case in blk.cases():
-        if cases and case.name not in cases:
-            continue
-        if mode == "beat" and "fast-only" in case.tags:
-            continue
-        arrays, params = golden.load(blk, case.name)
-        stim, exp = blk.to_beats(arrays, params)
-        res = cosim.run_stream(block, params, stim, n_out=len(exp), sim=sim, mode=mode,
-                               idle=idle, backpressure=backpressure, seed=seed)
-        cmp = cosim.compare(res.out, exp)
-        ppb = exp.data.shape[1] if len(exp) else 1
-        row = {"case": case.name, "beats": cmp.checked, "pixels": cmp.checked * ppb,
-               "mismatches": cmp.mismatches, "cycles": res.cycles, "wall_s": res.wall,
-               "build_s": res.build_time, "timeout": res.timeout, "message": cmp.message}
-        rows.append(row)
-        report(row)
-    return rows
 
 
 def _run(args):

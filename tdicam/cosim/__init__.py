@@ -2,7 +2,7 @@
 
 :func:`run_stream` builds (once per block, parameter set and simulator; cached on disk
 under ``build/cosim``) a testbench around a stream block's Verilog top and runs the
-cocotb test module ``stream_tb`` from ``cocotb_tests/`` in one of two drive modes:
+cocotb test module ``stream_tb`` (:mod:`tdicam.cosim.tb.stream_tb`) in one of two drive modes:
 
 ``beat``
     cocotb drives and samples the AXI4-Stream ports every cycle, with random idle cycles
@@ -11,7 +11,7 @@ cocotb test module ``stream_tb`` from ``cocotb_tests/`` in one of two drive mode
     the stimulus sits in an HDL memory, the clock and the random idle/backpressure are in
     HDL, every output transfer is written to a file by the simulator; cocotb awaits once.
 
-Both return the output transfers as :class:`~tdicam.cosim.codec.Beats` for comparison
+Both return the output transfers as :class:`~tdicam.beats.Beats` for comparison
 against the golden model with :func:`compare`.
 """
 
@@ -21,7 +21,6 @@ import hashlib
 import json
 import os
 import shutil
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,15 +32,17 @@ from .. import blocks
 from ..errors import TdicamError
 from ..hdl.axis import AxisTop
 from ..verilog import convert
+from ..beats import Beats
+from ..pauses import thresholds
 from . import codec, tbgen
 
-__all__ = ["SIMULATORS", "MODES", "SimResult", "Comparison", "run_stream", "compare",
+__all__ = ["SIMULATORS", "MODES", "AMARANTH", "SimResult", "Comparison", "CaseRun",
+           "run_stream", "compare", "run_beats", "run_case", "run_scene", "run_golden_case",
            "build_dir_for", "tool_env", "stream_ports", "build_sources", "run_cocotb"]
 
 SIMULATORS = ("icarus", "verilator")
 MODES = ("beat", "fast")
 REPO = Path(__file__).resolve().parents[2]
-COCOTB_DIR = REPO / "cocotb_tests"
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
 _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
                    "-CFLAGS", "-std=c++20 -fcoroutines -O2", "--x-assign", "fast",
@@ -100,8 +101,6 @@ def _locked(path):
 def _runner(sim):
     tool_env(sim)
     from cocotb_tools.runner import get_runner
-    if str(COCOTB_DIR) not in sys.path:
-        sys.path.insert(0, str(COCOTB_DIR))
     return get_runner(sim)
 
 
@@ -152,9 +151,12 @@ def _build(blk, params, sim):
 
 
 def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP):
-    """Run cocotb module ``test_module`` (in ``cocotb_tests/``) on the build in ``bdir``
-    with ``rundir`` as working folder; returns (passed, wall seconds)."""
+    """Run cocotb module ``test_module`` (a module of :mod:`tdicam.cosim.tb`, or a dotted
+    path) on the build in ``bdir`` with ``rundir`` as working folder; returns (passed, wall
+    seconds)."""
     runner = _runner(sim)
+    if "." not in test_module:
+        test_module = f"{__name__}.tb.{test_module}"
     results = rundir / "results.xml"
     saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
     t0 = time.perf_counter()
@@ -182,7 +184,7 @@ def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP):
 class SimResult:
     """Output of one co-simulation run."""
 
-    out: codec.Beats
+    out: Beats
     cycles: int
     wall: float
     build_time: float
@@ -192,7 +194,7 @@ class SimResult:
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
                seed=1, max_cycles=None, drain=None, keep=False):
-    """Co-simulate ``stim`` (:class:`~tdicam.cosim.codec.Beats`) through a stream block.
+    """Co-simulate ``stim`` (:class:`~tdicam.beats.Beats`) through a stream block.
 
     Parameters
     ----------
@@ -205,9 +207,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
-    for name, p in (("idle", idle), ("backpressure", backpressure)):
-        if not 0 <= p < 1:
-            raise TdicamError(f"{name} = {p} is out of range; valid: 0 <= p < 1")
+    thresholds(idle, backpressure)
     blk = blocks.get(block)
     params = blk.resolve(params)
     bdir, build_time, top = _build(blk, params, sim)
@@ -293,3 +293,130 @@ def compare(got, exp):
             elif count_bad:
                 first_msg = f"segment {s}: {len(g)} beats out, expected {len(e)}"
     return Comparison(checked, mismatches, first_msg or "match")
+
+
+#: Drivers :func:`run_beats` accepts besides :data:`SIMULATORS`: the Amaranth simulator.
+AMARANTH = "amaranth"
+
+
+@dataclass
+class CaseRun:
+    """One co-simulation checked against the golden model (:func:`run_beats`).
+
+    Attributes
+    ----------
+    block, sim, mode : str
+        What ran: ``sim`` one of :data:`SIMULATORS` or ``"amaranth"`` (mode ``"beat"``).
+    result : SimResult
+        The simulator's output and timing.
+    comparison : Comparison
+        Beat-by-beat comparison with the expected beats.
+    n_in, n_out : int
+        Stimulus beats and expected output beats.
+    elements : int
+        Output elements (pixels, bytes) per beat.
+    """
+
+    block: str
+    sim: str
+    mode: str
+    result: SimResult
+    comparison: Comparison
+    n_in: int
+    n_out: int
+    elements: int
+
+    @property
+    def mismatches(self):
+        """Mismatching beats, every expected beat counted when the run timed out."""
+        return self.comparison.mismatches + (self.n_out if self.result.timeout else 0)
+
+    @property
+    def ok(self):
+        return (self.comparison.ok and not self.result.timeout
+                and self.result.accepted == self.n_in)
+
+    @property
+    def pixels(self):
+        return self.comparison.checked * self.elements
+
+    def message(self):
+        """One line: what went wrong (or ``match``), naming block, simulator and mode."""
+        r, where = self.result, f"{self.block} {self.sim} {self.mode}"
+        if r.timeout:
+            return f"{where}: timed out after {r.cycles} cycles"
+        if not self.comparison.ok:
+            return (f"{where}: {self.comparison.mismatches} mismatches; "
+                    f"{self.comparison.message}")
+        if r.accepted != self.n_in:
+            return f"{where}: accepted {r.accepted} of {self.n_in} input beats"
+        return "match"
+
+    def row(self):
+        """The dict ``tdicam sim`` prints and returns per case."""
+        r = self.result
+        return {"beats": self.comparison.checked, "pixels": self.pixels,
+                "mismatches": self.comparison.mismatches, "cycles": r.cycles,
+                "wall_s": r.wall, "build_s": r.build_time, "timeout": r.timeout,
+                "message": self.comparison.message}
+
+
+def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpressure=0.0,
+              seed=1, **kw):
+    """Co-simulate ``stim`` through ``block`` and compare the output with ``exp``.
+
+    The one co-simulation path of tests, ``tdicam sim``, ``tdicam run`` and ``tdicam
+    bench``: ``sim`` is a Verilog simulator (:func:`run_stream`, ``mode`` beat or fast) or
+    ``"amaranth"`` (:func:`tdicam.cosim.pysim.run_pysim`, the Verilog top in Amaranth's
+    simulator). ``kw`` goes to the driver (``max_cycles``, ``drain``, ``keep``).
+    Returns a :class:`CaseRun`.
+    """
+    blk = blocks.get(block) if isinstance(block, str) else block
+    params = blk.resolve(params)
+    if sim == AMARANTH:
+        from .pysim import run_pysim
+        out, cycles, wall = run_pysim(blk.name, params, stim, idle=idle,
+                                      backpressure=backpressure, seed=seed, **kw)
+        res = SimResult(out, cycles, wall, 0.0, False, len(stim))
+        mode = "beat"
+    else:
+        res = run_stream(blk.name, params, stim, n_out=len(exp), sim=sim, mode=mode,
+                         idle=idle, backpressure=backpressure, seed=seed, **kw)
+    elements = exp.data.shape[1] if len(exp) else 1
+    return CaseRun(blk.name, sim, mode, res, compare(res.out, exp), len(stim), len(exp),
+                   elements)
+
+
+def run_case(block, params, arrays, *, corrupt=None, **kw):
+    """:func:`run_beats` on case arrays (a golden case's, or :meth:`Block.case_arrays` of
+    scene arrays): the block's ``to_beats`` makes stimulus and expected beats.
+    ``corrupt(arrays)`` may alter a copy of the arrays first (to show a check can fail)."""
+    blk = blocks.get(block) if isinstance(block, str) else block
+    if blk.to_beats is None:
+        raise TdicamError(f"block {blk.name} has no stream co-simulation; run its cocotb "
+                          f"tests (pytest cocotb_tests/test_{blk.name}.py)")
+    params = blk.resolve(params)
+    if corrupt is not None:
+        arrays = {k: np.array(v, copy=True) for k, v in arrays.items()}
+        corrupt(arrays)
+    stim, exp = blk.to_beats(arrays, params)
+    return run_beats(blk, params, stim, exp, **kw)
+
+
+def run_scene(block, arrays, params=None, **kw):
+    """:func:`run_case` on scene arrays (frames and side inputs, see
+    :mod:`tdicam.blocks`): parameters fitted to the arrays, golden outputs from the
+    block's golden function. Returns (:class:`CaseRun`, the output as scene arrays)."""
+    blk = blocks.get(block) if isinstance(block, str) else block
+    p = blk.scene_params(arrays, params)
+    run = run_case(blk, p, blk.case_arrays(arrays, p), **kw)
+    out = blk.from_beats(run.result.out, arrays, p) if run.ok else None
+    return run, out
+
+
+def run_golden_case(block, case, **kw):
+    """:func:`run_case` on the stored golden ``case`` (name) of ``block``."""
+    from .. import golden
+    blk = blocks.get(block) if isinstance(block, str) else block
+    arrays, params = golden.load(blk, case)
+    return run_case(blk, params, arrays, **kw)

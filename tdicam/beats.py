@@ -1,0 +1,123 @@
+"""Stream beats: the one type every block, golden case and simulator exchanges.
+
+A *beat* is one stream transfer (one AXI4-Stream transfer at the Verilog top): its elements
+(pixels or channels), ``first`` (tuser, start of frame), ``last`` (tlast, end of line), the
+run-time settings presented with it (``ctrl``) and the resets around it (``rst``, ``seg``).
+This module depends on numpy only, so the block registry (:mod:`tdicam.blocks`) and the
+simulators (:mod:`tdicam.cosim`, :mod:`tdicam.streamsim`) both build on it.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import TdicamError
+
+__all__ = ["Beats", "frames_to_beats", "beats_to_frames", "mark_resets"]
+
+
+@dataclass
+class Beats:
+    """A sequence of stream beats.
+
+    Attributes
+    ----------
+    data : ndarray, uint64, shape (n, count)
+        Element values (pixels or channels) of each beat, element 0 in the LSBs of tdata.
+    first, last : ndarray, bool, shape (n,)
+        tuser (start of frame) and tlast (end of line).
+    seg : ndarray, uint8, shape (n,)
+        Segment (number of testbench resets before the beat).
+    ctrl : ndarray, uint64, shape (n,)
+        Packed run-time settings presented with the beat (stimulus only).
+    rst : ndarray, bool, shape (n,)
+        Pulse reset before this beat (stimulus only).
+    """
+
+    data: np.ndarray
+    first: np.ndarray
+    last: np.ndarray
+    seg: np.ndarray | None = None
+    ctrl: np.ndarray | None = None
+    rst: np.ndarray | None = None
+
+    def __len__(self):
+        return len(self.first)
+
+    def __post_init__(self):
+        n = len(self.first)
+        data = np.asarray(self.data, dtype=np.uint64)
+        # an empty selection keeps its element count (reshape(0, -1) is ambiguous)
+        width = data.shape[-1] if data.ndim > 1 else 1
+        self.data = data.reshape(n, -1) if n else data.reshape(0, width)
+        self.first = np.asarray(self.first, dtype=bool)
+        self.last = np.asarray(self.last, dtype=bool)
+        if self.seg is None:
+            self.seg = np.zeros(n, np.uint8)
+        if self.ctrl is None:
+            self.ctrl = np.zeros(n, np.uint64)
+        if self.rst is None:
+            self.rst = np.zeros(n, bool)
+
+    def select(self, mask):
+        return Beats(self.data[mask], self.first[mask], self.last[mask], self.seg[mask],
+                     self.ctrl[mask], self.rst[mask])
+
+    @staticmethod
+    def concat(parts):
+        return Beats(*(np.concatenate([getattr(p, f) for p in parts]) for f in
+                       ("data", "first", "last", "seg", "ctrl", "rst")))
+
+
+def frames_to_beats(frames, *, ppc=1, channels=1):
+    """Raster-order beats of a stack of frames.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (n_frames, rows, cols) or (n_frames, rows, cols, channels)
+    ppc : int
+        Pixels per beat; ``cols`` must be a multiple of it. Each beat carries ``ppc``
+        pixels x ``channels`` elements, pixel-major (pixel 0's channels first).
+    """
+    frames = np.asarray(frames)
+    if channels == 1 and frames.ndim == 3:
+        frames = frames[..., None]
+    nf, rows, cols, ch = frames.shape
+    if ch != channels:
+        raise TdicamError(f"frames have {ch} channels, the block takes {channels}")
+    if cols % ppc:
+        raise TdicamError(f"width {cols} is not a multiple of ppc = {ppc}")
+    per_row = cols // ppc
+    data = frames.reshape(nf * rows * per_row, ppc * ch)
+    n = len(data)
+    idx = np.arange(n)
+    first = idx % (rows * per_row) == 0
+    last = idx % per_row == per_row - 1
+    return Beats(data.astype(np.uint64), first, last)
+
+
+def beats_to_frames(beats, *, rows, cols, ppc=1, channels=1, dtype=np.uint16):
+    """Inverse of :func:`frames_to_beats` for whole frames; returns (frames, first, last)."""
+    per_frame = rows * (cols // ppc)
+    n = len(beats)
+    if n % per_frame:
+        raise TdicamError(f"{n} beats is not a whole number of {rows}x{cols} frames")
+    shape = (n // per_frame, rows, cols) + ((channels,) if channels > 1 else ())
+    return beats.data.astype(dtype).reshape(shape), beats.first, beats.last
+
+
+def mark_resets(stim, exp, reset_before, exp_before=None):
+    """Ask for a DUT reset before stimulus beats ``reset_before`` and number the segments.
+
+    Stimulus beat ``k`` of ``reset_before`` gets ``rst``; it and every later beat move to the
+    next segment. Expected output beats move at ``exp_before`` (default: the same indices,
+    right for a block that emits one output beat per input beat). ``None`` does nothing.
+    """
+    if reset_before is None:
+        return
+    reset_before = np.asarray(reset_before).ravel()
+    exp_before = reset_before if exp_before is None else np.asarray(exp_before).ravel()
+    for k, e in zip(reset_before, exp_before):
+        stim.rst[k] = True
+        stim.seg[k:] += 1
+        exp.seg[e:] += 1

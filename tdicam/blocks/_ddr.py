@@ -1,0 +1,49 @@
+"""What the DDR blocks (``ddr``, ``cds_ddr``, ``tdi_ddr``) share: the simulation
+controller's stall-pattern parameters and the simulation top around a DDR user core.
+
+Each DDR block's Verilog top is its user logic with the simulation-only controller model
+:class:`~tdicam.hdl.ddr.MigModel` behind it (:class:`~tdicam.hdl.ddr.SimTop`), so the fast
+co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
+set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 26 of every 780
+cycles, each ready dropped with probability 16/256). ``ddr_error`` (the model's sticky
+error) blocks the input, so a bad access shows as a stalled run.
+"""
+
+from ..model.ddr import DEFAULT_STALLS, _check_stalls
+from . import Param
+
+__all__ = ["STALL_PARAMS", "stalls_of", "check_stalls", "sim_top"]
+
+STALL_PARAMS = (
+    Param("lat_lo", DEFAULT_STALLS["lat_lo"], "model: shortest read latency, cycles", lo=2,
+          hi=1000),
+    Param("lat_hi", DEFAULT_STALLS["lat_hi"], "model: longest read latency, cycles", lo=2,
+          hi=1000),
+    Param("refresh_period", DEFAULT_STALLS["refresh_period"],
+          "model: cycles between refresh starts", lo=1, hi=1 << 20),
+    Param("refresh_cycles", DEFAULT_STALLS["refresh_cycles"],
+          "model: cycles of each refresh (app_rdy low)", lo=0, hi=1 << 20),
+    Param("drop", DEFAULT_STALLS["drop"],
+          "model: each ready dropped with probability drop/256 per cycle", lo=0, hi=255),
+    Param("seed", DEFAULT_STALLS["seed"], "model: stall pattern seed", lo=0,
+          hi=0xFFFFFFFF),
+)
+_STALL_NAMES = tuple(p.name for p in STALL_PARAMS)
+
+
+def stalls_of(p):
+    """The stall-pattern parameters of a resolved parameter dict."""
+    return {k: p[k] for k in _STALL_NAMES}
+
+
+def check_stalls(p):
+    """Check the stall-pattern parameters of a resolved parameter dict."""
+    _check_stalls(*(p[k] for k in _STALL_NAMES))
+
+
+def sim_top(core, words, stalls):
+    """:class:`~tdicam.hdl.axis.AxisTop` of ``core`` with the MIG model of ``words`` words
+    and the stall pattern ``stalls`` behind it."""
+    from ..hdl.axis import AxisTop
+    from ..hdl.ddr import SimTop
+    return AxisTop(SimTop(core, depth_words=max(1, words), **stalls))

@@ -1,0 +1,166 @@
+"""Block ``cds_ddr``: digital CDS with the reset frame in DDR (SPEC 3.2 + 3.8;
+:class:`~tdicam.hdl.ddr.CdsDdr`).
+
+Reset frames (``kinds`` 1) are stored in DDR and give no output; each signal frame
+(``kinds`` 0) is output as signal - stored reset, clamped at 0 (golden
+:func:`~tdicam.model.ddr.cds_ddr_frames`). ``frame_kind`` rides with each beat. The
+Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
+"""
+
+import numpy as np
+
+from ..beats import Beats, frames_to_beats, mark_resets
+from ..model.cds import pixel_dtype
+from ..model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
+from . import Block, Case, Param, SideInput
+from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+
+__all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
+
+
+def _layout(p):
+    ppw = p["pixels_per_word"]
+    if ppw is None:
+        ppw = 24 if p["pixel_bits"] == 10 else 256 // p["pixel_bits"]
+    return LineLayout(width=p["width"], pixel_bits=p["pixel_bits"], pixels_per_word=ppw,
+                      line_stride=p["line_stride"], base=p["base"])
+
+
+def _check(p):
+    check_stalls(p)
+    check_capacity(_layout(p), p["rows"], p["capacity_mib"] << 20, "reset frame")
+
+
+def _top(**p):
+    from ..hdl.ddr import CdsDdr
+    core = CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
+                  pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
+                  base=p["base"], capacity_bytes=p["capacity_mib"] << 20)
+    return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
+
+
+def cds_arrays(frames, kinds, params):
+    frames = np.asarray(frames)
+    kinds = np.asarray(kinds, np.int64)
+    return {"frames": frames, "kinds": kinds,
+            "out": cds_ddr_frames(frames, kinds, pixel_bits=params["pixel_bits"])}
+
+
+def _random(kinds):
+    def make(params, rng):
+        b = params["pixel_bits"]
+        fr = rng.integers(0, 1 << b, (len(kinds), params["rows"], params["width"]))
+        return cds_arrays(fr.astype(pixel_dtype(b)), kinds, params)
+    return make
+
+
+def _hard(params, rng):
+    """Zeros, full scale, reset > signal everywhere, reset == signal, then a random reset."""
+    b = params["pixel_bits"]
+    full = (1 << b) - 1
+    shape = (params["rows"], params["width"])
+    r = rng.integers(1, full + 1, shape)
+    seq = [(np.zeros(shape), 1), (np.full(shape, full), 0), (np.full(shape, full), 1),
+           (np.zeros(shape), 0), (np.full(shape, full), 0), (r, 1), (r - 1, 0), (r, 0),
+           (np.zeros(shape), 1), (np.zeros(shape), 0)]
+    fr = np.stack([s for s, _ in seq]).astype(pixel_dtype(b))
+    return cds_arrays(fr, [k for _, k in seq], params)
+
+
+def _reset(params, rng):
+    out = _random([1, 0, 0, 1, 0])(params, rng)
+    per = params["rows"] * params["width"]
+    out["reset_before"] = np.array([2 * per + per // 2], np.int64)   # inside signal frame 2
+    return out
+
+
+def cds_to_beats(arrays, params):
+    fr, kinds = arrays["frames"], arrays["kinds"]
+    stim = frames_to_beats(fr)
+    per = fr.shape[1] * fr.shape[2]
+    stim.ctrl = np.repeat(kinds.astype(np.uint64), per)
+    if "reset_before" not in arrays:
+        return stim, frames_to_beats(arrays["out"])
+    # a reset forgets the stored reset frame: recompute the golden after it
+    k = int(arrays["reset_before"][0])
+    fi = k // per
+    nxt = fi + 1
+    before = cds_ddr_frames(fr[:nxt], kinds[:nxt], pixel_bits=params["pixel_bits"])
+    after = cds_ddr_frames(fr[nxt:], kinds[nxt:], pixel_bits=params["pixel_bits"])
+    exp0 = frames_to_beats(before) if len(before) else Beats(np.zeros((0, 1)), [], [])
+    exp1 = frames_to_beats(after)
+    exp = Beats.concat([exp0, exp1])
+    # the cut frame's tail (no tuser) is dropped by the stream contract: feed it with rst
+    keep = np.ones(len(stim), bool)
+    keep[k:nxt * per] = False
+    stim = stim.select(keep)
+    mark_resets(stim, exp, [k], [len(exp0)])
+    return stim, exp
+
+
+def _golden(arrays, params):
+    return {"out": cds_ddr_frames(arrays["frames"], arrays["kinds"],
+                                  pixel_bits=params["pixel_bits"])}
+
+
+def _unstream(out, arrays, params):
+    rows, cols = np.shape(arrays["frames"])[-2:]
+    return {"out": out.data.reshape(-1, rows, cols).astype(pixel_dtype(params["pixel_bits"]))}
+
+
+def _example(rng, n, shape, params):
+    """Random frames of ``shape``, every 4th a reset frame (stored in DDR, no output)."""
+    b = params["pixel_bits"]
+    return {"frames": rng.integers(0, 1 << b, (n, *shape), dtype=pixel_dtype(b)),
+            "kinds": (np.arange(n) % 4 == 0).astype(np.int64)}
+
+
+def _p(width, rows, pixel_bits=12, ppw=None, stride=None, **kw):
+    return {"width": width, "rows": rows, "pixel_bits": pixel_bits, "pixels_per_word": ppw,
+            "line_stride": stride, **kw}
+
+
+def _cases():
+    return [
+        Case("random_24x4_12b", _p(24, 4), _random([1, 0, 0, 1, 0]), seed=1),
+        Case("no_reset_first_24x4_12b", _p(24, 4), _random([0, 1, 0, 0]), seed=2),
+        Case("hard_30x3_12b", _p(30, 3), _hard, seed=3, tags=("fullscale", "zeros")),
+        Case("paper_10b_50x4", _p(50, 4, pixel_bits=10, stride=4096, base=4096),
+             _random([1, 0, 1, 0]), seed=4, tags=("layout",)),
+        Case("hard_16x2_16b", _p(16, 2, pixel_bits=16), _hard, seed=5,
+             tags=("fullscale",)),
+        Case("reset_mid_frame_24x4_12b", _p(24, 4), _reset, seed=6, tags=("reset",)),
+        Case("random_512x16_10b", _p(512, 16, pixel_bits=10), _random([1, 0, 0]),
+             seed=7, tags=("fast-only",)),
+    ]
+
+
+BLOCK = Block(
+    name="cds_ddr",
+    summary="digital CDS with the reset frame in DDR (SPEC 3.2 + 3.8)",
+    params=(
+        Param("width", 512, "pixels per line", lo=1, hi=1 << 16),
+        Param("rows", 16, "lines per frame", lo=1, hi=1 << 16),
+        Param("pixel_bits", 12, "pixel width", lo=8, hi=16),
+        Param("pixels_per_word", None, "values per 256-bit word; default 24 for 10 bit, "
+                                       "else 256 // pixel_bits", lo=1, hi=32),
+        Param("line_stride", None, "address units between lines (8 per word)", lo=8,
+              hi=1 << 28),
+        Param("base", 0, "address of the reset frame's line 0", lo=0, hi=(1 << 28) - 8),
+        Param("capacity_mib", 1024, "DDR size for the address check, MiB", lo=1,
+              hi=1024),
+    ) + STALL_PARAMS,
+    top=_top,
+    cases=_cases,
+    check=_check,
+    model_version="cds_ddr-1",
+    to_beats=cds_to_beats,
+    stream="frames",
+    side_inputs=(SideInput("kinds", "frame", "1 = a reset frame (stored in DDR, no output), "
+                           "0 = a signal frame (output minus the stored reset); on the "
+                           "frame_kind port with every beat"),),
+    golden=_golden,
+    fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["frames"])[-2:]))),
+    unstream=_unstream,
+    example=_example,
+)

@@ -1,0 +1,107 @@
+"""Block ``tdi_ddr``: the ``tdi`` accumulator with its m_max-1 partial-sum lines in DDR
+(SPEC 3.1 + 3.8; :class:`~tdicam.hdl.ddr.TdiDdr`).
+
+Same stream, run-time ports and golden model as block ``tdi``
+(:func:`~tdicam.model.tdi.tdi_stream`; scene arrays per :data:`tdicam.blocks.tdi.SCENE`);
+the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
+"""
+
+from ..model.ddr import ADDR_PER_WORD, tdi_ddr_check
+from ..model.tdi import check_params as tdi_check_params
+from . import Block, Case, Param
+from . import tdi as _tdi
+from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+
+__all__ = ["BLOCK"]
+
+
+def _check(p):
+    tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                     out_bits=p["out_bits"], ppc=p["ppc"])
+    check_stalls(p)
+    from ..hdl.ddr import TdiDdr
+    lp = None if p["line_period_ns"] is None else p["line_period_ns"] * 1e-9
+    tdi_ddr_check(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                  ppc=p["ppc"], line_period_s=lp, clock_hz=p["clock_mhz"] * 1e6,
+                  lookahead=TdiDdr.LOOKAHEAD + 4)
+
+
+def _top(**p):
+    from ..hdl.ddr import TdiDdr
+    lp = p["line_period_ns"]
+    core = TdiDdr(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                  out_bits=p["out_bits"], ppc=p["ppc"], base=p["base"],
+                  line_period_s=None if lp is None else lp * 1e-9,
+                  clock_hz=p["clock_mhz"] * 1e6)
+    return sim_top(core, p["base"] // ADDR_PER_WORD + core.ddr_words, stalls_of(p))
+
+
+def _gen(name, *args):
+    """One of the ``tdi`` block's case generators (:func:`tdicam.blocks.tdi.case_makers`),
+    looked up when the case is made."""
+    def make(params, rng):
+        g = _tdi.case_makers()[name]
+        return g(*args)(params, rng) if args else g(params, rng)
+    return make
+
+
+def _p(width, stages, ppc=1, out_bits=None, pixel_bits=12, **kw):
+    return {"width": width, "stages": stages, "pixel_bits": pixel_bits, "out_bits": out_bits,
+            "ppc": ppc, **kw}
+
+
+_A = _p(256, 4, base=1 << 16)
+_B = _p(320, 5, ppc=2, out_bits=14)
+_C = _p(512, 16)
+_D = _p(1024, 8, ppc=4, pixel_bits=10)
+_CHANGES = [(4, 0, 6), (2, 0, 4), (3, 1, 5), (1, 0, 2), (1, 1, 2), (2, 1, 3), (4, 0, 5),
+            (3, 1, 4)]
+
+
+def _cases():
+    return [
+        Case("random_256x4_p1", _A, _gen("random", 8), seed=1),
+        Case("stages_256x4_p1", _A, _gen("stages", _CHANGES), seed=2,
+             tags=("stages", "direction")),
+        Case("errors_256x4_p1", _A, _gen("errors"), seed=3, tags=("errors", "direction")),
+        Case("reset_256x4_p1", _A, _gen("reset"), seed=4, tags=("reset",)),
+        Case("fullscale_320x5_p2_sat", _B, _gen("fullscale"), seed=5,
+             tags=("fullscale", "saturate", "fast-only")),
+        Case("stages_320x5_p2_sat", _B,
+             _gen("stages", [(5, 0, 7), (2, 1, 4), (4, 1, 6), (3, 0, 4)]),
+             seed=6, tags=("stages", "direction", "saturate", "fast-only")),
+        Case("random_512x16_p1", _C, _gen("random", 18), seed=7, tags=("fast-only", "paper")),
+        Case("stages_512x16_p1", _C, _gen("stages", [(16, 0, 17), (9, 1, 11), (16, 0, 17)]),
+             seed=8, tags=("fast-only", "paper", "stages", "direction")),
+        Case("mixed_1024x8_p4_10b", _D, _gen("stages", [(8, 0, 10), (7, 1, 9), (1, 0, 2)]),
+             seed=9, tags=("fast-only", "stages", "direction")),
+    ]
+
+
+BLOCK = Block(
+    name="tdi_ddr",
+    summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (SPEC 3.1 + 3.8)",
+    params=(
+        Param("width", 512, "pixels per line W (a multiple of ppc; W/ppc above the read "
+                            "look-ahead)", lo=2, hi=8192),
+        Param("stages", 16, "m_max; sizes the (stages-1) partial-sum lines in DDR", lo=1,
+              hi=128),
+        Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
+        Param("out_bits", None, "saturate the output at 2^N-1; default full width", lo=8,
+              hi=21),
+        Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+        Param("base", 0, "DDR address of partial-sum line 0 (a multiple of 8)", lo=0,
+              hi=(1 << 28) - 8),
+        Param("line_period_ns", None, "line period the design must sustain (checks the DDR "
+                                      "bandwidth and the clock); default: not checked",
+              lo=1, hi=10 ** 9),
+        Param("clock_mhz", 100, "user-interface clock for the bandwidth check, MHz", lo=1,
+              hi=1000),
+    ) + STALL_PARAMS,
+    top=_top,
+    cases=_cases,
+    check=_check,
+    model_version="tdi_ddr-1",
+    to_beats=_tdi.to_beats,
+    **_tdi.SCENE,
+)

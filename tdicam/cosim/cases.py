@@ -1,0 +1,34 @@
+"""Co-simulate a block's golden cases (``tdicam sim``, ``tdicam demo``)."""
+
+from .. import blocks
+from ..errors import TdicamError
+from . import run_golden_case
+
+__all__ = ["run_cases"]
+
+
+def run_cases(block, *, sim, mode, idle, backpressure, seed, cases=None, report=print):
+    """Co-simulate golden cases of ``block`` (all, or the names in ``cases``; per-beat mode
+    skips ``fast-only`` ones); returns a list of row dicts (one per case), each also passed
+    to ``report``."""
+    blk = blocks.get(block)
+    if blk.to_beats is None:
+        raise TdicamError(f"block {block} has no stream co-simulation; run its cocotb tests "
+                          f"(pytest cocotb_tests/test_{block}.py)")
+    names = [c.name for c in blk.cases()]
+    for c in cases or []:
+        if c not in names:
+            raise TdicamError(f"block {block} has no golden case {c!r}; valid: "
+                              f"{', '.join(names)}")
+    rows = []
+    for case in blk.cases():
+        if cases and case.name not in cases:
+            continue
+        if mode == "beat" and "fast-only" in case.tags:
+            continue
+        run = run_golden_case(blk, case.name, sim=sim, mode=mode, idle=idle,
+                              backpressure=backpressure, seed=seed)
+        row = {"case": case.name, **run.row()}
+        rows.append(row)
+        report(row)
+    return rows

@@ -1,0 +1,6 @@
+"""cocotb test modules the package runs inside the simulator (not pytest tests).
+
+:func:`tdicam.cosim.run_cocotb` names them by their dotted path (``tdicam.cosim.tb.<name>``):
+``stream_tb`` (every stream block, per-beat and fast mode), ``ddr_tb`` (the bare DDR user
+interface against :class:`~tdicam.model.ddr.MigSim`), ``lvds_tb`` (the LVDS link testbench).
+"""
