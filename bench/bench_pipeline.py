@@ -30,7 +30,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     from tdicam import pipeline as pl
-    from tdicam.cosim.codec import frames_to_beats
+    from tdicam.beats import frames_to_beats
     from tdicam.rtl import scene_data
     from tdicam.scene import load_scene
 

@@ -21,7 +21,7 @@ import json
 import os
 import shutil
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -35,13 +35,15 @@ __all__ = ["Step", "Plan", "SceneData", "USES", "plan", "top", "golden", "stimul
 
 @dataclass(frozen=True)
 class Step:
-    """One block of a plan: registry ``params``, run-time port values ``ports``, ``group``
-    (incoming frames per frame, or None) and ``after_tdi`` (its frames are output lines)."""
+    """One block of a plan: registry ``params``, run-time port values ``ports`` (gateware),
+    ``inputs`` (the same settings as the registry's ``run`` side inputs, golden side) and
+    ``group`` (incoming frames grouped into one, or None)."""
 
     block: str
     params: dict
     ports: dict = field(default_factory=dict)
     group: int | None = None
+    inputs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -105,9 +107,16 @@ class SceneData:
 class Use:
     """How a block takes part in a pipeline.
 
+    The golden side comes from the block registry (:attr:`tdicam.blocks.Block.golden` on
+    scene arrays: the lane's elements are the block's stream and its ``pixel`` side inputs
+    in registry order, ``run`` side inputs are the step's ``inputs``); what the registry
+    does not say -- how a scene sets the block and where the gateware's side inputs come
+    from -- is here:
+
     ``step(ctx) -> (Step, out_bits)`` makes its parameters from the scene context (the
     chain's pixel width so far in ``ctx.bits``); ``hw(step, data) -> stage`` its
-    :mod:`tdicam.hdl.pipeline` stage; ``gold(step, data) -> GoldenStage`` its golden stage.
+    :mod:`tdicam.hdl.pipeline` stage; ``side(step, data, lane) -> dict`` scene arrays of
+    ``pixel`` side inputs that do not ride in the lane (NUC's coefficients).
     ``merge``: takes every lane; ``elems``: input elements per lane; ``lines``: its output
     frames are single lines (one per input frame, after a fill); ``per_frame``: acts on each
     exposure frame (must come before a ``lines`` block).
@@ -115,7 +124,7 @@ class Use:
 
     step: Callable
     hw: Callable
-    gold: Callable
+    side: Callable | None = None
     merge: bool = False
     elems: int = 1
     lines: bool = False
@@ -202,16 +211,9 @@ def _nuc_side(step, data):
     return side
 
 
-def _gold_nuc(step, data):
-    from .model.nuc import nuc
-    from .model.pipeline import GoldenStage
-
-    def fn(arrays, lane):
-        x = arrays[0]
-        g, o = data.coeffs[lane]
-        return nuc(x, np.broadcast_to(g, x.shape), np.broadcast_to(o, x.shape),
-                   **step.params)
-    return GoldenStage("nuc", fn)
+def _nuc_arrays(step, data, lane):
+    gain, offset = data.coeffs[lane]
+    return {"gain": gain, "offset": offset}
 
 
 def _hdr_params(ctx):
@@ -236,22 +238,11 @@ def _step_tdi(ctx):
     out_bits = t.output_bits if t.output == "saturate" else None
     if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
         out_bits = None
+    d = 0 if t.direction == "forward" else 1
     step = Step("tdi", {"width": ctx.width, "stages": m, "pixel_bits": pb,
                         "out_bits": out_bits, "ppc": 1},
-                {"stages_active": m, "direction": 0 if t.direction == "forward" else 1})
+                {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
     return step, tdi_model.out_width(pb, m, out_bits)
-
-
-def _gold_tdi(step, data):
-    from .model.pipeline import GoldenStage
-    from .model.tdi import tdi
-    p = step.params
-
-    def fn(arrays, lane):
-        out = tdi(arrays[0], stages=p["stages"], pixel_bits=p["pixel_bits"],
-                  out_bits=p["out_bits"], direction=step.ports["direction"])
-        return out[:, None, :]
-    return GoldenStage("tdi", fn)
 
 
 def _step_median3(ctx):
@@ -263,37 +254,33 @@ def _step_median3(ctx):
     return Step("median3", p, {"height": ctx.m}), pb
 
 
-def _gold_median3(step, data):
-    from .model.median3 import median3
-    from .model.pipeline import GoldenStage
-    return GoldenStage("median3", lambda arrays, lane: median3(arrays[0], **{
-        k: step.params[k] for k in ("pixel_bits", "enhance")}), group=step.group)
-
-
-def _gold_simple(fn_path, names):
-    """Golden stage calling ``model.<block>.<fn>`` on the lane's arrays with the step's
-    parameters ``names``."""
-    def make(step, data):
-        import importlib
-        from .model.pipeline import GoldenStage
-        mod, fn = fn_path.rsplit(".", 1)
-        f = getattr(importlib.import_module(f"tdicam.model.{mod}"), fn)
-        return GoldenStage(step.block, lambda arrays, lane: f(
-            *arrays, **{k: step.params[k] for k in names}))
-    return make
-
-
 #: Block name -> how it takes part in a pipeline (see :class:`Use`).
 USES = {
-    "cds": Use(_step_cds, _hw_lane("lane", elems=2),
-               _gold_simple("cds.cds", ("pixel_bits",)), elems=2, per_frame=True),
-    "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), _gold_nuc, per_frame=True),
-    "hdr": Use(_step_hdr, _hw_lane("merge"),
-               _gold_simple("hdr.hdr", ("pixel_bits", "threshold", "band", "gain_pairs",
-                                        "slope_frac_bits")), merge=True, per_frame=True),
-    "tdi": Use(_step_tdi, _hw_lane("lane"), _gold_tdi, lines=True),
-    "median3": Use(_step_median3, _hw_lane("lane"), _gold_median3),
+    "cds": Use(_step_cds, _hw_lane("lane", elems=2), elems=2, per_frame=True),
+    "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), side=_nuc_arrays, per_frame=True),
+    "hdr": Use(_step_hdr, _hw_lane("merge"), merge=True, per_frame=True),
+    "tdi": Use(_step_tdi, _hw_lane("lane"), lines=True),
+    "median3": Use(_step_median3, _hw_lane("lane")),
 }
+
+
+def _golden_stage(step, data):
+    """The block's golden stage from its registry entry."""
+    from . import blocks
+    from .model.pipeline import GoldenStage
+    use, blk = USES[step.block], blocks.get(step.block)
+    params = blk.resolve(step.params)
+    lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
+
+    def fn(arrays, lane):
+        scene = dict(step.inputs)
+        if use.side is not None:
+            scene.update(use.side(step, data, lane))
+        scene.update(zip(lane_keys, arrays))
+        out = np.asarray(blk.run_golden(scene, params)["out"])
+        rows = 1 if use.lines else out.shape[-2]
+        return out.reshape(-1, rows, out.shape[-1])
+    return GoldenStage(step.block, fn, merge=use.merge, group=step.group)
 
 
 def _use(name):
@@ -386,8 +373,7 @@ def golden(p, data):
     """Every stage's golden output, in the order of the top's taps: list of [tap name,
     block, ndarray (frames, rows, width)]."""
     from .model.pipeline import chain
-    stages = [replace(USES[s.block].gold(s, data), merge=USES[s.block].merge)
-              for s in p.steps]
+    stages = [_golden_stage(s, data) for s in p.steps]
     out = []
     for (name, lanes), st in zip(chain(data.lane_arrays(p), stages), p.steps):
         for k, a in enumerate(lanes):
@@ -410,7 +396,7 @@ def _ctrl(axis_top, p):
 
 def stimulus(p, data, axis_top):
     """Input beats of the scene data (every lane's elements in each beat)."""
-    from .cosim.codec import frames_to_beats
+    from .beats import frames_to_beats
     arrs = [a for lane in data.lane_arrays(p) for a in lane]
     stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
     _, word = _ctrl(axis_top, p)
@@ -614,7 +600,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         mismatches) and, on a mismatch, ``first_mismatch`` (block, tap, frame, line, column,
         expected, received, cycle) and ``waveform``.
     """
-    from .cosim.codec import frames_to_beats
+    from .beats import frames_to_beats
     gold = golden(p, data) if gold is None else [list(g) for g in gold]
     if corrupt is not None:
         corrupt(gold)
