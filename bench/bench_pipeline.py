@@ -16,7 +16,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,7 +30,7 @@ def main(argv=None):
 
     from tdicam import pipeline as pl
     from tdicam.beats import frames_to_beats
-    from tdicam.rtl import scene_data
+    from tdicam.rtl import run_top, scene_data
     from tdicam.scene import load_scene
 
     sc = load_scene(args.scene)
@@ -46,7 +45,7 @@ def main(argv=None):
     gold = pl.golden(p, data)
     t_gold = time.perf_counter() - t
     n_px = p.input_pixels * p.lane_elems
-    got, info = pl.run_top(p, data, args.sim, taps=args.taps)
+    got, info = run_top(p, data, args.sim, taps=args.taps)
     exp = frames_to_beats(gold[-1][2])
     out = got["out"]
     n = min(len(out), len(exp))

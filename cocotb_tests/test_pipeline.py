@@ -15,7 +15,7 @@ import pytest
 
 from tdicam import pipeline as pl
 from tdicam.commands.run import run_scene
-from tdicam.rtl import scene_data
+from tdicam.rtl import cosimulate, scene_data, WAVE_WINDOW
 from tdicam.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,7 +40,7 @@ def small():
 
 def test_icarus_chain_on_a_cut_of_the_scene_matches(small):
     p, data = small
-    rep = pl.cosimulate(p, data, "icarus", idle=0.2, backpressure=0.2, seed=3)
+    rep = cosimulate(p, data, "icarus", idle=0.2, backpressure=0.2, seed=3)
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert rep["pixels_compared"] == 6 * 24
     assert [t["tap"] for t in rep["taps"]] == ["cds_0", "cds_1", "nuc_0", "nuc_1", "hdr",
@@ -67,7 +67,7 @@ def test_corrupted_stage_is_named_with_its_first_pixel_and_a_waveform(small, tmp
         a[hit] ^= 1
         gold[3][2] = a
 
-    rep = pl.cosimulate(p, data, "icarus", corrupt=corrupt, wave_dir=tmp_path, seed=3,
+    rep = cosimulate(p, data, "icarus", corrupt=corrupt, wave_dir=tmp_path, seed=3,
                         idle=0.2, backpressure=0.2)
     first = rep["first_mismatch"]
     assert (first["block"], first["tap"]) == ("nuc", "nuc_1")
@@ -80,7 +80,7 @@ def test_corrupted_stage_is_named_with_its_first_pixel_and_a_waveform(small, tmp
     start, end = _fst_times(wave)
     t = first["cycle"] * 10_000                            # 10 ns clock, ps
     assert 0 < start <= t <= end                           # a window, not from time 0
-    assert start >= t - (pl.WAVE_WINDOW + 10) * 10_000
+    assert start >= t - (WAVE_WINDOW + 10) * 10_000
 
 
 def test_run_rtl_crop_on_icarus(tmp_path):

@@ -13,7 +13,7 @@ images for a 2-D block.
 from dataclasses import dataclass, field
 from typing import Callable
 
-from amaranth.hdl import Cat, Const, Module, Signal, Value, unsigned
+from amaranth.hdl import Cat, Const, Module, Signal, Value
 from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out

@@ -5,22 +5,18 @@ whole-scene co-simulation of the one against the other.
 parameters, run-time settings and side inputs). From a plan, :func:`top` builds the Verilog
 top (:class:`tdicam.hdl.pipeline.Pipeline` behind :class:`~tdicam.hdl.axis.AxisTop`),
 :func:`golden` runs the golden chain (:func:`tdicam.model.pipeline.chain`) and
-:func:`cosimulate` runs raw scene frames through the generated top in fast mode, comparing
-every stage's tap with its golden stage; on a mismatch it names the first block that
-differs, where, and writes an FST waveform of the cycles around it.
+:func:`stimulus` makes the top's input beats; :mod:`tdicam.rtl` co-simulates the one
+against the other.
 
-What each block contributes (its stage kind, parameters from the scene, side inputs, golden
-call) is one entry of :data:`USES`, keyed by block name; the orchestration below names no
-block. (The architecture issue's block registry is to hold these entries; until it does,
-they live here.)
+Each block's golden function, stream key and side inputs come from the block registry
+(:mod:`tdicam.blocks`); what the registry does not say -- how a scene sets the block's
+parameters and where the gateware takes its side inputs from -- is one entry of
+:data:`USES`, keyed by block name. The orchestration below names no block.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -29,8 +25,8 @@ import numpy as np
 from .errors import TdicamError
 
 __all__ = ["Step", "Plan", "SceneData", "USES", "plan", "top", "golden", "stimulus",
-           "run_top", "cosimulate", "verilog", "identity_data", "verilog_command",
-           "synth_command", "ECP5_85F", "WAVE_WINDOW"]
+           "output_shape", "verilog", "identity_data", "verilog_command", "synth_command",
+           "ECP5_85F"]
 
 
 @dataclass(frozen=True)
@@ -404,159 +400,7 @@ def stimulus(p, data, axis_top):
     return stim
 
 
-# --------------------------------------------------------------------------------------
-# co-simulation with taps
-# --------------------------------------------------------------------------------------
-
-#: Cycles of waveform kept before and after the first mismatch.
-WAVE_WINDOW = 64
-
-
-def _testbench(axis_top, taps, *, wave):
-    """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
-    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` an FST ``wave.fst`` of
-    cycles ``+wave_from .. +wave_to``."""
-    from .cosim import stream_ports, tbgen
-    in_bits, out_bits, ctrl = stream_ports(axis_top)
-    tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
-                                ctrl_ports=ctrl)
-    decl, conn, opens, writes, closes = [], [], [], [], []
-    for k, (name, bits, count) in enumerate(taps):
-        padded = -(-bits // 8) * 8
-        base = f"tap{k}_{name}"
-        decl.append(f"  wire {base}_valid, {base}_ready, {base}_first, {base}_last;\n"
-                    f"  wire [{bits * count - 1}:0] {base}_data;\n"
-                    f"  integer tfd{k}, tcd{k};\n")
-        conn += [f"    .{base}_{s}({base}_{s})," for s in ("valid", "ready", "first", "last",
-                                                         "data")]
-        parts = []
-        for e in range(count - 1, -1, -1):
-            piece = f"{base}_data[{bits * (e + 1) - 1}:{bits * e}]"
-            parts.append(piece if padded == bits else f"{padded - bits}'d0, {piece}")
-        opens.append(f'    tfd{k} = $fopen("tap{k}.hex", "w"); tcd{k} = $fopen("tap{k}.cyc", '
-                     f'"w");')
-        writes.append(
-            f"      if ({base}_valid && {base}_ready) begin\n"
-            f'        $fwrite(tfd{k}, "%h %h %h\\n", seg, {{2\'b00, {base}_first, {base}_last}},'
-            f" {{{', '.join(parts)}}});\n"
-            f'        $fwrite(tcd{k}, "%h\\n", cycles);\n'
-            f"      end")
-        closes.append(f"      $fclose(tfd{k}); $fclose(tcd{k});")
-    extra = "".join(decl)
-    if wave:
-        extra += ("  reg [31:0] wave_from = 0, wave_to = 0;\n  reg wave = 1'b0;\n"
-                  "  initial begin\n"
-                  '    if ($value$plusargs("wave_from=%d", wave_from) && '
-                  '$value$plusargs("wave_to=%d", wave_to)) begin\n'
-                  '      wave = 1\'b1; $dumpfile("wave.fst"); $dumpvars(0, tdicam_tb); '
-                  "$dumpoff;\n    end\n  end\n")
-    marker = "  pipeline dut (\n    .clk(clk),\n"
-    if marker not in tb:
-        raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
-                          "tdicam.pipeline._testbench")
-    tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
-    body = ["  initial begin", *opens, "  end",
-            "  always @(posedge clk) begin",
-            "    if (running && !rst) begin", *writes, "    end",
-            "    if (running && (drain_cnt >= drain || cycles >= max_cycles)) begin",
-            *closes, "    end"]
-    if wave:
-        body += ["    if (wave && running && cycles == wave_from) $dumpon;",
-                 "    if (wave && running && cycles == wave_to) begin $dumpoff; $dumpflush; "
-                 "end"]
-    body.append("  end\n")
-    i = tb.rindex("endmodule")
-    return tb[:i] + "\n".join(body) + tb[i:]
-
-
-def _hexcol(raw, digits):
-    table = np.full(256, 0, np.uint64)
-    for i, c in enumerate(b"0123456789abcdef"):
-        table[c] = i
-    lines = np.frombuffer(raw, np.uint8).reshape(-1, digits + 1)[:, :digits]
-    out = np.zeros(len(lines), np.uint64)
-    for k in range(digits):
-        out = (out << np.uint64(4)) | table[lines[:, k]]
-    return out
-
-
-def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
-              keep=False):
-    """Build (cached) and run the top on the scene data in fast mode.
-
-    Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
-    = (beats, cycle of each beat) of tap ``k``; ``info`` the testbench summary plus
-    ``build_seconds`` (0 when the build was cached), ``run_seconds`` (simulator wall time)
-    and ``input_beats``.
-
-    ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
-    """
-    from . import cosim
-    from .cosim import codec, tbgen
-    from .verilog import convert
-    t0 = time.perf_counter()
-    ax = top(p, data, taps=taps)
-    tap_shapes = ax.core.tap_shapes if taps else []
-    dut = convert(ax, "pipeline")
-    tb = _testbench(ax, tap_shapes, wave=wave is not None)
-    key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
-           "taps": taps, "wave": wave is not None}
-    elab = time.perf_counter() - t0
-    bdir, build_s = cosim.build_sources("pipeline", key, sim,
-                                        {"pipeline.v": dut, "tb.v": tb})
-    stim = stimulus(p, data, ax)
-    _, _, ctrl = cosim.stream_ports(ax)
-    ctrl_bits = max(1, sum(w for _, w in ctrl))
-    bits, count, padded, _ = ax._in
-    n_in = len(stim)
-    n_out = int(np.prod(golden_shape_last(p)))
-    max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
-    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
-    rundir.mkdir(parents=True)
-    for k in range(0, max(n_in, 1), tbgen.DEPTH):      # chunk by chunk: bounded memory
-        (rundir / f"stim_{k // tbgen.DEPTH:06d}.hex").write_bytes(codec.encode_stimulus(
-            stim.select(slice(k, k + tbgen.DEPTH)), elem_padded_bits=padded,
-            ctrl_bits=ctrl_bits))
-    job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
-           "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
-           "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
-           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": ax._out[2],
-           "out_count": ax._out[1]}
-    (rundir / "job.json").write_text(json.dumps(job))
-    plus = [f"+n_in={n_in}", f"+n_out={n_out}", f"+max_cycles={max_cycles}", "+drain=2000",
-            f"+idle={round(idle * 256)}", f"+bp={round(backpressure * 256)}",
-            f"+seed={int(seed) & 0x7fffffff}"]
-    if wave is not None:
-        plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    saved = os.environ.get("WAVES")
-    if wave is not None:
-        os.environ["WAVES"] = "1"   # the runner's "-fst" (else it passes "-none": no dump)
-    try:
-        ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus)
-    finally:
-        if saved is None:
-            os.environ.pop("WAVES", None)
-        else:
-            os.environ["WAVES"] = saved
-    summary = rundir / "summary.json"
-    if not ok or not summary.exists():
-        raise TdicamError(f"{sim} simulation of the pipeline failed; see "
-                          f"{rundir / 'sim.log'}")
-    info = json.loads(summary.read_text())
-    got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
-                                      elem_padded_bits=ax._out[2], count=ax._out[1])}
-    for k, (name, b, c) in enumerate(tap_shapes):
-        got[k] = (codec.decode_output((rundir / f"tap{k}.hex").read_bytes(),
-                                      elem_padded_bits=-(-b // 8) * 8, count=c),
-                  _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
-    info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
-                 "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
-    if not keep and wave is None:
-        shutil.rmtree(rundir, ignore_errors=True)
-    return got, info
-
-
-def golden_shape_last(p):
+def output_shape(p):
     """(frames, rows, width) of the chain's output."""
     frames, rows = p.frames, p.rows
     for s in p.steps:
@@ -566,109 +410,6 @@ def golden_shape_last(p):
             frames, rows = frames // s.group, rows * s.group
     return frames, rows, p.width
 
-
-def _first_diff(got, exp):
-    """Index of the first differing beat (or of the first missing/extra one), or None."""
-    n = min(len(got), len(exp))
-    bad = (got.data[:n] != exp.data[:n]).any(axis=1) | (got.first[:n] != exp.first[:n]) \
-        | (got.last[:n] != exp.last[:n])
-    if bad.any():
-        return int(np.argmax(bad))
-    return None if len(got) == len(exp) else n
-
-
-def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
-               idle=0.0, backpressure=0.0):
-    """Run ``data`` through the generated top and compare every tap with the golden chain.
-
-    Parameters
-    ----------
-    gold : list or None
-        :func:`golden` of ``(p, data)`` if already computed.
-    corrupt : callable(list of (name, ndarray)) or None
-        Alters the golden stages before the comparison (to show the check can fail).
-    wave_dir : path or None
-        Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.fst``, FST: GTKWave, Surfer);
-        None: no waveform.
-
-    Returns
-    -------
-    dict
-        ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
-        missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
-        ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
-        mismatches) and, on a mismatch, ``first_mismatch`` (block, tap, frame, line, column,
-        expected, received, cycle) and ``waveform``.
-    """
-    from .beats import frames_to_beats
-    gold = golden(p, data) if gold is None else [list(g) for g in gold]
-    if corrupt is not None:
-        corrupt(gold)
-    got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure)
-    rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
-           "input_pixels": int(sum(a.size for lane in data.lane_arrays(p) for a in lane)),
-           "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
-           "build_seconds": info["build_seconds"], "run_seconds": info["run_seconds"],
-           "taps": []}
-    rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
-    first = None
-    for k, (name, block, arr) in enumerate(gold):
-        exp = frames_to_beats(arr)
-        g, cyc = got[k]
-        d = _first_diff(g, exp)
-        n = min(len(g), len(exp))
-        bad = int(((g.data[:n] != exp.data[:n]).any(axis=1)).sum()) + abs(len(g) - len(exp))
-        rep["taps"].append({"tap": name, "beats": len(exp), "received": len(g),
-                            "mismatches": bad})
-        if d is not None and first is None:
-            fr, rows, w = arr.shape
-            cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
-            first = {"block": block, "tap": name, "beat": d,
-                     "frame": d // (rows * w), "line": (d // w) % rows, "column": d % w,
-                     "expected": int(exp.data[d, 0]) if d < len(exp) else None,
-                     "received": int(g.data[d, 0]) if d < len(g) else None,
-                     "cycle": cycle}
-    exp_out = frames_to_beats(gold[-1][2])
-    out = got["out"]
-    d = _first_diff(out, exp_out)
-    n = min(len(out), len(exp_out))
-    rep["pixels_compared"] = int(n) * int(out.data.shape[1])
-    rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
-                             | (out.first[:n] != exp_out.first[:n])
-                             | (out.last[:n] != exp_out.last[:n])).sum()) \
-        + abs(len(out) - len(exp_out))
-    if first is not None:
-        rep["first_mismatch"] = first
-        rep["message"] = (f"first mismatch in block {first['block']} (tap {first['tap']}): "
-                          f"frame {first['frame']}, line {first['line']}, column "
-                          f"{first['column']}: expected {first['expected']}, received "
-                          f"{first['received']} (cycle {first['cycle']})")
-        if wave_dir is not None:
-            rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
-                                        backpressure)
-            rep["message"] += f"; waveform {rep['waveform']}"
-    elif d is not None:
-        rep["message"] = f"output beat {d} differs"
-    else:
-        rep["message"] = "match"
-    return rep
-
-
-def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
-    """Re-run on Icarus (same stimulus, same idle/backpressure seed: the same cycles) up to
-    the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to an FST file."""
-    from pathlib import Path
-    lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
-    _, info = run_top(p, data, "icarus", wave=(lo, hi), seed=seed, idle=idle,
-                        backpressure=backpressure)
-    src = Path(info["rundir"]) / "wave.fst"
-    dst = Path(wave_dir) / "pipeline_mismatch.fst"
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    if not src.exists():
-        raise TdicamError(f"pipeline: Icarus wrote no waveform; see {info['rundir']}")
-    shutil.move(str(src), dst)
-    shutil.rmtree(info["rundir"], ignore_errors=True)
-    return str(dst)
 
 
 # --------------------------------------------------------------------------------------
