@@ -2,7 +2,8 @@
 
 Default run (Icarus, small): the seed 002 chain (cds -> nuc -> hdr -> tdi -> median3 with
 enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden stage is
-named with its first differing pixel, and the waveform around it is written. With
+named with its first differing pixel, and the waveform around it is written; TDI spilled to
+DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene. With
 ``TDICAM_FULL=1``: the whole small scene through Verilator.
 """
 
@@ -90,6 +91,18 @@ def test_run_rtl_crop_on_icarus(tmp_path):
     assert last["block"] == "pipeline" and last["status"] == "ran", last
     assert last["mismatches"] == 0 and last["pixels_compared"] == 12 * 4
     assert rep["rtl"]["crop"] == [1, 4, 4, 12]
+
+
+def test_tdi_spilled_to_ddr_matches():
+    """TDI's partial sums in DDR (tdi_ddr behind the simulation MIG model), Icarus."""
+    sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
+        "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6}})
+    assert [s.block for s in pl.plan(sc).steps] == ["tdi"]          # fits on chip
+    p = pl.plan(sc, spill=True)
+    assert [s.block for s in p.steps] == ["tdi_ddr"]
+    data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
+    rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
+    assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 160, rep["message"]
 
 
 @pytest.mark.slow

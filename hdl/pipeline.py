@@ -217,7 +217,8 @@ class Pipeline(wiring.Component):
     Every block keeps its own handshake; the top adds no register on the pixel path: forks
     and joins are combinational, a beat moves through a fork when every branch takes it.
     :attr:`latency` is the sum of the blocks' ``latency`` figures, each as its block defines
-    it (a 2-D block's counts from the input pixel its output needs last).
+    it (a 2-D block's counts from the input pixel its output needs last); None when one
+    varies (DDR).
     """
 
     def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False):
@@ -287,8 +288,10 @@ class Pipeline(wiring.Component):
 
     @property
     def latency(self):
-        """Sum of the blocks' latencies (cycles, no stall; see the class notes)."""
-        return sum(getattr(cs[0], "latency", 0) for cs in self._cores)
+        """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
+        when a block's latency varies (a block with its memory in DDR)."""
+        lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
+        return None if None in lats else sum(lats)
 
     def elaborate(self, platform):
         m = Module()

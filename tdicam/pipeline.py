@@ -115,7 +115,9 @@ class Use:
     ``pixel`` side inputs that do not ride in the lane (NUC's coefficients).
     ``merge``: takes every lane; ``elems``: input elements per lane; ``lines``: its output
     frames are single lines (one per input frame, after a fill); ``per_frame``: acts on each
-    exposure frame (must come before a ``lines`` block).
+    exposure frame (must come before a ``lines`` block). ``memory_bits(step)``: on-chip
+    memory the block needs; ``spill``: the registered block that keeps that memory in DDR
+    instead (same stream, ports and golden model), used when the plan says it must spill.
     """
 
     step: Callable
@@ -125,6 +127,8 @@ class Use:
     elems: int = 1
     lines: bool = False
     per_frame: bool = False
+    memory_bits: Callable | None = None
+    spill: str | None = None
 
 
 @dataclass
@@ -135,6 +139,7 @@ class _Ctx:
     lines: int
     bits: int
     after_tdi: bool = False
+    block: str = ""
 
 
 def _bits_of(maxval):
@@ -235,10 +240,15 @@ def _step_tdi(ctx):
     if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
         out_bits = None
     d = 0 if t.direction == "forward" else 1
-    step = Step("tdi", {"width": ctx.width, "stages": m, "pixel_bits": pb,
+    step = Step(ctx.block, {"width": ctx.width, "stages": m, "pixel_bits": pb,
                         "out_bits": out_bits, "ppc": 1},
                 {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
     return step, tdi_model.out_width(pb, m, out_bits)
+
+
+def _tdi_memory_bits(p):
+    from .model.tdi import full_bits
+    return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
 
 
 def _step_median3(ctx):
@@ -255,7 +265,9 @@ USES = {
     "cds": Use(_step_cds, _hw_lane("lane", elems=2), elems=2, per_frame=True),
     "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), side=_nuc_arrays, per_frame=True),
     "hdr": Use(_step_hdr, _hw_lane("merge"), merge=True, per_frame=True),
-    "tdi": Use(_step_tdi, _hw_lane("lane"), lines=True),
+    "tdi": Use(_step_tdi, _hw_lane("lane"), lines=True, spill="tdi_ddr",
+               memory_bits=lambda st: _tdi_memory_bits(st.params)),
+    "tdi_ddr": Use(_step_tdi, _hw_lane("lane"), lines=True),
     "median3": Use(_step_median3, _hw_lane("lane")),
 }
 
@@ -291,13 +303,20 @@ def _use(name):
 # --------------------------------------------------------------------------------------
 
 
-def plan(scene, *, stages=None, lines=None, width=None, blocks=None):
+def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
+         device="ecp5-85f"):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+
+    ``spill``: keep a block's large memory (TDI's partial sums) in DDR through its ``spill``
+    variant (``tdi_ddr`` with the simulation MIG model); ``None``: when that memory exceeds
+    ``device``'s on-chip RAM (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`).
 
     Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
     a block without a gateware stage, a per-exposure block after a line-making one, a
-    merging block without two channels, a pixel width a block cannot take.
+    merging block without two channels, a pixel width a block cannot take, a memory that
+    does not fit on chip with no DDR variant, a spill asked of a chain with nothing to spill.
     """
+    from .model.plan import onchip_budget
     from . import blocks as registry
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
@@ -313,20 +332,34 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None):
     uses = [_use(n) for n in names]
     merge = any(u.merge for u in uses)
     ctx = _Ctx(scene, m, w, n_lines, scene.sensor.bits)
-    steps, prev = [], "input"
+    steps, prev, spilled = [], "input", False
     for name, u in zip(names, uses):
         if u.per_frame and ctx.after_tdi:
             raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
                               f"{prev}, which sums them into lines")
         try:
+            ctx.block = name
             step, out_bits = u.step(ctx)
             registry.get(name).resolve(step.params)
+            need = u.memory_bits(step) if u.memory_bits is not None else 0
+            go = spill if spill is not None else need > onchip_budget(device)
+            if go and u.spill is None and (spill is None or u.memory_bits is not None):
+                raise TdicamError(f"its memory ({need} bits) does not fit the {device}'s "
+                                  f"on-chip RAM and it has no DDR variant")
+            if go and u.spill is not None:
+                spilled = True
+                ctx.block = name = u.spill
+                step, out_bits = USES[name].step(ctx)
+                registry.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
         ctx.bits = out_bits
         ctx.after_tdi = ctx.after_tdi or u.lines
         prev = name
+    if spill and not spilled:
+        raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
+                          f"{' -> '.join(names)} keeps its memory in DDR")
     return Plan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,

@@ -113,6 +113,20 @@ def test_impossible_pipelines_give_one_line_errors(blocks_, over, msg):
     assert "\n" not in str(exc.value)
 
 
+def test_spill_to_ddr_is_planned_when_the_memory_does_not_fit():
+    sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml")
+    p = pl.plan(sc)
+    assert [s.block for s in p.steps] == ["tdi_ddr"]          # 7.39 Mbit > 3.83 Mbit
+    ax = pl.top(p)
+    ax._MustUse__silence = ax.core._MustUse__silence = True   # inspected, not elaborated
+    assert ax.latency is None                                 # DDR: variable
+    assert [s.block for s in pl.plan(sc, spill=False).steps] == ["tdi"]
+    assert [s.block for s in pl.plan(sc, device="xc7k325t").steps] == ["tdi"]
+    with pytest.raises(TdicamError, match=r"^pipeline: a DDR spill was asked but no block "
+                                          r"of cds -> nuc -> hdr keeps its memory in DDR"):
+        pl.plan(_small(), blocks=["cds", "nuc", "hdr"], spill=True)
+
+
 def test_charge_domain_and_wide_pixels_per_clock_are_refused():
     sc = load_scene(ROOT / "scenes" / "seed004_interline_ccd_charge_4.toml")
     with pytest.raises(TdicamError, match="charge"):
