@@ -466,6 +466,10 @@ def _scene_args(prog, extra, more=()):
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
+    ap.add_argument("--memory", choices=("auto", "chip", "ddr"), default="auto",
+                    help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
+                         "--device's block RAM)")
+    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     for args, kw in more:
         ap.add_argument(*args, **kw)
     try:
@@ -476,7 +480,8 @@ def _scene_args(prog, extra, more=()):
         raise
     from .scene import load_scene
     sc = load_scene(ns.scene)
-    p = plan(sc, stages=ns.stages, lines=ns.lines)
+    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
+             spill={"auto": None, "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
         from .model.calib import load_image
@@ -502,13 +507,13 @@ def verilog_command(extra, output, *, show_help=False):
     from .verilog import convert
     ns, p, data = _scene_args("tdicam verilog pipeline", extra)
     ax = top(p, data, taps=ns.taps)
-    ax_lat = ax.latency
+    ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
     text = convert(ax, "pipeline")
     if output:
         with open(output, "w") as fh:
             fh.write(text)
         print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
-              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat} cycles",
+              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat}",
               file=sys.stderr)
     else:
         sys.stdout.write(text)
