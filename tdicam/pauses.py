@@ -9,7 +9,7 @@ give the same idle/backpressure pattern in all three.
 Cycle ``c`` (0 = the first cycle after the initial reset) uses the generators' ``c``-th
 states ``v_c``, ``r_c``:
 
-* ``v_0 = seed | 1`` (seed as a 32-bit value), ``r_0 = v_0 ^ 0x9e3779b9``,
+* ``v_0 = (seed & 0x7fffffff) | 1``, ``r_0 = v_0 ^ 0x9e3779b9``,
   ``x_{c+1} = xorshift32(x_c)`` (shifts 13, 17, 5);
 * the source *offers* a beat on cycle ``c`` when ``v_c & 0xff >= idle_thr``; once offered,
   ``valid`` stays high until the beat is taken (AXI4-Stream rule), whatever the draws;
@@ -18,19 +18,12 @@ states ``v_c``, ``r_c``:
 """
 
 from .errors import check_range
+from .model.ddr import xorshift32
 
 __all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R"]
 
 #: ``r_0 = v_0 ^ XOR_R``
 XOR_R = 0x9E3779B9
-
-
-def xorshift32(s):
-    """One step of the 32-bit xorshift generator (shifts 13, 17, 5)."""
-    s ^= (s << 13) & 0xFFFFFFFF
-    s ^= s >> 17
-    s ^= (s << 5) & 0xFFFFFFFF
-    return s
 
 
 def thresholds(idle, backpressure):
@@ -49,7 +42,7 @@ class Pauses:
 
     def __init__(self, seed=1, idle=0.0, backpressure=0.0):
         self.idle_thr, self.bp_thr = thresholds(idle, backpressure)
-        self.v = (int(seed) | 1) & 0xFFFFFFFF
+        self.v = (int(seed) & 0x7FFFFFFF) | 1
         self.r = self.v ^ XOR_R
 
     def offer(self):
@@ -64,3 +57,68 @@ class Pauses:
         """Advance to the next cycle."""
         self.v = xorshift32(self.v)
         self.r = xorshift32(self.r)
+
+
+class StreamDriver:
+    """The one stream source and sink: what a testbench drives on each cycle of a run.
+
+    The Python twin of the fast-mode HDL engine (:mod:`tdicam.cosim.tbgen`), driving per-beat
+    cocotb runs and the Amaranth simulator. Each cycle: :meth:`drive` gives ``(rst, valid,
+    ready)`` for the DUT's reset, the input ``valid`` (beat :attr:`idx` on the data lines)
+    and the output ``ready``; after the clock edge's handshakes are known, :meth:`settle`
+    ends the cycle.
+
+    * stalls from :class:`Pauses` (stepped every cycle); ``valid`` stays high until the beat
+      is taken;
+    * a reset asked for before beat ``k`` (``rst_before[k]``) holds ``rst`` for
+      ``rst_cycles`` cycles from the cycle beat ``k`` would be presented, with ``valid`` and
+      ``ready`` low; :attr:`seg` counts the resets so far;
+    * :attr:`finished` once every beat was taken and no output moved for ``drain`` cycles,
+      or after ``max_cycles``.
+    """
+
+    def __init__(self, rst_before, *, seed=1, idle=0.0, backpressure=0.0, rst_cycles=3,
+                 drain=2000, max_cycles=None):
+        self.rst_before = [bool(x) for x in rst_before]
+        self.n_in = len(self.rst_before)
+        self.pauses = Pauses(seed, idle, backpressure)
+        self.rst_cycles, self.drain = rst_cycles, drain
+        self.max_cycles = max_cycles
+        self.idx = self.seg = self.cycle = self.quiet = self.rst_left = 0
+        self.served = self.held = self.finished = self.timeout = False
+        self.rst = self.valid = self.ready = False
+        #: set to keep ``valid`` low (e.g. to measure a latency); the draws go on
+        self.hold_source = False
+
+    def drive(self):
+        """``(rst, valid, ready)`` of the current cycle."""
+        if (self.rst_left == 0 and self.idx < self.n_in and self.rst_before[self.idx]
+                and not self.served):
+            self.rst_left, self.served, self.held = self.rst_cycles, True, False
+            self.seg += 1
+        if self.rst_left:
+            self.rst, self.valid, self.ready = True, False, False
+        else:
+            self.rst = False
+            self.valid = (self.idx < self.n_in and not self.hold_source
+                          and (self.held or self.pauses.offer()))
+            self.ready = self.pauses.ready()
+        return self.rst, self.valid, self.ready
+
+    def settle(self, in_ready, out_valid):
+        """End the cycle given the DUT's input ``ready`` and output ``valid``; returns
+        ``(input beat taken, output beat taken)``."""
+        took = self.valid and bool(in_ready)
+        fired = self.ready and bool(out_valid)
+        self.timeout = self.max_cycles is not None and self.cycle >= self.max_cycles
+        self.finished = self.quiet >= self.drain or self.timeout
+        self.quiet = 0 if fired else self.quiet + (self.idx >= self.n_in)
+        if self.rst_left:
+            self.rst_left -= 1
+        if took:
+            self.idx += 1
+            self.served = False
+        self.held = self.valid and not took
+        self.pauses.step()
+        self.cycle += 1
+        return took, fired

@@ -4,9 +4,10 @@ The Verilog co-simulation is :mod:`tdicam.cosim`; this runs the Amaranth design 
 Python, to check it before any Verilog is generated and to read its plain status ports.
 """
 
-import numpy as np
 from amaranth.lib import data as _data
 from amaranth.sim import Simulator
+
+from .pauses import StreamDriver
 
 __all__ = ["run_stream_component", "probe_latency"]
 
@@ -22,65 +23,60 @@ def _elements(payload_data):
 def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, timeout=1e-3,
                          status=(), latency_from=0):
     """Drive ``stim`` (Beats) into an Amaranth stream component with random idle cycles and
-    backpressure (``p_valid``/``p_ready``: probability of offering / accepting on a cycle).
+    backpressure (``p_valid``/``p_ready``: probability of offering / accepting on a cycle),
+    drawn by :class:`tdicam.pauses.StreamDriver` (the same pattern as the Verilog
+    co-simulation's for the same seed and probabilities, rounded to 1/256).
 
     Returns ``(out, lat, final)``: the output transfers as (data row, first, last) tuples,
     ``[cycles from the transfer of input beat latency_from to the first output being valid]``
     (the source pauses after that beat until then; ``latency_from=None`` skips this; the
     beat must be the first that produces an output), and the values of
     the ``status`` signals once ``n_out`` outputs were seen (plus ``"cycles"``, the clock
-    count until then).
+    count until then). Stops after ``timeout`` simulated seconds (10 ns clock) at the latest.
     """
-    rng = np.random.default_rng(seed)
+    drv = StreamDriver([False] * len(stim), seed=seed, idle=1 - p_valid,
+                       backpressure=1 - p_ready, max_cycles=max(1, round(timeout / 1e-8)))
     n_el = stim.data.shape[1]
     out, lat = [], []
     final = {}
+    i, o = dut.i_stream, dut.o_stream
 
-    async def source(ctx):
-        for k in range(len(stim)):
-            while rng.random() > p_valid:
-                await ctx.tick()
-            for e in range(n_el):
-                ctx.set(dut.i_stream.payload.data[e], int(stim.data[k, e]))
-            ctx.set(dut.i_stream.payload.first, bool(stim.first[k]))
-            ctx.set(dut.i_stream.payload.last, bool(stim.last[k]))
-            ctx.set(dut.i_stream.valid, 1)
-            await ctx.tick().until(dut.i_stream.ready)
-            ctx.set(dut.i_stream.valid, 0)
-            if k == latency_from:
-                t = 0
-                while not ctx.get(dut.o_stream.valid):
-                    await ctx.tick()
-                    t += 1
-                lat.append(t + 1)
-
-    async def sink(ctx):
-        while len(out) < n_out:
-            ctx.set(dut.o_stream.ready, int(rng.random() < p_ready))
-            await ctx.tick()
-
-    async def monitor(ctx):
-        o = dut.o_stream
+    async def bench(ctx):
         n_o = _elements(o.payload.data)
-        cycles = 0
-        async for _, _, valid, ready, data, first, last in ctx.tick().sample(
-                o.valid, o.ready, o.payload.data, o.payload.first, o.payload.last):
-            cycles += 1
-            if valid and ready:
+        since = None
+        while len(out) < n_out and not drv.finished:
+            _, valid, ready = drv.drive()
+            ctx.set(i.valid, valid)
+            ctx.set(o.ready, ready)
+            if valid:
+                k = drv.idx
+                for e in range(n_el):
+                    ctx.set(i.payload.data[e], int(stim.data[k, e]))
+                ctx.set(i.payload.first, bool(stim.first[k]))
+                ctx.set(i.payload.last, bool(stim.last[k]))
+            o_valid = ctx.get(o.valid)
+            if since is not None and o_valid:
+                lat.append(drv.cycle - since)
+                since, drv.hold_source = None, False
+            if ready and o_valid:
+                data = ctx.get(o.payload.data)
                 row = [int(data)] if n_o is None else [int(data[e]) for e in range(n_o)]
-                out.append((row, bool(first), bool(last)))
-            if len(out) >= n_out:
-                break
+                out.append((row, bool(ctx.get(o.payload.first)), bool(ctx.get(o.payload.last))))
+            k = drv.idx
+            took, _ = drv.settle(ctx.get(i.ready), o_valid)
+            if took and k == latency_from:
+                since, drv.hold_source = drv.cycle - 1, True
+            await ctx.tick()
+        ctx.set(i.valid, 0)
+        ctx.set(o.ready, 0)
         await ctx.tick()
         final.update({name: ctx.get(getattr(dut, name)) for name in status})
-        final["cycles"] = cycles
+        final["cycles"] = drv.cycle
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
-    sim.add_testbench(source)
-    sim.add_testbench(sink)
-    sim.add_testbench(monitor)
-    sim.run_until(timeout)
+    sim.add_testbench(bench)
+    sim.run()
     return out, lat, final
 
 

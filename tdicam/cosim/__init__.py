@@ -190,10 +190,11 @@ class SimResult:
     build_time: float
     timeout: bool
     accepted: int
+    trace: list | None = None
 
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
-               seed=1, max_cycles=None, drain=None, keep=False):
+               seed=1, max_cycles=None, drain=None, keep=False, trace=False):
     """Co-simulate ``stim`` (:class:`~tdicam.beats.Beats`) through a stream block.
 
     Parameters
@@ -203,11 +204,15 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
         The run stops once every input was accepted and no output moved for ``drain``
         cycles (so lost and duplicated outputs both show), or at ``max_cycles``.
     idle, backpressure : float in [0, 1)
-        Probability of an idle input cycle / of ``m_axis_tready`` low on a cycle.
+        Probability of an idle input cycle / of ``m_axis_tready`` low on a cycle, drawn by
+        :class:`tdicam.pauses.Pauses` from ``seed``: the same pattern in both modes.
+    trace : bool
+        Record ``SimResult.trace``: ``("i" | "o", cycle)`` of every input and output
+        transfer, cycle 0 the first after the initial reset.
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
-    thresholds(idle, backpressure)
+    idle_thr, bp_thr = thresholds(idle, backpressure)
     blk = blocks.get(block)
     params = blk.resolve(params)
     bdir, build_time, top = _build(blk, params, sim)
@@ -227,15 +232,17 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     for k in range(0, max(n_in, 1), tbgen.DEPTH):
         (rundir / f"stim_{k // tbgen.DEPTH:06d}.hex").write_bytes(
             text[k * line:(k + tbgen.DEPTH) * line])
+    seed = int(seed) & 0x7fffffff
     job = {"mode": mode, "n_in": n_in, "n_out": int(n_out), "idle": idle,
-           "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
+           "backpressure": backpressure, "seed": seed, "max_cycles": max_cycles,
+           "trace": bool(trace),
            "drain": drain, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
            "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": top._out[2],
            "out_count": top._out[1]}
     (rundir / "job.json").write_text(json.dumps(job))
     plusargs = [f"+n_in={n_in}", f"+n_out={int(n_out)}", f"+max_cycles={max_cycles}",
-                f"+drain={drain}", f"+idle={round(idle * 256)}",
-                f"+bp={round(backpressure * 256)}", f"+seed={int(seed) & 0x7fffffff}"]
+                f"+drain={drain}", f"+idle={idle_thr}",
+                f"+bp={bp_thr}", f"+seed={seed}"] + ["+trace"] * bool(trace)
     ok, wall = run_cocotb(bdir, sim, "stream_tb", rundir, plusargs)
     summary = rundir / "summary.json"
     if not ok or not summary.exists():
@@ -243,10 +250,14 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     info = json.loads(summary.read_text())
     out = codec.decode_output((rundir / "out.hex").read_bytes(),
                               elem_padded_bits=top._out[2], count=top._out[1])
+    events = None
+    if trace:
+        events = [(k, int(c)) for k, c in (ln.split() for ln in
+                                           (rundir / "trace.txt").read_text().splitlines())]
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
     return SimResult(out, info["cycles"], wall, build_time, bool(info["timeout"]),
-                     info["accepted"])
+                     info["accepted"], events)
 
 
 @dataclass

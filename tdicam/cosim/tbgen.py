@@ -6,16 +6,21 @@ One testbench serves both drive modes, so a simulator build is made once per par
   edge and samples the handshake in the read-only phase before the rising edge.
 * ``beat_mode = 0`` (fast): an HDL engine presents stimulus held in a memory loaded with
   ``$readmemh`` (in chunks of ``DEPTH`` beats, files ``stim_NNNNNN.hex`` in the run folder),
-  draws idle cycles and backpressure from two xorshift32 generators, pulses reset where a
-  stimulus word asks for it, writes every output transfer to ``out.hex`` and raises ``done``.
-  cocotb only starts it and awaits ``done``.
+  draws idle cycles and backpressure from the two xorshift32 generators of
+  :class:`tdicam.pauses.Pauses` (the same pattern as per-beat mode and the Amaranth driver for
+  the same seed), pulses reset where a stimulus word asks for it, writes every output
+  transfer to ``out.hex`` (and, with ``+trace=1``, the cycle of every input and output
+  transfer to ``trace.txt``) and raises ``done``. cocotb only starts it and awaits ``done``.
 
-A run ends when every stimulus beat was accepted and no output transfer happened for
+A reset asked for before beat ``k`` holds ``rst`` for ``RST_CYCLES`` cycles, from the cycle
+beat ``k`` would be presented. A run ends when every stimulus beat was accepted and no output transfer happened for
 ``drain`` cycles (so missing and extra outputs both show), or at ``max_cycles``.
 
 The clock is generated in HDL (10 ns period) in both modes. While reset is asserted the
 testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 """
+
+from ..pauses import XOR_R
 
 __all__ = ["stream_testbench", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
@@ -68,6 +73,15 @@ module {TB_TOP};
     digit = 8'd48 + ((v / p) % 10);
   endfunction
 
+  function [31:0] xorshift(input [31:0] s);
+    reg [31:0] t;
+    begin
+      t = s ^ (s << 13);
+      t = t ^ (t >> 17);
+      xorshift = t ^ (t << 5);
+    end
+  endfunction
+
   // ---- per-beat mode: written by cocotb
   reg beat_mode = 1'b1;
   reg b_rst = 1'b1;
@@ -88,12 +102,15 @@ module {TB_TOP};
   reg [31:0] idle_thr = 0, bp_thr = 0, lv = 32'h1, lr = 32'h2;
   reg [7:0] seg = 0;
   reg [3:0] rst_cnt = 0;
-  reg rst_served = 1'b0;
+  reg rst_served = 1'b0, held = 1'b0, tracing = 1'b0;
+  integer fd_t;
   wire [SW-1:0] cur = mem[in_idx % DEPTH];
   wire cur_rst = cur[IW+2+CW];
-  wire f_rst = !running || rst_cnt != 0;
-  wire f_present = running && !f_rst && in_idx < n_in && !(cur_rst && !rst_served);
-  wire f_tvalid = f_present && (lv[7:0] >= idle_thr[7:0]);
+  wire rst_now = running && in_idx < n_in && cur_rst && !rst_served;
+  wire f_rst = !running || rst_cnt != 0 || rst_now;
+  wire f_present = running && !f_rst && in_idx < n_in;
+  // tdicam.pauses.Pauses: offer when v & 0xff >= idle_thr; valid held until the transfer
+  wire f_tvalid = f_present && (held || lv[7:0] >= idle_thr[7:0]);
   wire f_tready = running && !f_rst && (lr[7:0] >= bp_thr[7:0]);
 
   // ---- DUT connections
@@ -135,24 +152,29 @@ module {TB_TOP};
       if (!$value$plusargs("idle=%d", idle_thr)) idle_thr = 0;
       if (!$value$plusargs("bp=%d", bp_thr)) bp_thr = 0;
       if (!$value$plusargs("seed=%d", lv)) lv = 1;
+      if ($test$plusargs("trace")) tracing = 1'b1;
       lv = lv | 32'h1;
-      lr = lv ^ 32'h9e3779b9;
+      lr = lv ^ 32'h{XOR_R:08x};
       chunk = 0;
       fname = {_chunk_name_expr()};
       if (n_in != 0) $readmemh(fname, mem);
       fd = $fopen("out.hex", "w");
+      if (tracing) fd_t = $fopen("trace.txt", "w");
       running <= 1'b1;
     end else if (running) begin
       cycles <= cycles + 1;
-      lv = lv ^ (lv << 13); lv = lv ^ (lv >> 17); lv = lv ^ (lv << 5);
-      lr = lr ^ (lr << 13); lr = lr ^ (lr >> 17); lr = lr ^ (lr << 5);
+      lv <= xorshift(lv);
+      lr <= xorshift(lr);
+      held <= f_tvalid && !s_tready;
       if (rst_cnt != 0)
         rst_cnt <= rst_cnt - 1;
-      else if (running && in_idx < n_in && cur_rst && !rst_served) begin
-        rst_cnt <= RST_CYCLES;
+      else if (rst_now) begin
+        rst_cnt <= RST_CYCLES - 1;
         rst_served <= 1'b1;
         seg <= seg + 1;
       end
+      if (tracing && s_fire) $fwrite(fd_t, "i %0d\\n", cycles);
+      if (tracing && m_fire) $fwrite(fd_t, "o %0d\\n", cycles);
       if (s_fire) begin
         in_idx <= in_idx + 1;
         rst_served <= 1'b0;
@@ -171,6 +193,7 @@ module {TB_TOP};
       if (drain_cnt >= drain || cycles >= max_cycles) begin
         timeout <= (cycles >= max_cycles);
         $fclose(fd);
+        if (tracing) $fclose(fd_t);
         running <= 1'b0;
         done <= 1'b1;
       end

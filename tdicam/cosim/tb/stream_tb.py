@@ -1,4 +1,4 @@
-"""cocotb side of the stream co-simulation (see ``tdicam.cosim``).
+"""cocotb side of the stream co-simulation (see :mod:`tdicam.cosim`).
 
 The simulator runs in a run folder holding ``job.json`` and the stimulus chunks
 ``stim_NNNNNN.hex``; this module drives the generated testbench ``tdicam_tb`` in the job's
@@ -6,11 +6,12 @@ mode and leaves ``out.hex`` (every output transfer) and ``summary.json`` there.
 """
 
 import json
-import random
 from pathlib import Path
 
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
+
+from tdicam.pauses import StreamDriver
 
 
 class TB:
@@ -19,7 +20,6 @@ class TB:
     def __init__(self, dut, job):
         self.dut = dut
         self.job = job
-        self.rng = random.Random(job["seed"])
         self.cycles = 0
         self.accepted = 0
         self.timeout = False
@@ -43,70 +43,51 @@ class TB:
         return words[: self.job["n_in"]]
 
     async def run_beats(self):
-        dut, job, rng = self.dut, self.job, self.rng
+        dut, job = self.dut, self.job
         words = self._stimulus()
         cb = job["ctrl_bits"]
         iw = job["in_padded"] * job["in_count"]
         ow = job["out_padded"] * job["out_count"]
-        idle, bp = job["idle"], job["backpressure"]
-        n_in = job["n_in"]
         data_mask = (1 << iw) - 1
         ctrl_mask = (1 << cb) - 1
-        out = []
-        idx = seg = drain = 0
-        rst_left = job["rst_cycles"]  # start from reset, as the fast engine does
-        served = False
-        valid = False
+        drv = StreamDriver([(w >> (iw + 2 + cb)) & 1 for w in words], seed=job["seed"],
+                           idle=job["idle"], backpressure=job["backpressure"],
+                           rst_cycles=job["rst_cycles"], drain=job["drain"],
+                           max_cycles=job["max_cycles"])
+        out, trace = [], []
         dut.beat_mode.value = 1
         s_tready, m_tvalid = dut.s_tready, dut.m_tvalid
         m_tdata, m_tuser, m_tlast = dut.m_tdata, dut.m_tuser, dut.m_tlast
         b_tvalid, b_tready, b_rst = dut.b_tvalid, dut.b_tready, dut.b_rst
-        while True:
+        # start from reset, as the fast engine does before it starts (not counted)
+        b_rst.value, b_tvalid.value, b_tready.value = 1, 0, 0
+        for _ in range(job["rst_cycles"]):
             await FallingEdge(dut.clk)
-            self.cycles += 1
-            w = words[idx] if idx < n_in else 0
-            if rst_left == 0 and idx < n_in and (w >> (iw + 2 + cb)) & 1 and not served:
-                rst_left, served, valid = job["rst_cycles"], True, False
-                seg += 1
-            if rst_left:
-                rst_left -= 1
-                b_rst.value = 1
-                b_tvalid.value = 0
-                b_tready.value = 0
-                await ReadOnly()
-                continue
-            b_rst.value = 0
-            if idx < n_in:
-                if not valid:  # once asserted, tvalid stays until the transfer
-                    valid = rng.random() >= idle
+        while not drv.finished:
+            await FallingEdge(dut.clk)
+            rst, valid, ready = drv.drive()
+            b_rst.value = int(rst)
+            b_tvalid.value = int(valid)
+            b_tready.value = int(ready)
+            if valid:
+                w = words[drv.idx]
                 dut.b_tdata.value = w & data_mask
                 dut.b_tlast.value = (w >> iw) & 1
                 dut.b_tuser.value = (w >> (iw + 1)) & 1
                 dut.b_ctrl.value = (w >> (iw + 2)) & ctrl_mask
-            else:
-                valid = False
-            b_tvalid.value = int(valid)
-            ready = rng.random() >= bp
-            b_tready.value = int(ready)
             await ReadOnly()
-            fired = ready and m_tvalid.value
+            cycle = drv.cycle
+            took, fired = drv.settle(s_tready.value, m_tvalid.value)
             if fired:
                 d = m_tdata.value
                 text = f"{d.to_unsigned():0{ow // 4}x}" if d.is_resolvable else "x" * (ow // 4)
-                out.append(f"{seg:02x} {int(m_tuser.value) << 1 | int(m_tlast.value):x} "
+                out.append(f"{drv.seg:02x} {int(m_tuser.value) << 1 | int(m_tlast.value):x} "
                            f"{text}\n")
-            if valid and s_tready.value:
-                idx += 1
-                served = valid = False
-            if fired:
-                drain = 0
-            elif idx >= n_in:
-                drain += 1
-            if drain >= job["drain"] or self.cycles >= job["max_cycles"]:
-                self.timeout = self.cycles >= job["max_cycles"]
-                break
-        self.accepted = idx
+            trace += [f"i {cycle}\n"] * took + [f"o {cycle}\n"] * fired
+        self.cycles, self.accepted, self.timeout = drv.cycle, drv.idx, drv.timeout
         Path("out.hex").write_text("".join(out))
+        if job.get("trace"):
+            Path("trace.txt").write_text("".join(trace))
 
 
 @cocotb.test()
