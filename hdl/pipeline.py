@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from amaranth.hdl import Cat, Const, Module, Signal, Value
-from amaranth.lib import data, wiring
+from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
@@ -38,9 +38,7 @@ class Link:
     @classmethod
     def of_output(cls, stream):
         """The ``o_stream`` of a component."""
-        bits, count = element_bits(stream.payload.data.shape()
-                                   if isinstance(stream.payload.data, data.View)
-                                   else Value.cast(stream.payload.data).shape())
+        bits, count = element_bits(stream.payload.data.shape())
         d = stream.payload.data
         elems = [d[k] for k in range(count)] if count > 1 else [d]
         return cls(stream.valid, stream.ready, stream.payload.first, stream.payload.last,
@@ -48,9 +46,7 @@ class Link:
 
     def feed(self, m, stream, *, who):
         """Drive component input ``stream`` from this link (elements zero-extended)."""
-        bits, count = element_bits(stream.payload.data.shape()
-                                   if isinstance(stream.payload.data, data.View)
-                                   else Value.cast(stream.payload.data).shape())
+        bits, count = element_bits(stream.payload.data.shape())
         if len(self.elems) > count:
             raise TdicamError(f"{who}: takes {count} channel(s), gets {len(self.elems)}")
         if self.bits > bits:
