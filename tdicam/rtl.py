@@ -33,13 +33,17 @@ def scene_data(scene, *, stages, dv_over_v, lines):
     SceneData`, engine result).
 
     The scene simulator keeps its raw frames internal; they are taken, unchanged, where
-    they enter its pre-TDI blocks (``engine._pre_tdi_blocks``). The run is exact and has
-    the same seed, so the frames are those of ``tdicam run``'s exact result.
+    they enter its pre-TDI blocks (``engine._pre_tdi_blocks``, with the NUC codes the
+    engine computed): a stopgap until the engine hands them out itself. The run is exact
+    and has the same seed, so the frames are those of ``tdicam run``'s exact result.
     """
     from tdicam import engine
     from tdicam.pipeline import SceneData
     seen = {}
-    orig = engine._pre_tdi_blocks
+    orig = getattr(engine, "_pre_tdi_blocks", None)
+    if orig is None:
+        raise TdicamError("[run.rtl]: the scene simulator has no raw-frame hook "
+                          "(engine._pre_tdi_blocks); tdicam.rtl.scene_data needs updating")
 
     def capture(cfg, on, frames_ch, resets_ch, *args, **kw):
         seen["data"] = SceneData(list(frames_ch), None if resets_ch is None
