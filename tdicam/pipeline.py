@@ -453,7 +453,7 @@ def output_shape(p):
 ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
 
-def _scene_args(prog, extra, more=()):
+def _scene_args(prog, extra):
     import argparse
     ap = argparse.ArgumentParser(prog=prog, description="The whole pipeline of a scene "
                                  "([pipeline] blocks in order, NUC coefficients identity "
@@ -470,8 +470,6 @@ def _scene_args(prog, extra, more=()):
                     help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
                          "--device's block RAM)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
-    for args, kw in more:
-        ap.add_argument(*args, **kw)
     try:
         ns = ap.parse_args(list(extra))
     except SystemExit as exc:
@@ -534,23 +532,21 @@ class _PipelineBlock:
         return top(self._p, self._data)
 
 
-def synth_command(extra):
-    """``tdicam synth pipeline --scene S.toml``: the whole chain's cost and whether it fits
-    an ECP5-85F."""
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):
+    """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
+    chain's cost (:func:`tdicam.synth.synth`) and whether it fits an ECP5-85F."""
     from .synth import synth
-    ns, p, data = _scene_args("tdicam synth pipeline", extra, more=(
-        (("--seeds",), {"type": int, "default": 1, "help": "placement seeds (1)"}),
-        (("--freq",), {"type": float, "default": 100.0, "help": "target MHz (100)"}),
-        (("--json",), {"action": "store_true", "help": "print JSON"})))
-    res = synth(_PipelineBlock(p, data), seeds=ns.seeds, freq_mhz=ns.freq)
+    ns, p, data = _scene_args("tdicam synth pipeline", extra)
+    res = synth(_PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
-    if ns.json:
+    if as_json:
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
         return 0
     print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
           f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
           f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
-          f"{res.fmax_mhz:.1f} MHz; xc7 {res.xilinx}")
+          f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
+          f"{res.xilinx}")
     print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
         f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
     return 0
