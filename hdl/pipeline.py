@@ -111,7 +111,9 @@ class CalibRom(wiring.Component):
     per clock while ``o_stream.ready`` is high: the simulation stand-in for the flash.
 
     ``o_stream.data`` = 9 bytes, element ``k`` = byte ``k`` (the input of
-    :class:`~tdicam.hdl.calib.CalibReader`); ``first``/``last`` are 0.
+    :class:`~tdicam.hdl.calib.CalibReader`); ``first``/``last`` are 0. Two register stages
+    (the memory's read port, then an output register: the block RAM's data goes straight
+    into a flip-flop, not into the reader's ECC decoder).
     """
 
     def __init__(self, words):
@@ -130,13 +132,16 @@ class CalibRom(wiring.Component):
         rd = mem.read_port()
         o = self.o_stream
         addr = Signal(range(max(n, 2)))
-        adv = Signal()
-        m.d.comb += [adv.eq(~o.valid | o.ready), rd.en.eq(adv), rd.addr.eq(addr),
-                     Value.cast(o.payload.data).eq(rd.data)]
-        with m.If(adv):
-            m.d.sync += [o.valid.eq(1), addr.eq(addr + 1)]
+        v1 = Signal()                 # the read port holds a word
+        adv1, adv2 = Signal(), Signal()
+        m.d.comb += [adv2.eq(~o.valid | o.ready), adv1.eq(~v1 | adv2),
+                     rd.en.eq(adv1), rd.addr.eq(addr)]
+        with m.If(adv1):
+            m.d.sync += [v1.eq(1), addr.eq(addr + 1)]
             with m.If(addr == n - 1):
                 m.d.sync += addr.eq(0)
+        with m.If(adv2):
+            m.d.sync += [o.valid.eq(v1), Value.cast(o.payload.data).eq(rd.data)]
         return m
 
 
