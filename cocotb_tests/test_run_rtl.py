@@ -1,19 +1,22 @@
-"""``tdicam run`` with ``[run.rtl]``: the median3 and tdi blocks of a scene's chain are
-co-simulated on a crop (both simulators) against their golden models on the same crop input, and
-the check can fail (a corrupted expected output gives mismatches)."""
+"""``tdicam run`` with ``[run.rtl]``: the scene's chain (here tdi -> median3) runs as one
+generated top on a crop of the scene's raw frames and every block's output is compared with
+the golden chain; the check can fail (a corrupted golden stage is named)."""
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tdicam import blocks, cosim, engine
+from tdicam import engine
 from tdicam.scenerun import run_scene
-from tdicam.rtl import cosim_block
+from tdicam.rtl import cosim_scene
 from tdicam.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 CROP = [8, 2, 16, 6]                     # x0, y0, width, height of the output
+FULL = os.environ.get("TDICAM_FULL") == "1"
+SIMS = ["icarus", "verilator"] if FULL else ["icarus"]
 
 
 def _scene(pipeline, simulator):
@@ -23,41 +26,41 @@ def _scene(pipeline, simulator):
                 "rtl": {"crop": CROP, "simulator": simulator}}})
 
 
-@pytest.fixture(scope="module", params=cosim.SIMULATORS)
+@pytest.fixture(scope="module", params=SIMS)
 def report(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("rtl")
     sc = _scene(["tdi", "median3"], request.param)
     return run_scene(sc, out, impact=False, progress=False), out, request.param
 
 
-def test_run_cosimulates_tdi_and_median3_on_the_crop(report):
+def test_run_cosimulates_the_chain_on_the_crop(report):
     rep, out, simulator = report
     got = {b["block"]: b for b in rep["rtl"]["blocks"]}
-    assert set(got) == {"tdi", "median3"}
+    assert list(got) == ["tap tdi", "tap median3", "pipeline"]
     for name, b in got.items():
         assert b["status"] == "ran", b
         assert b["mismatches"] == 0, b
-        assert not b["timeout"]
         assert b["pixels_compared"] == CROP[2] * CROP[3]        # the whole output crop
+    assert got["pipeline"]["input_pixels"] == (CROP[3] + 3) * 4 * CROP[2]
+    assert got["pipeline"]["build_seconds"] >= 0 and got["pipeline"]["run_seconds"] > 0
     md = (out / "report.md").read_text()
-    assert "## RTL co-simulation" in md and "| tdi | ran | 96 | 0 |" in md
-    assert f"RTL median3 on {simulator}: 96 pixels compared, 0 mismatches" in rep["summary"]
+    assert "## RTL co-simulation" in md and "| tap tdi | ran | 96 | 0 |" in md
+    assert f"RTL pipeline on {simulator}: 96 pixels compared, 0 mismatches" in rep["summary"]
 
 
-@pytest.mark.parametrize("name", ["tdi", "median3"])
-def test_corrupted_expected_gives_mismatches(report, name):
-    # same scene, same crop: the simulator builds of the module fixture are reused
+def test_corrupted_golden_stage_is_named(report, tmp_path):
+    # same scene, same crop: the simulator build of the module fixture is reused
     sc = _scene(["tdi", "median3"], report[2])
     x0, y0, w, h = CROP
-    res = engine.simulate(sc, impact=False, keep_crop=(y0, h, x0, w))
+    res = engine.simulate(sc, impact=False)
 
-    def corrupt(a):
-        a["out"] = np.array(a["out"], copy=True)
-        a["out"].reshape(-1)[7] ^= 1
+    def corrupt(gold):
+        a = gold[0][2].copy()
+        a.reshape(-1)[7] ^= 1
+        gold[0][2] = a
 
-    bad = cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl,
-                       corrupt=corrupt)
-    assert bad["status"] == "ran"
-    assert bad["mismatches"] > 0
-    good = cosim_block(name, blocks.get(name), res.frames_crop[name], sc.run.rtl)
-    assert good["mismatches"] == 0
+    bad = cosim_scene(sc, res, (y0, h, x0, w), corrupt=corrupt)["blocks"][-1]
+    assert bad["status"] == "ran" and bad["first_mismatch"]["block"] == "tdi"
+    assert (bad["first_mismatch"]["frame"], bad["first_mismatch"]["column"]) == (0, 7)
+    assert bad["mismatches"] == 0                    # only the tap differs from its stage
+    assert "waveform" not in bad                     # no output folder given

@@ -99,7 +99,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     rtl_report = None
     if crop is not None:
         from tdicam.rtl import cosim_scene
-        rtl_report = cosim_scene(scene, main, crop)
+        rtl_report = cosim_scene(scene, main, crop, out_dir=out_dir)
     real_time = 1.0 / scene.line_period_s
     report = {
         "scene": scene.source,

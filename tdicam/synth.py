@@ -240,7 +240,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     ``harness``: place and route the top between port registers (see the module notes);
     the cell counts are the top's either way.
     """
-    blk = blocks.get(block)
+    blk = blocks.get(block) if isinstance(block, str) else block  # or a registry-like
     params = blk.resolve(params)
     if seeds < 1:
         raise TdicamError(f"--seeds = {seeds} is out of range; valid: 1..")

@@ -130,6 +130,10 @@ def _markdown(rows):
 def _run(args):
     if args.reference:
         return _run_reference(args)
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
+        from ..pipeline import synth_command
+        return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
+                             as_json=args.json)
     if args.block is None:
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())} (or --reference)")
     blk = blocks.get(args.block)

@@ -35,6 +35,9 @@ def parse_block_params(block, extra):
 
 
 def _run(args):
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
+        from ..pipeline import verilog_command
+        return verilog_command(args.extra, args.output, show_help=args.help)
     if args.block is None:
         if args.help:
             args._parser.print_help()

@@ -58,7 +58,6 @@ Fidelity
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -111,6 +110,7 @@ class SceneResult:
     frames_crop: dict | None = None   # per-block golden inputs/outputs on the RTL crop
     cpu_seconds: float = 0.0          # process CPU time (all threads) of the simulation
     flash: list | None = None         # NAND store counters per channel (flash = "nand")
+    raw_data: dict | None = None      # with keep_raw: the frames entering the blocks
 
     @property
     def lines_per_s(self):
@@ -194,7 +194,7 @@ def _run_pass(c, lines, col0, ncols, timer, progress=None, keep_crop=None):
 
 
 def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), disable=(),
-             lines=None, impact=True, progress=None, keep_crop=None):
+             lines=None, impact=True, progress=None, keep_crop=None, keep_raw=False):
     """Simulate one configuration of ``scene``.
 
     Parameters
@@ -219,6 +219,10 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
         Called with the number of exposure-pixels done, as the work advances.
     keep_crop : (y0, h, x0, w) or None
         Keep the golden blocks' inputs/outputs on this output crop (for RTL co-simulation).
+    keep_raw : bool
+        Exact digital TDI only: hand out, as ``raw_data`` of the result, the raw frames of
+        every channel (and the reset frames with CDS) as they enter the pipeline blocks, and
+        the NUC coefficient codes (the input of the camera pipeline's RTL co-simulation).
 
     Returns
     -------
@@ -248,6 +252,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
                           f"of up to 16 samples per pixel), got {sigma:g}")
     n_lines = int(scene.run.lines if lines is None else lines)
     c = decide(scene, m, dv, fid, force, disable)
+    c.keep_raw = bool(keep_raw)
     timer = Timer()
     t0, c0 = time.perf_counter(), time.process_time()
     r = _run_pass(c, n_lines, 0, scene.sensor.columns, timer, progress, keep_crop)
@@ -267,7 +272,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     res = SceneResult(m, dv, "fast" if c.fast else "exact", r.target, r.raw, r.single,
                       r.output, records, r.pedestal_single, r.pedestal_output, r.full_scale,
                       seconds, r.exposure_pixels, geometry(c)[0], notes, r.crop, cpu_seconds,
-                      [c.flash[k] for k in sorted(c.flash)] or None)
+                      [c.flash[k] for k in sorted(c.flash)] or None, c.raw_data)
     for f in res.flash or ():
         notes.append(f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
                      f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "

@@ -64,6 +64,8 @@ class Context:
     quant_moments: bool = False   # fast: exact moments of every rounding (noise < ~0.7 DN)
     nuc_coeffs: list | None = None   # per channel (gain code, offset code) of the nuc block
     flash: dict = dataclasses.field(default_factory=dict)  # NAND store counters per channel
+    keep_raw: bool = False        # hand out the raw frames entering the blocks (exact digital)
+    raw_data: dict | None = None  # {"signal", "reset", "coeffs"} when keep_raw
 
     # ---- the effects of this pass, in table order
     def ran(self, name):

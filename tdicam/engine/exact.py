@@ -145,6 +145,9 @@ def digital(c, p):
     r0 = c.stage_row(0)
     raw = frames[0][:lines, r0, :].astype(np.int64)
     prepare(c, gain_map, dark_map)
+    if c.keep_raw:
+        c.raw_data = {"signal": list(frames), "reset": None if resets is None else list(resets),
+                      "coeffs": c.nuc_coeffs}
     fr = Frames(frames, resets, bits, p.timer, _keeper(p.keep_crop, m, True),
                 keep_out=p.keep_crop)
     for step in c.steps("blocks"):

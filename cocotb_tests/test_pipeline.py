@@ -1,0 +1,118 @@
+"""The scene pipeline as one generated top, co-simulated whole against the golden chain.
+
+Default run (Icarus, small): the seed 002 chain (cds -> nuc -> hdr -> tdi -> median3 with
+enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden stage is
+named with its first differing pixel, and the waveform around it is written; TDI spilled to
+DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene. With
+``TDICAM_FULL=1``: the whole small scene through Verilator.
+"""
+
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tdicam import pipeline as pl
+from tdicam.commands.run import run_scene
+from tdicam.rtl import cosimulate, scene_data, WAVE_WINDOW
+from tdicam.scene import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+FULL = os.environ.get("TDICAM_FULL") == "1"
+
+
+def _scene(sim, cols=24, lines=6, crop=None):
+    rtl = {"simulator": sim}
+    if crop is not None:
+        rtl["crop"] = crop
+    return load_scene(ROOT / "scenes" / "seed002_chain.toml", overrides={
+        "sensor": {"columns": cols}, "run": {"lines": lines, "rtl": rtl}})
+
+
+@pytest.fixture(scope="module")
+def small():
+    sc = _scene("icarus")
+    p = pl.plan(sc)
+    data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
+    return p, data
+
+
+def test_icarus_chain_on_a_cut_of_the_scene_matches(small):
+    p, data = small
+    rep = cosimulate(p, data, "icarus", idle=0.2, backpressure=0.2, seed=3)
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert rep["pixels_compared"] == 6 * 24
+    assert [t["tap"] for t in rep["taps"]] == ["cds_0", "cds_1", "nuc_0", "nuc_1", "hdr",
+                                               "tdi", "median3"]
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] for t in rep["taps"])
+    assert rep["input_pixels"] == 2 * 2 * 13 * 8 * 24     # lanes x (signal, reset) x frames
+
+
+def _fst_times(path):
+    """Start and end time (ps) from an FST file's header block."""
+    raw = Path(path).read_bytes()
+    assert raw[0] == 0                                     # header block first
+    _, start, end = struct.unpack(">QQQ", raw[1:25])
+    return start, end
+
+
+def test_corrupted_stage_is_named_with_its_first_pixel_and_a_waveform(small, tmp_path):
+    p, data = small
+    hit = (4, 3, 7)                                        # frame, line, column of nuc_1
+
+    def corrupt(gold):
+        name, block, a = gold[3]
+        a = a.copy()
+        a[hit] ^= 1
+        gold[3][2] = a
+
+    rep = cosimulate(p, data, "icarus", corrupt=corrupt, wave_dir=tmp_path, seed=3,
+                        idle=0.2, backpressure=0.2)
+    first = rep["first_mismatch"]
+    assert (first["block"], first["tap"]) == ("nuc", "nuc_1")
+    assert (first["frame"], first["line"], first["column"]) == hit
+    assert first["expected"] == first["received"] ^ 1
+    assert rep["mismatches"] == 0                          # the output itself is right
+    assert [t["tap"] for t in rep["taps"] if t["mismatches"]] == ["nuc_1"]
+    wave = Path(rep["waveform"])
+    assert wave.exists() and str(wave) in rep["message"]
+    start, end = _fst_times(wave)
+    t = first["cycle"] * 10_000                            # 10 ns clock, ps
+    assert 0 < start <= t <= end                           # a window, not from time 0
+    assert start >= t - (WAVE_WINDOW + 10) * 10_000
+
+
+def test_run_rtl_crop_on_icarus(tmp_path):
+    sc = _scene("icarus", crop=[4, 1, 12, 4])
+    rep = run_scene(sc, tmp_path, impact=False, progress=False)
+    last = rep["rtl"]["blocks"][-1]
+    assert last["block"] == "pipeline" and last["status"] == "ran", last
+    assert last["mismatches"] == 0 and last["pixels_compared"] == 12 * 4
+    assert rep["rtl"]["crop"] == [1, 4, 4, 12]
+
+
+def test_tdi_spilled_to_ddr_matches():
+    """TDI's partial sums in DDR (tdi_ddr behind the simulation MIG model), Icarus."""
+    sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
+        "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6}})
+    assert [s.block for s in pl.plan(sc).steps] == ["tdi"]          # fits on chip
+    p = pl.plan(sc, spill=True)
+    assert [s.block for s in p.steps] == ["tdi_ddr"]
+    data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
+    rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
+    assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 160, rep["message"]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="Verilator build of the whole chain: TDICAM_FULL=1")
+def test_verilator_whole_small_scene(tmp_path):
+    sc = _scene("verilator", cols=64, lines=16)
+    rep = run_scene(sc, tmp_path, impact=False, progress=False)
+    last = rep["rtl"]["blocks"][-1]
+    assert last["status"] == "ran", last
+    assert rep["rtl"]["crop"] is None and last["engine_agrees"] is True
+    assert last["mismatches"] == 0 and last["pixels_compared"] == 64 * 16
+    assert last["input_pixels"] == 2 * 2 * (16 + 7) * 8 * 64
+    assert "| tap median3 | ran | 1024 | 0 |" in (tmp_path / "report.md").read_text()

@@ -1,0 +1,552 @@
+"""A scene's ``[pipeline]`` as one design: its gateware top, its golden chain, and the
+whole-scene co-simulation of the one against the other.
+
+:func:`plan` turns a scene into a :class:`Plan` (the blocks in order with their registry
+parameters, run-time settings and side inputs). From a plan, :func:`top` builds the Verilog
+top (:class:`tdicam.hdl.pipeline.Pipeline` behind :class:`~tdicam.hdl.axis.AxisTop`),
+:func:`golden` runs the golden chain (:func:`tdicam.model.pipeline.chain`) and
+:func:`stimulus` makes the top's input beats; :mod:`tdicam.rtl` co-simulates the one
+against the other.
+
+Each block's golden function, stream key and side inputs come from the block registry
+(:mod:`tdicam.blocks`); what the registry does not say -- how a scene sets the block's
+parameters and where the gateware takes its side inputs from -- is one entry of
+:data:`USES`, keyed by block name. The orchestration below names no block.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .errors import TdicamError
+
+__all__ = ["Step", "Plan", "SceneData", "USES", "plan", "top", "golden", "stimulus",
+           "output_shape", "verilog", "identity_data", "verilog_command", "synth_command",
+           "ECP5_85F"]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One block of a plan: registry ``params``, run-time port values ``ports`` (gateware),
+    ``inputs`` (the same settings as the registry's ``run`` side inputs, golden side) and
+    ``group`` (incoming frames grouped into one, or None)."""
+
+    block: str
+    params: dict
+    ports: dict = field(default_factory=dict)
+    group: int | None = None
+    inputs: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A scene's chain: ``steps`` in order; input ``lanes`` (channels) of ``lane_elems``
+    elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them."""
+
+    steps: tuple
+    lanes: int
+    lane_elems: int
+    in_bits: int
+    rows: int
+    width: int
+    frames: int
+    lines: int
+    source: str = ""
+
+    @property
+    def input_pixels(self):
+        return self.frames * self.rows * self.width * self.lanes
+
+
+@dataclass
+class SceneData:
+    """Raw scene data for the chain: per lane (channel) the signal frames and, with CDS,
+    the reset frames, ``(frames, rows, width)``; per lane the NUC coefficient codes
+    ``(gain, offset)``, ``(rows, width)`` each, or None."""
+
+    signal: list
+    reset: list | None = None
+    coeffs: list | None = None
+
+    def lane_arrays(self, plan):
+        out = []
+        for k in range(plan.lanes):
+            arrs = [np.asarray(self.signal[k])]
+            if plan.lane_elems == 2:
+                if self.reset is None:
+                    raise TdicamError("pipeline: the chain starts with a two-element block "
+                                      "(CDS) but the scene data has no reset frames")
+                arrs.append(np.asarray(self.reset[k]))
+            out.append(arrs)
+        return out
+
+    def crop(self, x0, w, f0, nf):
+        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``."""
+        cut = (lambda a: np.ascontiguousarray(np.asarray(a)[f0:f0 + nf, :, x0:x0 + w]))
+        return SceneData([cut(s) for s in self.signal],
+                         None if self.reset is None else [cut(r) for r in self.reset],
+                         None if self.coeffs is None else
+                         [(np.ascontiguousarray(g[:, x0:x0 + w]),
+                           np.ascontiguousarray(o[:, x0:x0 + w])) for g, o in self.coeffs])
+
+
+# --------------------------------------------------------------------------------------
+# what each block contributes
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Use:
+    """How a block takes part in a pipeline.
+
+    The golden side comes from the block registry (:attr:`tdicam.blocks.Block.golden` on
+    scene arrays: the lane's elements are the block's stream and its ``pixel`` side inputs
+    in registry order, ``run`` side inputs are the step's ``inputs``); what the registry
+    does not say -- how a scene sets the block and where the gateware's side inputs come
+    from -- is here:
+
+    ``step(ctx) -> (Step, out_bits)`` makes its parameters from the scene context (the
+    chain's pixel width so far in ``ctx.bits``); ``hw(step, data) -> stage`` its
+    :mod:`tdicam.hdl.pipeline` stage; ``side(step, data, lane) -> dict`` scene arrays of
+    ``pixel`` side inputs that do not ride in the lane (NUC's coefficients).
+    ``merge``: takes every lane; ``elems``: input elements per lane; ``lines``: its output
+    frames are single lines (one per input frame, after a fill); ``per_frame``: acts on each
+    exposure frame (must come before a ``lines`` block). ``memory_bits(step)``: on-chip
+    memory the block needs; ``spill``: the registered block that keeps that memory in DDR
+    instead (same stream, ports and golden model), used when the plan says it must spill.
+    """
+
+    step: Callable
+    hw: Callable
+    side: Callable | None = None
+    merge: bool = False
+    elems: int = 1
+    lines: bool = False
+    per_frame: bool = False
+    memory_bits: Callable | None = None
+    spill: str | None = None
+
+
+@dataclass
+class _Ctx:
+    scene: object
+    m: int
+    width: int
+    lines: int
+    bits: int
+    after_tdi: bool = False
+    block: str = ""
+
+
+def _bits_of(maxval):
+    return max(1, int(maxval).bit_length())
+
+
+def _step_cds(ctx):
+    return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
+
+
+def _hw_lane(kind_name, elems=1, side=None):
+    """A :class:`~tdicam.hdl.pipeline.LaneStage` (or ``"merge"``: ``MergeStage``) of the
+    block's registered component; ``side(step, data)`` gives its joined side stream."""
+    def make(step, data):
+        from .hdl.pipeline import LaneStage, MergeStage
+        comp = _component(step)
+        kind = MergeStage if kind_name == "merge" else LaneStage
+        return kind(step.block, lambda lane: comp(),
+                    elems=elems, ports=tuple(step.ports),
+                    side=None if side is None else side(step, data),
+                    group="height" if step.group is not None else None)
+    return make
+
+
+def _component(step):
+    """The core (behind AxisTop) of the block's registered Verilog top."""
+    from . import blocks
+    blk = blocks.get(step.block)
+    params = blk.resolve(step.params)
+
+    def make():
+        wrapper = blk.top(**params)
+        wrapper._MustUse__silence = True   # only its core is used
+        wrapper.core._MustUse__silence = True   # elaborated with the pipeline, if it is
+        return wrapper.core
+    return make
+
+
+def _step_nuc(ctx):
+    opt = ctx.scene.pipeline.nuc
+    return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
+                        "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
+                        "offset_frac_bits": 0}), ctx.bits
+
+
+def _nuc_fmt(step):
+    from .model.nuc import NucFormat
+    p = step.params
+    return NucFormat(p["gain_int_bits"], p["gain_frac_bits"], p["offset_bits"],
+                     p["offset_frac_bits"])
+
+
+def _nuc_side(step, data):
+    """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
+    from .hdl.calib import CalibReader
+    from .hdl.pipeline import CalibRom, Link
+    from .model.calib import encode_image
+    fmt = _nuc_fmt(step)
+
+    def side(m, lane):
+        gain, offset = data.coeffs[lane]
+        rom = CalibRom(encode_image(gain, offset, fmt))
+        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], **fmt.params())
+        m.submodules[f"nuc_calib_rom{lane}"] = rom
+        m.submodules[f"nuc_calib{lane}"] = rd
+        m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),
+                     rom.o_stream.ready.eq(rd.i_stream.ready),
+                     rd.i_stream.payload.eq(rom.o_stream.payload)]
+        return Link.of_output(rd.o_stream)
+    return side
+
+
+def _nuc_arrays(step, data, lane):
+    gain, offset = data.coeffs[lane]
+    return {"gain": gain, "offset": offset}
+
+
+def _hdr_params(ctx):
+    h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
+    if len(g) != 2:
+        raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "
+                          f"{len(g)}")
+    return {"pixel_bits": ctx.bits, "threshold": h.threshold_dn, "band": h.band_dn,
+            "gain_pairs": f"{g[0]}:{g[1]}", "slope_frac_bits": h.slope_frac_bits}
+
+
+def _step_hdr(ctx):
+    from .model.hdr import hdr_config
+    p = _hdr_params(ctx)
+    return Step("hdr", p), hdr_config(**p).out_bits
+
+
+def _step_tdi(ctx):
+    from .model import tdi as tdi_model
+    t = ctx.scene.tdi
+    m, pb = ctx.m, ctx.bits
+    out_bits = t.output_bits if t.output == "saturate" else None
+    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
+        out_bits = None
+    d = 0 if t.direction == "forward" else 1
+    step = Step(ctx.block, {"width": ctx.width, "stages": m, "pixel_bits": pb,
+                        "out_bits": out_bits, "ppc": 1},
+                {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
+    return step, tdi_model.out_width(pb, m, out_bits)
+
+
+def _tdi_memory_bits(p):
+    from .model.tdi import full_bits
+    return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
+
+
+def _step_median3(ctx):
+    pb = max(ctx.bits, 8)
+    enh = bool(ctx.scene.pipeline.median3.edge_enhance)
+    p = {"width": ctx.width, "pixel_bits": pb, "enhance": enh}
+    if ctx.after_tdi:
+        return Step("median3", p, {"height": ctx.lines}, group=ctx.lines), pb
+    return Step("median3", p, {"height": ctx.m}), pb
+
+
+#: Block name -> how it takes part in a pipeline (see :class:`Use`).
+USES = {
+    "cds": Use(_step_cds, _hw_lane("lane", elems=2), elems=2, per_frame=True),
+    "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), side=_nuc_arrays, per_frame=True),
+    "hdr": Use(_step_hdr, _hw_lane("merge"), merge=True, per_frame=True),
+    "tdi": Use(_step_tdi, _hw_lane("lane"), lines=True, spill="tdi_ddr",
+               memory_bits=lambda st: _tdi_memory_bits(st.params)),
+    "tdi_ddr": Use(_step_tdi, _hw_lane("lane"), lines=True),
+    "median3": Use(_step_median3, _hw_lane("lane")),
+}
+
+
+def _golden_stage(step, data):
+    """The block's golden stage from its registry entry."""
+    from . import blocks
+    from .model.pipeline import GoldenStage
+    use, blk = USES[step.block], blocks.get(step.block)
+    params = blk.resolve(step.params)
+    lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
+
+    def fn(arrays, lane):
+        scene = dict(step.inputs)
+        if use.side is not None:
+            scene.update(use.side(step, data, lane))
+        scene.update(zip(lane_keys, arrays))
+        out = np.asarray(blk.run_golden(scene, params)["out"])
+        rows = 1 if use.lines else out.shape[-2]
+        return out.reshape(-1, rows, out.shape[-1])
+    return GoldenStage(step.block, fn, merge=use.merge, group=step.group)
+
+
+def _use(name):
+    if name not in USES:
+        raise TdicamError(f"pipeline: block {name!r} has no gateware stage; blocks with one: "
+                          f"{', '.join(USES)}")
+    return USES[name]
+
+
+# --------------------------------------------------------------------------------------
+# plan, top, golden chain
+# --------------------------------------------------------------------------------------
+
+
+def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
+         device="ecp5-85f"):
+    """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+
+    ``spill``: keep a block's large memory (TDI's partial sums) in DDR through its ``spill``
+    variant (``tdi_ddr`` with the simulation MIG model); ``None``: when that memory exceeds
+    ``device``'s on-chip RAM (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`).
+
+    Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
+    a block without a gateware stage, a per-exposure block after a line-making one, a
+    merging block without two channels, a pixel width a block cannot take, a memory that
+    does not fit on chip with no DDR variant, a spill asked of a chain with nothing to spill.
+    """
+    from .model.plan import onchip_budget
+    from . import blocks as registry
+    names = list(scene.pipeline.blocks if blocks is None else blocks)
+    if scene.tdi.domain != "digital":
+        raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
+                          "digital-TDI chain has a gateware pipeline")
+    m = int(scene.tdi.stages[0] if stages is None else stages)
+    n_lines = int(scene.run.lines if lines is None else lines)
+    w = int(scene.sensor.columns if width is None else width)
+    rt = scene.run.rtl
+    if rt is not None and rt.pixels_per_clock != 1:
+        raise TdicamError("pipeline: [run.rtl].pixels_per_clock must be 1 for the whole-chain "
+                          "top (the blocks other than tdi take one pixel per clock)")
+    uses = [_use(n) for n in names]
+    merge = any(u.merge for u in uses)
+    ctx = _Ctx(scene, m, w, n_lines, scene.sensor.bits)
+    steps, prev, spilled = [], "input", False
+    for name, u in zip(names, uses):
+        if u.per_frame and ctx.after_tdi:
+            raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
+                              f"{prev}, which sums them into lines")
+        try:
+            ctx.block = name
+            step, out_bits = u.step(ctx)
+            registry.get(name).resolve(step.params)
+            need = u.memory_bits(step) if u.memory_bits is not None else 0
+            go = spill if spill is not None else need > onchip_budget(device)
+            if go and u.spill is None and (spill is None or u.memory_bits is not None):
+                raise TdicamError(f"its memory ({need} bits) does not fit the {device}'s "
+                                  f"on-chip RAM and it has no DDR variant")
+            if go and u.spill is not None:
+                spilled = True
+                ctx.block = name = u.spill
+                step, out_bits = USES[name].step(ctx)
+                registry.get(name).resolve(step.params)
+        except TdicamError as exc:
+            raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
+        steps.append(step)
+        ctx.bits = out_bits
+        ctx.after_tdi = ctx.after_tdi or u.lines
+        prev = name
+    if spill and not spilled:
+        raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
+                          f"{' -> '.join(names)} keeps its memory in DDR")
+    return Plan(tuple(steps), lanes=2 if merge else 1,
+                lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
+                rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
+                source=str(scene.source))
+
+
+def identity_data(p):
+    """Scene data placeholder for elaboration: identity NUC coefficients (gain 1, offset 0)
+    and no frames."""
+    from .model.nuc import identity_coeffs
+    coeffs = None
+    for st in p.steps:
+        if "gain_frac_bits" in st.params:
+            g, o = identity_coeffs((p.rows, p.width), _nuc_fmt(st))
+            coeffs = [(g, o)] * p.lanes
+    return SceneData([], None, coeffs)
+
+
+def top(p, data=None, *, taps=False):
+    """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``)."""
+    from .hdl.axis import AxisTop
+    from .hdl.pipeline import Pipeline
+    data = identity_data(p) if data is None or data.coeffs is None else data
+    stages = [USES[s.block].hw(s, data) for s in p.steps]
+    try:
+        core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
+                        taps=taps)
+    except TdicamError as exc:
+        raise TdicamError(str(exc)) from None
+    return AxisTop(core)
+
+
+def verilog(p, data=None, *, taps=False):
+    """Deterministic Verilog text of the top (module ``pipeline``)."""
+    from .verilog import convert
+    return convert(top(p, data, taps=taps), "pipeline")
+
+
+def golden(p, data):
+    """Every stage's golden output, in the order of the top's taps: list of [tap name,
+    block, ndarray (frames, rows, width)]."""
+    from .model.pipeline import chain
+    stages = [_golden_stage(s, data) for s in p.steps]
+    out = []
+    for (name, lanes), st in zip(chain(data.lane_arrays(p), stages), p.steps):
+        for k, a in enumerate(lanes):
+            out.append([name + (f"_{k}" if len(lanes) > 1 else ""), st.block, a])
+    return out
+
+
+def _ctrl(axis_top, p):
+    """Packed run-time port values (first port in the most significant bits)."""
+    from .cosim import stream_ports
+    _, _, ctrl = stream_ports(axis_top)
+    values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+    word = 0
+    for name, width in ctrl:
+        if name not in values:
+            raise TdicamError(f"pipeline: no value for the top's input port {name}")
+        word = (word << width) | (int(values[name]) & ((1 << width) - 1))
+    return ctrl, word
+
+
+def stimulus(p, data, axis_top):
+    """Input beats of the scene data (every lane's elements in each beat)."""
+    from .beats import frames_to_beats
+    arrs = [a for lane in data.lane_arrays(p) for a in lane]
+    stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
+    _, word = _ctrl(axis_top, p)
+    stim.ctrl = np.full(len(stim), word, np.uint64)
+    return stim
+
+
+def output_shape(p):
+    """(frames, rows, width) of the chain's output."""
+    frames, rows = p.frames, p.rows
+    for s in p.steps:
+        if USES[s.block].lines:
+            frames, rows = max(frames - s.params["stages"] + 1, 0), 1
+        if s.group is not None:
+            frames, rows = frames // s.group, rows * s.group
+    return frames, rows, p.width
+
+
+
+# --------------------------------------------------------------------------------------
+# commands: tdicam verilog|synth pipeline --scene S.toml
+# --------------------------------------------------------------------------------------
+
+#: ECP5-85F (LFE5U-85F) resources: LUT4 slots, flip-flops, 18 kbit EBRs, 18x18 multipliers.
+ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
+
+
+def _scene_args(prog, extra):
+    import argparse
+    ap = argparse.ArgumentParser(prog=prog, description="The whole pipeline of a scene "
+                                 "([pipeline] blocks in order, NUC coefficients identity "
+                                 "unless --calib).")
+    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
+                    "[tdi].stages)")
+    ap.add_argument("--lines", type=int, help="output lines per median image (default "
+                    "[run].lines)")
+    ap.add_argument("--calib", action="append", default=[],
+                    help="calibration image file (tdicam calib write), one per channel")
+    ap.add_argument("--taps", action="store_true", help="expose every block's output")
+    ap.add_argument("--memory", choices=("auto", "chip", "ddr"), default="auto",
+                    help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
+                         "--device's block RAM)")
+    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    try:
+        ns = ap.parse_args(list(extra))
+    except SystemExit as exc:
+        if exc.code:
+            raise TdicamError(f"{prog}: bad arguments (see {prog} --help)") from None
+        raise
+    from .scene import load_scene
+    sc = load_scene(ns.scene)
+    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
+             spill={"auto": None, "chip": False, "ddr": True}[ns.memory])
+    data = None
+    if ns.calib:
+        from .model.calib import load_image
+        if len(ns.calib) != p.lanes:
+            raise TdicamError(f"--calib: the pipeline has {p.lanes} channel(s), got "
+                              f"{len(ns.calib)} image(s)")
+        coeffs = []
+        for path in ns.calib:
+            img = load_image(path)
+            if img.shape != (p.rows, p.width):
+                raise TdicamError(f"--calib {path}: a {img.shape[0]} x {img.shape[1]} image; "
+                                  f"the pipeline's frames are {p.rows} x {p.width}")
+            coeffs.append((np.asarray(img.gain), np.asarray(img.offset)))
+        data = SceneData([], None, coeffs)
+    return ns, p, data
+
+
+def verilog_command(extra, output, *, show_help=False):
+    """``tdicam verilog pipeline --scene S.toml [-o FILE]``; returns the exit status."""
+    import sys
+    if show_help:
+        extra = ["--help"]
+    from .verilog import convert
+    ns, p, data = _scene_args("tdicam verilog pipeline", extra)
+    ax = top(p, data, taps=ns.taps)
+    ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
+    text = convert(ax, "pipeline")
+    if output:
+        with open(output, "w") as fh:
+            fh.write(text)
+        print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
+              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat}",
+              file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+class _PipelineBlock:
+    """The registry face of a plan for :func:`tdicam.synth.synth` (name, resolve, build)."""
+
+    def __init__(self, p, data):
+        self.name, self._p, self._data = "pipeline", p, data
+
+    def resolve(self, params=None):
+        return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
+                                                   for s in self._p.steps]}
+
+    def build(self, params=None):
+        return top(self._p, self._data)
+
+
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):
+    """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
+    chain's cost (:func:`tdicam.synth.synth`) and whether it fits an ECP5-85F."""
+    from .synth import synth
+    ns, p, data = _scene_args("tdicam synth pipeline", extra)
+    res = synth(_PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
+    fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
+    if as_json:
+        print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
+        return 0
+    print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
+          f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
+          f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
+          f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
+          f"{res.xilinx}")
+    print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
+        f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
+    return 0
