@@ -9,7 +9,14 @@ co-simulation (HDL controller model inside the design) for the round trip, CDS w
 reset frame in DDR and TDI with partial sums in DDR, with the sustained rate in input
 beats per clock (TDI on chip: 1 beat/clock).
 
-    python bench/bench_ddr.py [--quick]
+Table 3 (``--litedram``, needs the ``ddrref`` extra): the efficiency of every access
+pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded command order
+(writer, reader, frame buffer, CDS reset frames, TDI spill) on the project's memory model
+beside LiteDRAM's (:mod:`tdicam.ddrref`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
+timing checker on). LiteDRAM's simulation runs some tens of cycles per second: ``--lines``
+sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth).
+
+    python bench/bench_ddr.py [--quick] [--litedram [--lines N]]
 """
 
 import argparse
@@ -100,6 +107,38 @@ def speed(sims=cosim.SIMULATORS, quick=False):
     return out
 
 
+def litedram(lines=4, patterns=None, blocks=("writer", "reader", "ddr", "cds_ddr", "tdi_ddr")):
+    """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, wall}: efficiency (%)
+    of each access pattern and each DDR block's command order on the memory model with the
+    plain stall pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`) and on
+    LiteDRAM."""
+    from tdicam import ddrref
+    from tdicam.model.ddr import PATTERNS, DramTiming, pattern_trace, replay_model
+    rows = []
+
+    def one(kind, name, trace, windows=None):
+        kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
+        r = ddrref.replay(trace, **kw)
+        rows.append({"what": name, "kind": kind, "words": trace.words,
+                     "stall_eff": 100 * replay_model(trace)[2],
+                     "model_eff": 100 * replay_model(trace, DramTiming(), windows)[2],
+                     "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
+                     "wall": r.wall})
+        print(f"  {kind} {name}: model {rows[-1]['model_eff']:.1f} %, LiteDRAM "
+              f"{rows[-1]['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
+
+    for name in patterns or PATTERNS:
+        n = max(1, lines // 10) if name.startswith("table2") else lines
+        if name == "write_read_lag16":
+            n = max(n, 17)
+        one("pattern", name, pattern_trace(name, lines=n), PATTERNS[name][2])
+    if blocks:
+        traces = ddrref.block_traces(lines=lines)
+        for name in blocks:
+            one("block", name, traces[name])
+    return rows
+
+
 def run(sims=cosim.SIMULATORS, quick=False):
     """Both tables as one list of dicts (``table`` = "efficiency" or "speed")."""
     return ([{"table": "efficiency", **r} for r in efficiency(sims, quick)]
@@ -109,7 +148,20 @@ def run(sims=cosim.SIMULATORS, quick=False):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller runs")
+    ap.add_argument("--litedram", action="store_true",
+                    help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
+    ap.add_argument("--lines", type=int, default=4, help="Table 3 trace length in lines")
     a = ap.parse_args(argv)
+    if a.litedram:
+        rows = litedram(lines=a.lines)
+        print(machine())
+        print_table(rows, [("kind", "kind", "s"), ("what", "pattern / block", "s"),
+                           ("words", "words", "d"), ("stall_eff", "stall model %", ".1f"),
+                           ("model_eff", "DRAM model %", ".1f"),
+                           ("lite_eff", "LiteDRAM %", ".1f"), ("lite_ok", "data+timing ok", ""),
+                           ("wall", "wall s", ".0f")],
+                    title=f"DDR efficiency, memory model vs LiteDRAM ({a.lines}-line traces)")
+        return
     rows = run(quick=a.quick)
     print(machine())
     print_table([r for r in rows if r["table"] == "efficiency"],

@@ -37,7 +37,7 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import calib as mcalib
 from tdicam.model import nand as mnand
 from .calib import DEBUG_ELEMENTS, CalibReader
-from .ecc import _equals
+from .util import equals
 from .stream import channels_shape, pixel_signature
 
 __all__ = ["NandCalibStore", "NandDeviceSim", "NandCalibTop", "LOAD_PAGE", "LOAD_SLOT",
@@ -198,23 +198,23 @@ class NandCalibStore(wiring.Component):
         st = {name: k for k, name in enumerate(states)}
         state = Signal(range(len(states)))
         # a state register and an If/Elif chain (no incomplete case statements in the Verilog)
-        with m.If(_equals(state, st["IDLE"])):
+        with m.If(equals(state, st["IDLE"])):
             with m.If(self.start):
                 m.d.sync += state.eq(st["RESET"])
-        with m.Elif(_equals(state, st["RESET"])):
+        with m.Elif(equals(state, st["RESET"])):
             m.d.comb += [self.nand_cle.eq(1), self.nand_dq_o.eq(CMD_RESET),
                          self.nand_we_n.eq(phase)]
             m.d.sync += phase.eq(~phase)
             with m.If(phase):
                 m.d.sync += [wcnt.eq(0), scanning.eq(1), blk.eq(0), page.eq(0)]
                 m.d.sync += state.eq(st["RESET_WAIT"])
-        with m.Elif(_equals(state, st["RESET_WAIT"])):
+        with m.Elif(equals(state, st["RESET_WAIT"])):
             with m.If(wcnt != 2):
                 m.d.sync += wcnt.eq(wcnt + 1)
             with m.Elif(self.nand_rb_n):
                 m.d.sync += state.eq(st["ISSUE"])
-        with m.Elif(_equals(state, st["ISSUE"])):
-            first_last = _equals(step, 0) | (step == 6)
+        with m.Elif(equals(state, st["ISSUE"])):
+            first_last = equals(step, 0) | (step == 6)
             m.d.comb += [self.nand_cle.eq(first_last), self.nand_ale.eq(~first_last),
                          self.nand_dq_o.eq(addr_byte), self.nand_we_n.eq(phase)]
             m.d.sync += phase.eq(~phase)
@@ -224,7 +224,7 @@ class NandCalibStore(wiring.Component):
                     m.d.sync += state.eq(st["WAIT"])
                 with m.Else():
                     m.d.sync += step.eq(step + 1)
-        with m.Elif(_equals(state, st["WAIT"])):
+        with m.Elif(equals(state, st["WAIT"])):
             with m.If(wcnt != 2):
                 m.d.sync += wcnt.eq(wcnt + 1)
             with m.Elif(self.nand_rb_n):
@@ -233,7 +233,7 @@ class NandCalibStore(wiring.Component):
                     m.d.sync += state.eq(st["SCAN_READ"])
                 with m.Else():
                     m.d.sync += state.eq(st["DATA"])
-        with m.Elif(_equals(state, st["SCAN_READ"])):
+        with m.Elif(equals(state, st["SCAN_READ"])):
             m.d.comb += self.nand_re_n.eq(phase)
             m.d.sync += phase.eq(~phase)
             is_bad = Signal()
@@ -251,16 +251,16 @@ class NandCalibStore(wiring.Component):
                 with m.Else():
                     m.d.sync += blk.eq(blk + 1)
                     m.d.sync += state.eq(st["ISSUE"])
-        with m.Elif(_equals(state, st["FIND"])):
+        with m.Elif(equals(state, st["FIND"])):
             # the map is read one clock after lblk is set; taken in MAP
             with m.If(lblk == n_good):
                 m.d.sync += state.eq(st["ERROR"])
             with m.Else():
                 m.d.sync += state.eq(st["MAP"])
-        with m.Elif(_equals(state, st["MAP"])):
+        with m.Elif(equals(state, st["MAP"])):
             m.d.sync += [blk.eq(l2p_r.data), page.eq(0)]
             m.d.sync += state.eq(st["ISSUE"])
-        with m.Elif(_equals(state, st["DATA"])):
+        with m.Elif(equals(state, st["DATA"])):
             stall = w_valid & (nbyte == 8) & phase  # the reader has not taken the last word
             m.d.comb += self.nand_re_n.eq(phase)
             with m.If(~stall):
@@ -276,13 +276,13 @@ class NandCalibStore(wiring.Component):
                     with m.If(words == self._n_words - 1):
                         m.d.sync += state.eq(st["DONE"])
                     with m.Elif(word_in_page == g.words_per_page - 1):
-                        with m.If(_equals(page, g.pages_per_block - 1)):
+                        with m.If(equals(page, g.pages_per_block - 1)):
                             m.d.sync += lblk.eq(lblk + 1)
                             m.d.sync += state.eq(st["FIND"])
                         with m.Else():
                             m.d.sync += page.eq(page + 1)
                             m.d.sync += state.eq(st["ISSUE"])
-        with m.Elif(_equals(state, st["DONE"])):
+        with m.Elif(equals(state, st["DONE"])):
             m.d.comb += self.done.eq(~w_valid)
         with m.Else():  # ERROR
             m.d.comb += self.error.eq(1)
@@ -350,7 +350,7 @@ class NandDeviceSim(wiring.Component):
                               ("marker", marker, LOAD_MARKER)):
             wp = mem.write_port()
             m.d.comb += [wp.addr.eq(self.ld_word[8:30]), wp.data.eq(self.ld_word[:8]),
-                         wp.en.eq(self.ld_valid & _equals(self.ld_word[30:], op))]
+                         wp.en.eq(self.ld_valid & equals(self.ld_word[30:], op))]
             ops[name] = mem.read_port()
 
         row = Signal(24)
@@ -362,7 +362,7 @@ class NandDeviceSim(wiring.Component):
             m.d.sync += busy.eq(busy - 1)
         write = ~self.we_n
         with m.If(write & self.cle):
-            with m.If(_equals(self.dq_in, CMD_READ)):
+            with m.If(equals(self.dq_in, CMD_READ)):
                 m.d.sync += nadr.eq(0)
             with m.Elif((self.dq_in == CMD_READ_GO) | (self.dq_in == CMD_RESET)):
                 m.d.sync += busy.eq(self._busy)
@@ -371,7 +371,7 @@ class NandDeviceSim(wiring.Component):
             # address cycles 1..5: column 7:0, 15:8, row 7:0, 15:8, 23:16 (If, not Switch:
             # no incomplete case statement in the Verilog)
             for k, sl in enumerate((col[:8], col[8:], row[:8], row[8:16], row[16:])):
-                with m.If(_equals(nadr, k)):
+                with m.If(equals(nadr, k)):
                     m.d.sync += sl.eq(self.dq_in)
         with m.If(~self.re_n):
             m.d.sync += col.eq(col + 1)

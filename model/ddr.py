@@ -1,6 +1,7 @@
 """DDR line/frame buffers behind a MIG-style user interface (SPEC 3.8, seed 002 §4.2).
 
-Golden models and configuration checks for :mod:`tdicam.hdl.ddr`.
+Golden models and configuration checks for the DDR gateware (:mod:`tdicam.hdl.ddr`,
+:mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.mig_model`).
 
 Interface and addresses
 -----------------------
@@ -33,13 +34,31 @@ beats follow the same (pixel, channel) order.
 Memory model
 ------------
 :class:`MigSim` is the cycle-stepped Python model of the controller (the HDL model is
-:class:`tdicam.hdl.ddr.MigModel`; both draw their stalls from the same xorshift32 sequence,
+:class:`tdicam.hdl.mig_model.MigModel`; both draw their stalls from the same xorshift32 sequence,
 so their ready patterns are identical cycle for cycle): in-order reads with a latency drawn
 from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the end of every
 ``refresh_period`` cycles with ``app_rdy`` low, random drops of ``app_rdy`` and
 ``app_wdf_rdy`` (probability ``drop / 256`` each, independent), write data that must be
 accepted before its write command (MIG allows data first), capacity and alignment checks.
 An address outside the memory or not word aligned raises :class:`TdicamError` naming it.
+
+With ``dram=`` :class:`DramTiming` (Python model only) :class:`MigSim` also charges what the
+order of accesses costs on DDR3: read/write turnarounds, opening a row in a bank
+(row-bank-column mapping, 8 banks of :data:`ROW_WORDS`-word rows) and a 44-cycle refresh
+(:data:`DRAM_STALLS`), fitted to LiteDRAM within +/-3 points on every pattern of
+:data:`PATTERNS` (:mod:`tdicam.ddrref` replays the same traces into LiteDRAM).
+:func:`pattern_efficiency` gives a named pattern's efficiency for the planner.
+
+Access patterns
+---------------
+A :class:`Trace` is the order of a user's commands (``(is_read, word_address)`` per port);
+:data:`PATTERNS` names the orders that matter here (single direction, line blocks,
+the per-word read-then-write of the TDI spill, two ports), :func:`replay_model` runs a
+trace on :class:`MigSim` with data always available.
+
+This module holds the packing, the controller model and the access patterns together
+(~700 lines) because the three share the address and word definitions and are used
+together by every DDR user and by :mod:`tdicam.ddrref`.
 """
 
 from collections import deque
@@ -53,7 +72,9 @@ __all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_B
            "PIXELS_PER_WORD", "PAPER_CHANNELS", "PAPER_LINE_STRIDE", "DEFAULT_STALLS",
            "LineLayout", "pack_words", "unpack_words", "pack_lines", "unpack_lines",
            "words_to_ints", "ints_to_words", "psums_per_word", "check_capacity",
-           "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check"]
+           "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check",
+           "ROW_WORDS", "BANKS", "Trace", "PATTERNS", "pattern_trace", "replay_model",
+           "pattern_efficiency", "DramTiming", "DRAM_STALLS"]
 
 WORD_BITS = 256
 ADDR_PER_WORD = 8           # 32-bit address unit (seed 002 Table 2: 0~7, 8~15, ...)
@@ -64,6 +85,11 @@ PIXELS_PER_WORD = 24
 PAPER_CHANNELS = 72
 PAPER_LINE_STRIDE = 4096
 _LIMBS = WORD_BITS // 64
+
+#: DRAM geometry behind the UI (two MT41K256M16, BL8, row-bank-column mapping): 256-bit
+#: words per row (1024 columns / 8) and banks
+ROW_WORDS = 128
+BANKS = 8
 
 #: Default stall pattern of the memory model: read latency 20..60 cycles, a 26-cycle refresh
 #: (tRFC 260 ns) every 780 cycles (tREFI 7.8 us) at 100 MHz, each ready dropped with
@@ -313,8 +339,12 @@ class MigSim:
     RET_DEPTH = 128
 
     def __init__(self, *, capacity_bytes=CAPACITY_BYTES, lat_lo=20, lat_hi=60,
-                 refresh_period=780, refresh_cycles=26, drop=16, seed=1):
+                 refresh_period=780, refresh_cycles=26, drop=16, seed=1, dram=None):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
+        self.dram = dram
+        self.busy_until = 0         # DRAM timing: app_rdy low before this cycle
+        self.last_dir = None
+        self.open_rows = {}
         self.units = min(capacity_bytes // 4, 1 << ADDR_BITS)
         self.lat_lo, self.lat_hi = lat_lo, lat_hi
         self.refresh_period, self.refresh_cycles = refresh_period, refresh_cycles
@@ -331,7 +361,7 @@ class MigSim:
         """dict: app_rdy, app_wdf_rdy, app_rd_data_valid, app_rd_data for this cycle."""
         refresh = (self.t % self.refresh_period) >= self.refresh_period - self.refresh_cycles
         rdy = (not refresh and (self.s & 0xFF) >= self.drop
-               and len(self.ret) < self.RET_DEPTH - 2)
+               and len(self.ret) < self.RET_DEPTH - 2 and self.t >= self.busy_until)
         wrdy = ((self.s >> 8) & 0xFF) >= self.drop and len(self.wdf) < self.WDF_DEPTH
         valid = bool(self.ret) and self.ret[0][0] <= self.t
         return {"app_rdy": rdy, "app_wdf_rdy": wrdy, "app_rd_data_valid": valid,
@@ -355,6 +385,8 @@ class MigSim:
             out = self.ret.popleft()[1]
         if app_en and o["app_rdy"]:
             a = self._addr(int(app_addr))
+            if self.dram is not None:
+                self._dram_cost(int(app_cmd) == 1, a // ADDR_PER_WORD)
             if int(app_cmd) == 0:
                 if not self.wdf:
                     raise TdicamError(f"DDR write command to {a} without write data "
@@ -382,13 +414,245 @@ class MigSim:
     def read_word(self, addr):
         return self.mem.get(self._addr(addr), 0)
 
+    def _dram_cost(self, read, word):
+        """Hold ``app_rdy`` low after a command for the DRAM time it costs: a direction
+        change (read->write, write->read turnaround) and opening another row in the
+        command's bank overlap (the larger counts, plus :attr:`DramTiming.both` when both)."""
+        d = self.dram
+        bank, row = (word // ROW_WORDS) % BANKS, word // (ROW_WORDS * BANKS)
+        turn = 0
+        if self.last_dir is not None and read != self.last_dir:
+            turn = d.wr_to_rd if read else d.rd_to_wr
+        act = d.activate if self.open_rows.get(bank) != row else 0
+        cost = max(turn, act) + (d.both if turn and act else 0)
+        self.open_rows[bank] = row
+        self.last_dir = read
+        self.busy_until = self.t + 1 + cost
+
+
+@dataclass(frozen=True)
+class DramTiming:
+    """DRAM costs of :class:`MigSim` with ``dram=`` given, in controller cycles (100 MHz,
+    DDR3-800 behind a 1:4 controller; fitted to LiteDRAM's figures, :mod:`tdicam.ddrref`):
+    ``rd_to_wr``/``wr_to_rd`` after a direction change, ``activate`` when a command's bank
+    has another row open (row-bank-column mapping, :data:`ROW_WORDS`-word rows, :data:`BANKS`
+    banks), ``both`` extra when the two coincide. Use it with :data:`DRAM_STALLS` (refresh
+    44 cycles every 780, no random drops). Python model only: the HDL model
+    (:class:`tdicam.hdl.mig_model.MigModel`) has the plain stall pattern."""
+
+    rd_to_wr: int = 6
+    wr_to_rd: int = 8
+    activate: int = 8
+    both: int = 14
+
+
+#: stall pattern to use with :class:`DramTiming` (refresh tRFC + recovery ~ 44 cycles)
+DRAM_STALLS = {"lat_lo": 20, "lat_hi": 20, "refresh_period": 780, "refresh_cycles": 44,
+               "drop": 0, "seed": 1}
+
+
+@dataclass
+class Trace:
+    """Command order of one user: ``ports[p]`` = list of ``(is_read, word_addr)``.
+
+    ``order`` (optional, two ports): the global order as ``(port, index)`` pairs, used for
+    the read-after-write dependencies between ports."""
+
+    name: str
+    ports: list
+    order: list = None
+    note: str = ""
+
+    @property
+    def words(self):
+        return sum(len(p) for p in self.ports)
+
+
+# ---------------------------------------------------------------------------------------
+# access patterns (command orders) and their efficiency on the memory model
+# ---------------------------------------------------------------------------------------
+
+def _line(y, words, stride, base=0):
+    return [base + y * stride + w for w in range(words)]
+
+
+def pattern_trace(name, *, lines=32, words=54, stride=64):
+    """The command order of a named access pattern (:data:`PATTERNS`), ``lines`` lines of
+    ``words`` words at a ``stride``-word pitch (a 1280 x 10-bit line = 54 words at 64)."""
+    if name not in PATTERNS:
+        raise TdicamError(f"unknown DDR access pattern {name!r}; valid: {', '.join(PATTERNS)}")
+    return PATTERNS[name][0](lines=lines, words=words, stride=stride)
+
+
+def _write_only(*, lines, words, stride):
+    return Trace("write_only", [[(0, a) for y in range(lines) for a in _line(y, words, stride)]])
+
+
+def _read_only(*, lines, words, stride):
+    return Trace("read_only", [[(1, a) for y in range(lines) for a in _line(y, words, stride)]])
+
+
+def _table2(kind):
+    def make(*, lines, words, stride):
+        rd = int(kind == "read")
+        return Trace(f"table2_{kind}", [[(rd, a) for y in range(lines)
+                                         for a in _line(y, 510, 512)]])
+    return make
+
+
+def _line_pairs(lag):
+    def make(*, lines, words, stride):
+        cmds = []
+        for y in range(lines + lag):
+            if y < lines:
+                cmds += [(0, a) for a in _line(y, words, stride)]
+            if y >= lag:
+                cmds += [(1, a) for a in _line(y - lag, words, stride)]
+        return Trace(f"write_read_lag{lag}", [cmds])
+    return make
+
+
+def _blocks(block):
+    def make(*, lines, words, stride):
+        wr = [a for y in range(lines) for a in _line(y, words, stride)]
+        # reads of the same lines, a line behind (reads of data written earlier)
+        lag = words
+        n, cmds, i, j = len(wr), [], 0, 0
+        while i < n or j < n:
+            for _ in range(min(block, n - i)):
+                cmds.append((0, wr[i]))
+                i += 1
+            for _ in range(block):
+                if j < n and (j + lag <= i or i == n):
+                    cmds.append((1, wr[j]))
+                    j += 1
+        return Trace(f"blocks_{block}", [cmds])
+    return make
+
+
+def _per_word(*, lines, words, stride):
+    # TdiDdr's order: for each word, read the stored sum, then write the new one
+    cmds = []
+    for y in range(lines):
+        for a in _line(y, words, stride):
+            cmds += [(1, a), (0, a)]
+    return Trace("per_word_rw", [cmds])
+
+
+def _two_ports(*, lines, words, stride):
+    wr = [(0, a) for y in range(lines) for a in _line(y, words, stride)]
+    rd = [(1, a) for y in range(lines - 1) for a in _line(y, words, stride)]
+    order, i = [], 0
+    for y in range(lines):
+        order += [(0, i + w) for w in range(words)]
+        i += words
+        if y >= 1:
+            order += [(1, (y - 1) * words + w) for w in range(words)]
+    return Trace("two_ports", [wr, rd], order)
+
+
+#: name -> (trace maker, description, controller windows (read_time, write_time) or None)
+PATTERNS = {
+    "write_only": (_write_only, "write only", None),
+    "read_only": (_read_only, "read only", None),
+    "table2_write": (_table2("write"), "Table 2 layout (510-word lines) write", None),
+    "table2_read": (_table2("read"), "Table 2 layout (510-word lines) read", None),
+    "write_read_lag1": (_line_pairs(1), "one port, write line n then read line n-1", None),
+    "write_read_lag16": (_line_pairs(16), "one port, write line n then read line n-16", None),
+    "blocks_27": (_blocks(27), "one port, reads and writes in blocks of 27 words", None),
+    "blocks_18": (_blocks(18), "one port, reads and writes in blocks of 18 words", None),
+    "blocks_8": (_blocks(8), "one port, reads and writes in blocks of 8 words", None),
+    "per_word_rw": (_per_word, "one port, one read then one write per word (TdiDdr)", None),
+    "two_ports": (_two_ports, "two ports (writer + reader), controller defaults", None),
+    "two_ports_64": (_two_ports, "two ports, 64-cycle read and write windows", (64, 64)),
+}
+
+
+_DEFAULT_WINDOWS = (32, 32)
+
+
+def _windows(trace, order, read_time, write_time):
+    """Merge a writer port and a reader port as a controller with read and write windows
+    does: up to ``write_time`` writes, then up to ``read_time`` reads whose words were
+    written (``order`` gives the dependencies), and so on."""
+    rank = {pk: n for n, pk in enumerate(order)}
+    w = [pk for pk in order if not trace.ports[pk[0]][pk[1]][0]]
+    r = [pk for pk in order if trace.ports[pk[0]][pk[1]][0]]
+    last_w = {}
+    for n, pk in enumerate(order):
+        if not trace.ports[pk[0]][pk[1]][0]:
+            last_w[trace.ports[pk[0]][pk[1]][1]] = n
+    out, i, j = [], 0, 0
+    while i < len(w) or j < len(r):
+        for _ in range(write_time):
+            if i < len(w):
+                out.append(w[i])
+                i += 1
+        done = rank[w[i - 1]] if i else -1
+        for _ in range(read_time):
+            if j < len(r) and (i == len(w) or last_w.get(trace.ports[r[j][0]][r[j][1]][1],
+                                                         -1) <= done):
+                out.append(r[j])
+                j += 1
+    return out
+
+
+def replay_model(trace, dram=None, windows=None, **stalls):
+    """Replay ``trace`` (:class:`Trace`) through :class:`MigSim` with data always available.
+
+    One MIG port: the ports of a two-port trace are merged in ``trace.order``. Write data
+    is offered as early as the model takes it (data first), each command as soon as it may
+    go. Returns ``(words, cycles, efficiency)``: cycles from the first command offered to
+    the last data beat (a write's command accepted, a read's data returned)."""
+    order = trace.order or [(0, k) for k in range(len(trace.ports[0]))]
+    if len(trace.ports) == 2 and dram is not None:
+        order = _windows(trace, order, *(windows or _DEFAULT_WINDOWS))
+    cmds = [trace.ports[p][k] for p, k in order]
+    base = DEFAULT_STALLS if dram is None else DRAM_STALLS
+    sim = MigSim(dram=dram, **{**base, **stalls})
+    writes = [a for rd, a in cmds if not rd]
+    nreads = len(cmds) - len(writes)
+    ci = wi = wc = got = t = last = 0
+    while ci < len(cmds) or got < nreads:
+        o = sim.outputs()
+        rd, a = cmds[ci] if ci < len(cmds) else (0, 0)
+        en = ci < len(cmds) and (rd or wi > wc)
+        wren = wi < len(writes)
+        out = sim.step(app_en=en, app_cmd=rd, app_addr=a * ADDR_PER_WORD, app_wdf_wren=wren,
+                       app_wdf_data=0)
+        if wren and o["app_wdf_rdy"]:
+            wi += 1
+        if en and o["app_rdy"]:
+            ci += 1
+            if not rd:
+                wc += 1
+                last = t
+        if out is not None:
+            got += 1
+            last = t
+        t += 1
+        if t > 100 * len(cmds) + 10000:
+            raise TdicamError(f"trace {trace.name}: the memory model did not finish")
+    return len(cmds), last + 1, len(cmds) / (last + 1)
+
+
+def pattern_efficiency(name, *, lines=32, words=54, stride=64, dram=DramTiming(), **stalls):
+    """Efficiency (words moved / cycles, 0..1) of the named access pattern (:data:`PATTERNS`)
+    on the memory model :class:`MigSim` with DRAM timing ``dram`` (default
+    :class:`DramTiming`, stalls :data:`DRAM_STALLS`; ``dram=None``: the plain stall pattern
+    :data:`DEFAULT_STALLS`, which ignores the order of accesses), ``lines`` lines of
+    ``words`` words at a ``stride``-word pitch. For the planner: the DDR share a design can
+    count on for that order of accesses."""
+    tr = pattern_trace(name, lines=lines, words=words, stride=stride)
+    return replay_model(tr, dram, PATTERNS[name][2], **stalls)[2]
+
 
 # ---------------------------------------------------------------------------------------
 # golden models of the users
 # ---------------------------------------------------------------------------------------
 
 def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
-    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.ddr.CdsDdr`).
+    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.cds_ddr.CdsDdr`).
 
     ``frames`` (n, rows, width) with ``kinds[i]`` = 1 for a reset frame (stored, no output)
     and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored

@@ -327,7 +327,7 @@ def tdi_memory(width, stages, pixel_bits, line_period_s, *, onchip_budget_bits=N
     device : str, optional
         FPGA part (:data:`ONCHIP_RAM_BITS`): its block RAM is the budget when
         ``onchip_budget_bits`` is not given. :attr:`TdiMemory.must_spill` says whether the
-        partial sums go to DDR (``tdicam.hdl.ddr.TdiDdr``), :attr:`TdiMemory.ddr_ok`
+        partial sums go to DDR (``tdicam.hdl.tdi_ddr.TdiDdr``), :attr:`TdiMemory.ddr_ok`
         whether the interface sustains them.
 
     Returns

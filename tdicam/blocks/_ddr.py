@@ -2,7 +2,7 @@
 controller's stall-pattern parameters and the simulation top around a DDR user core.
 
 Each DDR block's Verilog top is its user logic with the simulation-only controller model
-:class:`~tdicam.hdl.ddr.MigModel` behind it (:class:`~tdicam.hdl.ddr.SimTop`), so the fast
+:class:`~tdicam.hdl.mig_model.MigModel` behind it (:class:`~tdicam.hdl.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
 set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 26 of every 780
 cycles, each ready dropped with probability 16/256). ``ddr_error`` (the model's sticky
@@ -56,5 +56,5 @@ def sim_top(core, words, stalls):
     """:class:`~tdicam.hdl.axis.AxisTop` of ``core`` with the MIG model of ``words`` words
     and the stall pattern ``stalls`` behind it."""
     from ..hdl.axis import AxisTop
-    from ..hdl.ddr import SimTop
+    from ..hdl.mig_model import SimTop
     return AxisTop(SimTop(core, depth_words=max(1, words), **stalls))

@@ -1,5 +1,5 @@
 """Block ``cds_ddr``: digital CDS with the reset frame in DDR (SPEC 3.2 + 3.8;
-:class:`~tdicam.hdl.ddr.CdsDdr`).
+:class:`~tdicam.hdl.cds_ddr.CdsDdr`).
 
 Reset frames (``kinds`` 1) are stored in DDR and give no output; each signal frame
 (``kinds`` 0) is output as signal - stored reset, clamped at 0 (golden
@@ -32,7 +32,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.ddr import CdsDdr
+    from ..hdl.cds_ddr import CdsDdr
     core = CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
                   pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
                   base=p["base"], capacity_bytes=p["capacity_mib"] << 20)

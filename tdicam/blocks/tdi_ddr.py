@@ -1,5 +1,5 @@
 """Block ``tdi_ddr``: the ``tdi`` accumulator with its m_max-1 partial-sum lines in DDR
-(SPEC 3.1 + 3.8; :class:`~tdicam.hdl.ddr.TdiDdr`).
+(SPEC 3.1 + 3.8; :class:`~tdicam.hdl.tdi_ddr.TdiDdr`).
 
 Same stream, run-time ports and golden model as block ``tdi``
 (:func:`~tdicam.model.tdi.tdi_stream`; scene arrays per :data:`tdicam.blocks.tdi.SCENE`);
@@ -19,7 +19,7 @@ def _check(p):
     tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                      out_bits=p["out_bits"], ppc=p["ppc"])
     check_stalls(p)
-    from ..hdl.ddr import TdiDdr
+    from ..hdl.tdi_ddr import TdiDdr
     lp = None if p["line_period_ns"] is None else p["line_period_ns"] * 1e-9
     tdi_ddr_check(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   ppc=p["ppc"], line_period_s=lp, clock_hz=p["clock_mhz"] * 1e6,
@@ -27,7 +27,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.ddr import TdiDdr
+    from ..hdl.tdi_ddr import TdiDdr
     lp = p["line_period_ns"]
     core = TdiDdr(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   out_bits=p["out_bits"], ppc=p["ppc"], base=p["base"],
