@@ -82,7 +82,7 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     ["none"]: ``"nand"`` stores them in a 4 Gb NAND flash (MT29F4G08 geometry, the camera's
     calibration store: bad-block scan, block map, 64/72 ECC pages, default coefficients
     gain 1 / offset 0 for a word with an uncorrectable error) and loads them back
-    (:func:`tdicam.model.nand.store_roundtrip`), with ``ecc`` true and ``gain_frac_bits``
+    (:func:`tdicam.model.nand_store.store_roundtrip`), with ``ecc`` true and ``gain_frac_bits``
     <= 14 (16-bit gain words); its faults: ``bad_blocks`` [0] random factory bad blocks,
     0..4095 (never block 0), ``flip_single`` / ``flip_double`` [0.0] probability that a
     coefficient word gets one / two flipped bits, each in 0..1 and their sum <= 1, ``seed``

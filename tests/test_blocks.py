@@ -16,7 +16,9 @@ SMALL = {"cds": ((4, 40), {}), "nuc": ((4, 40), {}), "hdr": ((4, 64), {}),
          "ddr": ((), {"width": 48, "rows": 4, "ppc": 8}),
          "cds_ddr": ((3, 24), {"width": 24, "rows": 3}),
          "secded_enc": ((), {"stream": True}), "secded_dec": ((), {"stream": True}),
-         "calib": ((), {"rows": 3, "cols": 5})}
+         "calib": ((), {"rows": 3, "cols": 5}),
+         "nand_store": ((), {"rows": 3, "cols": 5, "device": True, "page_bytes": 2048,
+                             "pages_per_block": 2, "blocks": 16})}
 
 
 def test_one_block_per_module():

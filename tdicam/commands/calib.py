@@ -4,7 +4,7 @@
 ``read`` decodes an image, reports corrected and uncorrectable words and can save the
 decoded maps; ``check`` only reports (exit 1 if any word was uncorrectable or the payload
 CRC does not match); ``inject`` flips random bits in an image (to test a reader).
-With ``--nand`` the image is the NAND part as the camera stores it (:mod:`tdicam.model.nand`:
+With ``--nand`` the image is the NAND part as the camera stores it (:mod:`tdicam.model.nand_store`:
 pages with spare areas, bad blocks skipped and marked, block map in block 0); ``read`` and
 ``check`` recognise NAND images by their magic and also report the bad-block scan and the
 power-up scan and load times of the gateware; ``inject`` adds bad blocks to a NAND image.
@@ -13,7 +13,8 @@ power-up scan and load times of the gateware; ``inject`` adds bad blocks to a NA
 import numpy as np
 
 from ..errors import TdicamError, check_range
-from ..model import calib, nand
+from ..model import calib
+from ..model import nand_store as nand
 from ..model.nuc import DEFAULT_FORMAT, NucFormat
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 from tdicam.model import ecc as _ecc
-from tdicam.model import nand as _nand
+from tdicam.model import nand_store as _nand
 from tdicam.model import hdr as _hdr
 from tdicam.model import nuc as _nuc
 from tdicam.model import tdi as _tdi
@@ -154,7 +154,7 @@ def _ecc_roundtrip(fmt, gain, offset):
 
 def _nand_roundtrip(c, ch, fmt, gain, offset):
     """Store channel ``ch``'s coefficient codes in NAND flash with the ``[pipeline.nuc]``
-    faults and load them back as the camera does (:func:`tdicam.model.nand.store_roundtrip`:
+    faults and load them back as the camera does (:func:`tdicam.model.nand_store.store_roundtrip`:
     bad-block scan, block map, ECC, defaults gain 1 / offset 0 for an uncorrectable word).
 
     The first store of each channel in a run (the output's coefficients) is counted in

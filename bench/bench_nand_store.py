@@ -1,10 +1,10 @@
 """NAND calibration store: power-up scan and calibration load times of the gateware (from
-its cycle model, :func:`tdicam.model.nand.timing`, exact against the Amaranth simulation in
-tests/test_nand.py) for a 4 Gb x8 part (2,048 + 64-byte pages, 64 pages per block, 4,096
+its cycle model, :func:`tdicam.model.nand_store.timing`, exact against the Amaranth simulation in
+tests/test_nand_store.py) for a 4 Gb x8 part (2,048 + 64-byte pages, 64 pages per block, 4,096
 blocks, t_R = 25 us), and the wall time of the numpy model storing and reading back a
 1280 x 1024 calibration with 100 bad blocks.
 
-Run: ``python bench/bench_nand.py [--clock-mhz 50 100]``.
+Run: ``python bench/bench_nand_store.py [--clock-mhz 50 100]``.
 """
 
 import argparse
@@ -13,7 +13,8 @@ import time
 import numpy as np
 
 from tdicam.blocks.calib import random_codes
-from tdicam.model import calib, nand
+from tdicam.model import calib
+from tdicam.model import nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT
 
 SENSORS = (("1280 x 1024", 1024, 1280), ("GMAX0504 3800 x 5144 (19.5 Mpixel)", 3800, 5144),

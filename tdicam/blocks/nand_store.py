@@ -3,9 +3,9 @@
 (Not ``nand``: the Verilog top is named after the block, and ``nand`` is a Verilog gate
 primitive.)
 
-``hdl/nand.py`` (:class:`~tdicam.hdl.nand.NandCalibTop`: the store, with the simulation
+``hdl/nand.py`` (:class:`~tdicam.hdl.nand_store.NandCalibTop`: the store, with the simulation
 model of the part attached when ``--device 1``), ``model/nand.py`` (device, stored image,
-golden model :func:`~tdicam.model.nand.store_stream`), ``cocotb_tests/test_nand.py``,
+golden model :func:`~tdicam.model.nand_store.store_stream`), ``cocotb_tests/test_nand_store.py``,
 ``golden/nand_store/``. The stimulus loads the part's contents into the simulation model
 (:func:`load_beats`) and ends with the start beat; the output is the coefficient stream
 of :class:`~tdicam.hdl.calib.CalibReader` (plus, with ``--debug 1``, its counters and
@@ -14,10 +14,11 @@ flags and the bad-block count).
 
 import numpy as np
 
-from ..cosim.codec import Beats
+from ..beats import Beats
 from ..hdl.axis import AxisTop
-from ..hdl.nand import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
-from ..model import calib, nand
+from ..hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
+from ..model import calib
+from ..model import nand_store as nand
 from ..model.nuc import NucFormat
 from ..errors import TdicamError
 from . import Block, Case, Param
@@ -36,7 +37,7 @@ def _fmt(params):
 
 
 def geometry_of(params):
-    """The :class:`~tdicam.model.nand.Geometry` of a parameter dict."""
+    """The :class:`~tdicam.model.nand_store.Geometry` of a parameter dict."""
     return nand.Geometry(page_bytes=params["page_bytes"],
                          pages_per_block=params["pages_per_block"], blocks=params["blocks"])
 
@@ -149,6 +150,40 @@ def _out_of_blocks(params, rng, words):
     return dev, np.zeros(len(words))
 
 
+def _to_case(arrays, params):
+    """Scene arrays ``{"words": one flash image}`` -> case arrays: the image written on a
+    clean part of the block's geometry, the loader words and the store's golden output."""
+    words = np.asarray(arrays["words"], np.uint64)
+    dev = nand.write_store(words, geometry_of(params))
+    out, sr, complete = nand.store_stream(dev, rows=params["rows"], cols=params["cols"],
+                                          fmt=_fmt(params), count_bits=params["count_bits"])
+    case = {"words": words, "loader": load_beats(dev, params["slots"]),
+            "bad_blocks": np.int64(sr.bad_count), "complete": np.bool_(complete)}
+    case.update({f"out_{f}": getattr(out, f) for f in _OUT_FIELDS})
+    return case
+
+
+def _golden(arrays, params):
+    """The store's (gain, offset) code maps after power-up from a clean part: uint64
+    ``(1, rows, cols)`` each (offset as its ``offset_bits`` two's-complement code)."""
+    case = _to_case(arrays, params)
+    shape = (-1, params["rows"], params["cols"])
+    return {"gain": case["out_gain"].reshape(shape), "offset": case["out_offset"].reshape(shape)}
+
+
+def _unstream(out, arrays, params):
+    shape = (-1, params["rows"], params["cols"])
+    return {"gain": out.data[:, 0].reshape(shape), "offset": out.data[:, 1].reshape(shape)}
+
+
+def _example(rng, n, shape, params):
+    """One clean flash image of random codes for the block's rows x cols (the part holds
+    one calibration image: ``n`` and ``shape`` are ignored)."""
+    fmt = _fmt(params)
+    return {"words": calib.encode_image(*random_codes(rng, params["rows"], params["cols"],
+                                                      fmt), fmt)}
+
+
 #: the test part: 2,048 + 64-byte pages as the real part, 2 pages per block, 128 blocks
 TEST_PART = {"page_bytes": 2048, "pages_per_block": 2, "blocks": 128}
 _DBG = {"rows": 30, "cols": 40, "debug": True, "device": True, **TEST_PART}
@@ -192,4 +227,9 @@ BLOCK = Block(
     to_beats=_beats,
     check=_check,
     model_version="nand-1",
+    stream="words",
+    golden=_golden,
+    to_case=_to_case,
+    unstream=_unstream,
+    example=_example,
 )

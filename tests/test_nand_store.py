@@ -10,10 +10,11 @@ from amaranth.sim import Simulator
 
 from tdicam import blocks
 from tdicam.blocks.calib import random_codes
-from tdicam.blocks.nand import load_beats, store_beats
+from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.errors import TdicamError
-from tdicam.hdl.nand import NandCalibTop
-from tdicam.model import calib, ecc, nand
+from tdicam.hdl.nand_store import NandCalibTop
+from tdicam.model import calib, ecc
+from tdicam.model import nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 
@@ -275,7 +276,7 @@ def _params(geo, **kw):
                                                        (2, 4, 7, [], [1])])
 def test_amaranth_matches_golden_and_cycle_model(ppb, blocks_, busy, bad, fail):
     """Golden equality (doubles and singles, bad and grown blocks) and the exact scan and
-    load cycle counts of :func:`tdicam.model.nand.timing`."""
+    load cycle counts of :func:`tdicam.model.nand_store.timing`."""
     geo = nand.Geometry(pages_per_block=ppb, blocks=blocks_)
     words, _, _ = _words(20, 30, seed=ppb)
     words, k = calib.inject_flips(np.random.default_rng(ppb), words, p_single=0.2,

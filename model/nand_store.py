@@ -5,7 +5,7 @@ correction coefficients in a 4 Gb NAND flash: at power-up the FPGA builds a bad-
 table, maps logical blocks to good physical blocks, reads the pages through 64/72 ECC and
 falls back to default coefficients (gain 1, offset 0; 4 coefficients) for a word with more
 than one flipped bit. This module is the numpy model of the device, of the image the
-camera stores in it, and the golden model of :class:`tdicam.hdl.nand.NandCalibStore`.
+camera stores in it, and the golden model of :class:`tdicam.hdl.nand_store.NandCalibStore`.
 
 Device (:class:`Geometry`, :class:`NandDevice`)
 -----------------------------------------------
@@ -405,7 +405,7 @@ def stream_words(device, n_words, scan_result=None):
 
 
 def store_stream(device, *, rows, cols, fmt=DEFAULT_FORMAT, count_bits=calib.DEFAULT_COUNT_BITS):
-    """Golden model of :class:`tdicam.hdl.nand.NandCalibStore` on ``device``.
+    """Golden model of :class:`tdicam.hdl.nand_store.NandCalibStore` on ``device``.
 
     Returns
     -------
@@ -617,7 +617,7 @@ def store_roundtrip(gain, offset, fmt=DEFAULT_FORMAT, *, geometry=MT29F4G08, bad
 # ---------------------------------------------------------------- timing
 @dataclass
 class Timing:
-    """Cycle counts of :class:`~tdicam.hdl.nand.NandCalibStore` and the times they take at
+    """Cycle counts of :class:`~tdicam.hdl.nand_store.NandCalibStore` and the times they take at
     ``clock_hz`` (see :func:`timing`)."""
 
     clock_hz: float
@@ -655,7 +655,7 @@ def timing(rows, cols, geometry=MT29F4G08, *, clock_hz=CONTROLLER_CLOCK_HZ, busy
     reader takes a word every other clock, so it never stalls the bus), and 1 clock. Bad
     blocks cost nothing beyond their scan read: the map is built during the scan.
     ``busy_cycles`` defaults to ``ceil(t_R * clock_hz)``. Exact: equality with the
-    Amaranth simulation is asserted in tests/test_nand.py.
+    Amaranth simulation is asserted in tests/test_nand_store.py.
     """
     g = geometry
     busy = int(np.ceil(g.t_r_s * clock_hz - 1e-9)) if busy_cycles is None else int(busy_cycles)

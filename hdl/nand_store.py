@@ -2,7 +2,7 @@
 controller with a power-up bad-block scan and logical-to-physical map, streaming the stored
 calibration through :class:`~tdicam.hdl.calib.CalibReader` (SECDED decoder inside), and a
 cycle-level simulation model of the NAND part. Image layout and golden model:
-:mod:`tdicam.model.nand`.
+:mod:`tdicam.model.nand_store`.
 
 Bus (simplified ONFI asynchronous interface, x8, one target)
 ------------------------------------------------------------
@@ -20,7 +20,7 @@ low for the first (``tWP``/``tREA`` window) and high for the second, so at the s
 50 MHz ``tWC = tRC = 40 ns`` (ONFI timing mode 2 allows 35 ns). After ``30h`` or ``FFh``
 the controller ignores R/B# for 2 clocks (``tWB``) and then waits for it to go high; read
 data is captured at the end of the strobe-low clock. Cycle counts: :func:`tdicam.model.
-nand.timing` (exact, checked against this gateware in tests/test_nand.py).
+nand.timing` (exact, checked against this gateware in tests/test_nand_store.py).
 
 The simulation model of the part (:class:`NandDeviceSim`) is synchronous: it samples a
 strobe low for one clock as one bus cycle, drives ``dq`` from a registered memory read
@@ -35,7 +35,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import calib as mcalib
-from tdicam.model import nand as mnand
+from tdicam.model import nand_store as mnand
 from .calib import DEBUG_ELEMENTS, CalibReader
 from .util import equals
 from .stream import channels_shape, pixel_signature
@@ -95,7 +95,7 @@ class NandCalibStore(wiring.Component):
     The scan reads the marker byte of every block (a page read of page 0 at column
     ``page_bytes``, one data-out cycle) and writes the good blocks after block 0 into the
     map memory (``blocks_needed`` entries of ``ceil(log2 blocks)`` bits): logical block k ->
-    the k-th good block, the writer's rule (:mod:`tdicam.model.nand`), so the map stored
+    the k-th good block, the writer's rule (:mod:`tdicam.model.nand_store`), so the map stored
     in block 0 needs no read. The load reads, for each logical block, its pages in order,
     ``words_per_page`` 9-byte words each (2,043 of 2,048 bytes), and hands each word to the
     reader. The reader's ``i_stream.ready`` stalls the data-out cycles; it takes a word
@@ -297,7 +297,7 @@ class NandDeviceSim(wiring.Component):
     Parameters
     ----------
     page_bytes, pages_per_block, blocks : int
-        Geometry (:class:`tdicam.model.nand.Geometry`).
+        Geometry (:class:`tdicam.model.nand_store.Geometry`).
     slots : int
         Programmed pages it can hold, 1..255 (data areas in one memory).
     busy_cycles : int
