@@ -236,7 +236,30 @@ def _stream_rows(w, *, sims, repeat, quick, stalls, build):
             level(f"{sim} {mode}", n, runs)
         b = build_seconds(first, build, w.block, params, sim, lambda: stream_sources(blk, params))
         rows[-1]["build_s"] = rows[-2]["build_s"] = b
+    if "verilator" in sims and not quick:   # --quick: no fresh verilator --binary build
+        rows.append(_export_row(w, blk, params, beats(sizes["fast"]), stalls=stalls,
+                                repeat=repeat))
     return rows
+
+
+def _export_row(w, blk, params, vectors, *, stalls, repeat):
+    """The exported self-checking testbench (``tdicam export``) under ``verilator --binary``
+    on the fast rows' vectors: no Python in the loop, the compare in HDL (not with
+    ``--quick``: it needs a fresh build)."""
+    level = "export verilator"
+    from .export import run_binary
+    stim, exp, n = vectors
+    folder = cosim.build_dir_for(f"{w.block}.export", params, "verilator")
+    runs = []
+    for k in range(repeat):
+        build_s, run_s, ok, last = run_binary(blk, params, stim, exp, folder, seed=k + 1,
+                                              idle=stalls, backpressure=stalls)
+        runs.append((build_s, run_s, ok, last))
+    bad = sum(not ok for *_, ok, _ in runs)
+    return row(w.name, level, w.unit, n, float(np.median([r[1] for r in runs])),
+               input=_amount(n, w.unit), build_s=runs[0][0],
+               accuracy="bit-exact" if bad == 0 else f"FAIL: {runs[0][3]}",
+               mismatches=bad, note="tdicam export testbench, verilator --binary")
 
 
 # ------------------------------------------------------------------------------ lvds
