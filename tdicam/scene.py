@@ -117,6 +117,7 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import plan as _plan
 
 __all__ = [
+    "read_toml",
     "BUNDLED_IMAGES",
     "TARGET_KINDS",
     "BLOCKS",
@@ -909,6 +910,26 @@ def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
     return out
 
 
+def read_toml(path, what):
+    """The TOML file ``path`` as a dict, or a one-line :class:`TdicamError` naming ``what``
+    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, not UTF-8 text,
+    invalid TOML."""
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise TdicamError(f"{what} not found: {str(p)!r}") from None
+    except IsADirectoryError:
+        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
+    except OSError as exc:
+        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise TdicamError(f"{p}: invalid TOML: {exc}") from None
+
+
 def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] | None = None,
                labels: Mapping[str, str] | None = None) -> Scene:
     """Read and validate a scene TOML file.
@@ -938,17 +959,7 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
     source = "<command line>"
     if path is not None:
         p = Path(path)
-        try:
-            with p.open("rb") as fh:
-                data = tomllib.load(fh)
-        except FileNotFoundError:
-            raise TdicamError(f"scene file not found: {str(p)!r}") from None
-        except IsADirectoryError:
-            raise TdicamError(f"scene file is a directory: {str(p)!r}") from None
-        except OSError as exc:
-            raise TdicamError(f"cannot read scene file {str(p)!r}: {exc.strerror}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise TdicamError(f"{p}: invalid TOML: {exc}") from None
+        data = read_toml(p, "scene file")
         base_dir = p.resolve().parent
         source = str(p)
     if overrides:

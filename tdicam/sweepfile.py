@@ -46,7 +46,6 @@ import difflib
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -54,6 +53,7 @@ import numpy as np
 
 from tdicam import __version__
 from tdicam.errors import TdicamError, check_range
+from tdicam.scene import read_toml
 
 __all__ = ["MAX_RUNS", "STORE_FORMAT", "Axis", "Run", "Sweep", "load_sweep"]
 
@@ -242,21 +242,6 @@ def _deepcopy(data):
     return json.loads(json.dumps(data))
 
 
-def _read_toml(path, what):
-    p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise TdicamError(f"{what} not found: {str(p)!r}") from None
-    except IsADirectoryError:
-        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
-    except OSError as exc:
-        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise TdicamError(f"{p}: invalid TOML: {exc}") from None
-
-
 def _show_point(point):
     return ", ".join(f"{k} = {json.dumps(v)}" for k, v in point.items())
 
@@ -286,7 +271,7 @@ def load_sweep(path, *, force=False, impact=False) -> Sweep:
     """
     from tdicam.scene import load_scene, scene_from_dict
     path = Path(path)
-    doc = _read_toml(path, "sweep file")
+    doc = read_toml(path, "sweep file")
     src = str(path)
     for k in doc:
         if k not in _FILE_KEYS:
@@ -299,7 +284,7 @@ def load_sweep(path, *, force=False, impact=False) -> Sweep:
                           f"sweep file)")
     scene_path = (path.resolve().parent / doc["scene"]).resolve()
     load_scene(scene_path)                       # the base scene's own errors first
-    base = _read_toml(scene_path, "scene file")
+    base = read_toml(scene_path, "scene file")
     name = doc.get("name", path.stem)
     if not isinstance(name, str) or not name:
         raise TdicamError(f"{src}: name: must be a non-empty string, got {name!r}")

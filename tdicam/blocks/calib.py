@@ -15,7 +15,7 @@ from ..model import calib, ecc
 from ..model.nuc import NucFormat
 from . import Block, Case, Param
 
-__all__ = ["BLOCK", "reader_beats", "random_codes"]
+__all__ = ["BLOCK", "reader_beats", "random_codes", "code_maps"]
 
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
@@ -162,17 +162,21 @@ def _to_case(arrays, params):
     return {"words": words, **{f"out_{k}": v for k, v in exp.items()}}
 
 
+def code_maps(gain, offset, params):
+    """``{"gain", "offset"}``: coefficient code streams as ``(n, rows, cols)`` maps."""
+    shape = (-1, params["rows"], params["cols"])
+    return {"gain": np.asarray(gain).reshape(shape), "offset": np.asarray(offset).reshape(shape)}
+
+
 def _golden(arrays, params):
     """The reader's (gain, offset) code maps (uint64; the offset as its ``offset_bits``
     two's-complement code), one (rows, cols) map per image in ``words``."""
     case = _to_case(arrays, params)
-    shape = (-1, params["rows"], params["cols"])
-    return {"gain": case["out_gain"].reshape(shape), "offset": case["out_offset"].reshape(shape)}
+    return code_maps(case["out_gain"], case["out_offset"], params)
 
 
 def _unstream(out, arrays, params):
-    shape = (-1, params["rows"], params["cols"])
-    return {"gain": out.data[:, 0].reshape(shape), "offset": out.data[:, 1].reshape(shape)}
+    return code_maps(out.data[:, 0], out.data[:, 1], params)
 
 
 def _example(rng, n, shape, params):

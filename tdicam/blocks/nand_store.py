@@ -23,7 +23,7 @@ from ..model.nuc import NucFormat
 from ..errors import TdicamError
 from . import Block, Case, Param
 from .calib import BLOCK as CALIB
-from .calib import random_codes
+from .calib import code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
 
@@ -167,13 +167,7 @@ def _golden(arrays, params):
     """The store's (gain, offset) code maps after power-up from a clean part: uint64
     ``(1, rows, cols)`` each (offset as its ``offset_bits`` two's-complement code)."""
     case = _to_case(arrays, params)
-    shape = (-1, params["rows"], params["cols"])
-    return {"gain": case["out_gain"].reshape(shape), "offset": case["out_offset"].reshape(shape)}
-
-
-def _unstream(out, arrays, params):
-    shape = (-1, params["rows"], params["cols"])
-    return {"gain": out.data[:, 0].reshape(shape), "offset": out.data[:, 1].reshape(shape)}
+    return code_maps(case["out_gain"], case["out_offset"], params)
 
 
 def _example(rng, n, shape, params):
@@ -230,6 +224,6 @@ BLOCK = Block(
     stream="words",
     golden=_golden,
     to_case=_to_case,
-    unstream=_unstream,
+    unstream=CALIB.unstream,
     example=_example,
 )

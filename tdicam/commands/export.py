@@ -6,7 +6,7 @@ import sys
 from .. import blocks
 from ..errors import TdicamError
 from ..export import export_block
-from .verilog import parse_block_params
+from .verilog import parse_block_params, pick_block
 
 
 def register(sub):
@@ -30,15 +30,8 @@ def register(sub):
 
 
 def _run(args):
-    if args.block is None:
-        if args.help:
-            args._parser.print_help()
-            return 0
-        raise TdicamError(f"which block? valid: {', '.join(blocks.names())}")
-    blk = blocks.get(args.block)
-    if args.help:
-        print(blk.describe())
-        print("without parameters: those of most of the block's golden cases")
+    blk = pick_block(args, "without parameters: those of most of the block's golden cases")
+    if blk is None:
         return 0
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")

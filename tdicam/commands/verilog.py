@@ -34,18 +34,29 @@ def parse_block_params(block, extra):
     return block.resolve(out)
 
 
-def _run(args):
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from ..pipeline import verilog_command
-        return verilog_command(args.extra, args.output, show_help=args.help)
+def pick_block(args, more_help=None):
+    """The registered block named on the command line of ``args``, or None once the help
+    asked for (the command's, or the block's parameters and ``more_help``) was printed."""
     if args.block is None:
         if args.help:
             args._parser.print_help()
-            return 0
+            return None
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())}")
     blk = blocks.get(args.block)
     if args.help:
         print(blk.describe())
+        if more_help:
+            print(more_help)
+        return None
+    return blk
+
+
+def _run(args):
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
+        from ..pipeline import verilog_command
+        return verilog_command(args.extra, args.output, show_help=args.help)
+    blk = pick_block(args)
+    if blk is None:
         return 0
     params = parse_block_params(blk, args.extra)
     text = generate(blk, params)
