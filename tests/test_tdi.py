@@ -6,15 +6,19 @@ import sys
 
 import numpy as np
 import pytest
-from amaranth.hdl import ClockDomain, Fragment, Module
+from amaranth.hdl import ClockDomain, Fragment, Module, Shape
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
 from amaranth.sim import Simulator
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tdicam import blocks, golden
+from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model import plan
+from tdicam.streamsim import run_stream_component
 from tdicam.model.tdi import (BasicTdi, OptimizedTdi, basic_line_buffers, full_bits,
                               optimized_line_buffers, settings_valid, slots_needed, tdi,
                               tdi_basic, tdi_frames, tdi_optimized, tdi_stream)
@@ -66,6 +70,21 @@ def test_structures_agree_large_m(m):
         t = m + 2
         col = [int(frames[t - k + 1, (k if d == 0 else m + 1 - k) - 1, 5]) for k in range(1, m + 1)]
         assert int(a[3, 5]) == sum(col)
+
+
+def test_tdi_honours_tdicam_threads(monkeypatch):
+    """Large inputs (>= 2**24 pixel terms) spread over TDICAM_THREADS threads: the result
+    does not depend on the count, and a bad value is a one-line error."""
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 4096, (159, 32, 4096)).astype(np.uint16)
+    out = {}
+    for n in ("1", "3"):
+        monkeypatch.setenv("TDICAM_THREADS", n)
+        out[n] = tdi(frames, pixel_bits=12)
+    np.testing.assert_array_equal(out["1"], out["3"])
+    monkeypatch.setenv("TDICAM_THREADS", "two")
+    with pytest.raises(TdicamError, match="TDICAM_THREADS = 'two'"):
+        tdi(frames, pixel_bits=12)
 
 
 @settings(max_examples=60, deadline=None)
@@ -249,39 +268,69 @@ def test_component_properties():
     dut = TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=4)
     assert (dut.width, dut.stages, dut.pixel_bits, dut.ppc) == (1280, 96, 12, 4)
     assert dut.psum_bits == dut.out_bits == 19 and not dut.saturating
-    assert dut.latency == 3
+    assert dut.latency == 8
     assert dut.memory_lines == 95
     assert dut.memory_shape == (4, 95 * 320, 19)
+    assert dut.memory_parts == (18, 1)
+    assert TdiAccumulator(width=64, stages=4, pixel_bits=14).memory_parts == (9, 4, 2, 1)
+    assert dut.row_cycles == 320 and TdiAccumulator(width=8, stages=3, ppc=2).row_cycles == 6
     sat = TdiAccumulator(width=64, stages=4, out_bits=12)
     assert sat.out_bits == 12 and sat.psum_bits == 14 and sat.saturating
     assert len(dut.stages_active) == 7 and len(dut.direction) == 1
 
 
 def _memories(dut):
+    """(name, depth, width, read ports, write ports) of the partial-sum memories (named
+    psum<lane>_b<bit offset>_<bank>) of the elaborated design."""
     frag = Fragment.get(dut, None)
     found = []
 
-    def walk(f):
-        if type(f).__name__ == "MemoryInstance":
-            found.append((f._data.depth, f._data.shape.width, len(f._read_ports),
-                          len(f._write_ports)))
-        for sub, *_ in f.subfragments:
-            walk(sub)
-    walk(frag)
+    def walk(f, name):
+        if type(f).__name__ == "MemoryInstance" and name.startswith("psum"):
+            found.append((name, f._data.depth, Shape.cast(f._data.shape).width,
+                          len(f._read_ports), len(f._write_ports)))
+        for sub, sub_name, *_ in f.subfragments:
+            walk(sub, str(sub_name))
+    walk(frag, "")
     return found
+
+
+_BANK = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}   # words per bank of each part width
+
+
+def _block_rams(mems):
+    """DP16KD blocks the banks need: x18 banks in 1024-word blocks, the others one block."""
+    return sum(-(-d // 1024) if w == 18 else 1 for _, d, w, *_ in mems)
 
 
 @pytest.mark.parametrize("width,stages,bits,ppc", [
     (64, 4, 12, 1), (64, 4, 12, 4), (256, 32, 12, 1), (1280, 96, 12, 1), (1280, 96, 12, 8),
-    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1)])
+    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1), (64, 4, 14, 1)])
 def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     """The elaborated design holds exactly (m_max-1) x W partial sums of the full width —
-    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc banks (one per pixel
-    lane), each with one read and one write port."""
+    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc lanes. A lane's words
+    are split by bits into parts of a DP16KD data width (18, 9, 4, 2, 1; 19 bits = 18 + 1)
+    and each part by address into banks (2048 words for 18 and 9 bits, one block RAM's depth
+    below), each with one read and one write port: every bit of a lane is stored exactly
+    once, (m-1) W/ppc words x psum bits per lane."""
     mems = _memories(TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc))
     psum = bits + (stages - 1).bit_length()
-    assert mems == [((stages - 1) * width // ppc, psum, 1, 1)] * ppc
-    words = sum(depth for depth, *_ in mems)
+    depth = (stages - 1) * width // ppc
+    assert all((r, w) == (1, 1) for *_, r, w in mems)
+    for lane in range(ppc):
+        parts = {}
+        for name, d, bw, *_ in mems:
+            if name.startswith(f"psum{lane}_"):
+                _, offset, index = name.split("_")
+                assert d == min(_BANK[bw], depth - int(index) * _BANK[bw])
+                parts.setdefault((int(offset[1:]), bw), []).append(d)
+        # the parts tile the word's bits, each holds every word of the lane
+        offsets = sorted(parts)
+        assert [o for o, _ in offsets] == [sum(w for _, w in offsets[:i])
+                                           for i in range(len(offsets))]
+        assert sum(w for _, w in offsets) == psum
+        assert all(sum(ds) == depth for ds in parts.values())
+    words = depth * ppc
     assert words == (stages - 1) * width
     assert words * psum == (stages - 1) * width * full_bits(bits, stages)
     assert basic_line_buffers(stages) * width - words == \
@@ -292,13 +341,24 @@ def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     assert plan.partial_sum_bits(bits, stages) == psum
 
 
+def test_reference_memory_block_rams():
+    """At the reference parameters the banks need 127 DP16KD for ppc=1 (119 of x18 + 8 of
+    16384 x 1) and 128 for ppc=4 and ppc=8 (the per-lane floor at ppc 8: 8 x
+    ceil(15200 x 19 / 18432)); the floor is ceil(95 x 1280 x 19 / 18432) = 126."""
+    for ppc, n, n18 in ((1, 127, 119), (4, 128, 120), (8, 128, 120)):
+        mems = _memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
+        assert _block_rams(mems) == n
+        assert _block_rams([x for x in mems if x[2] == 18]) == n18
+
+
 def test_memory_in_generated_verilog():
     from tdicam.hdl.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
     decls = sorted(ln.strip() for ln in text.splitlines() if ln.strip().startswith("reg [")
                    and ln.strip().endswith("];") and "] psum" in ln)
-    # 5 lines x 64 pixels of 13 bits, as 2 banks of 160 words
-    assert decls == ["reg [12:0] psum0 [159:0];", "reg [12:0] psum1 [159:0];"]
+    # 5 lines x 64 pixels of 13 bits, as 2 lanes of 160 words, each 9 + 4 bits
+    assert decls == ["reg [3:0] psum0_b9_0 [159:0];", "reg [3:0] psum1_b9_0 [159:0];",
+                     "reg [8:0] psum0_b0_0 [159:0];", "reg [8:0] psum1_b0_0 [159:0];"]
 
 
 def test_stages_one_has_no_memory():
@@ -386,9 +446,8 @@ def _check_sim(params, a, **kw):
     return want
 
 
-@pytest.mark.parametrize("case", ["random_64x4_p4_sat", "stages_64x4_p4_sat",
-                                  "errors_64x4_p4_sat", "mixed_48x5_p2_14b",
-                                  "mixed_64x3_p8_8b_sat", "fullscale_64x3_p8_8b_sat"])
+@pytest.mark.parametrize("case", ["stages_64x4_p4_sat", "errors_64x4_p4_sat",
+                                  "mixed_48x5_p2_14b", "mixed_64x3_p8_8b_sat"])
 def test_amaranth_sim_golden_cases(case):
     """Golden cases through the Python simulator with random idle and backpressure, output
     beats and the frame_errors port compared with the stored expectation."""
@@ -396,6 +455,49 @@ def test_amaranth_sim_golden_cases(case):
     want = _check_sim(params, arrays, idle=0.3, bp=0.4, seed=5)
     np.testing.assert_array_equal(want.data, arrays["out"])
     assert want.frame_errors == int(arrays["frame_errors"])
+
+
+class _FixedSettings(wiring.Component):
+    """The accumulator with constant run-time settings: a plain stream component for the
+    shared driver (:func:`tdicam.streamsim.run_stream_component`)."""
+
+    def __init__(self, dut, stages_active, direction):
+        self.dut, self._settings = dut, (stages_active, direction)
+        self.latency = dut.latency
+        super().__init__({"i_stream": In(dut.i_stream.signature.flip()),
+                          "o_stream": Out(dut.o_stream.signature),
+                          "frame_errors": Out(16)})
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.dut = d = self.dut
+        wiring.connect(m, wiring.flipped(self.i_stream), d.i_stream)
+        wiring.connect(m, d.o_stream, wiring.flipped(self.o_stream))
+        m.d.comb += [d.stages_active.eq(self._settings[0]), d.direction.eq(self._settings[1]),
+                     self.frame_errors.eq(d.frame_errors)]
+        return m
+
+
+@pytest.mark.parametrize("case", ["random_64x4_p4_sat", "fullscale_64x4_p4_sat",
+                                  "fullscale_64x3_p8_8b_sat"])
+def test_amaranth_sim_shared_driver(case):
+    """Golden cases with constant settings through the shared stream driver (random idle
+    and backpressure): output beats and frame_errors as stored, and the first output beat
+    valid exactly ``latency`` cycles after the input beat that completes it."""
+    arrays, params = golden.load("tdi", case)
+    (m_set,), (d_set,) = np.unique(arrays["stages_active"]), np.unique(arrays["direction"])
+    dut = _FixedSettings(TdiAccumulator(**params), int(m_set), int(d_set))
+    stim = Beats(arrays["pixels"], arrays["first"], arrays["last"])
+    n_out = len(arrays["out_first"])
+    first_out = (int(m_set) - 1) * int(m_set) * params["width"] // params["ppc"]
+    out, lat, final = run_stream_component(dut, stim, n_out, seed=4, p_valid=0.7,
+                                           p_ready=0.6, status=("frame_errors",),
+                                           latency_from=first_out)
+    np.testing.assert_array_equal(np.array([o[0] for o in out]), arrays["out"])
+    assert [o[1] for o in out] == arrays["out_first"].tolist()
+    assert [o[2] for o in out] == arrays["out_last"].tolist()
+    assert final["frame_errors"] == int(arrays["frame_errors"])
+    assert lat == [dut.latency]
 
 
 def _fuzz_stream(rng, W, M, ppc, nframes, pbad=0.3):
@@ -471,8 +573,9 @@ def test_latency_and_full_throughput():
 
 def test_nonoutput_rows_flow_while_output_stalled():
     """With o_stream.ready held low, frames that produce no output stream in at one beat per
-    clock; the first output row stalls the input once the output register, the skid buffer
-    and the two pipeline registers are full — and nothing is lost when ready returns."""
+    clock; the first output row stalls the input once its output credits (read pipeline and
+    output FIFO), the decode register and the input register are full — and nothing is lost
+    when ready returns."""
     from tdicam.blocks.tdi import stream_arrays
     rng = np.random.default_rng(2)
     params = {"width": 8, "stages": 4, "pixel_bits": 12, "out_bits": None, "ppc": 1}
@@ -507,7 +610,9 @@ def test_nonoutput_rows_flow_while_output_stalled():
     sim.add_testbench(bench)
     sim.run()
     stalled = [c for c in accepted if c < 200]
-    assert stalled == list(range(3 * 32 + 4))       # 3 frames + 4 beats of the output row
+    # 3 frames + 9 beats of the output row: input register, decode register and the 7
+    # output credits (5 read-pipeline stages, 2 in the output FIFO)
+    assert stalled == list(range(3 * 32 + 9))
     assert len(accepted) == n
     want = tdi_stream(a["pixels"], a["first"], a["last"], 4, 0, **params)
     assert got == want.data[:, 0].tolist() and len(got) == 2 * 8

@@ -1,0 +1,1 @@
+"""Formal-proof harnesses (not part of the gateware)."""
