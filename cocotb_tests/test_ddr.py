@@ -180,7 +180,8 @@ def test_out_of_range_access_stops_the_stream():
     """A buffer whose lines run past the simulated memory: the model's sticky error blocks
     the input, so not every beat is accepted (the harness reports it)."""
     from tdicam.hdl.axis import AxisTop
-    from tdicam.hdl.ddr import DdrFrameBuffer, SimTop
+    from tdicam.hdl.ddr import DdrFrameBuffer
+    from tdicam.hdl.mig_model import SimTop
     from tdicam.verilog import convert
     core = DdrFrameBuffer(width=48, rows=4, elements=8)
     top = SimTop(core, depth_words=4)        # 4 words: line 1 is already outside

@@ -6,12 +6,13 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import check_range
 from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, header_words,
                                 payload_words)
 from tdicam.model.nuc import NucFormat
 from .ecc import SecdedDecoder
 from .stream import channels_shape, pixel_signature
+from .util import quiet_reject
 
 __all__ = ["CalibReader", "DEBUG_ELEMENTS"]
 
@@ -75,18 +76,15 @@ class CalibReader(wiring.Component):
     whatever ``ready`` does.
     """
 
+    @quiet_reject
     def __init__(self, *, rows=3800, cols=5144, gain_int_bits=2, gain_frac_bits=14,
                  offset_bits=16, offset_frac_bits=0, count_bits=DEFAULT_COUNT_BITS,
                  debug=False):
-        try:
-            self._rows = check_range("rows", rows, 1, MAX_SIDE)
-            self._cols = check_range("cols", cols, 1, MAX_SIDE)
-            self._fmt = NucFormat(gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits)
-            self._fmt._check_slots()
-            self._count_bits = check_range("count_bits", count_bits, 8, 32)
-        except TdicamError:
-            self._MustUse__silence = True
-            raise
+        self._rows = check_range("rows", rows, 1, MAX_SIDE)
+        self._cols = check_range("cols", cols, 1, MAX_SIDE)
+        self._fmt = NucFormat(gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits)
+        self._fmt._check_slots()
+        self._count_bits = check_range("count_bits", count_bits, 8, 32)
         self._debug = bool(debug)
         fmt = self._fmt
         ebits = max(fmt.gain_bits, fmt.offset_bits, self._count_bits if debug else 0)

@@ -5,9 +5,9 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, signed, unsigne
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError
 from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
 from .stream import channels_shape, pixel_signature
+from .util import quiet_reject
 
 __all__ = ["Hdr"]
 
@@ -49,17 +49,14 @@ class Hdr(wiring.Component):
     reset are merged with the reset values and counted as a frame.
     """
 
+    @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,
                  slope_frac_bits=8, lgt_frac_bits=4, anchor="band", count_bits=24,
                  out_bits=None):
-        try:
-            self._cfg = cfg = hdr_config(
-                pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
-                slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
-                count_bits=count_bits, out_bits=out_bits)
-        except TdicamError:
-            self._MustUse__silence = True  # never built: no "unused elaboratable" warning
-            raise
+        self._cfg = cfg = hdr_config(
+            pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
+            slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
+            count_bits=count_bits, out_bits=out_bits)
         members = {
             "i_stream": In(pixel_signature(channels_shape(pixel_bits, 2))),
             "o_stream": Out(pixel_signature(unsigned(cfg.out_bits))),

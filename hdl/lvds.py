@@ -23,6 +23,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
+from .util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
            "RUN_BITS"]
@@ -89,8 +90,8 @@ class LaneTrainer(wiring.Component):
     (timing): a change takes effect one cycle later; hold them while training.
     """
 
+    @quiet_reject
     def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5):
-        self._MustUse__silence = True  # a rejected parameter is not an unused elaboratable
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
         w = word_bits
@@ -101,7 +102,6 @@ class LaneTrainer(wiring.Component):
             "locked": Out(1), "error": Out(1), "run": Out(RUN_BITS), "scan": Out(N_TAPS),
             "word": Out(w), "word_sync": Out(1),
         })
-        self._MustUse__silence = False
 
     @property
     def word_bits(self):
@@ -296,8 +296,8 @@ class Deskew(wiring.Component):
     input to ``o_valid``.
     """
 
+    @quiet_reject
     def __init__(self, *, lanes, word_bits=10, depth=8):
-        self._MustUse__silence = True
         self._n = check_range("lanes", lanes, 1, 256)
         self._w = check_choice("word_bits", word_bits, (10, 12))
         self._depth = check_choice("deskew_depth", depth, (8, 16, 32))
@@ -307,7 +307,6 @@ class Deskew(wiring.Component):
             "o_valid": Out(1), "o_sync": Out(1), "o_data": Out(lanes * word_bits),
             "aligned": Out(1), "error": Out(1),
         })
-        self._MustUse__silence = False
 
     @property
     def latency(self):
@@ -429,9 +428,9 @@ class LvdsRx(wiring.Component):
     ``o_valid``. There is no backpressure: the sensor cannot be stalled.
     """
 
+    @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
                  deskew_depth=8):
-        self._MustUse__silence = True
         _check_common(word_bits, settle, min_run, pick)
         self._n = check_range("lanes", lanes, 1, 128)
         self._w = word_bits
@@ -441,7 +440,6 @@ class LvdsRx(wiring.Component):
                  "lane_ld": Out(lanes)}
         ports.update(_rx_ports(lanes, word_bits))
         super().__init__(ports)
-        self._MustUse__silence = False
 
     @property
     def lanes(self):

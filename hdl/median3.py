@@ -17,6 +17,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from .stream import pixel_signature
+from .util import equals, is_zero
 
 __all__ = ["Median3", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
@@ -83,11 +84,6 @@ def reciprocal_25(n_max):
         if n_max * (25 * k - (1 << s)) < (1 << s):
             return k, s
         s += 1
-
-
-def _is0(v):
-    # not v == 0: yosys prints that as a multi-bit logical not (lint WIDTHTRUNC)
-    return ~v.any()
 
 
 def _pick(values, sel):
@@ -239,7 +235,7 @@ class _Neighbourhood(wiring.Component):
         n_fc = Mux(fadv, Mux(f_rend, 0, fc + 1), fc)
         # col_le of the next cycle, from registers only: 4 outcomes, selected by the moves
         le_take = at_rend | (in_col < fc)                        # in_col + 1 <= fc
-        le_fadv = Mux(f_rend, _is0(in_col), col_le | (in_col == fc + 1))
+        le_fadv = Mux(f_rend, is_zero(in_col), col_le | (in_col == fc + 1))
         le_both = at_rend | (~f_rend & col_le)
         m.d.sync += col_le.eq(Mux(take, Mux(fadv, le_both, le_take),
                                   Mux(fadv, le_fadv, col_le)))
@@ -258,7 +254,7 @@ class _Neighbourhood(wiring.Component):
                              at_first.eq(0)]
                 with m.If(at_first):
                     m.d.sync += [base_in.eq(wslot), hm1_in.eq(hm1_port),
-                                 at_lrow.eq(_is0(hm1_port))]
+                                 at_lrow.eq(is_zero(hm1_port))]
                 with m.If(at_rend):
                     m.d.sync += wslot.eq(wslot + 1)
                     with m.If(at_lrow):
@@ -292,7 +288,7 @@ class _Neighbourhood(wiring.Component):
             wp = mem.write_port()
             m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
                          wp.addr.eq(s1_waddr), wp.data.eq(s1_tap),
-                         wp.en.eq(adv & s1_we & (s1_wslot == k if k else _is0(s1_wslot)))]
+                         wp.en.eq(adv & s1_we & equals(s1_wslot, k))]
             tap_rd.append(rp.data)
         for k in range(R if has_pay else 0):
             mem = Memory(shape=unsigned(pay_bits), depth=W, init=[])
@@ -307,7 +303,7 @@ class _Neighbourhood(wiring.Component):
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
         s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
         s1_lastc = pipe.reg(Mux(flush, f_rend, at_rend), name="lastc")
-        s1_row0 = pipe.reg(_is0(oy), name="row0")
+        s1_row0 = pipe.reg(is_zero(oy), name="row0")
         s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
         s1_str = [pipe.reg(s, shape=1, name=f"str{t}") for t, s in enumerate(taps_stream)]
         s1_psel = pipe.reg(psel, name="psel")
@@ -663,7 +659,7 @@ class Median3(wiring.Component):
         m = Module()
         b, w = self._bits, self._width
         i, o = self.i_stream, self.o_stream
-        hm1 = Mux(_is0(self.height), 0, self.height - 1)
+        hm1 = Mux(is_zero(self.height), 0, self.height - 1)
         if not self._enhance:
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(

@@ -5,9 +5,9 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError
 from tdicam.model.nuc import check_nuc_params
 from .stream import channels_shape, pixel_signature
+from .util import quiet_reject
 
 __all__ = ["Nuc"]
 
@@ -49,16 +49,13 @@ class Nuc(wiring.Component):
     MULT18X18D / 7-series DSP48).
     """
 
+    @quiet_reject
     def __init__(self, *, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14, offset_bits=16,
                  offset_frac_bits=0, out_bits=None):
-        try:
-            self._out_bits = check_nuc_params(
-                pixel_bits=pixel_bits, gain_int_bits=gain_int_bits,
-                gain_frac_bits=gain_frac_bits, offset_bits=offset_bits,
-                offset_frac_bits=offset_frac_bits, out_bits=out_bits)
-        except TdicamError:
-            self._MustUse__silence = True  # never built: no "unused elaboratable" warning
-            raise
+        self._out_bits = check_nuc_params(
+            pixel_bits=pixel_bits, gain_int_bits=gain_int_bits,
+            gain_frac_bits=gain_frac_bits, offset_bits=offset_bits,
+            offset_frac_bits=offset_frac_bits, out_bits=out_bits)
         self._pixel_bits = pixel_bits
         self._gain_int_bits = gain_int_bits
         self._gain_frac_bits = gain_frac_bits

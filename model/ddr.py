@@ -1,6 +1,7 @@
 """DDR line/frame buffers behind a MIG-style user interface (SPEC 3.8, seed 002 §4.2).
 
-Golden models and configuration checks for :mod:`tdicam.hdl.ddr`.
+Golden models and configuration checks for the DDR gateware (:mod:`tdicam.hdl.ddr`,
+:mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.mig_model`).
 
 Interface and addresses
 -----------------------
@@ -33,7 +34,7 @@ beats follow the same (pixel, channel) order.
 Memory model
 ------------
 :class:`MigSim` is the cycle-stepped Python model of the controller (the HDL model is
-:class:`tdicam.hdl.ddr.MigModel`; both draw their stalls from the same xorshift32 sequence,
+:class:`tdicam.hdl.mig_model.MigModel`; both draw their stalls from the same xorshift32 sequence,
 so their ready patterns are identical cycle for cycle): in-order reads with a latency drawn
 from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the end of every
 ``refresh_period`` cycles with ``app_rdy`` low, random drops of ``app_rdy`` and
@@ -388,7 +389,7 @@ class MigSim:
 # ---------------------------------------------------------------------------------------
 
 def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
-    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.ddr.CdsDdr`).
+    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.cds_ddr.CdsDdr`).
 
     ``frames`` (n, rows, width) with ``kinds[i]`` = 1 for a reset frame (stored, no output)
     and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored

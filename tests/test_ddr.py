@@ -7,7 +7,10 @@ from amaranth.sim import Simulator
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
-from tdicam.hdl.ddr import CdsDdr, DdrFrameBuffer, MigModel, SimTop, TdiDdr
+from tdicam.hdl.cds_ddr import CdsDdr
+from tdicam.hdl.ddr import DdrFrameBuffer
+from tdicam.hdl.mig_model import MigModel, SimTop
+from tdicam.hdl.tdi_ddr import TdiDdr
 from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, cds_ddr_frames,
                               check_capacity, ints_to_words, pack_lines, pack_words,
                               psums_per_word, stall_pattern, tdi_ddr_check, unpack_lines,

@@ -2,16 +2,16 @@
 (SPEC 3.8; :mod:`tdicam.hdl.ddr`, :mod:`tdicam.model.ddr`).
 
 Each Verilog top is the user logic with the simulation-only controller model
-:class:`~tdicam.hdl.ddr.MigModel` behind it (:class:`~tdicam.hdl.ddr.SimTop`), so the fast
+:class:`~tdicam.hdl.mig_model.MigModel` behind it (:class:`~tdicam.hdl.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
 set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 26 of every 780
 cycles, each ready dropped with probability 16/256). ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 
 * ``ddr`` — :class:`~tdicam.hdl.ddr.DdrFrameBuffer`: output = input after DDR.
-* ``cds_ddr`` — :class:`~tdicam.hdl.ddr.CdsDdr`: reset frames stored, signal frames
+* ``cds_ddr`` — :class:`~tdicam.hdl.cds_ddr.CdsDdr`: reset frames stored, signal frames
   subtracted (``frame_kind`` rides with each beat).
-* ``tdi_ddr`` — :class:`~tdicam.hdl.ddr.TdiDdr`: the ``tdi`` block with its partial sums
+* ``tdi_ddr`` — :class:`~tdicam.hdl.tdi_ddr.TdiDdr`: the ``tdi`` block with its partial sums
   in DDR; golden vectors from the same :func:`~tdicam.model.tdi.tdi_stream`.
 """
 
@@ -52,7 +52,7 @@ def stalls_of(p):
 
 
 def _sim_top(core, words):
-    from ..hdl.ddr import SimTop
+    from ..hdl.mig_model import SimTop
     return SimTop(core, depth_words=max(1, words), **core._stalls)
 
 
@@ -174,7 +174,7 @@ def _cds_check(p):
 
 def _cds_top(*, width, rows, pixel_bits, pixels_per_word, line_stride, base, capacity_mib,
              **stalls):
-    from ..hdl.ddr import CdsDdr
+    from ..hdl.cds_ddr import CdsDdr
     core = CdsDdr(width=width, rows=rows, pixel_bits=pixel_bits,
                   pixels_per_word=pixels_per_word, line_stride=line_stride, base=base,
                   capacity_bytes=capacity_mib << 20)
@@ -284,7 +284,7 @@ def _tdi_check(p):
     tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                      out_bits=p["out_bits"], ppc=p["ppc"])
     _check_stalls(*(p[k] for k in _STALL_NAMES))
-    from ..hdl.ddr import TdiDdr
+    from ..hdl.tdi_ddr import TdiDdr
     lp = None if p["line_period_ns"] is None else p["line_period_ns"] * 1e-9
     tdi_ddr_check(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   ppc=p["ppc"], line_period_s=lp, clock_hz=p["clock_mhz"] * 1e6,
@@ -293,7 +293,7 @@ def _tdi_check(p):
 
 def _tdi_top(*, width, stages, pixel_bits, out_bits, ppc, base, line_period_ns, clock_mhz,
              **stalls):
-    from ..hdl.ddr import TdiDdr
+    from ..hdl.tdi_ddr import TdiDdr
     core = TdiDdr(width=width, stages=stages, pixel_bits=pixel_bits, out_bits=out_bits,
                   ppc=ppc, base=base,
                   line_period_s=None if line_period_ns is None else line_period_ns * 1e-9,
