@@ -16,6 +16,7 @@ from amaranth.utils import bits_for
 from tdicam.model.tdi import check_params, full_bits, out_width
 from .stream import channels_shape, pixel_signature
 from .tdi_control import TdiFrameControl
+from .util import equals
 
 __all__ = ["TdiAccumulator"]
 
@@ -34,11 +35,6 @@ def _split(bits):
         parts.append(next(w for w in _BANK_DEPTH if w <= bits))
         bits -= parts[-1]
     return parts
-
-
-def _eq(value, c):
-    """value == c, spelled ~value.any() for 0 (yosys writes x == 0 as !x: a lint warning)."""
-    return ~value.any() if c == 0 else value == c
 
 
 def _or(items):
@@ -257,10 +253,10 @@ class TdiAccumulator(wiring.Component):
                     rh = Signal(name=f"rh{tag}")       # ... its data arrives now
                     rq = Signal(name=f"rq{tag}")       # ... it is in the bank register
                     we = Signal(name=f"we{tag}")
-                    m.d.sync += [re_.eq(p[0]["valid"] & (_eq(p[0]["addr"] >> lg, c)
+                    m.d.sync += [re_.eq(p[0]["valid"] & (equals(p[0]["addr"] >> lg, c)
                                                          if multi else 1)),
                                  rh.eq(re_), rq.eq(rh),
-                                 we.eq(do_write & (_eq(ps_["addr"] >> lg, c) if multi else 1))]
+                                 we.eq(do_write & (equals(ps_["addr"] >> lg, c) if multi else 1))]
                     qr = Signal(pw, name=f"q{tag}")
                     m.d.comb += [rd.addr.eq(ra[:len(rd.addr)]), rd.en.eq(re_),
                                  wr.addr.eq(wa[:len(wr.addr)]), wr.data.eq(wd),

@@ -15,6 +15,7 @@ from amaranth.utils import bits_for
 
 from tdicam.model.tdi import check_params
 from .stream import channels_shape, pixel_signature
+from .util import saturating_increment
 
 __all__ = ["TdiFrameControl", "beat_layout"]
 
@@ -203,8 +204,7 @@ class TdiFrameControl(wiring.Component):
 
         with m.If(error):
             m.d.sync += run.eq(0)
-            with m.If(errors != 0xFFFF):
-                m.d.sync += errors.eq(errors + 1)
+            saturating_increment(m, errors)
         with m.If(cut | (anomaly & ~start)):
             with m.If(line_open):
                 m.d.sync += [state.eq(_PAD), pad_col.eq(col)]
