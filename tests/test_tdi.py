@@ -492,7 +492,8 @@ def test_amaranth_sim_shared_driver(case):
     first_out = (int(m_set) - 1) * int(m_set) * params["width"] // params["ppc"]
     out, lat, final = run_stream_component(dut, stim, n_out, seed=4, p_valid=0.7,
                                            p_ready=0.6, status=("frame_errors",),
-                                           latency_from=first_out)
+                                           latency_from=first_out,
+                                           timeout=1e-8 * (3 * len(stim) + 500))
     np.testing.assert_array_equal(np.array([o[0] for o in out]), arrays["out"])
     assert [o[1] for o in out] == arrays["out_first"].tolist()
     assert [o[2] for o in out] == arrays["out_last"].tolist()
