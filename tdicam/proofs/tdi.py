@@ -41,7 +41,7 @@ class TdiNoWrapProof(Elaboratable):
         """BMC depth covering ``frames`` whole frames (default ``stages + 1``) + pipeline."""
         d = self.dut
         frames = d.stages + 1 if frames is None else frames
-        return frames * d.stages * d.row_cycles + d.latency + 2
+        return frames * d.stages * (d.width // d.ppc) + d.latency + 2
 
     def elaborate(self, platform):
         m = Module()
