@@ -14,19 +14,18 @@ from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS
     check_capacity
 from .mig import MigPort, connect_mig, mig_user_ports
 from .stream import channels_shape, pixel_signature
-from .util import equals, mux_select, quiet_reject, saturating_increment
+from .tdi_control import TdiFrameControl
+from .util import equals, mux_select, quiet_reject
 
 __all__ = ["TdiDdr"]
-
-_WAIT, _RUN, _DROP, _PAD = range(4)
-
 
 class TdiDdr(wiring.Component):
     """The optimized TDI accumulator with its ``stages - 1`` partial-sum lines in DDR.
 
     Same parameters, ports, settings, error handling and output, beat for beat, as
     :class:`tdicam.hdl.tdi.TdiAccumulator` (golden model :func:`tdicam.model.tdi.tdi_stream`;
-    the frame control below is that block's, with addresses counted in lines), plus the MIG
+    the frame control is that block's, :class:`~tdicam.hdl.tdi_control.TdiFrameControl`,
+    with addresses counted in lines), plus the MIG
     user-interface ports. Refuses (one-line :class:`TdicamError`) configurations checked by
     :func:`tdicam.model.ddr.tdi_ddr_check` (rows shorter than the read look-ahead; with
     ``line_period_s``, DDR bandwidth or clock short for ``stages``).
@@ -37,7 +36,7 @@ class TdiDdr(wiring.Component):
     beat that starts the word is decoded, only for rows that add a stored sum) and one write
     (when its last beat has been added, except on the output row).
 
-    Pipeline: stage A (input register) -> decode (the frame control) -> a FIFO of
+    Pipeline: the frame control (input register, decoded-beat register) -> a FIFO of
     ``lookahead`` decoded beats, which lets reads run ahead of the additions by up to
     ``lookahead`` beats and 64 words -> add (stored sum + pixels, write-back, output
     register). A stored sum is read one row after it was written at the earliest, so rows
@@ -96,11 +95,9 @@ class TdiDdr(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         W, M, PB, PPC = self._width, self._stages, self._pixel_bits, self._ppc
-        WB = W // PPC
         PS, OB, J, WPL = self._psum_bits, self._out_bits, self._j, self._wpl
         AW = ADDR_BITS
-        mb = bits_for(M)
-        i, o = self.i_stream, self.o_stream
+        o = self.o_stream
         m.submodules.port = port = MigPort()
         connect_mig(m, port, self)
 
@@ -109,43 +106,32 @@ class TdiDdr(wiring.Component):
             m.d.comb += w.eq(value)
             return w
 
-        # ---- stage A: input register (beat + the settings presented with it)
-        a_valid = Signal()
-        a_data = Signal(PPC * PB)
-        a_first, a_last, a_dir = Signal(), Signal(), Signal()
-        a_m = Signal(len(self.stages_active))
-        a_take = Signal()
-        m.d.comb += i.ready.eq(~a_valid | a_take)
-        with m.If(i.valid & i.ready):
-            m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
-                         a_first.eq(i.payload.first), a_last.eq(i.payload.last),
-                         a_m.eq(self.stages_active), a_dir.eq(self.direction)]
-        with m.Elif(a_take):
-            m.d.sync += a_valid.eq(0)
+        # ---- frame control (shared with TdiAccumulator), addresses counted in lines
+        m.submodules.control = ctl = TdiFrameControl(width=W, stages=M, pixel_bits=PB,
+                                                     ppc=PPC, stride=1)
+        wiring.connect(m, wiring.flipped(self.i_stream), ctl.i_stream)
+        m.d.comb += [ctl.stages_active.eq(self.stages_active),
+                     ctl.direction.eq(self.direction), self.frame_errors.eq(ctl.frame_errors)]
+        b = ctl.o_stream.payload
 
-        # ---- control state (TdiAccumulator's, addresses in lines)
-        state = Signal(2, init=_WAIT)
-        m_reg = Signal(mb)
-        dir_reg = Signal()
-        run = Signal(mb)
-        f = Signal(mb)
-        row = Signal(mb)
-        col = Signal(range(WB))
+        # the decoded beat's word within its row: (word column, position in the word)
         wcol = Signal(range(WPL))
         wpos = Signal(range(max(J, 2)))
-        base = Signal(mb)          # line row 0 uses this frame
-        row_line = Signal(mb)      # line of the current row
-        lim = Signal(mb)           # lines in use
-        pad_col = Signal(range(WB))
-        errors = Signal(16)
-        m.d.comb += self.frame_errors.eq(errors)
+        e_wcol = wire("e_wcol", Mux(b.first, 0, wcol), range(WPL))
+        e_wpos = wire("e_wpos", Mux(b.first, 0, wpos), len(wpos))
+        need_rd = wire("need_rd", b.use & ~e_wpos.any())
+        word_addr = wire("word_addr", self.layout.base
+                         + (b.addr * WPL + e_wcol) * ADDR_PER_WORD, AW)
+        wend = wire("wend", (e_wpos == J - 1) | b.last)
 
         # decoded-beat FIFO: data, use, wr, out, first, last, zero, wpos, wend, word addr
         fields = [("data", PPC * PB), ("use", 1), ("wr", 1), ("out", 1), ("first", 1),
                   ("last", 1), ("zero", 1), ("wpos", len(wpos)), ("wend", 1), ("addr", AW)]
-        fw = sum(w for _, w in fields)
-        m.submodules.beats = bq = SyncFIFOBuffered(width=fw, depth=self.LOOKAHEAD)
-        q_in = {n: Signal(w, name=f"q_{n}") for n, w in fields}
+        m.submodules.beats = bq = SyncFIFOBuffered(width=sum(w for _, w in fields),
+                                                   depth=self.LOOKAHEAD)
+        q_in = {"data": b.data, "use": b.use, "wr": b.wr, "out": b.out, "first": b.first,
+                "last": b.last, "zero": b.zero, "wpos": e_wpos, "wend": wend,
+                "addr": word_addr}
         m.d.comb += bq.w_data.eq(Cat(*(q_in[n] for n, _ in fields)))
         q = {}
         off = 0
@@ -153,101 +139,16 @@ class TdiDdr(wiring.Component):
             q[n] = bq.r_data[off:off + w]
             off += w
 
-        # ---- decode A's beat
-        start = a_first
-        new_ok = a_m.any()
-        if M < (1 << len(a_m)) - 1:
-            new_ok &= a_m <= M
-        if M >= 2:
-            new_ok &= ~(a_dir & (a_m == M))
-        new_ok = wire("new_ok", new_ok)
-        same = wire("same", (a_m == m_reg) & (a_dir == dir_reg) & run.any())
-        base_step = wire("base_step", base + 1, mb + 1)
-        base_next = wire("base_next", Mux(same & (base_step < lim), base_step, 0), mb)
-        e_m = wire("e_m", Mux(start, a_m, m_reg), mb)
-        e_dir = wire("e_dir", Mux(start, a_dir, dir_reg))
-        e_f = wire("e_f", Mux(start, Mux(same, run, 0), f), mb)
-        e_row = wire("e_row", Mux(start, 0, row), mb)
-        e_col = wire("e_col", Mux(start, 0, col), range(WB))
-        e_wcol = wire("e_wcol", Mux(start, 0, wcol), range(WPL))
-        e_wpos = wire("e_wpos", Mux(start, 0, wpos), len(wpos))
-        e_line = wire("e_line", Mux(start, base_next, row_line), mb)
-        age = wire("age", Mux(e_dir, e_row, e_m - 1 - e_row), mb)
-        out_row = wire("out_row", age == e_m - 1)
-        out_en = wire("out_en", e_f >= e_m - 1)
-        use_mem = wire("use_mem", age.any() & (age <= e_f))
-        last_col = wire("last_col", e_col == WB - 1)
-        tlast_ok = wire("tlast_ok", a_last == last_col)
-        frame_end = wire("frame_end", last_col & (e_row == e_m - 1))
-        line_open = wire("line_open", (Mux(dir_reg, row, m_reg - 1 - row) == m_reg - 1)
-                         & (f >= m_reg - 1) & col.any())
-        need_rd = wire("need_rd", use_mem & ~e_wpos.any())
-        word_addr = wire("word_addr", self.layout.base
-                         + (e_line * WPL + e_wcol) * ADDR_PER_WORD, AW)
-        b_can = wire("b_can", bq.w_rdy & (~need_rd | port.rd_ready))
-
-        busy = wire("busy", a_valid & (state != _PAD))
-        proc = wire("proc", busy & Mux(start, (state != _RUN) & new_ok, state == _RUN))
-        cut = wire("cut", busy & start & (state == _RUN))
-        invalid = wire("invalid", busy & start & (state != _RUN) & ~new_ok)
-        stray = wire("stray", busy & ~start & (state != _RUN))
-        anomaly = wire("anomaly", proc & ~tlast_ok)
-        step = wire("step", proc & tlast_ok & b_can)
-        pad_now = wire("pad_now", (state == _PAD) & bq.w_rdy)
-        error = wire("error", cut | invalid | anomaly | (stray & ~state.any()))
-
-        with m.If(error):
-            m.d.sync += run.eq(0)
-            saturating_increment(m, errors)
-        with m.If(cut | (anomaly & ~start)):
-            with m.If(line_open):
-                m.d.sync += [state.eq(_PAD), pad_col.eq(col)]
-            with m.Else():
-                m.d.sync += state.eq(_DROP)
-        with m.If(anomaly & start):
-            m.d.sync += state.eq(_DROP)
-        with m.If(invalid | stray):
-            m.d.sync += state.eq(_DROP)
-        m.d.comb += a_take.eq(step | invalid | stray | (anomaly & (start | ~line_open)))
-
-        n_new = Mux(a_m == 1, 0, a_m - 1 + a_dir)
-        nxt_fwd = wire("nxt_fwd", Mux(e_line + 1 < lim, e_line + 1, 0), mb)
-        nxt_rev = wire("nxt_rev", Mux(e_line.any(), e_line - 1, Mux(lim.any(), lim - 1, 0)), mb)
-        wend = wire("wend", (e_wpos == J - 1) | last_col)
-        with m.If(step):
-            with m.If(start):
-                m.d.sync += [m_reg.eq(a_m), dir_reg.eq(a_dir), f.eq(e_f), base.eq(base_next),
-                             lim.eq(n_new)]
-            with m.If(last_col):
-                m.d.sync += [col.eq(0), wcol.eq(0), wpos.eq(0), row.eq(e_row + 1),
-                             row_line.eq(Mux(e_dir, nxt_rev, nxt_fwd))]
-            with m.Else():
-                m.d.sync += [col.eq(e_col + 1), row.eq(e_row), row_line.eq(e_line)]
-                with m.If(e_wpos == J - 1):
-                    m.d.sync += [wpos.eq(0), wcol.eq(e_wcol + 1)]
-                with m.Else():
-                    m.d.sync += [wpos.eq(e_wpos + 1), wcol.eq(e_wcol)]
-            with m.If(frame_end):
-                m.d.sync += [state.eq(_WAIT), run.eq(Mux(e_f == M, M, e_f + 1))]
-            with m.Else():
-                m.d.sync += state.eq(_RUN)
-        with m.If(pad_now):
-            m.d.sync += pad_col.eq(pad_col + 1)
-            with m.If(pad_col == WB - 1):
-                m.d.sync += state.eq(_DROP)
-
         # read request with the decoded beat that starts a word of a row that adds
-        m.d.comb += [port.rd_valid.eq(proc & tlast_ok & bq.w_rdy & need_rd),
-                     port.rd_addr.eq(word_addr)]
-        m.d.comb += [
-            bq.w_en.eq(step | pad_now),
-            q_in["data"].eq(a_data), q_in["use"].eq(step & use_mem),
-            q_in["wr"].eq(step & ~out_row), q_in["out"].eq(Mux(step, out_row & out_en, 1)),
-            q_in["first"].eq(step & ~e_col.any()),
-            q_in["last"].eq(Mux(step, last_col, pad_col == WB - 1)),
-            q_in["zero"].eq(~step), q_in["wpos"].eq(e_wpos), q_in["wend"].eq(wend),
-            q_in["addr"].eq(word_addr),
-        ]
+        m.d.comb += [ctl.o_stream.ready.eq(bq.w_rdy & (~need_rd | port.rd_ready)),
+                     port.rd_valid.eq(ctl.o_stream.valid & bq.w_rdy & need_rd),
+                     port.rd_addr.eq(word_addr),
+                     bq.w_en.eq(ctl.o_stream.valid & ctl.o_stream.ready)]
+        with m.If(bq.w_en):
+            with m.If(e_wpos == J - 1):
+                m.d.sync += [wpos.eq(0), wcol.eq(e_wcol + 1)]
+            with m.Else():
+                m.d.sync += [wpos.eq(e_wpos + 1), wcol.eq(e_wcol)]
 
         # ---- add stage: head of the beat FIFO + its stored sums
         h_rd = wire("h_rd", q["use"] & ~q["wpos"].any())

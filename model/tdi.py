@@ -41,7 +41,6 @@ computed in unsigned integers wide enough to be exact (uint32/int64), never in t
 dtype.
 """
 
-import os
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -57,7 +56,6 @@ __all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", 
            "tdi", "tdi_basic", "tdi_optimized", "tdi_frames", "tdi_stream", "StreamOut",
            "basic_line_buffers", "optimized_line_buffers"]
 
-_WORKERS = max(1, min(4, os.cpu_count() or 1))   # threads for large tdi() calls
 MAX_STAGES = 128
 MAX_WIDTH = 8192
 PIXEL_BITS = (8, 14)
@@ -222,8 +220,9 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
     -----
     Sums up to 65535 // (2**pixel_bits - 1) terms in uint16 (exact: they cannot exceed
     65535), then widens to uint32 (the full width is at most 21 bits), in blocks of output
-    lines so the working set stays in cache; large inputs spread the blocks over up to
-    4 threads (one per core; the result does not depend on it).
+    lines so the working set stays in cache; large inputs spread the blocks over
+    ``TDICAM_THREADS`` threads (default: the CPU count, at most 4; the result does not
+    depend on it; see :func:`tdicam.engine.threads`).
     """
     f, stages, m, direction = _resolve(frames, stages, pixel_bits, out_bits, stages_active,
                                        direction)
@@ -252,7 +251,8 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
                 np.add(total[lo:hi], acc, out=total[lo:hi])
 
     starts = list(range(0, n, block))
-    workers = min(_WORKERS, len(starts)) if n * m * W >= 1 << 24 else 1
+    from tdicam.engine import threads    # (lazy: the engine imports the models)
+    workers = min(threads(), len(starts)) if n * m * W >= 1 << 24 else 1
     if workers > 1:
         # numpy releases the GIL in these loops; each thread owns whole output blocks
         with ThreadPoolExecutor(workers) as pool:

@@ -325,6 +325,8 @@ REFERENCE = (
            note="1280 x 96 stages x 12 bit, 19-bit partial sums"),
     RefRun("tdi ppc=4", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 4},
            note="1280 x 96 stages x 12 bit, 4 pixels/clock"),
+    RefRun("tdi ppc=8", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 8},
+           note="1280 x 96 stages x 12 bit, 8 pixels/clock"),
     RefRun("median3", "median3", {"width": 1280, "pixel_bits": 12},
            note="1280 wide, 12 bit, 1 pixel/clock"),
     RefRun("hdr", "hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),

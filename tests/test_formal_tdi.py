@@ -1,6 +1,6 @@
 """Bounded formal check that the TDI partial sums never wrap (yowasp-sby + boolector).
 
-:class:`tdicam.hdl.tdi.TdiNoWrapProof` on a 2-pixel-wide, 3-stage, 8-bit accumulator with
+:class:`tdicam.proofs.tdi.TdiNoWrapProof` on a 2-pixel-wide, 3-stage, 8-bit accumulator with
 every control input, the reset and the sink's ready free on every cycle, full-scale pixels
 (sound: see the harness docstring). The default depth covers 2 whole frames and the first
 output of a 3-stage fill; TDICAM_FULL=1 checks ``stages + 1`` frames and also lets the pixels
@@ -14,7 +14,7 @@ import os
 import pytest
 
 from tdicam import formal
-from tdicam.hdl.tdi import TdiNoWrapProof
+from tdicam.proofs.tdi import TdiNoWrapProof
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 _MISSING = formal.tools_missing()

@@ -7,14 +7,18 @@ import sys
 import numpy as np
 import pytest
 from amaranth.hdl import ClockDomain, Fragment, Module
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
 from amaranth.sim import Simulator
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tdicam import blocks, golden
+from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model import plan
+from tdicam.streamsim import run_stream_component
 from tdicam.model.tdi import (BasicTdi, OptimizedTdi, basic_line_buffers, full_bits,
                               optimized_line_buffers, settings_valid, slots_needed, tdi,
                               tdi_basic, tdi_frames, tdi_optimized, tdi_stream)
@@ -66,6 +70,21 @@ def test_structures_agree_large_m(m):
         t = m + 2
         col = [int(frames[t - k + 1, (k if d == 0 else m + 1 - k) - 1, 5]) for k in range(1, m + 1)]
         assert int(a[3, 5]) == sum(col)
+
+
+def test_tdi_honours_tdicam_threads(monkeypatch):
+    """Large inputs (>= 2**24 pixel terms) spread over TDICAM_THREADS threads: the result
+    does not depend on the count, and a bad value is a one-line error."""
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 4096, (159, 32, 4096)).astype(np.uint16)
+    out = {}
+    for n in ("1", "3"):
+        monkeypatch.setenv("TDICAM_THREADS", n)
+        out[n] = tdi(frames, pixel_bits=12)
+    np.testing.assert_array_equal(out["1"], out["3"])
+    monkeypatch.setenv("TDICAM_THREADS", "two")
+    with pytest.raises(TdicamError, match="TDICAM_THREADS = 'two'"):
+        tdi(frames, pixel_bits=12)
 
 
 @settings(max_examples=60, deadline=None)
@@ -386,9 +405,8 @@ def _check_sim(params, a, **kw):
     return want
 
 
-@pytest.mark.parametrize("case", ["random_64x4_p4_sat", "stages_64x4_p4_sat",
-                                  "errors_64x4_p4_sat", "mixed_48x5_p2_14b",
-                                  "mixed_64x3_p8_8b_sat", "fullscale_64x3_p8_8b_sat"])
+@pytest.mark.parametrize("case", ["stages_64x4_p4_sat", "errors_64x4_p4_sat",
+                                  "mixed_48x5_p2_14b", "mixed_64x3_p8_8b_sat"])
 def test_amaranth_sim_golden_cases(case):
     """Golden cases through the Python simulator with random idle and backpressure, output
     beats and the frame_errors port compared with the stored expectation."""
@@ -396,6 +414,50 @@ def test_amaranth_sim_golden_cases(case):
     want = _check_sim(params, arrays, idle=0.3, bp=0.4, seed=5)
     np.testing.assert_array_equal(want.data, arrays["out"])
     assert want.frame_errors == int(arrays["frame_errors"])
+
+
+class _FixedSettings(wiring.Component):
+    """The accumulator with constant run-time settings: a plain stream component for the
+    shared driver (:func:`tdicam.streamsim.run_stream_component`)."""
+
+    def __init__(self, dut, stages_active, direction):
+        self.dut, self._settings = dut, (stages_active, direction)
+        self.latency = dut.latency
+        super().__init__({"i_stream": In(dut.i_stream.signature.flip()),
+                          "o_stream": Out(dut.o_stream.signature),
+                          "frame_errors": Out(16)})
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.dut = d = self.dut
+        wiring.connect(m, wiring.flipped(self.i_stream), d.i_stream)
+        wiring.connect(m, d.o_stream, wiring.flipped(self.o_stream))
+        m.d.comb += [d.stages_active.eq(self._settings[0]), d.direction.eq(self._settings[1]),
+                     self.frame_errors.eq(d.frame_errors)]
+        return m
+
+
+@pytest.mark.parametrize("case", ["random_64x4_p4_sat", "fullscale_64x4_p4_sat",
+                                  "fullscale_64x3_p8_8b_sat"])
+def test_amaranth_sim_shared_driver(case):
+    """Golden cases with constant settings through the shared stream driver (random idle
+    and backpressure): output beats and frame_errors as stored, and the first output beat
+    valid exactly ``latency`` cycles after the input beat that completes it."""
+    arrays, params = golden.load("tdi", case)
+    (m_set,), (d_set,) = np.unique(arrays["stages_active"]), np.unique(arrays["direction"])
+    dut = _FixedSettings(TdiAccumulator(**params), int(m_set), int(d_set))
+    stim = Beats(arrays["pixels"], arrays["first"], arrays["last"])
+    n_out = len(arrays["out_first"])
+    first_out = (int(m_set) - 1) * int(m_set) * params["width"] // params["ppc"]
+    out, lat, final = run_stream_component(dut, stim, n_out, seed=4, p_valid=0.7,
+                                           p_ready=0.6, status=("frame_errors",),
+                                           latency_from=first_out,
+                                           timeout=1e-8 * (3 * len(stim) + 500))
+    np.testing.assert_array_equal(np.array([o[0] for o in out]), arrays["out"])
+    assert [o[1] for o in out] == arrays["out_first"].tolist()
+    assert [o[2] for o in out] == arrays["out_last"].tolist()
+    assert final["frame_errors"] == int(arrays["frame_errors"])
+    assert lat == [dut.latency]
 
 
 def _fuzz_stream(rng, W, M, ppc, nframes, pbad=0.3):

@@ -1,0 +1,271 @@
+"""Frame control of the digital TDI accumulator, as a component a memory back-end uses.
+
+:class:`TdiFrameControl` turns the input beats (m rows of W pixels per frame, tuser/tlast)
+and the run-time settings into *decoded beats*: for each beat the partial-sum address it
+reads and writes, whether the stored sum is used, whether the updated sum is written back or
+output, and the output beat's markers. The DDR accumulator (``TdiDdr``) uses it; the
+on-chip :class:`tdicam.hdl.tdi.TdiAccumulator` still has its own latency-3 copy (a pipelined
+on-chip back-end on this component met the clock better but co-simulated 2.45x slower).
+The beat-level contract is :func:`tdicam.model.tdi.tdi_stream`."""
+
+from amaranth.hdl import Const, Module, Mux, Signal, Value, unsigned
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+from amaranth.utils import bits_for
+
+from tdicam.model.tdi import check_params
+from .stream import channels_shape, pixel_signature
+from .util import saturating_increment
+
+__all__ = ["TdiFrameControl", "beat_layout"]
+
+_WAIT, _RUN, _DROP, _PAD = range(4)   # (x == 0 written ~x.any(): yosys prints x == 0 as !x)
+
+
+def beat_layout(*, ppc, pixel_bits, addr_bits):
+    """Layout of a decoded beat: ``data`` (``ppc`` pixels), ``addr`` (partial-sum address of
+    the beat: line start + beat in row for ``stride = W/ppc``, the line for ``stride = 1``),
+    ``use`` (add the stored sum), ``wr`` (write the new sum back), ``out`` (an output beat),
+    ``first``/``last`` (first/last beat of its row), ``zero`` (padding: output zeros, touch
+    no memory)."""
+    return data.StructLayout({"data": unsigned(ppc * pixel_bits), "addr": unsigned(addr_bits),
+                              "use": 1, "wr": 1, "out": 1, "first": 1, "last": 1, "zero": 1})
+
+
+class TdiFrameControl(wiring.Component):
+    """Row/frame counters, settings latch, refill and malformed-frame handling of the TDI
+    accumulator, as a stream of decoded beats.
+
+    Parameters
+    ----------
+    width, stages, pixel_bits, ppc : int
+        As :class:`tdicam.hdl.tdi.TdiAccumulator` (checked the same way).
+    stride : int
+        Address step per partial-sum line: ``width // ppc`` (addresses count beats) or 1
+        (addresses count lines; the back-end tracks the beat within a row from ``first``).
+    row_cycles : int
+        Fewest cycles between the first beats of two consecutive rows (default 2, the
+        shortest row): a back-end whose write-back lands ``row_cycles`` after the read of
+        the same address asks for it, and rows of fewer beats get idle cycles after them.
+
+    Attributes
+    ----------
+    i_stream : In(pixel stream of ``ppc`` x ``pixel_bits``)
+    stages_active, direction : In
+        Sampled with each frame's tuser beat (see ``TdiAccumulator``).
+    o_stream : Out(stream of :func:`beat_layout`)
+        Decoded beats, registered. ``ready`` may depend combinationally on ``valid`` and the
+        payload. Every beat reaches ``o_stream`` in input order; malformed frames give no
+        beats except the zero padding that completes an output line already started.
+    frame_errors : Out(16)
+        Saturating count of malformed frames and invalid settings.
+
+    Notes
+    -----
+    Partial-sum lines: ``stages - 1`` of them (``lines x stride`` addresses). Which line a
+    row uses rotates by one per frame (a base pointer), so partial sums are never copied.
+    Row r of a frame has age a (``m-1-r`` forward, ``r`` reverse): age 0 starts a sum
+    (``use`` = 0), age m-1 completes it (``out``, ``wr`` = 0), the others add. A stored sum
+    is used only if its ground line was first seen after the last (re)start of the fill, so
+    stale memory never reaches the output. A settings change restarts the fill; malformed
+    frames are dropped, counted, restart the fill, and an output line already started is
+    completed with ``zero`` beats (:func:`tdicam.model.tdi.tdi_stream`). The decode of each
+    beat uses only registers (per-row flags and address counters precomputed); a beat
+    spends one cycle in the input register and one in the output register.
+    ``i_stream.ready`` does not depend combinationally on ``o_stream.ready``.
+    """
+
+    def __init__(self, *, width, stages, pixel_bits=12, ppc=1, stride=None, row_cycles=2):
+        check_params(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc)
+        self._width, self._stages, self._pixel_bits, self._ppc = width, stages, pixel_bits, ppc
+        self._stride = width // ppc if stride is None else stride
+        self._row_cycles = row_cycles
+        self._addr_bits = max(1, bits_for(max((stages - 1) * self._stride - 1, 0)))
+        super().__init__({
+            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
+            "stages_active": In(unsigned(bits_for(stages))),
+            "direction": In(unsigned(1)),
+            "o_stream": Out(stream.Signature(beat_layout(ppc=ppc, pixel_bits=pixel_bits,
+                                                         addr_bits=self._addr_bits))),
+            "frame_errors": Out(unsigned(16)),
+        })
+
+    stride = property(lambda self: self._stride, doc="Address step per partial-sum line.")
+    addr_bits = property(lambda self: self._addr_bits, doc="Width of the beats' ``addr``.")
+    row_cycles = property(lambda self: self._row_cycles,
+                          doc="Fewest cycles from a row's first beat to the next row's.")
+
+    def elaborate(self, platform):
+        m = Module()
+        M, PB, PPC = self._stages, self._pixel_bits, self._ppc
+        WB = self._width // PPC
+        S = self._stride
+        aw = self._addr_bits
+        mb = bits_for(M)
+        i, o = self.i_stream, self.o_stream
+
+        def wire(name, value, shape=1):
+            w = Signal(shape, name=name)
+            m.d.comb += w.eq(value)
+            return w
+
+        # ---- stage A: input register (beat + the settings presented with it, predecoded)
+        a_valid = Signal()
+        a_data = Signal(PPC * PB)
+        a_first, a_last, a_dir = Signal(), Signal(), Signal()
+        a_m = Signal(len(self.stages_active))
+        a_m1 = Signal(mb)         # m - 1
+        a_ok = Signal()           # the settings are valid
+        a_lines = Signal(mb)      # partial-sum lines the settings use (m-1 forward, m reverse)
+        a_take = Signal()
+        m.d.comb += i.ready.eq(~a_valid | a_take)
+        with m.If(i.valid & i.ready):
+            sa, sd = self.stages_active, self.direction
+            ok = sa.any()
+            if M < (1 << len(sa)) - 1:
+                ok &= sa <= M
+            if M >= 2:
+                ok &= ~(sd & (sa == M))
+            m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
+                         a_first.eq(i.payload.first), a_last.eq(i.payload.last),
+                         a_m.eq(sa), a_dir.eq(sd), a_m1.eq(sa - 1), a_ok.eq(ok),
+                         a_lines.eq(Mux(sa == 1, 0, sa - 1 + sd))]
+        with m.Elif(a_take):
+            m.d.sync += a_valid.eq(0)
+
+        # ---- control state
+        state = Signal(2, init=_WAIT)
+        m_reg = Signal(mb)
+        m1_reg = Signal(mb)       # m_reg - 1
+        dir_reg = Signal()
+        run = Signal(mb)          # well-formed frames in the current run (saturates at M)
+        f = Signal(mb)            # run at the start of the current frame
+        col = Signal(range(WB))
+        col_last = Signal()       # col == WB - 1
+        # the current row: its age (m-1-r forward, r reverse), whether it is the output row,
+        # uses the stored sum, is the frame's last row; whether this frame outputs
+        age = Signal(mb)
+        r_out, r_use, r_last, out_en = Signal(), Signal(), Signal(), Signal()
+        base = Signal(aw)         # first address of the line row 0 uses this frame
+        bnext = Signal(aw)        # base's successor (registered: base changes >= 2 cycles apart)
+        row_addr = Signal(aw)     # first address of the current row's line
+        cur = Signal(aw)          # address of the current row's next beat
+        lim = Signal(bits_for((M - 1) * S))  # lines in use x stride
+        pad_col = Signal(range(WB))
+        errors = Signal(16)
+        m.d.comb += self.frame_errors.eq(errors)
+
+        # ---- stage B: the decoded beat (o_stream)
+        b_valid, b_use, b_wr, b_out, b_first, b_last, b_zero = (Signal() for _ in range(7))
+        b_data = Signal(PPC * PB)
+        b_addr = Signal(aw)
+        gap_cycles = max(0, self._row_cycles - WB)
+        gap = Signal(range(gap_cycles + 1)) if gap_cycles else Const(0, 1)
+        p = o.payload
+        m.d.comb += [o.valid.eq(b_valid & ~gap.any()), p.data.eq(b_data), p.addr.eq(b_addr),
+                     p.use.eq(b_use), p.wr.eq(b_wr), p.out.eq(b_out), p.first.eq(b_first),
+                     p.last.eq(b_last), p.zero.eq(b_zero)]
+        b_adv = wire("b_adv", o.valid & o.ready)
+        b_can = wire("b_can", ~b_valid | b_adv)
+
+        # ---- decode A's beat: a frame's first beat from A's predecoded settings, the
+        # others from the current row's registers
+        start = a_first
+        same = wire("same", (a_m == m_reg) & (a_dir == dir_reg) & run.any())
+        base_step = wire("base_step", base + S, aw + 1)
+        m.d.sync += bnext.eq(Mux(base_step < lim, base_step, 0))
+        base_next = wire("base_next", Mux(same, bnext, 0), aw)
+        s_f = wire("s_f", Mux(same, run, 0), mb)            # f of a new frame
+        m1_zero = wire("m1_zero", ~a_m1.any())
+        fill = wire("fill", a_m1 <= run)
+        # row 0: age m-1 forward (the output row), 0 reverse
+        s_out = wire("s_out", ~a_dir | m1_zero)
+        s_out_en = wire("s_out_en", Mux(same, fill, m1_zero))
+        s_use = wire("s_use", ~a_dir & same & ~m1_zero & fill)
+        e_out = wire("e_out", Mux(start, s_out, r_out))
+        e_use = wire("e_use", Mux(start, s_use, r_use))
+        e_out_en = wire("e_out_en", Mux(start, s_out_en, out_en))
+        e_addr = wire("e_addr", Mux(start, base_next, cur), aw)
+        last_col = wire("last_col", ~start & col_last)     # a row has >= 2 beats
+        tlast_ok = wire("tlast_ok", a_last == last_col)
+        frame_end = wire("frame_end", last_col & r_last)
+        # the current frame's output line has started (only meaningful in _RUN)
+        line_open = wire("line_open", r_out & out_en & col.any())
+
+        busy = wire("busy", a_valid & (state != _PAD))
+        proc = wire("proc", busy & Mux(start, (state != _RUN) & a_ok, state == _RUN))
+        cut = wire("cut", busy & start & (state == _RUN))
+        invalid = wire("invalid", busy & start & (state != _RUN) & ~a_ok)
+        stray = wire("stray", busy & ~start & (state != _RUN))
+        anomaly = wire("anomaly", proc & ~tlast_ok)
+        step = wire("step", proc & tlast_ok & b_can)
+        pad_now = wire("pad_now", (state == _PAD) & b_can)
+        error = wire("error", cut | invalid | anomaly | (stray & ~state.any()))  # _WAIT == 0
+
+        with m.If(error):
+            m.d.sync += run.eq(0)
+            saturating_increment(m, errors)
+        with m.If(cut | (anomaly & ~start)):
+            with m.If(line_open):
+                m.d.sync += [state.eq(_PAD), pad_col.eq(col)]
+            with m.Else():
+                m.d.sync += state.eq(_DROP)
+        with m.If(anomaly & start):
+            m.d.sync += state.eq(_DROP)
+        with m.If(invalid | stray):
+            m.d.sync += state.eq(_DROP)
+        m.d.comb += a_take.eq(step | invalid | stray | (anomaly & (start | ~line_open)))
+
+        # the next row, from registers (a row's last beat is never a frame's first)
+        fwd = wire("fwd", row_addr + S, aw + 1)
+        nxt_fwd = wire("nxt_fwd", Mux(fwd < lim, fwd, 0), aw)
+        nxt_rev = wire("nxt_rev", Mux(row_addr.any(), row_addr - S,
+                                      Mux(lim.any(), lim - S, 0)), aw)
+        row_next = wire("row_next", Mux(dir_reg, nxt_rev, nxt_fwd), aw)
+        age_next = wire("age_next", Mux(dir_reg, age + 1, age - 1), mb)
+        # lines x stride without a multiplier: a sum of shifted copies
+        lim_new = sum((a_lines << k for k in range(S.bit_length()) if S >> k & 1), Const(0))
+        step_in_row = 1 if S > 1 else 0      # addresses count beats, or lines
+        with m.If(step):
+            with m.If(start):
+                m.d.sync += [m_reg.eq(a_m), m1_reg.eq(a_m1), dir_reg.eq(a_dir), f.eq(s_f),
+                             base.eq(base_next), lim.eq(lim_new), age.eq(Mux(a_dir, 0, a_m1)),
+                             r_out.eq(s_out), r_use.eq(s_use), r_last.eq(m1_zero),
+                             out_en.eq(s_out_en), col.eq(1), col_last.eq(WB == 2),
+                             row_addr.eq(base_next), cur.eq(base_next + step_in_row)]
+            with m.Elif(last_col):
+                m.d.sync += [col.eq(0), col_last.eq(0), row_addr.eq(row_next),
+                             cur.eq(row_next), age.eq(age_next),
+                             r_out.eq(age_next == m1_reg),
+                             r_use.eq(age_next.any() & (age_next <= f)),
+                             r_last.eq(Mux(dir_reg, age_next == m1_reg, ~age_next.any()))]
+            with m.Else():
+                m.d.sync += [col.eq(col + 1), col_last.eq(col == WB - 2),
+                             cur.eq(cur + step_in_row)]
+            with m.If(frame_end):
+                m.d.sync += [state.eq(_WAIT), run.eq(Mux(f == M, M, f + 1))]
+            with m.Else():
+                m.d.sync += state.eq(_RUN)
+        with m.If(pad_now):
+            m.d.sync += pad_col.eq(pad_col + 1)
+            with m.If(pad_col == WB - 1):
+                m.d.sync += state.eq(_DROP)
+
+        with m.If(step):
+            m.d.sync += [b_valid.eq(1), b_data.eq(a_data), b_addr.eq(e_addr),
+                         b_use.eq(e_use), b_wr.eq(~e_out), b_out.eq(e_out & e_out_en),
+                         b_first.eq(start | ~col.any()), b_last.eq(last_col), b_zero.eq(0)]
+        with m.Elif(pad_now):
+            m.d.sync += [b_valid.eq(1), b_use.eq(0), b_wr.eq(0), b_out.eq(1), b_first.eq(0),
+                         b_last.eq(pad_col == WB - 1), b_zero.eq(1)]
+        with m.Elif(b_adv):
+            m.d.sync += b_valid.eq(0)
+        if gap_cycles:
+            # rows shorter than row_cycles: idle cycles after each row
+            with m.If(b_adv & b_last):
+                m.d.sync += gap.eq(gap_cycles)
+            with m.Elif(gap.any()):
+                m.d.sync += gap.eq(gap - 1)
+
+        self.probe = {"state": state, "run": run}
+        return m
