@@ -14,6 +14,9 @@ SPEC 3.7, seed 002 §4.1. The golden model and the exact timing contract are in
   (generated to Verilog, not simulated).
 
 Everything runs in one clock domain, the *word clock*: one word per lane per cycle.
+
+One module (~600 lines) on purpose: the lane trainer, the deskew and the two receiver tops
+share the lane status layout and the settings checks, and are verified together.
 """
 
 from amaranth.hdl import Array, Cat, ClockDomain, ClockSignal, Const, Instance, Module, \

@@ -7,6 +7,10 @@ merge of <= 7 compares, a selection of <= 5): 13 comparators per output pixel in
 15, 8 compare stages deep, one comparator per pipeline stage on every path. The network is
 the table :data:`COLUMN_SORT` + :data:`WINDOW_MEDIAN`, which the gateware is built from and
 which the tests prove correct over all 0/1 inputs (0-1 principle for min/max networks).
+
+One module (~700 lines) on purpose: the compare-exchange network, its line-buffer
+neighbourhood and the enhancement stages are one pipeline whose stage timing is counted
+across all three (``latency``); splitting them would spread that count over files.
 """
 
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned

@@ -79,6 +79,9 @@ increasing order. Pages not in the file are erased (all ``0xFF``).
 
 (One module past 600 lines: the device, the layout written on it, the file and the golden
 read share the geometry and the layout rules stated above; a split would scatter them.)
+
+One module (~670 lines) on purpose: the device, the stored image and the power-up scan
+share the geometry and the spare-area conventions, and each is the other's test oracle.
 """
 
 import struct
