@@ -104,7 +104,8 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     ``blk`` at ``params``, one after the other with a testbench reset between cases.
 
     Cases are taken in registry order while the stimulus stays within ``max_beats`` input
-    beats. Returns (stim, exp, case names).
+    beats (only the first that fits for a block whose state survives a reset, see
+    ``Block.reset_clears_state``). Returns (stim, exp, case names).
     """
     found = _case_arrays(blk, params)
     if not found:
@@ -119,6 +120,8 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
         smallest = len(stim) if smallest is None else min(smallest, len(stim))
         if max_beats is not None and total + len(stim) > max_beats:
             continue
+        if names and not blk.reset_clears_state:
+            break                       # one case per simulation run for this block
         if names:
             stim.rst[0] = True
             stim.seg += seg

@@ -203,6 +203,11 @@ class Block:
         ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
         frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
         ignore it).
+    reset_clears_state : bool
+        A testbench reset returns the whole design to its power-up state, so golden cases
+        can run back to back in one simulation with a reset between them (``tdicam
+        export``). False when a simulation model keeps contents across reset (nand_store's
+        part).
     """
 
     name: str
@@ -220,6 +225,7 @@ class Block:
     fit: Callable | None = None
     unstream: Callable | None = None
     example: Callable | None = None
+    reset_clears_state: bool = True
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""

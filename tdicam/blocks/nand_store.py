@@ -226,4 +226,5 @@ BLOCK = Block(
     to_case=_to_case,
     unstream=CALIB.unstream,
     example=_example,
+    reset_clears_state=False,   # the part's simulation model keeps its pages across reset
 )
