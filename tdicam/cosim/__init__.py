@@ -69,6 +69,9 @@ def tool_env(sim):
         flags = os.environ.get("MAKEFLAGS", "")
         if "CFG_CXXFLAGS_PCH_I" not in flags:
             os.environ["MAKEFLAGS"] = (flags + " CFG_CXXFLAGS_PCH_I=-include").strip()
+        # gcc 12 crashes (internal compiler error in the SLP vectorizer) compiling some
+        # models (tdi, 8-bit pixels, 8 pixels per clock); make passes OPT to the compiler.
+        os.environ.setdefault("OPT", "-fno-tree-slp-vectorize")
     elif shutil.which("iverilog") is None:
         raise TdicamError("Icarus Verilog is not installed: apt-get install iverilog")
 
