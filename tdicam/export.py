@@ -138,18 +138,11 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     return Beats.concat(stims), Beats.concat(exps), names
 
 
-def _expected_text(exp, out_padded, count):
-    ow = out_padded * count
-    digits = -(-(ow + 12) // 4)
-    lines = []
-    for k in range(len(exp)):
-        word = 0
-        for e in range(count - 1, -1, -1):
-            word = (word << out_padded) | int(exp.data[k, e])
-        word |= (int(exp.first[k]) << (ow + 1)) | (int(exp.last[k]) << ow)
-        word |= int(exp.seg[k]) << (ow + 4)
-        lines.append(f"{word:0{digits}x}")
-    return "\n".join(lines) + ("\n" if lines else "")
+def _expected_text(exp, out_padded):
+    """``expected.hex``: each expected output transfer in the stimulus word layout, its
+    segment in the 8-bit ``ctrl`` field (what the self-checking testbench compares)."""
+    words = Beats(exp.data, exp.first, exp.last, ctrl=exp.seg.astype(np.uint64))
+    return codec.encode_stimulus(words, elem_padded_bits=out_padded, ctrl_bits=8).decode()
 
 
 def _version(params):
@@ -326,7 +319,7 @@ def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpr
         name = f"stim_{k // depth:06d}.hex"
         files[f"vectors/{name}"] = text[k * line:(k + depth) * line]
         stim_files.append(name)
-    files["vectors/expected.hex"] = _expected_text(exp, top._out[2], top._out[1])
+    files["vectors/expected.hex"] = _expected_text(exp, top._out[2])
     version = _version(params)
     files[f"tdicam_{blk.name}.core"] = _core_text(blk.name, params, version, stim_files)
     files["README.md"] = _readme_text(blk, params, top, cases, len(stim), len(exp), sc,

@@ -36,7 +36,9 @@ class SelfCheck:
     """Settings of a stand-alone, self-checking run of the fast-mode testbench.
 
     The testbench reads the stimulus chunks ``stim_NNNNNN.hex`` and ``expected.hex`` (one
-    hex word ``{seg[7:0], 2'b00, tuser, tlast, tdata}`` per expected output transfer) from
+    hex word ``{2'b00, seg[7:0], tuser, tlast, tdata}`` per expected output transfer: the
+    stimulus word layout of :func:`tdicam.cosim.codec.encode_stimulus` with the segment as
+    an 8-bit ``ctrl``) from
     the simulator's working folder, compares each output transfer as it happens, prints
     ``PASS <n> beats`` and ends with ``$finish`` (exit status 0), or prints ``FAIL`` with the
     first bad beat (index, segment, expected and received tuser/tlast/tdata) and ends with
@@ -75,10 +77,10 @@ def _selfcheck_text(sc):
   end
   always @(posedge clk) begin
     if (running && m_fire) begin
-      while (exp_ptr < N_EXP && exp_mem[exp_ptr][EW-1:EW-8] < seg)
+      while (exp_ptr < N_EXP && exp_mem[exp_ptr][OW+9:OW+2] < seg)
         exp_ptr = exp_ptr + 1;
       e = exp_mem[exp_ptr < N_EXP ? exp_ptr : 0];
-      if (exp_ptr >= N_EXP || e[EW-1:EW-8] != seg) begin
+      if (exp_ptr >= N_EXP || e[OW+9:OW+2] != seg) begin
         $display("FAIL beat %0d (segment %0d): an output transfer beyond the expected %0d",
                  checked, seg, N_EXP);
         $fatal(1);
