@@ -82,7 +82,8 @@ class Context:
         return out
 
     def with_effects(self, on):
-        return dataclasses.replace(self, on=frozenset(on), nuc_coeffs=None)
+        return dataclasses.replace(self, on=frozenset(on), nuc_coeffs=None, keep_raw=False,
+                                   raw_data=None)
 
     # ---- strengths in this pass
     @property
