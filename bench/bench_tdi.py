@@ -1,6 +1,6 @@
 """Benchmark: TDI accumulator, golden model against real time, and co-simulation speed.
 
-For the paper's camera (seed 000: 1280 wide, 96 stages, 12-bit, 1 m GSD from 600 km, i.e.
+For the paper's camera (Qu et al. 2010: 1280 wide, 96 stages, 12-bit, 1 m GSD from 600 km, i.e.
 6,908 lines/s): golden-model lines/s of the three structures and of the beat-level model
 (target: the fast model >= 2x real time), and co-simulation input pixels/s of the generated
 Verilog on Icarus and Verilator, per-beat (a third of a frame) and fast (98 frames, the
@@ -29,7 +29,7 @@ W, M, BITS = 1280, 96, 12
 
 
 def real_time_lines_s(altitude_m=600e3, gsd_m=1.0):
-    """Line rate a push-broom camera needs: 1 / T1 (seed 000 eqs 4-5)."""
+    """Line rate a push-broom camera needs: 1 / T1 (Qu et al. 2010 eqs 4-5)."""
     return 1.0 / float(orbit_line_period(altitude_m, gsd_m))
 
 

@@ -3,7 +3,7 @@
 Every golden case runs per beat (cocotb drives each cycle, random idle and backpressure) on
 both simulators; in fast mode the cases of each parameter set run as one stream (frames are
 independent, so back to back they also check that no line leaks from one case to the next).
-The 1280 x 64 stream (issue 5) is marked slow: set TDICAM_FULL=1 to run it (the benchmark
+The 1280 x 64 stream is marked slow: set TDICAM_FULL=1 to run it (the benchmark
 ``bench/bench_median3.py`` runs it too, and asserts equality).
 """
 

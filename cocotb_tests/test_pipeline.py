@@ -1,6 +1,6 @@
 """The scene pipeline as one generated top, co-simulated whole against the golden chain.
 
-Default run (Icarus, small): the seed 002 chain (cds -> nuc -> hdr -> tdi -> median3 with
+Default run (Icarus, small): the Ning et al. 2019 chain (cds -> nuc -> hdr -> tdi -> median3 with
 enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden stage is
 named with its first differing pixel, and the waveform around it is written; TDI spilled to
 DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene. With

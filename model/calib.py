@@ -1,4 +1,4 @@
-"""The ECC-protected calibration store (SPEC 3.3 and 3.6, seed 002 §4.3).
+"""The ECC-protected calibration store (Ning et al. 2019 §4.3).
 
 Per-pixel ``nuc`` coefficients live in flash as 64-bit words, each protected by the 8 check
 bits of the SECDED (72,64) code of :mod:`tdicam.model.ecc`. This module defines the image

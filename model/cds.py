@@ -1,4 +1,4 @@
-"""Golden model of digital correlated double sampling (SPEC 3.2, seed 002 §4.4.1)."""
+"""Golden model of digital correlated double sampling (Ning et al. 2019 §4.4.1)."""
 
 import numpy as np
 

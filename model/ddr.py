@@ -1,4 +1,4 @@
-"""DDR line/frame buffers behind a MIG-style user interface (SPEC 3.8, seed 002 §4.2).
+"""DDR line/frame buffers behind a MIG-style user interface (Ning et al. 2019 §4.2).
 
 Golden models and configuration checks for the DDR gateware (:mod:`tdicam.hdl.ddr`,
 :mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.mig_model`).
@@ -8,13 +8,13 @@ Interface and addresses
 The user interface is AMD MIG's native UI: ``app_cmd`` (0 write, 1 read), ``app_addr``,
 ``app_en``/``app_rdy``; ``app_wdf_data`` (256 bit), ``app_wdf_wren``, ``app_wdf_end``,
 ``app_wdf_rdy``; ``app_rd_data`` (256 bit), ``app_rd_data_valid`` (no backpressure).
-``app_addr`` counts in the controller's address unit, **one 32-bit column** as in seed 002
+``app_addr`` counts in the controller's address unit, **one 32-bit column** as in Ning et al. 2019
 Table 2 (two x16 DDR3 chips, BL8): a 256-bit UI word spans :data:`ADDR_PER_WORD` = 8
 address steps, so word addresses are 0, 8, 16, ... and must be multiples of 8. ``app_addr``
 is :data:`ADDR_BITS` = 28 bits wide (2**28 units of 4 bytes = 1 GiB: two 4 Gbit x16 chips,
 :data:`CAPACITY_BYTES`).
 
-Packing (seed 002 Table 2)
+Packing (Ning et al. 2019 Table 2)
 --------------------------
 A line holds ``width`` pixels of ``channels`` channels each, ``pixel_bits`` per value. The
 values are taken in the order (pixel, channel) — channel 1..C of pixel 1, then of pixel 2,
@@ -77,7 +77,7 @@ __all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_B
            "pattern_efficiency", "DramTiming", "DRAM_STALLS"]
 
 WORD_BITS = 256
-ADDR_PER_WORD = 8           # 32-bit address unit (seed 002 Table 2: 0~7, 8~15, ...)
+ADDR_PER_WORD = 8           # 32-bit address unit (Ning et al. 2019 Table 2: 0~7, 8~15, ...)
 ADDR_BITS = 28
 CAPACITY_BYTES = 1 << 30    # 1 GiB
 PIXEL_BITS = 10
@@ -107,7 +107,7 @@ class LineLayout:
     width : int
         Pixels per line, >= 1.
     channels : int
-        Values per pixel, >= 1 (72 in seed 002).
+        Values per pixel, >= 1 (72 in Ning et al. 2019).
     pixel_bits : int
         Bits per value, 1..32.
     pixels_per_word : int

@@ -1,4 +1,4 @@
-"""Golden model of the SECDED (72,64) Hsiao code (SPEC 3.6, seed 002 §4.3).
+"""Golden model of the SECDED (72,64) Hsiao code (Ning et al. 2019 §4.3).
 
 The code
 --------

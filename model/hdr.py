@@ -1,4 +1,4 @@
-"""Golden model of the high/low-gain HDR merge (SPEC 3.4, seed 002 §4.4.2).
+"""Golden model of the high/low-gain HDR merge (Ning et al. 2019 §4.4.2).
 
 The sensor gives two channels of the same exposure: high gain HG (x4.9 by default) and low
 gain LG (x0.8). Below a threshold ``T`` on HG the output is HG; at or above it the output is

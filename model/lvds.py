@@ -1,4 +1,4 @@
-"""Link model and golden training model of the LVDS receiver (SPEC 3.7, seed 002 §4.1).
+"""Link model and golden training model of the LVDS receiver (Ning et al. 2019 §4.1).
 
 The sensor sends ``word_bits``-bit words per lane at ``bit_rate_mbps`` (300 Mb/s: UI 3.33 ns),
 most significant bit first. The receiver delays each lane with a 32-tap input delay

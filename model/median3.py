@@ -1,5 +1,5 @@
-"""Golden model of the 3x3 median filter with optional edge enhancement (SPEC 3.5,
-seed 002 §4.4.3).
+"""Golden model of the 3x3 median filter with optional edge enhancement
+(Ning et al. 2019 §4.4.3).
 
 Everything is integer numpy computed in int64 (no unsigned wrap), with the exact widths,
 rounding and saturation stated in :func:`median3`. The gateware (``tdicam.hdl.median3``)
@@ -104,7 +104,7 @@ def enhance_parts(frames, *, pixel_bits=12, enhance_gain=1, enhance_shift=None):
 
 def median3(frames, *, width=None, height=None, pixel_bits=12, enhance=False, enhance_gain=1,
             enhance_shift=None):
-    """3x3 median with replicated borders, optionally edge-enhanced (SPEC 3.5).
+    """3x3 median with replicated borders, optionally edge-enhanced (Ning et al. 2019 §4.4.3).
 
     Parameters
     ----------
@@ -117,7 +117,7 @@ def median3(frames, *, width=None, height=None, pixel_bits=12, enhance=False, en
     pixel_bits : int
         Input and output width, 8..16.
     enhance : bool
-        Add the edge-enhancement detail to the median (seed 002 §4.4.3 steps 2-3).
+        Add the edge-enhancement detail to the median (Ning et al. 2019 §4.4.3 steps 2-3).
     enhance_gain : int
         0..255, multiplies the mask.
     enhance_shift : int or None
@@ -157,7 +157,7 @@ def median3(frames, *, width=None, height=None, pixel_bits=12, enhance=False, en
                       round toward +infinity)
         out(y, x)   = clamp(median(y, x) + detail, 0, F)
 
-    The Laplacian and the gradient come from the original frame (seed 002: "extract the
+    The Laplacian and the gradient come from the original frame (Ning et al. 2019: "extract the
     enhancement mask from the original image"); the detail is added to the median output.
     In flat regions ``gmean`` is small and the (noisy) Laplacian is suppressed; along edges
     it is kept (the Gonzalez & Woods mask construction the paper cites as "mature").

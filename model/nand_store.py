@@ -1,4 +1,4 @@
-"""Calibration in NAND flash as the camera stores it (SPEC 3.3 and 3.6, seed 002 §4.3).
+"""Calibration in NAND flash as the camera stores it (Ning et al. 2019 §4.3).
 
 Ning Yonghui et al. (Optics and Precision Engineering 27(5), 2019) keep the per-pixel
 correction coefficients in a 4 Gb NAND flash: at power-up the FPGA builds a bad-block

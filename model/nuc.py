@@ -1,4 +1,4 @@
-"""Golden model of per-pixel gain/offset correction (SPEC 3.3, seed 002 §4.4.4).
+"""Golden model of per-pixel gain/offset correction (Ning et al. 2019 §4.4.4).
 
 Each pixel is corrected with its own least-squares radiometric coefficients::
 
@@ -12,7 +12,7 @@ Coefficient format (:class:`NucFormat`, defaults in brackets)
 * ``offset``: signed two's-complement fixed point of ``offset_bits`` bits with
   ``offset_frac_bits`` fraction bits [16 bits, 0 fraction bits: an integer -32768 .. 32767
   in output LSBs]. Code ``o`` means ``o / 2**offset_frac_bits``.
-* the default coefficients (flash word with an uncorrectable error, SPEC 3.3) are gain 1.0 and
+* the default coefficients (flash word with an uncorrectable error, Ning et al. 2019 §4.4.4) are gain 1.0 and
   offset 0, which give ``y = x`` exactly whenever ``out_bits >= pixel_bits``.
 
 With the defaults two pixels' coefficients fill one 64-bit flash word, four 16-bit

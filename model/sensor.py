@@ -1,6 +1,6 @@
 """Sensor physics of one exposure and the flat-field SNR models the scene simulator checks.
 
-Signal chain of one exposure of one pixel (electrons unless stated; SPEC 4):
+Signal chain of one exposure of one pixel (electrons unless stated):
 
 1. photo-electrons expected ``mu = S * rel * (1 + P)``: ``S`` the scene light level
    (``[target].signal_e``), ``rel`` the rendered relative radiance, ``P`` the pixel's PRNU
@@ -35,7 +35,7 @@ quantization_correlated_fraction`; :func:`tdicam.model.plan.snr_gain_digital_pre
 is the planning model that accounts for both parts, :func:`quantized_moments` the exact
 moments of one rounding.
 
-Charge-domain TDI (seed 004) sums charge before one read and one conversion:
+Charge-domain TDI (Zhou et al. 2008) sums charge before one read and one conversion:
 :func:`snr_gain_charge_quadrature`.
 """
 
@@ -177,7 +177,7 @@ def snr_gain_charge_quadrature(stages, *, signal_e, shot_var_e2, read_var_e2, qu
 
 
 def eq28_validity_db(stages, sigma_ad, sigma_cmos):
-    """How far seed 003 eq 28 sits below ``sqrt(m)``, dB: ``20 log10(sqrt(m) / G(m))``."""
+    """How far Tao et al. 2012 eq 28 sits below ``sqrt(m)``, dB: ``20 log10(sqrt(m) / G(m))``."""
     m = np.asarray(stages, np.float64)
     g = m * (sigma_ad + sigma_cmos) / (m * sigma_ad + np.sqrt(m) * sigma_cmos)
     return 20.0 * np.log10(np.sqrt(m) / g)

@@ -1,4 +1,4 @@
-"""Scene targets as continuous radiance maps (SPEC 4): charts, bundled photographs, user images.
+"""Scene targets as continuous radiance maps: charts, bundled photographs, user images.
 
 A target is a function ``f(y, x)`` of ground position that returns the relative radiance in
 [0, 1] (1 = the scene's ``[target].signal_e`` electrons per pixel per exposure). Positions are

@@ -1,8 +1,9 @@
-"""Golden model of the digital TDI accumulator (SPEC 3.1; seeds 000 §3, 001 §3.1, 003 §2.2).
+"""Golden model of the digital TDI accumulator
+(Qu et al. 2010 §3, Yuan et al. 2013 §3.1, Tao et al. 2012 §2.2).
 
 Each line period the sensor delivers one *frame*: the m-row window, rows 1..m in readout
 order, W pixels each. ``P_k(t)`` is row k of frame t. The scene moves from row m toward row 1,
-so a ground line is seen first by row m and last by row 1 (seed 000 eq 3)::
+so a ground line is seen first by row m and last by row 1 (Qu et al. 2010 eq 3)::
 
     O(t) = P_m(t-m+1) + P_{m-1}(t-m+2) + ... + P_2(t-1) + P_1(t)
 
@@ -12,9 +13,9 @@ so a ground line is seen first by row m and last by row 1 (seed 000 eq 3)::
 
 Three bit-exact integer implementations of that formula, tested against each other:
 
-* :func:`tdi_basic` — the basic structure of seed 000 Fig. 7: row k delayed by its own
+* :func:`tdi_basic` — the basic structure of Qu et al. 2010 Fig. 7: row k delayed by its own
   delay line of (k-1) lines, one adder; m(m-1)/2 line buffers (:class:`BasicTdi`).
-* :func:`tdi_optimized` — the optimized structure of seed 000 Fig. 8 / seed 001 Table 2:
+* :func:`tdi_optimized` — the optimized structure of Qu et al. 2010 Fig. 8 / Yuan et al. 2013 Table 2:
   m-1 running partial-sum lines, updated in place with a rotating base pointer exactly as
   the gateware does (:class:`OptimizedTdi`).
 * :func:`tdi` — the formula evaluated for whole blocks of output lines at once (numpy,
@@ -36,7 +37,7 @@ window readout order instead can use direction 0 at the full m_max.
 Widths. Pixels are ``pixel_bits`` (8..14) unsigned. The partial sums and the full-width
 output are ``pixel_bits + ceil(log2(stages))`` bits (:func:`full_bits`; 12-bit pixels and 96
 stages: 19 bits), enough for ``stages`` full-scale pixels, so nothing ever wraps. With
-``out_bits`` given, the output saturates at ``2**out_bits - 1`` (seed 003 eq 12). All sums are
+``out_bits`` given, the output saturates at ``2**out_bits - 1`` (Tao et al. 2012 eq 12). All sums are
 computed in unsigned integers wide enough to be exact (uint32/int64), never in the pixel
 dtype.
 """
@@ -134,13 +135,13 @@ def slots_needed(stages_active, direction):
 
 
 def basic_line_buffers(stages_active):
-    """Line buffers of the basic structure (seed 000 Fig. 7): m(m-1)/2."""
+    """Line buffers of the basic structure (Qu et al. 2010 Fig. 7): m(m-1)/2."""
     m = int(stages_active)
     return m * (m - 1) // 2
 
 
 def optimized_line_buffers(stages_active):
-    """Line buffers of the optimized structure (seed 000 Fig. 8), forward: m-1."""
+    """Line buffers of the optimized structure (Qu et al. 2010 Fig. 8), forward: m-1."""
     return int(stages_active) - 1
 
 
@@ -193,7 +194,7 @@ def _row_of(j, m, direction):
 
 
 def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None, direction=0):
-    """Digital TDI of a stack of frames with one setting (seed 000 eq 3), fast and exact.
+    """Digital TDI of a stack of frames with one setting (Qu et al. 2010 eq 3), fast and exact.
 
     Parameters
     ----------
@@ -263,7 +264,7 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
 
 
 class BasicTdi:
-    """The basic structure (seed 000 Fig. 7): per-row delay lines and one adder.
+    """The basic structure (Qu et al. 2010 Fig. 7): per-row delay lines and one adder.
 
     Readout row r (0-based) is delayed by ``d(r)`` lines — ``r`` forward, ``m-1-r`` reverse —
     in its own FIFO of exactly ``d(r)`` lines; the adder sums the m delayed rows. Total
@@ -302,7 +303,7 @@ def _row_delay(r, m, direction):
 
 
 class OptimizedTdi:
-    """The optimized structure (seed 000 Fig. 8, seed 001 Table 2), as the gateware does it.
+    """The optimized structure (Qu et al. 2010 Fig. 8, Yuan et al. 2013 Table 2), as the gateware does it.
 
     ``slots`` partial-sum lines (:func:`slots_needed`: m-1 forward, m reverse). Every row
     of a frame reads one line and writes its update back to the *same* line (read-modify-

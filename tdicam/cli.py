@@ -3,28 +3,55 @@
 Subcommands are discovered from the modules of :mod:`tdicam.commands`; each module
 defines ``register(subparsers)`` which adds its parser and sets ``func`` (called with the
 parsed namespace, returns an exit code). A :class:`~tdicam.errors.TdicamError` raised
-anywhere is printed as one line and exits with status 2.
+anywhere is printed as one line and exits with status 2. Help texts are shown as plain text
+(:func:`plain_text`): descriptions taken from docstrings lose their reST markup.
 """
 
 import argparse
 import importlib
 import pkgutil
+import re
 import sys
 
 from . import commands
 from .errors import TdicamError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "plain_text"]
+
+
+#: What ``tdicam --help`` says first.
+DESCRIPTION = ("tdicam: the HDL-ready dataflow model of a digital-TDI push-broom camera and its "
+               "co-simulation harness. 'tdicam COMMAND --help' for each command; the README "
+               "explains every output.")
+
+_ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
+_LITERAL = re.compile(r"``([^`]+)``")
+
+
+def plain_text(text):
+    """``text`` without reST markup: ````x```` -> ``x``, ``:func:`~a.b``` -> ``b``,
+    ``:mod:`a.b``` -> ``a.b`` (a ``~`` keeps the last dotted name, as Sphinx shows it)."""
+    def role(m):
+        target = m.group(0)
+        name = m.group(1)
+        return name.rsplit(".", 1)[-1] if "`~" in target else name
+    return _LITERAL.sub(r"\1", _ROLE.sub(role, text))
 
 
 class _Parser(argparse.ArgumentParser):
+    def format_help(self):
+        return plain_text(super().format_help())
+
+    def format_usage(self):
+        return plain_text(super().format_usage())
+
     def error(self, message):
         # argparse's own errors are one line too, but print usage first; keep one line.
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def build_parser():
-    parser = _Parser(prog="tdicam", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="tdicam", description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):

@@ -8,16 +8,16 @@
   and dark, read noise, quantization, fixed pattern). Measured: the mean above the known
   zero-light pedestal times ``S / (S + D)`` — the light's share of it, ``S`` the signal and
   ``D`` the mean dark charge per exposure (:func:`mean_dark_e`) — over the standard
-  deviation (seed 002 eq 1 with the dark level removed); their difference (the measured
+  deviation (Ning et al. 2019 eq 1 with the dark level removed); their difference (the measured
   TDI gain in dB), and the predictions (:func:`snr_prediction`): the planning model's
   ``G(m)`` (:func:`tdicam.model.plan.snr_gain_digital_predicted`, quantization split into
-  its independent and shared parts) and, next to it, seed 003 eq 28
+  its independent and shared parts) and, next to it, Tao et al. 2012 eq 28
   (:func:`tdicam.model.plan.snr_gain_digital`, the paper's worst case) or their
   charge-domain forms;
 * bar targets — the MTF at the bar frequency from a least-squares sinusoid fit to the
   profile across the bars (amplitude over the pedestal-free mean, divided by the input
   modulation of the fundamental: ``c`` for a sine grating, ``4c/pi`` for square bars), the
-  seed 002 estimate ``(pi/4) CTF`` for square bars, and the predictions, all moduli (an MTF
+  Ning et al. 2019 estimate ``(pi/4) CTF`` for square bars, and the predictions, all moduli (an MTF
   is never negative; ``planned_reversed`` flags contrast reversal): ``planned`` — the planning
   model :func:`tdicam.planning.mtf_prediction` (full-line-period exposure, smear at the image
   speed ``1 - dV/V``, rolling-shutter skew, the M-stage term, optics; along track), the
@@ -79,7 +79,7 @@ def snr_prediction(scene, stages, *, cds=False):
       fixed pattern and the independent part of the quantization noise grow as ``sqrt(m)``,
       only the shared part ``rho`` as m), charge domain
       :func:`tdicam.model.sensor.snr_gain_charge_quadrature`;
-    * ``eq28_db`` — seed 003 eq 28 (:func:`tdicam.model.plan.snr_gain_digital`) or its
+    * ``eq28_db`` — Tao et al. 2012 eq 28 (:func:`tdicam.model.plan.snr_gain_digital`) or its
       charge-domain form, the paper's worst case (all quantization noise growing as m);
     * ``rho`` — the shared fraction of the quantization variance used (0 on a flat field:
       one level, so the signal-dependent rounding error is a bias of the mean, not noise) and

@@ -13,11 +13,11 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
 
 ``[orbit]``
     ``altitude_km`` *required*, >= 0; ``gsd_m`` *required*, ground sample distance, > 0.
-    Line period ``T1 = gsd / v_g`` (seed 000 eqs 4-5).
+    Line period ``T1 = gsd / v_g`` (Qu et al. 2010 eqs 4-5).
 ``[turntable]``
     ``angular_speed_rad_s`` *required*, > 0; ``distance_m`` *required*, sensor-to-axis
     distance, > 0. Line period ``T_line = a / (omega l)`` with ``a`` the sensor pitch
-    (seed 003 eq 5).
+    (Tao et al. 2012 eq 5).
 
 ``[target]``
     ``kind`` ["flat"]: one of ``image``, ``bars``, ``edge``, ``siemens``, ``flat``.
@@ -47,12 +47,12 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     ["rolling"]: ``rolling`` or ``global`` (global assumed pipelined). ``black_level_dn``
     [0], >= 0 and < 2**bits: ADC offset (pedestal) added to every sample, so that read noise
     around a dark level is not clipped at code 0.
-    Row timing (optional): ``row_blanking_us`` [3.5, seed 003's typical value] >= 0 and
+    Row timing (optional): ``row_blanking_us`` [3.5, Tao et al. 2012's typical value] >= 0 and
     ``pixel_clock_mhz`` (> 0, pixels per second over all channels, in MHz) give
     ``T_row = t_rb + columns / f_s``; or ``max_frame_rate_hz`` (> 0, the datasheet
     full-frame rate) gives ``T_row = 1 / (rows F)``; not both. With a row time the window
-    limit ``M0`` is known (seed 003 eq 13). ``gains`` [[1.0]]: one gain, or two as
-    ``[high, low]`` with high > low (seed 002: ``[4.9, 0.8]``), each > 0.
+    limit ``M0`` is known (Tao et al. 2012 eq 13). ``gains`` [[1.0]]: one gain, or two as
+    ``[high, low]`` with high > low (Ning et al. 2019: ``[4.9, 0.8]``), each > 0.
 
 ``[optics]`` (optional)
     ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
@@ -183,12 +183,12 @@ class Orbit:
 
     @property
     def ground_speed_m_s(self) -> float:
-        """Ground-track speed, m/s (seed 000 eq 4)."""
+        """Ground-track speed, m/s (Qu et al. 2010 eq 4)."""
         return float(_plan.ground_speed(self.altitude_km * 1e3))
 
     @property
     def line_period_s(self) -> float:
-        """Line period ``gsd / v_g``, seconds (seed 000 eq 5)."""
+        """Line period ``gsd / v_g``, seconds (Qu et al. 2010 eq 5)."""
         return float(_plan.line_period(self.gsd_m, self.ground_speed_m_s))
 
 
@@ -336,7 +336,7 @@ class HdrOptions:
 
 @dataclass(frozen=True)
 class Median3Options:
-    """``[pipeline.median3]``: add seed 002's edge enhancement to the median output."""
+    """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output."""
 
     edge_enhance: bool = False
 

@@ -226,7 +226,7 @@ def _figures(out_dir, scene, rows, main):
         preds = [snr_prediction(scene, int(k), cds=cds) for k in mm]
         ax.plot(mm, [p["predicted_db"] for p in preds], "-", label="planning model G(m)")
         ax.plot(mm, [p["eq28_db"] for p in preds], "--",
-                label="seed 003 eq 28 (worst case)" if scene.tdi.domain == "digital"
+                label="Tao et al. 2012 eq 28 (worst case)" if scene.tdi.domain == "digital"
                 else "eq-28 form (charge)")
         ax.set_xscale("log")
         ax.set_xlabel("TDI stages m")

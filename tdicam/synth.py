@@ -316,7 +316,7 @@ class RefRun:
     note: str = ""
 
 
-#: Every block at its reference parameters (issue 10). Blocks without a line width (hdr,
+#: Every block at its reference parameters (the targets of the README's silicon table). Blocks without a line width (hdr,
 #: nuc: per-pixel, no line memory) run at their defaults, 12-bit pixels.
 REFERENCE = (
     RefRun("cds", "cds", {"pixel_bits": 12}),
@@ -331,7 +331,7 @@ REFERENCE = (
     RefRun("hdr", "hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),
     RefRun("nuc", "nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),
     RefRun("lvds", "lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),
-    RefRun("calib", "calib", {}, note="defaults (not in issue 10's list): 3800 x 5144, "
+    RefRun("calib", "calib", {}, note="defaults (not among the reference targets): 3800 x 5144, "
                                       "SECDED decoder inside"),
     RefRun("nand_store", "nand_store", {}, note="3800 x 5144 from 4 Gb NAND, bus as ports"),
     RefRun("secded_enc", "secded_enc", {}, target_mhz=200, note="(72,64) encoder"),

@@ -1,5 +1,5 @@
 """What the SECDED blocks (``secded_enc``, ``secded_dec``) share: the ``registered`` and
-``stream`` parameters and the byte-lane beats of 64-bit words (SPEC 3.6).
+``stream`` parameters and the byte-lane beats of 64-bit words (Ning et al. 2019 §4.3).
 
 Both blocks are plain-port components (``data``/``code``/flags) for ``tdicam verilog``;
 with ``--stream 1`` the same core is wrapped on AXI4-Stream byte lanes, which is what the

@@ -1,4 +1,4 @@
-"""Block ``calib``: the ECC-protected calibration store reader (SPEC 3.3 and 3.6).
+"""Block ``calib``: the ECC-protected calibration store reader (Ning et al. 2019 §4.4.4, §4.3).
 
 ``hdl/calib.py`` (:class:`~tdicam.hdl.calib.CalibReader`), ``model/calib.py`` (image format,
 golden model :func:`~tdicam.model.calib.reader_stream`), ``cocotb_tests/test_calib.py``,
@@ -207,7 +207,7 @@ def _cases():
 BLOCK = Block(
     name="calib",
     summary="calibration store reader: SECDED-protected flash words -> nuc coefficients "
-            "in raster order, defaults on uncorrectable words (SPEC 3.3, 3.6)",
+            "in raster order, defaults on uncorrectable words (Ning et al. 2019 §4.4.4, §4.3)",
     params=(
         Param("rows", 3800, "image rows the reader is built for", lo=1, hi=calib.MAX_SIDE),
         Param("cols", 5144, "image columns", lo=1, hi=calib.MAX_SIDE),

@@ -67,7 +67,7 @@ def _to_beats(arrays, params):
 
 BLOCK = Block(
     name="cds",
-    summary="digital CDS: signal - reset per pixel, clamped at 0 (SPEC 3.2)",
+    summary="digital CDS: signal - reset per pixel, clamped at 0 (Ning et al. 2019 §4.4.1)",
     params=(Param("pixel_bits", 12, "signal, reset and output pixel width", lo=8, hi=16),),
     top=_top,
     cases=lambda: [

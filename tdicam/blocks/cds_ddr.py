@@ -1,4 +1,4 @@
-"""Block ``cds_ddr``: digital CDS with the reset frame in DDR (SPEC 3.2 + 3.8;
+"""Block ``cds_ddr``: digital CDS with the reset frame in DDR (Ning et al. 2019 §4.4.1, §4.2;
 :class:`~tdicam.hdl.cds_ddr.CdsDdr`).
 
 Reset frames (``kinds`` 1) are stored in DDR and give no output; each signal frame
@@ -137,7 +137,7 @@ def _cases():
 
 BLOCK = Block(
     name="cds_ddr",
-    summary="digital CDS with the reset frame in DDR (SPEC 3.2 + 3.8)",
+    summary="digital CDS with the reset frame in DDR (Ning et al. 2019 §4.4.1, §4.2)",
     params=(
         Param("width", 512, "pixels per line", lo=1, hi=1 << 16),
         Param("rows", 16, "lines per frame", lo=1, hi=1 << 16),

@@ -1,8 +1,8 @@
-"""Block ``ddr``: DDR frame buffer round trip (SPEC 3.8; :class:`~tdicam.hdl.ddr.DdrFrameBuffer`).
+"""Block ``ddr``: DDR frame buffer round trip (Ning et al. 2019 §4.2; :class:`~tdicam.hdl.ddr.DdrFrameBuffer`).
 
 Output = input after the line writer -> MIG user interface -> line reader; the Verilog top
 has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`). Frames carry
-``channels`` values per pixel, packed ``pixels_per_word`` to a 256-bit word (seed 002
+``channels`` values per pixel, packed ``pixels_per_word`` to a 256-bit word (Ning et al. 2019
 Table 2).
 """
 
@@ -154,11 +154,11 @@ def _cases():
 BLOCK = Block(
     name="ddr",
     summary="DDR frame buffer round trip: line writer -> MIG UI -> line reader "
-            "(SPEC 3.8, seed 002 Table 2 packing)",
+            "(Ning et al. 2019 Table 2 packing)",
     params=(
         Param("width", 1280, "pixels per line", lo=1, hi=1 << 16),
         Param("rows", 16, "lines in the buffer (a frame's height)", lo=1, hi=1 << 16),
-        Param("channels", 1, "values per pixel (72 in seed 002)", lo=1, hi=256),
+        Param("channels", 1, "values per pixel (72 in Ning et al. 2019)", lo=1, hi=256),
         Param("ppc", 8, "pixels per beat (ppc x channels divides or is a multiple of "
                         "pixels_per_word)", lo=1, hi=256),
         Param("pixel_bits", 10, "bits per value", lo=1, hi=32),

@@ -1,4 +1,4 @@
-"""Block ``hdr``: high/low-gain HDR merge with a frame-to-frame junction (SPEC 3.4)."""
+"""Block ``hdr``: high/low-gain HDR merge with a frame-to-frame junction (Ning et al. 2019 §4.4.2)."""
 
 import numpy as np
 
@@ -181,7 +181,7 @@ COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_fr
 
 BLOCK = Block(
     name="hdr",
-    summary="HG/LG dual-gain merge, junction measured on the previous frame (SPEC 3.4)",
+    summary="HG/LG dual-gain merge, junction measured on the previous frame (Ning et al. 2019 §4.4.2)",
     params=(
         Param("pixel_bits", 12, "HG and LG pixel width", lo=8, hi=16),
         Param("threshold", None, "threshold T on HG (default 3/4 of full scale)", lo=1,

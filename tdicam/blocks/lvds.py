@@ -1,4 +1,4 @@
-"""Block ``lvds``: LVDS receiver with bit training, bitslip and lane deskew (SPEC 3.7).
+"""Block ``lvds``: LVDS receiver with bit training, bitslip and lane deskew (Ning et al. 2019 §4.1).
 
 Not a video stream: golden cases describe a link (per-lane analogue parameters, the
 sensor's schedule, retrain requests) and store the golden status events and final status;
@@ -191,7 +191,7 @@ def case_link(arrays):
 
 BLOCK = Block(
     name="lvds",
-    summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (SPEC 3.7)",
+    summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
         Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=128),
         Param("word_bits", 10, "bits per word", choices=(10, 12)),

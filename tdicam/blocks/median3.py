@@ -218,7 +218,7 @@ def _check(params):
 BLOCK = Block(
     name="median3",
     summary="3x3 median, replicated borders, 1 pixel/clock, optional edge enhancement "
-            "(SPEC 3.5)",
+            "(Ning et al. 2019 §4.4.3)",
     params=(
         Param("width", 1280, "pixels per line (sizes the line buffers)", lo=3, hi=MAX_WIDTH),
         Param("pixel_bits", 12, "input and output pixel width", lo=8, hi=16),

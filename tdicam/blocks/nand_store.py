@@ -1,4 +1,4 @@
-"""Block ``nand_store``: the calibration store in NAND flash (SPEC 3.3 and 3.6, seed 002 §4.3).
+"""Block ``nand_store``: the calibration store in NAND flash (Ning et al. 2019 §4.3).
 
 (Not ``nand``: the Verilog top is named after the block, and ``nand`` is a Verilog gate
 primitive.)
@@ -202,7 +202,7 @@ def _cases():
 BLOCK = Block(
     name="nand_store",
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "
-            "through SECDED into the nuc coefficient stream (SPEC 3.3, 3.6)",
+            "through SECDED into the nuc coefficient stream (Ning et al. 2019 §4.4.4, §4.3)",
     params=(
         *(p for p in CALIB.params if p.name != "debug"),  # the reader's, as block calib
         Param("debug", False, "carry counters, flags and the bad-block count on every pixel",

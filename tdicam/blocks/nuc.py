@@ -1,4 +1,4 @@
-"""Block ``nuc``: per-pixel gain/offset (non-uniformity) correction (SPEC 3.3)."""
+"""Block ``nuc``: per-pixel gain/offset (non-uniformity) correction (Ning et al. 2019 §4.4.4)."""
 
 import numpy as np
 
@@ -135,7 +135,7 @@ _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bi
 
 BLOCK = Block(
     name="nuc",
-    summary="per-pixel correction y = gain*x + offset, round half up, saturated (SPEC 3.3)",
+    summary="per-pixel correction y = gain*x + offset, round half up, saturated (Ning et al. 2019 §4.4.4)",
     params=(
         Param("pixel_bits", 12, "input pixel width", lo=8, hi=16),
         Param("gain_int_bits", 2, "integer bits of the unsigned gain", lo=1, hi=4),

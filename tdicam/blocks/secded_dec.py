@@ -1,4 +1,4 @@
-"""Block ``secded_dec``: the SECDED (72,64) Hsiao decoder (SPEC 3.6; ``hdl/ecc.py``,
+"""Block ``secded_dec``: the SECDED (72,64) Hsiao decoder (Ning et al. 2019 §4.3; ``hdl/ecc.py``,
 ``model/ecc.py``): corrects one flipped bit, flags two. Plain ports for ``tdicam verilog``;
 ``--stream 1`` wraps it on AXI4-Stream byte lanes (9 code bytes in; 8 data bytes, the
 syndrome and the flags out: :mod:`tdicam.blocks._secded`).
@@ -111,7 +111,7 @@ def _example(rng, n, shape, params):
 
 BLOCK = Block(
     name="secded_dec",
-    summary="SECDED (72,64) Hsiao decoder: corrects 1 flipped bit, flags 2 (SPEC 3.6)",
+    summary="SECDED (72,64) Hsiao decoder: corrects 1 flipped bit, flags 2 (Ning et al. 2019 §4.3)",
     params=PARAMS[:1] + (Param("pipelined", False, "register the syndrome before the "
                                "correction (latency +1, for >= 200 MHz)", type=bool),)
     + PARAMS[1:],

@@ -1,4 +1,4 @@
-"""Block ``secded_enc``: the SECDED (72,64) Hsiao encoder (SPEC 3.6; ``hdl/ecc.py``,
+"""Block ``secded_enc``: the SECDED (72,64) Hsiao encoder (Ning et al. 2019 §4.3; ``hdl/ecc.py``,
 ``model/ecc.py``). Plain ports for ``tdicam verilog``; ``--stream 1`` wraps it on
 AXI4-Stream byte lanes (8 data bytes in, 9 code bytes out: :mod:`tdicam.blocks._secded`).
 """
@@ -54,7 +54,7 @@ def _example(rng, n, shape, params):
 
 BLOCK = Block(
     name="secded_enc",
-    summary="SECDED (72,64) Hsiao encoder: 64 data bits -> 72-bit code word (SPEC 3.6)",
+    summary="SECDED (72,64) Hsiao encoder: 64 data bits -> 72-bit code word (Ning et al. 2019 §4.3)",
     params=PARAMS,
     top=_top,
     cases=lambda: [

@@ -1,4 +1,4 @@
-"""Block ``tdi``: the optimized digital TDI accumulator (SPEC 3.1).
+"""Block ``tdi``: the optimized digital TDI accumulator (Qu et al. 2010; Tao et al. 2012).
 
 Golden cases store the input *beats* (pixels, tuser, tlast and the run-time settings presented
 with each beat) and the expected output beats from :func:`~tdicam.model.tdi.tdi_stream`, plus
@@ -338,7 +338,7 @@ def _cases():
 BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
-            "direction (SPEC 3.1)",
+            "direction (Qu et al. 2010; Tao et al. 2012)",
     params=(
         Param("width", 1280, "pixels per line W (a multiple of ppc, >= 2*ppc)", lo=2,
               hi=8192),

@@ -1,5 +1,5 @@
 """Block ``tdi_ddr``: the ``tdi`` accumulator with its m_max-1 partial-sum lines in DDR
-(SPEC 3.1 + 3.8; :class:`~tdicam.hdl.tdi_ddr.TdiDdr`).
+(Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2; :class:`~tdicam.hdl.tdi_ddr.TdiDdr`).
 
 Same stream, run-time ports and golden model as block ``tdi``
 (:func:`~tdicam.model.tdi.tdi_stream`; scene arrays per :data:`tdicam.blocks.tdi.SCENE`);
@@ -80,7 +80,7 @@ def _cases():
 
 BLOCK = Block(
     name="tdi_ddr",
-    summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (SPEC 3.1 + 3.8)",
+    summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2)",
     params=(
         Param("width", 512, "pixels per line W (a multiple of ppc; W/ppc above the read "
                             "look-ahead)", lo=2, hi=8192),

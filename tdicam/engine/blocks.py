@@ -42,7 +42,7 @@ def need(name):
             listed = (name == "median3_post") == bool(pipe.median_after_tdi)
         if name == "tdi" and not c.digital:
             return True, (f"charge domain: {m} stages summed as charge before one readout "
-                          f"(seed 004); the FPGA accumulator is not used")
+                          f"(Zhou et al. 2008); the FPGA accumulator is not used")
         if not listed:
             where = "" if block != "median3" or block not in pipe.blocks else \
                 (" here (it runs " + ("after" if pipe.median_after_tdi else "before") + " TDI)")
