@@ -205,7 +205,7 @@ def ddr_bandwidth_available(word_bits=DDR_WORD_BITS, user_clock_hz=DDR_USER_CLOC
                             efficiency=DDR_EFFICIENCY):
     """Sustained bandwidth of a MIG-style DDR user interface: ``word_bits * f * efficiency``.
 
-    Seed 002: a 256-bit user interface at 100 MHz reached > 80 % efficiency (20.48 Gbit/s,
+    Ning et al. 2019: a 256-bit user interface at 100 MHz reached > 80 % efficiency (20.48 Gbit/s,
     shared between reads and writes).
 
     Parameters

@@ -143,7 +143,7 @@ def turntable_line_period(pitch_m, angular_speed_rad_s, distance_m):
 def required_frame_rate(stages, rows, line_period_s):
     """Full-frame rate a c x r sensor needs to read an m-row window every line period.
 
-    Seed 000 eqs 6-9: reading ``c*m`` pixels at pixel rate ``F_r = c*r*F_f`` takes
+    Qu et al. 2010 eqs 6-9: reading ``c*m`` pixels at pixel rate ``F_r = c*r*F_f`` takes
     ``m / (r*F_f)``, which must not exceed ``T1``, so ``F_f >= m / (r * T1)``. (The paper
     prints ``<`` in eq 9; its text and Table 2 mean ``>=``.)
 
@@ -259,7 +259,7 @@ class RollingTiming:
 def rolling_timing(line_period_s, row_time_s, rows=None):
     """Window rows, back-porch time and largest stage count for one line period.
 
-    Seed 003 eqs 6-9 and 13: ``n_lines = floor(T_line / T_row)``,
+    Tao et al. 2012 eqs 6-9 and 13: ``n_lines = floor(T_line / T_row)``,
     ``T_back = T_line - n_lines * T_row`` (so ``0 <= T_back < T_row``), ``M0 = n_lines``;
     stages are adjustable at run time in ``[1, M0]``. The floor is taken with a relative
     tolerance of 1e-12 so that an exact multiple (``T_line = 3 * T_row``) gives 3 rows and

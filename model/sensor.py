@@ -16,7 +16,7 @@ Signal chain of one exposure of one pixel (electrons unless stated):
 
 Flat-field SNR of m-stage TDI
 -----------------------------
-Seed 003 eq 28 adds the quantization noise ``s_AD`` *linearly* to the temporal noise
+Tao et al. 2012 eq 28 adds the quantization noise ``s_AD`` *linearly* to the temporal noise
 ``s_CMOS`` and lets it grow as ``m``: ``G(m) = m (s_AD + s_CMOS) / (m s_AD + sqrt(m) s_CMOS)``
 (:func:`tdicam.model.plan.snr_gain_digital`). That is the worst case of fully correlated
 quantization errors. When the temporal noise in front of the ADC is at least about half a

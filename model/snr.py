@@ -36,7 +36,7 @@ __all__ = [
 def quantization_noise(e_per_dn):
     """RMS quantization noise of one conversion: ``q / sqrt(12)`` for a step of q.
 
-    Seed 003 eq 14 writes the quantization term with the full well over ``2**N`` levels;
+    Tao et al. 2012 eq 14 writes the quantization term with the full well over ``2**N`` levels;
     here it is the standard deviation of a uniform error of one step, in the units of the
     step (electrons when ``e_per_dn`` is in e-/DN).
 

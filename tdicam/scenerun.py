@@ -3,18 +3,26 @@ report out.
 
 :func:`run_scene` simulates every point of the scene's sweep (``[tdi].stages`` x
 ``[motion].dv_over_v``) with the scene simulator (:mod:`tdicam.engine`), which runs only the
-effects the scene needs at the scene's fidelity, and writes into the output directory:
+effects the scene needs at the scene's fidelity, and writes into the output directory (the
+images are of the largest stage count of the sweep):
 
-* ``target.png``, ``raw_exposure.png``, ``tdi.png`` (8-bit, scaled for viewing) and
+* ``target.png``, ``raw_exposure.png``, ``tdi.png`` (8-bit, stretched for viewing);
   ``raw_exposure.tif``, ``tdi.tif`` (16-bit TIFF of the DN values; wider outputs are shifted
-  right to fit, the shift is in the report) of the largest stage count of the sweep;
+  right to fit, the shift is in the report); ``raw_exposure.npy``, ``tdi.npy`` (the DN values
+  with every bit, in their own integer dtype);
+* ``crop.png`` (a 64 x 64 crop of the raw exposure and the output, axes in pixels, colour
+  bars in DN) and ``profile.png`` (a line profile through it);
 * ``snr_vs_stages.png`` when the scene sweeps stages on a flat target, ``mtf.png`` on a bar
   target (model curves and measured points, vs M dV/V when the mismatch is swept);
-* ``report.json`` and ``report.md``: the effects table (ran/skipped, why, fidelity and error
-  bound, time, impact), measured SNR/MTF next to the planning model's prediction, speed
-  (lines/s against the orbit's real-time line rate, exposure-pixels/s) and, with
-  ``[run.rtl]``, the RTL co-simulation of the chosen blocks on the crop (pixels compared,
-  mismatches).
+* ``report.json`` and ``report.md`` (:mod:`tdicam.scenereport`): the configuration (ground
+  speed, line period, required frame rate, window, stages, fidelity), the effects table
+  (ran/skipped, why, fidelity and error bound, time, impact), measured SNR/MTF next to the
+  planning model's prediction, speed and, with ``[run.rtl]``, the RTL co-simulation of the
+  chosen blocks on the crop.
+
+Files of an earlier run in the same directory are never mixed with the new ones: what the
+previous ``report.json`` lists and this run does not write again is removed; any other file
+there (not written by tdicam) is left alone and listed in the report.
 
 A progress bar (tqdm) is shown on a terminal and stays quiet when stdout is not a TTY or
 ``CI`` is set. The command line is :mod:`tdicam.commands.run`.
@@ -31,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tdicam import scenereport
 from tdicam.errors import TdicamError
 
 __all__ = ["run_scene", "main_tiff_shift", "strict_json"]
@@ -94,17 +103,24 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
         if bar is not None:
             bar.close()
     main = results[(m_show, dvs[0])]
+    previous = _previous_files(out_dir)
     files = _write_images(out_dir, main)
     files += _figures(out_dir, scene, rows, main)
     rtl_report = None
     if crop is not None:
         from tdicam.rtl import cosim_scene
         rtl_report = cosim_scene(scene, main, crop, out_dir=out_dir)
+        wave = (rtl_report or {}).get("waveform")
+        if wave and Path(wave).parent.resolve() == out_dir.resolve():
+            files.append(Path(wave).name)
     real_time = 1.0 / scene.line_period_s
+    requested = fidelity or scene.run.fidelity
     report = {
         "scene": scene.source,
+        "configuration": scenereport.configuration(scene, main, rows, requested,
+                                                   main_tiff_shift(main)),
         "scene_settings": scene.to_dict(),
-        "fidelity_requested": fidelity or scene.run.fidelity,
+        "fidelity_requested": requested,
         "effects": [e.to_dict() for e in main.effects],
         "effects_config": {"stages": main.stages, "dv_over_v": main.dv_over_v,
                            "fidelity": main.fidelity},
@@ -124,13 +140,44 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
         "wall_seconds": time.perf_counter() - t_all,
         "files": files,
         "tiff_shift": main_tiff_shift(main),
+        "stale_files": _clear_stale(out_dir, previous, files),
     }
-    report["summary"] = _summary(scene, report)
+    report["summary"] = scenereport.summary(scene, report)
     report = strict_json(report)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
                                                     allow_nan=False))
-    (out_dir / "report.md").write_text(_markdown(scene, report))
+    (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
     return report
+
+
+_REPORTS = ("report.json", "report.md")
+
+
+def _previous_files(out_dir):
+    """Names an earlier ``tdicam run`` wrote into ``out_dir`` (its report.json's list), or
+    None when there is no readable earlier report."""
+    try:
+        old = json.loads((out_dir / "report.json").read_text())
+        names = [str(f) for f in old.get("files", [])]
+    except (OSError, ValueError, AttributeError):
+        return None
+    # only plain names inside out_dir: a damaged report must not point elsewhere
+    return {n for n in names if n and Path(n).name == n and n not in (".", "..")}
+
+
+def _clear_stale(out_dir, previous, files):
+    """Remove what the earlier run wrote and this one did not; list the rest of the
+    folder's files (not tdicam's: left alone)."""
+    removed = []
+    for name in sorted((previous or set()) - set(files) - set(_REPORTS)):
+        path = out_dir / name
+        if path.is_file():
+            path.unlink()
+            removed.append(name)
+    keep = set(files) | set(_REPORTS)
+    other = sorted(p.name + ("/" if p.is_dir() else "") for p in out_dir.iterdir()
+                   if p.name not in keep)
+    return {"removed": removed, "other": other}
 
 
 def _loadavg():
@@ -205,7 +252,73 @@ def _write_images(out_dir, res):
         else:
             Image.fromarray(a).save(out_dir / name)
         files.append(name)
+    for name, arr in (("raw_exposure.npy", res.raw), ("tdi.npy", res.output)):
+        np.save(out_dir / name, np.asarray(arr))
+        files.append(name)
     return files
+
+
+#: Side of the square crop of ``crop.png`` / ``profile.png``, output pixels.
+CROP = 64
+
+
+def crop_window(shape, size=CROP):
+    """``(y0, x0, h, w)`` of the centred ``size`` x ``size`` crop of an image (smaller
+    when the image is)."""
+    h, w = min(size, shape[0]), min(size, shape[1])
+    return (shape[0] - h) // 2, (shape[1] - w) // 2, h, w
+
+
+def _crop_figures(out_dir, scene, res, plt):
+    """``crop.png``: raw exposure and output on the same crop, pixel axes, DN colour bars;
+    ``profile.png``: the middle line of the crop across the direction the target varies
+    most, raw exposure and output in DN and the target beside them."""
+    y0, x0, h, w = crop_window(res.output.shape)
+    ys, xs = slice(y0, y0 + h), slice(x0, x0 + w)
+    ext = (x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5)
+    m = res.stages
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2))
+    for ax, arr, title in ((axes[0], res.raw, "raw exposure (1 read)"),
+                           (axes[1], res.output, f"TDI output (m = {m})")):
+        im = ax.imshow(np.asarray(arr[ys, xs], np.float64), cmap="gray", extent=ext,
+                       interpolation="nearest")
+        ax.set_title(title)
+        ax.set_xlabel("column (px)")
+        ax.set_ylabel("output line")
+        fig.colorbar(im, ax=ax, label="DN", shrink=0.85)
+    fig.suptitle(f"{Path(scene.source).stem}: {w} x {h} crop at column {x0}, line {y0}")
+    fig.tight_layout()
+    fig.savefig(out_dir / "crop.png", dpi=110)
+    plt.close(fig)
+    tgt = np.asarray(res.target, np.float64)[ys, xs]
+    along = tgt.std(axis=0).mean() > tgt.std(axis=1).mean()   # varies down the lines
+    if along:
+        c = x0 + w // 2
+        pos, cut = np.arange(y0, y0 + h), (ys, c)
+        what, xlabel = f"column {c}", "output line (along track)"
+    else:
+        r = y0 + h // 2
+        pos, cut = np.arange(x0, x0 + w), (r, xs)
+        what, xlabel = f"line {r}", "column (px, cross track)"
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(pos, np.asarray(res.output[cut], np.float64), "-", label=f"TDI output (m = {m})")
+    ax.plot(pos, np.asarray(res.raw[cut], np.float64), "-", label="raw exposure")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("DN")
+    ax2 = ax.twinx()
+    ax2.plot(pos, np.asarray(res.target[cut], np.float64), ":", color="0.4",
+             label="target (right axis)")
+    ax2.set_ylabel("target radiance (0..1)")
+    ax2.set_ylim(-0.05, 1.05)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="best")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(f"{Path(scene.source).stem}: profile along {what}")
+    fig.tight_layout()
+    fig.savefig(out_dir / "profile.png", dpi=110)
+    plt.close(fig)
+    return ["crop.png", "profile.png"]
 
 
 def _figures(out_dir, scene, rows, main):
@@ -213,7 +326,7 @@ def _figures(out_dir, scene, rows, main):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from tdicam.planning import mtf_prediction
-    files = []
+    files = _crop_figures(out_dir, scene, main, plt)
     flat = [r for r in rows if "snr" in r and r["snr"]["gain_db"] is not None]
     if scene.target.kind == "flat" and flat:
         fig, ax = plt.subplots(figsize=(6, 4))
@@ -278,152 +391,3 @@ def _figures(out_dir, scene, rows, main):
     return files
 
 
-def _fmt(v, f=".3g"):
-    if v is None:
-        return "-"
-    if isinstance(v, float) and math.isinf(v):
-        return "inf"
-    return format(v, f)
-
-
-def _reversed(t):
-    return " (contrast reversed)" if t.get("planned_reversed") else ""
-
-
-def _summary(scene, rep):
-    sp = rep["speed"]
-    lines = [f"{Path(scene.source).name}: {sp['lines']} lines x {sp['width']} px, "
-             f"{sp['stages']} stages, {sp['fidelity']}: {sp['lines_per_s']:.0f} lines/s "
-             f"({sp['x_real_time']:.2f}x real time {sp['real_time_lines_per_s']:.0f} lines/s), "
-             f"{sp['exposure_pixels_per_s'] / 1e6:.1f} M exposure-pixels/s"]
-    ran = [e["name"] for e in rep["effects"] if e["ran"]]
-    lines.append(f"effects ran: {', '.join(ran)}")
-    for r in rep["measurements"]:
-        if "snr" in r:
-            s = r["snr"]
-            lines.append(f"  m={r['stages']}: SNR {_fmt(s['output_db'], '.2f')} dB, gain "
-                         f"{_fmt(s['gain_db'], '.2f')} dB (predicted {s['predicted_db']:.2f}, "
-                         f"eq 28 worst case {s['eq28_db']:.2f})")
-        if "mtf" in r:
-            t = r["mtf"]
-            lines.append(f"  m={r['stages']} M dV/V={t['m_dv_over_v']:.3g}: MTF "
-                         f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
-                         f"{_reversed(t)}, paper's model {_fmt(t['seed001_model'], '.3f')}"
-                         f", footprint {t['footprint_model']:.3f})")
-    if rep["rtl"]:
-        for b in rep["rtl"]["blocks"]:
-            if b.get("status") == "ran":
-                lines.append(f"  RTL {b['block']} on {rep['rtl']['simulator']}: "
-                             f"{b['pixels_compared']} pixels compared, {b['mismatches']} "
-                             f"mismatches")
-            else:
-                lines.append(f"  RTL {b['block']}: {b.get('status')}")
-    return "\n".join(lines)
-
-
-def _markdown(scene, rep):
-    sp = rep["speed"]
-    md = [f"# tdicam run: {Path(scene.source).name}", ""]
-    md.append(f"Fidelity requested: **{rep['fidelity_requested']}**; effects table for "
-              f"stages = {rep['effects_config']['stages']}, dV/V = "
-              f"{rep['effects_config']['dv_over_v']:g} ({rep['effects_config']['fidelity']}).")
-    md += ["", "## Effects", "",
-           "| effect | ran | why | fidelity | bound | time (s) | impact (PSNR dB / RMS DN) |",
-           "|---|---|---|---|---|---|---|"]
-    for e in rep["effects"]:
-        imp = e["impact"]
-        if imp is None:
-            imp_s = "-"
-        elif imp.get("psnr_db") is not None:
-            imp_s = f"{_fmt(imp['psnr_db'], '.1f')} / {imp['rms_dn']:.3g}"
-        else:
-            imp_s = imp.get("note", "-")
-        md.append(f"| {e['label']} | {'ran' if e['ran'] else 'skipped'} | "
-                  f"{e['why'].replace('|', '/')} | {e['fidelity']} | {_fmt(e['bound'], '.2g')} | "
-                  f"{e['seconds']:.3f} | {imp_s} |")
-    md += [""] + [f"* {n}" for n in rep["notes"]]
-    md += ["", "Impact: the output with the effect against the output without it, on a crop "
-           "(same random numbers for every other effect); PSNR peak = output full scale.", ""]
-    snr = [r for r in rep["measurements"] if "snr" in r]
-    if snr:
-        md += ["## Flat-field SNR vs the planning model", "",
-               "| stages | fidelity | SNR out (dB) | SNR 1 exposure (dB) | measured gain (dB) | "
-               "predicted gain (dB) | measured - predicted | eq 28 worst case (dB) |",
-               "|---|---|---|---|---|---|---|---|"]
-        for r in snr:
-            s = r["snr"]
-            d = None if s["gain_db"] is None else s["gain_db"] - s["predicted_db"]
-            md.append(f"| {r['stages']} | {r['fidelity']} | {_fmt(s['output_db'], '.2f')} | "
-                      f"{_fmt(s['single_db'], '.2f')} | {_fmt(s['gain_db'], '.2f')} | "
-                      f"{s['predicted_db']:.2f} | {_fmt(d, '+.2f')} | {s['eq28_db']:.2f} |")
-        s0 = snr[0]["snr"]
-        md += ["", f"SNR: {s0['signal_definition']} (mean dark charge {s0['dark_e']:.3g} e- "
-               "per exposure); the same for measured and predicted values.",
-               "", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
-               f"{s0['sigma_cmos_e']:.3g} e-, fixed pattern {s0['sigma_fpn_e']:.3g} e- "
-               f"(s_AD / s_CMOS = {s0['sigma_ad_e'] / s0['sigma_cmos_e']:.3g}). Predicted: "
-               "temporal noise, the row-to-row fixed pattern and the independent part of the "
-               "quantization noise grow as sqrt(m), only the part the m exposures share grows "
-               f"as m (rho = {s0['rho']:.3g} of the quantization variance here; a scene with "
-               f"detail at this level would have {s0['rho_detail']:.3g}; "
-               "tdicam.model.plan.snr_gain_digital_predicted). Seed 003 eq 28 lets all of "
-               "the quantization noise grow as m: the paper's worst case.", ""]
-    mtf = [r for r in rep["measurements"] if "mtf" in r]
-    if mtf:
-        md += ["## MTF at the bar frequency", "",
-               "| stages | M dV/V | M Delta (with skew) | measured | (pi/4) CTF | planned | "
-               "paper's model | footprint model |", "|---|---|---|---|---|---|---|---|"]
-        for r in mtf:
-            t = r["mtf"]
-            md.append(f"| {r['stages']} | {t['m_dv_over_v']:.3g} | {t['m_delta_effective']:.3g} "
-                      f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
-                      f"{_fmt(t['planned'], '.3f')}{_reversed(t)} | "
-                      f"{_fmt(t['seed001_model'], '.3f')} | {t['footprint_model']:.3f} |")
-        md += ["", "All MTF values are moduli (contrast reversal is flagged). Planned: the "
-               "planning model (tdicam.planning.mtf_prediction, the same as `tdicam plan`): "
-               "full-line-period exposure, smear at the image speed 1 - dV/V, rolling-shutter "
-               "skew, the M-stage term and the optics, along track. Paper's model: Yuan, Li, "
-               "Xu and Nie, \"MTF velocity-mismatch model of TDI area-array CMOS image "
-               "sensors\" (2013), aperture x temporal x sinc(f M dV/V) with the plain "
-               "velocity mismatch. Footprint model: the exact stage footprint the simulator "
-               "renders (tdicam.model.optics.Geometry). M Delta: the stage misregistration "
-               "over M stages including the rolling-shutter skew.", ""]
-        md += [f"* stages {r['stages']}, M dV/V {r['mtf']['m_dv_over_v']:.3g}: "
-               f"{r['mtf']['note']}" for r in mtf if r["mtf"].get("note")]
-    nand = [(r, f) for r in rep["measurements"] for f in r.get("nand") or ()]
-    if nand:
-        md += ["## NUC coefficients from NAND flash", "",
-               "| stages | M dV/V | channel | bad blocks | words | corrected | uncorrectable | "
-               "defaulted pixels |", "|---|---|---|---|---|---|---|---|"]
-        md += [f"| {r['stages']} | {r['stages'] * r['dv_over_v']:.3g} | {f['channel']} | "
-               f"{f['bad_blocks']} | {f['words']} | {f['corrected_words']} | "
-               f"{f['uncorrectable_words']} | {f['defaulted_pixels']} of {f['pixels']} |"
-               for r, f in nand]
-        md += ["", "The coefficients of the window rows are stored in a 4 Gb NAND flash "
-               "(2,048 + 64-byte pages, 64 pages per block, 4,096 blocks) with the scene's "
-               "faults and loaded back as the camera does at power-up: bad-block scan, "
-               "block map, 64/72 SECDED words (one flipped bit corrected), the default "
-               "coefficients (gain 1, offset 0: that pixel uncorrected) for a word with two.",
-               ""]
-    md += ["## Speed", "",
-           f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
-           f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "
-           f"{sp['x_real_time']:.2f}x the real-time {sp['real_time_lines_per_s']:.0f} lines/s; "
-           f"{sp['exposure_pixels_per_s'] / 1e6:.1f} M exposure-pixels/s"
-           + (f" ({sp['exposure_pixels_per_cpu_s'] / 1e6:.1f} M per CPU-second; "
-              f"{sp['threads']} threads on {sp['cpus']} CPUs, load average "
-              f"{_fmt(sp['load_average_1min'], '.2f')})"
-              if sp.get("exposure_pixels_per_cpu_s") else "") + ".", ""]
-    if rep["rtl"]:
-        md += ["## RTL co-simulation", "",
-               f"Simulator {rep['rtl']['simulator']}, crop (y0, h, x0, w) = "
-               f"{rep['rtl']['crop']}.", "", "| block | status | pixels compared | mismatches |",
-               "|---|---|---|---|"]
-        for b in rep["rtl"]["blocks"]:
-            md.append(f"| {b['block']} | {b.get('status')} | {b.get('pixels_compared', '-')} | "
-                      f"{b.get('mismatches', '-')} |")
-        md.append("")
-    md += ["## Files", ""] + [f"* {f}" for f in rep["files"]]
-    if rep["tiff_shift"]:
-        md.append(f"* tdi.tif holds the output shifted right by {rep['tiff_shift']} bits")
-    return "\n".join(md) + "\n"

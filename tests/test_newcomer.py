@@ -15,7 +15,7 @@ from tdicam import blocks, cli
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Internal shorthand a user's clone cannot resolve.
-SHORTHAND = re.compile(r"seeds? 0\d\d|\bSPEC\b|issue [0-9]|\.\./shared|/work/shared")
+SHORTHAND = re.compile(r"(?i:seeds? 0\d\d)|\bSPEC\b|issue [0-9]|\.\./shared|/work/shared")
 #: reST markup that argparse would print verbatim.
 REST = re.compile(r"``|:(func|class|mod|data|meth|attr|obj|ref):`")
 
