@@ -17,7 +17,11 @@ def register(sub):
                     "Verilator per-beat and fast (build time apart), and the scene engine "
                     "fast / auto / exact against real time. Times are medians of --repeat "
                     "runs; every simulator row is compared bit for bit with the golden "
-                    "model.")
+                    "model. The PNG has two panels: throughput per level, and what accuracy "
+                    "costs in time (time per unit against accuracy with the reference: "
+                    "bit-exact levels on one line, the scene engine's fast and auto by the "
+                    "PSNR of their output against exact, exact's seed-to-seed PSNR as the "
+                    "noise floor).")
     p.add_argument("names", nargs="*", metavar="BLOCK",
                    help=f"benchmarks to run (default: all): {', '.join(bench.NAMES)}")
     p.add_argument("--repeat", type=int, default=None, help="runs per level (3; --quick: 1)")
