@@ -288,48 +288,47 @@ def schema():
         allowed.setdefault(self.name, tuple(keys))
         return orig["check_keys"](self, keys)
 
+    # the wrappers forward everything they are given, so a new option of a reader does not
+    # break the probe; they only read the options they document
     def typed(kind):
-        def wrapper(self, key, default=req, *, lo=None, hi=None, lo_open=False,
-                    hi_open=False, value=req, what=None):
+        def wrapper(self, key, default=req, **kw):
             r = rec(self, key)
             r.kind = kind
-            if value is req:
+            if kw.get("value", req) is req:
                 r.defaults.add(default if default is not req else "required")
-            r.ranges.add(rng(lo, hi, lo_open, hi_open))
-            if kind == "number":
-                return orig["number"](self, key, default, lo=lo, hi=hi, lo_open=lo_open,
-                                      hi_open=hi_open, value=value, what=what)
-            return orig["integer"](self, key, default, lo=lo, hi=hi, value=value, what=what)
+            r.ranges.add(rng(kw.get("lo"), kw.get("hi"), kw.get("lo_open", False),
+                             kw.get("hi_open", False)))
+            return orig[kind](self, key, default, **kw)
         return wrapper
 
-    def choice(self, key, default, choices):
+    def choice(self, key, default, choices, *args, **kw):
         r = rec(self, key)
         r.kind, r.choices = "choice", tuple(choices)
         r.defaults.add(default)
-        return orig["choice"](self, key, default, choices)
+        return orig["choice"](self, key, default, choices, *args, **kw)
 
-    def boolean(self, key, default):
+    def boolean(self, key, default, *args, **kw):
         r = rec(self, key)
         r.kind = "boolean"
         r.defaults.add(default)
-        return orig["boolean"](self, key, default)
+        return orig["boolean"](self, key, default, *args, **kw)
 
-    def string(self, key, default=req):
+    def string(self, key, default=req, *args, **kw):
         r = rec(self, key)
         r.kind = "string"
         r.defaults.add(default if default is not req else "required")
-        return orig["string"](self, key, default)
+        return orig["string"](self, key, default, *args, **kw)
 
-    def raw(self, key, default):
+    def raw(self, key, default, *args, **kw):
         d = "required" if default is req else default
         rec(self, key).raw_defaults.add(tuple(d) if isinstance(d, list) else d)
-        return orig["raw"](self, key, default)
+        return orig["raw"](self, key, default, *args, **kw)
 
-    def sweep(self, key, default, item):
+    def sweep(self, key, default, item, *args, **kw):
         r = rec(self, key)
         r.sweep = True
         r.defaults.add(default)
-        return orig["sweep"](self, key, default, item)
+        return orig["sweep"](self, key, default, item, *args, **kw)
 
     patches = {"check_keys": check_keys, "number": typed("number"),
                "integer": typed("integer"), "choice": choice, "boolean": boolean,

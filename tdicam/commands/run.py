@@ -19,8 +19,10 @@ def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     p = subparsers.add_parser(
         "run", help="simulate a scene: images, figures and a report (the main job)",
-        description=__doc__.split("\n\n")[0].replace("``", ""))
-    p.add_argument("scene", metavar="SCENE", help="scene TOML file (see scenes/)")
+        description=__doc__.split("\n\n")[0].replace("``", "") + " report.md starts with the "
+        "configuration and explains every output (so does the README, 'What tdicam run "
+        "writes'); every scene key is in docs/scene-format.md.")
+    p.add_argument("scene", metavar="SCENE", help="scene TOML file (examples in scenes/, every key in docs/scene-format.md)")
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="output directory (default out/<scene name>)")
     p.add_argument("--fidelity", choices=("exact", "fast", "auto"), default=None,
