@@ -322,7 +322,7 @@ def markdown(scene, rep):
     md += ["* `report.json`: " + FILE_NOTES["report.json"], "* `report.md`: this report"]
     if rep["tiff_shift"]:
         md.append(f"* tdi.tif holds the output shifted right by {rep['tiff_shift']} bits "
-                  "(divided by 2**shift, rounded down); tdi.npy holds every bit")
+                  f"(divided by {2 ** rep['tiff_shift']}, rounded down); tdi.npy holds every bit")
     stale = rep.get("stale_files") or {}
     if stale.get("removed"):
         md += ["", "Removed from this folder, written by an earlier `tdicam run` and not by "
