@@ -236,8 +236,7 @@ def markdown(scene, rep):
                   f"{e['why'].replace('|', '/')} | {e['fidelity']} | {_fmt(e['bound'], '.2g')} | "
                   f"{e['seconds']:.3f} | {imp_s} |")
     md += [""] + [f"* {n}" for n in rep["notes"]]
-    md += ["", "Impact: the output with the effect against the output without it, on a crop "
-           "(same random numbers for every other effect); PSNR peak = output full scale.", ""]
+    md += ["", "Impact and bound: see How to read this report above.", ""]
     snr = [r for r in rep["measurements"] if "snr" in r]
     if snr:
         md += ["## Flat-field SNR vs the planning model", "",
