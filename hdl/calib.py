@@ -1,5 +1,5 @@
 """Calibration store reader: ECC-protected flash words in, ``nuc`` coefficients out
-(SPEC 3.3 and 3.6, seed 002 §4.3). Image format and golden model:
+(Ning et al. 2019 §4.3). Image format and golden model:
 :mod:`tdicam.model.calib`."""
 
 from amaranth.hdl import Cat, Module, Mux, Signal
@@ -28,7 +28,7 @@ class CalibReader(wiring.Component):
     ----------
     rows, cols : int
         Image size the reader is built for, 1..65535 each (default 3800 x 5144, the
-        GMAX0504 of seed 002).
+        GMAX0504 of Ning et al. 2019).
     gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits : int
         Coefficient format, the ``nuc`` block's parameters (:class:`~tdicam.model.nuc.
         NucFormat`; gain and offset at most 16 bits each for the flash packing).

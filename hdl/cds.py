@@ -1,4 +1,4 @@
-"""Digital correlated double sampling (SPEC 3.2, seed 002 §4.4.1)."""
+"""Digital correlated double sampling (Ning et al. 2019 §4.4.1)."""
 
 from amaranth.hdl import Module, Mux, unsigned
 from amaranth.lib import wiring

@@ -1,4 +1,4 @@
-"""SECDED (72,64) Hsiao encoder and decoder (SPEC 3.6, seed 002 §4.3).
+"""SECDED (72,64) Hsiao encoder and decoder (Ning et al. 2019 §4.3).
 
 The code (H matrix, bit order, decoding rules) is defined and printed in
 :mod:`tdicam.model.ecc`; these components implement it gate for gate:

@@ -1,4 +1,4 @@
-"""High/low-gain HDR merge (SPEC 3.4, seed 002 §4.4.2); golden model
+"""High/low-gain HDR merge (Ning et al. 2019 §4.4.2); golden model
 :func:`tdicam.model.hdr.hdr` (its docstring defines the arithmetic and the frame state)."""
 
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, signed, unsigned

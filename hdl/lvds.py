@@ -1,6 +1,6 @@
 """LVDS receiver with IDELAY bit training, bitslip word alignment and lane deskew.
 
-SPEC 3.7, seed 002 §4.1. The golden model and the exact timing contract are in
+Ning et al. 2019 §4.1. The golden model and the exact timing contract are in
 :mod:`tdicam.model.lvds` (module docstring); this module implements it:
 
 * :class:`LaneTrainer` — per lane: the fabric bitslip gearbox and the training controller

@@ -1,4 +1,4 @@
-"""3x3 median filter with optional edge enhancement (SPEC 3.5, seed 002 §4.4.3).
+"""3x3 median filter with optional edge enhancement (Ning et al. 2019 §4.4.3).
 
 The median is a pipelined compare-exchange network on sorted columns (sort each 3-pixel
 column once, then take ``med3(max of lows, med3 of mids, min of highs)`` across the 3

@@ -1,4 +1,4 @@
-"""Calibration store in NAND flash (SPEC 3.3 and 3.6, seed 002 §4.3): an ONFI-style
+"""Calibration store in NAND flash (Ning et al. 2019 §4.3): an ONFI-style
 controller with a power-up bad-block scan and logical-to-physical map, streaming the stored
 calibration through :class:`~tdicam.hdl.calib.CalibReader` (SECDED decoder inside), and a
 cycle-level simulation model of the NAND part. Image layout and golden model:

@@ -1,4 +1,4 @@
-"""Per-pixel gain/offset correction (SPEC 3.3, seed 002 §4.4.4); golden model
+"""Per-pixel gain/offset correction (Ning et al. 2019 §4.4.4); golden model
 :func:`tdicam.model.nuc.nuc`."""
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed, unsigned
