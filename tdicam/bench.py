@@ -568,8 +568,10 @@ def plot(rows, path, *, title="", real_time=None):
     ax.legend(fontsize=7, ncol=min(9, len(levels)), loc="upper center",
               bbox_to_anchor=(0.5, -0.14), frameon=False)
     fig.tight_layout()
+    from .outputs import open_output
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with open_output(path) as fh:       # this exact name (savefig would add .png)
+        fig.savefig(fh, dpi=110, format="png")
     plt.close(fig)
     return Path(path)
 
