@@ -17,8 +17,10 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     Line period ``T1 = gsd / v_g`` (seed 000 eqs 4-5).
 ``[turntable]``
     ``angular_speed_rad_s`` *required*, 1e-6..1000; ``distance_m`` *required*,
-    sensor-to-axis distance, 0.001..1000 m. Line period ``T_line = a / (omega l)`` with ``a`` the sensor pitch
-    (seed 003 eq 5).
+    sensor-to-axis distance, 0.001..1000 m. Line period ``T_line = a / (omega l)`` with
+    ``a`` the sensor pitch (seed 003 eq 5).
+
+The line period either gives must lie in 1e-8..100 s.
 
 ``[target]``
     ``kind`` ["flat"]: one of ``image``, ``bars``, ``edge``, ``siemens``, ``flat``.
@@ -937,7 +939,27 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     _check_stages(tdi_sec, scene)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)
+    _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
     return scene
+
+
+#: The line period a scene may derive, seconds (inclusive): 10 ns (a 100 MHz line rate)
+#: to 100 s. Each key has its own bound (:data:`BOUNDS`); this one catches combinations
+#: no camera runs at (a 0.1 um pixel on a 1000 rad/s turntable at 1 km; 1 mm on a
+#: 1e-6 rad/s one at 1 mm).
+LINE_PERIOD_S = (1e-8, 100.0)
+
+
+def _check_line_period(sec: _Section, scene: Scene) -> None:
+    t = scene.line_period_s
+    lo, hi = LINE_PERIOD_S
+    if not lo <= t <= hi:
+        keys = (f"{sec.label('altitude_km')} and {sec.label('gsd_m')}"
+                if scene.orbit is not None else
+                f"{sec.label('angular_speed_rad_s')}, {sec.label('distance_m')} and "
+                f"{sec.labels.get('sensor.pitch_um', '[sensor].pitch_um')}")
+        raise TdicamError(f"the line period {t:.4g} s from {keys} is out of range; valid: "
+                          f"{lo:g}..{hi:g} s")
 
 
 #: Output pixels (``[sensor].columns x [run].lines``) a run may have at most: the scene

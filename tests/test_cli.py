@@ -125,6 +125,11 @@ BAD_INPUT = [
                                 "output pixels, more than", 2),
     (["run", "{d}/period.toml"], "[target].period_px: must be <= 16 (two bar periods across "
                                  "the 32 px of [run].lines), got 1e+300", 2),
+    (["run", "{d}/slow_rig.toml"], "the line period 1e+06 s from [turntable].angular_speed_rad_s"
+                                   ", [turntable].distance_m and [sensor].pitch_um is out of "
+                                   "range; valid: 1e-08..100 s", 2),
+    (["plan", "--angular-speed-rad-s", "1000", "--distance-m", "1000", "--pitch-um", "0.1"],
+     "the line period 1e-13 s from --angular-speed-rad-s, --distance-m and --pitch-um", 2),
     (["plan", "--gsd-m", "1e-300"], "--gsd-m = 1e-300 is out of range; valid: 0.001..100000", 2),
     (["plan", "--angular-speed-rad-s", "1e-12", "--distance-m", "1"],
      "--angular-speed-rad-s = 1e-12 is out of range", 2),
@@ -156,6 +161,8 @@ def bad_input_files(tmp_path_factory):
         (d / f"{name}.toml").write_text(_SCENE.format(**(base | kw)))
     (d / "turntable.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-12\n"
                                       "distance_m = 1.0\n")
+    (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
+                                     "distance_m = 1e-3\n[sensor]\npitch_um = 1000\n")
     return d
 
 
