@@ -60,7 +60,9 @@ def plot(rows, path, *, title="", real_time=None):
     _tradeoff(tr, rows, colors, names)
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    from .outputs import open_output
+    with open_output(path) as fh:       # this exact name (savefig would add .png)
+        fig.savefig(fh, dpi=110, bbox_inches="tight", format="png")
     plt.close(fig)
     return Path(path)
 

@@ -1,10 +1,9 @@
 """The end-to-end path on one block (``tdicam demo``): a smoke run of the whole tool."""
 
-from pathlib import Path
-
 from . import blocks, golden
 from .cosim.cases import run_cases
 from .lint import lint
+from .outputs import check_dir
 from .verilog import write
 
 __all__ = ["demo"]
@@ -15,8 +14,7 @@ def demo(block="cds", outdir="out"):
     co-simulate every golden case on Icarus and Verilator, per-beat and fast, printing a
     line per step; returns the exit code (0 = everything passed)."""
     blk = blocks.get(block)
-    out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_dir(outdir)
     vpath = out / f"{blk.name}.v"
     write(blk, vpath)
     findings = lint(vpath)

@@ -40,7 +40,8 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
 
     The project's one range check: block parameters, scene keys, plan options and model
     arguments all go through it. ``lo`` or ``hi`` may be None for an open end;
-    ``lo_open``/``hi_open`` make a bound exclusive (floats, e.g. ``(0, 1]``).
+    ``lo_open``/``hi_open`` make a bound exclusive (floats, e.g. ``(0, 1]``). ``nan`` and
+    infinities are never in range.
     """
     if integer and (isinstance(value, bool) or not isinstance(value, int)):
         try:
@@ -49,6 +50,14 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
             value = int(value)
         except (TypeError, ValueError, OverflowError):
             raise TdicamError(f"{name} must be an integer, got {value!r}") from None
+    if not integer and not isinstance(value, (int, float)):
+        try:
+            value = float(value)
+        except (TypeError, ValueError, OverflowError):
+            raise TdicamError(f"{name} must be a number, got {value!r}") from None
+    if value != value or value in (float("inf"), float("-inf")):   # nan, inf: never in range
+        raise TdicamError(f"{name} = {value} is out of range; valid: "
+                          f"{valid_range(lo, hi, lo_open=lo_open, hi_open=hi_open)}")
     below = lo is not None and (value <= lo if lo_open else value < lo)
     above = hi is not None and (value >= hi if hi_open else value > hi)
     if below or above:

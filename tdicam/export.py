@@ -38,7 +38,7 @@ from .cosim import codec, stream_ports, tbgen
 from .errors import TdicamError
 from .hdl.axis import AxisTop
 from .pauses import thresholds
-from .verilog import convert
+from .verilog import convert, header
 
 __all__ = ["Export", "export_block", "export_files", "run_binary", "select_vectors",
            "golden_params", "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
@@ -306,7 +306,8 @@ def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpr
     # one chunk as deep as the stimulus, or full chunks (the last one zero-padded), so that
     # every $readmemh fills its memory exactly
     depth = min(tbgen.DEPTH, max(len(stim), 1))
-    files = {f"rtl/{blk.name}.v": convert(top, blk.name),
+    files = {f"rtl/{blk.name}.v": convert(top, blk.name,
+                                          header=header(blk.name, blk.resolve(params))),
              "tb/tdicam_tb.v": tbgen.stream_testbench(blk.name, in_bits=in_bits,
                                                       out_bits=out_bits, ctrl_ports=ctrl,
                                                       depth=depth, selfcheck=sc)}

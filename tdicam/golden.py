@@ -84,11 +84,29 @@ def _read_manifest():
         return {"format": 1, "cases": {}}
     try:
         man = json.loads(path.read_text())
-        if not isinstance(man.get("cases"), dict):
-            raise ValueError("no 'cases' table")
+        _check_manifest(man)
         return man
     except (ValueError, OSError) as exc:
         raise TdicamError(f"{_rel(path)}: manifest is corrupt ({exc})") from None
+
+
+def _check_manifest(man):
+    """Raise ValueError naming the first thing in ``man`` that is not a manifest's layout
+    (a JSON list, a case that is not a table, an array record without its sha256, ...)."""
+    if not isinstance(man, dict):
+        kind = {list: "a list", str: "a string", bool: "a boolean", int: "a number",
+                float: "a number"}.get(type(man), "null")
+        raise ValueError(f"{kind}, not a table")
+    if not isinstance(man.get("cases"), dict):
+        raise ValueError("no 'cases' table")
+    for key, entry in man["cases"].items():
+        if not isinstance(entry, dict) or not isinstance(entry.get("arrays"), dict):
+            raise ValueError(f"case {key!r} has no 'arrays' table")
+        if "model_version" not in entry:
+            raise ValueError(f"case {key!r} has no 'model_version'")
+        for name, rec in entry["arrays"].items():
+            if not isinstance(rec, dict) or not isinstance(rec.get("sha256"), str):
+                raise ValueError(f"case {key!r}: array {name!r} has no sha256")
 
 
 def _write_manifest(man):

@@ -502,14 +502,21 @@ def verilog_command(extra, output, *, show_help=False):
     import sys
     if show_help:
         extra = ["--help"]
-    from .verilog import convert
+    import os
+
+    from .outputs import check_file, write_file
+    from .verilog import convert, header
+    if output is not None and not show_help:
+        check_file(output)
     ns, p, data = _scene_args("tdicam verilog pipeline", extra)
     ax = top(p, data, taps=ns.taps)
     ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
-    text = convert(ax, "pipeline")
-    if output:
-        with open(output, "w") as fh:
-            fh.write(text)
+    text = convert(ax, "pipeline", header=header("pipeline", {
+        "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
+        "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
+        "taps": ns.taps} | {s.block: s.params for s in p.steps}))
+    if output is not None:
+        write_file(output, text)
         print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
               f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat}",
               file=sys.stderr)

@@ -28,10 +28,10 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import mtf as _mtf
 from tdicam.model import plan as P
 from tdicam.model import tdi as _tdi
-from tdicam.scene import load_scene
+from tdicam.scene import BOUNDS, load_scene
 
-__all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM", "BOUNDS",
-           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "plan_scenes", "check_bounds",
+__all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
+           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "plan_scenes",
            "mtf_prediction", "gateware_plan", "plan_report", "report_text", "figures"]
 
 #: Qu 2010 Table 2 grid, used when neither a scene nor orbit options are given.
@@ -41,24 +41,6 @@ DEFAULT_ALTITUDE_KM = 600.0
 
 #: Exit status of ``tdicam plan`` when the feasibility report says NO (bad input: 2).
 EXIT_INFEASIBLE = 1
-
-#: Physical bounds of the planning inputs, ``"section.key": (lo, hi)``, checked on top of the
-#: scene schema (which only asks for positive values) and stated in ``tdicam plan --help``.
-#: They exclude absurd input (a 1e12 km orbit, a 1e-300 m GSD, a turntable at 1e-12 rad/s)
-#: whose arithmetic would be garbage, and nothing a real camera or lab rig does.
-BOUNDS = {
-    "orbit.altitude_km": (0, 100_000),          # ground to 2.8 x geostationary
-    "orbit.gsd_m": (1e-3, 100_000),
-    "turntable.angular_speed_rad_s": (1e-6, 1000),
-    "turntable.distance_m": (1e-3, 1000),
-    "target.signal_e": (0, 10**12),
-    "sensor.full_well_e": (1, 10**9),
-    "sensor.read_noise_e": (0, 10**6),
-    "sensor.dark_current_e_per_s": (0, 10**12),
-    "sensor.row_blanking_us": (0, 10**6),
-    "sensor.pixel_clock_mhz": (1e-3, 10**6),
-    "sensor.max_frame_rate_hz": (1e-3, 10**9),
-}
 
 #: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the README's
 #: ``tdicam synth --reference`` figures (``tdi`` rows: width 1280, 96 stages, 12-bit pixels,
@@ -106,7 +88,8 @@ SCENE_OPTIONS = (
 
 
 def bounds_text(section, key) -> str:
-    """``; valid lo..hi`` for the help of a bounded option ('' when unbounded)."""
+    """``; valid lo..hi`` for the help of an option whose scene key has a physical bound
+    (:data:`tdicam.scene.BOUNDS`; '' when it has none)."""
     b = BOUNDS.get(f"{section}.{key}")
     return "" if b is None else f"; valid {b[0]:g}..{b[1]:g}"
 
@@ -151,6 +134,10 @@ def plan_scenes(scene_path, given: dict):
         overrides.setdefault("sensor", {})["max_frame_rate_hz"] = None
     if "max_frame_rate_hz" in given and "pixel_clock_mhz" not in given:
         overrides.setdefault("sensor", {})["pixel_clock_mhz"] = None
+        if "row_blanking_us" not in given:
+            overrides["sensor"]["row_blanking_us"] = None
+    if "row_blanking_us" in given and "pixel_clock_mhz" not in given:
+        labels["sensor.pixel_clock_mhz"] = "--pixel-clock-mhz"
     base = None
     if scene_path is not None:
         base = load_scene(scene_path)  # validates the file on its own first
@@ -185,28 +172,7 @@ def plan_scenes(scene_path, given: dict):
         if gsd is not None:
             ov["orbit"]["gsd_m"] = gsd
         scenes.append(load_scene(scene_path, overrides=ov, labels=labels))
-    for sc in scenes:
-        check_bounds(sc, labels)
-    if "row_blanking_us" in given and scenes[0].sensor.pixel_clock_mhz is None:
-        raise TdicamError("--row-blanking-us needs --pixel-clock-mhz (or [sensor]."
-                          "pixel_clock_mhz in the scene): the row time is t_rb + columns / f_s")
     return scenes, labels
-
-
-def check_bounds(scene, labels=None) -> None:
-    """Raise a one-line :class:`TdicamError` when a scene value is outside :data:`BOUNDS`.
-
-    The value is named by its option when it came from one (``labels``), else as
-    ``[section].key``.
-    """
-    labels = labels or {}
-    for path, (lo, hi) in BOUNDS.items():
-        sec, key = path.split(".")
-        part = getattr(scene, sec, None)
-        value = None if part is None else getattr(part, key, None)
-        if value is None:
-            continue
-        check_range(labels.get(path, f"[{sec}].{key}"), value, lo, hi, integer=False)
 
 
 # --------------------------------------------------------------------------------------

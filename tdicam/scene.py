@@ -12,22 +12,27 @@ Schema (every key is optional unless marked *required*; defaults in brackets)
 Exactly one of ``[orbit]`` and ``[turntable]``:
 
 ``[orbit]``
-    ``altitude_km`` *required*, >= 0; ``gsd_m`` *required*, ground sample distance, > 0.
+    ``altitude_km`` *required*, 0..100000; ``gsd_m`` *required*, ground sample distance,
+    0.001..100000 m.
     Line period ``T1 = gsd / v_g`` (Qu et al. 2010 eqs 4-5).
 ``[turntable]``
-    ``angular_speed_rad_s`` *required*, > 0; ``distance_m`` *required*, sensor-to-axis
-    distance, > 0. Line period ``T_line = a / (omega l)`` with ``a`` the sensor pitch
-    (Tao et al. 2012 eq 5).
+    ``angular_speed_rad_s`` *required*, 1e-6..1000; ``distance_m`` *required*,
+    sensor-to-axis distance, 0.001..1000 m. Line period ``T_line = a / (omega l)`` with
+    ``a`` the sensor pitch (Tao et al. 2012 eq 5).
+
+The line period either gives must lie in 1e-8..100 s.
 
 ``[target]``
     ``kind`` ["flat"]: one of ``image``, ``bars``, ``edge``, ``siemens``, ``flat``.
-    ``signal_e`` [1000.0], >= 0: the light level, as the electrons one pixel collects in one
+    ``signal_e`` [1000.0], 0..1e12: the light level, as the electrons one pixel collects in one
     exposure (one line period, one stage) from the brightest part of the target (image value
     1.0, bright bar, bright side of the edge; a flat target is uniform at this level).
     Chart keys, only with their kind: ``contrast`` [1.0] (bars, edge, siemens), Michelson
     contrast in (0, 1] — the dark level is ``signal_e (1 - c) / (1 + c)``; ``period_px``
-    [8.0] (bars), bar period in output pixels, >= 2; ``direction`` ["along_track"] (bars),
-    the axis the bar pattern varies along, ``along_track`` or ``cross_track``; ``profile``
+    [8.0] (bars), bar period in output pixels, >= 2 and at most half the output's extent
+    along ``direction`` (``[run].lines`` or ``[sensor].columns``); ``direction``
+    ["along_track"] (bars), the axis the bar pattern varies along, ``along_track`` or
+    ``cross_track``; ``profile``
     ["square"] (bars), ``square`` bars or a ``sine`` grating (one spatial frequency, for
     measuring the MTF at exactly ``1/period_px``); ``angle_deg``
     [5.0] (edge), slant of the edge from the cross-track axis, in [-45, 45]; ``spokes`` [36]
@@ -36,21 +41,22 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     PNG or TIFF file, relative to the scene file; it must exist).
 
 ``[sensor]``
-    ``columns`` [1280], ``rows`` [1024]: 1..65536. ``pitch_um`` [5.5] > 0.
+    ``columns`` [1280], ``rows`` [1024]: 1..65536. ``pitch_um`` [5.5], 0.1..1000.
     ``fill_factor`` [1.0]: area fill factor in (0, 1]; the aperture MTF uses
     ``q/p = sqrt(fill_factor)`` (square active area). ``bits`` [12]: ADC bits, 1..24.
-    ``full_well_e`` [20000] > 0. ``conversion_gain_e_per_dn`` [full_well_e / 2**bits]:
-    electrons per DN at channel gain 1 (a channel of gain g has ``conversion / g`` e-/DN).
+    ``full_well_e`` [20000], 1..1e9. ``conversion_gain_e_per_dn`` [full_well_e / 2**bits],
+    1e-6..1e9: electrons per DN at channel gain 1 (a channel of gain g has ``conversion / g`` e-/DN).
     Impairments default to zero so that a scene simulates only what it asks for:
-    ``read_noise_e`` [0] >= 0 (RMS), ``dark_current_e_per_s`` [0] >= 0, ``prnu`` [0]
-    (fraction, 0.015 = 1.5 %, in [0, 1)), ``dsnu_e`` [0] >= 0 (RMS). ``shutter``
+    ``read_noise_e`` [0], 0..1e6 (RMS), ``dark_current_e_per_s`` [0], 0..1e12, ``prnu`` [0]
+    (fraction, 0.015 = 1.5 %, in [0, 1)), ``dsnu_e`` [0], 0..1e6 (RMS). ``shutter``
     ["rolling"]: ``rolling`` or ``global`` (global assumed pipelined). ``black_level_dn``
     [0], >= 0 and < 2**bits: ADC offset (pedestal) added to every sample, so that read noise
     around a dark level is not clipped at code 0.
-    Row timing (optional): ``row_blanking_us`` [3.5, Tao et al. 2012's typical value] >= 0 and
-    ``pixel_clock_mhz`` (> 0, pixels per second over all channels, in MHz) give
-    ``T_row = t_rb + columns / f_s``; or ``max_frame_rate_hz`` (> 0, the datasheet
-    full-frame rate) gives ``T_row = 1 / (rows F)``; not both. With a row time the window
+    Row timing (optional): ``pixel_clock_mhz`` (0.001..1e6, pixels per second over all
+    channels, in MHz) and ``row_blanking_us`` [3.5, Tao et al. 2012's typical value], 0..1e6, only
+    with ``pixel_clock_mhz``, give ``T_row = t_rb + columns / f_s``; or
+    ``max_frame_rate_hz`` (0.001..1e9, the datasheet full-frame rate) gives
+    ``T_row = 1 / (rows F)``; not both. With a row time the window
     limit ``M0`` is known (Tao et al. 2012 eq 13). ``gains`` [[1.0]]: one gain, or two as
     ``[high, low]`` with high > low (Ning et al. 2019: ``[4.9, 0.8]``), each > 0.
 
@@ -59,7 +65,8 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     perfect lens; the optics effect is skipped).
 
 ``[tdi]``
-    ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep); each must not
+    ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep, each value
+    once); each must not
     exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one; digital TDI takes at
     most 128 stages and, unless an hdr merge feeds it, 8..14-bit pixels (``[sensor].bits``):
     the golden accumulator's limits, the same for every fidelity. ``domain``
@@ -69,7 +76,7 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
 
 ``[motion]``
     ``dv_over_v`` [0.0]: relative velocity mismatch, a number or a non-empty list (a
-    sweep), each in (-1, 1). ``drift_deg`` [0.0]: drift (crab) angle, in (-90, 90).
+    sweep, each value once), each in (-1, 1). ``drift_deg`` [0.0]: drift (crab) angle, in (-90, 90).
 
 ``[pipeline]``
     ``blocks`` [["tdi"]]: the ordered processing chain from ``cds``, ``nuc``, ``hdr``,
@@ -93,7 +100,8 @@ Exactly one of ``[orbit]`` and ``[turntable]``:
     ``[pipeline.median3]`` ``edge_enhance`` [false].
 
 ``[run]``
-    ``lines`` [256]: output lines, >= 1. ``seed`` [0] >= 0. ``fidelity`` ["auto"]:
+    ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
+    pixels (the simulator holds them in memory). ``seed`` [0] >= 0. ``fidelity`` ["auto"]:
     ``exact`` (quantize every exposure), ``fast`` (aggregate) or ``auto`` (fast when its
     error is below ``tolerance``). ``tolerance`` [0.01]: largest relative RMS error of the
     fast aggregate, in (0, 1).
@@ -122,6 +130,7 @@ from tdicam.model import plan as _plan
 
 __all__ = [
     "read_toml",
+    "BOUNDS",
     "BUNDLED_IMAGES",
     "TARGET_KINDS",
     "BLOCKS",
@@ -153,6 +162,28 @@ BUNDLED_IMAGES = ("astronaut", "brick", "camera", "chelsea", "clock", "coffee", 
 TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
 #: Names allowed in ``[pipeline].blocks``.
 BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
+
+#: Physical bounds ``"section.key": (lo, hi)``, inclusive, of the quantities whose schema
+#: would otherwise only ask for a positive or non-negative value. They exclude absurd input
+#: (a 1e12 km orbit, a 1e-300 m GSD, a turntable at 1e-12 rad/s, 1e30 electrons) whose
+#: arithmetic is garbage, and nothing a real camera or lab rig does. ``tdicam plan --help``
+#: states them for its options; the module docstring states them for the scene keys.
+BOUNDS = {
+    "orbit.altitude_km": (0, 100_000),          # ground to 2.8 x geostationary
+    "orbit.gsd_m": (1e-3, 100_000),
+    "turntable.angular_speed_rad_s": (1e-6, 1000),
+    "turntable.distance_m": (1e-3, 1000),
+    "target.signal_e": (0, 10**12),
+    "sensor.pitch_um": (0.1, 1000),
+    "sensor.full_well_e": (1, 10**9),
+    "sensor.conversion_gain_e_per_dn": (1e-6, 10**9),
+    "sensor.read_noise_e": (0, 10**6),
+    "sensor.dark_current_e_per_s": (0, 10**12),
+    "sensor.dsnu_e": (0, 10**6),
+    "sensor.row_blanking_us": (0, 10**6),
+    "sensor.pixel_clock_mhz": (1e-3, 10**6),
+    "sensor.max_frame_rate_hz": (1e-3, 10**9),
+}
 
 _SECTIONS = ("orbit", "turntable", "target", "sensor", "optics", "tdi", "motion", "pipeline",
              "run")
@@ -496,6 +527,9 @@ class _Section:
         raw, shown, v = v, _show(v), float(v)
         if not math.isfinite(v):
             self.fail(key, f"must be a finite number{where}, got {shown}")
+        bound = BOUNDS.get(f"{self.name}.{key}")
+        if bound is not None:           # a physical bound replaces "positive"
+            (lo, hi), lo_open, hi_open = bound, False, False
         check_range(f"{self.label(key)}{where}", raw, lo, hi, integer=False,
                     lo_open=lo_open, hi_open=hi_open)
         return v
@@ -538,7 +572,12 @@ class _Section:
         if isinstance(v, list):
             if not v:
                 self.fail(key, "must not be an empty list")
-            return tuple(item(x, f"(entry {i} of the list)") for i, x in enumerate(v))
+            out = tuple(item(x, f"(entry {i} of the list)") for i, x in enumerate(v))
+            twice = [x for i, x in enumerate(out) if x in out[:i]]
+            if twice:
+                self.fail(key, f"lists {_show(twice[0])} more than once, got {_show(v)}; "
+                               f"each value of a sweep once")
+            return out
         return (item(v, None),)
 
 
@@ -549,14 +588,13 @@ class _Section:
 
 def _orbit(sec: _Section) -> Orbit:
     sec.check_keys(("altitude_km", "gsd_m"))
-    return Orbit(altitude_km=sec.number("altitude_km", lo=0.0),
-                 gsd_m=sec.number("gsd_m", lo=0.0, lo_open=True))
+    return Orbit(altitude_km=sec.number("altitude_km"), gsd_m=sec.number("gsd_m"))
 
 
 def _turntable(sec: _Section) -> Turntable:
     sec.check_keys(("angular_speed_rad_s", "distance_m"))
-    return Turntable(angular_speed_rad_s=sec.number("angular_speed_rad_s", lo=0.0, lo_open=True),
-                     distance_m=sec.number("distance_m", lo=0.0, lo_open=True))
+    return Turntable(angular_speed_rad_s=sec.number("angular_speed_rad_s"),
+                     distance_m=sec.number("distance_m"))
 
 
 def _target(sec: _Section, base_dir: Path) -> TargetSpec:
@@ -569,7 +607,7 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
             sec.fail(key, f"not used with kind = {kind!r} (it belongs to kind "
                           + " or ".join(repr(o) for o in owners) + ")")
     sec.check_keys(sorted(all_keys))
-    signal = sec.number("signal_e", 1000.0, lo=0.0)
+    signal = sec.number("signal_e", 1000.0)
     fields: dict[str, Any] = {}
     if kind == "image":
         has_image, has_path = sec.has("image"), sec.has("path")
@@ -617,12 +655,15 @@ _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well
 def _sensor(sec: _Section) -> Sensor:
     sec.check_keys(_SENSOR_KEYS)
     bits = sec.integer("bits", 12, lo=1, hi=24)
-    full_well = sec.number("full_well_e", 20000.0, lo=0.0, lo_open=True)
-    conv = sec.number("conversion_gain_e_per_dn", None, lo=0.0, lo_open=True)
+    full_well = sec.number("full_well_e", 20000.0)
+    conv = sec.number("conversion_gain_e_per_dn", None)
     if sec.has("pixel_clock_mhz") and sec.has("max_frame_rate_hz"):
         sec.fail("max_frame_rate_hz", f"give either {sec.label('pixel_clock_mhz')} (with "
                                       f"{sec.label('row_blanking_us')}) or "
                                       f"{sec.label('max_frame_rate_hz')}, not both")
+    if sec.has("row_blanking_us") and not sec.has("pixel_clock_mhz"):
+        sec.fail("row_blanking_us", f"needs {sec.label('pixel_clock_mhz')} (the row time is "
+                                    f"t_rb + columns / f_s; without it the blanking is unused)")
     gains_raw = sec.raw("gains", [1.0])
     if not isinstance(gains_raw, list) or not 1 <= len(gains_raw) <= 2:
         sec.fail("gains", f"must be a list of one or two gains, got {_show(gains_raw)}")
@@ -634,19 +675,19 @@ def _sensor(sec: _Section) -> Sensor:
     return Sensor(
         columns=sec.integer("columns", 1280, lo=1, hi=65536),
         rows=sec.integer("rows", 1024, lo=1, hi=65536),
-        pitch_um=sec.number("pitch_um", 5.5, lo=0.0, lo_open=True),
+        pitch_um=sec.number("pitch_um", 5.5),
         fill_factor=sec.number("fill_factor", 1.0, lo=0.0, hi=1.0, lo_open=True),
         bits=bits,
         full_well_e=full_well,
         conversion_gain_e_per_dn=full_well / (1 << bits) if conv is None else conv,
-        read_noise_e=sec.number("read_noise_e", 0.0, lo=0.0),
-        dark_current_e_per_s=sec.number("dark_current_e_per_s", 0.0, lo=0.0),
+        read_noise_e=sec.number("read_noise_e", 0.0),
+        dark_current_e_per_s=sec.number("dark_current_e_per_s", 0.0),
         prnu=sec.number("prnu", 0.0, lo=0.0, hi=1.0, hi_open=True),
-        dsnu_e=sec.number("dsnu_e", 0.0, lo=0.0),
+        dsnu_e=sec.number("dsnu_e", 0.0),
         shutter=sec.choice("shutter", "rolling", ("rolling", "global")),
-        row_blanking_us=sec.number("row_blanking_us", 3.5, lo=0.0),
-        pixel_clock_mhz=sec.number("pixel_clock_mhz", None, lo=0.0, lo_open=True),
-        max_frame_rate_hz=sec.number("max_frame_rate_hz", None, lo=0.0, lo_open=True),
+        row_blanking_us=sec.number("row_blanking_us", 3.5),
+        pixel_clock_mhz=sec.number("pixel_clock_mhz", None),
+        max_frame_rate_hz=sec.number("max_frame_rate_hz", None),
         gains=gains,
         black_level_dn=sec.number("black_level_dn", 0.0, lo=0.0, hi=float(1 << bits),
                                   hi_open=True),
@@ -897,7 +938,49 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics)
     _check_stages(tdi_sec, scene)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
+    _check_extent(section("target"), section("run"), scene)
+    _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
     return scene
+
+
+#: The line period a scene may derive, seconds (inclusive): 10 ns (a 100 MHz line rate)
+#: to 100 s. Each key has its own bound (:data:`BOUNDS`); this one catches combinations
+#: no camera runs at (a 0.1 um pixel on a 1000 rad/s turntable at 1 km; 1 mm on a
+#: 1e-6 rad/s one at 1 mm).
+LINE_PERIOD_S = (1e-8, 100.0)
+
+
+def _check_line_period(sec: _Section, scene: Scene) -> None:
+    t = scene.line_period_s
+    lo, hi = LINE_PERIOD_S
+    if not lo <= t <= hi:
+        keys = (f"{sec.label('altitude_km')} and {sec.label('gsd_m')}"
+                if scene.orbit is not None else
+                f"{sec.label('angular_speed_rad_s')}, {sec.label('distance_m')} and "
+                f"{sec.labels.get('sensor.pitch_um', '[sensor].pitch_um')}")
+        raise TdicamError(f"the line period {t:.4g} s from {keys} is out of range; valid: "
+                          f"{lo:g}..{hi:g} s")
+
+
+#: Output pixels (``[sensor].columns x [run].lines``) a run may have at most: the scene
+#: simulator keeps the whole output (and per-stage work arrays) in memory.
+MAX_OUTPUT_PIXELS = 1 << 27
+
+
+def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None:
+    """The output fits in memory, and a bar chart shows two periods across its axis."""
+    cols, lines = scene.sensor.columns, scene.run.lines
+    if cols * lines > MAX_OUTPUT_PIXELS:
+        run_sec.fail("lines", f"{cols} columns x {lines} lines = {cols * lines} output pixels, "
+                              f"more than the {MAX_OUTPUT_PIXELS} the simulator holds in "
+                              f"memory; simulate at most {MAX_OUTPUT_PIXELS // cols} lines")
+    t = scene.target
+    if t.kind == "bars":
+        extent, what = ((lines, "[run].lines") if t.direction == "along_track"
+                        else (cols, "[sensor].columns"))
+        if t.period_px > extent / 2:
+            target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "
+                                         f"the {extent} px of {what}), got {t.period_px:g}")
 
 
 def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:

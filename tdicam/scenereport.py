@@ -213,6 +213,11 @@ def summary(scene, rep):
     return "\n".join(lines)
 
 
+def _ratio(a, b):
+    """``a / b`` for the report, or "-" (no temporal noise: no light, no read noise)."""
+    return f"{a / b:.3g}" if b else "-"
+
+
 def markdown(scene, rep):
     """The text of ``report.md``: configuration first, how to read it, then the tables."""
     sp = rep["speed"]
@@ -254,7 +259,7 @@ def markdown(scene, rep):
                "per exposure); the same for measured and predicted values.",
                "", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "
                f"{s0['sigma_cmos_e']:.3g} e-, fixed pattern {s0['sigma_fpn_e']:.3g} e- "
-               f"(s_AD / s_CMOS = {s0['sigma_ad_e'] / s0['sigma_cmos_e']:.3g}). Predicted: "
+               f"(s_AD / s_CMOS = {_ratio(s0['sigma_ad_e'], s0['sigma_cmos_e'])}). Predicted: "
                "temporal noise, the row-to-row fixed pattern and the independent part of the "
                "quantization noise grow as sqrt(m), only the part the m exposures share grows "
                f"as m (rho = {s0['rho']:.3g} of the quantization variance here; a scene with "

@@ -425,18 +425,18 @@ def test_cli_plot(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, text", [
-    (["--gsd-m", "0"], "--gsd-m = 0.0 is out of range; valid: > 0"),
-    (["--gsd-m", "-1"], "--gsd-m = -1.0 is out of range; valid: > 0"),
-    (["--altitude-km", "-1"], "--altitude-km = -1.0 is out of range; valid: 0..inf"),
+    (["--gsd-m", "0"], "--gsd-m = 0.0 is out of range; valid: 0.001..100000"),
+    (["--gsd-m", "-1"], "--gsd-m = -1.0 is out of range; valid: 0.001..100000"),
+    (["--altitude-km", "-1"], "--altitude-km = -1.0 is out of range; valid: 0..100000"),
     (["--stages", "0"], "--stages = 0 is out of range; valid: 1..inf"),
     (["--stages", "2000"], "--stages: must be <= 1024"),
     (["--rows", "64", "--stages", "65"], "--stages: must be <= 64"),
     (["--gsd-m", "1", "--stages", "96", "--pixel-clock-mhz", "100"],
      "--stages: must be <= M0 = 8"),
     (["--angular-speed-rad-s", "0", "--distance-m", "1"],
-     "--angular-speed-rad-s = 0.0 is out of range; valid: > 0"),
+     "--angular-speed-rad-s = 0.0 is out of range; valid: 1e-06..1000"),
     (["--angular-speed-rad-s", "1", "--distance-m", "0"],
-     "--distance-m = 0.0 is out of range; valid: > 0"),
+     "--distance-m = 0.0 is out of range; valid: 0.001..1000"),
     (["--dv-over-v", "1"], "--dv-over-v = 1.0 is out of range; valid: (-1, 1)"),
     (["--gsd-m", "1", "--angular-speed-rad-s", "1"], "not both"),
     (["--ddr-efficiency", "1.5"], "--ddr-efficiency = 1.5 is out of range; valid: 0..1"),

@@ -137,7 +137,8 @@ BAD = [
     ('[axes]\n"target.signal_e" = {start = 5, stop = 1, step = 1}\n',
      "[axes] target.signal_e: empty axis"),
     ('[axes]\n"target.signal_e" = [100.0, -1.0]\n',
-     'point target.signal_e = -1.0: [target].signal_e = -1.0 is out of range; valid: 0..inf'),
+     'point target.signal_e = -1.0: [target].signal_e = -1.0 is out of range; valid: '
+     '0..1000000000000'),
     ('[axes]\n"tdi.stages" = [1, 20]\n', "tdi.stages = 20: [tdi].stages: must be <= M0 = 12"),
     ('[axes]\n"sensor.bits" = [8, 8]\n', "[axes] sensor.bits: value 8 is listed twice"),
     ('[axes]\n"stages" = [1, 2]\n', "axis keys are section.key paths"),

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from .. import bench, cosim
 from ..errors import TdicamError, check_range
+from ..outputs import check_dir, check_file, write_file
 
 
 def register(sub):
@@ -62,7 +63,19 @@ def _load(path):
                           f"({type(exc).__name__}: {exc})") from None
 
 
+def _outputs(args):
+    """Check the PNG and JSON paths before anything runs; returns the PNG path or None."""
+    png = None
+    if args.png != "none":
+        png = check_file(args.png, "--png") if args.png is not None else \
+            check_dir(args.out_dir, "-o") / "bench.png"
+    if args.json not in (None, "-"):
+        check_file(args.json, "--json")
+    return png
+
+
 def _run(args):
+    args.png_path = _outputs(args)
     if args.from_json:
         rows, mline, settings, wall = _load(args.from_json)
         return _report(args, rows, mline, settings, wall)
@@ -92,18 +105,17 @@ def _report(args, rows, mline, settings, wall):
     print(bench.format_table(rows, markdown=args.markdown), file=log)
     print(legend, file=log)
     print(f"wall time {wall:.0f} s", file=log)
-    if args.png != "none":
-        png = Path(args.png) if args.png else Path(args.out_dir) / "bench.png"
-        bench.plot(rows, png, title=f"tdicam bench ({mline.split(',')[0]})")
-        print(f"wrote {png}", file=log)
     if args.json:
         text = bench.to_json(rows, machine_line=mline, settings=settings, wall_s=wall)
         if to_stdout:
             print(text)
         else:
-            Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-            Path(args.json).write_text(text + "\n")
+            write_file(args.json, text + "\n")
             print(f"wrote {args.json}", file=log)
+    png = args.png_path
+    if png is not None:
+        bench.plot(rows, png, title=f"tdicam bench ({mline.split(',')[0]})")
+        print(f"wrote {png}", file=log)
     bad = [r for r in rows if r["mismatches"] or r["accuracy"] == "error"]
     if bad:
         print(f"bench: {len(bad)} row(s) not bit-exact or failed: "

@@ -10,9 +10,12 @@ pages with spare areas, bad blocks skipped and marked, block map in block 0); ``
 power-up scan and load times of the gateware; ``inject`` adds bad blocks to a NAND image.
 """
 
+import zipfile
+
 import numpy as np
 
 from ..errors import TdicamError, check_range
+from ..outputs import check_file, open_output
 from ..model import calib
 from ..model import nand_store as nand
 from ..model.nuc import DEFAULT_FORMAT, NucFormat
@@ -92,6 +95,14 @@ def _nand_args(p):
     _clock_arg(p)
 
 
+#: What np.load raises on a file that is not (or no longer, truncated) a numpy file.
+_NOT_NUMPY = (ValueError, EOFError, zipfile.BadZipFile)
+
+
+def _why(exc):
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
 def _load_array(path, what):
     try:
         with open(path, "rb") as fh:
@@ -101,9 +112,8 @@ def _load_array(path, what):
             return a
     except OSError as exc:
         raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
-    except ValueError as exc:
-        raise TdicamError(f"{path}: not a numpy array file ({str(exc).splitlines()[0]})") \
-            from None
+    except _NOT_NUMPY as exc:
+        raise TdicamError(f"{path}: not a numpy array file ({_why(exc)})") from None
 
 
 def _load_maps(args):
@@ -122,9 +132,8 @@ def _load_maps(args):
                 return z["gain"], z["offset"]
         except OSError as exc:
             raise TdicamError(f"{args.maps}: cannot read ({exc.strerror})") from None
-        except ValueError as exc:
-            raise TdicamError(f"{args.maps}: not a numpy .npz file "
-                              f"({str(exc).splitlines()[0]})") from None
+        except _NOT_NUMPY as exc:
+            raise TdicamError(f"{args.maps}: not a numpy .npz file ({_why(exc)})") from None
     if not (args.gain and args.offset):
         raise TdicamError("give MAPS.npz, or both --gain G.npy and --offset O.npy")
     return _load_array(args.gain, "gain"), _load_array(args.offset, "offset")
@@ -134,7 +143,11 @@ def _write(args):
     fmt = NucFormat(args.gain_int_bits, args.gain_frac_bits, args.offset_bits,
                     args.offset_frac_bits)
     fmt._check_slots()
+    check_file(args.output)
     gain, offset = _load_maps(args)
+    for what, a in (("gain", gain), ("offset", offset)):
+        if a.dtype.kind not in "iuf":
+            raise TdicamError(f"the {what} map must hold real numbers, got dtype {a.dtype}")
     if gain.ndim != 2 or gain.shape != offset.shape:
         raise TdicamError(f"gain and offset must be 2-D maps of one shape; got {gain.shape} "
                           f"and {offset.shape}")
@@ -145,18 +158,14 @@ def _write(args):
     rows, cols = g.shape
     if args.nand:
         return _write_nand(args, calib.encode_image(g, o, fmt), rows, cols)
-    n = _guard_write(args.output, lambda: calib.write_image(args.output, g, o, fmt))
+    words = calib.encode_image(g, o, fmt)
+    with open_output(args.output) as fh:
+        fh.write(words.tobytes())
+    n = words.nbytes
     print(f"wrote {args.output}: {rows} x {cols} pixels, gain Q{fmt.gain_int_bits}."
           f"{fmt.gain_frac_bits}, offset {fmt.offset_bits} bits ({fmt.offset_frac_bits} "
           f"fraction), {n // calib.WORD_BYTES} flash words of 72 bits, {n} bytes")
     return 0
-
-
-def _guard_write(path, write):
-    try:
-        return write()
-    except OSError as exc:
-        raise TdicamError(f"{path}: cannot write ({exc.strerror})") from None
 
 
 def _clock(args):
@@ -223,17 +232,16 @@ def _report(args):
 
 
 def _read(args):
+    if args.output is not None:
+        check_file(args.output)
     res = _report(args)
-    if args.output:
+    if args.output is not None:
         f = res.fmt
-
-        def write():
-            with open(args.output, "wb") as fh:  # exactly this name (savez adds .npz)
-                np.savez_compressed(
-                    fh, gain_code=res.gain, offset_code=res.offset,
-                    gain=res.gain / f.gain_one, offset=res.offset / (1 << f.offset_frac_bits),
-                    defaulted=res.defaulted)
-        _guard_write(args.output, write)
+        with open_output(args.output) as fh:    # exactly this name (savez adds .npz)
+            np.savez_compressed(
+                fh, gain_code=res.gain, offset_code=res.offset,
+                gain=res.gain / f.gain_one, offset=res.offset / (1 << f.offset_frac_bits),
+                defaulted=res.defaulted)
         print(f"wrote {args.output}: gain_code, offset_code, gain, offset, defaulted")
     return 0
 
@@ -252,6 +260,7 @@ def _inject(args):
         raise TdicamError("--single + --double must be at most 1")
     check_range("--seed", args.seed, 0, 2**63 - 1)
     check_range("--bad-blocks", args.bad_blocks, 0, 65535)
+    check_file(args.output)
     rng = np.random.default_rng(args.seed)
     raw = calib.read_file(args.image)
     if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
@@ -262,11 +271,8 @@ def _inject(args):
     words = calib.image_words(raw, args.image)
     out, k = calib.inject_flips(rng, words, p_single=args.single,
                                 p_double=args.double, skip_header=not args.header)
-
-    def write():
-        with open(args.output, "wb") as fh:
-            fh.write(out.tobytes())
-    _guard_write(args.output, write)
+    with open_output(args.output) as fh:
+        fh.write(out.tobytes())
     print(f"wrote {args.output}: {int((k == 1).sum())} words with 1 flipped bit, "
           f"{int((k == 2).sum())} with 2, of {len(words)}")
     return 0

@@ -1,5 +1,6 @@
 """``tdicam demo``: the end-to-end path on one block, as a smoke run of the whole tool."""
 
+from .. import blocks
 from ..demo import demo
 
 
@@ -7,7 +8,8 @@ def register(sub):
     p = sub.add_parser("demo", help="generate, lint and co-simulate a block against golden",
                        description="Generate a block's Verilog, lint it, check its golden "
                                    "vectors and co-simulate it on Icarus and Verilator.")
-    p.add_argument("block", nargs="?", default="cds")
+    p.add_argument("block", nargs="?", default="cds",
+                   help=f"one of: {', '.join(blocks.names())} (cds)")
     p.add_argument("-o", "--outdir", default="out", help="where the Verilog goes (out/)")
     p.set_defaults(func=_run)
 

@@ -1,5 +1,6 @@
 """``tdicam golden regen|check [BLOCK ...]``"""
 
+from .. import blocks as _blocks
 from .. import golden
 
 
@@ -8,7 +9,8 @@ def register(sub):
                        description="Regenerate (regen) or verify (check) golden/<block>/*.npz "
                                    "and golden/manifest.json against the golden models.")
     p.add_argument("action", choices=("regen", "check"))
-    p.add_argument("blocks", nargs="*", metavar="BLOCK", help="blocks (default: all)")
+    p.add_argument("blocks", nargs="*", metavar="BLOCK",
+                   help=f"blocks (default: all): {', '.join(_blocks.names())}")
     p.set_defaults(func=_run)
 
 

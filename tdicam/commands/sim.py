@@ -11,13 +11,15 @@ def register(sub):
                        description="Run the block's cocotb co-simulation on every golden case "
                                    "and compare bit for bit.")
     p.add_argument("block", help=f"one of: {', '.join(blocks.names())}")
-    p.add_argument("--sim", default="verilator", choices=cosim.SIMULATORS)
+    p.add_argument("--sim", default="verilator", choices=cosim.SIMULATORS,
+                   help="the simulator that runs the Verilog (verilator)")
     p.add_argument("--fast", action="store_true",
                    help="HDL-side stimulus, clock and random stalls (default: per-beat cocotb)")
     p.add_argument("--idle", type=float, default=0.2, help="idle-cycle probability (0.2)")
     p.add_argument("--backpressure", type=float, default=0.2,
                    help="tready-low probability (0.2)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=1,
+                   help="seed of the random idle cycles and backpressure (1)")
     p.add_argument("--case", action="append", help="only these cases (repeatable)")
     p.set_defaults(func=_run)
 

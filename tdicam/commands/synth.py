@@ -9,7 +9,7 @@ import json
 import sys
 
 from .. import blocks
-from ..errors import TdicamError
+from ..errors import TdicamError, check_range
 from ..synth import REFERENCE, reference_table, synth, tool_versions
 from .verilog import parse_block_params
 
@@ -27,9 +27,10 @@ def register(sub):
     p.add_argument("--reference", action="store_true",
                    help="run the reference table: "
                         + "; ".join(f"{r.label}" for r in REFERENCE))
-    p.add_argument("--seeds", type=int, default=3, help="placement seeds (3)")
+    p.add_argument("--seeds", type=int, default=3, help="placement seeds, 1..100 (3)")
     p.add_argument("--freq", type=float, default=150,
-                   help="target MHz for nextpnr (150; --reference uses each row's target)")
+                   help="target MHz for nextpnr, 1..2000 (150; --reference uses each row's "
+                        "target)")
     p.add_argument("--no-xilinx", action="store_true", help="skip the synth_xilinx count")
     p.add_argument("--no-harness", action="store_true",
                    help="place and route the bare top (port paths are then not timed)")
@@ -128,6 +129,8 @@ def _markdown(rows):
 
 
 def _run(args):
+    check_range("--seeds", args.seeds, 1, 100)
+    check_range("--freq", args.freq, 1, 2000, integer=False)
     if args.reference:
         return _run_reference(args)
     if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline

@@ -4,13 +4,15 @@ import sys
 
 from .. import blocks
 from ..errors import TdicamError
+from ..outputs import check_file, write_file
 from ..verilog import generate
 
 
 def register(sub):
     p = sub.add_parser("verilog", help="generate deterministic Verilog for a block",
                        description="Generate deterministic Verilog for a block. "
-                                   "'tdicam verilog BLOCK --help' lists its parameters.",
+                                   "'tdicam verilog BLOCK --help' lists its parameters "
+                                   "(--NAME VALUE; a true/false one also alone, as a flag).",
                        add_help=False)
     p.add_argument("block", nargs="?", help=f"one of: {', '.join(blocks.names())}")
     p.add_argument("-o", "--output", help="output file (default: stdout)")
@@ -19,18 +21,25 @@ def register(sub):
 
 
 def parse_block_params(block, extra):
-    """``--name value`` / ``--name=value`` pairs for ``block`` into a raw dict."""
+    """``--name value`` / ``--name=value`` pairs for ``block`` into a checked dict; a
+    boolean parameter may also stand alone as a flag (``--stream`` = ``--stream 1``)."""
+    flags = {p.name for p in block.params if p.type is bool}
     out = {}
-    it = iter(extra)
-    for tok in it:
+    toks = list(extra)
+    while toks:
+        tok = toks.pop(0)
         if not tok.startswith("--"):
             raise TdicamError(f"unexpected argument {tok!r}; parameters are --NAME VALUE")
         name, eq, value = tok[2:].partition("=")
+        key = name.replace("-", "_")
         if not eq:
-            value = next(it, None)
-            if value is None:
+            if key in flags and (not toks or toks[0].startswith("--")):
+                value = "true"
+            elif not toks:
                 raise TdicamError(f"--{name} needs a value")
-        out[name.replace("-", "_")] = value
+            else:
+                value = toks.pop(0)
+        out[key] = value
     return block.resolve(out)
 
 
@@ -59,10 +68,11 @@ def _run(args):
     if blk is None:
         return 0
     params = parse_block_params(blk, args.extra)
+    if args.output is not None:
+        check_file(args.output)
     text = generate(blk, params)
-    if args.output:
-        with open(args.output, "w") as fh:
-            fh.write(text)
+    if args.output is not None:
+        write_file(args.output, text)
         print(f"wrote {args.output}: module {blk.name}, "
               + ", ".join(f"{k}={v}" for k, v in params.items()), file=sys.stderr)
     else:

@@ -129,15 +129,46 @@ def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP):
         runner = _runner(sim)
         log = bdir / "build.log"
         try:
-            runner.build(sources=[bdir / f for f in sources], hdl_toplevel=top,
-                         build_dir=bdir / "sim", build_args=args, timescale=("1ns", "1ps"),
-                         log_file=log, always=True)
+            with _build_progress(sim, name):
+                runner.build(sources=[bdir / f for f in sources], hdl_toplevel=top,
+                             build_dir=bdir / "sim", build_args=args,
+                             timescale=("1ns", "1ps"), log_file=log, always=True)
         except (RuntimeError, SystemExit) as exc:
             tail = log.read_text().strip().splitlines()[-1:] if log.exists() else []
             raise TdicamError(f"{sim} build of {name} failed ({exc}); see {log}: "
                               f"{' '.join(tail)}") from None
         (bdir / "stamp").write_text(stamp)
     return bdir, time.perf_counter() - t0
+
+
+#: Seconds a simulator build runs before :func:`_build_progress` says so on stderr.
+BUILD_NOTICE_S = 2.0
+
+
+@contextlib.contextmanager
+def _build_progress(sim, name):
+    """Long work shows progress: a build still running after :data:`BUILD_NOTICE_S`
+    prints ``building Verilator model of NAME ...`` on stderr, and its elapsed time when
+    it ends; a quick (or cached) build prints nothing."""
+    import sys
+    import threading
+    label = {"verilator": "Verilator", "icarus": "Icarus"}.get(sim, sim)
+    t0 = time.perf_counter()
+    shown = threading.Event()
+
+    def notice():
+        shown.set()
+        print(f"building {label} model of {name} ...", file=sys.stderr, flush=True)
+    timer = threading.Timer(BUILD_NOTICE_S, notice)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+        if shown.is_set():
+            print(f"building {label} model of {name}: done in "
+                  f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 
 
 def _build(blk, params, sim):
