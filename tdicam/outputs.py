@@ -19,14 +19,15 @@ from pathlib import Path
 
 from .errors import TdicamError
 
-__all__ = ["check_file", "check_dir", "write_file", "open_output"]
+__all__ = ["check_file", "check_dir", "write_file", "open_output", "named"]
 
 
 def _fail(path, why):
     raise TdicamError(f"{path}: cannot write ({why})")
 
 
-def _nonempty(path, option) -> Path:
+def named(path, option="-o") -> Path:
+    """``path`` as a Path, or ``OPTION: the output name is empty`` for "" or blanks."""
     if path is None or not str(path).strip():
         raise TdicamError(f"{option}: the output name is empty")
     return Path(path)
@@ -39,7 +40,7 @@ def check_file(path, option="-o") -> Path:
     its parent folder exists, and a file can be created there (probed by creating it and
     removing it again when it did not exist). A full device shows only when written.
     """
-    p = _nonempty(path, option)
+    p = named(path, option)
     if p.is_dir():
         _fail(p, "it is a directory")
     parent = p.parent
@@ -60,7 +61,7 @@ def check_file(path, option="-o") -> Path:
 
 def check_dir(path, option="-o") -> Path:
     """``path`` as a Path once it is a folder one can write in (created with its parents)."""
-    p = _nonempty(path, option)
+    p = named(path, option)
     if p.exists() and not p.is_dir():
         _fail(p, "it exists and is not a folder")
     try:

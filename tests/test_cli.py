@@ -95,6 +95,12 @@ BAD_INPUT = [
     (["bench", "cds", "--quick", "--png", ""], "--png: the output name is empty", 2),
     (["bench", "cds", "--quick", "-o", "{d}/afile"], "cannot write (it exists and is not a "
                                                      "folder)", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "-o", ""], "-o: the output name is empty", 2),
+    (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", " "],
+     "-o: the output name is empty", 2),
+    (["plan", "--plot", ""], "--plot: the output name is empty", 2),
+    (["plan", "--plot", "{d}/afile"], "{d}/afile: cannot write (it exists and is not a folder)",
+     2),
     # input files
     (["run", "{d}/binary.toml"], "not a TOML text file (it is not UTF-8)", 2),
     (["calib", "write", "{d}/trunc.npz", "-o", "{d}/x.bin"],

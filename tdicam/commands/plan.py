@@ -30,6 +30,7 @@ import numpy as np
 
 from tdicam import planning
 from tdicam.errors import TdicamError, check_range
+from tdicam.outputs import check_dir, open_output
 from tdicam.model import plan as P
 
 __all__ = ["register", "run"]
@@ -94,22 +95,12 @@ def _finite(name, value):
     return value
 
 
-def _write_figures(rep, scenes, outdir) -> list[Path]:
-    out = Path(outdir)
-    if out.exists() and not out.is_dir():
-        raise TdicamError(f"--plot: {str(out)!r} exists and is not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TdicamError(f"--plot: cannot create {str(out)!r}: {exc.strerror}") from None
+def _write_figures(rep, scenes, out) -> list[Path]:
     files = []
     for name, fig in planning.figures(rep, scenes):
         files.append(out / name)
-        try:
-            fig.savefig(files[-1], dpi=100)
-        except OSError as exc:
-            raise TdicamError(f"--plot: cannot write {str(files[-1])!r}: {exc.strerror}") \
-                from None
+        with open_output(files[-1]) as fh:
+            fig.savefig(fh, dpi=100, format="png")
     return files
 
 
@@ -125,6 +116,7 @@ def _emit(text) -> None:
 
 def run(args) -> int:
     """Run ``tdicam plan`` for parsed arguments; returns the exit code (see the epilog)."""
+    plot_dir = None if args.plot is None else check_dir(args.plot, "--plot")
     budget = _budget(args)
     check_range("--ddr-bits", args.ddr_bits, 1, None)
     _finite("--ddr-clock-mhz", args.ddr_clock_mhz)
@@ -144,13 +136,13 @@ def run(args) -> int:
                                ddr_clock_hz=args.ddr_clock_mhz * 1e6,
                                ddr_efficiency=args.ddr_efficiency,
                                fpga_clock_mhz=args.fpga_clock_mhz)
-    if args.plot:
-        rep["plots"] = [str(f) for f in _write_figures(rep, scenes, args.plot)]
+    if plot_dir is not None:
+        rep["plots"] = [str(f) for f in _write_figures(rep, scenes, plot_dir)]
     if args.json:
         _emit(json.dumps(rep, indent=2, allow_nan=False, default=_json_default))
     else:
         text = planning.report_text(rep)
-        if args.plot:
+        if plot_dir is not None:
             text += "\n\nwrote " + ", ".join(rep["plots"])
         _emit(text)
     return 0 if rep["feasible"] else planning.EXIT_INFEASIBLE

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from tdicam.errors import TdicamError
+from tdicam.outputs import named
 from tdicam.scenerun import run_scene
 
 __all__ = ["register", "run", "run_scene"]
@@ -42,7 +43,7 @@ def run(args):
     if args.lines is not None and args.lines < 1:
         raise TdicamError(f"--lines must be >= 1, got {args.lines}")
     scene = load_scene(args.scene)
-    out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
+    out = named(args.out) if args.out is not None else Path("out") / Path(args.scene).stem
     report = run_scene(scene, out, fidelity=args.fidelity, lines=args.lines,
                        force=args.force, impact=not args.no_impact, rtl=not args.no_rtl)
     print(report["summary"])

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from tdicam.errors import TdicamError
+from tdicam.outputs import named
 
 __all__ = ["register", "sweep"]
 
@@ -50,7 +51,7 @@ def sweep(args):
     if args.connect_timeout <= 0:
         raise TdicamError(f"--connect-timeout must be > 0, got {args.connect_timeout:g}")
     sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact)
-    out = Path(args.out) if args.out else Path("out") / "sweeps" / sw.name
+    out = named(args.out) if args.out is not None else Path("out") / "sweeps" / sw.name
     try:
         res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
                         serial=args.serial, limit=args.limit, progress=not args.no_progress,
