@@ -100,10 +100,11 @@ def main(argv):
     argv = [a for a in argv if a not in own]
     targets = [_parse(a) for a in (argv or ([] if own else DEFAULT))]
     print(machine(), f"| load {os.getloadavg()[0]:.1f}")
-    print("| block | input beats | export build s | export run s | export px/s | "
-          "cocotb fast build s | cocotb fast run s | cocotb fast px/s | speed-up | "
-          "bit-exact |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    if targets:
+        print("| block | input beats | export build s | export run s | export px/s | "
+              "cocotb fast build s | cocotb fast run s | cocotb fast px/s | speed-up | "
+              "bit-exact |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name, params in targets:
             r = bench(name, params, Path(tmp))

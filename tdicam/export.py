@@ -82,7 +82,8 @@ def _case_arrays(blk, params):
             if p != params:
                 continue
             arrays = dict(case.make(p, np.random.default_rng(case.seed)))
-            blk.to_beats(arrays, p)
+            if blk.to_beats is not None:
+                blk.to_beats(arrays, p)
         except (TdicamError, ValueError, KeyError, IndexError, TypeError, MemoryError):
             continue
         out.append((case.name, arrays))

@@ -322,8 +322,13 @@ def selfcheck_testbench(top, names, counts):
         eo = exp_out[optr < NOUT ? optr : 0];
         if (optr >= {_sl("gcfg[g]", G, "out_end")} || {_sl("eo", O, "g")} != g[15:0]
             || {_sl("eo", O, "k")} != k) begin
-          $display("FAIL beat %0d (case %0s, group %0d): an output word at cycle %0d where the golden model has none",
-                   optr, case_name({_sl("gcfg[g]", G, "case")}), g - {_sl("gcfg[g]", G, "cg0")}, k);
+          if (optr < {_sl("gcfg[g]", G, "out_end")} && {_sl("eo", O, "g")} == g[15:0] && {_sl("eo", O, "k")} < k)
+            $display("FAIL beat %0d (case %0s, group %0d): no output word at cycle %0d (the next one came at cycle %0d)",
+                     optr, case_name({_sl("gcfg[g]", G, "case")}), g - {_sl("gcfg[g]", G, "cg0")},
+                     {_sl("eo", O, "k")}, k);
+          else
+            $display("FAIL beat %0d (case %0s, group %0d): an output word at cycle %0d where the golden model has none",
+                     optr, case_name({_sl("gcfg[g]", G, "case")}), g - {_sl("gcfg[g]", G, "cg0")}, k);
           $fatal(1);
         end
         if (d_o_sync != {_sl("eo", O, "sync", 1)}) begin

@@ -330,3 +330,14 @@ def test_whole_seed002_chain_on_icarus(tmp_path):
     assert cli("export", "pipeline", "--scene", CHAIN, "-o", str(chain)).returncode == 0
     r = icarus(chain)
     assert r.returncode == 0 and "PASS 16384 beats" in r.stdout, r.stdout[-2000:]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="lvds at other parameters (15 lane groups): set "
+                                     "TDICAM_FULL=1")
+def test_lvds_export_at_other_parameters(tmp_path):
+    """4 lanes a group, 12-bit words: every case regenerated at these parameters, dead pad
+    lanes, a group whose locked lanes all fail (its deskewed output stops)."""
+    ex = export_block("lvds", {"lanes": 4, "word_bits": 12}, tmp_path / "lvds")
+    r = icarus(tmp_path / "lvds")
+    assert r.returncode == 0 and f"PASS {ex.n_out} beats" in r.stdout, r.stdout[-2000:]

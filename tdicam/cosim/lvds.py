@@ -444,7 +444,8 @@ def expected_outputs(link, golden, *, lanes, cycles, retrains=()):
     cycle (sender word order from the data segment's first sync), or None for a lane that
     is not locked at the data start (its column must read 0). Lanes that stop being locked
     inside a segment are listed in the segment's ``dying`` set (checked only for 0 after
-    their error shows).
+    their error shows); when every locked lane of a group fails, its segment ends at the
+    cycle the last error shows.
     """
     starts = golden.starts
     stops = starts[1:] + [int(cycles)]
@@ -479,6 +480,13 @@ def expected_outputs(link, golden, *, lanes, cycles, retrains=()):
                             dying[i - grp * lanes] = errs[0]
                     else:
                         cols.append(None)
+                if len(dying) == len(locked):
+                    # every lane of the deskew failed: its mask is empty from the last
+                    # error on, and the output stops after that cycle
+                    n_words = min(n_words, max(dying.values()) - k_first + 1)
+                    cols = [c if c is None else c[:n_words] for c in cols]
+                    if n_words <= 0:
+                        continue
                 per_group[grp].append((k_first, n_words, cols, dying))
     return per_group
 
