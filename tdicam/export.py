@@ -44,7 +44,8 @@ from .verilog import convert
 
 __all__ = ["Export", "Design", "HARNESSES", "export_block", "export_files", "design_files",
            "write_design", "stream_design", "stream_ports_rows", "run_binary",
-           "select_vectors", "golden_params", "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
+           "select_vectors", "golden_params", "golden_case_arrays", "block_rows",
+           "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
 
 #: Input beats an export carries at most (cases that would pass it are left out), so that
 #: Icarus runs the testbench in about a minute.
@@ -65,7 +66,7 @@ class Export:
     files: list
 
 
-def _case_arrays(blk, params):
+def golden_case_arrays(blk, params):
     """(case name, arrays) for the golden cases of ``blk`` at exactly ``params``, loaded
     from the verified golden store; when no stored case has these parameters, the block's
     case generators are run with them (the golden model computes the expected outputs)."""
@@ -111,7 +112,7 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     beats (only the first that fits for a block whose state survives a reset, see
     ``Block.reset_clears_state``). Returns (stim, exp, case names).
     """
-    found = _case_arrays(blk, params)
+    found = golden_case_arrays(blk, params)
     if not found:
         raise TdicamError(f"block {blk.name} has no golden vectors at "
                           + ", ".join(f"{k}={v}" for k, v in params.items())
@@ -349,7 +350,7 @@ HARNESSES = {"lvds": "tdicam.export_lvds:lvds_export"}
 def _stream_export(blk, params, *, seed, idle, backpressure, max_beats):
     top = _stream_top(blk, params)
     stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
-    d = stream_design(blk.name, blk.summary, _block_rows(blk, params), params, top, stim, exp,
+    d = stream_design(blk.name, blk.summary, block_rows(blk, params), params, top, stim, exp,
                       cases=cases, seed=seed, idle=idle, backpressure=backpressure)
     return d, cases, len(stim), len(exp)
 
@@ -405,14 +406,15 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
                   checks=checks, plusargs=plusargs)
 
 
-def _block_rows(blk, params):
+def block_rows(blk, params):
+    """README parameter rows (name, value, meaning) of ``blk`` at ``params``."""
     return [(p.name, params[p.name], p.help) for p in blk.params]
 
 
 def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpressure=0.1):
     """{relative path: text} of the export folder for stimulus ``stim`` and expected
     output ``exp`` (:class:`~tdicam.beats.Beats`) of ``blk``'s Verilog top ``top``."""
-    return design_files(stream_design(blk.name, blk.summary, _block_rows(blk, params), params,
+    return design_files(stream_design(blk.name, blk.summary, block_rows(blk, params), params,
                                       top, stim, exp, cases=cases, seed=seed, idle=idle,
                                       backpressure=backpressure))
 

@@ -34,7 +34,7 @@ from .blocks.lvds import link_from_arrays
 from .cosim import lvds as cl
 from .cosim import tbgen
 from .errors import TdicamError
-from .export import Design, _block_rows, _case_arrays
+from .export import Design, block_rows, golden_case_arrays
 from .hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from .model import lvds as model
 from .verilog import convert
@@ -75,8 +75,9 @@ def _fields(n, w):
 
 def lvds_vectors(blk, params):
     """The link and expected-result memory files of every golden case of ``lvds`` at
-    ``params``: ({file name: text}, case names, groups, counts dict)."""
-    found = _case_arrays(blk, params)
+    ``params``: ({file name: text}, case names, counts: groups, slots (lanes with the
+    pads), events, outputs and word clocks of every group)."""
+    found = golden_case_arrays(blk, params)
     if not found:
         raise TdicamError("block lvds has no golden vectors at these parameters; choose "
                           "parameters of one of its golden cases (tdicam golden check lvds "
@@ -426,7 +427,7 @@ def lvds_export(blk, params, *, seed=1, idle=0.1, backpressure=0.1, max_beats=No
         f"with the first difference (output word index or lane, case, cycle, expected, "
         f"got) and exits non-zero through `$fatal`.")
     d = Design(name="lvds", core="tdicam:blocks:lvds", summary=blk.summary, params=params,
-               param_rows=_block_rows(blk, params), rtl=convert(top, "lvds"), tb=tb,
+               param_rows=block_rows(blk, params), rtl=convert(top, "lvds"), tb=tb,
                vectors=files, ports=ports,
                latency=f"{top.latency} word clocks from the raw word carrying the last lane's "
                        f"first sync word to `o_valid`; no backpressure (the sensor cannot be "

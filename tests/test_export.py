@@ -286,6 +286,20 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     assert r.returncode != 0 and "FAIL beat 77 " in r.stdout, r.stdout
 
 
+def test_pipeline_export_bad_scenes_are_one_line(tmp_path):
+    text = Path(CHAIN).read_text()
+    scenes = {"garbage.toml": ("garbage = [\n", "invalid TOML"),
+              "charge.toml": (text.replace("stages = 8\n", 'stages = 8\ndomain = "charge"\n'),
+                              "only a digital-TDI chain has a gateware pipeline")}
+    for name, (body, message) in scenes.items():
+        (tmp_path / name).write_text(body)
+        r = cli("export", "pipeline", "--scene", str(tmp_path / name), "-o",
+                str(tmp_path / "out"))
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert message in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_pipeline_export_rtl_is_what_tdicam_verilog_writes(tmp_path):
     out = tmp_path / "chain"
     r = cli("export", "pipeline", "--scene", CHAIN, "--lines", "2", "-o", str(out))
