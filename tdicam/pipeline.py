@@ -393,9 +393,21 @@ def top(p, data=None, *, taps=False):
 
 
 def verilog(p, data=None, *, taps=False):
-    """Deterministic Verilog text of the top (module ``pipeline``)."""
+    """Deterministic Verilog text of the top (module ``pipeline``), after
+    :func:`verilog_header`."""
     from .verilog import convert
-    return convert(top(p, data, taps=taps), "pipeline")
+    return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
+
+
+def verilog_header(p, *, taps=False):
+    """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
+    (no path), the blocks in order with their parameters, channels, frame and lines."""
+    import os
+    from .verilog import header
+    return header("pipeline", {
+        "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
+        "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
+        "taps": taps} | {s.block: s.params for s in p.steps})
 
 
 def golden(p, data):
@@ -502,19 +514,14 @@ def verilog_command(extra, output, *, show_help=False):
     import sys
     if show_help:
         extra = ["--help"]
-    import os
-
     from .outputs import check_file, write_file
-    from .verilog import convert, header
+    from .verilog import convert
     if output is not None and not show_help:
         check_file(output)
     ns, p, data = _scene_args("tdicam verilog pipeline", extra)
     ax = top(p, data, taps=ns.taps)
     ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
-    text = convert(ax, "pipeline", header=header("pipeline", {
-        "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
-        "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
-        "taps": ns.taps} | {s.block: s.params for s in p.steps}))
+    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps))
     if output is not None:
         write_file(output, text)
         print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "

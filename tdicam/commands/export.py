@@ -1,6 +1,7 @@
 """``tdicam export BLOCK [--PARAM VALUE ...] -o DIR``: a block as a FuseSoC core with a
 self-checking Verilog testbench and its golden vectors (see :mod:`tdicam.export`)."""
 
+import argparse
 import sys
 
 from .. import blocks
@@ -18,8 +19,11 @@ def register(sub):
                     "FuseSoC core (tdicam_BLOCK.core) and a README. The testbench runs in "
                     "any Verilog simulator with no tdicam, cocotb or Python: it prints "
                     "'PASS n beats' or 'FAIL' with the first bad beat and exits non-zero. "
-                    "'tdicam export BLOCK --help' lists the block's parameters.")
-    p.add_argument("block", nargs="?", help=f"one of: {', '.join(blocks.names())}")
+                    "'tdicam export BLOCK --help' lists the block's parameters; "
+                    "'tdicam export pipeline --scene S.toml -o DIR' exports a scene's "
+                    "whole chain ('tdicam export pipeline --help').")
+    p.add_argument("block", nargs="?",
+                   help=f"one of: {', '.join(blocks.names())}, or pipeline")
     p.add_argument("-o", "--output", help="export folder (created)")
     p.add_argument("--force", action="store_true",
                    help="replace a folder that holds something else")
@@ -29,17 +33,61 @@ def register(sub):
     p.set_defaults(func=_run, _parser=p, _raw=True)
 
 
+class _OneLine(argparse.ArgumentParser):
+    """An argument parser whose errors are one-line :class:`TdicamError`\ s."""
+
+    def error(self, message):
+        raise TdicamError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
+def _pipeline(args):
+    """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
+    [--memory auto|chip|ddr] [--device D] -o DIR``."""
+    from ..export_pipeline import MEMORY, export_pipeline
+    ap = _OneLine(
+        prog="tdicam export pipeline",
+        description="A scene's whole [pipeline] as one exported design: the top as "
+                    "'tdicam verilog pipeline --scene' writes it, and a self-checking "
+                    "testbench whose stimulus is the scene's raw frames and whose expected "
+                    "output is the golden chain's.",
+        epilog="-o DIR, --force and --seed as for a block (tdicam export --help).")
+    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
+                    "[tdi].stages)")
+    ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")
+    ap.add_argument("--width", type=int, help="only the first N columns (default: all)")
+    ap.add_argument("--memory", choices=tuple(MEMORY), default="auto",
+                    help="TDI partial sums on chip or in DDR (auto: by --device's RAM)")
+    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    if args.help:
+        ap.print_help()
+        return 0
+    ns = ap.parse_args(list(args.extra))
+    if not args.output:
+        raise TdicamError("export needs -o DIR (the export folder)")
+    ex = export_pipeline(ns.scene, args.output, force=args.force, seed=args.seed,
+                         stages=ns.stages, lines=ns.lines, width=ns.width, memory=ns.memory,
+                         device=ns.device)
+    print(f"wrote {ex.path}: pipeline {ex.params['blocks']} ({ex.params['width']} columns, "
+          f"{ex.params['lines']} lines), {ex.n_in} stimulus beats, {ex.n_out} expected beats",
+          file=sys.stderr)
+    return 0
+
+
 def _run(args):
+    if args.seed < 1 or args.seed > 0x7fffffff:
+        raise TdicamError(f"--seed = {args.seed} is out of range; valid: 1..2147483647")
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.export_pipeline
+        return _pipeline(args)
     blk = pick_block(args, "without parameters: those of most of the block's golden cases")
     if blk is None:
         return 0
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
-    if args.seed < 1 or args.seed > 0x7fffffff:
-        raise TdicamError(f"--seed = {args.seed} is out of range; valid: 1..2147483647")
     params = parse_block_params(blk, args.extra) if args.extra else {}
     ex = export_block(blk, params, args.output, force=args.force, seed=args.seed)
     print(f"wrote {ex.path}: {ex.block} ({', '.join(f'{k}={v}' for k, v in ex.params.items())}"
-          f"), {ex.n_in} stimulus beats, {ex.n_out} expected beats from golden cases "
+          f"), {ex.n_in} input beats (lvds: word clocks), {ex.n_out} expected beats from golden "
+          f"cases "
           f"{', '.join(ex.cases)}", file=sys.stderr)
     return 0

@@ -38,7 +38,7 @@ from . import build_sources, run_cocotb, tbgen
 from .codec import _digits, _undigits
 
 __all__ = ["LinkRun", "run_link", "run_amaranth", "check_run", "expected_outputs", "testbench", "LMAX",
-           "linkcheck_tap"]
+           "linkcheck_tap", "link_files", "dead_lane"]
 
 LMAX = 1024          # lanes the testbench tables hold (all groups of one run)
 _NSCHED = 8
@@ -335,7 +335,36 @@ def _parse(text, widths):
     return out
 
 
-def _dead_lane(seed):
+def link_files(lanes, link, retrains=()):
+    """{file name: bytes} of the link the testbench evaluates: ``tab.hex`` (per lane, epoch
+    and tap: bit delay and capture-failure threshold of :func:`tdicam.model.lvds.
+    lane_tables`), ``info.hex`` (per lane: change word, data and jitter keys), and with a
+    schedule / retrains ``sched.hex`` / ``retrain.hex``. ``lanes``: the link's lanes,
+    padded to whole groups."""
+    delay = np.zeros((len(lanes), 2, model.N_TAPS), np.uint64)
+    thresh = np.zeros_like(delay)
+    info = np.zeros((len(lanes), 3), np.uint64)
+    for i, lane in enumerate(lanes):
+        d, r = model.lane_tables(lane)
+        if d.max() > 255 - 2 * link.word_bits:
+            raise TdicamError(f"lane {i}: skew {lane.skew_ps} ps is beyond the testbench's "
+                              f"255-bit delay range")
+        delay[i], thresh[i] = d, r
+        jkey, dkey = model._keys(lane)
+        info[i] = (jkey, dkey, 0xFFFFFFFF if lane.change_at is None else lane.change_at)
+    tab = (delay.reshape(-1) << np.uint64(17)) | thresh.reshape(-1)
+    files = {"tab.hex": _hex_lines([tab], [7]),
+             "info.hex": _hex_lines([info[:, 2], info[:, 1], info[:, 0]], [8, 8, 8])}
+    if link.schedule:
+        sched = np.array([(int(m == "data") << 32) | s for s, m in link.schedule], np.uint64)
+        files["sched.hex"] = _hex_lines([sched], [9])
+    if retrains:
+        files["retrain.hex"] = _hex_lines([np.array(sorted(retrains))], [8])
+    return files
+
+
+def dead_lane(seed):
+    """A pad lane (no eye): what fills a group of lanes up."""
     return model.Lane(skew_ps=0.0, eye_ps=0.0, seed=seed)
 
 
@@ -360,33 +389,15 @@ def run_link(link, *, params=None, cycles, retrains=(), n_check=16, sim="verilat
         raise TdicamError(f"at most {_NSCHED} schedule entries and {_NRETRAIN} retrains")
     if not 0 <= n_check <= 255:
         raise TdicamError(f"n_check = {n_check} is out of range; valid: 0..255")
-    lanes = list(link.lanes) + [_dead_lane(10_000 + i) for i in range(groups * n - n_link)]
+    lanes = list(link.lanes) + [dead_lane(10_000 + i) for i in range(groups * n - n_link)]
     top = blk.build(params)
     dut = convert(top, "lvds")
     tb, mask_digits = testbench(top)
     bdir, build_time = build_sources("lvds", params, sim, {"lvds.v": dut, "tb.v": tb})
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
-    delay = np.zeros((len(lanes), 2, model.N_TAPS), np.uint64)
-    thresh = np.zeros_like(delay)
-    info = np.zeros((len(lanes), 3), np.uint64)
-    for i, lane in enumerate(lanes):
-        d, r = model.lane_tables(lane)
-        if d.max() > 255 - 2 * link.word_bits:
-            raise TdicamError(f"lane {i}: skew {lane.skew_ps} ps is beyond the testbench's "
-                              f"255-bit delay range")
-        delay[i], thresh[i] = d, r
-        jkey, dkey = model._keys(lane)
-        info[i] = (jkey, dkey, 0xFFFFFFFF if lane.change_at is None else lane.change_at)
-    tab = (delay.reshape(-1) << np.uint64(17)) | thresh.reshape(-1)
-    (rundir / "tab.hex").write_bytes(_hex_lines([tab], [7]))
-    (rundir / "info.hex").write_bytes(_hex_lines([info[:, 2], info[:, 1], info[:, 0]],
-                                                 [8, 8, 8]))
-    if link.schedule:
-        sched = np.array([(int(m == "data") << 32) | s for s, m in link.schedule], np.uint64)
-        (rundir / "sched.hex").write_bytes(_hex_lines([sched], [9]))
-    if retrains:
-        (rundir / "retrain.hex").write_bytes(_hex_lines([np.array(sorted(retrains))], [8]))
+    for name, text in link_files(lanes, link, retrains).items():
+        (rundir / name).write_bytes(text)
     plusargs = [f"+groups={groups}", f"+cycles={int(cycles)}", f"+linkcheck={int(linkcheck)}",
                 f"+n_sched={len(link.schedule)}", f"+n_rt={len(retrains)}",
                 f"+train_word={link.train_word}", f"+sync_word={link.sync_word}",
@@ -433,7 +444,8 @@ def expected_outputs(link, golden, *, lanes, cycles, retrains=()):
     cycle (sender word order from the data segment's first sync), or None for a lane that
     is not locked at the data start (its column must read 0). Lanes that stop being locked
     inside a segment are listed in the segment's ``dying`` set (checked only for 0 after
-    their error shows).
+    their error shows); when every locked lane of a group fails, its segment ends at the
+    cycle the last error shows.
     """
     starts = golden.starts
     stops = starts[1:] + [int(cycles)]
@@ -468,6 +480,13 @@ def expected_outputs(link, golden, *, lanes, cycles, retrains=()):
                             dying[i - grp * lanes] = errs[0]
                     else:
                         cols.append(None)
+                if len(dying) == len(locked):
+                    # every lane of the deskew failed: its mask is empty from the last
+                    # error on, and the output stops after that cycle
+                    n_words = min(n_words, max(dying.values()) - k_first + 1)
+                    cols = [c if c is None else c[:n_words] for c in cols]
+                    if n_words <= 0:
+                        continue
                 per_group[grp].append((k_first, n_words, cols, dying))
     return per_group
 
