@@ -8,7 +8,7 @@ the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr
 
 from ..model.ddr import ADDR_PER_WORD, tdi_ddr_check
 from ..model.tdi import check_params as tdi_check_params
-from . import Block, Case, Param
+from . import Block, Case, Param, Use
 from . import tdi as _tdi
 from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
@@ -104,4 +104,5 @@ BLOCK = Block(
     model_version="tdi_ddr-1",
     to_beats=_tdi.to_beats,
     **_tdi.SCENE,
+    pipeline=Use(**_tdi.PIPELINE),
 )
