@@ -157,16 +157,20 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
          device="ecp5-85f"):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
-    ``spill``: keep a block's large memory (TDI's partial sums) in DDR through its ``spill``
-    variant (``tdi_ddr`` with the simulation MIG model); ``None``: when that memory exceeds
-    ``device``'s on-chip RAM (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`).
+    ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
+    ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
+    as below whatever the scene says; ``None``:
+    as the scene places it (:attr:`tdicam.blocks.Use.placement`, ``[pipeline.tdi].memory``),
+    ``auto`` meaning DDR when it exceeds ``device``'s on-chip RAM
+    (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`). A spill uses the DDR interface of the
+    scene's ``[ddr]`` section.
 
     Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
     a block without a gateware stage, a per-exposure block after a line-making one, a
     merging block without two channels, a pixel width a block cannot take, a memory that
-    does not fit on chip with no DDR variant, a spill asked of a chain with nothing to spill.
+    does not fit on chip with no DDR variant, a spill without a ``[ddr]`` section, a DDR
+    too slow for the scene's line rate, a spill asked of a chain with nothing to spill.
     """
-    from .model.plan import onchip_budget
     from . import blocks as registry
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
@@ -191,12 +195,13 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
             ctx.block = name
             step, out_bits = u.step(ctx)
             registry.get(name).resolve(step.params)
-            need = u.memory_bits(step) if u.memory_bits is not None else 0
-            go = spill if spill is not None else need > onchip_budget(device)
-            if go and u.spill is None and (spill is None or u.memory_bits is not None):
-                raise TdicamError(f"its memory ({need} bits) does not fit the {device}'s "
-                                  f"on-chip RAM and it has no DDR variant")
-            if go and u.spill is not None:
+            go, why = _spills(u, step, scene, spill, device)
+            if go and u.spill is None:
+                raise TdicamError(f"{why} and it has no DDR variant")
+            if go and scene.ddr is None:
+                raise TdicamError(f"{why}: it spills to DDR through {u.spill}, but the scene "
+                                  f"has no [ddr] section (the DDR interface a spill uses)")
+            if go:
                 spilled = True
                 ctx.block = name = u.spill
                 step, out_bits = _use(name).step(ctx)
@@ -207,13 +212,29 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
         ctx.bits = out_bits
         ctx.after_lines = ctx.after_lines or u.lines
         prev = name
-    if spill and not spilled:
+    if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
                           f"{' -> '.join(names)} keeps its memory in DDR")
     return Plan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                 source=str(scene.source))
+
+
+def _spills(u, step, scene, spill, device):
+    """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
+    from .model.plan import onchip_budget
+    if u.memory_bits is None:
+        return False, ""
+    need, budget = u.memory_bits(step), onchip_budget(device)
+    if spill is not None:
+        asked, how = {True: "ddr", False: "chip", "auto": "auto"}[spill], "the caller"
+    else:
+        asked, how = (u.placement(scene) if u.placement else "auto"), "the scene"
+    if asked == "auto":
+        return need > budget, (f"its {u.memory} ({need} bits) exceed the {device}'s on-chip "
+                               f"RAM ({budget} bits)")
+    return asked == "ddr", f"its {u.memory} ({need} bits) are placed in DDR by {how}"
 
 
 def identity_data(p):
@@ -315,9 +336,10 @@ def _scene_args(prog, extra):
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
-    ap.add_argument("--memory", choices=("auto", "chip", "ddr"), default="auto",
+    ap.add_argument("--memory", choices=("auto", "chip", "ddr"),
                     help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
-                         "--device's block RAM)")
+                         "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
+                         "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     try:
         ns = ap.parse_args(list(extra))
@@ -328,7 +350,7 @@ def _scene_args(prog, extra):
     from .scene import load_scene
     sc = load_scene(ns.scene)
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
-             spill={"auto": None, "chip": False, "ddr": True}[ns.memory])
+             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
         from .model.calib import load_image

@@ -189,9 +189,15 @@ class Use:
         Acts on each exposure frame (must come before a ``lines`` block).
     memory_bits : callable(step) -> int, or None
         On-chip memory the block needs (``memory`` says what it holds).
+    memory : str
+        What that memory holds, for messages ("partial sums").
+    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
+        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
+        RAM; None: always ``auto``).
     spill : str or None
         The registered block that keeps that memory in DDR instead (same stream, ports and
-        golden model), used when the plan says it must spill.
+        golden model), used when the plan says it must spill; its ``step`` takes the DDR
+        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
     """
 
     step: Callable
@@ -204,6 +210,7 @@ class Use:
     per_frame: bool = False
     memory_bits: Callable | None = None
     memory: str = "memory"
+    placement: Callable | None = None
     spill: str | None = None
 
 

@@ -387,5 +387,5 @@ BLOCK = Block(
     to_beats=_to_beats,
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
-                 spill="tdi_ddr"),
+                 placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr"),
 )

@@ -78,6 +78,13 @@ def _cases():
     ]
 
 
+def _pipeline_step(ctx):
+    """``tdi``'s step, its partial sums at the scene's ``[ddr].base``."""
+    from dataclasses import replace
+    step, out_bits = _tdi.PIPELINE["step"](ctx)
+    return replace(step, params={**step.params, "base": ctx.scene.ddr.base}), out_bits
+
+
 BLOCK = Block(
     name="tdi_ddr",
     summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (SPEC 3.1 + 3.8)",
@@ -104,5 +111,5 @@ BLOCK = Block(
     model_version="tdi_ddr-1",
     to_beats=_tdi.to_beats,
     **_tdi.SCENE,
-    pipeline=Use(**_tdi.PIPELINE),
+    pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),
 )
