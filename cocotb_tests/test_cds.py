@@ -94,3 +94,23 @@ def test_mismatch_names_the_pixel_and_leaves_a_waveform(mode, tmp_path):
     t = cycle * 10_000                                     # 10 ns clock, ps
     assert 0 < start <= t <= end                           # a window, not from time 0
     assert t - (WAVE_WINDOW + 10) * 10_000 <= start and end <= t + (WAVE_WINDOW + 10) * 10_000
+
+
+def test_sim_command_prints_the_mismatch_and_its_waveform(monkeypatch, capsys, tmp_path):
+    """``tdicam sim`` on a case whose expected output is wrong: exit 1, the row names the
+    pixel and the waveform, which exists."""
+    from tdicam.cli import main
+    real = golden.load
+
+    def corrupted(block, case):
+        arrays, params = real(block, case)
+        arrays["out"][0, 2, 3] ^= 1
+        return arrays, params
+
+    monkeypatch.setattr(golden, "load", corrupted)
+    assert main(["sim", "cds", "--sim", "icarus", "--fast", "--case", "random_12b",
+                 "--wave-dir", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "first at frame 0 line 2 column 3 (segment 0 beat 51)" in out, out
+    wave = tmp_path / "cds-random_12b-icarus-fast.fst"
+    assert f"waveform {wave} (cycles " in out and wave.exists()

@@ -396,7 +396,8 @@ class CaseRun:
     waveform : dict or None
         On a mismatch, when :func:`run_beats` was given a ``wave_dir``: ``path`` of the FST
         file, ``cycles`` (first, last) it holds and ``cycle`` of the first mismatching
-        output transfer (see :func:`waveform`).
+        output transfer (see :func:`waveform`); ``path`` None and ``error`` when it could
+        not be written (no Icarus).
     """
 
     block: str
@@ -438,9 +439,12 @@ class CaseRun:
     def detail(self):
         """The comparison's message and, if written, where the waveform is."""
         w = self.waveform
-        return self.comparison.message + ("" if w is None else (
-            f"; waveform {w['path']} (cycles {w['cycles'][0]}..{w['cycles'][1]}, mismatch "
-            f"at cycle {w['cycle']}, Icarus)"))
+        if w is None:
+            return self.comparison.message
+        if w["path"] is None:
+            return f"{self.comparison.message}; no waveform: {w['error']}"
+        return (f"{self.comparison.message}; waveform {w['path']} (cycles {w['cycles'][0]}.."
+                f"{w['cycles'][1]}, mismatch at cycle {w['cycle']}, Icarus)")
 
     def row(self):
         """The dict ``tdicam sim`` prints and returns per case."""
@@ -449,7 +453,7 @@ class CaseRun:
                 "mismatches": self.comparison.mismatches, "cycles": r.cycles,
                 "wall_s": r.wall, "build_s": r.build_time, "timeout": r.timeout,
                 "message": self.detail(),
-                "waveform": None if self.waveform is None else self.waveform["path"]}
+                "waveform": (self.waveform or {}).get("path")}
 
 
 def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpressure=0.0,
@@ -480,9 +484,12 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
     run = CaseRun(blk.name, sim, mode, res, compare(res.out, exp), len(stim), len(exp),
                   elements)
     if wave_dir is not None and run.comparison.first is not None and sim != AMARANTH:
-        run.waveform = waveform(blk, params, stim, exp, run.comparison.first, wave_dir,
-                                idle=idle, backpressure=backpressure, seed=seed,
-                                label=label or f"{sim}-{mode}-seed{seed}")
+        try:
+            run.waveform = waveform(blk, params, stim, exp, run.comparison.first, wave_dir,
+                                    idle=idle, backpressure=backpressure, seed=seed,
+                                    label=label or f"{sim}-{mode}-seed{seed}")
+        except TdicamError as exc:     # the mismatch is the news; say why there is no wave
+            run.waveform = {"path": None, "error": str(exc)}
     return run
 
 
