@@ -1,9 +1,14 @@
 """Co-simulation of the generated ``cds`` Verilog against its golden model."""
 
+import re
+import struct
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from tdicam import blocks, golden
+from tdicam.cosim import WAVE_WINDOW
 from tdicam.cosim.codec import frames_to_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model.cds import cds
@@ -49,3 +54,63 @@ def test_long_stream_crosses_memory_chunks():
 def test_reset_mid_frame_case_is_really_cut():
     arrays, _ = golden.load("cds", "reset_mid_frame_12b")
     assert 0 < int(arrays["reset_before"][0]) < arrays["signal"][0].size
+
+
+def _fst_times(path):
+    """Start and end time (ps) from an FST file's header block."""
+    raw = Path(path).read_bytes()
+    assert raw[0] == 0                                     # header block first
+    _, start, end = struct.unpack(">QQQ", raw[1:25])
+    return start, end
+
+
+@pytest.mark.parametrize("mode", ["beat", "fast"])
+def test_mismatch_names_the_pixel_and_leaves_a_waveform(mode, tmp_path):
+    """A corrupted expected pixel fails the check with block, frame/line/column, expected
+    and received values and the path of an FST window around the mismatching cycle."""
+    hit = (1, 5, 7)                                        # frame, line, column
+
+    def corrupt(arrays):
+        arrays["out"][hit] ^= 1
+
+    with pytest.raises(AssertionError) as info:
+        check_case("cds", "random_12b", sim="icarus", mode=mode, idle=0.3, backpressure=0.3,
+                   seed=5, corrupt=corrupt, wave_dir=tmp_path)
+    msg = str(info.value).splitlines()[0]
+    arrays, _ = golden.load("cds", "random_12b")
+    good = int(arrays["out"][hit])
+    assert msg.startswith(f"cds icarus {mode}: 1 mismatches; first at frame 1 line 5 "
+                          f"column 7 (segment 0 beat {(1 * 16 + 5) * 24 + 7}): expected "
+                          f"{good ^ 1}, received {good} "), msg
+    m = re.search(r"waveform (\S+) \(cycles (\d+)\.\.(\d+), mismatch at cycle (\d+), Icarus\)",
+                  msg)
+    assert m, msg
+    wave, lo, hi, cycle = Path(m[1]), int(m[2]), int(m[3]), int(m[4])
+    assert wave.parent == tmp_path and wave.exists()
+    assert (lo, hi) == (cycle - WAVE_WINDOW, cycle + WAVE_WINDOW)
+    # the output transfer of that beat is cycle ~ beat / (1 - 0.3)^2 after the reset
+    assert (1 * 16 + 5) * 24 + 7 < cycle < 4 * ((1 * 16 + 5) * 24 + 7)
+    start, end = _fst_times(wave)
+    t = cycle * 10_000                                     # 10 ns clock, ps
+    assert 0 < start <= t <= end                           # a window, not from time 0
+    assert t - (WAVE_WINDOW + 10) * 10_000 <= start and end <= t + (WAVE_WINDOW + 10) * 10_000
+
+
+def test_sim_command_prints_the_mismatch_and_its_waveform(monkeypatch, capsys, tmp_path):
+    """``tdicam sim`` on a case whose expected output is wrong: exit 1, the row names the
+    pixel and the waveform, which exists."""
+    from tdicam.cli import main
+    real = golden.load
+
+    def corrupted(block, case):
+        arrays, params = real(block, case)
+        arrays["out"][0, 2, 3] ^= 1
+        return arrays, params
+
+    monkeypatch.setattr(golden, "load", corrupted)
+    assert main(["sim", "cds", "--sim", "icarus", "--fast", "--case", "random_12b",
+                 "--wave-dir", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "first at frame 0 line 2 column 3 (segment 0 beat 51)" in out, out
+    wave = tmp_path / "cds-random_12b-icarus-fast.fst"
+    assert f"waveform {wave} (cycles " in out and wave.exists()

@@ -96,7 +96,8 @@ def test_run_rtl_crop_on_icarus(tmp_path):
 def test_tdi_spilled_to_ddr_matches():
     """TDI's partial sums in DDR (tdi_ddr behind the simulation MIG model), Icarus."""
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
-        "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6}})
+        "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6},
+        "target": {"period_px": 3.0}})
     assert [s.block for s in pl.plan(sc).steps] == ["tdi"]          # fits on chip
     p = pl.plan(sc, spill=True)
     assert [s.block for s in p.steps] == ["tdi_ddr"]

@@ -8,23 +8,22 @@ top (:class:`tdicam.hdl.pipeline.Pipeline` behind :class:`~tdicam.hdl.axis.AxisT
 :func:`stimulus` makes the top's input beats; :mod:`tdicam.rtl` co-simulates the one
 against the other.
 
-Each block's golden function, stream key and side inputs come from the block registry
-(:mod:`tdicam.blocks`); what the registry does not say -- how a scene sets the block's
-parameters and where the gateware takes its side inputs from -- is one entry of
-:data:`USES`, keyed by block name. The orchestration below names no block.
+Everything about a block comes from its registry entry (:mod:`tdicam.blocks`): its golden
+function, stream key and side inputs, and in :attr:`tdicam.blocks.Block.pipeline` (a
+:class:`tdicam.blocks.Use`) how a scene sets its parameters and where the gateware takes
+its side inputs from. The orchestration below names no block.
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from .errors import TdicamError
 
-__all__ = ["Step", "Plan", "SceneData", "USES", "plan", "top", "golden", "stimulus",
+__all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "verilog_command", "synth_command",
            "ECP5_85F"]
 
@@ -95,188 +94,38 @@ class SceneData:
 
 
 # --------------------------------------------------------------------------------------
-# what each block contributes
+# what each block contributes: its registry entry's ``pipeline`` (tdicam.blocks.Use)
 # --------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class Use:
-    """How a block takes part in a pipeline.
-
-    The golden side comes from the block registry (:attr:`tdicam.blocks.Block.golden` on
-    scene arrays: the lane's elements are the block's stream and its ``pixel`` side inputs
-    in registry order, ``run`` side inputs are the step's ``inputs``); what the registry
-    does not say -- how a scene sets the block and where the gateware's side inputs come
-    from -- is here:
-
-    ``step(ctx) -> (Step, out_bits)`` makes its parameters from the scene context (the
-    chain's pixel width so far in ``ctx.bits``); ``hw(step, data) -> stage`` its
-    :mod:`tdicam.hdl.pipeline` stage; ``side(step, data, lane) -> dict`` scene arrays of
-    ``pixel`` side inputs that do not ride in the lane (NUC's coefficients).
-    ``merge``: takes every lane; ``elems``: input elements per lane; ``lines``: its output
-    frames are single lines (one per input frame, after a fill); ``per_frame``: acts on each
-    exposure frame (must come before a ``lines`` block). ``memory_bits(step)``: on-chip
-    memory the block needs; ``spill``: the registered block that keeps that memory in DDR
-    instead (same stream, ports and golden model), used when the plan says it must spill.
-    """
-
-    step: Callable
-    hw: Callable
-    side: Callable | None = None
-    merge: bool = False
-    elems: int = 1
-    lines: bool = False
-    per_frame: bool = False
-    memory_bits: Callable | None = None
-    spill: str | None = None
-
-
 @dataclass
-class _Ctx:
+class Context:
+    """What a block's :attr:`tdicam.blocks.Use.step` sees: the ``scene``, TDI stages ``m``,
+    frame ``width``, output ``lines``, the chain's pixel width so far (``bits``), whether a
+    line-making block came before (``after_lines``) and the block being planned."""
+
     scene: object
     m: int
     width: int
     lines: int
     bits: int
-    after_tdi: bool = False
+    after_lines: bool = False
     block: str = ""
 
 
-def _bits_of(maxval):
-    return max(1, int(maxval).bit_length())
-
-
-def _step_cds(ctx):
-    return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
-
-
-def _hw_lane(kind_name, elems=1, side=None):
-    """A :class:`~tdicam.hdl.pipeline.LaneStage` (or ``"merge"``: ``MergeStage``) of the
-    block's registered component; ``side(step, data)`` gives its joined side stream."""
-    def make(step, data):
-        from .hdl.pipeline import LaneStage, MergeStage
-        comp = _component(step)
-        kind = MergeStage if kind_name == "merge" else LaneStage
-        return kind(step.block, lambda lane: comp(),
-                    elems=elems, ports=tuple(step.ports),
-                    side=None if side is None else side(step, data),
-                    group="height" if step.group is not None else None)
-    return make
-
-
-def _component(step):
-    """The core (behind AxisTop) of the block's registered Verilog top."""
+def uses():
+    """Block name -> its :class:`tdicam.blocks.Use`, for every block with a gateware stage
+    in a pipeline."""
     from . import blocks
-    blk = blocks.get(step.block)
-    params = blk.resolve(step.params)
-
-    def make():
-        wrapper = blk.top(**params)
-        wrapper._MustUse__silence = True   # only its core is used
-        wrapper.core._MustUse__silence = True   # elaborated with the pipeline, if it is
-        return wrapper.core
-    return make
-
-
-def _step_nuc(ctx):
-    opt = ctx.scene.pipeline.nuc
-    return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
-                        "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
-                        "offset_frac_bits": 0}), ctx.bits
-
-
-def _nuc_fmt(step):
-    from .model.nuc import NucFormat
-    p = step.params
-    return NucFormat(p["gain_int_bits"], p["gain_frac_bits"], p["offset_bits"],
-                     p["offset_frac_bits"])
-
-
-def _nuc_side(step, data):
-    """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
-    from .hdl.calib import CalibReader
-    from .hdl.pipeline import CalibRom, Link
-    from .model.calib import encode_image
-    fmt = _nuc_fmt(step)
-
-    def side(m, lane):
-        gain, offset = data.coeffs[lane]
-        rom = CalibRom(encode_image(gain, offset, fmt))
-        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], **fmt.params())
-        m.submodules[f"nuc_calib_rom{lane}"] = rom
-        m.submodules[f"nuc_calib{lane}"] = rd
-        m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),
-                     rom.o_stream.ready.eq(rd.i_stream.ready),
-                     rd.i_stream.payload.eq(rom.o_stream.payload)]
-        return Link.of_output(rd.o_stream)
-    return side
-
-
-def _nuc_arrays(step, data, lane):
-    gain, offset = data.coeffs[lane]
-    return {"gain": gain, "offset": offset}
-
-
-def _hdr_params(ctx):
-    h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
-    if len(g) != 2:
-        raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "
-                          f"{len(g)}")
-    return {"pixel_bits": ctx.bits, "threshold": h.threshold_dn, "band": h.band_dn,
-            "gain_pairs": f"{g[0]}:{g[1]}", "slope_frac_bits": h.slope_frac_bits}
-
-
-def _step_hdr(ctx):
-    from .model.hdr import hdr_config
-    p = _hdr_params(ctx)
-    return Step("hdr", p), hdr_config(**p).out_bits
-
-
-def _step_tdi(ctx):
-    from .model import tdi as tdi_model
-    t = ctx.scene.tdi
-    m, pb = ctx.m, ctx.bits
-    out_bits = t.output_bits if t.output == "saturate" else None
-    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
-        out_bits = None
-    d = 0 if t.direction == "forward" else 1
-    step = Step(ctx.block, {"width": ctx.width, "stages": m, "pixel_bits": pb,
-                        "out_bits": out_bits, "ppc": 1},
-                {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
-    return step, tdi_model.out_width(pb, m, out_bits)
-
-
-def _tdi_memory_bits(p):
-    from .model.tdi import full_bits
-    return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
-
-
-def _step_median3(ctx):
-    pb = max(ctx.bits, 8)
-    enh = bool(ctx.scene.pipeline.median3.edge_enhance)
-    p = {"width": ctx.width, "pixel_bits": pb, "enhance": enh}
-    if ctx.after_tdi:
-        return Step("median3", p, {"height": ctx.lines}, group=ctx.lines), pb
-    return Step("median3", p, {"height": ctx.m}), pb
-
-
-#: Block name -> how it takes part in a pipeline (see :class:`Use`).
-USES = {
-    "cds": Use(_step_cds, _hw_lane("lane", elems=2), elems=2, per_frame=True),
-    "nuc": Use(_step_nuc, _hw_lane("lane", side=_nuc_side), side=_nuc_arrays, per_frame=True),
-    "hdr": Use(_step_hdr, _hw_lane("merge"), merge=True, per_frame=True),
-    "tdi": Use(_step_tdi, _hw_lane("lane"), lines=True, spill="tdi_ddr",
-               memory_bits=lambda st: _tdi_memory_bits(st.params)),
-    "tdi_ddr": Use(_step_tdi, _hw_lane("lane"), lines=True),
-    "median3": Use(_step_median3, _hw_lane("lane")),
-}
+    return {b.name: b.pipeline for b in blocks.all_blocks() if b.pipeline is not None}
 
 
 def _golden_stage(step, data):
     """The block's golden stage from its registry entry."""
     from . import blocks
     from .model.pipeline import GoldenStage
-    use, blk = USES[step.block], blocks.get(step.block)
+    blk = blocks.get(step.block)
+    use = blk.pipeline
     params = blk.resolve(step.params)
     lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
 
@@ -292,10 +141,11 @@ def _golden_stage(step, data):
 
 
 def _use(name):
-    if name not in USES:
+    table = uses()
+    if name not in table:
         raise TdicamError(f"pipeline: block {name!r} has no gateware stage; blocks with one: "
-                          f"{', '.join(USES)}")
-    return USES[name]
+                          f"{', '.join(table)}")
+    return table[name]
 
 
 # --------------------------------------------------------------------------------------
@@ -307,16 +157,20 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
          device="ecp5-85f"):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
-    ``spill``: keep a block's large memory (TDI's partial sums) in DDR through its ``spill``
-    variant (``tdi_ddr`` with the simulation MIG model); ``None``: when that memory exceeds
-    ``device``'s on-chip RAM (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`).
+    ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
+    ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
+    as below whatever the scene says; ``None``:
+    as the scene places it (:attr:`tdicam.blocks.Use.placement`, ``[pipeline.tdi].memory``),
+    ``auto`` meaning DDR when it exceeds ``device``'s on-chip RAM
+    (:data:`tdicam.model.plan.ONCHIP_RAM_BITS`). A spill uses the DDR interface of the
+    scene's ``[ddr]`` section.
 
     Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
     a block without a gateware stage, a per-exposure block after a line-making one, a
     merging block without two channels, a pixel width a block cannot take, a memory that
-    does not fit on chip with no DDR variant, a spill asked of a chain with nothing to spill.
+    does not fit on chip with no DDR variant, a spill without a ``[ddr]`` section, a DDR
+    too slow for the scene's line rate, a spill asked of a chain with nothing to spill.
     """
-    from .model.plan import onchip_budget
     from . import blocks as registry
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
@@ -331,33 +185,34 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                           "top (the blocks other than tdi take one pixel per clock)")
     uses = [_use(n) for n in names]
     merge = any(u.merge for u in uses)
-    ctx = _Ctx(scene, m, w, n_lines, scene.sensor.bits)
+    ctx = Context(scene, m, w, n_lines, scene.sensor.bits)
     steps, prev, spilled = [], "input", False
     for name, u in zip(names, uses):
-        if u.per_frame and ctx.after_tdi:
+        if u.per_frame and ctx.after_lines:
             raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
                               f"{prev}, which sums them into lines")
         try:
             ctx.block = name
             step, out_bits = u.step(ctx)
             registry.get(name).resolve(step.params)
-            need = u.memory_bits(step) if u.memory_bits is not None else 0
-            go = spill if spill is not None else need > onchip_budget(device)
-            if go and u.spill is None and (spill is None or u.memory_bits is not None):
-                raise TdicamError(f"its memory ({need} bits) does not fit the {device}'s "
-                                  f"on-chip RAM and it has no DDR variant")
-            if go and u.spill is not None:
+            go, why = _spills(u, step, scene, spill, device)
+            if go and u.spill is None:
+                raise TdicamError(f"{why} and it has no DDR variant")
+            if go and scene.ddr is None:
+                raise TdicamError(f"{why}: it spills to DDR through {u.spill}, but the scene "
+                                  f"has no [ddr] section (the DDR interface a spill uses)")
+            if go:
                 spilled = True
                 ctx.block = name = u.spill
-                step, out_bits = USES[name].step(ctx)
+                step, out_bits = _use(name).step(ctx)
                 registry.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
         ctx.bits = out_bits
-        ctx.after_tdi = ctx.after_tdi or u.lines
+        ctx.after_lines = ctx.after_lines or u.lines
         prev = name
-    if spill and not spilled:
+    if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
                           f"{' -> '.join(names)} keeps its memory in DDR")
     return Plan(tuple(steps), lanes=2 if merge else 1,
@@ -366,16 +221,31 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                 source=str(scene.source))
 
 
+def _spills(u, step, scene, spill, device):
+    """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
+    from .model.plan import onchip_budget
+    if u.memory_bits is None:
+        return False, ""
+    need, budget = u.memory_bits(step), onchip_budget(device)
+    if spill is not None:
+        asked, how = {True: "ddr", False: "chip", "auto": "auto"}[spill], "the caller"
+    else:
+        asked, how = (u.placement(scene) if u.placement else "auto"), "the scene"
+    if asked == "auto":
+        return need > budget, (f"its {u.memory} ({need} bits) exceed the {device}'s on-chip "
+                               f"RAM ({budget} bits)")
+    return asked == "ddr", f"its {u.memory} ({need} bits) are placed in DDR by {how}"
+
+
 def identity_data(p):
-    """Scene data placeholder for elaboration: identity NUC coefficients (gain 1, offset 0)
-    and no frames."""
-    from .model.nuc import identity_coeffs
-    coeffs = None
+    """Scene data placeholder for elaboration: no frames, side data that make each block a
+    no-op (:attr:`tdicam.blocks.Use.identity`, e.g. identity NUC coefficients)."""
+    fields = {}
     for st in p.steps:
-        if "gain_frac_bits" in st.params:
-            g, o = identity_coeffs((p.rows, p.width), _nuc_fmt(st))
-            coeffs = [(g, o)] * p.lanes
-    return SceneData([], None, coeffs)
+        ident = _use(st.block).identity
+        if ident is not None:
+            fields.update({k: [v] * p.lanes for k, v in ident(st, (p.rows, p.width)).items()})
+    return SceneData([], **fields)
 
 
 def top(p, data=None, *, taps=False):
@@ -383,7 +253,7 @@ def top(p, data=None, *, taps=False):
     from .hdl.axis import AxisTop
     from .hdl.pipeline import Pipeline
     data = identity_data(p) if data is None or data.coeffs is None else data
-    stages = [USES[s.block].hw(s, data) for s in p.steps]
+    stages = [_use(s.block).hw(s, data) for s in p.steps]
     try:
         core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
                         taps=taps)
@@ -449,7 +319,7 @@ def output_shape(p):
     """(frames, rows, width) of the chain's output."""
     frames, rows = p.frames, p.rows
     for s in p.steps:
-        if USES[s.block].lines:
+        if _use(s.block).lines:
             frames, rows = max(frames - s.params["stages"] + 1, 0), 1
         if s.group is not None:
             frames, rows = frames // s.group, rows * s.group
@@ -478,9 +348,10 @@ def _scene_args(prog, extra):
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
-    ap.add_argument("--memory", choices=("auto", "chip", "ddr"), default="auto",
+    ap.add_argument("--memory", choices=("auto", "chip", "ddr"),
                     help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
-                         "--device's block RAM)")
+                         "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
+                         "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     try:
         ns = ap.parse_args(list(extra))
@@ -491,7 +362,7 @@ def _scene_args(prog, extra):
     from .scene import load_scene
     sc = load_scene(ns.scene)
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
-             spill={"auto": None, "chip": False, "ddr": True}[ns.memory])
+             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
         from .model.calib import load_image

@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from tdicam.cosim import WAVE_WINDOW   # cycles of waveform either side of a mismatch
 from tdicam.errors import TdicamError
 
 __all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "WAVE_WINDOW"]
@@ -107,18 +108,16 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     return out
 
 
-#: Cycles of waveform kept before and after the first mismatch.
-WAVE_WINDOW = 64
 
 
 def _testbench(axis_top, taps, *, wave):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
-    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` an FST ``wave.fst`` of
-    cycles ``+wave_from .. +wave_to``."""
+    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` tbgen's waveform window
+    (``wave.fst`` of cycles ``+wave_from .. +wave_to``)."""
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
-                                ctrl_ports=ctrl)
+                                ctrl_ports=ctrl, wave=wave)
     decl, conn, opens, writes, closes = [], [], [], [], []
     for k, (name, bits, count) in enumerate(taps):
         padded = -(-bits // 8) * 8
@@ -142,13 +141,6 @@ def _testbench(axis_top, taps, *, wave):
             f"      end")
         closes.append(f"      $fclose(tfd{k}); $fclose(tcd{k});")
     extra = "".join(decl)
-    if wave:
-        extra += ("  reg [31:0] wave_from = 0, wave_to = 0;\n  reg wave = 1'b0;\n"
-                  "  initial begin\n"
-                  '    if ($value$plusargs("wave_from=%d", wave_from) && '
-                  '$value$plusargs("wave_to=%d", wave_to)) begin\n'
-                  '      wave = 1\'b1; $dumpfile("wave.fst"); $dumpvars(0, tdicam_tb); '
-                  "$dumpoff;\n    end\n  end\n")
     marker = "  pipeline dut (\n    .clk(clk),\n"
     if marker not in tb:
         raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
@@ -159,10 +151,6 @@ def _testbench(axis_top, taps, *, wave):
             "    if (running && !rst) begin", *writes, "    end",
             "    if (running && (drain_cnt >= drain || cycles >= max_cycles)) begin",
             *closes, "    end"]
-    if wave:
-        body += ["    if (wave && running && cycles == wave_from) $dumpon;",
-                 "    if (wave && running && cycles == wave_to) begin $dumpoff; $dumpflush; "
-                 "end"]
     body.append("  end\n")
     i = tb.rindex("endmodule")
     return tb[:i] + "\n".join(body) + tb[i:]
@@ -228,16 +216,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    saved = os.environ.get("WAVES")
-    if wave is not None:
-        os.environ["WAVES"] = "1"   # the runner's "-fst" (else it passes "-none": no dump)
-    try:
-        ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus)
-    finally:
-        if saved is None:
-            os.environ.pop("WAVES", None)
-        else:
-            os.environ["WAVES"] = saved
+    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus,
+                                waves=wave is not None)
     summary = rundir / "summary.json"
     if not ok or not summary.exists():
         raise TdicamError(f"{sim} simulation of the pipeline failed; see "

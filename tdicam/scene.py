@@ -97,7 +97,18 @@ The line period either gives must lie in 1e-8..100 s.
     ``seed + k``);
     ``[pipeline.hdr]`` ``threshold_dn`` [3/4 of full scale], 1..2**bits-1, ``band_dn``
     [64], 1..threshold_dn, ``slope_frac_bits`` [8], 0..16;
+    ``[pipeline.tdi]`` ``memory`` ["auto"]: where the gateware keeps TDI's partial sums:
+    ``chip`` (block RAM), ``ddr`` (the DDR of ``[ddr]``) or ``auto`` (DDR when they exceed
+    the FPGA's block RAM); a pipeline that spills to DDR needs a ``[ddr]`` section (the
+    golden chain and the scene simulator are the same either way);
     ``[pipeline.median3]`` ``edge_enhance`` [false].
+
+``[ddr]`` (optional)
+    The DDR memory beside the FPGA that a pipeline may spill to: ``interface`` ["mig"], the
+    controller's user interface (``mig``: Xilinx MIG-style ``app_*`` ports, 64-bit words;
+    the pipeline top's simulation puts a model of the controller behind it); ``base`` [0],
+    byte address of the first buffer, a multiple of 8 below 2**28. Without it a pipeline
+    whose memory must spill is an error.
 
 ``[run]``
     ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
@@ -186,7 +197,7 @@ BOUNDS = {
 }
 
 _SECTIONS = ("orbit", "turntable", "target", "sensor", "optics", "tdi", "motion", "pipeline",
-             "run")
+             "ddr", "run")
 _IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
 _KIND_KEYS = {
     "image": ("image", "path"),
@@ -195,7 +206,11 @@ _KIND_KEYS = {
     "siemens": ("contrast", "spokes"),
     "flat": (),
 }
-_OPTION_BLOCKS = ("cds", "nuc", "hdr", "median3")
+_OPTION_BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
+#: ``[pipeline.tdi].memory``: where the partial sums live.
+TDI_MEMORY = ("auto", "chip", "ddr")
+#: ``[ddr].interface``: the DDR controllers a pipeline can spill through.
+DDR_INTERFACES = ("mig",)
 _PRE_TDI = ("cds", "nuc", "hdr")
 _REQUIRED = object()
 
@@ -366,6 +381,21 @@ class HdrOptions:
 
 
 @dataclass(frozen=True)
+class TdiOptions:
+    """``[pipeline.tdi]``: where the gateware keeps the partial sums (``TDI_MEMORY``)."""
+
+    memory: str = "auto"
+
+
+@dataclass(frozen=True)
+class Ddr:
+    """``[ddr]``: the DDR user interface a pipeline's spill uses (``DDR_INTERFACES``)."""
+
+    interface: str = "mig"
+    base: int = 0
+
+
+@dataclass(frozen=True)
 class Median3Options:
     """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output."""
 
@@ -381,6 +411,7 @@ class Pipeline:
     nuc: NucOptions
     hdr: HdrOptions
     median3: Median3Options
+    tdi: TdiOptions = TdiOptions()
 
     @property
     def median_after_tdi(self) -> bool | None:
@@ -424,6 +455,7 @@ class Scene:
     run: Run
     source: str = "<dict>"
     optics: Optics = Optics()
+    ddr: Ddr | None = None
 
     @property
     def line_period_s(self) -> float:
@@ -753,6 +785,7 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
     nuc = opts("nuc", ("gain_frac_bits", "ecc") + _NAND_KEYS)
     hdr = opts("hdr", ("threshold_dn", "band_dn", "slope_frac_bits"))
     med = opts("median3", ("edge_enhance",))
+    tdi = opts("tdi", ("memory",))
     threshold = hdr.integer("threshold_dn", 3 * (full + 1) // 4 if full > 1 else 1, lo=1,
                             hi=max(1, full - 1))
     return Pipeline(
@@ -764,7 +797,17 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
                        band_dn=hdr.integer("band_dn", min(64, threshold), lo=1, hi=threshold),
                        slope_frac_bits=hdr.integer("slope_frac_bits", 8, lo=0, hi=16)),
         median3=Median3Options(edge_enhance=med.boolean("edge_enhance", False)),
+        tdi=TdiOptions(memory=tdi.choice("memory", "auto", TDI_MEMORY)),
     )
+
+
+def _ddr(sec: _Section) -> Ddr:
+    sec.check_keys(("interface", "base"))
+    base = sec.integer("base", 0, lo=0, hi=(1 << 28) - 8)
+    if base % 8:
+        sec.fail("base", f"must be a multiple of 8 (one address per byte of a 64-bit word), "
+                         f"got {base}")
+    return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base)
 
 
 #: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
@@ -934,8 +977,10 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     motion = _motion(section("motion"))
     pipeline = _pipeline(section("pipeline"), sensor, labels)
     run = _run(section("run"), sensor, labels)
+    ddr = _ddr(section("ddr")) if "ddr" in data else None
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
-                  motion=motion, pipeline=pipeline, run=run, source=source, optics=optics)
+                  motion=motion, pipeline=pipeline, run=run, source=source, optics=optics,
+                  ddr=ddr)
     _check_stages(tdi_sec, scene)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)

@@ -91,6 +91,11 @@ SECTIONS = {
     "pipeline.hdr": "High/low-gain merge of the two channels of a dual-gain sensor "
                     "([sensor].gains with two entries).",
     "pipeline.median3": "3x3 median filter.",
+    "pipeline.tdi": "Where the gateware keeps TDI's partial sums (the golden model is the "
+                    "same either way).",
+    "ddr": "Optional: the DDR memory beside the FPGA that a pipeline may spill TDI's partial "
+           "sums to. A pipeline whose partial sums must spill and no [ddr] section is an "
+           "error.",
     "run": "How much to simulate and how exactly.",
     "run.rtl": "Optional: co-simulate the scene's blocks cycle-accurately on a crop of the "
                "output (generated Verilog on Icarus or Verilator) and compare every pixel.",
@@ -220,6 +225,15 @@ KEYS = {
         "edge_enhance": KeyDoc("", "add the edge-enhancement detail to the median output "
                                    "(Ning et al. 2019, section 4.4.3)"),
     },
+    "pipeline.tdi": {
+        "memory": KeyDoc("", "chip: block RAM; ddr: the DDR of [ddr] (through tdi_ddr); "
+                             "auto: DDR when the partial sums exceed the device's block RAM"),
+    },
+    "ddr": {
+        "interface": KeyDoc("", "the DDR controller's user interface"),
+        "base": KeyDoc("byte", "byte address of the first buffer", range="multiple of 8, "
+                                                                          "0..2**28 - 8"),
+    },
     "run": {
         "lines": KeyDoc("lines", "output lines to simulate"),
         "seed": KeyDoc("", "seed of every random number of the run (noise, faults)"),
@@ -259,7 +273,8 @@ def _probes():
             {**turn, "target": {"kind": "bars"}, "sensor": {"bits": bits,
                                                             "max_frame_rate_hz": 100.0}},
             {**orbit, "target": {"kind": "edge"}, "sensor": {"bits": bits},
-             "pipeline": {"blocks": ["tdi", "median3"]}, "run": {"rtl": {"crop": [0, 0, 4, 4]}}},
+             "pipeline": {"blocks": ["tdi", "median3"], "tdi": {"memory": "ddr"}},
+             "ddr": {"interface": "mig", "base": 0}, "run": {"rtl": {"crop": [0, 0, 4, 4]}}},
             {**orbit, "target": {"kind": "siemens"}, "sensor": {"bits": bits},
              "pipeline": {"blocks": ["cds", "nuc", "tdi"]}},
             {**orbit, "target": {"kind": "image", "image": "camera"}, "sensor": {"bits": bits}},

@@ -3,6 +3,7 @@ simulator, composed latency, deterministic lint-clean Verilog, one-line errors f
 pipelines the hardware cannot build."""
 
 import gc
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from tdicam.errors import TdicamError
 from tdicam.lint import lint
 from tdicam.model.pipeline import GoldenStage, chain
 from tdicam.rtl import scene_data
-from tdicam.scene import load_scene
+from tdicam.scene import Ddr, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 CHAIN = ROOT / "scenes" / "seed002_chain.toml"
@@ -128,6 +129,45 @@ def test_spill_to_ddr_is_planned_when_the_memory_does_not_fit():
     with pytest.raises(TdicamError, match=r"^pipeline: a DDR spill was asked but no block "
                                           r"of cds -> nuc -> hdr keeps its memory in DDR"):
         pl.plan(_small(), blocks=["cds", "nuc", "hdr"], spill=True)
+
+
+def test_a_spill_needs_a_ddr_section():
+    """[pipeline.tdi].memory says where TDI's partial sums live; a spill goes through the
+    scene's [ddr] interface, and without one the plan fails in one line naming both the
+    block and its DDR variant."""
+    data = tomllib.loads((ROOT / "scenes" / "orbit_4096_ddr_spill.toml").read_text())
+    sc = scene_from_dict(data)
+    assert sc.ddr == Ddr(interface="mig", base=0) and sc.pipeline.tdi.memory == "auto"
+    del data["ddr"]
+    with pytest.raises(TdicamError, match=r"^pipeline: input -> tdi: its partial sums "
+                       r"\(7393280 bits\) exceed the ecp5-85f's on-chip RAM \(3833856 bits\): "
+                       r"it spills to DDR through tdi_ddr, but the scene has no \[ddr\] "
+                       r"section") as exc:
+        pl.plan(scene_from_dict(data))
+    assert "\n" not in str(exc.value)
+    data["pipeline"]["tdi"] = {"memory": "chip"}              # on chip: no DDR needed
+    assert [s.block for s in pl.plan(scene_from_dict(data)).steps] == ["tdi"]
+    with pytest.raises(TdicamError, match=r"^pipeline: hdr -> tdi: its partial sums "
+                       r"\(\d+ bits\) are placed in DDR by the scene: it spills to DDR "
+                       r"through tdi_ddr, but the scene has no \[ddr\] section"):
+        pl.plan(_small(pipeline={"tdi": {"memory": "ddr"}}))
+    sc = _small(pipeline={"tdi": {"memory": "ddr"}}, ddr={"base": 4096},
+                sensor={"columns": 160})            # tdi_ddr: more than 148 beats a row
+    p = pl.plan(sc)
+    assert [s.block for s in p.steps] == ["cds", "nuc", "hdr", "tdi_ddr", "median3"]
+    assert p.steps[3].params["base"] == 4096
+    assert [s.block for s in pl.plan(sc, spill="auto").steps][3] == "tdi"   # --memory auto
+
+
+@pytest.mark.parametrize("over, msg", [
+    ({"ddr": {"base": 12}}, r"^\[ddr\].base: must be a multiple of 8"),
+    ({"ddr": {"interface": "axi"}}, r"^\[ddr\].interface: must be one of 'mig'"),
+    ({"ddr": {"clock": 1}}, r"^\[ddr\].clock: unknown key"),
+    ({"pipeline": {"tdi": {"memory": "sram"}}}, r"^\[pipeline.tdi\].memory: must be one of"),
+])
+def test_ddr_section_is_checked(over, msg):
+    with pytest.raises(TdicamError, match=msg):
+        _small(**over)
 
 
 def test_charge_domain_and_wide_pixels_per_clock_are_refused():

@@ -361,7 +361,7 @@ def test_seed003_default_blanking_limits_96_stages(tmp_path):
      "[pipeline.hdr].threshold_dn = 4095 is out of range; valid: 1..4094"),
     ("blocks = [\"hdr\", \"tdi\"]\n[pipeline.hdr]\nthreshold = 100\n",
      "[pipeline.hdr].threshold: unknown key; did you mean 'threshold_dn'?"),
-    ("blocks = [\"tdi\"]\n[pipeline.tdi]\nx = 1\n", "[pipeline].tdi: unknown key"),
+    ("blocks = [\"tdi\"]\n[pipeline.tdi]\nx = 1\n", "[pipeline.tdi].x: unknown key"),
 ])
 def test_bad_pipeline(tmp_path, pipeline, expected):
     assert error_of(tmp_path, ORBIT + "[pipeline]\n" + pipeline).startswith(expected)

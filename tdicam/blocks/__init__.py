@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import TdicamError, check_range
 from ..model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "Block", "get", "names", "all_blocks",
+__all__ = ["Param", "Case", "SideInput", "Use", "Block", "get", "names", "all_blocks",
            "frame_stack"]
 
 
@@ -155,6 +155,66 @@ class SideInput:
 
 
 @dataclass(frozen=True)
+class Use:
+    """How a block takes part in a scene's pipeline (:mod:`tdicam.pipeline`).
+
+    The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
+    arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
+    registry order, ``run`` side inputs are the step's ``inputs``); this says how a scene
+    sets the block and where the gateware's side inputs come from.
+
+    Attributes
+    ----------
+    step : callable(ctx) -> (tdicam.pipeline.Step, out_bits)
+        The block's parameters from the scene context :class:`tdicam.pipeline.Context`
+        (scene, stages, width, lines, the chain's pixel width so far in ``ctx.bits``).
+    hw : callable(step, data) -> stage
+        Its :mod:`tdicam.hdl.pipeline` stage (``data``: :class:`tdicam.pipeline.SceneData`,
+        for side inputs built into the top such as NUC's calibration image).
+    side : callable(step, data, lane) -> dict, or None
+        Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
+        coefficients).
+    identity : callable(step, shape) -> dict, or None
+        One lane's :class:`tdicam.pipeline.SceneData` fields that make the block a no-op
+        when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
+        width).
+    merge : bool
+        Takes every lane (channel) and makes one.
+    elems : int
+        Input elements per lane (CDS: signal and reset).
+    lines : bool
+        Its output frames are single lines (one per input frame, after a fill of
+        ``params["stages"] - 1`` frames).
+    per_frame : bool
+        Acts on each exposure frame (must come before a ``lines`` block).
+    memory_bits : callable(step) -> int, or None
+        On-chip memory the block needs (``memory`` says what it holds).
+    memory : str
+        What that memory holds, for messages ("partial sums").
+    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
+        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
+        RAM; None: always ``auto``).
+    spill : str or None
+        The registered block that keeps that memory in DDR instead (same stream, ports and
+        golden model), used when the plan says it must spill; its ``step`` takes the DDR
+        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    """
+
+    step: Callable
+    hw: Callable
+    side: Callable | None = None
+    identity: Callable | None = None
+    merge: bool = False
+    elems: int = 1
+    lines: bool = False
+    per_frame: bool = False
+    memory_bits: Callable | None = None
+    memory: str = "memory"
+    placement: Callable | None = None
+    spill: str | None = None
+
+
+@dataclass(frozen=True)
 class Block:
     """A registered gateware block: the contract the tools and the pipeline build on.
 
@@ -226,6 +286,7 @@ class Block:
     unstream: Callable | None = None
     example: Callable | None = None
     reset_clears_state: bool = True
+    pipeline: Use | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""

@@ -6,7 +6,8 @@ from ..beats import frames_to_beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.cds import Cds
 from ..model.cds import cds, pixel_dtype
-from . import Block, Case, Param, SideInput
+from . import Block, Case, Param, SideInput, Use
+from ._pipeline import lane_stage
 
 __all__ = ["BLOCK"]
 
@@ -65,6 +66,12 @@ def _to_beats(arrays, params):
     return stim, exp
 
 
+
+def _pipeline_step(ctx):
+    from ..pipeline import Step
+    return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
+
+
 BLOCK = Block(
     name="cds",
     summary="digital CDS: signal - reset per pixel, clamped at 0 (Ning et al. 2019 §4.4.1)",
@@ -86,4 +93,5 @@ BLOCK = Block(
                            "element 1 of each input beat"),),
     golden=_golden,
     example=_example,
+    pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True),
 )

@@ -7,7 +7,9 @@ from ..hdl.axis import AxisTop
 from ..hdl.hdr import Hdr
 from ..model.cds import pixel_dtype
 from ..model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
-from . import Block, Case, Param, SideInput, frame_stack
+from ..errors import TdicamError
+from . import Block, Case, Param, SideInput, Use, frame_stack
+from ._pipeline import lane_stage
 
 __all__ = ["BLOCK", "ramp_frame", "scene_frames"]
 
@@ -179,6 +181,18 @@ MULTI = {"gain_pairs": "4.9:0.8,4.9:1.6,2.45:0.8", "count_bits": 4}
 COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_frac_bits": 0,
           "out_bits": 16, "band": 64}
 
+
+def _pipeline_step(ctx):
+    from ..pipeline import Step
+    h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
+    if len(g) != 2:
+        raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "
+                          f"{len(g)}")
+    p = {"pixel_bits": ctx.bits, "threshold": h.threshold_dn, "band": h.band_dn,
+         "gain_pairs": f"{g[0]}:{g[1]}", "slope_frac_bits": h.slope_frac_bits}
+    return Step("hdr", p), hdr_config(**p).out_bits
+
+
 BLOCK = Block(
     name="hdr",
     summary="HG/LG dual-gain merge, junction measured on the previous frame (Ning et al. 2019 §4.4.2)",
@@ -229,4 +243,5 @@ BLOCK = Block(
     golden=_golden,
     unstream=_unstream,
     example=_example,
+    pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True),
 )

@@ -15,7 +15,8 @@ from ..hdl.axis import AxisTop
 from ..hdl.median3 import Median3
 from ..model.cds import pixel_dtype
 from ..model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from . import Block, Case, Param, frame_stack
+from . import Block, Case, Param, Use, frame_stack
+from ._pipeline import lane_stage
 
 __all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
 
@@ -215,6 +216,19 @@ def _check(params):
         raise TdicamError("--enhance-gain and --enhance-shift need --enhance true")
 
 
+
+def _pipeline_step(ctx):
+    """After a line-making block the frames are ``lines`` output lines (one median image);
+    before it, each exposure frame of ``stages`` rows."""
+    from ..pipeline import Step
+    pb = max(ctx.bits, 8)
+    p = {"width": ctx.width, "pixel_bits": pb,
+         "enhance": bool(ctx.scene.pipeline.median3.edge_enhance)}
+    if ctx.after_lines:
+        return Step("median3", p, {"height": ctx.lines}, group=ctx.lines), pb
+    return Step("median3", p, {"height": ctx.m}), pb
+
+
 BLOCK = Block(
     name="median3",
     summary="3x3 median, replicated borders, 1 pixel/clock, optional edge enhancement "
@@ -237,4 +251,5 @@ BLOCK = Block(
     to_case=_to_case,
     fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
     example=_example,
+    pipeline=Use(_pipeline_step, lane_stage()),
 )

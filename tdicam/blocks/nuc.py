@@ -6,7 +6,8 @@ from ..beats import frames_to_beats, mark_resets
 from ..hdl.axis import AxisTop
 from ..hdl.nuc import Nuc
 from ..model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from . import Block, Case, Param, SideInput
+from . import Block, Case, Param, SideInput, Use
+from ._pipeline import lane_stage
 
 __all__ = ["BLOCK", "cut_frame0"]
 
@@ -133,6 +134,45 @@ _WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 16, "offset_bit
 _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bits": 10,
            "offset_frac_bits": 2, "out_bits": 8}
 
+
+def _pipeline_step(ctx):
+    from ..pipeline import Step
+    opt = ctx.scene.pipeline.nuc
+    return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
+                        "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
+                        "offset_frac_bits": 0}), ctx.bits
+
+
+def _pipeline_side(step, data):
+    """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
+    from ..hdl.calib import CalibReader
+    from ..hdl.pipeline import CalibRom, Link
+    from ..model.calib import encode_image
+    fmt = _fmt(step.params)
+
+    def side(m, lane):
+        gain, offset = data.coeffs[lane]
+        rom = CalibRom(encode_image(gain, offset, fmt))
+        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], **fmt.params())
+        m.submodules[f"nuc_calib_rom{lane}"] = rom
+        m.submodules[f"nuc_calib{lane}"] = rd
+        m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),
+                     rom.o_stream.ready.eq(rd.i_stream.ready),
+                     rd.i_stream.payload.eq(rom.o_stream.payload)]
+        return Link.of_output(rd.o_stream)
+    return side
+
+
+def _pipeline_arrays(step, data, lane):
+    gain, offset = data.coeffs[lane]
+    return {"gain": gain, "offset": offset}
+
+
+def _pipeline_identity(step, shape):
+    """Gain 1, offset 0 for every pixel of every lane."""
+    return {"coeffs": identity_coeffs(shape, _fmt(step.params))}
+
+
 BLOCK = Block(
     name="nuc",
     summary="per-pixel correction y = gain*x + offset, round half up, saturated (Ning et al. 2019 §4.4.4)",
@@ -170,4 +210,6 @@ BLOCK = Block(
     ),
     golden=_golden,
     example=_example,
+    pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
+                 identity=_pipeline_identity, per_frame=True),
 )

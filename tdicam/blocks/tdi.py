@@ -20,7 +20,8 @@ from ..hdl.axis import AxisTop
 from ..hdl.tdi import TdiAccumulator
 from ..model.cds import pixel_dtype
 from ..model.tdi import check_params, out_width, tdi_stream
-from . import Block, Case, Param, SideInput, frame_stack
+from . import Block, Case, Param, SideInput, Use, frame_stack
+from ._pipeline import lane_stage
 
 __all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_makers"]
 
@@ -335,6 +336,35 @@ def _cases():
     ]
 
 
+
+def _pipeline_step(ctx):
+    """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
+    output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
+    from ..model import tdi as tdi_model
+    from ..pipeline import Step
+    t = ctx.scene.tdi
+    m, pb = ctx.m, ctx.bits
+    out_bits = t.output_bits if t.output == "saturate" else None
+    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
+        out_bits = None
+    d = 0 if t.direction == "forward" else 1
+    step = Step(ctx.block, {"width": ctx.width, "stages": m, "pixel_bits": pb,
+                            "out_bits": out_bits, "ppc": 1},
+                {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
+    return step, tdi_model.out_width(pb, m, out_bits)
+
+
+def _memory_bits(step):
+    """The (stages - 1) partial-sum lines at full width."""
+    from ..model.tdi import full_bits
+    p = step.params
+    return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
+
+
+#: ``tdi``'s and ``tdi_ddr``'s pipeline entry; ``tdi`` spills to ``tdi_ddr``.
+PIPELINE = dict(step=_pipeline_step, hw=lane_stage(), lines=True)
+
+
 BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
@@ -356,4 +386,6 @@ BLOCK = Block(
     model_version="tdi-1",
     to_beats=_to_beats,
     **SCENE,
+    pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
+                 placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr"),
 )

@@ -8,7 +8,7 @@ the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr
 
 from ..model.ddr import ADDR_PER_WORD, tdi_ddr_check
 from ..model.tdi import check_params as tdi_check_params
-from . import Block, Case, Param
+from . import Block, Case, Param, Use
 from . import tdi as _tdi
 from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
@@ -78,6 +78,13 @@ def _cases():
     ]
 
 
+def _pipeline_step(ctx):
+    """``tdi``'s step, its partial sums at the scene's ``[ddr].base``."""
+    from dataclasses import replace
+    step, out_bits = _tdi.PIPELINE["step"](ctx)
+    return replace(step, params={**step.params, "base": ctx.scene.ddr.base}), out_bits
+
+
 BLOCK = Block(
     name="tdi_ddr",
     summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2)",
@@ -104,4 +111,5 @@ BLOCK = Block(
     model_version="tdi_ddr-1",
     to_beats=_tdi.to_beats,
     **_tdi.SCENE,
+    pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),
 )

@@ -21,6 +21,9 @@ def register(sub):
     p.add_argument("--seed", type=int, default=1,
                    help="seed of the random idle cycles and backpressure (1)")
     p.add_argument("--case", action="append", help="only these cases (repeatable)")
+    p.add_argument("--wave-dir", default=str(cosim.WAVE_DIR),
+                   help="where the waveform (FST) around a case's first mismatch is written "
+                        "(default: %(default)s)")
     p.set_defaults(func=_run)
 
 
@@ -38,7 +41,7 @@ def _run(args):
     t0 = time.perf_counter()
     rows = run_cases(args.block, sim=args.sim, mode=mode, idle=args.idle,
                      backpressure=args.backpressure, seed=args.seed, cases=args.case,
-                     report=report)
+                     report=report, wave_dir=args.wave_dir)
     pixels = sum(r["pixels"] for r in rows)
     bad = sum(r["mismatches"] for r in rows)
     wall = sum(r["wall_s"] for r in rows)

@@ -37,13 +37,16 @@ from ..beats import Beats
 from ..pauses import thresholds
 from . import codec, tbgen
 
-__all__ = ["SIMULATORS", "MODES", "AMARANTH", "SimResult", "Comparison", "CaseRun",
-           "run_stream", "compare", "run_beats", "run_case", "run_scene", "run_golden_case",
-           "build_dir_for", "tool_env", "stream_ports", "build_sources", "run_cocotb"]
+__all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "SimResult",
+           "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
+           "run_case", "run_scene", "run_golden_case", "build_dir_for", "tool_env",
+           "stream_ports", "build_sources", "run_cocotb"]
 
 SIMULATORS = ("icarus", "verilator")
 MODES = ("beat", "fast")
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
+#: Where the co-simulation tests and ``tdicam sim`` write the waveform of a mismatch.
+WAVE_DIR = BUILD_ROOT / "waves"
 _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
                    "-CFLAGS", "-std=c++20 -fcoroutines -O2", "--x-assign", "fast",
                    "--x-initial", "unique")
@@ -171,28 +174,34 @@ def _build_progress(sim, name):
                   f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 
 
-def _build(blk, params, sim):
-    """Build (or reuse) the testbench; returns (build dir, seconds spent building, top)."""
+def _build(blk, params, sim, wave=False):
+    """Build (or reuse) the testbench (``wave``: with the waveform window, its own build);
+    returns (build dir, seconds spent building, top)."""
     top = blk.build(params)
     if not isinstance(top, AxisTop):
         raise TdicamError(f"block {blk.name} is not a video stream block")
     in_bits, out_bits, ctrl = stream_ports(top)
     dut = convert(top, blk.name)
-    tb = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl)
-    bdir, build_time = build_sources(blk.name, params, sim,
+    tb = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
+                                wave=wave)
+    bdir, build_time = build_sources(blk.name + ".wave" * wave, params, sim,
                                      {f"{blk.name}.v": dut, "tb.v": tb})
     return bdir, build_time, top
 
 
-def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP):
+def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP, waves=False):
     """Run cocotb module ``test_module`` (a module of :mod:`tdicam.cosim.tb`, or a dotted
     path) on the build in ``bdir`` with ``rundir`` as working folder; returns (passed, wall
-    seconds)."""
+    seconds). ``waves``: let the testbench's ``$dumpfile`` write FST (Icarus; the runner
+    passes ``-none`` otherwise)."""
     runner = _runner(sim)
     if "." not in test_module:
         test_module = f"{__name__}.tb.{test_module}"
     results = rundir / "results.xml"
     saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
+    saved_waves = os.environ.get("WAVES")
+    if waves:
+        os.environ["WAVES"] = "1"
     t0 = time.perf_counter()
     try:
         runner.test(test_module=test_module, hdl_toplevel=top, hdl_toplevel_lang="verilog",
@@ -205,6 +214,11 @@ def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP):
     finally:
         if saved is not None:
             os.environ["PYTEST_CURRENT_TEST"] = saved
+        if waves:
+            if saved_waves is None:
+                os.environ.pop("WAVES", None)
+            else:
+                os.environ["WAVES"] = saved_waves
     wall = time.perf_counter() - t0
     from cocotb_tools.runner import get_results
     try:
@@ -225,10 +239,11 @@ class SimResult:
     timeout: bool
     accepted: int
     trace: list | None = None
+    wave: str | None = None
 
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
-               seed=1, max_cycles=None, drain=None, keep=False, trace=False):
+               seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None):
     """Co-simulate ``stim`` (:class:`~tdicam.beats.Beats`) through a stream block.
 
     Parameters
@@ -243,13 +258,20 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     trace : bool
         Record ``SimResult.trace``: ``("i" | "o", cycle)`` of every input and output
         transfer, cycle 0 the first after the initial reset.
+    wave : (first, last) cycle or None
+        Fast mode on Icarus only: dump every testbench signal of those cycles (counted like
+        ``trace``) to ``SimResult.wave`` (an FST file in the kept run folder) and stop the
+        run after them (a separate build with the waveform window; see
+        :func:`tdicam.cosim.tbgen.stream_testbench`).
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
+    if wave is not None and (sim, mode) != ("icarus", "fast"):
+        raise TdicamError("a waveform window is written by Icarus in fast mode")
     idle_thr, bp_thr = thresholds(idle, backpressure)
     blk = blocks.get(block)
     params = blk.resolve(params)
-    bdir, build_time, top = _build(blk, params, sim)
+    bdir, build_time, top = _build(blk, params, sim, wave=wave is not None)
     _, _, ctrl = stream_ports(top)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     bits, count, padded, _ = top._in
@@ -257,6 +279,8 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     if max_cycles is None:
         slow = 1.0 / ((1 - idle) * (1 - backpressure))
         max_cycles = int((n_in + n_out) * 4 * slow) + 100_000
+    if wave is not None:
+        max_cycles = min(max_cycles, int(wave[1]) + 2)
     if drain is None:
         drain = 2000
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -277,7 +301,9 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     plusargs = [f"+n_in={n_in}", f"+n_out={int(n_out)}", f"+max_cycles={max_cycles}",
                 f"+drain={drain}", f"+idle={idle_thr}",
                 f"+bp={bp_thr}", f"+seed={seed}"] + ["+trace"] * bool(trace)
-    ok, wall = run_cocotb(bdir, sim, "stream_tb", rundir, plusargs)
+    if wave is not None:
+        plusargs += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
+    ok, wall = run_cocotb(bdir, sim, "stream_tb", rundir, plusargs, waves=wave is not None)
     summary = rundir / "summary.json"
     if not ok or not summary.exists():
         raise TdicamError(f"{sim} simulation of {block} failed; see {rundir / 'sim.log'}")
@@ -288,23 +314,54 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     if trace:
         events = [(k, int(c)) for k, c in (ln.split() for ln in
                                            (rundir / "trace.txt").read_text().splitlines())]
-    if not keep:
+    if not keep and wave is None:
         shutil.rmtree(rundir, ignore_errors=True)
     return SimResult(out, info["cycles"], wall, build_time, bool(info["timeout"]),
-                     info["accepted"], events)
+                     info["accepted"], events,
+                     None if wave is None else str(rundir / "wave.fst"))
 
 
 @dataclass
 class Comparison:
-    """Result of comparing simulated output with the golden beats."""
+    """Result of comparing simulated output with the golden beats.
+
+    ``first`` (None when they match) locates the first mismatch: ``segment``, ``beat`` (in
+    the segment), ``index`` (output transfer of the whole run), ``element`` (in the beat),
+    ``expected`` and ``received`` (None for a missing or extra beat) and, when the expected
+    beats are image frames (``tuser`` marks), ``frame`` (in the segment), ``line`` and
+    ``column``.
+    """
 
     checked: int
     mismatches: int
     message: str
+    first: dict | None = None
 
     @property
     def ok(self):
         return self.mismatches == 0
+
+
+def locate(exp, beat, element=0):
+    """Frame, line and column of element ``element`` of expected beat ``beat`` of one
+    segment's beats ``exp``, from the frame markers (``first`` starts a frame, ``last`` ends
+    a line), or {} when ``exp`` carries no frame (a block whose output is not an image)."""
+    if not len(exp) or not exp.first.any() or beat >= len(exp):
+        return {}
+    frame = int(np.cumsum(exp.first[:beat + 1])[-1]) - 1
+    start = int(np.flatnonzero(exp.first[:beat + 1])[-1]) if frame >= 0 else 0
+    line_ends = np.flatnonzero(exp.last[start:beat])
+    line_start = start + (int(line_ends[-1]) + 1 if len(line_ends) else 0)
+    return {"frame": max(frame, 0), "line": len(line_ends),
+            "column": (beat - line_start) * exp.data.shape[1] + element}
+
+
+def _where(first):
+    """``frame F line L column C (segment S beat B)`` or ``segment S beat B``."""
+    at = f"segment {first['segment']} beat {first['beat']}"
+    if "frame" in first:
+        return f"frame {first['frame']} line {first['line']} column {first['column']} ({at})"
+    return at
 
 
 def compare(got, exp):
@@ -318,7 +375,7 @@ def compare(got, exp):
     segs = sorted(set(np.unique(exp.seg).tolist()) | set(np.unique(got.seg).tolist()))
     last = max(segs) if segs else 0
     checked = mismatches = 0
-    first_msg = ""
+    first_msg, first = "", None
     for s in segs:
         g, e = got.select(got.seg == s), exp.select(exp.seg == s)
         n = min(len(g), len(e))
@@ -328,16 +385,23 @@ def compare(got, exp):
         count_bad = extra if s == last and extra != 0 else max(extra, 0)
         checked += n
         mismatches += int(bad.sum()) + abs(count_bad)
-        if not first_msg:
+        if first is None and (bad.any() or count_bad):
+            k = int(np.argmax(bad)) if bad.any() else n
+            el = int(np.argmax(g.data[k] != e.data[k])) if bad.any() else 0
+            first = {"segment": int(s), "beat": k, "index": int((got.seg < s).sum()) + k,
+                     "element": el,
+                     "expected": int(e.data[k, el]) if k < len(e) else None,
+                     "received": int(g.data[k, el]) if k < len(g) else None,
+                     **locate(e, k, el)}
             if bad.any():
-                k = int(np.argmax(bad))
-                first_msg = (f"segment {s} beat {k}: got data {g.data[k].tolist()} "
-                             f"tuser {int(g.first[k])} tlast {int(g.last[k])}, expected "
-                             f"{e.data[k].tolist()} tuser {int(e.first[k])} "
-                             f"tlast {int(e.last[k])}")
-            elif count_bad:
+                first_msg = (f"first at {_where(first)}: expected {first['expected']}, "
+                             f"received {first['received']} (beat: got data "
+                             f"{g.data[k].tolist()} tuser {int(g.first[k])} tlast "
+                             f"{int(g.last[k])}, expected {e.data[k].tolist()} tuser "
+                             f"{int(e.first[k])} tlast {int(e.last[k])})")
+            else:
                 first_msg = f"segment {s}: {len(g)} beats out, expected {len(e)}"
-    return Comparison(checked, mismatches, first_msg or "match")
+    return Comparison(checked, mismatches, first_msg or "match", first)
 
 
 #: Drivers :func:`run_beats` accepts besides :data:`SIMULATORS`: the Amaranth simulator.
@@ -360,6 +424,11 @@ class CaseRun:
         Stimulus beats and expected output beats.
     elements : int
         Output elements (pixels, bytes) per beat.
+    waveform : dict or None
+        On a mismatch, when :func:`run_beats` was given a ``wave_dir``: ``path`` of the FST
+        file, ``cycles`` (first, last) it holds and ``cycle`` of the first mismatching
+        output transfer (see :func:`waveform`); ``path`` None and ``error`` when it could
+        not be written (no Icarus).
     """
 
     block: str
@@ -370,6 +439,7 @@ class CaseRun:
     n_in: int
     n_out: int
     elements: int
+    waveform: dict | None = None
 
     @property
     def mismatches(self):
@@ -392,10 +462,20 @@ class CaseRun:
             return f"{where}: timed out after {r.cycles} cycles"
         if not self.comparison.ok:
             return (f"{where}: {self.comparison.mismatches} mismatches; "
-                    f"{self.comparison.message}")
+                    f"{self.detail()}")
         if r.accepted != self.n_in:
             return f"{where}: accepted {r.accepted} of {self.n_in} input beats"
         return "match"
+
+    def detail(self):
+        """The comparison's message and, if written, where the waveform is."""
+        w = self.waveform
+        if w is None:
+            return self.comparison.message
+        if w["path"] is None:
+            return f"{self.comparison.message}; no waveform: {w['error']}"
+        return (f"{self.comparison.message}; waveform {w['path']} (cycles {w['cycles'][0]}.."
+                f"{w['cycles'][1]}, mismatch at cycle {w['cycle']}, Icarus)")
 
     def row(self):
         """The dict ``tdicam sim`` prints and returns per case."""
@@ -403,17 +483,21 @@ class CaseRun:
         return {"beats": self.comparison.checked, "pixels": self.pixels,
                 "mismatches": self.comparison.mismatches, "cycles": r.cycles,
                 "wall_s": r.wall, "build_s": r.build_time, "timeout": r.timeout,
-                "message": self.comparison.message}
+                "message": self.detail(),
+                "waveform": (self.waveform or {}).get("path")}
 
 
 def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpressure=0.0,
-              seed=1, **kw):
+              seed=1, wave_dir=None, label=None, **kw):
     """Co-simulate ``stim`` through ``block`` and compare the output with ``exp``.
 
     The one co-simulation path of tests, ``tdicam sim``, ``tdicam run`` and ``tdicam
     bench``: ``sim`` is a Verilog simulator (:func:`run_stream`, ``mode`` beat or fast) or
     ``"amaranth"`` (:func:`tdicam.cosim.pysim.run_pysim`, the Verilog top in Amaranth's
     simulator). ``kw`` goes to the driver (``max_cycles``, ``drain``, ``keep``).
+    ``wave_dir``: on a mismatch of a Verilog simulator, write the waveform of the cycles
+    around the first one there (:func:`waveform`; ``label`` names the file, e.g. the case);
+    a run that matches costs nothing more.
     Returns a :class:`CaseRun`.
     """
     blk = blocks.get(block) if isinstance(block, str) else block
@@ -428,8 +512,49 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
         res = run_stream(blk.name, params, stim, n_out=len(exp), sim=sim, mode=mode,
                          idle=idle, backpressure=backpressure, seed=seed, **kw)
     elements = exp.data.shape[1] if len(exp) else 1
-    return CaseRun(blk.name, sim, mode, res, compare(res.out, exp), len(stim), len(exp),
-                   elements)
+    run = CaseRun(blk.name, sim, mode, res, compare(res.out, exp), len(stim), len(exp),
+                  elements)
+    if wave_dir is not None and run.comparison.first is not None and sim != AMARANTH:
+        try:
+            run.waveform = waveform(blk, params, stim, exp, run.comparison.first, wave_dir,
+                                    idle=idle, backpressure=backpressure, seed=seed,
+                                    label=label or f"{sim}-{mode}-seed{seed}")
+        except TdicamError as exc:     # the mismatch is the news; say why there is no wave
+            run.waveform = {"path": None, "error": str(exc)}
+    return run
+
+
+#: Cycles of waveform kept before and after the first mismatch.
+WAVE_WINDOW = 64
+
+
+def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, seed, label):
+    """Write the waveform around a mismatch: ``<wave_dir>/<block>-<label>.fst``.
+
+    The stimulus runs again on Icarus in fast mode with the same idle/backpressure pattern
+    (:class:`tdicam.pauses.Pauses` draws the same one in both modes and simulators, so the
+    DUT sees the same cycles): once with the transfer trace, for the cycle of output
+    transfer ``first["index"]`` (the last transfer's cycle when it is missing), then with
+    the waveform window ``cycle +- WAVE_WINDOW``. Returns ``{"path", "cycles": (first,
+    last), "cycle"}``.
+    """
+    from pathlib import Path
+    blk = blocks.get(block) if isinstance(block, str) else block
+    kw = dict(n_out=len(exp), sim="icarus", mode="fast", idle=idle,
+              backpressure=backpressure, seed=seed)
+    traced = run_stream(blk.name, params, stim, trace=True, **kw)
+    outs = [c for k, c in traced.trace if k == "o"]
+    cycle = outs[min(first["index"], len(outs) - 1)] if outs else traced.cycles
+    lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
+    res = run_stream(blk.name, params, stim, wave=(lo, hi), **kw)
+    src = Path(res.wave)
+    if not src.exists():
+        raise TdicamError(f"Icarus wrote no waveform for {blk.name}; see {src.parent}")
+    dst = Path(wave_dir) / f"{blk.name}-{label}.fst"
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    shutil.move(str(src), dst)
+    shutil.rmtree(src.parent, ignore_errors=True)
+    return {"path": str(dst), "cycles": (lo, hi), "cycle": int(cycle)}
 
 
 def run_case(block, params, arrays, *, corrupt=None, **kw):
@@ -460,8 +585,10 @@ def run_scene(block, arrays, params=None, **kw):
 
 
 def run_golden_case(block, case, **kw):
-    """:func:`run_case` on the stored golden ``case`` (name) of ``block``."""
+    """:func:`run_case` on the stored golden ``case`` (name) of ``block`` (a waveform, if
+    any, is named after the case)."""
     from .. import golden
     blk = blocks.get(block) if isinstance(block, str) else block
     arrays, params = golden.load(blk, case)
+    kw.setdefault("label", f"{case}-{kw.get('sim')}-{kw.get('mode', 'fast')}")
     return run_case(blk, params, arrays, **kw)

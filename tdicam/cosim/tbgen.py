@@ -117,7 +117,27 @@ def _chunk_name_expr():
     return f'{{"stim_", {digits}, ".hex"}}'
 
 
-def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None):
+#: Waveform window of a run: ``wave.fst`` in the run folder holds every signal of the
+#: testbench from cycle ``+wave_from`` to ``+wave_to`` (the fast engine's cycle count).
+_WAVE_TEXT = """\
+  // ---- waveform window (+wave_from .. +wave_to)
+  reg [31:0] wave_from = 0, wave_to = 0;
+  reg wave_on = 1'b0;
+  initial begin
+    if ($value$plusargs("wave_from=%d", wave_from) && $value$plusargs("wave_to=%d", wave_to))
+    begin
+      wave_on = 1'b1; $dumpfile("wave.fst"); $dumpvars(0, {top}); $dumpoff;
+    end
+  end
+  always @(posedge clk) begin
+    if (wave_on && running && cycles == wave_from) $dumpon;
+    if (wave_on && running && cycles == wave_to) begin $dumpoff; $dumpflush; end
+  end
+"""
+
+
+def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None,
+                     wave=False):
     """Verilog text of the testbench around module ``dut_name``.
 
     Parameters
@@ -131,6 +151,10 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         None: the cocotb-driven testbench. Otherwise the same fast-mode engine runs on its
         own from time 0 with the run settings of ``selfcheck`` as plusarg defaults, and
         compares every output transfer in HDL with ``expected.hex`` (see :class:`SelfCheck`).
+    wave : bool
+        Add the waveform window: with plusargs ``+wave_from=A +wave_to=B`` the simulator
+        dumps cycles A..B of the fast engine to ``wave.fst`` (Icarus with the runner's
+        ``WAVES=1``). A separate build: the plain testbench dumps nothing.
     """
     sc = selfcheck
     d = (dict(n_in=0, n_out=0, max_cycles=1000000, drain=1000, idle=0, bp=0, seed=1)
@@ -287,5 +311,5 @@ module {TB_TOP};
       end
     end
   end
-{"" if sc is None else _selfcheck_text(sc)}endmodule
+{_WAVE_TEXT.format(top=TB_TOP) if wave else ""}{"" if sc is None else _selfcheck_text(sc)}endmodule
 """

@@ -1,6 +1,11 @@
-"""Helpers for pytest co-simulation tests: run a golden case, assert bit-exact output."""
+"""Helpers for pytest co-simulation tests: run a golden case, assert bit-exact output.
 
-from . import run_beats, run_golden_case
+A mismatch fails with the first differing pixel (frame, line, column, or segment and beat),
+its expected and received values and the path of the waveform around it (under
+:data:`tdicam.cosim.WAVE_DIR`, or ``wave_dir``).
+"""
+
+from . import WAVE_DIR, run_beats, run_golden_case
 
 __all__ = ["check_beats", "check_case"]
 
@@ -11,14 +16,16 @@ def _check(run):
 
 
 def check_beats(block, params, stim, exp, *, sim, mode, idle=0.3, backpressure=0.3, seed=1,
-                **kw):
+                wave_dir=WAVE_DIR, **kw):
     """Co-simulate and assert the output equals ``exp`` beat for beat (and every input beat
     was accepted, no time-out); returns the :class:`~tdicam.cosim.SimResult`."""
     return _check(run_beats(block, params, stim, exp, sim=sim, mode=mode, idle=idle,
-                            backpressure=backpressure, seed=seed, **kw))
+                            backpressure=backpressure, seed=seed, wave_dir=wave_dir, **kw))
 
 
-def check_case(block, case, *, sim, mode, idle=0.3, backpressure=0.3, seed=1, **kw):
+def check_case(block, case, *, sim, mode, idle=0.3, backpressure=0.3, seed=1,
+               wave_dir=WAVE_DIR, **kw):
     """Load golden ``case`` of ``block`` and :func:`check_beats` it."""
     return _check(run_golden_case(block, case, sim=sim, mode=mode, idle=idle,
-                                  backpressure=backpressure, seed=seed, **kw))
+                                  backpressure=backpressure, seed=seed, wave_dir=wave_dir,
+                                  **kw))

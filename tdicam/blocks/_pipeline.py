@@ -1,0 +1,33 @@
+"""What the pipeline entries of the blocks (:class:`tdicam.blocks.Use`) share: the
+pipeline-top stage of a block's registered component."""
+
+__all__ = ["lane_stage"]
+
+
+def lane_stage(kind="lane", elems=1, side=None):
+    """``Use.hw`` of a block: a :class:`~tdicam.hdl.pipeline.LaneStage` (``kind="merge"``:
+    :class:`~tdicam.hdl.pipeline.MergeStage`) of the core of the block's registered Verilog
+    top; ``side(step, data)`` gives its joined side stream."""
+    def make(step, data):
+        from ..hdl.pipeline import LaneStage, MergeStage
+        comp = _component(step)
+        stage = MergeStage if kind == "merge" else LaneStage
+        return stage(step.block, lambda lane: comp(),
+                     elems=elems, ports=tuple(step.ports),
+                     side=None if side is None else side(step, data),
+                     group="height" if step.group is not None else None)
+    return make
+
+
+def _component(step):
+    """The core (behind AxisTop) of the block's registered Verilog top."""
+    from . import get
+    blk = get(step.block)
+    params = blk.resolve(step.params)
+
+    def make():
+        wrapper = blk.top(**params)
+        wrapper._MustUse__silence = True   # only its core is used
+        wrapper.core._MustUse__silence = True   # elaborated with the pipeline, if it is
+        return wrapper.core
+    return make
