@@ -1,21 +1,53 @@
 """Optimized digital TDI accumulator (SPEC 3.1; seeds 000 §3.2 Fig. 8, 001 §3.1, 003 §2.2).
 
 Golden model: :mod:`tdicam.model.tdi` (:func:`~tdicam.model.tdi.tdi_stream` is the beat-level
-contract this component implements bit for bit).
+contract this component implements bit for bit). The frame control is
+:class:`tdicam.hdl.tdi_control.TdiFrameControl` (shared with the DDR accumulator); this module
+is the on-chip partial-sum memory and its read pipeline.
 """
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, unsigned
 from amaranth.lib import wiring
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.model.tdi import check_params, full_bits, out_width
+from tdicam.verilog import NO_INIT, NO_RW_CHECK
 from .stream import channels_shape, pixel_signature
+from .tdi_control import TdiFrameControl
 
 __all__ = ["TdiAccumulator"]
 
-_WAIT, _RUN, _DROP, _PAD = range(4)   # (x == 0 written ~x.any(): yosys prints x == 0 as !x)
+# DP16KD data widths and the bank depth used for each: one block RAM (x9 .. x1: 2048 x 9,
+# 4096 x 4, 8192 x 2, 16384 x 1) or, for x18, two 2048 x 9 blocks side by side (no read mux)
+_BANK_DEPTH = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}
+_GROUP = 8        # banks per first-level OR; block RAMs per replicated address register
+_READ_STAGES = 5  # issue (C), block RAM data, per-bank register, group OR, final OR
+_ROW_CYCLES = _READ_STAGES + 1   # read issue to the write back landing (see *Pipeline*)
+
+
+def _split(bits):
+    """Partial-sum bit widths, each a DP16KD data width, largest first (19 -> 18 + 1)."""
+    parts = []
+    while bits:
+        parts.append(next(w for w in _BANK_DEPTH if w <= bits))
+        bits -= parts[-1]
+    return parts
+
+
+def _eq(value, c):
+    """value == c, spelled ~value.any() for 0 (yosys writes x == 0 as !x: a lint warning)."""
+    return ~value.any() if c == 0 else value == c
+
+
+def _or(items):
+    """OR of items, as a balanced tree."""
+    while len(items) > 1:
+        items = [items[j] | items[j + 1] if j + 1 < len(items) else items[j]
+                 for j in range(0, len(items), 2)]
+    return items[0]
 
 
 class TdiAccumulator(wiring.Component):
@@ -55,37 +87,55 @@ class TdiAccumulator(wiring.Component):
 
     Notes
     -----
-    *Structure.* On-chip memory of exactly ``stages - 1`` partial-sum lines of W words of
-    :attr:`psum_bits`: ``ppc`` banks (one per pixel lane, ``(stages-1) * W/ppc`` words
-    each), each with one synchronous read port and one write port sharing the address
-    (``lib.memory``; word width stays :attr:`psum_bits` whatever ``ppc``). Every input row
-    reads one line and writes its update back to the same address one cycle later
-    (read-modify-write: one read and one write per bank per beat, never to the same address
-    in the same cycle since a row is at least 2 beats); which line a row uses rotates by one
-    per frame (a base pointer), so partial sums are never copied. Row r of a frame has age a
-    (``m-1-r`` forward, ``r`` reverse): age 0 starts a sum (the memory read is ignored), age
-    m-1 completes it (the output row, nothing written), the others add. A stored sum is only
-    used if its ground line was first seen after the last (re)start, so stale memory never
-    reaches the output and the memory needs no clearing.
+    *Structure.* The frame control (:class:`~tdicam.hdl.tdi_control.TdiFrameControl`: row
+    and frame counters, settings latched with each tuser beat, refill after a change,
+    malformed frames dropped, counted and a started output line completed with zeros, as
+    :func:`~tdicam.model.tdi.tdi_stream`) decodes each input beat into a partial-sum address
+    and what to do with it. The memory holds exactly ``stages - 1`` partial-sum lines of W
+    words of :attr:`psum_bits`: per pixel lane ``(stages-1) * W/ppc`` words (bank k holds
+    pixels k, k+ppc, ...). Every input row reads one line and writes its update back to the
+    same address; which line a row uses rotates by one per frame, so partial sums are never
+    copied, and a stored sum predating the last restart is never used, so the memory needs
+    no clearing.
 
-    *Settings.* ``stages_active`` and ``direction`` are latched with each frame's tuser beat;
-    a change restarts the fill: the next m frames produce no output, no line mixes two
-    settings. Malformed frames are handled as documented in
-    :func:`~tdicam.model.tdi.tdi_stream` (dropped, counted in :attr:`frame_errors`, fill
-    restarted, a started output line completed with zeros).
+    *Memory banks.* A lane's words are split by bits into parts of a block RAM data width
+    (18, 9, 4, 2, 1 bits, largest first: 19 = 18 + 1) and each part by address into banks
+    of 2048 words for 18 and 9 bits, one ECP5 DP16KD's depth for narrower parts (16384 x 1).
+    A bank is one ``lib.memory`` memory holding its part of every lane (``ppc`` x part bits
+    per word: what one address reads), with one synchronous read port and one write port,
+    read only on the cycle it is addressed (read enable), written only when addressed
+    (:attr:`memory_banks`). Every bit is stored once: at 1280 x 96 stages x 12 bits, 127
+    DP16KD (ppc 1) / 128 (ppc 4 and 8), the packing floor being 126. Few, wide memories
+    also keep the per-cycle work of a Verilog simulator small.
 
-    *Reverse scan* needs m partial-sum lines for m stages (see
-    :func:`~tdicam.model.tdi.slots_needed`), so with ``stages - 1`` lines it runs up to
-    ``stages - 1`` stages; ``direction = 1`` with ``stages_active = stages`` is an invalid
-    setting (frame dropped and counted).
+    *No read/write collisions used.* The banks carry yosys' ``no_rw_check`` attribute
+    (:data:`tdicam.verilog.NO_RW_CHECK`: a read of the address written in the same cycle
+    returns an undefined value, so yosys adds no collision-bypass logic behind the block
+    RAM), and no initial value (:data:`tdicam.verilog.NO_INIT`). Both are sound because a
+    read whose data is used never meets the write of its address (see *Pipeline*: a line is
+    read again at least :attr:`row_cycles` cycles after the read that precedes its write),
+    and a stored sum is used only once written since the last restart. The formal harness
+    :class:`tdicam.proofs.tdi.TdiNoWrapProof` asserts the first on every cycle.
+
+    *Pipeline.* From the frame control's decoded beat every beat moves one stage per cycle
+    with no stall: C (read issue: address registers replicated per 8 block RAMs, bank read
+    enables registered), block RAM data, per-bank register (next to its block RAM, zero
+    when the bank was not read), OR of 8 banks registered, OR of the groups (masked to zero
+    when the stored sum is not used) registered -> add, saturate, into the output register
+    and the write-back registers (address, data, bank write enables, replicated), which
+    write one cycle later. A line's address is read again at the earliest one row after its
+    write (the next frame's neighbouring row), and the write lands 6 cycles after the read
+    was issued: rows of fewer than 6 beats get ``6 - W/ppc`` idle cycles after them
+    (:attr:`row_cycles`), so no read sees a stale sum (no forwarding path is needed).
 
     *Throughput and latency.* ``ppc`` pixels per clock sustained while ``o_stream.ready`` is
-    high: a 3-stage pipeline (input register, memory read, output register with a skid
-    buffer). Input rows that produce no output (all but one per frame) flow at full rate even
-    while the output is stalled. ``i_stream.ready`` depends only on registers (no
-    combinational path from ``o_stream.ready``). No beat is lost or duplicated whatever
-    ``ready`` does. :attr:`latency` = 3 cycles from an output-row input beat's transfer to its
-    output beat being valid.
+    high (rows of at least :attr:`row_cycles` beats). An output beat enters the read
+    pipeline only with a credit: the output FIFO (``amaranth.lib.fifo.SyncFIFO``) has room
+    for every output beat in flight, so the pipeline never stalls and no beat is lost or
+    duplicated whatever ``ready`` does. Input rows that produce no output (all but one per
+    frame) flow at full rate even while the output is stalled. ``i_stream.ready`` does not
+    depend combinationally on ``o_stream.ready``. :attr:`latency` = 9 cycles from an
+    output-row input beat's transfer to its output beat being valid.
 
     Raises
     ------
@@ -93,7 +143,8 @@ class TdiAccumulator(wiring.Component):
         On bad parameters (one line, before elaboration).
     """
 
-    def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, _psum_bits=None):
+    def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, _psum_bits=None,
+                 _row_cycles=_ROW_CYCLES):
         check_params(width=width, stages=stages, pixel_bits=pixel_bits, out_bits=out_bits,
                      ppc=ppc)
         self._width = width
@@ -104,6 +155,8 @@ class TdiAccumulator(wiring.Component):
         self._saturate = out_bits is not None
         # _psum_bits: test hook only (a deliberately too narrow, wrapping mutant)
         self._psum_bits = full_bits(pixel_bits, stages) if _psum_bits is None else _psum_bits
+        # _row_cycles: test hook only (too few: a mutant that reads a sum as it is written)
+        self._min_row = _row_cycles
         self.memories = []
         self.probe = {}
         super().__init__({
@@ -125,8 +178,15 @@ class TdiAccumulator(wiring.Component):
 
     @property
     def latency(self):
-        """Cycles from an input beat's transfer to the matching output beat being valid."""
-        return 3
+        """Cycles from an input beat's transfer to the matching output beat being valid: 9
+        (input and decode registers of the frame control, 5 read-pipeline stages, output
+        register, FIFO)."""
+        return 2 + _READ_STAGES + 2
+
+    @property
+    def row_cycles(self):
+        """Cycles per input row at full rate: ``W/ppc`` beats, at least 6 (see *Pipeline*)."""
+        return max(self._width // self._ppc, self._min_row)
 
     @property
     def memory_lines(self):
@@ -135,206 +195,143 @@ class TdiAccumulator(wiring.Component):
 
     @property
     def memory_shape(self):
-        """(banks, depth, word bits) of the partial-sum memory: ``ppc`` banks of
-        ``(stages-1) * W/ppc`` words of :attr:`psum_bits` (bank k holds pixel lane k)."""
+        """(lanes, depth, word bits) of the partial-sum memory: ``ppc`` lanes of
+        ``(stages-1) * W/ppc`` words of :attr:`psum_bits` (lane k holds pixels k, k+ppc...)."""
         return (self._ppc, self.memory_lines * (self._width // self._ppc), self._psum_bits)
+
+    @property
+    def memory_parts(self):
+        """Bit widths a lane's words are split into, each a block RAM data width, largest
+        first (19 bits: ``(18, 1)``); see *Memory banks*."""
+        return tuple(_split(self._psum_bits))
+
+    @property
+    def memory_banks(self):
+        """``[(part bits, [bank depths])]``: each bank one memory of ``ppc`` x part bits."""
+        depth = self.memory_shape[1]
+        out = []
+        for pw in (self.memory_parts if depth else ()):
+            bd = _BANK_DEPTH[pw]
+            out.append((pw, [min(bd, depth - c) for c in range(0, depth, bd)]))
+        return out
 
     def elaborate(self, platform):
         m = Module()
         W, M, PB, PPC = self._width, self._stages, self._pixel_bits, self._ppc
-        WB = W // PPC
         PS, OB = self._psum_bits, self._out_bits
-        depth = (M - 1) * WB
-        aw = max(1, bits_for(max(depth - 1, 0)))
-        mb = bits_for(M)
-        i, o = self.i_stream, self.o_stream
+        o = self.o_stream
 
-        # ---- stage A: input register (beat + the settings presented with it)
-        a_valid = Signal()
-        a_data = Signal(PPC * PB)
-        a_first, a_last, a_dir = Signal(), Signal(), Signal()
-        a_m = Signal(len(self.stages_active))
-        a_take = Signal()
-        m.d.comb += i.ready.eq(~a_valid | a_take)
-        with m.If(i.valid & i.ready):
-            m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
-                         a_first.eq(i.payload.first), a_last.eq(i.payload.last),
-                         a_m.eq(self.stages_active), a_dir.eq(self.direction)]
-        with m.Elif(a_take):
-            m.d.sync += a_valid.eq(0)
+        m.submodules.control = ctl = TdiFrameControl(
+            width=W, stages=M, pixel_bits=PB, ppc=PPC, row_cycles=self._min_row)
+        wiring.connect(m, wiring.flipped(self.i_stream), ctl.i_stream)
+        m.d.comb += [ctl.stages_active.eq(self.stages_active),
+                     ctl.direction.eq(self.direction), self.frame_errors.eq(ctl.frame_errors)]
+        aw = ctl.addr_bits
+        b = ctl.o_stream.payload
+        room = Signal(init=1)     # the output FIFO has a free credit
+        m.d.comb += ctl.o_stream.ready.eq(~b.out | room)
+        b_adv = Signal()
+        m.d.comb += b_adv.eq(ctl.o_stream.valid & ctl.o_stream.ready)
 
-        # ---- control state
-        state = Signal(2, init=_WAIT)
-        m_reg = Signal(mb)
-        dir_reg = Signal()
-        run = Signal(mb)          # well-formed frames in the current run (saturates at M)
-        f = Signal(mb)            # run at the start of the current frame
-        row = Signal(mb)
-        col = Signal(range(WB))
-        base = Signal(aw)         # first address of the line row 0 uses this frame
-        row_addr = Signal(aw)     # first address of the current row's line
-        lim = Signal(bits_for(depth))  # lines in use x WB
-        pad_col = Signal(range(WB))
-        errors = Signal(16)
-        m.d.comb += self.frame_errors.eq(errors)
+        # ---- read pipeline: from the issue (C) every beat moves one stage per cycle
+        fields = {"valid": 1, "data": PPC * PB, "use": 1, "wr": 1, "out": 1, "first": 1,
+                  "last": 1, "zero": 1, "addr": aw}
+        p = [{"valid": b_adv, "data": b.data, "use": b.use, "wr": b.wr, "out": b.out,
+              "first": b.first, "last": b.last, "zero": b.zero, "addr": b.addr}]
+        for s in range(_READ_STAGES):
+            regs = {n: Signal(w, name=f"p{s}_{n}") for n, w in fields.items()}
+            m.d.sync += [regs[n].eq(p[-1][n]) for n in fields]
+            p.append(regs)
+        pc, ps_ = p[1], p[_READ_STAGES]       # issue stage, sum stage
+        do_write = ps_["valid"] & ps_["wr"] & ~ps_["zero"]
+        sum_word = Signal(PPC * PS)           # the new partial sums (written back next)
 
-        # ---- stage B: memory read data + beat; output skid buffer
-        b_valid, b_use, b_wr, b_out, b_first, b_last, b_zero = (Signal() for _ in range(7))
-        b_data = Signal(PPC * PB)
-        b_addr = Signal(aw)
-        sk_valid = Signal()
-        def wire(name, value, shape=1):
-            w = Signal(shape, name=name)
-            m.d.comb += w.eq(value)
-            return w
-
-        b_adv = wire("b_adv", b_valid & (~b_out | ~sk_valid))
-        b_can = wire("b_can", ~b_valid | b_adv)
-
-        # ---- decode A's beat
-        start = a_first
-        new_ok = a_m.any()
-        if M < (1 << len(a_m)) - 1:
-            new_ok &= a_m <= M
-        if M >= 2:
-            new_ok &= ~(a_dir & (a_m == M))
-        new_ok = wire("new_ok", new_ok)
-        same = wire("same", (a_m == m_reg) & (a_dir == dir_reg) & run.any())
-        base_step = wire("base_step", base + WB, aw + 1)
-        base_next = wire("base_next", Mux(same & (base_step < lim), base_step, 0), aw)
-        e_m = wire("e_m", Mux(start, a_m, m_reg), mb)
-        e_dir = wire("e_dir", Mux(start, a_dir, dir_reg))
-        e_f = wire("e_f", Mux(start, Mux(same, run, 0), f), mb)
-        e_row = wire("e_row", Mux(start, 0, row), mb)
-        e_col = wire("e_col", Mux(start, 0, col), range(WB))
-        e_rowaddr = wire("e_rowaddr", Mux(start, base_next, row_addr), aw)
-        age = wire("age", Mux(e_dir, e_row, e_m - 1 - e_row), mb)
-        out_row = wire("out_row", age == e_m - 1)
-        out_en = wire("out_en", e_f >= e_m - 1)
-        use_mem = wire("use_mem", age.any() & (age <= e_f))
-        last_col = wire("last_col", e_col == WB - 1)
-        tlast_ok = wire("tlast_ok", a_last == last_col)
-        frame_end = wire("frame_end", last_col & (e_row == e_m - 1))
-        # the current frame's output line has started (only meaningful in _RUN)
-        line_open = wire("line_open", (Mux(dir_reg, row, m_reg - 1 - row) == m_reg - 1)
-                         & (f >= m_reg - 1) & col.any())
-
-        busy = wire("busy", a_valid & (state != _PAD))
-        proc = wire("proc", busy & Mux(start, (state != _RUN) & new_ok, state == _RUN))
-        cut = wire("cut", busy & start & (state == _RUN))
-        invalid = wire("invalid", busy & start & (state != _RUN) & ~new_ok)
-        stray = wire("stray", busy & ~start & (state != _RUN))
-        anomaly = wire("anomaly", proc & ~tlast_ok)
-        step = wire("step", proc & tlast_ok & b_can)
-        pad_now = wire("pad_now", (state == _PAD) & b_can)
-        error = wire("error", cut | invalid | anomaly | (stray & ~state.any()))  # _WAIT == 0
-
-        with m.If(error):
-            m.d.sync += run.eq(0)
-            with m.If(errors != 0xFFFF):
-                m.d.sync += errors.eq(errors + 1)
-        with m.If(cut | (anomaly & ~start)):
-            with m.If(line_open):
-                m.d.sync += [state.eq(_PAD), pad_col.eq(col)]
-            with m.Else():
-                m.d.sync += state.eq(_DROP)
-        with m.If(anomaly & start):
-            m.d.sync += state.eq(_DROP)
-        with m.If(invalid | stray):
-            m.d.sync += state.eq(_DROP)
-        m.d.comb += a_take.eq(step | invalid | stray | (anomaly & (start | ~line_open)))
-
-        n_new = Mux(a_m == 1, 0, a_m - 1 + a_dir)
-        nxt_fwd = wire("nxt_fwd", Mux(e_rowaddr + WB < lim, e_rowaddr + WB, 0), aw)
-        nxt_rev = wire("nxt_rev", Mux(e_rowaddr.any(), e_rowaddr - WB,
-                                      Mux(lim.any(), lim - WB, 0)), aw)
-        with m.If(step):
-            with m.If(start):
-                m.d.sync += [m_reg.eq(a_m), dir_reg.eq(a_dir), f.eq(e_f), base.eq(base_next),
-                             lim.eq(n_new * WB)]
-            with m.If(last_col):
-                m.d.sync += [col.eq(0), row.eq(e_row + 1),
-                             row_addr.eq(Mux(e_dir, nxt_rev, nxt_fwd))]
-            with m.Else():
-                m.d.sync += [col.eq(e_col + 1), row.eq(e_row), row_addr.eq(e_rowaddr)]
-            with m.If(frame_end):
-                m.d.sync += [state.eq(_WAIT), run.eq(Mux(e_f == M, M, e_f + 1))]
-            with m.Else():
-                m.d.sync += state.eq(_RUN)
-        with m.If(pad_now):
-            m.d.sync += pad_col.eq(pad_col + 1)
-            with m.If(pad_col == WB - 1):
-                m.d.sync += state.eq(_DROP)
-
-        # ---- memory: exactly (M-1) lines x W words of PS bits, one bank per pixel lane
-        # (bank k holds pixels k, k+PPC, ...; all banks share the address)
         self.memories = []
-        if depth:
-            addr = wire("addr", e_rowaddr + e_col, aw)
-            rds, wrs = [], []
-            for k in range(PPC):
-                mem = Memory(shape=unsigned(PS), depth=depth, init=[])
-                m.submodules[f"psum{k}"] = mem
+        ports = []        # (read enable, read address, write enable, write address) per bank
+        lanes = [[] for _ in range(PPC)]
+        lo = 0
+        rep = max(1, _GROUP // PPC)   # banks per replicated address / write register set
+        for pw, depths in self.memory_banks:
+            lg = _BANK_DEPTH[pw].bit_length() - 1
+            multi = len(depths) > 1
+            q = []
+            for c, bd in enumerate(depths):
+                tag = f"b{lo}_{c}"
+                if c % rep == 0:
+                    # replicated issue and write-back address and data registers
+                    g = c // rep
+                    ra = Signal(aw, name=f"ra_b{lo}_g{g}", attrs={"keep": 1})
+                    wa = Signal(aw, name=f"wa_b{lo}_g{g}", attrs={"keep": 1})
+                    wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", attrs={"keep": 1})
+                    m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
+                                 wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
+                                             for k in range(PPC))))]
+                # one memory per bank holds the part of every lane (lane k at bits k*pw)
+                mem = Memory(shape=unsigned(PPC * pw), depth=bd, init=[],
+                             attrs={NO_RW_CHECK: 1, NO_INIT: 1})
+                m.submodules[f"psum_{tag}"] = mem
                 self.memories.append(mem)
                 rd, wr = mem.read_port(), mem.write_port()
-                m.d.comb += [rd.addr.eq(addr), rd.en.eq(step)]
-                rds.append(rd)
-                wrs.append(wr)
-            mem_word = Cat(*(rd.data for rd in rds))
-        else:
-            mem_word = Const(0, PPC * PS)
-
-        with m.If(step):
-            m.d.sync += [b_valid.eq(1), b_data.eq(a_data), b_addr.eq(e_rowaddr + e_col),
-                         b_use.eq(use_mem), b_wr.eq(~out_row), b_out.eq(out_row & out_en),
-                         b_first.eq(~e_col.any()), b_last.eq(last_col), b_zero.eq(0)]
-        with m.Elif(pad_now):
-            m.d.sync += [b_valid.eq(1), b_use.eq(0), b_wr.eq(0), b_out.eq(1), b_first.eq(0),
-                         b_last.eq(pad_col == WB - 1), b_zero.eq(1)]
-        with m.Elif(b_adv):
-            m.d.sync += b_valid.eq(0)
+                ports.append((rd.en, rd.addr, wr.en, wr.addr))
+                re_ = Signal(name=f"re_{tag}")      # bank read at the issue
+                rh = Signal(name=f"rh_{tag}")       # ... its data arrives now
+                we = Signal(name=f"we_{tag}")
+                m.d.sync += [re_.eq(p[0]["valid"] & (_eq(p[0]["addr"] >> lg, c)
+                                                     if multi else 1)),
+                             rh.eq(re_),
+                             we.eq(do_write & (_eq(ps_["addr"] >> lg, c) if multi else 1))]
+                m.d.comb += [rd.addr.eq(ra[:len(rd.addr)]), rd.en.eq(re_),
+                             wr.addr.eq(wa[:len(wr.addr)]), wr.data.eq(wd), wr.en.eq(we)]
+                # the block RAM's data into a flip-flop next to it (its synchronous reset
+                # zeroes it when the bank was not read), then ORed in the group stage
+                qr = Signal(PPC * pw, name=f"q_{tag}")
+                m.d.sync += qr.eq(Mux(rh, rd.data, 0))
+                q.append(qr)
+            groups = []
+            for j in range(0, len(q), _GROUP):
+                gq = Signal(PPC * pw, name=f"g_b{lo}_{j // _GROUP}")
+                m.d.sync += gq.eq(_or(q[j:j + _GROUP]))
+                groups.append(gq)
+            piece = Signal(PPC * pw, name=f"ps_b{lo}")
+            # the stored sum is used or not: masked here, so the adder gets registers
+            m.d.sync += piece.eq(Mux(p[_READ_STAGES - 1]["use"], _or(groups), 0))
+            for k in range(PPC):
+                lanes[k].append(piece[k * pw:(k + 1) * pw])
+            lo += pw
+        lanes = [Cat(*parts) if parts else Const(0, PS) for parts in lanes]
 
         sums, outs, wraps = [], [], []
         for k in range(PPC):
-            px = b_data[k * PB:(k + 1) * PB]
-            ps = mem_word[k * PS:(k + 1) * PS]
+            px = ps_["data"][k * PB:(k + 1) * PB]
             s = Signal(PS + 1, name=f"sum{k}")
-            m.d.comb += s.eq(Mux(b_use, ps, 0) + px)
+            m.d.comb += s.eq(lanes[k] + px)
             sums.append(s[:PS])
             wraps.append(s[PS])
             if self._saturate and OB < PS + 1:
                 v = Mux(s > (1 << OB) - 1, (1 << OB) - 1, s[:OB])
             else:
                 v = s[:OB]
-            outs.append(Mux(b_zero, 0, v))
-        for wr, lane in zip(wrs if depth else [], sums):
-            m.d.comb += [wr.addr.eq(b_addr), wr.data.eq(lane),
-                         wr.en.eq(b_valid & b_wr & ~b_zero)]
+            outs.append(Mux(ps_["zero"], 0, v))
+        m.d.comb += sum_word.eq(Cat(*sums))
 
-        # ---- output register + skid buffer
-        new_word = Cat(*outs)
-        o_valid, o_first, o_last = Signal(), Signal(), Signal()
-        o_data = Signal(PPC * OB)
-        sk_data = Signal(PPC * OB)
-        sk_first, sk_last = Signal(), Signal()
-        m.d.comb += [o.valid.eq(o_valid), Value.cast(o.payload.data).eq(o_data),
-                     o.payload.first.eq(o_first), o.payload.last.eq(o_last)]
-        push = b_valid & b_out & ~sk_valid
-        pop = o_valid & o.ready
-        with m.If(sk_valid):
-            with m.If(pop):
-                m.d.sync += [o_data.eq(sk_data), o_first.eq(sk_first), o_last.eq(sk_last),
-                             sk_valid.eq(0)]
-        with m.Elif(push):
-            with m.If(~o_valid | pop):
-                m.d.sync += [o_data.eq(new_word), o_first.eq(b_first & ~b_zero),
-                             o_last.eq(b_last), o_valid.eq(1)]
-            with m.Else():
-                m.d.sync += [sk_data.eq(new_word), sk_first.eq(b_first & ~b_zero),
-                             sk_last.eq(b_last), sk_valid.eq(1)]
-        with m.Elif(pop):
-            m.d.sync += o_valid.eq(0)
+        # ---- output FIFO; credits: an output beat issues only with room reserved for it
+        # (an output register between the adder and the FIFO's write port)
+        o_en, o_word = Signal(), Signal(PPC * OB + 2)
+        m.d.sync += [o_en.eq(ps_["valid"] & ps_["out"]),
+                     o_word.eq(Cat(*outs, ps_["first"] & ~ps_["zero"], ps_["last"]))]
+        n_fifo = _READ_STAGES + 3
+        m.submodules.out_fifo = fifo = SyncFIFO(width=PPC * OB + 2, depth=n_fifo)
+        m.d.comb += [fifo.w_data.eq(o_word), fifo.w_en.eq(o_en),
+                     o.valid.eq(fifo.r_rdy), fifo.r_en.eq(o.ready),
+                     Value.cast(o.payload.data).eq(fifo.r_data[:PPC * OB]),
+                     o.payload.first.eq(fifo.r_data[PPC * OB]),
+                     o.payload.last.eq(fifo.r_data[PPC * OB + 1])]
+        pend = Signal(range(n_fifo + 1))   # output beats issued and not yet taken
+        pend_next = Signal(range(n_fifo + 2))
+        m.d.comb += pend_next.eq(pend + (b_adv & b.out) - (o.valid & o.ready))
+        m.d.sync += [pend.eq(pend_next), room.eq(pend_next < n_fifo)]
 
-        self.probe = {"wrap": Cat(*wraps), "b_valid": b_valid, "b_use": b_use, "b_wr": b_wr,
-                      "sums": Cat(*sums), "state": state, "run": run}
+        self.probe = {"wrap": Cat(*wraps), "b_valid": ps_["valid"], "b_use": ps_["use"],
+                      "b_wr": ps_["wr"], "sums": Cat(*sums), "issue_use": pc["use"],
+                      "ports": ports}
         return m

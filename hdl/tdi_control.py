@@ -1,12 +1,12 @@
-"""Frame control of the digital TDI accumulator, as a component a memory back-end uses.
+"""Frame control of the digital TDI accumulator, shared by its memory back-ends.
 
 :class:`TdiFrameControl` turns the input beats (m rows of W pixels per frame, tuser/tlast)
 and the run-time settings into *decoded beats*: for each beat the partial-sum address it
 reads and writes, whether the stored sum is used, whether the updated sum is written back or
-output, and the output beat's markers. The DDR accumulator (``TdiDdr``) uses it; the
-on-chip :class:`tdicam.hdl.tdi.TdiAccumulator` still has its own latency-3 copy (a pipelined
-on-chip back-end on this component met the clock better but co-simulated 2.45x slower).
-The beat-level contract is :func:`tdicam.model.tdi.tdi_stream`."""
+output, and the output beat's markers. The on-chip accumulator
+(:class:`tdicam.hdl.tdi.TdiAccumulator`) and the DDR one (``TdiDdr``) differ only in where
+the partial sums live. The beat-level contract is :func:`tdicam.model.tdi.tdi_stream`.
+"""
 
 from amaranth.hdl import Const, Module, Mux, Signal, Value, unsigned
 from amaranth.lib import data, stream, wiring

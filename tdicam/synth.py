@@ -49,13 +49,13 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from amaranth.back.rtlil import convert as _rtlil_convert
 from amaranth.hdl import Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from .paths import REPO
 from . import blocks
+from .verilog import rtlil as _rtlil_text
 from .errors import TdicamError
 
 __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "tool_versions",
@@ -292,9 +292,8 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
 
 def _rtlil(top, name):
     """RTLIL of ``top`` as module ``name``: the netlist that ``tdicam verilog`` writes out as
-    Verilog. Read by yosys in seconds, where the Verilog frontend takes minutes on large
-    memories (the Verilog spells out their zero initial value word by word)."""
-    return _rtlil_convert(top, name=name, emit_src=False)
+    Verilog (:func:`tdicam.verilog.rtlil`, memory attributes applied)."""
+    return _rtlil_text(top, name)
 
 
 def _write_if_changed(path, text):

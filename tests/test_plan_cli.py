@@ -41,14 +41,17 @@ def test_gateware_rate_of_the_orbit_scene(capsys):
     assert round(g["pixel_rate"] / 1e6) == 849
     assert [o["ppc"] for o in g["options"]] == [1, 2, 4, 8]
     assert g["options"][3]["clock_needed_mhz"] == pytest.approx(849 / 8, abs=0.1)
-    # reference synthesis: ppc 4 at 71.4 MHz is the best, 285.6 M pixel/s
-    assert g["ok"] is False and g["ppc"] is None
-    assert g["best_pixel_rate"] == pytest.approx(4 * max(planning.REFERENCE_TDI_FMAX_MHZ.values())
-                                                 * 1e6)
-    assert g["margin"] == pytest.approx(285.6e6 / g["pixel_rate"] - 1)
-    assert code == planning.EXIT_INFEASIBLE
+    # reference synthesis: ppc 1 and 4 are short (< 106 MHz x 8 / ppc needed), ppc 8 meets it
+    ref = planning.REFERENCE_TDI_FMAX_MHZ
+    assert [o["meets"] for o in g["options"]] == [False, None, False, True]   # no ppc 2 row
+    assert g["ok"] is True and g["ppc"] == 8 and g["clock_mhz"] == ref[8]
+    assert g["best_pixel_rate"] == pytest.approx(8 * ref[8] * 1e6)
+    assert g["margin"] == pytest.approx(8 * ref[8] * 1e6 / g["pixel_rate"] - 1)
+    assert code == 0
     code, out, _ = run_cli(capsys, "--scene", str(SCENE))
-    assert "TDI input 848.9 M pixel/s" in out and "no ppc meets it: NO (margin -66.4 %)" in out
+    assert "TDI input 848.9 M pixel/s" in out
+    assert (f"ppc 8 at {ref[8]:g} MHz meets it: yes "
+            f"(margin {(8 * ref[8] * 1e6 / g['pixel_rate'] - 1) * 100:+.1f} %)") in out
 
 
 def test_gateware_with_a_given_clock(capsys):

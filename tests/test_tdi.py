@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from amaranth.hdl import ClockDomain, Fragment, Module
+from amaranth.hdl import ClockDomain, Fragment, Module, Shape
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 from amaranth.sim import Simulator
@@ -268,39 +268,71 @@ def test_component_properties():
     dut = TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=4)
     assert (dut.width, dut.stages, dut.pixel_bits, dut.ppc) == (1280, 96, 12, 4)
     assert dut.psum_bits == dut.out_bits == 19 and not dut.saturating
-    assert dut.latency == 3
+    assert dut.latency == 9
     assert dut.memory_lines == 95
     assert dut.memory_shape == (4, 95 * 320, 19)
+    assert dut.memory_parts == (18, 1)
+    assert TdiAccumulator(width=64, stages=4, pixel_bits=14).memory_parts == (9, 4, 2, 1)
+    assert dut.row_cycles == 320 and TdiAccumulator(width=8, stages=3, ppc=2).row_cycles == 6
     sat = TdiAccumulator(width=64, stages=4, out_bits=12)
     assert sat.out_bits == 12 and sat.psum_bits == 14 and sat.saturating
     assert len(dut.stages_active) == 7 and len(dut.direction) == 1
 
 
 def _memories(dut):
+    """(name, depth, width, read ports, write ports) of the partial-sum memories (named
+    psum_b<bit offset>_<bank>) of the elaborated design."""
     frag = Fragment.get(dut, None)
     found = []
 
-    def walk(f):
-        if type(f).__name__ == "MemoryInstance":
-            found.append((f._data.depth, f._data.shape.width, len(f._read_ports),
-                          len(f._write_ports)))
-        for sub, *_ in f.subfragments:
-            walk(sub)
-    walk(frag)
+    def walk(f, name):
+        if type(f).__name__ == "MemoryInstance" and name.startswith("psum"):
+            found.append((name, f._data.depth, Shape.cast(f._data.shape).width,
+                          len(f._read_ports), len(f._write_ports)))
+        for sub, sub_name, *_ in f.subfragments:
+            walk(sub, str(sub_name))
+    walk(frag, "")
     return found
+
+
+_BANK = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}   # words per bank of each part width
+_DP16KD = ((16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18))   # (depth, width) modes
+
+
+def _block_rams(mems):
+    """DP16KD blocks the banks need: each memory in its cheapest DP16KD mode."""
+    return sum(min(-(-d // bd) * -(-w // bw) for bd, bw in _DP16KD) for _, d, w, *_ in mems)
 
 
 @pytest.mark.parametrize("width,stages,bits,ppc", [
     (64, 4, 12, 1), (64, 4, 12, 4), (256, 32, 12, 1), (1280, 96, 12, 1), (1280, 96, 12, 8),
-    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1)])
+    (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1), (64, 4, 14, 1)])
 def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     """The elaborated design holds exactly (m_max-1) x W partial sums of the full width —
-    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc banks (one per pixel
-    lane), each with one read and one write port."""
+    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc lanes. A lane's words
+    are split by bits into parts of a DP16KD data width (18, 9, 4, 2, 1; 19 bits = 18 + 1)
+    and each part by address into banks (2048 words for 18 and 9 bits, one block RAM's depth
+    below); one memory per bank holds that part of every lane (ppc x part bits), with one
+    read and one write port: every bit is stored exactly once, (m-1) W/ppc words x psum
+    bits per lane."""
     mems = _memories(TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc))
     psum = bits + (stages - 1).bit_length()
-    assert mems == [((stages - 1) * width // ppc, psum, 1, 1)] * ppc
-    words = sum(depth for depth, *_ in mems)
+    depth = (stages - 1) * width // ppc
+    assert all((r, w) == (1, 1) for *_, r, w in mems)
+    parts = {}
+    for name, d, bw, *_ in mems:
+        _, offset, index = name.split("_")
+        pw = bw // ppc
+        assert bw == pw * ppc
+        assert d == min(_BANK[pw], depth - int(index) * _BANK[pw])
+        parts.setdefault((int(offset[1:]), pw), []).append(d)
+    # the parts tile the word's bits, each holds every word of every lane
+    offsets = sorted(parts)
+    assert [o for o, _ in offsets] == [sum(w for _, w in offsets[:i])
+                                       for i in range(len(offsets))]
+    assert sum(w for _, w in offsets) == psum
+    assert all(sum(ds) == depth for ds in parts.values())
+    words = depth * ppc
     assert words == (stages - 1) * width
     assert words * psum == (stages - 1) * width * full_bits(bits, stages)
     assert basic_line_buffers(stages) * width - words == \
@@ -311,13 +343,28 @@ def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     assert plan.partial_sum_bits(bits, stages) == psum
 
 
+def test_reference_memory_block_rams():
+    """At the reference parameters the banks need 127 DP16KD for ppc=1 (119 for the 18-bit
+    part + 8 of 16384 x 1) and 128 for ppc=4 and ppc=8 (120 + 8); the floor is
+    ceil(95 x 1280 x 19 / 18432) = 126 (yosys' counts: the README silicon-cost rows)."""
+    for ppc, n, n18 in ((1, 127, 119), (4, 128, 120), (8, 128, 120)):
+        mems = _memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
+        assert _block_rams(mems) == n
+        assert _block_rams([x for x in mems if x[0].startswith("psum_b0_")]) == n18
+
+
 def test_memory_in_generated_verilog():
+    """The banks in the Verilog: no initial value (no ``initial`` block spelling out zeros),
+    yosys' ``no_rw_check`` attribute on each."""
     from tdicam.hdl.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
-    decls = sorted(ln.strip() for ln in text.splitlines() if ln.strip().startswith("reg [")
-                   and ln.strip().endswith("];") and "] psum" in ln)
-    # 5 lines x 64 pixels of 13 bits, as 2 banks of 160 words
-    assert decls == ["reg [12:0] psum0 [159:0];", "reg [12:0] psum1 [159:0];"]
+    lines = [ln.strip() for ln in text.splitlines()]
+    decls = sorted((lines[i - 1], ln) for i, ln in enumerate(lines) if ln.startswith("reg [")
+                   and ln.endswith("];") and "] psum" in ln)
+    # 5 lines x 64 pixels of 13 bits, as 160 words of 2 lanes x (9 + 4) bits
+    assert decls == [("(* no_rw_check = 32'd1 *)", "reg [17:0] psum_b0_0 [159:0];"),
+                     ("(* no_rw_check = 32'd1 *)", "reg [7:0] psum_b9_0 [159:0];")]
+    assert not any("psum" in ln and "=" in ln and "<=" not in ln for ln in lines)
 
 
 def test_stages_one_has_no_memory():
@@ -533,8 +580,9 @@ def test_latency_and_full_throughput():
 
 def test_nonoutput_rows_flow_while_output_stalled():
     """With o_stream.ready held low, frames that produce no output stream in at one beat per
-    clock; the first output row stalls the input once the output register, the skid buffer
-    and the two pipeline registers are full — and nothing is lost when ready returns."""
+    clock; an output row stalls the input once its output credits (read pipeline, output
+    register and FIFO), the decode register and the input register are full — and nothing is lost
+    when ready returns."""
     from tdicam.blocks.tdi import stream_arrays
     rng = np.random.default_rng(2)
     params = {"width": 8, "stages": 4, "pixel_bits": 12, "out_bits": None, "ppc": 1}
@@ -569,7 +617,10 @@ def test_nonoutput_rows_flow_while_output_stalled():
     sim.add_testbench(bench)
     sim.run()
     stalled = [c for c in accepted if c < 200]
-    assert stalled == list(range(3 * 32 + 4))       # 3 frames + 4 beats of the output row
+    # the 8 output credits (5 read-pipeline stages, the output register, 2 in the output
+    # FIFO) take frame 3's whole 8-beat output row; then frame 4's output row stalls with
+    # 2 beats in (input register, decode register)
+    assert stalled == list(range(4 * 32 + 2))
     assert len(accepted) == n
     want = tdi_stream(a["pixels"], a["first"], a["last"], 4, 0, **params)
     assert got == want.data[:, 0].tolist() and len(got) == 2 * 8

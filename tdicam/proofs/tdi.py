@@ -15,7 +15,9 @@ class TdiNoWrapProof(Elaboratable):
     ``ready``, the synchronous reset) are free on every cycle. Asserted on every cycle: the
     sum a pipeline beat writes back or outputs (stored partial sum + pixel, per lane) fits
     :attr:`TdiAccumulator.psum_bits`, and every partial sum written is at most
-    ``(stages - 1) * (2**pixel_bits - 1)``. Meant for a bounded model check from the initial
+    ``(stages - 1) * (2**pixel_bits - 1)``; and no partial-sum bank reads an address in
+    the cycle it is written for a beat that uses the stored sum (the contract of the banks'
+    ``no_rw_check`` attribute, see :class:`TdiAccumulator`). Meant for a bounded model check from the initial
     state (:func:`tdicam.formal.prove` ``mode="bmc"``, :meth:`depth` cycles: ``stages + 1``
     whole frames plus the pipeline), which covers every stage count, direction, setting
     change, reset and malformed-frame path reachable in that many cycles.
@@ -26,13 +28,15 @@ class TdiNoWrapProof(Elaboratable):
     check several times faster. ``valid_settings`` assumes ``1 <= stages_active <= stages``
     (an invalid setting only drops its frame and restarts the fill, like a change of
     setting). ``psum_bits`` overrides the partial-sum width: a deliberately too narrow,
-    wrapping mutant must fail.
+    wrapping mutant must fail; ``row_cycles`` overrides the fewest cycles per row: one too
+    few (5) makes a row read a sum in the cycle it is written, and must fail.
     """
 
-    def __init__(self, *, width=2, stages=3, pixel_bits=8, ppc=1, psum_bits=None,
+    def __init__(self, *, width=2, stages=3, pixel_bits=8, ppc=1, psum_bits=None, row_cycles=None,
                  full_scale=False, valid_settings=False):
         self.dut = TdiAccumulator(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc,
-                                  _psum_bits=psum_bits)
+                                  _psum_bits=psum_bits,
+                                  **({} if row_cycles is None else {"_row_cycles": row_cycles}))
         self.dut._MustUse__silence = True   # elaborated by hand in elaborate()
         self.full_scale = full_scale
         self.valid_settings = valid_settings
@@ -41,7 +45,7 @@ class TdiNoWrapProof(Elaboratable):
         """BMC depth covering ``frames`` whole frames (default ``stages + 1``) + pipeline."""
         d = self.dut
         frames = d.stages + 1 if frames is None else frames
-        return frames * d.stages * (d.width // d.ppc) + d.latency + 2
+        return frames * d.stages * d.row_cycles + d.latency + 2
 
     def elaborate(self, platform):
         m = Module()
@@ -62,6 +66,10 @@ class TdiNoWrapProof(Elaboratable):
             m.d.comb += Assume((dut.stages_active >= 1) & (dut.stages_active <= dut.stages))
         p = dut.probe
         m.d.comb += Assert(~(p["b_valid"] & p["wrap"].any()))
+        # the banks' no_rw_check contract: a read of the address written in the same cycle
+        # (whose data is then undefined) is never used
+        for ren, raddr, wen, waddr in p["ports"]:
+            m.d.comb += Assert(~(ren & wen & (raddr == waddr)) | ~p["issue_use"])
         bound = (dut.stages - 1) * ((1 << dut.pixel_bits) - 1)
         ps = dut.psum_bits
         for k in range(dut.ppc):
