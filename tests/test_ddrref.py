@@ -53,11 +53,11 @@ def test_pattern_reads_follow_their_writes(name):
 LITEDRAM = {"write_only": (32, 87.8), "read_only": (32, 87.2), "table2_write": (4, 89.5),
             "table2_read": (4, 89.0), "write_read_lag1": (32, 80.7),
             "write_read_lag16": (32, 74.9), "blocks_27": (32, 72.5), "blocks_18": (32, 66.2),
-            "blocks_8": (32, 48.0), "per_word_rw": (32, 12.1),
+            "blocks_8": (32, 48.0), "per_word_rw": (32, 12.1), "row_blocks": (4, 86.9),
             "two_ports": (32, 74.0), "two_ports_64": (32, 83.8)}
 
 
-@pytest.mark.parametrize("name", list(LITEDRAM))
+@pytest.mark.parametrize("name", list(ddr.PATTERNS))
 def test_dram_model_within_3_points_of_litedram(name):
     """The memory model with DRAM timing (banks, rows, turnarounds, refresh) gives every
     pattern's efficiency within +/-3 points of LiteDRAM's; the plain stall pattern does not
@@ -69,7 +69,7 @@ def test_dram_model_within_3_points_of_litedram(name):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not FULL, reason="HDL model on every 32-line pattern: set TDICAM_FULL=1")
-@pytest.mark.parametrize("name", list(LITEDRAM))
+@pytest.mark.parametrize("name", list(ddr.PATTERNS))
 def test_hdl_model_within_3_points_of_litedram(name):
     """Long form of tests/test_ddr.py's cycle-equality test: the HDL controller model with
     DRAM timing, cycle-equal with the Python one on every pattern, within +/-3 points of
