@@ -42,8 +42,10 @@ class TdiDdr(wiring.Component):
     it writes, ``stages_active`` = 2 forward, waits until that row is finished, which costs
     about the DDR read latency per row); no write is queued during a block. The new sums
     wait meanwhile in a write-behind FIFO and are written back, in order, between the
-    blocks. Measured with :mod:`tdicam.ddrref` (LiteDRAM, DDR3-800): see
-    ``bench/bench_ddr.py --litedram``.
+    blocks. Measured with :mod:`tdicam.ddrref` (LiteDRAM, DDR3-800, on the recorded order
+    in steady state): 81.7 % at W = 1280 (m = 16, 12-bit), 84.7 % at W = 4096 (m = 32,
+    ppc 4), against 12-34 % for a read and a write per word; ``bench/bench_ddr.py
+    --litedram`` prints the figures.
 
     On-chip buffers (block RAM): the read-ahead, :class:`~tdicam.hdl.mig.MigPort`'s read-data
     FIFO of ``2 * words_per_line`` x 256 bit (the row being added and the next row's

@@ -76,7 +76,7 @@ __all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_B
            "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check",
            "ROW_WORDS", "BANKS", "Trace", "PATTERNS", "pattern_trace", "replay_model",
            "pattern_efficiency", "DramTiming", "DRAM_STALLS", "merged_commands",
-           "TraceDriver", "MODEL_TOLERANCE", "TDI_SPILL_PATTERN", "tdi_spill_efficiency"]
+           "TraceDriver", "PLAN_MARGIN", "TDI_SPILL_PATTERN", "tdi_spill_efficiency"]
 
 WORD_BITS = 256
 ADDR_PER_WORD = 8           # 32-bit address unit (seed 002 Table 2: 0~7, 8~15, ...)
@@ -699,9 +699,13 @@ def pattern_efficiency(name, *, lines=32, words=54, stride=64, dram=DramTiming()
     return replay_model(tr, dram, PATTERNS[name][2], **stalls)[2]
 
 
-#: points the planner takes off the memory model's figure: the model's stated error against
-#: LiteDRAM (tests/test_ddrref.py holds it to +/-3 points on every pattern)
-MODEL_TOLERANCE = 0.03
+#: share the planner takes off the memory model's figure for the TDI spill: the largest gap
+#: measured between the model and LiteDRAM on TdiDdr's recorded order (model 86.1 / 90.1 %,
+#: LiteDRAM 81.7 / 84.7 % at 1280 / 4096 columns, tdicam.ddrref). The model is within +/-3
+#: points on every pattern of PATTERNS, but LiteDRAM's bank machines run the read block of
+#: one line and the write block of another line, in other banks, side by side, and turn the
+#: bus around more often than the in-order model charges.
+PLAN_MARGIN = 0.07
 #: the access pattern of TDI partial sums in DDR (:class:`tdicam.hdl.tdi_ddr.TdiDdr`)
 TDI_SPILL_PATTERN = "row_blocks"
 
@@ -714,14 +718,14 @@ def tdi_spill_efficiency(width, stages, pixel_bits, ppc=1):
     row's stored sums read as one block of a line, then the line written back) with that
     configuration's words per line (:func:`psums_per_word` sums per word), its efficiency
     on the memory model with DRAM timing (:func:`pattern_efficiency`, on enough lines for
-    >= 2400 commands: three refresh periods) less :data:`MODEL_TOLERANCE`, so a controller
-    within the model's error of it still meets the plan."""
+    >= 2400 commands: three refresh periods) less :data:`PLAN_MARGIN`, so LiteDRAM's
+    DDR3 controller, measured on the block's own order, still meets the plan."""
     from .tdi import full_bits
     k = psums_per_word(full_bits(pixel_bits, stages), ppc)
     wpl = -(-(int(width) // int(ppc)) // (k // int(ppc)))
     lines = max(4, -(-2400 // (2 * wpl)))
     e = pattern_efficiency(TDI_SPILL_PATTERN, lines=lines, words=wpl, stride=wpl)
-    return TDI_SPILL_PATTERN, e - MODEL_TOLERANCE
+    return TDI_SPILL_PATTERN, e - PLAN_MARGIN
 
 
 # ---------------------------------------------------------------------------------------

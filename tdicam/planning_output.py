@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from tdicam.model import plan as P
+from tdicam.model.ddr import PLAN_MARGIN
 
 __all__ = ["report_text", "figures"]
 
@@ -162,8 +163,9 @@ def report_text(rep) -> str:
                  f"{_ok(ddr['ok'])}")
     if ddr.get("pattern", "given") != "given":
         lines.append(f"                 efficiency of the access pattern '{ddr['pattern']}' "
-                     f"({ddr['pattern_text']}) on the DRAM timing model, less its 3-point "
-                     "error")
+                     f"({ddr['pattern_text']}) on the DRAM timing model, less "
+                     f"{PLAN_MARGIN * 100:g} points (its largest gap to LiteDRAM on that "
+                     "order)")
     if mem.get("must_spill"):
         verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
                    "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "

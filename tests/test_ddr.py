@@ -299,7 +299,7 @@ def test_tdi_ddr_reads_a_line_as_one_block():
     """TdiDdr's DRAM order (recorded behind the HDL controller model with DRAM timing):
     every run of reads is one whole line (words_per_line reads of one line, in order), and
     the stored sums of each adding row are read once; the order's efficiency on the DRAM
-    model is what the planner counts on for it (its access pattern less 3 points) or
+    model is what the planner counts on for it (its access pattern less the plan's margin) or
     better."""
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.ddrref import record

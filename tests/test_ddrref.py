@@ -115,7 +115,8 @@ def test_litedram_rejects_address_outside_memory():
 def test_litedram_block_efficiency(block):
     """Each DDR block's recorded order on LiteDRAM: data right, no timing violation, and an
     efficiency no lower than what the planner counts on for it (the TDI spill: its access
-    pattern on the DRAM model less the model's 3 points; the others: 80 %)."""
+    pattern on the DRAM model less :data:`tdicam.model.ddr.PLAN_MARGIN`; the others: 80
+    %)."""
     ref = _ref()
     tr = _block_traces(ref)[block]
     r = ref.replay(tr)
