@@ -391,10 +391,10 @@ def block_traces(*, width=1280, lines=8, seed=1, wide=4096):
     the planner counts on: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill,
     :data:`tdicam.model.memory.DDR_EFFICIENCY` for the others) on ``lines``-line frames of
     ``width`` 10-bit pixels: ``ddr`` (frame buffer, 8 pixels per beat, one frame),
-    ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: 4 lines of ``wide``
+    ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: 2 lines of ``wide``
     pixels), ``tdi_ddr`` (``width`` columns, 16 stages, 12-bit pixels; ``tdi_ddr_wide``:
-    ``wide`` columns, 32 stages, 4 pixels per clock; both 4 stages active, the last 4 rows
-    of the steady state), plus ``writer`` and ``reader``: the frame buffer's line writer and
+    ``wide`` columns, 32 stages, 4 pixels per clock; both 3 stages active, the last 4 / 2
+    rows of the steady state), plus ``writer`` and ``reader``: the frame buffer's line writer and
     reader alone (its layout written, then read)."""
     import numpy as np
 
@@ -413,17 +413,17 @@ def block_traces(*, width=1280, lines=8, seed=1, wide=4096):
     out["reader"] = Trace("reader", [[(1, a) for a in addrs]])
     fr = rng.integers(0, 1 << 10, (1, lines, width))
     out["ddr"] = record(fb, frames_to_beats(fr, ppc=8), name="ddr")
-    for name, w, rows in (("cds_ddr", width, lines), ("cds_ddr_wide", wide, 4)):
+    for name, w, rows in (("cds_ddr", width, lines), ("cds_ddr_wide", wide, 2)):
         cds = CdsDdr(width=w, rows=rows, pixel_bits=10)
         fr = rng.integers(0, 1 << 10, (2, rows, w))
         out[name] = record(cds, frames_to_beats(fr), name=name,
                            side={"frame_kind": np.repeat([1, 0], rows * w)})
     for tr in out.values():
         tr.planned = DDR_EFFICIENCY
-    out["tdi_ddr"] = _tdi_trace("tdi_ddr", width=width, stages=16, ppc=1, active=4, rows=4,
+    out["tdi_ddr"] = _tdi_trace("tdi_ddr", width=width, stages=16, ppc=1, active=3, rows=4,
                                 rng=rng)
-    out["tdi_ddr_wide"] = _tdi_trace("tdi_ddr_wide", width=wide, stages=32, ppc=4, active=4,
-                                     rows=4, rng=rng)
+    out["tdi_ddr_wide"] = _tdi_trace("tdi_ddr_wide", width=wide, stages=32, ppc=4, active=3,
+                                     rows=2, rng=rng)
     return out
 
 
