@@ -42,23 +42,26 @@ from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the 
 accepted before its write command (MIG allows data first), capacity and alignment checks.
 An address outside the memory or not word aligned raises :class:`TdicamError` naming it.
 
-With ``dram=`` :class:`DramTiming` (Python model only) :class:`MigSim` also charges what the
-order of accesses costs on DDR3: read/write turnarounds, opening a row in a bank
-(row-bank-column mapping, 8 banks of :data:`ROW_WORDS`-word rows) and a 44-cycle refresh
-(:data:`DRAM_STALLS`), fitted to LiteDRAM within +/-3 points on every pattern of
-:data:`PATTERNS` (:mod:`tdicam.ddrref` replays the same traces into LiteDRAM).
+With ``dram=`` :class:`DramTiming` :class:`MigSim` also charges what the order of accesses
+costs on DDR3: read/write turnarounds, opening a row in a bank (row-bank-column mapping, 8
+banks of :data:`ROW_WORDS`-word rows) and a 44-cycle refresh (:data:`DRAM_STALLS`), fitted
+to LiteDRAM within +/-3 points on every pattern of :data:`PATTERNS` (:mod:`tdicam.ddrref`
+replays the same traces into LiteDRAM); the HDL model with the same ``dram`` is cycle-equal
+(:func:`tdicam.ddrref.replay_hdl`) and charges it by default in co-simulation.
 :func:`pattern_efficiency` gives a named pattern's efficiency for the planner.
 
 Access patterns
 ---------------
 A :class:`Trace` is the order of a user's commands (``(is_read, word_address)`` per port);
 :data:`PATTERNS` names the orders that matter here (single direction, line blocks,
-the per-word read-then-write of the TDI spill, two ports), :func:`replay_model` runs a
-trace on :class:`MigSim` with data always available.
+the per-word read-then-write the TDI spill had, its line blocks now, two ports),
+:func:`replay_model` runs a trace on :class:`MigSim` with data always available;
+:func:`tdi_spill_efficiency` is what ``tdicam plan`` counts on for the spill.
 
 This module holds the packing, the controller model and the access patterns together
-(~700 lines) because the three share the address and word definitions and are used
-together by every DDR user and by :mod:`tdicam.ddrref`.
+(~800 lines, with the planner's figure for the TDI spill) because the three share the
+address and word definitions and are used together by every DDR user and by
+:mod:`tdicam.ddrref`.
 """
 
 import functools
@@ -439,8 +442,8 @@ class DramTiming:
     ``rd_to_wr``/``wr_to_rd`` after a direction change, ``activate`` when a command's bank
     has another row open (row-bank-column mapping, :data:`ROW_WORDS`-word rows, :data:`BANKS`
     banks), ``both`` extra when the two coincide. Use it with :data:`DRAM_STALLS` (refresh
-    44 cycles every 780, no random drops). Python model only: the HDL model
-    (:class:`tdicam.hdl.mig_model.MigModel`) has the plain stall pattern."""
+    44 cycles every 780, no random drops). The HDL model
+    (:class:`tdicam.hdl.mig_model.MigModel`) with the same ``dram`` is cycle-equal."""
 
     rd_to_wr: int = 6
     wr_to_rd: int = 8
@@ -702,9 +705,9 @@ def pattern_efficiency(name, *, lines=32, words=54, stride=64, dram=DramTiming()
 #: share the planner takes off the memory model's figure for the TDI spill: the largest gap
 #: measured between the model and LiteDRAM on TdiDdr's recorded order (model 86.1 / 90.1 %,
 #: LiteDRAM 81.7 / 84.7 % at 1280 / 4096 columns, tdicam.ddrref). The model is within +/-3
-#: points on every pattern of PATTERNS, but LiteDRAM's bank machines run the read block of
-#: one line and the write block of another line, in other banks, side by side, and turn the
-#: bus around more often than the in-order model charges.
+#: points on every pattern of PATTERNS, but on this order LiteDRAM spends ~13 cycles per
+#: read/write switch where the model charges 6-8 (lines aligned to DRAM rows: the same
+#: 81.7 %), a cost the fitted turnarounds cannot take without leaving the patterns' band.
 PLAN_MARGIN = 0.07
 #: the access pattern of TDI partial sums in DDR (:class:`tdicam.hdl.tdi_ddr.TdiDdr`)
 TDI_SPILL_PATTERN = "row_blocks"
