@@ -11,7 +11,8 @@ beats per clock (TDI on chip: 1 beat/clock).
 
 Table 3 (``--litedram``, needs the ``ddrref`` extra): the efficiency of every access
 pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded command order
-(writer, reader, frame buffer, CDS reset frames, TDI spill) on the project's memory model
+(writer, reader, frame buffer, CDS reset frames at the line width and 4096 columns, TDI
+spill at 1280 and 4096 columns) on the project's memory model
 beside LiteDRAM's (:mod:`tdicam.ddrref`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
 timing checker on). LiteDRAM's simulation runs some tens of cycles per second: ``--lines``
 sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth).
@@ -107,11 +108,12 @@ def speed(sims=cosim.SIMULATORS, quick=False):
     return out
 
 
-def litedram(lines=4, patterns=None, blocks=("writer", "reader", "ddr", "cds_ddr", "tdi_ddr")):
-    """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, wall}: efficiency (%)
-    of each access pattern and each DDR block's command order on the memory model with the
-    plain stall pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`) and on
-    LiteDRAM."""
+def litedram(lines=4, patterns=None, blocks=None):
+    """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, planned, wall}:
+    efficiency (%) of each access pattern and each DDR block's command order
+    (:data:`tdicam.ddrref.BLOCKS` by default) on the memory model with the plain stall
+    pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is
+    cycle-equal with it) and on LiteDRAM, and what the planner counts on for the block."""
     from tdicam import ddrref
     from tdicam.model.ddr import PATTERNS, DramTiming, pattern_trace, replay_model
     rows = []
@@ -123,6 +125,7 @@ def litedram(lines=4, patterns=None, blocks=("writer", "reader", "ddr", "cds_ddr
                      "stall_eff": 100 * replay_model(trace)[2],
                      "model_eff": 100 * replay_model(trace, DramTiming(), windows)[2],
                      "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
+                     "planned": None if trace.planned is None else 100 * trace.planned,
                      "wall": r.wall})
         print(f"  {kind} {name}: model {rows[-1]['model_eff']:.1f} %, LiteDRAM "
               f"{rows[-1]['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
@@ -132,6 +135,7 @@ def litedram(lines=4, patterns=None, blocks=("writer", "reader", "ddr", "cds_ddr
         if name == "write_read_lag16":
             n = max(n, 17)
         one("pattern", name, pattern_trace(name, lines=n), PATTERNS[name][2])
+    blocks = ddrref.BLOCKS if blocks is None else blocks
     if blocks:
         traces = ddrref.block_traces(lines=lines)
         for name in blocks:
@@ -159,6 +163,7 @@ def main(argv=None):
                            ("words", "words", "d"), ("stall_eff", "stall model %", ".1f"),
                            ("model_eff", "DRAM model %", ".1f"),
                            ("lite_eff", "LiteDRAM %", ".1f"), ("lite_ok", "data+timing ok", ""),
+                           ("planned", "plan counts on %", ".1f"),
                            ("wall", "wall s", ".0f")],
                     title=f"DDR efficiency, memory model vs LiteDRAM ({a.lines}-line traces)")
         return

@@ -3,16 +3,17 @@ puts a DDR user and the model together as one stream component for the fast co-s
 
 * :class:`MigModel` — same behaviour and the same per-cycle stall pattern as
   :class:`tdicam.model.ddr.MigSim`.
-* :class:`SimTop` — a user component with a :class:`MigModel` behind its MIG ports.
+* :class:`SimTop` — a user component with a :class:`MigModel` behind its MIG ports (DRAM
+  timing on by default).
 """
 
-from amaranth.hdl import Module, Mux, Signal, unsigned
+from amaranth.hdl import Array, Module, Mux, Signal, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
-from tdicam.model.ddr import ADDR_BITS, WORD_BITS, _check_stalls
+from tdicam.model.ddr import ADDR_BITS, BANKS, WORD_BITS, DramTiming, _check_stalls
 from .mig import MIG_PORT_NAMES, connect_mig, mig_model_ports
 from .util import quiet_reject
 
@@ -37,6 +38,14 @@ class MigModel(wiring.Component):
     reads return in order ``lat_lo + (state[31:16] * (lat_hi - lat_lo + 1) >> 16)`` cycles
     after the command (at least one cycle after the previous read's data).
 
+    With ``dram`` (a :class:`tdicam.model.ddr.DramTiming`) it also charges, as
+    :class:`~tdicam.model.ddr.MigSim` with the same ``dram`` does and cycle for cycle with it,
+    what the order of accesses costs on DDR3: after each accepted command ``app_rdy`` stays
+    low for the read/write turnaround (a direction change) and for opening another row in
+    the command's bank (row-bank-column mapping: word address bits [7:10] the bank, the
+    bits above the row; 8 open-row registers), the larger of the two plus ``both`` when
+    both apply. Use it with :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
+
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
     beat, or an ``app_cmd`` other than 0/1. The offending command is ignored.
@@ -47,8 +56,9 @@ class MigModel(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, depth_words, addr_bits=ADDR_BITS, lat_lo=20, lat_hi=60,
-                 refresh_period=780, refresh_cycles=26, drop=16, seed=1):
+                 refresh_period=780, refresh_cycles=26, drop=16, seed=1, dram=None):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
+        self._dram = dram
         check_range("depth_words", depth_words, 1, 1 << (addr_bits - 3))
         self._depth = depth_words
         self._aw = addr_bits
@@ -58,6 +68,7 @@ class MigModel(wiring.Component):
                           "writes": Out(32), "reads": Out(32)})
 
     depth_words = property(lambda self: self._depth)
+    dram = property(lambda self: self._dram)
 
     def elaborate(self, platform):
         m = Module()
@@ -100,8 +111,10 @@ class MigModel(wiring.Component):
         pend = Signal()
         pend_due = Signal(32)
 
+        free = ~self._dram_timing(m) if self._dram is not None else 1
         m.d.comb += [
-            self.app_rdy.eq(~refresh & (s[0:8] >= drop) & (ret_n < self.RET_DEPTH - 2)),
+            self.app_rdy.eq(~refresh & (s[0:8] >= drop) & (ret_n < self.RET_DEPTH - 2)
+                            & free),
             self.app_wdf_rdy.eq((s[8:16] >= drop) & (wdf_n < self.WDF_DEPTH)),
         ]
         accept = Signal()
@@ -162,6 +175,35 @@ class MigModel(wiring.Component):
         m.d.comb += [self.writes.eq(wr_count), self.reads.eq(rd_count)]
         return m
 
+    def _dram_timing(self, m):
+        """The DRAM cost of each accepted command (see the class docstring); returns the
+        signal that holds ``app_rdy`` low."""
+        d = self._dram
+        word = self.app_addr[3:]
+        bank, row = word[7:10], word[10:]
+        top = max(d.rd_to_wr, d.wr_to_rd, d.activate) + d.both
+        busy = Signal(range(top + 1))
+        last_valid, last_rd = Signal(), Signal()
+        open_valid = Signal(BANKS)
+        open_rows = Array(Signal(len(row), name=f"open_row{b}") for b in range(BANKS))
+        is_rd = self.app_cmd[0]
+        turn = Signal(range(top + 1))
+        act = Signal(range(top + 1))
+        cost = Signal(range(top + 1))
+        m.d.comb += [
+            turn.eq(Mux(last_valid & (is_rd != last_rd), Mux(is_rd, d.wr_to_rd, d.rd_to_wr),
+                        0)),
+            act.eq(Mux(open_valid.bit_select(bank, 1) & (open_rows[bank] == row), 0,
+                       d.activate)),
+            cost.eq(Mux(turn > act, turn, act) + Mux(turn.any() & act.any(), d.both, 0)),
+        ]
+        with m.If(self.app_en & self.app_rdy):
+            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd),
+                         open_rows[bank].eq(row), open_valid.bit_select(bank, 1).eq(1)]
+        with m.Elif(busy.any()):
+            m.d.sync += busy.eq(busy - 1)
+        return busy.any()
+
 
 class SimTop(wiring.Component):
     """A DDR user with a :class:`MigModel` behind it, as one component for co-simulation.
@@ -171,12 +213,18 @@ class SimTop(wiring.Component):
     so a co-simulation with an out-of-range access fails visibly. Input ports named in
     ``tie_low`` are not exposed (held at 0): level controls such as ``hold_reads``, which
     the stream testbench would drive from stale stimulus after the last beat.
+
+    The model charges DRAM timing by default (``dram``: a
+    :class:`~tdicam.model.ddr.DramTiming`; None for the plain stall pattern), on top of the
+    stall pattern ``stalls``, so a co-simulation is not optimistic about the order in which
+    the user accesses DDR (with the default random stalls it is pessimistic).
     """
 
-    def __init__(self, user, *, depth_words, tie_low=("hold_reads",), **stalls):
+    def __init__(self, user, *, depth_words, tie_low=("hold_reads",), dram=DramTiming(),
+                 **stalls):
         self._user = user
         self._tie = tuple(tie_low)
-        self._model = MigModel(depth_words=depth_words, **stalls)
+        self._model = MigModel(depth_words=depth_words, dram=dram, **stalls)
         members = {}
         for name, mem in user.signature.members.items():
             if name in MIG_PORT_NAMES or name in self._tie:

@@ -20,9 +20,11 @@ from the first command to the last data beat. With two ports, a read waits until
 write to its address that precedes it in :attr:`Trace.order` has moved its data (the
 dependency the user's logic enforces).
 
-Traces of the access patterns come from :func:`tdicam.model.ddr.pattern_trace`; a DDR block's own
-order from :func:`record_block` (the block in Amaranth's simulator with its controller
-model, :class:`tdicam.hdl.mig_model.MigModel`).
+Traces of the access patterns come from :func:`tdicam.model.ddr.pattern_trace`; a DDR
+block's own order from :func:`record` / :func:`block_traces` (the block in Amaranth's
+simulator with its controller model, :class:`tdicam.hdl.mig_model.MigModel`).
+:func:`replay_hdl` runs a trace on that HDL model and on the Python model side by side and
+checks that they agree cycle for cycle.
 
 LiteDRAM's Python simulation is slow (about 10-15 controller cycles per CPU second plus ~10 s
 to build, measured here): keep traces short.
@@ -37,7 +39,8 @@ from tdicam.errors import TdicamError
 from tdicam.model.ddr import PATTERNS, Trace, pattern_trace
 
 __all__ = ["Trace", "ReplayResult", "replay", "record", "pattern_trace", "PATTERNS",
-           "SIM_ROWS", "MEM_ROWS", "ROW_WORDS", "BANKS", "available"]
+           "SIM_ROWS", "MEM_ROWS", "ROW_WORDS", "BANKS", "available", "block_traces",
+           "BLOCKS", "replay_hdl"]
 
 #: rows per bank in the simulated module (MT41K256M16 has 32768; 2048 keeps 11 address bits)
 SIM_ROWS = 2048
@@ -244,6 +247,50 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
                         state["mismatch"], viol, wall)
 
 
+def replay_hdl(trace, dram=None, windows=None, **stalls):
+    """Replay ``trace`` through the HDL controller model
+    (:class:`tdicam.hdl.mig_model.MigModel`, Amaranth's simulator) and the Python one
+    (:class:`tdicam.model.ddr.MigSim`) side by side, each driven by a
+    :class:`~tdicam.model.ddr.TraceDriver` as :func:`tdicam.model.ddr.replay_model` does.
+    Raises :class:`TdicamError` at the first cycle where their ``app_rdy``,
+    ``app_wdf_rdy`` or ``app_rd_data_valid`` differ; returns the efficiency of the run."""
+    from amaranth.sim import Simulator
+
+    from tdicam.hdl.mig_model import MigModel
+    from tdicam.model.ddr import (DEFAULT_STALLS, DRAM_STALLS, MigSim, TraceDriver,
+                                  merged_commands)
+    cmds = merged_commands(trace, dram, windows)
+    st = {**(DEFAULT_STALLS if dram is None else DRAM_STALLS), **stalls}
+    top = max((a for _, a in cmds), default=0) + 1
+    dut = MigModel(depth_words=top, dram=dram, **st)
+    ref = MigSim(dram=dram, **st)
+    drv = TraceDriver(cmds)
+    names = ("app_rdy", "app_wdf_rdy", "app_rd_data_valid")
+
+    async def bench(ctx):
+        while not drv.done:
+            ins = drv.drive()
+            for k, v in ins.items():
+                ctx.set(getattr(dut, k), v)
+            ctx.set(dut.app_wdf_end, 1)
+            got = tuple(int(ctx.get(getattr(dut, k))) for k in names)
+            o = ref.outputs()
+            want = tuple(int(o[k]) for k in names)
+            if got != want or ctx.get(dut.error):
+                raise TdicamError(f"trace {trace.name}: HDL and Python controller models "
+                                  f"differ at cycle {drv.t}: {dict(zip(names, got))} vs "
+                                  f"{dict(zip(names, want))}")
+            ref.step(**ins)
+            drv.update(*got)
+            await ctx.tick()
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    return drv.result[2]
+
+
 # ---------------------------------------------------------------------------------------
 # a DDR block's own command order
 # ---------------------------------------------------------------------------------------
@@ -252,11 +299,13 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
     """The command order ``core`` (a DDR user with MIG ports) issues for ``stim``.
 
     ``core`` runs in Amaranth's simulator behind :class:`tdicam.hdl.mig_model.MigModel`
-    (stall pattern ``stalls``, default :data:`tdicam.model.ddr.DEFAULT_STALLS`), its input
-    always valid (data always available) and its output always ready; ``side`` maps the
-    names of level inputs presented with each beat (``frame_kind``, ``stages_active``,
-    ...) to per-beat arrays. Every command the model accepts is recorded in order.
-    Returns a one-port :class:`Trace` (word addresses)."""
+    (DRAM timing on; stall pattern ``stalls``, default
+    :data:`tdicam.model.ddr.DEFAULT_STALLS`), its input always valid (data always
+    available) and its output always ready; ``side`` maps the names of level inputs
+    presented with each beat (``frame_kind``, ``stages_active``, ...) to per-beat arrays.
+    Every command the model accepts is recorded in order. Returns a one-port
+    :class:`Trace` (word addresses); its ``note`` says in how many cycles the input was
+    taken (first beat to last)."""
     import numpy as np
     from amaranth.lib.data import ArrayLayout
     from amaranth.sim import Simulator
@@ -271,7 +320,7 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
     n = len(stim)
     cmds = []
     max_cycles = max_cycles or 40 * n + 20000
-    state = {"out": 0, "error": False}
+    state = {"out": 0, "error": False, "t": 0, "t0": 0, "t1": 0}
     array = isinstance(top.i_stream.payload.data.shape(), ArrayLayout)
 
     async def bench(ctx):
@@ -297,7 +346,9 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
             if ctx.get(top.o_stream.valid):
                 state["out"] += 1
             if k < n and ctx.get(top.i_stream.ready):
+                state["t0" if k == 0 else "t1"] = state["t"]
                 k += 1
+            state["t"] += 1
             if ctx.get(top.ddr_error):
                 state["error"] = True
                 return
@@ -312,21 +363,45 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
     if state["error"]:
         raise TdicamError(f"recording {name or type(core).__name__}: the controller model "
                           "flagged a bad access")
-    return Trace(name or type(core).__name__, [cmds])
+    return Trace(name or type(core).__name__, [cmds],
+                 note=f"{n} input beats in {state['t1'] - state['t0'] + 1} cycles")
 
 
-def block_traces(*, width=1280, lines=8, seed=1):
-    """Recorded command orders of the DDR blocks on ``lines``-line frames of ``width``
-    10-bit pixels (``name -> Trace``): ``ddr`` (frame buffer, 8 pixels per beat, one
-    frame), ``cds_ddr`` (a reset frame then a signal frame), ``tdi_ddr`` (two frames of
-    ``lines`` rows with ``lines`` stages, 12-bit pixels), plus ``writer`` and ``reader``:
-    the frame buffer's line writer and reader alone (its layout written, then read)."""
+def _tdi_trace(name, *, width, stages, ppc, active, rows, rng):
+    """TdiDdr's order in steady state: ``active + 2`` frames of ``active`` rows (stages
+    ``active`` of a ``stages``-stage design, forward), the commands of the last ``rows``
+    rows (the fill over)."""
+    import numpy as np
+
+    from tdicam.cosim.codec import frames_to_beats
+    from tdicam.hdl.tdi_ddr import TdiDdr
+    from tdicam.model.ddr import tdi_spill_efficiency
+    tdi = TdiDdr(width=width, stages=stages, pixel_bits=12, ppc=ppc)
+    fr = rng.integers(0, 1 << 12, (active + 2, active, width))
+    n = fr.size // ppc
+    tr = record(tdi, frames_to_beats(fr, ppc=ppc), name=name,
+                side={"stages_active": np.full(n, active), "direction": np.zeros(n, int)})
+    tr.ports[0] = tr.ports[0][-2 * rows * tdi.words_per_line:]
+    tr.planned = tdi_spill_efficiency(width, stages, 12, ppc)[1]
+    return tr
+
+
+def block_traces(*, width=1280, lines=8, seed=1, wide=4096):
+    """Recorded command orders of the DDR blocks (``name -> Trace``, ``planned`` set to what
+    the planner counts on: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill,
+    :data:`tdicam.model.memory.DDR_EFFICIENCY` for the others) on ``lines``-line frames of
+    ``width`` 10-bit pixels: ``ddr`` (frame buffer, 8 pixels per beat, one frame),
+    ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: 2 lines of ``wide``
+    pixels), ``tdi_ddr`` (``width`` columns, 16 stages, 12-bit pixels; ``tdi_ddr_wide``:
+    ``wide`` columns, 32 stages, 4 pixels per clock; both 3 stages active, the last 4 / 2
+    rows of the steady state), plus ``writer`` and ``reader``: the frame buffer's line writer and
+    reader alone (its layout written, then read)."""
     import numpy as np
 
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.hdl.cds_ddr import CdsDdr
     from tdicam.hdl.ddr import DdrFrameBuffer
-    from tdicam.hdl.tdi_ddr import TdiDdr
+    from tdicam.model.memory import DDR_EFFICIENCY
 
     rng = np.random.default_rng(seed)
     out = {}
@@ -338,14 +413,19 @@ def block_traces(*, width=1280, lines=8, seed=1):
     out["reader"] = Trace("reader", [[(1, a) for a in addrs]])
     fr = rng.integers(0, 1 << 10, (1, lines, width))
     out["ddr"] = record(fb, frames_to_beats(fr, ppc=8), name="ddr")
-    cds = CdsDdr(width=width, rows=lines, pixel_bits=10)
-    fr = rng.integers(0, 1 << 10, (2, lines, width))
-    out["cds_ddr"] = record(cds, frames_to_beats(fr), name="cds_ddr",
-                            side={"frame_kind": np.repeat([1, 0], lines * width)})
-    tdi = TdiDdr(width=width, stages=lines, pixel_bits=12)
-    fr = rng.integers(0, 1 << 12, (2, lines, width))
-    n = 2 * lines * width
-    out["tdi_ddr"] = record(tdi, frames_to_beats(fr), name="tdi_ddr",
-                            side={"stages_active": np.full(n, lines),
-                                  "direction": np.zeros(n, int)})
+    for name, w, rows in (("cds_ddr", width, lines), ("cds_ddr_wide", wide, 2)):
+        cds = CdsDdr(width=w, rows=rows, pixel_bits=10)
+        fr = rng.integers(0, 1 << 10, (2, rows, w))
+        out[name] = record(cds, frames_to_beats(fr), name=name,
+                           side={"frame_kind": np.repeat([1, 0], rows * w)})
+    for tr in out.values():
+        tr.planned = DDR_EFFICIENCY
+    out["tdi_ddr"] = _tdi_trace("tdi_ddr", width=width, stages=16, ppc=1, active=3, rows=4,
+                                rng=rng)
+    out["tdi_ddr_wide"] = _tdi_trace("tdi_ddr_wide", width=wide, stages=32, ppc=4, active=3,
+                                     rows=2, rng=rng)
     return out
+
+
+#: the DDR blocks of :func:`block_traces`
+BLOCKS = ("writer", "reader", "ddr", "cds_ddr", "cds_ddr_wide", "tdi_ddr", "tdi_ddr_wide")

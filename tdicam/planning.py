@@ -28,6 +28,7 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import mtf as _mtf
 from tdicam.model import plan as P
 from tdicam.model import tdi as _tdi
+from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.scene import BOUNDS, load_scene
 
 __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
@@ -302,6 +303,9 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
     required = float(P.required_frame_rate(stages, s.rows, t_line))
     available = s.available_frame_rate_hz
     timing = scene.timing
+    pattern = "given"
+    if ddr_eff is None:
+        pattern, ddr_eff = tdi_spill_efficiency(s.columns, stages, s.bits)
     mem = P.tdi_memory(s.columns, stages, s.bits, t_line, onchip_budget_bits=onchip_budget_bits,
                        word_bits=ddr_bits, user_clock_hz=ddr_clock_hz, efficiency=ddr_eff)
     return {
@@ -326,7 +330,9 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
             "fits_onchip": mem.fits_onchip, "must_spill": mem.must_spill},
         "ddr": {"needed_bps": mem.ddr_needed_bps, "available_bps": mem.ddr_available_bps,
                 "ok": mem.ddr_ok, "word_bits": ddr_bits, "user_clock_hz": ddr_clock_hz,
-                "efficiency": ddr_eff},
+                "efficiency": ddr_eff, "pattern": pattern,
+                "pattern_text": PATTERNS[pattern][1] if pattern in PATTERNS else
+                "--ddr-efficiency"},
         "gateware": gateware_plan(stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
@@ -348,7 +354,7 @@ def _verdict(point) -> list[str]:
 
 
 def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
-                ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=P.DDR_EFFICIENCY,
+                ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
                 fpga_clock_mhz=None) -> dict:
     """All planning numbers for the scenes (one per GSD) as a JSON-ready dict.
 
@@ -359,7 +365,9 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     onchip_budget_bits : int, optional
         On-chip RAM for the partial sums, bits.
     ddr_bits, ddr_clock_hz, ddr_efficiency
-        DDR user interface (defaults: Ning 2019's 256 bit, 100 MHz, 80 %).
+        DDR user interface (defaults: Ning 2019's 256 bit, 100 MHz; efficiency: the
+        TDI spill's access pattern on the memory model with DRAM timing,
+        :func:`tdicam.model.ddr.tdi_spill_efficiency`, per design point).
     fpga_clock_mhz : float, optional
         TDI block clock for every ppc instead of :data:`REFERENCE_TDI_FMAX_MHZ`.
 
@@ -372,7 +380,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     """
     first = scenes[0]
     s = first.sensor
-    P.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency)  # validate early
+    P.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency or 1)  # validate early
     if fpga_clock_mhz is not None:
         check_range("--fpga-clock-mhz", fpga_clock_mhz, 1, 10_000, integer=False)
     points = [_point(sc, m, onchip_budget_bits=onchip_budget_bits, ddr_bits=ddr_bits,

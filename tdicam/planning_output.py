@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from tdicam.model import plan as P
+from tdicam.model.ddr import PLAN_MARGIN
 
 __all__ = ["report_text", "figures"]
 
@@ -158,7 +159,13 @@ def report_text(rep) -> str:
     lines.append(f"  DDR            partial sums in DDR need {_rate(ddr['needed_bps'])} "
                  f"(read + write {mem['optimized_lines']} lines per line period); "
                  f"{ddr['word_bits']}-bit @ {ddr['user_clock_hz'] / 1e6:g} MHz x "
-                 f"{ddr['efficiency'] * 100:g} % = {_rate(ddr['available_bps'])}: {_ok(ddr['ok'])}")
+                 f"{ddr['efficiency'] * 100:.1f} % = {_rate(ddr['available_bps'])}: "
+                 f"{_ok(ddr['ok'])}")
+    if ddr.get("pattern", "given") != "given":
+        lines.append(f"                 efficiency of the access pattern '{ddr['pattern']}' "
+                     f"({ddr['pattern_text']}) on the DRAM timing model, less "
+                     f"{PLAN_MARGIN * 100:g} points (its largest gap to LiteDRAM on that "
+                     "order)")
     if mem.get("must_spill"):
         verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
                    "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "

@@ -176,6 +176,23 @@ def test_hdl_model_has_the_python_models_ready_pattern():
     assert trace == want
 
 
+@pytest.mark.parametrize("name,lines,stalls", [
+    ("write_read_lag16", 17, "dram"), ("blocks_8", 6, "dram"), ("per_word_rw", 6, "dram"),
+    ("two_ports_64", 6, "dram"), ("blocks_18", 6, "default")])
+def test_hdl_model_dram_timing_is_cycle_equal(name, lines, stalls):
+    """MigModel with DRAM timing (banks, rows, activates, turnarounds, refresh) and MigSim
+    with the same DramTiming: the same ready/valid every cycle on the same trace, so the
+    same efficiency (with the DRAM stall pattern, and with the default random stalls)."""
+    from tdicam.ddrref import replay_hdl
+    from tdicam.model.ddr import DRAM_STALLS, DramTiming, PATTERNS, pattern_trace, \
+        replay_model
+    st = DRAM_STALLS if stalls == "dram" else DEFAULT_STALLS
+    tr = pattern_trace(name, lines=lines)
+    win = PATTERNS[name][2]
+    e = replay_hdl(tr, DramTiming(), win, **st)
+    assert e == replay_model(tr, DramTiming(), win, **st)[2]
+
+
 # ---- Amaranth simulations of the users
 
 def _run_stream(top, beats, first, last, ctrl=None, n_out=None, bp=0.3, idle=0.2, seed=1,
@@ -265,7 +282,7 @@ def test_tdi_ddr_amaranth_sim_matches_tdi_stream():
     core = TdiDdr(**{k: params[k] for k in params}, base=256)
     top = SimTop(core, depth_words=32 + core.ddr_words)
     rng = np.random.default_rng(6)
-    settings = [(3, 0)] * 4 + [(2, 1)] * 3
+    settings = [(3, 0)] * 4 + [(2, 0)] * 3 + [(2, 1)] * 3
     frames = [rng.integers(0, 256, (m, 160)) for m, _ in settings]
     a = stream_arrays(frames, settings, params)
     want = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
@@ -276,6 +293,37 @@ def test_tdi_ddr_amaranth_sim_matches_tdi_stream():
     assert [g[0][0] for g in got] == want.data.ravel().tolist()
     assert [g[1] for g in got] == want.first.astype(int).tolist()
     assert core.psums_per_word == 25 and core.words_per_line == 7 and core.ddr_words == 14
+
+
+def test_tdi_ddr_reads_a_line_as_one_block():
+    """TdiDdr's DRAM order (recorded behind the HDL controller model with DRAM timing):
+    every run of reads is one whole line (words_per_line reads of one line, in order), and
+    the stored sums of each adding row are read once; the order's efficiency on the DRAM
+    model is what the planner counts on for it (its access pattern less the plan's margin) or
+    better."""
+    from tdicam.cosim.codec import frames_to_beats
+    from tdicam.ddrref import record
+    from tdicam.model.ddr import DramTiming, replay_model, tdi_spill_efficiency
+    core = TdiDdr(width=256, stages=8, pixel_bits=12)
+    wpl = core.words_per_line
+    fr = np.random.default_rng(3).integers(0, 4096, (4, 3, 256))
+    n = fr.size
+    tr = record(core, frames_to_beats(fr), side={"stages_active": np.full(n, 3),
+                                                  "direction": np.zeros(n, int)})
+    cmds = tr.ports[0]
+    runs, k = [], 0
+    while k < len(cmds):
+        j = k
+        while j < len(cmds) and cmds[j][0] == cmds[k][0]:
+            j += 1
+        runs.append(cmds[k:j])
+        k = j
+    reads = [r for r in runs if r[0][0]]
+    assert len(reads) == 1 + 2 + 2          # frames 1..3 add on 1, 2, 2 rows (the fill)
+    for r in reads:
+        a0 = r[0][1]
+        assert a0 % wpl == 0 and [a for _, a in r] == list(range(a0, a0 + wpl))
+    assert replay_model(tr, DramTiming())[2] >= tdi_spill_efficiency(256, 8, 12)[1]
 
 
 def test_tdi_ddr_refuses_what_it_cannot_do():
@@ -303,9 +351,18 @@ def test_plan_says_the_wide_case_must_spill(capsys):
     assert code == 0
     d = json.loads(cap.out)["design"]
     assert d["memory"]["must_spill"] is True and d["ddr"]["ok"] is True
+    # the efficiency of the spill's access pattern on the DRAM model, not a flat 80 %
+    from tdicam.model.ddr import tdi_spill_efficiency
+    assert (d["ddr"]["pattern"], d["ddr"]["efficiency"]) == tdi_spill_efficiency(4096, 32, 12)
+    assert 0.8 < d["ddr"]["efficiency"] < 0.9
+    code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-25f",
+                      "--gsd-m", "5", "--ddr-efficiency", "0.5", "--json")
+    d = json.loads(cap.out)["design"]["ddr"]
+    assert (d["pattern"], d["efficiency"]) == ("given", 0.5)
     code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-25f",
                       "--gsd-m", "1")
     assert "partial sums must spill to DDR: DDR bandwidth SHORT" in cap.out
+    assert "efficiency of the access pattern 'row_blocks'" in cap.out
     code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-85f",
                       "--gsd-m", "5")
     assert "partial sums stay on chip" in cap.out

@@ -5,7 +5,10 @@ Each DDR block's Verilog top is its user logic with the simulation-only controll
 :class:`~tdicam.hdl.mig_model.MigModel` behind it (:class:`~tdicam.hdl.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
 set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 26 of every 780
-cycles, each ready dropped with probability 16/256). ``ddr_error`` (the model's sticky
+cycles, each ready dropped with probability 16/256), on top of the DRAM timing
+(:class:`tdicam.model.ddr.DramTiming`: turnarounds, row activates, cycle-equal with
+:class:`tdicam.model.ddr.MigSim` with ``dram=``), so the everyday co-simulation charges what
+the block's order of accesses costs on DDR3. ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 """
 

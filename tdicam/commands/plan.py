@@ -67,8 +67,9 @@ def register(subparsers) -> None:
                    help="DDR user-interface width in bits (default 256)")
     p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6, metavar="X",
                    help="DDR user-interface clock in MHz (default 100)")
-    p.add_argument("--ddr-efficiency", type=float, default=P.DDR_EFFICIENCY, metavar="X",
-                   help="DDR interface efficiency in (0, 1] (default 0.8)")
+    p.add_argument("--ddr-efficiency", type=float, default=None, metavar="X",
+                   help="DDR interface efficiency in (0, 1] (default: the partial-sum access "
+                        "pattern's on the DRAM timing model, per design point)")
     p.add_argument("--fpga-clock-mhz", type=float, default=None, metavar="X",
                    help="clock of the TDI gateware in MHz, for every pixels-per-clock "
                         "(default: the reference synthesis Fmax; valid 1..10000)")
@@ -120,11 +121,12 @@ def run(args) -> int:
     budget = _budget(args)
     check_range("--ddr-bits", args.ddr_bits, 1, None)
     _finite("--ddr-clock-mhz", args.ddr_clock_mhz)
-    _finite("--ddr-efficiency", args.ddr_efficiency)
+    if args.ddr_efficiency is not None:
+        _finite("--ddr-efficiency", args.ddr_efficiency)
     if args.ddr_clock_mhz <= 0:
         raise TdicamError(f"--ddr-clock-mhz = {args.ddr_clock_mhz:g} is out of range; valid: "
                           "0..inf, excluding 0")
-    if not 0 < args.ddr_efficiency <= 1:
+    if args.ddr_efficiency is not None and not 0 < args.ddr_efficiency <= 1:
         raise TdicamError(f"--ddr-efficiency = {args.ddr_efficiency:g} is out of range; valid: "
                           "0..1, excluding 0")
     if args.fpga_clock_mhz is not None:
