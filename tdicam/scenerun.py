@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import scenereport
+from tdicam import outputs, scenereport
 from tdicam.errors import TdicamError
 
 __all__ = ["run_scene", "main_tiff_shift", "strict_json"]
@@ -64,12 +64,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     """
     from tdicam import engine
     from tdicam.measure import measure
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TdicamError(f"-o {str(out_dir)!r}: cannot create the directory: "
-                          f"{exc.strerror}") from None
+    out_dir = outputs.check_dir(out_dir)
     n_lines = int(scene.run.lines if lines is None else lines)
     stages = scene.tdi.stages
     dvs = scene.motion.dv_over_v

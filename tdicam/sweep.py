@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import __version__
+from tdicam import __version__, outputs
 from tdicam.errors import TdicamError, check_range
 from tdicam.sweepfile import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
 from tdicam.sweepresults import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
@@ -263,13 +263,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         check_range("--workers", workers, 1, 256)
     if limit is not None:
         check_range("--limit", limit, 0, None)
-    out_dir = Path(out_dir)
-    store = out_dir / "points"
-    try:
-        store.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TdicamError(f"-o {str(out_dir)!r}: cannot create the directory: "
-                          f"{exc.strerror}") from None
+    out_dir = outputs.check_dir(out_dir)
+    store = outputs.check_dir(out_dir / "points")
     done = {}
     for run in sweep.runs:
         if run.hash not in done:

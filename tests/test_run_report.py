@@ -104,3 +104,23 @@ def test_a_doctored_earlier_report_cannot_delete_outside_files(tmp_path):
     (out / "report.json").write_text(json.dumps({"files": ["../victim.txt", str(victim)]}))
     run(tmp_path, out)
     assert victim.read_text() == "keep"
+
+
+def test_a_saturated_flat_field_is_reported_as_saturated_not_as_an_snr(tmp_path, capsys):
+    """1e12 e- on a 20,000 e- well: the output is clipped flat; the report says so instead
+    of a measured SNR (there is no noise left to measure) or a prediction at 1e12 e-."""
+    scene = tmp_path / "sat.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="exact"))
+                     .replace("signal_e = 2000.0", "signal_e = 1e12"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 0
+    printed = capsys.readouterr().out
+    rep = json.loads((tmp_path / "o" / "report.json").read_text())
+    md = (tmp_path / "o" / "report.md").read_text()
+    for r in rep["measurements"]:
+        s = r["snr"]
+        assert s["saturated"] and s["output_db"] is None and s["gain_db"] is None
+        assert s["saturation_e"] == min(20000.0, 4095 * 20000 / 4096)
+        assert s["snr1_db"] < 50                    # at the well, not at 1e12 e- (120 dB)
+    assert "saturated: signal 1e+12 e-" in md and "saturated: signal 1e+12 e-" in printed
+    ok, _ = run(tmp_path, tmp_path / "ok")           # 2000 e-: far from the well
+    assert not any(r["snr"]["saturated"] for r in ok["measurements"])
