@@ -224,6 +224,18 @@ def _result(fut):
         return {"status": "failed", "error": _one_line(exc), "row": None, "worker": None}
 
 
+def _not_foreign(out_dir):
+    """Refuse a folder that holds something and is not a sweep's (no ``points/``): the
+    results would overwrite, or sit among, files that are not ours."""
+    if not out_dir.is_dir() or (out_dir / "points").is_dir():
+        return
+    other = sorted(p.name for p in out_dir.iterdir())
+    if other:
+        raise TdicamError(f"{out_dir}: holds files that are not a tdicam sweep's "
+                          f"({', '.join(other[:3])}{', ...' if len(other) > 3 else ''}); "
+                          f"give -o a new or empty folder, or an earlier sweep's to resume it")
+
+
 def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=False,
               limit=None, progress=True, connect_timeout=10.0, on_run=None) -> SweepResult:
     """Run the missing runs of ``sweep`` and write the results into ``out_dir``.
@@ -256,13 +268,15 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
     Raises
     ------
     TdicamError
-        ``out_dir`` cannot be created, or the scheduler cannot be reached.
+        ``out_dir`` cannot be created or holds files that are not a sweep's, or the
+        scheduler cannot be reached.
     """
     t0 = time.perf_counter()
     if workers is not None:
         check_range("--workers", workers, 1, 256)
     if limit is not None:
         check_range("--limit", limit, 0, None)
+    _not_foreign(outputs.named(out_dir))
     out_dir = outputs.check_dir(out_dir)
     store = outputs.check_dir(out_dir / "points")
     done = {}

@@ -104,6 +104,12 @@ BAD_INPUT = [
      "{d}/afile: cannot write (it exists and is not a folder)", 2),
     (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", "/proc/sw"],
      "/proc/sw: cannot write (", 2),
+    (["sweep", "{d}/sw_scene5.toml"], "scene: must be the base scene's file name", 2),
+    (["sweep", "{d}/sw_name.toml"], "name: must be a folder name (no '/'", 2),
+    (["sweep", "{d}/sw_ok.toml", "-o", "{d}/foreign"], "{d}/foreign: holds files that are not "
+                                                       "a tdicam sweep's (mine.txt)", 2),
+    (["sweep", "{d}/sw_ok.toml", "--scheduler", "tcp://127.0.0.1:1", "--connect-timeout", "nan"],
+     "--connect-timeout = nan is out of range; valid: (0, 3600]", 2),
     (["plan", "--plot", ""], "--plot: the output name is empty", 2),
     (["plan", "--plot", "{d}/afile"], "{d}/afile: cannot write (it exists and is not a folder)",
      2),
@@ -175,6 +181,13 @@ def bad_input_files(tmp_path_factory):
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
                                      "distance_m = 1e-3\n[sensor]\npitch_um = 1000\n")
+    base = ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml"
+    axes = '[axes]\n"tdi.stages" = [1]\n'
+    (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)
+    (d / "sw_name.toml").write_text(f'scene = "{base}"\nname = "../../x"\n' + axes)
+    (d / "sw_ok.toml").write_text(f'scene = "{base}"\n' + axes)
+    (d / "foreign").mkdir()
+    (d / "foreign" / "mine.txt").write_text("mine")
     return d
 
 
