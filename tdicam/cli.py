@@ -16,7 +16,7 @@ import sys
 from . import commands
 from .errors import TdicamError
 
-__all__ = ["main", "build_parser", "plain_text"]
+__all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
 
 #: What ``tdicam --help`` says first.
@@ -48,6 +48,14 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         # argparse's own errors are one line too, but print usage first; keep one line.
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+class ArgsParser(_Parser):
+    """The parser of a command's own trailing arguments (``verilog pipeline --scene ...``):
+    an error is a :class:`~tdicam.errors.TdicamError` naming the command, one line."""
+
+    def error(self, message):
+        raise TdicamError(f"{self.prog}: {message}")
 
 
 def build_parser():

@@ -66,6 +66,14 @@ BAD_INPUT = [
     (["sim", "cds", "--sim", "modelsim"], "invalid choice: 'modelsim'", 2),
     (["sim", "cds", "--idle", "nan"], "idle = nan is out of range", 2),
     (["golden", "check", "nosuch"], "unknown block 'nosuch'", 2),
+    (["sim", "cds", "--seed", "-1"], "--seed = -1 is out of range; valid: 1..2147483647", 2),
+    (["sim", "cds", "--seed", "99999999999999999999"], "--seed = 99999999999999999999 is out "
+                                                       "of range", 2),
+    (["export", "cds", "-o", "{d}/exp", "--seed", "0"], "--seed = 0 is out of range", 2),
+    (["synth", "pipeline"], "tdicam synth pipeline: the following arguments are required: "
+                            "--scene", 2),
+    (["verilog", "pipeline", "--scene", "scenes/seed002_chain.toml", "--stages", "x"],
+     "tdicam verilog pipeline: argument --stages: invalid int value: 'x'", 2),
     (["synth", "cds", "--freq", "-1"], "--freq = -1.0 is out of range; valid: 1..2000", 2),
     (["synth", "cds", "--freq", "nan"], "--freq = nan is out of range", 2),
     (["synth", "pipeline", "--freq", "inf"], "--freq = inf is out of range", 2),
@@ -119,6 +127,10 @@ BAD_INPUT = [
      "{d}/trunc.npz: not a numpy .npz file (File is not a zip file)", 2),
     (["calib", "write", "--gain", "{d}/trunc.npz", "--offset", "{d}/trunc.npz", "-o",
       "{d}/x.bin"], "{d}/trunc.npz: not a numpy array file", 2),
+    (["calib", "write", "{d}/one.npy", "-o", "{d}/x.bin"],
+     "{d}/one.npy: expected an .npz with arrays 'gain' and 'offset', got one array", 2),
+    (["calib", "write", "{d}/nogain.npz", "-o", "{d}/x.bin"], "{d}/nogain.npz: no array 'gain' "
+                                                              "(has: offset)", 2),
     (["calib", "write", "{d}/complex.npz", "-o", "{d}/x.bin"],
      "the gain map must hold real numbers, got dtype complex128", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
@@ -164,6 +176,8 @@ def bad_input_files(tmp_path_factory):
     import numpy as np
     d = tmp_path_factory.mktemp("bad")
     np.savez(d / "maps.npz", gain=np.ones((2, 4)), offset=np.zeros((2, 4)))
+    np.save(d / "one.npy", np.ones((2, 4)))
+    np.savez(d / "nogain.npz", offset=np.zeros((2, 4)))
     np.savez(d / "complex.npz", gain=np.ones((2, 4)) * (1 + 1j), offset=np.zeros((2, 4)))
     data = (d / "maps.npz").read_bytes()
     (d / "trunc.npz").write_bytes(data[:len(data) // 2])

@@ -121,15 +121,19 @@ def _load_maps(args):
         raise TdicamError("give either MAPS.npz or --gain/--offset, not both")
     if args.maps:
         try:
-            with np.load(args.maps, allow_pickle=False) as z:
-                if not hasattr(z, "files"):
-                    raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "
-                                      f"'offset'")
+            z = np.load(args.maps, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):     # a .npy: one array
+                raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "
+                                  f"'offset', got one array (give two .npy files as --gain "
+                                  f"G.npy --offset O.npy)")
+            with z:
                 missing = [k for k in ("gain", "offset") if k not in z.files]
                 if missing:
                     raise TdicamError(f"{args.maps}: no array {missing[0]!r} (has: "
                                       f"{', '.join(z.files) or 'none'})")
                 return z["gain"], z["offset"]
+        except TdicamError:
+            raise
         except OSError as exc:
             raise TdicamError(f"{args.maps}: cannot read ({exc.strerror})") from None
         except _NOT_NUMPY as exc:

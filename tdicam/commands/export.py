@@ -6,6 +6,7 @@ import sys
 from .. import blocks
 from ..errors import TdicamError
 from ..export import export_block
+from ..pauses import SEED_MAX, check_seed
 from .verilog import parse_block_params, pick_block
 
 
@@ -24,7 +25,8 @@ def register(sub):
     p.add_argument("--force", action="store_true",
                    help="replace a folder that holds something else")
     p.add_argument("--seed", type=int, default=1,
-                   help="seed of the testbench's idle/backpressure generator (default 1)")
+                   help=f"seed of the testbench's idle/backpressure generator, 1..{SEED_MAX} "
+                        "(default 1)")
     p.add_argument("-h", "--help", action="store_true", help="show the block's parameters")
     p.set_defaults(func=_run, _parser=p, _raw=True)
 
@@ -35,8 +37,7 @@ def _run(args):
         return 0
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
-    if args.seed < 1 or args.seed > 0x7fffffff:
-        raise TdicamError(f"--seed = {args.seed} is out of range; valid: 1..2147483647")
+    check_seed("--seed", args.seed)
     params = parse_block_params(blk, args.extra) if args.extra else {}
     ex = export_block(blk, params, args.output, force=args.force, seed=args.seed)
     print(f"wrote {ex.path}: {ex.block} ({', '.join(f'{k}={v}' for k, v in ex.params.items())}"
