@@ -283,3 +283,15 @@ def test_boolean_parameter_is_also_a_flag(argv, enhance, width):
     from tdicam.commands.verilog import parse_block_params
     got = parse_block_params(blocks.get("median3"), argv)
     assert (got["enhance"], got["width"]) == (enhance, width)
+
+
+def test_a_reader_that_leaves_ends_the_command_quietly():
+    """``tdicam ... | head``: the closed pipe ends the command with status 141, no
+    traceback (any command, not only plan)."""
+    p = subprocess.Popen([sys.executable, "-m", "tdicam", "verilog", "cds"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    p.stderr.close()
+    assert p.wait(timeout=120) == 141, err
+    assert err == ""
