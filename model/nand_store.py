@@ -90,6 +90,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
+from tdicam.outputs import write_file
 from . import calib, ecc
 from .nuc import DEFAULT_FORMAT
 
@@ -522,7 +523,10 @@ def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None):
 
 # ---------------------------------------------------------------- image file
 def save_image(device, path):
-    """Write the sparse image file (module docstring); returns the byte count."""
+    """Write the sparse image file (module docstring); returns the byte count.
+
+    Written with :func:`tdicam.outputs.write_file`: an unwritable ``path`` or a full device
+    is a one-line ``PATH: cannot write (REASON)`` and leaves no half-written file."""
     g = device.geometry
     rows = sorted(device.pages)
     parts = [_FILE_HDR.pack(FILE_MAGIC, FILE_VERSION, g.page_bytes, g.spare_bytes,
@@ -530,11 +534,7 @@ def save_image(device, path):
     for r in rows:
         parts += [_ROW.pack(r), device.pages[r].tobytes()]
     data = b"".join(parts)
-    try:
-        with open(path, "wb") as fh:
-            fh.write(data)
-    except OSError as exc:
-        raise TdicamError(f"{path}: cannot write ({exc.strerror})") from None
+    write_file(path, data)       # one-line errors; a half-written file is removed
     return len(data)
 
 

@@ -89,6 +89,8 @@ BAD_INPUT = [
      "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "{d}"], "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "/dev/full"], "/dev/full: cannot write", 2),
+    (["calib", "write", "{d}/maps.npz", "--nand", "--blocks", "8", "-o", "/dev/full"],
+     "/dev/full: cannot write (No space left on device)", 2),
     (["calib", "read", "{d}/cal.bin", "-o", "{d}/no/x.npz"], "cannot write (no folder", 2),
     (["calib", "read", "{d}/cal.bin", "-o", "/dev/full"], "/dev/full: cannot write", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}"], "{d}: cannot write (it is a directory)", 2),
