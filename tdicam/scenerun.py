@@ -99,8 +99,9 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
             bar.close()
     main = results[(m_show, dvs[0])]
     previous = _previous_files(out_dir)
-    files = _write_images(out_dir, main)
-    files += _figures(out_dir, scene, rows, main)
+    with outputs.writing_in(out_dir):
+        files = _write_images(out_dir, main)
+        files += _figures(out_dir, scene, rows, main)
     rtl_report = None
     if crop is not None:
         from tdicam.rtl import cosim_scene
@@ -139,9 +140,10 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     }
     report["summary"] = scenereport.summary(scene, report)
     report = strict_json(report)
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
-                                                    allow_nan=False))
-    (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
+    with outputs.writing_in(out_dir):
+        (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
+                                                        allow_nan=False))
+        (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
     return report
 
 

@@ -293,7 +293,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
 
     def on_done(run, result):
         nonlocal computed
-        done[run.hash] = _store_record(store, sweep, run, result)
+        with outputs.writing_in(store):
+            done[run.hash] = _store_record(store, sweep, run, result)
         computed += 1
         if bar is not None:
             bar.update(runs_of[run.hash])
@@ -323,7 +324,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         if bar is not None:
             bar.close()
     t_exec = time.perf_counter() - t_exec
-    files = write_results(sweep, out_dir, done)
+    with outputs.writing_in(out_dir):
+        files = write_results(sweep, out_dir, done)
     failed = [{"point": r.point, "repeat": r.repeat, "hash": r.hash,
                "axes": sweep.points[r.point], "error": done[r.hash]["error"]}
               for r in sweep.runs if r.hash in done and done[r.hash]["status"] != "ok"]
@@ -338,7 +340,9 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
                "compute_seconds": t_exec, "wall_seconds": result.wall_seconds,
                "files": files,
                "tdicam": __version__}
-    _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1, default=_jsonable))
+    with outputs.writing_in(out_dir):
+        _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1,
+                                                           default=_jsonable))
     result.files = files + ["summary.json"]
     return result
 

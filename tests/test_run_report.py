@@ -124,3 +124,19 @@ def test_a_saturated_flat_field_is_reported_as_saturated_not_as_an_snr(tmp_path,
     assert "saturated: signal 1e+12 e-" in md and "saturated: signal 1e+12 e-" in printed
     ok, _ = run(tmp_path, tmp_path / "ok")           # 2000 e-: far from the well
     assert not any(r["snr"]["saturated"] for r in ok["measurements"])
+
+
+def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatch, capsys):
+    import errno
+
+    from tdicam import scenerun
+
+    def full(out_dir, res):
+        raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "tdi.tif"))
+    monkeypatch.setattr(scenerun, "_write_images", full)
+    scene = tmp_path / "s.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast")))
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"tdicam: error: {tmp_path / 'o' / 'tdi.tif'}: cannot write (No space left on " \
+                  "device)"
