@@ -108,6 +108,11 @@ BAD_INPUT = [
     (["run", "scenes/flat_snr_sweep_96.toml", "-o", ""], "-o: the output name is empty", 2),
     (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", " "],
      "-o: the output name is empty", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "--lines", "99999999999999"],
+     "--lines: 256 columns x 99999999999999 lines = 25599999999999744 output pixels, more "
+     "than", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "--lines", "0"], "--lines = 0 is out of range", 2),
+    (["bench", "cds", "--quick", "--sims", ""], "--sims: empty; give simulators from", 2),
     (["run", "scenes/flat_snr_sweep_96.toml", "-o", "{d}/afile"],
      "{d}/afile: cannot write (it exists and is not a folder)", 2),
     (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", "{d}/afile"],

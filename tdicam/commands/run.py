@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tdicam.errors import TdicamError
 from tdicam.outputs import named
 from tdicam.scenerun import run_scene
 
@@ -40,11 +39,12 @@ def register(subparsers) -> None:
 
 def run(args):
     from tdicam.scene import load_scene
-    if args.lines is not None and args.lines < 1:
-        raise TdicamError(f"--lines must be >= 1, got {args.lines}")
-    scene = load_scene(args.scene)
+    # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
+    over, labels = ({}, {}) if args.lines is None else \
+        ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})
+    scene = load_scene(args.scene, overrides=over, labels=labels)
     out = named(args.out) if args.out is not None else Path("out") / Path(args.scene).stem
-    report = run_scene(scene, out, fidelity=args.fidelity, lines=args.lines,
+    report = run_scene(scene, out, fidelity=args.fidelity,
                        force=args.force, impact=not args.no_impact, rtl=not args.no_rtl)
     print(report["summary"])
     print(f"wrote {out}/report.md, report.json and {len(report['files'])} files")
