@@ -63,6 +63,7 @@ BAD_INPUT = [
     (["verilog", "cds", "--pixel-bits", "99"], "--pixel-bits = 99 is out of range; valid: 8..16",
      2),
     (["verilog", "cds", "--pixel-bits", "abc"], "--pixel-bits must be an integer", 2),
+    (["verilog", "tdi", "--stages", "8", "--stages=9"], "--stages given twice ('8' and '9')", 2),
     (["sim", "cds", "--sim", "modelsim"], "invalid choice: 'modelsim'", 2),
     (["sim", "cds", "--idle", "nan"], "idle = nan is out of range", 2),
     (["golden", "check", "nosuch"], "unknown block 'nosuch'", 2),
