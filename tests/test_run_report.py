@@ -140,3 +140,13 @@ def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatc
     err = capsys.readouterr().err.strip()
     assert err == f"tdicam: error: {tmp_path / 'o' / 'tdi.tif'}: cannot write (No space left on " \
                   "device)"
+
+
+def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsys):
+    """[run.rtl] that fails (here: 8 pixels per clock, which the whole-chain top refuses)
+    is in the report and the exit status, not only a line of the summary."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast"))
+                     + "[run.rtl]\npixels_per_clock = 8\n")
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 1
+    assert "RTL pipeline: error: " in capsys.readouterr().out
