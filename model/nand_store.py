@@ -425,7 +425,7 @@ def store_stream(device, *, rows, cols, fmt=DEFAULT_FORMAT, count_bits=calib.DEF
     return out, sr, complete
 
 
-def _read_map(device):
+def _read_map(device, name="nand"):
     """(l2p list, stream words) from the block map in block 0, or raise."""
     g = device.geometry
     wpp = g.words_per_page
@@ -435,25 +435,25 @@ def _read_map(device):
 
     first = ecc.decode(*ecc.unpack_code(words_of(0)))
     if first.uncorrectable[:MAP_HEADER_WORDS].any():
-        raise TdicamError("nand: the block map header in block 0 has an uncorrectable error")
+        raise TdicamError(f"{name}: the block map header in block 0 has an uncorrectable error")
     h = [int(x).to_bytes(8, "little") for x in first.data[:MAP_HEADER_WORDS]]
     if h[0][:7] != MAP_MAGIC or h[0][7] != MAP_VERSION:
-        raise TdicamError(f"nand: block 0 holds no block map (magic {h[0][:7]!r}, expected "
+        raise TdicamError(f"{name}: block 0 holds no block map (magic {h[0][:7]!r}, expected "
                           f"{MAP_MAGIC!r} version {MAP_VERSION})")
     pb, sb, ppb, nb = struct.unpack("<HHHH", h[1])
     if (pb, sb, ppb, nb or 65536) != (g.page_bytes, g.spare_bytes, g.pages_per_block,
                                       g.blocks):
-        raise TdicamError(f"nand: the block map was written for pages of {pb}+{sb} bytes, "
+        raise TdicamError(f"{name}: the block map was written for pages of {pb}+{sb} bytes, "
                           f"{ppb} pages/block, {nb or 65536} blocks; the part is {g.page_bytes}"
                           f"+{g.spare_bytes}, {g.pages_per_block}, {g.blocks}")
     n_log, n_words = struct.unpack("<II", h[2])
     n_map = MAP_HEADER_WORDS + -(-n_log // 4)
     if n_map > wpp * g.pages_per_block:
-        raise TdicamError(f"nand: malformed block map: {n_log} logical blocks")
+        raise TdicamError(f"{name}: malformed block map: {n_log} logical blocks")
     pages = [words_of(p) for p in range(-(-n_map // wpp))]
     dec = ecc.decode(*ecc.unpack_code(np.concatenate(pages)[:n_map]))
     if dec.uncorrectable.any():
-        raise TdicamError(f"nand: the block map has an uncorrectable error in word "
+        raise TdicamError(f"{name}: the block map has an uncorrectable error in word "
                           f"{int(np.argmax(dec.uncorrectable))}")
     ent = [(int(x) >> (16 * j)) & 0xFFFF for x in dec.data[MAP_HEADER_WORDS:] for j in range(4)]
     return ent[:n_log], n_words
@@ -481,7 +481,7 @@ def read_store(device, *, name="nand"):
         blocks for the stream, or any error of :func:`tdicam.model.calib.read_image`.
     """
     sr = scan(device)
-    l2p, n_words = _read_map(device)
+    l2p, n_words = _read_map(device, name)
     g = device.geometry
     need = blocks_needed(n_words, g)
     if len(l2p) != need:
@@ -502,15 +502,16 @@ def read_store(device, *, name="nand"):
                        pages=-(-len(words) // g.words_per_page))
 
 
-def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None):
+def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None, name="nand"):
     """A new device holding ``device``'s calibration stream (raw words, flips included),
     with its bad blocks plus ``bad_blocks`` marked and ``fail_program`` blocks failing;
     ``flips = (p_single, p_double)`` flips random bits in payload words first
-    (:func:`tdicam.model.calib.inject_flips`). Returns ``(device, flips per word)``."""
-    _, n_words = _read_map(device)
+    (:func:`tdicam.model.calib.inject_flips`). Returns ``(device, flips per word)``;
+    errors name the image ``name``."""
+    _, n_words = _read_map(device, name)
     words, complete = stream_words(device, n_words)
     if not complete:
-        raise TdicamError("nand: the image's calibration stream is incomplete")
+        raise TdicamError(f"{name}: the image's calibration stream is incomplete")
     k = np.zeros(len(words), np.int64)
     if flips is not None:
         words, k = calib.inject_flips(rng, words, p_single=flips[0], p_double=flips[1])

@@ -141,6 +141,10 @@ BAD_INPUT = [
                                                               "(has: offset)", 2),
     (["calib", "write", "{d}/complex.npz", "-o", "{d}/x.bin"],
      "the gain map must hold real numbers, got dtype complex128", 2),
+    (["calib", "check", "{d}/badmap.nand"], "{d}/badmap.nand: the block map header in block 0 "
+                                            "has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/badmap.nand", "-o", "{d}/x.bin", "--bad-blocks", "1"],
+     "{d}/badmap.nand: the block map header in block 0 has an uncorrectable error", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
      "--seed = -1 is out of range", 2),
     (["golden", "check", "cds"], "manifest is corrupt (a list, not a table)", 2, "[1, 2]"),
@@ -203,6 +207,13 @@ def bad_input_files(tmp_path_factory):
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
                                      "distance_m = 1e-3\n[sensor]\npitch_um = 1000\n")
+    from tdicam.model import nand_store
+    nand = d / "badmap.nand"                    # two bits flipped in the block map header
+    assert main(["calib", "write", str(d / "maps.npz"), "--nand", "--blocks", "8", "-o",
+                 str(nand)]) == 0
+    raw = bytearray(nand.read_bytes())
+    raw[nand_store._FILE_HDR.size + nand_store._ROW.size] ^= 0x03
+    nand.write_bytes(bytes(raw))
     base = ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml"
     axes = '[axes]\n"tdi.stages" = [1]\n'
     (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)

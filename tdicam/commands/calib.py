@@ -305,7 +305,8 @@ def _inject_nand(args, dev, rng):
                           f"left after block 0")
     new_bad = rng.choice(free, args.bad_blocks, replace=False) if args.bad_blocks else []
     flips = (args.single, args.double) if args.single or args.double else None
-    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng)
+    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng,
+                           name=args.image)
     nand.save_image(out, args.output)
     print(f"wrote {args.output}: NAND image, {len(new_bad)} more bad blocks "
           f"({len(out.bad_blocks())} in all, {len(out.grown)} grown by program failures), "
