@@ -141,6 +141,8 @@ BAD_INPUT = [
                                                               "(has: offset)", 2),
     (["calib", "write", "{d}/complex.npz", "-o", "{d}/x.bin"],
      "the gain map must hold real numbers, got dtype complex128", 2),
+    (["calib", "write", "{d}/maps.npz", "--blocks", "8", "-o", "{d}/x.bin"],
+     "--blocks: only with --nand (a NAND image)", 2),
     (["calib", "check", "{d}/badmap.nand"], "{d}/badmap.nand: the block map header in block 0 "
                                             "has an uncorrectable error", 2),
     (["calib", "inject", "{d}/badmap.nand", "-o", "{d}/x.bin", "--bad-blocks", "1"],

@@ -88,9 +88,9 @@ def _nand_args(p):
     p.add_argument("--nand", action="store_true",
                    help="write a NAND image (pages + spare, bad blocks, block map) instead "
                         "of a plain word image")
-    p.add_argument("--blocks", type=int, default=g.blocks,
+    p.add_argument("--blocks", type=int, default=None,
                    help=f"NAND: blocks of the part ({g.blocks}: 4 Gb x8, MT29F4G08)")
-    p.add_argument("--pages-per-block", type=int, default=g.pages_per_block,
+    p.add_argument("--pages-per-block", type=int, default=None,
                    help=f"NAND: pages per block ({g.pages_per_block})")
     _clock_arg(p)
 
@@ -147,6 +147,10 @@ def _write(args):
     fmt = NucFormat(args.gain_int_bits, args.gain_frac_bits, args.offset_bits,
                     args.offset_frac_bits)
     fmt._check_slots()
+    if not args.nand:               # NAND geometry without --nand was ignored silently
+        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block)):
+            if v is not None:
+                raise TdicamError(f"{opt}: only with --nand (a NAND image)")
     check_file(args.output)
     gain, offset = _load_maps(args)
     for what, a in (("gain", gain), ("offset", offset)):
@@ -186,7 +190,10 @@ def _timing_line(rows, cols, geometry, clock_hz):
 
 def _write_nand(args, words, rows, cols):
     try:
-        geo = nand.Geometry(pages_per_block=args.pages_per_block, blocks=args.blocks)
+        g = nand.MT29F4G08
+        geo = nand.Geometry(
+            pages_per_block=g.pages_per_block if args.pages_per_block is None
+            else args.pages_per_block, blocks=g.blocks if args.blocks is None else args.blocks)
     except TdicamError as exc:
         raise TdicamError(f"--nand geometry: {exc}") from None
     clock = _clock(args)
