@@ -138,6 +138,10 @@ def _flatten(table, where, prefix=""):
     out = {}
     for k, v in table.items():
         key = f"{prefix}{k}"
+        if isinstance(v, dict) and {"start", "stop"} & set(v) and not set(v) <= _RANGE_KEYS:
+            extra = sorted(set(v) - _RANGE_KEYS)     # a range with a typo, not scene keys
+            raise TdicamError(f"{where} {key}: range table: unknown key {extra[0]!r}; valid: "
+                              f"{', '.join(sorted(_RANGE_KEYS))}")
         if isinstance(v, dict) and not (v and set(v) <= _RANGE_KEYS):
             if not v:
                 raise TdicamError(f"{where} {key}: empty table")

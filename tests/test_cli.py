@@ -122,6 +122,8 @@ BAD_INPUT = [
      "/proc/sw: cannot write (", 2),
     (["sweep", "{d}/sw_scene5.toml"], "scene: must be the base scene's file name", 2),
     (["sweep", "{d}/sw_name.toml"], "name: must be a folder name (no '/'", 2),
+    (["sweep", "{d}/sw_range.toml"], "[axes] tdi.stages: range table: unknown key 'stpe'; "
+                                     "valid: log, num, start, step, stop", 2),
     (["sweep", "{d}/sw_ok.toml", "-o", "{d}/foreign"], "{d}/foreign: holds files that are not "
                                                        "a tdicam sweep's (mine.txt)", 2),
     (["sweep", "{d}/sw_ok.toml", "--scheduler", "tcp://127.0.0.1:1", "--connect-timeout", "nan"],
@@ -221,6 +223,8 @@ def bad_input_files(tmp_path_factory):
     (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)
     (d / "sw_name.toml").write_text(f'scene = "{base}"\nname = "../../x"\n' + axes)
     (d / "sw_ok.toml").write_text(f'scene = "{base}"\n' + axes)
+    (d / "sw_range.toml").write_text(f'scene = "{base}"\n[axes]\n"tdi.stages" = '
+                                     '{start = 1, stop = 9, stpe = 2}\n')
     (d / "foreign").mkdir()
     (d / "foreign" / "mine.txt").write_text("mine")
     return d
