@@ -41,8 +41,8 @@ import numpy as np
 from tdicam import planning as _planning
 from tdicam.model import plan as _plan
 
-__all__ = ["measure", "snr_prediction", "saturation_e", "fit_modulation", "mean_dark_e", "MIN_MODULATION_SNR",
-           "SNR_DEFINITION"]
+__all__ = ["measure", "snr_prediction", "saturation_e", "fit_modulation", "mean_dark_e",
+           "MIN_MODULATION_SNR", "SNR_DEFINITION"]
 
 
 def mean_dark_e(scene):
@@ -60,8 +60,9 @@ def mean_dark_e(scene):
 def saturation_e(scene, stages):
     """Charge per exposure (electrons, dark included) at which a flat output saturates:
     the full well or the ADC full scale (``2**bits - 1`` DN less the black level, at the
-    lowest gain: the channel that holds the most), whichever is lower; in the charge domain the well and the one conversion
-    hold the sum of ``stages`` exposures, so the per-exposure level is 1/stages of it."""
+    lowest gain: the channel that holds the most), whichever is lower; in the charge domain
+    the well and the one conversion hold the sum of ``stages`` exposures, so the
+    per-exposure level is 1/stages of it."""
     sen = scene.sensor
     adc_e = ((2 ** sen.bits - 1) - sen.black_level_dn) * sen.conversion_gain_e_per_dn \
         / min(sen.gains)

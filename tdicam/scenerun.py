@@ -40,7 +40,6 @@ from pathlib import Path
 import numpy as np
 
 from tdicam import outputs, scenereport
-from tdicam.errors import TdicamError
 
 __all__ = ["run_scene", "main_tiff_shift", "strict_json"]
 
