@@ -15,7 +15,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import check_range
 from tdicam.model.ddr import ADDR_BITS, BANKS, WORD_BITS, DramTiming, _check_stalls
 from .mig import MIG_PORT_NAMES, connect_mig, mig_model_ports
-from .util import quiet_reject
+from .util import equals, quiet_reject
 
 __all__ = ["MigModel", "SimTop"]
 
@@ -184,7 +184,9 @@ class MigModel(wiring.Component):
         top = max(d.rd_to_wr, d.wr_to_rd, d.activate) + d.both
         busy = Signal(range(top + 1))
         last_valid, last_rd = Signal(), Signal()
-        open_valid = Signal(BANKS)
+        # one register per bank, written under an explicit compare (no partial case
+        # statements or truncating shifts in the Verilog: lint-clean)
+        open_valid = Array(Signal(name=f"open_valid{b}") for b in range(BANKS))
         open_rows = Array(Signal(len(row), name=f"open_row{b}") for b in range(BANKS))
         is_rd = self.app_cmd[0]
         turn = Signal(range(top + 1))
@@ -193,13 +195,15 @@ class MigModel(wiring.Component):
         m.d.comb += [
             turn.eq(Mux(last_valid & (is_rd != last_rd), Mux(is_rd, d.wr_to_rd, d.rd_to_wr),
                         0)),
-            act.eq(Mux(open_valid.bit_select(bank, 1) & (open_rows[bank] == row), 0,
+            act.eq(Mux(open_valid[bank] & (open_rows[bank] == row), 0,
                        d.activate)),
             cost.eq(Mux(turn > act, turn, act) + Mux(turn.any() & act.any(), d.both, 0)),
         ]
         with m.If(self.app_en & self.app_rdy):
-            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd),
-                         open_rows[bank].eq(row), open_valid.bit_select(bank, 1).eq(1)]
+            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd)]
+            for b in range(BANKS):
+                with m.If(equals(bank, b)):
+                    m.d.sync += [open_rows[b].eq(row), open_valid[b].eq(1)]
         with m.Elif(busy.any()):
             m.d.sync += busy.eq(busy - 1)
         return busy.any()

@@ -90,6 +90,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
+from tdicam.outputs import write_file
 from . import calib, ecc
 from .nuc import DEFAULT_FORMAT
 
@@ -424,7 +425,7 @@ def store_stream(device, *, rows, cols, fmt=DEFAULT_FORMAT, count_bits=calib.DEF
     return out, sr, complete
 
 
-def _read_map(device):
+def _read_map(device, name="nand"):
     """(l2p list, stream words) from the block map in block 0, or raise."""
     g = device.geometry
     wpp = g.words_per_page
@@ -434,25 +435,25 @@ def _read_map(device):
 
     first = ecc.decode(*ecc.unpack_code(words_of(0)))
     if first.uncorrectable[:MAP_HEADER_WORDS].any():
-        raise TdicamError("nand: the block map header in block 0 has an uncorrectable error")
+        raise TdicamError(f"{name}: the block map header in block 0 has an uncorrectable error")
     h = [int(x).to_bytes(8, "little") for x in first.data[:MAP_HEADER_WORDS]]
     if h[0][:7] != MAP_MAGIC or h[0][7] != MAP_VERSION:
-        raise TdicamError(f"nand: block 0 holds no block map (magic {h[0][:7]!r}, expected "
+        raise TdicamError(f"{name}: block 0 holds no block map (magic {h[0][:7]!r}, expected "
                           f"{MAP_MAGIC!r} version {MAP_VERSION})")
     pb, sb, ppb, nb = struct.unpack("<HHHH", h[1])
     if (pb, sb, ppb, nb or 65536) != (g.page_bytes, g.spare_bytes, g.pages_per_block,
                                       g.blocks):
-        raise TdicamError(f"nand: the block map was written for pages of {pb}+{sb} bytes, "
+        raise TdicamError(f"{name}: the block map was written for pages of {pb}+{sb} bytes, "
                           f"{ppb} pages/block, {nb or 65536} blocks; the part is {g.page_bytes}"
                           f"+{g.spare_bytes}, {g.pages_per_block}, {g.blocks}")
     n_log, n_words = struct.unpack("<II", h[2])
     n_map = MAP_HEADER_WORDS + -(-n_log // 4)
     if n_map > wpp * g.pages_per_block:
-        raise TdicamError(f"nand: malformed block map: {n_log} logical blocks")
+        raise TdicamError(f"{name}: malformed block map: {n_log} logical blocks")
     pages = [words_of(p) for p in range(-(-n_map // wpp))]
     dec = ecc.decode(*ecc.unpack_code(np.concatenate(pages)[:n_map]))
     if dec.uncorrectable.any():
-        raise TdicamError(f"nand: the block map has an uncorrectable error in word "
+        raise TdicamError(f"{name}: the block map has an uncorrectable error in word "
                           f"{int(np.argmax(dec.uncorrectable))}")
     ent = [(int(x) >> (16 * j)) & 0xFFFF for x in dec.data[MAP_HEADER_WORDS:] for j in range(4)]
     return ent[:n_log], n_words
@@ -480,7 +481,7 @@ def read_store(device, *, name="nand"):
         blocks for the stream, or any error of :func:`tdicam.model.calib.read_image`.
     """
     sr = scan(device)
-    l2p, n_words = _read_map(device)
+    l2p, n_words = _read_map(device, name)
     g = device.geometry
     need = blocks_needed(n_words, g)
     if len(l2p) != need:
@@ -501,15 +502,16 @@ def read_store(device, *, name="nand"):
                        pages=-(-len(words) // g.words_per_page))
 
 
-def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None):
+def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None, name="nand"):
     """A new device holding ``device``'s calibration stream (raw words, flips included),
     with its bad blocks plus ``bad_blocks`` marked and ``fail_program`` blocks failing;
     ``flips = (p_single, p_double)`` flips random bits in payload words first
-    (:func:`tdicam.model.calib.inject_flips`). Returns ``(device, flips per word)``."""
-    _, n_words = _read_map(device)
+    (:func:`tdicam.model.calib.inject_flips`). Returns ``(device, flips per word)``;
+    errors name the image ``name``."""
+    _, n_words = _read_map(device, name)
     words, complete = stream_words(device, n_words)
     if not complete:
-        raise TdicamError("nand: the image's calibration stream is incomplete")
+        raise TdicamError(f"{name}: the image's calibration stream is incomplete")
     k = np.zeros(len(words), np.int64)
     if flips is not None:
         words, k = calib.inject_flips(rng, words, p_single=flips[0], p_double=flips[1])
@@ -522,7 +524,10 @@ def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None):
 
 # ---------------------------------------------------------------- image file
 def save_image(device, path):
-    """Write the sparse image file (module docstring); returns the byte count."""
+    """Write the sparse image file (module docstring); returns the byte count.
+
+    Written with :func:`tdicam.outputs.write_file`: an unwritable ``path`` or a full device
+    is a one-line ``PATH: cannot write (REASON)`` and leaves no half-written file."""
     g = device.geometry
     rows = sorted(device.pages)
     parts = [_FILE_HDR.pack(FILE_MAGIC, FILE_VERSION, g.page_bytes, g.spare_bytes,
@@ -530,11 +535,7 @@ def save_image(device, path):
     for r in rows:
         parts += [_ROW.pack(r), device.pages[r].tobytes()]
     data = b"".join(parts)
-    try:
-        with open(path, "wb") as fh:
-            fh.write(data)
-    except OSError as exc:
-        raise TdicamError(f"{path}: cannot write ({exc.strerror})") from None
+    write_file(path, data)       # one-line errors; a half-written file is removed
     return len(data)
 
 

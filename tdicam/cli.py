@@ -3,12 +3,15 @@
 Subcommands are discovered from the modules of :mod:`tdicam.commands`; each module
 defines ``register(subparsers)`` which adds its parser and sets ``func`` (called with the
 parsed namespace, returns an exit code). A :class:`~tdicam.errors.TdicamError` raised
-anywhere is printed as one line and exits with status 2. Help texts are shown as plain text
+anywhere is printed as one line and exits with status 2; Ctrl-C ends with
+``tdicam: interrupted`` and status 130; a reader that closes the output pipe (``| head``)
+ends the command quietly with status 141 (128 + SIGPIPE). Help texts are shown as plain text
 (:func:`plain_text`): descriptions taken from docstrings lose their reST markup.
 """
 
 import argparse
 import importlib
+import os
 import pkgutil
 import re
 import sys
@@ -16,7 +19,7 @@ import sys
 from . import commands
 from .errors import TdicamError
 
-__all__ = ["main", "build_parser", "plain_text"]
+__all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
 
 #: What ``tdicam --help`` says first.
@@ -50,6 +53,14 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+class ArgsParser(_Parser):
+    """The parser of a command's own trailing arguments (``verilog pipeline --scene ...``):
+    an error is a :class:`~tdicam.errors.TdicamError` naming the command, one line."""
+
+    def error(self, message):
+        raise TdicamError(f"{self.prog}: {message}")
+
+
 def build_parser():
     parser = _Parser(prog="tdicam", description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -77,6 +88,10 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("tdicam: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:             # the reader left (| head): stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())   # so the interpreter's final flush is quiet
+        return 141
     return 0 if code is None else int(code)
 
 

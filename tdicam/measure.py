@@ -33,6 +33,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -40,8 +41,8 @@ import numpy as np
 from tdicam import planning as _planning
 from tdicam.model import plan as _plan
 
-__all__ = ["measure", "snr_prediction", "fit_modulation", "mean_dark_e", "MIN_MODULATION_SNR",
-           "SNR_DEFINITION"]
+__all__ = ["measure", "snr_prediction", "saturation_e", "fit_modulation", "mean_dark_e",
+           "MIN_MODULATION_SNR", "SNR_DEFINITION"]
 
 
 def mean_dark_e(scene):
@@ -54,6 +55,19 @@ def mean_dark_e(scene):
     u = d / s
     return d * 0.5 * math.erfc(-u / math.sqrt(2)) + s * math.exp(-u * u / 2) \
         / math.sqrt(2 * math.pi)
+
+
+def saturation_e(scene, stages):
+    """Charge per exposure (electrons, dark included) at which a flat output saturates:
+    the full well or the ADC full scale (``2**bits - 1`` DN less the black level, at the
+    lowest gain: the channel that holds the most), whichever is lower; in the charge domain
+    the well and the one conversion hold the sum of ``stages`` exposures, so the
+    per-exposure level is 1/stages of it."""
+    sen = scene.sensor
+    adc_e = ((2 ** sen.bits - 1) - sen.black_level_dn) * sen.conversion_gain_e_per_dn \
+        / min(sen.gains)
+    share = stages if scene.tdi.domain == "charge" else 1
+    return min(sen.full_well_e, adc_e) / share
 
 
 def _snr_db(img, pedestal, trim, light=1.0):
@@ -174,13 +188,25 @@ def measure(scene, res):
         light = S / (S + dark) if S + dark > 0 else 0.0
         s_out = _snr_db(res.output, res.pedestal_output, trim, light)
         s_one = _snr_db(res.single, res.pedestal_single, trim, light)
+        cap = saturation_e(scene, m)
+        saturated = S + dark >= cap
+        if saturated:       # a flat output at full scale: its "SNR" measures nothing
+            s_out = s_one = None
+            scene = dataclasses.replace(scene, target=dataclasses.replace(
+                tgt, signal_e=max(cap - dark, 0.0)))
         pred = snr_prediction(scene, m, cds=cds)
         out["snr"] = {
             "output_db": s_out, "single_db": s_one,
             "gain_db": None if s_out is None or s_one is None else s_out - s_one,
             "signal_definition": SNR_DEFINITION, "dark_e": dark,
+            "saturated": saturated, "saturation_e": cap,
             **pred,
         }
+        if saturated:
+            out["snr"]["note"] = (
+                f"saturated: signal {S:g} e- + dark {dark:.3g} e- per exposure reaches "
+                f"{cap:.6g} e- (full well or ADC full scale), so the output is clipped flat "
+                f"and has no SNR to measure; the predictions are for a signal at that level")
     if tgt.kind == "bars":
         g = res.geometry
         period = tgt.period_px

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from .errors import TdicamError
 
-__all__ = ["check_file", "check_dir", "write_file", "open_output", "named"]
+__all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in"]
 
 
 def _fail(path, why):
@@ -87,6 +87,19 @@ def open_output(path, mode="wb"):
             if p.is_file():
                 p.unlink()
         _fail(path, exc.strerror or exc)
+
+
+@contextlib.contextmanager
+def writing_in(folder):
+    """Around code that writes many files into ``folder`` (images, figures, tables): an OS
+    error (a full device, a folder made read-only meanwhile) becomes
+    ``FOLDER: cannot write (REASON)``, one line."""
+    try:
+        yield Path(folder)
+    except OSError as exc:
+        where = f"{folder}/{Path(exc.filename).name}" if getattr(exc, "filename", None) \
+            else folder
+        _fail(where, exc.strerror or exc)
 
 
 def write_file(path, data) -> Path:

@@ -20,7 +20,16 @@ states ``v_c``, ``r_c``:
 from .errors import check_range
 from .model.ddr import xorshift32
 
-__all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R"]
+__all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R", "check_seed", "SEED_MAX"]
+
+#: Largest seed the generators take (31 bits); the commands' --seed is 1..SEED_MAX.
+SEED_MAX = 0x7FFFFFFF
+
+
+def check_seed(option, seed):
+    """``seed`` if it is an integer in 1..:data:`SEED_MAX`, else a one-line error (the
+    generators keep 31 bits: a wider or negative seed would be folded silently)."""
+    return check_range(option, seed, 1, SEED_MAX)
 
 #: ``r_0 = v_0 ^ XOR_R``
 XOR_R = 0x9E3779B9

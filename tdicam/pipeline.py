@@ -336,8 +336,8 @@ ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
 
 def _scene_args(prog, extra):
-    import argparse
-    ap = argparse.ArgumentParser(prog=prog, description="The whole pipeline of a scene "
+    from .cli import ArgsParser
+    ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
                                  "([pipeline] blocks in order, NUC coefficients identity "
                                  "unless --calib).")
     ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
@@ -353,12 +353,7 @@ def _scene_args(prog, extra):
                          "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
                          "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
-    try:
-        ns = ap.parse_args(list(extra))
-    except SystemExit as exc:
-        if exc.code:
-            raise TdicamError(f"{prog}: bad arguments (see {prog} --help)") from None
-        raise
+    ns = ap.parse_args(list(extra))
     from .scene import load_scene
     sc = load_scene(ns.scene)
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,

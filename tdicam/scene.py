@@ -175,7 +175,8 @@ TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
 BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
 
 #: Physical bounds ``"section.key": (lo, hi)``, inclusive, of the quantities whose schema
-#: would otherwise only ask for a positive or non-negative value. They exclude absurd input
+#: would otherwise only ask for a positive or non-negative value, and of the sensor's
+#: integer sizes (the keys ``tdicam plan`` has options for). They exclude absurd input
 #: (a 1e12 km orbit, a 1e-300 m GSD, a turntable at 1e-12 rad/s, 1e30 electrons) whose
 #: arithmetic is garbage, and nothing a real camera or lab rig does. ``tdicam plan --help``
 #: states them for its options; the module docstring states them for the scene keys.
@@ -185,6 +186,9 @@ BOUNDS = {
     "turntable.angular_speed_rad_s": (1e-6, 1000),
     "turntable.distance_m": (1e-3, 1000),
     "target.signal_e": (0, 10**12),
+    "sensor.columns": (1, 65536),
+    "sensor.rows": (1, 65536),
+    "sensor.bits": (1, 24),
     "sensor.pitch_um": (0.1, 1000),
     "sensor.full_well_e": (1, 10**9),
     "sensor.conversion_gain_e_per_dn": (1e-6, 10**9),
@@ -573,6 +577,7 @@ class _Section:
         where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, int):
             self.fail(key, f"must be an integer{where}, got {_show(v)}")
+        lo, hi = BOUNDS.get(f"{self.name}.{key}", (lo, hi))
         return check_range(f"{self.label(key)}{where}", v, lo, hi)
 
     def choice(self, key, default, choices):
@@ -686,7 +691,7 @@ _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well
 
 def _sensor(sec: _Section) -> Sensor:
     sec.check_keys(_SENSOR_KEYS)
-    bits = sec.integer("bits", 12, lo=1, hi=24)
+    bits = sec.integer("bits", 12)
     full_well = sec.number("full_well_e", 20000.0)
     conv = sec.number("conversion_gain_e_per_dn", None)
     if sec.has("pixel_clock_mhz") and sec.has("max_frame_rate_hz"):
@@ -705,8 +710,8 @@ def _sensor(sec: _Section) -> Sensor:
     if len(gains) == 2 and not gains[0] > gains[1]:
         sec.fail("gains", f"two gains must be [high, low] with high > low, got {_show(gains_raw)}")
     return Sensor(
-        columns=sec.integer("columns", 1280, lo=1, hi=65536),
-        rows=sec.integer("rows", 1024, lo=1, hi=65536),
+        columns=sec.integer("columns", 1280),
+        rows=sec.integer("rows", 1024),
         pitch_um=sec.number("pitch_um", 5.5),
         fill_factor=sec.number("fill_factor", 1.0, lo=0.0, hi=1.0, lo_open=True),
         bits=bits,

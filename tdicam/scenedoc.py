@@ -311,7 +311,9 @@ def schema():
             r.kind = kind
             if kw.get("value", req) is req:
                 r.defaults.add(default if default is not req else "required")
-            r.ranges.add(rng(kw.get("lo"), kw.get("hi"), kw.get("lo_open", False),
+            bound = _scene.BOUNDS.get(f"{self.name}.{key}")     # replaces lo/hi (the reader)
+            r.ranges.add(rng(*bound) if bound else
+                         rng(kw.get("lo"), kw.get("hi"), kw.get("lo_open", False),
                              kw.get("hi_open", False)))
             return orig[kind](self, key, default, **kw)
         return wrapper

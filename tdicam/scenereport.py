@@ -193,6 +193,8 @@ def summary(scene, rep):
     for r in rep["measurements"]:
         if "snr" in r:
             s = r["snr"]
+            if s.get("saturated"):
+                lines.append(f"  m={r['stages']}: {s['note']}")
             lines.append(f"  m={r['stages']}: SNR {_fmt(s['output_db'], '.2f')} dB, gain "
                          f"{_fmt(s['gain_db'], '.2f')} dB (predicted {s['predicted_db']:.2f}, "
                          f"eq 28 worst case {s['eq28_db']:.2f})")
@@ -255,6 +257,9 @@ def markdown(scene, rep):
                       f"{_fmt(s['single_db'], '.2f')} | {_fmt(s['gain_db'], '.2f')} | "
                       f"{s['predicted_db']:.2f} | {_fmt(d, '+.2f')} | {s['eq28_db']:.2f} |")
         s0 = snr[0]["snr"]
+        sat = [f"* m = {r['stages']}: **{r['snr']['note']}**" for r in snr
+               if r["snr"].get("saturated")]
+        md += [""] + sat if sat else []
         md += ["", f"SNR: {s0['signal_definition']} (mean dark charge {s0['dark_e']:.3g} e- "
                "per exposure); the same for measured and predicted values.",
                "", f"Noise figures used: s_AD = {s0['sigma_ad_e']:.3g} e-, temporal s_CMOS = "

@@ -39,8 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import scenereport
-from tdicam.errors import TdicamError
+from tdicam import outputs, scenereport
 
 __all__ = ["run_scene", "main_tiff_shift", "strict_json"]
 
@@ -64,12 +63,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     """
     from tdicam import engine
     from tdicam.measure import measure
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TdicamError(f"-o {str(out_dir)!r}: cannot create the directory: "
-                          f"{exc.strerror}") from None
+    out_dir = outputs.check_dir(out_dir)
     n_lines = int(scene.run.lines if lines is None else lines)
     stages = scene.tdi.stages
     dvs = scene.motion.dv_over_v
@@ -104,8 +98,9 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
             bar.close()
     main = results[(m_show, dvs[0])]
     previous = _previous_files(out_dir)
-    files = _write_images(out_dir, main)
-    files += _figures(out_dir, scene, rows, main)
+    with outputs.writing_in(out_dir):
+        files = _write_images(out_dir, main)
+        files += _figures(out_dir, scene, rows, main)
     rtl_report = None
     if crop is not None:
         from tdicam.rtl import cosim_scene
@@ -144,9 +139,10 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     }
     report["summary"] = scenereport.summary(scene, report)
     report = strict_json(report)
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
-                                                    allow_nan=False))
-    (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
+    with outputs.writing_in(out_dir):
+        (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
+                                                        allow_nan=False))
+        (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
     return report
 
 

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import __version__
+from tdicam import __version__, outputs
 from tdicam.errors import TdicamError, check_range
 from tdicam.sweepfile import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
 from tdicam.sweepresults import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
@@ -224,6 +224,18 @@ def _result(fut):
         return {"status": "failed", "error": _one_line(exc), "row": None, "worker": None}
 
 
+def _not_foreign(out_dir):
+    """Refuse a folder that holds something and is not a sweep's (no ``points/``): the
+    results would overwrite, or sit among, files that are not ours."""
+    if not out_dir.is_dir() or (out_dir / "points").is_dir():
+        return
+    other = sorted(p.name for p in out_dir.iterdir())
+    if other:
+        raise TdicamError(f"{out_dir}: holds files that are not a tdicam sweep's "
+                          f"({', '.join(other[:3])}{', ...' if len(other) > 3 else ''}); "
+                          f"give -o a new or empty folder, or an earlier sweep's to resume it")
+
+
 def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=False,
               limit=None, progress=True, connect_timeout=10.0, on_run=None) -> SweepResult:
     """Run the missing runs of ``sweep`` and write the results into ``out_dir``.
@@ -256,20 +268,17 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
     Raises
     ------
     TdicamError
-        ``out_dir`` cannot be created, or the scheduler cannot be reached.
+        ``out_dir`` cannot be created or holds files that are not a sweep's, or the
+        scheduler cannot be reached.
     """
     t0 = time.perf_counter()
     if workers is not None:
         check_range("--workers", workers, 1, 256)
     if limit is not None:
         check_range("--limit", limit, 0, None)
-    out_dir = Path(out_dir)
-    store = out_dir / "points"
-    try:
-        store.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TdicamError(f"-o {str(out_dir)!r}: cannot create the directory: "
-                          f"{exc.strerror}") from None
+    _not_foreign(outputs.named(out_dir))
+    out_dir = outputs.check_dir(out_dir)
+    store = outputs.check_dir(out_dir / "points")
     done = {}
     for run in sweep.runs:
         if run.hash not in done:
@@ -284,7 +293,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
 
     def on_done(run, result):
         nonlocal computed
-        done[run.hash] = _store_record(store, sweep, run, result)
+        with outputs.writing_in(store):
+            done[run.hash] = _store_record(store, sweep, run, result)
         computed += 1
         if bar is not None:
             bar.update(runs_of[run.hash])
@@ -314,7 +324,8 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         if bar is not None:
             bar.close()
     t_exec = time.perf_counter() - t_exec
-    files = write_results(sweep, out_dir, done)
+    with outputs.writing_in(out_dir):
+        files = write_results(sweep, out_dir, done)
     failed = [{"point": r.point, "repeat": r.repeat, "hash": r.hash,
                "axes": sweep.points[r.point], "error": done[r.hash]["error"]}
               for r in sweep.runs if r.hash in done and done[r.hash]["status"] != "ok"]
@@ -329,7 +340,9 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
                "compute_seconds": t_exec, "wall_seconds": result.wall_seconds,
                "files": files,
                "tdicam": __version__}
-    _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1, default=_jsonable))
+    with outputs.writing_in(out_dir):
+        _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1,
+                                                           default=_jsonable))
     result.files = files + ["summary.json"]
     return result
 

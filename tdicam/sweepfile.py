@@ -138,6 +138,10 @@ def _flatten(table, where, prefix=""):
     out = {}
     for k, v in table.items():
         key = f"{prefix}{k}"
+        if isinstance(v, dict) and {"start", "stop"} & set(v) and not set(v) <= _RANGE_KEYS:
+            extra = sorted(set(v) - _RANGE_KEYS)     # a range with a typo, not scene keys
+            raise TdicamError(f"{where} {key}: range table: unknown key {extra[0]!r}; valid: "
+                              f"{', '.join(sorted(_RANGE_KEYS))}")
         if isinstance(v, dict) and not (v and set(v) <= _RANGE_KEYS):
             if not v:
                 raise TdicamError(f"{where} {key}: empty table")
@@ -279,15 +283,20 @@ def load_sweep(path, *, force=False, impact=False) -> Sweep:
             raise TdicamError(f"{src}: {k}: unknown key"
                               + (f"; did you mean {close[0]!r}?" if close
                                  else "; valid: " + ", ".join(_FILE_KEYS)))
-    if "scene" not in doc or not isinstance(doc["scene"], str):
+    if "scene" not in doc:
         raise TdicamError(f"{src}: scene: missing (the base scene file, relative to the "
                           f"sweep file)")
+    if not isinstance(doc["scene"], str) or not doc["scene"].strip():
+        raise TdicamError(f"{src}: scene: must be the base scene's file name (relative to "
+                          f"the sweep file), got {doc['scene']!r}")
     scene_path = (path.resolve().parent / doc["scene"]).resolve()
     load_scene(scene_path)                       # the base scene's own errors first
     base = read_toml(scene_path, "scene file")
     name = doc.get("name", path.stem)
-    if not isinstance(name, str) or not name:
-        raise TdicamError(f"{src}: name: must be a non-empty string, got {name!r}")
+    if not isinstance(name, str) or not name.strip() or name in (".", "..") \
+            or "/" in name or "\\" in name:
+        raise TdicamError(f"{src}: name: must be a folder name (no '/', not '.' or '..'; the "
+                          f"default output is out/sweeps/NAME), got {name!r}")
     repeats = doc.get("repeats", 1)
     if isinstance(repeats, bool) or not isinstance(repeats, int):
         raise TdicamError(f"{src}: repeats: must be an integer >= 1, got {repeats!r}")

@@ -63,9 +63,18 @@ BAD_INPUT = [
     (["verilog", "cds", "--pixel-bits", "99"], "--pixel-bits = 99 is out of range; valid: 8..16",
      2),
     (["verilog", "cds", "--pixel-bits", "abc"], "--pixel-bits must be an integer", 2),
+    (["verilog", "tdi", "--stages", "8", "--stages=9"], "--stages given twice ('8' and '9')", 2),
     (["sim", "cds", "--sim", "modelsim"], "invalid choice: 'modelsim'", 2),
     (["sim", "cds", "--idle", "nan"], "idle = nan is out of range", 2),
     (["golden", "check", "nosuch"], "unknown block 'nosuch'", 2),
+    (["sim", "cds", "--seed", "-1"], "--seed = -1 is out of range; valid: 1..2147483647", 2),
+    (["sim", "cds", "--seed", "99999999999999999999"], "--seed = 99999999999999999999 is out "
+                                                       "of range", 2),
+    (["export", "cds", "-o", "{d}/exp", "--seed", "0"], "--seed = 0 is out of range", 2),
+    (["synth", "pipeline"], "tdicam synth pipeline: the following arguments are required: "
+                            "--scene", 2),
+    (["verilog", "pipeline", "--scene", "scenes/seed002_chain.toml", "--stages", "x"],
+     "tdicam verilog pipeline: argument --stages: invalid int value: 'x'", 2),
     (["synth", "cds", "--freq", "-1"], "--freq = -1.0 is out of range; valid: 1..2000", 2),
     (["synth", "cds", "--freq", "nan"], "--freq = nan is out of range", 2),
     (["synth", "pipeline", "--freq", "inf"], "--freq = inf is out of range", 2),
@@ -81,6 +90,8 @@ BAD_INPUT = [
      "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "{d}"], "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "/dev/full"], "/dev/full: cannot write", 2),
+    (["calib", "write", "{d}/maps.npz", "--nand", "--blocks", "8", "-o", "/dev/full"],
+     "/dev/full: cannot write (No space left on device)", 2),
     (["calib", "read", "{d}/cal.bin", "-o", "{d}/no/x.npz"], "cannot write (no folder", 2),
     (["calib", "read", "{d}/cal.bin", "-o", "/dev/full"], "/dev/full: cannot write", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}"], "{d}: cannot write (it is a directory)", 2),
@@ -98,6 +109,25 @@ BAD_INPUT = [
     (["run", "scenes/flat_snr_sweep_96.toml", "-o", ""], "-o: the output name is empty", 2),
     (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", " "],
      "-o: the output name is empty", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "--lines", "99999999999999"],
+     "--lines: 256 columns x 99999999999999 lines = 25599999999999744 output pixels, more "
+     "than", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "--lines", "0"], "--lines = 0 is out of range", 2),
+    (["bench", "cds", "--quick", "--sims", ""], "--sims: empty; give simulators from", 2),
+    (["run", "scenes/flat_snr_sweep_96.toml", "-o", "{d}/afile"],
+     "{d}/afile: cannot write (it exists and is not a folder)", 2),
+    (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", "{d}/afile"],
+     "{d}/afile: cannot write (it exists and is not a folder)", 2),
+    (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", "/proc/sw"],
+     "/proc/sw: cannot write (", 2),
+    (["sweep", "{d}/sw_scene5.toml"], "scene: must be the base scene's file name", 2),
+    (["sweep", "{d}/sw_name.toml"], "name: must be a folder name (no '/'", 2),
+    (["sweep", "{d}/sw_range.toml"], "[axes] tdi.stages: range table: unknown key 'stpe'; "
+                                     "valid: log, num, start, step, stop", 2),
+    (["sweep", "{d}/sw_ok.toml", "-o", "{d}/foreign"], "{d}/foreign: holds files that are not "
+                                                       "a tdicam sweep's (mine.txt)", 2),
+    (["sweep", "{d}/sw_ok.toml", "--scheduler", "tcp://127.0.0.1:1", "--connect-timeout", "nan"],
+     "--connect-timeout = nan is out of range; valid: (0, 3600]", 2),
     (["plan", "--plot", ""], "--plot: the output name is empty", 2),
     (["plan", "--plot", "{d}/afile"], "{d}/afile: cannot write (it exists and is not a folder)",
      2),
@@ -107,8 +137,18 @@ BAD_INPUT = [
      "{d}/trunc.npz: not a numpy .npz file (File is not a zip file)", 2),
     (["calib", "write", "--gain", "{d}/trunc.npz", "--offset", "{d}/trunc.npz", "-o",
       "{d}/x.bin"], "{d}/trunc.npz: not a numpy array file", 2),
+    (["calib", "write", "{d}/one.npy", "-o", "{d}/x.bin"],
+     "{d}/one.npy: expected an .npz with arrays 'gain' and 'offset', got one array", 2),
+    (["calib", "write", "{d}/nogain.npz", "-o", "{d}/x.bin"], "{d}/nogain.npz: no array 'gain' "
+                                                              "(has: offset)", 2),
     (["calib", "write", "{d}/complex.npz", "-o", "{d}/x.bin"],
      "the gain map must hold real numbers, got dtype complex128", 2),
+    (["calib", "write", "{d}/maps.npz", "--blocks", "8", "-o", "{d}/x.bin"],
+     "--blocks: only with --nand (a NAND image)", 2),
+    (["calib", "check", "{d}/badmap.nand"], "{d}/badmap.nand: the block map header in block 0 "
+                                            "has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/badmap.nand", "-o", "{d}/x.bin", "--bad-blocks", "1"],
+     "{d}/badmap.nand: the block map header in block 0 has an uncorrectable error", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
      "--seed = -1 is out of range", 2),
     (["golden", "check", "cds"], "manifest is corrupt (a list, not a table)", 2, "[1, 2]"),
@@ -152,6 +192,8 @@ def bad_input_files(tmp_path_factory):
     import numpy as np
     d = tmp_path_factory.mktemp("bad")
     np.savez(d / "maps.npz", gain=np.ones((2, 4)), offset=np.zeros((2, 4)))
+    np.save(d / "one.npy", np.ones((2, 4)))
+    np.savez(d / "nogain.npz", offset=np.zeros((2, 4)))
     np.savez(d / "complex.npz", gain=np.ones((2, 4)) * (1 + 1j), offset=np.zeros((2, 4)))
     data = (d / "maps.npz").read_bytes()
     (d / "trunc.npz").write_bytes(data[:len(data) // 2])
@@ -169,6 +211,22 @@ def bad_input_files(tmp_path_factory):
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
                                      "distance_m = 1e-3\n[sensor]\npitch_um = 1000\n")
+    from tdicam.model import nand_store
+    nand = d / "badmap.nand"                    # two bits flipped in the block map header
+    assert main(["calib", "write", str(d / "maps.npz"), "--nand", "--blocks", "8", "-o",
+                 str(nand)]) == 0
+    raw = bytearray(nand.read_bytes())
+    raw[nand_store._FILE_HDR.size + nand_store._ROW.size] ^= 0x03
+    nand.write_bytes(bytes(raw))
+    base = ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml"
+    axes = '[axes]\n"tdi.stages" = [1]\n'
+    (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)
+    (d / "sw_name.toml").write_text(f'scene = "{base}"\nname = "../../x"\n' + axes)
+    (d / "sw_ok.toml").write_text(f'scene = "{base}"\n' + axes)
+    (d / "sw_range.toml").write_text(f'scene = "{base}"\n[axes]\n"tdi.stages" = '
+                                     '{start = 1, stop = 9, stpe = 2}\n')
+    (d / "foreign").mkdir()
+    (d / "foreign" / "mine.txt").write_text("mine")
     return d
 
 
@@ -250,3 +308,15 @@ def test_boolean_parameter_is_also_a_flag(argv, enhance, width):
     from tdicam.commands.verilog import parse_block_params
     got = parse_block_params(blocks.get("median3"), argv)
     assert (got["enhance"], got["width"]) == (enhance, width)
+
+
+def test_a_reader_that_leaves_ends_the_command_quietly():
+    """``tdicam ... | head``: the closed pipe ends the command with status 141, no
+    traceback (any command, not only plan)."""
+    p = subprocess.Popen([sys.executable, "-m", "tdicam", "verilog", "cds"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    p.stderr.close()
+    assert p.wait(timeout=120) == 141, err
+    assert err == ""

@@ -104,3 +104,49 @@ def test_a_doctored_earlier_report_cannot_delete_outside_files(tmp_path):
     (out / "report.json").write_text(json.dumps({"files": ["../victim.txt", str(victim)]}))
     run(tmp_path, out)
     assert victim.read_text() == "keep"
+
+
+def test_a_saturated_flat_field_is_reported_as_saturated_not_as_an_snr(tmp_path, capsys):
+    """1e12 e- on a 20,000 e- well: the output is clipped flat; the report says so instead
+    of a measured SNR (there is no noise left to measure) or a prediction at 1e12 e-."""
+    scene = tmp_path / "sat.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="exact"))
+                     .replace("signal_e = 2000.0", "signal_e = 1e12"))
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 0
+    printed = capsys.readouterr().out
+    rep = json.loads((tmp_path / "o" / "report.json").read_text())
+    md = (tmp_path / "o" / "report.md").read_text()
+    for r in rep["measurements"]:
+        s = r["snr"]
+        assert s["saturated"] and s["output_db"] is None and s["gain_db"] is None
+        assert s["saturation_e"] == min(20000.0, 4095 * 20000 / 4096)
+        assert s["snr1_db"] < 50                    # at the well, not at 1e12 e- (120 dB)
+    assert "saturated: signal 1e+12 e-" in md and "saturated: signal 1e+12 e-" in printed
+    ok, _ = run(tmp_path, tmp_path / "ok")           # 2000 e-: far from the well
+    assert not any(r["snr"]["saturated"] for r in ok["measurements"])
+
+
+def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatch, capsys):
+    import errno
+
+    from tdicam import scenerun
+
+    def full(out_dir, res):
+        raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "tdi.tif"))
+    monkeypatch.setattr(scenerun, "_write_images", full)
+    scene = tmp_path / "s.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast")))
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"tdicam: error: {tmp_path / 'o' / 'tdi.tif'}: cannot write (No space left on " \
+                  "device)"
+
+
+def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsys):
+    """[run.rtl] that fails (here: 8 pixels per clock, which the whole-chain top refuses)
+    is in the report and the exit status, not only a line of the summary."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast"))
+                     + "[run.rtl]\npixels_per_clock = 8\n")
+    assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 1
+    assert "RTL pipeline: error: " in capsys.readouterr().out

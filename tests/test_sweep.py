@@ -324,6 +324,7 @@ def test_ctrl_c_then_rerun(reference, tmp_path):
     if proc.returncode == 0:                      # finished before the signal arrived
         pytest.skip("the sweep finished before SIGINT")
     assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1, err
     assert 1 <= done < 12
     res = run_sweep(load_sweep(path), out, serial=True, progress=False)
     assert (res.reused, res.computed) == (done, 12 - done)

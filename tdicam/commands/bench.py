@@ -46,6 +46,9 @@ def register(sub):
 
 
 def _sims(text):
+    if not text.strip():                # "" ran with no simulator, silently
+        raise TdicamError(f"--sims: empty; give simulators from {', '.join(cosim.SIMULATORS)}"
+                          f", or 'none'")
     sims = tuple(s for s in text.split(",") if s and s != "none")
     for s in sims:
         if s not in cosim.SIMULATORS:

@@ -88,9 +88,9 @@ def _nand_args(p):
     p.add_argument("--nand", action="store_true",
                    help="write a NAND image (pages + spare, bad blocks, block map) instead "
                         "of a plain word image")
-    p.add_argument("--blocks", type=int, default=g.blocks,
+    p.add_argument("--blocks", type=int, default=None,
                    help=f"NAND: blocks of the part ({g.blocks}: 4 Gb x8, MT29F4G08)")
-    p.add_argument("--pages-per-block", type=int, default=g.pages_per_block,
+    p.add_argument("--pages-per-block", type=int, default=None,
                    help=f"NAND: pages per block ({g.pages_per_block})")
     _clock_arg(p)
 
@@ -121,15 +121,19 @@ def _load_maps(args):
         raise TdicamError("give either MAPS.npz or --gain/--offset, not both")
     if args.maps:
         try:
-            with np.load(args.maps, allow_pickle=False) as z:
-                if not hasattr(z, "files"):
-                    raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "
-                                      f"'offset'")
+            z = np.load(args.maps, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):     # a .npy: one array
+                raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "
+                                  f"'offset', got one array (give two .npy files as --gain "
+                                  f"G.npy --offset O.npy)")
+            with z:
                 missing = [k for k in ("gain", "offset") if k not in z.files]
                 if missing:
                     raise TdicamError(f"{args.maps}: no array {missing[0]!r} (has: "
                                       f"{', '.join(z.files) or 'none'})")
                 return z["gain"], z["offset"]
+        except TdicamError:
+            raise
         except OSError as exc:
             raise TdicamError(f"{args.maps}: cannot read ({exc.strerror})") from None
         except _NOT_NUMPY as exc:
@@ -143,6 +147,10 @@ def _write(args):
     fmt = NucFormat(args.gain_int_bits, args.gain_frac_bits, args.offset_bits,
                     args.offset_frac_bits)
     fmt._check_slots()
+    if not args.nand:               # NAND geometry without --nand was ignored silently
+        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block)):
+            if v is not None:
+                raise TdicamError(f"{opt}: only with --nand (a NAND image)")
     check_file(args.output)
     gain, offset = _load_maps(args)
     for what, a in (("gain", gain), ("offset", offset)):
@@ -182,7 +190,10 @@ def _timing_line(rows, cols, geometry, clock_hz):
 
 def _write_nand(args, words, rows, cols):
     try:
-        geo = nand.Geometry(pages_per_block=args.pages_per_block, blocks=args.blocks)
+        g = nand.MT29F4G08
+        geo = nand.Geometry(
+            pages_per_block=g.pages_per_block if args.pages_per_block is None
+            else args.pages_per_block, blocks=g.blocks if args.blocks is None else args.blocks)
     except TdicamError as exc:
         raise TdicamError(f"--nand geometry: {exc}") from None
     clock = _clock(args)
@@ -301,7 +312,8 @@ def _inject_nand(args, dev, rng):
                           f"left after block 0")
     new_bad = rng.choice(free, args.bad_blocks, replace=False) if args.bad_blocks else []
     flips = (args.single, args.double) if args.single or args.double else None
-    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng)
+    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng,
+                           name=args.image)
     nand.save_image(out, args.output)
     print(f"wrote {args.output}: NAND image, {len(new_bad)} more bad blocks "
           f"({len(out.bad_blocks())} in all, {len(out.grown)} grown by program failures), "

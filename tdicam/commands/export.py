@@ -1,12 +1,13 @@
 """``tdicam export BLOCK [--PARAM VALUE ...] -o DIR``: a block as a FuseSoC core with a
 self-checking Verilog testbench and its golden vectors (see :mod:`tdicam.export`)."""
 
-import argparse
 import sys
 
 from .. import blocks
+from ..cli import ArgsParser
 from ..errors import TdicamError
 from ..export import export_block
+from ..pauses import SEED_MAX, check_seed
 from .verilog import parse_block_params, pick_block
 
 
@@ -28,23 +29,17 @@ def register(sub):
     p.add_argument("--force", action="store_true",
                    help="replace a folder that holds something else")
     p.add_argument("--seed", type=int, default=1,
-                   help="seed of the testbench's idle/backpressure generator (default 1)")
+                   help=f"seed of the testbench's idle/backpressure generator, 1..{SEED_MAX} "
+                        "(default 1)")
     p.add_argument("-h", "--help", action="store_true", help="show the block's parameters")
     p.set_defaults(func=_run, _parser=p, _raw=True)
-
-
-class _OneLine(argparse.ArgumentParser):
-    """An argument parser whose errors are one-line :class:`TdicamError`\ s."""
-
-    def error(self, message):
-        raise TdicamError(f"{self.prog}: {message} (see {self.prog} --help)")
 
 
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] -o DIR``."""
     from ..export_pipeline import MEMORY, export_pipeline
-    ap = _OneLine(
+    ap = ArgsParser(
         prog="tdicam export pipeline",
         description="A scene's whole [pipeline] as one exported design: the top as "
                     "'tdicam verilog pipeline --scene' writes it, and a self-checking "
@@ -75,8 +70,7 @@ def _pipeline(args):
 
 
 def _run(args):
-    if args.seed < 1 or args.seed > 0x7fffffff:
-        raise TdicamError(f"--seed = {args.seed} is out of range; valid: 1..2147483647")
+    check_seed("--seed", args.seed)
     if args.block == "pipeline":       # a scene's whole chain: tdicam.export_pipeline
         return _pipeline(args)
     blk = pick_block(args, "without parameters: those of most of the block's golden cases")

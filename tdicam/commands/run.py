@@ -2,18 +2,18 @@
 and a report out.
 
 This module parses the arguments; the work, and the list of what it writes, is
-:func:`tdicam.scenerun.run_scene`.
+:func:`tdicam.scenerun.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
+could not run or found mismatches (the report says which); 2 for bad input.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from tdicam.errors import TdicamError
 from tdicam.outputs import named
 from tdicam.scenerun import run_scene
 
-__all__ = ["register", "run", "run_scene"]
+__all__ = ["register", "run", "run_scene", "rtl_failed"]
 
 
 def register(subparsers) -> None:
@@ -22,7 +22,8 @@ def register(subparsers) -> None:
         "run", help="simulate a scene: images, figures and a report (the main job)",
         description=__doc__.split("\n\n")[0].replace("``", "") + " report.md starts with the "
         "configuration and explains every output (so does the README, 'What tdicam run "
-        "writes'); every scene key is in docs/scene-format.md.")
+        "writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
+        "[run.rtl] co-simulation could not run or found mismatches; 2 for bad input.")
     p.add_argument("scene", metavar="SCENE", help="scene TOML file (examples in scenes/, every key in docs/scene-format.md)")
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="output directory (default out/<scene name>)")
@@ -40,12 +41,19 @@ def register(subparsers) -> None:
 
 def run(args):
     from tdicam.scene import load_scene
-    if args.lines is not None and args.lines < 1:
-        raise TdicamError(f"--lines must be >= 1, got {args.lines}")
-    scene = load_scene(args.scene)
+    # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
+    over, labels = ({}, {}) if args.lines is None else \
+        ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})
+    scene = load_scene(args.scene, overrides=over, labels=labels)
     out = named(args.out) if args.out is not None else Path("out") / Path(args.scene).stem
-    report = run_scene(scene, out, fidelity=args.fidelity, lines=args.lines,
+    report = run_scene(scene, out, fidelity=args.fidelity,
                        force=args.force, impact=not args.no_impact, rtl=not args.no_rtl)
     print(report["summary"])
     print(f"wrote {out}/report.md, report.json and {len(report['files'])} files")
-    return 0
+    return 1 if rtl_failed(report["rtl"]) else 0
+
+
+def rtl_failed(rtl) -> bool:
+    """True when a ``[run.rtl]`` co-simulation ran into an error or found a mismatch."""
+    return rtl is not None and any(b.get("status") != "ran" or b.get("mismatches")
+                                   for b in rtl["blocks"])

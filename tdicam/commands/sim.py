@@ -3,6 +3,7 @@
 import time
 
 from .. import blocks, cosim
+from ..pauses import SEED_MAX, check_seed
 from ..cosim.cases import run_cases
 
 
@@ -19,7 +20,7 @@ def register(sub):
     p.add_argument("--backpressure", type=float, default=0.2,
                    help="tready-low probability (0.2)")
     p.add_argument("--seed", type=int, default=1,
-                   help="seed of the random idle cycles and backpressure (1)")
+                   help=f"seed of the random idle cycles and backpressure, 1..{SEED_MAX} (1)")
     p.add_argument("--case", action="append", help="only these cases (repeatable)")
     p.add_argument("--wave-dir", default=str(cosim.WAVE_DIR),
                    help="where the waveform (FST) around a case's first mismatch is written "
@@ -29,6 +30,7 @@ def register(sub):
 
 def _run(args):
     mode = "fast" if args.fast else "beat"
+    check_seed("--seed", args.seed)
     print(f"{'case':28s} {'pixels':>9s} {'mismatch':>8s} {'cycles':>9s} {'wall s':>7s} "
           f"{'pixels/s':>10s}")
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from tdicam.errors import TdicamError
+from tdicam.errors import check_range
 from tdicam.outputs import named
 
 __all__ = ["register", "sweep"]
@@ -35,7 +35,7 @@ def register(subparsers) -> None:
     where.add_argument("--serial", action="store_true",
                        help="run every point in this process, in order (debugging)")
     p.add_argument("--connect-timeout", type=float, default=10.0, metavar="S",
-                   help="seconds to wait for --scheduler (default 10)")
+                   help="seconds to wait for --scheduler, in (0, 3600] (default 10)")
     p.add_argument("--force", action="store_true",
                    help="accept more runs (points x repeats) than the limit")
     p.add_argument("--limit", type=int, default=None, metavar="N",
@@ -48,8 +48,8 @@ def register(subparsers) -> None:
 
 def sweep(args):
     from tdicam.sweep import load_sweep, run_sweep
-    if args.connect_timeout <= 0:
-        raise TdicamError(f"--connect-timeout must be > 0, got {args.connect_timeout:g}")
+    check_range("--connect-timeout", args.connect_timeout, 0, 3600, integer=False,
+                lo_open=True)
     sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact)
     out = named(args.out) if args.out is not None else Path("out") / "sweeps" / sw.name
     try:
@@ -57,8 +57,8 @@ def sweep(args):
                         serial=args.serial, limit=args.limit, progress=not args.no_progress,
                         connect_timeout=args.connect_timeout)
     except KeyboardInterrupt:
-        print(f"tdicam sweep: the finished runs are kept in {out}/points; run the same "
-              f"command again to finish", file=sys.stderr)
-        raise
+        print(f"tdicam: interrupted; the finished runs are kept in {out}/points: run the "
+              f"same command again to finish", file=sys.stderr)
+        return 130
     print(res.summary())
     return 1 if res.failed else 0

@@ -22,7 +22,8 @@ def register(sub):
 
 def parse_block_params(block, extra):
     """``--name value`` / ``--name=value`` pairs for ``block`` into a checked dict; a
-    boolean parameter may also stand alone as a flag (``--stream`` = ``--stream 1``)."""
+    boolean parameter may also stand alone as a flag (``--stream`` = ``--stream 1``); a
+    parameter given twice is an error."""
     flags = {p.name for p in block.params if p.type is bool}
     out = {}
     toks = list(extra)
@@ -39,6 +40,8 @@ def parse_block_params(block, extra):
                 raise TdicamError(f"--{name} needs a value")
             else:
                 value = toks.pop(0)
+        if key in out:                  # the last one would win silently
+            raise TdicamError(f"--{name} given twice ({out[key]!r} and {value!r})")
         out[key] = value
     return block.resolve(out)
 
