@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from tdicam.cosim import WAVE_WINDOW   # cycles of waveform either side of a mismatch
+from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
 __all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "WAVE_WINDOW"]
@@ -328,14 +328,7 @@ def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
     """Re-run on Icarus (same stimulus, same idle/backpressure seed: the same cycles) up to
     the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to an FST file."""
     from pathlib import Path
-    lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
-    _, info = run_top(p, data, "icarus", wave=(lo, hi), seed=seed, idle=idle,
+    _, info = run_top(p, data, "icarus", wave=wave_window(cycle), seed=seed, idle=idle,
                         backpressure=backpressure)
-    src = Path(info["rundir"]) / "wave.fst"
-    dst = Path(wave_dir) / "pipeline_mismatch.fst"
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    if not src.exists():
-        raise TdicamError(f"pipeline: Icarus wrote no waveform; see {info['rundir']}")
-    shutil.move(str(src), dst)
-    shutil.rmtree(info["rundir"], ignore_errors=True)
-    return str(dst)
+    return keep_wave(Path(info["rundir"]) / "wave.fst",
+                     Path(wave_dir) / "pipeline_mismatch.fst", "the pipeline")

@@ -37,7 +37,7 @@ from ..beats import Beats
 from ..pauses import thresholds
 from . import codec, tbgen
 
-__all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "SimResult",
+__all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_window", "keep_wave", "SimResult",
            "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
            "run_case", "run_scene", "run_golden_case", "build_dir_for", "tool_env",
            "stream_ports", "build_sources", "run_cocotb"]
@@ -528,6 +528,24 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
 WAVE_WINDOW = 64
 
 
+def wave_window(cycle):
+    """The cycles ``(first, last)`` of the waveform around a mismatch at ``cycle``."""
+    return max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
+
+
+def keep_wave(src, dst, what):
+    """Move the waveform ``src`` a run wrote to ``dst`` and remove the run's folder; a
+    one-line error naming ``what`` and the folder when the simulator wrote none."""
+    from pathlib import Path
+    src, dst = Path(src), Path(dst)
+    if not src.exists():
+        raise TdicamError(f"Icarus wrote no waveform for {what}; see {src.parent}")
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    shutil.move(str(src), dst)
+    shutil.rmtree(src.parent, ignore_errors=True)
+    return str(dst)
+
+
 def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, seed, label):
     """Write the waveform around a mismatch: ``<wave_dir>/<block>-<label>.fst``.
 
@@ -545,16 +563,10 @@ def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, s
     traced = run_stream(blk.name, params, stim, trace=True, **kw)
     outs = [c for k, c in traced.trace if k == "o"]
     cycle = outs[min(first["index"], len(outs) - 1)] if outs else traced.cycles
-    lo, hi = max(0, cycle - WAVE_WINDOW), cycle + WAVE_WINDOW
+    lo, hi = wave_window(cycle)
     res = run_stream(blk.name, params, stim, wave=(lo, hi), **kw)
-    src = Path(res.wave)
-    if not src.exists():
-        raise TdicamError(f"Icarus wrote no waveform for {blk.name}; see {src.parent}")
-    dst = Path(wave_dir) / f"{blk.name}-{label}.fst"
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    shutil.move(str(src), dst)
-    shutil.rmtree(src.parent, ignore_errors=True)
-    return {"path": str(dst), "cycles": (lo, hi), "cycle": int(cycle)}
+    path = keep_wave(res.wave, Path(wave_dir) / f"{blk.name}-{label}.fst", blk.name)
+    return {"path": path, "cycles": (lo, hi), "cycle": int(cycle)}
 
 
 def run_case(block, params, arrays, *, corrupt=None, **kw):
