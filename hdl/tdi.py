@@ -10,13 +10,10 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.memory import Memory
-from amaranth.lib.wiring import In, Out
-from amaranth.utils import bits_for
 
 from tdicam.model.tdi import check_params, full_bits, out_width
 from tdicam.verilog import NO_INIT, NO_RW_CHECK
-from .stream import channels_shape, pixel_signature
-from .tdi_control import TdiFrameControl
+from .tdi_control import TdiFrameControl, tdi_ports
 
 __all__ = ["TdiAccumulator"]
 
@@ -159,13 +156,7 @@ class TdiAccumulator(wiring.Component):
         self._min_row = _row_cycles
         self.memories = []
         self.probe = {}
-        super().__init__({
-            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
-            "o_stream": Out(pixel_signature(channels_shape(self._out_bits, ppc))),
-            "stages_active": In(unsigned(bits_for(stages))),
-            "direction": In(unsigned(1)),
-            "frame_errors": Out(unsigned(16)),
-        })
+        super().__init__(tdi_ports(pixel_bits, self._out_bits, stages, ppc))
 
     width = property(lambda self: self._width, doc="Pixels per line W.")
     stages = property(lambda self: self._stages, doc="m_max.")

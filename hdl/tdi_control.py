@@ -17,7 +17,20 @@ from tdicam.model.tdi import check_params
 from .stream import channels_shape, pixel_signature
 from .util import saturating_increment
 
-__all__ = ["TdiFrameControl", "beat_layout"]
+__all__ = ["TdiFrameControl", "beat_layout", "tdi_ports"]
+
+
+def tdi_ports(pixel_bits, out_bits, stages, ppc):
+    """The ports every TDI accumulator has, whatever holds its partial sums: ``ppc`` pixels
+    in and out per beat, the run-time ``stages_active`` / ``direction`` and the
+    ``frame_errors`` counter (a signature dict for ``wiring.Component.__init__``)."""
+    return {
+        "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
+        "o_stream": Out(pixel_signature(channels_shape(out_bits, ppc))),
+        "stages_active": In(unsigned(bits_for(stages))),
+        "direction": In(unsigned(1)),
+        "frame_errors": Out(unsigned(16)),
+    }
 
 _WAIT, _RUN, _DROP, _PAD = range(4)   # (x == 0 written ~x.any(): yosys prints x == 0 as !x)
 

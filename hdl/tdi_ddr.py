@@ -4,17 +4,15 @@
 partial-sum lines in DDR behind one :class:`~tdicam.hdl.mig.MigPort`.
 """
 
-from amaranth.hdl import Cat, Module, Mux, Signal, Value, signed, unsigned
+from amaranth.hdl import Cat, Module, Mux, Signal, Value, signed
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFOBuffered
-from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout, \
     check_capacity
 from .mig import MigPort, connect_mig, mig_user_ports
-from .stream import channels_shape, pixel_signature
-from .tdi_control import TdiFrameControl
+from .tdi_control import TdiFrameControl, tdi_ports
 from .util import equals, mux_select, quiet_reject
 
 __all__ = ["TdiDdr"]
@@ -87,13 +85,8 @@ class TdiDdr(wiring.Component):
                                  pixels_per_word=self._k, base=base,
                                  line_stride=self._wpl * ADDR_PER_WORD)
         check_capacity(self.layout, max(stages - 1, 0), capacity_bytes, "partial-sum lines")
-        super().__init__({
-            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
-            "o_stream": Out(pixel_signature(channels_shape(self._out_bits, ppc))),
-            "stages_active": In(unsigned(bits_for(stages))),
-            "direction": In(unsigned(1)),
-            "frame_errors": Out(unsigned(16)),
-            **mig_user_ports()})
+        super().__init__({**tdi_ports(pixel_bits, self._out_bits, stages, ppc),
+                          **mig_user_ports()})
 
     width = property(lambda self: self._width)
     stages = property(lambda self: self._stages)
