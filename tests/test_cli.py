@@ -1,6 +1,7 @@
 """CLI: Verilog generation, parameter errors, lint, the table of bad input."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -151,6 +152,16 @@ BAD_INPUT = [
      "{d}/badmap.nand: the block map header in block 0 has an uncorrectable error", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
      "--seed = -1 is out of range", 2),
+    (["calib", "inject", "{d}/badhdr.nand", "-o", "{d}/x.bin"],
+     "{d}/badhdr.nand: header word 0 has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/badhdr.bin", "-o", "{d}/x.bin"],
+     "{d}/badhdr.bin: header word 1 has an uncorrectable error", 2),
+    (["calib", "write", "{d}/maps.npz", "--clock-mhz", "80", "-o", "{d}/x.bin"],
+     "--clock-mhz: only with --nand (a NAND image)", 2),
+    (["calib", "read", "{d}/cal.bin", "--clock-mhz", "80"],
+     "--clock-mhz: only for NAND images ({d}/cal.bin is a plain calibration image)", 2),
+    (["calib", "check", "{d}/good.nand", "--clock-mhz", "nan"], "--clock-mhz = nan is out of "
+                                                                "range", 2),
     (["golden", "check", "cds"], "manifest is corrupt (a list, not a table)", 2, "[1, 2]"),
     (["golden", "check", "cds"], "manifest is corrupt (null, not a table)", 2, "null"),
     (["golden", "check", "cds"], "manifest is corrupt (case 'cds/x' has no 'arrays' table)", 2,
@@ -216,8 +227,16 @@ def bad_input_files(tmp_path_factory):
     assert main(["calib", "write", str(d / "maps.npz"), "--nand", "--blocks", "8", "-o",
                  str(nand)]) == 0
     raw = bytearray(nand.read_bytes())
+    good = bytes(raw)
+    (d / "good.nand").write_bytes(good)
     raw[nand_store._FILE_HDR.size + nand_store._ROW.size] ^= 0x03
     nand.write_bytes(bytes(raw))
+    dev = nand_store.read_image_bytes(good)     # two bits flipped in the calibration header
+    dev.flip_bits(1, 0, [0, 1])
+    nand_store.save_image(dev, d / "badhdr.nand")
+    raw = bytearray((d / "cal.bin").read_bytes())
+    raw[9] ^= 0x81                              # header word 1 of a plain image
+    (d / "badhdr.bin").write_bytes(bytes(raw))
     base = ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml"
     axes = '[axes]\n"tdi.stages" = [1]\n'
     (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)
@@ -245,11 +264,15 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
         raise AssertionError("bench ran before its output paths were checked")
     monkeypatch.setattr(bench, "run", ran)
     monkeypatch.chdir(paths.REPO)
+    argv = [a.format(d=d) for a in argv]
+    out = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "-o"), "")
+    fresh = out.startswith(d) and not os.path.exists(out)
     try:
-        got = main([a.format(d=d) for a in argv])
+        got = main(argv)
     except SystemExit as exc:           # argparse's own errors
         got = exc.code
     err = capsys.readouterr().err.strip()
+    assert not (fresh and os.path.exists(out)), f"{out} written although the input was refused"
     assert got == code, err
     assert len(err.splitlines()) == 1, err
     assert err.startswith("tdicam: error:") or "error:" in err, err

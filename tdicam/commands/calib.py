@@ -78,9 +78,9 @@ def register(sub):
 
 
 def _clock_arg(p):
-    p.add_argument("--clock-mhz", type=float, default=nand.CONTROLLER_CLOCK_HZ / 1e6,
-                   help=f"NAND images: controller clock of the reported scan and load times "
-                        f"({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
+    p.add_argument("--clock-mhz", type=float, default=None,
+                   help=f"NAND images only: controller clock of the reported scan and load "
+                        f"times ({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
 
 
 def _nand_args(p):
@@ -148,7 +148,8 @@ def _write(args):
                     args.offset_frac_bits)
     fmt._check_slots()
     if not args.nand:               # NAND geometry without --nand was ignored silently
-        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block)):
+        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block),
+                       ("--clock-mhz", args.clock_mhz)):
             if v is not None:
                 raise TdicamError(f"{opt}: only with --nand (a NAND image)")
     check_file(args.output)
@@ -177,6 +178,8 @@ def _write(args):
 
 
 def _clock(args):
+    if args.clock_mhz is None:
+        return nand.CONTROLLER_CLOCK_HZ
     return check_range("--clock-mhz", args.clock_mhz, 1, 1000, integer=False) * 1e6
 
 
@@ -236,6 +239,9 @@ def _summary(path, res):
 
 def _report(args):
     res, store, geo = _load_any(args)
+    if store is None and args.clock_mhz is not None:
+        raise TdicamError(f"--clock-mhz: only for NAND images ({args.image} is a plain "
+                          f"calibration image)")
     print(_summary(args.image, res))
     if store is not None:
         _nand_summary(args, res, store, geo)
@@ -280,6 +286,7 @@ def _inject(args):
         raise TdicamError(f"{args.image}: --bad-blocks and --fail-program need a NAND image "
                           f"(calib write --nand)")
     words = calib.image_words(raw, args.image)
+    calib.read_image(words, name=args.image)    # refuse an image the reader would refuse
     out, k = calib.inject_flips(rng, words, p_single=args.single,
                                 p_double=args.double, skip_header=not args.header)
     with open_output(args.output) as fh:
