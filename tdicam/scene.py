@@ -38,7 +38,10 @@ The line period either gives must lie in 1e-8..100 s.
     [5.0] (edge), slant of the edge from the cross-track axis, in [-45, 45]; ``spokes`` [36]
     (siemens), number of spoke pairs, 4..720. ``kind = "image"`` needs exactly one of
     ``image`` (a bundled scikit-image picture, see :data:`BUNDLED_IMAGES`) or ``path`` (a
-    PNG or TIFF file, relative to the scene file; it must exist).
+    PNG or TIFF file, relative to the scene file; it must exist and is read when the scene
+    is: at least 8 x 8 pixels, grey, grey + alpha, RGB or RGBA with an opaque alpha, no
+    negative values; the conversion to grey levels is
+    :mod:`tdicam.model.targets`'s).
 
 ``[sensor]``
     ``columns`` [1280], ``rows`` [1024]: 1..65536. ``pitch_um`` [5.5], 0.1..1000.
@@ -138,6 +141,7 @@ from typing import Any, Mapping
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import plan as _plan
+from tdicam.model import targets as _targets
 
 __all__ = [
     "read_toml",
@@ -669,6 +673,7 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
             if not path.is_file():
                 sec.fail("path", f"file not found: {str(path)!r}")
             fields["path"] = path.resolve()
+            _targets.load_image(fields["path"])     # size, channels, values: refused here
     if kind in ("bars", "edge", "siemens"):
         fields["contrast"] = sec.number("contrast", 1.0, lo=0.0, hi=1.0, lo_open=True)
     if kind == "bars":

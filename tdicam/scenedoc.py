@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tdicam import scene as _scene
+from tdicam.model import targets as _targets
 
 __all__ = ["KEYS", "SECTIONS", "KeyDoc", "KeyInfo", "schema", "render", "main"]
 
@@ -124,8 +125,16 @@ KEYS = {
                             + "; exactly one of image and path",
                         type="string", default="-", range="a bundled name"),
         "path": KeyDoc("", "kind = \"image\": a PNG or TIFF file, relative to the scene "
-                           "file; it must exist; exactly one of image and path",
-                       type="string", default="-", range=".png, .tif, .tiff"),
+                           "file; exactly one of image and path. Read when the scene is: "
+                           "one picture, channels last: grey, grey + alpha, RGB or RGBA "
+                           "(palette PNGs expanded); RGB to grey with the Rec. 601 weights "
+                           "0.299 R + 0.587 G + 0.114 B; alpha must be opaque everywhere "
+                           "(then dropped); integer codes over their type's full scale "
+                           "(255, 65535), floats as they are if at most 1.0, else over "
+                           "their largest value; negative, NaN and complex values refused",
+                       type="string", default="-",
+                       range=".png, .tif, .tiff; >= "
+                             f"{_targets.MIN_IMAGE_SIDE} x {_targets.MIN_IMAGE_SIDE} px"),
         "contrast": KeyDoc(_FRAC, "bars, edge, siemens: Michelson contrast; the dark level "
                                   "is signal_e (1 - c) / (1 + c)"),
         "period_px": KeyDoc("output px", "bars: bar period"),

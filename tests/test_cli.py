@@ -176,6 +176,10 @@ BAD_INPUT = [
                                     "valid: 1e-06..1000", 2),
     (["run", "{d}/signal.toml"], "[target].signal_e = 1e+30 is out of range", 2),
     (["run", "{d}/dup.toml"], "[tdi].stages: lists 96 more than once, got [96, 96]", 2),
+    (["run", "{d}/tiny_picture.toml"], "[target].path '{d}/two.png': 2 x 2 pixels; need at "
+                                       "least 8 x 8", 2),
+    (["run", "{d}/rgba_picture.toml"], "[target].path '{d}/rgba.png': the alpha channel is "
+                                       "not opaque in 64 pixels", 2),
     (["run", "{d}/blanking.toml"], "[sensor].row_blanking_us: needs [sensor].pixel_clock_mhz",
      2),
     (["run", "{d}/lines.toml"], "[run].lines: 64 columns x 1000000000 lines = 64000000000 "
@@ -218,6 +222,12 @@ def bad_input_files(tmp_path_factory):
                      "lines": dict(lines=10**9),
                      "period": dict(target='kind = "bars"\nperiod_px = 1e300')}.items():
         (d / f"{name}.toml").write_text(_SCENE.format(**(base | kw)))
+    from PIL import Image
+    Image.fromarray(np.full((2, 2), 99, np.uint8)).save(d / "two.png")
+    Image.fromarray(np.full((8, 8, 4), 99, np.uint8), "RGBA").save(d / "rgba.png")
+    for name, pic in (("tiny_picture", "two.png"), ("rgba_picture", "rgba.png")):
+        (d / f"{name}.toml").write_text(_SCENE.format(
+            **base | {"target": f'kind = "image"\npath = "{pic}"'}))
     (d / "turntable.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-12\n"
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
