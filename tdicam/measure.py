@@ -22,7 +22,7 @@
   model :func:`tdicam.planning.mtf_prediction` (full-line-period exposure, smear at the image
   speed ``1 - dV/V``, rolling-shutter skew, the M-stage term, optics; along track), the
   exact footprint model of :class:`tdicam.model.optics.Geometry` the simulator renders
-  (``footprint_model``, either axis), and ``seed001_model`` — the paper's model, Yuan et al.,
+  (``footprint_model``, either axis), and ``yuan2013_model`` — the paper's model, Yuan et al.,
   "MTF velocity-mismatch model of TDI area-array CMOS image sensors" (2013):
   ``aperture x temporal x mismatch`` with the plain velocity mismatch dV/V (no skew, no
   image speed; ``mtf_prediction(...)["paper"]["system"]``).
@@ -245,7 +245,7 @@ def measure(scene, res):
             "measured": mtf_fit, "measured_ctf": ctf_mtf,
             "planned": plan["system"] if along else None,
             "planned_reversed": plan["reversed"] if along else None,
-            "seed001_model": plan["paper"]["system"] if along else None,
+            "yuan2013_model": plan["paper"]["system"] if along else None,
             "footprint_model": exact,
             "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
         }

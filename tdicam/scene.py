@@ -122,7 +122,9 @@ The line period either gives must lie in 1e-8..100 s.
 ``[run.rtl]`` (optional)
     ``crop`` [whole frame]: ``[x0, y0, width, height]`` of the output to simulate
     cycle-accurately, inside ``columns x lines``. ``simulator`` ["verilator"]: ``icarus``
-    or ``verilator``. ``pixels_per_clock`` [1]: 1, 2, 4 or 8.
+    or ``verilator``. ``pixels_per_clock`` [1]: 1, the only value: the whole-chain top
+    takes one pixel per clock (the key stays for scenes that state it). Needs
+    ``[tdi].domain = "digital"`` (charge-domain TDI has no gateware chain).
 
 One module (~970 lines) on purpose: it is the scene schema, one dataclass and one
 validating reader per section, and every key's range and message lives next to its
@@ -869,8 +871,11 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                                f"([sensor].columns x [run].lines), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
-        if ppc not in (1, 2, 4, 8):
-            r.fail("pixels_per_clock", f"must be one of 1, 2, 4, 8, got {ppc}")
+        if ppc != 1:
+            r.fail("pixels_per_clock", f"must be 1, got {ppc}: the whole-chain top that "
+                                       f"[run.rtl] co-simulates takes one pixel per clock "
+                                       f"(tdi alone runs 2, 4 and 8 in its golden cases: "
+                                       f"tdicam sim tdi)")
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
                      pixels_per_clock=ppc)
@@ -995,6 +1000,10 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)
     _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
+    if run.rtl is not None and tdi.domain != "digital":
+        raise TdicamError(f"{labels.get('run.rtl', '[run.rtl]')}: needs "
+                          f"{tdi_sec.label('domain')} = 'digital' (charge-domain TDI sums in "
+                          f"the sensor: there is no gateware chain to co-simulate)")
     return scene
 
 

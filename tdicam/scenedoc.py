@@ -99,7 +99,8 @@ SECTIONS = {
            "error.",
     "run": "How much to simulate and how exactly.",
     "run.rtl": "Optional: co-simulate the scene's blocks cycle-accurately on a crop of the "
-               "output (generated Verilog on Icarus or Verilator) and compare every pixel.",
+               "output (generated Verilog on Icarus or Verilator) and compare every pixel. "
+               "Needs [tdi].domain = \"digital\" (charge-domain TDI has no gateware chain).",
 }
 
 _FRAC = "fraction"
@@ -257,8 +258,11 @@ KEYS = {
                        type="list of 4 integers", default="whole frame",
                        range="inside columns x lines"),
         "simulator": KeyDoc("", "the HDL simulator"),
-        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the TDI block",
-                                   range="1, 2, 4 or 8"),
+        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top "
+                                               "(one: the blocks other than tdi take one "
+                                               "pixel per clock; tdi alone runs 2, 4 and 8 "
+                                               "in its golden cases, tdicam sim tdi)",
+                                   range="1"),
     },
 }
 

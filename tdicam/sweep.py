@@ -99,7 +99,7 @@ def run_one(scene, impact=False) -> dict:
         "m_dv_over_v": float(res.stages * res.dv_over_v),
         "mtf_measured": _finite(mtf.get("measured")),
         "mtf_measured_ctf": _finite(mtf.get("measured_ctf")),
-        "mtf_model_yuan2013": _finite(mtf.get("seed001_model")),
+        "mtf_model_yuan2013": _finite(mtf.get("yuan2013_model")),
         "mtf_model_footprint": _finite(mtf.get("footprint_model")),
         "seconds": float(res.seconds), "cpu_seconds": float(res.cpu_seconds),
         "task_seconds": time.perf_counter() - t0, "lines_per_s": _finite(res.lines_per_s),

@@ -2,7 +2,7 @@
 
 A sweep file (TOML) names a base scene and the scene keys to vary::
 
-    scene = "../seed003_ibis5_rolling_1_5_10.toml"   # relative to the sweep file
+    scene = "../tao2012_ibis5_rolling_1_5_10.toml"   # relative to the sweep file
     name = "tao2012_snr"                             # optional, default: the file's stem
     repeats = 4                                      # Monte-Carlo repeats per point [1]
 

@@ -197,13 +197,13 @@ def test_bar_mtf_planned_and_paper_model(tmp_path):
         pred = mtf_prediction(sc, m, dv, 0.25)
         assert t["planned"] == pytest.approx(pred["system"])
         assert t["planned_reversed"] == pred["reversed"]
-        assert t["seed001_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
+        assert t["yuan2013_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
         if m == 8 and dv == 0.75:
             assert t["planned_reversed"]
         if m == 8 and dv == 0.0:       # rolling-shutter skew: the camera, not the paper
-            assert t["m_delta_effective"] != 0 and t["planned"] < t["seed001_model"]
+            assert t["m_delta_effective"] != 0 and t["planned"] < t["yuan2013_model"]
     for r in rows:                     # every MTF value of the report is a modulus
-        for k in ("measured", "measured_ctf", "planned", "seed001_model", "footprint_model"):
+        for k in ("measured", "measured_ctf", "planned", "yuan2013_model", "footprint_model"):
             assert r["mtf"][k] is None or r["mtf"][k] >= 0, (r, k)
     md = (out / "report.md").read_text()
     assert "paper's model" in md and "| planned |" in md and "contrast reversed" in md
@@ -214,7 +214,7 @@ def test_nand_flash_scene_reports_counters(tmp_path):
     blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
     from tdicam.scene import load_scene
     from tdicam.scenerun import run_scene
-    sc = load_scene(ROOT / "scenes" / "seed002_nand_calib_faults.toml")
+    sc = load_scene(ROOT / "scenes" / "ning2019_nand_calib_faults.toml")
     rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
     f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
     assert f == rep["measurements"][0]["nand"][0]

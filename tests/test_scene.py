@@ -100,7 +100,7 @@ def test_full_scene_and_sweeps(tmp_path):
         shutter = "global"
         [tdi]
         stages = [1, 4, 8]
-        domain = "charge"
+        domain = "digital"
         direction = "reverse"
         output = "saturate"
         output_bits = 10
@@ -120,7 +120,7 @@ def test_full_scene_and_sweeps(tmp_path):
         [run.rtl]
         crop = [0, 0, 32, 16]
         simulator = "icarus"
-        pixels_per_clock = 4
+        pixels_per_clock = 1
     """)
     assert sc.orbit is None
     assert sc.line_period_s == pytest.approx(5.2e-6 / (0.05 * 0.5))
@@ -130,7 +130,7 @@ def test_full_scene_and_sweeps(tmp_path):
     assert sc.timing.m0 == 12
     assert sc.pipeline.median_after_tdi is False and sc.pipeline.median3.edge_enhance
     assert sc.pipeline.hdr.threshold_dn == 3500 and sc.pipeline.hdr.band_dn == 100
-    assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 4
+    assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 1
     d = sc.to_dict()
     assert d["tdi"]["stages"] == [1, 4, 8] and isinstance(d["target"]["path"], str)
 
@@ -306,7 +306,8 @@ _OPAQUE = np.full((9, 12, 1), 255, np.uint8)
     ("planar.tif", np.ones((3, 9, 12), np.uint8), "planar", "shape 3 x 9 x 12 (several pages"),
     ("neg.tif", np.full((9, 12), -0.5, np.float32), None, "108 negative values (smallest "
                                                           "-0.5); a radiance is >= 0"),
-    ("nan.tif", np.full((9, 12), np.nan, np.float32), None, "picture contains NaN or infinite values"),
+    ("nan.tif", np.full((9, 12), np.nan, np.float32), None,
+     "picture contains NaN or infinite values"),
     ("cplx.tif", np.ones((9, 12), np.complex64), None, "pixels of type complex64 are not grey "
                                                        "levels"),
 ])
@@ -403,8 +404,8 @@ def test_stages_with_m0_zero(tmp_path):
     assert msg.startswith("[tdi].stages: no TDI is possible") and "M0 = 0" in msg
 
 
-def test_seed003_default_blanking_limits_96_stages(tmp_path):
-    # with seed 003's 3.5 us blanking even the fastest pixel clock the schema takes gives 41
+def test_tao2012_default_blanking_limits_96_stages(tmp_path):
+    # with Tao et al. 2012's 3.5 us blanking even the fastest pixel clock the schema takes gives 41
     msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 1e6\n[tdi]\nstages = 96\n")
     assert "M0 = 41" in msg
     assert math.floor(P.orbit_line_period(600e3, 1.0) / 3.5e-6) == 41
@@ -479,7 +480,15 @@ def test_median_after_tdi(tmp_path):
     ("crop = [0, 0, 16]\n", "[run.rtl].crop: must be four integers"),
     ("crop = [-1, 0, 16, 16]\n", "[run.rtl].crop: needs x0, y0 >= 0"),
     ("simulator = \"modelsim\"\n", "[run.rtl].simulator: must be one of 'icarus', 'verilator'"),
-    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be one of 1, 2, 4, 8, got 3"),
+    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be 1, got 3: the whole-chain "
+                               "top that [run.rtl] co-simulates takes one pixel per clock"),
+    ("pixels_per_clock = 8\n", "[run.rtl].pixels_per_clock: must be 1, got 8"),
 ])
 def test_bad_rtl(tmp_path, rtl, expected):
     assert error_of(tmp_path, ORBIT + "[run.rtl]\n" + rtl).startswith(expected)
+
+
+def test_rtl_needs_digital_tdi(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[tdi]\ndomain = \"charge\"\n[run.rtl]\n")
+    assert msg == ("[run.rtl]: needs [tdi].domain = 'digital' (charge-domain TDI sums in the "
+                   "sensor: there is no gateware chain to co-simulate)")

@@ -26,7 +26,7 @@ from tdicam.verilog import convert
 
 
 def _direct(frames, m, direction):
-    """O(t) written out term by term from seed 000 eq 3 (mirrored rows for direction 1)."""
+    """O(t) written out term by term from Qu et al. 2010 eq 3 (mirrored rows for direction 1)."""
     T, _, W = frames.shape
     out = []
     for t in range(m - 1, T):
