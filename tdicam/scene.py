@@ -672,6 +672,8 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
                 path = base_dir / path
             if path.suffix.lower() not in _IMAGE_SUFFIXES:
                 sec.fail("path", f"must be a PNG or TIFF file (.png, .tif, .tiff), got {raw!r}")
+            if path.is_dir():
+                sec.fail("path", f"{str(path)!r} is a folder, not an image file")
             if not path.is_file():
                 sec.fail("path", f"file not found: {str(path)!r}")
             fields["path"] = path.resolve()

@@ -157,7 +157,8 @@ class SweepResult:
             lines.append(f"  ... and {len(self.failed) - 20} more failed runs "
                          f"(summary.json lists them all)")
         if self.saturated:
-            lines.append(f"saturated: {self.saturated} runs (flat output clipped at the full "
+            lines.append(f"saturated: {self.saturated} run{'s' * (self.saturated > 1)} "
+                         f"(flat output clipped at the full "
                          f"well or the ADC's full scale: no SNR measured; column 'saturated')")
         if self.missing:
             lines.append(f"stopped early: {self.missing} runs not computed; run the same "

@@ -357,7 +357,7 @@ def test_saturated_column(tmp_path, capsys):
     path = sweep_file(tmp_path, 'scene = "tiny.toml"\n[axes]\n'
                                 '"target.signal_e" = [500.0, 60000.0]\n')
     assert main(["sweep", str(path), "-o", str(tmp_path / "o"), "--serial"]) == 0
-    assert "saturated: 1 runs (flat output clipped" in capsys.readouterr().out
+    assert "saturated: 1 run (flat output clipped" in capsys.readouterr().out
     df = read_table(tmp_path / "o")
     assert str(df["saturated"].dtype) == "boolean"
     assert list(df["saturated"]) == [False, True]

@@ -110,6 +110,8 @@ def _load_array(path, what):
             if isinstance(a, np.lib.npyio.NpzFile):
                 raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
             return a
+    except TdicamError:
+        raise
     except OSError as exc:
         raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
     except _NOT_NUMPY as exc:
@@ -220,13 +222,13 @@ def _load_any(args):
     return calib.read_image(raw, name=args.image), None, None
 
 
-def _nand_summary(args, img, res, geo):
+def _nand_summary(args, img, res, geo, clock):
     rows, cols = img.shape
     sr = res.scan
     print(f"{args.image}: NAND, {geo.blocks} blocks x {geo.pages_per_block} pages: "
           f"{sr.bad_count} bad blocks (markers), data in {nand.blocks_needed(res.words, geo)} "
           f"blocks, {res.pages} pages, the stored block map agrees with the scan")
-    print(_timing_line(rows, cols, geo, _clock(args)))
+    print(_timing_line(rows, cols, geo, clock))
 
 
 def _summary(path, res):
@@ -238,13 +240,14 @@ def _summary(path, res):
 
 
 def _report(args):
+    clock = _clock(args)                # checked before anything is printed
     res, store, geo = _load_any(args)
     if store is None and args.clock_mhz is not None:
         raise TdicamError(f"--clock-mhz: only for NAND images ({args.image} is a plain "
                           f"calibration image)")
     print(_summary(args.image, res))
     if store is not None:
-        _nand_summary(args, res, store, geo)
+        _nand_summary(args, res, store, geo, clock)
     return res
 
 
