@@ -190,16 +190,18 @@ def grey_levels(img, source="[target].image"):
                           f"{MIN_IMAGE_SIDE} x {MIN_IMAGE_SIDE}")
     if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
         raise TdicamError(f"{source}: picture contains NaN or infinite values")
-    if a.dtype.kind in "if" and (a < 0).any():
-        raise TdicamError(f"{source}: {int((a < 0).sum())} negative values (smallest "
+    n = int((a < 0).sum()) if a.dtype.kind in "if" else 0
+    if n:
+        raise TdicamError(f"{source}: {n} negative value{'s' * (n > 1)} (smallest "
                           f"{a.min():g}); a radiance is >= 0")
     if a.ndim == 3:
         if a.shape[-1] in (2, 4):
             alpha = _scale(a[..., -1])
-            if (alpha < 1.0).any():
-                raise TdicamError(f"{source}: the alpha channel is not opaque in "
-                                  f"{int((alpha < 1.0).sum())} pixels; flatten the picture "
-                                  f"onto a background first")
+            n = int((alpha < 1.0).sum())
+            if n:
+                raise TdicamError(f"{source}: the alpha channel is not opaque in {n} "
+                                  f"pixel{'s' * (n > 1)}; flatten the picture onto a "
+                                  f"background first")
             a = a[..., :-1]
         a = _scale(a)
         a = a @ np.array([0.299, 0.587, 0.114]) if a.shape[-1] == 3 else a[..., 0]

@@ -89,7 +89,7 @@ def run_one(scene, impact=False) -> dict:
         "stages": int(res.stages), "dv_over_v": float(res.dv_over_v),
         "fidelity_requested": scene.run.fidelity, "fidelity": res.fidelity,
         "mean_dn": _finite(mean), "noise_dn": _finite(noise),
-        "saturated": snr.get("saturated"),
+        "saturated": snr.get("saturated", mtf.get("saturated")),
         "snr_output_db": _finite(snr.get("output_db")),
         "snr_single_db": _finite(snr.get("single_db")),
         "snr_gain_db": _finite(snr.get("gain_db")),
@@ -158,8 +158,9 @@ class SweepResult:
                          f"(summary.json lists them all)")
         if self.saturated:
             lines.append(f"saturated: {self.saturated} run{'s' * (self.saturated > 1)} "
-                         f"(flat output clipped at the full "
-                         f"well or the ADC's full scale: no SNR measured; column 'saturated')")
+                         f"(output clipped at the full well "
+                         f"or the ADC's full scale: no SNR or MTF measured; column "
+                         f"'saturated')")
         if self.missing:
             lines.append(f"stopped early: {self.missing} runs not computed; run the same "
                          f"command again to finish (finished runs are reused)")

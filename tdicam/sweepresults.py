@@ -19,10 +19,11 @@ Results (``DIR/``)
 ``results.parquet`` and ``results.csv``: one row per point x repeat in point order — the
 axis values (columns named by key), ``point``, ``repeat``, ``seed``, ``hash``, ``status``
 (``ok``, ``failed``, ``missing`` when stopped early), ``error``, then :data:`RESULT_COLUMNS`.
-``saturated`` (flat targets; empty for bar targets and runs without a result) is true when
-the signal plus dark charge per exposure reaches the full well or the ADC's full scale: the
-output is clipped flat, so the run's SNR columns are empty and its predictions are for a
-signal at that level (the run's ``points/<hash>.json`` says so in ``measurements.snr.note``).
+``saturated`` (flat and bar targets; empty for other targets and runs without a result) is
+true when the signal (the bright bars') plus dark charge per exposure reaches the full well
+or the ADC's full scale: the output is clipped, so the run's SNR or measured MTF columns are
+empty (a flat run's predictions are for a signal at that level; the run's
+``points/<hash>.json`` says why in ``measurements.snr.note`` / ``measurements.mtf.note``).
 In ``sweep.nc`` it is 1.0 / 0.0, NaN where empty.
 ``sweep.nc`` (netCDF-4 via h5netcdf): the same values as an :class:`xarray.Dataset` with
 one dimension per product axis, ``zip`` for the zip group (its keys as coordinates along

@@ -158,6 +158,9 @@ BAD_INPUT = [
                                             "has an uncorrectable error", 2),
     (["calib", "inject", "{d}/badmap.nand", "-o", "{d}/x.bin", "--bad-blocks", "1"],
      "{d}/badmap.nand: the block map header in block 0 has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--double", "1"],
+     "--single 0.01 + --double 1 must be at most 1 (probabilities of one word; --single "
+     "defaults to 0.01)", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
      "--seed = -1 is out of range", 2),
     (["calib", "inject", "{d}/badhdr.nand", "-o", "{d}/x.bin"],

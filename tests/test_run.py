@@ -173,6 +173,27 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
 
 
+def test_saturated_bars_have_no_measured_mtf(tmp_path):
+    """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
+    note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
+    the well still measure one."""
+    from tdicam.measure import measure, saturation_e
+    from tdicam.scene import load_scene
+    from tdicam import engine
+    path = write(tmp_path, SMALL.replace('kind = "flat"', 'kind = "bars"\nprofile = "sine"\n'
+                                                           'period_px = 4.0\ncontrast = 0.5'))
+    sc = load_scene(path)
+    cap = saturation_e(sc, sc.tdi.stages[0])
+    for signal, sat in ((50 * cap, True), (0.6 * cap, False)):
+        s = load_scene(path, overrides={"target": {"signal_e": signal}})
+        t = measure(s, engine.simulate(s, impact=False))["mtf"]
+        assert t["saturated"] is sat and (t["measured"] is None) is sat, (signal, t)
+        if sat:
+            assert t["note"].startswith("not measurable: saturated: the bright bars' signal")
+        else:
+            assert 0.3 < t["measured"] < 1.1 and "note" not in t
+
+
 def test_bar_mtf_planned_and_paper_model(tmp_path):
     """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
     paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no

@@ -277,7 +277,8 @@ def _inject(args):
         if not 0 <= p <= 1:
             raise TdicamError(f"--{name} = {p} is out of range; valid: 0..1")
     if args.single + args.double > 1:
-        raise TdicamError("--single + --double must be at most 1")
+        raise TdicamError(f"--single {args.single:g} + --double {args.double:g} must be at "
+                          f"most 1 (probabilities of one word; --single defaults to 0.01)")
     check_range("--seed", args.seed, 0, 2**63 - 1)
     check_range("--bad-blocks", args.bad_blocks, 0, 65535)
     check_file(args.output)
