@@ -18,8 +18,8 @@ from amaranth.hdl import Cat, ClockSignal, Const, Instance, Mux, Signal
 
 __all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank"]
 
-#: Read stages a bank adds to the generic one (read address register, data, register): the
-#: DP16KD output register, then a fabric register next to it.
+#: Read stages a bank adds to the generic bank's (address edge, data, fabric register): the
+#: DP16KD output register between the data and the fabric register.
 EXTRA_STAGES = 1
 
 #: DP16KD configurations, depth: data width (one 18 kbit block each)
@@ -54,8 +54,9 @@ def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
     bits : int
         Word width; the last primitive's unused data bits are tied to zero.
     ra, re : Value
-        Read address (its low ``log2(depth)`` bits; narrower: zero-extended) and read enable, sampled at a clock
-        edge (the DP16KD's port B address register, clock enable ``CEB``).
+        Read address (its low ``log2(depth)`` bits; narrower: zero-extended) and read
+        enable, sampled at a clock edge (the DP16KD's port B address register, clock enable
+        ``CEB``).
     rh : Value
         ``re`` one cycle later (high in the cycle the read data would leave a block RAM
         without output register).
