@@ -288,7 +288,7 @@ class TdiAccumulator(wiring.Component):
                              rh.eq(re_),
                              we.eq(do_write & (_eq(ps_["addr"] >> lg, c) if multi else 1))]
                 if self._bram == "ecp5":
-                    # DP16KD instances, their output register in place of the fabric q
+                    # DP16KD instances: their output register, then the fabric q (a stage more)
                     q.append(ecp5_bram.bank(m, tag, depth=bd, bits=PPC * pw,
                                             ra=ra, re=re_, rh=rh, wa=wa, wd=wd, we=we))
                     continue
