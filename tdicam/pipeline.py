@@ -404,7 +404,9 @@ class _PipelineBlock:
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
                                                    for s in self._p.steps]}
 
-    def build(self, params=None):
+    def build(self, params=None, *, ecp5=False):
+        """The chain's top; ``ecp5`` asks for vendor primitives, which the chain does not use
+        yet (its blocks' generic tops either way, see :attr:`tdicam.blocks.Block.ecp5_top`)."""
         return top(self._p, self._data)
 
 
