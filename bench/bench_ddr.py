@@ -1,7 +1,7 @@
 """Benchmark: DDR line/frame buffers (Ning et al. 2019 §4.2) — interface efficiency and simulation speed.
 
 Table 1, interface efficiency under the default stall pattern of the controller model
-(read latency 20..60 cycles, 26-cycle refresh every 780, each ready dropped with
+(read latency 20..60 cycles, 44-cycle refresh every 780, each ready dropped with
 probability 16/256): the frame buffer's MIG ports driven by the Python model in cocotb,
 one frame written alone then read (data beats / cycles of each phase; Ning et al. 2019 reports
 > 80 % at 100 MHz). Table 2, pixels/s of the golden packing and of fast-mode

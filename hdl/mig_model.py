@@ -41,10 +41,11 @@ class MigModel(wiring.Component):
     With ``dram`` (a :class:`tdicam.model.ddr.DramTiming`) it also charges, as
     :class:`~tdicam.model.ddr.MigSim` with the same ``dram`` does and cycle for cycle with it,
     what the order of accesses costs on DDR3: after each accepted command ``app_rdy`` stays
-    low for the read/write turnaround (a direction change) and for opening another row in
-    the command's bank (row-bank-column mapping: word address bits [7:10] the bank, the
-    bits above the row; 8 open-row registers), the larger of the two plus ``both`` when
-    both apply. Use it with :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
+    low for :meth:`DramTiming.cost <tdicam.model.ddr.DramTiming.cost>` cycles (the queue
+    drain on a bank change, the read/write turnaround, opening a row in the command's bank:
+    row-bank-column mapping, word address bits [7:10] the bank, the bits above the row; 8
+    open-row registers). Use it with :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle
+    refresh).
 
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
@@ -56,7 +57,7 @@ class MigModel(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, depth_words, addr_bits=ADDR_BITS, lat_lo=20, lat_hi=60,
-                 refresh_period=780, refresh_cycles=26, drop=16, seed=1, dram=None):
+                 refresh_period=780, refresh_cycles=44, drop=16, seed=1, dram=None):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
         self._dram = dram
         check_range("depth_words", depth_words, 1, 1 << (addr_bits - 3))
@@ -176,31 +177,41 @@ class MigModel(wiring.Component):
         return m
 
     def _dram_timing(self, m):
-        """The DRAM cost of each accepted command (see the class docstring); returns the
-        signal that holds ``app_rdy`` low."""
+        """The DRAM cost of each accepted command (:meth:`DramTiming.cost
+        <tdicam.model.ddr.DramTiming.cost>`); returns the signal that holds ``app_rdy``
+        low."""
         d = self._dram
         word = self.app_addr[3:]
         bank, row = word[7:10], word[10:]
-        top = max(d.rd_to_wr, d.wr_to_rd, d.activate) + d.both
+        top = (d.first + d.bank + max(d.rd_to_wr, d.wr_to_rd) + 3 + d.activate + d.precharge
+               + d.write_recovery)
         busy = Signal(range(top + 1))
         last_valid, last_rd = Signal(), Signal()
+        last_bank = Signal(3)
         # one register per bank, written under an explicit compare (no partial case
         # statements or truncating shifts in the Verilog: lint-clean)
         open_valid = Array(Signal(name=f"open_valid{b}") for b in range(BANKS))
         open_rows = Array(Signal(len(row), name=f"open_row{b}") for b in range(BANKS))
         is_rd = self.app_cmd[0]
-        turn = Signal(range(top + 1))
-        act = Signal(range(top + 1))
-        cost = Signal(range(top + 1))
+        vis, turn, act, cost = (Signal(range(top + 1), name=n)
+                                for n in ("vis", "turn", "act", "cost"))
+        was_rd, hit, conflict = Signal(), Signal(), Signal()
         m.d.comb += [
-            turn.eq(Mux(last_valid & (is_rd != last_rd), Mux(is_rd, d.wr_to_rd, d.rd_to_wr),
-                        0)),
-            act.eq(Mux(open_valid[bank] & (open_rows[bank] == row), 0,
-                       d.activate)),
-            cost.eq(Mux(turn > act, turn, act) + Mux(turn.any() & act.any(), d.both, 0)),
+            vis.eq(Mux(last_valid, Mux(bank != last_bank, d.bank, 0), d.first)),
+            was_rd.eq(~last_valid | last_rd),
+            turn.eq(Mux(is_rd == was_rd, vis,
+                        Mux(is_rd, Mux(vis + 3 > d.wr_to_rd, vis + 3, d.wr_to_rd),
+                            vis + d.rd_to_wr))),
+            hit.eq(open_valid[bank] & (open_rows[bank] == row)),
+            conflict.eq(open_valid[bank] & (open_rows[bank] != row)),
+            act.eq(Mux(hit, 0, d.activate) + Mux(conflict, d.precharge, 0)
+                   + Mux(conflict & last_valid & (bank == last_bank) & ~last_rd,
+                         d.write_recovery, 0)),
+            cost.eq(turn + act),
         ]
         with m.If(self.app_en & self.app_rdy):
-            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd)]
+            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd),
+                         last_bank.eq(bank)]
             for b in range(BANKS):
                 with m.If(equals(bank, b)):
                     m.d.sync += [open_rows[b].eq(row), open_valid[b].eq(1)]

@@ -258,8 +258,9 @@ def replay_hdl(trace, dram=None, windows=None, **stalls):
 
     from tdicam.hdl.mig_model import MigModel
     from tdicam.model.ddr import (DEFAULT_STALLS, DRAM_STALLS, MigSim, TraceDriver,
-                                  merged_commands)
+                                  merged_commands, trace_dram)
     cmds = merged_commands(trace, dram, windows)
+    dram = trace_dram(trace, dram)
     st = {**(DEFAULT_STALLS if dram is None else DRAM_STALLS), **stalls}
     top = max((a for _, a in cmds), default=0) + 1
     dut = MigModel(depth_words=top, dram=dram, **st)
