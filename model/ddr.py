@@ -43,11 +43,15 @@ accepted before its write command (MIG allows data first), capacity and alignmen
 An address outside the memory or not word aligned raises :class:`TdicamError` naming it.
 
 With ``dram=`` :class:`DramTiming` :class:`MigSim` also charges what the order of accesses
-costs on DDR3: read/write turnarounds, opening a row in a bank (row-bank-column mapping, 8
-banks of :data:`ROW_WORDS`-word rows) and a 44-cycle refresh (:data:`DRAM_STALLS`), fitted
-to LiteDRAM within +/-3 points on every pattern of :data:`PATTERNS` (:mod:`tdicam.ddrref`
-replays the same traces into LiteDRAM); the HDL model with the same ``dram`` is cycle-equal
-(:func:`tdicam.ddrref.replay_hdl`) and charges it by default in co-simulation.
+costs on DDR3, as LiteDRAM's controller spends it (read off its command timeline): the
+queue drain when a port moves to another bank, read/write turnarounds, opening a row in a
+bank (row-bank-column mapping, 8 banks of :data:`ROW_WORDS`-word rows; precharge and
+write recovery when another row is open) and a 44-cycle refresh (:data:`DRAM_STALLS`).
+It is within +/-3 points of LiteDRAM on every pattern of :data:`PATTERNS` and on every DDR
+block's recorded command order (:mod:`tdicam.ddrref` replays the same traces into
+LiteDRAM; tests/test_ddrref.py holds the recorded figures); the HDL model with the same
+``dram`` is cycle-equal (:func:`tdicam.ddrref.replay_hdl`) and charges it by default in
+co-simulation.
 :func:`pattern_efficiency` gives a named pattern's efficiency for the planner.
 
 Access patterns
@@ -487,8 +491,10 @@ class DramTiming:
         return turn + act
 
 
-#: stall pattern to use with :class:`DramTiming` (refresh tRFC + recovery ~ 44 cycles)
-DRAM_STALLS = {"lat_lo": 20, "lat_hi": 20, "refresh_period": 780, "refresh_cycles": 44,
+#: stall pattern to use with :class:`DramTiming`: refresh 44 cycles (precharge all, tRFC,
+#: rows opened again), read data 9 cycles after the read's turn (LiteDRAM's read latency 8
+#: plus one; the gaps :class:`DramTiming` charges already hold the commands back)
+DRAM_STALLS = {"lat_lo": 9, "lat_hi": 9, "refresh_period": 780, "refresh_cycles": 44,
                "drop": 0, "seed": 1}
 
 
