@@ -44,8 +44,8 @@ class MigModel(wiring.Component):
     low for :meth:`DramTiming.cost <tdicam.model.ddr.DramTiming.cost>` cycles (the queue
     drain on a bank change, the read/write turnaround, opening a row in the command's bank:
     row-bank-column mapping, word address bits [7:10] the bank, the bits above the row; 8
-    open-row registers). Use it with :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle
-    refresh).
+    open-row registers, cleared by a refresh). Use it with
+    :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
 
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
@@ -112,7 +112,7 @@ class MigModel(wiring.Component):
         pend = Signal()
         pend_due = Signal(32)
 
-        free = ~self._dram_timing(m) if self._dram is not None else 1
+        free = ~self._dram_timing(m, refresh) if self._dram is not None else 1
         m.d.comb += [
             self.app_rdy.eq(~refresh & (s[0:8] >= drop) & (ret_n < self.RET_DEPTH - 2)
                             & free),
@@ -176,7 +176,7 @@ class MigModel(wiring.Component):
         m.d.comb += [self.writes.eq(wr_count), self.reads.eq(rd_count)]
         return m
 
-    def _dram_timing(self, m):
+    def _dram_timing(self, m, refresh):
         """The DRAM cost of each accepted command (:meth:`DramTiming.cost
         <tdicam.model.ddr.DramTiming.cost>`); returns the signal that holds ``app_rdy``
         low."""
@@ -217,6 +217,8 @@ class MigModel(wiring.Component):
                     m.d.sync += [open_rows[b].eq(row), open_valid[b].eq(1)]
         with m.Elif(busy.any()):
             m.d.sync += busy.eq(busy - 1)
+        with m.If(refresh):                 # a refresh precharges every bank
+            m.d.sync += [open_valid[b].eq(0) for b in range(BANKS)]
         return busy.any()
 
 

@@ -389,6 +389,8 @@ class MigSim:
         """Advance one clock edge with the user's signals of this cycle; returns the read
         data delivered in this cycle (int) or None."""
         o = self.outputs()
+        if (self.t % self.refresh_period) >= self.refresh_period - self.refresh_cycles:
+            self.open_rows.clear()          # a refresh precharges every bank
         span = self.lat_hi - self.lat_lo + 1
         lat = self.lat_lo + ((((self.s >> 16) & 0xFFFF) * span) >> 16)
         out = None
@@ -456,9 +458,10 @@ class DramTiming:
       in), same direction ``vis``; the controller idles in its read state, so the first
       command, a write, pays the read->write turnaround;
     * plus ``activate`` when the command's bank has no row open or another row (row-bank-
-      column mapping, :data:`ROW_WORDS`-word rows, :data:`BANKS` banks), ``precharge``
-      more when another row was open, and ``write_recovery`` more again when the previous
-      command wrote to that bank (tWR before the precharge).
+      column mapping, :data:`ROW_WORDS`-word rows, :data:`BANKS` banks; a refresh closes
+      every row), ``precharge`` more when another row was open, and ``write_recovery``
+      more again when the previous command wrote to that bank (tWR before the
+      precharge).
 
     Use it with :data:`DRAM_STALLS` (refresh 44 cycles every 780, no random drops). The HDL
     model (:class:`tdicam.hdl.mig_model.MigModel`) with the same ``dram`` is cycle-equal."""
@@ -467,7 +470,7 @@ class DramTiming:
     wr_to_rd: int = 5
     activate: int = 5
     precharge: int = 3
-    write_recovery: int = 8
+    write_recovery: int = 10
     bank: int = 3
     first: int = 6
 
