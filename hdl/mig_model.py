@@ -32,8 +32,9 @@ class MigModel(wiring.Component):
 
     Same behaviour and the same per-cycle stall pattern as
     :class:`tdicam.model.ddr.MigSim` (xorshift32 state seeded with ``seed | 1``, stepping
-    every cycle): ``app_rdy`` low in the last ``refresh_cycles`` of every
-    ``refresh_period``, when ``state[7:0] < drop`` or when the return queue is nearly full;
+    every cycle): ``app_rdy`` low in the first ``refresh_cycles`` of every
+    ``refresh_period`` after the first, when ``state[7:0] < drop`` or when the return
+    queue is nearly full;
     ``app_wdf_rdy`` low when ``state[15:8] < drop`` or the 16-word write-data FIFO is full;
     reads return in order ``lat_lo + (state[31:16] * (lat_hi - lat_lo + 1) >> 16)`` cycles
     after the command (at least one cycle after the previous read's data).
@@ -82,7 +83,10 @@ class MigModel(wiring.Component):
         rc = Signal(range(period))
         m.d.sync += rc.eq(Mux(rc == period - 1, 0, rc + 1))
         refresh = Signal()
-        m.d.comb += refresh.eq(rc >= period - rcyc) if rcyc else refresh.eq(0)
+        started = Signal()                  # the first refresh period is over
+        with m.If(rc == period - 1):
+            m.d.sync += started.eq(1)
+        m.d.comb += refresh.eq(started & (rc < rcyc)) if rcyc else refresh.eq(0)
 
         mem = Memory(shape=unsigned(WB), depth=D, init=[])
         m.submodules.mem = self.memory = mem

@@ -36,8 +36,9 @@ Memory model
 :class:`MigSim` is the cycle-stepped Python model of the controller (the HDL model is
 :class:`tdicam.hdl.mig_model.MigModel`; both draw their stalls from the same xorshift32 sequence,
 so their ready patterns are identical cycle for cycle): in-order reads with a latency drawn
-from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the end of every
-``refresh_period`` cycles with ``app_rdy`` low, random drops of ``app_rdy`` and
+from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the start of
+every ``refresh_period`` cycles after the first (the refresh timer starts at reset) with
+``app_rdy`` low, random drops of ``app_rdy`` and
 ``app_wdf_rdy`` (probability ``drop / 256`` each, independent), write data that must be
 accepted before its write command (MIG allows data first), capacity and alignment checks.
 An address outside the memory or not word aligned raises :class:`TdicamError` naming it.
@@ -300,6 +301,12 @@ def _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed):
     check_range("seed", seed, 0, 0xFFFFFFFF)
 
 
+def _refreshing(t, period, cycles):
+    """Refresh at cycle ``t``: the first ``cycles`` of every ``period`` after the first (a
+    refresh timer that starts at reset, as LiteDRAM's)."""
+    return t >= period and t % period < cycles
+
+
 def stall_pattern(cycles, *, lat_lo=20, lat_hi=60, refresh_period=780, refresh_cycles=44,
                   drop=16, seed=1):
     """Per-cycle (app_rdy allowed, app_wdf_rdy allowed, read latency) of the stall pattern.
@@ -314,7 +321,7 @@ def stall_pattern(cycles, *, lat_lo=20, lat_hi=60, refresh_period=780, refresh_c
     lat = np.zeros(cycles, np.int64)
     span = lat_hi - lat_lo + 1
     for t in range(cycles):
-        refresh = (t % refresh_period) >= refresh_period - refresh_cycles
+        refresh = _refreshing(t, refresh_period, refresh_cycles)
         a[t] = not refresh and (s & 0xFF) >= drop
         w[t] = ((s >> 8) & 0xFF) >= drop
         lat[t] = lat_lo + ((((s >> 16) & 0xFFFF) * span) >> 16)
@@ -370,7 +377,7 @@ class MigSim:
 
     def outputs(self):
         """dict: app_rdy, app_wdf_rdy, app_rd_data_valid, app_rd_data for this cycle."""
-        refresh = (self.t % self.refresh_period) >= self.refresh_period - self.refresh_cycles
+        refresh = _refreshing(self.t, self.refresh_period, self.refresh_cycles)
         rdy = (not refresh and (self.s & 0xFF) >= self.drop
                and len(self.ret) < self.RET_DEPTH - 2 and self.t >= self.busy_until)
         wrdy = ((self.s >> 8) & 0xFF) >= self.drop and len(self.wdf) < self.WDF_DEPTH
@@ -389,7 +396,7 @@ class MigSim:
         """Advance one clock edge with the user's signals of this cycle; returns the read
         data delivered in this cycle (int) or None."""
         o = self.outputs()
-        if (self.t % self.refresh_period) >= self.refresh_period - self.refresh_cycles:
+        if _refreshing(self.t, self.refresh_period, self.refresh_cycles):
             self.open_rows.clear()          # a refresh precharges every bank
         span = self.lat_hi - self.lat_lo + 1
         lat = self.lat_lo + ((((self.s >> 16) & 0xFFFF) * span) >> 16)
@@ -497,7 +504,7 @@ class DramTiming:
 #: stall pattern to use with :class:`DramTiming`: refresh 44 cycles (precharge all, tRFC,
 #: rows opened again), read data 9 cycles after the read's turn (LiteDRAM's read latency 8
 #: plus one; the gaps :class:`DramTiming` charges already hold the commands back)
-DRAM_STALLS = {"lat_lo": 9, "lat_hi": 9, "refresh_period": 780, "refresh_cycles": 44,
+DRAM_STALLS = {"lat_lo": 9, "lat_hi": 9, "refresh_period": 782, "refresh_cycles": 44,
                "drop": 0, "seed": 1}
 
 
