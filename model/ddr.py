@@ -470,7 +470,7 @@ class DramTiming:
       more again when the previous command wrote to that bank (tWR before the
       precharge).
 
-    Use it with :data:`DRAM_STALLS` (refresh 44 cycles every 780, no random drops). The HDL
+    Use it with :data:`DRAM_STALLS` (refresh 44 cycles every 782, no random drops). The HDL
     model (:class:`tdicam.hdl.mig_model.MigModel`) with the same ``dram`` is cycle-equal."""
 
     rd_to_wr: int = 8
