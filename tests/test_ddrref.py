@@ -2,12 +2,14 @@
 replay into LiteDRAM (:mod:`tdicam.ddrref`, the ``ddrref`` extra; skipped saying why when
 it is missing).
 
-Default run: pattern checks on the model, and one short LiteDRAM replay (2 lines written
-and read back, ~30 s of CPU). With ``TDICAM_FULL=1``: every DDR block's recorded command
-order (16 lines; the TDI spill at 1280 and 4096 columns in steady state) replayed into
-LiteDRAM; a block fails when its efficiency falls below what the planner counts on for it
+Default run: pattern checks on the model; the memory model within +/-3 points of
+LiteDRAM's recorded figures (``ddr_litedram.json``) on every pattern and on every DDR
+block's recorded command order; one short LiteDRAM replay (2 lines written and read back,
+~30 s of CPU). With ``TDICAM_FULL=1``: every DDR block's command order as it records now
+(16 lines; the TDI spill at 1280 and 4096 columns in steady state) replayed into LiteDRAM;
+a block fails when its efficiency falls below what the planner counts on for it
 (``Trace.planned``: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill, 80 %
-for the others).
+for the others) or when the memory model is more than 3 points from it.
 """
 
 import json
