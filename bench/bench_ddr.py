@@ -1,7 +1,7 @@
 """Benchmark: DDR line/frame buffers (Ning et al. 2019 §4.2) — interface efficiency and simulation speed.
 
 Table 1, interface efficiency under the default stall pattern of the controller model
-(read latency 20..60 cycles, 26-cycle refresh every 780, each ready dropped with
+(read latency 20..60 cycles, 44-cycle refresh every 780, each ready dropped with
 probability 16/256): the frame buffer's MIG ports driven by the Python model in cocotb,
 one frame written alone then read (data beats / cycles of each phase; Ning et al. 2019 reports
 > 80 % at 100 MHz). Table 2, pixels/s of the golden packing and of fast-mode
@@ -116,12 +116,13 @@ def litedram(lines=4, patterns=None, blocks=None):
     cycle-equal with it) and on LiteDRAM, and what the planner counts on for the block."""
     from tdicam import ddrref
     from tdicam.model.ddr import PATTERNS, DramTiming, pattern_trace, replay_model
-    rows = []
+    rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
         kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
         r = ddrref.replay(trace, **kw)
-        rows.append({"what": name, "kind": kind, "words": trace.words,
+        rows.append({"what": name, "kind": kind, "words": trace.words, "lines": lines_of[name],
+                     "trace": trace, "result": r,
                      "stall_eff": 100 * replay_model(trace)[2],
                      "model_eff": 100 * replay_model(trace, DramTiming(), windows)[2],
                      "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
@@ -134,13 +135,31 @@ def litedram(lines=4, patterns=None, blocks=None):
         n = max(1, lines // 10) if name.startswith("table2") else lines
         if name == "write_read_lag16":
             n = max(n, 17)
+        lines_of[name] = n
         one("pattern", name, pattern_trace(name, lines=n), PATTERNS[name][2])
     blocks = ddrref.BLOCKS if blocks is None else blocks
     if blocks:
         traces = ddrref.block_traces(lines=lines)
         for name in blocks:
+            lines_of[name] = lines
             one("block", name, traces[name])
     return rows
+
+
+def write_fixture(path, rows, how):
+    """Write the rows of :func:`litedram` as the fixture of tests/test_ddrref.py
+    (:func:`tdicam.ddrref.fixture`)."""
+    import json
+
+    from tdicam import ddrref
+    pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2)}
+            for r in rows if r["kind"] == "pattern"}
+    blk = {r["what"]: r for r in rows if r["kind"] == "block"}
+    fx = ddrref.fixture({n: r["result"] for n, r in blk.items()},
+                        {n: r["trace"] for n, r in blk.items()}, how, pats)
+    with open(path, "w") as f:
+        json.dump(fx, f, indent=1)
+        f.write("\n")
 
 
 def run(sims=cosim.SIMULATORS, quick=False):
@@ -155,6 +174,9 @@ def main(argv=None):
     ap.add_argument("--litedram", action="store_true",
                     help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
     ap.add_argument("--lines", type=int, default=4, help="Table 3 trace length in lines")
+    ap.add_argument("--fixture", metavar="FILE",
+                    help="with --litedram: write LiteDRAM's figures and the blocks' traces "
+                         "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json)")
     a = ap.parse_args(argv)
     if a.litedram:
         rows = litedram(lines=a.lines)
@@ -166,6 +188,9 @@ def main(argv=None):
                            ("planned", "plan counts on %", ".1f"),
                            ("wall", "wall s", ".0f")],
                     title=f"DDR efficiency, memory model vs LiteDRAM ({a.lines}-line traces)")
+        if a.fixture:
+            write_fixture(a.fixture, rows, f"python bench/bench_ddr.py --litedram --lines "
+                                           f"{a.lines} --fixture FILE; {machine()}")
         return
     rows = run(quick=a.quick)
     print(machine())

@@ -32,8 +32,9 @@ class MigModel(wiring.Component):
 
     Same behaviour and the same per-cycle stall pattern as
     :class:`tdicam.model.ddr.MigSim` (xorshift32 state seeded with ``seed | 1``, stepping
-    every cycle): ``app_rdy`` low in the last ``refresh_cycles`` of every
-    ``refresh_period``, when ``state[7:0] < drop`` or when the return queue is nearly full;
+    every cycle): ``app_rdy`` low in the first ``refresh_cycles`` of every
+    ``refresh_period`` after the first, when ``state[7:0] < drop`` or when the return
+    queue is nearly full;
     ``app_wdf_rdy`` low when ``state[15:8] < drop`` or the 16-word write-data FIFO is full;
     reads return in order ``lat_lo + (state[31:16] * (lat_hi - lat_lo + 1) >> 16)`` cycles
     after the command (at least one cycle after the previous read's data).
@@ -41,10 +42,11 @@ class MigModel(wiring.Component):
     With ``dram`` (a :class:`tdicam.model.ddr.DramTiming`) it also charges, as
     :class:`~tdicam.model.ddr.MigSim` with the same ``dram`` does and cycle for cycle with it,
     what the order of accesses costs on DDR3: after each accepted command ``app_rdy`` stays
-    low for the read/write turnaround (a direction change) and for opening another row in
-    the command's bank (row-bank-column mapping: word address bits [7:10] the bank, the
-    bits above the row; 8 open-row registers), the larger of the two plus ``both`` when
-    both apply. Use it with :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
+    low for :meth:`DramTiming.cost <tdicam.model.ddr.DramTiming.cost>` cycles (the queue
+    drain on a bank change, the read/write turnaround, opening a row in the command's bank:
+    row-bank-column mapping, word address bits [7:10] the bank, the bits above the row; 8
+    open-row registers, cleared by a refresh). Use it with
+    :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
 
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
@@ -56,7 +58,7 @@ class MigModel(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, depth_words, addr_bits=ADDR_BITS, lat_lo=20, lat_hi=60,
-                 refresh_period=780, refresh_cycles=26, drop=16, seed=1, dram=None):
+                 refresh_period=780, refresh_cycles=44, drop=16, seed=1, dram=None):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
         self._dram = dram
         check_range("depth_words", depth_words, 1, 1 << (addr_bits - 3))
@@ -81,7 +83,10 @@ class MigModel(wiring.Component):
         rc = Signal(range(period))
         m.d.sync += rc.eq(Mux(rc == period - 1, 0, rc + 1))
         refresh = Signal()
-        m.d.comb += refresh.eq(rc >= period - rcyc) if rcyc else refresh.eq(0)
+        started = Signal()                  # the first refresh period is over
+        with m.If(rc == period - 1):
+            m.d.sync += started.eq(1)
+        m.d.comb += refresh.eq(started & (rc < rcyc)) if rcyc else refresh.eq(0)
 
         mem = Memory(shape=unsigned(WB), depth=D, init=[])
         m.submodules.mem = self.memory = mem
@@ -111,7 +116,7 @@ class MigModel(wiring.Component):
         pend = Signal()
         pend_due = Signal(32)
 
-        free = ~self._dram_timing(m) if self._dram is not None else 1
+        free = ~self._dram_timing(m, refresh) if self._dram is not None else 1
         m.d.comb += [
             self.app_rdy.eq(~refresh & (s[0:8] >= drop) & (ret_n < self.RET_DEPTH - 2)
                             & free),
@@ -175,37 +180,49 @@ class MigModel(wiring.Component):
         m.d.comb += [self.writes.eq(wr_count), self.reads.eq(rd_count)]
         return m
 
-    def _dram_timing(self, m):
-        """The DRAM cost of each accepted command (see the class docstring); returns the
-        signal that holds ``app_rdy`` low."""
+    def _dram_timing(self, m, refresh):
+        """The DRAM cost of each accepted command (:meth:`DramTiming.cost
+        <tdicam.model.ddr.DramTiming.cost>`); returns the signal that holds ``app_rdy``
+        low."""
         d = self._dram
         word = self.app_addr[3:]
         bank, row = word[7:10], word[10:]
-        top = max(d.rd_to_wr, d.wr_to_rd, d.activate) + d.both
+        top = (d.first + d.bank + max(d.rd_to_wr, d.wr_to_rd) + 3 + d.activate + d.precharge
+               + d.write_recovery)
         busy = Signal(range(top + 1))
         last_valid, last_rd = Signal(), Signal()
+        last_bank = Signal(3)
         # one register per bank, written under an explicit compare (no partial case
         # statements or truncating shifts in the Verilog: lint-clean)
         open_valid = Array(Signal(name=f"open_valid{b}") for b in range(BANKS))
         open_rows = Array(Signal(len(row), name=f"open_row{b}") for b in range(BANKS))
         is_rd = self.app_cmd[0]
-        turn = Signal(range(top + 1))
-        act = Signal(range(top + 1))
-        cost = Signal(range(top + 1))
+        vis, turn, act, cost = (Signal(range(top + 1), name=n)
+                                for n in ("vis", "turn", "act", "cost"))
+        was_rd, hit, conflict = Signal(), Signal(), Signal()
         m.d.comb += [
-            turn.eq(Mux(last_valid & (is_rd != last_rd), Mux(is_rd, d.wr_to_rd, d.rd_to_wr),
-                        0)),
-            act.eq(Mux(open_valid[bank] & (open_rows[bank] == row), 0,
-                       d.activate)),
-            cost.eq(Mux(turn > act, turn, act) + Mux(turn.any() & act.any(), d.both, 0)),
+            vis.eq(Mux(last_valid, Mux(bank != last_bank, d.bank, 0), d.first)),
+            was_rd.eq(~last_valid | last_rd),
+            turn.eq(Mux(is_rd == was_rd, vis,
+                        Mux(is_rd, Mux(vis + 3 > d.wr_to_rd, vis + 3, d.wr_to_rd),
+                            vis + d.rd_to_wr))),
+            hit.eq(open_valid[bank] & (open_rows[bank] == row)),
+            conflict.eq(open_valid[bank] & (open_rows[bank] != row)),
+            act.eq(Mux(hit, 0, d.activate) + Mux(conflict, d.precharge, 0)
+                   + Mux(conflict & last_valid & (bank == last_bank) & ~last_rd,
+                         d.write_recovery, 0)),
+            cost.eq(turn + act),
         ]
         with m.If(self.app_en & self.app_rdy):
-            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd)]
+            m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd),
+                         last_bank.eq(bank)]
             for b in range(BANKS):
                 with m.If(equals(bank, b)):
                     m.d.sync += [open_rows[b].eq(row), open_valid[b].eq(1)]
         with m.Elif(busy.any()):
             m.d.sync += busy.eq(busy - 1)
+        with m.If(refresh):                 # a refresh precharges every bank
+            m.d.sync += [open_valid[b].eq(0) for b in range(BANKS)]
         return busy.any()
 
 

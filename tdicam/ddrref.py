@@ -40,7 +40,7 @@ from tdicam.model.ddr import PATTERNS, Trace, pattern_trace
 
 __all__ = ["Trace", "ReplayResult", "replay", "record", "pattern_trace", "PATTERNS",
            "SIM_ROWS", "MEM_ROWS", "ROW_WORDS", "BANKS", "available", "block_traces",
-           "BLOCKS", "replay_hdl"]
+           "BLOCKS", "replay_hdl", "trace_runs", "trace_from_runs", "fixture"]
 
 #: rows per bank in the simulated module (MT41K256M16 has 32768; 2048 keeps 11 address bits)
 SIM_ROWS = 2048
@@ -258,8 +258,9 @@ def replay_hdl(trace, dram=None, windows=None, **stalls):
 
     from tdicam.hdl.mig_model import MigModel
     from tdicam.model.ddr import (DEFAULT_STALLS, DRAM_STALLS, MigSim, TraceDriver,
-                                  merged_commands)
+                                  merged_commands, trace_dram)
     cmds = merged_commands(trace, dram, windows)
+    dram = trace_dram(trace, dram)
     st = {**(DEFAULT_STALLS if dram is None else DRAM_STALLS), **stalls}
     top = max((a for _, a in cmds), default=0) + 1
     dut = MigModel(depth_words=top, dram=dram, **st)
@@ -429,3 +430,35 @@ def block_traces(*, width=1280, lines=8, seed=1, wide=4096):
 
 #: the DDR blocks of :func:`block_traces`
 BLOCKS = ("writer", "reader", "ddr", "cds_ddr", "cds_ddr_wide", "tdi_ddr", "tdi_ddr_wide")
+
+
+# ---------------------------------------------------------------------------------------
+# recorded LiteDRAM figures (so the default test run needs no LiteDRAM)
+# ---------------------------------------------------------------------------------------
+
+def trace_runs(trace):
+    """A one-port trace as runs ``[is_read, first word address, count]`` of consecutive
+    addresses in one direction (its compact form in a fixture)."""
+    runs = []
+    for rd, a in trace.ports[0]:
+        if runs and runs[-1][0] == rd and runs[-1][1] + runs[-1][2] == a:
+            runs[-1][2] += 1
+        else:
+            runs.append([int(rd), int(a), 1])
+    return runs
+
+
+def trace_from_runs(name, runs, planned=None):
+    """Inverse of :func:`trace_runs`: the one-port :class:`Trace`."""
+    return Trace(name, [[(rd, a0 + k) for rd, a0, n in runs for k in range(n)]],
+                 planned=planned)
+
+
+def fixture(block_results, traces, how, patterns=None):
+    """The JSON-able record of LiteDRAM figures: ``{"how", "patterns": {name: {"lines",
+    "efficiency"}}, "blocks": {name: {"efficiency", "words", "cycles", "runs"}}}``
+    (efficiencies in %), from :class:`ReplayResult`\\ s of the block ``traces``."""
+    return {"how": how, "patterns": patterns or {},
+            "blocks": {n: {"efficiency": round(100 * r.efficiency, 2), "words": r.words,
+                           "cycles": r.cycles, "runs": trace_runs(traces[n])}
+                       for n, r in block_results.items()}}

@@ -164,8 +164,8 @@ def report_text(rep) -> str:
     if ddr.get("pattern", "given") != "given":
         lines.append(f"                 efficiency of the access pattern '{ddr['pattern']}' "
                      f"({ddr['pattern_text']}) on the DRAM timing model, less "
-                     f"{PLAN_MARGIN * 100:g} points (its largest gap to LiteDRAM on that "
-                     "order)")
+                     f"{PLAN_MARGIN * 100:g} points (the band the model is held to against "
+                     "LiteDRAM's DDR3 controller)")
     if mem.get("must_spill"):
         verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
                    "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "

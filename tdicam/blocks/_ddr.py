@@ -4,7 +4,7 @@ controller's stall-pattern parameters and the simulation top around a DDR user c
 Each DDR block's Verilog top is its user logic with the simulation-only controller model
 :class:`~tdicam.hdl.mig_model.MigModel` behind it (:class:`~tdicam.hdl.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
-set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 26 of every 780
+set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 44 of every 780
 cycles, each ready dropped with probability 16/256), on top of the DRAM timing
 (:class:`tdicam.model.ddr.DramTiming`: turnarounds, row activates, cycle-equal with
 :class:`tdicam.model.ddr.MigSim` with ``dram=``), so the everyday co-simulation charges what
