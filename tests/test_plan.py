@@ -352,9 +352,9 @@ def run_cli(capsys, *argv):
 
 def test_cli_default_prints_table2(capsys):
     code, out, err = run_cli(capsys)
-    # the reference TDI synthesis reaches 849 M pixel/s at ppc 8 (118.4 MHz): feasible, exit 0
+    # the reference TDI synthesis reaches 849 M pixel/s at ppc 8 (128.1 MHz): feasible, exit 0
     assert code == 0 and err == ""
-    assert "ppc 8 at 118.4 MHz meets it: yes" in out and "feasible: yes" in out
+    assert "ppc 8 at 128.1 MHz meets it: yes" in out and "feasible: yes" in out
     assert "v_g = 6.9080 km/s" in out
     for _gsd, t1, m, ff in TABLE2:
         assert ff in out and t1 in out
