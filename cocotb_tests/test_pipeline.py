@@ -27,7 +27,7 @@ def _scene(sim, cols=24, lines=6, crop=None):
     rtl = {"simulator": sim}
     if crop is not None:
         rtl["crop"] = crop
-    return load_scene(ROOT / "scenes" / "seed002_chain.toml", overrides={
+    return load_scene(ROOT / "scenes" / "ning2019_chain.toml", overrides={
         "sensor": {"columns": cols}, "run": {"lines": lines, "rtl": rtl}})
 
 

@@ -103,16 +103,49 @@ def _settings_stream(params, seq, rng):
     return stim, Beats(want.data, want.first, want.last), want
 
 
+@pytest.mark.parametrize("ecp5", [False, True], ids=["generic", "ecp5"])
 @pytest.mark.parametrize("ppc", [4])
-def test_paper_sensor_1280x96_icarus_short(ppc):
+def test_paper_sensor_1280x96_icarus_short(ppc, ecp5):
     """Short form on Icarus: the 1280 x 96 Verilog (95-line memory) run at m = 3 forward,
-    m = 5 reverse and m = 2, with refills between; every output line compared."""
+    m = 5 reverse and m = 2, with refills between; every output line compared. ``ecp5``:
+    the top ``tdicam synth`` places on the ECP5 (128 DP16KD instances, 15 banks of the
+    18-bit part in use, with the DP16KD model of :mod:`tdicam.cosim.dp16kd`)."""
     params = blocks.get("tdi").resolve({"width": 1280, "stages": 96, "ppc": ppc})
     rng = np.random.default_rng(8)
     stim, exp, want = _settings_stream(params, [(3, 0, 5), (5, 1, 7), (2, 0, 3)], rng)
     assert len(want.first) == (3 + 3 + 2) * 1280 // ppc
     check_beats("tdi", params, stim, exp, sim="icarus", mode="fast", idle=0.1,
-                backpressure=0.2, seed=4)
+                backpressure=0.2, seed=4, ecp5=ecp5)
+
+
+@pytest.mark.parametrize("width,ppc", [(8, 2), (16, 8)])
+def test_ecp5_banks_narrow_rows_icarus(width, ppc):
+    """The ECP5 top's hazard window: rows of 4 and 2 beats (fewer than its 7
+    :attr:`~tdicam.hdl.tdi.TdiAccumulator.row_cycles`), so a line is read again right after
+    the shortest gap the frame control leaves; stage and direction changes between, 20 %
+    idle and 30 % backpressure, against the beat-level model."""
+    params = blocks.get("tdi").resolve({"width": width, "stages": 5, "ppc": ppc})
+    rng = np.random.default_rng(width)
+    stim, exp, _ = _settings_stream(params, [(5, 0, 12), (4, 1, 9), (2, 0, 6), (5, 0, 8)],
+                                    rng)
+    check_beats("tdi", params, stim, exp, sim="icarus", mode="fast", idle=0.2,
+                backpressure=0.3, seed=9, ecp5=True)
+
+
+ECP5_DEFAULT = ("stages_64x4_p1",)
+
+
+@pytest.mark.parametrize("case", SMALL + ["mixed_256x32_p1"])
+def test_golden_ecp5_banks_icarus(case):
+    """The ECP5 synthesis top (``bram="ecp5"``: DP16KD instances whose output register is
+    the bank register) with the DP16KD model of :mod:`tdicam.cosim.dp16kd` on Icarus,
+    against the golden vectors with 25 % idle and 25 % backpressure: one case by default
+    (x18 and x1 primitives, stage and direction changes), every small case and the 256 x 32
+    ppc 1 one (four banks of the 18-bit part) with TDICAM_FULL=1."""
+    if case not in ECP5_DEFAULT and not FULL:
+        pytest.skip("another Icarus build of the ECP5 variant: runs with TDICAM_FULL=1")
+    check_case("tdi", case, sim="icarus", mode="fast", idle=0.25, backpressure=0.25, seed=7,
+               ecp5=True)
 
 
 @pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0), (0.6, 0.6)])

@@ -1,4 +1,4 @@
-"""Digital CDS with the reset frame stored in DDR (SPEC 3.2 + 3.8, seed 002 §4.4.1).
+"""Digital CDS with the reset frame stored in DDR (Ning et al. 2019, section 4.4.1).
 
 :class:`CdsDdr` — :class:`tdicam.hdl.cds.Cds` with the reset frame written to DDR through a
 :class:`~tdicam.hdl.ddr.LineWriter` and read back line by line through a
@@ -20,7 +20,7 @@ __all__ = ["CdsDdr"]
 
 
 class CdsDdr(wiring.Component):
-    """Digital CDS with the reset frame stored in DDR (SPEC 3.2 + 3.8, seed 002 §4.4.1).
+    """Digital CDS with the reset frame stored in DDR (Ning et al. 2019, section 4.4.1).
 
     Golden model: :func:`tdicam.model.ddr.cds_ddr_frames`.
 
@@ -31,7 +31,7 @@ class CdsDdr(wiring.Component):
     pixel_bits : int
         8..16 (the :class:`~tdicam.hdl.cds.Cds` core's range).
     pixels_per_word : int or None
-        Reset values per 256-bit word; default 24 for 10-bit pixels (seed 002 Table 2),
+        Reset values per 256-bit word; default 24 for 10-bit pixels (Ning et al. 2019, Table 2),
         else ``256 // pixel_bits``.
     line_stride, base, capacity_bytes
         Where the reset frame lives (:class:`~tdicam.model.ddr.LineLayout`).

@@ -11,18 +11,25 @@ from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.memory import Memory
 
+from tdicam.errors import TdicamError
 from tdicam.model.tdi import check_params, full_bits, out_width
 from tdicam.verilog import NO_INIT, NO_RW_CHECK
+from . import ecp5_bram
 from .tdi_control import TdiFrameControl, tdi_ports
 
-__all__ = ["TdiAccumulator"]
+__all__ = ["TdiAccumulator", "BRAMS"]
+
+#: How the partial-sum banks are described (``bram=``), each with the read stages it adds:
+#: ``generic``, ``lib.memory`` memories (every tool and simulator); ``ecp5``, Lattice DP16KD
+#: instances with their output register in use and a fabric register after it
+#: (:mod:`tdicam.hdl.ecp5_bram`; what ``tdicam synth`` places on the ECP5)
+BRAMS = {"generic": 0, "ecp5": ecp5_bram.EXTRA_STAGES}
 
 # DP16KD data widths and the bank depth used for each: one block RAM (x9 .. x1: 2048 x 9,
 # 4096 x 4, 8192 x 2, 16384 x 1) or, for x18, two 2048 x 9 blocks side by side (no read mux)
 _BANK_DEPTH = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}
 _GROUP = 8        # banks per first-level OR; block RAMs per replicated address register
 _READ_STAGES = 5  # issue (C), block RAM data, per-bank register, group OR, final OR
-_ROW_CYCLES = _READ_STAGES + 1   # read issue to the write back landing (see *Pipeline*)
 
 
 def _split(bits):
@@ -83,6 +90,13 @@ class TdiAccumulator(wiring.Component):
         width ``pixel_bits + ceil(log2(stages))``, never saturates, never wraps.
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8.
+    bram : {"generic", "ecp5"}
+        How each memory bank and its read register are described (:data:`BRAMS`):
+        ``generic`` (default), a ``lib.memory`` memory and a fabric register; ``ecp5``,
+        DP16KD instances whose output register is the bank register
+        (:func:`tdicam.hdl.ecp5_bram.bank`) followed by a fabric register: the same
+        behaviour and block RAM count, one read stage more (:attr:`latency` 10,
+        :attr:`row_cycles` at least 7).
 
     Attributes
     ----------
@@ -150,6 +164,8 @@ class TdiAccumulator(wiring.Component):
     write (the next frame's neighbouring row), and the write lands 6 cycles after the read
     was issued: rows of fewer than 6 beats get ``6 - W/ppc`` idle cycles after them
     (:attr:`row_cycles`), so no read sees a stale sum (no forwarding path is needed).
+    ``bram="ecp5"`` adds a stage after the block RAM data (its output register, then the
+    per-bank register): the write lands 7 cycles after the read, rows of at least 7 cycles.
 
     *Throughput and latency.* ``ppc`` pixels per clock sustained while ``o_stream.ready`` is
     high (rows of at least :attr:`row_cycles` beats). An output beat enters the read
@@ -157,8 +173,8 @@ class TdiAccumulator(wiring.Component):
     for every output beat in flight, so the pipeline never stalls and no beat is lost or
     duplicated whatever ``ready`` does. Input rows that produce no output (all but one per
     frame) flow at full rate even while the output is stalled. ``i_stream.ready`` does not
-    depend combinationally on ``o_stream.ready``. :attr:`latency` = 9 cycles from an
-    output-row input beat's transfer to its output beat being valid.
+    depend combinationally on ``o_stream.ready``. :attr:`latency` = 9 cycles (``ecp5``: 10)
+    from an output-row input beat's transfer to its output beat being valid.
 
     Raises
     ------
@@ -166,10 +182,14 @@ class TdiAccumulator(wiring.Component):
         On bad parameters (one line, before elaboration).
     """
 
-    def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, _psum_bits=None,
-                 _row_cycles=_ROW_CYCLES):
+    def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, bram="generic",
+                 _psum_bits=None, _row_cycles=None):
         check_params(width=width, stages=stages, pixel_bits=pixel_bits, out_bits=out_bits,
                      ppc=ppc)
+        if bram not in BRAMS:
+            raise TdicamError(f"bram = {bram!r} is not valid; valid: {', '.join(BRAMS)}")
+        self._bram = bram
+        self._read_stages = _READ_STAGES + BRAMS[bram]
         self._width = width
         self._stages = stages
         self._pixel_bits = pixel_bits
@@ -179,7 +199,8 @@ class TdiAccumulator(wiring.Component):
         # _psum_bits: test hook only (a deliberately too narrow, wrapping mutant)
         self._psum_bits = full_bits(pixel_bits, stages) if _psum_bits is None else _psum_bits
         # _row_cycles: test hook only (too few: a mutant that reads a sum as it is written)
-        self._min_row = _row_cycles
+        # (default: read issue to the write-back landing, see *Pipeline*)
+        self._min_row = self._read_stages + 1 if _row_cycles is None else _row_cycles
         self.memories = []
         self.probe = {}
         super().__init__(tdi_ports(pixel_bits, self._out_bits, stages, ppc))
@@ -192,17 +213,19 @@ class TdiAccumulator(wiring.Component):
     saturating = property(lambda self: self._saturate,
                           doc="True when the output saturates at 2**out_bits - 1.")
     psum_bits = property(lambda self: self._psum_bits, doc="Partial-sum word width.")
+    bram = property(lambda self: self._bram, doc="Bank description, a key of :data:`BRAMS`.")
 
     @property
     def latency(self):
         """Cycles from an input beat's transfer to the matching output beat being valid: 9
         (input and decode registers of the frame control, 5 read-pipeline stages, output
-        register, FIFO)."""
-        return 2 + _READ_STAGES + 2
+        register, FIFO); 10 with ``bram="ecp5"`` (6 read-pipeline stages)."""
+        return 2 + self._read_stages + 2
 
     @property
     def row_cycles(self):
-        """Cycles per input row at full rate: ``W/ppc`` beats, at least 6 (see *Pipeline*)."""
+        """Cycles per input row at full rate: ``W/ppc`` beats, at least 6 (``ecp5``: 7; see
+        *Pipeline*)."""
         return max(self._width // self._ppc, self._min_row)
 
     @property
@@ -255,11 +278,11 @@ class TdiAccumulator(wiring.Component):
                   "last": 1, "zero": 1, "addr": aw}
         p = [{"valid": b_adv, "data": b.data, "use": b.use, "wr": b.wr, "out": b.out,
               "first": b.first, "last": b.last, "zero": b.zero, "addr": b.addr}]
-        for s in range(_READ_STAGES):
+        for s in range(self._read_stages):
             regs = {n: Signal(w, name=f"p{s}_{n}") for n, w in fields.items()}
             m.d.sync += [regs[n].eq(p[-1][n]) for n in fields]
             p.append(regs)
-        pc, ps_ = p[1], p[_READ_STAGES]       # issue stage, sum stage
+        pc, ps_ = p[1], p[self._read_stages]  # issue stage, sum stage
         do_write = ps_["valid"] & ps_["wr"] & ~ps_["zero"]
         sum_word = Signal(PPC * PS)           # the new partial sums (written back next)
 
@@ -291,7 +314,13 @@ class TdiAccumulator(wiring.Component):
                     m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
                                  wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
                                              for k in range(PPC))))]
-                mem, qr, port = _bank(m, f"b{lo}_{c}", PPC * pw, bd, re=re_v[c], rh=rh_v[c],
+                tag = f"b{lo}_{c}"
+                if self._bram == "ecp5":
+                    # DP16KD instances: their output register, then the fabric q (a stage more)
+                    q.append(ecp5_bram.bank(m, tag, depth=bd, bits=PPC * pw, ra=ra,
+                                            re=re_v[c], rh=rh_v[c], wa=wa, wd=wd, we=we_v[c]))
+                    continue
+                mem, qr, port = _bank(m, tag, PPC * pw, bd, re=re_v[c], rh=rh_v[c],
                                       raddr=ra, we=we_v[c], waddr=wa, wdata=wd)
                 self.memories.append(mem)
                 ports.append(port)
@@ -303,7 +332,7 @@ class TdiAccumulator(wiring.Component):
                 groups.append(gq)
             piece = Signal(PPC * pw, name=f"ps_b{lo}")
             # the stored sum is used or not: masked here, so the adder gets registers
-            m.d.sync += piece.eq(Mux(p[_READ_STAGES - 1]["use"], _or(groups), 0))
+            m.d.sync += piece.eq(Mux(p[self._read_stages - 1]["use"], _or(groups), 0))
             for k in range(PPC):
                 lanes[k].append(piece[k * pw:(k + 1) * pw])
             lo += pw
@@ -328,7 +357,7 @@ class TdiAccumulator(wiring.Component):
         o_en, o_word = Signal(), Signal(PPC * OB + 2)
         m.d.sync += [o_en.eq(ps_["valid"] & ps_["out"]),
                      o_word.eq(Cat(*outs, ps_["first"] & ~ps_["zero"], ps_["last"]))]
-        n_fifo = _READ_STAGES + 3
+        n_fifo = self._read_stages + 3
         m.submodules.out_fifo = fifo = SyncFIFO(width=PPC * OB + 2, depth=n_fifo)
         m.d.comb += [fifo.w_data.eq(o_word), fifo.w_en.eq(o_en),
                      o.valid.eq(fifo.r_rdy), fifo.r_en.eq(o.ready),

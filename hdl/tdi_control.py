@@ -163,7 +163,9 @@ class TdiFrameControl(wiring.Component):
         bnext = Signal(aw)        # base's successor (registered: base changes >= 2 cycles apart)
         row_addr = Signal(aw)     # first address of the current row's line
         cur = Signal(aw)          # address of the current row's next beat
-        lim = Signal(bits_for((M - 1) * S))  # lines in use x stride
+        # the last line's first address, (lines in use - 1) x stride (0 when none is in
+        # use): x + S < lines x stride is x < lim_s, no adder before the compare
+        lim_s = Signal(bits_for((M - 1) * S))
         pad_col = Signal(range(WB))
         errors = Signal(16)
         m.d.comb += self.frame_errors.eq(errors)
@@ -186,7 +188,11 @@ class TdiFrameControl(wiring.Component):
         start = a_first
         same = wire("same", (a_m == m_reg) & (a_dir == dir_reg) & run.any())
         base_step = wire("base_step", base + S, aw + 1)
-        m.d.sync += bnext.eq(Mux(base_step < lim, base_step, 0))
+        step_in_row = 1 if S > 1 else 0      # addresses count beats, or lines
+        # bnext + step_in_row, registered with it: a new frame's second beat's address
+        bnext_cur = Signal(aw)
+        m.d.sync += [bnext.eq(Mux(base < lim_s, base_step, 0)),
+                     bnext_cur.eq(Mux(base < lim_s, base + (S + step_in_row), step_in_row))]
         base_next = wire("base_next", Mux(same, bnext, 0), aw)
         s_f = wire("s_f", Mux(same, run, 0), mb)            # f of a new frame
         m1_zero = wire("m1_zero", ~a_m1.any())
@@ -231,21 +237,21 @@ class TdiFrameControl(wiring.Component):
 
         # the next row, from registers (a row's last beat is never a frame's first)
         fwd = wire("fwd", row_addr + S, aw + 1)
-        nxt_fwd = wire("nxt_fwd", Mux(fwd < lim, fwd, 0), aw)
-        nxt_rev = wire("nxt_rev", Mux(row_addr.any(), row_addr - S,
-                                      Mux(lim.any(), lim - S, 0)), aw)
+        nxt_fwd = wire("nxt_fwd", Mux(row_addr < lim_s, fwd, 0), aw)
+        nxt_rev = wire("nxt_rev", Mux(row_addr.any(), row_addr - S, lim_s), aw)
         row_next = wire("row_next", Mux(dir_reg, nxt_rev, nxt_fwd), aw)
         age_next = wire("age_next", Mux(dir_reg, age + 1, age - 1), mb)
         # lines x stride without a multiplier: a sum of shifted copies
         lim_new = sum((a_lines << k for k in range(S.bit_length()) if S >> k & 1), Const(0))
-        step_in_row = 1 if S > 1 else 0      # addresses count beats, or lines
         with m.If(step):
             with m.If(start):
                 m.d.sync += [m_reg.eq(a_m), m1_reg.eq(a_m1), dir_reg.eq(a_dir), f.eq(s_f),
-                             base.eq(base_next), lim.eq(lim_new), age.eq(Mux(a_dir, 0, a_m1)),
+                             base.eq(base_next), lim_s.eq(Mux(a_lines.any(), lim_new - S, 0)),
+                             age.eq(Mux(a_dir, 0, a_m1)),
                              r_out.eq(s_out), r_use.eq(s_use), r_last.eq(m1_zero),
                              out_en.eq(s_out_en), col.eq(1), col_last.eq(WB == 2),
-                             row_addr.eq(base_next), cur.eq(base_next + step_in_row)]
+                             row_addr.eq(base_next),
+                             cur.eq(Mux(same, bnext_cur, step_in_row))]
             with m.Elif(last_col):
                 m.d.sync += [col.eq(0), col_last.eq(0), row_addr.eq(row_next),
                              cur.eq(row_next), age.eq(age_next),

@@ -507,11 +507,14 @@ def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None, na
     with its bad blocks plus ``bad_blocks`` marked and ``fail_program`` blocks failing;
     ``flips = (p_single, p_double)`` flips random bits in payload words first
     (:func:`tdicam.model.calib.inject_flips`). Returns ``(device, flips per word)``;
-    errors name the image ``name``."""
+    errors name the image ``name``: a damaged block map, an incomplete stream, or a stream
+    :func:`tdicam.model.calib.read_image` refuses (e.g. an uncorrectable header word) --
+    nothing is re-laid out from an image the camera could not load."""
     _, n_words = _read_map(device, name)
     words, complete = stream_words(device, n_words)
     if not complete:
         raise TdicamError(f"{name}: the image's calibration stream is incomplete")
+    calib.read_image(words, name=name)
     k = np.zeros(len(words), np.int64)
     if flips is not None:
         words, k = calib.inject_flips(rng, words, p_single=flips[0], p_double=flips[1])

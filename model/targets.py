@@ -28,10 +28,24 @@ Charts
     a grey-level picture (scikit-image's bundled samples, or a PNG/TIFF file) scaled to the
     sensor width (``columns`` pixels across), tiled along track with mirror symmetry, and
     interpolated bilinearly between its pixel centres.
+
+Pictures (:func:`load_image`, :func:`grey_levels`)
+--------------------------------------------------
+At least :data:`MIN_IMAGE_SIDE` pixels on each side; one 2-D picture with its channels
+last: grey, grey + alpha, RGB or RGBA (a palette PNG is expanded to its colours first).
+RGB becomes grey with the Rec. 601 luma weights ``0.299 R + 0.587 G + 0.114 B``; an alpha
+channel must be opaque everywhere (it is then dropped: there is no background to blend a
+transparent pixel onto). Integer codes are divided by their type's full scale (255 for
+8 bits, 65,535 for 16 bits, a 16-bit PNG included), booleans are 0 / 1, floating-point
+values are used as they are when the largest is at most 1.0 and divided by the largest
+otherwise. Refused, with a one-line error naming the file: a side under 8 pixels,
+another channel count, a stack of pages or planar channels, a partly transparent alpha,
+negative, NaN or infinite values, complex numbers.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -39,7 +53,16 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Target", "make_target", "load_image", "bundled_image"]
+__all__ = ["MIN_IMAGE_SIDE", "Target", "make_target", "load_image", "grey_levels",
+           "bundled_image"]
+
+#: Smallest picture side, pixels: a smaller picture is a few bilinear ramps at the sensor's
+#: scale (and a 1-pixel side cannot be interpolated at all).
+MIN_IMAGE_SIDE = 8
+#: PIL modes that are not grey / grey+alpha / RGB / RGBA codes as they stand -> the mode
+#: they are converted to first (palette indices are not grey levels).
+_PIL_CONVERT = {"P": "RGBA", "PA": "RGBA", "CMYK": "RGB", "YCbCr": "RGB", "LAB": "RGB",
+                "HSV": "RGB", "La": "LA", "RGBa": "RGBA", "RGBX": "RGB"}
 
 
 class Target:
@@ -89,12 +112,32 @@ def bundled_image(name):
     except Exception as exc:  # noqa: BLE001 - third-party loader, report in one line
         raise TdicamError(f"[target].image: cannot load scikit-image picture {name!r}: "
                           f"{type(exc).__name__}") from None
-    return _grey(img)
+    return grey_levels(img)
 
 
 def load_image(path):
-    """A PNG or TIFF file as float64 grey levels in [0, 1] (RGB averaged with Rec. 601
-    luma weights, alpha dropped, integer types scaled by their maximum code)."""
+    """A PNG or TIFF file as float64 grey levels in [0, 1] (:func:`grey_levels`; the rules
+    are in the module docstring). The result is read-only and cached by path, size and
+    modification time, so validating a scene per sweep point decodes the file once.
+
+    Raises
+    ------
+    TdicamError
+        One line naming ``[target].path``, the file and the problem.
+    """
+    p = Path(path)
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise TdicamError(f"[target].path: file not found: {str(p)!r}") from None
+    except OSError as exc:
+        raise TdicamError(f"[target].path: cannot read image {str(p)!r}: {exc.strerror}"
+                          ) from None
+    return _load_image(str(p), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=4)
+def _load_image(path, size, mtime_ns):
     p = Path(path)
     try:
         if p.suffix.lower() in (".tif", ".tiff"):
@@ -103,39 +146,67 @@ def load_image(path):
         else:
             from PIL import Image
             with Image.open(p) as im:
+                if im.mode in _PIL_CONVERT:
+                    im = im.convert(_PIL_CONVERT[im.mode])
                 img = np.asarray(im)
+                if im.mode == "I" and im.format == "PNG":   # a 16-bit PNG read as int32
+                    img = img.astype(np.uint16)
     except FileNotFoundError:
         raise TdicamError(f"[target].path: file not found: {str(p)!r}") from None
     except Exception as exc:  # noqa: BLE001 - any decoder failure is a corrupt file
         raise TdicamError(f"[target].path: cannot read image {str(p)!r}: "
                           f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
                           ) from None
-    return _grey(img, source=f"[target].path {str(p)!r}")
+    a = grey_levels(img, source=f"[target].path {str(p)!r}")
+    a.setflags(write=False)
+    return a
 
 
-def _grey(img, source="[target].image"):
-    a = np.asarray(img)
+def _scale(a):
+    """Codes -> [0, 1] floats (module docstring); no channel handling."""
     if a.dtype == bool:
-        a = a.astype(np.float64)
-    elif np.issubdtype(a.dtype, np.integer):
-        a = a.astype(np.float64) / float(np.iinfo(a.dtype).max)
-    else:
-        a = a.astype(np.float64)
-        hi = float(np.nanmax(a)) if a.size else 0.0
-        if hi > 1.0:
-            a = a / hi
-    if a.ndim == 3:
-        if a.shape[-1] == 4:
-            a = a[..., :3]
-        if a.shape[-1] == 3:
-            a = a @ np.array([0.299, 0.587, 0.114])
-        elif a.shape[-1] == 1:
-            a = a[..., 0]
-    if a.ndim != 2 or min(a.shape) < 2:
-        raise TdicamError(f"{source}: need a 2-D grey or RGB picture of at least 2x2 pixels, "
-                          f"got shape {np.shape(img)}")
-    if not np.all(np.isfinite(a)):
+        return a.astype(np.float64)
+    if np.issubdtype(a.dtype, np.integer):
+        return a.astype(np.float64) / float(np.iinfo(a.dtype).max)
+    a = a.astype(np.float64)
+    hi = float(a.max()) if a.size else 0.0
+    return a / hi if hi > 1.0 else a
+
+
+def grey_levels(img, source="[target].image"):
+    """A picture (2-D, or channels last) as float64 grey levels in [0, 1]: the rules of the
+    module docstring; errors are one line starting with ``source``."""
+    a = np.asarray(img)
+    shape = " x ".join(str(n) for n in a.shape)
+    if a.dtype.kind not in "biuf":
+        raise TdicamError(f"{source}: pixels of type {a.dtype} are not grey levels; need "
+                          f"integer or real values")
+    if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[-1] > 4):
+        raise TdicamError(f"{source}: shape {shape} (several pages, planar channels or more "
+                          f"than 4 channels); need one 2-D picture with its channels last: "
+                          f"grey, grey + alpha, RGB or RGBA")
+    if min(a.shape[:2]) < MIN_IMAGE_SIDE:
+        raise TdicamError(f"{source}: {a.shape[0]} x {a.shape[1]} pixels; need at least "
+                          f"{MIN_IMAGE_SIDE} x {MIN_IMAGE_SIDE}")
+    if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
         raise TdicamError(f"{source}: picture contains NaN or infinite values")
+    n = int((a < 0).sum()) if a.dtype.kind in "if" else 0
+    if n:
+        raise TdicamError(f"{source}: {n} negative value{'s' * (n > 1)} (smallest "
+                          f"{a.min():g}); a radiance is >= 0")
+    if a.ndim == 3:
+        if a.shape[-1] in (2, 4):
+            alpha = _scale(a[..., -1])
+            n = int((alpha < 1.0).sum())
+            if n:
+                raise TdicamError(f"{source}: the alpha channel is not opaque in {n} "
+                                  f"pixel{'s' * (n > 1)}; flatten the picture onto a "
+                                  f"background first")
+            a = a[..., :-1]
+        a = _scale(a)
+        a = a @ np.array([0.299, 0.587, 0.114]) if a.shape[-1] == 3 else a[..., 0]
+    else:
+        a = _scale(a)
     return np.clip(a, 0.0, 1.0)
 
 

@@ -22,12 +22,14 @@
   model :func:`tdicam.planning.mtf_prediction` (full-line-period exposure, smear at the image
   speed ``1 - dV/V``, rolling-shutter skew, the M-stage term, optics; along track), the
   exact footprint model of :class:`tdicam.model.optics.Geometry` the simulator renders
-  (``footprint_model``, either axis), and ``seed001_model`` — the paper's model, Yuan et al.,
+  (``footprint_model``, either axis), and ``yuan2013_model`` — the paper's model, Yuan et al.,
   "MTF velocity-mismatch model of TDI area-array CMOS image sensors" (2013):
   ``aperture x temporal x mismatch`` with the plain velocity mismatch dV/V (no skew, no
   image speed; ``mtf_prediction(...)["paper"]["system"]``).
   Where the fitted amplitude is below :data:`MIN_MODULATION_SNR` standard deviations of its
-  estimate (or the mean is not above the pedestal) both measured values are None and
+  estimate, the mean is not above the pedestal, or the bright bars saturate (``saturated``:
+  ``signal_e`` plus dark charge per exposure reaches :func:`saturation_e`, so the clipped
+  output has less modulation than the camera's MTF) both measured values are None and
   ``note`` says why.
 """
 
@@ -226,7 +228,14 @@ def measure(scene, res):
         amp, mean, amp_sd = _fit(prof, f_out)
         mean -= res.pedestal_output
         mtf_fit = ctf_mtf = note = None
-        if mean <= 0:
+        dark, cap = mean_dark_e(scene), saturation_e(scene, m)
+        saturated = tgt.signal_e + dark >= cap
+        if saturated:       # clipped bars: less modulation than optics and motion give
+            note = (f"not measurable: saturated: the bright bars' signal {tgt.signal_e:g} e- + "
+                    f"dark {dark:.3g} e- per exposure reaches {cap:.6g} e- (full well or ADC "
+                    f"full scale), so the output is clipped and its modulation is not the "
+                    f"MTF's")
+        elif mean <= 0:
             note = "not measurable: the mean output is not above the zero-light pedestal"
         elif amp < MIN_MODULATION_SNR * amp_sd:
             note = (f"not measurable: the modulation at the bar frequency ({amp:.3g} DN) is "
@@ -245,9 +254,10 @@ def measure(scene, res):
             "measured": mtf_fit, "measured_ctf": ctf_mtf,
             "planned": plan["system"] if along else None,
             "planned_reversed": plan["reversed"] if along else None,
-            "seed001_model": plan["paper"]["system"] if along else None,
+            "yuan2013_model": plan["paper"]["system"] if along else None,
             "footprint_model": exact,
             "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
+            "saturated": saturated, "saturation_e": cap,
         }
         if note is not None:
             out["mtf"]["note"] = note

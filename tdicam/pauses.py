@@ -9,8 +9,10 @@ give the same idle/backpressure pattern in all three.
 Cycle ``c`` (0 = the first cycle after the initial reset) uses the generators' ``c``-th
 states ``v_c``, ``r_c``:
 
-* ``v_0 = (seed & 0x7fffffff) | 1``, ``r_0 = v_0 ^ 0x9e3779b9``,
-  ``x_{c+1} = xorshift32(x_c)`` (shifts 13, 17, 5);
+* ``v_0 = seed & 0x7fffffff`` (``0x80000000`` when that is 0), ``r_0 = v_0 ^ 0x9e3779b9``,
+  ``x_{c+1} = xorshift32(x_c)`` (shifts 13, 17, 5). Every seed 1..:data:`SEED_MAX` is its
+  own starting state (an earlier ``| 1`` gave seeds ``2k`` and ``2k + 1`` one pattern); no
+  state is 0, xorshift32's fixed point (``v_0 < 2**31`` or ``2**31``, never ``0x9e3779b9``);
 * the source *offers* a beat on cycle ``c`` when ``v_c & 0xff >= idle_thr``; once offered,
   ``valid`` stays high until the beat is taken (AXI4-Stream rule), whatever the draws;
 * the sink is *ready* on cycle ``c`` when ``r_c & 0xff >= bp_thr``;
@@ -20,7 +22,8 @@ states ``v_c``, ``r_c``:
 from .errors import check_range
 from .model.ddr import xorshift32
 
-__all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R", "check_seed", "SEED_MAX"]
+__all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R", "ZERO_SEED_STATE", "start_state",
+           "check_seed", "SEED_MAX"]
 
 #: Largest seed the generators take (31 bits); the commands' --seed is 1..SEED_MAX.
 SEED_MAX = 0x7FFFFFFF
@@ -33,6 +36,14 @@ def check_seed(option, seed):
 
 #: ``r_0 = v_0 ^ XOR_R``
 XOR_R = 0x9E3779B9
+#: ``v_0`` of seed 0 (or any multiple of 2**31), which no accepted seed reaches.
+ZERO_SEED_STATE = 0x80000000
+
+
+def start_state(seed):
+    """``v_0`` of ``seed`` (module docstring): ``seed & 0x7fffffff``, or
+    :data:`ZERO_SEED_STATE` when that is 0; one-to-one on 0..:data:`SEED_MAX`."""
+    return (int(seed) & SEED_MAX) or ZERO_SEED_STATE
 
 
 def thresholds(idle, backpressure):
@@ -51,7 +62,7 @@ class Pauses:
 
     def __init__(self, seed=1, idle=0.0, backpressure=0.0):
         self.idle_thr, self.bp_thr = thresholds(idle, backpressure)
-        self.v = (int(seed) & 0x7FFFFFFF) | 1
+        self.v = start_state(seed)
         self.r = self.v ^ XOR_R
 
     def offer(self):

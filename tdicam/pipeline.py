@@ -179,10 +179,6 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     m = int(scene.tdi.stages[0] if stages is None else stages)
     n_lines = int(scene.run.lines if lines is None else lines)
     w = int(scene.sensor.columns if width is None else width)
-    rt = scene.run.rtl
-    if rt is not None and rt.pixels_per_clock != 1:
-        raise TdicamError("pipeline: [run.rtl].pixels_per_clock must be 1 for the whole-chain "
-                          "top (the blocks other than tdi take one pixel per clock)")
     uses = [_use(n) for n in names]
     merge = any(u.merge for u in uses)
     ctx = Context(scene, m, w, n_lines, scene.sensor.bits)
@@ -408,7 +404,9 @@ class _PipelineBlock:
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
                                                    for s in self._p.steps]}
 
-    def build(self, params=None):
+    def build(self, params=None, *, ecp5=False):
+        """The chain's top; ``ecp5`` asks for vendor primitives, which the chain does not use
+        yet (its blocks' generic tops either way, see :attr:`tdicam.blocks.Block.ecp5_top`)."""
         return top(self._p, self._data)
 
 

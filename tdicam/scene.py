@@ -38,7 +38,10 @@ The line period either gives must lie in 1e-8..100 s.
     [5.0] (edge), slant of the edge from the cross-track axis, in [-45, 45]; ``spokes`` [36]
     (siemens), number of spoke pairs, 4..720. ``kind = "image"`` needs exactly one of
     ``image`` (a bundled scikit-image picture, see :data:`BUNDLED_IMAGES`) or ``path`` (a
-    PNG or TIFF file, relative to the scene file; it must exist).
+    PNG or TIFF file, relative to the scene file; it must exist and is read when the scene
+    is: at least 8 x 8 pixels, grey, grey + alpha, RGB or RGBA with an opaque alpha, no
+    negative values; the conversion to grey levels is
+    :mod:`tdicam.model.targets`'s).
 
 ``[sensor]``
     ``columns`` [1280], ``rows`` [1024]: 1..65536. ``pitch_um`` [5.5], 0.1..1000.
@@ -119,7 +122,9 @@ The line period either gives must lie in 1e-8..100 s.
 ``[run.rtl]`` (optional)
     ``crop`` [whole frame]: ``[x0, y0, width, height]`` of the output to simulate
     cycle-accurately, inside ``columns x lines``. ``simulator`` ["verilator"]: ``icarus``
-    or ``verilator``. ``pixels_per_clock`` [1]: 1, 2, 4 or 8.
+    or ``verilator``. ``pixels_per_clock`` [1]: 1, the only value: the whole-chain top
+    takes one pixel per clock (the key stays for scenes that state it). Needs
+    ``[tdi].domain = "digital"`` (charge-domain TDI has no gateware chain).
 
 One module (~970 lines) on purpose: it is the scene schema, one dataclass and one
 validating reader per section, and every key's range and message lives next to its
@@ -138,6 +143,7 @@ from typing import Any, Mapping
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import plan as _plan
+from tdicam.model import targets as _targets
 
 __all__ = [
     "read_toml",
@@ -666,9 +672,12 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
                 path = base_dir / path
             if path.suffix.lower() not in _IMAGE_SUFFIXES:
                 sec.fail("path", f"must be a PNG or TIFF file (.png, .tif, .tiff), got {raw!r}")
+            if path.is_dir():
+                sec.fail("path", f"{str(path)!r} is a folder, not an image file")
             if not path.is_file():
                 sec.fail("path", f"file not found: {str(path)!r}")
             fields["path"] = path.resolve()
+            _targets.load_image(fields["path"])     # size, channels, values: refused here
     if kind in ("bars", "edge", "siemens"):
         fields["contrast"] = sec.number("contrast", 1.0, lo=0.0, hi=1.0, lo_open=True)
     if kind == "bars":
@@ -864,8 +873,11 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                                f"([sensor].columns x [run].lines), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
-        if ppc not in (1, 2, 4, 8):
-            r.fail("pixels_per_clock", f"must be one of 1, 2, 4, 8, got {ppc}")
+        if ppc != 1:
+            r.fail("pixels_per_clock", f"must be 1, got {ppc}: the whole-chain top that "
+                                       f"[run.rtl] co-simulates takes one pixel per clock "
+                                       f"(tdi alone runs 2, 4 and 8 in its golden cases: "
+                                       f"tdicam sim tdi)")
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
                      pixels_per_clock=ppc)
@@ -990,6 +1002,10 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)
     _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
+    if run.rtl is not None and tdi.domain != "digital":
+        raise TdicamError(f"{labels.get('run.rtl', '[run.rtl]')}: needs "
+                          f"{tdi_sec.label('domain')} = 'digital' (charge-domain TDI sums in "
+                          f"the sensor: there is no gateware chain to co-simulate)")
     return scene
 
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tdicam import scene as _scene
+from tdicam.model import targets as _targets
 
 __all__ = ["KEYS", "SECTIONS", "KeyDoc", "KeyInfo", "schema", "render", "main"]
 
@@ -98,7 +99,8 @@ SECTIONS = {
            "error.",
     "run": "How much to simulate and how exactly.",
     "run.rtl": "Optional: co-simulate the scene's blocks cycle-accurately on a crop of the "
-               "output (generated Verilog on Icarus or Verilator) and compare every pixel.",
+               "output (generated Verilog on Icarus or Verilator) and compare every pixel. "
+               "Needs [tdi].domain = \"digital\" (charge-domain TDI has no gateware chain).",
 }
 
 _FRAC = "fraction"
@@ -124,8 +126,16 @@ KEYS = {
                             + "; exactly one of image and path",
                         type="string", default="-", range="a bundled name"),
         "path": KeyDoc("", "kind = \"image\": a PNG or TIFF file, relative to the scene "
-                           "file; it must exist; exactly one of image and path",
-                       type="string", default="-", range=".png, .tif, .tiff"),
+                           "file; exactly one of image and path. Read when the scene is: "
+                           "one picture, channels last: grey, grey + alpha, RGB or RGBA "
+                           "(palette PNGs expanded); RGB to grey with the Rec. 601 weights "
+                           "0.299 R + 0.587 G + 0.114 B; alpha must be opaque everywhere "
+                           "(then dropped); integer codes over their type's full scale "
+                           "(255, 65535), floats as they are if at most 1.0, else over "
+                           "their largest value; negative, NaN and complex values refused",
+                       type="string", default="-",
+                       range=".png, .tif, .tiff; >= "
+                             f"{_targets.MIN_IMAGE_SIDE} x {_targets.MIN_IMAGE_SIDE} px"),
         "contrast": KeyDoc(_FRAC, "bars, edge, siemens: Michelson contrast; the dark level "
                                   "is signal_e (1 - c) / (1 + c)"),
         "period_px": KeyDoc("output px", "bars: bar period"),
@@ -248,8 +258,11 @@ KEYS = {
                        type="list of 4 integers", default="whole frame",
                        range="inside columns x lines"),
         "simulator": KeyDoc("", "the HDL simulator"),
-        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the TDI block",
-                                   range="1, 2, 4 or 8"),
+        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top "
+                                               "(one: the blocks other than tdi take one "
+                                               "pixel per clock; tdi alone runs 2, 4 and 8 "
+                                               "in its golden cases, tdicam sim tdi)",
+                                   range="1"),
     },
 }
 

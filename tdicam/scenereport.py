@@ -202,7 +202,7 @@ def summary(scene, rep):
             t = r["mtf"]
             lines.append(f"  m={r['stages']} M dV/V={t['m_dv_over_v']:.3g}: MTF "
                          f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
-                         f"{_reversed(t)}, paper's model {_fmt(t['seed001_model'], '.3f')}"
+                         f"{_reversed(t)}, paper's model {_fmt(t['yuan2013_model'], '.3f')}"
                          f", footprint {t['footprint_model']:.3f})")
     if rep["rtl"]:
         for b in rep["rtl"]["blocks"]:
@@ -281,7 +281,7 @@ def markdown(scene, rep):
             md.append(f"| {r['stages']} | {t['m_dv_over_v']:.3g} | {t['m_delta_effective']:.3g} "
                       f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
                       f"{_fmt(t['planned'], '.3f')}{_reversed(t)} | "
-                      f"{_fmt(t['seed001_model'], '.3f')} | {t['footprint_model']:.3f} |")
+                      f"{_fmt(t['yuan2013_model'], '.3f')} | {t['footprint_model']:.3f} |")
         md += ["", "All MTF values are moduli (contrast reversal is flagged). Planned: the "
                "planning model (tdicam.planning.mtf_prediction, the same as `tdicam plan`): "
                "full-line-period exposure, smear at the image speed 1 - dV/V, rolling-shutter "

@@ -89,6 +89,7 @@ def run_one(scene, impact=False) -> dict:
         "stages": int(res.stages), "dv_over_v": float(res.dv_over_v),
         "fidelity_requested": scene.run.fidelity, "fidelity": res.fidelity,
         "mean_dn": _finite(mean), "noise_dn": _finite(noise),
+        "saturated": snr.get("saturated", mtf.get("saturated")),
         "snr_output_db": _finite(snr.get("output_db")),
         "snr_single_db": _finite(snr.get("single_db")),
         "snr_gain_db": _finite(snr.get("gain_db")),
@@ -98,7 +99,7 @@ def run_one(scene, impact=False) -> dict:
         "m_dv_over_v": float(res.stages * res.dv_over_v),
         "mtf_measured": _finite(mtf.get("measured")),
         "mtf_measured_ctf": _finite(mtf.get("measured_ctf")),
-        "mtf_model_yuan2013": _finite(mtf.get("seed001_model")),
+        "mtf_model_yuan2013": _finite(mtf.get("yuan2013_model")),
         "mtf_model_footprint": _finite(mtf.get("footprint_model")),
         "seconds": float(res.seconds), "cpu_seconds": float(res.cpu_seconds),
         "task_seconds": time.perf_counter() - t0, "lines_per_s": _finite(res.lines_per_s),
@@ -131,6 +132,7 @@ class SweepResult:
     compute_seconds: float
     wall_seconds: float
     where: str
+    saturated: int = 0
 
     def summary(self) -> str:
         """The lines ``tdicam sweep`` prints."""
@@ -154,6 +156,11 @@ class SweepResult:
         if len(self.failed) > 20:
             lines.append(f"  ... and {len(self.failed) - 20} more failed runs "
                          f"(summary.json lists them all)")
+        if self.saturated:
+            lines.append(f"saturated: {self.saturated} run{'s' * (self.saturated > 1)} "
+                         f"(output clipped at the full well "
+                         f"or the ADC's full scale: no SNR or MTF measured; column "
+                         f"'saturated')")
         if self.missing:
             lines.append(f"stopped early: {self.missing} runs not computed; run the same "
                          f"command again to finish (finished runs are reused)")
@@ -330,13 +337,16 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
                "axes": sweep.points[r.point], "error": done[r.hash]["error"]}
               for r in sweep.runs if r.hash in done and done[r.hash]["status"] != "ok"]
     missing = sum(1 for r in sweep.runs if r.hash not in done)
+    saturated = sum(1 for r in sweep.runs
+                    if ((done.get(r.hash) or {}).get("row") or {}).get("saturated"))
     result = SweepResult(sweep, out_dir, len(sweep.runs), computed, reused, failed, missing,
-                         files, t_exec, time.perf_counter() - t0, where)
+                         files, t_exec, time.perf_counter() - t0, where, saturated)
     summary = {"name": sweep.name, "sweep": str(sweep.path), "scene": str(sweep.scene_path),
                "axes": {a.key: list(a.values) for a in sweep.axes},
                "zip": {z.key: list(z.values) for z in sweep.zipped},
                "repeats": sweep.repeats, "runs": result.total, "computed": computed,
-               "reused": reused, "failed": failed, "missing": missing, "where": where,
+               "reused": reused, "failed": failed, "missing": missing,
+               "saturated": saturated, "where": where,
                "compute_seconds": t_exec, "wall_seconds": result.wall_seconds,
                "files": files,
                "tdicam": __version__}

@@ -2,7 +2,7 @@
 
 A sweep file (TOML) names a base scene and the scene keys to vary::
 
-    scene = "../seed003_ibis5_rolling_1_5_10.toml"   # relative to the sweep file
+    scene = "../tao2012_ibis5_rolling_1_5_10.toml"   # relative to the sweep file
     name = "tao2012_snr"                             # optional, default: the file's stem
     repeats = 4                                      # Monte-Carlo repeats per point [1]
 
@@ -59,8 +59,8 @@ __all__ = ["MAX_RUNS", "STORE_FORMAT", "Axis", "Run", "Sweep", "load_sweep"]
 
 #: Largest number of runs (points x repeats) accepted without ``force``.
 MAX_RUNS = 5000
-#: Version of the record layout; part of every run's hash.
-STORE_FORMAT = 1
+#: Version of the record layout; part of every run's hash (2: the ``saturated`` column).
+STORE_FORMAT = 2
 _FILE_KEYS = ("scene", "name", "repeats", "set", "axes", "zip")
 _MAX_AXIS = 100_000
 _RANGE_KEYS = frozenset({"start", "stop", "num", "step", "log"})

@@ -19,6 +19,12 @@ Results (``DIR/``)
 ``results.parquet`` and ``results.csv``: one row per point x repeat in point order — the
 axis values (columns named by key), ``point``, ``repeat``, ``seed``, ``hash``, ``status``
 (``ok``, ``failed``, ``missing`` when stopped early), ``error``, then :data:`RESULT_COLUMNS`.
+``saturated`` (flat and bar targets; empty for other targets and runs without a result) is
+true when the signal (the bright bars') plus dark charge per exposure reaches the full well
+or the ADC's full scale: the output is clipped, so the run's SNR or measured MTF columns are
+empty (a flat run's predictions are for a signal at that level; the run's
+``points/<hash>.json`` says why in ``measurements.snr.note`` / ``measurements.mtf.note``).
+In ``sweep.nc`` it is 1.0 / 0.0, NaN where empty.
 ``sweep.nc`` (netCDF-4 via h5netcdf): the same values as an :class:`xarray.Dataset` with
 one dimension per product axis, ``zip`` for the zip group (its keys as coordinates along
 it), and ``repeat``. ``summary.json`` and the plots: ``snr_vs_stages.png`` (flat targets,
@@ -49,7 +55,7 @@ __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "table", "dataset", "read_table",
 #: Result columns of the table after the axis and bookkeeping columns, in order.
 RESULT_COLUMNS = (
     "stages", "dv_over_v", "fidelity_requested", "fidelity",
-    "mean_dn", "noise_dn",
+    "mean_dn", "noise_dn", "saturated",
     "snr_output_db", "snr_single_db", "snr_gain_db", "snr_predicted_gain_db",
     "snr_eq28_gain_db",
     "mtf_frequency_cyc_per_px", "m_dv_over_v", "mtf_measured", "mtf_measured_ctf",
@@ -59,6 +65,7 @@ RESULT_COLUMNS = (
 #: Columns that measure time and so differ from run to run.
 TIMING_COLUMNS = ("seconds", "cpu_seconds", "task_seconds", "lines_per_s")
 _STRING_COLUMNS = ("fidelity_requested", "fidelity", "status", "error", "hash")
+_BOOL_COLUMNS = ("saturated",)
 _BOOK_COLUMNS = ("point", "repeat", "seed", "hash", "status", "error")
 
 
@@ -133,6 +140,8 @@ def table(sweep: Sweep, done: dict):
             df[c] = df[c].astype(object)
         elif c == "stages":
             df[c] = df[c].astype("Int64")
+        elif c in _BOOL_COLUMNS:
+            df[c] = df[c].astype("boolean")
         else:
             df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
     df["seed"] = df["seed"].astype("int64")
@@ -157,8 +166,8 @@ def dataset(sweep: Sweep, df):
             arr = np.array(["" if v is None or v != v else str(v) for v in col], dtype=object)
         elif c == "seed":
             arr = col.to_numpy(np.int64)
-        else:
-            arr = col.astype("float64").to_numpy(np.float64, na_value=np.nan)
+        else:       # Int64 and boolean columns too: NA -> NaN
+            arr = col.astype("Float64").to_numpy(np.float64, na_value=np.nan)
         data[c] = (dims, arr.reshape(shape))
     ds = xr.Dataset(data, coords=coords,
                     attrs={"title": f"tdicam sweep {sweep.name}", "tdicam": __version__,

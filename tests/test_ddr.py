@@ -1,4 +1,4 @@
-"""DDR buffers: packing vs seed 002 Table 2, configuration errors, the controller models,
+"""DDR buffers: packing vs Ning et al. 2019 Table 2, configuration errors, the controller models,
 and Amaranth simulations of the writer/reader/CDS/TDI users."""
 
 import numpy as np

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.mark.parametrize("scene,over", [
     ("orbit_600km_1m_96.toml", {"sensor": {"columns": 200}, "tdi": {"stages": 8}}),
-    ("seed002_gmax0504_hdr.toml", {"sensor": {"columns": 160}}),
+    ("ning2019_gmax0504_hdr.toml", {"sensor": {"columns": 160}}),
 ])
 def test_exact_frames_do_not_depend_on_thread_count(monkeypatch, scene, over):
     sc = load_scene(ROOT / "scenes" / scene, overrides={**over, "run": {"lines": 700}})

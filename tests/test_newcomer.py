@@ -15,7 +15,7 @@ from tdicam import blocks, cli
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Internal shorthand a user's clone cannot resolve.
-SHORTHAND = re.compile(r"(?i:seeds? 0\d\d)|\bSPEC\b|issue [0-9]|\.\./shared|/work/shared")
+SHORTHAND = re.compile(r"(?i:seeds? ?0\d\d)|\bSPEC\b|issue [0-9]|\.\./shared|/work/shared")
 #: reST markup that argparse would print verbatim.
 REST = re.compile(r"``|:(func|class|mod|data|meth|attr|obj|ref):`")
 
@@ -86,6 +86,18 @@ def test_plain_text_strips_markup():
 def test_user_pages_cite_papers_not_shorthand(name):
     text = (ROOT / name).read_text()
     bad = [line for line in text.splitlines() if SHORTHAND.search(line)]
+    assert not bad, "\n".join(bad)
+
+
+SCENES = sorted((ROOT / "scenes").rglob("*.toml"))
+
+
+@pytest.mark.parametrize("path", SCENES, ids=lambda p: p.name)
+def test_bundled_scenes_are_named_and_commented_plainly(path):
+    """Scene files are named after what they show (paper, setup), not "seed002_..."; their
+    comments cite papers (issue 18)."""
+    assert not SHORTHAND.search(path.name), path.name
+    bad = [line for line in path.read_text().splitlines() if SHORTHAND.search(line)]
     assert not bad, "\n".join(bad)
 
 

@@ -18,7 +18,7 @@ from tdicam.rtl import scene_data
 from tdicam.scene import Ddr, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
-CHAIN = ROOT / "scenes" / "seed002_chain.toml"
+CHAIN = ROOT / "scenes" / "ning2019_chain.toml"
 
 
 def _small(path=CHAIN, **over):
@@ -28,7 +28,7 @@ def _small(path=CHAIN, **over):
     return load_scene(path, overrides=o)
 
 
-def test_plan_of_the_seed002_chain():
+def test_plan_of_the_ning2019_chain():
     p = pl.plan(_small())
     assert [s.block for s in p.steps] == ["cds", "nuc", "hdr", "tdi", "median3"]
     assert (p.lanes, p.lane_elems, p.in_bits) == (2, 2, 10)
@@ -171,9 +171,17 @@ def test_ddr_section_is_checked(over, msg):
 
 
 def test_charge_domain_and_wide_pixels_per_clock_are_refused():
-    sc = load_scene(ROOT / "scenes" / "seed004_interline_ccd_charge_4.toml")
+    """A chain the whole-chain top cannot build is refused: charge-domain TDI by the plan;
+    with [run.rtl], charge domain and more than one pixel per clock already by the scene
+    (issue 18: the scene took pixels_per_clock = 4, the top refused it later)."""
+    sc = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml")
     with pytest.raises(TdicamError, match="charge"):
         pl.plan(sc)
-    sc = _small(run={"rtl": {"pixels_per_clock": 4}})
-    with pytest.raises(TdicamError, match="pixels_per_clock must be 1"):
-        pl.plan(sc)
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be 1, got 4: "
+                                          r"the whole-chain top"):
+        _small(run={"rtl": {"pixels_per_clock": 4}})
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\]: needs \[tdi\].domain = 'digital'"):
+        load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
+                   overrides={"run": {"rtl": {}}})
+    sc = _small(run={"rtl": {"pixels_per_clock": 1}})
+    assert sc.pipeline.median_after_tdi is True and pl.plan(sc).steps

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from tdicam.cli import main
 from tdicam.errors import TdicamError
+from tdicam import planning
 from tdicam.model import metrics as M
 from tdicam.model import plan as P
 
@@ -42,7 +43,7 @@ def test_ground_speed_600km():
 
 
 @pytest.mark.parametrize("gsd, t1_ms, m, ff", TABLE2)
-def test_seed000_table2(gsd, t1_ms, m, ff):
+def test_qu2010_table2(gsd, t1_ms, m, ff):
     t1 = P.orbit_line_period(H_600, gsd)
     assert f"{t1 * 1e3:.3f}" == t1_ms
     assert f"{P.required_frame_rate(m, 1024, t1):.1f}" == ff
@@ -68,7 +69,7 @@ def test_frame_rate_vectorised():
 
 
 def test_turntable_line_period():
-    # seed 003 eq 5: T = a / (omega l)
+    # Tao et al. 2012 eq 5: T = a / (omega l)
     assert P.turntable_line_period(5.2e-6, 0.05, 0.5) == pytest.approx(5.2e-6 / 0.025, rel=1e-15)
 
 
@@ -151,7 +152,7 @@ def test_partial_sum_bits():
         [12, 13, 14, 14, 15, 19, 20]
 
 
-def test_line_buffers_seed000():
+def test_line_buffers_qu2010():
     assert P.tdi_line_buffer_lines(96, "basic") == 4560
     assert P.tdi_line_buffer_lines(96, "optimized") == 95
     assert P.tdi_line_buffer_bits(1280, 96, 12, "basic") == 4560 * 1280 * 12
@@ -213,20 +214,20 @@ def test_snr_gain_limits(m):
     assert 1.0 < P.snr_gain_digital(m, 0.5, 1.0) < math.sqrt(m)
 
 
-def test_snr_gain_seed003_parameters():
-    # Fig. 6(a) parameters of seed 003: G(10) from eq 28
+def test_snr_gain_tao2012_parameters():
+    # Fig. 6(a) parameters of Tao et al. 2012: G(10) from eq 28
     g = P.snr_gain_digital(10, 0.03104, 1.42471)
     assert g == pytest.approx(10 * (0.03104 + 1.42471) / (10 * 0.03104 + math.sqrt(10) * 1.42471))
     assert 2.9 < g < math.sqrt(10)
 
 
-def test_charge_vs_digital_read_noise_limited_seed004():
+def test_charge_vs_digital_read_noise_limited_zhou2008():
     # read-noise-limited: charge domain gains m (4 stages +12.04 dB), digital sqrt(m) (+6.02)
     gc = P.gain_db(P.snr_gain_charge(4, 0.0, 0.0, 10.0))
     gd = P.gain_db(P.snr_gain_digital(4, 0.0, 10.0))
     assert gc == pytest.approx(20 * math.log10(4))
     assert gd == pytest.approx(20 * math.log10(2))
-    assert abs(gc - (33.62 - 22.13)) < 0.6  # seed 004 measured +11.49 dB
+    assert abs(gc - (33.62 - 22.13)) < 0.6  # Zhou et al. 2008 measured +11.49 dB
     # shot-noise-limited: both domains gain sqrt(m)
     assert P.snr_gain_charge(16, 0.0, 30.0, 0.0) == pytest.approx(4.0)
 
@@ -259,7 +260,7 @@ def test_mtf_nyquist_mismatch_values():
 
 
 def test_mtf_128_stages_past_first_zero():
-    # seed 001: 128 stages at dV/V = 0.02 is already past the first zero (M dV/V = 2.56)
+    # Yuan et al. 2013: 128 stages at dV/V = 0.02 is already past the first zero (M dV/V = 2.56)
     assert P.mtf_velocity_mismatch(P.NYQUIST, 128, 0.02, signed=True) < 0
     assert P.mtf_velocity_mismatch(P.NYQUIST, 128, 0.02) > 0      # an MTF is a modulus
     assert P.mtf_velocity_mismatch(P.NYQUIST, 128, -0.02) == P.mtf_velocity_mismatch(
@@ -352,9 +353,10 @@ def run_cli(capsys, *argv):
 
 def test_cli_default_prints_table2(capsys):
     code, out, err = run_cli(capsys)
-    # the reference TDI synthesis reaches 849 M pixel/s at ppc 8 (128.1 MHz): feasible, exit 0
+    # the reference TDI synthesis reaches 849 M pixel/s at ppc 8: feasible, exit 0
     assert code == 0 and err == ""
-    assert "ppc 8 at 128.1 MHz meets it: yes" in out and "feasible: yes" in out
+    ref8 = planning.REFERENCE_TDI_FMAX_MHZ[8]
+    assert f"ppc 8 at {ref8:g} MHz meets it: yes" in out and "feasible: yes" in out
     assert "v_g = 6.9080 km/s" in out
     for _gsd, t1, m, ff in TABLE2:
         assert ff in out and t1 in out

@@ -64,7 +64,7 @@ def test_planned_mtf_equals_simulator(m, mdv, shutter):
     plan = planning.mtf_prediction(sc, m, mdv / m)
     assert abs(plan["system"] - got["measured"]) < 0.01, (plan["system"], got)
     assert abs(plan["system"] - got["footprint_model"]) < 0.002, (plan["system"], got)
-    assert plan["system"] >= 0 and got["seed001_model"] >= 0
+    assert plan["system"] >= 0 and got["yuan2013_model"] >= 0
 
 
 @pytest.mark.slow
@@ -184,5 +184,5 @@ def test_no_negative_mtf_in_figures():
 def test_no_negative_mtf_in_report(shutter, mdv):
     sc = bar_scene(96, mdv / 96, shutter)
     got = simulated(sc, 96, mdv / 96)
-    for key in ("seed001_model", "footprint_model"):
+    for key in ("yuan2013_model", "footprint_model"):
         assert got[key] >= 0, key

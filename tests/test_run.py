@@ -173,6 +173,27 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
 
 
+def test_saturated_bars_have_no_measured_mtf(tmp_path):
+    """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
+    note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
+    the well still measure one."""
+    from tdicam.measure import measure, saturation_e
+    from tdicam.scene import load_scene
+    from tdicam import engine
+    path = write(tmp_path, SMALL.replace('kind = "flat"', 'kind = "bars"\nprofile = "sine"\n'
+                                                           'period_px = 4.0\ncontrast = 0.5'))
+    sc = load_scene(path)
+    cap = saturation_e(sc, sc.tdi.stages[0])
+    for signal, sat in ((50 * cap, True), (0.6 * cap, False)):
+        s = load_scene(path, overrides={"target": {"signal_e": signal}})
+        t = measure(s, engine.simulate(s, impact=False))["mtf"]
+        assert t["saturated"] is sat and (t["measured"] is None) is sat, (signal, t)
+        if sat:
+            assert t["note"].startswith("not measurable: saturated: the bright bars' signal")
+        else:
+            assert 0.3 < t["measured"] < 1.1 and "note" not in t
+
+
 def test_bar_mtf_planned_and_paper_model(tmp_path):
     """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
     paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
@@ -197,13 +218,13 @@ def test_bar_mtf_planned_and_paper_model(tmp_path):
         pred = mtf_prediction(sc, m, dv, 0.25)
         assert t["planned"] == pytest.approx(pred["system"])
         assert t["planned_reversed"] == pred["reversed"]
-        assert t["seed001_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
+        assert t["yuan2013_model"] == pytest.approx(float(mtf_system(0.25, m, dv, 1.0)))
         if m == 8 and dv == 0.75:
             assert t["planned_reversed"]
         if m == 8 and dv == 0.0:       # rolling-shutter skew: the camera, not the paper
-            assert t["m_delta_effective"] != 0 and t["planned"] < t["seed001_model"]
+            assert t["m_delta_effective"] != 0 and t["planned"] < t["yuan2013_model"]
     for r in rows:                     # every MTF value of the report is a modulus
-        for k in ("measured", "measured_ctf", "planned", "seed001_model", "footprint_model"):
+        for k in ("measured", "measured_ctf", "planned", "yuan2013_model", "footprint_model"):
             assert r["mtf"][k] is None or r["mtf"][k] >= 0, (r, k)
     md = (out / "report.md").read_text()
     assert "paper's model" in md and "| planned |" in md and "contrast reversed" in md
@@ -214,7 +235,7 @@ def test_nand_flash_scene_reports_counters(tmp_path):
     blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
     from tdicam.scene import load_scene
     from tdicam.scenerun import run_scene
-    sc = load_scene(ROOT / "scenes" / "seed002_nand_calib_faults.toml")
+    sc = load_scene(ROOT / "scenes" / "ning2019_nand_calib_faults.toml")
     rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
     f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
     assert f == rep["measurements"][0]["nand"][0]

@@ -142,11 +142,26 @@ def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatc
                   "device)"
 
 
-def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsys):
-    """[run.rtl] that fails (here: 8 pixels per clock, which the whole-chain top refuses)
-    is in the report and the exit status, not only a line of the summary."""
+def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsys,
+                                                                  monkeypatch):
+    """[run.rtl] that cannot run (here: the simulator fails to start; a scene the chain
+    cannot take is refused when the scene is read, exit 2) is in the report and the exit
+    status, not only a line of the summary."""
+    from tdicam import rtl
+    from tdicam.errors import TdicamError
+
+    def broken(*args, **kw):
+        raise TdicamError("verilator: cannot start (not installed)")
+    monkeypatch.setattr(rtl, "cosimulate", broken)
     scene = tmp_path / "s.toml"
     scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast"))
-                     + "[run.rtl]\npixels_per_clock = 8\n")
+                     + "[run.rtl]\n")
     assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 1
-    assert "RTL pipeline: error: " in capsys.readouterr().out
+    assert "RTL pipeline: error: verilator: cannot start" in capsys.readouterr().out
+    rep = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert "verilator: cannot start" in json.dumps(rep["rtl"])
+    bad = tmp_path / "bad.toml"
+    bad.write_text(scene.read_text() + "pixels_per_clock = 8\n")
+    assert main(["run", str(bad), "-o", str(tmp_path / "o2"), "--no-impact"]) == 2
+    assert "[run.rtl].pixels_per_clock: must be 1, got 8" in capsys.readouterr().err
+    assert not (tmp_path / "o2").exists()

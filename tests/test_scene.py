@@ -5,6 +5,7 @@ import math
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tdicam.errors import TdicamError
@@ -14,6 +15,18 @@ from tdicam.scene import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"
 ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
+
+
+def picture(path, a, mode=None):
+    """Save the array ``a`` as a PNG (with PIL ``mode``) or a TIFF; returns ``path``."""
+    if path.suffix.lower() in (".tif", ".tiff"):
+        import tifffile
+        tifffile.imwrite(path, a, **({"photometric": "rgb", "planarconfig": "separate"}
+                                     if mode == "planar" else {}))
+    else:
+        from PIL import Image
+        Image.fromarray(a, mode).save(path)
+    return path
 
 
 def write(tmp_path, text, name="scene.toml"):
@@ -68,7 +81,7 @@ def test_defaults(tmp_path):
 
 def test_full_scene_and_sweeps(tmp_path):
     (tmp_path / "img").mkdir()
-    (tmp_path / "img" / "field.PNG").write_bytes(b"\x89PNG\r\n\x1a\n")
+    picture(tmp_path / "img" / "field.PNG", np.full((8, 8), 200, np.uint8))
     sc = load_text(tmp_path, """
         [turntable]
         angular_speed_rad_s = 0.05
@@ -87,7 +100,7 @@ def test_full_scene_and_sweeps(tmp_path):
         shutter = "global"
         [tdi]
         stages = [1, 4, 8]
-        domain = "charge"
+        domain = "digital"
         direction = "reverse"
         output = "saturate"
         output_bits = 10
@@ -107,7 +120,7 @@ def test_full_scene_and_sweeps(tmp_path):
         [run.rtl]
         crop = [0, 0, 32, 16]
         simulator = "icarus"
-        pixels_per_clock = 4
+        pixels_per_clock = 1
     """)
     assert sc.orbit is None
     assert sc.line_period_s == pytest.approx(5.2e-6 / (0.05 * 0.5))
@@ -117,7 +130,7 @@ def test_full_scene_and_sweeps(tmp_path):
     assert sc.timing.m0 == 12
     assert sc.pipeline.median_after_tdi is False and sc.pipeline.median3.edge_enhance
     assert sc.pipeline.hdr.threshold_dn == 3500 and sc.pipeline.hdr.band_dn == 100
-    assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 4
+    assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 1
     d = sc.to_dict()
     assert d["tdi"]["stages"] == [1, 4, 8] and isinstance(d["target"]["path"], str)
 
@@ -270,10 +283,64 @@ def test_image_file_must_exist(tmp_path):
 def test_image_path_relative_to_scene_file(tmp_path, monkeypatch):
     sub = tmp_path / "scenes"
     sub.mkdir()
-    (sub / "a.tif").write_bytes(b"II*\x00")
+    picture(sub / "a.tif", np.full((8, 8), 0.5, np.float32))
     monkeypatch.chdir(tmp_path)  # the cwd must not matter
     sc = load_scene(write(sub, ORBIT + "[target]\nkind = \"image\"\npath = \"a.tif\"\n"))
     assert sc.target.path == (sub / "a.tif").resolve()
+
+
+_RGB = np.random.default_rng(1).integers(0, 256, (9, 12, 3), dtype=np.uint8)
+_OPAQUE = np.full((9, 12, 1), 255, np.uint8)
+
+
+@pytest.mark.parametrize("name, a, mode, msg", [
+    ("two.png", np.full((2, 2), 9, np.uint8), None, "2 x 2 pixels; need at least 8 x 8"),
+    ("line.png", np.full((1, 40), 9, np.uint8), None, "1 x 40 pixels; need at least 8 x 8"),
+    ("narrow.tif", np.ones((40, 7), np.float32), None, "40 x 7 pixels; need at least 8 x 8"),
+    ("rgba.png", np.concatenate([_RGB, _OPAQUE - 1], axis=2), "RGBA",
+     "the alpha channel is not opaque in 108 pixels; flatten the picture onto a background"),
+    ("la.png", np.concatenate([_RGB[..., :1], _OPAQUE // 2], axis=2), "LA",
+     "the alpha channel is not opaque in 108 pixels"),
+    ("five.tif", np.ones((9, 12, 5), np.uint8), None, "shape 9 x 12 x 5 (several pages, "
+                                                      "planar channels or more than 4"),
+    ("planar.tif", np.ones((3, 9, 12), np.uint8), "planar", "shape 3 x 9 x 12 (several pages"),
+    ("neg.tif", np.full((9, 12), -0.5, np.float32), None, "108 negative values (smallest "
+                                                          "-0.5); a radiance is >= 0"),
+    ("nan.tif", np.full((9, 12), np.nan, np.float32), None,
+     "picture contains NaN or infinite values"),
+    ("cplx.tif", np.ones((9, 12), np.complex64), None, "pixels of type complex64 are not grey "
+                                                       "levels"),
+])
+def test_bad_pictures_are_refused_with_the_scene(tmp_path, name, a, mode, msg):
+    """A picture the target cannot use is refused when the scene is read, in one line that
+    names the key, the file and the problem (issue 18: a 2 x 2 picture and an RGBA one with
+    transparent pixels ran)."""
+    path = picture(tmp_path / name, a, mode)
+    got = error_of(tmp_path, ORBIT + f'[target]\nkind = "image"\npath = "{name}"\n')
+    assert got.startswith(f"[target].path {str(path.resolve())!r}: {msg}"), got
+
+
+def test_picture_conversions(tmp_path):
+    """Palette, 16-bit, opaque RGBA / LA and float pictures give the documented grey levels
+    (a palette PNG used to give its palette indices)."""
+    from PIL import Image
+    from tdicam.model.targets import load_image
+    grey = _RGB @ np.array([0.299, 0.587, 0.114]) / 255
+    pal = Image.fromarray(_RGB).convert("P", palette=Image.Palette.ADAPTIVE, colors=256)
+    pal.save(tmp_path / "pal.png")
+    want = np.asarray(pal.convert("RGB")) @ np.array([0.299, 0.587, 0.114]) / 255
+    assert np.allclose(load_image(tmp_path / "pal.png"), want, atol=1e-12)
+    rgba = picture(tmp_path / "rgba.png", np.concatenate([_RGB, _OPAQUE], axis=2), "RGBA")
+    assert np.allclose(load_image(rgba), grey, atol=1e-12)
+    la = picture(tmp_path / "la.png", np.concatenate([_RGB[..., :1], _OPAQUE], axis=2), "LA")
+    assert np.allclose(load_image(la), _RGB[..., 0] / 255, atol=1e-12)
+    codes = np.arange(9 * 12, dtype=np.uint16).reshape(9, 12) * 600
+    p16 = tmp_path / "deep.png"
+    Image.fromarray(codes).save(p16)
+    assert np.allclose(load_image(p16), codes / 65535, atol=1e-12)
+    f = picture(tmp_path / "f.tif", (codes / 2.0).astype(np.float32))
+    assert np.allclose(load_image(f), codes / codes.max(), atol=1e-6)
+    assert not load_image(f).flags.writeable
 
 
 def test_image_must_be_png_or_tiff(tmp_path):
@@ -337,8 +404,8 @@ def test_stages_with_m0_zero(tmp_path):
     assert msg.startswith("[tdi].stages: no TDI is possible") and "M0 = 0" in msg
 
 
-def test_seed003_default_blanking_limits_96_stages(tmp_path):
-    # with seed 003's 3.5 us blanking even the fastest pixel clock the schema takes gives 41
+def test_tao2012_default_blanking_limits_96_stages(tmp_path):
+    # with Tao et al. 2012's 3.5 us blanking even the fastest pixel clock the schema takes gives 41
     msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 1e6\n[tdi]\nstages = 96\n")
     assert "M0 = 41" in msg
     assert math.floor(P.orbit_line_period(600e3, 1.0) / 3.5e-6) == 41
@@ -413,7 +480,15 @@ def test_median_after_tdi(tmp_path):
     ("crop = [0, 0, 16]\n", "[run.rtl].crop: must be four integers"),
     ("crop = [-1, 0, 16, 16]\n", "[run.rtl].crop: needs x0, y0 >= 0"),
     ("simulator = \"modelsim\"\n", "[run.rtl].simulator: must be one of 'icarus', 'verilator'"),
-    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be one of 1, 2, 4, 8, got 3"),
+    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be 1, got 3: the whole-chain "
+                               "top that [run.rtl] co-simulates takes one pixel per clock"),
+    ("pixels_per_clock = 8\n", "[run.rtl].pixels_per_clock: must be 1, got 8"),
 ])
 def test_bad_rtl(tmp_path, rtl, expected):
     assert error_of(tmp_path, ORBIT + "[run.rtl]\n" + rtl).startswith(expected)
+
+
+def test_rtl_needs_digital_tdi(tmp_path):
+    msg = error_of(tmp_path, ORBIT + "[tdi]\ndomain = \"charge\"\n[run.rtl]\n")
+    assert msg == ("[run.rtl]: needs [tdi].domain = 'digital' (charge-domain TDI sums in the "
+                   "sensor: there is no gateware chain to co-simulate)")

@@ -1,10 +1,10 @@
 """Scene simulator physics against the planning model (SPEC 2, 4).
 
 * flat field: measured SNR gain vs stages against the planning model's G(m) in three
-  quantization regimes (and seed 003 eq 28 where its linear quantization term is
+  quantization regimes (and Tao et al. 2012 eq 28 where its linear quantization term is
   negligible); the shared part of the quantization error growing as m;
-* charge-domain vs digital TDI in a read-noise-limited scene (seeds 004 vs 003);
-* sine grating at Nyquist: MTF vs M dV/V against seed 001's sinc model.
+* charge-domain vs digital TDI in a read-noise-limited scene (Zhou et al. 2008 vs Tao et al. 2012);
+* sine grating at Nyquist: MTF vs M dV/V against Yuan et al. 2013's sinc model.
 
 Short forms run always; ``TDICAM_FULL=1`` runs the full-size sweeps.
 """
@@ -110,7 +110,7 @@ def test_eq28_underestimates_when_quantization_is_coarse():
     """Seed 003's 10-bit, 61 e-/DN sensor: quantization noise is 40 % of the temporal noise;
     measured gains follow the planning model (sqrt(m) on a flat field) and eq 28 falls short
     by the amount its linear quantization term predicts."""
-    sc = load_scene(ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml",
+    sc = load_scene(ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml",
                     overrides={"sensor": {"columns": 128}, "run": {"lines": 128}})
     for m in (5, 10):
         s = measure(sc, simulate(sc, stages=m, fidelity="exact", impact=False))["snr"]
@@ -121,17 +121,17 @@ def test_eq28_underestimates_when_quantization_is_coarse():
 
 
 def test_charge_domain_gains_12_db_digital_6_db():
-    ccd = load_scene(ROOT / "scenes" / "seed004_interline_ccd_charge_4.toml",
+    ccd = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                      overrides={"sensor": {"columns": 160}})
     s = measure(ccd, simulate(ccd, stages=4, impact=False))["snr"]
     assert abs(s["gain_db"] - 12.0) <= 1.0
     assert abs(s["gain_db"] - s["eq28_db"]) < 0.3          # plan.snr_gain_charge
-    cmos = load_scene(ROOT / "scenes" / "seed003_ibis5_rolling_1_5_10.toml",
+    cmos = load_scene(ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml",
                       overrides={"sensor": {"columns": 160}, "tdi": {"stages": 4}})
     d = measure(cmos, simulate(cmos, stages=4, fidelity="exact", impact=False))["snr"]
     assert abs(d["gain_db"] - 6.0) <= 1.0
     # same CCD scene summed digitally: only ~6 dB
-    dig = load_scene(ROOT / "scenes" / "seed004_interline_ccd_charge_4.toml",
+    dig = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                      overrides={"sensor": {"columns": 160}, "tdi": {"domain": "digital"}})
     g = measure(dig, simulate(dig, stages=4, impact=False))["snr"]
     assert abs(g["gain_db"] - 6.0) <= 1.0
@@ -142,7 +142,7 @@ def test_charge_domain_gains_12_db_digital_6_db():
 def test_mtf_at_nyquist_vs_mismatch(m, fidelity):
     if fidelity == "exact" and m == 96 and not FULL:
         pytest.skip("full form only (TDICAM_FULL=1)")
-    sc = load_scene(ROOT / "scenes" / "seed001_lab_turntable_8.toml", overrides={
+    sc = load_scene(ROOT / "scenes" / "yuan2013_lab_turntable_8.toml", overrides={
         "sensor": {"columns": 32, "shutter": "global", "read_noise_e": 2.0},
         "target": {"signal_e": 3000.0},
         "tdi": {"stages": m}, "run": {"lines": 256}})
@@ -152,4 +152,4 @@ def test_mtf_at_nyquist_vs_mismatch(m, fidelity):
         model = float(P.mtf_system(0.5, m, mdv / m, 1.0))
         assert abs(t["measured"] - model) < 0.05, (m, mdv, t["measured"], model)
         assert abs(t["measured"] - t["footprint_model"]) < 0.02, (m, mdv, t)
-        assert t["seed001_model"] == pytest.approx(model)
+        assert t["yuan2013_model"] == pytest.approx(model)

@@ -206,6 +206,7 @@ def test_outputs_table_dataset_plots_reports(reference):
                                     "hash", "status", "error"]
     assert len(df) == 12 and (df["status"] == "ok").all() and df["error"].isna().all()
     assert (df["stages"] == df["tdi.stages"]).all() and (df["fidelity"] == "exact").all()
+    assert not df["saturated"].any() and df["saturated"].notna().all()
     assert (df["task_seconds"] > 0).all() and (df["snr_predicted_gain_db"][df["stages"] == 1] == 0).all()
     assert (abs(df["snr_gain_db"][df["stages"] == 1]) < 0.3).all()   # one stage: no gain
     assert (df["snr_gain_db"][df["stages"] > 1] > 1.5).all()
@@ -349,6 +350,24 @@ def test_failed_run_recorded_sweep_goes_on(tmp_path, capsys):
     assert (res.computed, res.reused, len(res.failed)) == (1, 2, 1)   # failed runs retried
 
 
+def test_saturated_column(tmp_path, capsys):
+    """A run whose flat output is clipped (signal over the full well) says so in the table,
+    the dataset, summary.json and the printed summary; its SNR columns stay empty."""
+    import xarray as xr
+    path = sweep_file(tmp_path, 'scene = "tiny.toml"\n[axes]\n'
+                                '"target.signal_e" = [500.0, 60000.0]\n')
+    assert main(["sweep", str(path), "-o", str(tmp_path / "o"), "--serial"]) == 0
+    assert "saturated: 1 run (output clipped" in capsys.readouterr().out
+    df = read_table(tmp_path / "o")
+    assert str(df["saturated"].dtype) == "boolean"
+    assert list(df["saturated"]) == [False, True]
+    assert df["snr_output_db"].notna()[0] and df["snr_output_db"].isna()[1]
+    assert list(pd.read_csv(tmp_path / "o" / "results.csv")["saturated"]) == [False, True]
+    with xr.open_dataset(tmp_path / "o" / "sweep.nc", engine="h5netcdf") as ds:
+        assert list(ds["saturated"].values.ravel()) == [0.0, 1.0]
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["saturated"] == 1
+
+
 def test_mtf_sweep_zip_and_time_plot(tmp_path):
     import xarray as xr
     scene = TINY.replace('kind = "flat"', 'kind = "bars"\nprofile = "sine"\nperiod_px = 4.0')
@@ -362,6 +381,7 @@ def test_mtf_sweep_zip_and_time_plot(tmp_path):
     df = read_table(tmp_path / "o")
     assert list(df["m_dv_over_v"].unique()) == [0.0, 0.5, 1.0]
     assert df["mtf_measured"].notna().all() and df["mtf_model_yuan2013"].notna().all()
+    assert (df["saturated"] == False).all()              # noqa: E712 - bars below the well
     assert df.groupby("m_dv_over_v")["mtf_model_yuan2013"].mean().is_monotonic_decreasing
     assert (abs(df["mtf_measured"] - df["mtf_model_footprint"]) < 0.02).all()
     assert set(df["fidelity"]) == {"exact", "fast"}

@@ -104,3 +104,18 @@ def test_timing_harness_registers_every_port():
     check = ecc.encode(np.array(words, np.uint64))
     exp = [w | (int(c) << 64) for w, c in zip(words, check)]     # code = {check, data}
     assert got[0] == 0 and got[1:1 + len(words)] == exp
+
+
+def test_ecp5_top_is_what_the_ecp5_places():
+    """tdi's ECP5 synthesis top has its banks as DP16KD instances (output register used);
+    its plain top (xc7 counts, ``tdicam verilog``) keeps the generic memories; a block
+    without an ECP5 top builds the same for both."""
+    from tdicam.verilog import rtlil
+    tdi, p = blocks.get("tdi"), {"width": 64, "stages": 4}
+    ecp5, plain = rtlil(tdi.build(p, ecp5=True), "tdi"), rtlil(tdi.build(p), "tdi")
+    assert ecp5.count("cell \\DP16KD ") == 3 and "\\REGMODE_B \"OUTREG\"" in ecp5
+    mems = lambda text: [ln for ln in text.splitlines() if ln.startswith("  memory ")]  # noqa
+    assert len(mems(plain)) == len(mems(ecp5)) + 3      # 14 bits = 9 + 4 + 1; the FIFO stays
+    assert "DP16KD" not in plain
+    cds = blocks.get("cds")
+    assert rtlil(cds.build(ecp5=True), "cds") == rtlil(cds.build(), "cds")

@@ -26,7 +26,7 @@ from tdicam.verilog import convert
 
 
 def _direct(frames, m, direction):
-    """O(t) written out term by term from seed 000 eq 3 (mirrored rows for direction 1)."""
+    """O(t) written out term by term from Qu et al. 2010 eq 3 (mirrored rows for direction 1)."""
     T, _, W = frames.shape
     out = []
     for t in range(m - 1, T):
@@ -365,6 +365,45 @@ def test_memory_in_generated_verilog():
     assert decls == [("(* no_rw_check = 32'd1 *)", "reg [17:0] psum_b0_0 [159:0];"),
                      ("(* no_rw_check = 32'd1 *)", "reg [7:0] psum_b9_0 [159:0];")]
     assert not any("psum" in ln and "=" in ln and "<=" not in ln for ln in lines)
+
+
+def _dp16kd(dut):
+    """(name, DATA_WIDTH_B, REGMODE_B) of the DP16KD instances of the elaborated design."""
+    found = []
+
+    def walk(f, name):
+        if type(f).__name__ == "Instance" and f.type == "DP16KD":
+            found.append((name, f.parameters["DATA_WIDTH_B"], f.parameters["REGMODE_B"]))
+        for sub, sub_name, *_ in getattr(f, "subfragments", ()):
+            walk(sub, str(sub_name))
+    walk(Fragment.get(dut, None), "")
+    return found
+
+
+def test_bram_parameter():
+    assert TdiAccumulator(width=64, stages=4).bram == "generic"
+    assert TdiAccumulator(width=64, stages=4, bram="ecp5").bram == "ecp5"
+    with pytest.raises(TdicamError, match="^bram = 'xc7' is not valid; valid: generic, ecp5$"):
+        TdiAccumulator(width=64, stages=4, bram="xc7")
+
+
+@pytest.mark.parametrize("width,stages,bits,ppc", [
+    (1280, 96, 12, 1), (1280, 96, 12, 4), (1280, 96, 12, 8), (64, 4, 12, 1), (48, 5, 14, 2),
+    (256, 32, 12, 4)])
+def test_ecp5_banks_as_many_block_rams(width, stages, bits, ppc):
+    """``bram="ecp5"``: the banks are DP16KD instances with the output register in use,
+    as many as yosys' mapping of the generic banks (127 / 128 / 128 at the reference
+    parameters) and no ``lib.memory`` memory left; one read stage more."""
+    kw = dict(width=width, stages=stages, pixel_bits=bits, ppc=ppc)
+    gen, ecp5 = TdiAccumulator(**kw), TdiAccumulator(**kw, bram="ecp5")
+    prims = _dp16kd(ecp5)
+    assert _memories(ecp5) == []
+    assert len(prims) == _block_rams(_memories(gen))
+    if (width, stages) == (1280, 96):
+        assert len(prims) == (127 if ppc == 1 else 128)
+    assert all(regmode == "OUTREG" for *_, regmode in prims)
+    assert (ecp5.latency, gen.latency) == (10, 9)       # the output register: one stage more
+    assert ecp5.row_cycles == max(width // ppc, 7) and gen.row_cycles == max(width // ppc, 6)
 
 
 def test_stages_one_has_no_memory():

@@ -263,6 +263,10 @@ class Block:
         ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
         frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
         ignore it).
+    ecp5_top : callable(**params) -> wiring.Component, or None
+        The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
+        (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
+        their output register); same ports and behaviour. ``None``: :attr:`top`.
     reset_clears_state : bool
         A testbench reset returns the whole design to its power-up state, so golden cases
         can run back to back in one simulation with a reset between them (``tdicam
@@ -287,6 +291,7 @@ class Block:
     example: Callable | None = None
     reset_clears_state: bool = True
     pipeline: Use | None = None
+    ecp5_top: Callable | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""
@@ -310,9 +315,11 @@ class Block:
         lines += [f"  {p.describe()}" for p in self.params] or ["  (none)"]
         return "\n".join(lines)
 
-    def build(self, params=None):
-        """Elaborable Verilog top for checked ``params``."""
-        return self.top(**self.resolve(params))
+    def build(self, params=None, *, ecp5=False):
+        """Elaborable Verilog top for checked ``params`` (``ecp5``: :attr:`ecp5_top` when
+        the block has one)."""
+        top = self.ecp5_top if ecp5 and self.ecp5_top is not None else self.top
+        return top(**self.resolve(params))
 
     def scene_params(self, arrays, params=None):
         """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`fit`

@@ -28,9 +28,14 @@ __all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_mak
 CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
 
 
-def _top(*, width, stages, pixel_bits, out_bits, ppc):
+def _top(*, width, stages, pixel_bits, out_bits, ppc, bram="generic"):
     return AxisTop(TdiAccumulator(width=width, stages=stages, pixel_bits=pixel_bits,
-                                  out_bits=out_bits, ppc=ppc))
+                                  out_bits=out_bits, ppc=ppc, bram=bram))
+
+
+def _ecp5_top(**params):
+    """The ECP5 synthesis top: DP16KD banks with their output register (``bram="ecp5"``)."""
+    return _top(**params, bram="ecp5")
 
 
 def _check(p):
@@ -381,6 +386,7 @@ BLOCK = Block(
         Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
     ),
     top=_top,
+    ecp5_top=_ecp5_top,
     cases=_cases,
     check=_check,
     model_version="tdi-1",

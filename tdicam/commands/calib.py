@@ -78,9 +78,9 @@ def register(sub):
 
 
 def _clock_arg(p):
-    p.add_argument("--clock-mhz", type=float, default=nand.CONTROLLER_CLOCK_HZ / 1e6,
-                   help=f"NAND images: controller clock of the reported scan and load times "
-                        f"({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
+    p.add_argument("--clock-mhz", type=float, default=None,
+                   help=f"NAND images only: controller clock of the reported scan and load "
+                        f"times ({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
 
 
 def _nand_args(p):
@@ -110,6 +110,8 @@ def _load_array(path, what):
             if isinstance(a, np.lib.npyio.NpzFile):
                 raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
             return a
+    except TdicamError:
+        raise
     except OSError as exc:
         raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
     except _NOT_NUMPY as exc:
@@ -148,7 +150,8 @@ def _write(args):
                     args.offset_frac_bits)
     fmt._check_slots()
     if not args.nand:               # NAND geometry without --nand was ignored silently
-        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block)):
+        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block),
+                       ("--clock-mhz", args.clock_mhz)):
             if v is not None:
                 raise TdicamError(f"{opt}: only with --nand (a NAND image)")
     check_file(args.output)
@@ -177,6 +180,8 @@ def _write(args):
 
 
 def _clock(args):
+    if args.clock_mhz is None:
+        return nand.CONTROLLER_CLOCK_HZ
     return check_range("--clock-mhz", args.clock_mhz, 1, 1000, integer=False) * 1e6
 
 
@@ -217,13 +222,13 @@ def _load_any(args):
     return calib.read_image(raw, name=args.image), None, None
 
 
-def _nand_summary(args, img, res, geo):
+def _nand_summary(args, img, res, geo, clock):
     rows, cols = img.shape
     sr = res.scan
     print(f"{args.image}: NAND, {geo.blocks} blocks x {geo.pages_per_block} pages: "
           f"{sr.bad_count} bad blocks (markers), data in {nand.blocks_needed(res.words, geo)} "
           f"blocks, {res.pages} pages, the stored block map agrees with the scan")
-    print(_timing_line(rows, cols, geo, _clock(args)))
+    print(_timing_line(rows, cols, geo, clock))
 
 
 def _summary(path, res):
@@ -235,10 +240,14 @@ def _summary(path, res):
 
 
 def _report(args):
+    clock = _clock(args)                # checked before anything is printed
     res, store, geo = _load_any(args)
+    if store is None and args.clock_mhz is not None:
+        raise TdicamError(f"--clock-mhz: only for NAND images ({args.image} is a plain "
+                          f"calibration image)")
     print(_summary(args.image, res))
     if store is not None:
-        _nand_summary(args, res, store, geo)
+        _nand_summary(args, res, store, geo, clock)
     return res
 
 
@@ -268,7 +277,8 @@ def _inject(args):
         if not 0 <= p <= 1:
             raise TdicamError(f"--{name} = {p} is out of range; valid: 0..1")
     if args.single + args.double > 1:
-        raise TdicamError("--single + --double must be at most 1")
+        raise TdicamError(f"--single {args.single:g} + --double {args.double:g} must be at "
+                          f"most 1 (probabilities of one word; --single defaults to 0.01)")
     check_range("--seed", args.seed, 0, 2**63 - 1)
     check_range("--bad-blocks", args.bad_blocks, 0, 65535)
     check_file(args.output)
@@ -280,6 +290,7 @@ def _inject(args):
         raise TdicamError(f"{args.image}: --bad-blocks and --fail-program need a NAND image "
                           f"(calib write --nand)")
     words = calib.image_words(raw, args.image)
+    calib.read_image(words, name=args.image)    # refuse an image the reader would refuse
     out, k = calib.inject_flips(rng, words, p_single=args.single,
                                 p_double=args.double, skip_header=not args.header)
     with open_output(args.output) as fh:

@@ -3,6 +3,7 @@
 import time
 
 from .. import blocks, cosim
+from ..errors import check_range
 from ..pauses import SEED_MAX, check_seed
 from ..cosim.cases import run_cases
 
@@ -31,10 +32,14 @@ def register(sub):
 def _run(args):
     mode = "fast" if args.fast else "beat"
     check_seed("--seed", args.seed)
-    print(f"{'case':28s} {'pixels':>9s} {'mismatch':>8s} {'cycles':>9s} {'wall s':>7s} "
-          f"{'pixels/s':>10s}")
+    for opt in ("idle", "backpressure"):
+        check_range(f"--{opt}", getattr(args, opt), 0, 1, integer=False, hi_open=True)
+    header = [f"{'case':28s} {'pixels':>9s} {'mismatch':>8s} {'cycles':>9s} {'wall s':>7s} "
+              f"{'pixels/s':>10s}"]
 
     def report(r):
+        while header:           # printed with the first case: a refused --case prints none
+            print(header.pop())
         rate = r["pixels"] / r["wall_s"] if r["wall_s"] else 0.0
         print(f"{r['case']:28s} {r['pixels']:9d} {r['mismatches']:8d} {r['cycles']:9d} "
               f"{r['wall_s']:7.2f} {rate:10.0f}" + ("" if not r["mismatches"] else

@@ -35,7 +35,7 @@ from ..hdl.axis import AxisTop
 from ..verilog import convert
 from ..beats import Beats
 from ..pauses import thresholds
-from . import codec, tbgen
+from . import codec, dp16kd, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_window", "keep_wave", "SimResult",
            "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
@@ -185,18 +185,22 @@ def _build_progress(sim, name):
                   f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
 
 
-def _build(blk, params, sim, wave=False):
-    """Build (or reuse) the testbench (``wave``: with the waveform window, its own build);
-    returns (build dir, seconds spent building, top)."""
-    top = blk.build(params)
+def _build(blk, params, sim, wave=False, ecp5=False):
+    """Build (or reuse) the testbench (``wave``: with the waveform window, its own build;
+    ``ecp5``: the block's ECP5 top, :attr:`~tdicam.blocks.Block.ecp5_top`, with the DP16KD
+    model :data:`tdicam.cosim.dp16kd.MODEL`, its own build); returns (build dir, seconds
+    spent building, top)."""
+    top = blk.build(params, ecp5=ecp5)
     if not isinstance(top, AxisTop):
         raise TdicamError(f"block {blk.name} is not a video stream block")
     in_bits, out_bits, ctrl = stream_ports(top)
-    dut = convert(top, blk.name)
-    tb = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
-                                wave=wave)
-    bdir, build_time = build_sources(blk.name + ".wave" * wave, params, sim,
-                                     {f"{blk.name}.v": dut, "tb.v": tb})
+    sources = {f"{blk.name}.v": convert(top, blk.name)}
+    if ecp5:
+        sources[dp16kd.FILE] = dp16kd.MODEL
+    sources["tb.v"] = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
+                                             ctrl_ports=ctrl, wave=wave)
+    bdir, build_time = build_sources(blk.name + ".ecp5" * ecp5 + ".wave" * wave, params, sim,
+                                     sources)
     return bdir, build_time, top
 
 
@@ -254,7 +258,8 @@ class SimResult:
 
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
-               seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None):
+               seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None,
+               ecp5=False):
     """Co-simulate ``stim`` (:class:`~tdicam.beats.Beats`) through a stream block.
 
     Parameters
@@ -274,6 +279,9 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
         ``trace``) to ``SimResult.wave`` (an FST file in the kept run folder) and stop the
         run after them (a separate build with the waveform window; see
         :func:`tdicam.cosim.tbgen.stream_testbench`).
+    ecp5 : bool
+        Simulate the block's ECP5 synthesis top (:attr:`tdicam.blocks.Block.ecp5_top`:
+        vendor primitives) with the DP16KD model of :mod:`tdicam.cosim.dp16kd`.
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
@@ -282,7 +290,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     idle_thr, bp_thr = thresholds(idle, backpressure)
     blk = blocks.get(block)
     params = blk.resolve(params)
-    bdir, build_time, top = _build(blk, params, sim, wave=wave is not None)
+    bdir, build_time, top = _build(blk, params, sim, wave=wave is not None, ecp5=ecp5)
     _, _, ctrl = stream_ports(top)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     bits, count, padded, _ = top._in
@@ -529,7 +537,8 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
         try:
             run.waveform = waveform(blk, params, stim, exp, run.comparison.first, wave_dir,
                                     idle=idle, backpressure=backpressure, seed=seed,
-                                    label=label or f"{sim}-{mode}-seed{seed}")
+                                    label=label or f"{sim}-{mode}-seed{seed}",
+                                    ecp5=kw.get("ecp5", False))
         except TdicamError as exc:     # the mismatch is the news; say why there is no wave
             run.waveform = {"path": None, "error": str(exc)}
     return run
@@ -557,7 +566,8 @@ def keep_wave(src, dst, what):
     return str(dst)
 
 
-def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, seed, label):
+def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, seed, label,
+             ecp5=False):
     """Write the waveform around a mismatch: ``<wave_dir>/<block>-<label>.fst``.
 
     The stimulus runs again on Icarus in fast mode with the same idle/backpressure pattern
@@ -570,7 +580,7 @@ def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, s
     from pathlib import Path
     blk = blocks.get(block) if isinstance(block, str) else block
     kw = dict(n_out=len(exp), sim="icarus", mode="fast", idle=idle,
-              backpressure=backpressure, seed=seed)
+              backpressure=backpressure, seed=seed, ecp5=ecp5)
     traced = run_stream(blk.name, params, stim, trace=True, **kw)
     outs = [c for k, c in traced.trace if k == "o"]
     cycle = outs[min(first["index"], len(outs) - 1)] if outs else traced.cycles

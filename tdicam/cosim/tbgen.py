@@ -22,7 +22,7 @@ testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 
 from dataclasses import dataclass
 
-from ..pauses import XOR_R
+from ..pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
 
 __all__ = ["stream_testbench", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
@@ -268,7 +268,8 @@ module {TB_TOP};
       if (!$value$plusargs("bp=%d", bp_thr)) bp_thr = {d["bp"]};
       if (!$value$plusargs("seed=%d", lv)) lv = {d["seed"]};
       if ($test$plusargs("trace")) tracing = 1'b1;
-      lv = lv | 32'h1;
+      lv = lv & 32'h{SEED_MAX:08x};   // tdicam.pauses.start_state
+      if (lv == 0) lv = 32'h{ZERO_SEED_STATE:08x};
       lr = lv ^ 32'h{XOR_R:08x};
       chunk = 0;
       fname = {_chunk_name_expr()};

@@ -1,0 +1,112 @@
+"""A TDI partial-sum bank as Lattice ECP5 DP16KD instances, output register in the block RAM.
+
+:class:`tdicam.hdl.tdi.TdiAccumulator` (``bram="ecp5"``) builds each memory bank with
+:func:`bank` instead of an ``amaranth.lib.memory.Memory`` and a fabric register: yosys'
+ECP5 block-RAM mapping always sets ``REGMODE = NOREG``, so the register after the block RAM
+sits in the fabric and the block RAM's 4.26 ns clock-to-out plus the routing to it is the
+accumulator's critical path. Here the register is the DP16KD's own output register
+(``REGMODE_B = "OUTREG"``) and a fabric register follows it with no logic in between: one
+read stage more than the generic bank (:data:`EXTRA_STAGES`).
+
+The Verilog this gives instantiates ``DP16KD`` cells: yosys/nextpnr (and Lattice's tools)
+take it as is; a simulator needs a DP16KD model (yosys ships only a black box;
+:mod:`tdicam.cosim.dp16kd` models the subset used here). ``tdicam verilog`` and every
+simulation keep the generic description unless asked.
+"""
+
+from amaranth.hdl import Cat, ClockSignal, Const, Instance, Mux, Signal
+
+__all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank"]
+
+#: Read stages a bank adds to the generic bank's (address edge, data, fabric register): the
+#: DP16KD output register between the data and the fabric register.
+EXTRA_STAGES = 1
+
+#: DP16KD configurations, depth: data width (one 18 kbit block each)
+PRIM_WIDTH = {1024: 18, 2048: 9, 4096: 4, 8192: 2, 16384: 1}
+_ABITS = 14       # DP16KD address bits; a x(18432/depth) port uses the top log2(depth)
+
+
+def prim_depth(depth, bits):
+    """The :data:`PRIM_WIDTH` depth holding ``depth`` words of ``bits`` in the fewest
+    primitives (the narrowest of those: x18 only for a bank of at most 1024 words whose
+    width it packs better, e.g. the last, partly used bank of an 18-bit part)."""
+    fits = [d for d in PRIM_WIDTH if d >= depth]
+    return min(fits, key=lambda d: (-(-bits // PRIM_WIDTH[d]), -d))
+
+
+def prims_per_bank(depth, bits):
+    """DP16KD primitives of a bank of ``depth`` words of ``bits``."""
+    return -(-bits // PRIM_WIDTH[prim_depth(depth, bits)])
+
+
+def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
+    """A bank of ``depth`` x ``bits`` built from DP16KD primitives side by side.
+
+    Parameters
+    ----------
+    m : Module
+        Where the primitives and registers go (``sync`` domain).
+    tag : str
+        Name stem of the instances (``ram_<tag>_<i>``) and registers.
+    depth : int
+        Words of the bank, 1..16384; the primitives' configuration is :func:`prim_depth`.
+    bits : int
+        Word width; the last primitive's unused data bits are tied to zero.
+    ra, re : Value
+        Read address (its low ``log2(depth)`` bits; narrower: zero-extended) and read
+        enable, sampled at a clock edge (the DP16KD's port B address register, clock enable
+        ``CEB``).
+    rh : Value
+        ``re`` one cycle later (high in the cycle the read data would leave a block RAM
+        without output register).
+    wa, wd, we : Value
+        Write address, data and enable (port A, ``WRITEMODE_A = NORMAL``), sampled at a
+        clock edge.
+
+    Returns
+    -------
+    Signal
+        ``bits`` wide, registered: the word read three clock edges earlier (the address
+        edge, the DP16KD output register, ``REGMODE_B = "OUTREG"`` with ``OCEB`` = 1, then a
+        fabric register, :data:`EXTRA_STAGES` more than the generic bank's) when it was
+        read, else zero (the fabric register's synchronous reset, from a register of ``rh``
+        per primitive; the block RAM's data reaches a flip-flop with no logic in between,
+        its 0.7 ns clock-to-out in place of 4.3 ns without the output register). A read of
+        the address written at the same edge is undefined (the design never uses one). No
+        reset: the words start undefined; ``RSTA``/``RSTB`` are tied low.
+    """
+    pd = prim_depth(depth, bits)
+    pw = PRIM_WIDTH[pd]
+    lg = pd.bit_length() - 1
+    shift = _ABITS - lg
+    outs = []
+    for i in range(-(-bits // pw)):
+        lo, hi = i * pw, min((i + 1) * pw, bits)
+        do = Signal(pw, name=f"do_{tag}_{i}")
+        sel = Signal(name=f"rq_{tag}_{i}")     # data valid at DOB: one register per primitive
+        m.d.sync += sel.eq(rh)
+        ports = {"i_CLKA": ClockSignal(), "i_CEA": Const(1), "i_OCEA": Const(1),
+                 "i_WEA": we, "i_RSTA": Const(0),
+                 "i_CLKB": ClockSignal(), "i_CEB": re, "i_OCEB": Const(1),
+                 "i_WEB": Const(0), "i_RSTB": Const(0)}
+        for n in range(3):
+            ports[f"i_CSA{n}"] = ports[f"i_CSB{n}"] = Const(0)
+        for n in range(_ABITS):
+            k = n - shift        # x18: AD[1:0] are the write's byte enables, both on
+            ports[f"i_ADA{n}"] = wa[k] if 0 <= k < len(wa) else Const(int(n < 2 and pw == 18))
+            ports[f"i_ADB{n}"] = ra[k] if 0 <= k < len(ra) else Const(int(n < 2 and pw == 18))
+        for n in range(18):
+            ports[f"i_DIA{n}"] = wd[lo + n] if lo + n < hi else Const(0)
+            ports[f"i_DIB{n}"] = Const(0)
+            if n < pw:
+                ports[f"o_DOB{n}"] = do[n]
+        m.submodules[f"ram_{tag}_{i}"] = Instance(
+            "DP16KD", p_DATA_WIDTH_A=pw, p_DATA_WIDTH_B=pw, p_REGMODE_A="NOREG",
+            p_REGMODE_B="OUTREG", p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
+            p_CSDECODE_A="0b000", p_CSDECODE_B="0b000", p_WRITEMODE_A="NORMAL",
+            p_WRITEMODE_B="NORMAL", p_GSR="AUTO", **ports)
+        outs.append(Mux(sel, do[:hi - lo], 0))
+    q = Signal(bits, name=f"q_{tag}")
+    m.d.sync += q.eq(Cat(*outs))
+    return q
