@@ -41,9 +41,29 @@ def _split(bits):
     return parts
 
 
-def _eq(value, c):
-    """value == c, spelled ~value.any() for 0 (yosys writes x == 0 as !x: a lint warning)."""
-    return ~value.any() if c == 0 else value == c
+def _onehot(addr, lg, n):
+    """``n`` bank enables, bit c set when ``addr >> lg == c`` (a decoder: one shift)."""
+    if n == 1:
+        return Const(1, 1)
+    return (Const(1, 1) << addr[lg:lg + (n - 1).bit_length()])[:n]
+
+
+def _bank(m, tag, width, depth, *, re, rh, raddr, we, waddr, wdata):
+    """One partial-sum bank: memory ``psum_<tag>`` of ``depth`` x ``width`` bits (no
+    initial value, no read/write collision logic), read when ``re`` into its synchronous
+    read port, written with ``wdata`` at ``waddr`` when ``we``; its data then goes into a
+    flip-flop next to the block RAM (``q_<tag>``), zero when the bank was not read (``rh``:
+    ``re`` one cycle later), so the banks' outputs are ORed. Returns (memory, that
+    register, (re, read address, we, write address))."""
+    mem = Memory(shape=unsigned(width), depth=depth, init=[],
+                 attrs={NO_RW_CHECK: 1, NO_INIT: 1})
+    m.submodules[f"psum_{tag}"] = mem
+    rd, wr = mem.read_port(), mem.write_port()
+    m.d.comb += [rd.addr.eq(raddr[:len(rd.addr)]), rd.en.eq(re),
+                 wr.addr.eq(waddr[:len(wr.addr)]), wr.data.eq(wdata), wr.en.eq(we)]
+    q = Signal(width, name=f"q_{tag}")
+    m.d.sync += q.eq(Mux(rh, rd.data, 0))
+    return mem, q, (rd.en, rd.addr, wr.en, wr.addr)
 
 
 def _or(items):
@@ -116,8 +136,14 @@ class TdiAccumulator(wiring.Component):
     per word: what one address reads), with one synchronous read port and one write port,
     read only on the cycle it is addressed (read enable), written only when addressed
     (:attr:`memory_banks`). Every bit is stored once: at 1280 x 96 stages x 12 bits, 127
-    DP16KD (ppc 1) / 128 (ppc 4 and 8), the packing floor being 126. Few, wide memories
-    also keep the per-cycle work of a Verilog simulator small.
+    DP16KD (ppc 1) / 128 (ppc 4 and 8), the packing floor being 126. A bank is made in one
+    place (``_bank``: its memory and the register after it).
+
+    *Simulation cost.* A Verilog simulator evaluates every bank every clock (68 at ppc 1),
+    so what a bank does on a cycle it is not addressed is kept to tests of one enable bit:
+    the read, write and data-arrives enables of a part's banks are one-hot vectors decoded
+    once per part from the address (one shift, registered), not a comparator per bank; the
+    read and write happen only under their enable.
 
     *No read/write collisions used.* The banks carry yosys' ``no_rw_check`` attribute
     (:data:`tdicam.verilog.NO_RW_CHECK`: a read of the address written in the same cycle
@@ -129,8 +155,8 @@ class TdiAccumulator(wiring.Component):
     :class:`tdicam.proofs.tdi.TdiNoWrapProof` asserts the first on every cycle.
 
     *Pipeline.* From the frame control's decoded beat every beat moves one stage per cycle
-    with no stall: C (read issue: address registers replicated per 8 block RAMs, bank read
-    enables registered), block RAM data, per-bank register (next to its block RAM, zero
+    with no stall: C (read issue: address registers replicated per 8 block RAMs, one-hot
+    bank read enables registered), block RAM data, per-bank register (next to its block RAM, zero
     when the bank was not read), OR of 8 banks registered, OR of the groups (masked to zero
     when the stored sum is not used) registered -> add, saturate, into the output register
     and the write-back registers (address, data, bank write enables, replicated), which
@@ -267,10 +293,18 @@ class TdiAccumulator(wiring.Component):
         rep = max(1, _GROUP // PPC)   # banks per replicated address / write register set
         for pw, depths in self.memory_banks:
             lg = _BANK_DEPTH[pw].bit_length() - 1
-            multi = len(depths) > 1
+            n = len(depths)
+            # bank enables, one bit per bank, decoded once for the part (a simulator
+            # evaluates one shift, not a comparator per bank): read at the issue (re), its
+            # data arrives (rh), write back (we)
+            re_v = Signal(n, name=f"re_b{lo}")
+            rh_v = Signal(n, name=f"rh_b{lo}")
+            we_v = Signal(n, name=f"we_b{lo}")
+            m.d.sync += [re_v.eq(Mux(p[0]["valid"], _onehot(p[0]["addr"], lg, n), 0)),
+                         rh_v.eq(re_v),
+                         we_v.eq(Mux(do_write, _onehot(ps_["addr"], lg, n), 0))]
             q = []
             for c, bd in enumerate(depths):
-                tag = f"b{lo}_{c}"
                 if c % rep == 0:
                     # replicated issue and write-back address and data registers
                     g = c // rep
@@ -280,31 +314,16 @@ class TdiAccumulator(wiring.Component):
                     m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
                                  wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
                                              for k in range(PPC))))]
-                re_ = Signal(name=f"re_{tag}")      # bank read at the issue
-                rh = Signal(name=f"rh_{tag}")       # ... its data arrives now
-                we = Signal(name=f"we_{tag}")
-                m.d.sync += [re_.eq(p[0]["valid"] & (_eq(p[0]["addr"] >> lg, c)
-                                                     if multi else 1)),
-                             rh.eq(re_),
-                             we.eq(do_write & (_eq(ps_["addr"] >> lg, c) if multi else 1))]
+                tag = f"b{lo}_{c}"
                 if self._bram == "ecp5":
                     # DP16KD instances: their output register, then the fabric q (a stage more)
-                    q.append(ecp5_bram.bank(m, tag, depth=bd, bits=PPC * pw,
-                                            ra=ra, re=re_, rh=rh, wa=wa, wd=wd, we=we))
+                    q.append(ecp5_bram.bank(m, tag, depth=bd, bits=PPC * pw, ra=ra,
+                                            re=re_v[c], rh=rh_v[c], wa=wa, wd=wd, we=we_v[c]))
                     continue
-                # one memory per bank holds the part of every lane (lane k at bits k*pw)
-                mem = Memory(shape=unsigned(PPC * pw), depth=bd, init=[],
-                             attrs={NO_RW_CHECK: 1, NO_INIT: 1})
-                m.submodules[f"psum_{tag}"] = mem
+                mem, qr, port = _bank(m, tag, PPC * pw, bd, re=re_v[c], rh=rh_v[c],
+                                      raddr=ra, we=we_v[c], waddr=wa, wdata=wd)
                 self.memories.append(mem)
-                rd, wr = mem.read_port(), mem.write_port()
-                ports.append((rd.en, rd.addr, wr.en, wr.addr))
-                m.d.comb += [rd.addr.eq(ra[:len(rd.addr)]), rd.en.eq(re_),
-                             wr.addr.eq(wa[:len(wr.addr)]), wr.data.eq(wd), wr.en.eq(we)]
-                # the block RAM's data into a flip-flop next to it (its synchronous reset
-                # zeroes it when the bank was not read), then ORed in the group stage
-                qr = Signal(PPC * pw, name=f"q_{tag}")
-                m.d.sync += qr.eq(Mux(rh, rd.data, 0))
+                ports.append(port)
                 q.append(qr)
             groups = []
             for j in range(0, len(q), _GROUP):

@@ -47,9 +47,18 @@ MODES = ("beat", "fast")
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
 #: Where the co-simulation tests and ``tdicam sim`` write the waveform of a mismatch.
 WAVE_DIR = BUILD_ROOT / "waves"
+# cocotb's runner builds with --public-flat-rw (every signal of every module public and
+# writable, which keeps Verilator from optimizing the design); --no-public-flat-rw takes it
+# back and :func:`_public_vlt` makes only the top module's signals public (what cocotb reads
+# and writes).
 _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
                    "-CFLAGS", "-std=c++20 -fcoroutines -O2", "--x-assign", "fast",
-                   "--x-initial", "unique")
+                   "--x-initial", "unique", "--no-public-flat-rw")
+
+
+def _public_vlt(top):
+    """Verilator control file: every signal of module ``top`` public and writable."""
+    return f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
 
 
 def tool_env(sim):
@@ -121,6 +130,8 @@ def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP):
     # -g2005: Verilog-2005 initializer semantics, which yosys' trick for evaluating
     # always @* blocks at time 0 relies on (with -g2012 they stay X until an input moves).
     args = list(_VERILATOR_ARGS) if sim == "verilator" else ["-g2005"]
+    if sim == "verilator":
+        sources = {**sources, "public.vlt": _public_vlt(top)}
     stamp = hashlib.sha256("\0".join([*sources.values(), sim, *args]).encode()).hexdigest()
     t0 = time.perf_counter()
     with _locked(bdir):
