@@ -6,8 +6,9 @@ with no tdicam, cocotb or Python:
 * ``rtl/<block>.v`` — the block's Verilog, exactly as ``tdicam verilog`` writes it;
 * ``tb/tdicam_tb.v`` — the fast-mode co-simulation testbench of :mod:`tdicam.cosim.tbgen`
   (the same engine, one source of truth) in its stand-alone form: stimulus from
-  ``stim_NNNNNN.hex``, random idle cycles and backpressure from a seed, every output
-  transfer compared in HDL with ``expected.hex``; plain Verilog-2005 plus ``$readmemh``;
+  the binary ``stim_NNNNNN.bin`` (``$fread``), random idle cycles and backpressure from a
+  seed, every output transfer compared in HDL with ``expected.hex`` (``$readmemh``); plain
+  Verilog-2005;
   ends with ``PASS <n> beats`` and ``$finish`` or ``FAIL`` (first bad beat: index, segment,
   expected and received) and ``$fatal(1)``;
 * ``vectors/`` — those memory files, made from the block's golden vectors;
@@ -165,7 +166,7 @@ class Design:
     ``name``: the Verilog module (``rtl/<name>.v``); ``core``: the FuseSoC core name
     without its version; ``params``: what was exported (the version hashes it);
     ``param_rows``: (name, value, meaning) for the README; ``rtl`` and ``tb``: Verilog
-    text; ``vectors``: {file name: text} under ``vectors/``; ``ports``: README port table
+    text; ``vectors``: {file name: text, or bytes for binary files} under ``vectors/``; ``ports``: README port table
     rows; ``latency``, ``checks`` (what the testbench compares) and ``plusargs`` (its run
     settings): README text.
     """
@@ -378,24 +379,24 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     sc = tbgen.SelfCheck(n_in=len(stim), n_out=len(exp),
                          max_cycles=int((len(stim) + len(exp)) * 4 * slow) + 100_000,
                          idle=idle_thr, bp=bp_thr, seed=int(seed))
-    # one chunk as deep as the stimulus, or full chunks (the last one zero-padded), so that
-    # every $readmemh fills its memory exactly
+    # one chunk as deep as the stimulus, or full chunks and a short last one
     depth = min(tbgen.DEPTH, max(len(stim), 1))
     tb = tbgen.stream_testbench(name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
                                 depth=depth, selfcheck=sc)
-    text = codec.encode_stimulus(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits).decode()
-    line = len(text) // max(len(stim), 1)
-    if len(stim) % depth:
-        text += ("0" * (line - 1) + "\n") * (depth - len(stim) % depth)
+    data = codec.encode_stimulus_bin(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits)
+    rec = codec.stimulus_word_bytes(elem_padded_bits=padded, count=top._in[1],
+                                    ctrl_bits=ctrl_bits)
     vectors = {}
     for k in range(0, max(len(stim), 1), depth):
-        vectors[f"stim_{k // depth:06d}.hex"] = text[k * line:(k + depth) * line]
+        vectors[f"stim_{k // depth:06d}.bin"] = data[k * rec:(k + depth) * rec]
     vectors["expected.hex"] = _expected_text(exp, top._out[2])
     lat = getattr(getattr(top, "core", None), "latency", None)
     latency = (f"{lat} clock cycles from an accepted input beat to its output (no stalls)"
                if lat is not None else "see the block's documentation (data dependent)")
-    checks = (f"`tb/tdicam_tb.v` (module `{tbgen.TB_TOP}`, plain Verilog-2005 + `$readmemh`) "
-              f"drives the {len(stim)} stimulus beats of `vectors/stim_*.hex` (golden cases: "
+    checks = (f"`tb/tdicam_tb.v` (module `{tbgen.TB_TOP}`, plain Verilog-2005 with `$fread` "
+              f"and `$readmemh`) drives the {len(stim)} stimulus beats of the binary "
+              f"`vectors/stim_*.bin` (each beat `{{rst, ctrl, tuser, tlast, tdata}}` "
+              f"zero-extended to whole bytes, most significant byte first; golden cases: "
               f"{', '.join(cases)}) with random idle cycles and backpressure, compares each of "
               f"the {len(exp)} expected output transfers of `vectors/expected.hex` in HDL and "
               f"prints `PASS {len(exp)} beats`, or `FAIL` with the first mismatching beat "
@@ -485,7 +486,10 @@ def _write(out, files):
             path = out / rel
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(path.name + ".tmp")
-            tmp.write_text(text)
+            if isinstance(text, bytes):
+                tmp.write_bytes(text)
+            else:
+                tmp.write_text(text)
             os.replace(tmp, path)
     except OSError as exc:
         raise TdicamError(f"-o {str(out)!r}: cannot write the export: "

@@ -202,7 +202,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
     for k in range(0, max(n_in, 1), tbgen.DEPTH):      # chunk by chunk: bounded memory
-        (rundir / f"stim_{k // tbgen.DEPTH:06d}.hex").write_bytes(codec.encode_stimulus(
+        (rundir / f"stim_{k // tbgen.DEPTH:06d}.bin").write_bytes(codec.encode_stimulus_bin(
             stim.select(slice(k, k + tbgen.DEPTH)), elem_padded_bits=padded,
             ctrl_bits=ctrl_bits))
     job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,

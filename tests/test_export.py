@@ -11,10 +11,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import tool_env
+from tdicam.beats import Beats
+from tdicam.cosim import codec, tool_env
 from tdicam.export import export_block
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -73,7 +75,7 @@ def test_export_is_deterministic_and_path_free(cds_export, tmp_path):
     a, b = tree(cds_export), tree(again)
     assert a == b
     assert {"README.md", "tdicam_cds.core", "rtl/cds.v", "tb/tdicam_tb.v",
-            "vectors/expected.hex", "vectors/stim_000000.hex"} <= set(a)
+            "vectors/expected.hex", "vectors/stim_000000.bin"} <= set(a)
     for name, data in a.items():
         assert not re.search(rb"(/work|/tmp|/home|/root)", data), name
     # the RTL is exactly what `tdicam verilog` writes
@@ -95,6 +97,29 @@ def test_exported_testbench_passes_and_names_the_first_bad_beat(cds_export, tmp_
     assert f"FAIL beat {k} " in r.stdout, r.stdout
     m = re.search(r"expected .* tdata ([0-9a-f]+), got .* tdata ([0-9a-f]+)", r.stdout)
     assert m and int(m.group(1), 16) ^ int(m.group(2), 16) == 1
+    stim = bad / "vectors" / "stim_000000.bin"     # a stimulus chunk one byte short
+    stim.write_bytes(stim.read_bytes()[:-1])
+    r = icarus(bad)
+    assert r.returncode != 0
+    assert "FAIL stimulus file stim_000000.bin: " in r.stdout, r.stdout
+
+
+def test_binary_stimulus_is_the_hex_words_in_whole_bytes():
+    """encode_stimulus_bin: each hex word zero-extended to whole bytes, MSB first."""
+    rng = np.random.default_rng(3)
+    for ctrl_bits, padded, count in [(1, 16, 1), (5, 12, 1), (8, 16, 8), (2, 12, 3)]:
+        n = 50
+        beats = Beats(rng.integers(0, 1 << padded, (n, count), dtype=np.uint64),
+                      rng.random(n) < 0.5, rng.random(n) < 0.5,
+                      ctrl=rng.integers(0, 1 << ctrl_bits, n, dtype=np.uint64),
+                      rst=rng.random(n) < 0.1)
+        kw = dict(elem_padded_bits=padded, ctrl_bits=ctrl_bits)
+        words = codec.encode_stimulus(beats, **kw).decode().split()
+        rec = codec.stimulus_word_bytes(count=count, **kw)
+        want = b"".join(int(w, 16).to_bytes(rec, "big") for w in words)
+        assert codec.encode_stimulus_bin(beats, **kw) == want
+        assert codec.stimulus_words_bin(want, rec) == [int(w, 16) for w in words]
+        assert rec * 2 - 1 <= len(words[0]) <= rec * 2
 
 
 def test_seed_plusarg_changes_stalls_not_results(cds_export):
@@ -118,6 +143,12 @@ def verilator_passes_then_fails(folder, module, expected, index):
     r = subprocess.run(["./obj_dir/Vtdicam_tb"], cwd=Path(folder) / "vectors",
                        capture_output=True, text=True)
     assert r.returncode != 0 and f"FAIL beat {index} " in r.stdout, r.stdout
+    stim = Path(folder) / "vectors" / "stim_000000.bin"
+    if stim.exists():               # a stimulus chunk one byte short is refused
+        stim.write_bytes(stim.read_bytes()[:-1])
+        r = subprocess.run(["./obj_dir/Vtdicam_tb"], cwd=Path(folder) / "vectors",
+                           capture_output=True, text=True)
+        assert r.returncode != 0 and "FAIL stimulus file stim_000000.bin" in r.stdout, r.stdout
 
 
 def test_verilator_binary_runs_the_export(cds_export, tmp_path):
@@ -272,7 +303,7 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     a = tree(chain_export)
     assert a == tree(again)
     assert {"README.md", "tdicam_pipeline.core", "rtl/pipeline.v", "tb/tdicam_tb.v",
-            "vectors/expected.hex", "vectors/stim_000000.hex"} <= set(a)
+            "vectors/expected.hex", "vectors/stim_000000.bin"} <= set(a)
     for name, data in a.items():
         assert not re.search(rb"(/work|/tmp|/home|/root)", data), name
     assert re.search(r"^name: tdicam:pipeline:ning2019_chain:0\.1\.0\.\d+$",

@@ -1,10 +1,12 @@
-"""Beat packing and the hex files exchanged with the HDL testbench.
+"""Beat packing and the files exchanged with the HDL testbench.
 
-A *beat* is one AXI4-Stream transfer. Stimulus lines are fixed-width hex of the word
-``{rst, ctrl, tuser, tlast, tdata}`` (header zero-padded to whole nibbles): ``rst`` asks the
-testbench to pulse the DUT reset before presenting that beat (a new *segment* starts),
-``ctrl`` holds the values of the DUT's run-time setting ports presented with the beat.
-Output lines are ``SS H DDDD`` = segment, ``{tuser, tlast}``, ``tdata``.
+A *beat* is one AXI4-Stream transfer. A stimulus word is ``{rst, ctrl, tuser, tlast,
+tdata}`` (header zero-padded to whole nibbles): ``rst`` asks the testbench to pulse the DUT
+reset before presenting that beat (a new *segment* starts), ``ctrl`` holds the values of the
+DUT's run-time setting ports presented with the beat. :func:`encode_stimulus` writes the
+words as fixed-width hex lines (``$readmemh``), :func:`encode_stimulus_bin` as fixed-width
+big-endian binary records (``$fread``, the fast-mode stimulus). Output lines are
+``SS H DDDD`` = segment, ``{tuser, tlast}``, ``tdata``.
 """
 
 import numpy as np
@@ -13,7 +15,9 @@ import numpy as np
 from ..beats import Beats, beats_to_frames, frames_to_beats, mark_resets  # noqa: F401
 from ..errors import TdicamError
 
-__all__ = ["encode_stimulus", "decode_output", "header_digits", "output_line_bytes"]
+__all__ = ["encode_stimulus", "encode_stimulus_bin", "stimulus_word_bytes",
+           "stimulus_words_bin", "decode_output",
+           "header_digits", "output_line_bytes"]
 
 _HEX = np.frombuffer(b"0123456789abcdef", dtype=np.uint8)
 _UNHEX = np.full(256, 255, dtype=np.uint8)
@@ -23,12 +27,16 @@ for _i, _c in enumerate(b"ABCDEF"):
     _UNHEX[_c] = 10 + _i
 
 
-def _digits(values, ndigits):
-    """(n, ndigits) ASCII hex digits of uint64 values, most significant first."""
+def _nibbles(values, ndigits):
+    """(n, ndigits) uint8 nibbles of uint64 values, most significant first."""
     values = np.asarray(values, dtype=np.uint64)
     shifts = np.arange(ndigits - 1, -1, -1, dtype=np.uint64) * np.uint64(4)
-    nib = (values[:, None] >> shifts[None, :]) & np.uint64(15)
-    return _HEX[nib.astype(np.intp)]
+    return ((values[:, None] >> shifts[None, :]) & np.uint64(15)).astype(np.uint8)
+
+
+def _digits(values, ndigits):
+    """(n, ndigits) ASCII hex digits of uint64 values, most significant first."""
+    return _HEX[_nibbles(values, ndigits)]
 
 
 def _undigits(chars):
@@ -48,18 +56,49 @@ def header_digits(ctrl_bits):
     return -(-(ctrl_bits + 3) // 4)
 
 
-def encode_stimulus(beats, *, elem_padded_bits, ctrl_bits):
-    """Fixed-width hex lines of stimulus words, as ``$readmemh`` reads them."""
-    n, count = beats.data.shape
+def _stimulus_nibbles(beats, elem_padded_bits, ctrl_bits):
+    """(n, digits) uint8 nibbles of the stimulus words, most significant first."""
     hd = header_digits(ctrl_bits)
     header = (beats.rst.astype(np.uint64) << np.uint64(ctrl_bits + 2)) \
         | (beats.ctrl << np.uint64(2)) | (beats.first.astype(np.uint64) << np.uint64(1)) \
         | beats.last.astype(np.uint64)
     ed = elem_padded_bits // 4
-    cols = [_digits(header, hd)]
-    cols += [_digits(beats.data[:, k], ed) for k in range(count - 1, -1, -1)]
-    cols.append(np.full((n, 1), ord("\n"), np.uint8))
-    return np.concatenate(cols, axis=1).tobytes()
+    count = beats.data.shape[1]
+    cols = [_nibbles(header, hd)]
+    cols += [_nibbles(beats.data[:, k], ed) for k in range(count - 1, -1, -1)]
+    return np.concatenate(cols, axis=1)
+
+
+def encode_stimulus(beats, *, elem_padded_bits, ctrl_bits):
+    """Fixed-width hex lines of stimulus words, as ``$readmemh`` reads them."""
+    nib = _stimulus_nibbles(beats, elem_padded_bits, ctrl_bits)
+    nl = np.full((nib.shape[0], 1), ord("\n"), np.uint8)
+    return np.concatenate([_HEX[nib], nl], axis=1).tobytes()
+
+
+def stimulus_word_bytes(*, elem_padded_bits, count, ctrl_bits):
+    """Bytes of one binary stimulus record: the word zero-extended to whole bytes."""
+    return -(-(header_digits(ctrl_bits) + count * (elem_padded_bits // 4)) // 2)
+
+
+def encode_stimulus_bin(beats, *, elem_padded_bits, ctrl_bits):
+    """Binary stimulus records, as ``$fread(mem, fd)`` reads them into a memory of
+    ``8 * stimulus_word_bytes(...)``-bit words: each word zero-extended to whole bytes, most
+    significant byte first, records back to back (no separators)."""
+    nib = _stimulus_nibbles(beats, elem_padded_bits, ctrl_bits)
+    if nib.shape[1] % 2:
+        nib = np.concatenate([np.zeros((nib.shape[0], 1), np.uint8), nib], axis=1)
+    return ((nib[:, 0::2] << 4) | nib[:, 1::2]).astype(np.uint8).tobytes()
+
+
+def stimulus_words_bin(data, record_bytes):
+    """The stimulus words (Python ints) of binary records, inverse of
+    :func:`encode_stimulus_bin`."""
+    if len(data) % record_bytes:
+        raise TdicamError(f"stimulus file is malformed: {len(data)} bytes is not a multiple "
+                          f"of the {record_bytes}-byte record")
+    return [int.from_bytes(data[k:k + record_bytes], "big")
+            for k in range(0, len(data), record_bytes)]
 
 
 def output_line_bytes(elem_padded_bits, count):

@@ -5,7 +5,11 @@ One testbench serves both drive modes, so a simulator build is made once per par
 * ``beat_mode = 1`` (per-beat): cocotb writes the ``b_*`` registers at each falling clock
   edge and samples the handshake in the read-only phase before the rising edge.
 * ``beat_mode = 0`` (fast): an HDL engine presents stimulus held in a memory loaded with
-  ``$readmemh`` (in chunks of ``DEPTH`` beats, files ``stim_NNNNNN.hex`` in the run folder),
+  ``$fread`` (in chunks of ``DEPTH`` beats, binary files ``stim_NNNNNN.bin`` in the run
+  folder written by :func:`tdicam.cosim.codec.encode_stimulus_bin`: each word zero-extended
+  to whole bytes, most significant byte first; the last chunk may be short; a chunk that
+  cannot be opened or holds fewer or more bytes than its beats ends the run with ``FAIL``
+  and ``$fatal``),
   draws idle cycles and backpressure from the two xorshift32 generators of
   :class:`tdicam.pauses.Pauses` (the same pattern as per-beat mode and the Amaranth driver for
   the same seed), pulses reset where a stimulus word asks for it, writes every output
@@ -35,7 +39,7 @@ DEPTH = 1 << 16
 class SelfCheck:
     """Settings of a stand-alone, self-checking run of the fast-mode testbench.
 
-    The testbench reads the stimulus chunks ``stim_NNNNNN.hex`` and ``expected.hex`` (one
+    The testbench reads the binary stimulus chunks ``stim_NNNNNN.bin`` and ``expected.hex`` (one
     hex word ``{2'b00, seg[7:0], tuser, tlast, tdata}`` per expected output transfer: the
     stimulus word layout of :func:`tdicam.cosim.codec.encode_stimulus` with the segment as
     an 8-bit ``ctrl``) from
@@ -112,9 +116,9 @@ def _selfcheck_text(sc):
 
 
 def _chunk_name_expr():
-    # "stim_NNNNNN.hex" from the chunk number, without string functions (portable).
+    # "stim_NNNNNN.bin" from the chunk number, without string functions (portable).
     digits = ", ".join(f"digit(chunk, {10 ** k})" for k in range(5, -1, -1))
-    return f'{{"stim_", {digits}, ".hex"}}'
+    return f'{{"stim_", {digits}, ".bin"}}'
 
 
 #: Waveform window of a run: ``wave.fst`` in the run folder holds every signal of the
@@ -178,6 +182,7 @@ module {TB_TOP};
   localparam OW = {out_bits};
   localparam CW = {cw};
   localparam SW = {sw};
+  localparam SB = (SW + 7) / 8;  // bytes per binary stimulus record
   localparam DEPTH = {depth};
   localparam RST_CYCLES = {RST_CYCLES};
 
@@ -209,9 +214,9 @@ module {TB_TOP};
   reg running = 1'b0;
   reg done = 1'b0;
   reg timeout = 1'b0;
-  reg [SW-1:0] mem [0:DEPTH-1];
+  reg [8*SB-1:0] mem [0:DEPTH-1];
   reg [8*15-1:0] fname;
-  integer fd;
+  integer fd, fd_s;
   reg [31:0] n_in = 0, n_out = 0, max_cycles = 0, drain = 0;
   reg [31:0] in_idx = 0, out_count = 0, cycles = 0, chunk = 0, drain_cnt = 0;
   reg [31:0] idle_thr = 0, bp_thr = 0, lv = 32'h1, lr = 32'h2;
@@ -219,7 +224,28 @@ module {TB_TOP};
   reg [3:0] rst_cnt = 0;
   reg rst_served = 1'b0, held = 1'b0, tracing = 1'b0;
   integer fd_t;
-  wire [SW-1:0] cur = mem[in_idx % DEPTH];
+  wire [8*SB-1:0] cur_rec = mem[in_idx % DEPTH];
+  wire [SW-1:0] cur = cur_rec[SW-1:0];
+
+  // chunk `chunk` of the stimulus (stim_NNNNNN.bin) into mem; a bad file ends the run
+  task load_chunk;
+    integer want, got;
+    begin
+      fname = {_chunk_name_expr()};
+      want = (n_in - chunk * DEPTH < DEPTH ? n_in - chunk * DEPTH : DEPTH) * SB;
+      fd_s = $fopen(fname, "rb");
+      if (fd_s == 0) begin
+        $display("FAIL cannot open the stimulus file %0s", fname);
+        $fatal(1);
+      end
+      got = $fread(mem, fd_s);
+      $fclose(fd_s);
+      if (got != want) begin
+        $display("FAIL stimulus file %0s: %0d bytes read, %0d expected", fname, got, want);
+        $fatal(1);
+      end
+    end
+  endtask
   wire cur_rst = cur[IW+2+CW];
   wire rst_now = running && in_idx < n_in && cur_rst && !rst_served;
   wire f_rst = !running || rst_cnt != 0 || rst_now;
@@ -272,8 +298,7 @@ module {TB_TOP};
       if (lv == 0) lv = 32'h{ZERO_SEED_STATE:08x};
       lr = lv ^ 32'h{XOR_R:08x};
       chunk = 0;
-      fname = {_chunk_name_expr()};
-      if (n_in != 0) $readmemh(fname, mem);
+      if (n_in != 0) load_chunk;
 {'      fd = $fopen("out.hex", "w");' + chr(10) if out_file else ""}      if (tracing) fd_t = $fopen("trace.txt", "w");
       running <= 1'b1;
     end else if (running) begin
@@ -295,8 +320,7 @@ module {TB_TOP};
         rst_served <= 1'b0;
         if ((in_idx + 1) % DEPTH == 0 && in_idx + 1 < n_in) begin
           chunk = chunk + 1;
-          fname = {_chunk_name_expr()};
-          $readmemh(fname, mem);
+          load_chunk;
         end
       end
       if (m_fire) begin

@@ -1,7 +1,7 @@
 """cocotb side of the stream co-simulation (see :mod:`tdicam.cosim`).
 
 The simulator runs in a run folder holding ``job.json`` and the stimulus chunks
-``stim_NNNNNN.hex``; this module drives the generated testbench ``tdicam_tb`` in the job's
+``stim_NNNNNN.bin``; this module drives the generated testbench ``tdicam_tb`` in the job's
 mode and leaves ``out.hex`` (every output transfer) and ``summary.json`` there.
 """
 
@@ -11,6 +11,7 @@ from pathlib import Path
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
 
+from tdicam.cosim import codec
 from tdicam.pauses import StreamDriver
 
 
@@ -37,10 +38,12 @@ class TB:
 
     # ---- per-beat mode: Python drives and samples every cycle
     def _stimulus(self):
-        words = []
-        for path in sorted(Path(".").glob("stim_*.hex")):
-            words += [int(x, 16) for x in path.read_text().split()]
-        return words[: self.job["n_in"]]
+        job, words = self.job, []
+        rec = codec.stimulus_word_bytes(elem_padded_bits=job["in_padded"],
+                                        count=job["in_count"], ctrl_bits=job["ctrl_bits"])
+        for path in sorted(Path(".").glob("stim_*.bin")):
+            words += codec.stimulus_words_bin(path.read_bytes(), rec)
+        return words[: job["n_in"]]
 
     async def run_beats(self):
         dut, job = self.dut, self.job
