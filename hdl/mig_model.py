@@ -31,7 +31,7 @@ class MigModel(wiring.Component):
     into anything useful: the memory is an array of ``depth_words`` 256-bit words).
 
     Same behaviour and the same per-cycle stall pattern as
-    :class:`tdicam.model.ddr.MigSim` (xorshift32 state seeded with ``seed | 1``, stepping
+    :class:`tdicam.model.ddr.MigSim` (xorshift32 state seeded with ``seed``, 1..2**32-1, stepping
     every cycle): ``app_rdy`` low in the first ``refresh_cycles`` of every
     ``refresh_period`` after the first, when ``state[7:0] < drop`` or when the return
     queue is nearly full;
@@ -76,7 +76,7 @@ class MigModel(wiring.Component):
         m = Module()
         lo, hi, period, rcyc, drop, seed = self._p
         D, WB = self._depth, WORD_BITS
-        s = Signal(32, init=(seed | 1) & 0xFFFFFFFF)
+        s = Signal(32, init=seed)
         m.d.sync += s.eq(_xorshift(s))
         t = Signal(32)
         m.d.sync += t.eq(t + 1)

@@ -298,7 +298,7 @@ def _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed):
     check_range("refresh_period", refresh_period, 1, 1 << 20)
     check_range("refresh_cycles", refresh_cycles, 0, refresh_period - 1)
     check_range("drop", drop, 0, 255)
-    check_range("seed", seed, 0, 0xFFFFFFFF)
+    check_range("seed", seed, 1, 0xFFFFFFFF)
 
 
 def _refreshing(t, period, cycles):
@@ -315,7 +315,7 @@ def stall_pattern(cycles, *, lat_lo=20, lat_hi=60, refresh_period=780, refresh_c
     while its write-data FIFO is full (not included here). Identical to the HDL model.
     """
     _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
-    s = (seed | 1) & 0xFFFFFFFF
+    s = seed   # xorshift32 state: every seed its own pattern
     a = np.zeros(cycles, bool)
     w = np.zeros(cycles, bool)
     lat = np.zeros(cycles, np.int64)
@@ -367,7 +367,7 @@ class MigSim:
         self.lat_lo, self.lat_hi = lat_lo, lat_hi
         self.refresh_period, self.refresh_cycles = refresh_period, refresh_cycles
         self.drop = drop
-        self.s = (seed | 1) & 0xFFFFFFFF
+        self.s = seed   # xorshift32 state: every seed its own pattern
         self.t = 0
         self.mem = {}
         self.wdf = deque()

@@ -11,7 +11,9 @@
     the generated Verilog co-simulated on Icarus and Verilator, cocotb driving every beat or
     the HDL testbench driving a stimulus memory (:func:`tdicam.cosim.run_stream`);
 ``scene fast|auto|exact``
-    the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene.
+    the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene;
+``pipeline`` (only when named, :data:`EXTRA`)
+    the orbit scene's whole chain through its generated top (:mod:`tdicam.benchpipe`).
 
 Every level of a block runs on the same generated input: the slow levels (Python simulator,
 per-beat, Icarus fast) on its first frames or words (a prefix), the golden model and the fast
@@ -52,7 +54,7 @@ from .benchutil import machine, median_time
 from .errors import TdicamError, check_range
 from .paths import SCENES
 
-__all__ = ["NAMES", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
+__all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
            "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS"]
 
@@ -151,6 +153,9 @@ def _units(blk, inputs):
 
 #: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
 NAMES = ("cds", "tdi", "nuc", "hdr", "median3", "secded", "lvds", "ddr", "scene")
+#: Benchmarks run only when named (minutes each): ``pipeline``, the orbit scene's whole
+#: chain through its generated top (:mod:`tdicam.benchpipe`).
+EXTRA = ("pipeline",)
 _ALIASES = {"secded": ("secded_enc", "secded_dec")}
 
 
@@ -382,16 +387,22 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     return rows
 
 
-RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows}
+def _pipeline_rows(**kw):
+    from .benchpipe import pipeline_rows
+    return pipeline_rows(**kw)
+
+
+RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows,
+           "pipeline": _pipeline_rows}
 
 
 def expand(names):
     names = list(names) or list(NAMES)
     out = []
-    valid = list(NAMES) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
+    valid = list(NAMES) + list(EXTRA) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
     for n in names:
         if n not in valid:
-            raise TdicamError(f"unknown benchmark {n!r}; valid: {', '.join(NAMES)}")
+            raise TdicamError(f"unknown benchmark {n!r}; valid: {', '.join(NAMES + EXTRA)}")
         out += [x for x in _ALIASES.get(n, (n,)) if x not in out]
     return out
 

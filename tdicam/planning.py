@@ -47,7 +47,7 @@ EXIT_INFEASIBLE = 1
 #: ``tdicam synth --reference`` figures (``tdi`` rows: width 1280, 96 stages, 12-bit pixels,
 #: ECP5-85F speed 8, median of 3 placement seeds). Update this table with them;
 #: ``tdicam plan --fpga-clock-mhz X`` overrides it.
-REFERENCE_TDI_FMAX_MHZ = {1: 161.4, 4: 168.9, 8: 165.4}
+REFERENCE_TDI_FMAX_MHZ = {1: 151.8, 4: 165.8, 8: 156.0}
 
 # (argparse dest, scene section, scene key, option, type, nargs, help)
 SCENE_OPTIONS = (

@@ -26,7 +26,7 @@ import numpy as np
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
-__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "WAVE_WINDOW"]
+__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "beats_differ", "WAVE_WINDOW"]
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):
@@ -173,8 +173,9 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
 
     Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
     = (beats, cycle of each beat) of tap ``k``; ``info`` the testbench summary plus
-    ``build_seconds`` (0 when the build was cached), ``run_seconds`` (simulator wall time)
-    and ``input_beats``.
+    ``build_seconds`` (0 when the build was cached), ``run_seconds`` (simulator wall time),
+    ``run_cpu_seconds`` (the simulator process's CPU time, build excluded) and
+    ``input_beats``.
 
     ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
     """
@@ -216,8 +217,10 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
+    c0 = os.times()
     ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus,
                                 waves=wave is not None)
+    c1 = os.times()
     summary = rundir / "summary.json"
     if not ok or not summary.exists():
         raise TdicamError(f"{sim} simulation of the pipeline failed; see "
@@ -230,17 +233,26 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
                                       elem_padded_bits=-(-b // 8) * 8, count=c),
                   _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
     info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
+                 "run_cpu_seconds": (c1.children_user + c1.children_system)
+                 - (c0.children_user + c0.children_system),
                  "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
     if not keep and wave is None:
         shutil.rmtree(rundir, ignore_errors=True)
     return got, info
 
 
+def beats_differ(got, exp):
+    """Per beat of the common length of two :class:`~tdicam.beats.Beats`: True where the
+    data or a frame marker (first, last) differs."""
+    n = min(len(got), len(exp))
+    return (got.data[:n] != exp.data[:n]).any(axis=1) | (got.first[:n] != exp.first[:n]) \
+        | (got.last[:n] != exp.last[:n])
+
+
 def _first_diff(got, exp):
     """Index of the first differing beat (or of the first missing/extra one), or None."""
     n = min(len(got), len(exp))
-    bad = (got.data[:n] != exp.data[:n]).any(axis=1) | (got.first[:n] != exp.first[:n]) \
-        | (got.last[:n] != exp.last[:n])
+    bad = beats_differ(got, exp)
     if bad.any():
         return int(np.argmax(bad))
     return None if len(got) == len(exp) else n

@@ -172,7 +172,7 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
 
 @pytest.mark.parametrize("args, msg", [
     (["nope"], "unknown benchmark 'nope'; valid: cds, tdi, nuc, hdr, median3, secded, lvds, "
-               "ddr, scene"),
+               "ddr, scene, pipeline"),
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
     (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
@@ -212,3 +212,32 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
     assert got["pysim"]["accuracy"] == "bit-exact" and got["pysim"]["units"] == 8
     assert got["verilator beat"]["accuracy"] == "n/a"
     assert np.isclose(got["golden"]["x_ref"], 1.0)
+
+
+def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
+    """``tdicam bench pipeline``: only when named; its rows carry the run's own figures
+    (a mismatch is counted, Icarus only with --quick, the target judged on wall time)."""
+    from tdicam import benchpipe
+    assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
+    seen = []
+
+    def fake(scene, *, sim, lines, idle, backpressure):
+        seen.append((scene, sim, lines))
+        return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,
+                "input_pixels": 1_000_000, "cycles": 1_100_000, "compared": 512,
+                "mismatches": 3 if sim == "icarus" else 0, "golden_s": 0.5, "build_s": 7.0,
+                "run_s": 1.0 if sim == "verilator" else 4.0, "cpu_s": 0.8}
+
+    monkeypatch.setattr(benchpipe, "pipeline_run", fake)
+    rows = bench.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
+    by = {r["level"]: r for r in rows}
+    assert by["icarus fast"]["accuracy"] == "n/a" and seen == [
+        (benchpipe.PIPELINE_SCENE, "verilator", None)]
+    v = by["verilator fast"]
+    assert v["accuracy"] == "bit-exact" and v["rate"] == 1e6 and "target 500,000 px/s met" \
+        in v["note"] and v["build_s"] == 7.0 and by["golden"]["rate"] == 2e6
+    seen.clear()
+    rows = bench.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
+    assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8)]
+    assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching"]
+    assert "not met" in rows[1]["note"]

@@ -321,7 +321,7 @@ def test_pipeline_export_bad_scenes_are_one_line(tmp_path):
     text = Path(CHAIN).read_text()
     scenes = {"garbage.toml": ("garbage = [\n", "invalid TOML"),
               "charge.toml": (text.replace("stages = 8\n", 'stages = 8\ndomain = "charge"\n'),
-                              "only a digital-TDI chain has a gateware pipeline")}
+                              "needs [tdi].domain = 'digital'")}
     for name, (body, message) in scenes.items():
         (tmp_path / name).write_text(body)
         r = cli("export", "pipeline", "--scene", str(tmp_path / name), "-o",

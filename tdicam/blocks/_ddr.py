@@ -28,7 +28,7 @@ STALL_PARAMS = (
           "model: cycles of each refresh (app_rdy low)", lo=0, hi=1 << 20),
     Param("drop", DEFAULT_STALLS["drop"],
           "model: each ready dropped with probability drop/256 per cycle", lo=0, hi=255),
-    Param("seed", DEFAULT_STALLS["seed"], "model: stall pattern seed", lo=0,
+    Param("seed", DEFAULT_STALLS["seed"], "model: stall pattern seed (each its own pattern)", lo=1,
           hi=0xFFFFFFFF),
 )
 _STALL_NAMES = tuple(p.name for p in STALL_PARAMS)

@@ -24,7 +24,10 @@ def register(sub):
                     "PSNR of their output against exact, exact's seed-to-seed PSNR as the "
                     "noise floor).")
     p.add_argument("names", nargs="*", metavar="BLOCK",
-                   help=f"benchmarks to run (default: all): {', '.join(bench.NAMES)}")
+                   help=f"benchmarks to run (default: all of {', '.join(bench.NAMES)}); "
+                   f"also {', '.join(bench.EXTRA)} (the orbit scene's whole camera pipeline "
+                   "through its generated top, minutes; --quick: 8 lines of the Ning et al. 2019 "
+                   "chain)")
     p.add_argument("--repeat", type=int, default=None, help="runs per level (3; --quick: 1)")
     p.add_argument("--quick", action="store_true", help="short inputs, one run per level")
     p.add_argument("--sims", default=",".join(cosim.SIMULATORS),
