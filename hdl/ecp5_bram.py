@@ -6,7 +6,7 @@ ECP5 block-RAM mapping always sets ``REGMODE = NOREG``, so the register after th
 sits in the fabric and the block RAM's 4.26 ns clock-to-out plus the routing to it is the
 accumulator's critical path. Here the register is the DP16KD's own output register
 (``REGMODE_B = "OUTREG"``) and a fabric register follows it with no logic in between: one
-read stage more than the generic bank (:data:`EXTRA_STAGES`).
+read stage more than the generic memory (:data:`EXTRA_STAGES`).
 
 The Verilog this gives instantiates ``DP16KD`` cells: yosys/nextpnr (and Lattice's tools)
 take it as is; a simulator needs a DP16KD model (yosys ships only a black box;
@@ -18,7 +18,7 @@ from amaranth.hdl import Cat, ClockSignal, Const, Instance, Mux, Signal
 
 __all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank"]
 
-#: Read stages a bank adds to the generic bank's (address edge, data, fabric register): the
+#: Read stages a bank adds to the generic memory's (address edge, data, registers): the
 #: DP16KD output register between the data and the fabric register.
 EXTRA_STAGES = 1
 
@@ -69,7 +69,7 @@ def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
     Signal
         ``bits`` wide, registered: the word read three clock edges earlier (the address
         edge, the DP16KD output register, ``REGMODE_B = "OUTREG"`` with ``OCEB`` = 1, then a
-        fabric register, :data:`EXTRA_STAGES` more than the generic bank's) when it was
+        fabric register, :data:`EXTRA_STAGES` more than the generic memory's) when it was
         read, else zero (the fabric register's synchronous reset, from a register of ``rh``
         per primitive; the block RAM's data reaches a flip-flop with no logic in between,
         its 0.7 ns clock-to-out in place of 4.3 ns without the output register). A read of

@@ -19,17 +19,11 @@ from .tdi_control import TdiFrameControl, tdi_ports
 
 __all__ = ["TdiAccumulator", "BRAMS"]
 
-#: How the partial-sum banks are described (``bram=``), each with the read stages it adds:
-#: ``generic``, ``lib.memory`` memories (every tool and simulator); ``ecp5``, Lattice DP16KD
-#: instances with their output register in use and a fabric register after it
-#: (:mod:`tdicam.hdl.ecp5_bram`; what ``tdicam synth`` places on the ECP5)
-BRAMS = {"generic": 0, "ecp5": ecp5_bram.EXTRA_STAGES}
-
 # DP16KD data widths and the bank depth used for each: one block RAM (x9 .. x1: 2048 x 9,
 # 4096 x 4, 8192 x 2, 16384 x 1) or, for x18, two 2048 x 9 blocks side by side (no read mux)
 _BANK_DEPTH = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}
 _GROUP = 8        # banks per first-level OR; block RAMs per replicated address register
-_READ_STAGES = 5  # issue (C), block RAM data, per-bank register, group OR, final OR
+_READ_STAGES = 5  # issue (C), block RAM data, three registers (banks: per bank, OR of 8, OR)
 
 
 def _split(bits):
@@ -48,30 +42,103 @@ def _onehot(addr, lg, n):
     return (Const(1, 1) << addr[lg:lg + (n - 1).bit_length()])[:n]
 
 
-def _bank(m, tag, width, depth, *, re, rh, raddr, we, waddr, wdata):
-    """One partial-sum bank: memory ``psum_<tag>`` of ``depth`` x ``width`` bits (no
-    initial value, no read/write collision logic), read when ``re`` into its synchronous
-    read port, written with ``wdata`` at ``waddr`` when ``we``; its data then goes into a
-    flip-flop next to the block RAM (``q_<tag>``), zero when the bank was not read (``rh``:
-    ``re`` one cycle later), so the banks' outputs are ORed. Returns (memory, that
-    register, (re, read address, we, write address))."""
-    mem = Memory(shape=unsigned(width), depth=depth, init=[],
-                 attrs={NO_RW_CHECK: 1, NO_INIT: 1})
-    m.submodules[f"psum_{tag}"] = mem
-    rd, wr = mem.read_port(), mem.write_port()
-    m.d.comb += [rd.addr.eq(raddr[:len(rd.addr)]), rd.en.eq(re),
-                 wr.addr.eq(waddr[:len(wr.addr)]), wr.data.eq(wdata), wr.en.eq(we)]
-    q = Signal(width, name=f"q_{tag}")
-    m.d.sync += q.eq(Mux(rh, rd.data, 0))
-    return mem, q, (rd.en, rd.addr, wr.en, wr.addr)
-
-
 def _or(items):
     """OR of items, as a balanced tree."""
     while len(items) > 1:
         items = [items[j] | items[j + 1] if j + 1 < len(items) else items[j]
                  for j in range(0, len(items), 2)]
     return items[0]
+
+
+def _flat(acc, m, p, do_write, sum_word, ports):
+    """``generic``: one ``lib.memory`` memory ``psum`` of ``(stages-1) W/ppc`` words of
+    ``ppc`` x psum bits, one synchronous read port (read enable) and one write port, then
+    three registers (the last one masked to zero when the stored sum is not used), the
+    same stages as the banks' per-bank register and two OR levels. Returns the per-lane
+    stored sums."""
+    PPC, PS = acc._ppc, acc._psum_bits
+    depth = acc.memory_shape[1]
+    if not depth:
+        return [Const(0, PS)] * PPC
+    mem = Memory(shape=unsigned(PPC * PS), depth=depth, init=[],
+                 attrs={NO_RW_CHECK: 1, NO_INIT: 1})
+    m.submodules.psum = mem
+    acc.memories.append(mem)
+    rd, wr = mem.read_port(), mem.write_port()
+    aw = len(p[0]["addr"])
+    ra, wa = Signal(aw, name="ra"), Signal(aw, name="wa")
+    re, we, wd = Signal(name="re"), Signal(name="we"), Signal(PPC * PS, name="wd")
+    # issue: address and enable registered (C); write-back registered, written a cycle later
+    m.d.sync += [ra.eq(p[0]["addr"]), re.eq(p[0]["valid"]),
+                 wa.eq(p[-1]["addr"]), we.eq(do_write), wd.eq(sum_word)]
+    m.d.comb += [rd.addr.eq(ra), rd.en.eq(re), wr.addr.eq(wa), wr.data.eq(wd),
+                 wr.en.eq(we)]
+    ports.append((rd.en, rd.addr, wr.en, wr.addr))
+    q = rd.data
+    for s in range(3):
+        r = Signal(PPC * PS, name=f"q{s}")
+        use = p[acc._read_stages - 1]["use"]
+        m.d.sync += r.eq(Mux(use, q, 0) if s == 2 else q)
+        q = r
+    return [q[k * PS:(k + 1) * PS] for k in range(PPC)]
+
+
+def _banks(acc, m, p, do_write, sum_word, ports):
+    """``ecp5``: the partial sums in DP16KD banks (see *Memory*), each read into its
+    block RAM output register and a fabric register, ORed in two registered levels (the
+    last one masked to zero when the stored sum is not used). Returns the per-lane stored
+    sums."""
+    PPC, PS = acc._ppc, acc._psum_bits
+    aw = len(p[0]["addr"])
+    ps_ = p[acc._read_stages]
+    lanes = [[] for _ in range(PPC)]
+    lo = 0
+    rep = max(1, _GROUP // PPC)   # banks per replicated address / write register set
+    for pw, depths in acc.memory_banks:
+        lg = _BANK_DEPTH[pw].bit_length() - 1
+        n = len(depths)
+        # bank enables, one bit per bank, decoded once for the part (one shift, not a
+        # comparator per bank): read at the issue (re), its data arrives (rh), write back (we)
+        re_v = Signal(n, name=f"re_b{lo}")
+        rh_v = Signal(n, name=f"rh_b{lo}")
+        we_v = Signal(n, name=f"we_b{lo}")
+        m.d.sync += [re_v.eq(Mux(p[0]["valid"], _onehot(p[0]["addr"], lg, n), 0)),
+                     rh_v.eq(re_v),
+                     we_v.eq(Mux(do_write, _onehot(ps_["addr"], lg, n), 0))]
+        q = []
+        for c, bd in enumerate(depths):
+            if c % rep == 0:
+                # replicated issue and write-back address and data registers
+                g = c // rep
+                ra = Signal(aw, name=f"ra_b{lo}_g{g}", attrs={"keep": 1})
+                wa = Signal(aw, name=f"wa_b{lo}_g{g}", attrs={"keep": 1})
+                wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", attrs={"keep": 1})
+                m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
+                             wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
+                                         for k in range(PPC))))]
+            q.append(ecp5_bram.bank(m, f"b{lo}_{c}", depth=bd, bits=PPC * pw, ra=ra,
+                                    re=re_v[c], rh=rh_v[c], wa=wa, wd=wd, we=we_v[c]))
+        groups = []
+        for j in range(0, len(q), _GROUP):
+            gq = Signal(PPC * pw, name=f"g_b{lo}_{j // _GROUP}")
+            m.d.sync += gq.eq(_or(q[j:j + _GROUP]))
+            groups.append(gq)
+        piece = Signal(PPC * pw, name=f"ps_b{lo}")
+        # the stored sum is used or not: masked here, so the adder gets registers
+        m.d.sync += piece.eq(Mux(p[acc._read_stages - 1]["use"], _or(groups), 0))
+        for k in range(PPC):
+            lanes[k].append(piece[k * pw:(k + 1) * pw])
+        lo += pw
+    return [Cat(*parts) if parts else Const(0, PS) for parts in lanes]
+
+
+#: How the partial sums are stored (``bram=``): the read stages each description adds to
+#: the generic one's and the function that makes it. ``generic``: one ``lib.memory``
+#: memory (every tool and simulator; vendor tools split it into their block RAMs);
+#: ``ecp5``: Lattice DP16KD banks at the packing limit with their output register in use and
+#: a fabric register after it (:mod:`tdicam.hdl.ecp5_bram`; what ``tdicam synth`` places
+#: on the ECP5).
+BRAMS = {"generic": (0, _flat), "ecp5": (ecp5_bram.EXTRA_STAGES, _banks)}
 
 
 class TdiAccumulator(wiring.Component):
@@ -91,12 +158,12 @@ class TdiAccumulator(wiring.Component):
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8.
     bram : {"generic", "ecp5"}
-        How each memory bank and its read register are described (:data:`BRAMS`):
-        ``generic`` (default), a ``lib.memory`` memory and a fabric register; ``ecp5``,
-        DP16KD instances whose output register is the bank register
-        (:func:`tdicam.hdl.ecp5_bram.bank`) followed by a fabric register: the same
-        behaviour and block RAM count, one read stage more (:attr:`latency` 10,
-        :attr:`row_cycles` at least 7).
+        How the partial sums are stored (:data:`BRAMS`): ``generic`` (default), one
+        ``lib.memory`` memory and three registers after its read port (every tool and
+        simulator; what ``tdicam verilog`` writes); ``ecp5``, DP16KD banks at the packing
+        limit whose output register is the bank register (:func:`tdicam.hdl.ecp5_bram.bank`)
+        followed by a fabric register and two OR levels: the same behaviour, one read stage
+        more (:attr:`latency` 10, :attr:`row_cycles` at least 7).
 
     Attributes
     ----------
@@ -123,29 +190,26 @@ class TdiAccumulator(wiring.Component):
     malformed frames dropped, counted and a started output line completed with zeros, as
     :func:`~tdicam.model.tdi.tdi_stream`) decodes each input beat into a partial-sum address
     and what to do with it. The memory holds exactly ``stages - 1`` partial-sum lines of W
-    words of :attr:`psum_bits`: per pixel lane ``(stages-1) * W/ppc`` words (bank k holds
+    words of :attr:`psum_bits`: per pixel lane ``(stages-1) * W/ppc`` words (lane k holds
     pixels k, k+ppc, ...). Every input row reads one line and writes its update back to the
     same address; which line a row uses rotates by one per frame, so partial sums are never
     copied, and a stored sum predating the last restart is never used, so the memory needs
     no clearing.
 
-    *Memory banks.* A lane's words are split by bits into parts of a block RAM data width
-    (18, 9, 4, 2, 1 bits, largest first: 19 = 18 + 1) and each part by address into banks
-    of 2048 words for 18 and 9 bits, one ECP5 DP16KD's depth for narrower parts (16384 x 1).
-    A bank is one ``lib.memory`` memory holding its part of every lane (``ppc`` x part bits
-    per word: what one address reads), with one synchronous read port and one write port,
-    read only on the cycle it is addressed (read enable), written only when addressed
-    (:attr:`memory_banks`). Every bit is stored once: at 1280 x 96 stages x 12 bits, 127
-    DP16KD (ppc 1) / 128 (ppc 4 and 8), the packing floor being 126. A bank is made in one
-    place (``_bank``: its memory and the register after it).
+    *Memory.* ``generic``: one memory of ``(stages-1) * W/ppc`` words of ``ppc`` x
+    :attr:`psum_bits` (what one address reads: a word of every lane) with one synchronous
+    read port, read only when a beat is issued (read enable), and one write port; vendor
+    tools split it into their block RAMs, and a simulator evaluates one memory per clock
+    (the fastest description to simulate). ``ecp5``, *memory banks* (:attr:`memory_banks`):
+    a lane's words are split by bits into parts of a block RAM data width (18, 9, 4, 2, 1
+    bits, largest first: 19 = 18 + 1) and each part by address into banks of 2048 words
+    for 18 and 9 bits, one DP16KD's depth for narrower parts (16384 x 1); a bank holds its
+    part of every lane, is read only on the cycle it is addressed and written only when
+    addressed (one-hot enables decoded once per part from the address, registered). Every
+    bit is stored once: at 1280 x 96 stages x 12 bits, 127 DP16KD (ppc 1) / 128 (ppc 4 and
+    8), the packing floor being 126.
 
-    *Simulation cost.* A Verilog simulator evaluates every bank every clock (68 at ppc 1),
-    so what a bank does on a cycle it is not addressed is kept to tests of one enable bit:
-    the read, write and data-arrives enables of a part's banks are one-hot vectors decoded
-    once per part from the address (one shift, registered), not a comparator per bank; the
-    read and write happen only under their enable.
-
-    *No read/write collisions used.* The banks carry yosys' ``no_rw_check`` attribute
+    *No read/write collisions used.* The memory (each bank) carries yosys' ``no_rw_check`` attribute
     (:data:`tdicam.verilog.NO_RW_CHECK`: a read of the address written in the same cycle
     returns an undefined value, so yosys adds no collision-bypass logic behind the block
     RAM), and no initial value (:data:`tdicam.verilog.NO_INIT`). Both are sound because a
@@ -155,17 +219,17 @@ class TdiAccumulator(wiring.Component):
     :class:`tdicam.proofs.tdi.TdiNoWrapProof` asserts the first on every cycle.
 
     *Pipeline.* From the frame control's decoded beat every beat moves one stage per cycle
-    with no stall: C (read issue: address registers replicated per 8 block RAMs, one-hot
-    bank read enables registered), block RAM data, per-bank register (next to its block RAM, zero
-    when the bank was not read), OR of 8 banks registered, OR of the groups (masked to zero
-    when the stored sum is not used) registered -> add, saturate, into the output register
-    and the write-back registers (address, data, bank write enables, replicated), which
-    write one cycle later. A line's address is read again at the earliest one row after its
-    write (the next frame's neighbouring row), and the write lands 6 cycles after the read
-    was issued: rows of fewer than 6 beats get ``6 - W/ppc`` idle cycles after them
-    (:attr:`row_cycles`), so no read sees a stale sum (no forwarding path is needed).
-    ``bram="ecp5"`` adds a stage after the block RAM data (its output register, then the
-    per-bank register): the write lands 7 cycles after the read, rows of at least 7 cycles.
+    with no stall: C (read issue: address and read enable registered), block RAM data, three
+    registers (``ecp5``: per-bank register next to its block RAM, zero when the bank was
+    not read; OR of 8 banks; OR of the groups), the last one masked to zero when the stored
+    sum is not used -> add, saturate, into the output register and the write-back registers
+    (address, data, write enable), which write one cycle later. A line's address is read
+    again at the earliest one row after its write (the next frame's neighbouring row), and
+    the write lands 6 cycles after the read was issued: rows of fewer than 6 beats get
+    ``6 - W/ppc`` idle cycles after them (:attr:`row_cycles`), so no read sees a stale sum
+    (no forwarding path is needed). ``bram="ecp5"`` adds a stage after the block RAM data
+    (its output register, then the per-bank register): the write lands 7 cycles after the
+    read, rows of at least 7 cycles.
 
     *Throughput and latency.* ``ppc`` pixels per clock sustained while ``o_stream.ready`` is
     high (rows of at least :attr:`row_cycles` beats). An output beat enters the read
@@ -189,7 +253,8 @@ class TdiAccumulator(wiring.Component):
         if bram not in BRAMS:
             raise TdicamError(f"bram = {bram!r} is not valid; valid: {', '.join(BRAMS)}")
         self._bram = bram
-        self._read_stages = _READ_STAGES + BRAMS[bram]
+        extra, self._memory_maker = BRAMS[bram]
+        self._read_stages = _READ_STAGES + extra
         self._width = width
         self._stages = stages
         self._pixel_bits = pixel_bits
@@ -241,13 +306,14 @@ class TdiAccumulator(wiring.Component):
 
     @property
     def memory_parts(self):
-        """Bit widths a lane's words are split into, each a block RAM data width, largest
-        first (19 bits: ``(18, 1)``); see *Memory banks*."""
+        """Bit widths a lane's words are split into in the ECP5 banks, each a block RAM data
+        width, largest first (19 bits: ``(18, 1)``); see *Memory*."""
         return tuple(_split(self._psum_bits))
 
     @property
     def memory_banks(self):
-        """``[(part bits, [bank depths])]``: each bank one memory of ``ppc`` x part bits."""
+        """``[(part bits, [bank depths])]`` of ``bram="ecp5"``: each bank holds ``ppc`` x
+        part bits per word (see *Memory*)."""
         depth = self.memory_shape[1]
         out = []
         for pw in (self.memory_parts if depth else ()):
@@ -286,57 +352,8 @@ class TdiAccumulator(wiring.Component):
         do_write = ps_["valid"] & ps_["wr"] & ~ps_["zero"]
         sum_word = Signal(PPC * PS)           # the new partial sums (written back next)
 
-        self.memories = []
-        ports = []        # (read enable, read address, write enable, write address) per bank
-        lanes = [[] for _ in range(PPC)]
-        lo = 0
-        rep = max(1, _GROUP // PPC)   # banks per replicated address / write register set
-        for pw, depths in self.memory_banks:
-            lg = _BANK_DEPTH[pw].bit_length() - 1
-            n = len(depths)
-            # bank enables, one bit per bank, decoded once for the part (a simulator
-            # evaluates one shift, not a comparator per bank): read at the issue (re), its
-            # data arrives (rh), write back (we)
-            re_v = Signal(n, name=f"re_b{lo}")
-            rh_v = Signal(n, name=f"rh_b{lo}")
-            we_v = Signal(n, name=f"we_b{lo}")
-            m.d.sync += [re_v.eq(Mux(p[0]["valid"], _onehot(p[0]["addr"], lg, n), 0)),
-                         rh_v.eq(re_v),
-                         we_v.eq(Mux(do_write, _onehot(ps_["addr"], lg, n), 0))]
-            q = []
-            for c, bd in enumerate(depths):
-                if c % rep == 0:
-                    # replicated issue and write-back address and data registers
-                    g = c // rep
-                    ra = Signal(aw, name=f"ra_b{lo}_g{g}", attrs={"keep": 1})
-                    wa = Signal(aw, name=f"wa_b{lo}_g{g}", attrs={"keep": 1})
-                    wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", attrs={"keep": 1})
-                    m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
-                                 wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
-                                             for k in range(PPC))))]
-                tag = f"b{lo}_{c}"
-                if self._bram == "ecp5":
-                    # DP16KD instances: their output register, then the fabric q (a stage more)
-                    q.append(ecp5_bram.bank(m, tag, depth=bd, bits=PPC * pw, ra=ra,
-                                            re=re_v[c], rh=rh_v[c], wa=wa, wd=wd, we=we_v[c]))
-                    continue
-                mem, qr, port = _bank(m, tag, PPC * pw, bd, re=re_v[c], rh=rh_v[c],
-                                      raddr=ra, we=we_v[c], waddr=wa, wdata=wd)
-                self.memories.append(mem)
-                ports.append(port)
-                q.append(qr)
-            groups = []
-            for j in range(0, len(q), _GROUP):
-                gq = Signal(PPC * pw, name=f"g_b{lo}_{j // _GROUP}")
-                m.d.sync += gq.eq(_or(q[j:j + _GROUP]))
-                groups.append(gq)
-            piece = Signal(PPC * pw, name=f"ps_b{lo}")
-            # the stored sum is used or not: masked here, so the adder gets registers
-            m.d.sync += piece.eq(Mux(p[self._read_stages - 1]["use"], _or(groups), 0))
-            for k in range(PPC):
-                lanes[k].append(piece[k * pw:(k + 1) * pw])
-            lo += pw
-        lanes = [Cat(*parts) if parts else Const(0, PS) for parts in lanes]
+        self.memories, ports = [], []
+        lanes = self._memory_maker(self, m, p, do_write, sum_word, ports)
 
         sums, outs, wraps = [], [], []
         for k in range(PPC):

@@ -1,7 +1,7 @@
 """The one idle/backpressure pattern of every stream driver.
 
 Every stream driver — the Amaranth simulator (:mod:`tdicam.streamsim`,
-:mod:`tdicam.cosim.pysim`), cocotb per-beat mode (:mod:`tdicam.cosim.tb.stream_tb`) and the
+:mod:`tdicam.cosim.pysim`), cocotb per-beat mode (:mod:`tdicam.simtb.stream_tb`) and the
 HDL engine of fast mode (:mod:`tdicam.cosim.tbgen`) — draws its stalls from :class:`Pauses`:
 two xorshift32 generators stepped once per clock cycle, so the same seed and probabilities
 give the same idle/backpressure pattern in all three.

@@ -244,12 +244,13 @@ def identity_data(p):
     return SceneData([], **fields)
 
 
-def top(p, data=None, *, taps=False):
-    """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``)."""
+def top(p, data=None, *, taps=False, ecp5=False):
+    """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
+    each block's ECP5 synthesis top where it has one, for ``tdicam synth``)."""
     from .hdl.axis import AxisTop
     from .hdl.pipeline import Pipeline
     data = identity_data(p) if data is None or data.coeffs is None else data
-    stages = [_use(s.block).hw(s, data) for s in p.steps]
+    stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:
         core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
                         taps=taps)
@@ -405,9 +406,9 @@ class _PipelineBlock:
                                                    for s in self._p.steps]}
 
     def build(self, params=None, *, ecp5=False):
-        """The chain's top; ``ecp5`` asks for vendor primitives, which the chain does not use
-        yet (its blocks' generic tops either way, see :attr:`tdicam.blocks.Block.ecp5_top`)."""
-        return top(self._p, self._data)
+        """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one
+        (:attr:`tdicam.blocks.Block.ecp5_top`, e.g. the TDI accumulator's DP16KD banks)."""
+        return top(self._p, self._data, ecp5=ecp5)
 
 
 def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):

@@ -304,23 +304,34 @@ def _block_rams(mems):
     return sum(min(-(-d // bd) * -(-w // bw) for bd, bw in _DP16KD) for _, d, w, *_ in mems)
 
 
+def _bank_memories(dut):
+    """(name, depth, width) of the DP16KD banks ``bram="ecp5"`` builds (:attr:`memory_banks`:
+    each bank holds its part of every lane, ppc x part bits)."""
+    out, lo = [], 0
+    for pw, depths in dut.memory_banks:
+        out += [(f"psum_b{lo}_{c}", d, dut.ppc * pw) for c, d in enumerate(depths)]
+        lo += pw
+    return out
+
+
 @pytest.mark.parametrize("width,stages,bits,ppc", [
     (64, 4, 12, 1), (64, 4, 12, 4), (256, 32, 12, 1), (1280, 96, 12, 1), (1280, 96, 12, 8),
     (8192, 128, 14, 8), (48, 5, 14, 2), (16, 2, 8, 1), (64, 4, 14, 1)])
 def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
     """The elaborated design holds exactly (m_max-1) x W partial sums of the full width —
-    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc lanes. A lane's words
-    are split by bits into parts of a DP16KD data width (18, 9, 4, 2, 1; 19 bits = 18 + 1)
-    and each part by address into banks (2048 words for 18 and 9 bits, one block RAM's depth
-    below); one memory per bank holds that part of every lane (ppc x part bits), with one
-    read and one write port: every bit is stored exactly once, (m-1) W/ppc words x psum
-    bits per lane."""
-    mems = _memories(TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc))
+    (m_max-1)(m_max-2)/2 lines fewer than the basic structure — in ppc lanes: the generic
+    description one memory of (m-1) W/ppc words of ppc x psum bits with one read and one
+    write port. The ECP5 banks (:attr:`memory_banks`) split a lane's words by bits into
+    parts of a DP16KD data width (18, 9, 4, 2, 1; 19 bits = 18 + 1) and each part by
+    address into banks (2048 words for 18 and 9 bits, one block RAM's depth below): every
+    bit is stored exactly once there too."""
+    dut = TdiAccumulator(width=width, stages=stages, pixel_bits=bits, ppc=ppc)
+    mems = _memories(dut)
     psum = bits + (stages - 1).bit_length()
     depth = (stages - 1) * width // ppc
-    assert all((r, w) == (1, 1) for *_, r, w in mems)
+    assert mems == [("psum", depth, ppc * psum, 1, 1)]
     parts = {}
-    for name, d, bw, *_ in mems:
+    for name, d, bw in _bank_memories(dut):
         _, offset, index = name.split("_")
         pw = bw // ppc
         assert bw == pw * ppc
@@ -344,26 +355,25 @@ def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
 
 
 def test_reference_memory_block_rams():
-    """At the reference parameters the banks need 127 DP16KD for ppc=1 (119 for the 18-bit
-    part + 8 of 16384 x 1) and 128 for ppc=4 and ppc=8 (120 + 8); the floor is
+    """At the reference parameters the ECP5 banks need 127 DP16KD for ppc=1 (119 for the
+    18-bit part + 8 of 16384 x 1) and 128 for ppc=4 and ppc=8 (120 + 8); the floor is
     ceil(95 x 1280 x 19 / 18432) = 126 (yosys' counts: the README silicon-cost rows)."""
     for ppc, n, n18 in ((1, 127, 119), (4, 128, 120), (8, 128, 120)):
-        mems = _memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
+        mems = _bank_memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
         assert _block_rams(mems) == n
         assert _block_rams([x for x in mems if x[0].startswith("psum_b0_")]) == n18
 
 
 def test_memory_in_generated_verilog():
-    """The banks in the Verilog: no initial value (no ``initial`` block spelling out zeros),
-    yosys' ``no_rw_check`` attribute on each."""
+    """The memory in the Verilog: no initial value (no ``initial`` block spelling out zeros),
+    yosys' ``no_rw_check`` attribute."""
     from tdicam.hdl.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
     lines = [ln.strip() for ln in text.splitlines()]
     decls = sorted((lines[i - 1], ln) for i, ln in enumerate(lines) if ln.startswith("reg [")
                    and ln.endswith("];") and "] psum" in ln)
-    # 5 lines x 64 pixels of 13 bits, as 160 words of 2 lanes x (9 + 4) bits
-    assert decls == [("(* no_rw_check = 32'd1 *)", "reg [17:0] psum_b0_0 [159:0];"),
-                     ("(* no_rw_check = 32'd1 *)", "reg [7:0] psum_b9_0 [159:0];")]
+    # 5 lines x 64 pixels of 13 bits, as 160 words of 2 lanes x 13 bits
+    assert decls == [("(* no_rw_check = 32'd1 *)", "reg [25:0] psum [159:0];")]
     assert not any("psum" in ln and "=" in ln and "<=" not in ln for ln in lines)
 
 
@@ -392,13 +402,13 @@ def test_bram_parameter():
     (256, 32, 12, 4)])
 def test_ecp5_banks_as_many_block_rams(width, stages, bits, ppc):
     """``bram="ecp5"``: the banks are DP16KD instances with the output register in use,
-    as many as yosys' mapping of the generic banks (127 / 128 / 128 at the reference
+    as many as the banks' cheapest DP16KD modes (127 / 128 / 128 at the reference
     parameters) and no ``lib.memory`` memory left; one read stage more."""
     kw = dict(width=width, stages=stages, pixel_bits=bits, ppc=ppc)
     gen, ecp5 = TdiAccumulator(**kw), TdiAccumulator(**kw, bram="ecp5")
     prims = _dp16kd(ecp5)
     assert _memories(ecp5) == []
-    assert len(prims) == _block_rams(_memories(gen))
+    assert len(prims) == _block_rams(_bank_memories(ecp5))
     if (width, stages) == (1280, 96):
         assert len(prims) == (127 if ppc == 1 else 128)
     assert all(regmode == "OUTREG" for *_, regmode in prims)

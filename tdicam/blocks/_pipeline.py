@@ -7,10 +7,11 @@ __all__ = ["lane_stage"]
 def lane_stage(kind="lane", elems=1, side=None):
     """``Use.hw`` of a block: a :class:`~tdicam.hdl.pipeline.LaneStage` (``kind="merge"``:
     :class:`~tdicam.hdl.pipeline.MergeStage`) of the core of the block's registered Verilog
-    top; ``side(step, data)`` gives its joined side stream."""
-    def make(step, data):
+    top (``ecp5``: of its ECP5 synthesis top, :attr:`tdicam.blocks.Block.ecp5_top`, when it
+    has one); ``side(step, data)`` gives its joined side stream."""
+    def make(step, data, *, ecp5=False):
         from ..hdl.pipeline import LaneStage, MergeStage
-        comp = _component(step)
+        comp = _component(step, ecp5)
         stage = MergeStage if kind == "merge" else LaneStage
         return stage(step.block, lambda lane: comp(),
                      elems=elems, ports=tuple(step.ports),
@@ -19,14 +20,15 @@ def lane_stage(kind="lane", elems=1, side=None):
     return make
 
 
-def _component(step):
-    """The core (behind AxisTop) of the block's registered Verilog top."""
+def _component(step, ecp5=False):
+    """The core (behind AxisTop) of the block's registered Verilog top (``ecp5``: its ECP5
+    synthesis top when it has one)."""
     from . import get
     blk = get(step.block)
-    params = blk.resolve(step.params)
+    blk.resolve(step.params)    # checked now, not when the stage is elaborated
 
     def make():
-        wrapper = blk.top(**params)
+        wrapper = blk.build(step.params, ecp5=ecp5)
         wrapper._MustUse__silence = True   # only its core is used
         wrapper.core._MustUse__silence = True   # elaborated with the pipeline, if it is
         return wrapper.core

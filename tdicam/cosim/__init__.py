@@ -2,7 +2,7 @@
 
 :func:`run_stream` builds (once per block, parameter set and simulator; cached on disk
 under ``build/cosim``) a testbench around a stream block's Verilog top and runs the
-cocotb test module ``stream_tb`` (:mod:`tdicam.cosim.tb.stream_tb`) in one of two drive modes:
+cocotb test module ``stream_tb`` (:mod:`tdicam.simtb.stream_tb`) in one of two drive modes:
 
 ``beat``
     cocotb drives and samples the AXI4-Stream ports every cycle, with random idle cycles
@@ -204,14 +204,20 @@ def _build(blk, params, sim, wave=False, ecp5=False):
     return bdir, build_time, top
 
 
+# the simulator's Python: no pytest assertion rewriting (cocotb would otherwise parse and
+# rewrite every module imported after it, numpy and amaranth included: ~1 s per run; the
+# testbench modules report their own failures)
+_SIM_ENV = {"COCOTB_REWRITE_ASSERTION_FILES": ""}
+
+
 def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP, waves=False):
-    """Run cocotb module ``test_module`` (a module of :mod:`tdicam.cosim.tb`, or a dotted
+    """Run cocotb module ``test_module`` (a module of :mod:`tdicam.simtb`, or a dotted
     path) on the build in ``bdir`` with ``rundir`` as working folder; returns (passed, wall
     seconds). ``waves``: let the testbench's ``$dumpfile`` write FST (Icarus; the runner
     passes ``-none`` otherwise)."""
     runner = _runner(sim)
     if "." not in test_module:
-        test_module = f"{__name__}.tb.{test_module}"
+        test_module = f"tdicam.simtb.{test_module}"
     results = rundir / "results.xml"
     saved = os.environ.pop("PYTEST_CURRENT_TEST", None)
     saved_waves = os.environ.get("WAVES")
@@ -222,7 +228,7 @@ def run_cocotb(bdir, sim, test_module, rundir, plusargs, *, top=tbgen.TB_TOP, wa
         runner.test(test_module=test_module, hdl_toplevel=top, hdl_toplevel_lang="verilog",
                     build_dir=bdir / "sim", test_dir=rundir, plusargs=plusargs,
                     results_xml=str(results), log_file=rundir / "sim.log",
-                    timescale=("1ns", "1ps"))
+                    timescale=("1ns", "1ps"), extra_env=_SIM_ENV)
         ok = True
     except (SystemExit, RuntimeError):
         ok = False

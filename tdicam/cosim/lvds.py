@@ -2,7 +2,7 @@
 
 The receiver is not a video stream, so it has its own HDL testbench (generated here, built
 and run through :func:`tdicam.cosim.build_sources` / :func:`tdicam.cosim.run_cocotb`, cocotb
-module :mod:`tdicam.cosim.tb.lvds_tb`). Python stays out of the per-cycle loop:
+module :mod:`tdicam.simtb.lvds_tb`). Python stays out of the per-cycle loop:
 
 * the *link* is evaluated in the testbench from the link model's per-lane tables
   (:func:`tdicam.model.lvds.lane_tables`: bit delay and capture-failure threshold per tap and

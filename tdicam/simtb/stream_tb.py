@@ -11,8 +11,6 @@ from pathlib import Path
 import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
 
-from tdicam.cosim import codec
-from tdicam.pauses import StreamDriver
 
 
 class TB:
@@ -38,6 +36,7 @@ class TB:
 
     # ---- per-beat mode: Python drives and samples every cycle
     def _stimulus(self):
+        from tdicam.cosim import codec   # per-beat mode only: fast mode starts light
         job, words = self.job, []
         rec = codec.stimulus_word_bytes(elem_padded_bits=job["in_padded"],
                                         count=job["in_count"], ctrl_bits=job["ctrl_bits"])
@@ -46,6 +45,7 @@ class TB:
         return words[: job["n_in"]]
 
     async def run_beats(self):
+        from tdicam.pauses import StreamDriver
         dut, job = self.dut, self.job
         words = self._stimulus()
         cb = job["ctrl_bits"]
