@@ -6,8 +6,9 @@ a traceback because of a typo in ``--json``), then writes with :func:`write_file
 :func:`open_output`. Every failure is one :class:`~tdicam.errors.TdicamError` line,
 ``PATH: cannot write (REASON)`` (``OPTION: ...`` for an empty name): a directory where a
 file is wanted, a missing parent folder (file outputs never create folders; ``-o DIR``
-outputs create theirs), a place the user may not write, a full device. A file left half
-written by a failed write is removed.
+outputs create theirs), a place the user may not write, a full device (``/dev/full`` before
+the work; a full file system when written). A file left half written by a failed write is
+removed.
 """
 
 from __future__ import annotations
@@ -38,7 +39,10 @@ def check_file(path, option="-o") -> Path:
 
     Checks without changing anything that exists: the name is not empty, is not a folder,
     its parent folder exists, and a file can be created there (probed by creating it and
-    removing it again when it did not exist). A full device shows only when written.
+    removing it again when it did not exist). A character device (``/dev/full``,
+    ``/dev/null``, a terminal) is opened and written zero bytes, which a full device
+    refuses; a pipe or socket (``/dev/stdout``) is not probed. A regular file on a full
+    file system shows only when written (:func:`open_output` reports it, one line).
     """
     p = named(path, option)
     if p.is_dir():
@@ -47,11 +51,17 @@ def check_file(path, option="-o") -> Path:
     if not parent.is_dir():
         _fail(p, f"no folder {str(parent)!r}" if not parent.exists()
               else f"{str(parent)!r} is not a folder")
-    if p.exists() and not stat.S_ISREG(p.stat().st_mode):
-        return p                        # a device or a pipe (/dev/stdout): no probe
     existed = p.exists()
+    mode = p.stat().st_mode if existed else stat.S_IFREG
+    if not (stat.S_ISREG(mode) or stat.S_ISCHR(mode)):
+        return p                        # a pipe or a socket (/dev/stdout): no probe
     try:
-        os.close(os.open(p, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666))
+        fd = os.open(p, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            if stat.S_ISCHR(mode):
+                os.write(fd, b"")       # writes nothing; a full device refuses it
+        finally:
+            os.close(fd)
     except OSError as exc:
         _fail(p, exc.strerror or exc)
     if not existed:

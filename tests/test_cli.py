@@ -107,6 +107,10 @@ BAD_INPUT = [
     (["bench", "cds", "--quick", "--json", "{d}/no/b.json"], "cannot write (no folder", 2),
     (["bench", "cds", "--quick", "--json", "/proc/b.json"], "/proc/b.json: cannot write (", 2),
     (["bench", "cds", "--quick", "--png", "{d}"], "{d}: cannot write (it is a directory)", 2),
+    # a full device refuses even zero bytes: found before the benchmark runs
+    (["bench", "pipeline", "--png", "none", "--json", "/dev/full"],
+     "/dev/full: cannot write (No space left on device)", 2),
+    (["bench", "cds", "--quick", "--png", "/dev/full"], "/dev/full: cannot write (No space", 2),
     (["bench", "cds", "--quick", "--png", ""], "--png: the output name is empty", 2),
     (["bench", "cds", "--quick", "-o", "{d}/afile"], "cannot write (it exists and is not a "
                                                      "folder)", 2),
