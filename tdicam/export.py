@@ -10,7 +10,9 @@ with no tdicam, cocotb or Python:
   seed, every output transfer compared in HDL with ``expected.hex`` (``$readmemh``); plain
   Verilog-2005;
   ends with ``PASS <n> beats`` and ``$finish`` or ``FAIL`` (first bad beat: index, segment,
-  expected and received) and ``$fatal(1)``;
+  expected and received) and ``$fatal(1)``; a reset in the stimulus drops the data in flight,
+  so it passes with ``0 < n <=`` the expected count and then names the dropped beats
+  (:class:`~tdicam.cosim.tbgen.SelfCheck`);
 * ``vectors/`` — those memory files, made from the block's golden vectors;
 * ``tdicam_<block>.core`` — a FuseSoC CAPI2 core ``tdicam:blocks:<block>:<version>`` with
   ``rtl``, ``tb`` and ``vectors`` filesets and ``sim_icarus`` / ``sim_verilator`` targets;
@@ -390,6 +392,7 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     for k in range(0, max(len(stim), 1), depth):
         vectors[f"stim_{k // depth:06d}.bin"] = data[k * rec:(k + depth) * rec]
     vectors["expected.hex"] = _expected_text(exp, top._out[2])
+    resets = int(stim.rst.sum())
     lat = getattr(getattr(top, "core", None), "latency", None)
     latency = (f"{lat} clock cycles from an accepted input beat to its output (no stalls)"
                if lat is not None else "see the block's documentation (data dependent)")
@@ -399,8 +402,16 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
               f"zero-extended to whole bytes, most significant byte first; golden cases: "
               f"{', '.join(cases)}) with random idle cycles and backpressure, compares each of "
               f"the {len(exp)} expected output transfers of `vectors/expected.hex` in HDL and "
-              f"prints `PASS {len(exp)} beats`, or `FAIL` with the first mismatching beat "
-              f"(index, expected, got) and exits non-zero through `$fatal`.")
+              f"prints `PASS n beats`, or `FAIL` with the first mismatching beat "
+              f"(index, expected, got) and exits non-zero through `$fatal`. "
+              + (f"It passes with 0 < n <= {len(exp)}: the stimulus resets the block {resets} "
+                 f"time(s) (mid-stream or between golden cases) and a reset drops the data in "
+                 f"flight when it hits, so a segment cut short may end early; every transfer received must equal the "
+                 f"next expected one of its segment, the last segment must be complete and "
+                 f"nothing may be added. When beats were dropped the line says how many: "
+                 f"`PASS n beats (k of {len(exp)} expected beats dropped by mid-stream "
+                 f"resets; ...)`." if resets else
+                 f"It passes with n = {len(exp)} (the stimulus has no reset)."))
     plusargs = (f"Plusargs: `+seed=N` (default {sc.seed}), `+idle=N` and `+bp=N` (probability "
                 f"x 256 of an idle input cycle / of `m_axis_tready` low; default {sc.idle} "
                 f"and {sc.bp}), `+max_cycles=N` (default {sc.max_cycles}), `+drain=N`.")

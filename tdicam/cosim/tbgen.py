@@ -44,11 +44,16 @@ class SelfCheck:
     stimulus word layout of :func:`tdicam.cosim.codec.encode_stimulus` with the segment as
     an 8-bit ``ctrl``) from
     the simulator's working folder, compares each output transfer as it happens, prints
-    ``PASS <n> beats`` and ends with ``$finish`` (exit status 0), or prints ``FAIL`` with the
-    first bad beat (index, segment, expected and received tuser/tlast/tdata) and ends with
-    ``$fatal(1)`` (non-zero exit status). A segment cut short by a mid-stream reset may end
-    early (data in flight when reset hit is dropped); the last segment must be complete and
-    nothing may be added. Every field is also a plusarg (``+seed=``, ``+idle=``, ``+bp=``
+    ``PASS <n> beats (<i> input beats, <c> cycles)`` and ends with ``$finish`` (exit status
+    0), or prints ``FAIL`` with the first bad beat (index, segment, expected and received
+    tuser/tlast/tdata) and ends with ``$fatal(1)`` (non-zero exit status).
+
+    Acceptance: ``0 < n <= N`` for ``N`` expected transfers. A segment cut short by a
+    mid-stream reset (the stimulus asks for one, or the reset between golden cases) may end
+    early: the data in flight when the reset hit is dropped, never reordered or changed.
+    Every received transfer must equal the next expected one of its segment, the last
+    segment must be complete and nothing may be added. When ``n < N`` the PASS line says
+    so: ``PASS <n> beats (<N - n> of <N> expected beats dropped by mid-stream resets; ...)``. Every field is also a plusarg (``+seed=``, ``+idle=``, ``+bp=``
     in 1/256 units, ``+max_cycles=``, ``+drain=``); ``+dump`` writes ``tdicam_tb.vcd``.
     """
 
@@ -108,7 +113,11 @@ def _selfcheck_text(sc):
         $display("FAIL beat %0d: %0d output transfers, expected %0d", checked, checked, N_EXP);
         $fatal(1);
       end
-      $display("PASS %0d beats (%0d input beats, %0d cycles)", checked, in_idx, cycles);
+      if (checked < N_EXP)
+        $display("PASS %0d beats (%0d of %0d expected beats dropped by mid-stream resets; %0d input beats, %0d cycles)",
+                 checked, N_EXP - checked, N_EXP, in_idx, cycles);
+      else
+        $display("PASS %0d beats (%0d input beats, %0d cycles)", checked, in_idx, cycles);
       $finish;
     end
   end
