@@ -13,7 +13,8 @@
 ``scene fast|auto|exact``
     the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene;
 ``pipeline`` (only when named, :data:`EXTRA`)
-    the orbit scene's whole chain through its generated top (:mod:`tdicam.benchpipe`).
+    the orbit scene's whole chain through its generated top (:mod:`tdicam.benchpipe`): one
+    run per row, its build timed apart, with its own legend (:data:`LEGENDS`).
 
 Every level of a block runs on the same generated input: the slow levels (Python simulator,
 per-beat, Icarus fast) on its first frames or words (a prefix), the golden model and the fast
@@ -48,7 +49,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import blocks, cosim
+from . import benchpipe, blocks, cosim
 from .benchplot import plot, tradeoff_points
 from .benchutil import machine, median_time
 from .errors import TdicamError, check_range
@@ -56,7 +57,8 @@ from .paths import SCENES
 
 __all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
-           "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS"]
+           "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
+           "legend"]
 
 SCENE = SCENES / "orbit_600km_1m_96.toml"
 FLAT = SCENES / "flat_snr_sweep_96.toml"
@@ -387,13 +389,11 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     return rows
 
 
-def _pipeline_rows(**kw):
-    from .benchpipe import pipeline_rows
-    return pipeline_rows(**kw)
-
-
 RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows,
-           "pipeline": _pipeline_rows}
+           "pipeline": benchpipe.pipeline_rows}
+#: Benchmarks whose rows are measured their own way, with their own legend
+#: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
+LEGENDS = {"pipeline": benchpipe.legend}
 
 
 def expand(names):
@@ -532,15 +532,22 @@ def format_table(rows, *, markdown=False):
     return "\n".join([line(head), line(["-" * w for w in widths])] + [line(b) for b in body])
 
 
-def legend(*, repeat, stalls, build, quick):
-    """What the columns mean, for the lines under the table."""
+def legend(*, repeat, stalls, build, quick, names=()):
+    """What the columns mean, for the lines under the table of benchmarks ``names``
+    (default: :data:`NAMES`): the shared legend of the blocks and the scene, then one line
+    per benchmark of :data:`LEGENDS` among them."""
+    names = list(dict.fromkeys(names or NAMES))
+    own = [LEGENDS[n](stalls=stalls, quick=quick) for n in names if n in LEGENDS]
+    if all(n in LEGENDS for n in names):
+        return "\n".join(own)
     how = ("fresh build in its own folder" if build == "fresh"
            else "what the first run spent building, 0.0 = cached build reused")
-    return (f"medians of {repeat} run(s){' (--quick inputs)' if quick else ''}; simulator "
-            f"rows: {stalls:.0%} idle and {stalls:.0%} backpressure, wall time incl. "
-            f"simulator start-up, build excluded; slow levels run a prefix of the same "
-            f"input. x ref = throughput / golden (scene: / exact); x beat = fast / per-beat "
-            f"on the same simulator; build s = {how}.")
+    shared = (f"medians of {repeat} run(s){' (--quick inputs)' if quick else ''}; simulator "
+              f"rows: {stalls:.0%} idle and {stalls:.0%} backpressure, wall time incl. "
+              f"simulator start-up, build excluded; slow levels run a prefix of the same "
+              f"input. x ref = throughput / golden (scene: / exact); x beat = fast / per-beat "
+              f"on the same simulator; build s = {how}.")
+    return "\n".join([("other rows: " if own else "") + shared, *own])
 
 
 def to_json(rows, *, machine_line, settings, wall_s):

@@ -12,7 +12,8 @@ import time
 
 from .paths import SCENES
 
-__all__ = ["PIPELINE_SCENE", "QUICK_SCENE", "TARGET_PX_S", "pipeline_run", "pipeline_rows"]
+__all__ = ["PIPELINE_SCENE", "QUICK_SCENE", "TARGET_PX_S", "pipeline_run", "pipeline_rows",
+           "legend"]
 
 #: The bundled scene ``tdicam bench pipeline`` runs: the 600 km / 1 m / 96-stage orbit
 #: camera of Qu et al. 2010 (1280 columns, 256 output lines: 351 frames x 96 x 1280).
@@ -109,3 +110,18 @@ def pipeline_rows(*, sims, repeat, quick, stalls, build):
                         + (f" (quick scene, {r['cycles']:,} cycles: start-up dominates; the target is for "
                            "the whole orbit scene)" if quick else " (whole scene)")))
     return rows
+
+
+def legend(*, stalls, quick):
+    """What the ``pipeline`` rows of :func:`pipeline_rows` mean (lines under the table)."""
+    what = (f"{_QUICK_LINES} output lines of {QUICK_SCENE.name}" if quick
+            else f"the whole {PIPELINE_SCENE.name} scene")
+    return (f"pipeline rows: {what}, its raw frames through the numpy golden chain (golden) "
+            f"and through the generated camera top in fast-mode co-simulation with "
+            f"{stalls:.0%} idle and {stalls:.0%} backpressure; each row is one run (median s "
+            f"= that run's seconds, --repeat not used), compared bit for bit with the golden "
+            f"chain. Simulator rows: wall time of the simulator run incl. start-up and "
+            f"stimulus load; the build is timed apart (build s: that run's own build, 0.0 = "
+            f"cached build reused). throughput = input pixels per wall second; note: input "
+            f"pixels per CPU second of the simulator process, and the target of "
+            f"{TARGET_PX_S:,} input pixels per wall second on the whole orbit scene.")

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from tdicam import bench
+from tdicam import bench, benchpipe
 from tdicam.cli import main
 
 SIM_LEVELS = ["icarus beat", "icarus fast", "verilator beat", "verilator fast"]
@@ -214,21 +214,23 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
     assert np.isclose(got["golden"]["x_ref"], 1.0)
 
 
-def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
-    """``tdicam bench pipeline``: only when named; its rows carry the run's own figures
-    (a mismatch is counted, Icarus only with --quick, the target judged on wall time)."""
-    from tdicam import benchpipe
-    assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
-    seen = []
-
+def _pipeline_stand_in(seen):
+    """A stand-in for :func:`tdicam.benchpipe.pipeline_run` (Icarus finds 3 mismatches)."""
     def fake(scene, *, sim, lines, idle, backpressure):
         seen.append((scene, sim, lines))
         return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,
                 "input_pixels": 1_000_000, "cycles": 1_100_000, "compared": 512,
                 "mismatches": 3 if sim == "icarus" else 0, "golden_s": 0.5, "build_s": 7.0,
                 "run_s": 1.0 if sim == "verilator" else 4.0, "cpu_s": 0.8}
+    return fake
 
-    monkeypatch.setattr(benchpipe, "pipeline_run", fake)
+
+def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
+    """``tdicam bench pipeline``: only when named; its rows carry the run's own figures
+    (a mismatch is counted, Icarus only with --quick, the target judged on wall time)."""
+    assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
+    seen = []
+    monkeypatch.setattr(benchpipe, "pipeline_run", _pipeline_stand_in(seen))
     rows = bench.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
     by = {r["level"]: r for r in rows}
     assert by["icarus fast"]["accuracy"] == "n/a" and seen == [
@@ -241,3 +243,23 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8)]
     assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching"]
     assert "not met" in rows[1]["note"]
+
+
+def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
+    """The pipeline rows are one run each with the build timed apart: their legend says what
+    ran, once, and per wall and simulator CPU second, not the blocks' medians of --repeat
+    runs and fresh builds; beside other rows each has its own line."""
+    monkeypatch.setattr(benchpipe, "pipeline_run", _pipeline_stand_in([]))
+    assert main(["bench", "pipeline", "--sims", "verilator", "--png", "none"]) == 0
+    out = capsys.readouterr().out
+    assert "medians of" not in out and "fresh build" not in out, out
+    legend = next(x for x in out.splitlines() if x.startswith("pipeline rows: "))
+    for part in ("the whole orbit_600km_1m_96.toml scene", "each row is one run",
+                 "--repeat not used", "the build is timed apart",
+                 "throughput = input pixels per wall second",
+                 "input pixels per CPU second of the simulator process"):
+        assert part in legend, (part, legend)
+    both = bench.legend(repeat=3, stalls=0.1, build="fresh", quick=True,
+                        names=["cds", "pipeline"]).splitlines()
+    assert len(both) == 2 and both[0].startswith("other rows: medians of 3 run(s)") \
+        and both[1].startswith("pipeline rows: 8 output lines of ning2019_chain.toml")

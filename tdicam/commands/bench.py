@@ -17,7 +17,7 @@ def register(sub):
                     "same input: numpy golden model, Amaranth Python simulator, Icarus and "
                     "Verilator per-beat and fast (build time apart), and the scene engine "
                     "fast / auto / exact against real time. Times are medians of --repeat "
-                    "runs; every simulator row is compared bit for bit with the golden "
+                    "runs (pipeline: one run, its own legend); every simulator row is compared bit for bit with the golden "
                     "model. The PNG has two panels: throughput per level, and what accuracy "
                     "costs in time (time per unit against accuracy with the reference: "
                     "bit-exact levels on one line, the scene engine's fast and auto by the "
@@ -28,7 +28,8 @@ def register(sub):
                    f"also {', '.join(bench.EXTRA)} (the orbit scene's whole camera pipeline "
                    "through its generated top, minutes; --quick: 8 lines of the Ning et al. 2019 "
                    "chain)")
-    p.add_argument("--repeat", type=int, default=None, help="runs per level (3; --quick: 1)")
+    p.add_argument("--repeat", type=int, default=None,
+                   help="runs per level (3; --quick: 1); pipeline runs once")
     p.add_argument("--quick", action="store_true", help="short inputs, one run per level")
     p.add_argument("--sims", default=",".join(cosim.SIMULATORS),
                    help="simulators, comma-separated, or 'none' (icarus,verilator)")
@@ -106,7 +107,8 @@ def _report(args, rows, mline, settings, wall):
     to_stdout = args.json == "-"
     log = sys.stderr if to_stdout else sys.stdout
     legend = bench.legend(repeat=settings["repeat"], stalls=settings["stalls"],
-                          build=settings["build_time"], quick=settings["quick"])
+                          build=settings["build_time"], quick=settings["quick"],
+                          names=settings.get("names", ()))
     print(mline, file=log)
     print(bench.format_table(rows, markdown=args.markdown), file=log)
     print(legend, file=log)
