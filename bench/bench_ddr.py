@@ -15,9 +15,10 @@ pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded c
 spill at 1280 and 4096 columns) on the project's memory model
 beside LiteDRAM's (:mod:`tdicam.ddrref`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
 timing checker on). LiteDRAM's simulation runs some tens of cycles per second: ``--lines``
-sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth).
+sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth),
+``--patterns NAME,NAME`` replays only the patterns and blocks named (``--help`` lists them).
 
-    python bench/bench_ddr.py [--quick] [--litedram [--lines N]]
+    python bench/bench_ddr.py [--quick] [--litedram [--lines N] [--patterns NAME,NAME]]
 """
 
 import argparse
@@ -30,7 +31,9 @@ from tdicam.benchutil import machine, print_table
 from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
-from tdicam.model.ddr import LineLayout, pack_lines
+from tdicam.ddrref import BLOCKS as DDR_BLOCKS
+from tdicam.errors import TdicamError
+from tdicam.model.ddr import PATTERNS, LineLayout, pack_lines
 from tdicam.model.tdi import tdi_stream
 
 
@@ -108,14 +111,31 @@ def speed(sims=cosim.SIMULATORS, quick=False):
     return out
 
 
+def select(text):
+    """(patterns, blocks) named in ``text``, comma-separated names of
+    :data:`tdicam.model.ddr.PATTERNS` and :data:`tdicam.ddrref.BLOCKS` in the order given;
+    (None, None), every one, for None. An unknown name is a one-line
+    :class:`~tdicam.errors.TdicamError` naming the valid ones."""
+    if text is None:
+        return None, None
+    names = [n for n in dict.fromkeys(x.strip() for x in text.split(",")) if n]
+    valid = [*PATTERNS, *DDR_BLOCKS]
+    bad = next((n for n in names if n not in valid), None)
+    if bad is not None or not names:
+        what = "no name given" if bad is None else f"unknown name {bad!r}"
+        raise TdicamError(f"--patterns: {what}; valid: {', '.join(valid)}")
+    return [n for n in names if n in PATTERNS], [n for n in names if n in DDR_BLOCKS]
+
+
 def litedram(lines=4, patterns=None, blocks=None):
     """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, planned, wall}:
-    efficiency (%) of each access pattern and each DDR block's command order
+    efficiency (%) of each access pattern (every one of :data:`PATTERNS` by default) and
+    each DDR block's command order
     (:data:`tdicam.ddrref.BLOCKS` by default) on the memory model with the plain stall
     pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is
     cycle-equal with it) and on LiteDRAM, and what the planner counts on for the block."""
     from tdicam import ddrref
-    from tdicam.model.ddr import PATTERNS, DramTiming, pattern_trace, replay_model
+    from tdicam.model.ddr import DramTiming, pattern_trace, replay_model
     rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
@@ -131,7 +151,7 @@ def litedram(lines=4, patterns=None, blocks=None):
         print(f"  {kind} {name}: model {rows[-1]['model_eff']:.1f} %, LiteDRAM "
               f"{rows[-1]['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
 
-    for name in patterns or PATTERNS:
+    for name in PATTERNS if patterns is None else patterns:
         n = max(1, lines // 10) if name.startswith("table2") else lines
         if name == "write_read_lag16":
             n = max(n, 17)
@@ -168,7 +188,9 @@ def run(sims=cosim.SIMULATORS, quick=False):
             + [{"table": "speed", **r} for r in speed(sims, quick)])
 
 
-def main(argv=None):
+def parse_args(argv=None):
+    """The command line; ``patterns`` and ``blocks`` hold the ``--patterns`` selection
+    (None: every one). A bad selection ends in one line and exit status 2."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller runs")
     ap.add_argument("--litedram", action="store_true",
@@ -177,9 +199,24 @@ def main(argv=None):
     ap.add_argument("--fixture", metavar="FILE",
                     help="with --litedram: write LiteDRAM's figures and the blocks' traces "
                          "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json)")
+    ap.add_argument("--patterns", metavar="NAME,NAME",
+                    help="with --litedram: replay only these access patterns and DDR blocks' "
+                         f"command orders (default: all). Patterns: {', '.join(PATTERNS)}; "
+                         f"blocks: {', '.join(DDR_BLOCKS)}")
     a = ap.parse_args(argv)
+    try:
+        a.patterns, a.blocks = select(a.patterns)
+        if a.fixture and a.patterns is not None:
+            raise TdicamError("--fixture records every pattern and block: drop --patterns")
+    except TdicamError as exc:
+        ap.exit(2, f"{ap.prog}: error: {exc}\n")
+    return a
+
+
+def main(argv=None):
+    a = parse_args(argv)
     if a.litedram:
-        rows = litedram(lines=a.lines)
+        rows = litedram(lines=a.lines, patterns=a.patterns, blocks=a.blocks)
         print(machine())
         print_table(rows, [("kind", "kind", "s"), ("what", "pattern / block", "s"),
                            ("words", "words", "d"), ("stall_eff", "stall model %", ".1f"),

@@ -163,3 +163,49 @@ def _block_traces(ref):
     if not _TRACES:
         _TRACES.update(ref.block_traces(lines=16))
     return _TRACES
+
+
+def _bench_ddr():
+    import importlib.util
+    path = Path(__file__).resolve().parents[1] / "bench" / "bench_ddr.py"
+    spec = importlib.util.spec_from_file_location("bench_ddr", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
+    """``bench/bench_ddr.py --litedram --patterns NAME,NAME``: the names listed in --help,
+    patterns and block orders picked apart, an unknown name refused in one line naming the
+    valid ones, and only the picked ones replayed (LiteDRAM itself stood in for)."""
+    from types import SimpleNamespace
+
+    from tdicam import ddrref
+    bd = _bench_ddr()
+    with pytest.raises(SystemExit) as e:
+        bd.parse_args(["--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert e.value.code == 0 and all(n in helptext for n in [*ddr.PATTERNS, *BLOCKS])
+    a = bd.parse_args(["--litedram"])
+    assert a.patterns is None and a.blocks is None
+    a = bd.parse_args(["--litedram", "--patterns", "blocks_8,tdi_ddr, write_only"])
+    assert a.patterns == ["blocks_8", "write_only"] and a.blocks == ["tdi_ddr"]
+    for argv, why in [(["--patterns", "write_only,nosuch"], "unknown name 'nosuch'; valid: "),
+                      (["--patterns", ","], "no name given; valid: "),
+                      (["--patterns", "tdi_ddr", "--fixture", "x.json"], "drop --patterns")]:
+        with pytest.raises(SystemExit) as e:
+            bd.parse_args(["--litedram", *argv])
+        err = capsys.readouterr().err
+        assert e.value.code == 2 and err.count("\n") == 1 and why in err, err
+        if "valid" in why:
+            assert ", ".join([*ddr.PATTERNS, *BLOCKS]) in err
+    seen = []
+    monkeypatch.setattr(ddrref, "replay", lambda trace, **kw: seen.append(trace.name)
+                        or SimpleNamespace(efficiency=0.5, ok=True, wall=0.0))
+    rows = bd.litedram(lines=2, patterns=["write_only"], blocks=[])
+    assert [r["what"] for r in rows] == ["write_only"] and len(seen) == 1
+    assert bd.litedram(lines=2, patterns=[], blocks=[]) == [] and len(seen) == 1
+    picked = []
+    monkeypatch.setattr(bd, "litedram", lambda **kw: picked.append(kw) or [])
+    bd.main(["--litedram", "--lines", "3", "--patterns", "read_only,writer"])
+    assert picked == [{"lines": 3, "patterns": ["read_only"], "blocks": ["writer"]}]
