@@ -115,6 +115,18 @@ def test_impossible_pipelines_give_one_line_errors(blocks_, over, msg):
     assert "\n" not in str(exc.value)
 
 
+def test_synthesis_top_uses_each_blocks_ecp5_top():
+    """``tdicam synth pipeline`` places each block's ECP5 top where it has one (the TDI
+    stage's DP16KD banks, one read stage more); the plain top (``tdicam verilog
+    pipeline``, every simulation) keeps the generic descriptions."""
+    from tdicam.verilog import rtlil
+    p = pl.plan(_small())
+    block = pl._PipelineBlock(p, None)
+    ecp5, plain = block.build(ecp5=True), block.build()
+    assert ecp5.latency == plain.latency + 1
+    assert "DP16KD" in rtlil(ecp5, "pipeline") and "DP16KD" not in rtlil(plain, "pipeline")
+
+
 @pytest.mark.filterwarnings("ignore:.*created but never used")   # top inspected only
 def test_spill_to_ddr_is_planned_when_the_memory_does_not_fit():
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml")

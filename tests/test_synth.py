@@ -108,14 +108,14 @@ def test_timing_harness_registers_every_port():
 
 def test_ecp5_top_is_what_the_ecp5_places():
     """tdi's ECP5 synthesis top has its banks as DP16KD instances (output register used);
-    its plain top (xc7 counts, ``tdicam verilog``) keeps the generic memories; a block
-    without an ECP5 top builds the same for both."""
+    its plain top (xc7 counts, ``tdicam verilog``) keeps the generic memory (one for the
+    partial sums); a block without an ECP5 top builds the same for both."""
     from tdicam.verilog import rtlil
     tdi, p = blocks.get("tdi"), {"width": 64, "stages": 4}
     ecp5, plain = rtlil(tdi.build(p, ecp5=True), "tdi"), rtlil(tdi.build(p), "tdi")
     assert ecp5.count("cell \\DP16KD ") == 3 and "\\REGMODE_B \"OUTREG\"" in ecp5
     mems = lambda text: [ln for ln in text.splitlines() if ln.startswith("  memory ")]  # noqa
-    assert len(mems(plain)) == len(mems(ecp5)) + 3      # 14 bits = 9 + 4 + 1; the FIFO stays
+    assert len(mems(plain)) == len(mems(ecp5)) + 1      # the partial sums; the FIFO stays
     assert "DP16KD" not in plain
     cds = blocks.get("cds")
     assert rtlil(cds.build(ecp5=True), "cds") == rtlil(cds.build(), "cds")
