@@ -74,10 +74,9 @@ def _flat(acc, m, p, do_write, sum_word, ports):
     m.d.comb += [rd.addr.eq(ra), rd.en.eq(re), wr.addr.eq(wa), wr.data.eq(wd),
                  wr.en.eq(we)]
     ports.append((rd.en, rd.addr, wr.en, wr.addr))
-    q = rd.data
+    q, use = rd.data, p[acc._read_stages - 1]["use"]
     for s in range(3):
         r = Signal(PPC * PS, name=f"q{s}")
-        use = p[acc._read_stages - 1]["use"]
         m.d.sync += r.eq(Mux(use, q, 0) if s == 2 else q)
         q = r
     return [q[k * PS:(k + 1) * PS] for k in range(PPC)]
