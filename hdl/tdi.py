@@ -57,6 +57,7 @@ def _flat(acc, m, p, do_write, sum_word, ports):
     same stages as the banks' per-bank register and two OR levels. Returns the per-lane
     stored sums."""
     PPC, PS = acc._ppc, acc._psum_bits
+    ps_ = p[acc._read_stages]
     depth = acc.memory_shape[1]
     if not depth:
         return [Const(0, PS)] * PPC
@@ -70,7 +71,7 @@ def _flat(acc, m, p, do_write, sum_word, ports):
     re, we, wd = Signal(name="re"), Signal(name="we"), Signal(PPC * PS, name="wd")
     # issue: address and enable registered (C); write-back registered, written a cycle later
     m.d.sync += [ra.eq(p[0]["addr"]), re.eq(p[0]["valid"]),
-                 wa.eq(p[-1]["addr"]), we.eq(do_write), wd.eq(sum_word)]
+                 wa.eq(ps_["addr"]), we.eq(do_write), wd.eq(sum_word)]
     m.d.comb += [rd.addr.eq(ra), rd.en.eq(re), wr.addr.eq(wa), wr.data.eq(wd),
                  wr.en.eq(we)]
     ports.append((rd.en, rd.addr, wr.en, wr.addr))

@@ -385,12 +385,8 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     depth = min(tbgen.DEPTH, max(len(stim), 1))
     tb = tbgen.stream_testbench(name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
                                 depth=depth, selfcheck=sc)
-    data = codec.encode_stimulus_bin(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits)
-    rec = codec.stimulus_word_bytes(elem_padded_bits=padded, count=top._in[1],
-                                    ctrl_bits=ctrl_bits)
-    vectors = {}
-    for k in range(0, max(len(stim), 1), depth):
-        vectors[f"stim_{k // depth:06d}.bin"] = data[k * rec:(k + depth) * rec]
+    vectors = dict(tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits,
+                                        depth=depth))
     vectors["expected.hex"] = _expected_text(exp, top._out[2])
     resets = int(stim.rst.sum())
     lat = getattr(getattr(top, "core", None), "latency", None)

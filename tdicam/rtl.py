@@ -202,10 +202,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
-    for k in range(0, max(n_in, 1), tbgen.DEPTH):      # chunk by chunk: bounded memory
-        (rundir / f"stim_{k // tbgen.DEPTH:06d}.bin").write_bytes(codec.encode_stimulus_bin(
-            stim.select(slice(k, k + tbgen.DEPTH)), elem_padded_bits=padded,
-            ctrl_bits=ctrl_bits))
+    for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
+        (rundir / name).write_bytes(data)
     job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
            "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
            "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,

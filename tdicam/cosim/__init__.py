@@ -310,11 +310,8 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
         drain = 2000
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
-    data = codec.encode_stimulus_bin(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits)
-    rec = codec.stimulus_word_bytes(elem_padded_bits=padded, count=count, ctrl_bits=ctrl_bits)
-    for k in range(0, max(n_in, 1), tbgen.DEPTH):
-        (rundir / f"stim_{k // tbgen.DEPTH:06d}.bin").write_bytes(
-            data[k * rec:(k + tbgen.DEPTH) * rec])
+    for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
+        (rundir / name).write_bytes(data)
     seed = int(seed) & 0x7fffffff
     job = {"mode": mode, "n_in": n_in, "n_out": int(n_out), "idle": idle,
            "backpressure": backpressure, "seed": seed, "max_cycles": max_cycles,

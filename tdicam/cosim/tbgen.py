@@ -27,8 +27,9 @@ testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 from dataclasses import dataclass
 
 from ..pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
+from . import codec
 
-__all__ = ["stream_testbench", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
+__all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
 TB_TOP = "tdicam_tb"
 RST_CYCLES = 3
@@ -122,6 +123,17 @@ def _selfcheck_text(sc):
     end
   end
 """
+
+
+def stimulus_files(stim, *, elem_padded_bits, ctrl_bits, depth=DEPTH):
+    """(file name, bytes) of each stimulus chunk the fast-mode engine reads: ``depth``
+    beats of :func:`tdicam.cosim.codec.encode_stimulus_bin` records per ``stim_NNNNNN.bin``
+    (the last one short; one empty chunk for no beats), encoded chunk by chunk (bounded
+    memory)."""
+    for k in range(0, max(len(stim), 1), depth):
+        yield f"stim_{k // depth:06d}.bin", codec.encode_stimulus_bin(
+            stim.select(slice(k, k + depth)), elem_padded_bits=elem_padded_bits,
+            ctrl_bits=ctrl_bits)
 
 
 def _chunk_name_expr():

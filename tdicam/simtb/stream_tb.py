@@ -12,7 +12,6 @@ import cocotb
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
 
 
-
 class TB:
     """Owns the testbench's clock (generated in HDL), reset, source and sink."""
 
