@@ -44,9 +44,10 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
     dict
         ``chain`` (blocks in order), ``frames``, ``rows``, ``width``, ``input_pixels``,
         ``cycles``, ``compared`` (output pixels), ``mismatches`` (output beats whose data or
-        frame markers differ, plus any missing or extra), seconds of ``scene_s`` (exact scene run), ``golden_s``
-        (numpy chain), ``build_s`` (0 when the build was cached), ``run_s`` (simulator
-        wall time) and ``cpu_s`` (the simulator process's CPU time, build excluded).
+        frame markers differ, plus any missing or extra), seconds of ``scene_s`` (exact
+        scene run), ``golden_s`` (numpy chain), ``build_s`` (0 when the build was cached),
+        ``run_s`` (simulator wall time) and ``cpu_s`` (the simulator process's CPU time,
+        build excluded).
     """
     from . import pipeline as pl
     from .beats import frames_to_beats
@@ -107,8 +108,9 @@ def pipeline_rows(*, sims, repeat, quick, stalls, build):
                         note=f"{n / max(r['cpu_s'], 1e-9):,.0f} px per simulator CPU s; "
                         f"target {TARGET_PX_S:,} px/s "
                         f"{'met' if rate >= TARGET_PX_S else 'not met'}"
-                        + (f" (quick scene, {r['cycles']:,} cycles: start-up dominates; the target is for "
-                           "the whole orbit scene)" if quick else " (whole scene)")))
+                        + (f" (quick scene, {r['cycles']:,} cycles: start-up dominates; "
+                           "the target is for the whole orbit scene)" if quick
+                           else " (whole scene)")))
     return rows
 
 

@@ -168,8 +168,8 @@ class Design:
     ``name``: the Verilog module (``rtl/<name>.v``); ``core``: the FuseSoC core name
     without its version; ``params``: what was exported (the version hashes it);
     ``param_rows``: (name, value, meaning) for the README; ``rtl`` and ``tb``: Verilog
-    text; ``vectors``: {file name: text, or bytes for binary files} under ``vectors/``; ``ports``: README port table
-    rows; ``latency``, ``checks`` (what the testbench compares) and ``plusargs`` (its run
+    text; ``vectors``: {file name: text, or bytes for binary files} under ``vectors/``;
+    ``ports``: README port table rows; ``latency``, ``checks`` (what the testbench compares) and ``plusargs`` (its run
     settings): README text.
     """
 
@@ -402,8 +402,8 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
               f"(index, expected, got) and exits non-zero through `$fatal`. "
               + (f"It passes with 0 < n <= {len(exp)}: the stimulus resets the block {resets} "
                  f"time(s) (mid-stream or between golden cases) and a reset drops the data in "
-                 f"flight when it hits, so a segment cut short may end early; every transfer received must equal the "
-                 f"next expected one of its segment, the last segment must be complete and "
+                 f"flight when it hits, so a segment cut short may end early; every "
+                 f"transfer received must equal the next expected one of its segment, the last segment must be complete and "
                  f"nothing may be added. When beats were dropped the line says how many: "
                  f"`PASS n beats (k of {len(exp)} expected beats dropped by mid-stream "
                  f"resets; ...)`." if resets else

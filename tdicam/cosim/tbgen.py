@@ -54,8 +54,11 @@ class SelfCheck:
     early: the data in flight when the reset hit is dropped, never reordered or changed.
     Every received transfer must equal the next expected one of its segment, the last
     segment must be complete and nothing may be added. When ``n < N`` the PASS line says
-    so: ``PASS <n> beats (<N - n> of <N> expected beats dropped by mid-stream resets; ...)``. Every field is also a plusarg (``+seed=``, ``+idle=``, ``+bp=``
-    in 1/256 units, ``+max_cycles=``, ``+drain=``); ``+dump`` writes ``tdicam_tb.vcd``.
+    so: ``PASS <n> beats (<N - n> of <N> expected beats dropped by mid-stream resets;
+    ...)``.
+
+    Every field is also a plusarg (``+seed=``, ``+idle=``, ``+bp=`` in 1/256 units,
+    ``+max_cycles=``, ``+drain=``); ``+dump`` writes ``tdicam_tb.vcd``.
     """
 
     n_in: int
