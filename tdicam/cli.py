@@ -5,12 +5,15 @@ defines ``register(subparsers)`` which adds its parser and sets ``func`` (called
 parsed namespace, returns an exit code). A :class:`~tdicam.errors.TdicamError` raised
 anywhere is printed as one line and exits with status 2; Ctrl-C ends with
 ``tdicam: interrupted`` and status 130; a reader that closes the output pipe (``| head``)
-ends the command quietly with status 141 (128 + SIGPIPE). Help texts are shown as plain text
+ends the command quietly with status 141 (128 + SIGPIPE); a stdout that is closed
+(``>&-``) or cannot take the output (``> /dev/full``) is one error line on stderr and
+status 2. Help texts are shown as plain text
 (:func:`plain_text`): descriptions taken from docstrings lose their reST markup.
 """
 
 import argparse
 import importlib
+import io
 import os
 import pkgutil
 import re
@@ -73,15 +76,58 @@ def build_parser():
     return parser
 
 
+def _quiet_stdout() -> None:
+    """Point fd 1 at /dev/null, so the interpreter's final flush of a stdout that failed
+    (a closed pipe, a full device) says nothing more."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+
+
+def _flush_stdout():
+    """Flush stdout and probe it with a write of zero bytes (which a full device refuses, as
+    it refuses the output argparse's ``--help`` drops silently): the OSError of a stdout that
+    cannot take the output, None when it can."""
+    try:
+        sys.stdout.flush()
+        try:
+            fd = sys.stdout.fileno()
+        except io.UnsupportedOperation:     # an in-memory stdout (tests): nothing to probe
+            return None
+        os.write(fd, b"")
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        return exc
+    return None
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    if sys.stdout is None:              # started with stdout closed (>&-)
+        print("tdicam: error: standard output is closed; redirect it to a file or "
+              "/dev/null instead", file=sys.stderr)
+        return 2
     try:
-        parser = build_parser()
-        args, extra = parser.parse_known_args(argv)
-        if extra and not getattr(args, "_raw", False):
-            raise TdicamError(f"unrecognized arguments: {' '.join(extra)}")
-        args.extra = extra
-        code = args.func(args)
+        try:
+            parser = build_parser()
+            args, extra = parser.parse_known_args(argv)
+            if extra and not getattr(args, "_raw", False):
+                raise TdicamError(f"unrecognized arguments: {' '.join(extra)}")
+            args.extra = extra
+            code = args.func(args)
+        except SystemExit as exc:       # --help, argparse's own errors
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        except OSError as exc:
+            if isinstance(exc, BrokenPipeError) or _flush_stdout() is None:
+                raise                   # not stdout's: a real error
+            raise _StdoutError(exc) from None
+        failed = _flush_stdout()        # output still buffered: a full device shows here
+        if failed is not None:
+            raise _StdoutError(failed)
+    except _StdoutError as exc:
+        _quiet_stdout()
+        print(f"tdicam: error: cannot write to standard output ({exc})", file=sys.stderr)
+        return 2
     except TdicamError as exc:
         print(f"tdicam: error: {exc}", file=sys.stderr)
         return 2
@@ -89,10 +135,16 @@ def main(argv=None):
         print("tdicam: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:             # the reader left (| head): stop quietly
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())   # so the interpreter's final flush is quiet
+        _quiet_stdout()
         return 141
     return 0 if code is None else int(code)
+
+
+class _StdoutError(Exception):
+    """stdout refused the output (a full device, an I/O error)."""
+
+    def __init__(self, exc: OSError):
+        super().__init__(exc.strerror or str(exc))
 
 
 if __name__ == "__main__":

@@ -32,7 +32,8 @@ from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.scene import BOUNDS, load_scene
 
 __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
-           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "plan_scenes",
+           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "PLAN_OPTIONS", "check_options",
+           "plan_scenes",
            "mtf_prediction", "gateware_plan", "plan_report", "report_text", "figures"]
 
 #: Qu 2010 Table 2 grid, used when neither a scene nor orbit options are given.
@@ -88,6 +89,47 @@ SCENE_OPTIONS = (
 )
 
 
+#: The plan's own options (not scene keys) with their physical ranges, checked under the
+#: option's name by :func:`check_options` before any unit is converted:
+#: (argparse dest, option, lo, hi, integer, lo_open).
+PLAN_OPTIONS = (
+    ("onchip_kbit", "--onchip-kbit", 0, 1e8, False, False),
+    ("ddr_bits", "--ddr-bits", 1, 4096, True, False),
+    ("ddr_clock_mhz", "--ddr-clock-mhz", 1, 10_000, False, False),
+    ("ddr_efficiency", "--ddr-efficiency", 0, 1, False, True),
+    ("fpga_clock_mhz", "--fpga-clock-mhz", 1, 10_000, False, False),
+)
+
+
+def check_options(values: dict) -> dict:
+    """The plan's own options range-checked under the names the user typed.
+
+    Parameters
+    ----------
+    values : dict
+        Option values by argparse dest (:data:`PLAN_OPTIONS`; None: not given) and
+        ``device``.
+
+    Returns
+    -------
+    dict
+        The same values (integers as ``int``), once each lies in its range: one
+        :class:`TdicamError` line ``--OPTION = V is out of range; valid: lo..hi`` for the first
+        that does not, and for an unknown ``--device``. The models these values feed check
+        their own parameters too; this is what makes a message name the option, not the
+        model's parameter, and keeps unit conversions (MHz -> Hz, kbit -> bit) finite.
+    """
+    out = dict(values)
+    for dest, option, lo, hi, integer, lo_open in PLAN_OPTIONS:
+        if out.get(dest) is not None:
+            out[dest] = check_range(option, out[dest], lo, hi, integer=integer,
+                                    lo_open=lo_open)
+    if out.get("device") is not None and str(out["device"]).lower() not in P.ONCHIP_RAM_BITS:
+        raise TdicamError(f"--device = {out['device']!r} is not known; valid: "
+                          f"{', '.join(P.ONCHIP_RAM_BITS)}")
+    return out
+
+
 def bounds_text(section, key) -> str:
     """``; valid lo..hi`` for the help of an option whose scene key has a physical bound
     (:data:`tdicam.scene.BOUNDS`; '' when it has none)."""
@@ -114,7 +156,11 @@ def plan_scenes(scene_path, given: dict):
     -------
     (list of Scene, dict)
         The scenes and the names of the overridden keys (``"section.key" -> option``) for
-        messages.
+        messages; its ``"notes"`` says which of the default stage counts were left out.
+        Without ``--stages`` (and without a scene file) the default grid
+        :data:`DEFAULT_STAGES` keeps only the counts the sensor rows and the window ``M0``
+        allow (at least one: ``min(rows, M0)``). Stage counts given above ``M0`` are kept:
+        the plan's window check says NO.
     """
     orbit_opts = {"altitude_km", "gsd_m"} & given.keys()
     table_opts = {"angular_speed_rad_s", "distance_m"} & given.keys()
@@ -164,15 +210,39 @@ def plan_scenes(scene_path, given: dict):
             gsds = [base.orbit.gsd_m]
         else:
             gsds = list(DEFAULT_GSDS_M)
-    if base is None and "stages" not in given:
-        overrides.setdefault("tdi", {})["stages"] = list(DEFAULT_STAGES)
+    defaults = base is None and "stages" not in given
+    if defaults:
         labels["tdi.stages"] = "--stages (default " + " ".join(map(str, DEFAULT_STAGES)) + ")"
-    scenes = []
-    for gsd in gsds:
+
+    def load(gsd, stages=None):
         ov = {k: (dict(v) if isinstance(v, dict) else v) for k, v in overrides.items()}
         if gsd is not None:
             ov["orbit"]["gsd_m"] = gsd
-        scenes.append(load_scene(scene_path, overrides=ov, labels=labels))
+        if stages is not None:
+            ov.setdefault("tdi", {})["stages"] = stages
+        # stages above the window's M0 are the feasibility report's NO, not bad input
+        return load_scene(scene_path, overrides=ov, labels=labels, window=False)
+
+    scenes = []
+    notes = []
+    for gsd in gsds:
+        if not defaults:
+            scenes.append(load(gsd))
+            continue
+        # the default grid adapts: only the stage counts the sensor rows and window allow
+        probe = load(gsd, [1])
+        m0 = None if probe.timing is None else probe.timing.m0
+        cap = probe.sensor.rows if m0 is None else min(probe.sensor.rows, m0)
+        fit = [m for m in DEFAULT_STAGES if m <= cap] or [max(cap, 1)]
+        out = [m for m in DEFAULT_STAGES if m not in fit]
+        if out:
+            why = (f"M0 = {m0}" if m0 is not None and m0 < probe.sensor.rows
+                   else f"the {probe.sensor.rows} sensor rows")
+            at = "" if gsd is None else f" at GSD {gsd:g} m"
+            notes.append(f"default stages {' '.join(map(str, out))} left out{at}: above "
+                         f"{why} (give --stages to plan them)")
+        scenes.append(load(gsd, fit))
+    labels["notes"] = notes
     return scenes, labels
 
 
@@ -195,7 +265,9 @@ def mtf_prediction(scene, stages, dv_over_v, f=_mtf.NYQUIST) -> dict:
     dv = float(_mtf.check_dv_over_v(dv_over_v, "dv_over_v"))
     skew = 0.0
     skew_note = ("global shutter" if s.shutter == "global" else "one stage" if stages == 1
-                 else "row time unknown" if s.row_time_s is None else None)
+                 else "row time unknown" if s.row_time_s is None
+                 else "a row takes longer than the line period (M0 = 0)"
+                 if s.row_time_s >= scene.line_period_s else None)
     if skew_note is None:
         skew = _mtf.rolling_skew(s.row_time_s, scene.line_period_s, shutter=s.shutter,
                                  direction=scene.tdi.direction)
@@ -355,7 +427,7 @@ def _verdict(point) -> list[str]:
 
 def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
                 ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
-                fpga_clock_mhz=None) -> dict:
+                fpga_clock_mhz=None, notes=()) -> dict:
     """All planning numbers for the scenes (one per GSD) as a JSON-ready dict.
 
     Parameters
@@ -370,6 +442,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
         :func:`tdicam.model.ddr.tdi_spill_efficiency`, per design point).
     fpga_clock_mhz : float, optional
         TDI block clock for every ppc instead of :data:`REFERENCE_TDI_FMAX_MHZ`.
+    notes : sequence of str, optional
+        Lines the report prints before the feasibility verdict (``plan_scenes``'s notes).
 
     Returns
     -------
@@ -381,6 +455,10 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     first = scenes[0]
     s = first.sensor
     P.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency or 1)  # validate early
+    sum_bits = max(P.partial_sum_bits(sc.sensor.bits, max(sc.tdi.stages)) for sc in scenes)
+    if ddr_bits < sum_bits:
+        raise TdicamError(f"--ddr-bits = {ddr_bits} is out of range; valid: {sum_bits}..4096 "
+                          f"(a DDR word holds at least one {sum_bits}-bit partial sum)")
     if fpga_clock_mhz is not None:
         check_range("--fpga-clock-mhz", fpga_clock_mhz, 1, 10_000, integer=False)
     points = [_point(sc, m, onchip_budget_bits=onchip_budget_bits, ddr_bits=ddr_bits,
@@ -401,6 +479,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
         "design": points[design],
         "feasible": not no,
         "infeasible": no,
+        "notes": list(notes),
     }
     if first.orbit is not None:
         out["orbit"] = {"altitude_km": first.orbit.altitude_km,

@@ -108,6 +108,9 @@ def report_text(rep) -> str:
     hdr = f"{'GSD/m':>7}  {'T1/ms':>7}  {'m/stage':>7}  {'F_f/(frame/s)':>13}"
     if avail is not None:
         hdr += f"  {'fits':>4}"
+    windows = any(p["window"] is not None for p in rep["points"])
+    if windows:
+        hdr += f"  {'M0':>5}  {'m <= M0':>7}"
     lines.append(hdr)
     prev = object()
     for p in rep["points"]:
@@ -120,7 +123,12 @@ def report_text(rep) -> str:
                f"{p['frame_rate']['required_hz']:>13.1f}")
         if avail is not None:
             row += f"  {_ok(p['frame_rate']['ok']):>4}"
+        if windows:
+            w = p["window"]
+            row += (f"  {'?':>5}  {'?':>7}" if w is None else
+                    f"  {w['m0']:>5}  {_ok(w['ok']):>7}")
         lines.append(row)
+    lines.extend(rep.get("notes", ()))
 
     d = rep["design"]
     fr, mem, ddr, snr = d["frame_rate"], d["memory"], d["ddr"], d["snr"]

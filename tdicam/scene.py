@@ -888,14 +888,14 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                rtl=rtl)
 
 
-def _check_stages(sec: _Section, scene: Scene) -> None:
+def _check_stages(sec: _Section, scene: Scene, window: bool = True) -> None:
     rows = scene.sensor.rows
     for m in scene.tdi.stages:
         if m > rows:
             sec.fail("stages", f"must be <= {rows} (the sensor rows, "
                                f"{sec.labels.get('sensor.rows', '[sensor].rows')}), got {m}")
     timing = scene.timing
-    if timing is None:
+    if timing is None or not window:
         return
     t_line_us, t_row_us = timing.line_period_s * 1e6, timing.row_time_s * 1e6
     if timing.m0 == 0:
@@ -944,7 +944,7 @@ def _check_digital_tdi(tdi_sec: _Section, sensor_sec: _Section, scene: Scene) ->
 
 def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = None,
                     source: str = "<dict>",
-                    labels: Mapping[str, str] | None = None) -> Scene:
+                    labels: Mapping[str, str] | None = None, window: bool = True) -> Scene:
     """Validate a parsed scene (the dict :func:`tomllib.load` returns) into a :class:`Scene`.
 
     Parameters
@@ -959,6 +959,9 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     labels : mapping, optional
         Replaces ``[section].key`` in error messages, keyed by ``"section.key"`` (e.g.
         ``{"tdi.stages": "--stages"}`` when a value came from the command line).
+    window : bool, optional
+        Refuse stage counts above the rolling-shutter window ``M0`` (default). ``tdicam
+        plan`` turns it off: a window too short is its feasibility report's answer, NO.
 
     Returns
     -------
@@ -998,7 +1001,7 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics,
                   ddr=ddr)
-    _check_stages(tdi_sec, scene)
+    _check_stages(tdi_sec, scene, window)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)
     _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
@@ -1084,7 +1087,7 @@ def read_toml(path, what):
 
 
 def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] | None = None,
-               labels: Mapping[str, str] | None = None) -> Scene:
+               labels: Mapping[str, str] | None = None, window: bool = True) -> Scene:
     """Read and validate a scene TOML file.
 
     Parameters
@@ -1097,6 +1100,8 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
         command line); a section or a key mapped to None is removed.
     labels : mapping, optional
         Error-message names for overridden keys, see :func:`scene_from_dict`.
+    window : bool, optional
+        Check the stage counts against ``M0``, see :func:`scene_from_dict`.
 
     Returns
     -------
@@ -1117,4 +1122,5 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
         source = str(p)
     if overrides:
         data = _merge(data, overrides)
-    return scene_from_dict(data, base_dir=base_dir, source=source, labels=labels)
+    return scene_from_dict(data, base_dir=base_dir, source=source, labels=labels,
+                           window=window)

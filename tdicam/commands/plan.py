@@ -20,7 +20,6 @@ The work is done by :mod:`tdicam.planning`; this module parses arguments.
 from __future__ import annotations
 
 import json
-import math
 import os
 import re
 import sys
@@ -29,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from tdicam import planning
-from tdicam.errors import TdicamError, check_range
 from tdicam.outputs import check_dir, open_output
 from tdicam.model import plan as P
 
@@ -80,20 +78,10 @@ def register(subparsers) -> None:
 
 def _budget(args):
     if args.onchip_kbit is not None:
-        if not math.isfinite(args.onchip_kbit):
-            raise TdicamError(f"--onchip-kbit = {args.onchip_kbit} is out of range; valid: "
-                              "0..inf")
-        check_range("--onchip-kbit", args.onchip_kbit, 0, None, integer=False)
         return int(round(args.onchip_kbit * 1024))
-    if getattr(args, "device", None) is not None:
+    if args.device is not None:
         return P.onchip_budget(args.device)
     return None
-
-
-def _finite(name, value):
-    if not math.isfinite(value):
-        raise TdicamError(f"{name} = {value} is out of range; valid: a finite number")
-    return value
 
 
 def _write_figures(rep, scenes, out) -> list[Path]:
@@ -117,27 +105,20 @@ def _emit(text) -> None:
 
 def run(args) -> int:
     """Run ``tdicam plan`` for parsed arguments; returns the exit code (see the epilog)."""
-    plot_dir = None if args.plot is None else check_dir(args.plot, "--plot")
+    vars(args).update(planning.check_options(
+        {dest: getattr(args, dest) for dest, *_ in planning.PLAN_OPTIONS}
+        | {"device": args.device}))
     budget = _budget(args)
-    check_range("--ddr-bits", args.ddr_bits, 1, None)
-    _finite("--ddr-clock-mhz", args.ddr_clock_mhz)
-    if args.ddr_efficiency is not None:
-        _finite("--ddr-efficiency", args.ddr_efficiency)
-    if args.ddr_clock_mhz <= 0:
-        raise TdicamError(f"--ddr-clock-mhz = {args.ddr_clock_mhz:g} is out of range; valid: "
-                          "0..inf, excluding 0")
-    if args.ddr_efficiency is not None and not 0 < args.ddr_efficiency <= 1:
-        raise TdicamError(f"--ddr-efficiency = {args.ddr_efficiency:g} is out of range; valid: "
-                          "0..1, excluding 0")
-    if args.fpga_clock_mhz is not None:
-        _finite("--fpga-clock-mhz", args.fpga_clock_mhz)
     given = {dest: getattr(args, dest) for dest, *_ in planning.SCENE_OPTIONS
              if getattr(args, dest, None) is not None}
-    scenes, _labels = planning.plan_scenes(args.scene, given)
+    scenes, labels = planning.plan_scenes(args.scene, given)
     rep = planning.plan_report(scenes, onchip_budget_bits=budget, ddr_bits=args.ddr_bits,
                                ddr_clock_hz=args.ddr_clock_mhz * 1e6,
                                ddr_efficiency=args.ddr_efficiency,
-                               fpga_clock_mhz=args.fpga_clock_mhz)
+                               fpga_clock_mhz=args.fpga_clock_mhz,
+                               notes=labels.get("notes", ()))
+    # the folder is made once the plan is computed: a refused plan leaves nothing behind
+    plot_dir = None if args.plot is None else check_dir(args.plot, "--plot")
     if plot_dir is not None:
         rep["plots"] = [str(f) for f in _write_figures(rep, scenes, plot_dir)]
     if args.json:
