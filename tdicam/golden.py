@@ -22,6 +22,7 @@ import numpy as np
 
 from . import blocks as _blocks
 from .errors import TdicamError
+from .outputs import check_dir, check_file, write_file
 from .paths import GOLDEN, REPO
 
 __all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
@@ -54,9 +55,10 @@ def write_npz(path, arrays):
                                       allow_pickle=False)
             zf.writestr(info, member.getvalue(), compresslevel=9)
     data = buf.getvalue()
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_dir(path.parent, "golden")
+    check_file(path, "golden")
     if not path.exists() or path.read_bytes() != data:
-        path.write_bytes(data)
+        write_file(path, data)
 
 
 def _read_npz(path):
@@ -111,7 +113,7 @@ def _check_manifest(man):
 
 def _write_manifest(man):
     man["cases"] = dict(sorted(man["cases"].items()))
-    (golden_dir() / MANIFEST).write_text(json.dumps(man, indent=1, sort_keys=True) + "\n")
+    write_file(golden_dir() / MANIFEST, json.dumps(man, indent=1, sort_keys=True) + "\n")
 
 
 def case_names(block):
@@ -159,15 +161,32 @@ def _selected(names):
 
 def regen(names=None):
     """Regenerate the golden files of the named blocks (all when empty); returns case count."""
-    golden_dir().mkdir(parents=True, exist_ok=True)
+    check_dir(golden_dir(), "golden")
     with open(golden_dir() / ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         return _regen(names)
 
 
+def _check_outputs(blocks):
+    """Every path a regen writes, checked before any case is generated (one error line: a
+    case file that is a folder, a block folder that is a file, a stale ``.npz`` that is not
+    a file)."""
+    check_file(golden_dir() / MANIFEST, "golden")
+    for block in blocks:
+        folder = golden_dir() / block.name
+        if not folder.exists():
+            continue                    # made by write_npz
+        check_dir(folder, "golden")
+        for stale in folder.glob("*.npz"):
+            check_file(stale, "golden")
+        for case in block.cases():
+            check_file(folder / f"{case.name}.npz", "golden")
+
+
 def _regen(names):
     man = _read_manifest()
     count = 0
+    _check_outputs(_selected(names))
     for block in _selected(names):
         keep = set()
         for case in block.cases():

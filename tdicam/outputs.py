@@ -69,11 +69,23 @@ def check_file(path, option="-o") -> Path:
     return p
 
 
-def check_dir(path, option="-o") -> Path:
-    """``path`` as a Path once it is a folder one can write in (created with its parents)."""
+def check_dir(path, option="-o", *, create=True) -> Path:
+    """``path`` as a Path once it is a folder one can write in (created with its parents).
+
+    With ``create=False`` (a folder written only sometimes, such as the waveform of a
+    mismatch) nothing is made: a missing folder is accepted when its nearest existing
+    ancestor is a folder one can write in.
+    """
     p = named(path, option)
     if p.exists() and not p.is_dir():
         _fail(p, "it exists and is not a folder")
+    if not create and not p.exists():
+        above = next(a for a in p.absolute().parents if a.exists())
+        if not above.is_dir():
+            _fail(p, f"{str(above)!r} is not a folder")
+        if not os.access(above, os.W_OK | os.X_OK):
+            _fail(p, f"{str(above)!r}: permission denied")
+        return p
     try:
         p.mkdir(parents=True, exist_ok=True)
         probe = p / ".tdicam-write-probe"

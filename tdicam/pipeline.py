@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import TdicamError
+from .errors import TdicamError, check_range
 
 __all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "verilog_command", "synth_command",
@@ -351,19 +351,25 @@ def _scene_args(prog, extra):
                          "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     ns = ap.parse_args(list(extra))
-    from .scene import load_scene
+    from .model.calib import load_image
+    from .model.plan import ONCHIP_RAM_BITS
+    from .scene import MAX_OUTPUT_PIXELS, load_scene
+    if str(ns.device).lower() not in ONCHIP_RAM_BITS:
+        raise TdicamError(f"--device = {ns.device!r} is not known; valid: "
+                          f"{', '.join(ONCHIP_RAM_BITS)}")
     sc = load_scene(ns.scene)
+    if ns.lines is not None:            # the bound of the scene's [run].lines
+        check_range("--lines", ns.lines, 1, MAX_OUTPUT_PIXELS // sc.sensor.columns)
+    images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
              spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
-        from .model.calib import load_image
         if len(ns.calib) != p.lanes:
             raise TdicamError(f"--calib: the pipeline has {p.lanes} channel(s), got "
                               f"{len(ns.calib)} image(s)")
         coeffs = []
-        for path in ns.calib:
-            img = load_image(path)
+        for path, img in zip(ns.calib, images):
             if img.shape != (p.rows, p.width):
                 raise TdicamError(f"--calib {path}: a {img.shape[0]} x {img.shape[1]} image; "
                                   f"the pipeline's frames are {p.rows} x {p.width}")

@@ -62,12 +62,36 @@ def _sims(text):
 
 
 def _load(path):
+    p = Path(path)
     try:
-        doc = json.loads(Path(path).read_text())
-        return doc["rows"], doc["machine"], doc["settings"], doc["wall_s"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file "
-                          f"({type(exc).__name__}: {exc})") from None
+        if p.is_file() and p.stat().st_size > _MAX_JSON_BYTES:
+            raise ValueError(f"{p.stat().st_size} bytes, more than a bench JSON holds")
+        with p.open("rb") as fh:
+            raw = fh.read(_MAX_JSON_BYTES + 1)
+        if len(raw) > _MAX_JSON_BYTES:
+            raise ValueError("endless or larger than a bench JSON holds")
+        doc = json.loads(raw)
+    except OSError as exc:
+        raise TdicamError(f"--from-json {path}: cannot read ({exc.strerror or exc})") from None
+    except ValueError as exc:   # JSON errors and bad UTF-8 are ValueErrors
+        raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file (not JSON: "
+                          f"{str(exc).splitlines()[0]})") from None
+    keys = ("rows", "machine", "settings", "wall_s")
+    missing = [k for k in keys if not isinstance(doc, dict) or k not in doc]
+    if missing:
+        got = "a table" if isinstance(doc, dict) else f"a JSON {type(doc).__name__}"
+        raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file ({got} "
+                          f"without {', '.join(repr(k) for k in missing)}; 'tdicam bench "
+                          f"--json FILE' writes one)")
+    rows = doc["rows"]
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file ('rows' is not "
+                          f"a list of tables)")
+    return rows, doc["machine"], doc["settings"], doc["wall_s"]
+
+
+#: A bench JSON is a few hundred kB: a larger (or endless) file is not one.
+_MAX_JSON_BYTES = 64 << 20
 
 
 def _outputs(args):
@@ -81,11 +105,24 @@ def _outputs(args):
     return png
 
 
+#: What rendering a foreign document's fields raises (a missing key, a wrong type).
+_NOT_BENCH = (KeyError, TypeError, ValueError, AttributeError, IndexError)
+
+
 def _run(args):
-    args.png_path = _outputs(args)
     if args.from_json:
         rows, mline, settings, wall = _load(args.from_json)
+        try:                            # rendered once before anything is printed or written
+            _legend(settings)
+            bench.format_table(rows, markdown=args.markdown)
+            f"{mline.split(',')[0]} {float(wall):.0f}"
+            [r for r in rows if r["mismatches"] or r["accuracy"] == "error"]
+        except _NOT_BENCH as exc:
+            raise TdicamError(f"--from-json {args.from_json}: not a tdicam bench JSON file "
+                              f"(a field missing or of the wrong type: {exc!r})") from None
+        args.png_path = _outputs(args)
         return _report(args, rows, mline, settings, wall)
+    args.png_path = _outputs(args)
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     build = args.build_time or ("cached" if args.quick else "fresh")
     check_range("--stalls", args.stalls, 0, 1, integer=False, hi_open=True)
@@ -102,13 +139,17 @@ def _run(args):
     return _report(args, rows, bench.describe_machine(), settings, wall)
 
 
+def _legend(settings):
+    return bench.legend(repeat=settings["repeat"], stalls=settings["stalls"],
+                        build=settings["build_time"], quick=settings["quick"],
+                        names=settings.get("names", ()))
+
+
 def _report(args, rows, mline, settings, wall):
     """Table, legend, PNG and JSON of ``rows``; exit status 1 if any row is not exact."""
     to_stdout = args.json == "-"
     log = sys.stderr if to_stdout else sys.stdout
-    legend = bench.legend(repeat=settings["repeat"], stalls=settings["stalls"],
-                          build=settings["build_time"], quick=settings["quick"],
-                          names=settings.get("names", ()))
+    legend = _legend(settings)
     print(mline, file=log)
     print(bench.format_table(rows, markdown=args.markdown), file=log)
     print(legend, file=log)

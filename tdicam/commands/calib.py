@@ -100,12 +100,30 @@ _NOT_NUMPY = (ValueError, EOFError, zipfile.BadZipFile)
 
 
 def _why(exc):
-    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    if "pickle" in text:            # numpy's advice to load untrusted pickles: never given
+        return "it holds pickled Python objects, which tdicam never loads"
+    return text
+
+
+#: The first bytes of a .npy file and of a .npz (a zip archive; an empty one: PK\x05\x06).
+_NUMPY_MAGIC = (b"\x93NUMPY", b"PK\x03\x04", b"PK\x05\x06")
+
+
+def _check_numpy_file(fh, path):
+    """A one-line error unless the open file ``fh`` starts as a .npy or .npz file does
+    (numpy would try a text file as a pickle and suggest loading it unsafely)."""
+    head = fh.read(6)
+    fh.seek(0)
+    if not head.startswith(_NUMPY_MAGIC):
+        raise TdicamError(f"{path}: not a numpy .npz or .npy file (it does not start with "
+                          f"either signature)")
 
 
 def _load_array(path, what):
     try:
         with open(path, "rb") as fh:
+            _check_numpy_file(fh, path)
             a = np.load(fh, allow_pickle=False)
             if isinstance(a, np.lib.npyio.NpzFile):
                 raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
@@ -123,6 +141,8 @@ def _load_maps(args):
         raise TdicamError("give either MAPS.npz or --gain/--offset, not both")
     if args.maps:
         try:
+            with open(args.maps, "rb") as fh:
+                _check_numpy_file(fh, args.maps)
             z = np.load(args.maps, allow_pickle=False)
             if not isinstance(z, np.lib.npyio.NpzFile):     # a .npy: one array
                 raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "

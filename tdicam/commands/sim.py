@@ -4,6 +4,7 @@ import time
 
 from .. import blocks, cosim
 from ..errors import check_range
+from ..outputs import check_dir
 from ..pauses import SEED_MAX, check_seed
 from ..cosim.cases import run_cases
 
@@ -32,6 +33,8 @@ def register(sub):
 def _run(args):
     mode = "fast" if args.fast else "beat"
     check_seed("--seed", args.seed)
+    cosim.check_build_root()
+    check_dir(args.wave_dir, "--wave-dir", create=False)
     for opt in ("idle", "backpressure"):
         check_range(f"--{opt}", getattr(args, opt), 0, 1, integer=False, hi_open=True)
     header = [f"{'case':28s} {'pixels':>9s} {'mismatch':>8s} {'cycles':>9s} {'wall s':>7s} "

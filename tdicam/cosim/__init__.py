@@ -39,7 +39,7 @@ from . import codec, dp16kd, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_window", "keep_wave", "SimResult",
            "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
-           "run_case", "run_scene", "run_golden_case", "build_dir_for", "tool_env",
+           "run_case", "run_scene", "run_golden_case", "build_dir_for", "check_build_root", "tool_env",
            "stream_ports", "build_sources", "run_cocotb"]
 
 SIMULATORS = ("icarus", "verilator")
@@ -102,8 +102,21 @@ def build_dir_for(block, params, sim):
     return BUILD_ROOT / sim / f"{block}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
 
 
+def check_build_root():
+    """The build folder (``TDICAM_BUILD`` when set) is one we can write in, else one line
+    naming the variable."""
+    from ..outputs import check_dir
+    if "TDICAM_BUILD" not in os.environ:
+        return
+    try:
+        check_dir(BUILD_ROOT, "TDICAM_BUILD")
+    except TdicamError as exc:
+        raise TdicamError(f"TDICAM_BUILD={os.environ['TDICAM_BUILD']}: {exc}") from None
+
+
 @contextlib.contextmanager
 def _locked(path):
+    check_build_root()
     path.mkdir(parents=True, exist_ok=True)
     with open(path / ".lock", "w") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
@@ -563,7 +576,8 @@ def keep_wave(src, dst, what):
     src, dst = Path(src), Path(dst)
     if not src.exists():
         raise TdicamError(f"Icarus wrote no waveform for {what}; see {src.parent}")
-    dst.parent.mkdir(parents=True, exist_ok=True)
+    from ..outputs import check_dir
+    check_dir(dst.parent, "wave_dir")
     shutil.move(str(src), dst)
     shutil.rmtree(src.parent, ignore_errors=True)
     return str(dst)
