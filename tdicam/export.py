@@ -69,10 +69,13 @@ class Export:
     files: list
 
 
-def golden_case_arrays(blk, params):
+def golden_case_arrays(blk, params, *, max_beats=None):
     """(case name, arrays) for the golden cases of ``blk`` at exactly ``params``, loaded
     from the verified golden store; when no stored case has these parameters, the block's
-    case generators are run with them (the golden model computes the expected outputs)."""
+    case generators are run with them (the golden model computes the expected outputs),
+    one at a time: a generated case over ``max_beats`` input beats is dropped at once (its
+    name kept with ``None`` arrays, so the caller can say how large it was), so memory
+    holds one large case at most."""
     out = []
     for case in blk.cases():
         if blk.resolve(case.params) == params:
@@ -87,7 +90,9 @@ def golden_case_arrays(blk, params):
                 continue
             arrays = dict(case.make(p, np.random.default_rng(case.seed)))
             if blk.to_beats is not None:
-                blk.to_beats(arrays, p)
+                n = len(blk.to_beats(arrays, p)[0])
+                if max_beats is not None and n > max_beats:
+                    arrays = n              # too large: only its size is kept
         except (TdicamError, ValueError, KeyError, IndexError, TypeError, MemoryError):
             continue
         out.append((case.name, arrays))
@@ -115,7 +120,13 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     beats (only the first that fits for a block whose state survives a reset, see
     ``Block.reset_clears_state``). Returns (stim, exp, case names).
     """
-    found = golden_case_arrays(blk, params)
+    per_frame = None if blk.frame_beats is None else blk.frame_beats(params)
+    if max_beats is not None and per_frame is not None and per_frame > max_beats:
+        raise TdicamError(f"block {blk.name} at " + ", ".join(f"{k}={v}" for k, v in
+                                                              params.items())
+                          + f": one frame is {per_frame:,} input beats, over the export "
+                          f"limit of {max_beats:,}; export smaller parameters")
+    found = golden_case_arrays(blk, params, max_beats=max_beats)
     if not found:
         raise TdicamError(f"block {blk.name} has no golden vectors at "
                           + ", ".join(f"{k}={v}" for k, v in params.items())
@@ -124,6 +135,9 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     stims, exps, names, total, seg = [], [], [], 0, 0
     smallest = None
     for name, arrays in found:
+        if isinstance(arrays, int):     # a generated case over the limit (its beats)
+            smallest = arrays if smallest is None else min(smallest, arrays)
+            continue
         stim, exp = blk.to_beats(arrays, params)
         smallest = len(stim) if smallest is None else min(smallest, len(stim))
         if max_beats is not None and total + len(stim) > max_beats:
@@ -319,12 +333,15 @@ def stream_ports_rows(top):
 
 
 def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backpressure=0.1,
-                 max_beats=MAX_BEATS):
+                 max_beats=MAX_BEATS, say=None):
     """Write the export folder of ``block`` at ``params`` (raw values, checked here; none:
     :func:`golden_params`).
 
     Stream blocks get the fast-mode testbench of :mod:`tdicam.cosim.tbgen`; a block with
     its own harness (:data:`HARNESSES`) gets that harness's self-checking form.
+
+    ``say(text)``, when given, is told the export's size (beats, files, bytes) before
+    anything is written.
 
     Raises :class:`TdicamError` for an unknown block or parameter, parameters without
     golden vectors, an output folder that cannot be written, or one that already holds a
@@ -341,6 +358,10 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
         make = _stream_export
     d, cases, n_in, n_out = make(blk, params, seed=seed, idle=idle, backpressure=backpressure,
                                  max_beats=max_beats)
+    if say is not None:
+        size = sum(len(t) for t in design_files(d).values())
+        say(f"export: {n_in:,} input beats, {n_out:,} expected beats, "
+            f"{len(d.vectors)} vector file(s), {size / 1e6:.1f} MB in all")
     files = write_design(d, out, force=force)
     return Export(out, blk.name, params, cases, n_in, n_out, files)
 

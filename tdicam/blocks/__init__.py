@@ -267,6 +267,10 @@ class Block:
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour. ``None``: :attr:`top`.
+    frame_beats : callable, optional
+        ``frame_beats(params)``: input beats of one frame, the least a golden case streams
+        (``tdicam export`` refuses parameters whose one frame is over its beat limit before
+        generating any case; None: unknown).
     reset_clears_state : bool
         A testbench reset returns the whole design to its power-up state, so golden cases
         can run back to back in one simulation with a reset between them (``tdicam
@@ -292,6 +296,7 @@ class Block:
     reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
+    frame_beats: Callable | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""

@@ -150,6 +150,7 @@ BLOCK = Block(
     check=_check,
     model_version="cds_ddr-1",
     to_beats=cds_to_beats,
+    frame_beats=lambda p: p["width"] * p["rows"],
     stream="frames",
     side_inputs=(SideInput("kinds", "frame", "1 = a reset frame (stored in DDR, no output), "
                            "0 = a signal frame (output minus the stored reset); on the "

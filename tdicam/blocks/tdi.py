@@ -391,6 +391,7 @@ BLOCK = Block(
     check=_check,
     model_version="tdi-1",
     to_beats=_to_beats,
+    frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr"),

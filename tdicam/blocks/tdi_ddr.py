@@ -110,6 +110,7 @@ BLOCK = Block(
     check=_check,
     model_version="tdi_ddr-1",
     to_beats=_tdi.to_beats,
+    frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
     **_tdi.SCENE,
     pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),
 )

@@ -79,7 +79,8 @@ def _run(args):
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
     params = parse_block_params(blk, args.extra) if args.extra else {}
-    ex = export_block(blk, params, args.output, force=args.force, seed=args.seed)
+    ex = export_block(blk, params, args.output, force=args.force, seed=args.seed,
+                      say=lambda text: print(text, file=sys.stderr, flush=True))
     print(f"wrote {ex.path}: {ex.block} ({', '.join(f'{k}={v}' for k, v in ex.params.items())}"
           f"), {ex.n_in} input beats (lvds: word clocks), {ex.n_out} expected beats from golden "
           f"cases "
