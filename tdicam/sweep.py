@@ -21,6 +21,7 @@ read the sweep file and write the results.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -240,7 +241,8 @@ def _not_foreign(out_dir):
     if other:
         raise TdicamError(f"{out_dir}: holds files that are not a tdicam sweep's "
                           f"({', '.join(other[:3])}{', ...' if len(other) > 3 else ''}); "
-                          f"give -o a new or empty folder, or an earlier sweep's to resume it")
+                          f"to resume a sweep give -o its folder (the one holding points/), "
+                          f"else a new or empty folder")
 
 
 def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=False,
@@ -284,8 +286,23 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
     if limit is not None:
         check_range("--limit", limit, 0, None)
     _not_foreign(outputs.named(out_dir))
+    made = [p for p in (Path(out_dir), Path(out_dir) / "points") if not p.exists()]
     out_dir = outputs.check_dir(out_dir)
     store = outputs.check_dir(out_dir / "points")
+    try:
+        return _run_sweep(sweep, out_dir, store, workers=workers, scheduler=scheduler,
+                          serial=serial, limit=limit, progress=progress,
+                          connect_timeout=connect_timeout, on_run=on_run, t0=t0)
+    except BaseException:
+        # refused or failed before any run was stored: leave nothing this call made
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()          # only when still empty
+        raise
+
+
+def _run_sweep(sweep, out_dir, store, *, workers, scheduler, serial, limit, progress,
+               connect_timeout, on_run, t0):
     done = {}
     for run in sweep.runs:
         if run.hash not in done:

@@ -50,7 +50,10 @@ def sweep(args):
     from tdicam.sweep import load_sweep, run_sweep
     check_range("--connect-timeout", args.connect_timeout, 0, 3600, integer=False,
                 lo_open=True)
-    sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact)
+    if args.limit is not None:          # before the points are expanded
+        check_range("--limit", args.limit, 0, None)
+    sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact,
+                    progress=not args.no_progress)
     out = named(args.out) if args.out is not None else Path("out") / "sweeps" / sw.name
     try:
         res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
