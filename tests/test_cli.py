@@ -213,7 +213,66 @@ BAD_INPUT = [
      "--angular-speed-rad-s = 1e-12 is out of range", 2),
     (["plan", "--gsd-m", "1", "--row-blanking-us", "3"],
      "--row-blanking-us: needs --pixel-clock-mhz", 2),
+    # the plan's own options: named as typed, bounded before units are converted
+    (["plan", "--onchip-kbit", "1e308"], "--onchip-kbit = 1e+308 is out of range; valid: "
+                                         "0..100000000", 2),
+    (["plan", "--ddr-clock-mhz", "1e308"], "--ddr-clock-mhz = 1e+308 is out of range; valid: "
+                                           "1..10000", 2),
+    (["plan", "--ddr-bits", "3"], "--ddr-bits = 3 is out of range; valid: 19..4096 (a DDR word "
+                                  "holds at least one 19-bit partial sum)", 2),
+    (["plan", "--ddr-bits", "99999999999999999999"], "--ddr-bits = 99999999999999999999 is out "
+                                                     "of range; valid: 1..4096", 2),
+    (["plan", "--device", "nosuch"], "--device = 'nosuch' is not known; valid: ", 2),
+    (["plan", "--ddr-efficiency", "nan", "--plot", "{d}/plan_plots"],
+     "--ddr-efficiency = nan is out of range", 2),
+    # output folders and the build folder
+    (["sim", "cds", "--wave-dir", "/dev/full"], "/dev/full: cannot write (it exists and is not "
+                                                "a folder)", 2),
+    (["sim", "cds", "--wave-dir", "/dev/full/w"], "/dev/full/w: cannot write ('/dev/full' is "
+                                                  "not a folder)", 2),
+    # input files that are not what they are given as
+    (["calib", "write", "{d}/notes.txt", "-o", "{d}/cal_notes.bin"],
+     "{d}/notes.txt: not a numpy .npz or .npy file (it does not start with either signature)",
+     2),
+    (["calib", "write", "--gain", "{d}/notes.txt", "--offset", "{d}/one.npy", "-o",
+      "{d}/cal_notes.bin"], "{d}/notes.txt: not a numpy .npz or .npy file", 2),
+    (["bench", "--from-json", "{d}/foreign.json", "-o", "{d}/bench_out"],
+     "--from-json {d}/foreign.json: not a tdicam bench JSON file (a table without 'rows', "
+     "'machine', 'settings', 'wall_s'", 2),
+    (["bench", "--from-json", "{d}/list.json", "-o", "{d}/bench_out"],
+     "not a tdicam bench JSON file (a JSON list without 'rows'", 2),
+    (["bench", "--from-json", "{d}/badrows.json", "-o", "{d}/bench_out"],
+     "not a tdicam bench JSON file (a field missing or of the wrong type", 2),
+    (["bench", "--from-json", "{d}", "-o", "{d}/bench_out"], "--from-json {d}: cannot read "
+                                                             "(Is a directory)", 2),
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--calib", "nope.bin",
+      "-o", "{d}/camera.v"], "nope.bin: cannot read (No such file or directory)", 2),
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "0",
+      "-o", "{d}/camera.v"], "--lines = 0 is out of range; valid: 1..", 2),
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "-1",
+      "-o", "{d}/camera.v"], "--lines = -1 is out of range; valid: 1..", 2),
+    (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
+      "-o", "{d}/camera.v"], "--device = 'nosuch' is not known", 2),
+    # an export too large for its beat limit: refused at once, with its size
+    (["export", "tdi", "--width", "8192", "--stages", "128", "-o", "{d}/exp_big"],
+     "one frame is 1,048,576 input beats, over the export limit of 400,000", 2),
+    # sweeps: a key fixed and swept, a product too large to hold, where to go instead
+    (["sweep", "{d}/sw_dup.toml", "-o", "{d}/sw_dup_out"], "[set] tdi.stages: also in [axes]; "
+                                                           "a key is either fixed", 2),
+    (["sweep", "{d}/sw_dupzip.toml", "-o", "{d}/sw_dup_out"], "[set] motion.dv_over_v: also "
+                                                              "in [zip]", 2),
+    (["sweep", "{d}/sw_big.toml", "--serial", "--force", "--limit", "1", "-o",
+      "{d}/sw_big_out"], "1,000,000 runs (points x repeats), over the 50,000 one sweep holds "
+                         "even with --force", 2),
+    (["sweep", "{d}/sw_ok.toml", "-o", "{d}/foreign"], "to resume a sweep give -o its folder "
+                                                       "(the one holding points/), else a new "
+                                                       "or empty folder", 2),
+    (["sweep", "{d}/sw_ok.toml", "--scheduler", "tcp://127.0.0.1:9", "--connect-timeout", "1",
+      "-o", "{d}/sw_sched"], "--scheduler tcp://127.0.0.1:9: cannot connect within 1 s", 2),
 ]
+
+#: Options whose value is an output path a refused command must not create.
+_OUTPUT_OPTIONS = ("-o", "--plot", "--wave-dir", "--png", "--json")
 
 _SCENE = """[orbit]\naltitude_km = {alt}\ngsd_m = 1.0\n[target]\nsignal_e = {sig}\n{target}
 [sensor]\ncolumns = 64\nrows = 128\n{sensor}\n[tdi]\nstages = {stages}\n[run]\nlines = {lines}\n"""
@@ -275,6 +334,20 @@ def bad_input_files(tmp_path_factory):
                                      '{start = 1, stop = 9, stpe = 2}\n')
     (d / "foreign").mkdir()
     (d / "foreign" / "mine.txt").write_text("mine")
+    (d / "sw_dup.toml").write_text(f'scene = "{base}"\n[set]\n"tdi.stages" = 5\n' + axes)
+    (d / "sw_dupzip.toml").write_text(f'scene = "{base}"\n[set]\n"motion.dv_over_v" = 0.1\n'
+                                      '[zip]\n"motion.dv_over_v" = [0.0, 0.1]\n'
+                                      '"motion.drift_deg" = [0.0, 0.5]\n')
+    (d / "sw_big.toml").write_text(
+        f'scene = "{base}"\n[axes]\n"tdi.stages" = [1]\n'
+        '"target.signal_e" = {start = 100, stop = 10000, num = 100}\n'
+        '"sensor.read_noise_e" = {start = 1, stop = 100, num = 100}\n'
+        '"motion.dv_over_v" = {start = 0.0, stop = 0.05, num = 100}\n')
+    (d / "notes.txt").write_text("meeting notes, not an array\n")
+    (d / "foreign.json").write_text('{"name": "not a bench"}')
+    (d / "list.json").write_text("[1, 2]")
+    (d / "badrows.json").write_text('{"rows": [{"block": "cds"}], "machine": "m", '
+                                    '"settings": {}, "wall_s": 1}')
     return d
 
 
@@ -294,15 +367,16 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     monkeypatch.setattr(bench, "run", ran)
     monkeypatch.chdir(paths.REPO)
     argv = [a.format(d=d) for a in argv]
-    out = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "-o"), "")
-    fresh = out.startswith(d) and not os.path.exists(out)
+    outs = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in _OUTPUT_OPTIONS]
+    fresh = [o for o in outs if o.startswith(d) and not os.path.exists(o)]
     try:
         got = main(argv)
     except SystemExit as exc:           # argparse's own errors
         got = exc.code
     std = capsys.readouterr()
     err = std.err.strip()
-    assert not (fresh and os.path.exists(out)), f"{out} written although the input was refused"
+    for out in fresh:
+        assert not os.path.exists(out), f"{out} written although the input was refused"
     if argv[0] in ("sim", "calib") and "/dev/full" not in argv:   # refused before any
         # result line (issue 18); a full device is only found when writing
         assert std.out == "", std.out
@@ -311,6 +385,73 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     assert err.startswith("tdicam: error:") or "error:" in err, err
     assert expect.format(d=d) in err, err
     assert "Traceback" not in err
+
+
+# Answers, not bad input: a plan that does not fit is the report's NO (exit 1); the default
+# stage grid keeps the counts the window allows and says which it left out (exit 0).
+PLAN_ANSWERS = [
+    (["--scene", "scenes/orbit_600km_1m_96.toml", "--max-frame-rate-hz", "600"], 1,
+     ["M0 88", "feasible: NO (frame rate, window (stages > M0))"]),
+    (["--gsd-m", "1", "--stages", "96", "--pixel-clock-mhz", "1"], 1,
+     ["a row takes longer than the line period (M0 = 0)", "window (stages > M0)"]),
+    (["--pixel-clock-mhz", "200"], 0,
+     ["default stages 96 left out at GSD 5 m: above M0 = 73 (give --stages to plan them)",
+      "default stages 24 48 96 left out at GSD 1 m: above M0 = 14", "feasible: yes"]),
+    (["--rows", "20"], 0, ["default stages 24 48 96 left out at GSD 5 m: above the 20 sensor "
+                           "rows"]),
+]
+
+
+@pytest.mark.parametrize("argv, code, texts", PLAN_ANSWERS, ids=lambda v: str(v)[:40])
+def test_plan_answers_instead_of_refusing(argv, code, texts, capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    got = main(["plan", *argv])
+    std = capsys.readouterr()
+    assert got == code and std.err == ""
+    for text in texts:
+        assert text in std.out
+
+
+# stdout that cannot take the output: one line on stderr, status 2, for every command
+STDOUT_ROWS = [
+    ("plan > /dev/full", "cannot write to standard output (No space left on device)"),
+    ("plan --json > /dev/full", "cannot write to standard output (No space left on device)"),
+    ("plan >&-", "standard output is closed; redirect it to a file or /dev/null instead"),
+    ("run --help > /dev/full", "cannot write to standard output (No space left on device)"),
+    ("verilog cds > /dev/full", "cannot write to standard output (No space left on device)"),
+    ("golden check cds > /dev/full", "cannot write to standard output (No space left on "
+                                     "device)"),
+    ("--help > /dev/full", "cannot write to standard output (No space left on device)"),
+]
+
+
+@pytest.mark.parametrize("line, text", STDOUT_ROWS, ids=[r[0] for r in STDOUT_ROWS])
+def test_stdout_that_fails_is_one_line(line, text):
+    r = subprocess.run(f"exec {sys.executable} -m tdicam {line}", shell=True, cwd=ROOT,
+                       capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr == f"tdicam: error: {text}\n"
+
+
+def test_build_folder_that_is_not_one_is_named():
+    r = subprocess.run([sys.executable, "-m", "tdicam", "sim", "cds", "--case", "hard_12b"],
+                       cwd=ROOT, capture_output=True, text=True,
+                       env={**os.environ, "TDICAM_BUILD": "/dev/full"})
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr == ("tdicam: error: TDICAM_BUILD=/dev/full: /dev/full: cannot write (it "
+                        "exists and is not a folder)\n")
+
+
+def test_golden_regen_refuses_a_case_file_that_is_a_folder(tmp_path, monkeypatch, capsys):
+    from tdicam import golden
+    monkeypatch.setattr(golden, "golden_dir", lambda: tmp_path)
+    (tmp_path / "cds" / "hard_12b.npz").mkdir(parents=True)
+    assert main(["golden", "regen", "cds"]) == 2
+    std = capsys.readouterr()
+    assert std.err == f"tdicam: error: {tmp_path}/cds/hard_12b.npz: cannot write (it is a " \
+                      f"directory)\n"
+    assert sorted(p.name for p in (tmp_path / "cds").iterdir()) == ["hard_12b.npz"]
+    assert not (tmp_path / "manifest.json").exists()     # nothing written before the check
 
 
 def test_pipeline_verilog_header_names_the_scene_file_only(tmp_path):
