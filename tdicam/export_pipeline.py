@@ -37,10 +37,9 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     if memory not in MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
     sc = load_scene(scene_path)
+    pl.check_options(sc, lines=lines, device=device)
     spill = MEMORY[memory]
     full = pl.plan(sc, stages=stages, lines=lines, device=device, spill=spill)
-    if lines is not None:
-        check_range("--lines", lines, 1, None)
     w = full.width if width is None else check_range("--width", width, 1, full.width)
     p = full if w == full.width else pl.plan(sc, stages=stages, lines=lines, width=w,
                                              device=device, spill=spill)

@@ -332,6 +332,19 @@ def output_shape(p):
 ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
 
+def check_options(scene, *, lines=None, device=None):
+    """The command-line options of a scene's pipeline (``verilog``, ``synth`` and ``export
+    pipeline``), checked under their names before a plan is made: ``--lines`` within the
+    bound of the scene's ``[run].lines`` (its output pixels), ``--device`` a known part."""
+    from .model.plan import ONCHIP_RAM_BITS
+    from .scene import MAX_OUTPUT_PIXELS
+    if device is not None and str(device).lower() not in ONCHIP_RAM_BITS:
+        raise TdicamError(f"--device = {device!r} is not known; valid: "
+                          f"{', '.join(ONCHIP_RAM_BITS)}")
+    if lines is not None:
+        check_range("--lines", lines, 1, MAX_OUTPUT_PIXELS // scene.sensor.columns)
+
+
 def _scene_args(prog, extra):
     from .cli import ArgsParser
     ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
@@ -352,14 +365,9 @@ def _scene_args(prog, extra):
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     ns = ap.parse_args(list(extra))
     from .model.calib import load_image
-    from .model.plan import ONCHIP_RAM_BITS
-    from .scene import MAX_OUTPUT_PIXELS, load_scene
-    if str(ns.device).lower() not in ONCHIP_RAM_BITS:
-        raise TdicamError(f"--device = {ns.device!r} is not known; valid: "
-                          f"{', '.join(ONCHIP_RAM_BITS)}")
+    from .scene import load_scene
     sc = load_scene(ns.scene)
-    if ns.lines is not None:            # the bound of the scene's [run].lines
-        check_range("--lines", ns.lines, 1, MAX_OUTPUT_PIXELS // sc.sensor.columns)
+    check_options(sc, lines=ns.lines, device=ns.device)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
              spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])

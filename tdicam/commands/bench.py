@@ -128,6 +128,8 @@ def _run(args):
     check_range("--stalls", args.stalls, 0, 1, integer=False, hi_open=True)
     bench.expand(args.names)        # unknown names fail before anything runs
     sims = _sims(args.sims)
+    if sims:
+        cosim.check_build_root()
     t0 = time.perf_counter()
     rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
                      stalls=args.stalls, build=build,

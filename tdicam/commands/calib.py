@@ -166,6 +166,10 @@ def _load_maps(args):
 
 
 def _write(args):
+    from .. import blocks
+    # the format is the nuc block's: its parameters check the flags under their names
+    blocks.get("nuc").resolve({k: getattr(args, k) for k in (
+        "gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")})
     fmt = NucFormat(args.gain_int_bits, args.gain_frac_bits, args.offset_bits,
                     args.offset_frac_bits)
     fmt._check_slots()
@@ -174,6 +178,7 @@ def _write(args):
                        ("--clock-mhz", args.clock_mhz)):
             if v is not None:
                 raise TdicamError(f"{opt}: only with --nand (a NAND image)")
+    _not_the_input(args.output, args.maps, args.gain, args.offset)
     check_file(args.output)
     gain, offset = _load_maps(args)
     for what, a in (("gain", gain), ("offset", offset)):
@@ -182,6 +187,9 @@ def _write(args):
     if gain.ndim != 2 or gain.shape != offset.shape:
         raise TdicamError(f"gain and offset must be 2-D maps of one shape; got {gain.shape} "
                           f"and {offset.shape}")
+    if not gain.size:
+        raise TdicamError(f"the gain and offset maps are empty ({gain.shape[0]} x "
+                          f"{gain.shape[1]} pixels)")
     if args.codes:
         g, o = fmt.check_coeffs(gain, offset)
     else:
@@ -271,8 +279,22 @@ def _report(args):
     return res
 
 
+def _not_the_input(output, *inputs):
+    """-o must not name a file being read: it would be replaced by what is made from it."""
+    import os
+    for name in inputs:
+        try:
+            same = name is not None and os.path.samefile(output, name)
+        except OSError:                 # one of them does not exist (yet)
+            same = False
+        if same:
+            raise TdicamError(f"-o {output}: is the input file {name}; give another file "
+                              f"name")
+
+
 def _read(args):
     if args.output is not None:
+        _not_the_input(args.output, args.image)
         check_file(args.output)
     res = _report(args)
     if args.output is not None:
@@ -301,6 +323,7 @@ def _inject(args):
                           f"most 1 (probabilities of one word; --single defaults to 0.01)")
     check_range("--seed", args.seed, 0, 2**63 - 1)
     check_range("--bad-blocks", args.bad_blocks, 0, 65535)
+    _not_the_input(args.output, args.image)
     check_file(args.output)
     rng = np.random.default_rng(args.seed)
     raw = calib.read_file(args.image)
