@@ -322,7 +322,7 @@ def test_cli_codes_and_npy_inputs(tmp_path):
      "{f}: not a tdicam calibration image"),
     (lambda p: None, ["check", "{f}"], "{f}: cannot read (No such file or directory)"),
     (lambda p: p.write_bytes(b"junk"), ["write", "{f}", "-o", "{f}.cal"],
-     "{f}: not a numpy .npz file"),
+     "{f}: not a numpy .npz or .npy file"),
     (lambda p: np.savez(p, gain=np.ones((2, 2))), ["write", "{f}", "-o", "{f}.cal"],
      "no array 'offset'"),
     (lambda p: np.savez(p, gain=np.full((2, 2), 9.0), offset=np.zeros((2, 2))),
