@@ -58,7 +58,10 @@ from .paths import SCENES
 __all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
            "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
-           "legend"]
+           "legend", "MAX_REPEAT"]
+
+#: Most runs per level ``--repeat`` takes: times are medians; more runs only take longer.
+MAX_REPEAT = 100
 
 SCENE = SCENES / "orbit_600km_1m_96.toml"
 FLAT = SCENES / "flat_snr_sweep_96.toml"
@@ -429,7 +432,7 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
     for s in sims:
         cosim.tool_env(s)
-    check_range("--repeat", repeat, 1, None)
+    check_range("--repeat", repeat, 1, MAX_REPEAT)
     works = {w.name: w for w in STREAM_WORKS}
     rows = []
     for name in expand(names):

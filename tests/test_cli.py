@@ -271,6 +271,26 @@ BAD_INPUT = [
       "-o", "{d}/sw_sched"], "--scheduler tcp://127.0.0.1:9: cannot connect within 1 s", 2),
 ]
 
+# found probing: unbounded counts, flags named as the model names them, -o onto the input
+BAD_INPUT += [
+    (["bench", "cds", "--quick", "--repeat", "99999999999", "-o", "{d}/bench_rep"],
+     "--repeat = 99999999999 is out of range; valid: 1..100", 2),
+    (["bench", "cds", "--quick", "--stalls", "2", "-o", "{d}/bench_rep"],
+     "--stalls = 2.0 is out of range", 2),
+    (["calib", "write", "{d}/maps.npz", "--gain-frac-bits", "99", "-o", "{d}/cal_fmt.bin"],
+     "--gain-frac-bits = 99 is out of range; valid: 4..16", 2),
+    (["calib", "write", "{d}/empty.npz", "-o", "{d}/cal_empty.bin"],
+     "the gain and offset maps are empty (0 x 16 pixels)", 2),
+    (["calib", "read", "{d}/cal.bin", "-o", "{d}/cal.bin"],
+     "-o {d}/cal.bin: is the input file {d}/cal.bin; give another file name", 2),
+    (["calib", "write", "{d}/maps.npz", "-o", "{d}/maps.npz"],
+     "-o {d}/maps.npz: is the input file {d}/maps.npz", 2),
+    (["export", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "99999999999",
+      "-o", "{d}/exp_pipe"], "--lines = 99999999999 is out of range; valid: 1..524288", 2),
+    (["export", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
+      "-o", "{d}/exp_pipe"], "--device = 'nosuch' is not known", 2),
+]
+
 #: Options whose value is an output path a refused command must not create.
 _OUTPUT_OPTIONS = ("-o", "--plot", "--wave-dir", "--png", "--json")
 
@@ -344,6 +364,7 @@ def bad_input_files(tmp_path_factory):
         '"sensor.read_noise_e" = {start = 1, stop = 100, num = 100}\n'
         '"motion.dv_over_v" = {start = 0.0, stop = 0.05, num = 100}\n')
     (d / "notes.txt").write_text("meeting notes, not an array\n")
+    np.savez(d / "empty.npz", gain=np.ones((0, 16)), offset=np.zeros((0, 16)))
     (d / "foreign.json").write_text('{"name": "not a bench"}')
     (d / "list.json").write_text("[1, 2]")
     (d / "badrows.json").write_text('{"rows": [{"block": "cds"}], "machine": "m", '
@@ -369,6 +390,7 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     argv = [a.format(d=d) for a in argv]
     outs = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in _OUTPUT_OPTIONS]
     fresh = [o for o in outs if o.startswith(d) and not os.path.exists(o)]
+    kept = {o: open(o, "rb").read() for o in outs if os.path.isfile(o)}
     try:
         got = main(argv)
     except SystemExit as exc:           # argparse's own errors
@@ -377,6 +399,8 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     err = std.err.strip()
     for out in fresh:
         assert not os.path.exists(out), f"{out} written although the input was refused"
+    for out, data in kept.items():
+        assert open(out, "rb").read() == data, f"{out} changed although the input was refused"
     if argv[0] in ("sim", "calib") and "/dev/full" not in argv:   # refused before any
         # result line (issue 18); a full device is only found when writing
         assert std.out == "", std.out

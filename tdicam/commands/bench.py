@@ -29,7 +29,8 @@ def register(sub):
                    "through its generated top, minutes; --quick: 8 lines of the Ning et al. 2019 "
                    "chain)")
     p.add_argument("--repeat", type=int, default=None,
-                   help="runs per level (3; --quick: 1); pipeline runs once")
+                   help=f"runs per level, 1..{bench.MAX_REPEAT} (3; --quick: 1); pipeline "
+                        f"runs once")
     p.add_argument("--quick", action="store_true", help="short inputs, one run per level")
     p.add_argument("--sims", default=",".join(cosim.SIMULATORS),
                    help="simulators, comma-separated, or 'none' (icarus,verilator)")
@@ -122,7 +123,9 @@ def _run(args):
                               f"(a field missing or of the wrong type: {exc!r})") from None
         args.png_path = _outputs(args)
         return _report(args, rows, mline, settings, wall)
-    args.png_path = _outputs(args)
+    # every option checked before the output folder is made
+    if args.repeat is not None:
+        check_range("--repeat", args.repeat, 1, bench.MAX_REPEAT)
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     build = args.build_time or ("cached" if args.quick else "fresh")
     check_range("--stalls", args.stalls, 0, 1, integer=False, hi_open=True)
@@ -130,6 +133,7 @@ def _run(args):
     sims = _sims(args.sims)
     if sims:
         cosim.check_build_root()
+    args.png_path = _outputs(args)
     t0 = time.perf_counter()
     rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
                      stalls=args.stalls, build=build,
