@@ -541,3 +541,16 @@ def test_a_reader_that_leaves_ends_the_command_quietly():
     p.stderr.close()
     assert p.wait(timeout=120) == 141, err
     assert err == ""
+
+
+def test_sweep_validation_says_how_many_points(tmp_path, capsys):
+    from tdicam.sweepfile import load_sweep
+    base = ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml"
+    f = tmp_path / "many.toml"
+    f.write_text(f'scene = "{base}"\n[set]\n"run.lines" = 16\n[axes]\n"tdi.stages" = [1]\n'
+                 '"target.signal_e" = {start = 100, stop = 10000, num = 600}\n')
+    sw = load_sweep(f, progress=True)
+    assert len(sw.runs) == 600
+    assert "sweep: validating 600 points" in capsys.readouterr().err
+    load_sweep(f, progress=False)
+    assert capsys.readouterr().err == ""
