@@ -176,7 +176,7 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
     (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
-    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1..inf"),
+    (["cds", "--repeat", "0"], "--repeat = 0 is out of range; valid: 1..100"),
 ])
 def test_errors_are_one_line(args, msg, capsys):
     assert main(["bench", *args]) == 2
@@ -189,7 +189,9 @@ def test_from_json_needs_a_bench_file(tmp_path, capsys):
     bad.write_text("{}")
     assert main(["bench", "--from-json", str(bad)]) == 2
     assert capsys.readouterr().err == (f"tdicam: error: --from-json {bad}: not a tdicam bench "
-                                       f"JSON file (KeyError: 'rows')\n")
+                                       f"JSON file (a table without 'rows', 'machine', "
+                                       f"'settings', 'wall_s'; 'tdicam bench --json FILE' "
+                                       f"writes one)\n")
 
 
 def test_table_formatting():
