@@ -12,7 +12,9 @@ come from a scene file (``--scene``), from options, or both (options override th
 ``--json`` prints the same numbers for scripts; ``--plot DIR`` writes three PNG figures.
 
 Without a scene or orbit options the command plans Qu 2010's example: 600 km, GSD 5, 2 and
-1 m, 12/24/48/96 stages on a 1280 x 1024 12-bit sensor.
+1 m, 12/24/48/96 stages on a 1280 x 1024 12-bit sensor; without ``--stages`` the stage counts
+the sensor's rows or window ``M0`` do not allow are left out (the report says which). Stage
+counts given above ``M0`` are planned: the window check says NO (exit status 1).
 
 The work is done by :mod:`tdicam.planning`; this module parses arguments.
 """
