@@ -199,9 +199,11 @@ def _range(spec, label):
     ints = ints and isinstance(step, int)
     if step == 0 or (stop - start) / step < 0:
         return []
-    n = int(math.floor((stop - start) / step + 1e-9)) + 1
-    if n > _MAX_AXIS:
-        raise TdicamError(f"{label}: range gives {n} values, more than {_MAX_AXIS}")
+    count = (stop - start) / step + 1e-9            # inf for a tiny step: never int() it
+    if count + 1 > _MAX_AXIS:
+        many = f"{int(count) + 1}" if math.isfinite(count) else "endlessly many"
+        raise TdicamError(f"{label}: range gives {many} values, more than {_MAX_AXIS}")
+    n = int(math.floor(count)) + 1
     return [start + i * step if ints else float(start + i * step) for i in range(n)]
 
 

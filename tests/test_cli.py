@@ -289,6 +289,8 @@ BAD_INPUT += [
       "-o", "{d}/exp_pipe"], "--lines = 99999999999 is out of range; valid: 1..524288", 2),
     (["export", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
       "-o", "{d}/exp_pipe"], "--device = 'nosuch' is not known", 2),
+    (["sweep", "{d}/sw_step.toml", "-o", "{d}/sw_step_out"], "[axes] tdi.stages: range gives "
+                                                             "endlessly many values", 2),
 ]
 
 #: Options whose value is an output path a refused command must not create.
@@ -363,6 +365,8 @@ def bad_input_files(tmp_path_factory):
         '"target.signal_e" = {start = 100, stop = 10000, num = 100}\n'
         '"sensor.read_noise_e" = {start = 1, stop = 100, num = 100}\n'
         '"motion.dv_over_v" = {start = 0.0, stop = 0.05, num = 100}\n')
+    (d / "sw_step.toml").write_text(f'scene = "{base}"\n[axes]\n"tdi.stages" = '
+                                    '{start = 1, stop = 1e308, step = 1e-308}\n')
     (d / "notes.txt").write_text("meeting notes, not an array\n")
     np.savez(d / "empty.npz", gain=np.ones((0, 16)), offset=np.zeros((0, 16)))
     (d / "foreign.json").write_text('{"name": "not a bench"}')
