@@ -69,13 +69,14 @@ class Export:
     files: list
 
 
-def golden_case_arrays(blk, params, *, max_beats=None):
+def golden_case_arrays(blk, params, *, max_beats=None, errors=None):
     """(case name, arrays) for the golden cases of ``blk`` at exactly ``params``, loaded
     from the verified golden store; when no stored case has these parameters, the block's
     case generators are run with them (the golden model computes the expected outputs),
     one at a time: a generated case over ``max_beats`` input beats is dropped at once (its
     name kept with ``None`` arrays, so the caller can say how large it was), so memory
-    holds one large case at most."""
+    holds one large case at most. ``errors``, a list, collects why generating a case
+    failed (one line each)."""
     out = []
     for case in blk.cases():
         if blk.resolve(case.params) == params:
@@ -93,7 +94,11 @@ def golden_case_arrays(blk, params, *, max_beats=None):
                 n = len(blk.to_beats(arrays, p)[0])
                 if max_beats is not None and n > max_beats:
                     arrays = n              # too large: only its size is kept
-        except (TdicamError, ValueError, KeyError, IndexError, TypeError, MemoryError):
+        except (TdicamError, ValueError, KeyError, IndexError, TypeError, MemoryError) as exc:
+            if errors is not None:
+                why = (str(exc).splitlines() or [""])[0] or type(exc).__name__
+                errors.append(f"{case.name}: {why}" if not isinstance(exc, MemoryError)
+                              else f"{case.name}: out of memory")
             continue
         out.append((case.name, arrays))
     return out
@@ -126,10 +131,12 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
                                                               params.items())
                           + f": one frame is {per_frame:,} input beats, over the export "
                           f"limit of {max_beats:,}; export smaller parameters")
-    found = golden_case_arrays(blk, params, max_beats=max_beats)
+    errors = []
+    found = golden_case_arrays(blk, params, max_beats=max_beats, errors=errors)
     if not found:
         raise TdicamError(f"block {blk.name} has no golden vectors at "
                           + ", ".join(f"{k}={v}" for k, v in params.items())
+                          + (f" (generating its cases failed: {errors[0]})" if errors else "")
                           + "; choose parameters of one of its golden cases "
                           f"(tdicam golden check {blk.name} lists them)")
     stims, exps, names, total, seg = [], [], [], 0, 0

@@ -225,6 +225,7 @@ BLOCK = Block(
     check=_check,
     model_version="calib-1",
     to_beats=reader_beats,
+    frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
     stream="words",
     golden=_golden,
     to_case=_to_case,

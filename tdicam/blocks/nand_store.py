@@ -219,6 +219,7 @@ BLOCK = Block(
     top=_top,
     cases=_cases,
     to_beats=_beats,
+    frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
     check=_check,
     model_version="nand-1",
     stream="words",
