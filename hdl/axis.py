@@ -12,7 +12,7 @@ from amaranth.hdl import Cat, Const, Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .stream import element_bits
+from tdicam.hdl.stream import element_bits
 
 __all__ = ["AxisTop", "tdata_layout"]
 

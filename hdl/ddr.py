@@ -27,9 +27,9 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.ddr import (ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout,
                               check_capacity)
-from .mig import MigPort, connect_mig, mig_user_ports
-from .stream import channels_shape, pixel_signature
-from .util import equals, mux_select, quiet_reject, saturating_increment
+from tdicam.hdl.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import equals, mux_select, quiet_reject, saturating_increment
 
 __all__ = ["LineWriter", "LineReader", "DdrFrameBuffer"]
 

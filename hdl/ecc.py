@@ -17,8 +17,8 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.model.ecc import CHECK_BITS, CODE_BITS, COLUMNS, DATA_BITS
-from .stream import channels_shape, pixel_signature
-from .util import equals
+from tdicam.hdl.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import equals
 
 __all__ = ["SecdedEncoder", "SecdedDecoder", "SecdedEncoderStream", "SecdedDecoderStream",
            "DEC_OUT_BYTES"]

@@ -14,8 +14,8 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
 from tdicam.model.ddr import ADDR_BITS, BANKS, WORD_BITS, DramTiming, _check_stalls
-from .mig import MIG_PORT_NAMES, connect_mig, mig_model_ports
-from .util import equals, quiet_reject
+from tdicam.hdl.mig import MIG_PORT_NAMES, connect_mig, mig_model_ports
+from tdicam.hdl.util import equals, quiet_reject
 
 __all__ = ["MigModel", "SimTop"]
 

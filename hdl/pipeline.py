@@ -19,7 +19,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
-from .stream import channels_shape, element_bits, pixel_signature
+from tdicam.hdl.stream import channels_shape, element_bits, pixel_signature
 
 __all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group"]
 

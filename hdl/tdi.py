@@ -14,8 +14,8 @@ from amaranth.lib.memory import Memory
 from tdicam.errors import TdicamError
 from tdicam.model.tdi import check_params, full_bits, out_width
 from tdicam.verilog import NO_INIT, NO_RW_CHECK
-from . import ecp5_bram
-from .tdi_control import TdiFrameControl, tdi_ports
+from tdicam.hdl import ecp5_bram
+from tdicam.hdl.tdi_control import TdiFrameControl, tdi_ports
 
 __all__ = ["TdiAccumulator", "BRAMS"]
 

@@ -11,9 +11,9 @@ from amaranth.utils import bits_for
 
 from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout, \
     check_capacity
-from .mig import MigPort, connect_mig, mig_user_ports
-from .tdi_control import TdiFrameControl, tdi_ports
-from .util import equals, mux_select, quiet_reject
+from tdicam.hdl.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.tdi_control import TdiFrameControl, tdi_ports
+from tdicam.hdl.util import equals, mux_select, quiet_reject
 
 __all__ = ["TdiDdr"]
 

@@ -783,7 +783,7 @@ def tdi_spill_efficiency(width, stages, pixel_bits, ppc=1):
     on the memory model with DRAM timing (:func:`pattern_efficiency`, on enough lines for
     >= 2400 commands: three refresh periods) less :data:`PLAN_MARGIN`, so LiteDRAM's
     DDR3 controller, measured on the block's own order, still meets the plan."""
-    from .tdi import full_bits
+    from tdicam.model.tdi import full_bits
     k = psums_per_word(full_bits(pixel_bits, stages), ppc)
     wpl = -(-(int(width) // int(ppc)) // (k // int(ppc)))
     lines = max(4, -(-2400 // (2 * wpl)))
@@ -802,7 +802,7 @@ def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
     and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored
     reset frame; before any reset frame the reset level is 0). Returns (k, rows, width).
     """
-    from .cds import cds, pixel_dtype
+    from tdicam.model.cds import cds, pixel_dtype
     out, reset = [], None
     for fr, k in zip(frames, kinds):
         if int(k):
@@ -827,7 +827,7 @@ def tdi_ddr_check(*, width, stages, pixel_bits, ppc, line_period_s=None,
     for TdiDdr's access pattern, :func:`tdi_spill_efficiency`), or the clock cannot take
     the ``m_max * width / ppc`` input beats of a line period.
     """
-    from .tdi import full_bits
+    from tdicam.model.tdi import full_bits
     ps = full_bits(pixel_bits, stages)
     k = psums_per_word(ps, ppc)
     wb = width // ppc

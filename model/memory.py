@@ -19,8 +19,8 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-from . import tdi as _tdi
-from ._args import count, real
+from tdicam.model import tdi as _tdi
+from tdicam.model._args import count, real
 
 __all__ = [
     "DDR_WORD_BITS",

@@ -20,7 +20,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-from ._args import real
+from tdicam.model._args import real
 
 __all__ = ["snr", "snr_db", "prnu", "ctf", "mtf_from_ctf", "bar_ctf", "bar_mtf"]
 

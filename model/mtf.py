@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._args import count, real
+from tdicam.model._args import count, real
 
 __all__ = [
     "NYQUIST",

@@ -91,8 +91,8 @@ import numpy as np
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.outputs import write_file
-from . import calib, ecc
-from .nuc import DEFAULT_FORMAT
+from tdicam.model import calib, ecc
+from tdicam.model.nuc import DEFAULT_FORMAT
 
 __all__ = ["Geometry", "MT29F4G08", "NandDevice", "STATUS_PASS", "STATUS_FAIL", "MARKER_GOOD",
            "MARKER_BAD", "MAP_MAGIC", "FILE_MAGIC", "write_store", "scan", "ScanResult",

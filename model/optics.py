@@ -59,7 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .mtf import check_dv_over_v, dirichlet, transfer_along
+from tdicam.model.mtf import check_dv_over_v, dirichlet, transfer_along
 
 __all__ = ["Geometry", "Renderer", "box_kernel", "gauss_kernel", "dirichlet"]
 

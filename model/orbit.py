@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._args import count, real
+from tdicam.model._args import count, real
 
 __all__ = [
     "EARTH_RADIUS_M",

@@ -31,13 +31,13 @@ Units are SI unless a name says otherwise; spatial frequencies are in cycles per
 
 from __future__ import annotations
 
-from . import memory as _memory
-from . import mtf as _mtf
-from . import orbit as _orbit
-from . import snr as _snr
-from .memory import *  # noqa: F401,F403
-from .mtf import *  # noqa: F401,F403
-from .orbit import *  # noqa: F401,F403
-from .snr import *  # noqa: F401,F403
+from tdicam.model import memory as _memory
+from tdicam.model import mtf as _mtf
+from tdicam.model import orbit as _orbit
+from tdicam.model import snr as _snr
+from tdicam.model.memory import *  # noqa: F401,F403
+from tdicam.model.mtf import *  # noqa: F401,F403
+from tdicam.model.orbit import *  # noqa: F401,F403
+from tdicam.model.snr import *  # noqa: F401,F403
 
 __all__ = [*_orbit.__all__, *_memory.__all__, *_snr.__all__, *_mtf.__all__]

@@ -14,7 +14,7 @@ from scipy.special import erfc
 
 from tdicam.errors import TdicamError
 
-from ._args import count, real
+from tdicam.model._args import count, real
 
 __all__ = [
     "quantization_noise",

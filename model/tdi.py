@@ -50,7 +50,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError, check_range
 
-from .cds import check_pixels, pixel_dtype
+from tdicam.model.cds import check_pixels, pixel_dtype
 
 __all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", "out_width",
            "check_params", "settings_valid", "slots_needed", "BasicTdi", "OptimizedTdi",

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import TdicamError
+from tdicam.errors import TdicamError
 
 __all__ = ["Beats", "frames_to_beats", "beats_to_frames", "mark_resets"]
 

@@ -49,11 +49,11 @@ from typing import Callable
 
 import numpy as np
 
-from . import benchpipe, blocks, cosim
-from .benchplot import plot, tradeoff_points
-from .benchutil import machine, median_time
-from .errors import TdicamError, check_range
-from .paths import SCENES
+from tdicam import benchpipe, blocks, cosim
+from tdicam.benchplot import plot, tradeoff_points
+from tdicam.benchutil import machine, median_time
+from tdicam.errors import TdicamError, check_range
+from tdicam.paths import SCENES
 
 __all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
@@ -183,8 +183,8 @@ def _accuracy(mismatches):
 
 def stream_sources(blk, params):
     """Verilog sources {file: text} of a stream block's co-simulation testbench."""
-    from .cosim import tbgen
-    from .verilog import convert
+    from tdicam.cosim import tbgen
+    from tdicam.verilog import convert
     top = blk.build(params)
     in_bits, out_bits, ctrl = cosim.stream_ports(top)
     return {f"{blk.name}.v": convert(top, blk.name),
@@ -258,7 +258,7 @@ def _export_row(w, blk, params, vectors, *, stalls, repeat):
     on the fast rows' vectors: no Python in the loop, the compare in HDL (not with
     ``--quick``: it needs a fresh build)."""
     level = "export verilator"
-    from .export import run_binary
+    from tdicam.export import run_binary
     stim, exp, n = vectors
     folder = cosim.build_dir_for(f"{w.block}.export", params, "verilator")
     runs = []
@@ -275,9 +275,9 @@ def _export_row(w, blk, params, vectors, *, stalls, repeat):
 
 # ------------------------------------------------------------------------------ lvds
 def _lvds_rows(*, sims, repeat, quick, stalls, build):
-    from .cosim import lvds as cl
-    from .model import lvds as model
-    from .verilog import convert
+    from tdicam.cosim import lvds as cl
+    from tdicam.model import lvds as model
+    from tdicam.verilog import convert
     n, n_check = (8, 4) if quick else (32, 16)
     rng = np.random.default_rng(1)
     link = model.Link([model.random_lane(rng, max_word_delay=1) for _ in range(n)])
@@ -318,7 +318,7 @@ def _lvds_rows(*, sims, repeat, quick, stalls, build):
 def _lvds_pysim(link, cycles, n_check, params):
     """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
     Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
-    from .cosim.lvds import run_amaranth
+    from tdicam.cosim.lvds import run_amaranth
     events, _, seconds = run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
                                       min_run=params["min_run"], pick=params["pick"])
     return events, seconds
@@ -353,9 +353,9 @@ def _psnr(a, b, peak):
 
 
 def _scene_rows(*, sims, repeat, quick, stalls, build):
-    from .engine import simulate
-    from .measure import _snr_db
-    from .scene import load_scene
+    from tdicam.engine import simulate
+    from tdicam.measure import _snr_db
+    from tdicam.scene import load_scene
     sc = load_scene(SCENE)
     real = 1.0 / sc.line_period_s
     n_fast, n_exact = (256, 16) if quick else (4096, 64)
@@ -559,5 +559,5 @@ def to_json(rows, *, machine_line, settings, wall_s):
 
 
 def _scene_line_period():
-    from .scene import load_scene
+    from tdicam.scene import load_scene
     return load_scene(SCENE).line_period_s

@@ -10,7 +10,7 @@ them through the golden chain and through the generated pipeline top
 
 import time
 
-from .paths import SCENES
+from tdicam.paths import SCENES
 
 __all__ = ["PIPELINE_SCENE", "QUICK_SCENE", "TARGET_PX_S", "pipeline_run", "pipeline_rows",
            "legend"]
@@ -49,10 +49,10 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
         ``run_s`` (simulator wall time) and ``cpu_s`` (the simulator process's CPU time,
         build excluded).
     """
-    from . import pipeline as pl
-    from .beats import frames_to_beats
-    from .rtl import beats_differ, run_top, scene_data
-    from .scene import load_scene
+    from tdicam import pipeline as pl
+    from tdicam.beats import frames_to_beats
+    from tdicam.rtl import beats_differ, run_top, scene_data
+    from tdicam.scene import load_scene
 
     sc = load_scene(scene)
     m = int(sc.tdi.stages[0])
@@ -83,7 +83,7 @@ def pipeline_rows(*, sims, repeat, quick, stalls, build):
     (one run each, ``repeat`` not used; ``build_s`` is the run's own build, 0 when cached,
     whatever ``build`` says; Icarus only with ``--quick``, which runs 8 output lines of
     :data:`QUICK_SCENE` instead: the whole orbit scene is 43 M input pixels)."""
-    from .bench import row
+    from tdicam.bench import row
     lines = _QUICK_LINES if quick else None
     rows, gold = [], None
     for sim in sims:

@@ -8,12 +8,12 @@ __all__ = ["plot", "tradeoff_points"]
 
 
 def _unit_abbr(unit):
-    from .bench import _UNIT_ABBR
+    from tdicam.bench import _UNIT_ABBR
     return _UNIT_ABBR.get(unit, unit)
 
 
 def _scene_line_period():
-    from .bench import _scene_line_period as period
+    from tdicam.bench import _scene_line_period as period
     return period()
 
 
@@ -60,7 +60,7 @@ def plot(rows, path, *, title="", real_time=None):
     _tradeoff(tr, rows, colors, names)
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    from .outputs import open_output
+    from tdicam.outputs import open_output
     with open_output(path) as fh:       # this exact name (savefig would add .png)
         fig.savefig(fh, dpi=110, bbox_inches="tight", format="png")
     plt.close(fig)

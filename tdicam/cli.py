@@ -16,8 +16,8 @@ import pkgutil
 import re
 import sys
 
-from . import commands
-from .errors import TdicamError
+from tdicam import commands
+from tdicam.errors import TdicamError
 
 __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 

@@ -1,10 +1,10 @@
 """The end-to-end path on one block (``tdicam demo``): a smoke run of the whole tool."""
 
-from . import blocks, golden
-from .cosim.cases import run_cases
-from .lint import lint
-from .outputs import check_dir
-from .verilog import write
+from tdicam import blocks, golden
+from tdicam.cosim.cases import run_cases
+from tdicam.lint import lint
+from tdicam.outputs import check_dir
+from tdicam.verilog import write
 
 __all__ = ["demo"]
 

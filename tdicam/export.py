@@ -37,13 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, blocks, golden
-from .beats import Beats
-from .cosim import codec, stream_ports, tbgen
-from .errors import TdicamError
-from .hdl.axis import AxisTop
-from .pauses import thresholds
-from .verilog import convert, header
+from tdicam import __version__, blocks, golden
+from tdicam.beats import Beats
+from tdicam.cosim import codec, stream_ports, tbgen
+from tdicam.errors import TdicamError
+from tdicam.hdl.axis import AxisTop
+from tdicam.pauses import thresholds
+from tdicam.verilog import convert, header
 
 __all__ = ["Export", "Design", "HARNESSES", "export_block", "export_files", "design_files",
            "write_design", "stream_design", "stream_ports_rows", "run_binary",
@@ -443,7 +443,7 @@ def run_binary(blk, params, stim, exp, folder, *, seed=1, idle=0.1, backpressure
     it (no Python in the simulation loop). Returns (build seconds, run seconds, passed,
     last line printed)."""
     import subprocess
-    from .cosim import tool_env
+    from tdicam.cosim import tool_env
     top = _stream_top(blk, params)
     folder = Path(folder)
     shutil.rmtree(folder, ignore_errors=True)

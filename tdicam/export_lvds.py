@@ -30,14 +30,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .blocks.lvds import link_from_arrays
-from .cosim import lvds as cl
-from .cosim import tbgen
-from .errors import TdicamError
-from .export import Design, block_rows, golden_case_arrays
-from .hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
-from .model import lvds as model
-from .verilog import convert, header
+from tdicam.blocks.lvds import link_from_arrays
+from tdicam.cosim import lvds as cl
+from tdicam.cosim import tbgen
+from tdicam.errors import TdicamError
+from tdicam.export import Design, block_rows, golden_case_arrays
+from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
+from tdicam.model import lvds as model
+from tdicam.verilog import convert, header
 
 __all__ = ["lvds_export", "lvds_vectors"]
 

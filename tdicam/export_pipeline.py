@@ -15,10 +15,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from . import pipeline as pl
-from .beats import frames_to_beats
-from .errors import TdicamError, check_range
-from .export import MAX_BEATS, Export, stream_design, write_design
+from tdicam import pipeline as pl
+from tdicam.beats import frames_to_beats
+from tdicam.errors import TdicamError, check_range
+from tdicam.export import MAX_BEATS, Export, stream_design, write_design
 
 __all__ = ["export_pipeline", "pipeline_design", "MEMORY"]
 
@@ -31,9 +31,9 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     """(:class:`~tdicam.export.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
     (default ``[run].lines``)."""
-    from .rtl import scene_data
-    from .scene import load_scene
-    from .pipeline import SceneData
+    from tdicam.rtl import scene_data
+    from tdicam.scene import load_scene
+    from tdicam.pipeline import SceneData
     if memory not in MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
     sc = load_scene(scene_path)

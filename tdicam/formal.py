@@ -32,8 +32,8 @@ from pathlib import Path
 
 from amaranth.back import rtlil
 
-from .paths import REPO
-from .errors import TdicamError
+from tdicam.paths import REPO
+from tdicam.errors import TdicamError
 
 __all__ = ["FormalResult", "tools_missing", "prepare_solver", "prove", "MODES"]
 

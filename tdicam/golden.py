@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import blocks as _blocks
-from .errors import TdicamError
-from .paths import GOLDEN, REPO
+from tdicam import blocks as _blocks
+from tdicam.errors import TdicamError
+from tdicam.paths import GOLDEN, REPO
 
 __all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
            "write_npz", "PARAMS_KEY"]

@@ -10,7 +10,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from .cosim import tool_env
+from tdicam.cosim import tool_env
 
 __all__ = ["WAIVERS", "lint"]
 

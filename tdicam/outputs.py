@@ -18,7 +18,7 @@ import os
 import stat
 from pathlib import Path
 
-from .errors import TdicamError
+from tdicam.errors import TdicamError
 
 __all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in"]
 

@@ -19,8 +19,8 @@ states ``v_c``, ``r_c``:
 * ``idle_thr = round(idle * 256)``, ``bp_thr = round(backpressure * 256)``.
 """
 
-from .errors import check_range
-from .model.ddr import xorshift32
+from tdicam.errors import check_range
+from tdicam.model.ddr import xorshift32
 
 __all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R", "ZERO_SEED_STATE", "start_state",
            "check_seed", "SEED_MAX"]

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import TdicamError
+from tdicam.errors import TdicamError
 
 __all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "verilog_command", "synth_command",
@@ -116,14 +116,14 @@ class Context:
 def uses():
     """Block name -> its :class:`tdicam.blocks.Use`, for every block with a gateware stage
     in a pipeline."""
-    from . import blocks
+    from tdicam import blocks
     return {b.name: b.pipeline for b in blocks.all_blocks() if b.pipeline is not None}
 
 
 def _golden_stage(step, data):
     """The block's golden stage from its registry entry."""
-    from . import blocks
-    from .model.pipeline import GoldenStage
+    from tdicam import blocks
+    from tdicam.model.pipeline import GoldenStage
     blk = blocks.get(step.block)
     use = blk.pipeline
     params = blk.resolve(step.params)
@@ -171,7 +171,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     does not fit on chip with no DDR variant, a spill without a ``[ddr]`` section, a DDR
     too slow for the scene's line rate, a spill asked of a chain with nothing to spill.
     """
-    from . import blocks as registry
+    from tdicam import blocks as registry
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
         raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
@@ -219,7 +219,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
 
 def _spills(u, step, scene, spill, device):
     """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
-    from .model.plan import onchip_budget
+    from tdicam.model.plan import onchip_budget
     if u.memory_bits is None:
         return False, ""
     need, budget = u.memory_bits(step), onchip_budget(device)
@@ -247,8 +247,8 @@ def identity_data(p):
 def top(p, data=None, *, taps=False, ecp5=False):
     """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
     each block's ECP5 synthesis top where it has one, for ``tdicam synth``)."""
-    from .hdl.axis import AxisTop
-    from .hdl.pipeline import Pipeline
+    from tdicam.hdl.axis import AxisTop
+    from tdicam.hdl.pipeline import Pipeline
     data = identity_data(p) if data is None or data.coeffs is None else data
     stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:
@@ -262,7 +262,7 @@ def top(p, data=None, *, taps=False, ecp5=False):
 def verilog(p, data=None, *, taps=False):
     """Deterministic Verilog text of the top (module ``pipeline``), after
     :func:`verilog_header`."""
-    from .verilog import convert
+    from tdicam.verilog import convert
     return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
 
 
@@ -270,7 +270,7 @@ def verilog_header(p, *, taps=False):
     """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
     (no path), the blocks in order with their parameters, channels, frame and lines."""
     import os
-    from .verilog import header
+    from tdicam.verilog import header
     return header("pipeline", {
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
         "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
@@ -280,7 +280,7 @@ def verilog_header(p, *, taps=False):
 def golden(p, data):
     """Every stage's golden output, in the order of the top's taps: list of [tap name,
     block, ndarray (frames, rows, width)]."""
-    from .model.pipeline import chain
+    from tdicam.model.pipeline import chain
     stages = [_golden_stage(s, data) for s in p.steps]
     out = []
     for (name, lanes), st in zip(chain(data.lane_arrays(p), stages), p.steps):
@@ -291,7 +291,7 @@ def golden(p, data):
 
 def _ctrl(axis_top, p):
     """Packed run-time port values (first port in the most significant bits)."""
-    from .cosim import stream_ports
+    from tdicam.cosim import stream_ports
     _, _, ctrl = stream_ports(axis_top)
     values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
     word = 0
@@ -304,7 +304,7 @@ def _ctrl(axis_top, p):
 
 def stimulus(p, data, axis_top):
     """Input beats of the scene data (every lane's elements in each beat)."""
-    from .beats import frames_to_beats
+    from tdicam.beats import frames_to_beats
     arrs = [a for lane in data.lane_arrays(p) for a in lane]
     stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
     _, word = _ctrl(axis_top, p)
@@ -333,7 +333,7 @@ ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
 
 def _scene_args(prog, extra):
-    from .cli import ArgsParser
+    from tdicam.cli import ArgsParser
     ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
                                  "([pipeline] blocks in order, NUC coefficients identity "
                                  "unless --calib).")
@@ -351,13 +351,13 @@ def _scene_args(prog, extra):
                          "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     ns = ap.parse_args(list(extra))
-    from .scene import load_scene
+    from tdicam.scene import load_scene
     sc = load_scene(ns.scene)
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
              spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
-        from .model.calib import load_image
+        from tdicam.model.calib import load_image
         if len(ns.calib) != p.lanes:
             raise TdicamError(f"--calib: the pipeline has {p.lanes} channel(s), got "
                               f"{len(ns.calib)} image(s)")
@@ -377,8 +377,8 @@ def verilog_command(extra, output, *, show_help=False):
     import sys
     if show_help:
         extra = ["--help"]
-    from .outputs import check_file, write_file
-    from .verilog import convert
+    from tdicam.outputs import check_file, write_file
+    from tdicam.verilog import convert
     if output is not None and not show_help:
         check_file(output)
     ns, p, data = _scene_args("tdicam verilog pipeline", extra)
@@ -414,7 +414,7 @@ class _PipelineBlock:
 def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
     chain's cost (:func:`tdicam.synth.synth`) and whether it fits an ECP5-85F."""
-    from .synth import synth
+    from tdicam.synth import synth
     ns, p, data = _scene_args("tdicam synth pipeline", extra)
     res = synth(_PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}

@@ -411,4 +411,4 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     return out
 
 
-from .planning_output import figures, report_text  # noqa: E402  (re-exported: one namespace)
+from tdicam.planning_output import figures, report_text  # noqa: E402  (re-exported: one namespace)

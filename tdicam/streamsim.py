@@ -7,7 +7,7 @@ Python, to check it before any Verilog is generated and to read its plain status
 from amaranth.lib import data as _data
 from amaranth.sim import Simulator
 
-from .pauses import StreamDriver
+from tdicam.pauses import StreamDriver
 
 __all__ = ["run_stream_component", "probe_latency"]
 

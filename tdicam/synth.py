@@ -55,10 +55,10 @@ from amaranth.hdl import Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from .paths import REPO
-from . import blocks
-from .verilog import rtlil as _rtlil_text
-from .errors import TdicamError
+from tdicam.paths import REPO
+from tdicam import blocks
+from tdicam.verilog import rtlil as _rtlil_text
+from tdicam.errors import TdicamError
 
 __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "tool_versions",
            "tools_available", "timing_harness", "ECP5_DEVICE"]

@@ -29,8 +29,8 @@ from pathlib import Path
 from amaranth.back import rtlil as _rtlil
 from amaranth.back import verilog as _verilog
 
-from . import __version__, blocks
-from .outputs import write_file
+from tdicam import __version__, blocks
+from tdicam.outputs import write_file
 
 __all__ = ["generate", "write", "convert", "header", "rtlil", "NO_RW_CHECK", "NO_INIT"]
 

@@ -27,8 +27,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import TdicamError, check_range
-from ..model.cds import pixel_dtype
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.cds import pixel_dtype
 
 __all__ = ["Param", "Case", "SideInput", "Use", "Block", "get", "names", "all_blocks",
            "frame_stack"]

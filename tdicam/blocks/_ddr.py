@@ -12,8 +12,8 @@ the block's order of accesses costs on DDR3. ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 """
 
-from ..model.ddr import DEFAULT_STALLS, _check_stalls
-from . import Param
+from tdicam.model.ddr import DEFAULT_STALLS, _check_stalls
+from tdicam.blocks import Param
 
 __all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top"]
 
@@ -58,6 +58,6 @@ def check_stalls(p):
 def sim_top(core, words, stalls):
     """:class:`~tdicam.hdl.axis.AxisTop` of ``core`` with the MIG model of ``words`` words
     and the stall pattern ``stalls`` behind it."""
-    from ..hdl.axis import AxisTop
-    from ..hdl.mig_model import SimTop
+    from tdicam.hdl.axis import AxisTop
+    from tdicam.hdl.mig_model import SimTop
     return AxisTop(SimTop(core, depth_words=max(1, words), **stalls))

@@ -2,12 +2,12 @@
 
 import numpy as np
 
-from ..beats import frames_to_beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.cds import Cds
-from ..model.cds import cds, pixel_dtype
-from . import Block, Case, Param, SideInput, Use
-from ._pipeline import lane_stage
+from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.cds import Cds
+from tdicam.model.cds import cds, pixel_dtype
+from tdicam.blocks import Block, Case, Param, SideInput, Use
+from tdicam.blocks._pipeline import lane_stage
 
 __all__ = ["BLOCK"]
 
@@ -68,7 +68,7 @@ def _to_beats(arrays, params):
 
 
 def _pipeline_step(ctx):
-    from ..pipeline import Step
+    from tdicam.pipeline import Step
     return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
 
 

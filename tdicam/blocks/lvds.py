@@ -9,10 +9,10 @@ the simulated core.
 
 import numpy as np
 
-from ..errors import TdicamError
-from ..hdl.lvds import LvdsRx, LvdsXilinx
-from ..model import lvds as model
-from . import Block, Case, Param
+from tdicam.errors import TdicamError
+from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
+from tdicam.model import lvds as model
+from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
 

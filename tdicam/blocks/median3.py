@@ -9,14 +9,14 @@ every frame, whole).
 
 import numpy as np
 
-from ..beats import Beats, mark_resets
-from ..errors import TdicamError
-from ..hdl.axis import AxisTop
-from ..hdl.median3 import Median3
-from ..model.cds import pixel_dtype
-from ..model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from . import Block, Case, Param, Use, frame_stack
-from ._pipeline import lane_stage
+from tdicam.beats import Beats, mark_resets
+from tdicam.errors import TdicamError
+from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.median3 import Median3
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
+from tdicam.blocks import Block, Case, Param, Use, frame_stack
+from tdicam.blocks._pipeline import lane_stage
 
 __all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
 
@@ -220,7 +220,7 @@ def _check(params):
 def _pipeline_step(ctx):
     """After a line-making block the frames are ``lines`` output lines (one median image);
     before it, each exposure frame of ``stages`` rows."""
-    from ..pipeline import Step
+    from tdicam.pipeline import Step
     pb = max(ctx.bits, 8)
     p = {"width": ctx.width, "pixel_bits": pb,
          "enhance": bool(ctx.scene.pipeline.median3.edge_enhance)}

@@ -15,13 +15,13 @@ the expected ``frame_errors`` count. Stimulus frames are generated per case:
 
 import numpy as np
 
-from ..beats import Beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.tdi import TdiAccumulator
-from ..model.cds import pixel_dtype
-from ..model.tdi import check_params, out_width, tdi_stream
-from . import Block, Case, Param, SideInput, Use, frame_stack
-from ._pipeline import lane_stage
+from tdicam.beats import Beats, mark_resets
+from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.tdi import TdiAccumulator
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.tdi import check_params, out_width, tdi_stream
+from tdicam.blocks import Block, Case, Param, SideInput, Use, frame_stack
+from tdicam.blocks._pipeline import lane_stage
 
 __all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_makers"]
 
@@ -345,8 +345,8 @@ def _cases():
 def _pipeline_step(ctx):
     """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
     output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
-    from ..model import tdi as tdi_model
-    from ..pipeline import Step
+    from tdicam.model import tdi as tdi_model
+    from tdicam.pipeline import Step
     t = ctx.scene.tdi
     m, pb = ctx.m, ctx.bits
     out_bits = t.output_bits if t.output == "saturate" else None
@@ -361,7 +361,7 @@ def _pipeline_step(ctx):
 
 def _memory_bits(step):
     """The (stages - 1) partial-sum lines at full width."""
-    from ..model.tdi import full_bits
+    from tdicam.model.tdi import full_bits
     p = step.params
     return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
 

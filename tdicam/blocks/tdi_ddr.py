@@ -6,11 +6,11 @@ Same stream, run-time ports and golden model as block ``tdi``
 the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 """
 
-from ..model.ddr import ADDR_PER_WORD, tdi_ddr_check
-from ..model.tdi import check_params as tdi_check_params
-from . import Block, Case, Param, Use
-from . import tdi as _tdi
-from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
+from tdicam.model.tdi import check_params as tdi_check_params
+from tdicam.blocks import Block, Case, Param, Use
+from tdicam.blocks import tdi as _tdi
+from tdicam.blocks._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK"]
 
@@ -19,7 +19,7 @@ def _check(p):
     tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                      out_bits=p["out_bits"], ppc=p["ppc"])
     check_stalls(p)
-    from ..hdl.tdi_ddr import TdiDdr
+    from tdicam.hdl.tdi_ddr import TdiDdr
     lp = None if p["line_period_ns"] is None else p["line_period_ns"] * 1e-9
     tdi_ddr_check(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   ppc=p["ppc"], line_period_s=lp, clock_hz=p["clock_mhz"] * 1e6,
@@ -27,7 +27,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.tdi_ddr import TdiDdr
+    from tdicam.hdl.tdi_ddr import TdiDdr
     lp = p["line_period_ns"]
     core = TdiDdr(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   out_bits=p["out_bits"], ppc=p["ppc"], base=p["base"],

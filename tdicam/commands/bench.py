@@ -5,9 +5,9 @@ import sys
 import time
 from pathlib import Path
 
-from .. import bench, cosim
-from ..errors import TdicamError, check_range
-from ..outputs import check_dir, check_file, write_file
+from tdicam import bench, cosim
+from tdicam.errors import TdicamError, check_range
+from tdicam.outputs import check_dir, check_file, write_file
 
 
 def register(sub):

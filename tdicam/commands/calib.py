@@ -14,11 +14,11 @@ import zipfile
 
 import numpy as np
 
-from ..errors import TdicamError, check_range
-from ..outputs import check_file, open_output
-from ..model import calib
-from ..model import nand_store as nand
-from ..model.nuc import DEFAULT_FORMAT, NucFormat
+from tdicam.errors import TdicamError, check_range
+from tdicam.outputs import check_file, open_output
+from tdicam.model import calib
+from tdicam.model import nand_store as nand
+from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 
 
 def register(sub):

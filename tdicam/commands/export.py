@@ -3,12 +3,12 @@ self-checking Verilog testbench and its golden vectors (see :mod:`tdicam.export`
 
 import sys
 
-from .. import blocks
-from ..cli import ArgsParser
-from ..errors import TdicamError
-from ..export import export_block
-from ..pauses import SEED_MAX, check_seed
-from .verilog import parse_block_params, pick_block
+from tdicam import blocks
+from tdicam.cli import ArgsParser
+from tdicam.errors import TdicamError
+from tdicam.export import export_block
+from tdicam.pauses import SEED_MAX, check_seed
+from tdicam.commands.verilog import parse_block_params, pick_block
 
 
 def register(sub):
@@ -38,7 +38,7 @@ def register(sub):
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] -o DIR``."""
-    from ..export_pipeline import MEMORY, export_pipeline
+    from tdicam.export_pipeline import MEMORY, export_pipeline
     ap = ArgsParser(
         prog="tdicam export pipeline",
         description="A scene's whole [pipeline] as one exported design: the top as "

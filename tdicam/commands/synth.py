@@ -8,10 +8,10 @@ import datetime
 import json
 import sys
 
-from .. import blocks
-from ..errors import TdicamError, check_range
-from ..synth import REFERENCE, reference_table, synth, tool_versions
-from .verilog import parse_block_params
+from tdicam import blocks
+from tdicam.errors import TdicamError, check_range
+from tdicam.synth import REFERENCE, reference_table, synth, tool_versions
+from tdicam.commands.verilog import parse_block_params
 
 
 def register(sub):
@@ -134,7 +134,7 @@ def _run(args):
     if args.reference:
         return _run_reference(args)
     if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from ..pipeline import synth_command
+        from tdicam.pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json)
     if args.block is None:

@@ -28,14 +28,14 @@ from pathlib import Path
 import numpy as np
 from amaranth.hdl import Shape
 
-from .. import blocks
-from ..errors import TdicamError
-from ..paths import REPO
-from ..hdl.axis import AxisTop
-from ..verilog import convert
-from ..beats import Beats
-from ..pauses import thresholds
-from . import codec, dp16kd, tbgen
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.paths import REPO
+from tdicam.hdl.axis import AxisTop
+from tdicam.verilog import convert
+from tdicam.beats import Beats
+from tdicam.pauses import thresholds
+from tdicam.cosim import codec, dp16kd, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_window", "keep_wave", "SimResult",
            "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
@@ -525,7 +525,7 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
     blk = blocks.get(block) if isinstance(block, str) else block
     params = blk.resolve(params)
     if sim == AMARANTH:
-        from .pysim import run_pysim
+        from tdicam.cosim.pysim import run_pysim
         out, cycles, wall = run_pysim(blk.name, params, stim, idle=idle,
                                       backpressure=backpressure, seed=seed, **kw)
         res = SimResult(out, cycles, wall, 0.0, False, len(stim))
@@ -623,7 +623,7 @@ def run_scene(block, arrays, params=None, **kw):
 def run_golden_case(block, case, **kw):
     """:func:`run_case` on the stored golden ``case`` (name) of ``block`` (a waveform, if
     any, is named after the case)."""
-    from .. import golden
+    from tdicam import golden
     blk = blocks.get(block) if isinstance(block, str) else block
     arrays, params = golden.load(blk, case)
     kw.setdefault("label", f"{case}-{kw.get('sim')}-{kw.get('mode', 'fast')}")

@@ -13,10 +13,10 @@ import numpy as np
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
-from .. import blocks
-from ..beats import Beats
-from ..pauses import StreamDriver
-from .tbgen import RST_CYCLES
+from tdicam import blocks
+from tdicam.beats import Beats
+from tdicam.pauses import StreamDriver
+from tdicam.cosim.tbgen import RST_CYCLES
 
 __all__ = ["run_pysim"]
 
@@ -35,7 +35,7 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     ``trace``, a list, receives ``("i" | "o", cycle)`` of every transfer (as
     :func:`tdicam.cosim.run_stream` with ``trace=True``).
     """
-    from . import stream_ports
+    from tdicam.cosim import stream_ports
     blk = blocks.get(block)
     params = blk.resolve(params)
     top = blk.build(params)

@@ -26,8 +26,8 @@ testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 
 from dataclasses import dataclass
 
-from ..pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
-from . import codec
+from tdicam.pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
+from tdicam.cosim import codec
 
 __all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 

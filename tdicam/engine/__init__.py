@@ -69,11 +69,11 @@ from tdicam.model import optics as _optics
 from tdicam.model import targets as _targets
 from tdicam.scene import digital_tdi_limits_error
 
-from . import exact as _exact
-from . import fast as _fast
-from .context import Context, EffectRecord, decide
-from .effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
-from .streams import Timer, threads
+from tdicam.engine import exact as _exact
+from tdicam.engine import fast as _fast
+from tdicam.engine.context import Context, EffectRecord, decide
+from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
+from tdicam.engine.streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
            "SceneResult", "Context", "simulate", "threads", "RAW_LINES",

@@ -21,8 +21,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import blocks as _blocks
-from .streams import stream
+from tdicam.engine import blocks as _blocks
+from tdicam.engine.streams import stream
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "FixedPattern", "rounding_defect",
            "RAW_LINES", "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
@@ -406,7 +406,7 @@ def _adc_into(x, k, add, top, dst):
 def _fast(name):
     """Fast implementation ``name`` of :mod:`tdicam.engine.fast` (imported late)."""
     def call(*a):
-        from . import fast
+        from tdicam.engine import fast
         return getattr(fast, name)(*a)
     call.__name__ = name
     return call
