@@ -11,7 +11,7 @@ from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, head
                                 payload_words)
 from tdicam.model.nuc import NucFormat
 from tdicam.hdl.ecc import SecdedDecoder
-from tdicam.hdl.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CalibReader", "DEBUG_ELEMENTS"]

@@ -5,7 +5,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
-from tdicam.hdl.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["Cds"]

@@ -12,8 +12,8 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import check_range
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
-from tdicam.hdl.mig import MigPort, connect_mig, mig_user_ports
-from tdicam.hdl.stream import pixel_signature
+from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.interfaces.stream import pixel_signature
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CdsDdr"]

@@ -14,7 +14,7 @@ from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.model.tdi import check_params
-from tdicam.hdl.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import saturating_increment
 
 __all__ = ["TdiFrameControl", "beat_layout", "tdi_ports"]

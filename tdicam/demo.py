@@ -1,10 +1,11 @@
 """The end-to-end path on one block (``tdicam demo``): a smoke run of the whole tool."""
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.cosim.cases import run_cases
-from tdicam.lint import lint
-from tdicam.outputs import check_dir
-from tdicam.verilog import write
+from tdicam.hw.lint import lint
+from tdicam.files import check_dir
+from tdicam.hw.verilog import write
 
 __all__ = ["demo"]
 

@@ -1,4 +1,4 @@
-"""Scene-file schema and loader (tdicam/scene.py)."""
+"""Scene-file schema and loader (tdicam/scene/loader.py)."""
 
 import dataclasses
 import math
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.model import plan as P
-from tdicam.scene import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
+from tdicam.model.physics import plan as P
+from tdicam.scene.loader import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"
@@ -324,7 +324,7 @@ def test_picture_conversions(tmp_path):
     """Palette, 16-bit, opaque RGBA / LA and float pictures give the documented grey levels
     (a palette PNG used to give its palette indices)."""
     from PIL import Image
-    from tdicam.model.targets import load_image
+    from tdicam.model.physics.targets import load_image
     grey = _RGB @ np.array([0.299, 0.587, 0.114]) / 255
     pal = Image.fromarray(_RGB).convert("P", palette=Image.Palette.ADAPTIVE, colors=256)
     pal.save(tmp_path / "pal.png")

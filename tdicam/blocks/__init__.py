@@ -18,6 +18,9 @@ outputs, and optional reset marks. :attr:`Block.to_beats` turns them into the st
 expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arrays from
 scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
 and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
+
+Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
+and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
 """
 
 import importlib
@@ -156,7 +159,7 @@ class SideInput:
 
 @dataclass(frozen=True)
 class Use:
-    """How a block takes part in a scene's pipeline (:mod:`tdicam.pipeline`).
+    """How a block takes part in a scene's pipeline (:mod:`tdicam.camera.design`).
 
     The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
     arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
@@ -165,17 +168,17 @@ class Use:
 
     Attributes
     ----------
-    step : callable(ctx) -> (tdicam.pipeline.Step, out_bits)
-        The block's parameters from the scene context :class:`tdicam.pipeline.Context`
+    step : callable(ctx) -> (tdicam.camera.design.Step, out_bits)
+        The block's parameters from the scene context :class:`tdicam.camera.design.Context`
         (scene, stages, width, lines, the chain's pixel width so far in ``ctx.bits``).
     hw : callable(step, data) -> stage
-        Its :mod:`tdicam.hdl.pipeline` stage (``data``: :class:`tdicam.pipeline.SceneData`,
+        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.camera.design.SceneData`,
         for side inputs built into the top such as NUC's calibration image).
     side : callable(step, data, lane) -> dict, or None
         Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
         coefficients).
     identity : callable(step, shape) -> dict, or None
-        One lane's :class:`tdicam.pipeline.SceneData` fields that make the block a no-op
+        One lane's :class:`tdicam.camera.design.SceneData` fields that make the block a no-op
         when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
         width).
     merge : bool
@@ -227,7 +230,7 @@ class Block:
     params : tuple of Param
         Elaboration parameters (the gateware's, with the golden model's names and units).
     top : callable(**params) -> wiring.Component
-        The Verilog top: :class:`~tdicam.hdl.axis.AxisTop` (AXI4-Stream names) for stream
+        The Verilog top: :class:`~tdicam.hdl.interfaces.axis.AxisTop` (AXI4-Stream names) for stream
         blocks, or a plain-port component.
     cases : callable() -> list of Case
         The golden cases (``tdicam golden``).

@@ -9,7 +9,7 @@ output is one pixel's (gain, offset) per beat (plus counters and flags with ``--
 import numpy as np
 
 from tdicam.beats import Beats, mark_resets
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.calib import CalibReader
 from tdicam.model import calib, ecc
 from tdicam.model.nuc import NucFormat

@@ -3,11 +3,12 @@
 import numpy as np
 
 from tdicam.beats import frames_to_beats, mark_resets
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
 from tdicam.blocks import Block, Case, Param, SideInput, Use
 from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK"]
 
@@ -68,7 +69,6 @@ def _to_beats(arrays, params):
 
 
 def _pipeline_step(ctx):
-    from tdicam.pipeline import Step
     return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
 
 

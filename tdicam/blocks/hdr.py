@@ -3,13 +3,14 @@
 import numpy as np
 
 from tdicam.beats import frames_to_beats, mark_resets
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
 from tdicam.blocks import Block, Case, Param, SideInput, Use, frame_stack
 from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK", "ramp_frame", "scene_frames"]
 
@@ -183,7 +184,6 @@ COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_fr
 
 
 def _pipeline_step(ctx):
-    from tdicam.pipeline import Step
     h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
     if len(g) != 2:
         raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "

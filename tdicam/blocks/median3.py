@@ -11,12 +11,13 @@ import numpy as np
 
 from tdicam.beats import Beats, mark_resets
 from tdicam.errors import TdicamError
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.median3 import Median3
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
 from tdicam.blocks import Block, Case, Param, Use, frame_stack
 from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
 
@@ -220,7 +221,6 @@ def _check(params):
 def _pipeline_step(ctx):
     """After a line-making block the frames are ``lines`` output lines (one median image);
     before it, each exposure frame of ``stages`` rows."""
-    from tdicam.pipeline import Step
     pb = max(ctx.bits, 8)
     p = {"width": ctx.width, "pixel_bits": pb,
          "enhance": bool(ctx.scene.pipeline.median3.edge_enhance)}

@@ -15,15 +15,13 @@ flags and the bad-block count).
 import numpy as np
 
 from tdicam.beats import Beats
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
-from tdicam.model import calib
-from tdicam.model import nand_store as nand
+from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
 from tdicam.blocks import Block, Case, Param
-from tdicam.blocks.calib import BLOCK as CALIB
-from tdicam.blocks.calib import code_maps, random_codes
+from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
 

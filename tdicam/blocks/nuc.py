@@ -3,11 +3,12 @@
 import numpy as np
 
 from tdicam.beats import frames_to_beats, mark_resets
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
 from tdicam.blocks import Block, Case, Param, SideInput, Use
 from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK", "cut_frame0"]
 
@@ -136,7 +137,6 @@ _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bi
 
 
 def _pipeline_step(ctx):
-    from tdicam.pipeline import Step
     opt = ctx.scene.pipeline.nuc
     return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
                         "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
@@ -146,7 +146,7 @@ def _pipeline_step(ctx):
 def _pipeline_side(step, data):
     """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
     from tdicam.hdl.calib import CalibReader
-    from tdicam.hdl.pipeline import CalibRom, Link
+    from tdicam.hdl.chain_top import CalibRom, Link
     from tdicam.model.calib import encode_image
     fmt = _fmt(step.params)
 

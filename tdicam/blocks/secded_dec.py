@@ -7,7 +7,7 @@ syndrome and the flags out: :mod:`tdicam.blocks._secded`).
 import numpy as np
 
 from tdicam.beats import Beats
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.ecc import SecdedDecoder, SecdedDecoderStream
 from tdicam.model import ecc
 from tdicam.blocks import Block, Case, Param, SideInput

@@ -6,7 +6,7 @@ AXI4-Stream byte lanes (8 data bytes in, 9 code bytes out: :mod:`tdicam.blocks._
 import numpy as np
 
 from tdicam.beats import Beats
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.ecc import SecdedEncoder, SecdedEncoderStream
 from tdicam.model import ecc
 from tdicam.blocks import Block, Case

@@ -16,12 +16,13 @@ the expected ``frame_errors`` count. Stimulus frames are generated per case:
 import numpy as np
 
 from tdicam.beats import Beats, mark_resets
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.tdi import check_params, out_width, tdi_stream
 from tdicam.blocks import Block, Case, Param, SideInput, Use, frame_stack
 from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_makers"]
 
@@ -346,7 +347,6 @@ def _pipeline_step(ctx):
     """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
     output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
     from tdicam.model import tdi as tdi_model
-    from tdicam.pipeline import Step
     t = ctx.scene.tdi
     m, pb = ctx.m, ctx.bits
     out_bits = t.output_bits if t.output == "saturate" else None

@@ -8,8 +8,7 @@ the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr
 
 from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
-from tdicam.blocks import Block, Case, Param, Use
-from tdicam.blocks import tdi as _tdi
+from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
 from tdicam.blocks._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK"]

@@ -15,9 +15,8 @@ import zipfile
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from tdicam.outputs import check_file, open_output
-from tdicam.model import calib
-from tdicam.model import nand_store as nand
+from tdicam.files import check_file, open_output
+from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 
 

@@ -1,7 +1,7 @@
 """``tdicam golden regen|check [BLOCK ...]``"""
 
 from tdicam import blocks as _blocks
-from tdicam import golden
+from tdicam.cosim import vectors as golden
 
 
 def register(sub):

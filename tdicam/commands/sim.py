@@ -4,7 +4,7 @@ import time
 
 from tdicam import blocks, cosim
 from tdicam.errors import check_range
-from tdicam.pauses import SEED_MAX, check_seed
+from tdicam.cosim.pauses import SEED_MAX, check_seed
 from tdicam.cosim.cases import run_cases
 
 

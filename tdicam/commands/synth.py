@@ -1,7 +1,7 @@
 """``tdicam synth BLOCK [--PARAM VALUE ...]``: LUTs, FFs, block RAM, multipliers, Fmax.
 
 ``tdicam synth --reference [BLOCK|LABEL ...]``: every block at its reference parameters
-(:data:`tdicam.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
+(:data:`tdicam.hw.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
 """
 
 import datetime
@@ -10,7 +10,7 @@ import sys
 
 from tdicam import blocks
 from tdicam.errors import TdicamError, check_range
-from tdicam.synth import REFERENCE, reference_table, synth, tool_versions
+from tdicam.hw.synth import REFERENCE, reference_table, synth, tool_versions
 from tdicam.commands.verilog import parse_block_params
 
 
@@ -133,8 +133,8 @@ def _run(args):
     check_range("--freq", args.freq, 1, 2000, integer=False)
     if args.reference:
         return _run_reference(args)
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from tdicam.pipeline import synth_command
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+        from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json)
     if args.block is None:

@@ -4,8 +4,8 @@ import sys
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
-from tdicam.outputs import check_file, write_file
-from tdicam.verilog import generate
+from tdicam.files import check_file, write_file
+from tdicam.hw.verilog import generate
 
 
 def register(sub):
@@ -64,8 +64,8 @@ def pick_block(args, more_help=None):
 
 
 def _run(args):
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from tdicam.pipeline import verilog_command
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+        from tdicam.commands._pipeline import verilog_command
         return verilog_command(args.extra, args.output, show_help=args.help)
     blk = pick_block(args)
     if blk is None:

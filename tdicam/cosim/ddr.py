@@ -13,9 +13,9 @@ import time
 import numpy as np
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.axis import AxisTop
+from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.model.ddr import DEFAULT_STALLS
-from tdicam.verilog import convert
+from tdicam.hw.verilog import convert
 from tdicam.cosim import build_sources, run_cocotb
 
 __all__ = ["run_ui_cosim"]

@@ -33,7 +33,7 @@ from tdicam import blocks
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.model import lvds as model
-from tdicam.verilog import convert
+from tdicam.hw.verilog import convert
 from tdicam.cosim import build_sources, run_cocotb, tbgen
 from tdicam.cosim.codec import _digits, _undigits
 

@@ -2,7 +2,7 @@
 
 Same stimulus and output convention as :func:`tdicam.cosim.run_stream` (beats, run-time
 settings riding with each beat, resets before marked beats) and the same source/sink
-(:class:`tdicam.pauses.StreamDriver`: the same idle/backpressure pattern for the same
+(:class:`tdicam.cosim.pauses.StreamDriver`: the same idle/backpressure pattern for the same
 seed), so the result compares with :func:`tdicam.cosim.compare`. Slow (Python per cycle);
 used as a fidelity level in benchmarks and as a cross-check in tests.
 """
@@ -15,7 +15,7 @@ from amaranth.sim import Simulator
 
 from tdicam import blocks
 from tdicam.beats import Beats
-from tdicam.pauses import StreamDriver
+from tdicam.cosim.pauses import StreamDriver
 from tdicam.cosim.tbgen import RST_CYCLES
 
 __all__ = ["run_pysim"]

@@ -1,6 +1,6 @@
 """Scene simulator: runs only the effects a scene calls for, in a fixed physical order.
 
-:func:`simulate` turns a validated :class:`~tdicam.scene.Scene` into the camera's images —
+:func:`simulate` turns a validated :class:`~tdicam.scene.loader.Scene` into the camera's images —
 the ideal target, one raw exposure of every ground line, and the TDI output — plus an
 effects table and measured-vs-predicted image quality. The table of effects
 (:data:`~tdicam.engine.effects.EFFECTS`) says for each effect when a scene needs it and why,
@@ -23,8 +23,8 @@ exposure) -> smear (stage misregistration from velocity mismatch and drift) -> r
 (row read-time offsets of a rolling shutter) -> prnu -> dark_current -> dsnu -> shot_noise
 -> full_well -> reset_frames (for CDS) -> read_noise -> dual_gain (HG/LG channels) ->
 quantization (ADC per exposure) -> cds -> nuc -> hdr -> median3 (before TDI) -> tdi ->
-median3 (after TDI). Physics lives in :mod:`tdicam.model.optics` (where each exposure looks)
-and :mod:`tdicam.model.sensor` (charge, noise, ADC); the hardware blocks run through their
+median3 (after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
+and :mod:`tdicam.model.physics.sensor` (charge, noise, ADC); the hardware blocks run through their
 golden models ``tdicam.model.<block>``.
 
 Fidelity
@@ -45,7 +45,7 @@ Fidelity
     Gaussian read noise at every harmonic of the DN grid, and with CDS the reset sample's
     read noise alone — Widrow's ``exp(-2 pi^2 sigma_DN^2)`` is its first Gaussian term); where
     it exceeds :data:`MOMENTS_BELOW_DITHER` the sum is drawn instead as integers with the exact
-    mean and variance of every rounding (:func:`tdicam.model.sensor.quantized_moments`,
+    mean and variance of every rounding (:func:`tdicam.model.physics.sensor.quantized_moments`,
     Gaussian noise in front of the ADC), so the undithered rounding bias is kept; per-exposure
     clipping (full well, ADC range, CDS clamp) is not reproduced, with its probability as the
     bound. A Poisson sum of mean >= ``1 / (4 tolerance^2)`` (Berry-Esseen distance <
@@ -54,6 +54,8 @@ Fidelity
     then falls back to exact, and the report says so.
 ``auto``
     per effect: fast where its bound is below ``[run].tolerance``, exact otherwise.
+
+Layer: above :mod:`tdicam.scene` and the tools; below :mod:`tdicam.camera` and the services.
 """
 
 from __future__ import annotations
@@ -65,14 +67,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tdicam.errors import TdicamError
-from tdicam.model import optics as _optics
-from tdicam.model import targets as _targets
-from tdicam.scene import digital_tdi_limits_error
+from tdicam.model.physics import optics as _optics, targets as _targets
+from tdicam.scene.loader import digital_tdi_limits_error
 
-from tdicam.engine import exact as _exact
-from tdicam.engine import fast as _fast
+from tdicam.engine import exact as _exact, fast as _fast
 from tdicam.engine.context import Context, EffectRecord, decide
-from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
+from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
+from tdicam.engine.fast import RAW_LINES
 from tdicam.engine.streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
@@ -199,7 +200,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
 
     Parameters
     ----------
-    scene : tdicam.scene.Scene
+    scene : tdicam.scene.loader.Scene
     stages : int, optional
         Stage count (default: the first of ``[tdi].stages``).
     dv_over_v : float, optional

@@ -18,11 +18,7 @@ import numpy as np
 
 from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
-from tdicam.model import ecc as _ecc
-from tdicam.model import nand_store as _nand
-from tdicam.model import hdr as _hdr
-from tdicam.model import nuc as _nuc
-from tdicam.model import tdi as _tdi
+from tdicam.model import ecc as _ecc, nand_store as _nand, hdr as _hdr, nuc as _nuc, tdi as _tdi
 
 __all__ = ["need", "Frames", "golden", "cds", "nuc", "hdr", "median3_pre", "tdi",
            "median3_post", "prepare", "nuc_coeffs", "tdi_bits", "subtract_reset"]

@@ -21,14 +21,12 @@ from typing import Callable
 
 import numpy as np
 
-from tdicam.engine import blocks as _blocks
+from tdicam.engine import blocks as _blocks, fast
 from tdicam.engine.streams import stream
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "FixedPattern", "rounding_defect",
-           "RAW_LINES", "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
+           "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
 
-#: In fast fidelity the raw single exposure covers at most this many ground lines.
-RAW_LINES = 256
 #: Fast fidelity sums exact per-rounding moments where the Widrow defect exceeds this.
 MOMENTS_BELOW_DITHER = 1e-4
 
@@ -50,7 +48,7 @@ class Effect:
         The bound the record states in fast fidelity and what fast does instead.
     stage : str
         Where its implementations act: ``render`` (keywords of
-        :class:`~tdicam.model.optics.Geometry` and the renderer), ``pattern`` (the window
+        :class:`~tdicam.model.physics.optics.Geometry` and the renderer), ``pattern`` (the window
         rows' :class:`FixedPattern`), ``charge`` and ``conversion`` (one
         :class:`~tdicam.engine.exact.Exposure` block in the exact path, the
         :class:`~tdicam.engine.fast.Aggregate` in the fast path), ``blocks`` (frame stacks
@@ -404,12 +402,8 @@ def _adc_into(x, k, add, top, dst):
 
 
 def _fast(name):
-    """Fast implementation ``name`` of :mod:`tdicam.engine.fast` (imported late)."""
-    def call(*a):
-        from tdicam.engine import fast
-        return getattr(fast, name)(*a)
-    call.__name__ = name
-    return call
+    """Fast implementation ``name`` of :mod:`tdicam.engine.fast`."""
+    return getattr(fast, name)
 
 
 #: Every effect in the fixed physical order.
