@@ -196,4 +196,4 @@ def test_charge_domain_and_wide_pixels_per_clock_are_refused():
         load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                    overrides={"run": {"rtl": {}}})
     sc = _small(run={"rtl": {"pixels_per_clock": 1}})
-    assert sc.pipeline.median_after_tdi is True and pl.plan(sc).steps
+    assert sc.pipeline.after_lines("median3") is True and pl.plan(sc).steps

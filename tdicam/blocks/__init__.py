@@ -25,7 +25,7 @@ and the leaves; never a simulator driver, a hardware tool, the camera, a service
 
 import importlib
 import pkgutil
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -33,8 +33,8 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "Use", "Block", "get", "names", "all_blocks",
-           "frame_stack"]
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "Block", "get", "names",
+           "all_blocks", "frame_stack", "scene_blocks"]
 
 
 def _flag(name):
@@ -158,6 +158,47 @@ class SideInput:
 
 
 @dataclass(frozen=True)
+class KeyDoc:
+    """What a scene reader cannot say about a key (``docs/scene-format.md``): its unit and
+    meaning, and — only where the reader computes them from other keys or checks them by
+    hand — the written ``type``, ``default`` or ``range``."""
+
+    unit: str
+    meaning: str
+    type: str | None = None
+    default: str | None = None
+    range: str | None = None
+
+
+@dataclass(frozen=True)
+class Options:
+    """A block's ``[pipeline.<name>]`` section of a scene file.
+
+    Attributes
+    ----------
+    type : type
+        The frozen dataclass a scene holds as ``scene.pipeline.<name>``.
+    read : callable(section, sensor) -> ``type``
+        Reads the section: ``section`` is the scene reader's section (its ``number``,
+        ``integer``, ``boolean``, ``choice``, ``has`` and ``fail`` check each key's type and
+        range and name it as the user wrote it; unknown keys are refused before ``read`` is
+        called), ``sensor`` the scene's ``[sensor]``. An absent section reads as its defaults.
+    doc : str
+        What the section is for (``docs/scene-format.md``).
+    keys : dict of str -> KeyDoc
+        The section's keys, in page order.
+    probe : dict
+        A section that reaches every key reader (the scene docs run the reader on it).
+    """
+
+    type: type
+    read: Callable
+    doc: str
+    keys: dict
+    probe: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Use:
     """How a block takes part in a scene's pipeline (:mod:`tdicam.camera.design`).
 
@@ -201,6 +242,15 @@ class Use:
         The registered block that keeps that memory in DDR instead (same stream, ports and
         golden model), used when the plan says it must spill; its ``step`` takes the DDR
         interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    trim : int
+        Pixels at each image edge whose statistics the block changes (its replicated
+        borders), left out of flat-field measurements.
+    rank : int or None
+        Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
+        blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
+        spill variant, chosen by the plan).
+    options : Options or None
+        The block's ``[pipeline.<name>]`` section, when it has one.
     """
 
     step: Callable
@@ -215,6 +265,9 @@ class Use:
     memory: str = "memory"
     placement: Callable | None = None
     spill: str | None = None
+    trim: int = 0
+    rank: int | None = None
+    options: Options | None = None
 
 
 @dataclass(frozen=True)
@@ -270,6 +323,11 @@ class Block:
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour. ``None``: :attr:`top`.
+    export_harness : str or None
+        ``"module:function"`` that exports the block with a self-checking harness of its own
+        instead of the stream testbench (``lvds``'s link testbench), returning (Design, case
+        names, stimulus count, expected count); named, not imported, so the registry stays
+        below the export service.
     reset_clears_state : bool
         A testbench reset returns the whole design to its power-up state, so golden cases
         can run back to back in one simulation with a reset between them (``tdicam
@@ -295,6 +353,7 @@ class Block:
     reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
+    export_harness: str | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""
@@ -436,3 +495,9 @@ def get(name):
     if name not in reg:
         raise TdicamError(f"unknown block {name!r}; valid: {', '.join(sorted(reg))}")
     return reg[name]
+
+
+def scene_blocks():
+    """The blocks a scene may list in ``[pipeline].blocks``, in rank order."""
+    listed = [b for b in all_blocks() if b.pipeline is not None and b.pipeline.rank is not None]
+    return sorted(listed, key=lambda b: b.pipeline.rank)

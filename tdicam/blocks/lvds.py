@@ -191,6 +191,7 @@ def case_link(arrays):
 
 BLOCK = Block(
     name="lvds",
+    export_harness="tdicam.export.lvds:lvds_export",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
         Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=128),

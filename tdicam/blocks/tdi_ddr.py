@@ -6,6 +6,8 @@ Same stream, run-time ports and golden model as block ``tdi``
 the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 """
 
+from dataclasses import replace
+
 from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
 from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
@@ -87,15 +89,8 @@ def _pipeline_step(ctx):
 BLOCK = Block(
     name="tdi_ddr",
     summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2)",
-    params=(
-        Param("width", 512, "pixels per line W (a multiple of ppc; W/ppc above the read "
-                            "look-ahead)", lo=2, hi=8192),
-        Param("stages", 16, "m_max; sizes the (stages-1) partial-sum lines in DDR", lo=1,
-              hi=128),
-        Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
-        Param("out_bits", None, "saturate the output at 2^N-1; default full width", lo=8,
-              hi=21),
-        Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+    params=tuple(replace(p, default={"width": 512, "stages": 16}.get(p.name, p.default))
+                 for p in _tdi.PARAMS) + (
         Param("base", 0, "DDR address of partial-sum line 0 (a multiple of 8)", lo=0,
               hi=(1 << 28) - 8),
         Param("line_period_ns", None, "line period the design must sustain (checks the DDR "

@@ -66,6 +66,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 from tdicam.model.physics import optics as _optics, targets as _targets
 from tdicam.scene.loader import digital_tdi_limits_error
@@ -237,9 +238,9 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     for name in list(force) + list(disable):
         if name not in EFFECT_NAMES:
             raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
-    if "tdi" in disable:
-        raise TdicamError("disable tdi: the TDI sum is what the camera outputs; it cannot be "
-                          "left out")
+    if _LINE_BLOCK in disable:
+        raise TdicamError(f"disable {_LINE_BLOCK}: the TDI sum is what the camera outputs; it "
+                          f"cannot be left out")
     if m > scene.sensor.rows:
         raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
                           f"got {m}")
@@ -285,8 +286,13 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     return res
 
 
-#: Effects that cannot be removed alone: removing the key removes the values too.
-_REMOVED_WITH = {"dual_gain": {"hdr"}, "reset_frames": {"cds"}, "cds": {"reset_frames"}}
+#: The block whose effect is the TDI sum itself (never disabled, no impact of its own).
+_LINE_BLOCK = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
+_RESET_TAKERS = {b.name for b in _registry.scene_blocks() if b.pipeline.elems == 2}
+#: Effects that cannot be removed alone: removing the key removes the values too (the
+#: gain merge without a second gain channel, a block that takes reset frames without them).
+_REMOVED_WITH = {"dual_gain": {b.name for b in _registry.scene_blocks() if b.pipeline.merge},
+                 "reset_frames": _RESET_TAKERS, **{b: {"reset_frames"} for b in _RESET_TAKERS}}
 
 
 def _impacts(c, res):
@@ -299,7 +305,7 @@ def _impacts(c, res):
         .astype(np.float64)
     peak = float(res.output_full_scale)
     for r in res.effects:
-        if not r.ran or r.name == "tdi":
+        if not r.ran or r.name == _LINE_BLOCK:
             continue
         if r.name == "quantization":
             r.impact = {"note": "the ADC cannot be removed; see the fast-vs-exact error"}

@@ -21,6 +21,7 @@ from typing import Callable
 
 import numpy as np
 
+from tdicam import blocks as _registry
 from tdicam.engine import blocks as _blocks, fast
 from tdicam.engine.streams import stream
 
@@ -172,9 +173,9 @@ def _need_full_well(c):
 
 
 def _need_reset_frames(c):
-    cds = "cds" in c.scene.pipeline.blocks
-    return cds, ("the cds block subtracts a reset frame" if cds
-                 else "no cds block in the pipeline")
+    takers = [b for b in c.scene.pipeline.blocks if _registry.get(b).pipeline.elems == 2]
+    return bool(takers), (f"the {takers[0]} block subtracts a reset frame" if takers
+                          else "no cds block in the pipeline")
 
 
 _need_read_noise = _when_positive("read_noise_e", lambda r: f"{r:g} e- RMS per sample",
@@ -444,11 +445,11 @@ EFFECTS = (
            exact=_blocks.nuc, per_exposure=True),
     Effect("hdr", "block hdr (golden model)", _blocks.need("hdr"), stage="blocks",
            exact=_blocks.hdr, per_exposure=True),
-    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3_pre"),
+    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3", "pre"),
            stage="blocks", exact=_blocks.median3_pre, per_exposure=True),
     Effect("tdi", "TDI accumulation", _blocks.need("tdi"), stage="tdi", exact=_blocks.tdi,
            fast=_fast("tdi"), aggregated=True),
-    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3_post"),
+    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3", "post"),
            stage="output", exact=_blocks.median3_post, fast=_blocks.median3_post),
 )
 EFFECT_NAMES = tuple(e.name for e in EFFECTS)

@@ -46,7 +46,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.cosim.pauses import thresholds
 from tdicam.hw.verilog import convert, header
 
-__all__ = ["Export", "Design", "HARNESSES", "export_block", "export_files", "design_files",
+__all__ = ["Export", "Design", "export_block", "export_files", "design_files",
            "write_design", "stream_design", "stream_ports_rows", "run_binary",
            "select_vectors", "golden_params", "golden_case_arrays", "block_rows",
            "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
@@ -325,7 +325,7 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
     :func:`golden_params`).
 
     Stream blocks get the fast-mode testbench of :mod:`tdicam.cosim.tbgen`; a block with
-    its own harness (:data:`HARNESSES`) gets that harness's self-checking form.
+    its own harness (:attr:`tdicam.blocks.Block.export_harness`) gets that harness's self-checking form.
 
     Raises :class:`TdicamError` for an unknown block or parameter, parameters without
     golden vectors, an output folder that cannot be written, or one that already holds a
@@ -335,8 +335,8 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
     params = blk.resolve(params) if params else golden_params(blk)
     out = Path(out_dir)
     _check_target(out, blk.name, params, force)
-    if blk.name in HARNESSES:
-        module, func = HARNESSES[blk.name].split(":")
+    if blk.export_harness is not None:
+        module, func = blk.export_harness.split(":")
         make = getattr(importlib.import_module(module), func)
     else:
         make = _stream_export
@@ -344,11 +344,6 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
                                  max_beats=max_beats)
     files = write_design(d, out, force=force)
     return Export(out, blk.name, params, cases, n_in, n_out, files)
-
-
-#: Blocks verified by a harness of their own instead of the stream testbench: block name
-#: -> "module:function" returning (Design, case names, stimulus count, expected count).
-HARNESSES = {"lvds": "tdicam.export.lvds:lvds_export"}
 
 
 def _stream_export(blk, params, *, seed, idle, backpressure, max_beats):

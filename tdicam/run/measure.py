@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 
+from tdicam import blocks as _registry
 from tdicam.planning.predict import mtf_prediction, snr_prediction
 
 __all__ = ["measure", "saturation_e", "fit_modulation", "mean_dark_e",
@@ -125,7 +126,7 @@ def measure(scene, res):
     out = {"stages": res.stages, "dv_over_v": res.dv_over_v}
     tgt = scene.target
     m = res.stages
-    trim = 2 if "median3" in scene.pipeline.blocks else 0
+    trim = max((_registry.get(b).pipeline.trim for b in scene.pipeline.blocks), default=0)
     cds = any(e.name == "reset_frames" and e.ran for e in res.effects)
     if tgt.kind == "flat":
         S, dark = tgt.signal_e, mean_dark_e(scene)

@@ -22,23 +22,12 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from tdicam import blocks as _registry
+from tdicam.blocks import KeyDoc
 from tdicam.scene import loader as _scene
 from tdicam.model.physics import targets as _targets
 
 __all__ = ["KEYS", "SECTIONS", "KeyDoc", "KeyInfo", "schema", "render", "main"]
-
-
-@dataclass(frozen=True)
-class KeyDoc:
-    """What the reader cannot say about a key: its unit and meaning, and — only where the
-    reader computes them from other keys or checks them by hand — the written ``type``,
-    ``default`` or ``range``."""
-
-    unit: str
-    meaning: str
-    type: str | None = None
-    default: str | None = None
-    range: str | None = None
 
 
 @dataclass
@@ -85,15 +74,6 @@ SECTIONS = {
                 "and hdr act on single exposures, so they come before tdi and in that order; "
                 "median3 may come before or after tdi. Options of a block only when it is "
                 "listed in blocks.",
-    "pipeline.cds": "Digital correlated double sampling: signal frame minus reset frame.",
-    "pipeline.nuc": "Per-pixel gain/offset (non-uniformity) correction. The NAND keys "
-                    "(bad_blocks, flip_single, flip_double, seed) only with flash = \"nand\", "
-                    "which also needs ecc = true and gain_frac_bits <= 14 (16-bit gain words).",
-    "pipeline.hdr": "High/low-gain merge of the two channels of a dual-gain sensor "
-                    "([sensor].gains with two entries).",
-    "pipeline.median3": "3x3 median filter.",
-    "pipeline.tdi": "Where the gateware keeps TDI's partial sums (the golden model is the "
-                    "same either way).",
     "ddr": "Optional: the DDR memory beside the FPGA that a pipeline may spill TDI's partial "
            "sums to. A pipeline whose partial sums must spill and no [ddr] section is an "
            "error.",
@@ -104,7 +84,8 @@ SECTIONS = {
 }
 
 _FRAC = "fraction"
-#: Unit and meaning of every key, by section (see :class:`KeyDoc`).
+#: Unit and meaning of every key, by section (see :class:`KeyDoc`); a block's
+#: ``[pipeline.<block>]`` keys are its registry entry's (:class:`tdicam.blocks.Options`).
 KEYS = {
     "orbit": {
         "altitude_km": KeyDoc("km", "orbit altitude above a spherical Earth (R = 6378.137 km)"),
@@ -203,42 +184,6 @@ KEYS = {
                              "tdi exactly once, no repeats",
                          type="list of strings", range="order rules above"),
     },
-    "pipeline.cds": {
-        "reset_level_dn": KeyDoc("DN", "mean reset level present in both frames",
-                                 range="[0, 2**bits)"),
-    },
-    "pipeline.nuc": {
-        "gain_frac_bits": KeyDoc("bit", "fractional bits of the fixed-point gain"),
-        "ecc": KeyDoc("", "the coefficients pass a 64/72 SECDED round trip"),
-        "flash": KeyDoc("", "none, or nand: store the coefficients in a 4 Gb NAND flash "
-                            "(bad-block scan, block map, 64/72 ECC pages) and load them back "
-                            "as the camera does at power-up; an uncorrectable word gets the "
-                            "default coefficients (gain 1, offset 0)"),
-        "bad_blocks": KeyDoc("", "nand: random factory bad blocks (never block 0)"),
-        "flip_single": KeyDoc("probability", "nand: that a coefficient word has one flipped "
-                                             "bit (corrected)"),
-        "flip_double": KeyDoc("probability", "nand: that a coefficient word has two flipped "
-                                             "bits (uncorrectable); flip_single + "
-                                             "flip_double <= 1"),
-        "seed": KeyDoc("", "nand: seed of the faults' random numbers (channel k of a "
-                           "dual-gain sensor uses seed + k)"),
-    },
-    "pipeline.hdr": {
-        "threshold_dn": KeyDoc("DN", "high-gain level above which the low-gain channel is "
-                                     "used", default="3/4 of full scale",
-                               range="1..2**bits - 2"),
-        "band_dn": KeyDoc("DN", "width of the blending band below threshold_dn",
-                          default="min(64, threshold_dn)", range="1..threshold_dn"),
-        "slope_frac_bits": KeyDoc("bit", "fractional bits of the measured gain ratio"),
-    },
-    "pipeline.median3": {
-        "edge_enhance": KeyDoc("", "add the edge-enhancement detail to the median output "
-                                   "(Ning et al. 2019, section 4.4.3)"),
-    },
-    "pipeline.tdi": {
-        "memory": KeyDoc("", "chip: block RAM; ddr: the DDR of [ddr] (through tdi_ddr); "
-                             "auto: DDR when the partial sums exceed the device's block RAM"),
-    },
     "ddr": {
         "interface": KeyDoc("", "the DDR controller's user interface"),
         "base": KeyDoc("byte", "byte address of the first buffer", range="multiple of 8, "
@@ -270,6 +215,23 @@ _TYPES = {"number": "number", "integer": "integer", "choice": "string", "boolean
           "string": "string"}
 
 
+def _with_blocks(table, value):
+    """``table`` with each block's ``pipeline.<block>`` entry (``value(options)``) right after
+    ``pipeline``, in the blocks' scene order."""
+    out = {}
+    for section, v in table.items():
+        out[section] = v
+        if section == "pipeline":
+            for b in _registry.scene_blocks():
+                if b.pipeline.options is not None:
+                    out[f"pipeline.{b.name}"] = value(b.pipeline.options)
+    return out
+
+
+SECTIONS = _with_blocks(SECTIONS, lambda o: o.doc)
+KEYS = _with_blocks(KEYS, lambda o: dict(o.keys))
+
+
 def _probes():
     """Scenes that together reach every key reader of :func:`tdicam.scene.loader.scene_from_dict`."""
     orbit = {"orbit": {"altitude_km": 600.0, "gsd_m": 1.0}}
@@ -277,8 +239,10 @@ def _probes():
     out = []
     for bits, extra in ((12, {}), (14, {"full_well_e": 30000.0, "pixel_clock_mhz": 400.0})):
         sensor = {"bits": bits, "gains": [4.0, 1.0], **extra}
-        full = {"blocks": ["cds", "nuc", "hdr", "tdi", "median3"], "cds": {}, "hdr": {},
-                "median3": {}, "nuc": {"flash": "nand"}}
+        listed = _registry.scene_blocks()
+        full = {"blocks": [b.name for b in listed],
+                **{b.name: dict(b.pipeline.options.probe) for b in listed
+                   if b.pipeline.options is not None}}
         out += [
             {**orbit, "target": {"kind": "flat"}, "sensor": sensor, "pipeline": full,
              "optics": {}, "tdi": {"stages": [4]}, "motion": {"dv_over_v": [0.0]},

@@ -141,6 +141,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+from tdicam import blocks as _registry
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.physics import plan as _plan, targets as _targets
 
@@ -158,10 +159,6 @@ __all__ = [
     "Optics",
     "Tdi",
     "Motion",
-    "CdsOptions",
-    "NucOptions",
-    "HdrOptions",
-    "Median3Options",
     "Pipeline",
     "RtlRun",
     "Run",
@@ -176,8 +173,9 @@ BUNDLED_IMAGES = ("astronaut", "brick", "camera", "chelsea", "clock", "coffee", 
                   "grass", "gravel", "horse", "moon", "page", "text")
 #: Values of ``[target].kind``.
 TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
-#: Names allowed in ``[pipeline].blocks``.
-BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
+#: Names allowed in ``[pipeline].blocks``: the registry's blocks with a scene rank
+#: (:func:`tdicam.blocks.scene_blocks`), in that order.
+BLOCKS = tuple(b.name for b in _registry.scene_blocks())
 
 #: Physical bounds ``"section.key": (lo, hi)``, inclusive, of the quantities whose schema
 #: would otherwise only ask for a positive or non-negative value, and of the sensor's
@@ -215,12 +213,8 @@ _KIND_KEYS = {
     "siemens": ("contrast", "spokes"),
     "flat": (),
 }
-_OPTION_BLOCKS = ("cds", "nuc", "hdr", "tdi", "median3")
-#: ``[pipeline.tdi].memory``: where the partial sums live.
-TDI_MEMORY = ("auto", "chip", "ddr")
 #: ``[ddr].interface``: the DDR controllers a pipeline can spill through.
 DDR_INTERFACES = ("mig",)
-_PRE_TDI = ("cds", "nuc", "hdr")
 _REQUIRED = object()
 
 
@@ -360,43 +354,6 @@ class Motion:
 
 
 @dataclass(frozen=True)
-class CdsOptions:
-    """``[pipeline.cds]``: mean reset level present in both images, DN."""
-
-    reset_level_dn: float = 0.0
-
-
-@dataclass(frozen=True)
-class NucOptions:
-    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, the 64/72 ECC path, and
-    where the coefficients are stored (``flash``: ``none`` or ``nand``, with its faults)."""
-
-    gain_frac_bits: int = 12
-    ecc: bool = True
-    flash: str = "none"
-    bad_blocks: int = 0
-    flip_single: float = 0.0
-    flip_double: float = 0.0
-    seed: int = 1
-
-
-@dataclass(frozen=True)
-class HdrOptions:
-    """``[pipeline.hdr]``: HG threshold, width of the band below it, slope fraction bits."""
-
-    threshold_dn: int
-    band_dn: int = 64
-    slope_frac_bits: int = 8
-
-
-@dataclass(frozen=True)
-class TdiOptions:
-    """``[pipeline.tdi]``: where the gateware keeps the partial sums (``TDI_MEMORY``)."""
-
-    memory: str = "auto"
-
-
-@dataclass(frozen=True)
 class Ddr:
     """``[ddr]``: the DDR user interface a pipeline's spill uses (``DDR_INTERFACES``)."""
 
@@ -405,29 +362,32 @@ class Ddr:
 
 
 @dataclass(frozen=True)
-class Median3Options:
-    """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output."""
-
-    edge_enhance: bool = False
-
-
-@dataclass(frozen=True)
 class Pipeline:
-    """Ordered block chain and the options of each block (defaults when not listed)."""
+    """Ordered block chain and the options of each block (``scene.pipeline.<block>``: the
+    block's :class:`tdicam.blocks.Options` dataclass, its defaults when not given).
+
+    ``options`` holds ``(block, options)`` pairs of every block with a ``[pipeline.<block>]``
+    section, listed or not."""
 
     blocks: tuple[str, ...]
-    cds: CdsOptions
-    nuc: NucOptions
-    hdr: HdrOptions
-    median3: Median3Options
-    tdi: TdiOptions = TdiOptions()
+    options: tuple = ()
 
-    @property
-    def median_after_tdi(self) -> bool | None:
-        """True/False when ``median3`` runs after/before TDI; None when it does not run."""
-        if "median3" not in self.blocks:
+    def __getattr__(self, name):
+        # scene.pipeline.<block>: the block's options (dunder and private names are not
+        # options: copy and pickle look those up before the fields exist)
+        if not name.startswith("_") and name != "options":
+            for block, opts in self.options:
+                if block == name:
+                    return opts
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    def after_lines(self, block) -> bool | None:
+        """True/False when ``block`` runs after/before the line-making block (TDI); None when
+        it is not listed."""
+        if block not in self.blocks:
             return None
-        return self.blocks.index("median3") > self.blocks.index("tdi")
+        line_block = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
+        return self.blocks.index(block) > self.blocks.index(line_block)
 
 
 @dataclass(frozen=True)
@@ -766,8 +726,12 @@ def _motion(sec: _Section) -> Motion:
 
 
 def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
-    sec.check_keys(("blocks",) + _OPTION_BLOCKS)
-    raw = sec.raw("blocks", ["tdi"])
+    listed = _registry.scene_blocks()
+    with_options = [b for b in listed if b.pipeline.options is not None]
+    sec.check_keys(("blocks",) + tuple(b.name for b in with_options))
+    line_block = next(b.name for b in listed if b.pipeline.lines)
+    per_frame = [b.name for b in listed if b.pipeline.per_frame]
+    raw = sec.raw("blocks", [line_block])
     if not isinstance(raw, list) or not all(isinstance(b, str) for b in raw):
         sec.fail("blocks", f"must be a list of block names, got {_show(raw)}")
     for b in raw:
@@ -776,42 +740,26 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
     for b in set(raw):
         if raw.count(b) > 1:
             sec.fail("blocks", f"block {b!r} is listed {raw.count(b)} times; each runs once")
-    if "tdi" not in raw:
-        sec.fail("blocks", "must contain 'tdi' once to place the TDI accumulator, e.g. "
-                           "['cds', 'nuc', 'tdi', 'median3']")
-    pre = [b for b in raw[:raw.index("tdi") + 1] if b in _PRE_TDI or b == "tdi"]
-    wanted = [b for b in _PRE_TDI + ("tdi",) if b in raw]
+    if line_block not in raw:
+        example = [b.name for b in listed if not b.pipeline.merge]
+        sec.fail("blocks", f"must contain {line_block!r} once to place the TDI accumulator, "
+                           f"e.g. {example}")
+    pre = [b for b in raw[:raw.index(line_block) + 1] if b in per_frame or b == line_block]
+    wanted = [b for b in per_frame + [line_block] if b in raw]
     if pre != wanted:
-        sec.fail("blocks", "cds, nuc and hdr act on single exposures: they must come before "
-                           f"'tdi' in the order cds, nuc, hdr; got {_show(raw)}")
-    for b in _OPTION_BLOCKS:
-        if sec.has(b) and b not in raw:
-            sec.fail(b, f"options given but {b!r} is not in {sec.label('blocks')}")
-
-    def opts(name, allowed):
-        s = _Section(f"{sec.name}.{name}", sec.data.get(name), labels)
-        s.check_keys(allowed)
-        return s
-
-    full = sensor.full_scale_dn
-    cds = opts("cds", ("reset_level_dn",))
-    nuc = opts("nuc", ("gain_frac_bits", "ecc") + _NAND_KEYS)
-    hdr = opts("hdr", ("threshold_dn", "band_dn", "slope_frac_bits"))
-    med = opts("median3", ("edge_enhance",))
-    tdi = opts("tdi", ("memory",))
-    threshold = hdr.integer("threshold_dn", 3 * (full + 1) // 4 if full > 1 else 1, lo=1,
-                            hi=max(1, full - 1))
-    return Pipeline(
-        blocks=tuple(raw),
-        cds=CdsOptions(reset_level_dn=cds.number("reset_level_dn", 0.0, lo=0.0,
-                                                 hi=float(full + 1), hi_open=True)),
-        nuc=_nuc_options(nuc),
-        hdr=HdrOptions(threshold_dn=threshold,
-                       band_dn=hdr.integer("band_dn", min(64, threshold), lo=1, hi=threshold),
-                       slope_frac_bits=hdr.integer("slope_frac_bits", 8, lo=0, hi=16)),
-        median3=Median3Options(edge_enhance=med.boolean("edge_enhance", False)),
-        tdi=TdiOptions(memory=tdi.choice("memory", "auto", TDI_MEMORY)),
-    )
+        sec.fail("blocks", f"{', '.join(per_frame[:-1])} and {per_frame[-1]} act on single "
+                           f"exposures: they must come before {line_block!r} in the order "
+                           f"{', '.join(per_frame)}; got {_show(raw)}")
+    for b in with_options:
+        if sec.has(b.name) and b.name not in raw:
+            sec.fail(b.name, f"options given but {b.name!r} is not in {sec.label('blocks')}")
+    options = []
+    for b in with_options:
+        opts = b.pipeline.options
+        s = _Section(f"{sec.name}.{b.name}", sec.data.get(b.name), labels)
+        s.check_keys(tuple(opts.keys))
+        options.append((b.name, opts.read(s, sensor)))
+    return Pipeline(blocks=tuple(raw), options=tuple(options))
 
 
 def _ddr(sec: _Section) -> Ddr:
@@ -821,35 +769,6 @@ def _ddr(sec: _Section) -> Ddr:
         sec.fail("base", f"must be a multiple of 8 (one address per byte of a 64-bit word), "
                          f"got {base}")
     return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base)
-
-
-#: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
-_NAND_KEYS = ("flash", "bad_blocks", "flip_single", "flip_double", "seed")
-
-
-def _nuc_options(sec: _Section) -> NucOptions:
-    frac = sec.integer("gain_frac_bits", 12, lo=4, hi=16)
-    ecc = sec.boolean("ecc", True)
-    flash = sec.choice("flash", "none", ("none", "nand"))
-    if flash == "none":
-        for k in _NAND_KEYS[1:]:
-            if sec.has(k):
-                sec.fail(k, "is a NAND flash fault: set flash = \"nand\" to use it")
-        return NucOptions(gain_frac_bits=frac, ecc=ecc)
-    if not ecc:
-        sec.fail("ecc", "must be true with flash = \"nand\" (the flash words are 64/72 ECC)")
-    if frac > 14:
-        sec.fail("gain_frac_bits", f"must be <= 14 with flash = \"nand\" (2 + {frac} bits "
-                                   "do not fit the 16-bit gain of a flash word)")
-    single = sec.number("flip_single", 0.0, lo=0.0, hi=1.0)
-    double = sec.number("flip_double", 0.0, lo=0.0, hi=1.0)
-    if single + double > 1.0:
-        sec.fail("flip_double", f"flip_single + flip_double must be <= 1 (probabilities of "
-                                f"one word), got {single:g} + {double:g}")
-    return NucOptions(gain_frac_bits=frac, ecc=ecc, flash=flash,
-                      bad_blocks=sec.integer("bad_blocks", 0, lo=0, hi=4095),
-                      flip_single=single, flip_double=double,
-                      seed=sec.integer("seed", 1, lo=0))
 
 
 def _run(sec: _Section, sensor: Sensor, labels) -> Run:
@@ -921,7 +840,8 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
         return (f"stages: must be <= {_tdi_model.MAX_STAGES} for digital TDI (the "
                 f"accumulator's limit), got {stages}")
     lo, hi = _tdi_model.PIXEL_BITS
-    hdr = "hdr" in scene.pipeline.blocks and len(scene.sensor.gains) == 2
+    hdr = len(scene.sensor.gains) == 2 and any(_registry.get(b).pipeline.merge
+                                               for b in scene.pipeline.blocks)
     if not hdr and not lo <= scene.sensor.bits <= hi:
         return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
                 f"got {scene.sensor.bits}")
