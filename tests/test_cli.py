@@ -11,7 +11,7 @@ import pytest
 import tdicam
 from tdicam import blocks
 from tdicam.cli import main
-from tdicam.lint import lint
+from tdicam.hw.lint import lint
 from tdicam.paths import REPO as ROOT
 
 
@@ -378,7 +378,9 @@ def bad_input_files(tmp_path_factory):
 
 @pytest.mark.parametrize("row", BAD_INPUT, ids=lambda r: " ".join(r[0])[:60])
 def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
-    from tdicam import bench, golden, paths
+    from tdicam import paths
+    from tdicam.bench import suite as bench
+    from tdicam.cosim import vectors as golden
     argv, expect, code, *manifest = row
     d = str(bad_input_files)
     if manifest:
@@ -471,7 +473,7 @@ def test_build_folder_that_is_not_one_is_named():
 
 
 def test_golden_regen_refuses_a_case_file_that_is_a_folder(tmp_path, monkeypatch, capsys):
-    from tdicam import golden
+    from tdicam.cosim import vectors as golden
     monkeypatch.setattr(golden, "golden_dir", lambda: tmp_path)
     (tmp_path / "cds" / "hard_12b.npz").mkdir(parents=True)
     assert main(["golden", "regen", "cds"]) == 2
@@ -548,7 +550,7 @@ def test_a_reader_that_leaves_ends_the_command_quietly():
 
 
 def test_sweep_validation_says_how_many_points(tmp_path, capsys):
-    from tdicam.sweepfile import load_sweep
+    from tdicam.sweep.file import load_sweep
     base = ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml"
     f = tmp_path / "many.toml"
     f.write_text(f'scene = "{base}"\n[set]\n"run.lines" = 16\n[axes]\n"tdi.stages" = [1]\n'

@@ -16,7 +16,7 @@ Without a scene or orbit options the command plans Qu 2010's example: 600 km, GS
 the sensor's rows or window ``M0`` do not allow are left out (the report says which). Stage
 counts given above ``M0`` are planned: the window check says NO (exit status 1).
 
-The work is done by :mod:`tdicam.planning`; this module parses arguments.
+The work is done by :mod:`tdicam.planning.sizing`; this module parses arguments.
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import planning
-from tdicam.outputs import check_dir, open_output
-from tdicam.model import plan as P
+from tdicam.planning import sizing as planning
+from tdicam.files import check_dir, open_output
+from tdicam.model.physics import plan as P
 
 __all__ = ["register", "run"]
 
