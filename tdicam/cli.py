@@ -82,6 +82,8 @@ def main(argv=None):
             code = args.func(args)
         except SystemExit as exc:       # --help, argparse's own errors
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+            if code:
+                return code             # its one line is on stderr; stdout got nothing
         except OSError as exc:
             if isinstance(exc, BrokenPipeError) or _flush_stdout() is None:
                 raise                   # not stdout's: a real error

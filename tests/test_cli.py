@@ -452,6 +452,7 @@ STDOUT_ROWS = [
     ("golden check cds > /dev/full", "cannot write to standard output (No space left on "
                                      "device)"),
     ("--help > /dev/full", "cannot write to standard output (No space left on device)"),
+    ("> /dev/full", "the following arguments are required: COMMAND"),   # one error, not two
 ]
 
 
