@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.planning import sizing as planning
+from tdicam.errors import valid_range
 from tdicam.files import check_dir, open_output
 from tdicam.model.physics import plan as P
 
@@ -40,6 +41,10 @@ _EPILOG = (f"exit status: 0 when the plan is feasible (or a check is unknown), "
            f"window, DDR bandwidth of spilled partial sums or gateware pixel rate), 2 for bad "
            f"input. Reference TDI Fmax (MHz by ppc): "
            + ", ".join(f"ppc {k}: {v:g}" for k, v in planning.REFERENCE_TDI_FMAX_MHZ.items()))
+
+#: The valid range of each of the plan's own options, as its errors print it.
+_VALID = {opt: valid_range(lo, hi, lo_open=lo_open)
+          for _, opt, lo, hi, _, lo_open in planning.PLAN_OPTIONS}
 
 # argparse reads "-1e-12" as an option: accept every float literal as a (negative) number
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
@@ -59,20 +64,25 @@ def register(subparsers) -> None:
                        metavar=metavars[typ], help=text + planning.bounds_text(sec, key))
     p.add_argument("--onchip-kbit", type=float, default=None, metavar="X",
                    help="on-chip RAM available for the partial sums, kbit (1 kbit = 1024 bit; "
-                        "the report's kbit/Mbit are binary too)")
+                        "the report's kbit/Mbit are binary too; valid "
+                        + _VALID["--onchip-kbit"] + ")")
     p.add_argument("--device", default=None, metavar="NAME",
                    help="FPGA part whose block RAM is the on-chip budget when --onchip-kbit "
                         "is not given: " + ", ".join(P.ONCHIP_RAM_BITS))
     p.add_argument("--ddr-bits", type=int, default=P.DDR_WORD_BITS, metavar="N",
-                   help="DDR user-interface width in bits (default 256)")
+                   help="DDR user-interface width in bits, at least one partial sum "
+                        "(default 256; valid up to " + _VALID["--ddr-bits"].split("..")[1]
+                        + ")")
     p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6, metavar="X",
-                   help="DDR user-interface clock in MHz (default 100)")
+                   help="DDR user-interface clock in MHz (default 100; valid "
+                        + _VALID["--ddr-clock-mhz"] + ")")
     p.add_argument("--ddr-efficiency", type=float, default=None, metavar="X",
                    help="DDR interface efficiency in (0, 1] (default: the partial-sum access "
                         "pattern's on the DRAM timing model, per design point)")
     p.add_argument("--fpga-clock-mhz", type=float, default=None, metavar="X",
                    help="clock of the TDI gateware in MHz, for every pixels-per-clock "
-                        "(default: the reference synthesis Fmax; valid 1..10000)")
+                        "(default: the reference synthesis Fmax; valid "
+                        + _VALID["--fpga-clock-mhz"] + ")")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.set_defaults(func=run)

@@ -426,8 +426,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     if ddr_bits < sum_bits:
         raise TdicamError(f"--ddr-bits = {ddr_bits} is out of range; valid: {sum_bits}..4096 "
                           f"(a DDR word holds at least one {sum_bits}-bit partial sum)")
-    if fpga_clock_mhz is not None:
-        check_range("--fpga-clock-mhz", fpga_clock_mhz, 1, 10_000, integer=False)
+    if fpga_clock_mhz is not None:      # called without check_options too
+        check_options({"fpga_clock_mhz": fpga_clock_mhz})
     points = [_point(sc, m, onchip_budget_bits=onchip_budget_bits, ddr_bits=ddr_bits,
                      ddr_clock_hz=ddr_clock_hz, ddr_eff=ddr_efficiency,
                      fpga_clock_mhz=fpga_clock_mhz)
