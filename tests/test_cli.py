@@ -289,6 +289,8 @@ BAD_INPUT += [
       "-o", "{d}/exp_pipe"], "--lines = 99999999999 is out of range; valid: 1..524288", 2),
     (["export", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
       "-o", "{d}/exp_pipe"], "--device = 'nosuch' is not known", 2),
+    (["verilog", "cds", "--stream", "-o", "{d}/cds.v"], "block cds has no parameter --stream; "
+                                                         "valid: --pixel-bits", 2),
     (["sweep", "{d}/sw_step.toml", "-o", "{d}/sw_step_out"], "[axes] tdi.stages: range gives "
                                                              "endlessly many values", 2),
 ]

@@ -33,6 +33,8 @@ def parse_block_params(block, extra):
             raise TdicamError(f"unexpected argument {tok!r}; parameters are --NAME VALUE")
         name, eq, value = tok[2:].partition("=")
         key = name.replace("-", "_")
+        if key not in {p.name for p in block.params}:
+            block.resolve({key: value})     # the unknown-parameter error, before its value
         if not eq:
             if key in flags and (not toks or toks[0].startswith("--")):
                 value = "true"
