@@ -563,3 +563,14 @@ def test_sweep_validation_says_how_many_points(tmp_path, capsys):
     assert "sweep: validating 600 points" in capsys.readouterr().err
     load_sweep(f, progress=False)
     assert capsys.readouterr().err == ""
+
+
+def test_golden_file_that_is_text_is_not_offered_as_a_pickle(tmp_path, monkeypatch, capsys):
+    from tdicam.cosim import vectors as golden
+    monkeypatch.setattr(golden, "golden_dir", lambda: tmp_path)
+    assert main(["golden", "regen", "cds"]) == 0
+    (tmp_path / "cds" / "hard_12b.npz").write_text("meeting notes\n")
+    assert main(["golden", "check", "cds"]) == 1
+    out = capsys.readouterr().out
+    assert "cds/hard_12b.npz: golden file is corrupt (not a .npz file)" in out
+    assert "pickle" not in out

@@ -70,6 +70,8 @@ def _read_npz(path):
             return {k: z[k] for k in z.files}
     except Exception as exc:  # zipfile, numpy format and OS errors all mean "corrupt"
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if "pickle" in msg:             # numpy's advice to load it unsafely: never given
+            msg = "not a .npz file"
         raise TdicamError(f"{rel}: golden file is corrupt ({msg})") from None
 
 
