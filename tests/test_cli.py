@@ -223,6 +223,7 @@ BAD_INPUT = [
     (["plan", "--ddr-bits", "99999999999999999999"], "--ddr-bits = 99999999999999999999 is out "
                                                      "of range; valid: 1..4096", 2),
     (["plan", "--device", "nosuch"], "--device = 'nosuch' is not known; valid: ", 2),
+    (["plan", "--gsd-m", "1", "1"], "--gsd-m: lists 1 more than once, got 1 1", 2),
     (["plan", "--ddr-efficiency", "nan", "--plot", "{d}/plan_plots"],
      "--ddr-efficiency = nan is out of range", 2),
     # output folders and the build folder

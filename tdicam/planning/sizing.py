@@ -207,6 +207,10 @@ def plan_scenes(scene_path, given: dict):
         if "gsd_m" in given:
             gsds = list(given["gsd_m"])
             labels["orbit.gsd_m"] = "--gsd-m"
+            twice = sorted({g for g in gsds if gsds.count(g) > 1})
+            if twice:
+                raise TdicamError(f"--gsd-m: lists {twice[0]:g} more than once, got "
+                                  f"{' '.join(f'{g:g}' for g in gsds)}; each GSD once")
         elif base is not None and base.orbit is not None:
             gsds = [base.orbit.gsd_m]
         else:
