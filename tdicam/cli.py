@@ -79,6 +79,9 @@ def main(argv=None):
             if extra and not getattr(args, "_raw", False):
                 raise TdicamError(f"unrecognized arguments: {' '.join(extra)}")
             args.extra = extra
+            failed = _flush_stdout()    # a full stdout found before a long run, not after it
+            if failed is not None:
+                raise _StdoutError(failed)
             code = args.func(args)
         except SystemExit as exc:       # --help, argparse's own errors
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)

@@ -575,3 +575,13 @@ def test_golden_file_that_is_text_is_not_offered_as_a_pickle(tmp_path, monkeypat
     out = capsys.readouterr().out
     assert "cds/hard_12b.npz: golden file is corrupt (not a .npz file)" in out
     assert "pickle" not in out
+
+
+def test_full_stdout_is_found_before_the_work(tmp_path):
+    out = tmp_path / "exp"
+    r = subprocess.run(f"exec {sys.executable} -m tdicam export cds -o {out} > /dev/full",
+                       shell=True, cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr == "tdicam: error: cannot write to standard output (No space left on " \
+                       "device)\n"
+    assert not out.exists()
