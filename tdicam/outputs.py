@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import stat
 from pathlib import Path
 
 from .errors import TdicamError
 
-__all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in"]
+__all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in",
+           "staged_dir"]
 
 
 def _fail(path, why):
@@ -117,3 +119,57 @@ def write_file(path, data) -> Path:
     with open_output(path, "w" if isinstance(data, str) else "wb") as fh:
         fh.write(data)
     return Path(path)
+
+
+@contextlib.contextmanager
+def staged_dir(path, option="-o"):
+    """Write a command's files into a hidden staging folder and move them into ``path`` only
+    when the body finishes: after a refusal, an error or Ctrl-C nothing is left at ``path``
+    that was not there before.
+
+    Yields the staging folder. When ``path`` exists it is checked to be a writable folder
+    and the staging folder is made inside it (files then move up with :func:`os.replace`,
+    each atomically, replacing files of the same name); otherwise it is made beside it
+    (missing parent folders are created, and removed again on failure) and renamed to
+    ``path``. Errors are one line, ``PATH: cannot write (REASON)``.
+    """
+    p = named(path, option)
+    if p.exists() and not p.is_dir():
+        _fail(p, "it exists and is not a folder")
+    created = []                       # parents made here, innermost last
+    try:
+        if p.is_dir():
+            stage = p / f".tdicam-staging-{os.getpid()}-{os.urandom(4).hex()}"
+        else:
+            for parent in reversed(p.absolute().parents):
+                if not parent.exists():
+                    parent.mkdir()
+                    created.append(parent)
+            stage = p.parent / f".{p.name}.tdicam-staging-{os.getpid()}-{os.urandom(4).hex()}"
+        stage.mkdir()
+    except OSError as exc:
+        _remove_made(created)
+        _fail(p, exc.strerror or exc)
+    try:
+        yield stage
+        with writing_in(p):
+            if stage.parent == p:
+                names = sorted(stage.iterdir())
+                for f in names:             # check all first: move all or none
+                    if (p / f.name).is_dir():
+                        _fail(p / f.name, "it is a directory")
+                for f in names:
+                    os.replace(f, p / f.name)
+                stage.rmdir()
+            else:
+                os.replace(stage, p)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        _remove_made(created)
+        raise
+
+
+def _remove_made(folders):
+    for d in reversed(folders):
+        with contextlib.suppress(OSError):
+            d.rmdir()

@@ -72,11 +72,11 @@ from tdicam.scene import digital_tdi_limits_error
 from . import exact as _exact
 from . import fast as _fast
 from .context import Context, EffectRecord, decide
-from .effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
+from .effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
 from .streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
-           "SceneResult", "Context", "simulate", "threads", "RAW_LINES",
+           "SceneResult", "Context", "simulate", "check_point", "threads",
            "MOMENTS_BELOW_DITHER"]
 
 EFFECT_LABELS = {e.name: e.label for e in EFFECTS}
@@ -193,6 +193,32 @@ def _run_pass(c, lines, col0, ncols, timer, progress=None, keep_crop=None):
     return _exact.digital(c, p) if c.digital else _exact.charge(c, p)
 
 
+def check_point(scene, m, fid, force=(), disable=()):
+    """Refuse, in one line, a sweep point the simulator cannot run: an unknown fidelity or
+    effect, more stages than sensor rows or than the digital TDI takes, a PSF wider than
+    :data:`MAX_PSF_SIGMA_PX`. Cheap: :func:`tdicam.scenerun.run_scene` checks every point
+    before any work."""
+    if fid not in ("exact", "fast", "auto"):
+        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: exact, fast, auto")
+    for name in list(force) + list(disable):
+        if name not in EFFECT_NAMES:
+            raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
+    if "tdi" in disable:
+        raise TdicamError("disable tdi: the TDI sum is what the camera outputs; it cannot be "
+                          "left out")
+    if m > scene.sensor.rows:
+        raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
+                          f"got {m}")
+    why = digital_tdi_limits_error(scene, m)
+    if why is not None:
+        raise TdicamError(f"[tdi].{why}" if why.startswith("stages") else f"[sensor].{why}")
+    sigma = scene.optics.psf_sigma_px
+    if sigma > MAX_PSF_SIGMA_PX:
+        raise TdicamError(f"[optics].psf_sigma_px: must be <= {MAX_PSF_SIGMA_PX:g} px for "
+                          f"the scene simulator (its Gaussian kernel spans 8 sigma on a grid "
+                          f"of up to 16 samples per pixel), got {sigma:g}")
+
+
 def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), disable=(),
              lines=None, impact=True, progress=None, keep_crop=None, keep_raw=False):
     """Simulate one configuration of ``scene``.
@@ -231,25 +257,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     m = int(scene.tdi.stages[0] if stages is None else stages)
     dv = float(scene.motion.dv_over_v[0] if dv_over_v is None else dv_over_v)
     fid = scene.run.fidelity if fidelity is None else fidelity
-    if fid not in ("exact", "fast", "auto"):
-        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: exact, fast, auto")
-    for name in list(force) + list(disable):
-        if name not in EFFECT_NAMES:
-            raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
-    if "tdi" in disable:
-        raise TdicamError("disable tdi: the TDI sum is what the camera outputs; it cannot be "
-                          "left out")
-    if m > scene.sensor.rows:
-        raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
-                          f"got {m}")
-    why = digital_tdi_limits_error(scene, m)
-    if why is not None:
-        raise TdicamError(f"[tdi].{why}" if why.startswith("stages") else f"[sensor].{why}")
-    sigma = scene.optics.psf_sigma_px
-    if sigma > MAX_PSF_SIGMA_PX:
-        raise TdicamError(f"[optics].psf_sigma_px: must be <= {MAX_PSF_SIGMA_PX:g} px for "
-                          f"the scene simulator (its Gaussian kernel spans 8 sigma on a grid "
-                          f"of up to 16 samples per pixel), got {sigma:g}")
+    check_point(scene, m, fid, force, disable)
     n_lines = int(scene.run.lines if lines is None else lines)
     c = decide(scene, m, dv, fid, force, disable)
     c.keep_raw = bool(keep_raw)

@@ -25,10 +25,8 @@ from . import blocks as _blocks
 from .streams import stream
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "FixedPattern", "rounding_defect",
-           "RAW_LINES", "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
+           "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
 
-#: In fast fidelity the raw single exposure covers at most this many ground lines.
-RAW_LINES = 256
 #: Fast fidelity sums exact per-rounding moments where the Widrow defect exceeds this.
 MOMENTS_BELOW_DITHER = 1e-4
 

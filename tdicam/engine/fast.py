@@ -7,8 +7,8 @@ the table run in order — shot noise (Normal of the summed variance, Poisson wh
 mean is small), full well (charge domain), read noise (summed variance), quantization (one
 rounding plus ``Normal((n - 1)/12)``) — or, where the noise does not dither the ADC,
 :func:`moment_sum` draws the sum of the roundings with their exact moments. The raw single
-exposure of the first :data:`~tdicam.engine.effects.RAW_LINES` lines is drawn exactly
-(stage 0, :func:`tdicam.engine.exact.expose` / ``convert``).
+exposure of every output line is drawn exactly with its chunk (stage 0,
+:func:`tdicam.engine.exact.expose` / ``convert``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ import numpy as np
 from tdicam.model import sensor as _sensor
 
 from .blocks import Frames, subtract_reset
-from .effects import RAW_LINES
 from .exact import Exposure, convert, expose
 from .streams import BLOCK_PIXELS, block_rng, run_blocks
 
@@ -112,9 +111,8 @@ def path(c, p):
     gsum = gain_map[r_rows].sum(axis=0) if not moving else None
     dsum = dark_map.sum(axis=0)
     out = np.empty((lines, ncols), np.int64)
-    n_raw = min(lines, RAW_LINES)
-    raw = np.empty((n_raw, ncols), np.int64)
-    single = np.empty((n_raw, ncols), np.int64)
+    raw = np.empty((lines, ncols), np.int64)
+    single = np.empty((lines, ncols), np.int64)
     chunk = max(1, min(lines, BLOCK_PIXELS // max(ncols, 1)))
     ped = c.offset_dn if not c.resets else 0.0
     pedm = ped * (m if digital else 1)
@@ -178,12 +176,8 @@ def path(c, p):
             for step in steps:
                 step(c, a)
             dt["shot_noise"] = time.perf_counter() - t
-        # the raw exposure of the first RAW_LINES ground lines: stage 0 alone, exact
-        if lo >= n_raw:
-            return dt
+        # the raw exposure of these ground lines: stage 0 alone, exact
         t = time.perf_counter()
-        hi = min(hi, n_raw)
-        first = first[:hi - lo]
         lam1 = np.broadcast_to((S * first) * gain_map[r0] + dark_map[r0], (hi - lo, ncols))
         rst1 = [np.empty((hi - lo, ncols), np.int64)] if c.resets else None
         x = Exposure(c1, lam1, [raw[lo:hi]], rst1, block=(c.seed, 0, ci),
