@@ -163,9 +163,11 @@ def staged_dir(path, option="-o"):
                 stage.rmdir()
             else:
                 os.replace(stage, p)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(stage, ignore_errors=True)
         _remove_made(created)
+        if isinstance(exc, TdicamError) and str(stage) in str(exc):
+            raise TdicamError(str(exc).replace(str(stage), str(p))) from None   # the user's name
         raise
 
 

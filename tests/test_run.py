@@ -173,6 +173,39 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
 
 
+@pytest.mark.parametrize("contrast,columns", [(1e-3, 16), (1e-3, 64), (3e-3, 64), (1.0, 64)])
+def test_ctf_follows_the_noise_rule_and_nothing_above_one_unexplained(contrast, columns):
+    """The (pi/4) CTF takes the profile's min and max, which noise dominates at low contrast
+    (contrast 1e-3 gave a CTF-based MTF of 2.83 while the fit said 0.958): it is 'not
+    measurable' below MIN_MODULATION_SNR x the noise of those extremes; at full contrast it
+    agrees with the fitted MTF. An MTF or CTF above 1 always comes with a note saying why."""
+    from tdicam.engine import simulate
+    from tdicam.measure import measure
+    from tdicam.scene import load_scene
+    sc = load_scene(ROOT / "scenes" / "orbit_600km_1m_96.toml", overrides={
+        "target": {"contrast": contrast}, "sensor": {"columns": columns}, "run": {"lines": 128}})
+    t = measure(sc, simulate(sc, impact=False))["mtf"]
+    assert t["measured"] is not None and abs(t["measured"] - t["footprint_model"]) < 0.1
+    if contrast < 0.01:
+        assert t["measured_ctf"] is None and "(pi/4) CTF not measurable" in t["note"]
+    else:
+        assert abs(t["measured_ctf"] - t["measured"]) < 0.05 and "note" not in t
+    for v in (t["measured"], t["measured_ctf"]):
+        assert v is None or v <= 1.0 or "> 1" in t.get("note", "")
+
+
+def test_mtf_above_one_says_why():
+    """The reason given for an MTF above 1: within the fit's noise, or the edge
+    enhancement of the median3 block."""
+    from tdicam.measure import _above_one
+    from tdicam.scene import load_scene
+    sc = load_scene(ROOT / "scenes" / "ning2019_chain.toml")
+    assert _above_one(sc, 0.9, 0.01, 0.95) is None
+    assert "within the noise" in _above_one(sc, 1.02, 0.01, None)
+    assert "edge enhancement" in _above_one(sc, 1.3, 0.01, None)
+    assert "harmonics" in _above_one(sc, 0.9, 0.01, 1.2)
+
+
 def test_saturated_bars_have_no_measured_mtf(tmp_path):
     """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
     note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
