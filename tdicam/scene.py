@@ -1065,18 +1065,14 @@ def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
 
 def read_toml(path, what):
     """The TOML file ``path`` as a dict, or a one-line :class:`TdicamError` naming ``what``
-    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, not UTF-8 text,
-    invalid TOML."""
+    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, larger than
+    :data:`tdicam.inputs.MAX_TOML_BYTES` (an endless file such as ``/dev/zero``), not UTF-8
+    text, invalid TOML. A UTF-8 byte-order mark (which some editors write) is accepted."""
+    from tdicam.inputs import MAX_TOML_BYTES, read_bytes
     p = Path(path)
+    data = read_bytes(p, what, MAX_TOML_BYTES)
     try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise TdicamError(f"{what} not found: {str(p)!r}") from None
-    except IsADirectoryError:
-        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
-    except OSError as exc:
-        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror}") from None
+        return tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError:
         raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
     except tomllib.TOMLDecodeError as exc:
