@@ -926,6 +926,21 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
     if not hdr and not lo <= scene.sensor.bits <= hi:
         return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
                 f"got {scene.sensor.bits}")
+    blocks = list(scene.pipeline.blocks)
+    if hdr and "tdi" in blocks and blocks.index("hdr") < blocks.index("tdi"):
+        # the merge widens the pixels by the gain ratio: TDI must take what it gives
+        from tdicam.model import hdr as _hdr_model
+        h, g = scene.pipeline.hdr, scene.sensor.gains
+        try:
+            out = _hdr_model.hdr_config(
+                pixel_bits=scene.sensor.bits, threshold=h.threshold_dn, band=h.band_dn,
+                gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits).out_bits
+        except TdicamError as exc:
+            return f"gains: {list(g)} for the hdr merge: {exc}"
+        if not lo <= out <= hi:
+            return (f"gains: {list(g)} with [sensor].bits = {scene.sensor.bits}: the hdr "
+                    f"merge gives {out}-bit pixels and digital TDI takes {lo}..{hi}-bit "
+                    f"pixels (lower the gain ratio or the bits)")
     return None
 
 

@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 import textwrap
 from pathlib import Path
 
@@ -301,3 +302,78 @@ def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
     out = tmp_path / "out"
     assert main(["run", str(tmp_path / "s.toml"), "-o", str(out), "--no-impact"]) == 0
     assert "dark charge excluded" in (out / "report.md").read_text()
+
+
+FULL = os.environ.get("TDICAM_FULL") == "1"
+SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.toml"))
+#: Short form: every bundled scene at most this wide, and the schema's pixel limit lowered
+#: so that its largest [run].lines is this many lines (the code path of the real maximum:
+#: the lines that are not a multiple of any chunk, the full output held and written).
+SHORT_COLUMNS, SHORT_MAX_LINES = 64, 601
+
+
+def _lines_values(sc, max_lines):
+    return sorted({1, sc.run.lines, 457 if max_lines > 457 else max_lines - 1, max_lines})
+
+
+def _check_run_at_lines(tmp_path, path, over, lines):
+    """``tdicam run`` at ``[run].lines = lines``: either the schema refuses it in one line
+    naming [run].lines (1 line for an along-track bar chart, a crop) or the run writes raw
+    exposure and TDI output of exactly ``lines`` lines, the report agreeing; or the memory
+    estimate refuses it in one line and -o is not created."""
+    from tdicam.errors import TdicamError
+    from tdicam.scene import load_scene
+    from tdicam.scenerun import run_scene
+    over = {k: dict(v) for k, v in over.items()}
+    over.setdefault("run", {})["lines"] = lines
+    try:
+        sc = load_scene(path, overrides=over)
+    except TdicamError as exc:
+        assert "[run].lines" in str(exc) and "\n" not in str(exc), exc
+        return
+    out = tmp_path / f"l{lines}"
+    try:
+        rep = run_scene(sc, out, impact=False, rtl=False, progress=False)
+    except TdicamError as exc:
+        assert "memory" in str(exc) and "[run].lines <=" in str(exc), exc
+        assert not out.exists()
+        return
+    raw, tdi = np.load(out / "raw_exposure.npy"), np.load(out / "tdi.npy")
+    cols = sc.sensor.columns
+    assert raw.shape == tdi.shape == (lines, cols), (raw.shape, tdi.shape)
+    assert np.asarray(Image.open(out / "raw_exposure.tif")).shape == (lines, cols)
+    assert Image.open(out / "tdi.png").size == Image.open(out / "target.png").size == (cols, lines)
+    assert rep["speed"]["lines"] == rep["configuration"]["lines"] == lines
+    assert rep["memory"]["estimated_peak_bytes"] > 0
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_every_lines_the_schema_allows_runs(tmp_path, monkeypatch, scene):
+    """[run].lines at 1, the scene's default, a non-round value and the schema's maximum
+    (lowered with the scene's width: see SHORT_MAX_LINES): raw exposure and TDI output have
+    the lines asked for (fast runs gave 256 raw lines, then crashed above ~448 lines)."""
+    from tdicam import scene as scene_mod
+    from tdicam.scene import load_scene
+    path = ROOT / "scenes" / scene
+    base = load_scene(path)
+    cols = min(base.sensor.columns, SHORT_COLUMNS)
+    over = {"sensor": {"columns": cols}, "run": {"rtl": None}}
+    monkeypatch.setattr(scene_mod, "MAX_OUTPUT_PIXELS", cols * SHORT_MAX_LINES)
+    for lines in _lines_values(base, SHORT_MAX_LINES):
+        _check_run_at_lines(tmp_path, path, over, lines)
+    with pytest.raises(scene_mod.TdicamError, match=r"\[run\]\.lines: .* simulate at most 601"):
+        load_scene(path, overrides={**over, "run": {"rtl": None, "lines": SHORT_MAX_LINES + 1}})
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="every bundled scene at its own width up to 2**27 output "
+                                      "pixels (minutes, GBs): set TDICAM_FULL=1")
+@pytest.mark.parametrize("scene", SCENES)
+def test_every_lines_the_schema_allows_runs_full(tmp_path, scene):
+    """The long form: each scene as written, at the real maximum [run].lines (runs, or is
+    refused by the memory estimate in one line)."""
+    from tdicam.scene import MAX_OUTPUT_PIXELS, load_scene
+    path = ROOT / "scenes" / scene
+    base = load_scene(path)
+    for lines in _lines_values(base, MAX_OUTPUT_PIXELS // base.sensor.columns):
+        _check_run_at_lines(tmp_path, path, {"run": {"rtl": None}}, lines)
