@@ -146,7 +146,7 @@ def _run(scene, out_dir, stage, mem, *, fidelity, lines, force, impact, rtl, pro
     report = {
         "scene": scene.source,
         "configuration": scenereport.configuration(scene, main, rows, requested,
-                                                   main_tiff_shift(main)),
+                                                   main_tiff_shift(main), memory=mem),
         "scene_settings": scene.to_dict(),
         "fidelity_requested": requested,
         "effects": [e.to_dict() for e in main.effects],
@@ -168,7 +168,6 @@ def _run(scene, out_dir, stage, mem, *, fidelity, lines, force, impact, rtl, pro
         "wall_seconds": time.perf_counter() - t_all,
         "files": files,
         "tiff_shift": main_tiff_shift(main),
-        "memory": mem.to_dict(),
         "stale_files": _stale(final_dir, previous, files),
     }
     report["summary"] = scenereport.summary(scene, report)

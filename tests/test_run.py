@@ -344,7 +344,7 @@ def _check_run_at_lines(tmp_path, path, over, lines):
     assert np.asarray(Image.open(out / "raw_exposure.tif")).shape == (lines, cols)
     assert Image.open(out / "tdi.png").size == Image.open(out / "target.png").size == (cols, lines)
     assert rep["speed"]["lines"] == rep["configuration"]["lines"] == lines
-    assert rep["memory"]["estimated_peak_bytes"] > 0
+    assert rep["configuration"]["memory"]["estimated_peak_bytes"] > 0
 
 
 @pytest.mark.parametrize("scene", SCENES)
