@@ -148,7 +148,7 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True):
     points = [(m, dv) for m in stages for dv in dvs]
     from . import check_point
     for i, (m, dv) in enumerate(points):
-        check_point(scene, m, fid, force)
+        check_point(scene, m, dv, fid, force)
         c = decide(scene, m, dv, fid, force, ())
         fids[f"m={m} dv/V={dv:g}"] = "fast" if c.fast else "exact"
         after_main = any(p == (m_show, dvs[0]) for p in points[:i])

@@ -106,7 +106,8 @@ def path(c, p):
     S, gain_map, dark_map = c.signal_e, p.pattern.gain, p.pattern.dark
     k = c.gains[0] / sen.conversion_gain_e_per_dn
     n_conv = c.n_reads * (m if digital else 1)        # conversions summed per output pixel
-    gauss_min = 1.0 / (4.0 * c.scene.run.tolerance ** 2)
+    tol = c.scene.run.tolerance
+    gauss_min = 0.25 / tol / tol          # inf (all Poisson) for a tolerance below ~1e-154
     r_rows = [c.stage_row(s) for s in range(m)]
     gsum = gain_map[r_rows].sum(axis=0) if not moving else None
     dsum = dark_map.sum(axis=0)
