@@ -13,6 +13,7 @@ of its own and is left out.
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -73,6 +74,7 @@ def main():
         if not a.quick:
             cases += [(ROOT / "scenes" / f"{s}.toml", n, f) for s, n, f in LARGE]
     print(machine())
+    load0 = os.getloadavg()[0]
     rows = []
     for scene, lines, fid in cases:
         est, got = measure(scene, lines, fid)
@@ -84,6 +86,9 @@ def main():
     print_table(rows, [("scene", "scene", "s"), ("lines", "lines", "s"),
                        ("fidelity", "fidelity", "s"), ("est", "estimate (MiB)", ".0f"),
                        ("got", "peak RSS (MiB)", ".0f"), ("ratio", "estimate / peak", ".2f")])
+    print(f"load average (1 min) {load0:.2f} at the start, {os.getloadavg()[0]:.2f} at the end "
+          f"(peak RSS does not depend on it); estimate / peak from "
+          f"{min(r['ratio'] for r in rows):.2f} to {max(r['ratio'] for r in rows):.2f}")
 
 
 if __name__ == "__main__":

@@ -36,6 +36,8 @@ __all__ = ["BASE_BYTES", "MemoryEstimate", "estimate", "available_bytes", "check
 #: ~65 MB and ~105 MB; a 1-line run peaks at ~110 MB).
 BASE_BYTES = 105 << 20
 _BASE_SIM_BYTES = 68 << 20
+#: scikit-image and its sample picture, loaded for a bundled-picture target.
+_SKIMAGE_BYTES = 16 << 20
 #: Bytes per frame-stack element at the peak of each golden block beyond the stacks
 #: themselves (measured with tracemalloc on the bundled chains).
 _BLOCK_BYTES = {"cds": 14.0, "nuc": 38.0, "hdr": 22.0, "median3_pre": 0.0, "tdi": 0.5}
@@ -163,7 +165,10 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True):
                                  axes, k)
     parts = {"base": float(BASE_BYTES), "fixed_pattern": pattern, "simulation": sim,
              "output": output, "impact": imp}
-    peak = max(_BASE_SIM_BYTES + pattern + max(sim, imp), BASE_BYTES + output)
+    if scene.target.kind == "image" and scene.target.image is not None:
+        parts["base"] += _SKIMAGE_BYTES
+        pattern += _SKIMAGE_BYTES
+    peak = max(_BASE_SIM_BYTES + pattern + max(sim, imp), parts["base"] + output)
     return MemoryEstimate(int(peak), parts, fids)
 
 
