@@ -35,7 +35,12 @@ def read_bytes(path, what, limit):
     a pipe is read up to ``limit`` bytes and refused when it has more (``/dev/zero``)."""
     p = Path(path)
     try:
-        with open(p, "rb") as fh:
+        # a named pipe without a writer would block open() for ever: open it without
+        # blocking, then read normally (no writer: end of file at once)
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as fh:
             st = os.fstat(fh.fileno())
             if st.st_size > limit:
                 raise TdicamError(f"{p}: not a {what}: {size_text(st.st_size)}, more than "

@@ -674,6 +674,9 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
                 sec.fail("path", f"must be a PNG or TIFF file (.png, .tif, .tiff), got {raw!r}")
             if path.is_dir():
                 sec.fail("path", f"{str(path)!r} is a folder, not an image file")
+            if path.exists() and not path.is_file():
+                sec.fail("path", f"{str(path)!r} is not a regular file (a device or a pipe), "
+                                 f"not an image file")
             if not path.is_file():
                 sec.fail("path", f"file not found: {str(path)!r}")
             fields["path"] = path.resolve()
