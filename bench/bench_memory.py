@@ -45,7 +45,7 @@ def measure(scene, lines=None, fidelity=None):
     from tdicam.engine.budget import estimate
     from tdicam.scene import load_scene
     over = {} if lines is None else {"run": {"lines": lines}}
-    est = estimate(load_scene(scene, overrides=over), fidelity=fidelity).peak_bytes
+    est = estimate(load_scene(scene, overrides=over), fidelity=fidelity, rtl=False).peak_bytes
     with tempfile.TemporaryDirectory() as tmp:
         r = subprocess.run([sys.executable, "-c", _CHILD, str(scene), f"{tmp}/o",
                             "-" if lines is None else str(lines), fidelity or "-"],

@@ -72,7 +72,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     from tdicam import engine
     engine.threads()
     mem = memory_check(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
-                       labels=labels)
+                       rtl=rtl, labels=labels)
     with outputs.staged_dir(out_dir) as stage:
         report = _run(scene, Path(out_dir), stage, mem, fidelity=fidelity, lines=lines,
                       force=force, impact=impact, rtl=rtl, progress=progress)
@@ -81,12 +81,14 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     return report
 
 
-def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, labels=None):
+def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
+                 labels=None):
     """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
     a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
     what there is, what to change)."""
     from tdicam.engine import budget
-    est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact)
+    est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
+                          rtl=rtl)
     return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)
 
 

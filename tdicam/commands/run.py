@@ -66,15 +66,15 @@ def dry_run(scene, out, args, labels):
     from tdicam.scenerun import memory_check
     engine.threads()
     est = memory_check(scene, fidelity=args.fidelity, force=args.force,
-                       impact=not args.no_impact, labels=labels)
+                       impact=not args.no_impact, rtl=not args.no_rtl, labels=labels)
     conf = scenereport.configuration(scene, None, None, args.fidelity or scene.run.fidelity,
                                      None, memory=est)
     print(f"{scene.source}: dry run, nothing written (the run would write into {out})")
     print("\n".join(line.replace("**", "").replace(", used ", ", will use ")
                     for line in scenereport.config_lines(conf)[2:] if line))
     if scene.run.rtl is not None and not args.no_rtl:
-        print("* [run.rtl]: the RTL co-simulation would run its simulator in processes of "
-              "its own (not in the estimate)")
+        print("* [run.rtl]: the RTL co-simulation's simulator runs in processes of its own "
+              "(not in the estimate; its input is)")
     return 0
 
 

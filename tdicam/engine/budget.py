@@ -61,6 +61,7 @@ class MemoryEstimate:
     parts: dict = field(default_factory=dict)
     fidelity: dict = field(default_factory=dict)
     available_bytes: int | None = None
+    options: dict = field(default_factory=dict)    # the arguments of estimate()
 
     def to_dict(self):
         """JSON form (the ``"memory"`` entry of report.json)."""
@@ -115,7 +116,7 @@ def _pass_bytes(c, lines, ncols, axes, k):
     return max(render, blocks, post)
 
 
-def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True):
+def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True):
     """Peak resident memory of ``tdicam run`` on ``scene``, before any work.
 
     Parameters
@@ -129,13 +130,18 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True):
         Effects forced on (``--force``).
     impact : bool
         The per-effect impact study runs (one crop pass at a time).
+    rtl : bool
+        The ``[run.rtl]`` co-simulation runs (when the scene has one): its input is an exact
+        simulation of the main point with the raw frames kept, made beside the result (the
+        simulators themselves run in processes of their own).
 
     Returns
     -------
     MemoryEstimate
         ``peak_bytes`` and its parts: ``base`` (interpreter and libraries), ``simulation``
         (the largest sweep point, with the main result held when others follow it),
-        ``output`` (the result and the copies made to measure and write it), ``impact``.
+        ``output`` (the result and the copies made to measure and write it), ``impact``,
+        ``rtl_input``.
     """
     fid = scene.run.fidelity if fidelity is None else fidelity
     n_lines = int(scene.run.lines if lines is None else lines)
@@ -163,13 +169,18 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True):
     if impact and main_c is not None:
         imp = held + _pass_bytes(main_c, min(n_lines, _IMPACT[0]), min(cols, _IMPACT[1]),
                                  axes, k)
+    cosim = 0.0
+    if rtl and scene.run.rtl is not None and main_c is not None:
+        c = decide(scene, m_show, dvs[0], "exact", force, ())
+        cosim = held + _pass_bytes(c, n_lines, cols, axes, k)
     parts = {"base": float(BASE_BYTES), "fixed_pattern": pattern, "simulation": sim,
-             "output": output, "impact": imp}
+             "output": output, "impact": imp, "rtl_input": cosim}
     if scene.target.kind == "image" and scene.target.image is not None:
         parts["base"] += _SKIMAGE_BYTES
         pattern += _SKIMAGE_BYTES
-    peak = max(_BASE_SIM_BYTES + pattern + max(sim, imp), parts["base"] + output)
-    return MemoryEstimate(int(peak), parts, fids)
+    peak = max(_BASE_SIM_BYTES + pattern + max(sim, imp), parts["base"] + max(output, cosim))
+    opts = {"fidelity": fidelity, "force": tuple(force), "impact": impact, "rtl": rtl}
+    return MemoryEstimate(int(peak), parts, fids, options=opts)
 
 
 def _read_int(path):
@@ -243,7 +254,7 @@ def check_fits(scene, est, *, fidelity=None, lines=None, labels=None):
     lo, hi = 0, n_lines
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if estimate(scene, fidelity=fidelity, lines=mid).peak_bytes <= avail:
+        if estimate(scene, **{**est.options, "lines": mid}).peak_bytes <= avail:
             lo = mid
         else:
             hi = mid
@@ -252,7 +263,8 @@ def check_fits(scene, est, *, fidelity=None, lines=None, labels=None):
     if lo >= 1:
         hints.append(f"fewer [sensor].columns (now {scene.sensor.columns})")
     if fid != "fast":
-        fast = estimate(scene, fidelity="fast", lines=n_lines).peak_bytes
+        fast = estimate(scene, **{**est.options, "fidelity": "fast", "lines": n_lines}
+                        ).peak_bytes
         if fast < est.peak_bytes:
             hints.append(f"{fid_key} = 'fast' (needs about {gib(fast)})")
     raise TdicamError(
