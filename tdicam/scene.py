@@ -873,7 +873,7 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                 r.fail("crop", f"needs x0, y0 >= 0 and width, height >= 1, got {_show(crop)}")
             if x0 + w > sensor.columns or y0 + h > lines:
                 r.fail("crop", f"must lie inside the {sensor.columns} x {lines} output "
-                               f"([sensor].columns x [run].lines), got {_show(crop)}")
+                               f"([sensor].columns x {sec.label('lines')}), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
         if ppc != 1:
@@ -1060,7 +1060,7 @@ def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None
                               f"memory; simulate at most {MAX_OUTPUT_PIXELS // cols} lines")
     t = scene.target
     if t.kind == "bars":
-        extent, what = ((lines, "[run].lines") if t.direction == "along_track"
+        extent, what = ((lines, run_sec.label("lines")) if t.direction == "along_track"
                         else (cols, "[sensor].columns"))
         if t.period_px > extent / 2:
             target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "

@@ -94,7 +94,7 @@ def test_full_scene_and_sweeps(tmp_path):
         columns = 640
         rows = 512
         pitch_um = 5.2
-        gains = [4.9, 0.8]
+        gains = [1.9, 1.0]
         pixel_clock_mhz = 48
         row_blanking_us = 3.5
         shutter = "global"
