@@ -43,7 +43,7 @@ print(json.dumps({"code": code,
 def measure(scene, lines=None, fidelity=None):
     """(estimate, measured peak RSS) in bytes of ``tdicam run SCENE`` in a child process."""
     from tdicam.engine.budget import estimate
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     over = {} if lines is None else {"run": {"lines": lines}}
     est = estimate(load_scene(scene, overrides=over), fidelity=fidelity, rtl=False).peak_bytes
     with tempfile.TemporaryDirectory() as tmp:

@@ -5,8 +5,8 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
-from .stream import channels_shape, pixel_signature
-from .util import quiet_reject
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import quiet_reject
 
 __all__ = ["Cds"]
 

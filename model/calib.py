@@ -44,8 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from . import ecc
-from .nuc import DEFAULT_FORMAT, NucFormat
+from tdicam.model import ecc
+from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 
 __all__ = ["MAGIC", "VERSION", "PACKING", "HEADER_WORDS", "WORD_BYTES", "PIXELS_PER_WORD",
            "payload_words", "header_words", "encode_image", "write_image", "CalibImage",
@@ -292,8 +292,8 @@ MAX_IMAGE_BYTES = 1 << 30
 
 def read_file(path):
     """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`), or a one-line
-    error naming it (:func:`tdicam.inputs.read_bytes`)."""
-    from tdicam.inputs import read_bytes
+    error naming it (:func:`tdicam.files.read_bytes`)."""
+    from tdicam.files import read_bytes
     return read_bytes(path, "calibration image", MAX_IMAGE_BYTES)
 
 

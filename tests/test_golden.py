@@ -5,7 +5,7 @@ import shutil
 import numpy as np
 import pytest
 
-from tdicam import golden
+from tdicam.cosim import vectors as golden
 from tdicam.cli import main
 from tdicam.errors import TdicamError
 

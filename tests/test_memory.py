@@ -9,7 +9,7 @@ import pytest
 
 from tdicam.cli import main
 from tdicam.engine import budget
-from tdicam.scene import load_scene
+from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 ORBIT = ROOT / "scenes" / "orbit_600km_1m_96.toml"

@@ -113,8 +113,8 @@ def test_user_png_target(tmp_path):
 
 
 def test_bundled_images_load():
-    from tdicam.model.targets import bundled_image
-    from tdicam.scene import BUNDLED_IMAGES
+    from tdicam.model.physics.targets import bundled_image
+    from tdicam.scene.loader import BUNDLED_IMAGES
     for name in BUNDLED_IMAGES:
         a = bundled_image(name)
         assert a.ndim == 2 and 0.0 <= a.min() and a.max() <= 1.0 and a.max() > 0.2, name
@@ -130,8 +130,8 @@ def _strict_load(path):
 def test_bundled_scene_reports_are_strict_json(tmp_path, scene):
     """Every bundled scene's report.json parses with a strict parser (no Infinity/NaN;
     issue 18: flat_snr_sweep_96 wrote "psnr_db": Infinity)."""
-    from tdicam.scene import load_scene
-    from tdicam.scenerun import run_scene
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
     sc = load_scene(ROOT / "scenes" / scene)
     run_scene(sc, tmp_path, lines=16, rtl=False, progress=False)
     rep = _strict_load(tmp_path / "report.json")
@@ -181,8 +181,8 @@ def test_ctf_follows_the_noise_rule_and_nothing_above_one_unexplained(contrast, 
     measurable' below MIN_MODULATION_SNR x the noise of those extremes; at full contrast it
     agrees with the fitted MTF. An MTF or CTF above 1 always comes with a note saying why."""
     from tdicam.engine import simulate
-    from tdicam.measure import measure
-    from tdicam.scene import load_scene
+    from tdicam.run.measure import measure
+    from tdicam.scene.loader import load_scene
     sc = load_scene(ROOT / "scenes" / "orbit_600km_1m_96.toml", overrides={
         "target": {"contrast": contrast}, "sensor": {"columns": columns}, "run": {"lines": 128}})
     t = measure(sc, simulate(sc, impact=False))["mtf"]
@@ -198,8 +198,8 @@ def test_ctf_follows_the_noise_rule_and_nothing_above_one_unexplained(contrast, 
 def test_mtf_above_one_says_why():
     """The reason given for an MTF above 1: within the fit's noise, or the edge
     enhancement of the median3 block."""
-    from tdicam.measure import _above_one
-    from tdicam.scene import load_scene
+    from tdicam.run.measure import _above_one
+    from tdicam.scene.loader import load_scene
     sc = load_scene(ROOT / "scenes" / "ning2019_chain.toml")
     assert _above_one(sc, 0.9, 0.01, 0.95) is None
     assert "within the noise" in _above_one(sc, 1.02, 0.01, None)
@@ -211,8 +211,8 @@ def test_saturated_bars_have_no_measured_mtf(tmp_path):
     """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
     note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
     the well still measure one."""
-    from tdicam.measure import measure, saturation_e
-    from tdicam.scene import load_scene
+    from tdicam.run.measure import measure, saturation_e
+    from tdicam.scene.loader import load_scene
     from tdicam import engine
     path = write(tmp_path, SMALL.replace('kind = "flat"', 'kind = "bars"\nprofile = "sine"\n'
                                                            'period_px = 4.0\ncontrast = 0.5'))
@@ -229,13 +229,13 @@ def test_saturated_bars_have_no_measured_mtf(tmp_path):
 
 
 def test_bar_mtf_planned_and_paper_model(tmp_path):
-    """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
+    """report.json/report.md print the planned MTF (tdicam.planning.predict.mtf_prediction) and the
     paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
     negative MTF anywhere while M dV/V sweeps through 2, 3 and 6 (contrast reversal at the
     bar frequency 0.25, flagged) (issue 20)."""
-    from tdicam.model.mtf import mtf_system
-    from tdicam.planning import mtf_prediction
-    from tdicam.scene import load_scene
+    from tdicam.model.physics.mtf import mtf_system
+    from tdicam.planning.predict import mtf_prediction
+    from tdicam.scene.loader import load_scene
     src = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0') \
         .replace("[tdi]", 'shutter = "rolling"\n[tdi]') \
         .replace("stages = [1, 4]", "stages = [1, 8]\n[motion]\ndv_over_v = [0.0, 0.25, "
@@ -267,8 +267,8 @@ def test_bar_mtf_planned_and_paper_model(tmp_path):
 def test_nand_flash_scene_reports_counters(tmp_path):
     """The bundled NAND scene: report.json and report.md give the flash counters (bad
     blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
-    from tdicam.scene import load_scene
-    from tdicam.scenerun import run_scene
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
     sc = load_scene(ROOT / "scenes" / "ning2019_nand_calib_faults.toml")
     rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
     f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
@@ -285,9 +285,9 @@ def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
     """One SNR definition (issue 18): signal = photo-electrons, dark charge excluded, in the
     measured and the predicted SNR alike. At 20 e- light and 2 e- dark the measured
     single-exposure SNR counted the dark as signal (+0.83 dB over the prediction)."""
-    from tdicam.measure import SNR_DEFINITION, mean_dark_e, measure
+    from tdicam.run.measure import SNR_DEFINITION, mean_dark_e, measure
     from tdicam import engine
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     src = SMALL.replace("signal_e = 2000.0", "signal_e = 20.0") \
         .replace("read_noise_e = 5.0", "read_noise_e = 1.0\nconversion_gain_e_per_dn = 0.5\n"
                  f"dark_current_e_per_s = {2.0 / 144.76e-6:.6g}\ndsnu_e = {dsnu}") \
@@ -322,8 +322,8 @@ def _check_run_at_lines(tmp_path, path, over, lines):
     exposure and TDI output of exactly ``lines`` lines, the report agreeing; or the memory
     estimate refuses it in one line and -o is not created."""
     from tdicam.errors import TdicamError
-    from tdicam.scene import load_scene
-    from tdicam.scenerun import run_scene
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
     over = {k: dict(v) for k, v in over.items()}
     over.setdefault("run", {})["lines"] = lines
     try:
@@ -352,8 +352,8 @@ def test_every_lines_the_schema_allows_runs(tmp_path, monkeypatch, scene):
     """[run].lines at 1, the scene's default, a non-round value and the schema's maximum
     (lowered with the scene's width: see SHORT_MAX_LINES): raw exposure and TDI output have
     the lines asked for (fast runs gave 256 raw lines, then crashed above ~448 lines)."""
-    from tdicam import scene as scene_mod
-    from tdicam.scene import load_scene
+    from tdicam.scene import loader as scene_mod
+    from tdicam.scene.loader import load_scene
     path = ROOT / "scenes" / scene
     base = load_scene(path)
     cols = min(base.sensor.columns, SHORT_COLUMNS)
@@ -372,7 +372,7 @@ def test_every_lines_the_schema_allows_runs(tmp_path, monkeypatch, scene):
 def test_every_lines_the_schema_allows_runs_full(tmp_path, scene):
     """The long form: each scene as written, at the real maximum [run].lines (runs, or is
     refused by the memory estimate in one line)."""
-    from tdicam.scene import MAX_OUTPUT_PIXELS, load_scene
+    from tdicam.scene.loader import MAX_OUTPUT_PIXELS, load_scene
     path = ROOT / "scenes" / scene
     base = load_scene(path)
     for lines in _lines_values(base, MAX_OUTPUT_PIXELS // base.sensor.columns):

@@ -2,7 +2,7 @@
 and a report out.
 
 This module parses the arguments; the work, and the list of what it writes, is
-:func:`tdicam.scenerun.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
+:func:`tdicam.run.runner.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
 could not run or found mismatches (the report says which); 2 for bad input.
 """
 
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tdicam.outputs import named
-from tdicam.scenerun import run_scene
+from tdicam.files import named
+from tdicam.run.runner import run_scene
 
 __all__ = ["register", "run", "run_scene", "rtl_failed", "dry_run"]
 
@@ -43,7 +43,7 @@ def register(subparsers) -> None:
 
 
 def run(args):
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
     over, labels = ({}, {}) if args.lines is None else \
         ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})
@@ -62,9 +62,10 @@ def run(args):
 def dry_run(scene, out, args, labels):
     """``--dry-run``: the configuration report.md would start with, and the memory
     estimate; exit status 2 (one line) when the run would be refused, else 0."""
-    from tdicam import engine, scenereport
-    from tdicam.scenerun import memory_check
-    engine.threads()
+    from tdicam.run import report as scenereport
+    from tdicam.run.runner import memory_check
+    from tdicam.threads import threads
+    threads()
     est = memory_check(scene, fidelity=args.fidelity, force=args.force,
                        impact=not args.no_impact, rtl=not args.no_rtl, labels=labels)
     conf = scenereport.configuration(scene, None, None, args.fidelity or scene.run.fidelity,

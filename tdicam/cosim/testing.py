@@ -5,7 +5,7 @@ its expected and received values and the path of the waveform around it (under
 :data:`tdicam.cosim.WAVE_DIR`, or ``wave_dir``).
 """
 
-from . import WAVE_DIR, run_beats, run_golden_case
+from tdicam.cosim import WAVE_DIR, run_beats, run_golden_case
 
 __all__ = ["check_beats", "check_case"]
 

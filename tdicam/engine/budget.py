@@ -25,8 +25,9 @@ from pathlib import Path
 
 from tdicam.errors import TdicamError
 
-from .context import decide
-from .streams import BLOCK_PIXELS, threads
+from tdicam.engine.context import decide
+from tdicam.engine.streams import BLOCK_PIXELS
+from tdicam.threads import threads
 
 __all__ = ["BASE_BYTES", "MemoryEstimate", "estimate", "available_bytes", "check_fits",
            "gib"]
@@ -76,7 +77,7 @@ class MemoryEstimate:
 
 def _target_shape(scene, lines):
     """(axes, oversample) of the scene's target without building a picture."""
-    from tdicam.model.targets import make_target
+    from tdicam.model.physics.targets import make_target
     t = make_target(scene.target, columns=scene.sensor.columns, lines=lines)
     return t.axes, t.oversample
 
@@ -84,7 +85,7 @@ def _target_shape(scene, lines):
 def _pass_bytes(c, lines, ncols, axes, k):
     """Peak bytes of one pass of context ``c`` over ``lines`` x ``ncols`` output pixels
     (result images included)."""
-    from . import geometry
+    from tdicam.engine import geometry
     n = float(lines) * ncols
     m = c.m
     geo = geometry(c)[0]
@@ -154,7 +155,7 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=Tru
     held = 24.0 * n + tgt
     sim, fids, main_c = 0.0, {}, None
     points = [(m, dv) for m in stages for dv in dvs]
-    from . import check_point
+    from tdicam.engine import check_point
     for i, (m, dv) in enumerate(points):
         check_point(scene, m, dv, fid, force)
         c = decide(scene, m, dv, fid, force, ())

@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.model import sensor as _sensor
+from tdicam.model.physics import sensor as _sensor
 
-from .blocks import Frames, subtract_reset
-from .exact import Exposure, convert, expose
-from .streams import BLOCK_PIXELS, block_rng, run_blocks
+from tdicam.engine.blocks import Frames, subtract_reset
+from tdicam.engine.exact import Exposure, convert, expose
+from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks
 
 __all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
            "moment_sum", "integer_draw"]
