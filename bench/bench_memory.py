@@ -19,7 +19,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from tdicam.benchutil import machine, print_table
+from tdicam.bench.util import machine, print_table
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Larger variants: (scene, lines, fidelity).
