@@ -508,3 +508,25 @@ def test_scene_with_a_byte_order_mark_is_read(tmp_path):
 def test_files_that_are_not_scenes(path, msg):
     with pytest.raises(TdicamError, match="^" + msg.replace(".", r"\.").replace("(", r"\(")):
         load_scene(path)
+
+
+def test_median3_enhance_gain_reaches_engine_and_chain():
+    """``[pipeline.median3] enhance_gain``: one entry (the block's registry entry) sets it for
+    the scene engine's golden run and for the gateware chain."""
+    import numpy as np
+    from tdicam import engine
+    from tdicam.camera import design
+    base = {"orbit": {"altitude_km": 600.0, "gsd_m": 1.0}, "target": {"kind": "bars"},
+            "sensor": {"bits": 12, "columns": 64, "rows": 8}, "tdi": {"stages": [4]},
+            "run": {"lines": 16}}
+    outs = []
+    for gain in (1, 3):
+        sc = scene_from_dict({**base, "pipeline": {"blocks": ["tdi", "median3"], "median3": {
+            "edge_enhance": True, "enhance_gain": gain}}})
+        step = design.plan(sc).steps[-1]
+        assert step.params["enhance_gain"] == gain
+        outs.append(engine.simulate(sc, impact=False).output)
+    assert not np.array_equal(outs[0], outs[1])
+    with pytest.raises(TdicamError, match=r"enhance_gain: is the edge enhancement's gain"):
+        scene_from_dict({**base, "pipeline": {"blocks": ["tdi", "median3"],
+                                              "median3": {"enhance_gain": 3}}})

@@ -222,25 +222,39 @@ def _check(params):
 
 @dataclass(frozen=True)
 class Median3Options:
-    """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output."""
+    """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output,
+    with its mask gain."""
 
     edge_enhance: bool = False
+    enhance_gain: int = 1
+
+
+def _read_options(sec, sensor):
+    enhance = sec.boolean("edge_enhance", False)
+    if not enhance and sec.has("enhance_gain"):
+        sec.fail("enhance_gain", "is the edge enhancement's gain: set edge_enhance = true to "
+                                 "use it")
+    return Median3Options(edge_enhance=enhance,
+                          enhance_gain=sec.integer("enhance_gain", 1, lo=0, hi=MAX_GAIN))
 
 
 OPTIONS = Options(
-    Median3Options, lambda sec, sensor: Median3Options(
-        edge_enhance=sec.boolean("edge_enhance", False)),
+    Median3Options, _read_options,
     "3x3 median filter.",
     {"edge_enhance": KeyDoc("", "add the edge-enhancement detail to the median output "
-                                "(Ning et al. 2019, section 4.4.3)")})
+                                "(Ning et al. 2019, section 4.4.3)"),
+     "enhance_gain": KeyDoc("", "gain of the enhancement mask (the gateware's enhance_gain; "
+                                "only with edge_enhance = true)")},
+    probe={"edge_enhance": True})
 
 
 def _pipeline_step(ctx):
     """After a line-making block the frames are ``lines`` output lines (one median image);
     before it, each exposure frame of ``stages`` rows."""
     pb = max(ctx.bits, 8)
-    p = {"width": ctx.width, "pixel_bits": pb,
-         "enhance": bool(ctx.scene.pipeline.median3.edge_enhance)}
+    opt = ctx.scene.pipeline.median3
+    p = {"width": ctx.width, "pixel_bits": pb, "enhance": bool(opt.edge_enhance),
+         "enhance_gain": opt.enhance_gain}
     if ctx.after_lines:
         return Step("median3", p, {"height": ctx.lines}, group=ctx.lines), pb
     return Step("median3", p, {"height": ctx.m}), pb
