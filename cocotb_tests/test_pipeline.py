@@ -90,7 +90,7 @@ def test_run_rtl_crop_on_icarus(tmp_path):
     last = rep["rtl"]["blocks"][-1]
     assert last["block"] == "pipeline" and last["status"] == "ran", last
     assert last["mismatches"] == 0 and last["pixels_compared"] == 12 * 4
-    assert rep["rtl"]["crop"] == [1, 4, 4, 12]
+    assert rep["rtl"]["crop"] == [4, 1, 12, 4]            # the scene's [x0, y0, width, height]
 
 
 def test_tdi_spilled_to_ddr_matches():

@@ -50,7 +50,8 @@ from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 __all__ = ["MAGIC", "VERSION", "PACKING", "HEADER_WORDS", "WORD_BYTES", "PIXELS_PER_WORD",
            "payload_words", "header_words", "encode_image", "write_image", "CalibImage",
            "read_image", "load_image", "codes_from_values", "ReaderOutput", "reader_stream",
-           "flip_image_bits", "inject_flips", "image_words", "read_file", "DEFAULT_COUNT_BITS"]
+           "flip_image_bits", "inject_flips", "image_words", "read_file", "DEFAULT_COUNT_BITS",
+           "MAX_IMAGE_BYTES"]
 
 MAGIC = b"TDICAL"
 VERSION = 1
@@ -285,13 +286,15 @@ def inject_flips(rng, image, *, p_single, p_double, skip_header=True):
     return flip_image_bits(image, pos), k
 
 
+#: Largest calibration image read (a 4 Gb NAND part with its spare areas is 528 MiB).
+MAX_IMAGE_BYTES = 1 << 30
+
+
 def read_file(path):
-    """Bytes of a file, or a one-line error naming it."""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read()
-    except OSError as exc:
-        raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
+    """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`), or a one-line
+    error naming it (:func:`tdicam.files.read_bytes`)."""
+    from tdicam.files import read_bytes
+    return read_bytes(path, "calibration image", MAX_IMAGE_BYTES)
 
 
 def flip_image_bits(image, positions):

@@ -1,4 +1,11 @@
-"""Output files and folders of the commands: checked before the work, written with one-line errors.
+"""Input and output files of the commands: inputs read with a size limit, outputs checked
+before the work and written, all with one-line errors.
+
+A scene, a sweep file, a calibration image or a golden file is read with
+:func:`read_bytes`, never with an unbounded ``read()``: an endless or huge file given by
+mistake (``/dev/zero``, a disk image, a video) is refused as "not a scene file" (or
+calibration image, ...) after at most ``limit`` bytes instead of filling the memory; a named
+pipe without a writer reads as empty instead of blocking.
 
 A command that writes files checks every output path with :func:`check_file` or
 :func:`check_dir` before it computes anything (a 30-minute ``tdicam bench`` must not end in
@@ -17,12 +24,15 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import stat
 from pathlib import Path
 
 from tdicam.errors import TdicamError
 
-__all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in"]
+__all__ = ["check_file", "check_dir", "write_file", "open_output", "named", "writing_in",
+           "staged_dir",
+           "read_bytes", "MAX_TOML_BYTES", "size_text"]
 
 
 def _fail(path, why):
@@ -131,3 +141,99 @@ def write_file(path, data) -> Path:
     with open_output(path, "w" if isinstance(data, str) else "wb") as fh:
         fh.write(data)
     return Path(path)
+
+
+@contextlib.contextmanager
+def staged_dir(path, option="-o"):
+    """Write a command's files into a hidden staging folder and move them into ``path`` only
+    when the body finishes: after a refusal, an error or Ctrl-C nothing is left at ``path``
+    that was not there before.
+
+    Yields the staging folder. When ``path`` exists it is checked to be a writable folder
+    and the staging folder is made inside it (files then move up with :func:`os.replace`,
+    each atomically, replacing files of the same name); otherwise it is made beside it
+    (missing parent folders are created, and removed again on failure) and renamed to
+    ``path``. Errors are one line, ``PATH: cannot write (REASON)``.
+    """
+    p = named(path, option)
+    if p.exists() and not p.is_dir():
+        _fail(p, "it exists and is not a folder")
+    created = []                       # parents made here, innermost last
+    try:
+        if p.is_dir():
+            stage = p / f".tdicam-staging-{os.getpid()}-{os.urandom(4).hex()}"
+        else:
+            for parent in reversed(p.absolute().parents):
+                if not parent.exists():
+                    parent.mkdir()
+                    created.append(parent)
+            stage = p.parent / f".{p.name}.tdicam-staging-{os.getpid()}-{os.urandom(4).hex()}"
+        stage.mkdir()
+    except OSError as exc:
+        _remove_made(created)
+        _fail(p, exc.strerror or exc)
+    try:
+        yield stage
+        with writing_in(p):
+            if stage.parent == p:
+                names = sorted(stage.iterdir())
+                for f in names:             # check all first: move all or none
+                    if (p / f.name).is_dir():
+                        _fail(p / f.name, "it is a directory")
+                for f in names:
+                    os.replace(f, p / f.name)
+                stage.rmdir()
+            else:
+                os.replace(stage, p)
+    except BaseException as exc:
+        shutil.rmtree(stage, ignore_errors=True)
+        _remove_made(created)
+        if isinstance(exc, TdicamError) and str(stage) in str(exc):
+            raise TdicamError(str(exc).replace(str(stage), str(p))) from None   # the user's name
+        raise
+
+
+def _remove_made(folders):
+    for d in reversed(folders):
+        with contextlib.suppress(OSError):
+            d.rmdir()
+
+#: Largest scene or sweep file (TOML) read: hand-written text is kilobytes.
+MAX_TOML_BYTES = 4 << 20
+
+
+def size_text(n):
+    """``n`` bytes in words: ``4 MiB``, ``1 GiB``."""
+    for unit, shift in (("GiB", 30), ("MiB", 20), ("KiB", 10)):
+        if n >= 1 << shift:
+            return f"{n / (1 << shift):g} {unit}"
+    return f"{n} bytes"
+
+
+def read_bytes(path, what, limit):
+    """The bytes of ``path``, or a one-line error naming ``what`` (``"scene file"``) and the
+    problem. A regular file larger than ``limit`` bytes is refused from its size; a device or
+    a pipe is read up to ``limit`` bytes and refused when it has more (``/dev/zero``)."""
+    p = Path(path)
+    try:
+        # a named pipe without a writer would block open() for ever: open it without
+        # blocking, then read normally (no writer: end of file at once)
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as fh:
+            st = os.fstat(fh.fileno())
+            if st.st_size > limit:
+                raise TdicamError(f"{p}: not a {what}: {size_text(st.st_size)}, more than "
+                                  f"the {size_text(limit)} a {what} may have")
+            data = fh.read(limit + 1)
+    except FileNotFoundError:
+        raise TdicamError(f"{what} not found: {str(p)!r}") from None
+    except IsADirectoryError:
+        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
+    except OSError as exc:
+        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror or exc}") from None
+    if len(data) > limit:
+        raise TdicamError(f"{p}: not a {what}: it goes on past {size_text(limit)} (an "
+                          f"endless or huge file)")
+    return data

@@ -8,7 +8,10 @@ import os
 
 from tdicam.errors import TdicamError
 
-__all__ = ["threads"]
+__all__ = ["threads", "MAX_THREADS"]
+
+#: Most threads ``TDICAM_THREADS`` may ask for.
+MAX_THREADS = 1024
 
 
 def threads():
@@ -19,12 +22,16 @@ def threads():
     Raises
     ------
     TdicamError
-        ``TDICAM_THREADS`` is not an integer >= 1.
+        ``TDICAM_THREADS`` is not an integer in 1..:data:`MAX_THREADS`.
     """
     v = os.environ.get("TDICAM_THREADS")
     if v:
         try:
-            return max(1, int(v))
+            n = int(v)
         except ValueError:
-            raise TdicamError(f"TDICAM_THREADS = {v!r}: must be an integer >= 1") from None
+            n = 0
+        if not 1 <= n <= MAX_THREADS:      # 0 or -3 used to run on 1 thread silently
+            raise TdicamError(f"TDICAM_THREADS = {v!r}: must be an integer in "
+                              f"1..{MAX_THREADS}")
+        return n
     return max(1, min(os.cpu_count() or 1, 4))

@@ -137,7 +137,7 @@ def test_write_and_load(tmp_path):
     assert n == (4 + 18) * 9
     res = calib.load_image(tmp_path / "c.cal")
     np.testing.assert_array_equal(res.gain, g)
-    with pytest.raises(TdicamError, match="cannot read"):
+    with pytest.raises(TdicamError, match="calibration image not found"):
         calib.load_image(tmp_path / "missing.cal")
 
 
@@ -321,7 +321,7 @@ def test_cli_codes_and_npy_inputs(tmp_path):
      "{f}: truncated: the header says 6 payload words, the file has 4"),
     (lambda p: p.write_bytes(b"\0" * 90), ["check", "{f}"],
      "{f}: not a tdicam calibration image"),
-    (lambda p: None, ["check", "{f}"], "{f}: cannot read (No such file or directory)"),
+    (lambda p: None, ["check", "{f}"], "calibration image not found: '{f}'"),
     (lambda p: p.write_bytes(b"junk"), ["write", "{f}", "-o", "{f}.cal"],
      "{f}: not a numpy .npz or .npy file"),
     (lambda p: np.savez(p, gain=np.ones((2, 2))), ["write", "{f}", "-o", "{f}.cal"],

@@ -206,6 +206,24 @@ BAD_INPUT = [
     (["run", "{d}/slow_rig.toml"], "the line period 1e+06 s from [turntable].angular_speed_rad_s"
                                    ", [turntable].distance_m and [sensor].pitch_um is out of "
                                    "range; valid: 1e-08..100 s", 2),
+    # found late by tdicam run before (an empty or half-written -o was left): now before
+    # any work, or in a staging folder that is removed
+    (["run", "{d}/psf65.toml", "-o", "{d}/r_psf65"], "[optics].psf_sigma_px: must be <= 64 px "
+                                                     "for the scene simulator", 2),
+    (["run", "{d}/psf1e6.toml", "-o", "{d}/r_psf1e6"], "[optics].psf_sigma_px: must be <= 64 "
+                                                       "px for the scene simulator", 2),
+    (["run", "{d}/nand4095.toml", "--lines", "8", "-o", "{d}/r_nand"],
+     "[pipeline.nuc] flash = 'nand', bad_blocks = 4095: nand: too many bad blocks", 2),
+    (["run", "{d}/hdr_bits.toml", "-o", "{d}/r_hdr"], "[sensor].gains: [4.9, 0.8] with "
+     "[sensor].bits = 12: the hdr merge gives 15-bit pixels and digital TDI takes 8..14", 2),
+    (["run", "{d}/hdr_gains.toml", "-o", "{d}/r_hdr2"], "[sensor].gains: [64.0, 0.5] for the "
+                                                        "hdr merge: gain pair 64:0.5", 2),
+    # files that are not scenes or images: bounded reads
+    (["run", "/dev/zero", "-o", "{d}/r_zero"], "/dev/zero: not a scene file: it goes on past "
+                                               "4 MiB", 2),
+    (["run", "{d}", "-o", "{d}/r_dir"], "scene file is a directory: '{d}'", 2),
+    (["calib", "check", "/dev/zero"], "/dev/zero: not a calibration image: it goes on past "
+                                      "1 GiB", 2),
     (["plan", "--angular-speed-rad-s", "1000", "--distance-m", "1000", "--pitch-um", "0.1"],
      "the line period 1e-13 s from --angular-speed-rad-s, --distance-m and --pitch-um", 2),
     (["plan", "--gsd-m", "1e-300"], "--gsd-m = 1e-300 is out of range; valid: 0.001..100000", 2),
@@ -335,6 +353,18 @@ def bad_input_files(tmp_path_factory):
                                       "distance_m = 1.0\n")
     (d / "slow_rig.toml").write_text("[turntable]\nangular_speed_rad_s = 1e-6\n"
                                      "distance_m = 1e-3\n[sensor]\npitch_um = 1000\n")
+    scenes = ROOT / "scenes"
+    for name, text in (
+            ("psf65", _SCENE.format(**base) + "[optics]\npsf_sigma_px = 65\n"),
+            ("psf1e6", _SCENE.format(**base) + "[optics]\npsf_sigma_px = 1e6\n"),
+            ("nand4095", (scenes / "ning2019_nand_calib_faults.toml").read_text()
+             .replace("bad_blocks = 200", "bad_blocks = 4095")),
+            ("hdr_bits", (scenes / "ning2019_chain.toml").read_text()
+             .replace("\nbits = 10", "\nbits = 12")),
+            ("hdr_gains", (scenes / "ning2019_chain.toml").read_text()
+             .replace("gains = [4.9, 0.8]", "gains = [64.0, 0.5]"))):
+        assert text.count("\n") > 5 and text != _SCENE
+        (d / f"{name}.toml").write_text(text)
     from tdicam.model import nand_store
     nand = d / "badmap.nand"                    # two bits flipped in the block map header
     assert main(["calib", "write", str(d / "maps.npz"), "--nand", "--blocks", "8", "-o",
@@ -486,6 +516,51 @@ def test_golden_regen_refuses_a_case_file_that_is_a_folder(tmp_path, monkeypatch
                       f"directory)\n"
     assert sorted(p.name for p in (tmp_path / "cds").iterdir()) == ["hard_12b.npz"]
     assert not (tmp_path / "manifest.json").exists()     # nothing written before the check
+
+
+def _tree(folder):
+    """Every file under ``folder`` with its bytes and modification time (hidden ones too)."""
+    return {str(p.relative_to(folder)): (p.read_bytes(), p.stat().st_mtime_ns)
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+#: Refused or failed runs into an -o that already holds an earlier run and a file of the
+#: user's: (arguments after ``run``, environment).
+_RUN_FAILS = [
+    (["{d}/psf65.toml"], {}),
+    (["{d}/psf1e6.toml"], {}),
+    (["{d}/nand4095.toml", "--lines", "8", "--no-impact"], {}),
+    (["{d}/hdr_bits.toml"], {}),
+    (["/dev/zero"], {}),
+    (["scenes/flat_snr_sweep_96.toml", "--lines", "8"], {"TDICAM_THREADS": "abc"}),
+    (["scenes/flat_snr_sweep_96.toml", "--lines", "8", "--force", "nosuch"], {}),
+]
+
+
+@pytest.mark.parametrize("args,env", _RUN_FAILS, ids=lambda v: " ".join(v)[:50]
+                         if isinstance(v, list) else str(v))
+def test_refused_or_failed_run_leaves_out_as_it_was(args, env, bad_input_files, tmp_path,
+                                                     monkeypatch, capsys):
+    """After a refused or failed tdicam run, -o holds exactly what it held before: no new
+    folder, no staging folder, no half-written files, the earlier run's files untouched."""
+    from tdicam import paths
+    monkeypatch.chdir(paths.REPO)
+    out = tmp_path / "out"
+    assert main(["run", "scenes/flat_snr_sweep_96.toml", "--lines", "8", "--no-impact",
+                 "-o", str(out)]) == 0
+    (out / "mine.txt").write_text("the user's")
+    before = _tree(tmp_path)
+    capsys.readouterr()
+    for k, v in env.items():
+        monkeypatch.setenv(k, v)
+    argv = ["run"] + [a.format(d=bad_input_files) for a in args] + ["-o", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("tdicam: error:"), err
+    assert _tree(tmp_path) == before
+    fresh = tmp_path / "new" / "deeper"
+    assert main(argv[:-1] + [str(fresh)]) == 2
+    assert not (tmp_path / "new").exists() and _tree(tmp_path) == before
 
 
 def test_pipeline_verilog_header_names_the_scene_file_only(tmp_path):

@@ -98,3 +98,15 @@ def test_corrupt_manifest(store, capsys):
     assert err.startswith("tdicam: error: golden/manifest.json: manifest is corrupt") or \
         "manifest is corrupt" in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_endless_file_is_not_a_golden_file(store, monkeypatch):
+    """A case file that is a device giving endless bytes is read up to the limit and
+    refused in one line (it was a MemoryError)."""
+    p = store / "cds" / "hard_12b.npz"
+    p.unlink()
+    p.symlink_to("/dev/zero")
+    monkeypatch.setattr(golden, "MAX_GOLDEN_BYTES", 1 << 20)
+    with pytest.raises(TdicamError, match="hard_12b.npz: not a golden file: it goes on past "
+                                          "1 MiB"):
+        golden.load("cds", "hard_12b")

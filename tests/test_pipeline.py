@@ -103,9 +103,12 @@ def test_chain_model_groups_and_merges():
     (["tdi", "lvds"], {}, r"^pipeline: block 'lvds' has no gateware stage"),
     (["hdr", "tdi"], {"sensor": {"gains": [1.0]}},
      r"^pipeline: input -> hdr: pipeline: hdr merges two gain channels"),
-    (["hdr", "tdi"], {"sensor": {"bits": 14}},
+    # the scene without hdr (with it the scene itself refuses 14-bit pixels into hdr -> tdi)
+    (["hdr", "tdi"], {"sensor": {"bits": 14}, "pipeline": {
+        "blocks": ["tdi"], "cds": None, "nuc": None, "hdr": None, "median3": None}},
      r"^pipeline: hdr -> tdi: .*pixel.bits.* out of range"),
-    (["tdi", "median3"], {"tdi": {"output": "full"}, "sensor": {"bits": 14}},
+    (["tdi", "median3"], {"tdi": {"output": "full"}, "sensor": {"bits": 14}, "pipeline": {
+        "blocks": ["tdi"], "cds": None, "nuc": None, "hdr": None, "median3": None}},
      r"^pipeline: tdi -> median3: .*pixel.bits.* out of range"),
 ])
 def test_impossible_pipelines_give_one_line_errors(blocks_, over, msg):

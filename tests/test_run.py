@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 import textwrap
 from pathlib import Path
 
@@ -173,6 +174,39 @@ def test_bar_mtf_below_noise_is_not_measurable(tmp_path):
         assert 0.3 < r["mtf"]["measured"] < 1.1 and "note" not in r["mtf"]
 
 
+@pytest.mark.parametrize("contrast,columns", [(1e-3, 16), (1e-3, 64), (3e-3, 64), (1.0, 64)])
+def test_ctf_follows_the_noise_rule_and_nothing_above_one_unexplained(contrast, columns):
+    """The (pi/4) CTF takes the profile's min and max, which noise dominates at low contrast
+    (contrast 1e-3 gave a CTF-based MTF of 2.83 while the fit said 0.958): it is 'not
+    measurable' below MIN_MODULATION_SNR x the noise of those extremes; at full contrast it
+    agrees with the fitted MTF. An MTF or CTF above 1 always comes with a note saying why."""
+    from tdicam.engine import simulate
+    from tdicam.run.measure import measure
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(ROOT / "scenes" / "orbit_600km_1m_96.toml", overrides={
+        "target": {"contrast": contrast}, "sensor": {"columns": columns}, "run": {"lines": 128}})
+    t = measure(sc, simulate(sc, impact=False))["mtf"]
+    assert t["measured"] is not None and abs(t["measured"] - t["footprint_model"]) < 0.1
+    if contrast < 0.01:
+        assert t["measured_ctf"] is None and "(pi/4) CTF not measurable" in t["note"]
+    else:
+        assert abs(t["measured_ctf"] - t["measured"]) < 0.05 and "note" not in t
+    for v in (t["measured"], t["measured_ctf"]):
+        assert v is None or v <= 1.0 or "> 1" in t.get("note", "")
+
+
+def test_mtf_above_one_says_why():
+    """The reason given for an MTF above 1: within the fit's noise, or the edge
+    enhancement of the median3 block."""
+    from tdicam.run.measure import _above_one
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(ROOT / "scenes" / "ning2019_chain.toml")
+    assert _above_one(sc, 0.9, 0.01, 0.95) is None
+    assert "within the noise" in _above_one(sc, 1.02, 0.01, None)
+    assert "edge enhancement" in _above_one(sc, 1.3, 0.01, None)
+    assert "harmonics" in _above_one(sc, 0.9, 0.01, 1.2)
+
+
 def test_saturated_bars_have_no_measured_mtf(tmp_path):
     """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
     note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
@@ -268,3 +302,78 @@ def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
     out = tmp_path / "out"
     assert main(["run", str(tmp_path / "s.toml"), "-o", str(out), "--no-impact"]) == 0
     assert "dark charge excluded" in (out / "report.md").read_text()
+
+
+FULL = os.environ.get("TDICAM_FULL") == "1"
+SCENES = sorted(p.name for p in (ROOT / "scenes").glob("*.toml"))
+#: Short form: every bundled scene at most this wide, and the schema's pixel limit lowered
+#: so that its largest [run].lines is this many lines (the code path of the real maximum:
+#: the lines that are not a multiple of any chunk, the full output held and written).
+SHORT_COLUMNS, SHORT_MAX_LINES = 64, 601
+
+
+def _lines_values(sc, max_lines):
+    return sorted({1, sc.run.lines, 457 if max_lines > 457 else max_lines - 1, max_lines})
+
+
+def _check_run_at_lines(tmp_path, path, over, lines):
+    """``tdicam run`` at ``[run].lines = lines``: either the schema refuses it in one line
+    naming [run].lines (1 line for an along-track bar chart, a crop) or the run writes raw
+    exposure and TDI output of exactly ``lines`` lines, the report agreeing; or the memory
+    estimate refuses it in one line and -o is not created."""
+    from tdicam.errors import TdicamError
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
+    over = {k: dict(v) for k, v in over.items()}
+    over.setdefault("run", {})["lines"] = lines
+    try:
+        sc = load_scene(path, overrides=over)
+    except TdicamError as exc:
+        assert "[run].lines" in str(exc) and "\n" not in str(exc), exc
+        return
+    out = tmp_path / f"l{lines}"
+    try:
+        rep = run_scene(sc, out, impact=False, rtl=False, progress=False)
+    except TdicamError as exc:
+        assert "memory" in str(exc) and "[run].lines <=" in str(exc), exc
+        assert not out.exists()
+        return
+    raw, tdi = np.load(out / "raw_exposure.npy"), np.load(out / "tdi.npy")
+    cols = sc.sensor.columns
+    assert raw.shape == tdi.shape == (lines, cols), (raw.shape, tdi.shape)
+    assert np.asarray(Image.open(out / "raw_exposure.tif")).shape == (lines, cols)
+    assert Image.open(out / "tdi.png").size == Image.open(out / "target.png").size == (cols, lines)
+    assert rep["speed"]["lines"] == rep["configuration"]["lines"] == lines
+    assert rep["configuration"]["memory"]["estimated_peak_bytes"] > 0
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_every_lines_the_schema_allows_runs(tmp_path, monkeypatch, scene):
+    """[run].lines at 1, the scene's default, a non-round value and the schema's maximum
+    (lowered with the scene's width: see SHORT_MAX_LINES): raw exposure and TDI output have
+    the lines asked for (fast runs gave 256 raw lines, then crashed above ~448 lines)."""
+    from tdicam.scene import loader as scene_mod
+    from tdicam.scene.loader import load_scene
+    path = ROOT / "scenes" / scene
+    base = load_scene(path)
+    cols = min(base.sensor.columns, SHORT_COLUMNS)
+    over = {"sensor": {"columns": cols}, "run": {"rtl": None}}
+    monkeypatch.setattr(scene_mod, "MAX_OUTPUT_PIXELS", cols * SHORT_MAX_LINES)
+    for lines in _lines_values(base, SHORT_MAX_LINES):
+        _check_run_at_lines(tmp_path, path, over, lines)
+    with pytest.raises(scene_mod.TdicamError, match=r"\[run\]\.lines: .* simulate at most 601"):
+        load_scene(path, overrides={**over, "run": {"rtl": None, "lines": SHORT_MAX_LINES + 1}})
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="every bundled scene at its own width up to 2**27 output "
+                                      "pixels (minutes, GBs): set TDICAM_FULL=1")
+@pytest.mark.parametrize("scene", SCENES)
+def test_every_lines_the_schema_allows_runs_full(tmp_path, scene):
+    """The long form: each scene as written, at the real maximum [run].lines (runs, or is
+    refused by the memory estimate in one line)."""
+    from tdicam.scene.loader import MAX_OUTPUT_PIXELS, load_scene
+    path = ROOT / "scenes" / scene
+    base = load_scene(path)
+    for lines in _lines_values(base, MAX_OUTPUT_PIXELS // base.sensor.columns):
+        _check_run_at_lines(tmp_path, path, {"run": {"rtl": None}}, lines)

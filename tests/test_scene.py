@@ -94,7 +94,7 @@ def test_full_scene_and_sweeps(tmp_path):
         columns = 640
         rows = 512
         pitch_um = 5.2
-        gains = [4.9, 0.8]
+        gains = [1.9, 1.0]
         pixel_clock_mhz = 48
         row_blanking_us = 3.5
         shutter = "global"
@@ -492,6 +492,22 @@ def test_rtl_needs_digital_tdi(tmp_path):
     msg = error_of(tmp_path, ORBIT + "[tdi]\ndomain = \"charge\"\n[run.rtl]\n")
     assert msg == ("[run.rtl]: needs [tdi].domain = 'digital' (charge-domain TDI sums in the "
                    "sensor: there is no gateware chain to co-simulate)")
+
+
+def test_scene_with_a_byte_order_mark_is_read(tmp_path):
+    """Some editors start UTF-8 files with a byte-order mark: the scene is the same."""
+    p = tmp_path / "bom.toml"
+    p.write_bytes(b"\xef\xbb\xbf" + BUNDLED_SCENE.read_bytes())
+    a, b = load_scene(p).to_dict(), load_scene(BUNDLED_SCENE).to_dict()
+    assert a.pop("source") != b.pop("source") and a == b
+
+
+@pytest.mark.parametrize("path,msg", [("/dev/zero", "/dev/zero: not a scene file: it goes on "
+                                                    "past 4 MiB"),
+                                      (".", "scene file is a directory: '.'")])
+def test_files_that_are_not_scenes(path, msg):
+    with pytest.raises(TdicamError, match="^" + msg.replace(".", r"\.").replace("(", r"\(")):
+        load_scene(path)
 
 
 def test_median3_enhance_gain_reaches_engine_and_chain():

@@ -74,7 +74,7 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     from tdicam.camera import design as pl
     rt = scene.run.rtl
     m, lines = int(res.stages), int(res.output.shape[0])
-    out = {"simulator": rt.simulator, "crop": None if rt.crop is None else list(crop),
+    out = {"simulator": rt.simulator, "crop": None if rt.crop is None else list(rt.crop),
            "blocks": []}
     try:
         p = pl.plan(scene, stages=m, lines=lines)

@@ -13,7 +13,7 @@ from pathlib import Path
 from tdicam.files import named
 from tdicam.run.runner import run_scene
 
-__all__ = ["register", "run", "run_scene", "rtl_failed"]
+__all__ = ["register", "run", "run_scene", "rtl_failed", "dry_run"]
 
 
 def register(subparsers) -> None:
@@ -36,6 +36,9 @@ def register(subparsers) -> None:
     p.add_argument("--no-impact", action="store_true",
                    help="skip the per-effect impact measurement (one crop run per effect)")
     p.add_argument("--no-rtl", action="store_true", help="skip [run.rtl] co-simulation")
+    p.add_argument("--dry-run", action="store_true",
+                   help="check the scene, print its configuration and the estimated peak "
+                        "memory against the memory available, write nothing")
     p.set_defaults(func=run)
 
 
@@ -46,11 +49,34 @@ def run(args):
         ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})
     scene = load_scene(args.scene, overrides=over, labels=labels)
     out = named(args.out) if args.out is not None else Path("out") / Path(args.scene).stem
+    if args.dry_run:
+        return dry_run(scene, out, args, labels)
     report = run_scene(scene, out, fidelity=args.fidelity,
-                       force=args.force, impact=not args.no_impact, rtl=not args.no_rtl)
+                       force=args.force, impact=not args.no_impact, rtl=not args.no_rtl,
+                       labels=labels)
     print(report["summary"])
     print(f"wrote {out}/report.md, report.json and {len(report['files'])} files")
     return 1 if rtl_failed(report["rtl"]) else 0
+
+
+def dry_run(scene, out, args, labels):
+    """``--dry-run``: the configuration report.md would start with, and the memory
+    estimate; exit status 2 (one line) when the run would be refused, else 0."""
+    from tdicam.run import report as scenereport
+    from tdicam.run.runner import memory_check
+    from tdicam.threads import threads
+    threads()
+    est = memory_check(scene, fidelity=args.fidelity, force=args.force,
+                       impact=not args.no_impact, rtl=not args.no_rtl, labels=labels)
+    conf = scenereport.configuration(scene, None, None, args.fidelity or scene.run.fidelity,
+                                     None, memory=est)
+    print(f"{scene.source}: dry run, nothing written (the run would write into {out})")
+    print("\n".join(line.replace("**", "").replace(", used ", ", will use ")
+                    for line in scenereport.config_lines(conf)[2:] if line))
+    if scene.run.rtl is not None and not args.no_rtl:
+        print("* [run.rtl]: the RTL co-simulation's simulator runs in processes of its own "
+              "(not in the estimate; its input is)")
+    return 0
 
 
 def rtl_failed(rtl) -> bool:

@@ -22,13 +22,15 @@ import numpy as np
 
 from tdicam import blocks as _blocks
 from tdicam.errors import TdicamError
-from tdicam.files import check_dir, check_file, write_file
+from tdicam.files import check_dir, check_file, read_bytes, write_file
 from tdicam.paths import GOLDEN, REPO
 
 __all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
            "write_npz", "PARAMS_KEY"]
 
 MANIFEST = "manifest.json"
+#: Largest golden file read (the bundled ones are a few KiB).
+MAX_GOLDEN_BYTES = 256 << 20
 PARAMS_KEY = "__params__"
 
 
@@ -65,8 +67,9 @@ def _read_npz(path):
     rel = _rel(path)
     if not path.exists():
         raise TdicamError(f"{rel}: golden file is missing (run 'tdicam golden regen')")
+    data = read_bytes(path, "golden file", MAX_GOLDEN_BYTES)
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
     except Exception as exc:  # zipfile, numpy format and OS errors all mean "corrupt"
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

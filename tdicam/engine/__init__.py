@@ -74,11 +74,10 @@ from tdicam.scene.loader import digital_tdi_limits_error
 from tdicam.engine import exact as _exact, fast as _fast
 from tdicam.engine.context import Context, EffectRecord, decide
 from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
-from tdicam.engine.fast import RAW_LINES
 from tdicam.engine.streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
-           "SceneResult", "Context", "simulate", "threads", "RAW_LINES",
+           "SceneResult", "Context", "simulate", "check_point", "threads",
            "MOMENTS_BELOW_DITHER"]
 
 EFFECT_LABELS = {e.name: e.label for e in EFFECTS}
@@ -87,6 +86,10 @@ _IMPACT_LINES = 32
 #: at 0.03 cycles/px already, and the kernel's cost grows as sigma^2 (sigma 160 px: seconds
 #: per 64 lines; 1e6 px: hours).
 MAX_PSF_SIGMA_PX = 64.0
+#: Largest cross-track image motion per line period (``(1 - dV/V) tan(drift)``, pixels) on a
+#: target that varies across track: the motion kernel and the render grid grow with it
+#: (drift 89.99 degrees, 5,730 px per line: hours for 16 lines of 32 columns).
+MAX_CROSS_MOTION_PX = 64.0
 _IMPACT_COLS = 256
 
 
@@ -195,6 +198,40 @@ def _run_pass(c, lines, col0, ncols, timer, progress=None, keep_crop=None):
     return _exact.digital(c, p) if c.digital else _exact.charge(c, p)
 
 
+def check_point(scene, m, dv, fid, force=(), disable=()):
+    """Refuse, in one line, a sweep point the simulator cannot run: an unknown fidelity or
+    effect, more stages than sensor rows or than the digital TDI takes, a PSF wider than
+    :data:`MAX_PSF_SIGMA_PX`, more cross-track motion than :data:`MAX_CROSS_MOTION_PX`. Cheap: :func:`tdicam.run.runner.run_scene` checks every point
+    before any work."""
+    if fid not in ("exact", "fast", "auto"):
+        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: exact, fast, auto")
+    for name in list(force) + list(disable):
+        if name not in EFFECT_NAMES:
+            raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
+    if _LINE_BLOCK in disable:
+        raise TdicamError(f"disable {_LINE_BLOCK}: the TDI sum is what the camera outputs; it "
+                          f"cannot be left out")
+    if m > scene.sensor.rows:
+        raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
+                          f"got {m}")
+    why = digital_tdi_limits_error(scene, m)
+    if why is not None:
+        raise TdicamError(f"[tdi].{why}" if why.startswith("stages") else f"[sensor].{why}")
+    cross = abs((1.0 - dv) * math.tan(math.radians(scene.motion.drift_deg)))
+    if cross > MAX_CROSS_MOTION_PX and "x" in _targets.make_target(
+            scene.target, columns=scene.sensor.columns, lines=1).axes:
+        raise TdicamError(f"[motion].drift_deg = {scene.motion.drift_deg:g} moves the image "
+                          f"{cross:.4g} px across track per line; the scene simulator renders "
+                          f"at most {MAX_CROSS_MOTION_PX:g} px (drift up to "
+                          f"{math.degrees(math.atan(MAX_CROSS_MOTION_PX / (1.0 - dv))):.4g} "
+                          f"degrees at dV/V = {dv:g}) on a target that varies across track")
+    sigma = scene.optics.psf_sigma_px
+    if sigma > MAX_PSF_SIGMA_PX:
+        raise TdicamError(f"[optics].psf_sigma_px: must be <= {MAX_PSF_SIGMA_PX:g} px for "
+                          f"the scene simulator (its Gaussian kernel spans 8 sigma on a grid "
+                          f"of up to 16 samples per pixel), got {sigma:g}")
+
+
 def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), disable=(),
              lines=None, impact=True, progress=None, keep_crop=None, keep_raw=False):
     """Simulate one configuration of ``scene``.
@@ -233,25 +270,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     m = int(scene.tdi.stages[0] if stages is None else stages)
     dv = float(scene.motion.dv_over_v[0] if dv_over_v is None else dv_over_v)
     fid = scene.run.fidelity if fidelity is None else fidelity
-    if fid not in ("exact", "fast", "auto"):
-        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: exact, fast, auto")
-    for name in list(force) + list(disable):
-        if name not in EFFECT_NAMES:
-            raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
-    if _LINE_BLOCK in disable:
-        raise TdicamError(f"disable {_LINE_BLOCK}: the TDI sum is what the camera outputs; it "
-                          f"cannot be left out")
-    if m > scene.sensor.rows:
-        raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
-                          f"got {m}")
-    why = digital_tdi_limits_error(scene, m)
-    if why is not None:
-        raise TdicamError(f"[tdi].{why}" if why.startswith("stages") else f"[sensor].{why}")
-    sigma = scene.optics.psf_sigma_px
-    if sigma > MAX_PSF_SIGMA_PX:
-        raise TdicamError(f"[optics].psf_sigma_px: must be <= {MAX_PSF_SIGMA_PX:g} px for "
-                          f"the scene simulator (its Gaussian kernel spans 8 sigma on a grid "
-                          f"of up to 16 samples per pixel), got {sigma:g}")
+    check_point(scene, m, dv, fid, force, disable)
     n_lines = int(scene.run.lines if lines is None else lines)
     c = decide(scene, m, dv, fid, force, disable)
     c.keep_raw = bool(keep_raw)

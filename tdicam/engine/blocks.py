@@ -177,9 +177,13 @@ def _nand_roundtrip(c, ch, fmt, gain, offset):
     shape = np.shape(gain)
     g2 = np.asarray(gain, np.int64).reshape(-1, shape[-1])
     o2 = np.asarray(offset, np.int64).reshape(-1, shape[-1])
-    g, off, res = _nand.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
-                                        p_single=o.flip_single, p_double=o.flip_double,
-                                        seed=o.seed + ch)
+    try:
+        g, off, res = _nand.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
+                                            p_single=o.flip_single, p_double=o.flip_double,
+                                            seed=o.seed + ch)
+    except TdicamError as exc:
+        raise TdicamError(f"[pipeline.nuc] flash = 'nand', bad_blocks = {o.bad_blocks}: "
+                          f"{exc}") from None
     if ch not in c.flash:
         img = res.image
         c.flash[ch] = {"channel": ch, "pixels": int(g2.size), "words": int(res.words),

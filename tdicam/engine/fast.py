@@ -7,8 +7,8 @@ the table run in order — shot noise (Normal of the summed variance, Poisson wh
 mean is small), full well (charge domain), read noise (summed variance), quantization (one
 rounding plus ``Normal((n - 1)/12)``) — or, where the noise does not dither the ADC,
 :func:`moment_sum` draws the sum of the roundings with their exact moments. The raw single
-exposure of the first :data:`RAW_LINES` lines is drawn exactly
-(stage 0, :func:`tdicam.engine.exact.expose` / ``convert``).
+exposure of every output line is drawn exactly with its chunk (stage 0,
+:func:`tdicam.engine.exact.expose` / ``convert``).
 """
 
 from __future__ import annotations
@@ -24,11 +24,8 @@ from tdicam.engine.blocks import Frames, subtract_reset
 from tdicam.engine.exact import Exposure, convert, expose
 from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks
 
-__all__ = ["RAW_LINES", "Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
+__all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
            "moment_sum", "integer_draw"]
-
-#: In fast fidelity the raw single exposure covers at most this many ground lines.
-RAW_LINES = 256
 
 
 @dataclass
@@ -109,14 +106,14 @@ def path(c, p):
     S, gain_map, dark_map = c.signal_e, p.pattern.gain, p.pattern.dark
     k = c.gains[0] / sen.conversion_gain_e_per_dn
     n_conv = c.n_reads * (m if digital else 1)        # conversions summed per output pixel
-    gauss_min = 1.0 / (4.0 * c.scene.run.tolerance ** 2)
+    tol = c.scene.run.tolerance
+    gauss_min = 0.25 / tol / tol          # inf (all Poisson) for a tolerance below ~1e-154
     r_rows = [c.stage_row(s) for s in range(m)]
     gsum = gain_map[r_rows].sum(axis=0) if not moving else None
     dsum = dark_map.sum(axis=0)
     out = np.empty((lines, ncols), np.int64)
-    n_raw = min(lines, RAW_LINES)
-    raw = np.empty((n_raw, ncols), np.int64)
-    single = np.empty((n_raw, ncols), np.int64)
+    raw = np.empty((lines, ncols), np.int64)
+    single = np.empty((lines, ncols), np.int64)
     chunk = max(1, min(lines, BLOCK_PIXELS // max(ncols, 1)))
     ped = c.offset_dn if not c.resets else 0.0
     pedm = ped * (m if digital else 1)
@@ -180,12 +177,8 @@ def path(c, p):
             for step in steps:
                 step(c, a)
             dt["shot_noise"] = time.perf_counter() - t
-        # the raw exposure of the first RAW_LINES ground lines: stage 0 alone, exact
-        if lo >= n_raw:
-            return dt
+        # the raw exposure of these ground lines: stage 0 alone, exact
         t = time.perf_counter()
-        hi = min(hi, n_raw)
-        first = first[:hi - lo]
         lam1 = np.broadcast_to((S * first) * gain_map[r0] + dark_map[r0], (hi - lo, ncols))
         rst1 = [np.empty((hi - lo, ncols), np.int64)] if c.resets else None
         x = Exposure(c1, lam1, [raw[lo:hi]], rst1, block=(c.seed, 0, ci),

@@ -185,11 +185,23 @@ def measure(scene, res):
                     f"below {MIN_MODULATION_SNR:g}x its noise ({amp_sd:.3g} DN RMS)")
         else:
             mtf_fit = amp / mean / mod_in
-            if tgt.profile != "sine":
-                lo, hi = float(prof.min()) - res.pedestal_output, float(prof.max()) \
-                    - res.pedestal_output
-                if hi + lo > 0 and lo >= 0:
-                    ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
+        ctf_note = None
+        if note is None and tgt.profile != "sine":
+            # min and max of n single samples: their noise is the per-sample noise times
+            # ~sqrt(2 ln n) (the extreme of n Normal draws), not the fitted amplitude's
+            n_prof = max(len(prof), 2)
+            sd_sample = amp_sd * math.sqrt(n_prof / 2.0) * math.sqrt(2.0 * math.log(n_prof))
+            lo, hi = float(prof.min()) - res.pedestal_output, float(prof.max()) \
+                - res.pedestal_output
+            if amp < MIN_MODULATION_SNR * sd_sample:
+                ctf_note = (f"(pi/4) CTF not measurable: the modulation at the bar frequency "
+                            f"({amp:.3g} DN) is below {MIN_MODULATION_SNR:g}x the noise of "
+                            f"the minimum and maximum of the {n_prof} profile samples it "
+                            f"takes ({sd_sample:.3g} DN)")
+            elif hi + lo > 0 and lo >= 0:
+                ctf_mtf = (math.pi / 4) * ((hi - lo) / (hi + lo)) / c
+        above = _above_one(scene, mtf_fit, amp_sd / mean / mod_in if mean > 0 else 0.0,
+                           ctf_mtf)
         plan = mtf_prediction(scene, m, res.dv_over_v, f) if along else None
         exact = float(abs(g.mtf_along(f) if along else g.mtf_cross(f)))
         out["mtf"] = {
@@ -202,6 +214,30 @@ def measure(scene, res):
             "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
             "saturated": saturated, "saturation_e": cap,
         }
-        if note is not None:
-            out["mtf"]["note"] = note
+        notes = [n for n in (note, ctf_note, above) if n is not None]
+        if notes:
+            out["mtf"]["note"] = "; ".join(notes)
     return out
+
+
+def _above_one(scene, mtf_fit, mtf_sd, ctf):
+    """Why a measured MTF or (pi/4) CTF above 1 is one, or None when neither is: within
+    the noise of the measurement, or the median3 block's edge enhancement (a sharpening
+    filter); the (pi/4) CTF equals the MTF only for a square-wave response whose harmonics
+    the system passes in the ratio of the fundamental."""
+    why = []
+    if mtf_fit is not None and mtf_fit > 1.0:
+        if mtf_fit - 1.0 <= MIN_MODULATION_SNR * mtf_sd:
+            why.append(f"measured MTF {mtf_fit:.3f} > 1 is within the noise of the fit "
+                       f"({MIN_MODULATION_SNR:g} x {mtf_sd:.3g})")
+        elif "median3" in scene.pipeline.blocks and scene.pipeline.median3.edge_enhance:
+            why.append(f"measured MTF {mtf_fit:.3f} > 1: the median3 block's edge "
+                       f"enhancement sharpens the bars")
+        else:
+            why.append(f"measured MTF {mtf_fit:.3f} > 1 by more than the noise of the fit "
+                       f"({mtf_sd:.3g}): a pipeline block amplifies the bar frequency")
+    if ctf is not None and ctf > 1.0:
+        why.append(f"(pi/4) CTF {ctf:.3f} > 1: the min/max estimate assumes the square "
+                   f"wave's harmonics pass like its fundamental; the fitted MTF is the "
+                   f"measurement")
+    return "; ".join(why) or None

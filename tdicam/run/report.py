@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-__all__ = ["configuration", "summary", "markdown", "FILE_NOTES", "PAPERS"]
+__all__ = ["configuration", "config_lines", "summary", "markdown", "FILE_NOTES", "PAPERS"]
 
 #: The papers the model follows, as cited in the report (short name -> citation).
 PAPERS = {
@@ -73,10 +73,15 @@ def _fmt(v, f=".3g"):
     return format(v, f)
 
 
-def configuration(scene, main, rows, fidelity_requested, tiff_shift):
+def configuration(scene, main, rows, fidelity_requested, tiff_shift, memory=None, lines=None):
     """What was simulated, as one dict: platform, ground (or surface) speed, line period,
     the full-frame rate the sensor needs for the window (Qu et al. 2010 eqs 6-9), the
-    window, stages, mismatch, fidelity requested and used, bit widths."""
+    window, stages, mismatch, fidelity requested and used, bit widths, and the memory
+    estimate (``memory``, a :class:`~tdicam.engine.budget.MemoryEstimate`).
+
+    Before a run (``tdicam run --dry-run``) ``main`` and ``rows`` are None: the fidelity
+    used is the estimate's per point, ``lines`` the lines to simulate, the output width is
+    not known yet (None)."""
     from tdicam.model.physics import plan as _plan
     s = scene.sensor
     t_line = scene.line_period_s
@@ -100,18 +105,24 @@ def configuration(scene, main, rows, fidelity_requested, tiff_shift):
         "window": {"columns": s.columns, "rows": m_max,
                    "m0": None if timing is None else timing.m0},
         "stages": list(scene.tdi.stages), "tdi_domain": scene.tdi.domain,
-        "dv_over_v": list(scene.motion.dv_over_v), "lines": int(main.output.shape[0]),
+        "dv_over_v": list(scene.motion.dv_over_v),
+        "lines": int(main.output.shape[0]) if main is not None
+        else int(scene.run.lines if lines is None else lines),
         "pipeline": list(scene.pipeline.blocks),
         "fidelity_requested": fidelity_requested,
-        "fidelity_used": sorted({r["fidelity"] for r in rows}),
+        "fidelity_used": sorted({r["fidelity"] for r in rows}) if rows is not None
+        else sorted(set((memory.fidelity if memory is not None else {}).values())),
         "tolerance": scene.run.tolerance,
-        "output_full_scale_dn": int(main.output_full_scale),
-        "output_bits": max(1, int(main.output_full_scale).bit_length()),
+        "output_full_scale_dn": None if main is None else int(main.output_full_scale),
+        "output_bits": None if main is None
+        else max(1, int(main.output_full_scale).bit_length()),
         "tiff_shift": tiff_shift,
+        "memory": None if memory is None else memory.to_dict(),
     }
 
 
-def _config_md(c):
+def config_lines(c):
+    """The configuration section of report.md (Markdown lines) from :func:`configuration`."""
     p = c["platform"]
     if p["kind"] == "orbit":
         plat = (f"orbit at {p['altitude_km']:g} km, GSD {p['gsd_m']:g} m: ground speed "
@@ -140,9 +151,18 @@ def _config_md(c):
         f"* pipeline: {' -> '.join(c['pipeline'])}",
         f"* fidelity: requested **{c['fidelity_requested']}**, used "
         f"**{', '.join(c['fidelity_used'])}** (tolerance {c['tolerance']:g})",
-        f"* output: {c['output_bits']} bits (full scale {c['output_full_scale_dn']} DN)"
-        + (f"; tdi.tif is shifted right by {c['tiff_shift']} bits" if c["tiff_shift"] else ""),
+        *([f"* output: {c['output_bits']} bits (full scale {c['output_full_scale_dn']} DN)"
+           + (f"; tdi.tif is shifted right by {c['tiff_shift']} bits" if c["tiff_shift"]
+              else "")] if c["output_bits"] is not None else []),
+        *([_memory_md(c["memory"])] if c.get("memory") else []),
         ""]
+
+
+def _memory_md(mem):
+    avail = mem.get("available")
+    return (f"* memory: estimated peak **{mem['estimated_peak']}** (resident, estimated from "
+            f"the scene before the run)"
+            + (f"; {avail} available" if avail else "; available memory unknown"))
 
 
 _GUIDE = [
@@ -224,7 +244,7 @@ def markdown(scene, rep):
     """The text of ``report.md``: configuration first, how to read it, then the tables."""
     sp = rep["speed"]
     md = [f"# tdicam run: {Path(scene.source).name}", ""]
-    md += _config_md(rep["configuration"]) + _GUIDE
+    md += config_lines(rep["configuration"]) + _GUIDE
     md.append(f"Fidelity requested: **{rep['fidelity_requested']}**; effects table for "
               f"stages = {rep['effects_config']['stages']}, dV/V = "
               f"{rep['effects_config']['dv_over_v']:g} ({rep['effects_config']['fidelity']}).")
@@ -319,8 +339,10 @@ def markdown(scene, rep):
               if sp.get("exposure_pixels_per_cpu_s") else "") + ".", ""]
     if rep["rtl"]:
         md += ["## RTL co-simulation", "",
-               f"Simulator {rep['rtl']['simulator']}, crop (y0, h, x0, w) = "
-               f"{rep['rtl']['crop']}.", "", "| block | status | pixels compared | mismatches |",
+               f"Simulator {rep['rtl']['simulator']}, "
+               + ("the whole output." if rep['rtl']['crop'] is None else
+                  f"[run.rtl].crop [x0, y0, width, height] = {rep['rtl']['crop']}."),
+               "", "| block | status | pixels compared | mismatches |",
                "|---|---|---|---|"]
         for b in rep["rtl"]["blocks"]:
             md.append(f"| {b['block']} | {b.get('status')} | {b.get('pixels_compared', '-')} | "

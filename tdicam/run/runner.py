@@ -42,7 +42,7 @@ import numpy as np
 from tdicam import files as outputs
 from tdicam.run import report as scenereport
 
-__all__ = ["run_scene", "main_tiff_shift", "strict_json"]
+__all__ = ["run_scene", "memory_check", "main_tiff_shift", "strict_json"]
 
 
 def _progress_bar(total, desc):
@@ -57,14 +57,47 @@ def _progress_bar(total, desc):
 
 
 def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
-              progress=True):
+              progress=True, labels=None):
     """Simulate every sweep point of ``scene``, write images, figures and reports.
+
+    Before any work the run's peak memory is estimated
+    (:func:`tdicam.engine.budget.estimate`) and a run that cannot fit the memory available
+    is refused; every point is checked (:func:`tdicam.engine.check_point`) and
+    ``TDICAM_THREADS`` read. The files are written into a staging folder and moved to
+    ``out_dir`` at the end (:func:`tdicam.files.staged_dir`): a run refused or failed at
+    any point leaves ``out_dir`` as it was. ``labels`` names overridden keys in messages as
+    the user wrote them (``{"run.lines": "--lines"}``).
 
     Returns the report dict (also written as ``report.json``).
     """
     from tdicam import engine
+    engine.threads()
+    mem = memory_check(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
+                       rtl=rtl, labels=labels)
+    with outputs.staged_dir(out_dir) as stage:
+        report = _run(scene, Path(out_dir), stage, mem, fidelity=fidelity, lines=lines,
+                      force=force, impact=impact, rtl=rtl, progress=progress)
+    for name in report["stale_files"]["removed"]:
+        (Path(out_dir) / name).unlink(missing_ok=True)
+    return report
+
+
+def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
+                 labels=None):
+    """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
+    a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
+    what there is, what to change)."""
+    from tdicam.engine import budget
+    est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
+                          rtl=rtl)
+    return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)
+
+
+def _run(scene, out_dir, stage, mem, *, fidelity, lines, force, impact, rtl, progress):
+    """The work of :func:`run_scene`, its files written into ``stage``."""
+    from tdicam import engine
     from tdicam.run.measure import measure
-    out_dir = outputs.check_dir(out_dir)
+    final_dir, out_dir = out_dir, stage
     n_lines = int(scene.run.lines if lines is None else lines)
     stages = scene.tdi.stages
     dvs = scene.motion.dv_over_v
@@ -72,7 +105,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
     m_show = max(stages)
     total = sum((n_lines + m - 1) * m * scene.sensor.columns for m, _ in points)
     bar = _progress_bar(total, Path(scene.source).stem) if progress else None
-    results, rows = {}, []
+    main, rows = None, []
     t_all = time.perf_counter()
     crop = None
     if rtl and scene.run.rtl is not None:
@@ -93,12 +126,13 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
             if res.flash is not None:
                 meas["nand"] = res.flash
             rows.append(meas)
-            results[(m, dv)] = res
+            if show:
+                main = res       # only the images of the main point are kept
+            del res
     finally:
         if bar is not None:
             bar.close()
-    main = results[(m_show, dvs[0])]
-    previous = _previous_files(out_dir)
+    previous = _previous_files(final_dir)
     with outputs.writing_in(out_dir):
         files = _write_images(out_dir, main)
         files += _figures(out_dir, scene, rows, main)
@@ -109,12 +143,13 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
         wave = (rtl_report or {}).get("waveform")
         if wave and Path(wave).parent.resolve() == out_dir.resolve():
             files.append(Path(wave).name)
+        rtl_report = _moved(rtl_report, str(out_dir), str(final_dir))
     real_time = 1.0 / scene.line_period_s
     requested = fidelity or scene.run.fidelity
     report = {
         "scene": scene.source,
         "configuration": scenereport.configuration(scene, main, rows, requested,
-                                                   main_tiff_shift(main)),
+                                                   main_tiff_shift(main), memory=mem),
         "scene_settings": scene.to_dict(),
         "fidelity_requested": requested,
         "effects": [e.to_dict() for e in main.effects],
@@ -136,7 +171,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
         "wall_seconds": time.perf_counter() - t_all,
         "files": files,
         "tiff_shift": main_tiff_shift(main),
-        "stale_files": _clear_stale(out_dir, previous, files),
+        "stale_files": _stale(final_dir, previous, files),
     }
     report["summary"] = scenereport.summary(scene, report)
     report = strict_json(report)
@@ -162,19 +197,30 @@ def _previous_files(out_dir):
     return {n for n in names if n and Path(n).name == n and n not in (".", "..")}
 
 
-def _clear_stale(out_dir, previous, files):
-    """Remove what the earlier run wrote and this one did not; list the rest of the
-    folder's files (not tdicam's: left alone)."""
-    removed = []
-    for name in sorted((previous or set()) - set(files) - set(_REPORTS)):
-        path = out_dir / name
-        if path.is_file():
-            path.unlink()
-            removed.append(name)
-    keep = set(files) | set(_REPORTS)
+def _stale(out_dir, previous, files):
+    """What the earlier run wrote and this one does not (``removed``: :func:`run_scene`
+    removes them once the new files are in place), and the rest of the folder's files
+    (``other``: not tdicam's, left alone)."""
+    if not out_dir.is_dir():
+        return {"removed": [], "other": []}
+    removed = [name for name in sorted((previous or set()) - set(files) - set(_REPORTS))
+               if (out_dir / name).is_file()]
+    keep = set(files) | set(_REPORTS) | set(removed)
     other = sorted(p.name + ("/" if p.is_dir() else "") for p in out_dir.iterdir()
-                   if p.name not in keep)
+                   if p.name not in keep and not p.name.startswith(".tdicam-staging-"))
     return {"removed": removed, "other": other}
+
+
+def _moved(v, old, new):
+    """``v`` (a report part) with the staging folder's path ``old`` replaced by ``new`` in
+    its strings."""
+    if isinstance(v, str):
+        return v.replace(old, new)
+    if isinstance(v, dict):
+        return {k: _moved(x, old, new) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_moved(x, old, new) for x in v]
+    return v
 
 
 def _loadavg():

@@ -238,7 +238,8 @@ def _probes():
     turn = {"turntable": {"angular_speed_rad_s": 0.1, "distance_m": 1.0}}
     out = []
     for bits, extra in ((12, {}), (14, {"full_well_e": 30000.0, "pixel_clock_mhz": 400.0})):
-        sensor = {"bits": bits, "gains": [4.0, 1.0], **extra}
+        # two gains where the hdr merge's output still fits TDI's pixels (<= 14 bits)
+        sensor = {"bits": bits, "gains": [2.0, 1.0] if bits <= 12 else [1.0], **extra}
         listed = _registry.scene_blocks()
         full = {"blocks": [b.name for b in listed],
                 **{b.name: dict(b.pipeline.options.probe) for b in listed

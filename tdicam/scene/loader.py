@@ -633,6 +633,9 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
                 sec.fail("path", f"must be a PNG or TIFF file (.png, .tif, .tiff), got {raw!r}")
             if path.is_dir():
                 sec.fail("path", f"{str(path)!r} is a folder, not an image file")
+            if path.exists() and not path.is_file():
+                sec.fail("path", f"{str(path)!r} is not a regular file (a device or a pipe), "
+                                 f"not an image file")
             if not path.is_file():
                 sec.fail("path", f"file not found: {str(path)!r}")
             fields["path"] = path.resolve()
@@ -788,7 +791,7 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                 r.fail("crop", f"needs x0, y0 >= 0 and width, height >= 1, got {_show(crop)}")
             if x0 + w > sensor.columns or y0 + h > lines:
                 r.fail("crop", f"must lie inside the {sensor.columns} x {lines} output "
-                               f"([sensor].columns x [run].lines), got {_show(crop)}")
+                               f"([sensor].columns x {sec.label('lines')}), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
         if ppc != 1:
@@ -845,6 +848,21 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
     if not hdr and not lo <= scene.sensor.bits <= hi:
         return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
                 f"got {scene.sensor.bits}")
+    blocks = list(scene.pipeline.blocks)
+    if hdr and "tdi" in blocks and blocks.index("hdr") < blocks.index("tdi"):
+        # the merge widens the pixels by the gain ratio: TDI must take what it gives
+        from tdicam.model import hdr as _hdr_model
+        h, g = scene.pipeline.hdr, scene.sensor.gains
+        try:
+            out = _hdr_model.hdr_config(
+                pixel_bits=scene.sensor.bits, threshold=h.threshold_dn, band=h.band_dn,
+                gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits).out_bits
+        except TdicamError as exc:
+            return f"gains: {list(g)} for the hdr merge: {exc}"
+        if not lo <= out <= hi:
+            return (f"gains: {list(g)} with [sensor].bits = {scene.sensor.bits}: the hdr "
+                    f"merge gives {out}-bit pixels and digital TDI takes {lo}..{hi}-bit "
+                    f"pixels (lower the gain ratio or the bits)")
     return None
 
 
@@ -964,7 +982,7 @@ def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None
                               f"memory; simulate at most {MAX_OUTPUT_PIXELS // cols} lines")
     t = scene.target
     if t.kind == "bars":
-        extent, what = ((lines, "[run].lines") if t.direction == "along_track"
+        extent, what = ((lines, run_sec.label("lines")) if t.direction == "along_track"
                         else (cols, "[sensor].columns"))
         if t.period_px > extent / 2:
             target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "
@@ -987,18 +1005,14 @@ def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
 
 def read_toml(path, what):
     """The TOML file ``path`` as a dict, or a one-line :class:`TdicamError` naming ``what``
-    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, not UTF-8 text,
-    invalid TOML."""
+    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, larger than
+    :data:`tdicam.files.MAX_TOML_BYTES` (an endless file such as ``/dev/zero``), not UTF-8
+    text, invalid TOML. A UTF-8 byte-order mark (which some editors write) is accepted."""
+    from tdicam.files import MAX_TOML_BYTES, read_bytes
     p = Path(path)
+    data = read_bytes(p, what, MAX_TOML_BYTES)
     try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise TdicamError(f"{what} not found: {str(p)!r}") from None
-    except IsADirectoryError:
-        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
-    except OSError as exc:
-        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror}") from None
+        return tomllib.loads(data.decode("utf-8-sig"))
     except UnicodeDecodeError:
         raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
     except tomllib.TOMLDecodeError as exc:
