@@ -245,6 +245,14 @@ class Use:
     trim : int
         Pixels at each image edge whose statistics the block changes (its replicated
         borders), left out of flat-field measurements.
+    sharpens : callable(options) -> bool, or None
+        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
+        edge enhancement), said when a measured MTF exceeds 1.
+    scratch_bytes : float
+        Bytes per frame-stack element the block's golden model holds at its peak beyond its
+        input and output, on single exposures (the scene engine's memory estimate).
+    post_bytes : float
+        Bytes per output pixel at its peak when it runs on the TDI output.
     rank : int or None
         Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
         blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
@@ -266,6 +274,9 @@ class Use:
     placement: Callable | None = None
     spill: str | None = None
     trim: int = 0
+    sharpens: Callable | None = None
+    scratch_bytes: float = 0.0
+    post_bytes: float = 0.0
     rank: int | None = None
     options: Options | None = None
 

@@ -116,5 +116,6 @@ BLOCK = Block(
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
+                 scratch_bytes=14.0,
                  options=OPTIONS),
 )

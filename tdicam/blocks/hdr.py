@@ -275,5 +275,6 @@ BLOCK = Block(
     unstream=_unstream,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True, rank=3,
+                 scratch_bytes=22.0,
                  options=OPTIONS),
 )

@@ -282,5 +282,6 @@ BLOCK = Block(
     to_case=_to_case,
     fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
     example=_example,
-    pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS),
+    pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS,
+                 sharpens=lambda opts: opts.edge_enhance, post_bytes=190.0),
 )

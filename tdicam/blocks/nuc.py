@@ -278,5 +278,6 @@ BLOCK = Block(
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
-                 identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS),
+                 identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
+                 scratch_bytes=38.0),
 )

@@ -429,5 +429,6 @@ BLOCK = Block(
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,
+                 scratch_bytes=0.5,
                  options=OPTIONS),
 )

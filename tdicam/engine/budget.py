@@ -23,6 +23,7 @@ import resource
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 
 from tdicam.engine.context import decide
@@ -39,11 +40,6 @@ BASE_BYTES = 105 << 20
 _BASE_SIM_BYTES = 68 << 20
 #: scikit-image and its sample picture, loaded for a bundled-picture target.
 _SKIMAGE_BYTES = 16 << 20
-#: Bytes per frame-stack element at the peak of each golden block beyond the stacks
-#: themselves (measured with tracemalloc on the bundled chains).
-_BLOCK_BYTES = {"cds": 14.0, "nuc": 38.0, "hdr": 22.0, "median3_pre": 0.0, "tdi": 0.5}
-#: Bytes per output pixel of the golden 3x3 median on the TDI output (int64 in and out).
-_MEDIAN_POST_BYTES = 190.0
 #: Impact study crop (lines, columns): see ``tdicam.engine._IMPACT_LINES``/``_IMPACT_COLS``.
 _IMPACT = (32, 256)
 
@@ -110,10 +106,16 @@ def _pass_bytes(c, lines, ncols, axes, k):
         cols = kx * (ncols + abs(geo.line_shear) * n_f + 8)
         grid = 8.0 * rows * cols
     work = threads() * BLOCK_PIXELS * 8.0 * 6
-    coeff = max([_BLOCK_BYTES[b] for b in _BLOCK_BYTES if c.ran(b)] or [0.0])
+    # each block's figures are in its registry entry (Use.scratch_bytes, Use.post_bytes:
+    # measured with tracemalloc on the bundled chains); its engine step is the effect named
+    # after it, or <name>_pre / <name>_post for a block that may run on either side of TDI
+    listed = _registry.scene_blocks()
+    coeff = max([b.pipeline.scratch_bytes for b in listed
+                 if c.ran(b.name) or c.ran(f"{b.name}_pre")] or [0.0])
+    post_bytes = sum(b.pipeline.post_bytes for b in listed if c.ran(f"{b.name}_post"))
     render = stacks + 3 * grid + work
     blocks = stacks + grid + 8.0 * n + elems * coeff
-    post = held + grid + (_MEDIAN_POST_BYTES * n if c.ran("median3_post") else 0.0)
+    post = held + grid + post_bytes * n
     return max(render, blocks, post)
 
 

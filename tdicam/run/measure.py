@@ -226,12 +226,14 @@ def _above_one(scene, mtf_fit, mtf_sd, ctf):
     filter); the (pi/4) CTF equals the MTF only for a square-wave response whose harmonics
     the system passes in the ratio of the fundamental."""
     why = []
+    sharp = [b for b in scene.pipeline.blocks if _registry.get(b).pipeline.sharpens
+             and _registry.get(b).pipeline.sharpens(getattr(scene.pipeline, b))]
     if mtf_fit is not None and mtf_fit > 1.0:
         if mtf_fit - 1.0 <= MIN_MODULATION_SNR * mtf_sd:
             why.append(f"measured MTF {mtf_fit:.3f} > 1 is within the noise of the fit "
                        f"({MIN_MODULATION_SNR:g} x {mtf_sd:.3g})")
-        elif "median3" in scene.pipeline.blocks and scene.pipeline.median3.edge_enhance:
-            why.append(f"measured MTF {mtf_fit:.3f} > 1: the median3 block's edge "
+        elif sharp:
+            why.append(f"measured MTF {mtf_fit:.3f} > 1: the {sharp[0]} block's edge "
                        f"enhancement sharpens the bars")
         else:
             why.append(f"measured MTF {mtf_fit:.3f} > 1 by more than the noise of the fit "

@@ -142,6 +142,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from tdicam import blocks as _registry
+from tdicam.blocks import steps as _steps
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.physics import plan as _plan, targets as _targets
 
@@ -848,19 +849,19 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
     if not hdr and not lo <= scene.sensor.bits <= hi:
         return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
                 f"got {scene.sensor.bits}")
-    blocks = list(scene.pipeline.blocks)
-    if hdr and "tdi" in blocks and blocks.index("hdr") < blocks.index("tdi"):
-        # the merge widens the pixels by the gain ratio: TDI must take what it gives
-        from tdicam.model import hdr as _hdr_model
-        h, g = scene.pipeline.hdr, scene.sensor.gains
+    if hdr:
+        # the merge (before TDI: the order rules) widens the pixels by the gain ratio: TDI
+        # must take what it gives; the merge block's step says how wide
+        merge = next(b for b in scene.pipeline.blocks if _registry.get(b).pipeline.merge)
+        g = scene.sensor.gains
+        ctx = _steps.Context(scene=scene, m=stages, width=scene.sensor.columns, lines=0,
+                             bits=scene.sensor.bits, block=merge)
         try:
-            out = _hdr_model.hdr_config(
-                pixel_bits=scene.sensor.bits, threshold=h.threshold_dn, band=h.band_dn,
-                gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits).out_bits
+            _, out = _registry.get(merge).pipeline.step(ctx)
         except TdicamError as exc:
-            return f"gains: {list(g)} for the hdr merge: {exc}"
+            return f"gains: {list(g)} for the {merge} merge: {exc}"
         if not lo <= out <= hi:
-            return (f"gains: {list(g)} with [sensor].bits = {scene.sensor.bits}: the hdr "
+            return (f"gains: {list(g)} with [sensor].bits = {scene.sensor.bits}: the {merge} "
                     f"merge gives {out}-bit pixels and digital TDI takes {lo}..{hi}-bit "
                     f"pixels (lower the gain ratio or the bits)")
     return None
