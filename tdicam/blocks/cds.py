@@ -86,14 +86,15 @@ def _to_beats(arrays, params):
 
 
 def _ppc_cases():
-    """The cases at ppc 2, 4 and 8: random, hard values, a reset mid-row, the smallest
-    width (one beat per row) and 8-bit pixels at ppc 8."""
+    """The cases at ppc 2, 4 and 8: random, hard values (16-bit at ppc 8), a reset mid-row,
+    the smallest width (one beat per row) and 8-bit pixels at ppc 8."""
     out = []
     for k, ppc in enumerate((2, 4, 8)):
         p = {"pixel_bits": 12, "ppc": ppc}
+        bits = 16 if ppc == 8 else 12      # (one parameter set, one build, at ppc 2 and 4)
         out += [
             Case(f"random_12b_p{ppc}", p, _random(3, 16, 24), seed=20 + k),
-            Case(f"hard_16b_p{ppc}", {"pixel_bits": 16, "ppc": ppc}, _hard_wide,
+            Case(f"hard_{bits}b_p{ppc}", {"pixel_bits": bits, "ppc": ppc}, _hard_wide,
                  seed=30 + k, tags=("fullscale", "zeros")),
             Case(f"reset_mid_frame_12b_p{ppc}", p, _reset_beats, seed=40 + k,
                  tags=("reset",)),

@@ -160,14 +160,15 @@ def _saturate_wide(params, rng):
 
 
 def _ppc_cases():
-    """The cases at ppc 2, 4 and 8: random, identity, saturation, a reset mid-row, the
-    smallest width (one beat per row); the wide and narrow formats at ppc 8."""
+    """The cases at ppc 2, 4 and 8: random, identity (16-bit at ppc 8), saturation, a reset
+    mid-row, the smallest width (one beat per row); the wide and narrow formats at ppc 8."""
     out = []
     for k, ppc in enumerate((2, 4, 8)):
         p = {"ppc": ppc}
+        bits = 16 if ppc == 8 else 12      # (one parameter set, one build, at ppc 2 and 4)
         out += [
             Case(f"random_12b_p{ppc}", p, _random(3, 16, 24), seed=20 + k),
-            Case(f"identity_16b_p{ppc}", {"pixel_bits": 16, "ppc": ppc}, _identity,
+            Case(f"identity_{bits}b_p{ppc}", {"pixel_bits": bits, "ppc": ppc}, _identity,
                  seed=30 + k, tags=("identity", "zeros", "fullscale")),
             Case(f"saturate_12b_p{ppc}", p, _saturate_wide, seed=40 + k,
                  tags=("saturation", "fullscale", "zeros")),
