@@ -359,7 +359,8 @@ def _stream_export(blk, params, *, seed, idle, backpressure, max_beats):
     stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
     params = blk.resolve(params)
     d = stream_design(blk.name, blk.summary, block_rows(blk, params), params, top, stim, exp,
-                      cases=cases, seed=seed, idle=idle, backpressure=backpressure)
+                      cases=cases, seed=seed, idle=idle, backpressure=backpressure,
+                      rtl_header=header(blk.name, blk.recorded(params)))  # as tdicam verilog
     return d, cases, len(stim), len(exp)
 
 
@@ -433,7 +434,8 @@ def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpr
     params = blk.resolve(params)
     return design_files(stream_design(blk.name, blk.summary, block_rows(blk, params), params,
                                       top, stim, exp, cases=cases, seed=seed, idle=idle,
-                                      backpressure=backpressure))
+                                      backpressure=backpressure,
+                                      rtl_header=header(blk.name, blk.recorded(params))))
 
 
 #: Verilator arguments of a stand-alone (``--binary``) build of an exported testbench.
