@@ -22,33 +22,48 @@ class Hdr(wiring.Component):
     pixel_bits, threshold, band, gain_pairs, slope_frac_bits, lgt_frac_bits, anchor,
     count_bits, out_bits
         As :func:`tdicam.model.hdr.hdr` (same names, units and defaults).
+    ppc : int
+        Pixels per clock (per beat): 1, 2, 4 or 8 (default 1). The golden model does not
+        know it: the output equals :func:`~tdicam.model.hdr.hdr` at every ppc.
 
     Attributes
     ----------
-    i_stream : In(pixel stream)
-        ``data[0]`` = HG, ``data[1]`` = LG, ``pixel_bits`` each (tdata: HG in the low
-        element, LG in the next, each padded to whole bytes).
-    o_stream : Out(pixel stream)
-        ``data`` = merged pixel, ``out_bits`` wide, clamped; ``first``/``last`` pass through.
+    i_stream : In(pixel stream of ``2 * ppc`` x ``pixel_bits``)
+        Pixel-major pairs (as :func:`tdicam.beats.frames_to_beats` ``(ppc=, channels=2)``):
+        ``data[2k]`` = HG, ``data[2k + 1]`` = LG of pixel ``k`` of the beat (0 the
+        leftmost; tdata: HG of pixel 0 in the low element, its LG in the next, each padded
+        to whole bytes). A row is ``width / ppc`` beats (the width is not a parameter).
+    o_stream : Out(pixel stream of ``ppc`` x ``out_bits``)
+        ``data[k]`` = merged pixel ``k`` (a plain value at ppc 1), ``out_bits`` wide,
+        clamped; ``first``/``last`` pass through.
     gain_sel : In(sel_bits), only when ``gain_pairs`` has two or more pairs
-        Index of the programmed gain pair; sampled when a frame's first pixel (``first``) is
+        Index of the programmed gain pair; sampled when a frame's first beat (``first``) is
         accepted and used for that whole frame.
 
     Notes
     -----
     Pixel pipeline: four register stages (junction subtract, multiply, sum with rounding,
-    clamp/select) advancing together when the output register is empty or taken;
-    :attr:`latency` = 4
-    cycles, 1 pixel/clock.
+    clamp/select) per pixel lane (``ppc`` multipliers), advancing together when the output
+    register is empty or taken; :attr:`latency` = 4 cycles at every ``ppc`` (1, 2, 4, 8:
+    4, 4, 4, 4), ``ppc`` pixels/clock.
 
-    Band statistics are updated one cycle after a pixel is accepted (registered band
-    decision). Frame start: when a pixel with ``first`` is presented and the previous frame
-    had band pixels, ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles
-    while two restoring dividers (one quotient bit per cycle, ``pixel_bits + lgt_frac_bits``
-    bits) turn the band sums into ``L_T`` and ``H_T``; the pixel is then accepted with them.
-    Pixels of the previous frame still in the pipeline are unaffected (each carries its own
-    junction values). With an empty band there is no stall. Pixels before the first ``first`` after
-    reset are merged with the reset values and counted as a frame.
+    Band statistics are updated one cycle after a beat is accepted (registered band
+    decisions), adding the beat's band pixels in one step: pixel ``k`` counts when it is in
+    the band and the count, plus the band pixels before it in the beat, is below
+    ``2**count_bits - 1`` (the first band pixels in raster order, as the model). Frame
+    start: when a beat with ``first`` is presented and the previous frame had band pixels,
+    ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (the same at every
+    ``ppc``) while two restoring dividers (one quotient bit per cycle, ``pixel_bits +
+    lgt_frac_bits`` bits) turn the band sums into ``L_T`` and ``H_T``; the beat is then
+    accepted with them. Pixels of the previous frame still in the pipeline are unaffected
+    (each carries its own junction values). With an empty band there is no stall. Pixels
+    before the first ``first`` after reset are merged with the reset values and counted as
+    a frame.
+
+    Raises
+    ------
+    TdicamError
+        Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
 
     @quiet_reject

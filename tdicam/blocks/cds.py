@@ -132,7 +132,7 @@ BLOCK = Block(
     to_beats=_to_beats,
     stream="signal",
     side_inputs=(SideInput("reset", "pixel", "the pixel's reset sample (CDS reset frame), "
-                           "element 1 of each input beat"),),
+                           "element 2k + 1 of each input beat (pixel k's signal: 2k)"),),
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True),

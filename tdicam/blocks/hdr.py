@@ -314,8 +314,8 @@ BLOCK = Block(
     to_beats=_to_beats,
     stream="hg",
     side_inputs=(
-        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 1 of each "
-                  "input beat (the high-gain channel is the stream)"),
+        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 2k + 1 "
+                  "of each input beat for its pixel k (the high-gain channel, the stream: 2k)"),
         SideInput("gain_sel", "frame", "index of the frame's programmed gain pair "
                   "(--gain-pairs), on the gain_sel port with the frame's first pixel",
                   default=_zeros_per_frame),

@@ -265,10 +265,11 @@ BLOCK = Block(
     stream="x",
     side_inputs=(
         SideInput("gain", "pixel", "per-pixel unsigned gain code (gain_int_bits."
-                  "gain_frac_bits), element 1 of each input beat; in the camera read from "
+                  "gain_frac_bits), element 3k + 1 of each input beat for its pixel k (x: 3k); "
+                  "in the camera read from "
                   "the ECC-protected calibration image (block calib)"),
         SideInput("offset", "pixel", "per-pixel signed offset code (offset_bits, "
-                  "offset_frac_bits), element 2 of each input beat"),
+                  "offset_frac_bits), element 3k + 2 of each input beat"),
     ),
     golden=_golden,
     example=_example,
