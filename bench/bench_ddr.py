@@ -13,7 +13,7 @@ Table 3 (``--litedram``, needs the ``ddrref`` extra): the efficiency of every ac
 pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded command order
 (writer, reader, frame buffer, CDS reset frames at the line width and 4096 columns, TDI
 spill at 1280 and 4096 columns) on the project's memory model
-beside LiteDRAM's (:mod:`tdicam.ddrref`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
+beside LiteDRAM's (:mod:`tdicam.cosim.litedram`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
 timing checker on). LiteDRAM's simulation runs some tens of cycles per second: ``--lines``
 sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth),
 ``--patterns NAME,NAME`` replays only the patterns and blocks named (``--help`` lists them).
@@ -27,11 +27,11 @@ import time
 import numpy as np
 
 from tdicam import blocks, cosim
-from tdicam.benchutil import machine, print_table
+from tdicam.bench.util import machine, print_table
 from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
-from tdicam.ddrref import BLOCKS as DDR_BLOCKS
+from tdicam.cosim.litedram import BLOCKS as DDR_BLOCKS
 from tdicam.errors import TdicamError
 from tdicam.model.ddr import PATTERNS, LineLayout, pack_lines
 from tdicam.model.tdi import tdi_stream
@@ -113,7 +113,7 @@ def speed(sims=cosim.SIMULATORS, quick=False):
 
 def select(text):
     """(patterns, blocks) named in ``text``, comma-separated names of
-    :data:`tdicam.model.ddr.PATTERNS` and :data:`tdicam.ddrref.BLOCKS` in the order given;
+    :data:`tdicam.model.ddr.PATTERNS` and :data:`tdicam.cosim.litedram.BLOCKS` in the order given;
     (None, None), every one, for None. An unknown name is a one-line
     :class:`~tdicam.errors.TdicamError` naming the valid ones."""
     if text is None:
@@ -131,10 +131,10 @@ def litedram(lines=4, patterns=None, blocks=None):
     """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, planned, wall}:
     efficiency (%) of each access pattern (every one of :data:`PATTERNS` by default) and
     each DDR block's command order
-    (:data:`tdicam.ddrref.BLOCKS` by default) on the memory model with the plain stall
+    (:data:`tdicam.cosim.litedram.BLOCKS` by default) on the memory model with the plain stall
     pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is
     cycle-equal with it) and on LiteDRAM, and what the planner counts on for the block."""
-    from tdicam import ddrref
+    from tdicam.cosim import litedram as ddrref
     from tdicam.model.ddr import DramTiming, pattern_trace, replay_model
     rows, lines_of = [], {}
 
@@ -168,10 +168,10 @@ def litedram(lines=4, patterns=None, blocks=None):
 
 def write_fixture(path, rows, how):
     """Write the rows of :func:`litedram` as the fixture of tests/test_ddrref.py
-    (:func:`tdicam.ddrref.fixture`)."""
+    (:func:`tdicam.cosim.litedram.fixture`)."""
     import json
 
-    from tdicam import ddrref
+    from tdicam.cosim import litedram as ddrref
     pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2)}
             for r in rows if r["kind"] == "pattern"}
     blk = {r["what"]: r for r in rows if r["kind"] == "block"}

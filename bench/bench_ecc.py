@@ -16,7 +16,7 @@ import resource
 import numpy as np
 
 from tdicam import blocks, cosim
-from tdicam.benchutil import machine, median_time, print_table
+from tdicam.bench.util import machine, median_time, print_table
 from tdicam.blocks.secded_dec import dec_beats, sweep_codes
 from tdicam.blocks.secded_enc import enc_beats
 from tdicam.model import ecc

@@ -23,10 +23,9 @@ import time
 from pathlib import Path
 
 from tdicam import blocks
-from tdicam.benchutil import machine
+from tdicam.bench.util import machine
 from tdicam.cosim import compare, run_stream, tool_env
-from tdicam.export import (VERILATOR_BINARY_ARGS, export_block, golden_params,
-                           select_vectors)
+from tdicam.export.block import VERILATOR_BINARY_ARGS, export_block, golden_params, select_vectors
 
 DEFAULT = ["cds", "nuc", "hdr", "median3", "tdi:width=1280,stages=96,ppc=1"]
 
@@ -71,7 +70,7 @@ def _timed(cmd, cwd):
 
 def bench_own(arg, work):
     """Export ``lvds`` or ``pipeline=SCENE`` and run it under Icarus and Verilator."""
-    from tdicam.export_pipeline import export_pipeline
+    from tdicam.export.camera import export_pipeline
     t0 = time.perf_counter()
     if arg == "lvds":
         ex = export_block("lvds", {}, work / "lvds")

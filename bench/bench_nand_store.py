@@ -13,8 +13,7 @@ import time
 import numpy as np
 
 from tdicam.blocks.calib import random_codes
-from tdicam.model import calib
-from tdicam.model import nand_store as nand
+from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT
 
 SENSORS = (("1280 x 1024", 1024, 1280), ("GMAX0504 3800 x 5144 (19.5 Mpixel)", 3800, 5144),

@@ -6,7 +6,7 @@
 (``tdicam bench pipeline`` gives the same run as rows of the benchmark table.)
 
 The scene's raw frames (an exact run of the scene simulator) go through the generated top
-(:mod:`tdicam.pipeline`) without taps unless ``--taps``; the output is compared bit for bit
+(:mod:`tdicam.camera.design`) without taps unless ``--taps``; the output is compared bit for bit
 with the golden chain. Target (issue "the camera as one design"): >= 0.5 M input pixels/s
 through the whole chain of the orbit scene (351 frames x 96 x 1280 = 43 M input pixels),
 after the build (the build is timed apart; 0 s when cached under ``build/cosim``).
@@ -29,7 +29,7 @@ def main(argv=None):
     ap.add_argument("--taps", action="store_true", help="write every block's output too")
     args = ap.parse_args(argv)
 
-    from tdicam.benchpipe import TARGET_PX_S, pipeline_run
+    from tdicam.bench.camera import TARGET_PX_S, pipeline_run
 
     r = pipeline_run(args.scene, sim=args.sim, lines=args.lines, taps=args.taps)
     n_px, bad = r["input_pixels"], r["mismatches"]

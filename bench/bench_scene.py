@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam.benchutil import machine, print_table
+from tdicam.bench.util import machine, print_table
 from tdicam.engine import simulate
-from tdicam.scene import load_scene
+from tdicam.scene.loader import load_scene
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
 

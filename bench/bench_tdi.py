@@ -18,10 +18,10 @@ import time
 import numpy as np
 
 from tdicam import blocks, cosim
-from tdicam.benchutil import machine, median_time, print_table
+from tdicam.bench.util import machine, median_time, print_table
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats
-from tdicam.model.plan import orbit_line_period
+from tdicam.model.physics.plan import orbit_line_period
 from tdicam.model.tdi import tdi, tdi_basic, tdi_optimized, tdi_stream
 
 

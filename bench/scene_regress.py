@@ -146,7 +146,7 @@ def _dump_result(res, where):
 def dump(out):
     """Run every bundled scene in every variant and write the results under ``out``."""
     from tdicam.engine import FORCIBLE, simulate
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     out = Path(out)
     crop = (1, 4, 3, 9)
     for path in sorted((ROOT / "scenes").glob("*.toml")):

@@ -10,7 +10,8 @@ word, and the counters (carried on every pixel by the ``debug`` build) are right
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.calib import reader_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model import calib

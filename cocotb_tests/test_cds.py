@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
-from tdicam.cosim import WAVE_WINDOW
+from tdicam import blocks
 from tdicam.beats import mark_resets
+from tdicam.cosim import vectors as golden, WAVE_WINDOW
 from tdicam.cosim.codec import frames_to_beats
 from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.model.cds import cds

@@ -22,7 +22,8 @@ import os
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
@@ -149,7 +150,7 @@ def _wide_stream(seq, seed):
 
 
 def test_wide_spill_case_is_one_the_plan_spills():
-    from tdicam.model.plan import tdi_memory
+    from tdicam.model.physics.plan import tdi_memory
     mem = tdi_memory(4096, 32, 12, 1e-3, device="ecp5-25f")
     assert mem.must_spill and not tdi_memory(4096, 32, 12, 1e-3, device="ecp5-85f").must_spill
 
@@ -178,10 +179,10 @@ def test_wide_spill_icarus_short():
 def test_out_of_range_access_stops_the_stream():
     """A buffer whose lines run past the simulated memory: the model's sticky error blocks
     the input, so not every beat is accepted (the harness reports it)."""
-    from tdicam.hdl.axis import AxisTop
+    from tdicam.hdl.interfaces.axis import AxisTop
     from tdicam.hdl.ddr import DdrFrameBuffer
-    from tdicam.hdl.mig_model import SimTop
-    from tdicam.verilog import convert
+    from tdicam.hdl.simmodels.mig_model import SimTop
+    from tdicam.hw.verilog import convert
     core = DdrFrameBuffer(width=48, rows=4, elements=8)
     top = SimTop(core, depth_words=4)        # 4 words: line 1 is already outside
     text = convert(AxisTop(top), "ddr_oob")

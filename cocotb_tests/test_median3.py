@@ -12,7 +12,8 @@ import os
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.median3 import BUILDS, case_beats, stream_case
 from tdicam.cosim.codec import Beats
 from tdicam.cosim.testing import check_beats, check_case

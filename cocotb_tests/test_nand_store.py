@@ -17,11 +17,11 @@ import os
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.cosim.testing import check_beats, check_case
-from tdicam.model import calib
-from tdicam.model import nand_store as nand
+from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 FULL = os.environ.get("TDICAM_FULL") == "1"

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
 from tdicam.beats import mark_resets
+from tdicam.cosim import vectors as golden
 from tdicam.cosim.codec import frames_to_beats
 from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.model.nuc import DEFAULT_FORMAT, nuc

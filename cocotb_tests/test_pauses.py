@@ -1,5 +1,5 @@
 """One idle/backpressure pattern: the same seed stalls the stream at the same cycles in
-the Amaranth simulator, per-beat cocotb and the fast HDL engine (tdicam.pauses)."""
+the Amaranth simulator, per-beat cocotb and the fast HDL engine (tdicam.cosim.pauses)."""
 
 import numpy as np
 import pytest

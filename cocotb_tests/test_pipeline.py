@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam import pipeline as pl
+from tdicam.camera import design as pl
 from tdicam.commands.run import run_scene
-from tdicam.rtl import cosimulate, scene_data, WAVE_WINDOW
-from tdicam.scene import load_scene
+from tdicam.camera.cosim import cosimulate, scene_data, WAVE_WINDOW
+from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 FULL = os.environ.get("TDICAM_FULL") == "1"

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from tdicam import engine
-from tdicam.scenerun import run_scene
-from tdicam.rtl import cosim_scene
-from tdicam.scene import load_scene
+from tdicam.run.runner import run_scene
+from tdicam.camera.cosim import cosim_scene
+from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 CROP = [8, 2, 16, 6]                     # x0, y0, width, height of the output

@@ -20,7 +20,8 @@ import os
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim import stream_ports
 from tdicam.cosim.codec import Beats

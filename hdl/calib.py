@@ -10,9 +10,9 @@ from tdicam.errors import check_range
 from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, header_words,
                                 payload_words)
 from tdicam.model.nuc import NucFormat
-from .ecc import SecdedDecoder
-from .stream import channels_shape, pixel_signature
-from .util import quiet_reject
+from tdicam.hdl.ecc import SecdedDecoder
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CalibReader", "DEBUG_ELEMENTS"]
 

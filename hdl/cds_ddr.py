@@ -11,10 +11,10 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
-from .ddr import LineReader, LineWriter, _layout
-from .mig import MigPort, connect_mig, mig_user_ports
-from .stream import pixel_signature
-from .util import quiet_reject
+from tdicam.hdl.ddr import LineReader, LineWriter, _layout
+from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.interfaces.stream import pixel_signature
+from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CdsDdr"]
 
@@ -76,7 +76,7 @@ class CdsDdr(wiring.Component):
     pixel_bits = property(lambda self: self.layout.pixel_bits)
 
     def elaborate(self, platform):
-        from .cds import Cds
+        from tdicam.hdl.cds import Cds
         m = Module()
         lay = self.layout
         m.submodules.port = port = MigPort()

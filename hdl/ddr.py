@@ -12,9 +12,9 @@ Components
 * :class:`DdrFrameBuffer` — writer + reader through one port: a frame buffer of ``rows``
   lines, the output is the input after a trip through DDR.
 
-The other DDR modules: :mod:`tdicam.hdl.mig` (the controller's user interface and
-:class:`~tdicam.hdl.mig.MigPort`), :mod:`tdicam.hdl.mig_model` (the simulation-only
-controller :class:`~tdicam.hdl.mig_model.MigModel` and :class:`~tdicam.hdl.mig_model.SimTop`),
+The other DDR modules: :mod:`tdicam.hdl.interfaces.mig` (the controller's user interface and
+:class:`~tdicam.hdl.interfaces.mig.MigPort`), :mod:`tdicam.hdl.simmodels.mig_model` (the simulation-only
+controller :class:`~tdicam.hdl.simmodels.mig_model.MigModel` and :class:`~tdicam.hdl.simmodels.mig_model.SimTop`),
 :mod:`tdicam.hdl.cds_ddr` (CDS with the reset frame in DDR) and :mod:`tdicam.hdl.tdi_ddr`
 (TDI with its partial sums in DDR).
 """
@@ -27,9 +27,9 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.ddr import (ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout,
                               check_capacity)
-from .mig import MigPort, connect_mig, mig_user_ports
-from .stream import channels_shape, pixel_signature
-from .util import equals, mux_select, quiet_reject, saturating_increment
+from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import equals, mux_select, quiet_reject, saturating_increment
 
 __all__ = ["LineWriter", "LineReader", "DdrFrameBuffer"]
 
@@ -315,7 +315,7 @@ class DdrFrameBuffer(wiring.Component):
     one block; written words wait meanwhile in a :attr:`WRITE_BEHIND`-word FIFO (32 x 286
     bit = 9.2 kbit: address, line-end and frame-start flags, word), so the controller sees
     reads and writes in blocks of about a line, not interleaved word by word (a read/write
-    turnaround costs 6-8 controller cycles; :mod:`tdicam.ddrref` measures it: 84 % on
+    turnaround costs 6-8 controller cycles; :mod:`tdicam.cosim.litedram` measures it: 84 % on
     LiteDRAM for a 1280-pixel frame, 26 % by the DRAM model when interleaved). The input
     stalls when that FIFO fills.
     """

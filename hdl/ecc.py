@@ -9,7 +9,7 @@ combinational, or with one output register when ``registered=True`` (then :attr:
 is 1 and the outputs follow the inputs of the previous clock; the register has no reset).
 :class:`SecdedEncoderStream` and :class:`SecdedDecoderStream` put them on pixel streams
 (tdata = bytes) for the co-simulation harness and for stream designs. The formal proofs of
-the code and of these components: :mod:`tdicam.proofs.ecc`.
+the code and of these components: :mod:`tdicam.hw.proofs.ecc`.
 """
 
 from amaranth.hdl import Cat, Const, EnableInserter, Module, Signal
@@ -17,8 +17,8 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.model.ecc import CHECK_BITS, CODE_BITS, COLUMNS, DATA_BITS
-from .stream import channels_shape, pixel_signature
-from .util import equals
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import equals
 
 __all__ = ["SecdedEncoder", "SecdedDecoder", "SecdedEncoderStream", "SecdedDecoderStream",
            "DEC_OUT_BYTES"]

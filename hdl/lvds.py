@@ -26,7 +26,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
-from .util import quiet_reject
+from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
            "RUN_BITS"]

@@ -20,8 +20,8 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from .stream import pixel_signature
-from .util import equals, is_zero
+from tdicam.hdl.interfaces.stream import pixel_signature
+from tdicam.hdl.util import equals, is_zero
 
 __all__ = ["Median3", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]

@@ -34,11 +34,10 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_range
-from tdicam.model import calib as mcalib
-from tdicam.model import nand_store as mnand
-from .calib import DEBUG_ELEMENTS, CalibReader
-from .util import equals
-from .stream import channels_shape, pixel_signature
+from tdicam.model import calib as mcalib, nand_store as mnand
+from tdicam.hdl.calib import DEBUG_ELEMENTS, CalibReader
+from tdicam.hdl.util import equals
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
 __all__ = ["NandCalibStore", "NandDeviceSim", "NandCalibTop", "LOAD_PAGE", "LOAD_SLOT",
            "LOAD_MARKER", "LOAD_GO", "BUS_PORTS"]

@@ -13,9 +13,9 @@ from amaranth.lib.memory import Memory
 
 from tdicam.errors import TdicamError
 from tdicam.model.tdi import check_params, full_bits, out_width
-from tdicam.verilog import NO_INIT, NO_RW_CHECK
-from . import ecp5_bram
-from .tdi_control import TdiFrameControl, tdi_ports
+from tdicam.hdl.vendor import ecp5_bram
+from tdicam.hdl.util import NO_INIT, NO_RW_CHECK
+from tdicam.hdl.tdi_control import TdiFrameControl, tdi_ports
 
 __all__ = ["TdiAccumulator", "BRAMS"]
 
@@ -136,7 +136,7 @@ def _banks(acc, m, p, do_write, sum_word, ports):
 #: the generic one's and the function that makes it. ``generic``: one ``lib.memory``
 #: memory (every tool and simulator; vendor tools split it into their block RAMs);
 #: ``ecp5``: Lattice DP16KD banks at the packing limit with their output register in use and
-#: a fabric register after it (:mod:`tdicam.hdl.ecp5_bram`; what ``tdicam synth`` places
+#: a fabric register after it (:mod:`tdicam.hdl.vendor.ecp5_bram`; what ``tdicam synth`` places
 #: on the ECP5).
 BRAMS = {"generic": (0, _flat), "ecp5": (ecp5_bram.EXTRA_STAGES, _banks)}
 
@@ -161,7 +161,7 @@ class TdiAccumulator(wiring.Component):
         How the partial sums are stored (:data:`BRAMS`): ``generic`` (default), one
         ``lib.memory`` memory and three registers after its read port (every tool and
         simulator; what ``tdicam verilog`` writes); ``ecp5``, DP16KD banks at the packing
-        limit whose output register is the bank register (:func:`tdicam.hdl.ecp5_bram.bank`)
+        limit whose output register is the bank register (:func:`tdicam.hdl.vendor.ecp5_bram.bank`)
         followed by a fabric register and two OR levels: the same behaviour, one read stage
         more (:attr:`latency` 10, :attr:`row_cycles` at least 7).
 
@@ -210,13 +210,13 @@ class TdiAccumulator(wiring.Component):
     8), the packing floor being 126.
 
     *No read/write collisions used.* The memory (each bank) carries yosys' ``no_rw_check`` attribute
-    (:data:`tdicam.verilog.NO_RW_CHECK`: a read of the address written in the same cycle
+    (:data:`tdicam.hw.verilog.NO_RW_CHECK`: a read of the address written in the same cycle
     returns an undefined value, so yosys adds no collision-bypass logic behind the block
-    RAM), and no initial value (:data:`tdicam.verilog.NO_INIT`). Both are sound because a
+    RAM), and no initial value (:data:`tdicam.hw.verilog.NO_INIT`). Both are sound because a
     read whose data is used never meets the write of its address (see *Pipeline*: a line is
     read again at least :attr:`row_cycles` cycles after the read that precedes its write),
     and a stored sum is used only once written since the last restart. The formal harness
-    :class:`tdicam.proofs.tdi.TdiNoWrapProof` asserts the first on every cycle.
+    :class:`tdicam.hw.proofs.tdi.TdiNoWrapProof` asserts the first on every cycle.
 
     *Pipeline.* From the frame control's decoded beat every beat moves one stage per cycle
     with no stall: C (read issue: address and read enable registered), block RAM data, three

@@ -14,8 +14,8 @@ from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.model.tdi import check_params
-from .stream import channels_shape, pixel_signature
-from .util import saturating_increment
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.util import saturating_increment
 
 __all__ = ["TdiFrameControl", "beat_layout", "tdi_ports"]
 

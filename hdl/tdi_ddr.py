@@ -1,7 +1,7 @@
 """The TDI accumulator with its partial-sum lines in DDR (SPEC 3.4 + 3.8).
 
 :class:`TdiDdr` — :class:`tdicam.hdl.tdi.TdiAccumulator`'s behaviour with the ``stages - 1``
-partial-sum lines in DDR behind one :class:`~tdicam.hdl.mig.MigPort`.
+partial-sum lines in DDR behind one :class:`~tdicam.hdl.interfaces.mig.MigPort`.
 """
 
 from amaranth.hdl import Cat, Module, Mux, Signal, Value, signed
@@ -11,9 +11,9 @@ from amaranth.utils import bits_for
 
 from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout, \
     check_capacity
-from .mig import MigPort, connect_mig, mig_user_ports
-from .tdi_control import TdiFrameControl, tdi_ports
-from .util import equals, mux_select, quiet_reject
+from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
+from tdicam.hdl.tdi_control import TdiFrameControl, tdi_ports
+from tdicam.hdl.util import equals, mux_select, quiet_reject
 
 __all__ = ["TdiDdr"]
 
@@ -40,12 +40,12 @@ class TdiDdr(wiring.Component):
     it writes, ``stages_active`` = 2 forward, waits until that row is finished, which costs
     about the DDR read latency per row); no write is queued during a block. The new sums
     wait meanwhile in a write-behind FIFO and are written back, in order, between the
-    blocks. Measured with :mod:`tdicam.ddrref` (LiteDRAM, DDR3-800, on the recorded order
+    blocks. Measured with :mod:`tdicam.cosim.litedram` (LiteDRAM, DDR3-800, on the recorded order
     in steady state): 81.7 % at W = 1280 (m = 16, 12-bit), 84.7 % at W = 4096 (m = 32,
     ppc 4), against 12-34 % for a read and a write per word; ``bench/bench_ddr.py
     --litedram`` prints the figures.
 
-    On-chip buffers (block RAM): the read-ahead, :class:`~tdicam.hdl.mig.MigPort`'s read-data
+    On-chip buffers (block RAM): the read-ahead, :class:`~tdicam.hdl.interfaces.mig.MigPort`'s read-data
     FIFO of ``2 * words_per_line`` x 256 bit (the row being added and the next row's
     block); the write-behind FIFO of ``max(16, words_per_line)`` x (256 + 28) bit; the
     decoded-beat FIFO of :attr:`LOOKAHEAD` x (``ppc * pixel_bits`` + 37..41) bit.

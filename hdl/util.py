@@ -5,6 +5,8 @@
 * :func:`saturating_increment` — a counter that stops at its all-ones value (the error
   counters of the stream blocks).
 * :func:`mux_select` — ``options[index]`` as a chain of 2-way muxes.
+* :data:`NO_RW_CHECK`, :data:`NO_INIT` — memory attributes the Verilog writer
+  (:mod:`tdicam.hw.verilog`) acts on (see there).
 * :func:`quiet_reject` — constructor decorator: a component whose parameters were refused
   is never elaborated, so Amaranth must not warn about an unused elaboratable.
 """
@@ -15,7 +17,13 @@ from amaranth.hdl import Mux
 
 from tdicam.errors import TdicamError
 
-__all__ = ["is_zero", "equals", "saturating_increment", "mux_select", "quiet_reject"]
+__all__ = ["is_zero", "equals", "saturating_increment", "mux_select", "quiet_reject",
+           "NO_RW_CHECK", "NO_INIT"]
+
+#: Memory attribute: no read of an address in the cycle it is written (yosys' own name).
+NO_RW_CHECK = "no_rw_check"
+#: Memory attribute: no word is read before it is written (no initial contents emitted).
+NO_INIT = "tdicam.no_init"
 
 
 def is_zero(value):

@@ -44,8 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from . import ecc
-from .nuc import DEFAULT_FORMAT, NucFormat
+from tdicam.model import ecc
+from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 
 __all__ = ["MAGIC", "VERSION", "PACKING", "HEADER_WORDS", "WORD_BYTES", "PIXELS_PER_WORD",
            "payload_words", "header_words", "encode_image", "write_image", "CalibImage",

@@ -1,7 +1,7 @@
 """DDR line/frame buffers behind a MIG-style user interface (Ning et al. 2019 §4.2).
 
 Golden models and configuration checks for the DDR gateware (:mod:`tdicam.hdl.ddr`,
-:mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.mig_model`).
+:mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.simmodels.mig_model`).
 
 Interface and addresses
 -----------------------
@@ -34,7 +34,7 @@ beats follow the same (pixel, channel) order.
 Memory model
 ------------
 :class:`MigSim` is the cycle-stepped Python model of the controller (the HDL model is
-:class:`tdicam.hdl.mig_model.MigModel`; both draw their stalls from the same xorshift32 sequence,
+:class:`tdicam.hdl.simmodels.mig_model.MigModel`; both draw their stalls from the same xorshift32 sequence,
 so their ready patterns are identical cycle for cycle): in-order reads with a latency drawn
 from ``[lat_lo, lat_hi]`` cycles, a refresh window of ``refresh_cycles`` at the start of
 every ``refresh_period`` cycles after the first (the refresh timer starts at reset) with
@@ -49,9 +49,9 @@ queue drain when a port moves to another bank, read/write turnarounds, opening a
 bank (row-bank-column mapping, 8 banks of :data:`ROW_WORDS`-word rows; precharge and
 write recovery when another row is open) and a 44-cycle refresh (:data:`DRAM_STALLS`).
 It is within +/-3 points of LiteDRAM on every pattern of :data:`PATTERNS` and on every DDR
-block's recorded command order (:mod:`tdicam.ddrref` replays the same traces into
+block's recorded command order (:mod:`tdicam.cosim.litedram` replays the same traces into
 LiteDRAM; tests/test_ddrref.py holds the recorded figures); the HDL model with the same
-``dram`` is cycle-equal (:func:`tdicam.ddrref.replay_hdl`) and charges it by default in
+``dram`` is cycle-equal (:func:`tdicam.cosim.litedram.replay_hdl`) and charges it by default in
 co-simulation.
 :func:`pattern_efficiency` gives a named pattern's efficiency for the planner.
 
@@ -66,7 +66,7 @@ the per-word read-then-write the TDI spill had, its line blocks now, two ports),
 This module holds the packing, the controller model and the access patterns together
 (~800 lines, with the planner's figure for the TDI spill) because the three share the
 address and word definitions and are used together by every DDR user and by
-:mod:`tdicam.ddrref`.
+:mod:`tdicam.cosim.litedram`.
 """
 
 import dataclasses
@@ -450,7 +450,7 @@ class MigSim:
 class DramTiming:
     """DRAM costs of :class:`MigSim` with ``dram=`` given, in controller cycles (100 MHz,
     DDR3-800 behind a 1:4 controller), read off LiteDRAM's command timeline
-    (:mod:`tdicam.ddrref`; its bank machines, crossbar and multiplexer, one port).
+    (:mod:`tdicam.cosim.litedram`; its bank machines, crossbar and multiplexer, one port).
 
     The gap a command costs (:meth:`cost`; the model holds ``app_rdy`` low for it after the
     command) is built as LiteDRAM's controller spends it:
@@ -471,7 +471,7 @@ class DramTiming:
       precharge).
 
     Use it with :data:`DRAM_STALLS` (refresh 44 cycles every 782, no random drops). The HDL
-    model (:class:`tdicam.hdl.mig_model.MigModel`) with the same ``dram`` is cycle-equal."""
+    model (:class:`tdicam.hdl.simmodels.mig_model.MigModel`) with the same ``dram`` is cycle-equal."""
 
     rd_to_wr: int = 8
     wr_to_rd: int = 5
@@ -694,7 +694,7 @@ class TraceDriver:
     command as soon as it may go. Each cycle: :meth:`drive` (the UI inputs of this cycle),
     then :meth:`update` with the controller's ``app_rdy``, ``app_wdf_rdy`` and
     ``app_rd_data_valid`` of the same cycle. Drives any controller model the same way
-    (:class:`MigSim`, :class:`tdicam.hdl.mig_model.MigModel`)."""
+    (:class:`MigSim`, :class:`tdicam.hdl.simmodels.mig_model.MigModel`)."""
 
     def __init__(self, cmds):
         self.cmds = list(cmds)
@@ -767,7 +767,7 @@ def pattern_efficiency(name, *, lines=32, words=54, stride=64, dram=DramTiming()
 #: share the planner takes off the memory model's figure for the TDI spill: the band the
 #: model is held to against LiteDRAM (+/-3 points on every pattern of PATTERNS and every
 #: DDR block's recorded order, tests/test_ddrref.py; on TdiDdr's own orders the model is
-#: +0.3 / +2.5 points above LiteDRAM at 1280 / 4096 columns, tdicam.ddrref).
+#: +0.3 / +2.5 points above LiteDRAM at 1280 / 4096 columns, tdicam.cosim.litedram).
 PLAN_MARGIN = 0.03
 #: the access pattern of TDI partial sums in DDR (:class:`tdicam.hdl.tdi_ddr.TdiDdr`)
 TDI_SPILL_PATTERN = "row_blocks"
@@ -783,7 +783,7 @@ def tdi_spill_efficiency(width, stages, pixel_bits, ppc=1):
     on the memory model with DRAM timing (:func:`pattern_efficiency`, on enough lines for
     >= 2400 commands: three refresh periods) less :data:`PLAN_MARGIN`, so LiteDRAM's
     DDR3 controller, measured on the block's own order, still meets the plan."""
-    from .tdi import full_bits
+    from tdicam.model.tdi import full_bits
     k = psums_per_word(full_bits(pixel_bits, stages), ppc)
     wpl = -(-(int(width) // int(ppc)) // (k // int(ppc)))
     lines = max(4, -(-2400 // (2 * wpl)))
@@ -802,7 +802,7 @@ def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
     and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored
     reset frame; before any reset frame the reset level is 0). Returns (k, rows, width).
     """
-    from .cds import cds, pixel_dtype
+    from tdicam.model.cds import cds, pixel_dtype
     out, reset = [], None
     for fr, k in zip(frames, kinds):
         if int(k):
@@ -827,7 +827,7 @@ def tdi_ddr_check(*, width, stages, pixel_bits, ppc, line_period_s=None,
     for TdiDdr's access pattern, :func:`tdi_spill_efficiency`), or the clock cannot take
     the ``m_max * width / ppc`` input beats of a line period.
     """
-    from .tdi import full_bits
+    from tdicam.model.tdi import full_bits
     ps = full_bits(pixel_bits, stages)
     k = psums_per_word(ps, ppc)
     wb = width // ppc

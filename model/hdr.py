@@ -57,7 +57,7 @@ from fractions import Fraction
 import numpy as np
 
 from tdicam.errors import TdicamError, check_choice, check_range
-from .cds import check_pixels, pixel_dtype
+from tdicam.model.cds import check_pixels, pixel_dtype
 
 __all__ = ["HdrConfig", "hdr_config", "hdr", "parse_gain_pairs", "ANCHORS", "DEFAULT_GAINS"]
 

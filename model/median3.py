@@ -10,7 +10,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError, check_range
 
-from .cds import check_pixels, pixel_dtype
+from tdicam.model.cds import check_pixels, pixel_dtype
 
 __all__ = ["median3", "enhance_parts", "default_enhance_shift", "MAX_WIDTH", "MAX_HEIGHT",
            "MAX_GAIN", "MAX_SHIFT"]

@@ -90,9 +90,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from tdicam.outputs import write_file
-from . import calib, ecc
-from .nuc import DEFAULT_FORMAT
+from tdicam.files import write_file
+from tdicam.model import calib, ecc
+from tdicam.model.nuc import DEFAULT_FORMAT
 
 __all__ = ["Geometry", "MT29F4G08", "NandDevice", "STATUS_PASS", "STATUS_FAIL", "MARKER_GOOD",
            "MARKER_BAD", "MAP_MAGIC", "FILE_MAGIC", "write_store", "scan", "ScanResult",
@@ -529,7 +529,7 @@ def relayout(device, *, bad_blocks=(), fail_program=(), flips=None, rng=None, na
 def save_image(device, path):
     """Write the sparse image file (module docstring); returns the byte count.
 
-    Written with :func:`tdicam.outputs.write_file`: an unwritable ``path`` or a full device
+    Written with :func:`tdicam.files.write_file`: an unwritable ``path`` or a full device
     is a one-line ``PATH: cannot write (REASON)`` and leaves no half-written file."""
     g = device.geometry
     rows = sorted(device.pages)

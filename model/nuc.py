@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from .cds import check_pixels, pixel_dtype
+from tdicam.model.cds import check_pixels, pixel_dtype
 
 __all__ = ["NucFormat", "DEFAULT_FORMAT", "nuc", "check_nuc_params", "identity_coeffs",
            "WORD_BITS"]

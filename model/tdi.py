@@ -49,8 +49,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
+from tdicam.threads import threads
 
-from .cds import check_pixels, pixel_dtype
+from tdicam.model.cds import check_pixels, pixel_dtype
 
 __all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", "out_width",
            "check_params", "settings_valid", "slots_needed", "BasicTdi", "OptimizedTdi",
@@ -223,7 +224,7 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
     65535), then widens to uint32 (the full width is at most 21 bits), in blocks of output
     lines so the working set stays in cache; large inputs spread the blocks over
     ``TDICAM_THREADS`` threads (default: the CPU count, at most 4; the result does not
-    depend on it; see :func:`tdicam.engine.threads`).
+    depend on it; see :func:`tdicam.threads.threads`).
     """
     f, stages, m, direction = _resolve(frames, stages, pixel_bits, out_bits, stages_active,
                                        direction)
@@ -252,7 +253,6 @@ def tdi(frames, *, stages=None, pixel_bits=12, out_bits=None, stages_active=None
                 np.add(total[lo:hi], acc, out=total[lo:hi])
 
     starts = list(range(0, n, block))
-    from tdicam.engine import threads    # (lazy: the engine imports the models)
     workers = min(threads(), len(starts)) if n * m * W >= 1 << 24 else 1
     if workers > 1:
         # numpy releases the GIL in these loops; each thread owns whole output blocks

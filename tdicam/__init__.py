@@ -1,6 +1,6 @@
 """tdicam: dataflow model and co-simulation harness of a digital-TDI push-broom camera."""
 
-from .errors import TdicamError
+from tdicam.errors import TdicamError
 
 __all__ = ["TdicamError"]
 __version__ = "0.1.0"

@@ -4,14 +4,17 @@ A *beat* is one stream transfer (one AXI4-Stream transfer at the Verilog top): i
 (pixels or channels), ``first`` (tuser, start of frame), ``last`` (tlast, end of line), the
 run-time settings presented with it (``ctrl``) and the resets around it (``rst``, ``seg``).
 This module depends on numpy only, so the block registry (:mod:`tdicam.blocks`) and the
-simulators (:mod:`tdicam.cosim`, :mod:`tdicam.streamsim`) both build on it.
+simulators (:mod:`tdicam.cosim`, :mod:`tdicam.cosim.streamsim`) both build on it.
+
+Layer: a leaf (imports only :mod:`tdicam.errors`): the beat arrays that the blocks'
+registry, the simulators and the exports share.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import TdicamError
+from tdicam.errors import TdicamError
 
 __all__ = ["Beats", "frames_to_beats", "beats_to_frames", "mark_resets"]
 

@@ -9,15 +9,14 @@ ends the command quietly with status 141 (128 + SIGPIPE). Help texts are shown a
 (:func:`plain_text`): descriptions taken from docstrings lose their reST markup.
 """
 
-import argparse
 import importlib
 import os
 import pkgutil
-import re
 import sys
 
-from . import commands
-from .errors import TdicamError
+from tdicam import commands
+from tdicam.commands._parsing import ArgsParser, Parser, plain_text
+from tdicam.errors import TdicamError
 
 __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
@@ -27,43 +26,9 @@ DESCRIPTION = ("tdicam: the HDL-ready dataflow model of a digital-TDI push-broom
                "co-simulation harness. 'tdicam COMMAND --help' for each command; the README "
                "explains every output.")
 
-_ROLE = re.compile(r":[a-z]+:`~?([^`]+)`")
-_LITERAL = re.compile(r"``([^`]+)``")
-
-
-def plain_text(text):
-    """``text`` without reST markup: ````x```` -> ``x``, ``:func:`~a.b``` -> ``b``,
-    ``:mod:`a.b``` -> ``a.b`` (a ``~`` keeps the last dotted name, as Sphinx shows it)."""
-    def role(m):
-        target = m.group(0)
-        name = m.group(1)
-        return name.rsplit(".", 1)[-1] if "`~" in target else name
-    return _LITERAL.sub(r"\1", _ROLE.sub(role, text))
-
-
-class _Parser(argparse.ArgumentParser):
-    def format_help(self):
-        return plain_text(super().format_help())
-
-    def format_usage(self):
-        return plain_text(super().format_usage())
-
-    def error(self, message):
-        # argparse's own errors are one line too, but print usage first; keep one line.
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
-class ArgsParser(_Parser):
-    """The parser of a command's own trailing arguments (``verilog pipeline --scene ...``):
-    an error is a :class:`~tdicam.errors.TdicamError` naming the command, one line."""
-
-    def error(self, message):
-        raise TdicamError(f"{self.prog}: {message}")
-
-
 def build_parser():
-    parser = _Parser(prog="tdicam", description=DESCRIPTION)
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    parser = Parser(prog="tdicam", description=DESCRIPTION)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
         if info.name.startswith("_"):

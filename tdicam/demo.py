@@ -1,10 +1,11 @@
 """The end-to-end path on one block (``tdicam demo``): a smoke run of the whole tool."""
 
-from . import blocks, golden
-from .cosim.cases import run_cases
-from .lint import lint
-from .outputs import check_dir
-from .verilog import write
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
+from tdicam.cosim.cases import run_cases
+from tdicam.hw.lint import lint
+from tdicam.files import check_dir
+from tdicam.hw.verilog import write
 
 __all__ = ["demo"]
 

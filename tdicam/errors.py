@@ -4,6 +4,8 @@ Every error caused by user input (a bad parameter, a malformed scene, a corrupt 
 file, a lane with no eye, ...) is raised as :class:`TdicamError` with a one-line message
 that names the problem. The CLI prints it as ``tdicam: error: <message>`` and exits 2;
 it never shows a traceback for these.
+
+Layer: the bottom leaf; imports nothing of tdicam.
 """
 
 __all__ = ["TdicamError", "check_range", "valid_range", "check_choice"]

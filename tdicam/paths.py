@@ -1,4 +1,7 @@
-"""Where the repository's folders are (the package runs from a checkout)."""
+"""Where the repository's folders are (the package runs from a checkout).
+
+Layer: a leaf; imports nothing of tdicam.
+"""
 
 from pathlib import Path
 

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from tdicam import bench, benchpipe
+from tdicam.bench import suite as bench, camera as benchpipe
 from tdicam.cli import main
 
 SIM_LEVELS = ["icarus beat", "icarus fast", "verilator beat", "verilator fast"]
@@ -215,7 +215,7 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
 
 
 def _pipeline_stand_in(seen):
-    """A stand-in for :func:`tdicam.benchpipe.pipeline_run` (Icarus finds 3 mismatches)."""
+    """A stand-in for :func:`tdicam.bench.camera.pipeline_run` (Icarus finds 3 mismatches)."""
     def fake(scene, *, sim, lines, idle, backpressure):
         seen.append((scene, sim, lines))
         return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,

@@ -3,7 +3,7 @@ level by its accuracy against the reference (no simulator run: synthetic rows)."
 
 from PIL import Image
 
-from tdicam import bench
+from tdicam.bench import suite as bench
 
 LEVELS = ("golden", "pysim", "icarus beat", "icarus fast", "verilator beat", "verilator fast",
           "export verilator")

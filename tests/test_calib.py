@@ -4,13 +4,14 @@ import numpy as np
 import pytest
 from amaranth.hdl import Signal
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.calib import random_codes, reader_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.calib import CalibReader
 from tdicam.model import calib, ecc
 from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
-from tdicam.streamsim import run_stream_component
+from tdicam.cosim.streamsim import run_stream_component
 
 FMT = DEFAULT_FORMAT
 

@@ -10,7 +10,7 @@ from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds
-from tdicam.streamsim import run_stream_component
+from tdicam.cosim.streamsim import run_stream_component
 
 
 def test_model_matches_definition():
@@ -82,8 +82,8 @@ def test_amaranth_sim_matches_model_with_stalls():
 
 def test_amaranth_pysim_of_verilog_top_matches_golden_cases():
     """The AXI4-Stream top in Amaranth's simulator, with stalls and a mid-frame reset."""
-    from tdicam import blocks, golden
-    from tdicam.cosim import compare
+    from tdicam import blocks
+    from tdicam.cosim import vectors as golden, compare
     from tdicam.cosim.pysim import run_pysim
     blk = blocks.get("cds")
     for case in ("hard_12b", "reset_mid_frame_12b"):

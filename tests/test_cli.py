@@ -11,7 +11,7 @@ import pytest
 import tdicam
 from tdicam import blocks
 from tdicam.cli import main
-from tdicam.lint import lint
+from tdicam.hw.lint import lint
 from tdicam.paths import REPO as ROOT
 
 
@@ -280,7 +280,9 @@ def bad_input_files(tmp_path_factory):
 
 @pytest.mark.parametrize("row", BAD_INPUT, ids=lambda r: " ".join(r[0])[:60])
 def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
-    from tdicam import bench, golden, paths
+    from tdicam import paths
+    from tdicam.bench import suite as bench
+    from tdicam.cosim import vectors as golden
     argv, expect, code, *manifest = row
     d = str(bad_input_files)
     if manifest:

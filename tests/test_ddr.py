@@ -9,7 +9,7 @@ from tdicam import blocks
 from tdicam.errors import TdicamError
 from tdicam.hdl.cds_ddr import CdsDdr
 from tdicam.hdl.ddr import DdrFrameBuffer
-from tdicam.hdl.mig_model import MigModel, SimTop
+from tdicam.hdl.simmodels.mig_model import MigModel, SimTop
 from tdicam.hdl.tdi_ddr import TdiDdr
 from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, cds_ddr_frames,
                               check_capacity, ints_to_words, pack_lines, pack_words,
@@ -194,7 +194,7 @@ def test_hdl_model_dram_timing_is_cycle_equal(name, lines, stalls):
     """MigModel with DRAM timing (banks, rows, activates, turnarounds, refresh) and MigSim
     with the same DramTiming: the same ready/valid every cycle on the same trace, so the
     same efficiency (with the DRAM stall pattern, and with the default random stalls)."""
-    from tdicam.ddrref import replay_hdl
+    from tdicam.cosim.litedram import replay_hdl
     from tdicam.model.ddr import DRAM_STALLS, DramTiming, PATTERNS, pattern_trace, \
         replay_model
     st = DRAM_STALLS if stalls == "dram" else DEFAULT_STALLS
@@ -313,7 +313,7 @@ def test_tdi_ddr_reads_a_line_as_one_block():
     model is what the planner counts on for it (its access pattern less the plan's margin) or
     better."""
     from tdicam.cosim.codec import frames_to_beats
-    from tdicam.ddrref import record
+    from tdicam.cosim.litedram import record
     from tdicam.model.ddr import DramTiming, replay_model, tdi_spill_efficiency
     core = TdiDdr(width=256, stages=8, pixel_bits=12)
     wpl = core.words_per_line

@@ -1,5 +1,5 @@
 """DDR command orders: the access patterns, their efficiency on the memory model, and their
-replay into LiteDRAM (:mod:`tdicam.ddrref`, the ``ddrref`` extra; skipped saying why when
+replay into LiteDRAM (:mod:`tdicam.cosim.litedram`, the ``ddrref`` extra; skipped saying why when
 it is missing).
 
 Default run: pattern checks on the model; the memory model within +/-3 points of
@@ -19,14 +19,14 @@ from pathlib import Path
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.ddrref import BLOCKS
+from tdicam.cosim.litedram import BLOCKS
 from tdicam.model import ddr
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 
 
 def _ref():
-    from tdicam import ddrref
+    from tdicam.cosim import litedram as ddrref
     why = ddrref.available()
     if why:
         pytest.skip(why)
@@ -76,7 +76,7 @@ def test_hdl_model_within_3_points_of_litedram(name):
     """Long form of tests/test_ddr.py's cycle-equality test: the HDL controller model with
     DRAM timing, cycle-equal with the Python one on every pattern, within +/-3 points of
     LiteDRAM."""
-    from tdicam.ddrref import replay_hdl
+    from tdicam.cosim.litedram import replay_hdl
     lines, want = LITEDRAM[name]
     tr = ddr.pattern_trace(name, lines=lines)
     e = 100 * replay_hdl(tr, ddr.DramTiming(), ddr.PATTERNS[name][2])
@@ -88,7 +88,7 @@ def test_dram_model_within_3_points_of_litedram_on_blocks(block):
     """Each DDR block's recorded command order on the memory model with DRAM timing: within
     +/-3 points of LiteDRAM's figure for the same trace (recorded in the fixture; the live
     replay is the slow test below)."""
-    from tdicam.ddrref import trace_from_runs
+    from tdicam.cosim.litedram import trace_from_runs
     rec = FIXTURE["blocks"][block]
     tr = trace_from_runs(block, rec["runs"])
     assert tr.words == rec["words"]
@@ -180,7 +180,7 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
     valid ones, and only the picked ones replayed (LiteDRAM itself stood in for)."""
     from types import SimpleNamespace
 
-    from tdicam import ddrref
+    from tdicam.cosim import litedram as ddrref
     bd = _bench_ddr()
     with pytest.raises(SystemExit) as e:
         bd.parse_args(["--help"])

@@ -13,7 +13,7 @@ from tdicam.hdl.ecc import (DEC_OUT_BYTES, SecdedDecoder, SecdedDecoderStream, S
 from tdicam.model import ecc
 from tdicam.blocks.secded_dec import dec_beats, sweep_codes
 from tdicam.blocks.secded_enc import enc_beats
-from tdicam.streamsim import run_stream_component
+from tdicam.cosim.streamsim import run_stream_component
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 

@@ -8,7 +8,7 @@ import pytest
 
 from tdicam import engine
 from tdicam.errors import TdicamError
-from tdicam.scene import load_scene
+from tdicam.scene.loader import load_scene
 
 ORBIT = "[orbit]\naltitude_km = 600\ngsd_m = 1.0\n"
 

@@ -13,7 +13,7 @@ import pytest
 from tdicam import engine
 from tdicam.engine.context import decide
 from tdicam.engine.effects import rounding_defect
-from tdicam.scene import load_scene
+from tdicam.scene.loader import load_scene
 
 SIGNALS = (3.0, 6.0, 15.0, 40.0, 200.0)
 READ = (0.0, 0.3, 1.0, 3.0)

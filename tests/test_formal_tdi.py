@@ -1,6 +1,6 @@
 """Bounded formal check that the TDI partial sums never wrap (yowasp-sby + boolector).
 
-:class:`tdicam.proofs.tdi.TdiNoWrapProof` on a 2-pixel-wide, 8-bit accumulator with every
+:class:`tdicam.hw.proofs.tdi.TdiNoWrapProof` on a 2-pixel-wide, 8-bit accumulator with every
 control input, the reset and the sink's ready free on every cycle, full-scale pixels (sound:
 see the harness docstring). The default run proves a 2-stage accumulator over 2 whole frames
 through its 9-cycle pipeline (depth 35, ~1 min); TDICAM_FULL=1 proves the 3-stage one over
@@ -14,8 +14,8 @@ import os
 
 import pytest
 
-from tdicam import formal
-from tdicam.proofs.tdi import TdiNoWrapProof
+from tdicam.hw import formal
+from tdicam.hw.proofs.tdi import TdiNoWrapProof
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 _MISSING = formal.tools_missing()

@@ -5,7 +5,8 @@ import shutil
 import numpy as np
 import pytest
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.cli import main
 from tdicam.errors import TdicamError
 

@@ -10,15 +10,16 @@ import pytest
 from amaranth.hdl import Fragment
 from amaranth.sim import Simulator
 
-from tdicam import blocks, golden
+from tdicam import blocks
 from tdicam.beats import frames_to_beats
+from tdicam.cosim import vectors as golden
 from tdicam.blocks.hdr import ramp_frame, scene_frames
 from tdicam.cosim import compare
 from tdicam.cosim.pysim import run_pysim
 from tdicam.errors import TdicamError
 from tdicam.hdl.hdr import Hdr
 from tdicam.model.hdr import hdr, hdr_config
-from tdicam.streamsim import probe_latency
+from tdicam.cosim.streamsim import probe_latency
 
 MULTI = dict(gain_pairs="4.9:0.8,4.9:1.6,2.45:0.8")
 

@@ -13,9 +13,9 @@ from tdicam.cli import main
 from tdicam.cosim import lvds as cl
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import Deskew, LaneTrainer, LvdsRx, LvdsXilinx
-from tdicam.lint import lint
+from tdicam.hw.lint import lint
 from tdicam.model import lvds as model
-from tdicam.verilog import convert
+from tdicam.hw.verilog import convert
 
 
 def _quiet(elaboratable):

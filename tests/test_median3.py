@@ -18,7 +18,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.median3 import (COLUMN_SORT, WINDOW_MEDIAN, Median3, network_stats,
                                 reciprocal_25, run_network)
 from tdicam.model.median3 import enhance_parts, median3
-from tdicam.streamsim import run_stream_component
+from tdicam.cosim.streamsim import run_stream_component
 
 SIZES = [(3, 3), (1, 3), (2, 3), (3, 4), (7, 3), (3, 17), (17, 33), (64, 1280)]
 
@@ -230,7 +230,7 @@ def test_cli_bad_params_one_line(args, expect):
 
 
 def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, bad_last_at=None, heights=None):
-    """Run the component on frames (tdicam.streamsim, ``height`` riding with each beat);
+    """Run the component on frames (tdicam.cosim.streamsim, ``height`` riding with each beat);
     returns (outputs, expected, stats). Runs 50 + 4 * width cycles past the last expected
     output, so extra outputs show."""
     dut = Median3(**params)

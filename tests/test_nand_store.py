@@ -13,8 +13,7 @@ from tdicam.blocks.calib import random_codes
 from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.nand_store import NandCalibTop
-from tdicam.model import calib, ecc
-from tdicam.model import nand_store as nand
+from tdicam.model import calib, ecc, nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 

@@ -77,7 +77,7 @@ def test_help_texts_cite_papers_not_shorthand(helps):
 
 
 def test_plain_text_strips_markup():
-    assert cli.plain_text("see :func:`~tdicam.scenerun.run_scene` and ``x = 1``") == \
+    assert cli.plain_text("see :func:`~tdicam.run.runner.run_scene` and ``x = 1``") == \
         "see run_scene and x = 1"
     assert cli.plain_text(":mod:`tdicam.model.calib`") == "tdicam.model.calib"
 

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from amaranth.hdl import Fragment
 
-from tdicam import blocks, golden
-from tdicam.cosim import compare
+from tdicam import blocks
+from tdicam.cosim import vectors as golden, compare
 from tdicam.cosim.codec import Beats
 from tdicam.cosim.pysim import run_pysim
 from tdicam.errors import TdicamError
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat, identity_coeffs, nuc
-from tdicam.streamsim import probe_latency, run_stream_component
+from tdicam.cosim.streamsim import probe_latency, run_stream_component
 
 FORMATS = [
     dict(pixel_bits=12),

@@ -1,4 +1,4 @@
-"""The idle/backpressure generator (tdicam.pauses): every accepted seed its own pattern.
+"""The idle/backpressure generator (tdicam.cosim.pauses): every accepted seed its own pattern.
 
 The HDL engine draws the same pattern (cocotb_tests/test_pauses.py compares the transfer
 cycles of every driver for odd and even seeds)."""
@@ -6,7 +6,7 @@ cycles of every driver for odd and even seeds)."""
 import numpy as np
 import pytest
 
-from tdicam.pauses import SEED_MAX, XOR_R, Pauses, start_state
+from tdicam.cosim.pauses import SEED_MAX, XOR_R, Pauses, start_state
 
 
 def pattern(seed, n=256, idle=0.5, backpressure=0.5):

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam import pipeline as pl
+from tdicam.camera import design as pl
 from tdicam.errors import TdicamError
-from tdicam.lint import lint
-from tdicam.model.pipeline import GoldenStage, chain
-from tdicam.rtl import scene_data
-from tdicam.scene import Ddr, load_scene, scene_from_dict
+from tdicam.hw.lint import lint
+from tdicam.model.chain import GoldenStage, chain
+from tdicam.camera.cosim import scene_data
+from tdicam.scene.loader import Ddr, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 CHAIN = ROOT / "scenes" / "ning2019_chain.toml"
@@ -119,9 +119,9 @@ def test_synthesis_top_uses_each_blocks_ecp5_top():
     """``tdicam synth pipeline`` places each block's ECP5 top where it has one (the TDI
     stage's DP16KD banks, one read stage more); the plain top (``tdicam verilog
     pipeline``, every simulation) keeps the generic descriptions."""
-    from tdicam.verilog import rtlil
+    from tdicam.hw.verilog import rtlil
     p = pl.plan(_small())
-    block = pl._PipelineBlock(p, None)
+    block = pl.PipelineBlock(p, None)
     ecp5, plain = block.build(ecp5=True), block.build()
     assert ecp5.latency == plain.latency + 1
     assert "DP16KD" in rtlil(ecp5, "pipeline") and "DP16KD" not in rtlil(plain, "pipeline")
@@ -196,4 +196,4 @@ def test_charge_domain_and_wide_pixels_per_clock_are_refused():
         load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                    overrides={"run": {"rtl": {}}})
     sc = _small(run={"rtl": {"pixels_per_clock": 1}})
-    assert sc.pipeline.median_after_tdi is True and pl.plan(sc).steps
+    assert sc.pipeline.after_lines("median3") is True and pl.plan(sc).steps

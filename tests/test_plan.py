@@ -1,4 +1,4 @@
-"""Planning physics (model/plan.py, model/metrics.py) and the ``tdicam plan`` command."""
+"""Planning physics (model/physics/plan.py, model/physics/metrics.py) and the ``tdicam plan`` command."""
 
 import json
 import math
@@ -12,9 +12,8 @@ from hypothesis import strategies as st
 
 from tdicam.cli import main
 from tdicam.errors import TdicamError
-from tdicam import planning
-from tdicam.model import metrics as M
-from tdicam.model import plan as P
+from tdicam.planning import sizing as planning
+from tdicam.model.physics import metrics as M, plan as P
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"

@@ -14,9 +14,9 @@ import pytest
 from scipy import integrate
 from scipy.special import ndtr
 
-from tdicam import planning
+from tdicam.planning import sizing as planning
 from tdicam.cli import main
-from tdicam.model import plan as P
+from tdicam.model.physics import plan as P
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"

@@ -1,4 +1,4 @@
-"""The planned MTF (tdicam.model.mtf, tdicam.planning.mtf_prediction) against the scene
+"""The planned MTF (tdicam.model.physics.mtf, tdicam.planning.predict.mtf_prediction) against the scene
 simulator's bar-target measurement, the paper's model beside it, and no negative MTF anywhere.
 
 Default run: fast fidelity on 32-column, 64-line sine bars at Nyquist (a few seconds). The
@@ -13,14 +13,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam import engine, planning
+from tdicam import engine
+from tdicam.planning import sizing as planning
+from tdicam.planning.predict import mtf_prediction
 from tdicam.cli import main
 from tdicam.errors import TdicamError
-from tdicam.measure import measure
-from tdicam.model import mtf as MTF
-from tdicam.model import plan as P
-from tdicam.model.optics import Geometry
-from tdicam.scene import load_scene, scene_from_dict
+from tdicam.run.measure import measure
+from tdicam.model.physics import mtf as MTF, plan as P
+from tdicam.model.physics.optics import Geometry
+from tdicam.scene.loader import load_scene, scene_from_dict
 
 SCENE = Path(__file__).resolve().parents[1] / "scenes" / "orbit_600km_1m_96.toml"
 
@@ -61,7 +62,7 @@ def cases():
 def test_planned_mtf_equals_simulator(m, mdv, shutter):
     sc = bar_scene(m, mdv / m, shutter)
     got = simulated(sc, m, mdv / m)
-    plan = planning.mtf_prediction(sc, m, mdv / m)
+    plan = mtf_prediction(sc, m, mdv / m)
     assert abs(plan["system"] - got["measured"]) < 0.01, (plan["system"], got)
     assert abs(plan["system"] - got["footprint_model"]) < 0.002, (plan["system"], got)
     assert plan["system"] >= 0 and got["yuan2013_model"] >= 0
@@ -81,7 +82,7 @@ def test_planned_mtf_equals_simulator_full(fidelity, direction, fill, psf):
                 sc = bar_scene(m, mdv / m, shutter, direction=direction, fill=fill, psf=psf,
                                lines=128, fidelity=fidelity)
                 got = simulated(sc, m, mdv / m)
-                plan = planning.mtf_prediction(sc, m, mdv / m)
+                plan = mtf_prediction(sc, m, mdv / m)
                 assert abs(plan["system"] - got["measured"]) < 0.01, (m, mdv, plan, got)
                 assert abs(plan["system"] - got["footprint_model"]) < 0.002, (m, mdv, plan)
 
@@ -91,7 +92,7 @@ def test_orbit_scene_plans_what_the_simulator_measures():
                                                  "contrast": 0.5},
                                       "sensor": {"columns": 32},
                                       "run": {"lines": 64, "fidelity": "fast"}})
-    plan = planning.mtf_prediction(sc, 96, 0.0)
+    plan = mtf_prediction(sc, 96, 0.0)
     assert plan["system"] == pytest.approx(0.259, abs=0.001)       # not the paper's 0.409
     assert plan["paper"]["system"] == pytest.approx(0.409, abs=0.001)
     assert plan["skew_px"] == pytest.approx(0.996, abs=0.001)
@@ -133,7 +134,7 @@ def test_geometry_uses_the_planning_model():
     lambda: Geometry(stages=4, dv_over_v=-1.5),
     lambda: P.camera_mtf(0.5, 8, 1.0),
     lambda: P.stage_lag(1.0),
-    lambda: planning.mtf_prediction(bar_scene(8, 0, "global"), 1, 1.0),
+    lambda: mtf_prediction(bar_scene(8, 0, "global"), 1, 1.0),
 ])
 def test_dv_out_of_range(call):
     with pytest.raises(TdicamError, match=r"dv_over_v = -?1\.?5? is out of range; valid: "

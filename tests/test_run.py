@@ -112,8 +112,8 @@ def test_user_png_target(tmp_path):
 
 
 def test_bundled_images_load():
-    from tdicam.model.targets import bundled_image
-    from tdicam.scene import BUNDLED_IMAGES
+    from tdicam.model.physics.targets import bundled_image
+    from tdicam.scene.loader import BUNDLED_IMAGES
     for name in BUNDLED_IMAGES:
         a = bundled_image(name)
         assert a.ndim == 2 and 0.0 <= a.min() and a.max() <= 1.0 and a.max() > 0.2, name
@@ -129,8 +129,8 @@ def _strict_load(path):
 def test_bundled_scene_reports_are_strict_json(tmp_path, scene):
     """Every bundled scene's report.json parses with a strict parser (no Infinity/NaN;
     issue 18: flat_snr_sweep_96 wrote "psnr_db": Infinity)."""
-    from tdicam.scene import load_scene
-    from tdicam.scenerun import run_scene
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
     sc = load_scene(ROOT / "scenes" / scene)
     run_scene(sc, tmp_path, lines=16, rtl=False, progress=False)
     rep = _strict_load(tmp_path / "report.json")
@@ -177,8 +177,8 @@ def test_saturated_bars_have_no_measured_mtf(tmp_path):
     """Bright bars over the full well: the output is clipped flat, so no measured MTF and a
     note (the hostile pass of issue 18: it reported a measured MTF of 0.000); bars just below
     the well still measure one."""
-    from tdicam.measure import measure, saturation_e
-    from tdicam.scene import load_scene
+    from tdicam.run.measure import measure, saturation_e
+    from tdicam.scene.loader import load_scene
     from tdicam import engine
     path = write(tmp_path, SMALL.replace('kind = "flat"', 'kind = "bars"\nprofile = "sine"\n'
                                                            'period_px = 4.0\ncontrast = 0.5'))
@@ -195,13 +195,13 @@ def test_saturated_bars_have_no_measured_mtf(tmp_path):
 
 
 def test_bar_mtf_planned_and_paper_model(tmp_path):
-    """report.json/report.md print the planned MTF (tdicam.planning.mtf_prediction) and the
+    """report.json/report.md print the planned MTF (tdicam.planning.predict.mtf_prediction) and the
     paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
     negative MTF anywhere while M dV/V sweeps through 2, 3 and 6 (contrast reversal at the
     bar frequency 0.25, flagged) (issue 20)."""
-    from tdicam.model.mtf import mtf_system
-    from tdicam.planning import mtf_prediction
-    from tdicam.scene import load_scene
+    from tdicam.model.physics.mtf import mtf_system
+    from tdicam.planning.predict import mtf_prediction
+    from tdicam.scene.loader import load_scene
     src = SMALL.replace('kind = "flat"', 'kind = "bars"\nperiod_px = 4.0') \
         .replace("[tdi]", 'shutter = "rolling"\n[tdi]') \
         .replace("stages = [1, 4]", "stages = [1, 8]\n[motion]\ndv_over_v = [0.0, 0.25, "
@@ -233,8 +233,8 @@ def test_bar_mtf_planned_and_paper_model(tmp_path):
 def test_nand_flash_scene_reports_counters(tmp_path):
     """The bundled NAND scene: report.json and report.md give the flash counters (bad
     blocks, corrected / uncorrectable words, defaulted pixels) (issue 22)."""
-    from tdicam.scene import load_scene
-    from tdicam.scenerun import run_scene
+    from tdicam.scene.loader import load_scene
+    from tdicam.run.runner import run_scene
     sc = load_scene(ROOT / "scenes" / "ning2019_nand_calib_faults.toml")
     rep = run_scene(sc, tmp_path, lines=16, impact=False, rtl=False, progress=False)
     f = _strict_load(tmp_path / "report.json")["measurements"][0]["nand"][0]
@@ -251,9 +251,9 @@ def test_measured_snr_excludes_dark_like_the_prediction(tmp_path, dsnu):
     """One SNR definition (issue 18): signal = photo-electrons, dark charge excluded, in the
     measured and the predicted SNR alike. At 20 e- light and 2 e- dark the measured
     single-exposure SNR counted the dark as signal (+0.83 dB over the prediction)."""
-    from tdicam.measure import SNR_DEFINITION, mean_dark_e, measure
+    from tdicam.run.measure import SNR_DEFINITION, mean_dark_e, measure
     from tdicam import engine
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     src = SMALL.replace("signal_e = 2000.0", "signal_e = 20.0") \
         .replace("read_noise_e = 5.0", "read_noise_e = 1.0\nconversion_gain_e_per_dn = 0.5\n"
                  f"dark_current_e_per_s = {2.0 / 144.76e-6:.6g}\ndsnu_e = {dsnu}") \

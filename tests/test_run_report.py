@@ -129,7 +129,7 @@ def test_a_saturated_flat_field_is_reported_as_saturated_not_as_an_snr(tmp_path,
 def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatch, capsys):
     import errno
 
-    from tdicam import scenerun
+    from tdicam.run import runner as scenerun
 
     def full(out_dir, res):
         raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "tdi.tif"))
@@ -147,7 +147,7 @@ def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsy
     """[run.rtl] that cannot run (here: the simulator fails to start; a scene the chain
     cannot take is refused when the scene is read, exit 2) is in the report and the exit
     status, not only a line of the summary."""
-    from tdicam import rtl
+    from tdicam.camera import cosim as rtl
     from tdicam.errors import TdicamError
 
     def broken(*args, **kw):

@@ -1,4 +1,4 @@
-"""Scene-file schema and loader (tdicam/scene.py)."""
+"""Scene-file schema and loader (tdicam/scene/loader.py)."""
 
 import dataclasses
 import math
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.model import plan as P
-from tdicam.scene import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
+from tdicam.model.physics import plan as P
+from tdicam.scene.loader import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED_SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"
@@ -74,7 +74,7 @@ def test_defaults(tmp_path):
     assert sc.tdi.stages == (1,) and sc.tdi.direction == "forward" and sc.tdi.output_bits == 12
     assert sc.motion.dv_over_v == (0.0,) and sc.motion.drift_deg == 0.0
     assert sc.target.kind == "flat" and sc.target.signal_e == 1000.0
-    assert sc.pipeline.blocks == ("tdi",) and sc.pipeline.median_after_tdi is None
+    assert sc.pipeline.blocks == ("tdi",) and sc.pipeline.after_lines("median3") is None
     assert sc.pipeline.hdr.threshold_dn == 3072
     assert (sc.run.lines, sc.run.seed, sc.run.fidelity, sc.run.rtl) == (256, 0, "auto", None)
 
@@ -128,7 +128,7 @@ def test_full_scene_and_sweeps(tmp_path):
     assert sc.tdi.stages == (1, 4, 8) and sc.motion.dv_over_v == (0.0, -0.1, 0.25)
     assert sc.sensor.row_time_s == pytest.approx(3.5e-6 + 640 / 48e6)
     assert sc.timing.m0 == 12
-    assert sc.pipeline.median_after_tdi is False and sc.pipeline.median3.edge_enhance
+    assert sc.pipeline.after_lines("median3") is False and sc.pipeline.median3.edge_enhance
     assert sc.pipeline.hdr.threshold_dn == 3500 and sc.pipeline.hdr.band_dn == 100
     assert sc.run.rtl.crop == (0, 0, 32, 16) and sc.run.rtl.pixels_per_clock == 1
     d = sc.to_dict()
@@ -324,7 +324,7 @@ def test_picture_conversions(tmp_path):
     """Palette, 16-bit, opaque RGBA / LA and float pictures give the documented grey levels
     (a palette PNG used to give its palette indices)."""
     from PIL import Image
-    from tdicam.model.targets import load_image
+    from tdicam.model.physics.targets import load_image
     grey = _RGB @ np.array([0.299, 0.587, 0.114]) / 255
     pal = Image.fromarray(_RGB).convert("P", palette=Image.Palette.ADAPTIVE, colors=256)
     pal.save(tmp_path / "pal.png")
@@ -472,7 +472,7 @@ def test_nuc_flash_options(tmp_path):
 
 def test_median_after_tdi(tmp_path):
     sc = load_text(tmp_path, ORBIT + "[pipeline]\nblocks = [\"cds\", \"tdi\", \"median3\"]\n")
-    assert sc.pipeline.median_after_tdi is True
+    assert sc.pipeline.after_lines("median3") is True
 
 
 @pytest.mark.parametrize("rtl, expected", [

@@ -17,10 +17,9 @@ import numpy as np
 import pytest
 
 from tdicam.engine import simulate
-from tdicam.measure import measure
-from tdicam.model import plan as P
-from tdicam.model import sensor as S
-from tdicam.scene import load_scene
+from tdicam.run.measure import measure
+from tdicam.model.physics import plan as P, sensor as S
+from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 FULL = bool(os.environ.get("TDICAM_FULL"))

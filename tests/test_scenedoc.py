@@ -4,14 +4,14 @@ from pathlib import Path
 
 import pytest
 
-from tdicam import scene, scenedoc
+from tdicam.scene import loader as scene, docs as scenedoc
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scene-format.md"
 
 
 def test_page_is_up_to_date():
     assert PAGE.read_text() == scenedoc.render(), (
-        "docs/scene-format.md is stale: python -m tdicam.scenedoc docs/scene-format.md")
+        "docs/scene-format.md is stale: python -m tdicam.scene.docs docs/scene-format.md")
 
 
 def test_every_key_the_reader_accepts_is_documented_with_its_range():

@@ -1,6 +1,6 @@
 """Planning SNR model of digital TDI with quantization split into independent and shared
-parts (tdicam.model.plan.snr_gain_digital_predicted) and the quantized-Gaussian moments the
-fast fidelity uses (tdicam.model.sensor.quantized_moments)."""
+parts (tdicam.model.physics.plan.snr_gain_digital_predicted) and the quantized-Gaussian moments the
+fast fidelity uses (tdicam.model.physics.sensor.quantized_moments)."""
 
 import math
 import subprocess
@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.model import plan as P
-from tdicam.model import sensor as S
+from tdicam.model.physics import plan as P, sensor as S
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,7 +11,7 @@ from amaranth.sim import Simulator
 from tdicam.cli import main
 from tdicam.hdl.ecc import SecdedEncoder
 from tdicam.model import ecc
-from tdicam.synth import REFERENCE, parse_xilinx, synth, timing_harness, tools_available
+from tdicam.hw.synth import REFERENCE, parse_xilinx, synth, timing_harness, tools_available
 from tdicam import blocks
 
 needs_tools = pytest.mark.skipif(
@@ -110,7 +110,7 @@ def test_ecp5_top_is_what_the_ecp5_places():
     """tdi's ECP5 synthesis top has its banks as DP16KD instances (output register used);
     its plain top (xc7 counts, ``tdicam verilog``) keeps the generic memory (one for the
     partial sums); a block without an ECP5 top builds the same for both."""
-    from tdicam.verilog import rtlil
+    from tdicam.hw.verilog import rtlil
     tdi, p = blocks.get("tdi"), {"width": 64, "stages": 4}
     ecp5, plain = rtlil(tdi.build(p, ecp5=True), "tdi"), rtlil(tdi.build(p), "tdi")
     assert ecp5.count("cell \\DP16KD ") == 3 and "\\REGMODE_B \"OUTREG\"" in ecp5

@@ -13,16 +13,17 @@ from amaranth.sim import Simulator
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tdicam import blocks, golden
+from tdicam import blocks
+from tdicam.cosim import vectors as golden
 from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.tdi import TdiAccumulator
-from tdicam.model import plan
-from tdicam.streamsim import run_stream_component
+from tdicam.model.physics import plan
+from tdicam.cosim.streamsim import run_stream_component
 from tdicam.model.tdi import (BasicTdi, OptimizedTdi, basic_line_buffers, full_bits,
                               optimized_line_buffers, settings_valid, slots_needed, tdi,
                               tdi_basic, tdi_frames, tdi_optimized, tdi_stream)
-from tdicam.verilog import convert
+from tdicam.hw.verilog import convert
 
 
 def _direct(frames, m, direction):
@@ -367,7 +368,7 @@ def test_reference_memory_block_rams():
 def test_memory_in_generated_verilog():
     """The memory in the Verilog: no initial value (no ``initial`` block spelling out zeros),
     yosys' ``no_rw_check`` attribute."""
-    from tdicam.hdl.axis import AxisTop
+    from tdicam.hdl.interfaces.axis import AxisTop
     text = convert(AxisTop(TdiAccumulator(width=64, stages=6, pixel_bits=10, ppc=2)), "tdi")
     lines = [ln.strip() for ln in text.splitlines()]
     decls = sorted((lines[i - 1], ln) for i, ln in enumerate(lines) if ln.startswith("reg [")
@@ -514,7 +515,7 @@ def test_amaranth_sim_golden_cases(case):
 
 class _FixedSettings(wiring.Component):
     """The accumulator with constant run-time settings: a plain stream component for the
-    shared driver (:func:`tdicam.streamsim.run_stream_component`)."""
+    shared driver (:func:`tdicam.cosim.streamsim.run_stream_component`)."""
 
     def __init__(self, dut, stages_active, direction):
         self.dut, self._settings = dut, (stages_active, direction)

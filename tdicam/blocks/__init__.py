@@ -18,20 +18,23 @@ outputs, and optional reset marks. :attr:`Block.to_beats` turns them into the st
 expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arrays from
 scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
 and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
+
+Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
+and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
 """
 
 import importlib
 import pkgutil
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import TdicamError, check_range
-from ..model.cds import pixel_dtype
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "Use", "Block", "get", "names", "all_blocks",
-           "frame_stack", "PPC_PARAM", "check_width"]
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "Block", "get", "names",
+           "all_blocks", "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
 
 
 def _flag(name):
@@ -161,8 +164,49 @@ class SideInput:
 
 
 @dataclass(frozen=True)
+class KeyDoc:
+    """What a scene reader cannot say about a key (``docs/scene-format.md``): its unit and
+    meaning, and — only where the reader computes them from other keys or checks them by
+    hand — the written ``type``, ``default`` or ``range``."""
+
+    unit: str
+    meaning: str
+    type: str | None = None
+    default: str | None = None
+    range: str | None = None
+
+
+@dataclass(frozen=True)
+class Options:
+    """A block's ``[pipeline.<name>]`` section of a scene file.
+
+    Attributes
+    ----------
+    type : type
+        The frozen dataclass a scene holds as ``scene.pipeline.<name>``.
+    read : callable(section, sensor) -> ``type``
+        Reads the section: ``section`` is the scene reader's section (its ``number``,
+        ``integer``, ``boolean``, ``choice``, ``has`` and ``fail`` check each key's type and
+        range and name it as the user wrote it; unknown keys are refused before ``read`` is
+        called), ``sensor`` the scene's ``[sensor]``. An absent section reads as its defaults.
+    doc : str
+        What the section is for (``docs/scene-format.md``).
+    keys : dict of str -> KeyDoc
+        The section's keys, in page order.
+    probe : dict
+        A section that reaches every key reader (the scene docs run the reader on it).
+    """
+
+    type: type
+    read: Callable
+    doc: str
+    keys: dict
+    probe: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Use:
-    """How a block takes part in a scene's pipeline (:mod:`tdicam.pipeline`).
+    """How a block takes part in a scene's pipeline (:mod:`tdicam.camera.design`).
 
     The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
     arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
@@ -171,17 +215,17 @@ class Use:
 
     Attributes
     ----------
-    step : callable(ctx) -> (tdicam.pipeline.Step, out_bits)
-        The block's parameters from the scene context :class:`tdicam.pipeline.Context`
+    step : callable(ctx) -> (tdicam.camera.design.Step, out_bits)
+        The block's parameters from the scene context :class:`tdicam.camera.design.Context`
         (scene, stages, width, lines, the chain's pixel width so far in ``ctx.bits``).
     hw : callable(step, data) -> stage
-        Its :mod:`tdicam.hdl.pipeline` stage (``data``: :class:`tdicam.pipeline.SceneData`,
+        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.camera.design.SceneData`,
         for side inputs built into the top such as NUC's calibration image).
     side : callable(step, data, lane) -> dict, or None
         Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
         coefficients).
     identity : callable(step, shape) -> dict, or None
-        One lane's :class:`tdicam.pipeline.SceneData` fields that make the block a no-op
+        One lane's :class:`tdicam.camera.design.SceneData` fields that make the block a no-op
         when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
         width).
     merge : bool
@@ -204,6 +248,15 @@ class Use:
         The registered block that keeps that memory in DDR instead (same stream, ports and
         golden model), used when the plan says it must spill; its ``step`` takes the DDR
         interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    trim : int
+        Pixels at each image edge whose statistics the block changes (its replicated
+        borders), left out of flat-field measurements.
+    rank : int or None
+        Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
+        blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
+        spill variant, chosen by the plan).
+    options : Options or None
+        The block's ``[pipeline.<name>]`` section, when it has one.
     """
 
     step: Callable
@@ -218,6 +271,9 @@ class Use:
     memory: str = "memory"
     placement: Callable | None = None
     spill: str | None = None
+    trim: int = 0
+    rank: int | None = None
+    options: Options | None = None
 
 
 @dataclass(frozen=True)
@@ -233,7 +289,7 @@ class Block:
     params : tuple of Param
         Elaboration parameters (the gateware's, with the golden model's names and units).
     top : callable(**params) -> wiring.Component
-        The Verilog top: :class:`~tdicam.hdl.axis.AxisTop` (AXI4-Stream names) for stream
+        The Verilog top: :class:`~tdicam.hdl.interfaces.axis.AxisTop` (AXI4-Stream names) for stream
         blocks, or a plain-port component.
     cases : callable() -> list of Case
         The golden cases (``tdicam golden``).
@@ -273,6 +329,11 @@ class Block:
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour. ``None``: :attr:`top`.
+    export_harness : str or None
+        ``"module:function"`` that exports the block with a self-checking harness of its own
+        instead of the stream testbench (``lvds``'s link testbench), returning (Design, case
+        names, stimulus count, expected count); named, not imported, so the registry stays
+        below the export service.
     reset_clears_state : bool
         A testbench reset returns the whole design to its power-up state, so golden cases
         can run back to back in one simulation with a reset between them (``tdicam
@@ -298,6 +359,7 @@ class Block:
     reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
+    export_harness: str | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""
@@ -465,3 +527,9 @@ def get(name):
     if name not in reg:
         raise TdicamError(f"unknown block {name!r}; valid: {', '.join(sorted(reg))}")
     return reg[name]
+
+
+def scene_blocks():
+    """The blocks a scene may list in ``[pipeline].blocks``, in rank order."""
+    listed = [b for b in all_blocks() if b.pipeline is not None and b.pipeline.rank is not None]
+    return sorted(listed, key=lambda b: b.pipeline.rank)

@@ -2,7 +2,7 @@
 controller's stall-pattern parameters and the simulation top around a DDR user core.
 
 Each DDR block's Verilog top is its user logic with the simulation-only controller model
-:class:`~tdicam.hdl.mig_model.MigModel` behind it (:class:`~tdicam.hdl.mig_model.SimTop`), so the fast
+:class:`~tdicam.hdl.simmodels.mig_model.MigModel` behind it (:class:`~tdicam.hdl.simmodels.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
 set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 44 of every 780
 cycles, each ready dropped with probability 16/256), on top of the DRAM timing
@@ -12,8 +12,8 @@ the block's order of accesses costs on DDR3. ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 """
 
-from ..model.ddr import DEFAULT_STALLS, _check_stalls
-from . import Param
+from tdicam.model.ddr import DEFAULT_STALLS, _check_stalls
+from tdicam.blocks import Param
 
 __all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top"]
 
@@ -56,8 +56,8 @@ def check_stalls(p):
 
 
 def sim_top(core, words, stalls):
-    """:class:`~tdicam.hdl.axis.AxisTop` of ``core`` with the MIG model of ``words`` words
+    """:class:`~tdicam.hdl.interfaces.axis.AxisTop` of ``core`` with the MIG model of ``words`` words
     and the stall pattern ``stalls`` behind it."""
-    from ..hdl.axis import AxisTop
-    from ..hdl.mig_model import SimTop
+    from tdicam.hdl.interfaces.axis import AxisTop
+    from tdicam.hdl.simmodels.mig_model import SimTop
     return AxisTop(SimTop(core, depth_words=max(1, words), **stalls))

@@ -5,12 +5,12 @@ __all__ = ["lane_stage"]
 
 
 def lane_stage(kind="lane", elems=1, side=None):
-    """``Use.hw`` of a block: a :class:`~tdicam.hdl.pipeline.LaneStage` (``kind="merge"``:
-    :class:`~tdicam.hdl.pipeline.MergeStage`) of the core of the block's registered Verilog
+    """``Use.hw`` of a block: a :class:`~tdicam.hdl.chain_top.LaneStage` (``kind="merge"``:
+    :class:`~tdicam.hdl.chain_top.MergeStage`) of the core of the block's registered Verilog
     top (``ecp5``: of its ECP5 synthesis top, :attr:`tdicam.blocks.Block.ecp5_top`, when it
     has one); ``side(step, data)`` gives its joined side stream."""
     def make(step, data, *, ecp5=False):
-        from ..hdl.pipeline import LaneStage, MergeStage
+        from tdicam.hdl.chain_top import LaneStage, MergeStage
         comp = _component(step, ecp5)
         stage = MergeStage if kind == "merge" else LaneStage
         return stage(step.block, lambda lane: comp(),
@@ -23,7 +23,7 @@ def lane_stage(kind="lane", elems=1, side=None):
 def _component(step, ecp5=False):
     """The core (behind AxisTop) of the block's registered Verilog top (``ecp5``: its ECP5
     synthesis top when it has one)."""
-    from . import get
+    from tdicam.blocks import get
     blk = get(step.block)
     blk.resolve(step.params)    # checked now, not when the stage is elaborated
 

@@ -8,7 +8,7 @@ golden cases and the co-simulation use.
 
 import numpy as np
 
-from . import Param
+from tdicam.blocks import Param
 
 __all__ = ["PARAMS", "markers", "word_bytes"]
 

@@ -8,12 +8,12 @@ output is one pixel's (gain, offset) per beat (plus counters and flags with ``--
 
 import numpy as np
 
-from ..beats import Beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.calib import CalibReader
-from ..model import calib, ecc
-from ..model.nuc import NucFormat
-from . import Block, Case, Param
+from tdicam.beats import Beats, mark_resets
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.calib import CalibReader
+from tdicam.model import calib, ecc
+from tdicam.model.nuc import NucFormat
+from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "reader_beats", "random_codes", "code_maps"]
 

@@ -1,15 +1,19 @@
 """Block ``cds``: digital correlated double sampling."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..beats import frames_to_beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.cds import Cds
-from ..model.cds import cds, pixel_dtype
-from . import PPC_PARAM, Block, Case, Param, SideInput, Use, check_width as _check_width
-from ._pipeline import lane_stage
+from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.cds import Cds
+from tdicam.model.cds import cds, pixel_dtype
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           check_width as _check_width)
+from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
-__all__ = ["BLOCK"]
+__all__ = ["BLOCK", "CdsOptions"]
 
 
 def _top(*, pixel_bits, ppc):
@@ -107,8 +111,27 @@ def _ppc_cases():
 
 
 
+@dataclass(frozen=True)
+class CdsOptions:
+    """``[pipeline.cds]``: mean reset level present in both images, DN."""
+
+    reset_level_dn: float = 0.0
+
+
+def _read_options(sec, sensor):
+    full = sensor.full_scale_dn
+    return CdsOptions(reset_level_dn=sec.number("reset_level_dn", 0.0, lo=0.0,
+                                                hi=float(full + 1), hi_open=True))
+
+
+OPTIONS = Options(
+    CdsOptions, _read_options,
+    "Digital correlated double sampling: signal frame minus reset frame.",
+    {"reset_level_dn": KeyDoc("DN", "mean reset level present in both frames",
+                              range="[0, 2**bits)")})
+
+
 def _pipeline_step(ctx):
-    from ..pipeline import Step
     return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
 
 
@@ -135,5 +158,6 @@ BLOCK = Block(
                            "element 2k + 1 of each input beat (pixel k's signal: 2k)"),),
     golden=_golden,
     example=_example,
-    pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True),
+    pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
+                 options=OPTIONS),
 )

@@ -9,11 +9,11 @@ Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 
 import numpy as np
 
-from ..beats import Beats, frames_to_beats, mark_resets
-from ..model.cds import pixel_dtype
-from ..model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
-from . import Block, Case, Param, SideInput
-from ._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
+from tdicam.beats import Beats, frames_to_beats, mark_resets
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
+from tdicam.blocks import Block, Case, Param, SideInput
+from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
 
@@ -32,7 +32,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.cds_ddr import CdsDdr
+    from tdicam.hdl.cds_ddr import CdsDdr
     core = CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
                   pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
                   base=p["base"], capacity_bytes=p["capacity_mib"] << 20)

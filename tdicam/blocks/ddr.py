@@ -8,12 +8,12 @@ Table 2).
 
 import numpy as np
 
-from ..beats import frames_to_beats, mark_resets
-from ..errors import TdicamError
-from ..model.cds import pixel_dtype
-from ..model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
-from . import Block, Case, Param
-from ._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
+from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.errors import TdicamError
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
+from tdicam.blocks import Block, Case, Param
+from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "ddr_frames", "ddr_to_beats"]
 
@@ -42,7 +42,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.ddr import DdrFrameBuffer
+    from tdicam.hdl.ddr import DdrFrameBuffer
     core = DdrFrameBuffer(width=p["width"], rows=p["rows"], channels=p["channels"],
                           elements=p["ppc"] * p["channels"], pixel_bits=p["pixel_bits"],
                           pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],

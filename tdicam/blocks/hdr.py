@@ -1,18 +1,21 @@
 """Block ``hdr``: high/low-gain HDR merge with a frame-to-frame junction (Ning et al. 2019 §4.4.2)."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..beats import frames_to_beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.hdr import Hdr
-from ..model.cds import pixel_dtype
-from ..model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
-from ..errors import TdicamError
-from . import PPC_PARAM, Block, Case, Param, SideInput, Use, frame_stack
-from . import check_width as _check_width
-from ._pipeline import lane_stage
+from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.hdr import Hdr
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
+from tdicam.errors import TdicamError
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           frame_stack, check_width as _check_width)
+from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
-__all__ = ["BLOCK", "ramp_frame", "scene_frames"]
+__all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
 
 def _top(**params):
@@ -260,8 +263,36 @@ COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_fr
           "out_bits": 16, "band": 64}
 
 
+@dataclass(frozen=True)
+class HdrOptions:
+    """``[pipeline.hdr]``: HG threshold, width of the band below it, slope fraction bits."""
+
+    threshold_dn: int
+    band_dn: int = 64
+    slope_frac_bits: int = 8
+
+
+def _read_options(sec, sensor):
+    full = sensor.full_scale_dn
+    threshold = sec.integer("threshold_dn", 3 * (full + 1) // 4 if full > 1 else 1, lo=1,
+                            hi=max(1, full - 1))
+    return HdrOptions(threshold_dn=threshold,
+                      band_dn=sec.integer("band_dn", min(64, threshold), lo=1, hi=threshold),
+                      slope_frac_bits=sec.integer("slope_frac_bits", 8, lo=0, hi=16))
+
+
+OPTIONS = Options(
+    HdrOptions, _read_options,
+    "High/low-gain merge of the two channels of a dual-gain sensor ([sensor].gains with two "
+    "entries).",
+    {"threshold_dn": KeyDoc("DN", "high-gain level above which the low-gain channel is used",
+                            default="3/4 of full scale", range="1..2**bits - 2"),
+     "band_dn": KeyDoc("DN", "width of the blending band below threshold_dn",
+                       default="min(64, threshold_dn)", range="1..threshold_dn"),
+     "slope_frac_bits": KeyDoc("bit", "fractional bits of the measured gain ratio")})
+
+
 def _pipeline_step(ctx):
-    from ..pipeline import Step
     h, g = ctx.scene.pipeline.hdr, ctx.scene.sensor.gains
     if len(g) != 2:
         raise TdicamError(f"pipeline: hdr merges two gain channels; [sensor].gains has "
@@ -323,5 +354,6 @@ BLOCK = Block(
     golden=_golden,
     unstream=_unstream,
     example=_example,
-    pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True),
+    pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True, rank=3,
+                 options=OPTIONS),
 )

@@ -9,10 +9,10 @@ the simulated core.
 
 import numpy as np
 
-from ..errors import TdicamError
-from ..hdl.lvds import LvdsRx, LvdsXilinx
-from ..model import lvds as model
-from . import Block, Case, Param
+from tdicam.errors import TdicamError
+from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
+from tdicam.model import lvds as model
+from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
 
@@ -191,6 +191,7 @@ def case_link(arrays):
 
 BLOCK = Block(
     name="lvds",
+    export_harness="tdicam.export.lvds:lvds_export",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
         Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=128),

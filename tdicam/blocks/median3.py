@@ -7,18 +7,21 @@ Golden cases hold a stream of frames of possibly different heights (the block's 
 every frame, whole).
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..beats import Beats, mark_resets
-from ..errors import TdicamError
-from ..hdl.axis import AxisTop
-from ..hdl.median3 import Median3
-from ..model.cds import pixel_dtype
-from ..model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from . import Block, Case, Param, Use, frame_stack
-from ._pipeline import lane_stage
+from tdicam.beats import Beats, mark_resets
+from tdicam.errors import TdicamError
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.median3 import Median3
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
+from tdicam.blocks import Block, Case, KeyDoc, Options, Param, Use, frame_stack
+from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
-__all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats"]
+__all__ = ["BLOCK", "Median3Options", "BUILDS", "stream_case", "case_beats"]
 
 
 def _top(**params):
@@ -217,10 +220,24 @@ def _check(params):
 
 
 
+@dataclass(frozen=True)
+class Median3Options:
+    """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output."""
+
+    edge_enhance: bool = False
+
+
+OPTIONS = Options(
+    Median3Options, lambda sec, sensor: Median3Options(
+        edge_enhance=sec.boolean("edge_enhance", False)),
+    "3x3 median filter.",
+    {"edge_enhance": KeyDoc("", "add the edge-enhancement detail to the median output "
+                                "(Ning et al. 2019, section 4.4.3)")})
+
+
 def _pipeline_step(ctx):
     """After a line-making block the frames are ``lines`` output lines (one median image);
     before it, each exposure frame of ``stages`` rows."""
-    from ..pipeline import Step
     pb = max(ctx.bits, 8)
     p = {"width": ctx.width, "pixel_bits": pb,
          "enhance": bool(ctx.scene.pipeline.median3.edge_enhance)}
@@ -251,5 +268,5 @@ BLOCK = Block(
     to_case=_to_case,
     fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
     example=_example,
-    pipeline=Use(_pipeline_step, lane_stage()),
+    pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS),
 )

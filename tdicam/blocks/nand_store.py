@@ -14,16 +14,14 @@ flags and the bad-block count).
 
 import numpy as np
 
-from ..beats import Beats
-from ..hdl.axis import AxisTop
-from ..hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
-from ..model import calib
-from ..model import nand_store as nand
-from ..model.nuc import NucFormat
-from ..errors import TdicamError
-from . import Block, Case, Param
-from .calib import BLOCK as CALIB
-from .calib import code_maps, random_codes
+from tdicam.beats import Beats
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
+from tdicam.model import calib, nand_store as nand
+from tdicam.model.nuc import NucFormat
+from tdicam.errors import TdicamError
+from tdicam.blocks import Block, Case, Param
+from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
 

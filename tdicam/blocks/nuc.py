@@ -1,15 +1,19 @@
 """Block ``nuc``: per-pixel gain/offset (non-uniformity) correction (Ning et al. 2019 §4.4.4)."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..beats import frames_to_beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.nuc import Nuc
-from ..model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from . import PPC_PARAM, Block, Case, Param, SideInput, Use, check_width as _check_width
-from ._pipeline import lane_stage
+from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.nuc import Nuc
+from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           check_width as _check_width)
+from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
-__all__ = ["BLOCK", "cut_frame0"]
+__all__ = ["BLOCK", "NucOptions", "cut_frame0"]
 
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
@@ -195,8 +199,72 @@ _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bi
            "offset_frac_bits": 2, "out_bits": 8}
 
 
+@dataclass(frozen=True)
+class NucOptions:
+    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, the 64/72 ECC path, and
+    where the coefficients are stored (``flash``: ``none`` or ``nand``, with its faults)."""
+
+    gain_frac_bits: int = 12
+    ecc: bool = True
+    flash: str = "none"
+    bad_blocks: int = 0
+    flip_single: float = 0.0
+    flip_double: float = 0.0
+    seed: int = 1
+
+
+#: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
+_NAND_KEYS = ("bad_blocks", "flip_single", "flip_double", "seed")
+
+
+def _read_options(sec, sensor):
+    frac = sec.integer("gain_frac_bits", 12, lo=4, hi=16)
+    ecc = sec.boolean("ecc", True)
+    flash = sec.choice("flash", "none", ("none", "nand"))
+    if flash == "none":
+        for k in _NAND_KEYS:
+            if sec.has(k):
+                sec.fail(k, "is a NAND flash fault: set flash = \"nand\" to use it")
+        return NucOptions(gain_frac_bits=frac, ecc=ecc)
+    if not ecc:
+        sec.fail("ecc", "must be true with flash = \"nand\" (the flash words are 64/72 ECC)")
+    if frac > 14:
+        sec.fail("gain_frac_bits", f"must be <= 14 with flash = \"nand\" (2 + {frac} bits "
+                                   "do not fit the 16-bit gain of a flash word)")
+    single = sec.number("flip_single", 0.0, lo=0.0, hi=1.0)
+    double = sec.number("flip_double", 0.0, lo=0.0, hi=1.0)
+    if single + double > 1.0:
+        sec.fail("flip_double", f"flip_single + flip_double must be <= 1 (probabilities of "
+                                f"one word), got {single:g} + {double:g}")
+    return NucOptions(gain_frac_bits=frac, ecc=ecc, flash=flash,
+                      bad_blocks=sec.integer("bad_blocks", 0, lo=0, hi=4095),
+                      flip_single=single, flip_double=double,
+                      seed=sec.integer("seed", 1, lo=0))
+
+
+OPTIONS = Options(
+    NucOptions, _read_options,
+    "Per-pixel gain/offset (non-uniformity) correction. The NAND keys (bad_blocks, "
+    "flip_single, flip_double, seed) only with flash = \"nand\", which also needs ecc = true "
+    "and gain_frac_bits <= 14 (16-bit gain words).",
+    {"gain_frac_bits": KeyDoc("bit", "fractional bits of the fixed-point gain"),
+     "ecc": KeyDoc("", "the coefficients pass a 64/72 SECDED round trip"),
+     "flash": KeyDoc("", "none, or nand: store the coefficients in a 4 Gb NAND flash "
+                         "(bad-block scan, block map, 64/72 ECC pages) and load them back "
+                         "as the camera does at power-up; an uncorrectable word gets the "
+                         "default coefficients (gain 1, offset 0)"),
+     "bad_blocks": KeyDoc("", "nand: random factory bad blocks (never block 0)"),
+     "flip_single": KeyDoc("probability", "nand: that a coefficient word has one flipped "
+                                          "bit (corrected)"),
+     "flip_double": KeyDoc("probability", "nand: that a coefficient word has two flipped "
+                                          "bits (uncorrectable); flip_single + "
+                                          "flip_double <= 1"),
+     "seed": KeyDoc("", "nand: seed of the faults' random numbers (channel k of a "
+                        "dual-gain sensor uses seed + k)")},
+    probe={"flash": "nand"})
+
+
 def _pipeline_step(ctx):
-    from ..pipeline import Step
     opt = ctx.scene.pipeline.nuc
     return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
                         "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
@@ -205,9 +273,9 @@ def _pipeline_step(ctx):
 
 def _pipeline_side(step, data):
     """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
-    from ..hdl.calib import CalibReader
-    from ..hdl.pipeline import CalibRom, Link
-    from ..model.calib import encode_image
+    from tdicam.hdl.calib import CalibReader
+    from tdicam.hdl.chain_top import CalibRom, Link
+    from tdicam.model.calib import encode_image
     fmt = _fmt(step.params)
 
     def side(m, lane):
@@ -274,5 +342,5 @@ BLOCK = Block(
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
-                 identity=_pipeline_identity, per_frame=True),
+                 identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS),
 )

@@ -6,12 +6,12 @@ syndrome and the flags out: :mod:`tdicam.blocks._secded`).
 
 import numpy as np
 
-from ..beats import Beats
-from ..hdl.axis import AxisTop
-from ..hdl.ecc import SecdedDecoder, SecdedDecoderStream
-from ..model import ecc
-from . import Block, Case, Param, SideInput
-from ._secded import PARAMS, markers, word_bytes
+from tdicam.beats import Beats
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.ecc import SecdedDecoder, SecdedDecoderStream
+from tdicam.model import ecc
+from tdicam.blocks import Block, Case, Param, SideInput
+from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
 __all__ = ["BLOCK", "dec_beats", "sweep_codes"]
 

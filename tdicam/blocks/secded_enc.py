@@ -5,12 +5,12 @@ AXI4-Stream byte lanes (8 data bytes in, 9 code bytes out: :mod:`tdicam.blocks._
 
 import numpy as np
 
-from ..beats import Beats
-from ..hdl.axis import AxisTop
-from ..hdl.ecc import SecdedEncoder, SecdedEncoderStream
-from ..model import ecc
-from . import Block, Case
-from ._secded import PARAMS, markers, word_bytes
+from tdicam.beats import Beats
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.ecc import SecdedEncoder, SecdedEncoderStream
+from tdicam.model import ecc
+from tdicam.blocks import Block, Case
+from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
 __all__ = ["BLOCK", "enc_beats"]
 

@@ -13,17 +13,21 @@ the expected ``frame_errors`` count. Stimulus frames are generated per case:
   while the deflate-compressed file stays small. Fast only.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..beats import Beats, mark_resets
-from ..hdl.axis import AxisTop
-from ..hdl.tdi import TdiAccumulator
-from ..model.cds import pixel_dtype
-from ..model.tdi import check_params, out_width, tdi_stream
-from . import Block, Case, Param, SideInput, Use, frame_stack
-from ._pipeline import lane_stage
+from tdicam.beats import Beats, mark_resets
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hdl.tdi import TdiAccumulator
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.tdi import check_params, out_width, tdi, tdi_stream
+from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
+from tdicam.blocks._pipeline import lane_stage
+from tdicam.blocks.steps import Step
 
-__all__ = ["BLOCK", "pack_ctrl", "stream_arrays", "to_beats", "SCENE", "case_makers"]
+__all__ = ["BLOCK", "PARAMS", "TdiOptions", "TDI_MEMORY", "pack_ctrl", "stream_arrays", "to_beats", "SCENE",
+           "case_makers"]
 
 CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
 
@@ -237,9 +241,13 @@ def _to_case(arrays, params):
 
 
 def _golden(arrays, params):
-    """One output line per frame after the pipeline filled (:func:`tdi_stream`)."""
-    case = _to_case(arrays, params)
-    return {"out": case["out"].reshape(-1, params["width"])}
+    """One output line per frame after the pipeline filled: :func:`tdicam.model.tdi.tdi`, the
+    whole-array model with one setting (equal to the cycle-level :func:`tdi_stream` that the
+    golden cases hold, which runs mid-stream setting changes and resets; tests/test_tdi.py)."""
+    fr, m, d = _scene_frames(arrays)
+    out = tdi(fr, stages=params["stages"], pixel_bits=params["pixel_bits"],
+              out_bits=params["out_bits"], stages_active=m, direction=d)
+    return {"out": out}
 
 
 def _unstream(out, arrays, params):
@@ -345,25 +353,61 @@ def _cases():
 def _pipeline_step(ctx):
     """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
     output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
-    from ..model import tdi as tdi_model
-    from ..pipeline import Step
+    from tdicam.model import tdi as tdi_model
     t = ctx.scene.tdi
     m, pb = ctx.m, ctx.bits
     out_bits = t.output_bits if t.output == "saturate" else None
     if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
         out_bits = None
     d = 0 if t.direction == "forward" else 1
-    step = Step(ctx.block, {"width": ctx.width, "stages": m, "pixel_bits": pb,
+    # a reverse scan needs one partial-sum line more (tdicam.model.tdi.settings_valid): one
+    # stage more built in, the output kept at m stages' full width
+    m_max = m + 1 if d and m > 1 else m
+    if m_max > m and out_bits is None:
+        out_bits = tdi_model.full_bits(pb, m)
+    step = Step(ctx.block, {"width": ctx.width, "stages": m_max, "pixel_bits": pb,
                             "out_bits": out_bits, "ppc": 1},
                 {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
-    return step, tdi_model.out_width(pb, m, out_bits)
+    return step, tdi_model.out_width(pb, m_max, out_bits)
 
 
 def _memory_bits(step):
     """The (stages - 1) partial-sum lines at full width."""
-    from ..model.tdi import full_bits
+    from tdicam.model.tdi import full_bits
     p = step.params
     return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
+
+
+#: ``[pipeline.tdi].memory``: where the partial sums live.
+TDI_MEMORY = ("auto", "chip", "ddr")
+
+
+@dataclass(frozen=True)
+class TdiOptions:
+    """``[pipeline.tdi]``: where the gateware keeps the partial sums (:data:`TDI_MEMORY`)."""
+
+    memory: str = "auto"
+
+
+OPTIONS = Options(
+    TdiOptions, lambda sec, sensor: TdiOptions(memory=sec.choice("memory", "auto", TDI_MEMORY)),
+    "Where the gateware keeps TDI's partial sums (the golden model is the same either way).",
+    {"memory": KeyDoc("", "chip: block RAM; ddr: the DDR of [ddr] (through tdi_ddr); auto: "
+                          "DDR when the partial sums exceed the device's block RAM")})
+
+
+#: ``tdi``'s parameters; ``tdi_ddr`` inherits them (with its own defaults) and adds its DDR's.
+PARAMS = (
+    Param("width", 1280, "pixels per line W (a multiple of ppc, >= 2*ppc)", lo=2,
+          hi=8192),
+    Param("stages", 96, "m_max, the largest stage count; sizes the (stages-1)-line "
+                        "partial-sum memory", lo=1, hi=128),
+    Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
+    Param("out_bits", None, "saturate the output at 2^N-1 (pixel_bits..full width); "
+                            "default: full width pixel_bits+ceil(log2(stages))",
+          lo=8, hi=21),
+    Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+)
 
 
 #: ``tdi``'s and ``tdi_ddr``'s pipeline entry; ``tdi`` spills to ``tdi_ddr``.
@@ -374,17 +418,7 @@ BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
             "direction (Qu et al. 2010; Tao et al. 2012)",
-    params=(
-        Param("width", 1280, "pixels per line W (a multiple of ppc, >= 2*ppc)", lo=2,
-              hi=8192),
-        Param("stages", 96, "m_max, the largest stage count; sizes the (stages-1)-line "
-                            "partial-sum memory", lo=1, hi=128),
-        Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
-        Param("out_bits", None, "saturate the output at 2^N-1 (pixel_bits..full width); "
-                                "default: full width pixel_bits+ceil(log2(stages))",
-              lo=8, hi=21),
-        Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
-    ),
+    params=PARAMS,
     top=_top,
     ecp5_top=_ecp5_top,
     cases=_cases,
@@ -393,5 +427,6 @@ BLOCK = Block(
     to_beats=_to_beats,
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
-                 placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr"),
+                 placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,
+                 options=OPTIONS),
 )

@@ -6,11 +6,12 @@ Same stream, run-time ports and golden model as block ``tdi``
 the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 """
 
-from ..model.ddr import ADDR_PER_WORD, tdi_ddr_check
-from ..model.tdi import check_params as tdi_check_params
-from . import Block, Case, Param, Use
-from . import tdi as _tdi
-from ._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+from dataclasses import replace
+
+from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
+from tdicam.model.tdi import check_params as tdi_check_params
+from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
+from tdicam.blocks._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK"]
 
@@ -19,7 +20,7 @@ def _check(p):
     tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                      out_bits=p["out_bits"], ppc=p["ppc"])
     check_stalls(p)
-    from ..hdl.tdi_ddr import TdiDdr
+    from tdicam.hdl.tdi_ddr import TdiDdr
     lp = None if p["line_period_ns"] is None else p["line_period_ns"] * 1e-9
     tdi_ddr_check(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   ppc=p["ppc"], line_period_s=lp, clock_hz=p["clock_mhz"] * 1e6,
@@ -27,7 +28,7 @@ def _check(p):
 
 
 def _top(**p):
-    from ..hdl.tdi_ddr import TdiDdr
+    from tdicam.hdl.tdi_ddr import TdiDdr
     lp = p["line_period_ns"]
     core = TdiDdr(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                   out_bits=p["out_bits"], ppc=p["ppc"], base=p["base"],
@@ -88,15 +89,8 @@ def _pipeline_step(ctx):
 BLOCK = Block(
     name="tdi_ddr",
     summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2)",
-    params=(
-        Param("width", 512, "pixels per line W (a multiple of ppc; W/ppc above the read "
-                            "look-ahead)", lo=2, hi=8192),
-        Param("stages", 16, "m_max; sizes the (stages-1) partial-sum lines in DDR", lo=1,
-              hi=128),
-        Param("pixel_bits", 12, "input pixel width", lo=8, hi=14),
-        Param("out_bits", None, "saturate the output at 2^N-1; default full width", lo=8,
-              hi=21),
-        Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+    params=tuple(replace(p, default={"width": 512, "stages": 16}.get(p.name, p.default))
+                 for p in _tdi.PARAMS) + (
         Param("base", 0, "DDR address of partial-sum line 0 (a multiple of 8)", lo=0,
               hi=(1 << 28) - 8),
         Param("line_period_ns", None, "line period the design must sustain (checks the DDR "

@@ -5,9 +5,10 @@ import sys
 import time
 from pathlib import Path
 
-from .. import bench, cosim
-from ..errors import TdicamError, check_range
-from ..outputs import check_dir, check_file, write_file
+from tdicam import cosim
+from tdicam.bench import suite as bench
+from tdicam.errors import TdicamError, check_range
+from tdicam.files import check_dir, check_file, write_file
 
 
 def register(sub):

@@ -14,11 +14,10 @@ import zipfile
 
 import numpy as np
 
-from ..errors import TdicamError, check_range
-from ..outputs import check_file, open_output
-from ..model import calib
-from ..model import nand_store as nand
-from ..model.nuc import DEFAULT_FORMAT, NucFormat
+from tdicam.errors import TdicamError, check_range
+from tdicam.files import check_file, open_output
+from tdicam.model import calib, nand_store as nand
+from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
 
 
 def register(sub):

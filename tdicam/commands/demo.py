@@ -1,7 +1,7 @@
 """``tdicam demo``: the end-to-end path on one block, as a smoke run of the whole tool."""
 
-from .. import blocks
-from ..demo import demo
+from tdicam import blocks
+from tdicam.demo import demo
 
 
 def register(sub):

@@ -1,14 +1,14 @@
 """``tdicam export BLOCK [--PARAM VALUE ...] -o DIR``: a block as a FuseSoC core with a
-self-checking Verilog testbench and its golden vectors (see :mod:`tdicam.export`)."""
+self-checking Verilog testbench and its golden vectors (see :mod:`tdicam.export.block`)."""
 
 import sys
 
-from .. import blocks
-from ..cli import ArgsParser
-from ..errors import TdicamError
-from ..export import export_block
-from ..pauses import SEED_MAX, check_seed
-from .verilog import parse_block_params, pick_block
+from tdicam import blocks
+from tdicam.commands._parsing import ArgsParser
+from tdicam.errors import TdicamError
+from tdicam.export.block import export_block
+from tdicam.cosim.pauses import SEED_MAX, check_seed
+from tdicam.commands.verilog import parse_block_params, pick_block
 
 
 def register(sub):
@@ -38,7 +38,7 @@ def register(sub):
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] -o DIR``."""
-    from ..export_pipeline import MEMORY, export_pipeline
+    from tdicam.export.camera import MEMORY, export_pipeline
     ap = ArgsParser(
         prog="tdicam export pipeline",
         description="A scene's whole [pipeline] as one exported design: the top as "
@@ -71,7 +71,7 @@ def _pipeline(args):
 
 def _run(args):
     check_seed("--seed", args.seed)
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.export_pipeline
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.export.camera
         return _pipeline(args)
     blk = pick_block(args, "without parameters: those of most of the block's golden cases")
     if blk is None:

@@ -1,7 +1,7 @@
 """``tdicam golden regen|check [BLOCK ...]``"""
 
-from .. import blocks as _blocks
-from .. import golden
+from tdicam import blocks as _blocks
+from tdicam.cosim import vectors as golden
 
 
 def register(sub):

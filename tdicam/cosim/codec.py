@@ -12,8 +12,8 @@ big-endian binary records (``$fread``, the fast-mode stimulus). Output lines are
 import numpy as np
 
 # re-exported for existing callers: the beat type lives in tdicam.beats
-from ..beats import Beats, beats_to_frames, frames_to_beats, mark_resets  # noqa: F401
-from ..errors import TdicamError
+from tdicam.beats import Beats, beats_to_frames, frames_to_beats, mark_resets  # noqa: F401
+from tdicam.errors import TdicamError
 
 __all__ = ["encode_stimulus", "encode_stimulus_bin", "stimulus_word_bytes",
            "stimulus_words_bin", "decode_output",

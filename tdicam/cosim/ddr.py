@@ -12,11 +12,11 @@ import time
 
 import numpy as np
 
-from ..errors import TdicamError
-from ..hdl.axis import AxisTop
-from ..model.ddr import DEFAULT_STALLS
-from ..verilog import convert
-from . import build_sources, run_cocotb
+from tdicam.errors import TdicamError
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.model.ddr import DEFAULT_STALLS
+from tdicam.hw.verilog import convert
+from tdicam.cosim import build_sources, run_cocotb
 
 __all__ = ["run_ui_cosim"]
 
@@ -33,7 +33,7 @@ def run_ui_cosim(*, width, rows, channels=1, ppc=1, pixel_bits=10, pixels_per_wo
     ``write_cycles``/``read_cycles`` and ``words`` per phase, plus ``write_eff`` and
     ``read_eff`` = words / cycles of the phase, ``wall`` and ``build_time``.
     """
-    from ..hdl.ddr import DdrFrameBuffer
+    from tdicam.hdl.ddr import DdrFrameBuffer
     stalls = dict(DEFAULT_STALLS if stalls is None else stalls)
     core = DdrFrameBuffer(width=width, rows=rows, channels=channels, elements=ppc * channels,
                           pixel_bits=pixel_bits, pixels_per_word=pixels_per_word,

@@ -1,7 +1,7 @@
 """A Verilog simulation model of the Lattice ECP5 DP16KD block RAM (the subset tdicam uses).
 
 yosys ships DP16KD only as a black box (``cells_sim_ecp5.v`` in its ``share/lattice``), so
-co-simulating the ECP5 variant of the TDI accumulator (:mod:`tdicam.hdl.ecp5_bram`,
+co-simulating the ECP5 variant of the TDI accumulator (:mod:`tdicam.hdl.vendor.ecp5_bram`,
 ``bram="ecp5"``) needs a model: :data:`MODEL`, written from Lattice's "ECP5 and ECP5-5G
 Memory Usage Guide" (FPGA-TN-02204) port description. Modelled:
 

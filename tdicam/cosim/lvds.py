@@ -29,13 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 from amaranth.hdl import Shape
 
-from .. import blocks
-from ..errors import TdicamError
-from ..hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
-from ..model import lvds as model
-from ..verilog import convert
-from . import build_sources, run_cocotb, tbgen
-from .codec import _digits, _undigits
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
+from tdicam.model import lvds as model
+from tdicam.hw.verilog import convert
+from tdicam.cosim import build_sources, run_cocotb, tbgen
+from tdicam.cosim.codec import _digits, _undigits
 
 __all__ = ["LinkRun", "run_link", "run_amaranth", "check_run", "expected_outputs", "testbench", "LMAX",
            "linkcheck_tap", "link_files", "dead_lane"]
@@ -558,7 +558,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
     """
     from amaranth.sim import Simulator
 
-    from ..hdl.lvds import LvdsRx
+    from tdicam.hdl.lvds import LvdsRx
     n, w = len(link.lanes), link.word_bits
     dut = LvdsRx(lanes=n, word_bits=w, settle=settle, **rx_params)
     events, outs = [], []

@@ -2,7 +2,7 @@
 
 Same stimulus and output convention as :func:`tdicam.cosim.run_stream` (beats, run-time
 settings riding with each beat, resets before marked beats) and the same source/sink
-(:class:`tdicam.pauses.StreamDriver`: the same idle/backpressure pattern for the same
+(:class:`tdicam.cosim.pauses.StreamDriver`: the same idle/backpressure pattern for the same
 seed), so the result compares with :func:`tdicam.cosim.compare`. Slow (Python per cycle);
 used as a fidelity level in benchmarks and as a cross-check in tests.
 """
@@ -13,10 +13,10 @@ import numpy as np
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
-from .. import blocks
-from ..beats import Beats
-from ..pauses import StreamDriver
-from .tbgen import RST_CYCLES
+from tdicam import blocks
+from tdicam.beats import Beats
+from tdicam.cosim.pauses import StreamDriver
+from tdicam.cosim.tbgen import RST_CYCLES
 
 __all__ = ["run_pysim"]
 
@@ -35,7 +35,7 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     ``trace``, a list, receives ``("i" | "o", cycle)`` of every transfer (as
     :func:`tdicam.cosim.run_stream` with ``trace=True``).
     """
-    from . import stream_ports
+    from tdicam.cosim import stream_ports
     blk = blocks.get(block)
     params = blk.resolve(params)
     top = blk.build(params)

@@ -11,7 +11,7 @@ One testbench serves both drive modes, so a simulator build is made once per par
   cannot be opened or holds fewer or more bytes than its beats ends the run with ``FAIL``
   and ``$fatal``),
   draws idle cycles and backpressure from the two xorshift32 generators of
-  :class:`tdicam.pauses.Pauses` (the same pattern as per-beat mode and the Amaranth driver for
+  :class:`tdicam.cosim.pauses.Pauses` (the same pattern as per-beat mode and the Amaranth driver for
   the same seed), pulses reset where a stimulus word asks for it, writes every output
   transfer to ``out.hex`` (and, with ``+trace=1``, the cycle of every input and output
   transfer to ``trace.txt``) and raises ``done``. cocotb only starts it and awaits ``done``.
@@ -26,8 +26,8 @@ testbench drives ``s_axis_tvalid = 0`` and ``m_axis_tready = 0``.
 
 from dataclasses import dataclass
 
-from ..pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
-from . import codec
+from tdicam.cosim.pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
+from tdicam.cosim import codec
 
 __all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
@@ -274,7 +274,7 @@ module {TB_TOP};
   wire rst_now = running && in_idx < n_in && cur_rst && !rst_served;
   wire f_rst = !running || rst_cnt != 0 || rst_now;
   wire f_present = running && !f_rst && in_idx < n_in;
-  // tdicam.pauses.Pauses: offer when v & 0xff >= idle_thr; valid held until the transfer
+  // tdicam.cosim.pauses.Pauses: offer when v & 0xff >= idle_thr; valid held until the transfer
   wire f_tvalid = f_present && (held || lv[7:0] >= idle_thr[7:0]);
   wire f_tready = running && !f_rst && (lr[7:0] >= bp_thr[7:0]);
 
@@ -318,7 +318,7 @@ module {TB_TOP};
       if (!$value$plusargs("bp=%d", bp_thr)) bp_thr = {d["bp"]};
       if (!$value$plusargs("seed=%d", lv)) lv = {d["seed"]};
       if ($test$plusargs("trace")) tracing = 1'b1;
-      lv = lv & 32'h{SEED_MAX:08x};   // tdicam.pauses.start_state
+      lv = lv & 32'h{SEED_MAX:08x};   // tdicam.cosim.pauses.start_state
       if (lv == 0) lv = 32'h{ZERO_SEED_STATE:08x};
       lr = lv ^ 32'h{XOR_R:08x};
       chunk = 0;

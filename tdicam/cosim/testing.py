@@ -7,7 +7,7 @@ its expected and received values and the path of the waveform around it (under
 
 import os
 
-from . import WAVE_DIR, run_beats, run_golden_case
+from tdicam.cosim import WAVE_DIR, run_beats, run_golden_case
 
 __all__ = ["check_beats", "check_case", "beat_cases", "FULL"]
 
@@ -21,7 +21,7 @@ def beat_cases(block, *, full=None):
     ``short`` (the default run): every case at ppc 1 and at ppc 8, and the reset cases at
     every ppc; ``long`` (with ``TDICAM_FULL=1``, ``full``): the other ppc 2 and 4 cases,
     which fast mode checks in every run. ``fast-only`` cases are in neither."""
-    from .. import blocks
+    from tdicam import blocks
     blk = blocks.get(block) if isinstance(block, str) else block
     short, long = [], []
     for case in blk.cases():

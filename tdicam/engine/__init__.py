@@ -1,6 +1,6 @@
 """Scene simulator: runs only the effects a scene calls for, in a fixed physical order.
 
-:func:`simulate` turns a validated :class:`~tdicam.scene.Scene` into the camera's images —
+:func:`simulate` turns a validated :class:`~tdicam.scene.loader.Scene` into the camera's images —
 the ideal target, one raw exposure of every ground line, and the TDI output — plus an
 effects table and measured-vs-predicted image quality. The table of effects
 (:data:`~tdicam.engine.effects.EFFECTS`) says for each effect when a scene needs it and why,
@@ -23,8 +23,8 @@ exposure) -> smear (stage misregistration from velocity mismatch and drift) -> r
 (row read-time offsets of a rolling shutter) -> prnu -> dark_current -> dsnu -> shot_noise
 -> full_well -> reset_frames (for CDS) -> read_noise -> dual_gain (HG/LG channels) ->
 quantization (ADC per exposure) -> cds -> nuc -> hdr -> median3 (before TDI) -> tdi ->
-median3 (after TDI). Physics lives in :mod:`tdicam.model.optics` (where each exposure looks)
-and :mod:`tdicam.model.sensor` (charge, noise, ADC); the hardware blocks run through their
+median3 (after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
+and :mod:`tdicam.model.physics.sensor` (charge, noise, ADC); the hardware blocks run through their
 golden models ``tdicam.model.<block>``.
 
 Fidelity
@@ -45,7 +45,7 @@ Fidelity
     Gaussian read noise at every harmonic of the DN grid, and with CDS the reset sample's
     read noise alone — Widrow's ``exp(-2 pi^2 sigma_DN^2)`` is its first Gaussian term); where
     it exceeds :data:`MOMENTS_BELOW_DITHER` the sum is drawn instead as integers with the exact
-    mean and variance of every rounding (:func:`tdicam.model.sensor.quantized_moments`,
+    mean and variance of every rounding (:func:`tdicam.model.physics.sensor.quantized_moments`,
     Gaussian noise in front of the ADC), so the undithered rounding bias is kept; per-exposure
     clipping (full well, ADC range, CDS clamp) is not reproduced, with its probability as the
     bound. A Poisson sum of mean >= ``1 / (4 tolerance^2)`` (Berry-Esseen distance <
@@ -54,6 +54,8 @@ Fidelity
     then falls back to exact, and the report says so.
 ``auto``
     per effect: fast where its bound is below ``[run].tolerance``, exact otherwise.
+
+Layer: above :mod:`tdicam.scene` and the tools; below :mod:`tdicam.camera` and the services.
 """
 
 from __future__ import annotations
@@ -64,16 +66,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
-from tdicam.model import optics as _optics
-from tdicam.model import targets as _targets
-from tdicam.scene import digital_tdi_limits_error
+from tdicam.model.physics import optics as _optics, targets as _targets
+from tdicam.scene.loader import digital_tdi_limits_error
 
-from . import exact as _exact
-from . import fast as _fast
-from .context import Context, EffectRecord, decide
-from .effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, RAW_LINES, FixedPattern
-from .streams import Timer, threads
+from tdicam.engine import exact as _exact, fast as _fast
+from tdicam.engine.context import Context, EffectRecord, decide
+from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
+from tdicam.engine.fast import RAW_LINES
+from tdicam.engine.streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
            "SceneResult", "Context", "simulate", "threads", "RAW_LINES",
@@ -199,7 +201,7 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
 
     Parameters
     ----------
-    scene : tdicam.scene.Scene
+    scene : tdicam.scene.loader.Scene
     stages : int, optional
         Stage count (default: the first of ``[tdi].stages``).
     dv_over_v : float, optional
@@ -236,9 +238,9 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     for name in list(force) + list(disable):
         if name not in EFFECT_NAMES:
             raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
-    if "tdi" in disable:
-        raise TdicamError("disable tdi: the TDI sum is what the camera outputs; it cannot be "
-                          "left out")
+    if _LINE_BLOCK in disable:
+        raise TdicamError(f"disable {_LINE_BLOCK}: the TDI sum is what the camera outputs; it "
+                          f"cannot be left out")
     if m > scene.sensor.rows:
         raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
                           f"got {m}")
@@ -284,8 +286,13 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
     return res
 
 
-#: Effects that cannot be removed alone: removing the key removes the values too.
-_REMOVED_WITH = {"dual_gain": {"hdr"}, "reset_frames": {"cds"}, "cds": {"reset_frames"}}
+#: The block whose effect is the TDI sum itself (never disabled, no impact of its own).
+_LINE_BLOCK = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
+_RESET_TAKERS = {b.name for b in _registry.scene_blocks() if b.pipeline.elems == 2}
+#: Effects that cannot be removed alone: removing the key removes the values too (the
+#: gain merge without a second gain channel, a block that takes reset frames without them).
+_REMOVED_WITH = {"dual_gain": {b.name for b in _registry.scene_blocks() if b.pipeline.merge},
+                 "reset_frames": _RESET_TAKERS, **{b: {"reset_frames"} for b in _RESET_TAKERS}}
 
 
 def _impacts(c, res):
@@ -298,7 +305,7 @@ def _impacts(c, res):
         .astype(np.float64)
     peak = float(res.output_full_scale)
     for r in res.effects:
-        if not r.ran or r.name == "tdi":
+        if not r.ran or r.name == _LINE_BLOCK:
             continue
         if r.name == "quantization":
             r.impact = {"note": "the ADC cannot be removed; see the fast-vs-exact error"}

@@ -1,12 +1,13 @@
 """The pipeline blocks in the scene simulator (cds, nuc, hdr, median3, tdi): when a block
 runs, which of the engine's frame stacks are its scene arrays (stream and side inputs, as the
-block registry :mod:`tdicam.blocks` names them) and its parameters from the scene, the ideal
-NUC coefficients, the ECC round trip of the coefficients or their store in NAND flash
-(``[pipeline.nuc] flash = "nand"``), and the crops kept for RTL
-co-simulation. The golden models run through the registry entries (:func:`golden`); TDI
-runs :func:`tdicam.model.tdi.tdi` directly: the registry's TDI golden function is the
-cycle-level stream model, built for co-simulation crops, far slower on whole scenes (the
-two are tested equal in ``tests/test_tdi.py``). All block knowledge of the engine is here.
+block registry :mod:`tdicam.blocks` names them), the ideal NUC coefficients, the ECC round
+trip of the coefficients or their store in NAND flash (``[pipeline.nuc] flash = "nand"``),
+and the crops kept for RTL co-simulation.
+
+A block's parameters come from its registry entry's one scene-to-parameters function
+(:attr:`tdicam.blocks.Use.step`, the same the scene's gateware chain uses), and its golden
+model runs through the entry (:func:`golden`), TDI's included. All block knowledge of the
+engine is here.
 """
 
 from __future__ import annotations
@@ -17,37 +18,33 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tdicam import blocks as _registry
+from tdicam.blocks.steps import Context
 from tdicam.errors import TdicamError
-from tdicam.model import ecc as _ecc
-from tdicam.model import nand_store as _nand
-from tdicam.model import hdr as _hdr
-from tdicam.model import nuc as _nuc
-from tdicam.model import tdi as _tdi
+from tdicam.model import ecc as _ecc, nand_store as _nand, hdr as _hdr, nuc as _nuc, tdi as _tdi
 
 __all__ = ["need", "Frames", "golden", "cds", "nuc", "hdr", "median3_pre", "tdi",
            "median3_post", "prepare", "nuc_coeffs", "tdi_bits", "subtract_reset"]
 
-_BLOCK_OF = {"cds": "cds", "nuc": "nuc", "hdr": "hdr", "median3_pre": "median3",
-             "median3_post": "median3", "tdi": "tdi"}
-
-
-def need(name):
-    """The ``need`` of block entry ``name``: listed in ``[pipeline].blocks`` (and where)."""
-    block = _BLOCK_OF[name]
+def need(block, where=None):
+    """The ``need`` of the engine step of registry block ``block``: listed in
+    ``[pipeline].blocks`` (``where``: ``"pre"`` / ``"post"``, for a block that may run before
+    or after the line-making block, the one of the two this step is)."""
+    use = _registry.get(block).pipeline
 
     def need_block(c):
         pipe, m = c.scene.pipeline, c.m
-        listed = block in pipe.blocks
-        if block == "median3" and listed:
-            listed = (name == "median3_post") == bool(pipe.median_after_tdi)
-        if name == "tdi" and not c.digital:
+        after = pipe.after_lines(block)
+        listed = after is not None
+        if where is not None and listed:
+            listed = (where == "post") == after
+        if use.lines and not c.digital:
             return True, (f"charge domain: {m} stages summed as charge before one readout "
                           f"(Zhou et al. 2008); the FPGA accumulator is not used")
         if not listed:
-            where = "" if block != "median3" or block not in pipe.blocks else \
-                (" here (it runs " + ("after" if pipe.median_after_tdi else "before") + " TDI)")
-            return False, f"not in [pipeline].blocks{where}"
-        if name == "hdr" and len(c.sensor.gains) != 2:
+            here = "" if where is None or after is None else \
+                (" here (it runs " + ("after" if after else "before") + " TDI)")
+            return False, f"not in [pipeline].blocks{here}"
+        if use.merge and len(c.sensor.gains) != 2:
             return False, "one-gain sensor: nothing to merge"
         return True, f"in [pipeline].blocks, golden model tdicam.model.{block}"
     return need_block
@@ -79,6 +76,16 @@ def golden(block, arrays, params):
     return blk.run_golden(arrays, blk.resolve(params))["out"]
 
 
+def params(c, block, bits, width, *, after_lines=False):
+    """Registry block ``block``'s parameters in run context ``c`` for ``bits``-bit input
+    pixels, ``width`` wide: its entry's scene-to-parameters function
+    (:attr:`tdicam.blocks.Use.step`)."""
+    ctx = Context(scene=c.scene, m=c.m, width=width, lines=0, bits=bits,
+                  after_lines=after_lines, block=block)
+    step, _ = _registry.get(block).pipeline.step(ctx)
+    return step
+
+
 def _check_bits(block, bits, lo, hi, key):
     if not lo <= bits <= hi:
         raise TdicamError(f"{key}: the {block} golden model takes {lo}..{hi}-bit pixels, "
@@ -107,16 +114,22 @@ def cds(c, fr):
     """Digital CDS of every channel: signal minus reset frame."""
     bits = c.sensor.bits
     for ch, x in enumerate(fr.channels):
-        y = subtract_reset(x, fr.resets[ch], bits)
+        p = params(c, "cds", bits, x.shape[-1]).params
+        y = golden("cds", {"signal": x, "reset": fr.resets[ch]}, p)
         if fr.keep is not None and ch == 0:
             fr.crop["cds"] = {"signal": fr.keep(x), "reset": fr.keep(fr.resets[ch]),
-                              "out": fr.keep(y), "params": {"pixel_bits": bits}}
+                              "out": fr.keep(y), "params": p}
         fr.channels[ch] = y
 
 
+def _nuc_params(c):
+    return params(c, "nuc", c.sensor.bits, c.sensor.columns).params
+
+
 def _nuc_format(c):
-    return _nuc.NucFormat(gain_int_bits=2, gain_frac_bits=c.scene.pipeline.nuc.gain_frac_bits,
-                          offset_bits=16, offset_frac_bits=0)
+    p = _nuc_params(c)
+    return _nuc.NucFormat(**{k: p[k] for k in ("gain_int_bits", "gain_frac_bits",
+                                               "offset_bits", "offset_frac_bits")})
 
 
 @_timed("nuc")
@@ -132,12 +145,12 @@ def nuc(c, fr):
             gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
         g = np.broadcast_to(gain_c, x.shape)
         o = np.broadcast_to(off_c, x.shape)
-        y = golden("nuc", {"x": x, "gain": g, "offset": o},
-                   dict(pixel_bits=bits, **fmt.params()))
+        p = params(c, "nuc", bits, x.shape[-1]).params
+        y = golden("nuc", {"x": x, "gain": g, "offset": o}, p)
         if fr.keep is not None and ch == 0:
             fr.crop["nuc"] = {"x": fr.keep(x), "gain": fr.keep(np.ascontiguousarray(g)),
                               "offset": fr.keep(np.ascontiguousarray(o)), "out": fr.keep(y),
-                              "params": dict(pixel_bits=bits, **fmt.params())}
+                              "params": p}
         fr.channels[ch] = y
 
 
@@ -206,15 +219,12 @@ def hdr(c, fr):
     """Golden HDR merge of the HG and LG channels into one."""
     if len(fr.channels) != 2:
         return
-    h = c.scene.pipeline.hdr
-    g = c.sensor.gains
-    params = dict(pixel_bits=fr.bits, threshold=h.threshold_dn, band=h.band_dn,
-                  gain_pairs=f"{g[0]}:{g[1]}", slope_frac_bits=h.slope_frac_bits)
-    merged = golden("hdr", {"hg": fr.channels[0], "lg": fr.channels[1]}, params)
+    p = params(c, "hdr", fr.bits, fr.channels[0].shape[-1]).params
+    merged = golden("hdr", {"hg": fr.channels[0], "lg": fr.channels[1]}, p)
     if fr.keep is not None:
         fr.crop["hdr"] = {"hg": fr.keep(fr.channels[0]), "lg": fr.keep(fr.channels[1]),
-                          "out": fr.keep(merged), "params": params}
-    fr.bits = _hdr.hdr_config(**params).out_bits
+                          "out": fr.keep(merged), "params": p}
+    fr.bits = _hdr.hdr_config(**p).out_bits
     fr.channels = [merged]
 
 
@@ -223,12 +233,11 @@ def median3_pre(c, fr):
     """Golden 3x3 median on single exposures (before TDI)."""
     x = fr.channels[0]
     _check_bits("median3", fr.bits, 8, 16, "[sensor].bits")
-    enhance = c.scene.pipeline.median3.edge_enhance
-    y = golden("median3", {"frames": x}, {"width": x.shape[-1], "pixel_bits": fr.bits,
-                                          "enhance": bool(enhance)})
+    p = params(c, "median3", fr.bits, x.shape[-1]).params
+    y = golden("median3", {"frames": x}, p)
     if fr.keep is not None:
         fr.crop["median3"] = {"frames": fr.keep(x), "out": None, "params": {
-            "pixel_bits": fr.bits, "enhance": bool(enhance)}}
+            k: v for k, v in p.items() if k != "width"}}
     fr.channels = [y]
 
 
@@ -241,24 +250,22 @@ def tdi_bits(bits, m):
 def tdi(c, fr):
     """Golden digital TDI of the frame stack (saturating when ``[tdi].output`` says so)."""
     m, pb, x = c.m, fr.bits, fr.channels[0]
-    tdi_cfg = c.scene.tdi
-    out_bits = tdi_cfg.output_bits if tdi_cfg.output == "saturate" else None
     _check_bits("tdi", pb, *_tdi.PIXEL_BITS,
                 "[sensor].bits" if pb == c.sensor.bits else "[pipeline].blocks (hdr output)")
     full = _tdi.full_bits(pb, m)
-    if out_bits is not None and out_bits >= full:
-        out_bits = None          # saturating at or above the full width never saturates
+    step = params(c, "tdi", pb, x.shape[-1])
+    out_bits, direction = step.params["out_bits"], step.inputs["direction"]
     if out_bits is not None and not pb <= out_bits <= full:
         raise TdicamError(f"[tdi].output_bits: must be in {pb}..{full} for {pb}-bit pixels "
                           f"and {m} stages, got {out_bits}")
-    direction = 0 if tdi_cfg.direction == "forward" else 1
-    out = _tdi.tdi(x, stages=m, pixel_bits=pb, out_bits=out_bits,
-                   direction=direction).astype(np.int64)
+    # the golden model's own limits, not the gateware's (a scene may be wider than 8192)
+    out = _registry.get("tdi").run_golden({"frames": x, **step.inputs}, step.params)["out"]
+    out = out.astype(np.int64)
     if fr.keep is not None:
         y0, h, x0, w = fr.keep_out
         fr.crop["tdi"] = {"frames": fr.keep(x), "params": dict(
-            width=None, stages=m, pixel_bits=pb, out_bits=out_bits, direction=direction),
-            "out": out[y0:y0 + h, x0:x0 + w].copy()}
+            width=None, stages=m, pixel_bits=pb, out_bits=None if out_bits == full else out_bits,
+            direction=direction), "out": out[y0:y0 + h, x0:x0 + w].copy()}
     fr.out = out
     fr.full_scale = (1 << (out_bits if out_bits is not None else full)) - 1
 
@@ -271,12 +278,10 @@ def median3_post(c, fr):
         raise TdicamError(f"[tdi].output: median3 after TDI takes at most 16-bit pixels; "
                           f"the TDI output is {pb} bits: set output = 'saturate' with "
                           f"output_bits <= 16")
-    pb = max(pb, 8)
-    enhance = c.scene.pipeline.median3.edge_enhance
-    y = golden("median3", {"frames": fr.out}, {"width": fr.out.shape[-1], "pixel_bits": pb,
-                                               "enhance": bool(enhance)}).astype(np.int64)
+    p = params(c, "median3", pb, fr.out.shape[-1], after_lines=True).params
+    y = golden("median3", {"frames": fr.out}, p).astype(np.int64)
     if fr.keep_out is not None:
         y0, h, x0, w = fr.keep_out
         fr.crop["median3"] = {"frames": fr.out[y0:y0 + h, x0:x0 + w].copy(), "out": None,
-                              "params": {"pixel_bits": pb, "enhance": bool(enhance)}}
+                              "params": {k: v for k, v in p.items() if k != "width"}}
     fr.out = y

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from tdicam.errors import TdicamError
 
-from .effects import EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, dark_charge_e, stage_skew
+from tdicam.engine.effects import EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, dark_charge_e, stage_skew
 
 __all__ = ["EffectRecord", "Context", "decide"]
 

@@ -21,14 +21,13 @@ from typing import Callable
 
 import numpy as np
 
-from . import blocks as _blocks
-from .streams import stream
+from tdicam import blocks as _registry
+from tdicam.engine import blocks as _blocks, fast
+from tdicam.engine.streams import stream
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "FixedPattern", "rounding_defect",
-           "RAW_LINES", "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
+           "MOMENTS_BELOW_DITHER", "dark_charge_e", "stage_skew"]
 
-#: In fast fidelity the raw single exposure covers at most this many ground lines.
-RAW_LINES = 256
 #: Fast fidelity sums exact per-rounding moments where the Widrow defect exceeds this.
 MOMENTS_BELOW_DITHER = 1e-4
 
@@ -50,7 +49,7 @@ class Effect:
         The bound the record states in fast fidelity and what fast does instead.
     stage : str
         Where its implementations act: ``render`` (keywords of
-        :class:`~tdicam.model.optics.Geometry` and the renderer), ``pattern`` (the window
+        :class:`~tdicam.model.physics.optics.Geometry` and the renderer), ``pattern`` (the window
         rows' :class:`FixedPattern`), ``charge`` and ``conversion`` (one
         :class:`~tdicam.engine.exact.Exposure` block in the exact path, the
         :class:`~tdicam.engine.fast.Aggregate` in the fast path), ``blocks`` (frame stacks
@@ -174,9 +173,9 @@ def _need_full_well(c):
 
 
 def _need_reset_frames(c):
-    cds = "cds" in c.scene.pipeline.blocks
-    return cds, ("the cds block subtracts a reset frame" if cds
-                 else "no cds block in the pipeline")
+    takers = [b for b in c.scene.pipeline.blocks if _registry.get(b).pipeline.elems == 2]
+    return bool(takers), (f"the {takers[0]} block subtracts a reset frame" if takers
+                          else "no cds block in the pipeline")
 
 
 _need_read_noise = _when_positive("read_noise_e", lambda r: f"{r:g} e- RMS per sample",
@@ -404,12 +403,8 @@ def _adc_into(x, k, add, top, dst):
 
 
 def _fast(name):
-    """Fast implementation ``name`` of :mod:`tdicam.engine.fast` (imported late)."""
-    def call(*a):
-        from . import fast
-        return getattr(fast, name)(*a)
-    call.__name__ = name
-    return call
+    """Fast implementation ``name`` of :mod:`tdicam.engine.fast`."""
+    return getattr(fast, name)
 
 
 #: Every effect in the fixed physical order.
@@ -450,11 +445,11 @@ EFFECTS = (
            exact=_blocks.nuc, per_exposure=True),
     Effect("hdr", "block hdr (golden model)", _blocks.need("hdr"), stage="blocks",
            exact=_blocks.hdr, per_exposure=True),
-    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3_pre"),
+    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3", "pre"),
            stage="blocks", exact=_blocks.median3_pre, per_exposure=True),
     Effect("tdi", "TDI accumulation", _blocks.need("tdi"), stage="tdi", exact=_blocks.tdi,
            fast=_fast("tdi"), aggregated=True),
-    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3_post"),
+    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3", "post"),
            stage="output", exact=_blocks.median3_post, fast=_blocks.median3_post),
 )
 EFFECT_NAMES = tuple(e.name for e in EFFECTS)

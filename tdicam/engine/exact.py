@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
-from .blocks import Frames, prepare
-from .streams import BLOCK_PIXELS, block_rng, run_blocks, stream
+from tdicam.engine.blocks import Frames, prepare
+from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks, stream
 
 __all__ = ["Exposure", "digital", "charge", "expose", "convert"]
 

@@ -7,7 +7,7 @@ the table run in order — shot noise (Normal of the summed variance, Poisson wh
 mean is small), full well (charge domain), read noise (summed variance), quantization (one
 rounding plus ``Normal((n - 1)/12)``) — or, where the noise does not dither the ADC,
 :func:`moment_sum` draws the sum of the roundings with their exact moments. The raw single
-exposure of the first :data:`~tdicam.engine.effects.RAW_LINES` lines is drawn exactly
+exposure of the first :data:`RAW_LINES` lines is drawn exactly
 (stage 0, :func:`tdicam.engine.exact.expose` / ``convert``).
 """
 
@@ -18,15 +18,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.model import sensor as _sensor
+from tdicam.model.physics import sensor as _sensor
 
-from .blocks import Frames, subtract_reset
-from .effects import RAW_LINES
-from .exact import Exposure, convert, expose
-from .streams import BLOCK_PIXELS, block_rng, run_blocks
+from tdicam.engine.blocks import Frames, subtract_reset
+from tdicam.engine.exact import Exposure, convert, expose
+from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks
 
-__all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
+__all__ = ["RAW_LINES", "Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
            "moment_sum", "integer_draw"]
+
+#: In fast fidelity the raw single exposure covers at most this many ground lines.
+RAW_LINES = 256
 
 
 @dataclass

@@ -11,12 +11,11 @@ while it fills an array, so blocks run on :func:`threads` threads through
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from tdicam.errors import TdicamError
+from tdicam.threads import threads
 
 __all__ = ["STREAMS", "BLOCK_PIXELS", "stream", "block_rng", "threads", "run_blocks", "Timer"]
 
@@ -36,19 +35,6 @@ def block_rng(seed, name, stage, block):
     """The generator of stream ``name`` for block ``block`` of stage ``stage``."""
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
         [int(seed), STREAMS[name], int(stage), int(block)])))
-
-
-def threads():
-    """Worker threads of the block-parallel loops: ``TDICAM_THREADS`` or the CPU count (<= 4).
-
-    The result never depends on it: every block of rows draws from its own generator."""
-    v = os.environ.get("TDICAM_THREADS")
-    if v:
-        try:
-            return max(1, int(v))
-        except ValueError:
-            raise TdicamError(f"TDICAM_THREADS = {v!r}: must be an integer >= 1") from None
-    return max(1, min(os.cpu_count() or 1, 4))
 
 
 class Timer:

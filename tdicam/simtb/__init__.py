@@ -5,4 +5,7 @@
 interface against :class:`~tdicam.model.ddr.MigSim`), ``lvds_tb`` (the LVDS link testbench).
 A package of its own, outside :mod:`tdicam.cosim`, so that the simulator's Python imports
 only what a test module needs (fast mode: cocotb alone, no numpy or Amaranth).
+
+Layer: above :mod:`tdicam.cosim` (it reads the stimulus codec and the idle/backpressure
+generator); nothing in tdicam imports it.
 """

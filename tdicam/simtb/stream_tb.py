@@ -44,7 +44,7 @@ class TB:
         return words[: job["n_in"]]
 
     async def run_beats(self):
-        from tdicam.pauses import StreamDriver
+        from tdicam.cosim.pauses import StreamDriver
         dut, job = self.dut, self.job
         words = self._stimulus()
         cb = job["ctrl_bits"]

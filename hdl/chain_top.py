@@ -1,0 +1,370 @@
+"""One gateware top for a camera pipeline: the blocks' stream components chained in order.
+
+The top knows no block by name. It is built from a list of *stage* objects (see
+:class:`LaneStage` and :class:`MergeStage`), each of which makes the block's component
+and wires its side inputs; the table that turns a scene's ``[pipeline]`` into stages lives
+in :mod:`tdicam.camera.design`. Generic pieces used by the stages are here too: the fork of the
+input beat into channel lanes, the join of two streams into one beat (a lane and its
+coefficient stream, or the HDR gain channels), the calibration-image ROM that feeds
+:class:`~tdicam.hdl.calib.CalibReader`, and the re-framing of TDI's one-line frames into
+images for a 2-D block.
+"""
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from amaranth.hdl import Cat, Const, Module, Signal, Value
+from amaranth.lib import wiring
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+from tdicam.errors import TdicamError
+from tdicam.hdl.interfaces.stream import channels_shape, element_bits, pixel_signature
+
+__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group"]
+
+
+class Link:
+    """One stream between two stages inside the top (producer side).
+
+    ``valid``, ``first``, ``last`` and the pixel elements ``elems`` (a list of Values, one per
+    channel) are driven by the producer; ``ready`` is a Signal the consumer drives.
+    """
+
+    def __init__(self, valid, ready, first, last, elems, bits):
+        self.valid, self.ready, self.first, self.last = valid, ready, first, last
+        self.elems, self.bits = list(elems), bits
+
+    @classmethod
+    def of_output(cls, stream):
+        """The ``o_stream`` of a component."""
+        bits, count = element_bits(stream.payload.data.shape())
+        d = stream.payload.data
+        elems = [d[k] for k in range(count)] if count > 1 else [d]
+        return cls(stream.valid, stream.ready, stream.payload.first, stream.payload.last,
+                   elems, bits)
+
+    def feed(self, m, stream, *, who):
+        """Drive component input ``stream`` from this link (elements zero-extended)."""
+        bits, count = element_bits(stream.payload.data.shape())
+        if len(self.elems) > count:
+            raise TdicamError(f"{who}: takes {count} channel(s), gets {len(self.elems)}")
+        if self.bits > bits:
+            raise TdicamError(f"{who}: takes {bits}-bit pixels, the stage before gives "
+                              f"{self.bits}-bit pixels")
+        flat = Cat(*(Cat(e, Const(0, bits - len(Value.cast(e)))) for e in self.elems))
+        m.d.comb += [
+            stream.valid.eq(self.valid),
+            self.ready.eq(stream.ready),
+            stream.payload.first.eq(self.first),
+            stream.payload.last.eq(self.last),
+            Value.cast(stream.payload.data).eq(flat),
+        ]
+
+    def select(self, lo, hi):
+        """The same beats with elements ``lo:hi`` only (no handshake of its own)."""
+        return Link(self.valid, self.ready, self.first, self.last, self.elems[lo:hi],
+                    self.bits)
+
+
+def fork(m, link, parts, name):
+    """Split ``link`` into streams of element ranges ``parts``; a beat moves when every
+    branch takes it (each branch's valid waits for the others' ready)."""
+    if len(parts) == 1:
+        return [link.select(*parts[0])]
+    readies = [Signal(name=f"{name}_ready{k}") for k in range(len(parts))]
+    outs = []
+    for k, (lo, hi) in enumerate(parts):
+        others = Cat(*(r for j, r in enumerate(readies) if j != k)).all()
+        outs.append(Link(link.valid & others, readies[k], link.first, link.last,
+                         link.elems[lo:hi], link.bits))
+    m.d.comb += link.ready.eq(Cat(*readies).all())
+    return outs
+
+
+def join(m, a, b, name):
+    """One stream whose beats carry ``a``'s elements then ``b``'s; markers from ``a``."""
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += [a.ready.eq(ready & b.valid), b.ready.eq(ready & a.valid)]
+    return Link(a.valid & b.valid, ready, a.first, a.last, a.elems + b.elems,
+                max(a.bits, b.bits))
+
+
+def frame_group(m, link, height, name):
+    """Re-frame: ``first`` kept only on every ``height``-th frame start (``height`` 0 counts
+    as 1), so ``height`` one-line frames (TDI's output lines) become one image. No latency,
+    no state but the frame counter."""
+    cnt = Signal(16, name=f"{name}_frames")
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += link.ready.eq(ready)
+    with m.If(link.valid & ready & link.first):
+        with m.If(cnt + 1 >= height):
+            m.d.sync += cnt.eq(0)
+        with m.Else():
+            m.d.sync += cnt.eq(cnt + 1)
+    return Link(link.valid, ready, link.first & ~cnt.any(), link.last, link.elems, link.bits)
+
+
+class CalibRom(wiring.Component):
+    """The flash words of a calibration image (``(n, 9)`` bytes, as
+    :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one word
+    per clock while ``o_stream.ready`` is high: the simulation stand-in for the flash.
+
+    ``o_stream.data`` = 9 bytes, element ``k`` = byte ``k`` (the input of
+    :class:`~tdicam.hdl.calib.CalibReader`); ``first``/``last`` are 0. Two register stages
+    (the memory's read port, then an output register: the block RAM's data goes straight
+    into a flip-flop, not into the reader's ECC decoder).
+    """
+
+    def __init__(self, words):
+        self._words = [int.from_bytes(bytes(bytearray(w)), "little") for w in words]
+        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 9)))})
+
+    @property
+    def depth(self):
+        return len(self._words)
+
+    def elaborate(self, platform):
+        m = Module()
+        n = len(self._words)
+        m.submodules.mem = mem = Memory(shape=72, depth=max(n, 2),
+                                        init=self._words + [0] * (max(n, 2) - n))
+        rd = mem.read_port()
+        o = self.o_stream
+        addr = Signal(range(max(n, 2)))
+        v1 = Signal()                 # the read port holds a word
+        adv1, adv2 = Signal(), Signal()
+        m.d.comb += [adv2.eq(~o.valid | o.ready), adv1.eq(~v1 | adv2),
+                     rd.en.eq(adv1), rd.addr.eq(addr)]
+        with m.If(adv1):
+            m.d.sync += [v1.eq(1), addr.eq(addr + 1)]
+            with m.If(addr == n - 1):
+                m.d.sync += addr.eq(0)
+        with m.If(adv2):
+            m.d.sync += [o.valid.eq(v1), Value.cast(o.payload.data).eq(rd.data)]
+        return m
+
+
+@dataclass
+class LaneStage:
+    """A block that runs on every channel lane on its own (one component per lane).
+
+    Attributes
+    ----------
+    name : str
+        Stage name: prefixes its top-level ports (``<name>_<port>``) and taps.
+    make : callable(lane) -> wiring.Component
+        The block's stream component (``i_stream``/``o_stream``) for lane ``lane``.
+    elems : int
+        Input elements the block takes from each lane beat (e.g. signal and reset).
+    ports : tuple of str
+        Plain ``In`` ports of the component driven from one top-level port shared by the
+        lanes (run-time settings).
+    side : callable(m, lane) -> Link or None
+        A stream joined after the lane's elements on every beat (NUC coefficients).
+    group : str or None
+        A top-level port (of this stage) giving the number of incoming frames grouped into
+        one frame before the block (see :func:`frame_group`).
+    """
+
+    name: str
+    make: Callable
+    elems: int = 1
+    ports: tuple = ()
+    side: Callable | None = None
+    group: str | None = None
+    merge: bool = field(default=False, init=False)
+
+
+@dataclass
+class MergeStage(LaneStage):
+    """A block that takes the elements of every lane in one beat (the HDR merge)."""
+
+    merge: bool = field(default=True, init=False)
+
+
+class Pipeline(wiring.Component):
+    """The camera's blocks chained in order, their side inputs wired, taps exposed.
+
+    Parameters
+    ----------
+    stages : list of :class:`LaneStage` / :class:`MergeStage`
+        In stream order.
+    in_bits : int
+        Width of each input element.
+    lanes : int
+        Channel lanes of the input (2 with HDR's high- and low-gain channels).
+    lane_elems : int
+        Input elements per lane (2 when the first stage is CDS: signal, reset).
+    taps : bool
+        Expose every stage's output stream as ports (simulation).
+
+    Attributes
+    ----------
+    i_stream : In(pixel stream)
+        ``lanes * lane_elems`` elements of ``in_bits``: lane 0's elements first.
+    o_stream : Out(pixel stream)
+        The last stage's output.
+    <stage>_<port> : In
+        The stages' run-time settings (e.g. TDI's stages and direction, the median's frame
+        height), presented to every lane's component.
+    <stage>_<port> : Out
+        The stages' status outputs (lane 0's, and ``<stage>_<port>_<lane>`` for others).
+    tap<k>_<stage>[_<lane>]_{valid,ready,first,last,data} : Out (with ``taps``)
+        Stage ``k``'s output stream, seen where it is handed on.
+
+    Notes
+    -----
+    Every block keeps its own handshake; the top adds no register on the pixel path: forks
+    and joins are combinational, a beat moves through a fork when every branch takes it.
+    :attr:`latency` is the sum of the blocks' ``latency`` figures, each as its block defines
+    it (a 2-D block's counts from the input pixel its output needs last); None when one
+    varies (DDR).
+    """
+
+    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False):
+        self._stages = list(stages)
+        self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
+        self._taps = taps
+        self._cores = self._plan()
+        members = {"i_stream": In(pixel_signature(channels_shape(in_bits,
+                                                                 lanes * lane_elems)))}
+        members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
+        for st, cores in zip(self._stages, self._cores):
+            for pname, member in cores[0].signature.members.items():
+                if pname in ("i_stream", "o_stream"):
+                    continue
+                if member.flow == wiring.In:
+                    if pname not in st.ports:
+                        raise TdicamError(f"pipeline: block {st.name}'s input port {pname} "
+                                          f"has no source")
+                    members[f"{st.name}_{pname}"] = In(member.shape)
+                else:
+                    for k in range(len(cores)):
+                        members[self._status(st, pname, k)] = Out(member.shape)
+            if st.group is not None and f"{st.name}_{st.group}" not in members:
+                members[f"{st.name}_{st.group}"] = In(16)
+        if taps:
+            for k, (name, bits, count) in enumerate(self._tap_shapes):
+                for s in ("valid", "ready", "first", "last"):
+                    members[f"tap{k}_{name}_{s}"] = Out(1)
+                members[f"tap{k}_{name}_data"] = Out(bits * count)
+        super().__init__(members)
+
+    @staticmethod
+    def _status(st, pname, lane):
+        return f"{st.name}_{pname}" + (f"_{lane}" if lane else "")
+
+    def _plan(self):
+        """Make every component once; check lane counts and widths (one-line errors)."""
+        cores, lanes, bits = [], self._lanes, self._in_bits
+        self._tap_shapes = []
+        for st in self._stages:
+            if st.merge:
+                cs = [st.make(0)]
+                lanes = 1
+            else:
+                cs = [st.make(k) for k in range(lanes)]
+            ib, _ = element_bits(_data_shape(cs[0], "i_stream"))
+            ob, oc = element_bits(_data_shape(cs[0], "o_stream"))
+            if bits > ib:
+                names = [s.name for s in self._stages]
+                prev = names[names.index(st.name) - 1] if names.index(st.name) else "input"
+                raise TdicamError(f"pipeline: {prev} gives {bits}-bit pixels, {st.name} "
+                                  f"takes {ib}-bit pixels")
+            bits = ob
+            cores.append(cs)
+            for k in range(len(cs)):
+                self._tap_shapes.append((st.name + (f"_{k}" if len(cs) > 1 else ""), ob, oc))
+        self._out_shape = (bits, oc if self._stages else 1)
+        if not self._stages:
+            self._out_shape = (self._in_bits, self._lanes * self._lane_elems)
+        return cores
+
+    stages = property(lambda self: list(self._stages))
+    cores = property(lambda self: [list(c) for c in self._cores],
+                     doc="The blocks' components, per stage and lane.")
+    tap_shapes = property(lambda self: list(self._tap_shapes),
+                          doc="(name, element bits, element count) of each tap.")
+
+    @property
+    def latency(self):
+        """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
+        when a block's latency varies (a block with its memory in DDR)."""
+        lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
+        return None if None in lats else sum(lats)
+
+    def elaborate(self, platform):
+        m = Module()
+        i = self.i_stream
+        n_in = self._lanes * self._lane_elems
+        d = i.payload.data
+        src_ready = Signal(name="in_ready")
+        m.d.comb += i.ready.eq(src_ready)
+        whole = Link(i.valid, src_ready, i.payload.first, i.payload.last,
+                     [d[k] for k in range(n_in)] if n_in > 1 else [d], self._in_bits)
+        # lanes stay one stream until a per-lane block needs them apart
+        lanes = [whole]
+        per = [self._lane_elems] * self._lanes
+        split = self._lanes == 1
+        tap = 0
+        for st, cores in zip(self._stages, self._cores):
+            if st.merge:
+                if not split:
+                    lanes = [whole]
+                else:
+                    link = lanes[0]
+                    for k, other in enumerate(lanes[1:]):
+                        link = join(m, link, other, f"{st.name}_join{k}")
+                    lanes = [link]
+                split, per = True, [sum(per)]
+            elif not split:
+                lo, parts = 0, []
+                for n in per:
+                    parts.append((lo, lo + n))
+                    lo += n
+                lanes = fork(m, whole, parts, f"{st.name}_fork")
+                split = True
+            outs = []
+            for k, (core, link) in enumerate(zip(cores, lanes)):
+                m.submodules[f"{st.name}" + (f"_{k}" if len(cores) > 1 else "")] = core
+                if st.group is not None:
+                    link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
+                                       f"{st.name}_group{k}")
+                if st.side is not None:
+                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}")
+                link.feed(m, core.i_stream, who=st.name)
+                for pname, member in core.signature.members.items():
+                    if pname in ("i_stream", "o_stream"):
+                        continue
+                    if member.flow == wiring.In:
+                        m.d.comb += getattr(core, pname).eq(getattr(self, f"{st.name}_{pname}"))
+                    else:
+                        m.d.comb += getattr(self, self._status(st, pname, k)).eq(
+                            getattr(core, pname))
+                out = Link.of_output(core.o_stream)
+                if self._taps:
+                    name = self._tap_shapes[tap][0]
+                    m.d.comb += [
+                        getattr(self, f"tap{tap}_{name}_valid").eq(out.valid),
+                        getattr(self, f"tap{tap}_{name}_ready").eq(out.ready),
+                        getattr(self, f"tap{tap}_{name}_first").eq(out.first),
+                        getattr(self, f"tap{tap}_{name}_last").eq(out.last),
+                        getattr(self, f"tap{tap}_{name}_data").eq(Cat(*out.elems)),
+                    ]
+                tap += 1
+                outs.append(out)
+            lanes, per = outs, [len(o.elems) for o in outs]
+        if len(lanes) != 1 and self._stages:
+            raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "
+                              f"merging block (hdr) must join them")
+        o = self.o_stream
+        if self._stages:
+            lanes[0].feed(m, o, who="pipeline output")
+        else:
+            whole.feed(m, o, who="pipeline output")
+        return m
+
+
+def _data_shape(component, port):
+    return component.signature.members[port].signature.members["payload"].shape["data"].shape

@@ -1,0 +1,3 @@
+"""Interfaces the blocks share: the pixel stream (:mod:`~tdicam.hdl.interfaces.stream`), the
+AXI4-Stream Verilog top (:mod:`~tdicam.hdl.interfaces.axis`) and the MIG user interface
+(:mod:`~tdicam.hdl.interfaces.mig`)."""

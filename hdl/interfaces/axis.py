@@ -1,0 +1,102 @@
+"""Thin AXI4-Stream video wrapper for the Verilog top (AMD PG278 names).
+
+The wrapped component's ``i_stream``/``o_stream`` become ``s_axis_*``/``m_axis_*``:
+``tdata`` carries ``data`` with every element (pixel or channel) zero-padded to a whole
+number of bytes, element 0 in the least significant bits; ``tuser`` = ``first`` (start of
+frame); ``tlast`` = ``last`` (end of line). Every other port of the wrapped component
+(run-time settings, status) keeps its name. ``clk`` and ``rst`` (synchronous, active high)
+come from the ``sync`` domain.
+"""
+
+from amaranth.hdl import Cat, Const, Module, Value
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from tdicam.hdl.interfaces.stream import element_bits
+
+__all__ = ["AxisTop", "tdata_layout"]
+
+
+def tdata_layout(data_shape):
+    """(element bits, element count, padded element bits, tdata width) of a pixel data shape."""
+    bits, count = element_bits(data_shape)
+    padded = -(-bits // 8) * 8
+    return bits, count, padded, padded * count
+
+
+def _data_shape(stream_member):
+    return stream_member.signature.members["payload"].shape["data"].shape
+
+
+class AxisTop(wiring.Component):
+    """Expose ``core``'s pixel streams as AXI4-Stream ports; forward its other ports.
+
+    Purely combinational: adds no latency and no state.
+    """
+
+    def __init__(self, core):
+        self._core = core
+        csig = core.signature
+        self._in = tdata_layout(_data_shape(csig.members["i_stream"]))
+        self._out = tdata_layout(_data_shape(csig.members["o_stream"]))
+        members = {
+            "s_axis_tdata": In(self._in[3]),
+            "s_axis_tvalid": In(1),
+            "s_axis_tready": Out(1),
+            "s_axis_tuser": In(1),
+            "s_axis_tlast": In(1),
+            "m_axis_tdata": Out(self._out[3]),
+            "m_axis_tvalid": Out(1),
+            "m_axis_tready": In(1),
+            "m_axis_tuser": Out(1),
+            "m_axis_tlast": Out(1),
+        }
+        self._extra = []
+        for name, member in csig.members.items():
+            if name in ("i_stream", "o_stream"):
+                continue
+            if not member.is_port:
+                raise TypeError(f"{name}: only plain ports can be exposed beside the streams")
+            members[name] = In(member.shape) if member.flow == wiring.In else Out(member.shape)
+            self._extra.append((name, member.flow))
+        super().__init__(members)
+
+    @property
+    def core(self):
+        return self._core
+
+    @property
+    def latency(self):
+        return self._core.latency
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.core = core = self._core
+        i, o = core.i_stream, core.o_stream
+
+        bits, count, padded, _ = self._in
+        m.d.comb += [
+            i.valid.eq(self.s_axis_tvalid),
+            self.s_axis_tready.eq(i.ready),
+            i.payload.first.eq(self.s_axis_tuser),
+            i.payload.last.eq(self.s_axis_tlast),
+            Value.cast(i.payload.data).eq(
+                Cat(self.s_axis_tdata[k * padded:k * padded + bits] for k in range(count))),
+        ]
+        bits, count, padded, _ = self._out
+        flat = Value.cast(o.payload.data)
+        m.d.comb += [
+            self.m_axis_tvalid.eq(o.valid),
+            o.ready.eq(self.m_axis_tready),
+            self.m_axis_tuser.eq(o.payload.first),
+            self.m_axis_tlast.eq(o.payload.last),
+            self.m_axis_tdata.eq(Cat(
+                Cat(flat[k * bits:(k + 1) * bits], Const(0, padded - bits))
+                for k in range(count))),
+        ]
+        for name, flow in self._extra:
+            if flow == wiring.In:
+                m.d.comb += getattr(core, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(core, name))
+        return m

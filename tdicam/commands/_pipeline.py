@@ -1,0 +1,98 @@
+"""``tdicam verilog pipeline`` and ``tdicam synth pipeline``: the arguments that pick a
+scene's chain (:func:`scene_design`), then the chain's Verilog or its synthesis
+(:mod:`tdicam.camera.design`, :func:`tdicam.hw.synth.synth`)."""
+
+import json
+import sys
+
+import numpy as np
+
+from tdicam.blocks.steps import SceneData
+from tdicam.camera.design import ECP5_85F, PipelineBlock, plan, top, verilog_header
+from tdicam.commands._parsing import ArgsParser
+from tdicam.errors import TdicamError
+from tdicam.files import check_file, write_file
+from tdicam.hw.synth import synth
+from tdicam.hw.verilog import convert
+from tdicam.model.calib import load_image
+from tdicam.scene.loader import load_scene
+
+__all__ = ["scene_design", "verilog_command", "synth_command"]
+
+
+def scene_design(prog, extra):
+    """(parsed arguments, :class:`~tdicam.blocks.steps.Plan`, :class:`SceneData` or None) of
+    ``tdicam verilog|synth pipeline`` arguments ``extra``."""
+    ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
+                                 "([pipeline] blocks in order, NUC coefficients identity "
+                                 "unless --calib).")
+    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
+                    "[tdi].stages)")
+    ap.add_argument("--lines", type=int, help="output lines per median image (default "
+                    "[run].lines)")
+    ap.add_argument("--calib", action="append", default=[],
+                    help="calibration image file (tdicam calib write), one per channel")
+    ap.add_argument("--taps", action="store_true", help="expose every block's output")
+    ap.add_argument("--memory", choices=("auto", "chip", "ddr"),
+                    help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
+                         "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
+                         "DDR needs the scene's [ddr] section)")
+    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    ns = ap.parse_args(list(extra))
+    sc = load_scene(ns.scene)
+    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
+             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
+    data = None
+    if ns.calib:
+        if len(ns.calib) != p.lanes:
+            raise TdicamError(f"--calib: the pipeline has {p.lanes} channel(s), got "
+                              f"{len(ns.calib)} image(s)")
+        coeffs = []
+        for path in ns.calib:
+            img = load_image(path)
+            if img.shape != (p.rows, p.width):
+                raise TdicamError(f"--calib {path}: a {img.shape[0]} x {img.shape[1]} image; "
+                                  f"the pipeline's frames are {p.rows} x {p.width}")
+            coeffs.append((np.asarray(img.gain), np.asarray(img.offset)))
+        data = SceneData([], None, coeffs)
+    return ns, p, data
+
+
+def verilog_command(extra, output, *, show_help=False):
+    """``tdicam verilog pipeline --scene S.toml [-o FILE]``; returns the exit status."""
+    if show_help:
+        extra = ["--help"]
+    if output is not None and not show_help:
+        check_file(output)
+    ns, p, data = scene_design("tdicam verilog pipeline", extra)
+    ax = top(p, data, taps=ns.taps)
+    ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
+    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps))
+    if output is not None:
+        write_file(output, text)
+        print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
+              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat}",
+              file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):
+    """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
+    chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F."""
+    ns, p, data = scene_design("tdicam synth pipeline", extra)
+    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
+    fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
+    if as_json:
+        print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
+        return 0
+    print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
+          f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
+          f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
+          f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
+          f"{res.xilinx}")
+    print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
+        f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
+    return 0

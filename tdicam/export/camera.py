@@ -1,0 +1,88 @@
+"""``tdicam export pipeline --scene S.toml``: a scene's whole chain as a FuseSoC core with a
+self-checking testbench (see :mod:`tdicam.export.block`).
+
+The export holds the pipeline top exactly as ``tdicam verilog pipeline --scene S.toml``
+writes it (identity NUC coefficients in its calibration ROM), and the fast-mode stream
+testbench of :mod:`tdicam.cosim.tbgen` in its self-checking form. The stimulus is the
+scene's raw data (every exposure frame of every channel and the CDS reset frames, from an
+exact run of the scene simulator, :func:`tdicam.camera.cosim.scene_data`) made into the top's
+input beats by :func:`tdicam.camera.design.stimulus`; the expected output is the last stage of
+the golden chain (:func:`tdicam.camera.design.golden`) on the same data.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from tdicam.camera import design as pl
+from tdicam.beats import frames_to_beats
+from tdicam.errors import TdicamError, check_range
+from tdicam.export.block import MAX_BEATS, Export, stream_design, write_design
+
+__all__ = ["export_pipeline", "pipeline_design", "MEMORY"]
+
+#: ``--memory``: TDI partial sums on chip, in DDR, or by the device's block RAM.
+MEMORY = {"auto": None, "chip": False, "ddr": True}
+
+
+def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="auto",
+                    device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1):
+    """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
+    pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
+    (default ``[run].lines``)."""
+    from tdicam.camera.cosim import scene_data
+    from tdicam.scene.loader import load_scene
+    from tdicam.camera.design import SceneData
+    if memory not in MEMORY:
+        raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
+    sc = load_scene(scene_path)
+    spill = MEMORY[memory]
+    full = pl.plan(sc, stages=stages, lines=lines, device=device, spill=spill)
+    if lines is not None:
+        check_range("--lines", lines, 1, None)
+    w = full.width if width is None else check_range("--width", width, 1, full.width)
+    p = full if w == full.width else pl.plan(sc, stages=stages, lines=lines, width=w,
+                                             device=device, spill=spill)
+    beats = p.frames * p.rows * p.width
+    if beats > MAX_BEATS:
+        raise TdicamError(f"the pipeline of {Path(scene_path).name} takes {beats} input beats "
+                          f"({p.frames} frames of {p.rows} x {p.width}), over the export limit "
+                          f"of {MAX_BEATS}; cut it with --width / --lines")
+    raw, _ = scene_data(sc, stages=p.rows, dv_over_v=None, lines=p.lines)
+    raw = raw.crop(0, p.width, 0, p.frames)
+    # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
+    data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
+    top = pl.top(p, data)
+    stim = pl.stimulus(p, data, top)
+    exp = frames_to_beats(pl.golden(p, data)[-1][2])
+    name = Path(scene_path).name
+    params = {"scene": name, "stages": p.rows, "lines": p.lines, "width": p.width,
+              "memory": memory, "blocks": " -> ".join(s.block for s in p.steps)}
+    rows = [("scene", name, "scene file ([pipeline] blocks in order)"),
+            ("stages", p.rows, "TDI stages (rows per exposure frame)"),
+            ("lines", p.lines, "output lines"),
+            ("width", p.width, "columns (the scene's first ones)"),
+            ("memory", memory, "TDI partial sums: chip, ddr, or auto by the device")]
+    rows += [(f"{k + 1}. {s.block}", ", ".join(f"{a}={v}" for a, v in s.params.items()),
+              "registry parameters" + (f"; run-time ports {s.ports}" if s.ports else ""))
+             for k, s in enumerate(p.steps)]
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(scene_path).stem)
+    summary = (f"The camera pipeline of scene `{name}`: {params['blocks']}, {p.lanes} "
+               f"channel(s), frames of {p.rows} x {p.width} pixels, {p.frames} exposure "
+               f"frames in, {p.lines} lines out; NUC calibration ROM with identity "
+               f"coefficients")
+    d = stream_design("pipeline", summary, rows, params, top, stim, exp,
+                      cases=[f"scene {name}"], seed=seed, idle=idle,
+                      backpressure=backpressure, core=f"tdicam:pipeline:{stem}",
+                      rtl_header=pl.verilog_header(p))
+    return d, p, stim, exp
+
+
+def export_pipeline(scene_path, out_dir, *, force=False, **kw):
+    """Write the export folder of the scene's pipeline (see :func:`pipeline_design` for
+    ``kw``). Raises a one-line :class:`TdicamError` for a bad scene, option or folder."""
+    d, p, stim, exp = pipeline_design(scene_path, **kw)
+    files = write_design(d, out_dir, force=force)
+    return Export(Path(out_dir), "pipeline", d.params, [f"scene {d.params['scene']}"],
+                  len(stim), len(exp), files)

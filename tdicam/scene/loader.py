@@ -1,0 +1,1039 @@
+"""Scene files: the schema and loader shared by ``tdicam plan`` and the scene simulator.
+
+A scene is a TOML file (read with :mod:`tomllib`) that describes the platform motion, the
+target and its light level, the sensor, TDI, motion errors, the processing pipeline and how
+to run the simulation. :func:`load_scene` validates it completely and returns a frozen
+:class:`Scene`; every error is one line that names the offending key, e.g.
+``[sensor].read_noise_e: must be >= 0, got -1``. Unknown sections and keys are errors, with
+a did-you-mean hint when a valid name is close.
+
+Schema (every key is optional unless marked *required*; defaults in brackets)
+------------------------------------------------------------------------------
+Exactly one of ``[orbit]`` and ``[turntable]``:
+
+``[orbit]``
+    ``altitude_km`` *required*, 0..100000; ``gsd_m`` *required*, ground sample distance,
+    0.001..100000 m.
+    Line period ``T1 = gsd / v_g`` (Qu et al. 2010 eqs 4-5).
+``[turntable]``
+    ``angular_speed_rad_s`` *required*, 1e-6..1000; ``distance_m`` *required*,
+    sensor-to-axis distance, 0.001..1000 m. Line period ``T_line = a / (omega l)`` with
+    ``a`` the sensor pitch (Tao et al. 2012 eq 5).
+
+The line period either gives must lie in 1e-8..100 s.
+
+``[target]``
+    ``kind`` ["flat"]: one of ``image``, ``bars``, ``edge``, ``siemens``, ``flat``.
+    ``signal_e`` [1000.0], 0..1e12: the light level, as the electrons one pixel collects in one
+    exposure (one line period, one stage) from the brightest part of the target (image value
+    1.0, bright bar, bright side of the edge; a flat target is uniform at this level).
+    Chart keys, only with their kind: ``contrast`` [1.0] (bars, edge, siemens), Michelson
+    contrast in (0, 1] — the dark level is ``signal_e (1 - c) / (1 + c)``; ``period_px``
+    [8.0] (bars), bar period in output pixels, >= 2 and at most half the output's extent
+    along ``direction`` (``[run].lines`` or ``[sensor].columns``); ``direction``
+    ["along_track"] (bars), the axis the bar pattern varies along, ``along_track`` or
+    ``cross_track``; ``profile``
+    ["square"] (bars), ``square`` bars or a ``sine`` grating (one spatial frequency, for
+    measuring the MTF at exactly ``1/period_px``); ``angle_deg``
+    [5.0] (edge), slant of the edge from the cross-track axis, in [-45, 45]; ``spokes`` [36]
+    (siemens), number of spoke pairs, 4..720. ``kind = "image"`` needs exactly one of
+    ``image`` (a bundled scikit-image picture, see :data:`BUNDLED_IMAGES`) or ``path`` (a
+    PNG or TIFF file, relative to the scene file; it must exist and is read when the scene
+    is: at least 8 x 8 pixels, grey, grey + alpha, RGB or RGBA with an opaque alpha, no
+    negative values; the conversion to grey levels is
+    :mod:`tdicam.model.physics.targets`'s).
+
+``[sensor]``
+    ``columns`` [1280], ``rows`` [1024]: 1..65536. ``pitch_um`` [5.5], 0.1..1000.
+    ``fill_factor`` [1.0]: area fill factor in (0, 1]; the aperture MTF uses
+    ``q/p = sqrt(fill_factor)`` (square active area). ``bits`` [12]: ADC bits, 1..24.
+    ``full_well_e`` [20000], 1..1e9. ``conversion_gain_e_per_dn`` [full_well_e / 2**bits],
+    1e-6..1e9: electrons per DN at channel gain 1 (a channel of gain g has ``conversion / g`` e-/DN).
+    Impairments default to zero so that a scene simulates only what it asks for:
+    ``read_noise_e`` [0], 0..1e6 (RMS), ``dark_current_e_per_s`` [0], 0..1e12, ``prnu`` [0]
+    (fraction, 0.015 = 1.5 %, in [0, 1)), ``dsnu_e`` [0], 0..1e6 (RMS). ``shutter``
+    ["rolling"]: ``rolling`` or ``global`` (global assumed pipelined). ``black_level_dn``
+    [0], >= 0 and < 2**bits: ADC offset (pedestal) added to every sample, so that read noise
+    around a dark level is not clipped at code 0.
+    Row timing (optional): ``pixel_clock_mhz`` (0.001..1e6, pixels per second over all
+    channels, in MHz) and ``row_blanking_us`` [3.5, Tao et al. 2012's typical value], 0..1e6, only
+    with ``pixel_clock_mhz``, give ``T_row = t_rb + columns / f_s``; or
+    ``max_frame_rate_hz`` (0.001..1e9, the datasheet full-frame rate) gives
+    ``T_row = 1 / (rows F)``; not both. With a row time the window
+    limit ``M0`` is known (Tao et al. 2012 eq 13). ``gains`` [[1.0]]: one gain, or two as
+    ``[high, low]`` with high > low (Ning et al. 2019: ``[4.9, 0.8]``), each > 0.
+
+``[optics]`` (optional)
+    ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
+    perfect lens; the optics effect is skipped).
+
+``[tdi]``
+    ``stages`` [1]: an integer >= 1, or a non-empty list of them (a sweep, each value
+    once); each must not
+    exceed ``[sensor].rows`` nor ``M0`` when the row timing gives one; digital TDI takes at
+    most 128 stages and, unless an hdr merge feeds it, 8..14-bit pixels (``[sensor].bits``):
+    the golden accumulator's limits, the same for every fidelity. ``domain``
+    ["digital"]: ``digital`` or ``charge``. ``direction`` ["forward"]: ``forward`` or
+    ``reverse``. ``output`` ["full"]: ``full`` (``bits + ceil(log2 m)`` bits) or
+    ``saturate`` to ``output_bits`` [= ``[sensor].bits``], 1..32.
+
+``[motion]``
+    ``dv_over_v`` [0.0]: relative velocity mismatch, a number or a non-empty list (a
+    sweep, each value once), each in (-1, 1). ``drift_deg`` [0.0]: drift (crab) angle, in (-90, 90).
+
+``[pipeline]``
+    ``blocks`` [["tdi"]]: the ordered processing chain from ``cds``, ``nuc``, ``hdr``,
+    ``tdi``, ``median3``; ``tdi`` exactly once, no repeats; ``cds``, ``nuc`` and ``hdr``
+    act on single exposures, so they come before ``tdi`` and in that order; ``median3`` may
+    come before or after ``tdi``. Block options, only for listed blocks:
+    ``[pipeline.cds]`` ``reset_level_dn`` [0.0], >= 0 and < 2**bits;
+    ``[pipeline.nuc]`` ``gain_frac_bits`` [12], 4..16 (the golden model's range), ``ecc``
+    [true] (the coefficients pass a 64/72 SECDED round trip without faults), ``flash``
+    ["none"]: ``"nand"`` stores them in a 4 Gb NAND flash (MT29F4G08 geometry, the camera's
+    calibration store: bad-block scan, block map, 64/72 ECC pages, default coefficients
+    gain 1 / offset 0 for a word with an uncorrectable error) and loads them back
+    (:func:`tdicam.model.nand_store.store_roundtrip`), with ``ecc`` true and ``gain_frac_bits``
+    <= 14 (16-bit gain words); its faults: ``bad_blocks`` [0] random factory bad blocks,
+    0..4095 (never block 0), ``flip_single`` / ``flip_double`` [0.0] probability that a
+    coefficient word gets one / two flipped bits, each in 0..1 and their sum <= 1, ``seed``
+    [1] >= 0 (the faults' random numbers; channel ``k`` of a dual-gain sensor uses
+    ``seed + k``);
+    ``[pipeline.hdr]`` ``threshold_dn`` [3/4 of full scale], 1..2**bits-1, ``band_dn``
+    [64], 1..threshold_dn, ``slope_frac_bits`` [8], 0..16;
+    ``[pipeline.tdi]`` ``memory`` ["auto"]: where the gateware keeps TDI's partial sums:
+    ``chip`` (block RAM), ``ddr`` (the DDR of ``[ddr]``) or ``auto`` (DDR when they exceed
+    the FPGA's block RAM); a pipeline that spills to DDR needs a ``[ddr]`` section (the
+    golden chain and the scene simulator are the same either way);
+    ``[pipeline.median3]`` ``edge_enhance`` [false].
+
+``[ddr]`` (optional)
+    The DDR memory beside the FPGA that a pipeline may spill to: ``interface`` ["mig"], the
+    controller's user interface (``mig``: Xilinx MIG-style ``app_*`` ports, 64-bit words;
+    the pipeline top's simulation puts a model of the controller behind it); ``base`` [0],
+    byte address of the first buffer, a multiple of 8 below 2**28. Without it a pipeline
+    whose memory must spill is an error.
+
+``[run]``
+    ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
+    pixels (the simulator holds them in memory). ``seed`` [0] >= 0. ``fidelity`` ["auto"]:
+    ``exact`` (quantize every exposure), ``fast`` (aggregate) or ``auto`` (fast when its
+    error is below ``tolerance``). ``tolerance`` [0.01]: largest relative RMS error of the
+    fast aggregate, in (0, 1).
+``[run.rtl]`` (optional)
+    ``crop`` [whole frame]: ``[x0, y0, width, height]`` of the output to simulate
+    cycle-accurately, inside ``columns x lines``. ``simulator`` ["verilator"]: ``icarus``
+    or ``verilator``. ``pixels_per_clock`` [1]: 1, the only value: the whole-chain top
+    takes one pixel per clock (the key stays for scenes that state it). Needs
+    ``[tdi].domain = "digital"`` (charge-domain TDI has no gateware chain).
+
+One module (~970 lines) on purpose: it is the scene schema, one dataclass and one
+validating reader per section, and every key's range and message lives next to its
+default; splitting by section would separate the cross-section checks from the keys.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from tdicam import blocks as _registry
+from tdicam.errors import TdicamError, check_range
+from tdicam.model.physics import plan as _plan, targets as _targets
+
+__all__ = [
+    "read_toml",
+    "BOUNDS",
+    "BUNDLED_IMAGES",
+    "TARGET_KINDS",
+    "BLOCKS",
+    "Orbit",
+    "Turntable",
+    "TargetSpec",
+    "digital_tdi_limits_error",
+    "Sensor",
+    "Optics",
+    "Tdi",
+    "Motion",
+    "Pipeline",
+    "RtlRun",
+    "Run",
+    "Scene",
+    "load_scene",
+    "scene_from_dict",
+]
+
+#: Pictures shipped inside scikit-image (``skimage.data.<name>()``), usable as
+#: ``[target].image``.
+BUNDLED_IMAGES = ("astronaut", "brick", "camera", "chelsea", "clock", "coffee", "coins",
+                  "grass", "gravel", "horse", "moon", "page", "text")
+#: Values of ``[target].kind``.
+TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
+#: Names allowed in ``[pipeline].blocks``: the registry's blocks with a scene rank
+#: (:func:`tdicam.blocks.scene_blocks`), in that order.
+BLOCKS = tuple(b.name for b in _registry.scene_blocks())
+
+#: Physical bounds ``"section.key": (lo, hi)``, inclusive, of the quantities whose schema
+#: would otherwise only ask for a positive or non-negative value, and of the sensor's
+#: integer sizes (the keys ``tdicam plan`` has options for). They exclude absurd input
+#: (a 1e12 km orbit, a 1e-300 m GSD, a turntable at 1e-12 rad/s, 1e30 electrons) whose
+#: arithmetic is garbage, and nothing a real camera or lab rig does. ``tdicam plan --help``
+#: states them for its options; the module docstring states them for the scene keys.
+BOUNDS = {
+    "orbit.altitude_km": (0, 100_000),          # ground to 2.8 x geostationary
+    "orbit.gsd_m": (1e-3, 100_000),
+    "turntable.angular_speed_rad_s": (1e-6, 1000),
+    "turntable.distance_m": (1e-3, 1000),
+    "target.signal_e": (0, 10**12),
+    "sensor.columns": (1, 65536),
+    "sensor.rows": (1, 65536),
+    "sensor.bits": (1, 24),
+    "sensor.pitch_um": (0.1, 1000),
+    "sensor.full_well_e": (1, 10**9),
+    "sensor.conversion_gain_e_per_dn": (1e-6, 10**9),
+    "sensor.read_noise_e": (0, 10**6),
+    "sensor.dark_current_e_per_s": (0, 10**12),
+    "sensor.dsnu_e": (0, 10**6),
+    "sensor.row_blanking_us": (0, 10**6),
+    "sensor.pixel_clock_mhz": (1e-3, 10**6),
+    "sensor.max_frame_rate_hz": (1e-3, 10**9),
+}
+
+_SECTIONS = ("orbit", "turntable", "target", "sensor", "optics", "tdi", "motion", "pipeline",
+             "ddr", "run")
+_IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+_KIND_KEYS = {
+    "image": ("image", "path"),
+    "bars": ("period_px", "contrast", "direction", "profile"),
+    "edge": ("contrast", "angle_deg"),
+    "siemens": ("contrast", "spokes"),
+    "flat": (),
+}
+#: ``[ddr].interface``: the DDR controllers a pipeline can spill through.
+DDR_INTERFACES = ("mig",)
+_REQUIRED = object()
+
+
+# --------------------------------------------------------------------------------------
+# dataclasses
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """Circular orbit: ``altitude_km`` (>= 0) and ground sample distance ``gsd_m`` (> 0)."""
+
+    altitude_km: float
+    gsd_m: float
+
+    @property
+    def ground_speed_m_s(self) -> float:
+        """Ground-track speed, m/s (Qu et al. 2010 eq 4)."""
+        return float(_plan.ground_speed(self.altitude_km * 1e3))
+
+    @property
+    def line_period_s(self) -> float:
+        """Line period ``gsd / v_g``, seconds (Qu et al. 2010 eq 5)."""
+        return float(_plan.line_period(self.gsd_m, self.ground_speed_m_s))
+
+
+@dataclass(frozen=True)
+class Turntable:
+    """Turntable rig: ``angular_speed_rad_s`` (> 0) and sensor-to-axis ``distance_m`` (> 0)."""
+
+    angular_speed_rad_s: float
+    distance_m: float
+
+
+@dataclass(frozen=True)
+class TargetSpec:
+    """What the camera looks at and how bright it is (see the module docstring).
+
+    Keys that do not apply to ``kind`` are None.
+    """
+
+    kind: str
+    signal_e: float
+    image: str | None = None
+    path: Path | None = None
+    period_px: float | None = None
+    contrast: float | None = None
+    direction: str | None = None
+    profile: str | None = None
+    angle_deg: float | None = None
+    spokes: int | None = None
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """The CMOS area sensor (see the module docstring for units and defaults)."""
+
+    columns: int
+    rows: int
+    pitch_um: float
+    fill_factor: float
+    bits: int
+    full_well_e: float
+    conversion_gain_e_per_dn: float
+    read_noise_e: float
+    dark_current_e_per_s: float
+    prnu: float
+    dsnu_e: float
+    shutter: str
+    row_blanking_us: float
+    pixel_clock_mhz: float | None
+    max_frame_rate_hz: float | None
+    gains: tuple[float, ...]
+    black_level_dn: float = 0.0
+
+    @property
+    def pitch_m(self) -> float:
+        """Pixel pitch in metres."""
+        return self.pitch_um * 1e-6
+
+    @property
+    def q_over_p(self) -> float:
+        """Active width over pitch for the aperture MTF, ``sqrt(fill_factor)``."""
+        return math.sqrt(self.fill_factor)
+
+    @property
+    def full_scale_dn(self) -> int:
+        """Largest ADC code, ``2**bits - 1``."""
+        return (1 << self.bits) - 1
+
+    @property
+    def row_time_s(self) -> float | None:
+        """Row read time from the pixel clock or the frame rate; None when neither is given."""
+        if self.pixel_clock_mhz is not None:
+            return float(_plan.row_time(self.row_blanking_us * 1e-6, self.columns,
+                                        self.pixel_clock_mhz * 1e6))
+        if self.max_frame_rate_hz is not None:
+            return float(_plan.row_time_from_frame_rate(self.max_frame_rate_hz, self.rows))
+        return None
+
+    @property
+    def available_frame_rate_hz(self) -> float | None:
+        """Full-frame rate ``1 / (rows T_row)``; None without row timing."""
+        t = self.row_time_s
+        return None if t is None else 1.0 / (self.rows * t)
+
+
+@dataclass(frozen=True)
+class Optics:
+    """``[optics]``: Gaussian PSF standard deviation in pixels (0: none)."""
+
+    psf_sigma_px: float = 0.0
+
+
+@dataclass(frozen=True)
+class Tdi:
+    """TDI settings; ``stages`` is always a tuple (one entry unless the scene sweeps)."""
+
+    stages: tuple[int, ...]
+    domain: str
+    direction: str
+    output: str
+    output_bits: int
+
+    @property
+    def max_stages(self) -> int:
+        """The largest stage count of the sweep."""
+        return max(self.stages)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Motion errors; ``dv_over_v`` is always a tuple (one entry unless the scene sweeps)."""
+
+    dv_over_v: tuple[float, ...]
+    drift_deg: float
+
+
+@dataclass(frozen=True)
+class Ddr:
+    """``[ddr]``: the DDR user interface a pipeline's spill uses (``DDR_INTERFACES``)."""
+
+    interface: str = "mig"
+    base: int = 0
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """Ordered block chain and the options of each block (``scene.pipeline.<block>``: the
+    block's :class:`tdicam.blocks.Options` dataclass, its defaults when not given).
+
+    ``options`` holds ``(block, options)`` pairs of every block with a ``[pipeline.<block>]``
+    section, listed or not."""
+
+    blocks: tuple[str, ...]
+    options: tuple = ()
+
+    def __getattr__(self, name):
+        # scene.pipeline.<block>: the block's options (dunder and private names are not
+        # options: copy and pickle look those up before the fields exist)
+        if not name.startswith("_") and name != "options":
+            for block, opts in self.options:
+                if block == name:
+                    return opts
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    def after_lines(self, block) -> bool | None:
+        """True/False when ``block`` runs after/before the line-making block (TDI); None when
+        it is not listed."""
+        if block not in self.blocks:
+            return None
+        line_block = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
+        return self.blocks.index(block) > self.blocks.index(line_block)
+
+
+@dataclass(frozen=True)
+class RtlRun:
+    """``[run.rtl]``: cycle-accurate crop ``(x0, y0, width, height)`` (None = whole frame)."""
+
+    crop: tuple[int, int, int, int] | None
+    simulator: str
+    pixels_per_clock: int
+
+
+@dataclass(frozen=True)
+class Run:
+    """``[run]``: how much to simulate and how exactly."""
+
+    lines: int
+    seed: int
+    fidelity: str
+    tolerance: float
+    rtl: RtlRun | None
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Exactly one of ``orbit`` and ``turntable`` is set."""
+
+    orbit: Orbit | None
+    turntable: Turntable | None
+    target: TargetSpec
+    sensor: Sensor
+    tdi: Tdi
+    motion: Motion
+    pipeline: Pipeline
+    run: Run
+    source: str = "<dict>"
+    optics: Optics = Optics()
+    ddr: Ddr | None = None
+
+    @property
+    def line_period_s(self) -> float:
+        """TDI line period from the orbit (``gsd / v_g``) or turntable (``a / (omega l)``)."""
+        if self.orbit is not None:
+            return self.orbit.line_period_s
+        return float(_plan.turntable_line_period(self.sensor.pitch_m,
+                                                 self.turntable.angular_speed_rad_s,
+                                                 self.turntable.distance_m))
+
+    @property
+    def timing(self) -> _plan.RollingTiming | None:
+        """Window timing (n_lines, T_back, M0) when the sensor's row time is known."""
+        t_row = self.sensor.row_time_s
+        if t_row is None:
+            return None
+        return _plan.rolling_timing(self.line_period_s, t_row, self.sensor.rows)
+
+    def to_dict(self) -> dict:
+        """Plain JSON-serialisable dict of the validated scene (paths as strings)."""
+        def conv(value):
+            if isinstance(value, Path):
+                return str(value)
+            if isinstance(value, tuple):
+                return [conv(v) for v in value]
+            if isinstance(value, dict):
+                return {k: conv(v) for k, v in value.items()}
+            return value
+        return conv(dataclasses.asdict(self))
+
+
+# --------------------------------------------------------------------------------------
+# validation helpers
+# --------------------------------------------------------------------------------------
+
+
+def _show(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "[" + ", ".join(_show(v) for v in value) + "]"
+    return str(value)
+
+
+
+def _hint(key, valid) -> str:
+    close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.6)
+    if close:
+        return f"; did you mean {close[0]!r}?"
+    return "; valid: " + ", ".join(valid) if valid else ""
+
+
+class _Section:
+    """One TOML table being validated; errors name ``[section].key`` (or a CLI label)."""
+
+    def __init__(self, name: str, data: Any, labels: Mapping[str, str]):
+        self.name = name
+        self.labels = labels
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            raise TdicamError(f"{self.section_label()}: must be a table, got {_show(data)}")
+        self.data = data
+
+    def section_label(self) -> str:
+        return self.labels.get(self.name, f"[{self.name}]")
+
+    def label(self, key: str) -> str:
+        return self.labels.get(f"{self.name}.{key}", f"[{self.name}].{key}")
+
+    def fail(self, key: str, message: str):
+        raise TdicamError(f"{self.label(key)}: {message}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def check_keys(self, allowed) -> None:
+        for key in self.data:
+            if key not in allowed:
+                self.fail(key, "unknown key" + _hint(key, sorted(allowed)))
+
+    def raw(self, key, default):
+        if key in self.data:
+            return self.data[key]
+        if default is _REQUIRED:
+            self.fail(key, "missing (required)")
+        return default
+
+    def number(self, key, default=_REQUIRED, *, lo=None, hi=None, lo_open=False,
+               hi_open=False, value=_REQUIRED, what=None):
+        v = self.raw(key, default) if value is _REQUIRED else value
+        if v is None:
+            return None
+        where = f" {what}" if what else ""
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(key, f"must be a number{where}, got {_show(v)}")
+        raw, shown, v = v, _show(v), float(v)
+        if not math.isfinite(v):
+            self.fail(key, f"must be a finite number{where}, got {shown}")
+        bound = BOUNDS.get(f"{self.name}.{key}")
+        if bound is not None:           # a physical bound replaces "positive"
+            (lo, hi), lo_open, hi_open = bound, False, False
+        check_range(f"{self.label(key)}{where}", raw, lo, hi, integer=False,
+                    lo_open=lo_open, hi_open=hi_open)
+        return v
+
+    def integer(self, key, default=_REQUIRED, *, lo=None, hi=None, value=_REQUIRED, what=None):
+        v = self.raw(key, default) if value is _REQUIRED else value
+        if v is None:
+            return None
+        where = f" {what}" if what else ""
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(key, f"must be an integer{where}, got {_show(v)}")
+        lo, hi = BOUNDS.get(f"{self.name}.{key}", (lo, hi))
+        return check_range(f"{self.label(key)}{where}", v, lo, hi)
+
+    def choice(self, key, default, choices):
+        v = self.raw(key, default)
+        if not isinstance(v, str) or v not in choices:
+            hint = ""
+            if isinstance(v, str):
+                close = difflib.get_close_matches(v, list(choices), n=1, cutoff=0.6)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+            self.fail(key, "must be one of " + ", ".join(repr(c) for c in choices)
+                      + f", got {_show(v)}{hint}")
+        return v
+
+    def boolean(self, key, default):
+        v = self.raw(key, default)
+        if not isinstance(v, bool):
+            self.fail(key, f"must be true or false, got {_show(v)}")
+        return v
+
+    def string(self, key, default=_REQUIRED):
+        v = self.raw(key, default)
+        if v is not None and not isinstance(v, str):
+            self.fail(key, f"must be a string, got {_show(v)}")
+        return v
+
+    def sweep(self, key, default, item):
+        """A scalar or a non-empty list; ``item(value, what)`` validates each entry."""
+        v = self.raw(key, default)
+        if isinstance(v, list):
+            if not v:
+                self.fail(key, "must not be an empty list")
+            out = tuple(item(x, f"(entry {i} of the list)") for i, x in enumerate(v))
+            twice = [x for i, x in enumerate(out) if x in out[:i]]
+            if twice:
+                self.fail(key, f"lists {_show(twice[0])} more than once, got {_show(v)}; "
+                               f"each value of a sweep once")
+            return out
+        return (item(v, None),)
+
+
+# --------------------------------------------------------------------------------------
+# sections
+# --------------------------------------------------------------------------------------
+
+
+def _orbit(sec: _Section) -> Orbit:
+    sec.check_keys(("altitude_km", "gsd_m"))
+    return Orbit(altitude_km=sec.number("altitude_km"), gsd_m=sec.number("gsd_m"))
+
+
+def _turntable(sec: _Section) -> Turntable:
+    sec.check_keys(("angular_speed_rad_s", "distance_m"))
+    return Turntable(angular_speed_rad_s=sec.number("angular_speed_rad_s"),
+                     distance_m=sec.number("distance_m"))
+
+
+def _target(sec: _Section, base_dir: Path) -> TargetSpec:
+    kind = sec.choice("kind", "flat", TARGET_KINDS)
+    common = ("kind", "signal_e")
+    all_keys = set(common).union(*_KIND_KEYS.values())
+    for key in sec.data:
+        if key in all_keys and key not in common and key not in _KIND_KEYS[kind]:
+            owners = [k for k, keys in _KIND_KEYS.items() if key in keys]
+            sec.fail(key, f"not used with kind = {kind!r} (it belongs to kind "
+                          + " or ".join(repr(o) for o in owners) + ")")
+    sec.check_keys(sorted(all_keys))
+    signal = sec.number("signal_e", 1000.0)
+    fields: dict[str, Any] = {}
+    if kind == "image":
+        has_image, has_path = sec.has("image"), sec.has("path")
+        if has_image == has_path:
+            which = "both" if has_image else "neither"
+            sec.fail("path", f"kind = 'image' needs exactly one of {sec.label('image')} (a "
+                             f"bundled picture) or {sec.label('path')} (a PNG/TIFF file), "
+                             f"got {which}")
+        if has_image:
+            name = sec.string("image")
+            if name not in BUNDLED_IMAGES:
+                sec.fail("image", f"unknown bundled image {name!r}"
+                                  + _hint(name, BUNDLED_IMAGES))
+            fields["image"] = name
+        else:
+            raw = sec.string("path")
+            path = Path(raw).expanduser()
+            if not path.is_absolute():
+                path = base_dir / path
+            if path.suffix.lower() not in _IMAGE_SUFFIXES:
+                sec.fail("path", f"must be a PNG or TIFF file (.png, .tif, .tiff), got {raw!r}")
+            if path.is_dir():
+                sec.fail("path", f"{str(path)!r} is a folder, not an image file")
+            if not path.is_file():
+                sec.fail("path", f"file not found: {str(path)!r}")
+            fields["path"] = path.resolve()
+            _targets.load_image(fields["path"])     # size, channels, values: refused here
+    if kind in ("bars", "edge", "siemens"):
+        fields["contrast"] = sec.number("contrast", 1.0, lo=0.0, hi=1.0, lo_open=True)
+    if kind == "bars":
+        fields["period_px"] = sec.number("period_px", 8.0, lo=2.0)
+        fields["direction"] = sec.choice("direction", "along_track",
+                                         ("along_track", "cross_track"))
+        fields["profile"] = sec.choice("profile", "square", ("square", "sine"))
+    elif kind == "edge":
+        fields["angle_deg"] = sec.number("angle_deg", 5.0, lo=-45.0, hi=45.0)
+    elif kind == "siemens":
+        fields["spokes"] = sec.integer("spokes", 36, lo=4, hi=720)
+    return TargetSpec(kind=kind, signal_e=signal, **fields)
+
+
+_SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well_e",
+                "conversion_gain_e_per_dn", "read_noise_e", "dark_current_e_per_s", "prnu",
+                "dsnu_e", "shutter", "row_blanking_us", "pixel_clock_mhz",
+                "max_frame_rate_hz", "gains", "black_level_dn")
+
+
+def _sensor(sec: _Section) -> Sensor:
+    sec.check_keys(_SENSOR_KEYS)
+    bits = sec.integer("bits", 12)
+    full_well = sec.number("full_well_e", 20000.0)
+    conv = sec.number("conversion_gain_e_per_dn", None)
+    if sec.has("pixel_clock_mhz") and sec.has("max_frame_rate_hz"):
+        sec.fail("max_frame_rate_hz", f"give either {sec.label('pixel_clock_mhz')} (with "
+                                      f"{sec.label('row_blanking_us')}) or "
+                                      f"{sec.label('max_frame_rate_hz')}, not both")
+    if sec.has("row_blanking_us") and not sec.has("pixel_clock_mhz"):
+        sec.fail("row_blanking_us", f"needs {sec.label('pixel_clock_mhz')} (the row time is "
+                                    f"t_rb + columns / f_s; without it the blanking is unused)")
+    gains_raw = sec.raw("gains", [1.0])
+    if not isinstance(gains_raw, list) or not 1 <= len(gains_raw) <= 2:
+        sec.fail("gains", f"must be a list of one or two gains, got {_show(gains_raw)}")
+    gains = tuple(sec.number("gains", value=g, lo=0.0, lo_open=True,
+                             what=f"(entry {i} of the list)")
+                  for i, g in enumerate(gains_raw))
+    if len(gains) == 2 and not gains[0] > gains[1]:
+        sec.fail("gains", f"two gains must be [high, low] with high > low, got {_show(gains_raw)}")
+    return Sensor(
+        columns=sec.integer("columns", 1280),
+        rows=sec.integer("rows", 1024),
+        pitch_um=sec.number("pitch_um", 5.5),
+        fill_factor=sec.number("fill_factor", 1.0, lo=0.0, hi=1.0, lo_open=True),
+        bits=bits,
+        full_well_e=full_well,
+        conversion_gain_e_per_dn=full_well / (1 << bits) if conv is None else conv,
+        read_noise_e=sec.number("read_noise_e", 0.0),
+        dark_current_e_per_s=sec.number("dark_current_e_per_s", 0.0),
+        prnu=sec.number("prnu", 0.0, lo=0.0, hi=1.0, hi_open=True),
+        dsnu_e=sec.number("dsnu_e", 0.0),
+        shutter=sec.choice("shutter", "rolling", ("rolling", "global")),
+        row_blanking_us=sec.number("row_blanking_us", 3.5),
+        pixel_clock_mhz=sec.number("pixel_clock_mhz", None),
+        max_frame_rate_hz=sec.number("max_frame_rate_hz", None),
+        gains=gains,
+        black_level_dn=sec.number("black_level_dn", 0.0, lo=0.0, hi=float(1 << bits),
+                                  hi_open=True),
+    )
+
+
+def _optics(sec: _Section) -> Optics:
+    sec.check_keys(("psf_sigma_px",))
+    return Optics(psf_sigma_px=sec.number("psf_sigma_px", 0.0, lo=0.0))
+
+
+def _tdi(sec: _Section, sensor: Sensor) -> Tdi:
+    sec.check_keys(("stages", "domain", "direction", "output", "output_bits"))
+    stages = sec.sweep("stages", 1,
+                       lambda v, what: sec.integer("stages", value=v, lo=1, what=what))
+    return Tdi(stages=stages,
+               domain=sec.choice("domain", "digital", ("digital", "charge")),
+               direction=sec.choice("direction", "forward", ("forward", "reverse")),
+               output=sec.choice("output", "full", ("full", "saturate")),
+               output_bits=sec.integer("output_bits", sensor.bits, lo=1, hi=32))
+
+
+def _motion(sec: _Section) -> Motion:
+    sec.check_keys(("dv_over_v", "drift_deg"))
+    dv = sec.sweep("dv_over_v", 0.0,
+                   lambda v, what: sec.number("dv_over_v", value=v, lo=-1.0, hi=1.0,
+                                              lo_open=True, hi_open=True, what=what))
+    return Motion(dv_over_v=dv,
+                  drift_deg=sec.number("drift_deg", 0.0, lo=-90.0, hi=90.0, lo_open=True,
+                                       hi_open=True))
+
+
+def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
+    listed = _registry.scene_blocks()
+    with_options = [b for b in listed if b.pipeline.options is not None]
+    sec.check_keys(("blocks",) + tuple(b.name for b in with_options))
+    line_block = next(b.name for b in listed if b.pipeline.lines)
+    per_frame = [b.name for b in listed if b.pipeline.per_frame]
+    raw = sec.raw("blocks", [line_block])
+    if not isinstance(raw, list) or not all(isinstance(b, str) for b in raw):
+        sec.fail("blocks", f"must be a list of block names, got {_show(raw)}")
+    for b in raw:
+        if b not in BLOCKS:
+            sec.fail("blocks", f"unknown block {b!r}" + _hint(b, BLOCKS))
+    for b in set(raw):
+        if raw.count(b) > 1:
+            sec.fail("blocks", f"block {b!r} is listed {raw.count(b)} times; each runs once")
+    if line_block not in raw:
+        example = [b.name for b in listed if not b.pipeline.merge]
+        sec.fail("blocks", f"must contain {line_block!r} once to place the TDI accumulator, "
+                           f"e.g. {example}")
+    pre = [b for b in raw[:raw.index(line_block) + 1] if b in per_frame or b == line_block]
+    wanted = [b for b in per_frame + [line_block] if b in raw]
+    if pre != wanted:
+        sec.fail("blocks", f"{', '.join(per_frame[:-1])} and {per_frame[-1]} act on single "
+                           f"exposures: they must come before {line_block!r} in the order "
+                           f"{', '.join(per_frame)}; got {_show(raw)}")
+    for b in with_options:
+        if sec.has(b.name) and b.name not in raw:
+            sec.fail(b.name, f"options given but {b.name!r} is not in {sec.label('blocks')}")
+    options = []
+    for b in with_options:
+        opts = b.pipeline.options
+        s = _Section(f"{sec.name}.{b.name}", sec.data.get(b.name), labels)
+        s.check_keys(tuple(opts.keys))
+        options.append((b.name, opts.read(s, sensor)))
+    return Pipeline(blocks=tuple(raw), options=tuple(options))
+
+
+def _ddr(sec: _Section) -> Ddr:
+    sec.check_keys(("interface", "base"))
+    base = sec.integer("base", 0, lo=0, hi=(1 << 28) - 8)
+    if base % 8:
+        sec.fail("base", f"must be a multiple of 8 (one address per byte of a 64-bit word), "
+                         f"got {base}")
+    return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base)
+
+
+def _run(sec: _Section, sensor: Sensor, labels) -> Run:
+    sec.check_keys(("lines", "seed", "fidelity", "tolerance", "rtl"))
+    lines = sec.integer("lines", 256, lo=1)
+    rtl = None
+    if sec.has("rtl"):
+        r = _Section(f"{sec.name}.rtl", sec.data["rtl"], labels)
+        r.check_keys(("crop", "simulator", "pixels_per_clock"))
+        crop = r.raw("crop", None)
+        if crop is not None:
+            if (not isinstance(crop, list) or len(crop) != 4
+                    or not all(isinstance(c, int) and not isinstance(c, bool) for c in crop)):
+                r.fail("crop", f"must be four integers [x0, y0, width, height], got {_show(crop)}")
+            x0, y0, w, h = crop
+            if x0 < 0 or y0 < 0 or w < 1 or h < 1:
+                r.fail("crop", f"needs x0, y0 >= 0 and width, height >= 1, got {_show(crop)}")
+            if x0 + w > sensor.columns or y0 + h > lines:
+                r.fail("crop", f"must lie inside the {sensor.columns} x {lines} output "
+                               f"([sensor].columns x [run].lines), got {_show(crop)}")
+            crop = tuple(crop)
+        ppc = r.integer("pixels_per_clock", 1)
+        if ppc != 1:
+            r.fail("pixels_per_clock", f"must be 1, got {ppc}: the whole-chain top that "
+                                       f"[run.rtl] co-simulates takes one pixel per clock "
+                                       f"(tdi alone runs 2, 4 and 8 in its golden cases: "
+                                       f"tdicam sim tdi)")
+        rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
+                                                   ("icarus", "verilator")),
+                     pixels_per_clock=ppc)
+    return Run(lines=lines, seed=sec.integer("seed", 0, lo=0),
+               fidelity=sec.choice("fidelity", "auto", ("exact", "fast", "auto")),
+               tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,
+                                    hi_open=True),
+               rtl=rtl)
+
+
+def _check_stages(sec: _Section, scene: Scene) -> None:
+    rows = scene.sensor.rows
+    for m in scene.tdi.stages:
+        if m > rows:
+            sec.fail("stages", f"must be <= {rows} (the sensor rows, "
+                               f"{sec.labels.get('sensor.rows', '[sensor].rows')}), got {m}")
+    timing = scene.timing
+    if timing is None:
+        return
+    t_line_us, t_row_us = timing.line_period_s * 1e6, timing.row_time_s * 1e6
+    if timing.m0 == 0:
+        sec.fail("stages", f"no TDI is possible: the row time {t_row_us:.4g} us exceeds the "
+                           f"line period {t_line_us:.4g} us (M0 = 0)")
+    for m in scene.tdi.stages:
+        if m > timing.m0:
+            sec.fail("stages", f"must be <= M0 = {timing.m0} (rows read in one line period: "
+                               f"T_line {t_line_us:.4g} us / T_row {t_row_us:.4g} us), got {m}")
+
+
+def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
+    """Why digital TDI of ``stages`` stages cannot run on ``scene``'s pixels (None: it can).
+
+    The one rule for every fidelity (exact runs the golden accumulator
+    :func:`tdicam.model.tdi.tdi`; fast must not accept what exact refuses): at most
+    :data:`tdicam.model.tdi.MAX_STAGES` stages, and, when the ADC feeds TDI directly (no hdr
+    merge in between), ``[sensor].bits`` in :data:`tdicam.model.tdi.PIXEL_BITS`.
+    """
+    from tdicam.model import tdi as _tdi_model
+    if scene.tdi.domain != "digital":
+        return None
+    if stages > _tdi_model.MAX_STAGES:
+        return (f"stages: must be <= {_tdi_model.MAX_STAGES} for digital TDI (the "
+                f"accumulator's limit), got {stages}")
+    lo, hi = _tdi_model.PIXEL_BITS
+    hdr = len(scene.sensor.gains) == 2 and any(_registry.get(b).pipeline.merge
+                                               for b in scene.pipeline.blocks)
+    if not hdr and not lo <= scene.sensor.bits <= hi:
+        return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
+                f"got {scene.sensor.bits}")
+    return None
+
+
+def _check_digital_tdi(tdi_sec: _Section, sensor_sec: _Section, scene: Scene) -> None:
+    for m in scene.tdi.stages:
+        why = digital_tdi_limits_error(scene, m)
+        if why is not None:
+            key, _, msg = why.partition(": ")
+            (tdi_sec if key == "stages" else sensor_sec).fail(key, msg)
+
+
+# --------------------------------------------------------------------------------------
+# public entry points
+# --------------------------------------------------------------------------------------
+
+
+def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = None,
+                    source: str = "<dict>",
+                    labels: Mapping[str, str] | None = None) -> Scene:
+    """Validate a parsed scene (the dict :func:`tomllib.load` returns) into a :class:`Scene`.
+
+    Parameters
+    ----------
+    data : mapping
+        Top-level tables keyed by section name.
+    base_dir : str or Path, optional
+        Directory that relative ``[target].path`` values are resolved against (default:
+        the current directory).
+    source : str, optional
+        Where the data came from, kept in :attr:`Scene.source`.
+    labels : mapping, optional
+        Replaces ``[section].key`` in error messages, keyed by ``"section.key"`` (e.g.
+        ``{"tdi.stages": "--stages"}`` when a value came from the command line).
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    TdicamError
+        One line naming the first offending key.
+    """
+    labels = dict(labels or {})
+    if not isinstance(data, Mapping):
+        raise TdicamError(f"{source}: a scene must be a table of sections")
+    for name in data:
+        if name not in _SECTIONS:
+            raise TdicamError(f"[{name}]: unknown section" + _hint(name, _SECTIONS))
+    if ("orbit" in data) == ("turntable" in data):
+        which = "both" if "orbit" in data else "neither"
+        raise TdicamError(f"{labels.get('orbit', '[orbit]')}: a scene needs exactly one of "
+                          f"[orbit] and [turntable], got {which}")
+    base = Path.cwd() if base_dir is None else Path(base_dir)
+
+    def section(name):
+        return _Section(name, data.get(name), labels)
+
+    orbit = _orbit(section("orbit")) if "orbit" in data else None
+    turntable = _turntable(section("turntable")) if "turntable" in data else None
+    target = _target(section("target"), base)
+    sensor = _sensor(section("sensor"))
+    optics = _optics(section("optics"))
+    tdi_sec = section("tdi")
+    tdi = _tdi(tdi_sec, sensor)
+    motion = _motion(section("motion"))
+    pipeline = _pipeline(section("pipeline"), sensor, labels)
+    run = _run(section("run"), sensor, labels)
+    ddr = _ddr(section("ddr")) if "ddr" in data else None
+    scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
+                  motion=motion, pipeline=pipeline, run=run, source=source, optics=optics,
+                  ddr=ddr)
+    _check_stages(tdi_sec, scene)
+    _check_digital_tdi(tdi_sec, section("sensor"), scene)
+    _check_extent(section("target"), section("run"), scene)
+    _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
+    if run.rtl is not None and tdi.domain != "digital":
+        raise TdicamError(f"{labels.get('run.rtl', '[run.rtl]')}: needs "
+                          f"{tdi_sec.label('domain')} = 'digital' (charge-domain TDI sums in "
+                          f"the sensor: there is no gateware chain to co-simulate)")
+    return scene
+
+
+#: The line period a scene may derive, seconds (inclusive): 10 ns (a 100 MHz line rate)
+#: to 100 s. Each key has its own bound (:data:`BOUNDS`); this one catches combinations
+#: no camera runs at (a 0.1 um pixel on a 1000 rad/s turntable at 1 km; 1 mm on a
+#: 1e-6 rad/s one at 1 mm).
+LINE_PERIOD_S = (1e-8, 100.0)
+
+
+def _check_line_period(sec: _Section, scene: Scene) -> None:
+    t = scene.line_period_s
+    lo, hi = LINE_PERIOD_S
+    if not lo <= t <= hi:
+        keys = (f"{sec.label('altitude_km')} and {sec.label('gsd_m')}"
+                if scene.orbit is not None else
+                f"{sec.label('angular_speed_rad_s')}, {sec.label('distance_m')} and "
+                f"{sec.labels.get('sensor.pitch_um', '[sensor].pitch_um')}")
+        raise TdicamError(f"the line period {t:.4g} s from {keys} is out of range; valid: "
+                          f"{lo:g}..{hi:g} s")
+
+
+#: Output pixels (``[sensor].columns x [run].lines``) a run may have at most: the scene
+#: simulator keeps the whole output (and per-stage work arrays) in memory.
+MAX_OUTPUT_PIXELS = 1 << 27
+
+
+def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None:
+    """The output fits in memory, and a bar chart shows two periods across its axis."""
+    cols, lines = scene.sensor.columns, scene.run.lines
+    if cols * lines > MAX_OUTPUT_PIXELS:
+        run_sec.fail("lines", f"{cols} columns x {lines} lines = {cols * lines} output pixels, "
+                              f"more than the {MAX_OUTPUT_PIXELS} the simulator holds in "
+                              f"memory; simulate at most {MAX_OUTPUT_PIXELS // cols} lines")
+    t = scene.target
+    if t.kind == "bars":
+        extent, what = ((lines, "[run].lines") if t.direction == "along_track"
+                        else (cols, "[sensor].columns"))
+        if t.period_px > extent / 2:
+            target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "
+                                         f"the {extent} px of {what}), got {t.period_px:g}")
+
+
+def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
+    for name, table in overrides.items():
+        if table is None:
+            out.pop(name, None)
+        elif isinstance(table, Mapping):
+            merged = dict(out[name]) if isinstance(out.get(name), dict) else {}
+            merged.update(table)
+            out[name] = {k: v for k, v in merged.items() if v is not None}
+        else:
+            out[name] = table
+    return out
+
+
+def read_toml(path, what):
+    """The TOML file ``path`` as a dict, or a one-line :class:`TdicamError` naming ``what``
+    (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, not UTF-8 text,
+    invalid TOML."""
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise TdicamError(f"{what} not found: {str(p)!r}") from None
+    except IsADirectoryError:
+        raise TdicamError(f"{what} is a directory: {str(p)!r}") from None
+    except OSError as exc:
+        raise TdicamError(f"cannot read {what} {str(p)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise TdicamError(f"{p}: invalid TOML: {exc}") from None
+
+
+def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] | None = None,
+               labels: Mapping[str, str] | None = None) -> Scene:
+    """Read and validate a scene TOML file.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The scene file. None starts from an empty scene (then ``overrides`` must give
+        ``[orbit]`` or ``[turntable]``).
+    overrides : mapping, optional
+        ``{section: {key: value}}`` applied over the file before validation (used by the
+        command line); a section or a key mapped to None is removed.
+    labels : mapping, optional
+        Error-message names for overridden keys, see :func:`scene_from_dict`.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    TdicamError
+        The file is missing or not TOML, or any key is invalid (one line, naming the key).
+    """
+    data: dict = {}
+    base_dir = None
+    source = "<command line>"
+    if path is not None:
+        p = Path(path)
+        data = read_toml(p, "scene file")
+        base_dir = p.resolve().parent
+        source = str(p)
+    if overrides:
+        data = _merge(data, overrides)
+    return scene_from_dict(data, base_dir=base_dir, source=source, labels=labels)

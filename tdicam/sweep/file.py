@@ -1,0 +1,372 @@
+"""Sweep files: parse, expand and validate the points and runs of a trade study.
+
+A sweep file (TOML) names a base scene and the scene keys to vary::
+
+    scene = "../tao2012_ibis5_rolling_1_5_10.toml"   # relative to the sweep file
+    name = "tao2012_snr"                             # optional, default: the file's stem
+    repeats = 4                                      # Monte-Carlo repeats per point [1]
+
+    [set]                          # optional: fixed overrides of the base scene
+    "run.lines" = 64
+    "sensor.columns" = 128
+
+    [axes]                         # the product of these is the set of points
+    "tdi.stages" = [1, 2, 5, 10, 20, 40]
+    "target.signal_e" = { start = 100, stop = 1000, num = 4 }
+
+    [zip]                          # optional: keys that move together (one more axis)
+    "motion.dv_over_v" = [0.0, 0.1]
+    "motion.drift_deg" = [0.0, 0.5]
+
+Keys are ``section.key`` paths of the scene schema (:mod:`tdicam.scene.loader`), quoted or as TOML
+dotted keys (``tdi.stages = [...]``); ``pipeline.hdr.threshold_dn`` reaches a sub-table.
+A value list is used as given (duplicates are an error); a range is a table
+``{start, stop, num}`` (``num`` values from start to stop inclusive, ``log = true`` for a
+geometric spacing) or ``{start, stop, step}`` (start, start + step, ... up to stop
+inclusive). When start, stop and step are integers the values are integers (rounded and
+de-duplicated for ``num``). Float values are rounded to 12 significant digits. A base scene
+whose ``[tdi].stages`` or ``[motion].dv_over_v`` is a list (the scene's own sweep) gets that
+list as an axis unless the sweep file varies the key.
+
+Points, runs and seeds
+----------------------
+A *point* is one combination of axis values; a *run* is one point and one repeat. Every
+point is validated through the scene loader (:func:`tdicam.scene.loader.scene_from_dict`) before
+anything runs, so a bad value gives the scene's own one-line error, prefixed with the sweep
+file and the point. The seed of run ``(point, repeat)`` replaces ``[run].seed``: the first 63
+bits of ``sha256`` of the point's validated scene (with the base seed) and the repeat index —
+it depends on what is simulated, never on which worker runs it or in which order. More runs
+than :data:`MAX_RUNS` need ``force=True`` (``--force``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tdicam import __version__
+from tdicam.errors import TdicamError, check_range
+from tdicam.scene.loader import read_toml
+
+__all__ = ["MAX_RUNS", "STORE_FORMAT", "Axis", "Run", "Sweep", "load_sweep"]
+
+#: Largest number of runs (points x repeats) accepted without ``force``.
+MAX_RUNS = 5000
+#: Version of the record layout; part of every run's hash (2: the ``saturated`` column).
+STORE_FORMAT = 2
+_FILE_KEYS = ("scene", "name", "repeats", "set", "axes", "zip")
+_MAX_AXIS = 100_000
+_RANGE_KEYS = frozenset({"start", "stop", "num", "step", "log"})
+#: Scene keys that hold a list in the scene itself (its own sweep); promoted to axes.
+_SCENE_LISTS = ("tdi.stages", "motion.dv_over_v")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept scene key: ``key`` (``"tdi.stages"``), its ``values``, and whether it moves
+    with the other keys of the zip group (``zipped``)."""
+
+    key: str
+    values: tuple
+    zipped: bool = False
+
+
+@dataclass(frozen=True)
+class Run:
+    """One task: point ``point`` (index into :attr:`Sweep.points`), repeat ``repeat``, its
+    validated scene (seed set), ``seed``, the store ``hash`` and ``settings``, the scene as
+    the plain dict that was hashed."""
+
+    point: int
+    repeat: int
+    scene: object
+    seed: int
+    hash: str
+    settings: dict = dataclasses.field(repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: axes, points (dicts key -> value) and runs (point-major)."""
+
+    path: Path
+    name: str
+    scene_path: Path
+    repeats: int
+    axes: tuple[Axis, ...]
+    zipped: tuple[Axis, ...]
+    points: tuple[dict, ...]
+    runs: tuple[Run, ...]
+    impact: bool
+    promoted: tuple[str, ...]
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """Every swept key: product axes, then the zip group."""
+        return tuple(a.key for a in self.axes + self.zipped)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Dataset shape: one entry per product axis, the zip length, the repeats."""
+        z = (len(self.zipped[0].values),) if self.zipped else ()
+        return tuple(len(a.values) for a in self.axes) + z + (self.repeats,)
+
+
+def _canon(obj) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def _sha(obj) -> str:
+    return hashlib.sha256(_canon(obj).encode()).hexdigest()
+
+
+def _scene_key(scene) -> dict:
+    d = scene.to_dict()
+    d.pop("source", None)
+    return d
+
+
+def _flatten(table, where, prefix=""):
+    """``{"tdi": {"stages": [..]}}`` and ``{"tdi.stages": [..]}`` -> ``{"tdi.stages": [..]}``."""
+    out = {}
+    for k, v in table.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and {"start", "stop"} & set(v) and not set(v) <= _RANGE_KEYS:
+            extra = sorted(set(v) - _RANGE_KEYS)     # a range with a typo, not scene keys
+            raise TdicamError(f"{where} {key}: range table: unknown key {extra[0]!r}; valid: "
+                              f"{', '.join(sorted(_RANGE_KEYS))}")
+        if isinstance(v, dict) and not (v and set(v) <= _RANGE_KEYS):
+            if not v:
+                raise TdicamError(f"{where} {key}: empty table")
+            out.update(_flatten(v, where, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _tidy(v):
+    if isinstance(v, float):
+        return float(f"{v:.12g}")
+    return v
+
+
+def _range(spec, label):
+    def num(name, integer=False):
+        v = spec.get(name)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise TdicamError(f"{label}: range {name} must be a finite number, got {v!r}")
+        if integer and not isinstance(v, int):
+            raise TdicamError(f"{label}: range {name} must be an integer, got {v!r}")
+        return v
+    for k in ("start", "stop"):
+        if k not in spec:
+            raise TdicamError(f"{label}: a range needs start and stop (and num or step)")
+    if ("num" in spec) == ("step" in spec):
+        raise TdicamError(f"{label}: a range needs exactly one of num and step")
+    start, stop = num("start"), num("stop")
+    ints = isinstance(start, int) and isinstance(stop, int)
+    log = spec.get("log", False)
+    if not isinstance(log, bool):
+        raise TdicamError(f"{label}: range log must be true or false, got {log!r}")
+    if "num" in spec:
+        n = check_range(f"{label}: range num", num("num", integer=True), 0, _MAX_AXIS)
+        if log:
+            if start <= 0 or stop <= 0:
+                raise TdicamError(f"{label}: a log range needs start and stop > 0")
+            vals = np.geomspace(start, stop, n) if n else []
+        else:
+            vals = np.linspace(start, stop, n)
+        if ints:
+            return list(dict.fromkeys(int(round(v)) for v in vals))
+        return [float(v) for v in vals]
+    if log:
+        raise TdicamError(f"{label}: log = true needs num, not step")
+    step = num("step")
+    ints = ints and isinstance(step, int)
+    if step == 0 or (stop - start) / step < 0:
+        return []
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if n > _MAX_AXIS:
+        raise TdicamError(f"{label}: range gives {n} values, more than {_MAX_AXIS}")
+    return [start + i * step if ints else float(start + i * step) for i in range(n)]
+
+
+def _axis(key, raw, label, zipped=False):
+    if "." not in key or not all(key.split(".")):
+        raise TdicamError(f"{label}: axis keys are section.key paths of the scene, e.g. "
+                          f"'tdi.stages', got {key!r}")
+    if isinstance(raw, dict):
+        values = _range(raw, label)
+    elif isinstance(raw, list):
+        values = raw
+    else:
+        raise TdicamError(f"{label}: must be a list of values or a range table "
+                          f"{{start, stop, num}} / {{start, stop, step}}, got {raw!r}")
+    if not values:
+        raise TdicamError(f"{label}: empty axis (it needs at least one value)")
+    values = [_tidy(v) for v in values]
+    seen = set()
+    for v in values:
+        c = _canon(v)
+        if c in seen:
+            raise TdicamError(f"{label}: value {v!r} is listed twice")
+        seen.add(c)
+    return Axis(key, tuple(values), zipped)
+
+
+def _set_key(data, key, value):
+    parts = key.split(".")
+    node = data
+    for p in parts[:-1]:
+        nxt = node.get(p)
+        if not isinstance(nxt, dict):
+            nxt = {}
+            node[p] = nxt
+        node = nxt
+    node[parts[-1]] = value
+
+
+def _get_key(data, key):
+    node = data
+    for p in key.split("."):
+        if not isinstance(node, dict) or p not in node:
+            return None
+        node = node[p]
+    return node
+
+
+def _deepcopy(data):
+    return json.loads(json.dumps(data))
+
+
+def _show_point(point):
+    return ", ".join(f"{k} = {json.dumps(v)}" for k, v in point.items())
+
+
+def load_sweep(path, *, force=False, impact=False) -> Sweep:
+    """Read, expand and validate a sweep file (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        The sweep TOML file.
+    force : bool
+        Accept more than :data:`MAX_RUNS` runs.
+    impact : bool
+        Measure each effect's impact in every run (part of each run's hash).
+
+    Returns
+    -------
+    Sweep
+
+    Raises
+    ------
+    TdicamError
+        One line naming the file and the key: an unknown file key, an axis key the scene
+        does not have, an empty axis, a zip group of unequal lengths, a value the scene
+        loader rejects (its message, with the point), too many runs without ``force``.
+    """
+    from tdicam.scene.loader import load_scene, scene_from_dict
+    path = Path(path)
+    doc = read_toml(path, "sweep file")
+    src = str(path)
+    for k in doc:
+        if k not in _FILE_KEYS:
+            close = difflib.get_close_matches(k, _FILE_KEYS, n=1, cutoff=0.6)
+            raise TdicamError(f"{src}: {k}: unknown key"
+                              + (f"; did you mean {close[0]!r}?" if close
+                                 else "; valid: " + ", ".join(_FILE_KEYS)))
+    if "scene" not in doc:
+        raise TdicamError(f"{src}: scene: missing (the base scene file, relative to the "
+                          f"sweep file)")
+    if not isinstance(doc["scene"], str) or not doc["scene"].strip():
+        raise TdicamError(f"{src}: scene: must be the base scene's file name (relative to "
+                          f"the sweep file), got {doc['scene']!r}")
+    scene_path = (path.resolve().parent / doc["scene"]).resolve()
+    load_scene(scene_path)                       # the base scene's own errors first
+    base = read_toml(scene_path, "scene file")
+    name = doc.get("name", path.stem)
+    if not isinstance(name, str) or not name.strip() or name in (".", "..") \
+            or "/" in name or "\\" in name:
+        raise TdicamError(f"{src}: name: must be a folder name (no '/', not '.' or '..'; the "
+                          f"default output is out/sweeps/NAME), got {name!r}")
+    repeats = doc.get("repeats", 1)
+    if isinstance(repeats, bool) or not isinstance(repeats, int):
+        raise TdicamError(f"{src}: repeats: must be an integer >= 1, got {repeats!r}")
+    check_range(f"{src}: repeats", repeats, 1, None)
+    tables = {}
+    for t in ("set", "axes", "zip"):
+        v = doc.get(t, {})
+        if not isinstance(v, dict):
+            raise TdicamError(f"{src}: {t}: must be a table of scene keys, got {v!r}")
+        tables[t] = _flatten(v, f"{src}: [{t}]")
+    for key, value in tables["set"].items():
+        if "." not in key:
+            raise TdicamError(f"{src}: [set] {key}: keys are section.key paths of the scene")
+        _set_key(base, key, value)
+    axes = [_axis(k, v, f"{src}: [axes] {k}") for k, v in tables["axes"].items()]
+    zipped = [_axis(k, v, f"{src}: [zip] {k}", True) for k, v in tables["zip"].items()]
+    for z in zipped:
+        if z.key in tables["axes"]:
+            raise TdicamError(f"{src}: [zip] {z.key}: also in [axes]; a key is swept once")
+        if len(z.values) != len(zipped[0].values):
+            raise TdicamError(f"{src}: [zip] {z.key}: {len(z.values)} values, but "
+                              f"{zipped[0].key} has {len(zipped[0].values)}; zipped keys "
+                              f"move together and need equal lengths")
+    swept = set(tables["axes"]) | set(tables["zip"])
+    promoted = []
+    for key in _SCENE_LISTS:
+        v = _get_key(base, key)
+        if isinstance(v, list) and key not in swept:
+            axes.append(_axis(key, v, f"{scene_path}: {key}"))
+            promoted.append(key)
+    n_points = math.prod(len(a.values) for a in axes) * (len(zipped[0].values) if zipped
+                                                         else 1)
+    n_runs = n_points * repeats
+    if n_runs > MAX_RUNS and not force:
+        sizes = " x ".join([f"{a.key} ({len(a.values)})" for a in axes]
+                           + ([f"zip ({len(zipped[0].values)})"] if zipped else [])
+                           + [f"repeats ({repeats})"])
+        raise TdicamError(f"{src}: {sizes} = {n_runs} runs, over the limit of {MAX_RUNS}; "
+                          f"reduce the axes or pass --force")
+    combos = [()]
+    for a in axes:
+        combos = [c + ((a.key, v),) for c in combos for v in a.values]
+    if zipped:
+        combos = [c + tuple((z.key, z.values[i]) for z in zipped)
+                  for c in combos for i in range(len(zipped[0].values))]
+    points, runs, base_dir = [], [], scene_path.parent
+    for index, combo in enumerate(combos):
+        point = dict(combo)
+        data = _deepcopy(base)
+        for key, value in combo:
+            _set_key(data, key, value)
+        try:
+            scene = scene_from_dict(data, base_dir=base_dir, source=str(scene_path))
+        except TdicamError as exc:
+            raise TdicamError(f"{src}: point {_show_point(point)}: {exc}") from None
+        for key in _SCENE_LISTS:
+            section, k = key.split(".")
+            if len(getattr(getattr(scene, section), k)) != 1:
+                raise TdicamError(f"{src}: point {_show_point(point)}: {key} must be one "
+                                  f"value per point, got a list")
+        key = _scene_key(scene)
+        for r in range(repeats):
+            seed = int.from_bytes(hashlib.sha256(
+                _canon({"scene": key, "repeat": r}).encode()).digest()[:8], "big") >> 1
+            sc = dataclasses.replace(scene, run=dataclasses.replace(scene.run, seed=seed))
+            settings = {**key, "run": {**key["run"], "seed": seed}}
+            h = _sha({"format": STORE_FORMAT, "tdicam": __version__, "impact": bool(impact),
+                      "scene": settings})
+            runs.append(Run(index, r, sc, seed, h, settings))
+        points.append(point)
+    return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
+                 axes=tuple(axes), zipped=tuple(zipped), points=tuple(points),
+                 runs=tuple(runs), impact=bool(impact), promoted=tuple(promoted))

@@ -1,0 +1,75 @@
+"""Outside ``tdicam/blocks/`` no string constant equal to a block name chooses behaviour: a
+block's name in a comparison, an ``in`` test or a dict key means that the code knows the block
+by name, and the next parameter or block would have to be added there too. Such knowledge
+belongs to the block's registry entry (:mod:`tdicam.blocks`).
+
+The test reads the AST of ``tdicam/``, ``hdl/`` and ``model/``. Names that are also something
+other than a block are allowed where they mean that other thing (each entry says what).
+"""
+
+import ast
+
+from tdicam import blocks
+from tdicam.paths import REPO
+
+#: (file, constant) -> what the constant means there, when it is not the block.
+OTHER_MEANINGS = {
+    ("tdicam/scene/docs.py", "tdi"): "the [tdi] section of a scene (stages, domain, output)",
+    ("tdicam/scene/docs.py", "ddr"): "the [ddr] section of a scene (the DDR beside the FPGA)",
+    ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
+    ("tdicam/camera/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
+    ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
+    ("tdicam/export/camera.py", "ddr"): "--memory ddr",
+    ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
+    # left: `tdicam bench` still keys its runners by benchmark group names that are also
+    # block names; its tables are to be derived from the registry
+    ("tdicam/bench/suite.py", "ddr"): "the `tdicam bench ddr` group (every DDR block)",
+    ("tdicam/bench/suite.py", "lvds"): "the `tdicam bench lvds` link benchmark",
+}
+
+
+def _constants(node):
+    """String constants compared, tested with ``in`` or used as dict keys in ``node``."""
+    if isinstance(node, ast.Compare):
+        for c in (node.left, *node.comparators):
+            yield c
+            if isinstance(c, (ast.Tuple, ast.List, ast.Set)):
+                yield from c.elts
+    elif isinstance(node, ast.Dict):
+        yield from (k for k in node.keys if k is not None)
+
+
+def _uses(names):
+    out = []
+    for top in ("tdicam", "hdl", "model"):
+        for path in sorted((REPO / top).rglob("*.py")):
+            rel = path.relative_to(REPO).as_posix()
+            if rel.startswith("tdicam/blocks/"):
+                continue
+            for node in ast.walk(ast.parse(path.read_text(), rel)):
+                for c in _constants(node):
+                    if isinstance(c, ast.Constant) and c.value in names:
+                        out.append((rel, c.value, c.lineno))
+    return out
+
+
+def test_no_block_names_outside_the_registry():
+    uses = [u for u in _uses(set(blocks.names())) if u[:2] not in OTHER_MEANINGS]
+    assert not uses, "block names that choose behaviour outside tdicam/blocks/: " + ", ".join(
+        f"{f}:{line} {name!r}" for f, name, line in uses)
+
+
+def test_the_check_finds_a_block_name(tmp_path, monkeypatch):
+    """The scan sees a comparison with a block name (the check is live)."""
+    probe = tmp_path / "tdicam" / "probe.py"
+    probe.parent.mkdir()
+    probe.write_text("def f(name):\n    return {'nuc': 1}.get(name) if name == 'median3' else 0\n")
+    monkeypatch.setitem(globals(), "REPO", tmp_path)
+    found = {(f, n) for f, n, _ in _uses({"nuc", "median3"})}
+    assert found == {("tdicam/probe.py", "nuc"), ("tdicam/probe.py", "median3")}
+
+
+def test_other_meanings_are_still_used():
+    """Every allowed entry still occurs (a stale entry would hide a new use)."""
+    used = {u[:2] for u in _uses(set(blocks.names()))}
+    assert set(OTHER_MEANINGS) <= used, set(OTHER_MEANINGS) - used
