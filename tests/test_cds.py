@@ -101,7 +101,7 @@ def test_amaranth_pysim_of_verilog_top_matches_golden_cases():
 def test_ppc_latency_is_one_cycle(ppc):
     """Latency 1 at every ppc: one beat offered, its output valid one edge later, for one
     cycle, lane k = signal k - reset k (pixel-major pairs)."""
-    from tdicam.streamsim import probe_latency
+    from tdicam.cosim.streamsim import probe_latency
     dut = Cds(pixel_bits=12, ppc=ppc)
     assert dut.ppc == ppc and dut.latency == 1
     data = [v for k in range(ppc) for v in (1000 + 7 * k, 10 * k)]
@@ -160,7 +160,8 @@ def test_ppc_default_is_not_recorded():
     """Golden vectors and Verilog from before ``ppc`` existed stay byte-identical: a case
     or a design at ppc 1 does not name it; ppc 8 does."""
     import json
-    from tdicam import golden, verilog
+    from tdicam.cosim import vectors as golden
+    from tdicam.hw import verilog
     from tdicam.paths import GOLDEN
     with np.load(GOLDEN / "cds" / "random_12b.npz") as z:
         assert json.loads(str(z["__params__"])) == {"pixel_bits": 12}
