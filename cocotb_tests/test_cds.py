@@ -8,17 +8,30 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
+from tdicam.beats import mark_resets
 from tdicam.cosim import vectors as golden, WAVE_WINDOW
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.model.cds import cds
 
 CASES = [c.name for c in blocks.get("cds").cases()]
 
 
-@pytest.mark.parametrize("case", CASES)
+BEAT_SHORT, BEAT_LONG = beat_cases("cds")
+
+
+@pytest.mark.parametrize("case", BEAT_SHORT)
 def test_golden_per_beat(case, sim):
-    """Every golden case, cocotb driving each beat with random idle and backpressure."""
+    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
+    idle and backpressure."""
+    check_case("cds", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
+                                     "TDICAM_FULL=1")
+@pytest.mark.parametrize("case", BEAT_LONG)
+def test_golden_per_beat_ppc_long(case, sim):
     check_case("cds", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
@@ -114,3 +127,35 @@ def test_sim_command_prints_the_mismatch_and_its_waveform(monkeypatch, capsys, t
     assert "first at frame 0 line 2 column 3 (segment 0 beat 51)" in out, out
     wave = tmp_path / "cds-random_12b-icarus-fast.fst"
     assert f"waveform {wave} (cycles " in out and wave.exists()
+
+
+# ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
+
+#: the widest rows at ppc 8 in every run; ppc 1, 2, 4 with TDICAM_FULL=1
+_WIDE = [pytest.param(p, marks=[pytest.mark.slow, pytest.mark.skipif(
+    not FULL, reason="8192-wide rows at ppc 1, 2, 4: set TDICAM_FULL=1")]) for p in (1, 2, 4)] \
+    + [8]
+
+
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+def test_full_rate_ppc(sim, ppc):
+    """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock."""
+    res = check_case("cds", f"random_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
+                     backpressure=0.0, seed=3)
+    n = 3 * 16 * 24 // ppc
+    assert res.cycles <= n + 1 + 2000 + 2
+
+
+@pytest.mark.parametrize("ppc", _WIDE)
+def test_widest_rows(sim, ppc):
+    """Rows of 8192 pixels (the widest line any tdicam block takes; cds itself has no width
+    limit), full-scale and zero rows among random ones, a reset in the middle of a row."""
+    rng = np.random.default_rng(ppc)
+    sig = rng.integers(0, 1 << 12, (2, 4, 8192), dtype=np.uint16)
+    rst = rng.integers(0, 1 << 12, (2, 4, 8192), dtype=np.uint16)
+    sig[0, 1], rst[0, 1], sig[1, 2], rst[1, 2] = 4095, 0, 0, 4095
+    params = blocks.get("cds").resolve({"ppc": ppc})
+    stim = frames_to_beats(np.stack([sig, rst], -1), ppc=ppc, channels=2)
+    exp = frames_to_beats(cds(sig, rst, pixel_bits=12), ppc=ppc)
+    mark_resets(stim, exp, [(4 * 8192 + 4100) // ppc])
+    check_beats("cds", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)

@@ -6,16 +6,29 @@ import pytest
 from tdicam import blocks
 from tdicam.cosim import vectors as golden
 from tdicam.blocks.hdr import scene_frames
+from tdicam.beats import mark_resets
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.model.hdr import hdr, hdr_config
 
 CASES = [c.name for c in blocks.get("hdr").cases()]
 
 
-@pytest.mark.parametrize("case", CASES)
+BEAT_SHORT, BEAT_LONG = beat_cases("hdr")
+
+
+@pytest.mark.parametrize("case", BEAT_SHORT)
 def test_golden_per_beat(case, sim):
-    """Every golden case, cocotb driving each beat with random idle and backpressure."""
+    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
+    idle and backpressure."""
+    check_case("hdr", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
+                                     "TDICAM_FULL=1")
+@pytest.mark.parametrize("case", BEAT_LONG)
+def test_golden_per_beat_ppc_long(case, sim):
     check_case("hdr", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
@@ -49,3 +62,43 @@ def test_long_frames_1280_wide():
     assert len(stim) > 65536
     check_beats("hdr", params, stim, exp, sim="verilator", mode="fast", idle=0.1,
                 backpressure=0.1)
+
+
+# ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
+
+#: the widest rows at ppc 8 in every run; ppc 1, 2, 4 with TDICAM_FULL=1
+_WIDE = [pytest.param(p, marks=[pytest.mark.slow, pytest.mark.skipif(
+    not FULL, reason="8192-wide rows at ppc 1, 2, 4: set TDICAM_FULL=1")]) for p in (1, 2, 4)] \
+    + [8]
+
+
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+def test_full_rate_ppc(sim, ppc):
+    """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock apart from the
+    frame-start divisions (the same stall at every ppc)."""
+    res = check_case("hdr", f"scene_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
+                     backpressure=0.0, seed=3)
+    arrays, params = golden.load("hdr", f"scene_12b_p{ppc}")
+    n = arrays["hg"].size // ppc
+    starts = len(arrays["hg"]) - 1
+    stall = 12 + 4 + 3
+    assert res.cycles <= n + starts * stall + 4 + 2000 + 2
+
+
+@pytest.mark.parametrize("ppc", _WIDE)
+def test_widest_rows(sim, ppc):
+    """Rows of 8192 pixels (the widest line any tdicam block takes; hdr itself has no width
+    limit), three frames with measured junctions between them, a reset in the middle of a
+    row of frame 1 (frames 1 and 2 then start from the reset state)."""
+    cfg = hdr_config()
+    hg, lg = scene_frames(cfg, np.random.default_rng(ppc), 3, 4, 8192)
+    params = blocks.get("hdr").resolve({"ppc": ppc})
+    stim = frames_to_beats(np.stack([hg, lg], -1), ppc=ppc, channels=2)
+    cut = 4 * 8192 + 2 * 8192 + 4100            # pixels before the reset: frame 1 row 2
+    keep = np.ones(len(stim), bool)
+    keep[cut // ppc:2 * 4 * 8192 // ppc] = False  # the rest of frame 1 is not sent
+    exp = frames_to_beats(np.concatenate([hdr(hg[:2], lg[:2]), hdr(hg[2:], lg[2:])]),
+                          ppc=ppc)
+    stim, exp = stim.select(keep), exp.select(keep)
+    mark_resets(stim, exp, [cut // ppc])
+    check_beats("hdr", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)

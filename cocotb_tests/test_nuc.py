@@ -4,17 +4,30 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
+from tdicam.beats import mark_resets
 from tdicam.cosim import vectors as golden
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.model.nuc import DEFAULT_FORMAT, nuc
 
 CASES = [c.name for c in blocks.get("nuc").cases()]
 
 
-@pytest.mark.parametrize("case", CASES)
+BEAT_SHORT, BEAT_LONG = beat_cases("nuc")
+
+
+@pytest.mark.parametrize("case", BEAT_SHORT)
 def test_golden_per_beat(case, sim):
-    """Every golden case, cocotb driving each beat with random idle and backpressure."""
+    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
+    idle and backpressure."""
+    check_case("nuc", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
+                                     "TDICAM_FULL=1")
+@pytest.mark.parametrize("case", BEAT_LONG)
+def test_golden_per_beat_ppc_long(case, sim):
     check_case("nuc", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
@@ -53,3 +66,38 @@ def test_long_stream_1280_wide():
 def test_identity_case_is_identity():
     arrays, _ = golden.load("nuc", "identity_16b")
     np.testing.assert_array_equal(arrays["out"], arrays["x"])
+
+
+# ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
+
+#: the widest rows at ppc 8 in every run; ppc 1, 2, 4 with TDICAM_FULL=1
+_WIDE = [pytest.param(p, marks=[pytest.mark.slow, pytest.mark.skipif(
+    not FULL, reason="8192-wide rows at ppc 1, 2, 4: set TDICAM_FULL=1")]) for p in (1, 2, 4)] \
+    + [8]
+
+
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+def test_full_rate_ppc(sim, ppc):
+    """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock."""
+    res = check_case("nuc", f"random_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
+                     backpressure=0.0, seed=3)
+    n = 3 * 16 * 24 // ppc
+    assert res.cycles <= n + 3 + 2000 + 2
+
+
+@pytest.mark.parametrize("ppc", _WIDE)
+def test_widest_rows(sim, ppc):
+    """Rows of 8192 pixels (the widest line any tdicam block takes; nuc itself has no width
+    limit) with calibration-like coefficients, a full-scale row, a reset in the middle of a
+    row."""
+    rng = np.random.default_rng(ppc)
+    shape = (2, 4, 8192)
+    x = rng.integers(0, 4096, shape)
+    x[1, 2] = 4095
+    g = DEFAULT_FORMAT.gain_code(rng.normal(1.0, 0.05, shape))
+    o = rng.integers(-300, 300, shape)
+    params = blocks.get("nuc").resolve({"ppc": ppc})
+    stim = frames_to_beats(DEFAULT_FORMAT.stream_elements(x, g, o), ppc=ppc, channels=3)
+    exp = frames_to_beats(nuc(x, g, o), ppc=ppc)
+    mark_resets(stim, exp, [(4 * 8192 + 4100) // ppc])
+    check_beats("nuc", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)

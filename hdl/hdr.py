@@ -5,7 +5,9 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, signed, unsigne
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from tdicam.errors import check_choice
 from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
+from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
@@ -20,46 +22,62 @@ class Hdr(wiring.Component):
     pixel_bits, threshold, band, gain_pairs, slope_frac_bits, lgt_frac_bits, anchor,
     count_bits, out_bits
         As :func:`tdicam.model.hdr.hdr` (same names, units and defaults).
+    ppc : int
+        Pixels per clock (per beat): 1, 2, 4 or 8 (default 1). The golden model does not
+        know it: the output equals :func:`~tdicam.model.hdr.hdr` at every ppc.
 
     Attributes
     ----------
-    i_stream : In(pixel stream)
-        ``data[0]`` = HG, ``data[1]`` = LG, ``pixel_bits`` each (tdata: HG in the low
-        element, LG in the next, each padded to whole bytes).
-    o_stream : Out(pixel stream)
-        ``data`` = merged pixel, ``out_bits`` wide, clamped; ``first``/``last`` pass through.
+    i_stream : In(pixel stream of ``2 * ppc`` x ``pixel_bits``)
+        Pixel-major pairs (as :func:`tdicam.beats.frames_to_beats` ``(ppc=, channels=2)``):
+        ``data[2k]`` = HG, ``data[2k + 1]`` = LG of pixel ``k`` of the beat (0 the
+        leftmost; tdata: HG of pixel 0 in the low element, its LG in the next, each padded
+        to whole bytes). A row is ``width / ppc`` beats (the width is not a parameter).
+    o_stream : Out(pixel stream of ``ppc`` x ``out_bits``)
+        ``data[k]`` = merged pixel ``k`` (a plain value at ppc 1), ``out_bits`` wide,
+        clamped; ``first``/``last`` pass through.
     gain_sel : In(sel_bits), only when ``gain_pairs`` has two or more pairs
-        Index of the programmed gain pair; sampled when a frame's first pixel (``first``) is
+        Index of the programmed gain pair; sampled when a frame's first beat (``first``) is
         accepted and used for that whole frame.
 
     Notes
     -----
     Pixel pipeline: four register stages (junction subtract, multiply, sum with rounding,
-    clamp/select) advancing together when the output register is empty or taken;
-    :attr:`latency` = 4
-    cycles, 1 pixel/clock.
+    clamp/select) per pixel lane (``ppc`` multipliers), advancing together when the output
+    register is empty or taken; :attr:`latency` = 4 cycles at every ``ppc`` (1, 2, 4, 8:
+    4, 4, 4, 4), ``ppc`` pixels/clock.
 
-    Band statistics are updated one cycle after a pixel is accepted (registered band
-    decision). Frame start: when a pixel with ``first`` is presented and the previous frame
-    had band pixels, ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles
-    while two restoring dividers (one quotient bit per cycle, ``pixel_bits + lgt_frac_bits``
-    bits) turn the band sums into ``L_T`` and ``H_T``; the pixel is then accepted with them.
-    Pixels of the previous frame still in the pipeline are unaffected (each carries its own
-    junction values). With an empty band there is no stall. Pixels before the first ``first`` after
-    reset are merged with the reset values and counted as a frame.
+    Band statistics are updated one cycle after a beat is accepted (registered band
+    decisions), adding the beat's band pixels in one step: pixel ``k`` counts when it is in
+    the band and the count, plus the band pixels before it in the beat, is below
+    ``2**count_bits - 1`` (the first band pixels in raster order, as the model). Frame
+    start: when a beat with ``first`` is presented and the previous frame had band pixels,
+    ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (the same at every
+    ``ppc``) while two restoring dividers (one quotient bit per cycle, ``pixel_bits +
+    lgt_frac_bits`` bits) turn the band sums into ``L_T`` and ``H_T``; the beat is then
+    accepted with them. Pixels of the previous frame still in the pipeline are unaffected
+    (each carries its own junction values). With an empty band there is no stall. Pixels
+    before the first ``first`` after reset are merged with the reset values and counted as
+    a frame.
+
+    Raises
+    ------
+    TdicamError
+        Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,
                  slope_frac_bits=8, lgt_frac_bits=4, anchor="band", count_bits=24,
-                 out_bits=None):
+                 out_bits=None, ppc=1):
+        self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
         self._cfg = cfg = hdr_config(
             pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
             slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
             count_bits=count_bits, out_bits=out_bits)
         members = {
-            "i_stream": In(pixel_signature(channels_shape(pixel_bits, 2))),
-            "o_stream": Out(pixel_signature(unsigned(cfg.out_bits))),
+            "i_stream": In(pixel_signature(channels_shape(pixel_bits, 2 * ppc))),
+            "o_stream": Out(pixel_signature(channels_shape(cfg.out_bits, ppc))),
         }
         if cfg.sel_bits:
             members["gain_sel"] = In(unsigned(cfg.sel_bits))
@@ -79,10 +97,12 @@ class Hdr(wiring.Component):
     anchor = property(lambda self: self._cfg.anchor)
     count_bits = property(lambda self: self._cfg.count_bits)
     out_bits = property(lambda self: self._cfg.out_bits)
+    ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
 
     @property
     def latency(self):
-        """Cycles from an input transfer to the corresponding output being valid."""
+        """Cycles from an input transfer to the corresponding output being valid: 4 at
+        every ``ppc``."""
         return 4
 
     @property
@@ -99,7 +119,12 @@ class Hdr(wiring.Component):
         q = cfg.lt_bits
         t = cfg.threshold
         top = (1 << cfg.out_bits) - 1
-        hg, lg = i.payload.data[0], i.payload.data[1]
+        P = self._ppc
+        lanes = range(P)
+        # pixel k of the beat (0 the leftmost): HG in element 2k, LG in element 2k + 1
+        hgs = [i.payload.data[2 * k] for k in lanes]
+        lgs = [i.payload.data[2 * k + 1] for k in lanes]
+        hg = hgs[0]
 
         slopes = Array(Const(s, cfg.slope_bits) for s in cfg.slopes)
         seeds = Array(Const(s, q) for s in cfg.seeds)
@@ -113,7 +138,7 @@ class Hdr(wiring.Component):
         sum_l, sum_h = Signal(pb + cb), Signal(pb + cb)
         n = Signal(cb)
 
-        # ---- junction values for the pixel being accepted
+        # ---- junction values for the beat being accepted (all its pixels are in one frame)
         first = i.payload.first
         sel_now = self.gain_sel if cfg.sel_bits else 0
         reseed = first & (sel_now != cur) if cfg.sel_bits else Const(0, 1)
@@ -127,11 +152,17 @@ class Hdr(wiring.Component):
         rem_l, rem_h = Signal(cb + 1), Signal(cb + 1)
         num_l, num_h = Signal(q), Signal(q)
         quo_l, quo_h = Signal(q), Signal(q)
-        # band statistics run one stage behind the accepted pixel (timing): s_* hold the
-        # pixel accepted last cycle, not yet counted; n_nz is n != 0 once it is counted
+        # band statistics run one stage behind the accepted beat (timing): s_* hold the
+        # beat accepted last cycle, not yet counted; n_nz is n != 0 once it is counted
         s_v, s_first, s_band = Signal(), Signal(), Signal()
         s_hg, s_lg = Signal(pb), Signal(pb)
-        n_nz = Mux(s_v, s_band | (~s_first & (n != 0)), n != 0)
+        s_bands, s_hgs, s_lgs = [s_band], [s_hg], [s_lg]
+        for k in range(1, P):
+            s_bands.append(Signal(name=f"s_band_{k}"))
+            s_hgs.append(Signal(pb, name=f"s_hg_{k}"))
+            s_lgs.append(Signal(pb, name=f"s_lg_{k}"))
+        s_any = s_band if P == 1 else Cat(*s_bands).any()
+        n_nz = Mux(s_v, s_any | (~s_first & (n != 0)), n != 0)
         need_div = i.valid & first & n_nz
         load = Signal()
         divs = [(rem_l, num_l, quo_l, sum_l)]
@@ -168,21 +199,43 @@ class Hdr(wiring.Component):
         with m.Elif(need_div):
             m.d.sync += [busy.eq(1), load.eq(1)]
 
-        # ---- band statistics and frame registers, on accepted pixels
-        in_band = (hg < t) if t == cfg.band else (hg >= t - cfg.band) & (hg < t)
+        # ---- band statistics and frame registers, on accepted beats
+        def band_of(h):
+            return (h < t) if t == cfg.band else (h >= t - cfg.band) & (h < t)
+        in_band = band_of(hg)
         m.d.sync += [s_v.eq(i.valid & i.ready), s_first.eq(first), s_band.eq(in_band),
-                     s_hg.eq(hg), s_lg.eq(lg)]
+                     s_hg.eq(hg), s_lg.eq(lgs[0])]
+        for k in range(1, P):
+            m.d.sync += [s_bands[k].eq(band_of(hgs[k])), s_hgs[k].eq(hgs[k]),
+                         s_lgs[k].eq(lgs[k])]
         with m.If(i.valid & i.ready & first):
             m.d.sync += [cur.eq(sel_now), lt.eq(lt_eff), ht.eq(ht_eff)]
-        take = s_band & (n != cfg.count_max)
-        with m.If(s_v & (s_first | take)):  # a frame's first pixel restarts the statistics
+        if P == 1:
+            take = s_band & (n != cfg.count_max)
+            add_l, add_h, add_n = Mux(take, s_lg, 0), Mux(take, s_hg, 0), take
+        else:
+            # the first band pixels in raster order while the count has room: pixel k is
+            # taken when n + (band pixels before it in the beat) < count_max (n is 0 on a
+            # frame's first beat: the division wrote it back before the beat was accepted)
+            takes, before = [], Const(0, 1)
+            for k in lanes:
+                tk = Signal(name=f"take_{k}")
+                m.d.comb += tk.eq(s_bands[k] & (n + before < cfg.count_max))
+                takes.append(tk)
+                before = before + s_bands[k]
+            take = Cat(*takes).any()
+            add_l = _tree([Mux(takes[k], s_lgs[k], 0) for k in lanes])
+            add_h = _tree([Mux(takes[k], s_hgs[k], 0) for k in lanes])
+            add_n = _tree([takes[k] for k in lanes])
+        with m.If(s_v & (s_first | take)):  # a frame's first beat restarts the statistics
             m.d.sync += [
-                sum_l.eq(Mux(s_first, 0, sum_l) + Mux(take, s_lg, 0)),
-                sum_h.eq(Mux(s_first, 0, sum_h) + Mux(take, s_hg, 0)),
-                n.eq(Mux(s_first, 0, n) + take),
+                sum_l.eq(Mux(s_first, 0, sum_l) + add_l),
+                sum_h.eq(Mux(s_first, 0, sum_h) + add_h),
+                n.eq(Mux(s_first, 0, n) + add_n),
             ]
 
-        # ---- pixel pipeline (global enable)
+        # ---- pixel pipeline (global enable); lane 0 declared as before ppc existed (the
+        # Verilog at ppc 1 is byte-identical to the single-pixel design's)
         v1, f1, l1, below1 = Signal(), Signal(), Signal(), Signal()
         hg1, d1 = Signal(pb), Signal(signed(pb + f + 1))
         ht1, s1 = Signal(q), Signal(cfg.slope_bits)
@@ -199,15 +252,53 @@ class Hdr(wiring.Component):
         y = acc3 >> sh  # flooring shift: round half up together with the added half
         sat = Mux(y < 0, 0, Mux(y > top, top, y))
 
+        L = {"below1": [below1], "hg1": [hg1], "d1": [d1], "below2": [below2], "hg2": [hg2],
+             "p2": [p2], "below3": [below3], "hg3": [hg3], "acc3": [acc3]}
+        shapes = {"below1": 1, "hg1": pb, "d1": signed(pb + f + 1), "below2": 1, "hg2": pb,
+                  "p2": p2.shape(), "below3": 1, "hg3": pb, "acc3": acc3.shape()}
+        for k in range(1, P):
+            for name, lst in L.items():
+                lst.append(Signal(shapes[name], name=f"{name}_{k}"))
+        # (loops, not comprehensions: a name used in a nested scope would lose its
+        # inferred signal name)
+        accs, sats = [acc], [sat]
+        for k in range(1, P):
+            a = (ht2 << sf) + L["p2"][k]
+            if sh:
+                a = a + (1 << (sh - 1))
+            accs.append(a)
+            yk = L["acc3"][k] >> sh
+            sats.append(Mux(yk < 0, 0, Mux(yk > top, top, yk)))
+        outs = [o.payload.data] if P == 1 else [o.payload.data[k] for k in lanes]
+        st = {name: [] for name in ("below1", "hg1", "d1", "below2", "hg2", "p2", "below3",
+                                    "hg3", "acc3", "out")}
+        for k in lanes:
+            st["below1"].append(L["below1"][k].eq(hgs[k] < t))
+            st["hg1"].append(L["hg1"][k].eq(hgs[k]))
+            st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
+            st["below2"].append(L["below2"][k].eq(L["below1"][k]))
+            st["hg2"].append(L["hg2"][k].eq(L["hg1"][k]))
+            st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
+            st["below3"].append(L["below3"][k].eq(L["below2"][k]))
+            st["hg3"].append(L["hg3"][k].eq(L["hg2"][k]))
+            st["acc3"].append(L["acc3"][k].eq(accs[k]))
+            st["out"].append(outs[k].eq(Mux(L["below3"][k], L["hg3"][k], sats[k])))
+
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid & i.ready), f1.eq(first), l1.eq(i.payload.last),
-                below1.eq(hg < t), hg1.eq(hg),
-                d1.eq((lg << f) - lt_eff), ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
-                v2.eq(v1), f2.eq(f1), l2.eq(l1), below2.eq(below1), hg2.eq(hg1), ht2.eq(ht1),
-                p2.eq(d1 * s1),
-                v3.eq(v2), f3.eq(f2), l3.eq(l2), below3.eq(below2), hg3.eq(hg2), acc3.eq(acc),
-                o.valid.eq(v3), o.payload.first.eq(f3), o.payload.last.eq(l3),
-                o.payload.data.eq(Mux(below3, hg3, sat)),
+                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
+                v2.eq(v1), f2.eq(f1), l2.eq(l1), *st["below2"], *st["hg2"], ht2.eq(ht1),
+                *st["p2"],
+                v3.eq(v2), f3.eq(f2), l3.eq(l2), *st["below3"], *st["hg3"], *st["acc3"],
+                o.valid.eq(v3), o.payload.first.eq(f3), o.payload.last.eq(l3), *st["out"],
             ]
         return m
+
+
+def _tree(values):
+    """Sum of ``values`` as a balanced adder tree."""
+    while len(values) > 1:
+        values = [values[j] + values[j + 1] if j + 1 < len(values) else values[j]
+                  for j in range(0, len(values), 2)]
+    return values[0]

@@ -5,7 +5,9 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from tdicam.errors import check_choice
 from tdicam.model.nuc import check_nuc_params
+from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
@@ -26,32 +28,45 @@ class Nuc(wiring.Component):
         Signed two's-complement offset width and fraction bits (default 16 and 0).
     out_bits : int or None
         Output width 8..20 (``None``: ``pixel_bits``).
+    ppc : int
+        Pixels per clock (per beat): 1, 2, 4 or 8 (default 1).
 
     Attributes
     ----------
     i_stream : In(pixel stream)
-        ``data`` has three elements of :attr:`elem_bits` = max(pixel, gain, offset widths)
-        bits: ``data[0]`` = pixel ``x`` (low ``pixel_bits``), ``data[1]`` = gain code (low
-        ``gain_bits``), ``data[2]`` = offset code (low ``offset_bits``, two's complement).
-        Bits above those widths are ignored (zero or sign extension both work). At the
-        AXI4-Stream top each element is padded to whole bytes: with the defaults
-        ``tdata[15:0]`` = x, ``tdata[31:16]`` = gain, ``tdata[47:32]`` = offset.
-    o_stream : Out(pixel stream)
-        ``data`` = corrected pixel, ``out_bits`` wide, saturated (never wraps);
-        ``first``/``last`` pass through.
+        ``data`` has ``3 * ppc`` elements of :attr:`elem_bits` = max(pixel, gain, offset
+        widths) bits, pixel-major (as :func:`tdicam.beats.frames_to_beats` ``(ppc=,
+        channels=3)``): for pixel ``k`` of the beat (0 the leftmost) ``data[3k]`` = pixel
+        ``x`` (low ``pixel_bits``), ``data[3k + 1]`` = its gain code (low ``gain_bits``),
+        ``data[3k + 2]`` = its offset code (low ``offset_bits``, two's complement): each beat
+        carries ``ppc`` coefficient pairs beside its ``ppc`` pixels. Bits above those widths
+        are ignored (zero or sign extension both work). At the AXI4-Stream top each element
+        is padded to whole bytes: with the defaults ``tdata[15:0]`` = x, ``tdata[31:16]`` =
+        gain, ``tdata[47:32]`` = offset of pixel 0, ``tdata[63:48]`` = x of pixel 1, ...
+    o_stream : Out(pixel stream of ``ppc`` x ``out_bits``)
+        ``data[k]`` = corrected pixel ``k`` (a plain value at ppc 1), ``out_bits`` wide,
+        saturated (never wraps); ``first``/``last`` pass through (a row is ``width / ppc``
+        beats; the width is not a parameter).
 
     Notes
     -----
     Three register stages (inputs, product, rounded and clamped sum), all advancing together
-    when the output register is empty or taken: :attr:`latency` = 3 cycles, 1 pixel/clock
-    while ``o_stream.ready`` is high, no pixel lost or duplicated whatever ``ready`` does.
-    The multiplier is at most 18 x 16 bits with registered inputs and output (one ECP5
+    when the output register is empty or taken: :attr:`latency` = 3 cycles at every ``ppc``
+    (1, 2, 4, 8: 3, 3, 3, 3), ``ppc`` pixels/clock while ``o_stream.ready`` is high, no
+    pixel lost or duplicated whatever ``ready`` does. Each pixel lane has its own
+    multiplier, at most 18 x 16 bits with registered inputs and output (``ppc`` ECP5
     MULT18X18D / 7-series DSP48).
+
+    Raises
+    ------
+    TdicamError
+        Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14, offset_bits=16,
-                 offset_frac_bits=0, out_bits=None):
+                 offset_frac_bits=0, out_bits=None, ppc=1):
+        self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
         self._out_bits = check_nuc_params(
             pixel_bits=pixel_bits, gain_int_bits=gain_int_bits,
             gain_frac_bits=gain_frac_bits, offset_bits=offset_bits,
@@ -63,8 +78,8 @@ class Nuc(wiring.Component):
         self._offset_frac_bits = offset_frac_bits
         self._elem_bits = max(pixel_bits, gain_int_bits + gain_frac_bits, offset_bits)
         super().__init__({
-            "i_stream": In(pixel_signature(channels_shape(self._elem_bits, 3))),
-            "o_stream": Out(pixel_signature(unsigned(self._out_bits))),
+            "i_stream": In(pixel_signature(channels_shape(self._elem_bits, 3 * ppc))),
+            "o_stream": Out(pixel_signature(channels_shape(self._out_bits, ppc))),
         })
 
     pixel_bits = property(lambda self: self._pixel_bits)
@@ -76,13 +91,16 @@ class Nuc(wiring.Component):
     elem_bits = property(lambda self: self._elem_bits,
                          doc="Width of each input element (x, gain, offset).")
 
+    ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+
     @property
     def gain_bits(self):
         return self._gain_int_bits + self._gain_frac_bits
 
     @property
     def latency(self):
-        """Cycles from an input transfer to the corresponding output being valid."""
+        """Cycles from an input transfer to the corresponding output being valid: 3 at
+        every ``ppc``."""
         return 3
 
     def elaborate(self, platform):
@@ -97,33 +115,49 @@ class Nuc(wiring.Component):
         en = Signal()
         m.d.comb += [en.eq(~o.valid | o.ready), i.ready.eq(en)]
 
+        # lane 0 (the only one at ppc 1) declared as before ppc existed: the generated Verilog
+        # at ppc 1 is byte-identical to the earlier single-pixel design's
         v1, x1, g1 = Signal(), Signal(unsigned(pb)), Signal(unsigned(gb))
         off1, f1, l1 = Signal(signed(ob)), Signal(), Signal()
         v2, p2, off2 = Signal(), Signal(unsigned(pb + gb)), Signal(signed(ob))
         f2, l2 = Signal(), Signal()
+        x1s, g1s, off1s, p2s, off2s = [x1], [g1], [off1], [p2], [off2]
+        for k in range(1, self._ppc):
+            x1s.append(Signal(unsigned(pb), name=f"x1_{k}"))
+            g1s.append(Signal(unsigned(gb), name=f"g1_{k}"))
+            off1s.append(Signal(signed(ob), name=f"off1_{k}"))
+            p2s.append(Signal(unsigned(pb + gb), name=f"p2_{k}"))
+            off2s.append(Signal(signed(ob), name=f"off2_{k}"))
 
         # unsigned datapath: offset biased by 2**(ob-1) (MSB flipped), bias removed after the
         # shift; exact because offset_frac_bits < offset_bits
         bias = 1 << (ob - 1 - of)
-        acc = (p2 << (frac - gf)) + (Cat(off2[:ob - 1], ~off2[ob - 1]) << (frac - of))
-        if frac:
-            acc = (acc + (1 << (frac - 1))) >> frac
-        y = Signal(unsigned(acc.shape().width))
-        m.d.comb += y.eq(acc)
-        sat = Mux(y < Const(bias, y.shape()), Const(0, y.shape()),
-                  Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()), y - bias))
+        sats = []
+        for k, (p2, off2) in enumerate(zip(p2s, off2s)):
+            acc = (p2 << (frac - gf)) + (Cat(off2[:ob - 1], ~off2[ob - 1]) << (frac - of))
+            if frac:
+                acc = (acc + (1 << (frac - 1))) >> frac
+            y = Signal(unsigned(acc.shape().width), name=f"y_{k}" if k else "y")
+            m.d.comb += y.eq(acc)
+            sats.append(Mux(y < Const(bias, y.shape()), Const(0, y.shape()),
+                            Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()),
+                                y - bias)))
+        # pixel k of the beat: elements 3k (x), 3k + 1 (gain), 3k + 2 (offset)
+        d, rng = i.payload.data, range(self._ppc)
+        outs = [o.payload.data] if self._ppc == 1 else [o.payload.data[k] for k in rng]
 
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid),
-                x1.eq(i.payload.data[0][:pb]),
-                g1.eq(i.payload.data[1][:gb]),
-                off1.eq(i.payload.data[2][:ob]),
+                *(x1s[k].eq(d[3 * k][:pb]) for k in rng),
+                *(g1s[k].eq(d[3 * k + 1][:gb]) for k in rng),
+                *(off1s[k].eq(d[3 * k + 2][:ob]) for k in rng),
                 f1.eq(i.payload.first),
                 l1.eq(i.payload.last),
-                v2.eq(v1), p2.eq(x1 * g1), off2.eq(off1), f2.eq(f1), l2.eq(l1),
+                v2.eq(v1), *(p2s[k].eq(x1s[k] * g1s[k]) for k in rng),
+                *(off2s[k].eq(off1s[k]) for k in rng), f2.eq(f1), l2.eq(l1),
                 o.valid.eq(v2),
-                o.payload.data.eq(sat),
+                *(outs[k].eq(sats[k]) for k in rng),
                 o.payload.first.eq(f2),
                 o.payload.last.eq(l2),
             ]

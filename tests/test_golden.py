@@ -5,6 +5,7 @@ import shutil
 import numpy as np
 import pytest
 
+from tdicam import blocks
 from tdicam.cosim import vectors as golden
 from tdicam.cli import main
 from tdicam.errors import TdicamError
@@ -57,6 +58,7 @@ def test_tampered_array_is_named(store):
     arrays, params = golden.load("cds", "random_12b")
     arrays["out"] = arrays["out"].copy()
     arrays["out"][0, 1, 2] ^= 1
+    params = blocks.get("cds").recorded(params)     # as stored: no ppc at its default
     arrays[golden.PARAMS_KEY] = np.array(__import__("json").dumps(params, sort_keys=True))
     golden.write_npz(store / "cds" / "random_12b.npz", arrays)
     with pytest.raises(TdicamError, match=r"random_12b.npz: array 'out' does not match"):

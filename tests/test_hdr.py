@@ -11,6 +11,7 @@ from amaranth.hdl import Fragment
 from amaranth.sim import Simulator
 
 from tdicam import blocks
+from tdicam.beats import frames_to_beats
 from tdicam.cosim import vectors as golden
 from tdicam.blocks.hdr import ramp_frame, scene_frames
 from tdicam.cosim import compare
@@ -293,12 +294,20 @@ def test_amaranth_pysim_of_verilog_top_matches_golden(case):
     assert cmp.ok, cmp.message
 
 
+def _load(case):
+    """A golden case's arrays and the golden model's parameters (the block's without
+    ``ppc``, which the model does not know)."""
+    arrays, params = golden.load("hdr", case)
+    params.pop("ppc")
+    return arrays, params
+
+
 def test_golden_cases_exercise_what_they_claim():
-    arrays, params = golden.load("hdr", "empty_band_12b")
+    arrays, params = _load("empty_band_12b")
     cfg = hdr_config(**params)
     _, st = hdr(arrays["hg"], arrays["lg"], return_state=True, **params)
     assert st["band_count"].tolist()[1:3] == [0, 0] and st["band_count"][0] > 0
-    arrays, params = golden.load("hdr", "gain_change_multi")
+    arrays, params = _load("gain_change_multi")
     assert len(set(arrays["gain_sel"].tolist())) == 4
     _, st = hdr(arrays["hg"], arrays["lg"], gain_sel=arrays["gain_sel"], return_state=True,
                 **params)
@@ -320,10 +329,10 @@ def test_compare_reports_a_missing_segment_instead_of_crashing():
     assert not cmp.ok and cmp.message == "segment 1: 0 beats out, expected 2"
 
 
-@pytest.mark.parametrize("case", ["ramp_12b", "ramp_multi"])
+@pytest.mark.parametrize("case", ["ramp_12b", "ramp_multi", "ramp_12b_p8", "ramp_multi_p8"])
 def test_golden_ramp_cases_are_monotonic(case):
     """The ramp golden cases (co-simulated on both simulators) hold the monotonic sweep."""
-    arrays, params = golden.load("hdr", case)
+    arrays, params = _load(case)
     cfg = hdr_config(**params)
     n = 1 << cfg.pixel_bits
     for k in range(2):  # frame 2 starts with the threshold-edge pixels
@@ -331,3 +340,95 @@ def test_golden_ramp_cases_are_monotonic(case):
         steps = np.diff(out)
         assert (steps >= 0).all() and steps.max() <= 7
     assert set(arrays["hg"][2].ravel()[:65].tolist()) >= {cfg.threshold + d for d in (-1, 0, 1)}
+
+
+# ---- pixels per clock
+
+@pytest.mark.parametrize("ppc", [1, 2, 4, 8])
+def test_ppc_latency_is_four_cycles(ppc):
+    dut = Hdr(ppc=ppc)
+    assert dut.ppc == ppc and dut.latency == 4
+    assert dut.frame_start_cycles == 12 + 4 + 3
+    seen = probe_latency(dut, [v for k in range(ppc) for v in (1234 + k, 200)], cycles=5)
+    assert [v for v, _ in seen] == [0, 0, 0, 1, 0] and seen[3][1] == 1234
+
+
+@pytest.mark.parametrize("ppc", [2, 8])
+def test_frame_start_stall_ppc(ppc):
+    """At ppc pixels per beat the frame-start division stalls as at ppc 1: exactly
+    frame_start_cycles after a frame with band pixels (lanes 1 and ppc - 1), none after
+    an empty band; the merged lanes equal the golden model."""
+    dut = Hdr(pixel_bits=12, ppc=ppc)
+    t = dut.threshold
+    rng = np.random.default_rng(ppc)
+    hg = rng.integers(0, t - dut.band, (3, 1, 2 * ppc))       # below the band
+    lg = rng.integers(0, 500, (3, 1, 2 * ppc))
+    hg[0, 0, 1], hg[0, 0, ppc - 1] = t - 1, t - 2             # frame 0: band pixels
+    hg[1, 0, 0], lg[1, 0, 0] = 3500, 570                      # frame 1: merged at the junction
+    hg[1, 0, ppc:] = t + 100                                   # and above T
+    beats = frames_to_beats(np.stack([hg, lg], -1), ppc=ppc, channels=2)
+    waits, outs = [], []
+
+    async def bench(ctx):
+        ctx.set(dut.o_stream.ready, 1)
+        for k in range(len(beats)):
+            for e, v in enumerate(beats.data[k]):
+                ctx.set(dut.i_stream.payload.data[e], int(v))
+            ctx.set(dut.i_stream.payload.first, bool(beats.first[k]))
+            ctx.set(dut.i_stream.payload.last, bool(beats.last[k]))
+            ctx.set(dut.i_stream.valid, 1)
+            n = 0
+            while not ctx.get(dut.i_stream.ready):
+                await ctx.tick()
+                n += 1
+            waits.append(n)
+            await ctx.tick()
+        ctx.set(dut.i_stream.valid, 0)
+        for _ in range(6):
+            await ctx.tick()
+
+    async def monitor(ctx):
+        async for _, _, valid, data in ctx.tick().sample(dut.o_stream.valid,
+                                                          dut.o_stream.payload.data):
+            if valid:
+                outs.append([int(data[k]) for k in range(ppc)])
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.add_testbench(monitor, background=True)
+    sim.run()
+    assert waits == [0, 0, dut.frame_start_cycles, 0, 0, 0]
+    assert outs == hdr(hg, lg).reshape(-1, ppc).tolist()
+
+
+@pytest.mark.parametrize("case", ["ramp_multi_p8", "gain_change_multi_p8",
+                                  "reset_mid_frame_multi_p4", "empty_band_12b_p8"])
+def test_amaranth_pysim_of_verilog_top_matches_golden_ppc(case):
+    """ppc lanes against the golden model; ``ramp_multi_p8`` saturates the 4-bit band count
+    inside a beat (checked below), so only the first band pixels of that beat count."""
+    blk = blocks.get("hdr")
+    arrays, params = golden.load(blk, case)
+    stim, exp = blk.to_beats(arrays, params)
+    got, _, _ = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
+    cmp = compare(got, exp)
+    assert cmp.ok, cmp.message
+
+
+def test_ramp_multi_p8_saturates_the_count_inside_a_beat():
+    arrays, params = _load("ramp_multi_p8")
+    cfg = hdr_config(**params)
+    h = arrays["hg"][2].ravel()
+    band = np.flatnonzero((h >= cfg.threshold - cfg.band) & (h < cfg.threshold))
+    last = band[cfg.count_max - 1]              # the last band pixel counted
+    assert last % 8 != 7 and last + 1 in band   # a band pixel after it in the same beat
+
+
+def test_ppc_errors_are_one_line():
+    blk = blocks.get("hdr")
+    with pytest.raises(TdicamError, match=r"^ppc = 16 is not valid; valid: 1, 2, 4, 8$"):
+        Hdr(ppc=16)
+    p = blk.resolve({"ppc": 8})
+    z = np.zeros((1, 2, 12), np.uint16)
+    with pytest.raises(TdicamError, match=r"^--width 12 is not a multiple of --ppc 8$"):
+        blk.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)

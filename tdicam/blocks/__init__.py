@@ -34,7 +34,7 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
 __all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "Block", "get", "names",
-           "all_blocks", "frame_stack", "scene_blocks"]
+           "all_blocks", "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
 
 
 def _flag(name):
@@ -59,6 +59,11 @@ class Param:
         The valid values instead of a range.
     type : type
         ``int``, ``bool`` or ``str``; command-line strings are converted to it.
+    implicit_default : bool
+        A golden case at the default value does not record it (its ``__params__`` and
+        manifest entry leave it out; :func:`tdicam.golden.load` fills the default back in):
+        for a parameter added after golden vectors existed, which stay byte-identical (e.g.
+        ``ppc`` of ``cds``, ``nuc``, ``hdr``).
     """
 
     name: str
@@ -68,6 +73,7 @@ class Param:
     hi: int | None = None
     choices: tuple | None = None
     type: type = int
+    implicit_default: bool = False
 
     def describe(self):
         """``--name (range, default D): help`` for the block's help text."""
@@ -387,6 +393,19 @@ class Block:
             self.check(out)
         return out
 
+    def recorded(self, params):
+        """Resolved ``params`` as a golden case records them: without the
+        :attr:`Param.implicit_default` parameters that hold their default."""
+        drop = {p.name for p in self.params
+                if p.implicit_default and params.get(p.name) == p.default}
+        return {k: v for k, v in params.items() if k not in drop}
+
+    def with_defaults(self, params):
+        """Recorded ``params`` (see :meth:`recorded`) with every parameter they leave out
+        at its default."""
+        return {**{p.name: p.default for p in self.params if p.name not in params},
+                **params}
+
     def describe(self):
         """``tdicam verilog BLOCK --help``: the summary and every parameter."""
         lines = [f"{self.name}: {self.summary}", "parameters:"]
@@ -463,6 +482,19 @@ class Block:
 
     def _keys(self):
         return (self.stream, *(s.name for s in self.side_inputs))
+
+
+#: The pixels-per-clock parameter of the stream blocks that gained it after their golden
+#: vectors existed (``cds``, ``nuc``, ``hdr``): not recorded at its default.
+PPC_PARAM = Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8), implicit_default=True)
+
+
+def check_width(width, ppc):
+    """``width`` if it is a multiple of ``ppc``, else the one-line :class:`TdicamError`
+    ``"--width W is not a multiple of --ppc P"``."""
+    if width % ppc:
+        raise TdicamError(f"--width {width} is not a multiple of --ppc {ppc}")
+    return width
 
 
 def frame_stack(a):

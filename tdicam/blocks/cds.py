@@ -8,15 +8,16 @@ from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
-from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
 
 __all__ = ["BLOCK", "CdsOptions"]
 
 
-def _top(*, pixel_bits):
-    return AxisTop(Cds(pixel_bits=pixel_bits))
+def _top(*, pixel_bits, ppc):
+    return AxisTop(Cds(pixel_bits=pixel_bits, ppc=ppc))
 
 
 def _random(frames, rows, cols):
@@ -29,12 +30,11 @@ def _random(frames, rows, cols):
     return make
 
 
-def _hard(params, rng):
+def _hard(params, rng, shape=(8, 12)):
     """Zeros, full scale, reset > signal, reset == signal, signal full and reset 0."""
     b = params["pixel_bits"]
     full = (1 << b) - 1
     dt = pixel_dtype(b)
-    shape = (8, 12)
     pairs = [(0, 0), (full, full), (full, 0), (0, full), (5, 6), (6, 5)]
     sig = np.stack([np.full(shape, s, dt) for s, _ in pairs])
     rst = np.stack([np.full(shape, r, dt) for _, r in pairs])
@@ -52,6 +52,20 @@ def _reset_mid_frame(params, rng):
     return out
 
 
+def _hard_wide(params, rng):
+    """:func:`_hard` on 8 x 16 frames (a width every ``ppc`` divides)."""
+    return _hard(params, rng, shape=(8, 16))
+
+
+def _reset_beats(params, rng):
+    """Frame 0 (10 x 16) is cut by a reset in the middle of a row, after beat
+    ``cut`` = 9 rows and a half of ``16 / ppc`` beats (rounded up); frame 1 follows clean."""
+    out = _random(2, 10, 16)(params, rng)
+    wb = 16 // params["ppc"]
+    out["reset_before"] = np.array([9 * wb + (wb + 1) // 2], np.int64)
+    return out
+
+
 def _golden(arrays, params):
     return {"out": cds(arrays["signal"], arrays["reset"], pixel_bits=params["pixel_bits"])}
 
@@ -63,10 +77,37 @@ def _example(rng, n, shape, params):
 
 
 def _to_beats(arrays, params):
-    stim = frames_to_beats(np.stack([arrays["signal"], arrays["reset"]], axis=-1), channels=2)
-    exp = frames_to_beats(arrays["out"])
+    """``ppc`` pixels per beat, pixel-major (signal, reset) pairs: p0.signal p0.reset
+    p1.signal ...; ``reset_before`` counts stimulus beats. The frame width must be a
+    multiple of ``ppc``."""
+    ppc = params["ppc"]
+    frames = np.stack([arrays["signal"], arrays["reset"]], axis=-1)
+    _check_width(frames.shape[-2], ppc)
+    stim = frames_to_beats(frames, ppc=ppc, channels=2)
+    exp = frames_to_beats(arrays["out"], ppc=ppc)
     mark_resets(stim, exp, arrays.get("reset_before"))
     return stim, exp
+
+
+def _ppc_cases():
+    """The cases at ppc 2, 4 and 8: random, hard values (16-bit at ppc 8), a reset mid-row,
+    the smallest width (one beat per row) and 8-bit pixels at ppc 8."""
+    out = []
+    for k, ppc in enumerate((2, 4, 8)):
+        p = {"pixel_bits": 12, "ppc": ppc}
+        bits = 16 if ppc == 8 else 12      # (one parameter set, one build, at ppc 2 and 4)
+        out += [
+            Case(f"random_12b_p{ppc}", p, _random(3, 16, 24), seed=20 + k),
+            Case(f"hard_{bits}b_p{ppc}", {"pixel_bits": bits, "ppc": ppc}, _hard_wide,
+                 seed=30 + k, tags=("fullscale", "zeros")),
+            Case(f"reset_mid_frame_12b_p{ppc}", p, _reset_beats, seed=40 + k,
+                 tags=("reset",)),
+            Case(f"narrow_12b_p{ppc}", p, _random(3, 6, ppc), seed=50 + k,
+                 tags=("narrow",)),
+        ]
+    out.append(Case("random_8b_p8", {"pixel_bits": 8, "ppc": 8}, _random(2, 8, 32),
+                    seed=60))
+    return out
 
 
 
@@ -97,7 +138,8 @@ def _pipeline_step(ctx):
 BLOCK = Block(
     name="cds",
     summary="digital CDS: signal - reset per pixel, clamped at 0 (Ning et al. 2019 §4.4.1)",
-    params=(Param("pixel_bits", 12, "signal, reset and output pixel width", lo=8, hi=16),),
+    params=(Param("pixel_bits", 12, "signal, reset and output pixel width", lo=8, hi=16),
+            PPC_PARAM),
     top=_top,
     cases=lambda: [
         Case("random_8b", {"pixel_bits": 8}, _random(3, 16, 24), seed=1),
@@ -107,12 +149,13 @@ BLOCK = Block(
         Case("hard_16b", {"pixel_bits": 16}, _hard, seed=5, tags=("fullscale", "zeros")),
         Case("reset_mid_frame_12b", {"pixel_bits": 12}, _reset_mid_frame, seed=6,
              tags=("reset",)),
+        *_ppc_cases(),
     ],
     model_version="cds-1",
     to_beats=_to_beats,
     stream="signal",
     side_inputs=(SideInput("reset", "pixel", "the pixel's reset sample (CDS reset frame), "
-                           "element 1 of each input beat"),),
+                           "element 2k + 1 of each input beat (pixel k's signal: 2k)"),),
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,

@@ -10,7 +10,8 @@ from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
-from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           frame_stack, check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
 
@@ -19,6 +20,12 @@ __all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
 def _top(**params):
     return AxisTop(Hdr(**params))
+
+
+def _model(params):
+    """The golden model's parameters: the block's without ``ppc`` (the model does not know
+    how many pixels a beat carries)."""
+    return {k: v for k, v in params.items() if k != "ppc"}
 
 
 def _ratio(cfg, sel):
@@ -61,11 +68,11 @@ def _pack(params, hg, lg, sels, reset_frame=None, cut=None):
     lg = np.asarray(lg, np.uint16)
     sels = np.asarray(sels, np.int64)
     if reset_frame is None:
-        out = hdr(hg, lg, gain_sel=sels, **params)
+        out = hdr(hg, lg, gain_sel=sels, **_model(params))
     else:
         r = reset_frame
-        out = np.concatenate([hdr(hg[:r + 1], lg[:r + 1], gain_sel=sels[:r + 1], **params),
-                              hdr(hg[r + 1:], lg[r + 1:], gain_sel=sels[r + 1:], **params)])
+        out = np.concatenate([hdr(hg[:r + 1], lg[:r + 1], gain_sel=sels[:r + 1], **_model(params)),
+                              hdr(hg[r + 1:], lg[r + 1:], gain_sel=sels[r + 1:], **_model(params))])
     arrays = {"hg": hg, "lg": lg, "gain_sel": sels, "out": out}
     if reset_frame is not None:
         arrays["reset_frame"] = np.array([reset_frame], np.int64)
@@ -77,7 +84,7 @@ def _ramp(params, rng):
     """The full LG sweep twice (reset junction, then the one measured on the sweep), then a
     frame starting with threshold edges: HG at T-band-1, T-band, T-1, T, T+1 with LG below,
     at and above the junction (the rest of that frame is the sweep again)."""
-    cfg = hdr_config(**params)
+    cfg = hdr_config(**_model(params))
     hg, lg = ramp_frame(cfg)
     t, b, full = cfg.threshold, cfg.band, (1 << cfg.pixel_bits) - 1
     hgs = np.clip([t - b - 1, t - b, t - 1, t, t + 1], 0, full)
@@ -91,7 +98,7 @@ def _ramp(params, rng):
 
 def _scene(frames, rows, cols, sels=None, span=None):
     def make(params, rng):
-        cfg = hdr_config(**params)
+        cfg = hdr_config(**_model(params))
         s = np.zeros(frames, np.int64) if sels is None else np.asarray(sels)
         hg, lg = scene_frames(cfg, rng, frames, rows, cols, s, span=span)
         return _pack(params, hg, lg, s)
@@ -101,7 +108,7 @@ def _scene(frames, rows, cols, sels=None, span=None):
 def _empty_band(params, rng):
     """Frame 0 fills the band; frames 1 and 2 have none (L_T kept, no division by zero);
     frame 3 has band pixels again."""
-    cfg = hdr_config(**params)
+    cfg = hdr_config(**_model(params))
     hg, lg = scene_frames(cfg, rng, 4, 12, 20)
     t, b = cfg.threshold, cfg.band
     for k in (1, 2):
@@ -124,18 +131,84 @@ def _reset_mid_frame(sels):
     """Frames 0-1 build up a measured junction (and gain pair), a reset cuts frame 1, then
     frames 2-3 start clean from the reset state."""
     def make(params, rng):
-        cfg = hdr_config(**params)
+        cfg = hdr_config(**_model(params))
         s = np.asarray(sels, np.int64)
         hg, lg = scene_frames(cfg, rng, 4, 10, 16, s)
         return _pack(params, hg, lg, s, reset_frame=1, cut=93)
     return make
 
 
+def _extremes_wide(params, rng):
+    """:func:`_extremes` on 6 x 16 frames (a width every ``ppc`` divides)."""
+    full = (1 << params["pixel_bits"]) - 1
+    pairs = [(0, 0), (full, full), (full, 0), (0, full), (full, full)]
+    shape = (6, 16)
+    hg = np.stack([np.full(shape, h) for h, _ in pairs] + [rng.integers(0, full + 1, shape)])
+    lg = np.stack([np.full(shape, v) for _, v in pairs] + [rng.integers(0, full + 1, shape)])
+    return _pack(params, hg, lg, np.zeros(len(hg), np.int64))
+
+
+def _empty_band_wide(params, rng):
+    """:func:`_empty_band` on 12 x 24 frames."""
+    cfg = hdr_config(**_model(params))
+    hg, lg = scene_frames(cfg, rng, 4, 12, 24)
+    t, b = cfg.threshold, cfg.band
+    for k in (1, 2):
+        inside = (hg[k] >= t - b) & (hg[k] < t)
+        hg[k][inside] = np.where(rng.random(int(inside.sum())) < 0.5, t - b - 1, t)
+    return _pack(params, hg, lg, np.zeros(4, np.int64))
+
+
+def _reset_beats(sels):
+    """:func:`_reset_mid_frame` with the reset in the middle of row 5 of frame 1, after
+    ``5 * 16 / ppc + 16 / ppc / 2`` beats (rounded up)."""
+    def make(params, rng):
+        cfg = hdr_config(**_model(params))
+        s = np.asarray(sels, np.int64)
+        hg, lg = scene_frames(cfg, rng, 4, 10, 16, s)
+        wb = 16 // params["ppc"]
+        return _pack(params, hg, lg, s, reset_frame=1, cut=5 * wb + (wb + 1) // 2)
+    return make
+
+
+def _ppc_cases():
+    """At ppc 2, 4 and 8: a scene, a reset mid-row, the count saturating inside a beat
+    (``ramp_multi``: 15 band pixels at most) and the smallest width (one beat per row); at
+    ppc 8 also the LG sweep, constant extremes, empty bands, gain changes and the coarse
+    16-bit format."""
+    out = []
+    for k, ppc in enumerate((2, 4, 8)):
+        p, pm = {"ppc": ppc}, {**MULTI, "ppc": ppc}
+        out += [
+            Case(f"scene_12b_p{ppc}", p, _scene(3, 16, 32), seed=20 + k),
+            Case(f"reset_mid_frame_multi_p{ppc}", pm, _reset_beats([2, 2, 1, 0]),
+                 seed=30 + k, tags=("reset", "runtime")),
+            Case(f"ramp_multi_p{ppc}", pm, _ramp, seed=40 + k,
+                 tags=("monotonic", "count-saturation")),
+            Case(f"narrow_12b_p{ppc}", p, _scene(3, 8, ppc, span=(0.8, 1.2)), seed=50 + k,
+                 tags=("narrow",)),
+        ]
+    p8 = {"ppc": 8}
+    out += [
+        Case("ramp_12b_p8", p8, _ramp, seed=60, tags=("monotonic", "threshold", "fullscale")),
+        Case("extremes_12b_p8", p8, _extremes_wide, seed=61, tags=("fullscale", "zeros")),
+        Case("empty_band_12b_p8", p8, _empty_band_wide, seed=62, tags=("empty-band",)),
+        Case("gain_change_multi_p8", {**MULTI, "ppc": 8},
+             _scene(8, 8, 24, [0, 0, 1, 1, 2, 3, 3, 0], span=(0.8, 1.2)), seed=63,
+             tags=("runtime", "count-saturation")),
+        Case("scene_coarse_16b_p8", {**COARSE, "ppc": 8}, _scene(3, 12, 24), seed=64,
+             tags=("clamp",)),
+        Case("extremes_coarse_16b_p8", {**COARSE, "ppc": 8}, _extremes_wide, seed=65,
+             tags=("fullscale", "zeros")),
+    ]
+    return out
+
+
 def _golden(arrays, params):
     """hdr on (..., rows, cols) stacks; ``gain_sel`` one value per frame."""
     hg = np.asarray(arrays["hg"])
     sels = np.asarray(arrays["gain_sel"], np.int64).ravel()
-    out = hdr(frame_stack(hg), frame_stack(arrays["lg"]), gain_sel=sels, **params)
+    out = hdr(frame_stack(hg), frame_stack(arrays["lg"]), gain_sel=sels, **_model(params))
     return {"out": out.reshape(hg.shape[:-2] + out.shape[-2:])}
 
 
@@ -144,23 +217,28 @@ def _zeros_per_frame(hg):
 
 
 def _unstream(out, arrays, params):
-    bits = hdr_config(**params).out_bits
+    bits = hdr_config(**_model(params)).out_bits
     return {"out": out.data.reshape(np.shape(arrays["hg"])).astype(pixel_dtype(bits))}
 
 
 def _example(rng, n, shape, params):
     """A light ramp across each frame, HG/LG with noise (:func:`scene_frames`)."""
-    hg, lg = scene_frames(hdr_config(**params), rng, n, *shape)
+    hg, lg = scene_frames(hdr_config(**_model(params)), rng, n, *shape)
     dt = pixel_dtype(params["pixel_bits"])
     return {"hg": hg.astype(dt), "lg": lg.astype(dt)}
 
 
 def _to_beats(arrays, params):
-    cfg = hdr_config(**params)
+    """``ppc`` pixels per beat, pixel-major (HG, LG) pairs; ``gain_sel`` on the ctrl of a
+    frame's first beat; ``reset_before`` counts beats of frame ``reset_frame``. The frame
+    width must be a multiple of ``ppc``."""
+    cfg = hdr_config(**_model(params))
+    ppc = params["ppc"]
     hg, lg, sels = arrays["hg"], arrays["lg"], arrays["gain_sel"]
-    stim = frames_to_beats(np.stack([hg, lg], axis=-1), channels=2)
-    exp = frames_to_beats(arrays["out"])
-    per = hg[0].size
+    _check_width(np.shape(hg)[-1], ppc)
+    stim = frames_to_beats(np.stack([hg, lg], axis=-1), ppc=ppc, channels=2)
+    exp = frames_to_beats(arrays["out"], ppc=ppc)
+    per = hg[0].size // ppc
     frame_of = np.arange(len(stim)) // per
     if cfg.sel_bits:
         # only the value presented with a frame's first pixel counts: every other beat
@@ -177,7 +255,7 @@ def _to_beats(arrays, params):
 
 
 def _check(params):
-    hdr_config(**params)
+    hdr_config(**_model(params))
 
 
 MULTI = {"gain_pairs": "4.9:0.8,4.9:1.6,2.45:0.8", "count_bits": 4}
@@ -242,6 +320,7 @@ BLOCK = Block(
         Param("count_bits", 24, "band pixel counter width (saturating)", lo=4, hi=32),
         Param("out_bits", None, "output width (default: enough for the largest slope)",
               lo=8, hi=24),
+        PPC_PARAM,
     ),
     top=_top,
     cases=lambda: [
@@ -259,14 +338,15 @@ BLOCK = Block(
              tags=("reset", "runtime")),
         Case("scene_coarse_16b", COARSE, _scene(3, 12, 24), seed=9, tags=("clamp",)),
         Case("extremes_coarse_16b", COARSE, _extremes, seed=10, tags=("fullscale", "zeros")),
+        *_ppc_cases(),
     ],
     check=_check,
     model_version="hdr-1",
     to_beats=_to_beats,
     stream="hg",
     side_inputs=(
-        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 1 of each "
-                  "input beat (the high-gain channel is the stream)"),
+        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 2k + 1 "
+                  "of each input beat for its pixel k (the high-gain channel, the stream: 2k)"),
         SideInput("gain_sel", "frame", "index of the frame's programmed gain pair "
                   "(--gain-pairs), on the gain_sel port with the frame's first pixel",
                   default=_zeros_per_frame),

@@ -8,7 +8,8 @@ from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+                           check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
 
@@ -19,6 +20,12 @@ _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits
 
 def _top(**params):
     return AxisTop(Nuc(**params))
+
+
+def _model(params):
+    """The golden model's parameters: the block's without ``ppc`` (the model does not know
+    how many pixels a beat carries)."""
+    return {k: v for k, v in params.items() if k != "ppc"}
 
 
 def _fmt(params):
@@ -36,7 +43,8 @@ def _arrays(params, x, gain, offset):
     gdt, odt = _coeff_dtypes(fmt)
     x = np.asarray(x).astype(np.uint16 if params["pixel_bits"] <= 16 else np.uint32)
     gain, offset = np.asarray(gain).astype(gdt), np.asarray(offset).astype(odt)
-    return {"x": x, "gain": gain, "offset": offset, "out": nuc(x, gain, offset, **params)}
+    return {"x": x, "gain": gain, "offset": offset,
+            "out": nuc(x, gain, offset, **_model(params))}
 
 
 def _random(frames, rows, cols):
@@ -105,7 +113,7 @@ def _reset_mid_frame(params, rng):
 
 
 def _golden(arrays, params):
-    return {"out": nuc(arrays["x"], arrays["gain"], arrays["offset"], **params)}
+    return {"out": nuc(arrays["x"], arrays["gain"], arrays["offset"], **_model(params))}
 
 
 def _example(rng, n, shape, params):
@@ -119,17 +127,70 @@ def _example(rng, n, shape, params):
 
 
 def _to_beats(arrays, params):
+    """``ppc`` pixels per beat, pixel-major (x, gain, offset) triples; ``reset_before``
+    counts stimulus beats of frame 0. The frame width must be a multiple of ``ppc``."""
+    ppc = params["ppc"]
+    _check_width(np.shape(arrays["x"])[-1], ppc)
     elems = _fmt(params).stream_elements(arrays["x"], arrays["gain"], arrays["offset"])
-    stim = frames_to_beats(elems, channels=3)
-    exp = frames_to_beats(arrays["out"])
+    stim = frames_to_beats(elems, ppc=ppc, channels=3)
+    exp = frames_to_beats(arrays["out"], ppc=ppc)
     if "reset_before" in arrays:
-        frame_beats = arrays["x"][0].size
+        frame_beats = arrays["x"][0].size // ppc
         stim, exp = cut_frame0(stim, exp, frame_beats, int(arrays["reset_before"][0]))
     return stim, exp
 
 
+def _reset_beats(params, rng):
+    """Frame 0 (10 x 16) is cut by a reset in the middle of a row, after beat ``cut`` =
+    4 rows and a half of ``16 / ppc`` beats (rounded up); frames 1 and 2 follow clean."""
+    out = _random(3, 10, 16)(params, rng)
+    wb = 16 // params["ppc"]
+    out["reset_before"] = np.array([4 * wb + (wb + 1) // 2], np.int64)
+    return out
+
+
+def _saturate_wide(params, rng):
+    """:func:`_saturate`'s 175 extreme combinations on 8 x 24 frames (a width every ``ppc``
+    divides; the rest of the last row repeats the largest codes)."""
+    a = _saturate(params, rng)
+    n = 175
+    rows = -(-n // 24)
+    def pad(v, fill):
+        flat = np.concatenate([v.ravel()[:n], np.full(rows * 24 - n, fill, v.dtype)])
+        return flat.reshape(1, rows, 24)
+    fmt, full = _fmt(params), (1 << params["pixel_bits"]) - 1
+    return _arrays(params, pad(a["x"], full), pad(a["gain"], fmt.gain_max),
+                   pad(a["offset"], fmt.offset_max))
+
+
+def _ppc_cases():
+    """The cases at ppc 2, 4 and 8: random, identity (16-bit at ppc 8), saturation, a reset
+    mid-row, the smallest width (one beat per row); the wide and narrow formats at ppc 8."""
+    out = []
+    for k, ppc in enumerate((2, 4, 8)):
+        p = {"ppc": ppc}
+        bits = 16 if ppc == 8 else 12      # (one parameter set, one build, at ppc 2 and 4)
+        out += [
+            Case(f"random_12b_p{ppc}", p, _random(3, 16, 24), seed=20 + k),
+            Case(f"identity_{bits}b_p{ppc}", {"pixel_bits": bits, "ppc": ppc}, _identity,
+                 seed=30 + k, tags=("identity", "zeros", "fullscale")),
+            Case(f"saturate_12b_p{ppc}", p, _saturate_wide, seed=40 + k,
+                 tags=("saturation", "fullscale", "zeros")),
+            Case(f"reset_mid_frame_12b_p{ppc}", p, _reset_beats, seed=50 + k,
+                 tags=("reset",)),
+            Case(f"narrow_12b_p{ppc}", p, _random(3, 5, ppc), seed=60 + k,
+                 tags=("narrow",)),
+        ]
+    out += [
+        Case("saturate_wide_p8", {**_WIDE, "ppc": 8}, _saturate_wide, seed=70,
+             tags=("saturation", "fullscale")),
+        Case("random_narrow_p8", {**_NARROW, "ppc": 8}, _random(2, 12, 24), seed=71),
+    ]
+    return out
+
+
 def _check(params):
-    check_nuc_params(**params)
+    check_nuc_params(**_model(params))
 
 
 _WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 16, "offset_bits": 18,
@@ -250,6 +311,7 @@ BLOCK = Block(
         Param("offset_bits", 16, "width of the signed two's-complement offset", lo=2, hi=18),
         Param("offset_frac_bits", 0, "fraction bits of the offset", lo=0, hi=8),
         Param("out_bits", None, "output width (default: pixel_bits)", lo=8, hi=20),
+        PPC_PARAM,
     ),
     top=_top,
     cases=lambda: [
@@ -263,6 +325,7 @@ BLOCK = Block(
         Case("random_wide", _WIDE, _random(2, 12, 20), seed=7),
         Case("random_narrow", _NARROW, _random(2, 12, 20), seed=8),
         Case("reset_mid_frame_12b", {}, _reset_mid_frame, seed=10, tags=("reset",)),
+        *_ppc_cases(),
     ],
     check=_check,
     model_version="nuc-1",
@@ -270,10 +333,11 @@ BLOCK = Block(
     stream="x",
     side_inputs=(
         SideInput("gain", "pixel", "per-pixel unsigned gain code (gain_int_bits."
-                  "gain_frac_bits), element 1 of each input beat; in the camera read from "
+                  "gain_frac_bits), element 3k + 1 of each input beat for its pixel k (x: 3k); "
+                  "in the camera read from "
                   "the ECC-protected calibration image (block calib)"),
         SideInput("offset", "pixel", "per-pixel signed offset code (offset_bits, "
-                  "offset_frac_bits), element 2 of each input beat"),
+                  "offset_frac_bits), element 3k + 2 of each input beat"),
     ),
     golden=_golden,
     example=_example,

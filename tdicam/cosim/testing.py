@@ -5,9 +5,31 @@ its expected and received values and the path of the waveform around it (under
 :data:`tdicam.cosim.WAVE_DIR`, or ``wave_dir``).
 """
 
+import os
+
 from tdicam.cosim import WAVE_DIR, run_beats, run_golden_case
 
-__all__ = ["check_beats", "check_case"]
+__all__ = ["check_beats", "check_case", "beat_cases", "FULL"]
+
+#: ``TDICAM_FULL=1``: the long forms of the co-simulation sweeps.
+FULL = os.environ.get("TDICAM_FULL") == "1"
+
+
+def beat_cases(block, *, full=None):
+    """Names of ``block``'s golden cases co-simulated per beat: ``(short, long)``.
+
+    ``short`` (the default run): every case at ppc 1 and at ppc 8, and the reset cases at
+    every ppc; ``long`` (with ``TDICAM_FULL=1``, ``full``): the other ppc 2 and 4 cases,
+    which fast mode checks in every run. ``fast-only`` cases are in neither."""
+    from tdicam import blocks
+    blk = blocks.get(block) if isinstance(block, str) else block
+    short, long = [], []
+    for case in blk.cases():
+        if "fast-only" in case.tags:
+            continue
+        ppc = blk.resolve(case.params).get("ppc", 1)
+        (short if ppc in (1, 8) or "reset" in case.tags else long).append(case.name)
+    return short, long
 
 
 def _check(run):

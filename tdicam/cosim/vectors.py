@@ -141,7 +141,7 @@ def generate(block, case):
         case = _find_case(block, case)
     params = block.resolve(case.params)
     arrays = dict(case.make(params, np.random.default_rng(case.seed)))
-    arrays[PARAMS_KEY] = np.array(json.dumps(params, sort_keys=True))
+    arrays[PARAMS_KEY] = np.array(json.dumps(block.recorded(params), sort_keys=True))
     return arrays
 
 
@@ -150,7 +150,7 @@ def _entry(block, case, arrays):
         "file": f"{block.name}/{case.name}.npz",
         "block": block.name,
         "case": case.name,
-        "params": block.resolve(case.params),
+        "params": block.recorded(block.resolve(case.params)),
         "generator": f"tdicam.blocks.{block.name}:{case.name}",
         "seed": case.seed,
         "tags": list(case.tags),
@@ -211,8 +211,11 @@ def _regen(names):
 
 
 def load(block, case):
-    """Arrays of a stored case, verified against the manifest; params decoded to a dict."""
-    name = block if isinstance(block, str) else block.name
+    """Arrays of a stored case, verified against the manifest; params decoded to a dict
+    (parameters the case does not record at their default filled in:
+    :meth:`~tdicam.blocks.Block.with_defaults`)."""
+    block = _blocks.get(block) if isinstance(block, str) else block
+    name = block.name
     man = _read_manifest()
     key = f"{name}/{case}"
     path = golden_dir() / name / f"{case}.npz"
@@ -222,7 +225,7 @@ def load(block, case):
     arrays = _read_npz(path)
     _verify(path, arrays, man["cases"][key]["arrays"])
     params = json.loads(str(arrays.pop(PARAMS_KEY)))
-    return arrays, params
+    return arrays, block.with_defaults(params)
 
 
 def _verify(path, arrays, recorded):

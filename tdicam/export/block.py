@@ -106,11 +106,15 @@ def golden_case_arrays(blk, params, *, max_beats=None, errors=None):
 
 
 def golden_params(blk):
-    """The parameter set most of ``blk``'s golden cases use (the first one on a tie): what
-    ``tdicam export BLOCK`` exports when no parameter is given."""
+    """The parameter set most of ``blk``'s golden cases use (the first one on a tie; among
+    cases with every :attr:`~tdicam.blocks.Param.implicit_default` parameter at its
+    default): what ``tdicam export BLOCK`` exports when no parameter is given."""
     counts = {}
     for case in blk.cases():
-        key = json.dumps(blk.resolve(case.params), sort_keys=True)
+        p = blk.resolve(case.params)
+        if any(q.implicit_default and p[q.name] != q.default for q in blk.params):
+            continue               # e.g. ppc 8: the default export keeps the default ppc
+        key = json.dumps(p, sort_keys=True)
         counts[key] = counts.get(key, 0) + 1
     if not counts:
         return blk.resolve({})
@@ -379,7 +383,8 @@ def _stream_export(blk, params, *, seed, idle, backpressure, max_beats):
     stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
     params = blk.resolve(params)
     d = stream_design(blk.name, blk.summary, block_rows(blk, params), params, top, stim, exp,
-                      cases=cases, seed=seed, idle=idle, backpressure=backpressure)
+                      cases=cases, seed=seed, idle=idle, backpressure=backpressure,
+                      rtl_header=header(blk.name, blk.recorded(params)))  # as tdicam verilog
     return d, cases, len(stim), len(exp)
 
 
@@ -453,7 +458,8 @@ def export_files(blk, params, top, stim, exp, *, cases, seed=1, idle=0.1, backpr
     params = blk.resolve(params)
     return design_files(stream_design(blk.name, blk.summary, block_rows(blk, params), params,
                                       top, stim, exp, cases=cases, seed=seed, idle=idle,
-                                      backpressure=backpressure))
+                                      backpressure=backpressure,
+                                      rtl_header=header(blk.name, blk.recorded(params))))
 
 
 #: Verilator arguments of a stand-alone (``--binary``) build of an exported testbench.

@@ -246,7 +246,10 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     if seeds < 1:
         raise TdicamError(f"--seeds = {seeds} is out of range; valid: 1..")
     yosys, nextpnr = _tool("yosys"), _tool("nextpnr")
-    key = hashlib.sha256(json.dumps([blk.name, params], sort_keys=True).encode()).hexdigest()
+    # named without the parameters a block records only away from their default (ppc 1):
+    # the same cache entry and figures as before the parameter existed
+    shown = blk.recorded(params) if hasattr(blk, "recorded") else params
+    key = hashlib.sha256(json.dumps([blk.name, shown], sort_keys=True).encode()).hexdigest()
     wd = Path(workdir or REPO / "build" / "synth" / f"{blk.name}-{key[:12]}")
     wd.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -279,7 +282,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
                         "--timing-allow-fail", "--out-of-context", "-q"], wd,
                        f"nextpnr-{'harness-' if harness else ''}seed{seed}", [pnr_json], [rp])
         reports.append(wd / rp)
-    res = SynthResult(blk.name, params,
+    res = SynthResult(blk.name, shown,
                       **parse_ecp5(wd / stat, blk.name, reports, module=stat_module))
     res.harness, res.freq_mhz = harness, freq_mhz
     if xilinx:
