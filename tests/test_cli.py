@@ -265,7 +265,7 @@ BAD_INPUT = [
     (["bench", "--from-json", "{d}", "-o", "{d}/bench_out"], "--from-json {d}: cannot read "
                                                              "(Is a directory)", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--calib", "nope.bin",
-      "-o", "{d}/camera.v"], "nope.bin: cannot read (No such file or directory)", 2),
+      "-o", "{d}/camera.v"], "calibration image not found: 'nope.bin'", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "0",
       "-o", "{d}/camera.v"], "--lines = 0 is out of range; valid: 1..", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "-1",
