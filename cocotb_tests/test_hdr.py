@@ -8,7 +8,7 @@ from tdicam.cosim import vectors as golden
 from tdicam.blocks.hdr import scene_frames
 from tdicam.beats import mark_resets
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
+from tdicam.cosim.testing import beat_cases, check_beats, check_case, FULL, WIDE_PPC
 from tdicam.model.hdr import hdr, hdr_config
 
 CASES = [c.name for c in blocks.get("hdr").cases()]
@@ -66,11 +66,6 @@ def test_long_frames_1280_wide():
 
 # ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
 
-#: the widest rows at ppc 8 in every run; ppc 1, 2, 4 with TDICAM_FULL=1
-_WIDE = [pytest.param(p, marks=[pytest.mark.slow, pytest.mark.skipif(
-    not FULL, reason="8192-wide rows at ppc 1, 2, 4: set TDICAM_FULL=1")]) for p in (1, 2, 4)] \
-    + [8]
-
 
 @pytest.mark.parametrize("ppc", [2, 4, 8])
 def test_full_rate_ppc(sim, ppc):
@@ -85,7 +80,7 @@ def test_full_rate_ppc(sim, ppc):
     assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 
 
-@pytest.mark.parametrize("ppc", _WIDE)
+@pytest.mark.parametrize("ppc", WIDE_PPC)
 def test_widest_rows(sim, ppc):
     """Rows of 8192 pixels (the widest line any tdicam block takes; hdr itself has no width
     limit), three frames with measured junctions between them, a reset in the middle of a

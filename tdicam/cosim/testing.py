@@ -7,12 +7,20 @@ its expected and received values and the path of the waveform around it (under
 
 import os
 
+import pytest
+
+from tdicam import blocks
 from tdicam.cosim import WAVE_DIR, run_beats, run_golden_case
 
-__all__ = ["check_beats", "check_case", "beat_cases", "FULL"]
+__all__ = ["check_beats", "check_case", "beat_cases", "FULL", "WIDE_PPC"]
 
 #: ``TDICAM_FULL=1``: the long forms of the co-simulation sweeps.
 FULL = os.environ.get("TDICAM_FULL") == "1"
+
+#: ``ppc`` values of the widest-row tests: 8 in every run; 1, 2 and 4 with ``TDICAM_FULL=1``.
+WIDE_PPC = [pytest.param(p, marks=[pytest.mark.slow, pytest.mark.skipif(
+    not FULL, reason="8192-wide rows at ppc 1, 2, 4: set TDICAM_FULL=1")]) for p in (1, 2, 4)] \
+    + [8]
 
 
 def beat_cases(block, *, full=None):
@@ -21,7 +29,6 @@ def beat_cases(block, *, full=None):
     ``short`` (the default run): every case at ppc 1 and at ppc 8, and the reset cases at
     every ppc; ``long`` (with ``TDICAM_FULL=1``, ``full``): the other ppc 2 and 4 cases,
     which fast mode checks in every run. ``fast-only`` cases are in neither."""
-    from tdicam import blocks
     blk = blocks.get(block) if isinstance(block, str) else block
     short, long = [], []
     for case in blk.cases():
