@@ -107,19 +107,15 @@ def test_scene_rows(tmp_path, capsys):
     _check_png(png)
 
 
-def test_ddr_without_blocks_is_not_available(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "ddr_names", lambda: [])
-    assert main(["bench", "ddr", "--png", "none"]) == 0
-    out = capsys.readouterr().out
-    row = next(ln for ln in out.splitlines() if ln.startswith("ddr "))
-    assert "n/a" in row and "not available: no ddr block registered yet" in row
-
-
-def test_ddr_blocks_are_found_in_the_registry():
-    names = bench.ddr_names()
-    assert all("ddr" in n.split("_") for n in names)
-    assert set(names) == {n for n in bench.blocks.names() if n == "ddr" or
-                          n.endswith("_ddr") or n.startswith("ddr_")}
+def test_benchmarks_come_from_the_registry():
+    """The benchmark names are the block entries' groups (then the scene); a group runs
+    its blocks, a block name the block alone; every DDR buffer is in the ddr group."""
+    benched = [b for b in bench.blocks.in_order() if b.bench is not None]
+    assert bench.NAMES == tuple(dict.fromkeys(b.bench.group for b in benched)) + ("scene",)
+    assert bench.expand(["ddr"]) == [n for n in ("cds_ddr", "ddr", "tdi_ddr")]
+    assert bench.expand(["tdi_ddr", "secded"]) == ["tdi_ddr", "secded_enc", "secded_dec"]
+    assert {w.block for w in bench.STREAM_WORKS} == {b.name for b in benched if b.bench.work}
+    assert bench.blocks.get("lvds").bench.runner == "tdicam.bench.lvds:rows"
 
 
 def test_fresh_build_is_timed_in_its_own_folder():
@@ -142,9 +138,8 @@ def test_fresh_build_is_timed_in_its_own_folder():
 def test_ddr_works_feed_their_blocks():
     """Stimulus and golden output of every DDR workload (no simulation): the round trip
     returns its input, CDS outputs only signal frames, TDI from frame `stages` on."""
-    registered = set(bench.blocks.names())
-    for w in bench.DDR_WORKS:
-        if w.block not in registered:
+    for w in bench.STREAM_WORKS:
+        if w.block not in bench.expand(["ddr"]):
             continue
         blk, params, inp = bench.work_inputs(w)
         stim, exp = blk.to_beats(blk.case_arrays(inp, params), params)
@@ -162,8 +157,7 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
     def broken(**kw):
         raise RuntimeError("simulator exploded")
     monkeypatch.setitem(bench.RUNNERS, "scene", broken)
-    monkeypatch.setattr(bench, "ddr_names", lambda: [])
-    assert main(["bench", "ddr", "scene", "--png", "none", "--sims", "none"]) == 1
+    assert main(["bench", "scene", "--png", "none", "--sims", "none"]) == 1
     cap = capsys.readouterr()
     row = next(ln for ln in cap.out.splitlines() if ln.startswith("scene "))
     assert "error" in row and "RuntimeError: simulator exploded" in row

@@ -21,10 +21,6 @@ OTHER_MEANINGS = {
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
     ("tdicam/export/camera.py", "ddr"): "--memory ddr",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
-    # left: `tdicam bench` still keys its runners by benchmark group names that are also
-    # block names; its tables are to be derived from the registry
-    ("tdicam/bench/suite.py", "ddr"): "the `tdicam bench ddr` group (every DDR block)",
-    ("tdicam/bench/suite.py", "lvds"): "the `tdicam bench lvds` link benchmark",
 }
 
 

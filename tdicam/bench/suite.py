@@ -36,6 +36,7 @@ re-exported here as :func:`plot`.
 """
 
 import dataclasses
+import importlib
 import json
 import math
 import os
@@ -43,21 +44,19 @@ import platform
 import shutil
 import subprocess
 import time
-from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 
 from tdicam import blocks, cosim
+from tdicam.blocks import StreamWork
 from tdicam.bench import camera as benchpipe
 from tdicam.bench.plot import plot, tradeoff_points
-from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, row
+from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, na_row, row
 from tdicam.errors import TdicamError, check_range
 from tdicam.paths import SCENES
 
-__all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "DDR_WORKS", "work_inputs", "run",
+__all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
-           "stream_sources", "ddr_names", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
+           "stream_sources", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
            "legend", "MAX_REPEAT"]
 
 #: Most runs per level ``--repeat`` takes: times are medians; more runs only take longer.
@@ -71,73 +70,12 @@ def _amount(n, unit):
 
 
 # ------------------------------------------------------------------------------ workloads
-@dataclass(frozen=True)
-class StreamWork:
-    """A stream block's benchmark input; the block registry does the rest.
-
-    The input is ``n`` items (frames or words) of the block's
-    :attr:`~tdicam.blocks.Block.example` for frame ``shape``; the golden row times
-    :meth:`~tdicam.blocks.Block.case_arrays` (the golden model plus the case form) and every
-    simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the elements of the
-    block's main stream input. ``sizes`` / ``quick`` give the items per level kind (``fast`` =
-    the whole input, also the golden model's; ``beat`` and ``pysim`` = the prefix those
-    levels run; a key ``"<sim> <mode>"`` overrides the size for one simulator, e.g.
-    ``"icarus fast"``). ``corrupt(case arrays)``, when set, alters the expected arrays before
-    the comparison (to show that a wrong golden model is counted).
-    """
-
-    name: str
-    block: str
-    params: dict
-    unit: str
-    what: str
-    shape: tuple
-    sizes: dict
-    quick: dict
-    corrupt: Callable | None = None
+def _benched():
+    return [b for b in blocks.in_order() if b.bench is not None]
 
 
-_PX = {"pysim": 1, "beat": 3, "fast": 64, "icarus fast": 16}
-_PX_QUICK = {"pysim": 1, "beat": 1, "fast": 4}
-_WORDS = {"pysim": 4000, "beat": 12000, "fast": 300_000, "icarus fast": 60_000}
-_WORDS_QUICK = {"pysim": 1000, "beat": 2000, "fast": 20_000}
-_TDI = {"pysim": 6, "beat": 12, "fast": 300, "icarus fast": 60}
-_TDI_QUICK = {"pysim": 5, "beat": 5, "fast": 20}
-
-#: The stream blocks' benchmarks, in table order.
-STREAM_WORKS = (
-    StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel", "frames of 1280 x 4, 12-bit",
-               (4, 1280), _PX, _PX_QUICK),
-    StreamWork("tdi", "tdi", {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
-               "pixel", "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
-               (4, 256), _TDI, _TDI_QUICK),
-    StreamWork("nuc", "nuc", {}, "pixel", "frames of 1280 x 4, 12-bit, gain Q2.14",
-               (4, 1280), _PX, _PX_QUICK),
-    StreamWork("hdr", "hdr", {}, "pixel", "frames of 1280 x 4, 12-bit HG/LG light ramp",
-               (4, 1280), _PX, _PX_QUICK),
-    StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12}, "pixel",
-               "frames of 1280 x 8, 12-bit", (8, 1280),
-               {"pysim": 1, "beat": 2, "fast": 32, "icarus fast": 8},
-               {"pysim": 1, "beat": 1, "fast": 2}),
-    StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
-               "random 64-bit words", (), _WORDS, _WORDS_QUICK),
-    StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
-               "72-bit code words with 0/1/2 flips", (), _WORDS, _WORDS_QUICK),
-)
-
-#: The DDR blocks' benchmarks (used when the blocks are registered).
-DDR_WORKS = (
-    StreamWork("ddr", "ddr", {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10}, "pixel",
-               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat", (4, 1280),
-               {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
-               {"pysim": 1, "beat": 1, "fast": 2}),
-    StreamWork("cds_ddr", "cds_ddr", {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel",
-               "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit", (8, 512),
-               {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
-               {"pysim": 2, "beat": 2, "fast": 4}),
-    StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
-               "TDI partial sums in DDR, the tdi row's input", (4, 256), _TDI, _TDI_QUICK),
-)
+#: The stream blocks' benchmarks, in table order (each block entry's ``bench.work``).
+STREAM_WORKS = tuple(b.bench.work for b in _benched() if b.bench.work is not None)
 
 
 def work_inputs(w, n=None, *, quick=False):
@@ -154,19 +92,15 @@ def _units(blk, inputs):
     return int(np.size(inputs[blk.stream]))
 
 
-#: Benchmark names ``tdicam bench`` accepts; ``secded`` runs encoder and decoder.
-NAMES = ("cds", "tdi", "nuc", "hdr", "median3", "secded", "lvds", "ddr", "scene")
+#: Benchmark names ``tdicam bench`` accepts: the block entries' groups in table order
+#: (``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer), then the scene.
+NAMES = tuple(dict.fromkeys(b.bench.group for b in _benched())) + ("scene",)
 #: Benchmarks run only when named (minutes each): ``pipeline``, the orbit scene's whole
 #: chain through its generated top (:mod:`tdicam.bench.camera`).
 EXTRA = ("pipeline",)
-_ALIASES = {"secded": ("secded_enc", "secded_dec")}
 
 
 # ------------------------------------------------------------------------------ helpers
-def _na(name, level, unit, why):
-    return row(name, level, unit, 0, None, accuracy="n/a", note=why)
-
-
 def _accuracy(mismatches):
     worst = max(mismatches)
     return ("bit-exact" if worst == 0 else f"{worst} mismatching"), worst
@@ -264,80 +198,6 @@ def _export_row(w, blk, params, vectors, *, stalls, repeat):
                mismatches=bad, note="tdicam export testbench, verilator --binary")
 
 
-# ------------------------------------------------------------------------------ lvds
-def _lvds_rows(*, sims, repeat, quick, stalls, build):
-    from tdicam.cosim import lvds as cl
-    from tdicam.model import lvds as model
-    from tdicam.hw.verilog import convert
-    n, n_check = (8, 4) if quick else (32, 16)
-    rng = np.random.default_rng(1)
-    link = model.Link([model.random_lane(rng, max_word_delay=1) for _ in range(n)])
-    cycles = model.training_words(10, n_check, 8) + 8
-    t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
-    name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
-    params = blocks.get("lvds").resolve({"phy": "none"})
-    rows = [row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
-    # the Python simulator trains the first group of lanes (a prefix of the same link)
-    k = params["lanes"]
-    part = model.Link(link.lanes[:k])
-    gold_k = model.run(part, cycles=cycles, n_check=n_check)
-    res = [_lvds_pysim(part, cycles, n_check, params) for _ in range(repeat)]
-    bad = max(len(set(ev) ^ set(gold_k.events)) for ev, _ in res)
-    rows.append(row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
-                     input=f"{k} lanes, training (n_check {n_check})",
-                     accuracy="bit-exact" if bad == 0 else f"{bad} status events differ",
-                     mismatches=bad))
-
-    def sources():
-        top = blocks.get("lvds").build(params)
-        return {"lvds.v": convert(top, "lvds"), "tb.v": cl.testbench(top)[0]}
-
-    for sim in sims:
-        rows.append(_na(name, f"{sim} beat", "lane", "HDL-driven link only"))
-        res = [cl.run_link(link, cycles=cycles, n_check=n_check, sim=sim)
-               for _ in range(repeat)]
-        bad = [len(cl.check_run(link, r, gold, cycles=cycles)) for r in res]
-        acc = "bit-exact" if max(bad) == 0 else f"{max(bad)} lanes/segments differ"
-        rows.append(row(name, f"{sim} fast", "lane", n,
-                         float(np.median([r.wall for r in res])), input=inp, accuracy=acc,
-                         mismatches=max(bad),
-                         build_s=build_seconds(res[0].build_time, build, "lvds", params, sim,
-                                          sources)))
-    return rows
-
-
-def _lvds_pysim(link, cycles, n_check, params):
-    """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
-    Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
-    from tdicam.cosim.lvds import run_amaranth
-    events, _, seconds = run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
-                                      min_run=params["min_run"], pick=params["pick"])
-    return events, seconds
-
-
-# ------------------------------------------------------------------------------ ddr
-def ddr_names():
-    return [b for b in blocks.names() if "ddr" in b.split("_")]
-
-
-def _ddr_rows(*, sims, repeat, quick, stalls, build):
-    """The DDR buffer blocks (``ddr``, ``*_ddr`` in the registry) with a workload in
-    :data:`DDR_WORKS`."""
-    names = ddr_names()
-    if not names:
-        return [_na("ddr", "golden", "pixel", "not available: no ddr block registered yet")]
-    works = {w.block: w for w in DDR_WORKS}
-    rows = []
-    for b in names:
-        if b not in works:
-            rows.append(_na(b, "golden", "pixel", "no benchmark workload (bench.DDR_WORKS)"))
-            continue
-        rows += _stream_rows(works[b], sims=sims, repeat=repeat, quick=quick,
-                             stalls=stalls, build=build)
-    return rows
-
-
-# ------------------------------------------------------------------------------ scene engine
 def _psnr(a, b, peak):
     mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
     return math.inf if mse == 0 else 10 * math.log10(peak * peak / mse)
@@ -380,22 +240,39 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     return rows
 
 
-RUNNERS = {"lvds": _lvds_rows, "ddr": _ddr_rows, "scene": _scene_rows,
-           "pipeline": benchpipe.pipeline_rows}
+#: The benchmarks that are not a block's: the scene simulator and the whole camera.
+RUNNERS = {"scene": _scene_rows, "pipeline": benchpipe.pipeline_rows}
 #: Benchmarks whose rows are measured their own way, with their own legend
 #: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
 LEGENDS = {"pipeline": benchpipe.legend}
 
 
 def expand(names):
+    """Benchmark names -> the rows' names to run, in order: a group runs its blocks, a
+    block name runs that block alone."""
     names = list(names) or list(NAMES)
+    groups = {}
+    for b in _benched():
+        groups.setdefault(b.bench.group, []).append(b.name)
+    valid = {**{b.name: [b.name] for b in _benched()}, **groups,
+             **{n: [n] for n in RUNNERS}}
     out = []
-    valid = list(NAMES) + list(EXTRA) + [w.name for w in STREAM_WORKS if w.name not in NAMES]
     for n in names:
         if n not in valid:
             raise TdicamError(f"unknown benchmark {n!r}; valid: {', '.join(NAMES + EXTRA)}")
-        out += [x for x in _ALIASES.get(n, (n,)) if x not in out]
+        out += [x for x in valid[n] if x not in out]
     return out
+
+
+def _block_rows(name, works, **kw):
+    """One block's rows: its stream workload, its own runner, or a row saying it has none."""
+    bench = blocks.get(name).bench
+    if name in works:
+        return _stream_rows(works[name], **kw)
+    if bench.runner is not None:
+        module, func = bench.runner.split(":")
+        return getattr(importlib.import_module(module), func)(**kw)
+    return [na_row(name, "golden", "-", "no benchmark workload (its block entry's bench.work)")]
 
 
 def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
@@ -429,10 +306,10 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
               "build": build}
         try:
-            rows += _stream_rows(works[name], **kw) if name in works else \
-                RUNNERS[name](**kw)
+            rows += RUNNERS[name](**kw) if name in RUNNERS else \
+                _block_rows(name, works, **kw)
         except Exception as exc:      # one failing benchmark must not lose the others' rows
-            rows.append(_na(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
+            rows.append(na_row(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
             rows[-1]["accuracy"] = "error"
     _relative(rows)
     return rows

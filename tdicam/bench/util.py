@@ -7,7 +7,7 @@ import time
 
 from tdicam.paths import SCENES
 
-__all__ = ["SCENE", "UNIT_ABBR", "machine", "median_time", "print_table", "row",
+__all__ = ["SCENE", "UNIT_ABBR", "machine", "median_time", "print_table", "row", "na_row",
            "scene_line_period"]
 
 #: The scene of the scene-engine rows and of the real-time line (the orbit design point).
@@ -70,6 +70,11 @@ def row(name, level, unit, units, seconds, **kw):
          "input": "", "note": ""}
     r.update(kw)
     return r
+
+
+def na_row(name, level, unit, why):
+    """A row that measured nothing: accuracy ``n/a``, ``why`` in its note."""
+    return row(name, level, unit, 0, None, accuracy="n/a", note=why)
 
 
 def scene_line_period():

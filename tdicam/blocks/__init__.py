@@ -33,8 +33,9 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "Block", "get", "names",
-           "all_blocks", "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
+           "SynthRef", "Block", "get", "names", "all_blocks", "in_order", "frame_stack",
+           "scene_blocks", "PPC_PARAM", "check_width"]
 
 
 def _flag(name):
@@ -288,6 +289,63 @@ class Use:
 
 
 @dataclass(frozen=True)
+class StreamWork:
+    """A stream block's benchmark input (``tdicam bench``); the registry does the rest.
+
+    The input is ``n`` items (frames or words) of the block's :attr:`Block.example` for frame
+    ``shape``; the golden row times :meth:`Block.case_arrays` (the golden model plus the case
+    form) and every simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the
+    elements of the block's main stream input. ``sizes`` / ``quick`` give the items per level
+    kind (``fast`` = the whole input, also the golden model's; ``beat`` and ``pysim`` = the
+    prefix those levels run; a key ``"<sim> <mode>"`` overrides the size for one simulator,
+    e.g. ``"icarus fast"``). ``corrupt(case arrays)``, when set, alters the expected arrays
+    before the comparison (to show that a wrong golden model is counted).
+    """
+
+    name: str
+    block: str
+    params: dict
+    unit: str
+    what: str
+    shape: tuple
+    sizes: dict
+    quick: dict
+    corrupt: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Bench:
+    """A block's place in ``tdicam bench``.
+
+    ``group`` is the benchmark name that runs the block (several blocks may share one:
+    ``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer); the block's own
+    name runs it alone. ``work`` is its stream workload; ``runner`` (``"module:function"``,
+    named, not imported, so the registry stays below the benchmark service) measures a block
+    that is not a video stream its own way, with the keyword arguments of the stream rows.
+    A block with neither is listed with a "no benchmark workload" row.
+    """
+
+    group: str
+    work: StreamWork | None = None
+    runner: str | None = None
+
+
+@dataclass(frozen=True)
+class SynthRef:
+    """One row of the synthesis reference table (``tdicam synth --reference``): the block
+    at ``params``, with ``target_mhz`` the Fmax it must reach (also nextpnr's ``--freq``).
+    ``sum_with``: the label of another row whose resources this one's add to in a summed row
+    called ``sum_label`` (a decoder is deployed with its encoder)."""
+
+    label: str
+    params: dict = field(default_factory=dict)
+    target_mhz: float = 150.0
+    note: str = ""
+    sum_with: str | None = None
+    sum_label: str | None = None
+
+
+@dataclass(frozen=True)
 class Block:
     """A registered gateware block: the contract the tools and the pipeline build on.
 
@@ -354,6 +412,15 @@ class Block:
         can run back to back in one simulation with a reset between them (``tdicam
         export``). False when a simulation model keeps contents across reset (nand_store's
         part).
+    small : tuple or None
+        ``(frame shape, parameters)`` of a small :attr:`example` input (a few frames run in
+        milliseconds) for quick checks of the block's adapters; every stream block has one.
+    order : int
+        Place in the tools' tables (benchmarks, synthesis reference); ties by name.
+    bench : Bench or None
+        How ``tdicam bench`` measures the block (None: not benchmarked).
+    synth : tuple of SynthRef
+        The block's rows of the synthesis reference table.
     """
 
     name: str
@@ -376,6 +443,10 @@ class Block:
     ecp5_top: Callable | None = None
     frame_beats: Callable | None = None
     export_harness: str | None = None
+    small: tuple | None = None
+    order: int = 1000
+    bench: Bench | None = None
+    synth: tuple = ()
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""
@@ -535,6 +606,11 @@ def names():
 def all_blocks():
     """The registered :class:`Block` entries, by name."""
     return [_load()[n] for n in names()]
+
+
+def in_order():
+    """The registered :class:`Block` entries in table order (:attr:`Block.order`, then name)."""
+    return sorted(all_blocks(), key=lambda b: (b.order, b.name))
 
 
 def get(name):

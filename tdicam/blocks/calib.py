@@ -13,6 +13,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.calib import CalibReader
 from tdicam.model import calib, ecc
 from tdicam.model.nuc import NucFormat
+from tdicam.blocks import SynthRef
 from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "reader_beats", "random_codes", "code_maps"]
@@ -231,4 +232,8 @@ BLOCK = Block(
     to_case=_to_case,
     unstream=_unstream,
     example=_example,
+    small=((), {"rows": 3, "cols": 5}),
+    order=90,
+    synth=(SynthRef("calib", note="defaults (not among the reference targets): 3800 x 5144, "
+                                       "SECDED decoder inside"),),
 )

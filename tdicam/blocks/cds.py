@@ -8,6 +8,8 @@ from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
@@ -161,4 +163,9 @@ BLOCK = Block(
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
                  scratch_bytes=14.0,
                  options=OPTIONS),
+    small=((4, 40), {}),
+    order=10,
+    bench=Bench("cds", StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel",
+                                  "frames of 1280 x 4, 12-bit", (4, 1280), PX, PX_QUICK)),
+    synth=(SynthRef("cds", {"pixel_bits": 12}),),
 )

@@ -12,6 +12,7 @@ import numpy as np
 from tdicam.beats import Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
+from tdicam.blocks import Bench, StreamWork
 from tdicam.blocks import Block, Case, Param, SideInput
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
@@ -159,4 +160,11 @@ BLOCK = Block(
     fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["frames"])[-2:]))),
     unstream=_unstream,
     example=_example,
+    small=((3, 24), {"width": 24, "rows": 3}),
+    order=80,
+    bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",
+                                  {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel", 
+                                  "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit", (8, 512),
+                                  {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
+                                  {"pysim": 2, "beat": 2, "fast": 4})),
 )

@@ -12,6 +12,7 @@ from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.errors import TdicamError
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
+from tdicam.blocks import Bench, StreamWork
 from tdicam.blocks import Block, Case, Param
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
@@ -175,4 +176,12 @@ BLOCK = Block(
     fit=_fit,
     unstream=_unstream,
     example=_example,
+    small=((), {"width": 48, "rows": 4, "ppc": 8}),
+    order=80,
+    bench=Bench("ddr", StreamWork("ddr", "ddr",
+                                  {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10},
+                                  "pixel", 
+                              "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat", (4, 1280),
+                              {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
+                              {"pysim": 1, "beat": 1, "fast": 2})),
 )

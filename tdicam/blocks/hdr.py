@@ -10,6 +10,8 @@ from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            frame_stack, check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
@@ -348,4 +350,10 @@ BLOCK = Block(
     pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True, rank=3,
                  scratch_bytes=22.0,
                  options=OPTIONS),
+    small=((4, 64), {}),
+    order=40,
+    bench=Bench("hdr", StreamWork("hdr", "hdr", {}, "pixel",
+                                  "frames of 1280 x 4, 12-bit HG/LG light ramp", (4, 1280), PX,
+                                  PX_QUICK)),
+    synth=(SynthRef("hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),),
 )

@@ -12,6 +12,7 @@ import numpy as np
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
 from tdicam.model import lvds as model
+from tdicam.blocks import Bench, SynthRef
 from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
@@ -219,4 +220,7 @@ BLOCK = Block(
     ],
     check=_check,
     model_version="lvds-1",
+    order=70,
+    bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
+    synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
 )

@@ -17,6 +17,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.median3 import Median3
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
+from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks import Block, Case, KeyDoc, Options, Param, Use, frame_stack
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
@@ -284,4 +285,13 @@ BLOCK = Block(
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS,
                  sharpens=lambda opts: opts.edge_enhance, post_bytes=190.0),
+    small=((6, 0), {"width": 24}),
+    order=50,
+    bench=Bench("median3", StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12},
+                                      "pixel", 
+                                      "frames of 1280 x 8, 12-bit", (8, 1280),
+                                      {"pysim": 1, "beat": 2, "fast": 32, "icarus fast": 8},
+                                      {"pysim": 1, "beat": 1, "fast": 2})),
+    synth=(SynthRef("median3", {"width": 1280, "pixel_bits": 12},
+                    note="1280 wide, 12 bit, 1 pixel/clock"),),
 )

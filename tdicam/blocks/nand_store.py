@@ -20,6 +20,7 @@ from tdicam.hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, Na
 from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
+from tdicam.blocks import SynthRef
 from tdicam.blocks import Block, Case, Param
 from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
@@ -225,5 +226,9 @@ BLOCK = Block(
     to_case=_to_case,
     unstream=CALIB.unstream,
     example=_example,
-    reset_clears_state=False,   # the part's simulation model keeps its pages across reset
+    reset_clears_state=False,   # the part's simulation model keeps its pages across reset,
+    small=((), {"rows": 3, "cols": 5, "device": True, "page_bytes": 2048,
+                  "pages_per_block": 2, "blocks": 16}),
+    order=91,
+    synth=(SynthRef("nand_store", note="3800 x 5144 from 4 Gb NAND, bus as ports"),),
 )

@@ -8,6 +8,8 @@ from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
 from tdicam.blocks._pipeline import lane_stage
@@ -344,4 +346,10 @@ BLOCK = Block(
     pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
                  scratch_bytes=38.0),
+    small=((4, 40), {}),
+    order=30,
+    bench=Bench("nuc", StreamWork("nuc", "nuc", {}, "pixel",
+                                  "frames of 1280 x 4, 12-bit, gain Q2.14", (4, 1280), PX,
+                                  PX_QUICK)),
+    synth=(SynthRef("nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),),
 )

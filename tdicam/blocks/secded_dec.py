@@ -10,6 +10,8 @@ from tdicam.beats import Beats
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.ecc import SecdedDecoder, SecdedDecoderStream
 from tdicam.model import ecc
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import WORDS, WORDS_QUICK
 from tdicam.blocks import Block, Case, Param, SideInput
 from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
@@ -134,4 +136,14 @@ BLOCK = Block(
                                     **_golden(arrays, params)},
     unstream=_unstream,
     example=_example,
+    small=((), {"stream": True}),
+    order=61,
+    bench=Bench("secded", StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
+                                     "72-bit code words with 0/1/2 flips", (), WORDS,
+                                     WORDS_QUICK)),
+    synth=(SynthRef("secded_dec", target_mhz=200, note="decoder, single stage",
+                    sum_with="secded_enc", sum_label="secded enc + dec"),
+           SynthRef("secded_dec pipelined", {"pipelined": True}, target_mhz=200,
+                    note="decoder, --pipelined (latency +1)", sum_with="secded_enc",
+                    sum_label="secded enc + dec pipelined")),
 )

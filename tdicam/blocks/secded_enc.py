@@ -9,6 +9,8 @@ from tdicam.beats import Beats
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.ecc import SecdedEncoder, SecdedEncoderStream
 from tdicam.model import ecc
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import WORDS, WORDS_QUICK
 from tdicam.blocks import Block, Case
 from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
@@ -69,4 +71,9 @@ BLOCK = Block(
     to_case=_golden,
     unstream=_unstream,
     example=_example,
+    small=((), {"stream": True}),
+    order=60,
+    bench=Bench("secded", StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
+                                     "random 64-bit words", (), WORDS, WORDS_QUICK)),
+    synth=(SynthRef("secded_enc", target_mhz=200, note="(72,64) encoder"),),
 )

@@ -22,6 +22,8 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.tdi import check_params, out_width, tdi, tdi_stream
+from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
@@ -431,4 +433,17 @@ BLOCK = Block(
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,
                  scratch_bytes=0.5,
                  options=OPTIONS),
+    small=((), {"width": 64, "stages": 4}),
+    order=20,
+    bench=Bench("tdi", StreamWork("tdi", "tdi",
+                                  {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},
+                                  "pixel",
+                                  "frames of 256 x 4 stages, 12-bit (output from frame 4 on)",
+                                  (4, 256), TDI, TDI_QUICK)),
+    synth=(SynthRef("tdi ppc=1", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 1},
+                   note="1280 x 96 stages x 12 bit, 19-bit partial sums"),
+           SynthRef("tdi ppc=4", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 4},
+                    note="1280 x 96 stages x 12 bit, 4 pixels/clock"),
+           SynthRef("tdi ppc=8", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 8},
+                    note="1280 x 96 stages x 12 bit, 8 pixels/clock")),
 )

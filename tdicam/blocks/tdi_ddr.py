@@ -10,6 +10,8 @@ from dataclasses import replace
 
 from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
+from tdicam.blocks import Bench, StreamWork
+from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
 from tdicam.blocks._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
 
@@ -107,4 +109,9 @@ BLOCK = Block(
     frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
     **_tdi.SCENE,
     pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),
+    small=((), {"width": 256, "stages": 4}),
+    order=80,
+    bench=Bench("ddr", StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
+                                  "TDI partial sums in DDR, the tdi row's input", (4, 256), TDI,
+                                  TDI_QUICK)),
 )

@@ -309,9 +309,11 @@ def _write_if_changed(path, text):
 
 @dataclass(frozen=True)
 class RefRun:
-    """One row of the reference table: a block at its reference parameters.
+    """One row of the reference table: a block at its reference parameters (a block entry's
+    :class:`~tdicam.blocks.SynthRef` with the block's name).
 
-    ``target_mhz``: the Fmax the issue asks for; also nextpnr's ``--freq``.
+    ``target_mhz``: the Fmax the block must reach; also nextpnr's ``--freq``. ``sum_with`` /
+    ``sum_label``: see :class:`~tdicam.blocks.SynthRef`.
     """
 
     label: str
@@ -319,31 +321,14 @@ class RefRun:
     params: dict
     target_mhz: float = 150.0
     note: str = ""
+    sum_with: str | None = None
+    sum_label: str | None = None
 
 
-#: Every block at its reference parameters (the targets of the README's silicon table). Blocks without a line width (hdr,
-#: nuc: per-pixel, no line memory) run at their defaults, 12-bit pixels.
-REFERENCE = (
-    RefRun("cds", "cds", {"pixel_bits": 12}),
-    RefRun("tdi ppc=1", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 1},
-           note="1280 x 96 stages x 12 bit, 19-bit partial sums"),
-    RefRun("tdi ppc=4", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 4},
-           note="1280 x 96 stages x 12 bit, 4 pixels/clock"),
-    RefRun("tdi ppc=8", "tdi", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 8},
-           note="1280 x 96 stages x 12 bit, 8 pixels/clock"),
-    RefRun("median3", "median3", {"width": 1280, "pixel_bits": 12},
-           note="1280 wide, 12 bit, 1 pixel/clock"),
-    RefRun("hdr", "hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),
-    RefRun("nuc", "nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),
-    RefRun("lvds", "lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),
-    RefRun("calib", "calib", {}, note="defaults (not among the reference targets): 3800 x 5144, "
-                                      "SECDED decoder inside"),
-    RefRun("nand_store", "nand_store", {}, note="3800 x 5144 from 4 Gb NAND, bus as ports"),
-    RefRun("secded_enc", "secded_enc", {}, target_mhz=200, note="(72,64) encoder"),
-    RefRun("secded_dec", "secded_dec", {}, target_mhz=200, note="decoder, single stage"),
-    RefRun("secded_dec pipelined", "secded_dec", {"pipelined": True}, target_mhz=200,
-           note="decoder, --pipelined (latency +1)"),
-)
+#: Every block at its reference parameters (the targets of the README's silicon table), in
+#: the registry's table order: each block entry's ``synth`` rows.
+REFERENCE = tuple(RefRun(r.label, b.name, dict(r.params), r.target_mhz, r.note, r.sum_with,
+                         r.sum_label) for b in blocks.in_order() for r in b.synth)
 
 
 def reference_table(*, seeds=3, xilinx=True, only=None, progress=None):
