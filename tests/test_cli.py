@@ -592,8 +592,9 @@ def test_a_long_build_says_so(tmp_path, monkeypatch, capsys):
     """A simulator build that runs past BUILD_NOTICE_S prints 'building ... model' and its
     elapsed time on stderr; a cached one prints nothing (the notice is set to 0 s here)."""
     from tdicam import cosim
-    monkeypatch.setattr(cosim, "BUILD_ROOT", tmp_path)
-    monkeypatch.setattr(cosim, "BUILD_NOTICE_S", 0.0)
+    from tdicam.cosim import build
+    monkeypatch.setattr(build, "BUILD_ROOT", tmp_path)
+    monkeypatch.setattr(build, "BUILD_NOTICE_S", 0.0)
     src = {"tiny.v": "module tiny(input clk); endmodule\n"}
     cosim.build_sources("tiny", {}, "icarus", src, top="tiny")
     err = capsys.readouterr().err

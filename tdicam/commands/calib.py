@@ -8,16 +8,12 @@ With ``--nand`` the image is the NAND part as the camera stores it (:mod:`tdicam
 pages with spare areas, bad blocks skipped and marked, block map in block 0); ``read`` and
 ``check`` recognise NAND images by their magic and also report the bad-block scan and the
 power-up scan and load times of the gateware; ``inject`` adds bad blocks to a NAND image.
+The work is :mod:`tdicam.flash`'s; this module parses the arguments and prints.
 """
 
-import zipfile
-
-import numpy as np
-
-from tdicam.errors import TdicamError, check_range
-from tdicam.files import check_file, open_output
-from tdicam.model import calib, nand_store as nand
-from tdicam.model.nuc import DEFAULT_FORMAT, NucFormat
+from tdicam import flash
+from tdicam.model import nand_store as nand
+from tdicam.model.nuc import DEFAULT_FORMAT
 
 
 def register(sub):
@@ -94,282 +90,39 @@ def _nand_args(p):
     _clock_arg(p)
 
 
-#: What np.load raises on a file that is not (or no longer, truncated) a numpy file.
-_NOT_NUMPY = (ValueError, EOFError, zipfile.BadZipFile)
-
-
-def _why(exc):
-    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-    if "pickle" in text:            # numpy's advice to load untrusted pickles: never given
-        return "it holds pickled Python objects, which tdicam never loads"
-    return text
-
-
-#: The first bytes of a .npy file and of a .npz (a zip archive; an empty one: PK\x05\x06).
-_NUMPY_MAGIC = (b"\x93NUMPY", b"PK\x03\x04", b"PK\x05\x06")
-
-
-def _check_numpy_file(fh, path):
-    """A one-line error unless the open file ``fh`` starts as a .npy or .npz file does
-    (numpy would try a text file as a pickle and suggest loading it unsafely)."""
-    head = fh.read(6)
-    fh.seek(0)
-    if not head.startswith(_NUMPY_MAGIC):
-        raise TdicamError(f"{path}: not a numpy .npz or .npy file (it does not start with "
-                          f"either signature)")
-
-
-def _load_array(path, what):
-    try:
-        with open(path, "rb") as fh:
-            _check_numpy_file(fh, path)
-            a = np.load(fh, allow_pickle=False)
-            if isinstance(a, np.lib.npyio.NpzFile):
-                raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
-            return a
-    except TdicamError:
-        raise
-    except OSError as exc:
-        raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
-    except _NOT_NUMPY as exc:
-        raise TdicamError(f"{path}: not a numpy array file ({_why(exc)})") from None
-
-
-def _load_maps(args):
-    if args.maps and (args.gain or args.offset):
-        raise TdicamError("give either MAPS.npz or --gain/--offset, not both")
-    if args.maps:
-        try:
-            with open(args.maps, "rb") as fh:
-                _check_numpy_file(fh, args.maps)
-            z = np.load(args.maps, allow_pickle=False)
-            if not isinstance(z, np.lib.npyio.NpzFile):     # a .npy: one array
-                raise TdicamError(f"{args.maps}: expected an .npz with arrays 'gain' and "
-                                  f"'offset', got one array (give two .npy files as --gain "
-                                  f"G.npy --offset O.npy)")
-            with z:
-                missing = [k for k in ("gain", "offset") if k not in z.files]
-                if missing:
-                    raise TdicamError(f"{args.maps}: no array {missing[0]!r} (has: "
-                                      f"{', '.join(z.files) or 'none'})")
-                return z["gain"], z["offset"]
-        except TdicamError:
-            raise
-        except OSError as exc:
-            raise TdicamError(f"{args.maps}: cannot read ({exc.strerror})") from None
-        except _NOT_NUMPY as exc:
-            raise TdicamError(f"{args.maps}: not a numpy .npz file ({_why(exc)})") from None
-    if not (args.gain and args.offset):
-        raise TdicamError("give MAPS.npz, or both --gain G.npy and --offset O.npy")
-    return _load_array(args.gain, "gain"), _load_array(args.offset, "offset")
+def _print(lines):
+    print("\n".join([lines] if isinstance(lines, str) else lines))
+    return 0
 
 
 def _write(args):
-    from tdicam import blocks
-    # the format is the nuc block's: its parameters check the flags under their names
-    blocks.get("nuc").resolve({k: getattr(args, k) for k in (
-        "gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")})
-    fmt = NucFormat(args.gain_int_bits, args.gain_frac_bits, args.offset_bits,
-                    args.offset_frac_bits)
-    fmt._check_slots()
-    if not args.nand:               # NAND geometry without --nand was ignored silently
-        for opt, v in (("--blocks", args.blocks), ("--pages-per-block", args.pages_per_block),
-                       ("--clock-mhz", args.clock_mhz)):
-            if v is not None:
-                raise TdicamError(f"{opt}: only with --nand (a NAND image)")
-    _not_the_input(args.output, args.maps, args.gain, args.offset)
-    check_file(args.output)
-    gain, offset = _load_maps(args)
-    for what, a in (("gain", gain), ("offset", offset)):
-        if a.dtype.kind not in "iuf":
-            raise TdicamError(f"the {what} map must hold real numbers, got dtype {a.dtype}")
-    if gain.ndim != 2 or gain.shape != offset.shape:
-        raise TdicamError(f"gain and offset must be 2-D maps of one shape; got {gain.shape} "
-                          f"and {offset.shape}")
-    if not gain.size:
-        raise TdicamError(f"the gain and offset maps are empty ({gain.shape[0]} x "
-                          f"{gain.shape[1]} pixels)")
-    if args.codes:
-        g, o = fmt.check_coeffs(gain, offset)
-    else:
-        g, o = calib.codes_from_values(gain, offset, fmt)
-    rows, cols = g.shape
-    if args.nand:
-        return _write_nand(args, calib.encode_image(g, o, fmt), rows, cols)
-    words = calib.encode_image(g, o, fmt)
-    with open_output(args.output) as fh:
-        fh.write(words.tobytes())
-    n = words.nbytes
-    print(f"wrote {args.output}: {rows} x {cols} pixels, gain Q{fmt.gain_int_bits}."
-          f"{fmt.gain_frac_bits}, offset {fmt.offset_bits} bits ({fmt.offset_frac_bits} "
-          f"fraction), {n // calib.WORD_BYTES} flash words of 72 bits, {n} bytes")
-    return 0
-
-
-def _clock(args):
-    if args.clock_mhz is None:
-        return nand.CONTROLLER_CLOCK_HZ
-    return check_range("--clock-mhz", args.clock_mhz, 1, 1000, integer=False) * 1e6
-
-
-def _timing_line(rows, cols, geometry, clock_hz):
-    t = nand.timing(rows, cols, geometry, clock_hz=clock_hz)
-    return (f"gateware at {clock_hz / 1e6:g} MHz (t_R {geometry.t_r_s * 1e6:g} us = "
-            f"{t.busy_cycles} clocks): power-up scan of {geometry.blocks} blocks "
-            f"{t.scan_s * 1e3:.1f} ms, calibration load of {t.pages} pages in {t.blocks} "
-            f"blocks {t.load_s * 1e3:.1f} ms")
-
-
-def _write_nand(args, words, rows, cols):
-    try:
-        g = nand.MT29F4G08
-        geo = nand.Geometry(
-            pages_per_block=g.pages_per_block if args.pages_per_block is None
-            else args.pages_per_block, blocks=g.blocks if args.blocks is None else args.blocks)
-    except TdicamError as exc:
-        raise TdicamError(f"--nand geometry: {exc}") from None
-    clock = _clock(args)
-    dev = nand.write_store(words, geo)
-    n = nand.save_image(dev, args.output)
-    print(f"wrote {args.output}: NAND image, {rows} x {cols} pixels, {len(words)} flash words "
-          f"in {-(-len(words) // geo.words_per_page)} pages of {geo.page_bytes}+"
-          f"{geo.spare_bytes} bytes, part of {geo.blocks} blocks x {geo.pages_per_block} "
-          f"pages, block map in block 0, {n} bytes")
-    print(_timing_line(rows, cols, geo, clock))
-    return 0
-
-
-def _load_any(args):
-    """(CalibImage, StoreResult or None, geometry or None) of a plain or NAND image."""
-    raw = calib.read_file(args.image)
-    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
-        dev = nand.read_image_bytes(raw, name=args.image)
-        res = nand.read_store(dev, name=args.image)
-        return res.image, res, dev.geometry
-    return calib.read_image(raw, name=args.image), None, None
-
-
-def _nand_summary(args, img, res, geo, clock):
-    rows, cols = img.shape
-    sr = res.scan
-    print(f"{args.image}: NAND, {geo.blocks} blocks x {geo.pages_per_block} pages: "
-          f"{sr.bad_count} bad blocks (markers), data in {nand.blocks_needed(res.words, geo)} "
-          f"blocks, {res.pages} pages, the stored block map agrees with the scan")
-    print(_timing_line(rows, cols, geo, clock))
-
-
-def _summary(path, res):
-    rows, cols = res.shape
-    return (f"{path}: {rows} x {cols} pixels, {calib.HEADER_WORDS + calib.payload_words(rows, cols)}"
-            f" words: {res.corrected} corrected, {res.uncorrectable} uncorrectable "
-            f"({int(res.defaulted.sum())} pixels with default coefficients), payload CRC "
-            f"{'ok' if res.crc_ok else 'MISMATCH'}")
-
-
-def _report(args):
-    clock = _clock(args)                # checked before anything is printed
-    res, store, geo = _load_any(args)
-    if store is None and args.clock_mhz is not None:
-        raise TdicamError(f"--clock-mhz: only for NAND images ({args.image} is a plain "
-                          f"calibration image)")
-    print(_summary(args.image, res))
-    if store is not None:
-        _nand_summary(args, res, store, geo, clock)
-    return res
-
-
-def _not_the_input(output, *inputs):
-    """-o must not name a file being read: it would be replaced by what is made from it."""
-    import os
-    for name in inputs:
-        try:
-            same = name is not None and os.path.samefile(output, name)
-        except OSError:                 # one of them does not exist (yet)
-            same = False
-        if same:
-            raise TdicamError(f"-o {output}: is the input file {name}; give another file "
-                              f"name")
+    return _print(flash.write(
+        args.output, maps=args.maps, gain=args.gain, offset=args.offset, codes=args.codes,
+        gain_int_bits=args.gain_int_bits, gain_frac_bits=args.gain_frac_bits,
+        offset_bits=args.offset_bits, offset_frac_bits=args.offset_frac_bits,
+        nand_image=args.nand, blocks_=args.blocks, pages_per_block=args.pages_per_block,
+        clock_mhz=args.clock_mhz))
 
 
 def _read(args):
     if args.output is not None:
-        _not_the_input(args.output, args.image)
-        check_file(args.output)
-    res = _report(args)
+        flash.check_not_input(args.output, args.image)
+        flash.check_file(args.output)
+    img, lines = flash.report(args.image, args.clock_mhz)
+    _print(lines)
     if args.output is not None:
-        f = res.fmt
-        with open_output(args.output) as fh:    # exactly this name (savez adds .npz)
-            np.savez_compressed(
-                fh, gain_code=res.gain, offset_code=res.offset,
-                gain=res.gain / f.gain_one, offset=res.offset / (1 << f.offset_frac_bits),
-                defaulted=res.defaulted)
-        print(f"wrote {args.output}: gain_code, offset_code, gain, offset, defaulted")
+        _print(flash.save_maps(img, args.output))
     return 0
 
 
 def _check(args):
-    res = _report(args)
-    return 1 if res.uncorrectable or not res.crc_ok else 0
+    img, lines = flash.report(args.image, args.clock_mhz)
+    _print(lines)
+    return 1 if img.uncorrectable or not img.crc_ok else 0
 
 
 def _inject(args):
-    for name in ("single", "double"):
-        p = getattr(args, name)
-        if not 0 <= p <= 1:
-            raise TdicamError(f"--{name} = {p} is out of range; valid: 0..1")
-    if args.single + args.double > 1:
-        raise TdicamError(f"--single {args.single:g} + --double {args.double:g} must be at "
-                          f"most 1 (probabilities of one word; --single defaults to 0.01)")
-    check_range("--seed", args.seed, 0, 2**63 - 1)
-    check_range("--bad-blocks", args.bad_blocks, 0, 65535)
-    _not_the_input(args.output, args.image)
-    check_file(args.output)
-    rng = np.random.default_rng(args.seed)
-    raw = calib.read_file(args.image)
-    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
-        return _inject_nand(args, nand.read_image_bytes(raw, name=args.image), rng)
-    if args.bad_blocks or args.fail_program:
-        raise TdicamError(f"{args.image}: --bad-blocks and --fail-program need a NAND image "
-                          f"(calib write --nand)")
-    words = calib.image_words(raw, args.image)
-    calib.read_image(words, name=args.image)    # refuse an image the reader would refuse
-    out, k = calib.inject_flips(rng, words, p_single=args.single,
-                                p_double=args.double, skip_header=not args.header)
-    with open_output(args.output) as fh:
-        fh.write(out.tobytes())
-    print(f"wrote {args.output}: {int((k == 1).sum())} words with 1 flipped bit, "
-          f"{int((k == 2).sum())} with 2, of {len(words)}")
-    return 0
-
-
-def _block_list(text, geo):
-    try:
-        out = [int(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise TdicamError(f"--fail-program must be comma-separated block numbers, got "
-                          f"{text!r}") from None
-    for b in out:
-        check_range("--fail-program block", b, 1, geo.blocks - 1)
-    return out
-
-
-def _inject_nand(args, dev, rng):
-    geo = dev.geometry
-    if args.header:
-        raise TdicamError("--header is for plain images; a NAND image's header words stay "
-                          "clean")
-    fail = _block_list(args.fail_program, geo)
-    free = [b for b in range(1, geo.blocks) if not dev.is_bad(b)]
-    if args.bad_blocks > len(free):
-        raise TdicamError(f"--bad-blocks {args.bad_blocks}: only {len(free)} good blocks "
-                          f"left after block 0")
-    new_bad = rng.choice(free, args.bad_blocks, replace=False) if args.bad_blocks else []
-    flips = (args.single, args.double) if args.single or args.double else None
-    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng,
-                           name=args.image)
-    nand.save_image(out, args.output)
-    print(f"wrote {args.output}: NAND image, {len(new_bad)} more bad blocks "
-          f"({len(out.bad_blocks())} in all, {len(out.grown)} grown by program failures), "
-          f"{int((k == 1).sum())} words with 1 flipped bit, {int((k == 2).sum())} with 2, "
-          f"of {len(k)}")
-    return 0
+    return _print(flash.inject(args.image, args.output, single=args.single,
+                               double=args.double, header=args.header,
+                               bad_blocks=args.bad_blocks, fail_program=args.fail_program,
+                               seed=args.seed))

@@ -2,7 +2,7 @@
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
-from tdicam.cosim import run_golden_case
+from tdicam.cosim.run import run_golden_case
 
 __all__ = ["run_cases"]
 

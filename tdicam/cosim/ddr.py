@@ -16,7 +16,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.model.ddr import DEFAULT_STALLS
 from tdicam.hw.verilog import convert
-from tdicam.cosim import build_sources, run_cocotb
+from tdicam.cosim.build import build_sources, run_cocotb
 
 __all__ = ["run_ui_cosim"]
 

@@ -34,7 +34,8 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.model import lvds as model
 from tdicam.hw.verilog import convert
-from tdicam.cosim import build_sources, run_cocotb, tbgen
+from tdicam.cosim import tbgen
+from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.codec import _digits, _undigits
 
 __all__ = ["LinkRun", "run_link", "run_amaranth", "check_run", "expected_outputs", "testbench", "LMAX",

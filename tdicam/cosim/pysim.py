@@ -16,6 +16,7 @@ from amaranth.sim import Simulator
 from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim.pauses import StreamDriver
+from tdicam.cosim.stream import stream_ports
 from tdicam.cosim.tbgen import RST_CYCLES
 
 __all__ = ["run_pysim"]
@@ -35,7 +36,6 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     ``trace``, a list, receives ``("i" | "o", cycle)`` of every transfer (as
     :func:`tdicam.cosim.run_stream` with ``trace=True``).
     """
-    from tdicam.cosim import stream_ports
     blk = blocks.get(block)
     params = blk.resolve(params)
     top = blk.build(params)

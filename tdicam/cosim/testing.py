@@ -10,7 +10,8 @@ import os
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import WAVE_DIR, run_beats, run_golden_case
+from tdicam.cosim.build import WAVE_DIR
+from tdicam.cosim.run import run_beats, run_golden_case
 
 __all__ = ["check_beats", "check_case", "beat_cases", "FULL", "WIDE_PPC"]
 

@@ -1,0 +1,149 @@
+"""One stream block's Verilog top in a testbench on Icarus or Verilator, in the two drive
+modes :mod:`tdicam.cosim` describes (``beat``: cocotb drives every cycle; ``fast``: the
+stimulus in an HDL memory): :func:`run_stream` returns the output transfers.
+
+Layer: part of :mod:`tdicam.cosim`.
+"""
+
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass
+
+from amaranth.hdl import Shape
+
+from tdicam import blocks
+from tdicam.beats import Beats
+from tdicam.errors import TdicamError
+from tdicam.hdl.interfaces.axis import AxisTop
+from tdicam.hw.verilog import convert
+from tdicam.cosim import codec, dp16kd, tbgen
+from tdicam.cosim.build import build_sources, run_cocotb
+from tdicam.cosim.pauses import thresholds
+
+__all__ = ["MODES", "SimResult", "stream_ports", "run_stream"]
+
+MODES = ("beat", "fast")
+
+
+def stream_ports(top):
+    """(in tdata bits, out tdata bits, ctrl ports [(name, width)]) of an :class:`AxisTop`."""
+    ctrl = []
+    for name, member in top.signature.members.items():
+        if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_")):
+            ctrl.append((name, Shape.cast(member.shape).width))
+    return top._in[3], top._out[3], ctrl
+
+
+def _build(blk, params, sim, wave=False, ecp5=False):
+    """Build (or reuse) the testbench (``wave``: with the waveform window, its own build;
+    ``ecp5``: the block's ECP5 top, :attr:`~tdicam.blocks.Block.ecp5_top`, with the DP16KD
+    model :data:`tdicam.cosim.dp16kd.MODEL`, its own build); returns (build dir, seconds
+    spent building, top)."""
+    top = blk.build(params, ecp5=ecp5)
+    if not isinstance(top, AxisTop):
+        raise TdicamError(f"block {blk.name} is not a video stream block")
+    in_bits, out_bits, ctrl = stream_ports(top)
+    sources = {f"{blk.name}.v": convert(top, blk.name)}
+    if ecp5:
+        sources[dp16kd.FILE] = dp16kd.MODEL
+    sources["tb.v"] = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
+                                             ctrl_ports=ctrl, wave=wave)
+    bdir, build_time = build_sources(blk.name + ".ecp5" * ecp5 + ".wave" * wave, params, sim,
+                                     sources)
+    return bdir, build_time, top
+
+
+@dataclass
+class SimResult:
+    """Output of one co-simulation run."""
+
+    out: Beats
+    cycles: int
+    wall: float
+    build_time: float
+    timeout: bool
+    accepted: int
+    trace: list | None = None
+    wave: str | None = None
+
+
+def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
+               seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None,
+               ecp5=False):
+    """Co-simulate ``stim`` (:class:`~tdicam.beats.Beats`) through a stream block.
+
+    Parameters
+    ----------
+    n_out : int
+        Output transfers the golden model expects (sizes the ``max_cycles`` default).
+        The run stops once every input was accepted and no output moved for ``drain``
+        cycles (so lost and duplicated outputs both show), or at ``max_cycles``.
+    idle, backpressure : float in [0, 1)
+        Probability of an idle input cycle / of ``m_axis_tready`` low on a cycle, drawn by
+        :class:`tdicam.cosim.pauses.Pauses` from ``seed``: the same pattern in both modes.
+    trace : bool
+        Record ``SimResult.trace``: ``("i" | "o", cycle)`` of every input and output
+        transfer, cycle 0 the first after the initial reset.
+    wave : (first, last) cycle or None
+        Fast mode on Icarus only: dump every testbench signal of those cycles (counted like
+        ``trace``) to ``SimResult.wave`` (an FST file in the kept run folder) and stop the
+        run after them (a separate build with the waveform window; see
+        :func:`tdicam.cosim.tbgen.stream_testbench`).
+    ecp5 : bool
+        Simulate the block's ECP5 synthesis top (:attr:`tdicam.blocks.Block.ecp5_top`:
+        vendor primitives) with the DP16KD model of :mod:`tdicam.cosim.dp16kd`.
+    """
+    if mode not in MODES:
+        raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")
+    if wave is not None and (sim, mode) != ("icarus", "fast"):
+        raise TdicamError("a waveform window is written by Icarus in fast mode")
+    idle_thr, bp_thr = thresholds(idle, backpressure)
+    blk = blocks.get(block)
+    params = blk.resolve(params)
+    bdir, build_time, top = _build(blk, params, sim, wave=wave is not None, ecp5=ecp5)
+    _, _, ctrl = stream_ports(top)
+    ctrl_bits = max(1, sum(w for _, w in ctrl))
+    bits, count, padded, _ = top._in
+    n_in = len(stim)
+    if max_cycles is None:
+        slow = 1.0 / ((1 - idle) * (1 - backpressure))
+        max_cycles = int((n_in + n_out) * 4 * slow) + 100_000
+    if wave is not None:
+        max_cycles = min(max_cycles, int(wave[1]) + 2)
+    if drain is None:
+        drain = 2000
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
+        (rundir / name).write_bytes(data)
+    seed = int(seed) & 0x7fffffff
+    job = {"mode": mode, "n_in": n_in, "n_out": int(n_out), "idle": idle,
+           "backpressure": backpressure, "seed": seed, "max_cycles": max_cycles,
+           "trace": bool(trace),
+           "drain": drain, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
+           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": top._out[2],
+           "out_count": top._out[1]}
+    (rundir / "job.json").write_text(json.dumps(job))
+    plusargs = [f"+n_in={n_in}", f"+n_out={int(n_out)}", f"+max_cycles={max_cycles}",
+                f"+drain={drain}", f"+idle={idle_thr}",
+                f"+bp={bp_thr}", f"+seed={seed}"] + ["+trace"] * bool(trace)
+    if wave is not None:
+        plusargs += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
+    ok, wall = run_cocotb(bdir, sim, "stream_tb", rundir, plusargs, waves=wave is not None)
+    summary = rundir / "summary.json"
+    if not ok or not summary.exists():
+        raise TdicamError(f"{sim} simulation of {block} failed; see {rundir / 'sim.log'}")
+    info = json.loads(summary.read_text())
+    out = codec.decode_output((rundir / "out.hex").read_bytes(),
+                              elem_padded_bits=top._out[2], count=top._out[1])
+    events = None
+    if trace:
+        events = [(k, int(c)) for k, c in (ln.split() for ln in
+                                           (rundir / "trace.txt").read_text().splitlines())]
+    if not keep and wave is None:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return SimResult(out, info["cycles"], wall, build_time, bool(info["timeout"]),
+                     info["accepted"], events,
+                     None if wave is None else str(rundir / "wave.fst"))
