@@ -12,6 +12,7 @@ Layer: a service; imports the block registry (the nuc block's parameter checks),
 models and the leaves.
 """
 
+import contextlib
 import os
 import zipfile
 
@@ -49,20 +50,27 @@ def _check_numpy_file(fh, path):
                           f"either signature)")
 
 
-def _load_array(path, what):
+@contextlib.contextmanager
+def _numpy_file(path, kind):
+    """Reading numpy file ``path``: an unreadable file or one numpy cannot parse is a
+    one-line error naming it as not a ``kind``."""
     try:
-        with open(path, "rb") as fh:
-            _check_numpy_file(fh, path)
-            a = np.load(fh, allow_pickle=False)
-            if isinstance(a, np.lib.npyio.NpzFile):
-                raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
-            return a
-    except TdicamError:
+        yield
+    except TdicamError:             # a ValueError too: ours, already one line
         raise
     except OSError as exc:
         raise TdicamError(f"{path}: cannot read ({exc.strerror})") from None
     except _NOT_NUMPY as exc:
-        raise TdicamError(f"{path}: not a numpy array file ({_why(exc)})") from None
+        raise TdicamError(f"{path}: not a {kind} ({_why(exc)})") from None
+
+
+def _load_array(path, what):
+    with _numpy_file(path, "numpy array file"), open(path, "rb") as fh:
+        _check_numpy_file(fh, path)
+        a = np.load(fh, allow_pickle=False)
+        if isinstance(a, np.lib.npyio.NpzFile):
+            raise TdicamError(f"{path}: expected a .npy array for {what}, got an .npz")
+        return a
 
 
 def load_maps(maps=None, gain=None, offset=None):
@@ -71,7 +79,7 @@ def load_maps(maps=None, gain=None, offset=None):
     if maps and (gain or offset):
         raise TdicamError("give either MAPS.npz or --gain/--offset, not both")
     if maps:
-        try:
+        with _numpy_file(maps, "numpy .npz file"):
             with open(maps, "rb") as fh:
                 _check_numpy_file(fh, maps)
             z = np.load(maps, allow_pickle=False)
@@ -85,12 +93,6 @@ def load_maps(maps=None, gain=None, offset=None):
                     raise TdicamError(f"{maps}: no array {missing[0]!r} (has: "
                                       f"{', '.join(z.files) or 'none'})")
                 return z["gain"], z["offset"]
-        except TdicamError:
-            raise
-        except OSError as exc:
-            raise TdicamError(f"{maps}: cannot read ({exc.strerror})") from None
-        except _NOT_NUMPY as exc:
-            raise TdicamError(f"{maps}: not a numpy .npz file ({_why(exc)})") from None
     if not (gain and offset):
         raise TdicamError("give MAPS.npz, or both --gain G.npy and --offset O.npy")
     return _load_array(gain, "gain"), _load_array(offset, "offset")
