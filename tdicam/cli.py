@@ -26,8 +26,8 @@ __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
 #: What ``tdicam --help`` says first.
 DESCRIPTION = ("tdicam: the HDL-ready dataflow model of a digital-TDI push-broom camera and its "
-               "co-simulation harness. 'tdicam COMMAND --help' for each command; the README "
-               "explains every output.")
+               "co-simulation harness. 'tdicam COMMAND --help' for each command; the docs "
+               "(docs/, README.md) explain every output.")
 
 def build_parser():
     parser = Parser(prog="tdicam", description=DESCRIPTION)

@@ -21,8 +21,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "run", help="simulate a scene: images, figures and a report (the main job)",
         description=__doc__.split("\n\n")[0].replace("``", "") + " report.md starts with the "
-        "configuration and explains every output (so does the README, 'What tdicam run "
-        "writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
+        "configuration and explains every output (so does docs/guide/run.md, 'What "
+        "tdicam run writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
         "[run.rtl] co-simulation could not run or found mismatches; 2 for bad input.")
     p.add_argument("scene", metavar="SCENE", help="scene TOML file (examples in scenes/, every key in docs/scene-format.md)")
     p.add_argument("-o", "--out", metavar="DIR", default=None,
