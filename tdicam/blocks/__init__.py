@@ -299,7 +299,7 @@ class Block:
         One line for ``tdicam verilog`` and the docs.
     params : tuple of Param
         Elaboration parameters (the gateware's, with the golden model's names and units).
-    top : callable(**params) -> wiring.Component
+    top : callable(params as keywords) -> wiring.Component
         The Verilog top: :class:`~tdicam.hdl.interfaces.axis.AxisTop` (AXI4-Stream names) for stream
         blocks, or a plain-port component.
     cases : callable() -> list of Case
@@ -336,7 +336,7 @@ class Block:
         ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
         frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
         ignore it).
-    ecp5_top : callable(**params) -> wiring.Component, or None
+    ecp5_top : callable(params as keywords) -> wiring.Component, or None
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour. ``None``: :attr:`top`.
