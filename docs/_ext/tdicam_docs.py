@@ -7,6 +7,8 @@ Markdown generated from the package itself (so the page cannot fall behind the c
   overview table, then per block its summary, parameters with ranges and defaults, the
   latency of its Verilog top at the default parameters, its inputs, its ``[pipeline.<block>]``
   scene section and its golden cases;
+* ``{tdicam-scenes}`` (``guide/scenes.md``): the bundled scene and sweep files, each with
+  the first paragraph of its leading comment;
 * ``{tdicam-effects}`` (``guide/run.md``): the scene simulator's effects table
   (:data:`tdicam.engine.effects.EFFECTS`), in the order they are applied;
 * ``{tdicam-api}`` (``api.md``): an autosummary table and the autodoc entry of every name in
@@ -22,8 +24,11 @@ from __future__ import annotations
 import inspect
 import re
 import types
+from pathlib import Path
 
-PLACEHOLDER = re.compile(r"^```\{(tdicam-blocks|tdicam-effects|tdicam-api)\}\s*\n```\s*$", re.M)
+PLACEHOLDER = re.compile(r"^```\{(tdicam-[a-z]+)\}\s*\n```\s*$", re.M)
+#: The checkout's bundled scenes (the docs are built from a checkout).
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 # --------------------------------------------------------------------------------------
@@ -114,6 +119,36 @@ def blocks_markdown() -> str:
 
 
 # --------------------------------------------------------------------------------------
+# the bundled scenes
+# --------------------------------------------------------------------------------------
+
+
+def _about(path: Path) -> str:
+    """The first paragraph of a TOML file's leading comment, as one line."""
+    words = []
+    for line in path.read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        text = line[1:].strip()
+        if not text:
+            if words:
+                break
+            continue
+        words.append(text)
+    return " ".join(words)
+
+
+def scenes_markdown() -> str:
+    """The bundled scenes and sweeps as a Markdown list."""
+    out = []
+    for title, folder in (("Scenes", SCENES), ("Sweeps", SCENES / "sweeps")):
+        out += [f"**{title}** (`{folder.relative_to(SCENES.parent).as_posix()}/`):", ""]
+        out += [f"* `{p.name}`: {_about(p)}" for p in sorted(folder.glob("*.toml"))]
+        out.append("")
+    return "\n".join(out)
+
+
+# --------------------------------------------------------------------------------------
 # the scene simulator's effects
 # --------------------------------------------------------------------------------------
 
@@ -172,7 +207,8 @@ def api_markdown() -> str:
     return "```{eval-rst}\n" + "\n".join(rst) + "\n```\n"
 
 
-_GENERATORS = {"tdicam-blocks": blocks_markdown, "tdicam-effects": effects_markdown,
+_GENERATORS = {"tdicam-blocks": blocks_markdown, "tdicam-scenes": scenes_markdown,
+               "tdicam-effects": effects_markdown,
                "tdicam-api": api_markdown}
 
 
