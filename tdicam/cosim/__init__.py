@@ -35,7 +35,7 @@ from amaranth.hdl import Shape
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
-from tdicam.paths import REPO
+from tdicam.paths import BUILD
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hw.tools import SIMULATORS, tool_env
 from tdicam.hw.verilog import convert
@@ -49,7 +49,7 @@ __all__ = ["SIMULATORS", "MODES", "AMARANTH", "WAVE_DIR", "WAVE_WINDOW", "wave_w
            "stream_ports", "build_sources", "run_cocotb"]
 
 MODES = ("beat", "fast")
-BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
+BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", BUILD / "cosim"))
 #: Where the co-simulation tests and ``tdicam sim`` write the waveform of a mismatch.
 WAVE_DIR = BUILD_ROOT / "waves"
 # cocotb's runner builds with --public-flat-rw (every signal of every module public and

@@ -55,7 +55,7 @@ from amaranth.hdl import Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.paths import REPO
+from tdicam.paths import BUILD
 from tdicam import blocks
 from tdicam.hw.verilog import rtlil as _rtlil_text
 from tdicam.errors import TdicamError
@@ -250,7 +250,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     # the same cache entry and figures as before the parameter existed
     shown = blk.recorded(params) if hasattr(blk, "recorded") else params
     key = hashlib.sha256(json.dumps([blk.name, shown], sort_keys=True).encode()).hexdigest()
-    wd = Path(workdir or REPO / "build" / "synth" / f"{blk.name}-{key[:12]}")
+    wd = Path(workdir or BUILD / "synth" / f"{blk.name}-{key[:12]}")
     wd.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _write_if_changed(wd / "top.il", _rtlil(blk.build(params), blk.name))
