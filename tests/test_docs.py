@@ -16,9 +16,8 @@ from pathlib import Path
 import pytest
 
 import tdicam
-from tdicam.paths import REPO
 
-DOCS = REPO / "docs"
+DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 pytest.importorskip("sphinx", reason="pip install -e '.[docs]'")
 pytest.importorskip("myst_nb", reason="pip install -e '.[docs]'")

@@ -192,19 +192,25 @@ def _directive(name, obj) -> list[str]:
 
 
 def api_markdown() -> str:
-    """An autosummary table of ``tdicam.__all__`` and every name's autodoc entry."""
+    """An autosummary table of ``tdicam.__all__``, then a section per name with its autodoc
+    entry (in ``__all__``'s order)."""
     import tdicam
 
     names = list(tdicam.__all__)
+    objs = {n: getattr(tdicam, n) for n in names}
     rst = [".. currentmodule:: tdicam", "", ".. autosummary::", "   :nosignatures:", ""]
-    rst += [f"   {n}" for n in names if not isinstance(getattr(tdicam, n), types.ModuleType)]
-    rst.append("")
-    mods = [n for n in names if isinstance(getattr(tdicam, n), types.ModuleType)]
+    rst += [f"   {n}" for n in names if not isinstance(objs[n], types.ModuleType)]
+    out = ["```{eval-rst}", *rst, "```", ""]
+    mods = [n for n in names if isinstance(objs[n], types.ModuleType)]
     if mods:
-        rst += ["Modules: " + ", ".join(f"``tdicam.{n}``" for n in mods) + ".", ""]
+        out += ["Modules: " + ", ".join(f"[`tdicam.{n}`](#api-module-{n})" for n in mods) + ".",
+                ""]
     for n in names:
-        rst += _directive(n, getattr(tdicam, n))
-    return "```{eval-rst}\n" + "\n".join(rst) + "\n```\n"
+        module = isinstance(objs[n], types.ModuleType)
+        out += [f"(api-module-{n})=" if module else "", f"## `{'tdicam.' + n if module else n}`",
+                "", "```{eval-rst}",
+                *_directive(n, objs[n]), "```", ""]
+    return "\n".join(out)
 
 
 _GENERATORS = {"tdicam-blocks": blocks_markdown, "tdicam-scenes": scenes_markdown,
