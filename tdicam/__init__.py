@@ -15,8 +15,8 @@ docstrings state: :class:`Scene` (``load``, ``from_dict``, ``example``, ``with_r
 :func:`simulate` and its :class:`Simulation` (``dataset``, ``save``), :func:`plan` and its
 :class:`Plan` (``to_dict``, ``text``, ``figures``), :func:`sweep`, :func:`examples`,
 :mod:`blocks` (``blocks.get(name)``, ``blocks.names()`` and a block's ``verilog``,
-``golden``, ``cosim``), :class:`TdicamError`, and ``__version__``. Within a minor version
-(0.x) they change only compatibly: new optional parameters, new dataset variables or
+``golden_model``, ``cosim``), :class:`TdicamError`, and ``__version__``. Within a minor
+version (0.x) they change only compatibly: new optional parameters, new dataset variables or
 attributes, new report keys. The files ``tdicam run``, ``tdicam sweep`` and the exports
 write follow the README. Everything else (the subpackages' modules, their functions and
 classes, a report's key order, a dataset variable's dtype) is internal and may change in any

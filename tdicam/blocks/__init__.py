@@ -504,8 +504,9 @@ class Block:
         from tdicam.hw.verilog import generate
         return generate(self, params)
 
-    def golden(self, arrays: dict, **params) -> dict:
-        """The block's bit-exact golden model on scene arrays.
+    def golden_model(self, arrays: dict, **params) -> dict:
+        """The block's bit-exact golden model (``model/<name>.py``) on scene arrays, with
+        its parameters fitted (:attr:`golden` is the raw function it calls).
 
         Parameters
         ----------
@@ -536,8 +537,8 @@ class Block:
         Parameters
         ----------
         arrays : dict of str to ndarray, optional
-            Scene arrays as :meth:`golden` takes them. None: every stored golden case (what
-            ``tdicam sim NAME`` runs; ``mode="beat"`` skips the ``fast-only`` ones).
+            Scene arrays as :meth:`golden_model` takes them. None: every stored golden case
+            (what ``tdicam sim NAME`` runs; ``mode="beat"`` skips the ``fast-only`` ones).
         sim : {"icarus", "verilator"}
             The simulator.
         mode : {"fast", "beat"}
@@ -554,7 +555,7 @@ class Block:
         list of dict
             One row per case (``case``, ``pixels``, ``mismatches``, ``cycles``, ``wall_s``,
             ...); with ``arrays``, one row whose ``out`` is the simulated output as
-            :meth:`golden` gives it (None on a mismatch).
+            :meth:`golden_model` gives it (None on a mismatch).
 
         Raises
         ------

@@ -2,8 +2,9 @@
 and a report out.
 
 This module parses the arguments and calls the API: ``simulate(scene, ...).save(DIR)``
-(:func:`tdicam.api.simulate`; the list of what it writes is in :mod:`tdicam.run.runner`). Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
-could not run or found mismatches (the report says which); 2 for bad input.
+(:func:`tdicam.api.simulate`; what it writes is listed in :mod:`tdicam.run.runner`). Exit
+status: 0; 1 when the ``[run.rtl]`` co-simulation could not run or found mismatches (the
+report says which); 2 for bad input.
 """
 
 from __future__ import annotations
