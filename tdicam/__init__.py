@@ -18,7 +18,7 @@ docstrings state: :class:`Scene` (``load``, ``from_dict``, ``example``, ``with_r
 ``golden_model``, ``cosim``), :class:`TdicamError`, and ``__version__``. Within a minor
 version (0.x) they change only compatibly: new optional parameters, new dataset variables or
 attributes, new report keys. The files ``tdicam run``, ``tdicam sweep`` and the exports
-write follow the README. Everything else (the subpackages' modules, their functions and
+write follow docs/guide/. Everything else (the subpackages' modules, their functions and
 classes, a report's key order, a dataset variable's dtype) is internal and may change in any
 release.
 

@@ -70,7 +70,7 @@ class Simulation:
 
     def save(self, out_dir: str | Path) -> dict:
         """Write exactly what ``tdicam run`` writes into ``out_dir``: the images, figures,
-        ``report.json`` and ``report.md`` (README, "What tdicam run writes").
+        ``report.json`` and ``report.md`` (docs/guide/run.md, "What tdicam run writes").
 
         With a ``[run.rtl]`` table (and ``rtl=True`` given to :func:`simulate`) the RTL
         co-simulation of the crop runs here. The files are staged and moved in at the end,
