@@ -321,7 +321,7 @@ class RefRun:
     note: str = ""
 
 
-#: Every block at its reference parameters (the targets of the README's silicon table). Blocks without a line width (hdr,
+#: Every block at its reference parameters (the targets of the silicon table, docs/guide/silicon.md). Blocks without a line width (hdr,
 #: nuc: per-pixel, no line memory) run at their defaults, 12-bit pixels.
 REFERENCE = (
     RefRun("cds", "cds", {"pixel_bits": 12}),
