@@ -56,6 +56,14 @@ def test_site_builds_without_warnings(site):
         assert (site / f"{page}.html").is_file(), page
 
 
+def test_notebook_page_shows_its_stored_outputs(site):
+    """The site renders the notebook from the outputs stored in it (nothing is executed):
+    a notebook committed without them would show code only."""
+    text = (site / "examples" / "orbit_camera.html").read_text()
+    assert text.count("<img") >= 5
+    assert "0 mismatches" in text
+
+
 def test_every_public_name_is_documented_in_the_api_reference(site):
     documented = _inventory(site)
     missing = [n for n in tdicam.__all__ if documented.get(f"tdicam.{n}") != "api.html"
