@@ -99,10 +99,10 @@ def blocks_markdown() -> str:
             facts.append(f"**Latency**: {lat[b.name]} clock cycles from an accepted input "
                          f"beat to its output at the default parameters (no stalls).")
         if b.to_beats is not None:
-            facts.append(f"**Stream**: AXI4-Stream video in and out; main input "
-                         f"`{b.stream}`.")
+            facts.append(f"**Co-simulation**: as a stream against its golden model "
+                         f"(`tdicam sim {b.name}`); main input `{b.stream}`.")
         else:
-            facts.append("**Ports**: not a video stream; co-simulated by its own cocotb test "
+            facts.append("**Co-simulation**: not a video stream; its own cocotb test "
                          f"(`cocotb_tests/test_{b.name}.py`).")
         for s in b.side_inputs:
             facts.append(f"**Side input** `{s.name}` (per {s.per}): {_cell(s.what)}")
