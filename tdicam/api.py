@@ -46,12 +46,12 @@ def _scene(scene: Scene | str | Path) -> Scene:
 class Simulation:
     """What :func:`simulate` computed: the images and measurements of a scene's sweep.
 
+    The images and measurements are :attr:`dataset`; :meth:`save` writes the files.
+
     Attributes
     ----------
     scene : Scene
         The simulated scene (with the ``seed`` and ``lines`` given to :func:`simulate`).
-    dataset : xarray.Dataset
-        Images and measurements, labelled (see :func:`simulate`).
     report : dict or None
         The report of the last :meth:`save` (``report.json``'s content), None before.
     """

@@ -122,3 +122,16 @@ def test_block_tools():
     assert out.shape[0] == 6 - 4 + 1 and out.shape[-1] == 16     # one line per full window
     with pytest.raises(tdicam.TdicamError, match="has no parameter --nope"):
         tdi.verilog(nope=1)
+
+
+def test_scenes_example_and_version_commands(capsys):
+    assert main(["scenes"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in out[:-1]] == sorted(tdicam.examples())
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"tdicam {tdicam.__version__}\n"
+    assert main(["run", "--example", "nope"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("tdicam: error: no bundled scene 'nope'; valid: ")
+    assert main(["run", "--example", "orbit_600km_1m_96", "--dry-run"]) == 0
+    assert "out/orbit_600km_1m_96" in capsys.readouterr().out
