@@ -20,17 +20,19 @@ import sys
 from tdicam import commands
 from tdicam.commands._parsing import ArgsParser, Parser, plain_text
 from tdicam.errors import TdicamError
+from tdicam.version import __version__
 
 __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
 
 #: What ``tdicam --help`` says first.
 DESCRIPTION = ("tdicam: the HDL-ready dataflow model of a digital-TDI push-broom camera and its "
-               "co-simulation harness. 'tdicam COMMAND --help' for each command; the README "
-               "explains every output.")
+               "co-simulation harness. 'tdicam COMMAND --help' for each command; the docs "
+               "(docs/, README.md) explain every output.")
 
 def build_parser():
     parser = Parser(prog="tdicam", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"tdicam {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):

@@ -82,7 +82,12 @@ def test_plain_text_strips_markup():
     assert cli.plain_text(":mod:`tdicam.model.calib`") == "tdicam.model.calib"
 
 
-@pytest.mark.parametrize("name", ["README.md", "docs/scene-format.md"])
+#: What a user reads: the README and every page of the documentation site (the notebook too).
+USER_PAGES = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*")
+                                    if p.suffix in (".md", ".ipynb") and "_build" not in p.parts)
+
+
+@pytest.mark.parametrize("name", USER_PAGES)
 def test_user_pages_cite_papers_not_shorthand(name):
     text = (ROOT / name).read_text()
     bad = [line for line in text.splitlines() if SHORTHAND.search(line)]

@@ -358,7 +358,7 @@ def test_memory_is_m_minus_1_lines(width, stages, bits, ppc):
 def test_reference_memory_block_rams():
     """At the reference parameters the ECP5 banks need 127 DP16KD for ppc=1 (119 for the
     18-bit part + 8 of 16384 x 1) and 128 for ppc=4 and ppc=8 (120 + 8); the floor is
-    ceil(95 x 1280 x 19 / 18432) = 126 (yosys' counts: the README silicon-cost rows)."""
+    ceil(95 x 1280 x 19 / 18432) = 126 (yosys' counts: the silicon-cost rows, docs/guide/silicon.md)."""
     for ppc, n, n18 in ((1, 127, 119), (4, 128, 120), (8, 128, 120)):
         mems = _bank_memories(TdiAccumulator(width=1280, stages=96, pixel_bits=12, ppc=ppc))
         assert _block_rams(mems) == n

@@ -357,7 +357,7 @@ class Block:
         One line for ``tdicam verilog`` and the docs.
     params : tuple of Param
         Elaboration parameters (the gateware's, with the golden model's names and units).
-    top : callable(**params) -> wiring.Component
+    top : callable(params as keywords) -> wiring.Component
         The Verilog top: :class:`~tdicam.hdl.interfaces.axis.AxisTop` (AXI4-Stream names) for stream
         blocks, or a plain-port component.
     cases : callable() -> list of Case
@@ -394,7 +394,7 @@ class Block:
         ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
         frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
         ignore it).
-    ecp5_top : callable(**params) -> wiring.Component, or None
+    ecp5_top : callable(params as keywords) -> wiring.Component, or None
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour. ``None``: :attr:`top`.
@@ -547,6 +547,102 @@ class Block:
         bits = params.get("out_bits") or params["pixel_bits"]
         return {"out": out.data.reshape(np.shape(arrays[self.stream])).astype(
             pixel_dtype(bits))}
+
+    # The block's tools for a Python session (the public API, :mod:`tdicam`). They call
+    # the layers above the registry at call time: pyproject.toml's import contracts list
+    # these three imports as the registry's only upward ones.
+
+    def verilog(self, **params) -> str:
+        """The block's Verilog, as ``tdicam verilog NAME --PARAM V ...`` writes it.
+
+        Parameters
+        ----------
+        **params
+            Block parameters by name (:meth:`describe` lists them); the others at their
+            defaults.
+
+        Returns
+        -------
+        str
+            Deterministic Verilog text: a header naming the tdicam version, the block and
+            its parameters, then the top module, named after the block.
+
+        Raises
+        ------
+        TdicamError
+            An unknown parameter or a value out of its range (one line).
+        """
+        from tdicam.hw.verilog import generate
+        return generate(self, params)
+
+    def golden_model(self, arrays: dict, **params) -> dict:
+        """The block's bit-exact golden model (``model/<name>.py``) on scene arrays, with
+        its parameters fitted (:attr:`golden` is the raw function it calls).
+
+        Parameters
+        ----------
+        arrays : dict of str to ndarray
+            The stream input (key :attr:`stream`, frames ``(..., rows, cols)``) and any
+            side inputs (:attr:`side_inputs`; defaults filled in).
+        **params
+            Block parameters; the ones the arrays fix (e.g. ``width``) are fitted.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``{"out": ...}``: the output frames, leading axes kept (``tdi``: one output
+            line per frame).
+
+        Raises
+        ------
+        TdicamError
+            A missing input, a bad shape or parameter (one line).
+        """
+        return self.run_golden(arrays, self.scene_params(arrays, params))
+
+    def cosim(self, arrays: dict | None = None, *, sim: str = "icarus", mode: str = "fast",
+              idle: float = 0.2, backpressure: float = 0.2, seed: int = 1,
+              **params) -> list[dict]:
+        """Co-simulate the block's Verilog against its golden model (cocotb).
+
+        Parameters
+        ----------
+        arrays : dict of str to ndarray, optional
+            Scene arrays as :meth:`golden_model` takes them. None: every stored golden case
+            (what ``tdicam sim NAME`` runs; ``mode="beat"`` skips the ``fast-only`` ones).
+        sim : {"icarus", "verilator"}
+            The simulator.
+        mode : {"fast", "beat"}
+            HDL-side stimulus and stalls, or per-beat cocotb.
+        idle, backpressure : float
+            Probabilities of an idle input cycle and of ``tready`` low, in [0, 1).
+        seed : int
+            Seed of the idle and backpressure pattern.
+        **params
+            Block parameters (with ``arrays`` only; a golden case has its own).
+
+        Returns
+        -------
+        list of dict
+            One row per case (``case``, ``pixels``, ``mismatches``, ``cycles``, ``wall_s``,
+            ...); with ``arrays``, one row whose ``out`` is the simulated output as
+            :meth:`golden_model` gives it (None on a mismatch).
+
+        Raises
+        ------
+        TdicamError
+            A block without a stream co-simulation, a bad parameter, a simulator missing.
+        """
+        from tdicam import cosim
+        from tdicam.cosim.cases import run_cases
+        kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed)
+        if arrays is None:
+            if params:
+                raise TdicamError(f"block {self.name}: parameters go with arrays (each golden "
+                                  f"case has its own)")
+            return run_cases(self.name, report=lambda row: None, **kw)
+        run, out = cosim.run_scene(self, arrays, params, **kw)
+        return [{"case": "arrays", **run.row(), "out": out}]
 
     def _per(self, key):
         return next((s.per for s in self.side_inputs if s.name == key), None)

@@ -16,7 +16,8 @@ Without a scene or orbit options the command plans Qu 2010's example: 600 km, GS
 the sensor's rows or window ``M0`` do not allow are left out (the report says which). Stage
 counts given above ``M0`` are planned: the window check says NO (exit status 1).
 
-The work is done by :mod:`tdicam.planning.sizing`; this module parses arguments.
+The work is done by :func:`tdicam.api.plan` (:mod:`tdicam.planning.sizing`); this module
+parses arguments.
 """
 
 from __future__ import annotations
@@ -27,8 +28,7 @@ import re
 import sys
 from pathlib import Path
 
-import numpy as np
-
+from tdicam.api import plan
 from tdicam.planning import sizing as planning
 from tdicam.errors import valid_range
 from tdicam.files import check_dir, open_output
@@ -88,17 +88,9 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _budget(args):
-    if args.onchip_kbit is not None:
-        return int(round(args.onchip_kbit * 1024))
-    if args.device is not None:
-        return P.onchip_budget(args.device)
-    return None
-
-
-def _write_figures(rep, scenes, out) -> list[Path]:
+def _write_figures(the_plan, out) -> list[Path]:
     files = []
-    for name, fig in planning.figures(rep, scenes):
+    for name, fig in the_plan.figures():
         files.append(out / name)
         with open_output(files[-1]) as fh:
             fig.savefig(fh, dpi=100, format="png")
@@ -117,33 +109,23 @@ def _emit(text) -> None:
 
 def run(args) -> int:
     """Run ``tdicam plan`` for parsed arguments; returns the exit code (see the epilog)."""
-    vars(args).update(planning.check_options(
-        {dest: getattr(args, dest) for dest, *_ in planning.PLAN_OPTIONS}
-        | {"device": args.device}))
-    budget = _budget(args)
     given = {dest: getattr(args, dest) for dest, *_ in planning.SCENE_OPTIONS
              if getattr(args, dest, None) is not None}
-    scenes, labels = planning.plan_scenes(args.scene, given)
-    rep = planning.plan_report(scenes, onchip_budget_bits=budget, ddr_bits=args.ddr_bits,
-                               ddr_clock_hz=args.ddr_clock_mhz * 1e6,
-                               ddr_efficiency=args.ddr_efficiency,
-                               fpga_clock_mhz=args.fpga_clock_mhz,
-                               notes=labels.get("notes", ()))
+    the_plan = plan(args.scene, onchip_kbit=args.onchip_kbit, device=args.device,
+                    ddr_bits=args.ddr_bits, ddr_clock_mhz=args.ddr_clock_mhz,
+                    ddr_efficiency=args.ddr_efficiency, fpga_clock_mhz=args.fpga_clock_mhz,
+                    **given)
+    rep = the_plan.to_dict()
     # the folder is made once the plan is computed: a refused plan leaves nothing behind
     plot_dir = None if args.plot is None else check_dir(args.plot, "--plot")
     if plot_dir is not None:
-        rep["plots"] = [str(f) for f in _write_figures(rep, scenes, plot_dir)]
+        rep["plots"] = [str(f) for f in _write_figures(the_plan, plot_dir)]
     if args.json:
-        _emit(json.dumps(rep, indent=2, allow_nan=False, default=_json_default))
+        _emit(json.dumps(rep, indent=2, allow_nan=False))
     else:
-        text = planning.report_text(rep)
+        text = the_plan.text()
         if plot_dir is not None:
             text += "\n\nwrote " + ", ".join(rep["plots"])
         _emit(text)
-    return 0 if rep["feasible"] else planning.EXIT_INFEASIBLE
+    return 0 if the_plan.feasible else planning.EXIT_INFEASIBLE
 
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

@@ -1,17 +1,19 @@
 """``tdicam run SCENE [-o DIR]``: the main job — a scene file in, the camera's images, figures
 and a report out.
 
-This module parses the arguments; the work, and the list of what it writes, is
-:func:`tdicam.run.runner.run_scene`. Exit status: 0; 1 when the ``[run.rtl]`` co-simulation
-could not run or found mismatches (the report says which); 2 for bad input.
+This module parses the arguments and calls the API: ``simulate(scene, ...).save(DIR)``
+(:func:`tdicam.api.simulate`; what it writes is listed in :mod:`tdicam.run.runner`). Exit
+status: 0; 1 when the ``[run.rtl]`` co-simulation could not run or found mismatches (the
+report says which); 2 for bad input.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from tdicam.api import simulate
 from tdicam.files import named
-from tdicam.run.runner import run_scene
+from tdicam.run.runner import check_output, run_scene
 
 __all__ = ["register", "run", "run_scene", "rtl_failed", "dry_run"]
 
@@ -21,10 +23,14 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "run", help="simulate a scene: images, figures and a report (the main job)",
         description=__doc__.split("\n\n")[0].replace("``", "") + " report.md starts with the "
-        "configuration and explains every output (so does the README, 'What tdicam run "
-        "writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
+        "configuration and explains every output (so does docs/guide/run.md, 'What "
+        "tdicam run writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
         "[run.rtl] co-simulation could not run or found mismatches; 2 for bad input.")
-    p.add_argument("scene", metavar="SCENE", help="scene TOML file (examples in scenes/, every key in docs/scene-format.md)")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("scene", metavar="SCENE", nargs="?",
+                       help="scene TOML file (every key in docs/scene-format.md)")
+    which.add_argument("--example", metavar="NAME",
+                       help="a bundled scene by name ('tdicam scenes' lists them)")
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="output directory (default out/<scene name>)")
     p.add_argument("--fidelity", choices=("exact", "fast", "auto"), default=None,
@@ -43,17 +49,20 @@ def register(subparsers) -> None:
 
 
 def run(args):
+    from tdicam.scene.examples import example_path
     from tdicam.scene.loader import load_scene
+    path = example_path(args.example) if args.example is not None else args.scene
     # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
     over, labels = ({}, {}) if args.lines is None else \
         ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})
-    scene = load_scene(args.scene, overrides=over, labels=labels)
-    out = named(args.out) if args.out is not None else Path("out") / Path(args.scene).stem
+    scene = load_scene(path, overrides=over, labels=labels)
+    out = named(args.out) if args.out is not None else Path("out") / Path(path).stem
     if args.dry_run:
         return dry_run(scene, out, args, labels)
-    report = run_scene(scene, out, fidelity=args.fidelity,
-                       force=args.force, impact=not args.no_impact, rtl=not args.no_rtl,
-                       labels=labels)
+    check_output(out)                   # before the work
+    report = simulate(scene, fidelity=args.fidelity, force=tuple(args.force),
+                      impact=not args.no_impact, rtl=not args.no_rtl, progress=True,
+                      labels=labels).save(out)
     print(report["summary"])
     print(f"wrote {out}/report.md, report.json and {len(report['files'])} files")
     return 1 if rtl_failed(report["rtl"]) else 0

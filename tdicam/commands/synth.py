@@ -1,7 +1,7 @@
 """``tdicam synth BLOCK [--PARAM VALUE ...]``: LUTs, FFs, block RAM, multipliers, Fmax.
 
 ``tdicam synth --reference [BLOCK|LABEL ...]``: every block at its reference parameters
-(:data:`tdicam.hw.synth.REFERENCE`) in one table (``--markdown`` for the README, ``--json``).
+(:data:`tdicam.hw.synth.REFERENCE`) in one table (``--markdown`` for docs/guide/silicon.md, ``--json``).
 """
 
 import datetime

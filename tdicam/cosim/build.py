@@ -15,13 +15,13 @@ from pathlib import Path
 
 from tdicam.errors import TdicamError
 from tdicam.hw.tools import tool_env
-from tdicam.paths import REPO
+from tdicam.paths import BUILD
 from tdicam.cosim import tbgen
 
 __all__ = ["BUILD_ROOT", "WAVE_DIR", "BUILD_NOTICE_S", "build_dir_for", "check_build_root",
            "build_sources", "run_cocotb"]
 
-BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim"))
+BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", BUILD / "cosim"))
 #: Where the co-simulation tests and ``tdicam sim`` write the waveform of a mismatch.
 WAVE_DIR = BUILD_ROOT / "waves"
 # cocotb's runner builds with --public-flat-rw (every signal of every module public and

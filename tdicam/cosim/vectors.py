@@ -23,7 +23,7 @@ import numpy as np
 from tdicam import blocks as _blocks
 from tdicam.errors import TdicamError
 from tdicam.files import check_dir, check_file, read_bytes, write_file
-from tdicam.paths import GOLDEN, REPO
+from tdicam.paths import GOLDEN
 
 __all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
            "write_npz", "PARAMS_KEY"]
@@ -79,8 +79,10 @@ def _read_npz(path):
 
 
 def _rel(path):
+    """``path`` as ``golden/<block>/<case>.npz`` (relative to the golden folder's parent:
+    the checkout or the installed package), else as given."""
     try:
-        return str(Path(path).resolve().relative_to(REPO))
+        return str(Path(path).resolve().relative_to(GOLDEN.resolve().parent))
     except ValueError:
         return str(path)
 

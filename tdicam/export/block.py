@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import __version__, blocks
+from tdicam import blocks
+from tdicam.version import __version__
 from tdicam.cosim import vectors as golden
 from tdicam.beats import Beats
 from tdicam.cosim import codec, stream_ports, tbgen

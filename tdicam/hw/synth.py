@@ -55,7 +55,7 @@ from amaranth.hdl import Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.paths import REPO
+from tdicam.paths import BUILD
 from tdicam import blocks
 from tdicam.hw.verilog import rtlil as _rtlil_text
 from tdicam.errors import TdicamError
@@ -250,7 +250,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     # the same cache entry and figures as before the parameter existed
     shown = blk.recorded(params) if hasattr(blk, "recorded") else params
     key = hashlib.sha256(json.dumps([blk.name, shown], sort_keys=True).encode()).hexdigest()
-    wd = Path(workdir or REPO / "build" / "synth" / f"{blk.name}-{key[:12]}")
+    wd = Path(workdir or BUILD / "synth" / f"{blk.name}-{key[:12]}")
     wd.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _write_if_changed(wd / "top.il", _rtlil(blk.build(params), blk.name))
@@ -325,7 +325,7 @@ class RefRun:
     sum_label: str | None = None
 
 
-#: Every block at its reference parameters (the targets of the README's silicon table), in
+#: Every block at its reference parameters (the targets of the silicon table, docs/guide/silicon.md), in
 #: the registry's table order: each block entry's ``synth`` rows.
 REFERENCE = tuple(RefRun(r.label, b.name, dict(r.params), r.target_mhz, r.note, r.sum_with,
                          r.sum_label) for b in blocks.in_order() for r in b.synth)

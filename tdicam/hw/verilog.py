@@ -29,7 +29,8 @@ from pathlib import Path
 from amaranth.back import rtlil as _rtlil
 from amaranth.back import verilog as _verilog
 
-from tdicam import __version__, blocks
+from tdicam import blocks
+from tdicam.version import __version__
 from tdicam.files import write_file
 from tdicam.hdl.util import NO_INIT, NO_RW_CHECK
 

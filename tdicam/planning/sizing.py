@@ -45,7 +45,7 @@ DEFAULT_ALTITUDE_KM = 600.0
 #: Exit status of ``tdicam plan`` when the feasibility report says NO (bad input: 2).
 EXIT_INFEASIBLE = 1
 
-#: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the README's
+#: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the silicon table's
 #: ``tdicam synth --reference`` figures (``tdi`` rows: width 1280, 96 stages, 12-bit pixels,
 #: ECP5-85F speed 8, median of 3 placement seeds). Update this table with them;
 #: ``tdicam plan --fpga-clock-mhz X`` overrides it.

@@ -35,6 +35,7 @@ import math
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +43,8 @@ import numpy as np
 from tdicam import files as outputs
 from tdicam.run import report as scenereport
 
-__all__ = ["run_scene", "memory_check", "main_tiff_shift", "strict_json"]
+__all__ = ["run_scene", "check_output", "SceneRun", "simulate_scene", "write_run", "memory_check",
+           "main_tiff_shift", "strict_json"]
 
 
 def _progress_bar(total, desc):
@@ -60,44 +62,59 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
               progress=True, labels=None):
     """Simulate every sweep point of ``scene``, write images, figures and reports.
 
+    :func:`simulate_scene` then :func:`write_run`, with ``out_dir`` checked first
+    (:func:`check_output`): a bad output path is refused before the work. A run refused or
+    failed at any point leaves ``out_dir`` as it was. Returns the report dict (also written
+    as ``report.json``).
+    """
+    check_output(out_dir)
+    return write_run(simulate_scene(scene, fidelity=fidelity, lines=lines, force=force,
+                                    impact=impact, rtl=rtl, progress=progress,
+                                    labels=labels), out_dir)
+
+
+def check_output(out_dir) -> Path:
+    """``out_dir`` as a Path once :func:`write_run` can write there (a folder one can write
+    in, or a name one can create), else the one-line error; nothing is made."""
+    return outputs.check_dir(out_dir, create=False)
+
+
+@dataclass
+class SceneRun:
+    """The computed sweep points of a scene, before anything is written (:func:`write_run`).
+
+    ``main`` is the engine's result (:class:`tdicam.engine.SceneResult`) of the point whose
+    images are kept (the largest stage count at the first ``dV/V``); ``rows`` the
+    measurements of every point in sweep order (stages outer, ``dV/V`` inner); ``crop`` the
+    ``(y0, h, x0, w)`` window of the ``[run.rtl]`` co-simulation (None: none).
+    """
+
+    scene: object
+    fidelity: str | None
+    main: object
+    rows: list
+    memory: object
+    crop: tuple | None
+    started: float
+
+
+def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
+                   progress=True, labels=None) -> SceneRun:
+    """Simulate every sweep point of ``scene`` (``[tdi].stages`` x ``[motion].dv_over_v``)
+    and measure it; nothing is written.
+
     Before any work the run's peak memory is estimated
     (:func:`tdicam.engine.budget.estimate`) and a run that cannot fit the memory available
     is refused; every point is checked (:func:`tdicam.engine.check_point`) and
-    ``TDICAM_THREADS`` read. The files are written into a staging folder and moved to
-    ``out_dir`` at the end (:func:`tdicam.files.staged_dir`): a run refused or failed at
-    any point leaves ``out_dir`` as it was. ``labels`` names overridden keys in messages as
-    the user wrote them (``{"run.lines": "--lines"}``).
-
-    Returns the report dict (also written as ``report.json``).
+    ``TDICAM_THREADS`` read. ``labels`` names overridden keys in messages as the user wrote
+    them (``{"run.lines": "--lines"}``). ``rtl``: keep the ``[run.rtl]`` crop, co-simulated
+    by :func:`write_run`.
     """
     from tdicam import engine
+    from tdicam.run.measure import measure
     engine.threads()
     mem = memory_check(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
                        rtl=rtl, labels=labels)
-    with outputs.staged_dir(out_dir) as stage:
-        report = _run(scene, Path(out_dir), stage, mem, fidelity=fidelity, lines=lines,
-                      force=force, impact=impact, rtl=rtl, progress=progress)
-    for name in report["stale_files"]["removed"]:
-        (Path(out_dir) / name).unlink(missing_ok=True)
-    return report
-
-
-def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
-                 labels=None):
-    """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
-    a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
-    what there is, what to change)."""
-    from tdicam.engine import budget
-    est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
-                          rtl=rtl)
-    return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)
-
-
-def _run(scene, out_dir, stage, mem, *, fidelity, lines, force, impact, rtl, progress):
-    """The work of :func:`run_scene`, its files written into ``stage``."""
-    from tdicam import engine
-    from tdicam.run.measure import measure
-    final_dir, out_dir = out_dir, stage
     n_lines = int(scene.run.lines if lines is None else lines)
     stages = scene.tdi.stages
     dvs = scene.motion.dv_over_v
@@ -132,6 +149,41 @@ def _run(scene, out_dir, stage, mem, *, fidelity, lines, force, impact, rtl, pro
     finally:
         if bar is not None:
             bar.close()
+    return SceneRun(scene, fidelity, main, rows, mem, crop, t_all)
+
+
+def write_run(run: SceneRun, out_dir) -> dict:
+    """Write ``run``'s images, figures and reports into ``out_dir`` (the module docstring
+    lists them); with a ``[run.rtl]`` crop, co-simulate it first.
+
+    The files are written into a staging folder and moved to ``out_dir`` at the end
+    (:func:`tdicam.files.staged_dir`): a failure leaves ``out_dir`` as it was. Returns the
+    report dict (also written as ``report.json``).
+    """
+    with outputs.staged_dir(out_dir) as stage:
+        report = _write(run, Path(out_dir), stage)
+    for name in report["stale_files"]["removed"]:
+        (Path(out_dir) / name).unlink(missing_ok=True)
+    return report
+
+
+def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
+                 labels=None):
+    """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
+    a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
+    what there is, what to change)."""
+    from tdicam.engine import budget
+    est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
+                          rtl=rtl)
+    return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)
+
+
+def _write(run, out_dir, stage):
+    """The files of :func:`write_run`, written into ``stage``."""
+    from tdicam import engine
+    scene, main, rows, crop, fidelity = run.scene, run.main, run.rows, run.crop, run.fidelity
+    mem, t_all = run.memory, run.started
+    final_dir, out_dir = out_dir, stage
     previous = _previous_files(final_dir)
     with outputs.writing_in(out_dir):
         files = _write_images(out_dir, main)

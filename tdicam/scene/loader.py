@@ -96,6 +96,112 @@ class Scene:
             return None
         return _plan.rolling_timing(self.line_period_s, t_row, self.sensor.rows)
 
+    @classmethod
+    def load(cls, path: str | Path, *, overrides: Mapping[str, Any] | None = None) -> Scene:
+        """Read and validate a scene TOML file (:func:`load_scene`).
+
+        Parameters
+        ----------
+        path : str or Path
+            The scene file (``docs/scene-format.md`` lists every key).
+        overrides : mapping, optional
+            ``{section: {key: value}}`` applied over the file before validation.
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        TdicamError
+            The file is missing or not TOML, or a key is invalid (one line naming it).
+        """
+        return load_scene(path, overrides=overrides)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, base_dir: str | Path | None = None
+                  ) -> Scene:
+        """Validate a scene given as a dict (what :func:`tomllib.loads` makes of a scene
+        file; :func:`scene_from_dict`).
+
+        Parameters
+        ----------
+        data : mapping
+            ``{section: {key: value}}``, as in a scene file.
+        base_dir : str or Path, optional
+            Folder relative ``[target].path`` pictures are found in (default: the current
+            folder).
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        TdicamError
+            A key is invalid (one line naming it).
+        """
+        return scene_from_dict(data, base_dir=base_dir)
+
+    @classmethod
+    def example(cls, name: str) -> Scene:
+        """A bundled scene by name (``tdicam scenes`` lists them).
+
+        Parameters
+        ----------
+        name : str
+            E.g. ``"orbit_600km_1m_96"``.
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        TdicamError
+            No bundled scene has that name.
+        """
+        from tdicam.scene.examples import example_path
+        return load_scene(example_path(name))
+
+    def with_run(self, *, lines: int | None = None, seed: int | None = None) -> Scene:
+        """This scene with ``[run].lines`` and/or ``[run].seed`` replaced.
+
+        Parameters
+        ----------
+        lines : int, optional
+            Output lines, checked as the reader checks ``[run].lines`` (at most
+            :data:`MAX_OUTPUT_PIXELS` output pixels, two bar periods along track, the
+            ``[run.rtl]`` crop inside).
+        seed : int, optional
+            Seed of every random draw, >= 0.
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        TdicamError
+            A value out of its range (one line naming ``lines`` or ``seed``).
+        """
+        run = self.run
+        if seed is not None:
+            run = dataclasses.replace(run, seed=check_range("seed", seed, 0, None))
+        if lines is not None:
+            cols = self.sensor.columns
+            lines = check_range("lines", lines, 1, MAX_OUTPUT_PIXELS // cols)
+            t = self.target
+            if t.kind == "bars" and t.direction == "along_track" and t.period_px > lines / 2:
+                raise TdicamError(f"lines = {lines}: fewer than two periods of the "
+                                  f"{t.period_px:g}-px bars along track")
+            crop = run.rtl.crop if run.rtl is not None else None
+            if crop is not None and crop[1] + crop[3] > lines:
+                raise TdicamError(f"lines = {lines}: the [run.rtl] crop {list(crop)} does not "
+                                  f"fit")
+            run = dataclasses.replace(run, lines=lines)
+        return dataclasses.replace(self, run=run)
+
     def to_dict(self) -> dict:
         """Plain JSON-serialisable dict of the validated scene (paths as strings)."""
         def conv(value):

@@ -50,10 +50,11 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
-from tdicam import __version__
+from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
 from tdicam.scene.loader import read_toml
 
@@ -282,8 +283,9 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
 
     Parameters
     ----------
-    path : str or Path
-        The sweep TOML file.
+    path : str, Path or mapping
+        The sweep TOML file, or its content as a dict (then ``scene`` is relative to the
+        current folder, messages name it ``sweep`` and so does the default ``name``).
     force : bool
         Accept more than :data:`MAX_RUNS` runs.
     impact : bool
@@ -304,9 +306,13 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
         (or more than :data:`MAX_FORCED_RUNS` with it), a key both fixed and swept.
     """
     from tdicam.scene.loader import load_scene, scene_from_dict
-    path = Path(path)
-    doc = read_toml(path, "sweep file")
-    src = str(path)
+    if isinstance(path, Mapping):
+        doc, path = dict(path), Path.cwd() / "sweep"
+        src = "sweep"
+    else:
+        path = Path(path)
+        doc = read_toml(path, "sweep file")
+        src = str(path)
     for k in doc:
         if k not in _FILE_KEYS:
             close = difflib.get_close_matches(k, _FILE_KEYS, n=1, cutoff=0.6)

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import __version__
+from tdicam.version import __version__
 from tdicam.sweep.file import STORE_FORMAT, Run, Sweep
 
 __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "table", "dataset", "read_table",

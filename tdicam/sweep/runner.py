@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import __version__, files as outputs
+from tdicam import files as outputs
+from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
 from tdicam.sweep.file import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
 from tdicam.sweep.results import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
