@@ -21,6 +21,8 @@ OTHER_MEANINGS = {
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
     ("tdicam/export/camera.py", "ddr"): "--memory ddr",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
+    ("tdicam/api.py", "tdi"): "the simulation dataset's `tdi` image (what tdicam run writes "
+                              "as tdi.npy)",
 }
 
 
