@@ -290,11 +290,31 @@ def inject_flips(rng, image, *, p_single, p_double, skip_header=True):
 MAX_IMAGE_BYTES = 1 << 30
 
 
+def _image_size(head, name):
+    """The most bytes a file starting with ``head`` may hold: a plain image's header words
+    say its length (one word more is let through, so that :func:`read_image` names trailing
+    data); a NAND image (:data:`tdicam.model.nand_store.FILE_MAGIC`) may hold
+    :data:`MAX_IMAGE_BYTES`; raises when the header is not a calibration image's."""
+    from tdicam.model.nand_store import FILE_MAGIC
+    if head.startswith(FILE_MAGIC) or len(head) < HEADER_WORDS * WORD_BYTES:
+        return MAX_IMAGE_BYTES          # a NAND image, or short: read_image names it
+    data, check = ecc.unpack_code(image_words(head, name))
+    dec = ecc.decode(data, check)
+    if dec.uncorrectable.any():
+        raise TdicamError(f"{name}: not a tdicam calibration image (its header has an "
+                          f"uncorrectable error)")
+    n = _parse_header(dec.data, name)[3]
+    return (HEADER_WORDS + n + 1) * WORD_BYTES
+
+
 def read_file(path):
-    """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`), or a one-line
-    error naming it (:func:`tdicam.files.read_bytes`)."""
+    """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`, or what its
+    header says), or a one-line error naming it (:func:`tdicam.files.read_bytes`): an
+    endless file such as ``/dev/zero`` is refused after its header's bytes."""
     from tdicam.files import read_bytes
-    return read_bytes(path, "calibration image", MAX_IMAGE_BYTES)
+    return read_bytes(path, "calibration image", MAX_IMAGE_BYTES,
+                      head=(HEADER_WORDS * WORD_BYTES,
+                            lambda head: _image_size(head, str(path))))
 
 
 def flip_image_bits(image, positions):
