@@ -12,7 +12,9 @@ import math
 import numpy as np
 
 from tdicam.model.physics import plan as P
-from tdicam.model.ddr import PLAN_MARGIN
+from tdicam.model.ddr import (BLOCK_TEXT, PLAN_MARGIN, WINDOW_REFRESHES, closest_block,
+                              window_cycles)
+from tdicam.model.physics.memory import DDR_EFFICIENCY
 
 __all__ = ["report_text", "figures"]
 
@@ -174,6 +176,12 @@ def report_text(rep) -> str:
                      f"({ddr['pattern_text']}) on the DRAM timing model, less "
                      f"{PLAN_MARGIN * 100:g} points (the band the model is held to against "
                      "LiteDRAM's DDR3 controller)")
+        name, eff, src = closest_block(DDR_EFFICIENCY)
+        lines.append(f"  DDR margin     efficiencies over {WINDOW_REFRESHES} refresh intervals "
+                     f"({window_cycles()} cycles) of steady state; the block closest to the "
+                     f"{DDR_EFFICIENCY * 100:g} % assumed for the DDR blocks other than the "
+                     f"spill: {BLOCK_TEXT[name]}, {eff:.1f} % ({src}, "
+                     f"{eff - DDR_EFFICIENCY * 100:+.1f} points)")
     if mem.get("must_spill"):
         verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
                    "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "
