@@ -103,6 +103,14 @@ def report_text(rep) -> str:
                      f"{t['distance_m']:g} m, {head}")
     if rep["scene"]:
         lines.append(f"scene: {rep['scene']}")
+    mem = rep.get("run_memory")
+    if mem:
+        fits = {True: "fits", False: "does NOT fit: see 'tdicam run --dry-run'",
+                None: "the machine's memory is unknown"}[mem["fits"]]
+        lines.append(f"run memory: 'tdicam run {rep['scene']}' peaks at about "
+                     f"{mem['estimated_peak']} (estimate)"
+                     + ("" if mem["available"] is None else f", {mem['available']} available")
+                     + f": {fits}")
     avail = s["available_frame_rate_hz"]
     lines.append("")
     lines.append(f"Minimum frame rate, Qu 2010 Table 2 form: F_f >= m / (r T1), r = {s['rows']}"
