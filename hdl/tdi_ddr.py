@@ -43,8 +43,8 @@ class TdiDdr(wiring.Component):
     blocks. Efficiency of the interface on the recorded order, over a steady-state window of
     4 refresh intervals (3128 cycles; :data:`tdicam.model.ddr.MEASURED_EFFICIENCY`, the
     memory model): 83.3 % at W = 1280 (m = 16, 12-bit), 86.9 % at W = 4096 (m = 32,
-    ppc 4), against 12.5 % for a read and a write per word; LiteDRAM's figures over the same
-    window are README's DDR table; ``bench/bench_ddr.py --litedram`` prints them.
+    ppc 4), against 12.5 % for a read and a write per word; LiteDRAM over the same window:
+    82.1 % and 86.3 % (README's DDR table; ``bench/bench_ddr.py --litedram`` prints them).
 
     On-chip buffers (block RAM): the read-ahead, :class:`~tdicam.hdl.interfaces.mig.MigPort`'s read-data
     FIFO of ``2 * words_per_line`` x 256 bit (the row being added and the next row's

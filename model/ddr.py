@@ -840,12 +840,12 @@ PLAN_MARGIN = 0.03
 #: holds both columns to the fixture and the model re-measured). The blocks other than the
 #: TDI spill are planned at :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` (80 %).
 MEASURED_EFFICIENCY = {'writer': (87.2, None),
-                       'reader': (87.2, None),
+                       'reader': (87.2, 87.5),
                        'ddr': (81.4, None),
                        'cds_ddr': (87.0, None),
                        'cds_ddr_wide': (84.9, None),
-                       'tdi_ddr': (83.3, None),
-                       'tdi_ddr_wide': (86.9, None)}
+                       'tdi_ddr': (83.3, 82.1),
+                       'tdi_ddr_wide': (86.9, 86.3)}
 #: what the blocks of :data:`MEASURED_EFFICIENCY` are
 BLOCK_TEXT = {"writer": "the frame buffer's line writer", "reader": "its line reader",
               "ddr": "the frame buffer", "cds_ddr": "CDS with its reset frame in DDR",

@@ -152,6 +152,9 @@ def test_measured_figures_quoted_are_the_fixture():
     quoted = re.search(r"([\d.]+) % at W = 1280 .*?, ([\d.]+) % at W = 4096", doc).groups()
     assert quoted == (f"{ddr.MEASURED_EFFICIENCY['tdi_ddr'][0]:.1f}",
                       f"{ddr.MEASURED_EFFICIENCY['tdi_ddr_wide'][0]:.1f}")
+    lite = re.search(r"LiteDRAM over the same window: ([\d.]+) % and ([\d.]+) %", doc).groups()
+    assert lite == (f"{ddr.MEASURED_EFFICIENCY['tdi_ddr'][1]:.1f}",
+                    f"{ddr.MEASURED_EFFICIENCY['tdi_ddr_wide'][1]:.1f}")
 
 
 def test_plain_model_ignores_the_order():
