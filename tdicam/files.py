@@ -249,6 +249,7 @@ def read_bytes(path, what, limit, head=None):
         raise TdicamError(f"{p}: not a {what}: it goes on past {size_text(limit)} (an "
                           f"endless or huge file)")
     if not data:
-        raise TdicamError(f"{p}: not a {what}: it is empty (0 bytes; a named pipe with no "
-                          f"writer reads as empty)")
+        pipe = stat.S_ISFIFO(st.st_mode)
+        raise TdicamError(f"{p}: not a {what}: it is empty (0 bytes"
+                          + ("; a named pipe with no writer reads as empty)" if pipe else ")"))
     return data
