@@ -231,6 +231,15 @@ def _parse_header(hdr, name):
     return rows, cols, fmt, n, int.from_bytes(b[3][4:], "little")
 
 
+def _decoded_header(dec, name):
+    """(rows, cols, fmt, n_payload, crc) of decoded words ``dec`` (an ``ecc.decode``
+    result starting with the header), or raise naming a header word that is uncorrectable."""
+    for k in range(HEADER_WORDS):
+        if dec.uncorrectable[k]:
+            raise TdicamError(f"{name}: header word {k} has an uncorrectable error")
+    return _parse_header(dec.data[:HEADER_WORDS], name)
+
+
 def read_image(image, *, name="image"):
     """Decode a calibration image (bytes or (n, 9) uint8); see the module docstring.
 
@@ -244,10 +253,7 @@ def read_image(image, *, name="image"):
     words = image_words(image, name)
     data, check = ecc.unpack_code(words)
     dec = ecc.decode(data, check)
-    for k in range(HEADER_WORDS):
-        if dec.uncorrectable[k]:
-            raise TdicamError(f"{name}: header word {k} has an uncorrectable error")
-    rows, cols, fmt, n, crc = _parse_header(dec.data[:HEADER_WORDS], name)
+    rows, cols, fmt, n, crc = _decoded_header(dec, name)
     have = len(words) - HEADER_WORDS
     if have < n:
         raise TdicamError(f"{name}: truncated: the header says {n} payload words, the file "
@@ -300,10 +306,7 @@ def _image_size(head, name):
         return MAX_IMAGE_BYTES          # a NAND image, or short: read_image names it
     data, check = ecc.unpack_code(image_words(head, name))
     dec = ecc.decode(data, check)
-    if dec.uncorrectable.any():
-        raise TdicamError(f"{name}: not a tdicam calibration image (its header has an "
-                          f"uncorrectable error)")
-    n = _parse_header(dec.data, name)[3]
+    n = _decoded_header(dec, name)[3]
     return (HEADER_WORDS + n + 1) * WORD_BYTES
 
 
