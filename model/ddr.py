@@ -841,8 +841,8 @@ PLAN_MARGIN = 0.03
 #: TDI spill are planned at :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` (80 %).
 MEASURED_EFFICIENCY = {'writer': (87.2, None),
                        'reader': (87.2, 87.5),
-                       'ddr': (81.4, None),
-                       'cds_ddr': (87.0, None),
+                       'ddr': (81.4, 81.0),
+                       'cds_ddr': (87.0, 86.7),
                        'cds_ddr_wide': (84.9, None),
                        'tdi_ddr': (83.3, 82.1),
                        'tdi_ddr_wide': (86.9, 86.3)}
