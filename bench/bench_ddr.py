@@ -14,11 +14,15 @@ pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded c
 (writer, reader, frame buffer, CDS reset frames at the line width and 4096 columns, TDI
 spill at 1280 and 4096 columns) on the project's memory model
 beside LiteDRAM's (:mod:`tdicam.cosim.litedram`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
-timing checker on). LiteDRAM's simulation runs some tens of cycles per second: ``--lines``
-sets the trace length (lines of 54 words; Table 2 lines are 510 words and use a tenth),
-``--patterns NAME,NAME`` replays only the patterns and blocks named (``--help`` lists them).
+timing checker on). Every figure is words moved over a steady-state window of 4 refresh
+intervals (4 x 782 = 3128 cycles after a 100-cycle start-up,
+:func:`tdicam.model.ddr.window_efficiency`); each trace is as long as that window needs
+(:func:`tdicam.model.ddr.pattern_lines`, :func:`tdicam.cosim.litedram.block_traces`).
+LiteDRAM's simulation runs some cycles per second (about 10 minutes per row on a loaded
+machine): ``--patterns NAME,NAME`` replays only the patterns and blocks named (``--help``
+lists them).
 
-    python bench/bench_ddr.py [--quick] [--litedram [--lines N] [--patterns NAME,NAME]]
+    python bench/bench_ddr.py [--quick] [--litedram [--patterns NAME,NAME] [--fixture FILE]]
 """
 
 import argparse
@@ -127,24 +131,27 @@ def select(text):
     return [n for n in names if n in PATTERNS], [n for n in names if n in DDR_BLOCKS]
 
 
-def litedram(lines=4, patterns=None, blocks=None):
-    """Rows {what, kind, words, stall_eff, model_eff, lite_eff, lite_ok, planned, wall}:
-    efficiency (%) of each access pattern (every one of :data:`PATTERNS` by default) and
-    each DDR block's command order
-    (:data:`tdicam.cosim.litedram.BLOCKS` by default) on the memory model with the plain stall
-    pattern, with DRAM timing (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is
-    cycle-equal with it) and on LiteDRAM, and what the planner counts on for the block."""
+def litedram(patterns=None, blocks=None):
+    """Rows {what, kind, words, lines, window, stall_eff, model_eff, lite_eff, lite_ok,
+    planned, wall}: steady-state efficiency (%, over ``window`` cycles = 4 refresh
+    intervals) of each access pattern (every one of :data:`PATTERNS` by default) and each
+    DDR block's command order (:data:`tdicam.cosim.litedram.BLOCKS` by default) on the
+    memory model with the plain stall pattern, with DRAM timing
+    (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is cycle-equal with it) and on
+    LiteDRAM, and what the planner counts on for the block."""
     from tdicam.cosim import litedram as ddrref
-    from tdicam.model.ddr import DramTiming, pattern_trace, replay_model
+    from tdicam.model.ddr import (DramTiming, pattern_lines, pattern_trace, replay_model,
+                                  window_cycles)
     rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
         kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
-        r = ddrref.replay(trace, **kw)
+        r = ddrref.replay(trace, steady=True, **kw)
         rows.append({"what": name, "kind": kind, "words": trace.words, "lines": lines_of[name],
-                     "trace": trace, "result": r,
-                     "stall_eff": 100 * replay_model(trace)[2],
-                     "model_eff": 100 * replay_model(trace, DramTiming(), windows)[2],
+                     "window": window_cycles(), "trace": trace, "result": r,
+                     "stall_eff": 100 * replay_model(trace, steady=True)[2],
+                     "model_eff": 100 * replay_model(trace, DramTiming(), windows,
+                                                     steady=True)[2],
                      "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
                      "planned": None if trace.planned is None else 100 * trace.planned,
                      "wall": r.wall})
@@ -152,16 +159,13 @@ def litedram(lines=4, patterns=None, blocks=None):
               f"{rows[-1]['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
 
     for name in PATTERNS if patterns is None else patterns:
-        n = max(1, lines // 10) if name.startswith("table2") else lines
-        if name == "write_read_lag16":
-            n = max(n, 17)
-        lines_of[name] = n
-        one("pattern", name, pattern_trace(name, lines=n), PATTERNS[name][2])
+        lines_of[name] = pattern_lines(name)
+        one("pattern", name, pattern_trace(name, lines=lines_of[name]), PATTERNS[name][2])
     blocks = ddrref.BLOCKS if blocks is None else blocks
     if blocks:
-        traces = ddrref.block_traces(lines=lines)
+        traces = ddrref.block_traces()
         for name in blocks:
-            lines_of[name] = lines
+            lines_of[name] = None
             one("block", name, traces[name])
     return rows
 
@@ -172,7 +176,8 @@ def write_fixture(path, rows, how):
     import json
 
     from tdicam.cosim import litedram as ddrref
-    pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2)}
+    pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2),
+                        "window": r["window"]}
             for r in rows if r["kind"] == "pattern"}
     blk = {r["what"]: r for r in rows if r["kind"] == "block"}
     fx = ddrref.fixture({n: r["result"] for n, r in blk.items()},
@@ -195,7 +200,6 @@ def parse_args(argv=None):
     ap.add_argument("--quick", action="store_true", help="smaller runs")
     ap.add_argument("--litedram", action="store_true",
                     help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
-    ap.add_argument("--lines", type=int, default=4, help="Table 3 trace length in lines")
     ap.add_argument("--fixture", metavar="FILE",
                     help="with --litedram: write LiteDRAM's figures and the blocks' traces "
                          "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json)")
@@ -216,18 +220,20 @@ def parse_args(argv=None):
 def main(argv=None):
     a = parse_args(argv)
     if a.litedram:
-        rows = litedram(lines=a.lines, patterns=a.patterns, blocks=a.blocks)
+        rows = litedram(patterns=a.patterns, blocks=a.blocks)
         print(machine())
         print_table(rows, [("kind", "kind", "s"), ("what", "pattern / block", "s"),
-                           ("words", "words", "d"), ("stall_eff", "stall model %", ".1f"),
+                           ("words", "trace words", "d"), ("window", "window cycles", "d"),
+                           ("stall_eff", "stall model %", ".1f"),
                            ("model_eff", "DRAM model %", ".1f"),
                            ("lite_eff", "LiteDRAM %", ".1f"), ("lite_ok", "data+timing ok", ""),
                            ("planned", "plan counts on %", ".1f"),
                            ("wall", "wall s", ".0f")],
-                    title=f"DDR efficiency, memory model vs LiteDRAM ({a.lines}-line traces)")
+                    title="DDR efficiency over 4 refresh intervals of steady state, memory "
+                          "model vs LiteDRAM")
         if a.fixture:
-            write_fixture(a.fixture, rows, f"python bench/bench_ddr.py --litedram --lines "
-                                           f"{a.lines} --fixture FILE; {machine()}")
+            write_fixture(a.fixture, rows, "python bench/bench_ddr.py --litedram --fixture "
+                                           f"FILE; {machine()}")
         return
     rows = run(quick=a.quick)
     print(machine())

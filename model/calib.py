@@ -231,6 +231,15 @@ def _parse_header(hdr, name):
     return rows, cols, fmt, n, int.from_bytes(b[3][4:], "little")
 
 
+def _decoded_header(dec, name):
+    """(rows, cols, fmt, n_payload, crc) of decoded words ``dec`` (an ``ecc.decode``
+    result starting with the header), or raise naming a header word that is uncorrectable."""
+    for k in range(HEADER_WORDS):
+        if dec.uncorrectable[k]:
+            raise TdicamError(f"{name}: header word {k} has an uncorrectable error")
+    return _parse_header(dec.data[:HEADER_WORDS], name)
+
+
 def read_image(image, *, name="image"):
     """Decode a calibration image (bytes or (n, 9) uint8); see the module docstring.
 
@@ -244,10 +253,7 @@ def read_image(image, *, name="image"):
     words = image_words(image, name)
     data, check = ecc.unpack_code(words)
     dec = ecc.decode(data, check)
-    for k in range(HEADER_WORDS):
-        if dec.uncorrectable[k]:
-            raise TdicamError(f"{name}: header word {k} has an uncorrectable error")
-    rows, cols, fmt, n, crc = _parse_header(dec.data[:HEADER_WORDS], name)
+    rows, cols, fmt, n, crc = _decoded_header(dec, name)
     have = len(words) - HEADER_WORDS
     if have < n:
         raise TdicamError(f"{name}: truncated: the header says {n} payload words, the file "
@@ -290,11 +296,28 @@ def inject_flips(rng, image, *, p_single, p_double, skip_header=True):
 MAX_IMAGE_BYTES = 1 << 30
 
 
+def _image_size(head, name):
+    """The most bytes a file starting with ``head`` may hold: a plain image's header words
+    say its length (one word more is let through, so that :func:`read_image` names trailing
+    data); a NAND image (:data:`tdicam.model.nand_store.FILE_MAGIC`) may hold
+    :data:`MAX_IMAGE_BYTES`; raises when the header is not a calibration image's."""
+    from tdicam.model.nand_store import FILE_MAGIC
+    if head.startswith(FILE_MAGIC) or len(head) < HEADER_WORDS * WORD_BYTES:
+        return MAX_IMAGE_BYTES          # a NAND image, or short: read_image names it
+    data, check = ecc.unpack_code(image_words(head, name))
+    dec = ecc.decode(data, check)
+    n = _decoded_header(dec, name)[3]
+    return (HEADER_WORDS + n + 1) * WORD_BYTES
+
+
 def read_file(path):
-    """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`), or a one-line
-    error naming it (:func:`tdicam.files.read_bytes`)."""
+    """Bytes of a calibration image file (at most :data:`MAX_IMAGE_BYTES`, or what its
+    header says), or a one-line error naming it (:func:`tdicam.files.read_bytes`): an
+    endless file such as ``/dev/zero`` is refused after its header's bytes."""
     from tdicam.files import read_bytes
-    return read_bytes(path, "calibration image", MAX_IMAGE_BYTES)
+    return read_bytes(path, "calibration image", MAX_IMAGE_BYTES,
+                      head=(HEADER_WORDS * WORD_BYTES,
+                            lambda head: _image_size(head, str(path))))
 
 
 def flip_image_bits(image, positions):

@@ -85,7 +85,10 @@ __all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_B
            "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check",
            "ROW_WORDS", "BANKS", "Trace", "PATTERNS", "pattern_trace", "replay_model",
            "pattern_efficiency", "DramTiming", "DRAM_STALLS", "merged_commands",
-           "TraceDriver", "trace_dram", "PLAN_MARGIN", "TDI_SPILL_PATTERN", "tdi_spill_efficiency"]
+           "TraceDriver", "trace_dram", "PLAN_MARGIN", "MEASURED_EFFICIENCY", "BLOCK_TEXT",
+           "closest_block", "TREFI", "STARTUP",
+           "WINDOW_REFRESHES", "window_cycles", "window_efficiency", "window_words",
+           "pattern_lines", "TDI_SPILL_PATTERN", "tdi_spill_efficiency"]
 
 WORD_BITS = 256
 ADDR_PER_WORD = 8           # 32-bit address unit (Ning et al. 2019 Table 2: 0~7, 8~15, ...)
@@ -507,6 +510,46 @@ class DramTiming:
 DRAM_STALLS = {"lat_lo": 9, "lat_hi": 9, "refresh_period": 782, "refresh_cycles": 44,
                "drop": 0, "seed": 1}
 
+#: the refresh interval tREFI in controller cycles (7.8 us at 100 MHz; :data:`DRAM_STALLS`)
+TREFI = DRAM_STALLS["refresh_period"]
+#: cycles after the first command that an efficiency window skips (the controller's
+#: pipeline fill, the first row activations and read latency)
+STARTUP = 100
+#: refresh intervals an efficiency window spans: every DDR efficiency figure is words moved
+#: in ``WINDOW_REFRESHES * TREFI`` cycles of steady state (so it pays its refreshes)
+WINDOW_REFRESHES = 4
+
+
+def window_cycles(refreshes=WINDOW_REFRESHES):
+    """Length (cycles) of an efficiency window of ``refreshes`` refresh intervals."""
+    return int(refreshes) * TREFI
+
+
+def window_efficiency(beats, first, end, *, refreshes=WINDOW_REFRESHES, name="trace"):
+    """``(words, cycles, efficiency)`` over the steady-state window of a replay.
+
+    ``beats`` are the cycles of the data beats (a write's word taken, a read's word
+    returned), ``first`` the cycle of the first command, ``end`` the cycle the replay had
+    reached when it stopped, ``end`` of a replay that ran out of commands = its last beat
+    + 1. The window opens :data:`STARTUP` cycles after ``first`` and lasts
+    :func:`window_cycles` (``refreshes``) cycles; the efficiency is the beats inside it /
+    its length. Raises :class:`TdicamError` when the replay ends before the window closes
+    (the trace is too short to measure)."""
+    lo = first + STARTUP
+    hi = lo + window_cycles(refreshes)
+    if end < hi:
+        raise TdicamError(f"trace {name}: its replay ends {end - first} cycles after the "
+                          f"first command, before the {refreshes}-refresh window "
+                          f"({STARTUP}..{hi - first} cycles) closes: make the trace longer")
+    words = sum(1 for t in beats if lo <= t < hi)
+    return words, hi - lo, words / (hi - lo)
+
+
+def window_words(refreshes=WINDOW_REFRESHES):
+    """Commands a trace needs at least to cover the start-up and the window (a command
+    takes at least one cycle, so this many always do at any efficiency)."""
+    return STARTUP + window_cycles(refreshes) + 64
+
 
 @dataclass
 class Trace:
@@ -701,6 +744,7 @@ class TraceDriver:
         self.writes = [a for rd, a in self.cmds if not rd]
         self.nreads = len(self.cmds) - len(self.writes)
         self.ci = self.wi = self.wc = self.got = self.t = self.last = 0
+        self.beats = []         # cycle of each data beat (see :attr:`result`)
 
     @property
     def done(self):
@@ -723,9 +767,11 @@ class TraceDriver:
             if not self._rd:
                 self.wc += 1
                 self.last = self.t
+                self.beats.append(self.t)
         if app_rd_data_valid:
             self.got += 1
             self.last = self.t
+            self.beats.append(self.t)
         self.t += 1
 
     @property
@@ -735,40 +781,91 @@ class TraceDriver:
         return len(self.cmds), self.last + 1, len(self.cmds) / (self.last + 1)
 
 
-def replay_model(trace, dram=None, windows=None, **stalls):
+def replay_model(trace, dram=None, windows=None, *, steady=False, **stalls):
     """Replay ``trace`` (:class:`Trace`) through :class:`MigSim` with data always available
     (:class:`TraceDriver`; a two-port trace merged by :func:`merged_commands`). Stalls:
     :data:`DEFAULT_STALLS` without ``dram``, :data:`DRAM_STALLS` with it, updated by
-    ``stalls``. Returns ``(words, cycles, efficiency)`` (:attr:`TraceDriver.result`)."""
+    ``stalls``. Returns ``(words, cycles, efficiency)``: over the whole trace
+    (:attr:`TraceDriver.result`), or with ``steady`` over the steady-state window
+    (:func:`window_efficiency`; the replay stops when it closes)."""
     cmds = merged_commands(trace, dram, windows)
     base = DEFAULT_STALLS if dram is None else DRAM_STALLS
     sim = MigSim(dram=trace_dram(trace, dram), **{**base, **stalls})
     drv = TraceDriver(cmds)
-    while not drv.done:
+    stop = STARTUP + window_cycles() if steady else None
+    while not drv.done and (stop is None or drv.t < stop):
         o = sim.outputs()
         sim.step(**drv.drive())
         drv.update(o["app_rdy"], o["app_wdf_rdy"], o["app_rd_data_valid"])
         if drv.t > 100 * len(cmds) + 10000:
             raise TdicamError(f"trace {trace.name}: the memory model did not finish")
+    if steady:
+        return window_efficiency(drv.beats, 0, drv.last + 1 if drv.done else drv.t,
+                                 name=trace.name)
     return drv.result
 
 
-def pattern_efficiency(name, *, lines=32, words=54, stride=64, dram=DramTiming(), **stalls):
-    """Efficiency (words moved / cycles, 0..1) of the named access pattern (:data:`PATTERNS`)
-    on the memory model :class:`MigSim` with DRAM timing ``dram`` (default
+def pattern_lines(name, *, words=54):
+    """Lines of ``words`` words the pattern ``name`` needs to cover the start-up and the
+    steady-state window (:func:`window_words`; the line-lag patterns at least their lag + 1)."""
+    lag = 17 if name == "write_read_lag16" else 2
+    per_line = pattern_trace(name, lines=lag, words=words).words / lag
+    return max(lag, -(-window_words() // int(per_line)) + 1)
+
+
+def pattern_efficiency(name, *, lines=None, words=54, stride=64, dram=DramTiming(),
+                       **stalls):
+    """Steady-state efficiency (words moved / cycles, 0..1, over :func:`window_efficiency`'s
+    window of :data:`WINDOW_REFRESHES` refresh intervals) of the named access pattern
+    (:data:`PATTERNS`) on the memory model :class:`MigSim` with DRAM timing ``dram`` (default
     :class:`DramTiming`, stalls :data:`DRAM_STALLS`; ``dram=None``: the plain stall pattern
-    :data:`DEFAULT_STALLS`, which ignores the order of accesses), ``lines`` lines of
-    ``words`` words at a ``stride``-word pitch. For the planner: the DDR share a design can
-    count on for that order of accesses."""
+    :data:`DEFAULT_STALLS`, which ignores the order of accesses), ``lines`` lines (default
+    :func:`pattern_lines`) of ``words`` words at a ``stride``-word pitch. For the planner:
+    the DDR share a design can count on for that order of accesses."""
+    lines = pattern_lines(name, words=words) if lines is None else lines
     tr = pattern_trace(name, lines=lines, words=words, stride=stride)
-    return replay_model(tr, dram, PATTERNS[name][2], **stalls)[2]
+    return replay_model(tr, dram, PATTERNS[name][2], steady=True, **stalls)[2]
 
 
 #: share the planner takes off the memory model's figure for the TDI spill: the band the
 #: model is held to against LiteDRAM (+/-3 points on every pattern of PATTERNS and every
 #: DDR block's recorded order, tests/test_ddrref.py; on TdiDdr's own orders the model is
-#: +0.3 / +2.5 points above LiteDRAM at 1280 / 4096 columns, tdicam.cosim.litedram).
+#: within a point or two of LiteDRAM,
+#: TdiDdr's own orders, all over the steady-state window of 4 refresh intervals).
 PLAN_MARGIN = 0.03
+#: ``(memory model %, LiteDRAM % or None: not measured)`` on each DDR block's own command
+#: order, over the steady-state window of :data:`WINDOW_REFRESHES` refresh intervals
+#: (``window_cycles()`` = 3128 cycles; LiteDRAM's figures are tests/ddr_litedram.json's,
+#: which ``python bench/bench_ddr.py --litedram --fixture`` writes, and tests/test_ddrref.py
+#: holds both columns to the fixture and the model re-measured). The blocks other than the
+#: TDI spill are planned at :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` (80 %).
+MEASURED_EFFICIENCY = {'writer': (87.2, None),
+                       'reader': (87.2, 87.5),
+                       'ddr': (81.4, 81.0),
+                       'cds_ddr': (87.0, 86.7),
+                       'cds_ddr_wide': (84.9, None),
+                       'tdi_ddr': (83.3, 82.1),
+                       'tdi_ddr_wide': (86.9, 86.3)}
+#: what the blocks of :data:`MEASURED_EFFICIENCY` are
+BLOCK_TEXT = {"writer": "the frame buffer's line writer", "reader": "its line reader",
+              "ddr": "the frame buffer", "cds_ddr": "CDS with its reset frame in DDR",
+              "cds_ddr_wide": "CDS with its reset frame in DDR, 4096 columns",
+              "tdi_ddr": "the TDI spill", "tdi_ddr_wide": "the TDI spill, 4096 columns"}
+
+
+def closest_block(planned):
+    """``(name, efficiency %, source)`` of the DDR block, other than the TDI spill (which
+    has its own plan, :func:`tdi_spill_efficiency`), whose figure in
+    :data:`MEASURED_EFFICIENCY` comes closest to ``planned`` (a share, 0..1): the lower of
+    the model's and LiteDRAM's where both are measured; ``source`` names the one taken."""
+    rows = []
+    for n, (model, lite) in MEASURED_EFFICIENCY.items():
+        if not n.startswith("tdi"):
+            e, src = (model, "memory model") if lite is None or model <= lite \
+                else (lite, "LiteDRAM")
+            rows.append((e - 100 * planned, n, e, src))
+    _, name, eff, src = min(rows)
+    return name, eff, src
 #: the access pattern of TDI partial sums in DDR (:class:`tdicam.hdl.tdi_ddr.TdiDdr`)
 TDI_SPILL_PATTERN = "row_blocks"
 
@@ -780,14 +877,15 @@ def tdi_spill_efficiency(width, stages, pixel_bits, ppc=1):
     The pattern is :class:`tdicam.hdl.tdi_ddr.TdiDdr`'s order (:data:`TDI_SPILL_PATTERN`: a
     row's stored sums read as one block of a line, then the line written back) with that
     configuration's words per line (:func:`psums_per_word` sums per word), its efficiency
-    on the memory model with DRAM timing (:func:`pattern_efficiency`, on enough lines for
-    >= 2400 commands: three refresh periods) less :data:`PLAN_MARGIN`, so LiteDRAM's
-    DDR3 controller, measured on the block's own order, still meets the plan."""
+    on the memory model with DRAM timing (:func:`pattern_efficiency`, over its steady-state
+    window of :data:`WINDOW_REFRESHES` refresh intervals) less :data:`PLAN_MARGIN`, so
+    LiteDRAM's DDR3 controller, measured on the block's own order over the same window,
+    still meets the plan."""
     from tdicam.model.tdi import full_bits
     k = psums_per_word(full_bits(pixel_bits, stages), ppc)
     wpl = -(-(int(width) // int(ppc)) // (k // int(ppc)))
-    lines = max(4, -(-2400 // (2 * wpl)))
-    e = pattern_efficiency(TDI_SPILL_PATTERN, lines=lines, words=wpl, stride=wpl)
+    e = pattern_efficiency(TDI_SPILL_PATTERN, lines=-(-window_words() // (2 * wpl)) + 1,
+                           words=wpl, stride=wpl)
     return TDI_SPILL_PATTERN, e - PLAN_MARGIN
 
 

@@ -7,7 +7,8 @@ anywhere is printed as one line and exits with status 2; Ctrl-C ends with
 ``tdicam: interrupted`` and status 130; a reader that closes the output pipe (``| head``)
 ends the command quietly with status 141 (128 + SIGPIPE); a stdout that is closed
 (``>&-``) or cannot take the output (``> /dev/full``) is one error line on stderr and
-status 2. Help texts are shown as plain text
+status 2; a stderr that is closed or full (``2>&-``, ``2> /dev/full``) drops the error
+line (never onto stdout), the status tells. Help texts are shown as plain text
 (:func:`plain_text`): descriptions taken from docstrings lose their reST markup.
 """
 
@@ -50,6 +51,25 @@ def _quiet_stdout() -> None:
     os.dup2(devnull, sys.stdout.fileno())
 
 
+def _say(text):
+    """``text`` as one line on stderr; nothing when stderr is closed (``2>&-``: Python's
+    ``sys.stderr`` is None, and ``print(file=None)`` would write to stdout) or cannot take
+    it (``2> /dev/full``: fd 2 is then pointed at /dev/null, so the interpreter's final
+    flush says nothing more). The exit status still tells."""
+    err = sys.stderr
+    if err is None:
+        return
+    try:
+        print(text, file=err)
+        err.flush()
+    except (OSError, ValueError):
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, err.fileno())
+        except (OSError, ValueError, io.UnsupportedOperation):
+            pass
+
+
 def _flush_stdout():
     """Flush stdout and probe it with a write of zero bytes (which a full device refuses, as
     it refuses the output argparse's ``--help`` drops silently): the OSError of a stdout that
@@ -71,8 +91,8 @@ def _flush_stdout():
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if sys.stdout is None:              # started with stdout closed (>&-)
-        print("tdicam: error: standard output is closed; redirect it to a file or "
-              "/dev/null instead", file=sys.stderr)
+        _say("tdicam: error: standard output is closed; redirect it to a file or "
+             "/dev/null instead")
         return 2
     try:
         try:
@@ -98,13 +118,13 @@ def main(argv=None):
             raise _StdoutError(failed)
     except _StdoutError as exc:
         _quiet_stdout()
-        print(f"tdicam: error: cannot write to standard output ({exc})", file=sys.stderr)
+        _say(f"tdicam: error: cannot write to standard output ({exc})")
         return 2
     except TdicamError as exc:
-        print(f"tdicam: error: {exc}", file=sys.stderr)
+        _say(f"tdicam: error: {exc}")
         return 2
     except KeyboardInterrupt:
-        print("tdicam: interrupted", file=sys.stderr)
+        _say("tdicam: interrupted")
         return 130
     except BrokenPipeError:             # the reader left (| head): stop quietly
         _quiet_stdout()

@@ -210,10 +210,15 @@ def size_text(n):
     return f"{n} bytes"
 
 
-def read_bytes(path, what, limit):
+def read_bytes(path, what, limit, head=None):
     """The bytes of ``path``, or a one-line error naming ``what`` (``"scene file"``) and the
     problem. A regular file larger than ``limit`` bytes is refused from its size; a device or
-    a pipe is read up to ``limit`` bytes and refused when it has more (``/dev/zero``)."""
+    a pipe is read up to ``limit`` bytes and refused when it has more (``/dev/zero``).
+
+    ``head``: ``(n, size_of)`` for a format whose first ``n`` bytes say how long the file
+    is: those bytes are read first and ``size_of(first_bytes)`` returns the most the file
+    may hold (or raises :class:`TdicamError`: not that format), so an endless file is
+    refused after ``n`` bytes."""
     p = Path(path)
     try:
         # a named pipe without a writer would block open() for ever: open it without
@@ -226,7 +231,14 @@ def read_bytes(path, what, limit):
             if st.st_size > limit:
                 raise TdicamError(f"{p}: not a {what}: {size_text(st.st_size)}, more than "
                                   f"the {size_text(limit)} a {what} may have")
-            data = fh.read(limit + 1)
+            data = b""
+            if head is not None:
+                data = fh.read(head[0])
+                limit = min(limit, head[1](data))
+                if st.st_size > limit:
+                    raise TdicamError(f"{p}: not a {what}: {size_text(st.st_size)}, more "
+                                      f"than the {size_text(limit)} its header allows")
+            data += fh.read(limit + 1 - len(data))
     except FileNotFoundError:
         raise TdicamError(f"{what} not found: {str(p)!r}") from None
     except IsADirectoryError:
@@ -236,4 +248,8 @@ def read_bytes(path, what, limit):
     if len(data) > limit:
         raise TdicamError(f"{p}: not a {what}: it goes on past {size_text(limit)} (an "
                           f"endless or huge file)")
+    if not data:
+        pipe = stat.S_ISFIFO(st.st_mode)
+        raise TdicamError(f"{p}: not a {what}: it is empty (0 bytes"
+                          + ("; a named pipe with no writer reads as empty)" if pipe else ")"))
     return data

@@ -222,8 +222,16 @@ BAD_INPUT = [
     (["run", "/dev/zero", "-o", "{d}/r_zero"], "/dev/zero: not a scene file: it goes on past "
                                                "4 MiB", 2),
     (["run", "{d}", "-o", "{d}/r_dir"], "scene file is a directory: '{d}'", 2),
-    (["calib", "check", "/dev/zero"], "/dev/zero: not a calibration image: it goes on past "
-                                      "1 GiB", 2),
+    (["calib", "check", "/dev/zero"], "/dev/zero: not a tdicam calibration image (magic "
+                                      "b'\\x00", 2),
+    (["calib", "check", "{d}/fifo"], "{d}/fifo: not a calibration image: it is empty", 2),
+    (["run", "{d}/fifo", "-o", "{d}/r_fifo"], "{d}/fifo: not a scene file: it is empty", 2),
+    (["sweep", "{d}/fifo", "-o", "{d}/s_fifo"], "{d}/fifo: not a sweep file: it is empty", 2),
+    (["bench", "--from-json", "{d}/fifo"], "--from-json: {d}/fifo: not a tdicam bench JSON "
+                                           "file: it is empty", 2),
+    (["bench", "--from-json", "/dev/zero"], "--from-json: /dev/zero: not a tdicam bench JSON "
+                                            "file: it goes on past 64 MiB", 2),
+    (["calib", "check", "{d}/afile"], "{d}/afile: not a calibration image: it is empty", 2),
     (["plan", "--angular-speed-rad-s", "1000", "--distance-m", "1000", "--pitch-um", "0.1"],
      "the line period 1e-13 s from --angular-speed-rad-s, --distance-m and --pitch-um", 2),
     (["plan", "--gsd-m", "1e-300"], "--gsd-m = 1e-300 is out of range; valid: 0.001..100000", 2),
@@ -262,8 +270,8 @@ BAD_INPUT = [
      "not a tdicam bench JSON file (a JSON list without 'rows'", 2),
     (["bench", "--from-json", "{d}/badrows.json", "-o", "{d}/bench_out"],
      "not a tdicam bench JSON file (a field missing or of the wrong type", 2),
-    (["bench", "--from-json", "{d}", "-o", "{d}/bench_out"], "--from-json {d}: cannot read "
-                                                             "(Is a directory)", 2),
+    (["bench", "--from-json", "{d}", "-o", "{d}/bench_out"], "--from-json: tdicam bench JSON "
+                                                             "file is a directory: '{d}'", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--calib", "nope.bin",
       "-o", "{d}/camera.v"], "calibration image not found: 'nope.bin'", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--lines", "0",
@@ -332,6 +340,7 @@ def bad_input_files(tmp_path_factory):
     data = (d / "maps.npz").read_bytes()
     (d / "trunc.npz").write_bytes(data[:len(data) // 2])
     (d / "afile").write_text("")
+    os.mkfifo(d / "fifo")
     (d / "binary.toml").write_bytes(b"\xff\xfe\x00[orbit]")
     assert main(["calib", "write", str(d / "maps.npz"), "-o", str(d / "cal.bin")]) == 0
     base = dict(alt=600.0, sig=100.0, target="", sensor="", stages=8, lines=32)
@@ -495,6 +504,18 @@ def test_stdout_that_fails_is_one_line(line, text):
                        capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     assert r.stderr == f"tdicam: error: {text}\n"
+
+
+# stderr that cannot take the error line: status 2, nothing on stdout, no traceback
+STDERR_ROWS = ["plan --gsd-m -1 2>&-", "plan --gsd-m -1 2> /dev/full",
+               "plan 2> /dev/full >&-", "nosuch 2>&-"]
+
+
+@pytest.mark.parametrize("line", STDERR_ROWS)
+def test_stderr_that_fails_keeps_stdout_clean(line):
+    r = subprocess.run(f"exec {sys.executable} -m tdicam {line}", shell=True, cwd=ROOT,
+                       stdout=subprocess.PIPE, text=True)
+    assert (r.returncode, r.stdout) == (2, "")
 
 
 def test_build_folder_that_is_not_one_is_named():

@@ -2,11 +2,13 @@
 replay into LiteDRAM (:mod:`tdicam.cosim.litedram`, the ``ddrref`` extra; skipped saying why when
 it is missing).
 
-Default run: pattern checks on the model; the memory model within +/-3 points of
-LiteDRAM's recorded figures (``ddr_litedram.json``) on every pattern and on every DDR
-block's recorded command order; one short LiteDRAM replay (2 lines written and read back,
-~30 s of CPU). With ``TDICAM_FULL=1``: every DDR block's command order as it records now
-(16 lines; the TDI spill at 1280 and 4096 columns in steady state) replayed into LiteDRAM;
+Every efficiency figure is over a steady-state window of 4 refresh intervals (3128 cycles,
+:func:`tdicam.model.ddr.window_efficiency`). Default run: pattern checks on the model; the
+memory model within +/-3 points of LiteDRAM's recorded figures (``ddr_litedram.json``) on
+every pattern and DDR block's recorded command order it holds; the DDR table (docs/guide/benchmarks.md) equal to
+the fixture and to the model re-measured; one short LiteDRAM replay (2 lines written and
+read back, ~30 s of CPU). With ``TDICAM_FULL=1``: every DDR block's command order as it
+records now (long enough for the window) replayed into LiteDRAM;
 a block fails when its efficiency falls below what the planner counts on for it
 (``Trace.planned``: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill, 80 %
 for the others) or when the memory model is more than 3 points from it.
@@ -52,26 +54,35 @@ def test_pattern_reads_follow_their_writes(name):
 
 
 #: LiteDRAM's figures recorded with this harness's settings (``how`` in the file says how;
-#: regenerate: ``python bench/bench_ddr.py --litedram --lines 16 --fixture
-#: tests/ddr_litedram.json``): every pattern's efficiency (%) and lines, every DDR block's
-#: recorded command order (as runs) and its efficiency
+#: regenerate: ``python bench/bench_ddr.py --litedram --fixture tests/ddr_litedram.json``):
+#: every pattern's steady-state efficiency (%), its lines and window (cycles), every DDR
+#: block's recorded command order (as runs), its efficiency and window
 FIXTURE = json.loads((Path(__file__).parent / "ddr_litedram.json").read_text())
 LITEDRAM = {n: (v["lines"], v["efficiency"]) for n, v in FIXTURE["patterns"].items()}
 
 
-@pytest.mark.parametrize("name", list(ddr.PATTERNS))
+@pytest.mark.parametrize("rec", [*FIXTURE["patterns"].values(), *FIXTURE["blocks"].values()])
+def test_every_figure_spans_4_refresh_intervals(rec):
+    """Every recorded LiteDRAM figure is words over a steady-state window of at least 4
+    refresh intervals (tREFI = 782 cycles), so each pays its refreshes."""
+    assert rec["window"] >= 4 * ddr.TREFI == ddr.window_cycles()
+
+
+@pytest.mark.parametrize("name", list(LITEDRAM))
 def test_dram_model_within_3_points_of_litedram(name):
     """The memory model with DRAM timing (banks, rows, turnarounds, refresh) gives every
-    pattern's efficiency within +/-3 points of LiteDRAM's; the plain stall pattern does not
-    (it ignores the order: the per-word interleave is 12 % on DRAM, ~89 % there)."""
+    pattern's steady-state efficiency within +/-3 points of LiteDRAM's over the same window;
+    the plain stall pattern does not (it ignores the order: the per-word interleave is 12 %
+    on DRAM, ~89 % there)."""
     lines, want = LITEDRAM[name]
+    assert lines == ddr.pattern_lines(name)
     e = 100 * ddr.pattern_efficiency(name, lines=lines)
     assert abs(e - want) <= 3, (name, e)
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="HDL model on every 32-line pattern: set TDICAM_FULL=1")
-@pytest.mark.parametrize("name", list(ddr.PATTERNS))
+@pytest.mark.skipif(not FULL, reason="HDL model on every pattern: set TDICAM_FULL=1")
+@pytest.mark.parametrize("name", list(LITEDRAM))
 def test_hdl_model_within_3_points_of_litedram(name):
     """Long form of tests/test_ddr.py's cycle-equality test: the HDL controller model with
     DRAM timing, cycle-equal with the Python one on every pattern, within +/-3 points of
@@ -83,28 +94,81 @@ def test_hdl_model_within_3_points_of_litedram(name):
     assert abs(e - want) <= 3, (name, e)
 
 
-@pytest.mark.parametrize("block", list(FIXTURE["blocks"]))
+@pytest.mark.parametrize("block", [n for n, rec in FIXTURE["blocks"].items()
+                                   if "efficiency" in rec])
 def test_dram_model_within_3_points_of_litedram_on_blocks(block):
     """Each DDR block's recorded command order on the memory model with DRAM timing: within
-    +/-3 points of LiteDRAM's figure for the same trace (recorded in the fixture; the live
-    replay is the slow test below)."""
+    +/-3 points of LiteDRAM's figure for the same trace over the same steady-state window
+    (recorded in the fixture; the live replay is the slow test below)."""
     from tdicam.cosim.litedram import trace_from_runs
     rec = FIXTURE["blocks"][block]
     tr = trace_from_runs(block, rec["runs"])
-    assert tr.words == rec["words"]
-    e = 100 * ddr.replay_model(tr, ddr.DramTiming())[2]
-    assert abs(e - rec["efficiency"]) <= 3, (block, e, rec["efficiency"])
+    words, window, e = ddr.replay_model(tr, ddr.DramTiming(), steady=True)
+    assert window == rec["window"]
+    assert abs(100 * e - rec["efficiency"]) <= 3, (block, e, rec["efficiency"])
+
+
+def _readme_ddr_table():
+    """``name -> (model %, LiteDRAM % or None: not measured, window cycles)`` of the DDR
+    efficiency table (docs/guide/benchmarks.md)."""
+    import re
+    text = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "benchmarks.md").read_text()
+    rows = re.findall(r"^\| `(\w+)` \|[^|]*\|[^|]*\| (\d+) \| ([\d.]+) \| ([\d.]+|-) \|$",
+                      text, re.M)
+    return {n: (float(m), None if lite == "-" else float(lite), int(w))
+            for n, w, m, lite in rows}
+
+
+def test_readme_ddr_table_is_the_fixture_and_the_model():
+    """the DDR table (docs/guide/benchmarks.md) shows, for every pattern and block of the fixture, LiteDRAM's
+    recorded figure ("-" where it was not measured), the memory model's figure re-measured
+    now (patterns; blocks on their recorded orders) and the window, each over 4 refresh
+    intervals."""
+    from tdicam.cosim.litedram import trace_from_runs
+    table = _readme_ddr_table()
+    assert set(table) == set(ddr.PATTERNS) | set(BLOCKS)
+    for name, (model, lite, window) in table.items():
+        rec = FIXTURE["patterns"].get(name) or FIXTURE["blocks"].get(name) or {}
+        assert window == ddr.window_cycles(), name
+        assert lite == (round(rec["efficiency"], 1) if "efficiency" in rec else None), name
+        if name in ddr.PATTERNS:
+            e = ddr.pattern_efficiency(name)
+        else:
+            e = ddr.replay_model(trace_from_runs(name, rec["runs"]), ddr.DramTiming(),
+                                 steady=True)[2]
+        assert model == round(100 * e, 1), (name, model, e)
+
+
+def test_measured_figures_quoted_are_the_fixture():
+    """The figures the planner's margin and TdiDdr's docstring quote are the DDR table's's
+    (so the fixture's and the model's)."""
+    import re
+
+    from tdicam.hdl import tdi_ddr
+    table = _readme_ddr_table()
+    assert ddr.MEASURED_EFFICIENCY == {n: table[n][:2] for n in BLOCKS}
+    assert ddr.closest_block(0.8)[0] == "ddr"      # the frame buffer, as the plan says
+    doc = " ".join(tdi_ddr.TdiDdr.__doc__.split())
+    quoted = re.search(r"([\d.]+) % at W = 1280 .*?, ([\d.]+) % at W = 4096", doc).groups()
+    assert quoted == (f"{ddr.MEASURED_EFFICIENCY['tdi_ddr'][0]:.1f}",
+                      f"{ddr.MEASURED_EFFICIENCY['tdi_ddr_wide'][0]:.1f}")
+    lite = re.search(r"LiteDRAM over the same window: ([\d.]+) % and ([\d.]+) %", doc).groups()
+    assert lite == (f"{ddr.MEASURED_EFFICIENCY['tdi_ddr'][1]:.1f}",
+                    f"{ddr.MEASURED_EFFICIENCY['tdi_ddr_wide'][1]:.1f}")
 
 
 def test_plain_model_ignores_the_order():
-    assert ddr.pattern_efficiency("per_word_rw", lines=8, dram=None) > 0.8
+    assert ddr.pattern_efficiency("per_word_rw", dram=None) > 0.8
 
 
 def test_model_efficiency_and_errors():
-    e = {n: ddr.pattern_efficiency(n, lines=8) for n in ("write_only", "per_word_rw")}
+    e = {n: ddr.pattern_efficiency(n) for n in ("write_only", "per_word_rw")}
     assert 0.8 < e["write_only"] <= 1 and e["per_word_rw"] < 0.2, e
     with pytest.raises(TdicamError, match="unknown DDR access pattern 'nope'"):
         ddr.pattern_efficiency("nope")
+    with pytest.raises(TdicamError, match="before the 4-refresh window .100..3228 cycles. "
+                                          "closes: make the trace longer"):
+        ddr.pattern_efficiency("write_only", lines=8)
 
 
 def test_litedram_short_replay():
@@ -134,11 +198,11 @@ def test_litedram_block_efficiency(block):
     the others: 80 %), and the memory model within +/-3 points of it on the same trace."""
     ref = _ref()
     tr = _block_traces(ref)[block]
-    r = ref.replay(tr)
+    r = ref.replay(tr, steady=True)
     assert r.mismatches == 0 and r.violations == []
     assert r.efficiency >= tr.planned, \
         f"{block}: {r.efficiency:.1%} on LiteDRAM, the plan counts on {tr.planned:.1%}"
-    m = ddr.replay_model(tr, ddr.DramTiming())[2]
+    m = ddr.replay_model(tr, ddr.DramTiming(), steady=True)[2]
     assert abs(r.efficiency - m) <= 0.03, (block, r.efficiency, m)
 
 
@@ -148,11 +212,12 @@ def test_litedram_block_efficiency(block):
 def test_litedram_matches_the_dram_model(name):
     """The same trace on LiteDRAM and on the memory model: within +/-3 points."""
     ref = _ref()
-    tr = ddr.pattern_trace(name, lines=1 if name.startswith("table2") else 16)
+    tr = ddr.pattern_trace(name, lines=ddr.pattern_lines(name))
     win = ddr.PATTERNS[name][2]
-    r = ref.replay(tr, **({} if win is None else {"read_time": win[0], "write_time": win[1]}))
+    r = ref.replay(tr, steady=True,
+                   **({} if win is None else {"read_time": win[0], "write_time": win[1]}))
     assert r.ok, r
-    m = ddr.replay_model(tr, ddr.DramTiming(), win)[2]
+    m = ddr.replay_model(tr, ddr.DramTiming(), win, steady=True)[2]
     assert abs(r.efficiency - m) <= 0.03, (name, r.efficiency, m)
 
 
@@ -161,7 +226,7 @@ _TRACES = {}
 
 def _block_traces(ref):
     if not _TRACES:
-        _TRACES.update(ref.block_traces(lines=16))
+        _TRACES.update(ref.block_traces())
     return _TRACES
 
 
@@ -202,10 +267,11 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
     seen = []
     monkeypatch.setattr(ddrref, "replay", lambda trace, **kw: seen.append(trace.name)
                         or SimpleNamespace(efficiency=0.5, ok=True, wall=0.0))
-    rows = bd.litedram(lines=2, patterns=["write_only"], blocks=[])
+    rows = bd.litedram(patterns=["write_only"], blocks=[])
     assert [r["what"] for r in rows] == ["write_only"] and len(seen) == 1
-    assert bd.litedram(lines=2, patterns=[], blocks=[]) == [] and len(seen) == 1
+    assert rows[0]["window"] == 4 * ddr.TREFI
+    assert bd.litedram(patterns=[], blocks=[]) == [] and len(seen) == 1
     picked = []
     monkeypatch.setattr(bd, "litedram", lambda **kw: picked.append(kw) or [])
-    bd.main(["--litedram", "--lines", "3", "--patterns", "read_only,writer"])
-    assert picked == [{"lines": 3, "patterns": ["read_only"], "blocks": ["writer"]}]
+    bd.main(["--litedram", "--patterns", "read_only,writer"])
+    assert picked == [{"patterns": ["read_only"], "blocks": ["writer"]}]

@@ -209,3 +209,22 @@ def _rho_independent(s):
 def test_correlated_fraction_against_quadrature(s):
     assert float(P.quantization_correlated_fraction(s)) == pytest.approx(
         _rho_independent(s), abs=2e-8)
+
+
+def test_plan_of_a_scene_states_the_run_memory(capsys):
+    """``tdicam plan --scene FILE`` states what ``tdicam run FILE`` would need (the run's
+    estimate, tdicam.engine.budget) beside the memory available; ``--json`` the same."""
+    import json
+
+    from tdicam import paths
+    from tdicam.cli import main
+    from tdicam.engine import budget
+    from tdicam.scene.loader import load_scene
+    scene = str(paths.REPO / "scenes" / "orbit_600km_1m_96.toml")
+    main(["plan", "--scene", scene])
+    est = budget.gib(budget.estimate(load_scene(scene)).peak_bytes)
+    assert f"run memory: 'tdicam run {scene}' peaks at about {est} (estimate)" \
+        in capsys.readouterr().out
+    main(["plan", "--scene", scene, "--json"])
+    mem = json.loads(capsys.readouterr().out)["run_memory"]
+    assert mem["estimated_peak"] == est and mem["fits"] in (True, False, None)

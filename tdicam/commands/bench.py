@@ -8,7 +8,7 @@ from pathlib import Path
 from tdicam import cosim
 from tdicam.bench import suite as bench
 from tdicam.errors import TdicamError, check_range
-from tdicam.files import check_dir, check_file, write_file
+from tdicam.files import check_dir, check_file, read_bytes, write_file
 
 
 def register(sub):
@@ -64,17 +64,12 @@ def _sims(text):
 
 
 def _load(path):
-    p = Path(path)
     try:
-        if p.is_file() and p.stat().st_size > _MAX_JSON_BYTES:
-            raise ValueError(f"{p.stat().st_size} bytes, more than a bench JSON holds")
-        with p.open("rb") as fh:
-            raw = fh.read(_MAX_JSON_BYTES + 1)
-        if len(raw) > _MAX_JSON_BYTES:
-            raise ValueError("endless or larger than a bench JSON holds")
+        raw = read_bytes(path, "tdicam bench JSON file", _MAX_JSON_BYTES)
+    except TdicamError as exc:
+        raise TdicamError(f"--from-json: {exc}") from None
+    try:
         doc = json.loads(raw)
-    except OSError as exc:
-        raise TdicamError(f"--from-json {path}: cannot read ({exc.strerror or exc})") from None
     except ValueError as exc:   # JSON errors and bad UTF-8 are ValueErrors
         raise TdicamError(f"--from-json {path}: not a tdicam bench JSON file (not JSON: "
                           f"{str(exc).splitlines()[0]})") from None

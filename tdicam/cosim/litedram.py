@@ -16,7 +16,10 @@ word_address)`` per port (word addresses = ``app_addr / 8``). :func:`replay` iss
 back to back (data always available, read data always taken), writes a word derived from
 the address and the write's index, checks that every read returns the last word written
 to its address before it (0 when none), and reports the efficiency: words moved / cycles
-from the first command to the last data beat. With two ports, a read waits until every
+from the first command to the last data beat, or (``steady=True``, every figure the project
+quotes) words moved in a steady-state window of :data:`tdicam.model.ddr.WINDOW_REFRESHES`
+refresh intervals (:func:`tdicam.model.ddr.window_efficiency`: 4 x 782 cycles after a
+100-cycle start-up), the replay stopped when the window closes. With two ports, a read waits until every
 write to its address that precedes it in :attr:`Trace.order` has moved its data (the
 dependency the user's logic enforces).
 
@@ -36,7 +39,8 @@ import time
 from dataclasses import dataclass, field
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import PATTERNS, Trace, pattern_trace
+from tdicam.model.ddr import (PATTERNS, STARTUP, Trace, pattern_trace, window_cycles,
+                              window_efficiency, window_words)
 
 __all__ = ["Trace", "ReplayResult", "replay", "record", "pattern_trace", "PATTERNS",
            "SIM_ROWS", "MEM_ROWS", "ROW_WORDS", "BANKS", "available", "block_traces",
@@ -64,7 +68,8 @@ def available():
 class ReplayResult:
     """One replay: ``words`` moved in ``cycles`` (first command offered to last data beat),
     ``efficiency = words / cycles``, read ``mismatches`` against the expected data, the
-    timing checker's ``violations`` (lines of its log) and the ``wall`` time in seconds."""
+    timing checker's ``violations`` (lines of its log) and the ``wall`` time in seconds;
+    ``steady``: ``words``/``cycles`` are those of the steady-state window."""
 
     name: str
     words: int
@@ -73,6 +78,7 @@ class ReplayResult:
     mismatches: int
     violations: list = field(default_factory=list)
     wall: float = 0.0
+    steady: bool = False
 
     @property
     def ok(self):
@@ -132,12 +138,18 @@ def _build(nports, read_time, write_time, mem_rows):
     return top, ports
 
 
-def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
+class _WindowClosed(Exception):
+    """Ends a steady-state replay when its window closes."""
+
+
+def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False):
     """Replay ``trace`` into LiteDRAM; returns a :class:`ReplayResult`.
 
     ``read_time``/``write_time``: the controller's read and write windows (cycles;
-    LiteDRAM's defaults 32/16). Raises :class:`TdicamError` when LiteDRAM is missing or a
-    run does not finish in ``max_cycles``."""
+    LiteDRAM's defaults 32/16). ``steady``: measure over the steady-state window
+    (:func:`tdicam.model.ddr.window_efficiency`) and stop when it closes. Raises
+    :class:`TdicamError` when LiteDRAM is missing, a run does not finish in
+    ``max_cycles`` or (``steady``) the trace ends before the window closes."""
     why = available()
     if why:
         raise TdicamError(why)
@@ -170,8 +182,9 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
             done_at[(p, k)] = wrank[p]
             last_write[a] = (p, wrank[p])
             wrank[p] += 1
-    state = {"first": None, "last": 0, "t": 0, "mismatch": 0,
+    state = {"first": None, "last": 0, "t": 0, "mismatch": 0, "beats": [],
              "wdone": [0] * len(ports), "rdone": [0] * len(ports)}
+    span = STARTUP + window_cycles()
     nreads = [sum(1 for rd, _ in p if rd) for p in trace.ports]
     nwrites = [len(p) - r for p, r in zip(trace.ports, nreads)]
     max_cycles = max_cycles or 60 * trace.words + 4000
@@ -180,6 +193,8 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
         while True:
             yield
             state["t"] += 1
+            if steady and state["first"] is not None and state["t"] > state["first"] + span:
+                raise _WindowClosed
             if state["t"] > max_cycles:
                 raise TdicamError(f"trace {trace.name}: LiteDRAM replay did not finish in "
                                   f"{max_cycles} cycles")
@@ -212,6 +227,7 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
                 yield
             state["wdone"][p] += 1
             state["last"] = max(state["last"], state["t"])
+            state["beats"].append(state["t"])
         yield port.wdata.valid.eq(0)
 
     def rdata_gen(p):
@@ -226,6 +242,7 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
                 state["mismatch"] += 1
             state["rdone"][p] += 1
             state["last"] = max(state["last"], state["t"])
+            state["beats"].append(state["t"])
 
     gens = [None]
     for p in range(len(ports)):
@@ -238,13 +255,21 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None):
     log = io.StringIO()
     t0 = time.perf_counter()
     with contextlib.redirect_stdout(log):
-        run_simulation(top, gens)
+        try:
+            run_simulation(top, gens)
+        except _WindowClosed:
+            pass
     wall = time.perf_counter() - t0
-    cycles = state["last"] - state["first"] + 1
     viol = [ln.strip() for ln in log.getvalue().splitlines()
             if "violation" in ln or "Late refresh" in ln]
-    return ReplayResult(trace.name, trace.words, cycles, trace.words / cycles,
-                        state["mismatch"], viol, wall)
+    if steady:
+        words, cycles, eff = window_efficiency(state["beats"], state["first"], state["t"],
+                                               name=trace.name)
+    else:
+        words, cycles = trace.words, state["last"] - state["first"] + 1
+        eff = words / cycles
+    return ReplayResult(trace.name, words, cycles, eff, state["mismatch"], viol, wall,
+                        steady)
 
 
 def replay_hdl(trace, dram=None, windows=None, **stalls):
@@ -368,17 +393,24 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
                  note=f"{n} input beats in {state['t1'] - state['t0'] + 1} cycles")
 
 
-def _tdi_trace(name, *, width, stages, ppc, active, rows, rng):
-    """TdiDdr's order in steady state: ``active + 2`` frames of ``active`` rows (stages
-    ``active`` of a ``stages``-stage design, forward), the commands of the last ``rows``
-    rows (the fill over)."""
+def _units(words_per_unit):
+    """Units (lines, rows) of ``words_per_unit`` commands a trace needs to cover the
+    start-up and the steady-state window (:func:`tdicam.model.ddr.window_words`)."""
+    return -(-window_words() // int(words_per_unit)) + 1
+
+
+def _tdi_trace(name, *, width, stages, ppc, active, rng):
+    """TdiDdr's order in steady state: frames of ``active`` rows (stages ``active`` of a
+    ``stages``-stage design, forward), the commands of the last rows (the fill over), as
+    many as cover the steady-state window."""
     import numpy as np
 
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.hdl.tdi_ddr import TdiDdr
     from tdicam.model.ddr import tdi_spill_efficiency
     tdi = TdiDdr(width=width, stages=stages, pixel_bits=12, ppc=ppc)
-    fr = rng.integers(0, 1 << 12, (active + 2, active, width))
+    rows = _units(2 * tdi.words_per_line)
+    fr = rng.integers(0, 1 << 12, (-(-rows // active) + 2, active, width))
     n = fr.size // ppc
     tr = record(tdi, frames_to_beats(fr, ppc=ppc), name=name,
                 side={"stages_active": np.full(n, active), "direction": np.zeros(n, int)})
@@ -387,44 +419,50 @@ def _tdi_trace(name, *, width, stages, ppc, active, rows, rng):
     return tr
 
 
-def block_traces(*, width=1280, lines=8, seed=1, wide=4096):
+def block_traces(*, width=1280, seed=1, wide=4096):
     """Recorded command orders of the DDR blocks (``name -> Trace``, ``planned`` set to what
     the planner counts on: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill,
-    :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` for the others) on ``lines``-line frames of
-    ``width`` 10-bit pixels: ``ddr`` (frame buffer, 8 pixels per beat, one frame),
-    ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: 2 lines of ``wide``
-    pixels), ``tdi_ddr`` (``width`` columns, 16 stages, 12-bit pixels; ``tdi_ddr_wide``:
-    ``wide`` columns, 32 stages, 4 pixels per clock; both 3 stages active, the last 4 / 2
-    rows of the steady state), plus ``writer`` and ``reader``: the frame buffer's line writer and
-    reader alone (its layout written, then read)."""
+    :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` for the others), each long enough to
+    cover the start-up and the steady-state window of
+    :data:`tdicam.model.ddr.WINDOW_REFRESHES` refresh intervals, on frames of ``width``
+    10-bit pixels: ``ddr`` (frame buffer, 8 pixels per beat, one frame written and read
+    back), ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: the same,
+    ``wide`` pixels), ``tdi_ddr`` (``width`` columns, 16 stages, 12-bit pixels;
+    ``tdi_ddr_wide``: ``wide`` columns, 32 stages, 4 pixels per clock; both 3 stages
+    active, the rows of the steady state), plus ``writer`` and ``reader``: the frame
+    buffer's line writer and reader alone (its layout written, then read)."""
     import numpy as np
 
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.hdl.cds_ddr import CdsDdr
     from tdicam.hdl.ddr import DdrFrameBuffer
+    from tdicam.model.ddr import LineLayout
     from tdicam.model.physics.memory import DDR_EFFICIENCY
 
     rng = np.random.default_rng(seed)
     out = {}
+    wpl = LineLayout(width=width, channels=8, pixel_bits=10).words_per_line
+    lines = _units(2 * wpl)
     fb = DdrFrameBuffer(width=width, rows=lines, elements=8)
     lay = fb.layout
-    wpl, stride = lay.words_per_line, lay.line_stride // 8
-    addrs = [y * stride + w for y in range(lines) for w in range(wpl)]
+    assert lay.words_per_line == wpl, (lay, wpl)
+    stride = lay.line_stride // 8
+    addrs = [y * stride + w for y in range(_units(wpl)) for w in range(wpl)]
     out["writer"] = Trace("writer", [[(0, a) for a in addrs]])
     out["reader"] = Trace("reader", [[(1, a) for a in addrs]])
     fr = rng.integers(0, 1 << 10, (1, lines, width))
     out["ddr"] = record(fb, frames_to_beats(fr, ppc=8), name="ddr")
-    for name, w, rows in (("cds_ddr", width, lines), ("cds_ddr_wide", wide, 2)):
+    for name, w in (("cds_ddr", width), ("cds_ddr_wide", wide)):
+        rows = _units(2 * LineLayout(width=w, channels=1, pixel_bits=10).words_per_line)
         cds = CdsDdr(width=w, rows=rows, pixel_bits=10)
         fr = rng.integers(0, 1 << 10, (2, rows, w))
         out[name] = record(cds, frames_to_beats(fr), name=name,
                            side={"frame_kind": np.repeat([1, 0], rows * w)})
     for tr in out.values():
         tr.planned = DDR_EFFICIENCY
-    out["tdi_ddr"] = _tdi_trace("tdi_ddr", width=width, stages=16, ppc=1, active=3, rows=4,
-                                rng=rng)
+    out["tdi_ddr"] = _tdi_trace("tdi_ddr", width=width, stages=16, ppc=1, active=3, rng=rng)
     out["tdi_ddr_wide"] = _tdi_trace("tdi_ddr_wide", width=wide, stages=32, ppc=4, active=3,
-                                     rows=2, rng=rng)
+                                     rng=rng)
     return out
 
 
@@ -456,9 +494,10 @@ def trace_from_runs(name, runs, planned=None):
 
 def fixture(block_results, traces, how, patterns=None):
     """The JSON-able record of LiteDRAM figures: ``{"how", "patterns": {name: {"lines",
-    "efficiency"}}, "blocks": {name: {"efficiency", "words", "cycles", "runs"}}}``
-    (efficiencies in %), from :class:`ReplayResult`\\ s of the block ``traces``."""
+    "efficiency", "window"}}, "blocks": {name: {"efficiency", "words", "window", "runs"}}}``
+    (efficiencies in %, over the steady-state ``window`` of ``words`` words in that many
+    cycles), from the steady :class:`ReplayResult`\\ s of the block ``traces``."""
     return {"how": how, "patterns": patterns or {},
             "blocks": {n: {"efficiency": round(100 * r.efficiency, 2), "words": r.words,
-                           "cycles": r.cycles, "runs": trace_runs(traces[n])}
+                           "window": r.cycles, "runs": trace_runs(traces[n])}
                        for n, r in block_results.items()}}

@@ -12,7 +12,9 @@ import math
 import numpy as np
 
 from tdicam.model.physics import plan as P
-from tdicam.model.ddr import PLAN_MARGIN
+from tdicam.model.ddr import (BLOCK_TEXT, PLAN_MARGIN, WINDOW_REFRESHES, closest_block,
+                              window_cycles)
+from tdicam.model.physics.memory import DDR_EFFICIENCY
 
 __all__ = ["report_text", "figures"]
 
@@ -101,6 +103,14 @@ def report_text(rep) -> str:
                      f"{t['distance_m']:g} m, {head}")
     if rep["scene"]:
         lines.append(f"scene: {rep['scene']}")
+    mem = rep.get("run_memory")
+    if mem:
+        fits = {True: "fits", False: "does NOT fit: see 'tdicam run --dry-run'",
+                None: "the machine's memory is unknown"}[mem["fits"]]
+        lines.append(f"run memory: 'tdicam run {rep['scene']}' peaks at about "
+                     f"{mem['estimated_peak']} (estimate)"
+                     + ("" if mem["available"] is None else f", {mem['available']} available")
+                     + f": {fits}")
     avail = s["available_frame_rate_hz"]
     lines.append("")
     lines.append(f"Minimum frame rate, Qu 2010 Table 2 form: F_f >= m / (r T1), r = {s['rows']}"
@@ -174,6 +184,12 @@ def report_text(rep) -> str:
                      f"({ddr['pattern_text']}) on the DRAM timing model, less "
                      f"{PLAN_MARGIN * 100:g} points (the band the model is held to against "
                      "LiteDRAM's DDR3 controller)")
+        name, eff, src = closest_block(DDR_EFFICIENCY)
+        lines.append(f"  DDR margin     efficiencies over {WINDOW_REFRESHES} refresh intervals "
+                     f"({window_cycles()} cycles) of steady state; the block closest to the "
+                     f"{DDR_EFFICIENCY * 100:g} % assumed for the DDR blocks other than the "
+                     f"spill: {BLOCK_TEXT[name]}, {eff:.1f} % ({src}, "
+                     f"{eff - DDR_EFFICIENCY * 100:+.1f} points)")
     if mem.get("must_spill"):
         verdict = ("DDR sustains it (tdi_ddr block)" if ddr["ok"] else
                    "DDR bandwidth SHORT: lower stages, width or line rate, or a wider/faster "

@@ -34,7 +34,7 @@ from tdicam.scene.loader import BOUNDS, load_scene
 
 __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
            "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "PLAN_OPTIONS", "check_options",
-           "plan_scenes",
+           "plan_scenes", "run_memory",
            "gateware_plan", "plan_report", "report_text", "figures"]
 
 #: Qu 2010 Table 2 grid, used when neither a scene nor orbit options are given.
@@ -396,6 +396,18 @@ def _verdict(point) -> list[str]:
     return no
 
 
+def run_memory(source):
+    """What ``tdicam run SOURCE`` would need: its estimated peak memory
+    (:func:`tdicam.engine.budget.estimate`, the ``"memory"`` entry of report.json) with the
+    memory available now and ``fits`` (True, False, or None when the machine says nothing)."""
+    from tdicam.engine import budget
+    from tdicam.scene.loader import load_scene
+    est = budget.estimate(load_scene(source))
+    est.available_bytes = budget.available_bytes()
+    return {**est.to_dict(), "fits": None if est.available_bytes is None
+            else bool(est.peak_bytes <= est.available_bytes)}
+
+
 def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
                 ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
                 fpga_clock_mhz=None, notes=()) -> dict:
@@ -440,6 +452,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     no = _verdict(points[design])
     out = {
         "scene": None if first.source == "<command line>" else first.source,
+        "run_memory": None if first.source == "<command line>" else run_memory(first.source),
         "mode": "orbit" if first.orbit is not None else "turntable",
         "sensor": {"columns": s.columns, "rows": s.rows, "bits": s.bits,
                    "pitch_um": s.pitch_um, "fill_factor": s.fill_factor,
