@@ -18,12 +18,13 @@ from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 
-__all__ = ["Median3", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
+__all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
 
 #: Sort one column (t, m, b: top, middle, bottom) into (lo, mid, hi). Each stage is a
@@ -96,6 +97,24 @@ def _pick(values, sel):
     return Array(list(values) + [values[-1]] * (n - len(values)))[sel]
 
 
+def check_geometry(width, ppc):
+    """``(ppc, width)`` if ``ppc`` is 1, 2, 4 or 8 and ``width`` a multiple of it in
+    ``3 ppc .. 8192`` (at least 3 beats per row), else a one-line :class:`TdicamError`
+    naming both."""
+    check_choice("ppc", ppc, PPC_CHOICES)
+    if ppc == 1:
+        return ppc, check_range("width", width, 3, MAX_WIDTH)
+    check_range(f"width (ppc = {ppc})", width, 3 * ppc, MAX_WIDTH)
+    if width % ppc:
+        raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+    return ppc, width
+
+
+def _lanes(shape, ppc):
+    """``shape`` (ppc 1) or an array of ``ppc`` of it (lane 0 the leftmost pixel)."""
+    return shape if ppc == 1 else data.ArrayLayout(shape, ppc)
+
+
 def _minmax(fn, a, b):
     lt = b < a
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
@@ -124,7 +143,8 @@ class _Pipe:
 
 
 class _Neighbourhood(wiring.Component):
-    """Streaming (2R+1) x (2R+1) neighbourhood stage with replicated borders, 1 pixel/clock.
+    """Streaming (2R+1) x (2R+1) neighbourhood stage with replicated borders, ``ppc``
+    pixels (one beat) per clock.
 
     Input beats carry ``tap`` (the value the neighbourhood is formed of), ``pay`` (a value
     only needed for the centre pixel) and ``hm1`` (frame height - 1, sampled on the first
@@ -145,18 +165,24 @@ class _Neighbourhood(wiring.Component):
     time), so frames follow each other at 1 pixel/clock and the last frame of a stream is
     not held back. Likewise the last R pixels of a row are produced by pad steps that
     overlap the next row's first R columns (which produce no output).
+
+    At ``ppc`` > 1 everything above counts beats, not pixels: ``width / ppc`` beat columns,
+    line buffers of ``width / ppc`` words of ``ppc`` taps, and a horizontal radius of one
+    beat (pixel k of a beat needs pixels k-R..k+R, R <= 2 <= ppc: the neighbour beats' last
+    / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
+    column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb"):
-        self._r, self._w = radius, width
+                 carry_hm1=False, name="nb", ppc=1):
+        self._r, self._w, self._ppc = radius, width, ppc
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
         self._name = name
-        fields = {"tap": tap_shape, "hm1": unsigned(_HMAX)}
+        fields = {"tap": _lanes(tap_shape, ppc), "hm1": unsigned(_HMAX)}
         if pay_shape is not None:
-            fields["pay"] = pay_shape
-        ofields = {"val": out_shape}
+            fields["pay"] = _lanes(pay_shape, ppc)
+        ofields = {"val": _lanes(out_shape, ppc)}
         if carry_hm1:
             ofields["hm1"] = unsigned(_HMAX)
         super().__init__({
@@ -168,15 +194,17 @@ class _Neighbourhood(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        R, W, N = self._r, self._w, 2 * self._r
+        R, N, P = self._r, 2 * self._r, self._ppc
+        W = self._w // P  # beats per row
+        Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
         adv = Signal(name=f"{self._name}_adv")
         m.d.comb += adv.eq(~o.valid | o.ready)
         pipe = _Pipe(m, adv, self._name)
         has_pay = self._pay_shape is not None
-        pay_bits = Shape.cast(self._pay_shape).width if has_pay else 0
-        tap_bits = self._tap_shape.width
+        pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
+        tap_bits = P * self._tap_shape.width
 
         # ---- sequencer (S0). Everything i.ready depends on is a register or shallow logic
         # of registers (flags below are computed from next-state values), for timing.
@@ -231,7 +259,7 @@ class _Neighbourhood(wiring.Component):
             taps_sel.append((ev_base + q)[:nb])
             taps_stream.append(~flush if d == R else Const(0))
         psel = (ev_base + oy)[:nb - 1] if R > 1 else Const(0, 1)
-        cc = Mux(ev_c >= 2 * R, 2 * R, ev_c)  # column, saturated (enough for the borders)
+        cc = Mux(ev_c >= 2 * Rh, 2 * Rh, ev_c)  # column, saturated (enough for the borders)
 
         # next-state values of the counters (for the registered flags)
         fadv = adv & flush
@@ -282,7 +310,7 @@ class _Neighbourhood(wiring.Component):
         s1_we = pipe.reg(take, name="we", reset=True)
         s1_waddr = pipe.reg(in_col, name="waddr")
         s1_wslot = pipe.reg(wslot, name="wslot")
-        s1_tap = pipe.reg(i.payload.data.tap, shape=unsigned(tap_bits), name="tap")
+        s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
         rd_addr = Mux(flush, fc, in_col)
         for k in range(N):
@@ -305,7 +333,7 @@ class _Neighbourhood(wiring.Component):
             pay_rd.append(rp.data)
 
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
-        s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
+        s1_cc = pipe.reg(cc, shape=range(2 * Rh + 1), name="cc")
         s1_lastc = pipe.reg(Mux(flush, f_rend, at_rend), name="lastc")
         s1_row0 = pipe.reg(is_zero(oy), name="row0")
         s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
@@ -336,8 +364,7 @@ class _Neighbourhood(wiring.Component):
         hm1 = pipe.reg(s1_hm1, name="hm1") if self._carry else None
 
         # ---- column reduction
-        col, dc = self._col_fn(pipe, taps, pay)
-        col = Value.cast(col)
+        col, dc = self._columns(pipe, taps, pay)
         hv, hcc, hlast, hrow0 = [pipe.delay(v, dc, name=n, reset=(n == "cv")) for v, n in
                                  zip(meta, ("cv", "cc", "lastc", "row0"))]
         if self._carry:
@@ -349,55 +376,55 @@ class _Neighbourhood(wiring.Component):
         # R columns (which produce no output) or run alone, and find the old row's columns
         # 1 + npad deeper, npad = columns of the next row taken since.
         sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
-                      for j in range(1, 2 * R + 1)]
-        pend = Signal(range(R + 1), name=f"{self._name}_pend")
-        npad = Signal(range(R + 1), name=f"{self._name}_npad")
+                      for j in range(1, 2 * Rh + 1)]
+        pend = Signal(range(Rh + 1), name=f"{self._name}_pend")
+        npad = Signal(range(Rh + 1), name=f"{self._name}_npad")
         is_pad = pend != 0
-        is_norm = hv & (hcc >= R) & ~is_pad
+        is_norm = hv & (hcc >= Rh) & ~is_pad
         win_valid = is_pad | is_norm
         with m.If(adv):
             with m.If(hv):
-                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * R + 1)]
+                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * Rh + 1)]
             with m.If(hv & hlast):
-                m.d.sync += [pend.eq(R), npad.eq(0)]
+                m.d.sync += [pend.eq(Rh), npad.eq(0)]
             with m.Elif(is_pad):
                 m.d.sync += pend.eq(pend - 1)
                 with m.If(hv):
                     m.d.sync += npad.eq(npad + 1)
         cols = []
-        for t in range(2 * R + 1):
-            d = t - R
-            sel = Signal(range(2 * R + 1), name=f"{self._name}_hsel{t}")
+        for t in range(2 * Rh + 1):
+            d = t - Rh
+            sel = Signal(range(2 * Rh + 1), name=f"{self._name}_hsel{t}")
             with m.If(is_pad):
                 with m.Switch(Cat(npad, pend)):
-                    for p in range(1, R + 1):
-                        k = R - p + 1       # pad k produces column x = W-1-R+k
-                        x = W - 1 - R + k
+                    for p in range(1, Rh + 1):
+                        k = Rh - p + 1       # pad k produces column x = W-1-Rh+k
+                        x = W - 1 - Rh + k
                         for sh in range(k):
                             with m.Case(sh | (p << len(npad))):
                                 if x + d < 0:
                                     j = sh + W                 # column 0
-                                elif d > R - k:
+                                elif d > Rh - k:
                                     j = sh + 1                 # column W-1
                                 else:
-                                    j = sh + 1 + R - k - d     # column x+d
-                                assert 1 <= j <= 2 * R
+                                    j = sh + 1 + Rh - k - d     # column x+d
+                                assert 1 <= j <= 2 * Rh
                                 m.d.comb += sel.eq(j)
                     with m.Default():
-                        m.d.comb += sel.eq(R)
+                        m.d.comb += sel.eq(Rh)
             with m.Else():
                 with m.Switch(hcc):
-                    for c in range(R, 2 * R + 1):
-                        x = c - R           # c = 2R stands for every x >= R
+                    for c in range(Rh, 2 * Rh + 1):
+                        x = c - Rh           # c = 2R stands for every x >= Rh
                         with m.Case(c):
-                            m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
+                            m.d.comb += sel.eq(x + Rh if x + d < 0 else Rh - d)
                     with m.Default():
-                        m.d.comb += sel.eq(R - d)
+                        m.d.comb += sel.eq(Rh - d)
             cols.append(_pick(sr, sel))
-        first = is_norm & (hcc == R) & hrow0
+        first = is_norm & (hcc == Rh) & hrow0
         last = is_pad & (pend == 1)
 
-        val, dw = self._win_fn(pipe, cols)
+        val, dw = self._window(pipe, cols, is_norm & (hcc == Rh), is_pad)
         ov = pipe.delay(win_valid, dw, name="ov", reset=True)
         of = pipe.delay(first, dw, name="of")
         ol = pipe.delay(last, dw, name="ol")
@@ -407,6 +434,45 @@ class _Neighbourhood(wiring.Component):
             m.d.comb += o.payload.data.hm1.eq(pipe.delay(hm1, dw, name="hm1"))
         self.depth = 3 + dc + dw
         return m
+
+    def _split(self, value, shape):
+        """The ``ppc`` lane values of a beat word (lane 0 in the low bits)."""
+        n = Shape.cast(shape).width
+        return [value[k * n:(k + 1) * n] for k in range(self._ppc)]
+
+    def _columns(self, pipe, taps, pay):
+        """``col_fn`` on every lane of a beat column: (beat column value, depth)."""
+        if self._ppc == 1:
+            col, dc = self._col_fn(pipe, taps, pay)
+            return Value.cast(col), dc
+        lanes = zip(*(self._split(t, self._tap_shape) for t in taps))
+        pays = self._split(pay, self._pay_shape) if pay is not None else [None] * self._ppc
+        outs = [self._col_fn(pipe, list(t), p) for t, p in zip(lanes, pays)]
+        self._col_shape = Value.cast(outs[0][0]).shape()
+        return Cat(*(Value.cast(c) for c, _ in outs)), outs[0][1]
+
+    def _window(self, pipe, cols, left, right):
+        """``win_fn`` on every output pixel of a beat: (beat value, depth).
+
+        ``cols`` are the beat columns left, centre, right (ppc > 1) or the 2R+1 pixel
+        columns (ppc 1). At ppc > 1 pixel k of the centre beat takes pixel columns
+        k-R..k+R: the left beat's last R, the centre's, the right beat's first R, the
+        centre beat's pixel 0 (``left``: beat 0 of a row) or pixel ppc-1 (``right``: the
+        row's last beat) replicated beyond the row's ends."""
+        if self._ppc == 1:
+            return self._win_fn(pipe, cols)
+        P, R = self._ppc, self._r
+        lb, cb, rb = (self._split(c, self._col_shape) for c in cols)
+        px = {}
+        for a in range(-R, P + R):
+            if a < 0:
+                px[a] = Mux(left, cb[0], lb[P + a])
+            elif a >= P:
+                px[a] = Mux(right, cb[P - 1], rb[a - P])
+            else:
+                px[a] = cb[a]
+        outs = [self._win_fn(pipe, [px[k + d] for d in range(-R, R + 1)]) for k in range(P)]
+        return Cat(*(Value.cast(v) for v, _ in outs)), outs[0][1]
 
 
 # ---- the median network and the enhancement arithmetic as column / window functions
@@ -545,7 +611,7 @@ def _stage_b_fns(bits, gain, shift):
 
 
 class Median3(wiring.Component):
-    """3x3 median filter, replicated borders, 1 pixel/clock; optional edge enhancement.
+    """3x3 median filter, replicated borders, 1-8 pixels/clock; optional edge enhancement.
 
     Equals :func:`tdicam.model.median3.median3` bit for bit (``scipy.ndimage.median_filter
     (frame, size=3, mode="nearest")`` without ``enhance``).
@@ -553,7 +619,8 @@ class Median3(wiring.Component):
     Parameters
     ----------
     width : int
-        Pixels per line, 3..8192 (elaboration: it sizes the line buffers).
+        Pixels per line, ``3 ppc``..8192 and a multiple of ``ppc`` (elaboration: it sizes
+        the line buffers).
     pixel_bits : int
         Input and output pixel width, 8..16.
     enhance : bool
@@ -562,13 +629,19 @@ class Median3(wiring.Component):
         0..255 (only with ``enhance``).
     enhance_shift : int or None
         0..48, ``None`` = ``pixel_bits + 2`` (only with ``enhance``).
+    ppc : int
+        Pixels per clock: 1, 2, 4 or 8. A beat carries ``ppc`` consecutive pixels of a row,
+        element 0 the leftmost (TDATA = ``ppc`` pixels, as ``tdi``); ``first`` (TUSER) on
+        a frame's first beat, ``last`` (TLAST) on a row's last. The filter, its borders
+        and the enhancement do not depend on it: the output equals the golden model at
+        every ppc.
 
     Attributes
     ----------
-    i_stream : In(pixel stream of ``unsigned(pixel_bits)``)
-    o_stream : Out(pixel stream of ``unsigned(pixel_bits)``)
-        Same frame geometry as the input; ``first`` on pixel (0, 0) of each frame,
-        ``last`` on the last pixel of each line.
+    i_stream : In(pixel stream of ``ppc`` x ``unsigned(pixel_bits)``)
+    o_stream : Out(pixel stream of ``ppc`` x ``unsigned(pixel_bits)``)
+        Same frame geometry as the input; ``first`` on beat (0, 0) of each frame,
+        ``last`` on the last beat of each line.
     height : In(16)
         Rows of the frame, run time; sampled with the frame's first pixel (``first``), so it
         may change from frame to frame. 0 counts as 1. The block must know which row is a
@@ -589,12 +662,16 @@ class Median3(wiring.Component):
     window median (5). With ``enhance`` the Laplacian/gradient stage (11 stages) feeds the
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 2, mask 2,
     add and clamp 2 = 15 stages): output (y, x) is valid 26 cycles after input
-    (min(y+3, H-1), min(x+3, W-1)).
+    (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the same cycle counts (11 and 26)
+    hold per beat: output beat (y, b) is valid :attr:`latency` cycles after input beat
+    (min(y+1, H-1), min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2,
+    W/ppc-1)) (each neighbourhood reaches one beat to the right).
 
-    **Throughput and backpressure.** One pixel per clock in and out, across rows and frames
-    (the borders of one frame overlap the start of the next). One exception, with
-    ``enhance`` only: a frame of a single row arriving while the 5x5 stage still produces
-    the previous frame's last two rows waits for them (at most ``width`` cycles). The whole pipeline moves on
+    **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
+    across rows and frames (the borders of one frame overlap the start of the next). One
+    exception, with ``enhance`` only: a frame of a single row arriving while the 5x5 stage
+    still produces the previous frame's last two rows waits for them (at most ``width /
+    ppc`` cycles). The whole pipeline moves on
     ``advance = ~o_stream.valid | o_stream.ready``; ``i_stream.ready`` is ``advance`` and,
     while the previous frame's last rows are being produced, the condition that the new
     frame does not overwrite a line still needed. No pixel is lost or duplicated whatever
@@ -603,7 +680,13 @@ class Median3(wiring.Component):
     **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With
     ``enhance`` in addition: 4 lines of the gradient (``pixel_bits + 3``) for the 5x5 mean
     and 2 lines of the centre pixel's median and Laplacian (``2 pixel_bits + 3``), i.e.
-    ``width * (10 pixel_bits + 18)`` bits in total (1280 x 12 bits: 176,640 bits).
+    ``width * (10 pixel_bits + 18)`` bits in total (1280 x 12 bits: 176,640 bits). The
+    same bits at every ``ppc``: each line buffer is ``width / ppc`` words of ``ppc``
+    values.
+
+    **Errors.** ``ppc`` not 1, 2, 4, 8, a width below ``3 ppc`` or not a multiple of
+    ``ppc``: one-line :class:`~tdicam.errors.TdicamError` naming the values
+    (:func:`check_geometry`).
 
     **Reset** (synchronous) clears the pipeline and the counters: the next pixel accepted
     is pixel (0, 0) of a new frame. Line buffer contents are never read before they are
@@ -611,8 +694,8 @@ class Median3(wiring.Component):
     """
 
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
-                 enhance_shift=None):
-        self._width = check_range("width", width, 3, MAX_WIDTH)
+                 enhance_shift=None, ppc=1):
+        self._ppc, self._width = check_geometry(width, ppc)
         self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
         if not isinstance(enhance, bool):
             raise TdicamError(f"enhance must be true or false, got {enhance!r}")
@@ -621,8 +704,8 @@ class Median3(wiring.Component):
         shift = default_enhance_shift(pixel_bits) if enhance_shift is None else enhance_shift
         self._shift = check_range("enhance_shift", shift, 0, MAX_SHIFT)
         super().__init__({
-            "i_stream": In(pixel_signature(unsigned(pixel_bits))),
-            "o_stream": Out(pixel_signature(unsigned(pixel_bits))),
+            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
+            "o_stream": Out(pixel_signature(channels_shape(pixel_bits, ppc))),
             "height": In(unsigned(_HMAX)),
             "marker_error": Out(unsigned(1)),
         })
@@ -634,6 +717,11 @@ class Median3(wiring.Component):
     @property
     def pixel_bits(self):
         return self._bits
+
+    @property
+    def ppc(self):
+        """Pixels per clock (per beat)."""
+        return self._ppc
 
     @property
     def enhance(self):
@@ -649,7 +737,8 @@ class Median3(wiring.Component):
 
     @property
     def latency(self):
-        """Register stages from the input pixel that completes a window to its output."""
+        """Register stages from the input beat that completes a window to its output: 11,
+        with ``enhance`` 26, at every ``ppc``."""
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
         return plain + 3 + 3 + 9 if self._enhance else plain
 
@@ -661,34 +750,35 @@ class Median3(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        b, w = self._bits, self._width
+        b, w, P = self._bits, self._width, self._ppc
         i, o = self.i_stream, self.o_stream
         hm1 = Mux(is_zero(self.height), 0, self.height - 1)
         if not self._enhance:
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a")
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P)
             last = a
         else:
             col_fn, win_fn = _stage_a_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a")
+                name="a", ppc=P)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b")
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
             ao, bi = a.o_stream, bb.i_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
-                bi.payload.data.tap.eq(ao.payload.data.val.g),
-                bi.payload.data.pay.med.eq(ao.payload.data.val.med),
-                bi.payload.data.pay.lap.eq(ao.payload.data.val.lap),
-                bi.payload.data.hm1.eq(ao.payload.data.hm1),
             ]
+            lanes = (lambda v: [v]) if P == 1 else (lambda v: [v[k] for k in range(P)])
+            for av, bt, bp in zip(lanes(ao.payload.data.val), lanes(bi.payload.data.tap),
+                                  lanes(bi.payload.data.pay)):
+                m.d.comb += [bt.eq(av.g), bp.med.eq(av.med), bp.lap.eq(av.lap)]
+            m.d.comb += bi.payload.data.hm1.eq(ao.payload.data.hm1)
             last = bb
         ai = a.i_stream
         m.d.comb += [
