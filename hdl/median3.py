@@ -8,9 +8,13 @@ merge of <= 7 compares, a selection of <= 5): 13 comparators per output pixel in
 the table :data:`COLUMN_SORT` + :data:`WINDOW_MEDIAN`, which the gateware is built from and
 which the tests prove correct over all 0/1 inputs (0-1 principle for min/max networks).
 
-One module (~700 lines) on purpose: the compare-exchange network, its line-buffer
-neighbourhood and the enhancement stages are one pipeline whose stage timing is counted
-across all three (``latency``); splitting them would spread that count over files.
+One module on purpose: the compare-exchange network, its line-buffer neighbourhood and the
+enhancement stages are one pipeline whose stage timing is counted across all three
+(``latency``); splitting them would spread that count over files. Inside it the
+neighbourhood (:class:`_Neighbourhood`: sequencer, border rows, column function) is built
+of named sub-components, each with its ``latency``: :class:`_LineBuffers` (2),
+:class:`_Align` (the column's / window's position beside their arithmetic) and
+:class:`_Window` (0).
 """
 
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
@@ -140,6 +144,160 @@ class _Pipe:
         for _ in range(n):
             value = self.reg(value, name=name, reset=reset)
         return value
+
+
+class _LineBuffers(wiring.Component):
+    """The line buffers of a neighbourhood.
+
+    ``taps`` memories of ``depth`` words of ``tap_bits`` (a row in memory ``w_slot``) and
+    ``pays`` memories of ``pay_bits`` (a row in memory ``w_slot mod pays``), all read at
+    ``rd_addr`` and written at ``w_addr`` when ``w_en``, everything on ``adv`` (the
+    pipeline's clock enable). The writer presents a beat one advance after reading its
+    address, so a read never meets a write to the same address. ``rd_taps[k]`` /
+    ``rd_pays[k]`` hold memory k's word :attr:`latency` = 2 advances after its address:
+    the read (1) and an output register with nothing in between (1; a block RAM's
+    clock-to-out is slow: ~4.3 ns on ECP5 without its own output register).
+    """
+
+    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name):
+        self._taps, self._pays, self._depth, self._name = taps, pays, depth, name
+        self._slot_bits = (taps - 1).bit_length()
+        ports = {
+            "adv": In(1), "rd_addr": In(range(depth)), "w_en": In(1),
+            "w_addr": In(range(depth)), "w_slot": In(self._slot_bits),
+            "w_tap": In(tap_bits),
+            "rd_taps": Out(data.ArrayLayout(unsigned(tap_bits), taps)),
+        }
+        if pays:
+            ports.update({"w_pay": In(pay_bits),
+                          "rd_pays": Out(data.ArrayLayout(unsigned(pay_bits), pays))})
+        super().__init__(ports)
+
+    latency = property(lambda self: 2, doc="Advances from ``rd_addr`` to ``rd_*``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        pipe = _Pipe(m, self.adv, self._name)
+        ports = [(self.w_tap, self.rd_taps, "lb", "rd",
+                  [equals(self.w_slot, k) for k in range(self._taps)])]
+        if self._pays:
+            ports.append((self.w_pay, self.rd_pays, "pb", "prd",
+                          [self.w_slot[0] == k for k in range(2)] if self._pays == 2 else
+                          [Const(1, 1)]))
+        for wdata, rd, mname, rname, slots in ports:
+            for k, slot in enumerate(slots):
+                mem = Memory(shape=unsigned(len(wdata)), depth=self._depth, init=[])
+                m.submodules[f"{self._name}_{mname}{k}"] = mem
+                rp, wp = mem.read_port(), mem.write_port()
+                m.d.comb += [rp.addr.eq(self.rd_addr), rp.en.eq(self.adv),
+                             wp.addr.eq(self.w_addr), wp.data.eq(wdata),
+                             wp.en.eq(self.adv & self.w_en & slot),
+                             rd[k].eq(pipe.reg(rp.data, name=rname))]
+        return m
+
+
+class _Align(wiring.Component):
+    """``o`` = ``i`` delayed :attr:`latency` advances (registers on ``adv``): the position
+    and markers of a column or window travelling beside its arithmetic. Fields named in
+    ``reset`` are cleared by reset (the valid flags); the others are reset-less."""
+
+    def __init__(self, fields, n, *, reset=(), name="al"):
+        self._n, self._reset, self._name = n, set(reset), name
+        lay = data.StructLayout(fields)
+        super().__init__({"adv": In(1), "i": In(lay), "o": Out(lay)})
+
+    latency = property(lambda self: self._n, doc="Advances from ``i`` to ``o``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        pipe = _Pipe(m, self.adv, self._name)
+        for name in self.i.shape().members:
+            m.d.comb += getattr(self.o, name).eq(pipe.delay(
+                getattr(self.i, name), self._n, name=name, reset=name in self._reset))
+        return m
+
+
+class _Window(wiring.Component):
+    """The 2R+1 columns (beats at ppc > 1) of a neighbourhood's next output, borders
+    replicated, from a stream of column values with their position.
+
+    ``col`` is the column at the head of the pipeline (with ``valid``, ``cc`` its column
+    index saturated at 2R, ``lastc`` the row's last, ``row0`` of output row 0); a shift
+    register keeps the 2R columns taken before it. Only real columns shift in. After a
+    row's last column, R pad steps produce its last R outputs; they overlap the next row's
+    first R columns (which produce no output) or run alone, and find the old row's columns
+    1 + npad deeper, npad = columns of the next row taken since. Outputs in the same cycle
+    (:attr:`latency` 0): ``cols`` (left to right), ``out_valid``, ``first`` (output (0, 0)),
+    ``last`` (a row's last output), ``left`` / ``right`` (the output is a row's first /
+    last: its columns beyond the row are replicated)."""
+
+    def __init__(self, *, radius, width, col_shape, name):
+        self._r, self._w, self._name = radius, width, name
+        super().__init__({
+            "adv": In(1), "col": In(col_shape), "valid": In(1),
+            "cc": In(range(2 * radius + 1)), "lastc": In(1), "row0": In(1),
+            "cols": Out(data.ArrayLayout(col_shape, 2 * radius + 1)),
+            "out_valid": Out(1), "first": Out(1), "last": Out(1), "left": Out(1),
+            "right": Out(1),
+        })
+
+    latency = property(lambda self: 0, doc="Cycles from ``col`` to ``cols``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        R, W, adv = self._r, self._w, self.adv
+        hv, hcc, hlast = self.valid, self.cc, self.lastc
+        col = self.col
+        sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
+                      for j in range(1, 2 * R + 1)]
+        pend = Signal(range(R + 1), name=f"{self._name}_pend")
+        npad = Signal(range(R + 1), name=f"{self._name}_npad")
+        is_pad = pend != 0
+        is_norm = hv & (hcc >= R) & ~is_pad
+        with m.If(adv):
+            with m.If(hv):
+                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * R + 1)]
+            with m.If(hv & hlast):
+                m.d.sync += [pend.eq(R), npad.eq(0)]
+            with m.Elif(is_pad):
+                m.d.sync += pend.eq(pend - 1)
+                with m.If(hv):
+                    m.d.sync += npad.eq(npad + 1)
+        for t in range(2 * R + 1):
+            d = t - R
+            sel = Signal(range(2 * R + 1), name=f"{self._name}_hsel{t}")
+            with m.If(is_pad):
+                with m.Switch(Cat(npad, pend)):
+                    for p in range(1, R + 1):
+                        k = R - p + 1       # pad k produces column x = W-1-R+k
+                        x = W - 1 - R + k
+                        for sh in range(k):
+                            with m.Case(sh | (p << len(npad))):
+                                if x + d < 0:
+                                    j = sh + W                 # column 0
+                                elif d > R - k:
+                                    j = sh + 1                 # column W-1
+                                else:
+                                    j = sh + 1 + R - k - d     # column x+d
+                                assert 1 <= j <= 2 * R
+                                m.d.comb += sel.eq(j)
+                    with m.Default():
+                        m.d.comb += sel.eq(R)
+            with m.Else():
+                with m.Switch(hcc):
+                    for c in range(R, 2 * R + 1):
+                        x = c - R           # c = 2R stands for every x >= R
+                        with m.Case(c):
+                            m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
+                    with m.Default():
+                        m.d.comb += sel.eq(R - d)
+            m.d.comb += self.cols[t].eq(_pick(sr, sel))
+        m.d.comb += [self.out_valid.eq(is_pad | is_norm),
+                     self.left.eq(is_norm & (hcc == R)),
+                     self.first.eq(is_norm & (hcc == R) & self.row0),
+                     self.last.eq(is_pad & (pend == 1)),
+                     self.right.eq(is_pad)]
+        return m
 
 
 class _Neighbourhood(wiring.Component):
@@ -304,33 +462,20 @@ class _Neighbourhood(wiring.Component):
                 with m.If((i.payload.first != at_first) | (i.payload.last != at_rend)):
                     m.d.sync += self.marker_error.eq(1)
 
-        # ---- line buffers: read at S0, data at S1; written at S1 (one cycle after the read
-        # of the same pixel, so a read never meets a write to the same address)
-        tap_rd, pay_rd = [], []
+        # ---- line buffers: read at S0, data two advances later (_LineBuffers); written
+        # from S1 (one cycle after the read of the same beat)
+        m.submodules[f"{self._name}_lb"] = lb = _LineBuffers(
+            taps=N, pays=R if has_pay else 0, depth=W, tap_bits=tap_bits, pay_bits=pay_bits,
+            name=self._name)
         s1_we = pipe.reg(take, name="we", reset=True)
         s1_waddr = pipe.reg(in_col, name="waddr")
         s1_wslot = pipe.reg(wslot, name="wslot")
         s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
-        rd_addr = Mux(flush, fc, in_col)
-        for k in range(N):
-            mem = Memory(shape=unsigned(tap_bits), depth=W, init=[])
-            m.submodules[f"{self._name}_lb{k}"] = mem
-            rp = mem.read_port()
-            wp = mem.write_port()
-            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
-                         wp.addr.eq(s1_waddr), wp.data.eq(s1_tap),
-                         wp.en.eq(adv & s1_we & equals(s1_wslot, k))]
-            tap_rd.append(rp.data)
-        for k in range(R if has_pay else 0):
-            mem = Memory(shape=unsigned(pay_bits), depth=W, init=[])
-            m.submodules[f"{self._name}_pb{k}"] = mem
-            rp = mem.read_port()
-            wp = mem.write_port()
-            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
-                         wp.addr.eq(s1_waddr), wp.data.eq(s1_pay),
-                         wp.en.eq(adv & s1_we & (s1_wslot[0] == k if R == 2 else 1))]
-            pay_rd.append(rp.data)
+        m.d.comb += [lb.adv.eq(adv), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
+                     lb.w_addr.eq(s1_waddr), lb.w_slot.eq(s1_wslot), lb.w_tap.eq(s1_tap)]
+        if has_pay:
+            m.d.comb += lb.w_pay.eq(s1_pay)
 
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
         s1_cc = pipe.reg(cc, shape=range(2 * Rh + 1), name="cc")
@@ -341,10 +486,9 @@ class _Neighbourhood(wiring.Component):
         s1_psel = pipe.reg(psel, name="psel")
         s1_hm1 = pipe.reg(ev_hm1, name="hm1") if self._carry else None
 
-        # ---- S1b: the block RAM outputs registered with nothing in between (the RAM's
-        # clock-to-out is slow: ~4.3 ns on ECP5 without its output register)
-        tap_rd = [pipe.reg(v, name="rd") for v in tap_rd]
-        pay_rd = [pipe.reg(v, name="prd") for v in pay_rd]
+        # ---- S1b: the line buffers' output register
+        tap_rd = [lb.rd_taps[k] for k in range(N)]
+        pay_rd = [lb.rd_pays[k] for k in range(R)] if has_pay else []
         s1_tap = pipe.reg(s1_tap, name="tapb")
         s1_valid = pipe.reg(s1_valid, name="cv", reset=True)
         s1_cc, s1_lastc, s1_row0, s1_psel = (pipe.reg(v) for v in (s1_cc, s1_lastc, s1_row0,
@@ -359,81 +503,41 @@ class _Neighbourhood(wiring.Component):
                          name=f"tap{t}") for t in range(2 * R + 1)]
         pay = pipe.reg(_pick(pay_rd, s1_psel) if R > 1 else pay_rd[0],
                        shape=unsigned(pay_bits), name="cpay") if has_pay else None
-        meta = [pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
-                ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))]
-        hm1 = pipe.reg(s1_hm1, name="hm1") if self._carry else None
+        meta = {n: pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
+                ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))}
+        if self._carry:
+            meta["hm1"] = pipe.reg(s1_hm1, name="hm1")
 
-        # ---- column reduction
+        # ---- column reduction, the column's position delayed alongside (_Align)
         col, dc = self._columns(pipe, taps, pay)
-        hv, hcc, hlast, hrow0 = [pipe.delay(v, dc, name=n, reset=(n == "cv")) for v, n in
-                                 zip(meta, ("cv", "cc", "lastc", "row0"))]
-        if self._carry:
-            hm1 = pipe.delay(hm1, dc, name="hm1")
+        hmeta = self._align(m, adv, meta, dc, "ca")
 
-        # ---- window: sr[0] is the column at the head of the pipeline, sr[1..2R] the columns
-        # taken before it (sr[1] the latest). Only real columns shift in. After a row's last
-        # column, R pad steps produce its last R pixels; they overlap the next row's first
-        # R columns (which produce no output) or run alone, and find the old row's columns
-        # 1 + npad deeper, npad = columns of the next row taken since.
-        sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
-                      for j in range(1, 2 * Rh + 1)]
-        pend = Signal(range(Rh + 1), name=f"{self._name}_pend")
-        npad = Signal(range(Rh + 1), name=f"{self._name}_npad")
-        is_pad = pend != 0
-        is_norm = hv & (hcc >= Rh) & ~is_pad
-        win_valid = is_pad | is_norm
-        with m.If(adv):
-            with m.If(hv):
-                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * Rh + 1)]
-            with m.If(hv & hlast):
-                m.d.sync += [pend.eq(Rh), npad.eq(0)]
-            with m.Elif(is_pad):
-                m.d.sync += pend.eq(pend - 1)
-                with m.If(hv):
-                    m.d.sync += npad.eq(npad + 1)
-        cols = []
-        for t in range(2 * Rh + 1):
-            d = t - Rh
-            sel = Signal(range(2 * Rh + 1), name=f"{self._name}_hsel{t}")
-            with m.If(is_pad):
-                with m.Switch(Cat(npad, pend)):
-                    for p in range(1, Rh + 1):
-                        k = Rh - p + 1       # pad k produces column x = W-1-Rh+k
-                        x = W - 1 - Rh + k
-                        for sh in range(k):
-                            with m.Case(sh | (p << len(npad))):
-                                if x + d < 0:
-                                    j = sh + W                 # column 0
-                                elif d > Rh - k:
-                                    j = sh + 1                 # column W-1
-                                else:
-                                    j = sh + 1 + Rh - k - d     # column x+d
-                                assert 1 <= j <= 2 * Rh
-                                m.d.comb += sel.eq(j)
-                    with m.Default():
-                        m.d.comb += sel.eq(Rh)
-            with m.Else():
-                with m.Switch(hcc):
-                    for c in range(Rh, 2 * Rh + 1):
-                        x = c - Rh           # c = 2R stands for every x >= Rh
-                        with m.Case(c):
-                            m.d.comb += sel.eq(x + Rh if x + d < 0 else Rh - d)
-                    with m.Default():
-                        m.d.comb += sel.eq(Rh - d)
-            cols.append(_pick(sr, sel))
-        first = is_norm & (hcc == Rh) & hrow0
-        last = is_pad & (pend == 1)
+        # ---- window (_Window): the 2R+1 columns of the next output (beat)
+        m.submodules[f"{self._name}_win"] = win = _Window(
+            radius=Rh, width=W, col_shape=col.shape(), name=self._name)
+        m.d.comb += [win.adv.eq(adv), win.col.eq(col), win.valid.eq(hmeta.cv),
+                     win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
+        cols = [win.cols[t] for t in range(2 * Rh + 1)]
 
-        val, dw = self._window(pipe, cols, is_norm & (hcc == Rh), is_pad)
-        ov = pipe.delay(win_valid, dw, name="ov", reset=True)
-        of = pipe.delay(first, dw, name="of")
-        ol = pipe.delay(last, dw, name="ol")
-        m.d.comb += [o.valid.eq(ov), o.payload.first.eq(of), o.payload.last.eq(ol),
-                     o.payload.data.val.eq(val)]
+        val, dw = self._window(pipe, cols, win.left, win.right)
+        wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
-            m.d.comb += o.payload.data.hm1.eq(pipe.delay(hm1, dw, name="hm1"))
+            wmeta["hm1"] = hmeta.hm1
+        out = self._align(m, adv, wmeta, dw, "wa")
+        m.d.comb += [o.valid.eq(out.ov), o.payload.first.eq(out.of),
+                     o.payload.last.eq(out.ol), o.payload.data.val.eq(val)]
+        if self._carry:
+            m.d.comb += o.payload.data.hm1.eq(out.hm1)
         self.depth = 3 + dc + dw
         return m
+
+    def _align(self, m, adv, values, n, name):
+        """``values`` (a dict) delayed ``n`` advances by an :class:`_Align`; its output."""
+        m.submodules[f"{self._name}_{name}"] = al = _Align(
+            {k: Value.cast(v).shape() for k, v in values.items()}, n,
+            reset=("cv", "ov"), name=f"{self._name}_{name}")
+        m.d.comb += [al.adv.eq(adv)] + [getattr(al.i, k).eq(v) for k, v in values.items()]
+        return al.o
 
     def _split(self, value, shape):
         """The ``ppc`` lane values of a beat word (lane 0 in the low bits)."""
