@@ -1,13 +1,13 @@
 """Co-simulation of the generated ``median3`` Verilog against its golden model.
 
-Every golden case runs per beat (cocotb drives each cycle, random idle and backpressure) on
-both simulators; in fast mode the cases of each parameter set run as one stream (frames are
-independent, so back to back they also check that no line leaks from one case to the next).
+The golden cases at ppc 1 and 8 and the reset cases at every ppc run per beat (cocotb drives
+each cycle, random idle and backpressure) on both simulators, the other ppc 2 and 4 cases with
+TDICAM_FULL=1; in fast mode the cases of each parameter set (every ppc) run as one stream
+(frames are independent, so back to back they also check that no line leaks from one case to
+the next).
 The 1280 x 64 stream is marked slow: set TDICAM_FULL=1 to run it (the benchmark
 ``bench/bench_median3.py`` runs it too, and asserts equality).
 """
-
-import os
 
 import numpy as np
 import pytest
@@ -16,12 +16,11 @@ from tdicam import blocks
 from tdicam.cosim import vectors as golden
 from tdicam.blocks.median3 import BUILDS, case_beats, stream_case
 from tdicam.cosim.codec import Beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
 from tdicam.hdl.median3 import Median3
 
 BLOCK = blocks.get("median3")
-CASES = [c.name for c in BLOCK.cases()]
-FULL = os.environ.get("TDICAM_FULL") == "1"
+BEAT_SHORT, BEAT_LONG = beat_cases(BLOCK)
 
 
 def _build_stream(build):
@@ -44,9 +43,18 @@ def _build_stream(build):
     return params, Beats.concat(stims), Beats.concat(exps), resets, single
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", BEAT_SHORT)
 def test_golden_per_beat(case, sim):
-    """Every golden case, cocotb driving each beat with random idle and backpressure."""
+    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
+    idle and backpressure."""
+    check_case("median3", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
+                                     "TDICAM_FULL=1")
+@pytest.mark.parametrize("case", BEAT_LONG)
+def test_golden_per_beat_ppc_long(case, sim):
     check_case("median3", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
@@ -58,7 +66,7 @@ def test_golden_fast(build, sim):
 
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
-@pytest.mark.parametrize("build", ["w24_12b", "enh_w16_12b"])
+@pytest.mark.parametrize("build", ["w24_12b", "enh_w16_12b", "p8_w24_12b", "p8_enh_w32_12b"])
 @pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
 def test_extreme_stalls(sim, build, idle, bp):
     """Full throughput, nearly always stalled sink, nearly always idle source."""
@@ -66,11 +74,11 @@ def test_extreme_stalls(sim, build, idle, bp):
     res = check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=idle,
                       backpressure=bp, seed=3)
     if idle == bp == 0.0:
-        w = params["width"]
+        w = params["width"] // params["ppc"]     # beats per row
         lat = Median3(**params).latency
-        # 1 pixel/clock: the inputs, a reset's cycles, the last frame's border rows and
+        # 1 beat/clock: the inputs, a reset's cycles, the last frame's border rows and
         # latency, the drain window (2000 quiet cycles); with enhance a 1-row frame may wait
-        # for the previous frame's last 2 rows (<= width cycles, documented)
+        # for the previous frame's last 2 rows (<= width / ppc cycles, documented)
         tail = (3 * w if params["enhance"] else w) + lat + 4
         bound = len(stim) + 4 * resets + tail + single * w * params["enhance"] + 2000
         assert res.cycles <= bound, (res.cycles, bound)

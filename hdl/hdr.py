@@ -48,12 +48,15 @@ class Hdr(wiring.Component):
     4, 4, 4, 4), ``ppc`` pixels/clock.
 
     Band statistics are updated one cycle after a beat is accepted (registered band
-    decisions), adding the beat's band pixels in one step: pixel ``k`` counts when it is in
-    the band and the count, plus the band pixels before it in the beat, is below
-    ``2**count_bits - 1`` (the first band pixels in raster order, as the model). Frame
-    start: when a beat with ``first`` is presented and the previous frame had band pixels,
-    ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (the same at every
-    ``ppc``) while two restoring dividers (one quotient bit per cycle, ``pixel_bits +
+    decisions), adding the beat's band pixels: pixel ``k`` counts when it is in the band and
+    the count, plus the band pixels before it in the beat, is below ``2**count_bits - 1``
+    (the first band pixels in raster order, as the model). At ``ppc`` > 1 the count is
+    updated one cycle after the beat and the sums three (the taken pixels masked, their
+    beat sum, the accumulation: one adder per stage, for 150 MHz at ppc 8). Frame start:
+    when a beat with ``first`` is presented and the previous frame had band pixels,
+    ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (ppc 1: ``pixel_bits
+    + lgt_frac_bits + 3``; ppc 2, 4, 8: two more, the sums' extra stages) while two
+    restoring dividers (one quotient bit per cycle, ``pixel_bits +
     lgt_frac_bits`` bits) turn the band sums into ``L_T`` and ``H_T``; the beat is then
     accepted with them. Pixels of the previous frame still in the pipeline are unaffected
     (each carries its own junction values). With an empty band there is no stall. Pixels
@@ -108,8 +111,58 @@ class Hdr(wiring.Component):
     @property
     def frame_start_cycles(self):
         """Cycles ``i_stream.ready`` is held low at a frame start after a non-empty band
-        (last pixel counted, divider load, one per quotient bit, write-back)."""
-        return self._cfg.lt_bits + 3
+        (last pixel counted, divider load, one per quotient bit, write-back; at ``ppc`` > 1
+        two more: the band sums are three stages behind the beat)."""
+        return self._cfg.lt_bits + 3 + (2 if self._ppc > 1 else 0)
+
+    def _lane_statistics(self, m, in_bands, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l,
+                         sum_h):
+        """Band statistics at ppc > 1, three stages behind the accepted beat (timing).
+
+        S (the registers ``s_*``, with the beat's band count and, per pixel, the band pixels
+        before it in the beat): T counts ``n`` and masks the pixels taken; U adds the taken
+        pixels of the beat (adder tree); V accumulates the sums. The first band pixels in
+        raster order are taken while the count has room: pixel k when ``n`` + (band pixels
+        before it) < ``count_max`` = ``2**count_bits - 1``. ``safe`` (``n`` of the cycle
+        before + ``2 ppc - 1`` < ``count_max``; ``n`` grows by at most ``ppc`` a cycle)
+        means every band pixel is taken; otherwise the room ``count_max - n = ~n`` is below
+        ``2 ppc`` and its low 4 bits decide. ``n`` is 0 on a frame's first beat (the
+        division wrote it back before the beat was accepted)."""
+        cfg, P = self._cfg, self._ppc
+        cb, cmax = cfg.count_bits, cfg.count_max
+        # S: prefix band counts of the beat (from the input, registered with s_bands)
+        s_before, s_cnt, acc = [], Signal(range(P + 1), name="s_cnt"), Const(0, 1)
+        for k in range(P):
+            b = Signal(range(P), name=f"s_before_{k}")
+            m.d.sync += b.eq(acc)
+            s_before.append(b)
+            acc = acc + in_bands[k]
+        m.d.sync += s_cnt.eq(acc)
+        # T: count, mask
+        safe = Signal(init=1, name="n_safe")
+        m.d.sync += safe.eq(n + (2 * P - 1) < cmax)
+        room = (~n)[:min(cb, 4)]
+        add_n = Mux(safe | (s_cnt < room), s_cnt, room)
+        with m.If(s_v):
+            m.d.sync += n.eq(Mux(s_first, 0, n) + add_n)
+        t_v, t_first = Signal(name="t_v"), Signal(name="t_first")
+        m.d.sync += [t_v.eq(s_v), t_first.eq(s_first)]
+        t_l, t_h = [], []
+        for k in range(P):
+            tk = s_bands[k] & (safe | (s_before[k] < room))
+            for src, dst in ((s_lgs[k], t_l), (s_hgs[k], t_h)):
+                r = Signal.like(src, name=f"t_{'l' if dst is t_l else 'h'}_{k}")
+                m.d.sync += r.eq(Mux(tk, src, 0))
+                dst.append(r)
+        # U: the beat's sums
+        u_v, u_first = Signal(name="u_v"), Signal(name="u_first")
+        u_l, u_h = Signal(len(t_l[0]) + 3, name="u_l"), Signal(len(t_h[0]) + 3, name="u_h")
+        m.d.sync += [u_v.eq(t_v), u_first.eq(t_first), u_l.eq(_tree(t_l)),
+                     u_h.eq(_tree(t_h))]
+        # V: accumulate (a frame's first beat restarts the sums)
+        with m.If(u_v):
+            m.d.sync += [sum_l.eq(Mux(u_first, 0, sum_l) + u_l),
+                         sum_h.eq(Mux(u_first, 0, sum_h) + u_h)]
 
     def elaborate(self, platform):
         m = Module()
@@ -180,7 +233,13 @@ class Hdr(wiring.Component):
             numer = Signal(pb + cb + f)
             m.d.comb += numer.eq((total << f) + (n >> 1))
             starts += [rem.eq(numer[q:]), num.eq(numer[:q])]
-        with m.If(load):  # statistics complete: the stage emptied while ready was low
+        # ppc > 1: the sums are complete two cycles later (two more statistics stages)
+        hold, branch = Signal(2), m.If
+        if P > 1:
+            with m.If(hold != 0):
+                m.d.sync += [hold.eq(hold - 1), load.eq(hold == 1)]
+            branch = m.Elif
+        with branch(load):  # statistics complete: the stage emptied while ready was low
             m.d.sync += [load.eq(0), cnt.eq(q), *starts]
         with m.Elif(busy):
             with m.If(cnt != 0):
@@ -197,7 +256,7 @@ class Hdr(wiring.Component):
                 m.d.sync += [busy.eq(0), lt.eq(quo_l), n.eq(0),
                              ht.eq(quo_h if len(divs) == 2 else cfg.h_seed)]
         with m.Elif(need_div):
-            m.d.sync += [busy.eq(1), load.eq(1)]
+            m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(2)]
 
         # ---- band statistics and frame registers, on accepted beats
         def band_of(h):
@@ -213,26 +272,15 @@ class Hdr(wiring.Component):
         if P == 1:
             take = s_band & (n != cfg.count_max)
             add_l, add_h, add_n = Mux(take, s_lg, 0), Mux(take, s_hg, 0), take
+            with m.If(s_v & (s_first | take)):  # a frame's first beat restarts the statistics
+                m.d.sync += [
+                    sum_l.eq(Mux(s_first, 0, sum_l) + add_l),
+                    sum_h.eq(Mux(s_first, 0, sum_h) + add_h),
+                    n.eq(Mux(s_first, 0, n) + add_n),
+                ]
         else:
-            # the first band pixels in raster order while the count has room: pixel k is
-            # taken when n + (band pixels before it in the beat) < count_max (n is 0 on a
-            # frame's first beat: the division wrote it back before the beat was accepted)
-            takes, before = [], Const(0, 1)
-            for k in lanes:
-                tk = Signal(name=f"take_{k}")
-                m.d.comb += tk.eq(s_bands[k] & (n + before < cfg.count_max))
-                takes.append(tk)
-                before = before + s_bands[k]
-            take = Cat(*takes).any()
-            add_l = _tree([Mux(takes[k], s_lgs[k], 0) for k in lanes])
-            add_h = _tree([Mux(takes[k], s_hgs[k], 0) for k in lanes])
-            add_n = _tree([takes[k] for k in lanes])
-        with m.If(s_v & (s_first | take)):  # a frame's first beat restarts the statistics
-            m.d.sync += [
-                sum_l.eq(Mux(s_first, 0, sum_l) + add_l),
-                sum_h.eq(Mux(s_first, 0, sum_h) + add_h),
-                n.eq(Mux(s_first, 0, n) + add_n),
-            ]
+            self._lane_statistics(m, [band_of(h) for h in hgs], s_v, s_first, s_bands,
+                                  s_hgs, s_lgs, n, sum_l, sum_h)
 
         # ---- pixel pipeline (global enable); lane 0 declared as before ppc existed (the
         # Verilog at ppc 1 is byte-identical to the single-pixel design's)

@@ -8,9 +8,13 @@ merge of <= 7 compares, a selection of <= 5): 13 comparators per output pixel in
 the table :data:`COLUMN_SORT` + :data:`WINDOW_MEDIAN`, which the gateware is built from and
 which the tests prove correct over all 0/1 inputs (0-1 principle for min/max networks).
 
-One module (~700 lines) on purpose: the compare-exchange network, its line-buffer
-neighbourhood and the enhancement stages are one pipeline whose stage timing is counted
-across all three (``latency``); splitting them would spread that count over files.
+One module on purpose: the compare-exchange network, its line-buffer neighbourhood and the
+enhancement stages are one pipeline whose stage timing is counted across all three
+(``latency``); splitting them would spread that count over files. Inside it the
+neighbourhood (:class:`_Neighbourhood`: sequencer, border rows, column function) is built
+of named sub-components, each with its ``latency``: :class:`_LineBuffers` (2),
+:class:`_Align` (the column's / window's position beside their arithmetic) and
+:class:`_Window` (0).
 """
 
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
@@ -18,12 +22,13 @@ from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 
-__all__ = ["Median3", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
+__all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
 
 #: Sort one column (t, m, b: top, middle, bottom) into (lo, mid, hi). Each stage is a
@@ -96,6 +101,24 @@ def _pick(values, sel):
     return Array(list(values) + [values[-1]] * (n - len(values)))[sel]
 
 
+def check_geometry(width, ppc):
+    """``(ppc, width)`` if ``ppc`` is 1, 2, 4 or 8 and ``width`` a multiple of it in
+    ``3 ppc .. 8192`` (at least 3 beats per row), else a one-line :class:`TdicamError`
+    naming both."""
+    check_choice("ppc", ppc, PPC_CHOICES)
+    if ppc == 1:
+        return ppc, check_range("width", width, 3, MAX_WIDTH)
+    check_range(f"width (ppc = {ppc})", width, 3 * ppc, MAX_WIDTH)
+    if width % ppc:
+        raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+    return ppc, width
+
+
+def _lanes(shape, ppc):
+    """``shape`` (ppc 1) or an array of ``ppc`` of it (lane 0 the leftmost pixel)."""
+    return shape if ppc == 1 else data.ArrayLayout(shape, ppc)
+
+
 def _minmax(fn, a, b):
     lt = b < a
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
@@ -123,8 +146,163 @@ class _Pipe:
         return value
 
 
+class _LineBuffers(wiring.Component):
+    """The line buffers of a neighbourhood.
+
+    ``taps`` memories of ``depth`` words of ``tap_bits`` (a row in memory ``w_slot``) and
+    ``pays`` memories of ``pay_bits`` (a row in memory ``w_slot mod pays``), all read at
+    ``rd_addr`` and written at ``w_addr`` when ``w_en``, everything on ``adv`` (the
+    pipeline's clock enable). The writer presents a beat one advance after reading its
+    address, so a read never meets a write to the same address. ``rd_taps[k]`` /
+    ``rd_pays[k]`` hold memory k's word :attr:`latency` = 2 advances after its address:
+    the read (1) and an output register with nothing in between (1; a block RAM's
+    clock-to-out is slow: ~4.3 ns on ECP5 without its own output register).
+    """
+
+    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name):
+        self._taps, self._pays, self._depth, self._name = taps, pays, depth, name
+        self._slot_bits = (taps - 1).bit_length()
+        ports = {
+            "adv": In(1), "rd_addr": In(range(depth)), "w_en": In(1),
+            "w_addr": In(range(depth)), "w_slot": In(self._slot_bits),
+            "w_tap": In(tap_bits),
+            "rd_taps": Out(data.ArrayLayout(unsigned(tap_bits), taps)),
+        }
+        if pays:
+            ports.update({"w_pay": In(pay_bits),
+                          "rd_pays": Out(data.ArrayLayout(unsigned(pay_bits), pays))})
+        super().__init__(ports)
+
+    latency = property(lambda self: 2, doc="Advances from ``rd_addr`` to ``rd_*``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        pipe = _Pipe(m, self.adv, self._name)
+        ports = [(self.w_tap, self.rd_taps, "lb", "rd",
+                  [equals(self.w_slot, k) for k in range(self._taps)])]
+        if self._pays:
+            ports.append((self.w_pay, self.rd_pays, "pb", "prd",
+                          [self.w_slot[0] == k for k in range(2)] if self._pays == 2 else
+                          [Const(1, 1)]))
+        for wdata, rd, mname, rname, slots in ports:
+            for k, slot in enumerate(slots):
+                mem = Memory(shape=unsigned(len(wdata)), depth=self._depth, init=[])
+                m.submodules[f"{self._name}_{mname}{k}"] = mem
+                rp, wp = mem.read_port(), mem.write_port()
+                m.d.comb += [rp.addr.eq(self.rd_addr), rp.en.eq(self.adv),
+                             wp.addr.eq(self.w_addr), wp.data.eq(wdata),
+                             wp.en.eq(self.adv & self.w_en & slot),
+                             rd[k].eq(pipe.reg(rp.data, name=rname))]
+        return m
+
+
+class _Align(wiring.Component):
+    """``o`` = ``i`` delayed :attr:`latency` advances (registers on ``adv``): the position
+    and markers of a column or window travelling beside its arithmetic. Fields named in
+    ``reset`` are cleared by reset (the valid flags); the others are reset-less."""
+
+    def __init__(self, fields, n, *, reset=(), name="al"):
+        self._n, self._reset, self._name = n, set(reset), name
+        lay = data.StructLayout(fields)
+        super().__init__({"adv": In(1), "i": In(lay), "o": Out(lay)})
+
+    latency = property(lambda self: self._n, doc="Advances from ``i`` to ``o``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        pipe = _Pipe(m, self.adv, self._name)
+        for name in self.i.shape().members:
+            m.d.comb += getattr(self.o, name).eq(pipe.delay(
+                getattr(self.i, name), self._n, name=name, reset=name in self._reset))
+        return m
+
+
+class _Window(wiring.Component):
+    """The 2R+1 columns (beats at ppc > 1) of a neighbourhood's next output, borders
+    replicated, from a stream of column values with their position.
+
+    ``col`` is the column at the head of the pipeline (with ``valid``, ``cc`` its column
+    index saturated at 2R, ``lastc`` the row's last, ``row0`` of output row 0); a shift
+    register keeps the 2R columns taken before it. Only real columns shift in. After a
+    row's last column, R pad steps produce its last R outputs; they overlap the next row's
+    first R columns (which produce no output) or run alone, and find the old row's columns
+    1 + npad deeper, npad = columns of the next row taken since. Outputs in the same cycle
+    (:attr:`latency` 0): ``cols`` (left to right), ``out_valid``, ``first`` (output (0, 0)),
+    ``last`` (a row's last output), ``left`` / ``right`` (the output is a row's first /
+    last: its columns beyond the row are replicated)."""
+
+    def __init__(self, *, radius, width, col_shape, name):
+        self._r, self._w, self._name = radius, width, name
+        super().__init__({
+            "adv": In(1), "col": In(col_shape), "valid": In(1),
+            "cc": In(range(2 * radius + 1)), "lastc": In(1), "row0": In(1),
+            "cols": Out(data.ArrayLayout(col_shape, 2 * radius + 1)),
+            "out_valid": Out(1), "first": Out(1), "last": Out(1), "left": Out(1),
+            "right": Out(1),
+        })
+
+    latency = property(lambda self: 0, doc="Cycles from ``col`` to ``cols``.")
+
+    def elaborate(self, platform):
+        m = Module()
+        R, W, adv = self._r, self._w, self.adv
+        hv, hcc, hlast = self.valid, self.cc, self.lastc
+        col = self.col
+        sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
+                      for j in range(1, 2 * R + 1)]
+        pend = Signal(range(R + 1), name=f"{self._name}_pend")
+        npad = Signal(range(R + 1), name=f"{self._name}_npad")
+        is_pad = pend != 0
+        is_norm = hv & (hcc >= R) & ~is_pad
+        with m.If(adv):
+            with m.If(hv):
+                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * R + 1)]
+            with m.If(hv & hlast):
+                m.d.sync += [pend.eq(R), npad.eq(0)]
+            with m.Elif(is_pad):
+                m.d.sync += pend.eq(pend - 1)
+                with m.If(hv):
+                    m.d.sync += npad.eq(npad + 1)
+        for t in range(2 * R + 1):
+            d = t - R
+            sel = Signal(range(2 * R + 1), name=f"{self._name}_hsel{t}")
+            with m.If(is_pad):
+                with m.Switch(Cat(npad, pend)):
+                    for p in range(1, R + 1):
+                        k = R - p + 1       # pad k produces column x = W-1-R+k
+                        x = W - 1 - R + k
+                        for sh in range(k):
+                            with m.Case(sh | (p << len(npad))):
+                                if x + d < 0:
+                                    j = sh + W                 # column 0
+                                elif d > R - k:
+                                    j = sh + 1                 # column W-1
+                                else:
+                                    j = sh + 1 + R - k - d     # column x+d
+                                assert 1 <= j <= 2 * R
+                                m.d.comb += sel.eq(j)
+                    with m.Default():
+                        m.d.comb += sel.eq(R)
+            with m.Else():
+                with m.Switch(hcc):
+                    for c in range(R, 2 * R + 1):
+                        x = c - R           # c = 2R stands for every x >= R
+                        with m.Case(c):
+                            m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
+                    with m.Default():
+                        m.d.comb += sel.eq(R - d)
+            m.d.comb += self.cols[t].eq(_pick(sr, sel))
+        m.d.comb += [self.out_valid.eq(is_pad | is_norm),
+                     self.left.eq(is_norm & (hcc == R)),
+                     self.first.eq(is_norm & (hcc == R) & self.row0),
+                     self.last.eq(is_pad & (pend == 1)),
+                     self.right.eq(is_pad)]
+        return m
+
+
 class _Neighbourhood(wiring.Component):
-    """Streaming (2R+1) x (2R+1) neighbourhood stage with replicated borders, 1 pixel/clock.
+    """Streaming (2R+1) x (2R+1) neighbourhood stage with replicated borders, ``ppc``
+    pixels (one beat) per clock.
 
     Input beats carry ``tap`` (the value the neighbourhood is formed of), ``pay`` (a value
     only needed for the centre pixel) and ``hm1`` (frame height - 1, sampled on the first
@@ -145,18 +323,24 @@ class _Neighbourhood(wiring.Component):
     time), so frames follow each other at 1 pixel/clock and the last frame of a stream is
     not held back. Likewise the last R pixels of a row are produced by pad steps that
     overlap the next row's first R columns (which produce no output).
+
+    At ``ppc`` > 1 everything above counts beats, not pixels: ``width / ppc`` beat columns,
+    line buffers of ``width / ppc`` words of ``ppc`` taps, and a horizontal radius of one
+    beat (pixel k of a beat needs pixels k-R..k+R, R <= 2 <= ppc: the neighbour beats' last
+    / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
+    column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb"):
-        self._r, self._w = radius, width
+                 carry_hm1=False, name="nb", ppc=1):
+        self._r, self._w, self._ppc = radius, width, ppc
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
         self._name = name
-        fields = {"tap": tap_shape, "hm1": unsigned(_HMAX)}
+        fields = {"tap": _lanes(tap_shape, ppc), "hm1": unsigned(_HMAX)}
         if pay_shape is not None:
-            fields["pay"] = pay_shape
-        ofields = {"val": out_shape}
+            fields["pay"] = _lanes(pay_shape, ppc)
+        ofields = {"val": _lanes(out_shape, ppc)}
         if carry_hm1:
             ofields["hm1"] = unsigned(_HMAX)
         super().__init__({
@@ -168,15 +352,17 @@ class _Neighbourhood(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        R, W, N = self._r, self._w, 2 * self._r
+        R, N, P = self._r, 2 * self._r, self._ppc
+        W = self._w // P  # beats per row
+        Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
         adv = Signal(name=f"{self._name}_adv")
         m.d.comb += adv.eq(~o.valid | o.ready)
         pipe = _Pipe(m, adv, self._name)
         has_pay = self._pay_shape is not None
-        pay_bits = Shape.cast(self._pay_shape).width if has_pay else 0
-        tap_bits = self._tap_shape.width
+        pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
+        tap_bits = P * self._tap_shape.width
 
         # ---- sequencer (S0). Everything i.ready depends on is a register or shallow logic
         # of registers (flags below are computed from next-state values), for timing.
@@ -231,7 +417,7 @@ class _Neighbourhood(wiring.Component):
             taps_sel.append((ev_base + q)[:nb])
             taps_stream.append(~flush if d == R else Const(0))
         psel = (ev_base + oy)[:nb - 1] if R > 1 else Const(0, 1)
-        cc = Mux(ev_c >= 2 * R, 2 * R, ev_c)  # column, saturated (enough for the borders)
+        cc = Mux(ev_c >= 2 * Rh, 2 * Rh, ev_c)  # column, saturated (enough for the borders)
 
         # next-state values of the counters (for the registered flags)
         fadv = adv & flush
@@ -276,36 +462,23 @@ class _Neighbourhood(wiring.Component):
                 with m.If((i.payload.first != at_first) | (i.payload.last != at_rend)):
                     m.d.sync += self.marker_error.eq(1)
 
-        # ---- line buffers: read at S0, data at S1; written at S1 (one cycle after the read
-        # of the same pixel, so a read never meets a write to the same address)
-        tap_rd, pay_rd = [], []
+        # ---- line buffers: read at S0, data two advances later (_LineBuffers); written
+        # from S1 (one cycle after the read of the same beat)
+        m.submodules[f"{self._name}_lb"] = lb = _LineBuffers(
+            taps=N, pays=R if has_pay else 0, depth=W, tap_bits=tap_bits, pay_bits=pay_bits,
+            name=self._name)
         s1_we = pipe.reg(take, name="we", reset=True)
         s1_waddr = pipe.reg(in_col, name="waddr")
         s1_wslot = pipe.reg(wslot, name="wslot")
-        s1_tap = pipe.reg(i.payload.data.tap, shape=unsigned(tap_bits), name="tap")
+        s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
-        rd_addr = Mux(flush, fc, in_col)
-        for k in range(N):
-            mem = Memory(shape=unsigned(tap_bits), depth=W, init=[])
-            m.submodules[f"{self._name}_lb{k}"] = mem
-            rp = mem.read_port()
-            wp = mem.write_port()
-            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
-                         wp.addr.eq(s1_waddr), wp.data.eq(s1_tap),
-                         wp.en.eq(adv & s1_we & equals(s1_wslot, k))]
-            tap_rd.append(rp.data)
-        for k in range(R if has_pay else 0):
-            mem = Memory(shape=unsigned(pay_bits), depth=W, init=[])
-            m.submodules[f"{self._name}_pb{k}"] = mem
-            rp = mem.read_port()
-            wp = mem.write_port()
-            m.d.comb += [rp.addr.eq(rd_addr), rp.en.eq(adv),
-                         wp.addr.eq(s1_waddr), wp.data.eq(s1_pay),
-                         wp.en.eq(adv & s1_we & (s1_wslot[0] == k if R == 2 else 1))]
-            pay_rd.append(rp.data)
+        m.d.comb += [lb.adv.eq(adv), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
+                     lb.w_addr.eq(s1_waddr), lb.w_slot.eq(s1_wslot), lb.w_tap.eq(s1_tap)]
+        if has_pay:
+            m.d.comb += lb.w_pay.eq(s1_pay)
 
         s1_valid = pipe.reg(col_ev, name="cv", reset=True)
-        s1_cc = pipe.reg(cc, shape=range(2 * R + 1), name="cc")
+        s1_cc = pipe.reg(cc, shape=range(2 * Rh + 1), name="cc")
         s1_lastc = pipe.reg(Mux(flush, f_rend, at_rend), name="lastc")
         s1_row0 = pipe.reg(is_zero(oy), name="row0")
         s1_sel = [pipe.reg(s, shape=unsigned(nb), name=f"sel{t}") for t, s in enumerate(taps_sel)]
@@ -313,10 +486,9 @@ class _Neighbourhood(wiring.Component):
         s1_psel = pipe.reg(psel, name="psel")
         s1_hm1 = pipe.reg(ev_hm1, name="hm1") if self._carry else None
 
-        # ---- S1b: the block RAM outputs registered with nothing in between (the RAM's
-        # clock-to-out is slow: ~4.3 ns on ECP5 without its output register)
-        tap_rd = [pipe.reg(v, name="rd") for v in tap_rd]
-        pay_rd = [pipe.reg(v, name="prd") for v in pay_rd]
+        # ---- S1b: the line buffers' output register
+        tap_rd = [lb.rd_taps[k] for k in range(N)]
+        pay_rd = [lb.rd_pays[k] for k in range(R)] if has_pay else []
         s1_tap = pipe.reg(s1_tap, name="tapb")
         s1_valid = pipe.reg(s1_valid, name="cv", reset=True)
         s1_cc, s1_lastc, s1_row0, s1_psel = (pipe.reg(v) for v in (s1_cc, s1_lastc, s1_row0,
@@ -331,82 +503,80 @@ class _Neighbourhood(wiring.Component):
                          name=f"tap{t}") for t in range(2 * R + 1)]
         pay = pipe.reg(_pick(pay_rd, s1_psel) if R > 1 else pay_rd[0],
                        shape=unsigned(pay_bits), name="cpay") if has_pay else None
-        meta = [pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
-                ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))]
-        hm1 = pipe.reg(s1_hm1, name="hm1") if self._carry else None
-
-        # ---- column reduction
-        col, dc = self._col_fn(pipe, taps, pay)
-        col = Value.cast(col)
-        hv, hcc, hlast, hrow0 = [pipe.delay(v, dc, name=n, reset=(n == "cv")) for v, n in
-                                 zip(meta, ("cv", "cc", "lastc", "row0"))]
+        meta = {n: pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
+                ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))}
         if self._carry:
-            hm1 = pipe.delay(hm1, dc, name="hm1")
+            meta["hm1"] = pipe.reg(s1_hm1, name="hm1")
 
-        # ---- window: sr[0] is the column at the head of the pipeline, sr[1..2R] the columns
-        # taken before it (sr[1] the latest). Only real columns shift in. After a row's last
-        # column, R pad steps produce its last R pixels; they overlap the next row's first
-        # R columns (which produce no output) or run alone, and find the old row's columns
-        # 1 + npad deeper, npad = columns of the next row taken since.
-        sr = [col] + [Signal(col.shape(), name=f"{self._name}_sr{j}", reset_less=True)
-                      for j in range(1, 2 * R + 1)]
-        pend = Signal(range(R + 1), name=f"{self._name}_pend")
-        npad = Signal(range(R + 1), name=f"{self._name}_npad")
-        is_pad = pend != 0
-        is_norm = hv & (hcc >= R) & ~is_pad
-        win_valid = is_pad | is_norm
-        with m.If(adv):
-            with m.If(hv):
-                m.d.sync += [sr[j].eq(sr[j - 1]) for j in range(1, 2 * R + 1)]
-            with m.If(hv & hlast):
-                m.d.sync += [pend.eq(R), npad.eq(0)]
-            with m.Elif(is_pad):
-                m.d.sync += pend.eq(pend - 1)
-                with m.If(hv):
-                    m.d.sync += npad.eq(npad + 1)
-        cols = []
-        for t in range(2 * R + 1):
-            d = t - R
-            sel = Signal(range(2 * R + 1), name=f"{self._name}_hsel{t}")
-            with m.If(is_pad):
-                with m.Switch(Cat(npad, pend)):
-                    for p in range(1, R + 1):
-                        k = R - p + 1       # pad k produces column x = W-1-R+k
-                        x = W - 1 - R + k
-                        for sh in range(k):
-                            with m.Case(sh | (p << len(npad))):
-                                if x + d < 0:
-                                    j = sh + W                 # column 0
-                                elif d > R - k:
-                                    j = sh + 1                 # column W-1
-                                else:
-                                    j = sh + 1 + R - k - d     # column x+d
-                                assert 1 <= j <= 2 * R
-                                m.d.comb += sel.eq(j)
-                    with m.Default():
-                        m.d.comb += sel.eq(R)
-            with m.Else():
-                with m.Switch(hcc):
-                    for c in range(R, 2 * R + 1):
-                        x = c - R           # c = 2R stands for every x >= R
-                        with m.Case(c):
-                            m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
-                    with m.Default():
-                        m.d.comb += sel.eq(R - d)
-            cols.append(_pick(sr, sel))
-        first = is_norm & (hcc == R) & hrow0
-        last = is_pad & (pend == 1)
+        # ---- column reduction, the column's position delayed alongside (_Align)
+        col, dc = self._columns(pipe, taps, pay)
+        hmeta = self._align(m, adv, meta, dc, "ca")
 
-        val, dw = self._win_fn(pipe, cols)
-        ov = pipe.delay(win_valid, dw, name="ov", reset=True)
-        of = pipe.delay(first, dw, name="of")
-        ol = pipe.delay(last, dw, name="ol")
-        m.d.comb += [o.valid.eq(ov), o.payload.first.eq(of), o.payload.last.eq(ol),
-                     o.payload.data.val.eq(val)]
+        # ---- window (_Window): the 2R+1 columns of the next output (beat)
+        m.submodules[f"{self._name}_win"] = win = _Window(
+            radius=Rh, width=W, col_shape=col.shape(), name=self._name)
+        m.d.comb += [win.adv.eq(adv), win.col.eq(col), win.valid.eq(hmeta.cv),
+                     win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
+        cols = [win.cols[t] for t in range(2 * Rh + 1)]
+
+        val, dw = self._window(pipe, cols, win.left, win.right)
+        wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
-            m.d.comb += o.payload.data.hm1.eq(pipe.delay(hm1, dw, name="hm1"))
+            wmeta["hm1"] = hmeta.hm1
+        out = self._align(m, adv, wmeta, dw, "wa")
+        m.d.comb += [o.valid.eq(out.ov), o.payload.first.eq(out.of),
+                     o.payload.last.eq(out.ol), o.payload.data.val.eq(val)]
+        if self._carry:
+            m.d.comb += o.payload.data.hm1.eq(out.hm1)
         self.depth = 3 + dc + dw
         return m
+
+    def _align(self, m, adv, values, n, name):
+        """``values`` (a dict) delayed ``n`` advances by an :class:`_Align`; its output."""
+        m.submodules[f"{self._name}_{name}"] = al = _Align(
+            {k: Value.cast(v).shape() for k, v in values.items()}, n,
+            reset=("cv", "ov"), name=f"{self._name}_{name}")
+        m.d.comb += [al.adv.eq(adv)] + [getattr(al.i, k).eq(v) for k, v in values.items()]
+        return al.o
+
+    def _split(self, value, shape):
+        """The ``ppc`` lane values of a beat word (lane 0 in the low bits)."""
+        n = Shape.cast(shape).width
+        return [value[k * n:(k + 1) * n] for k in range(self._ppc)]
+
+    def _columns(self, pipe, taps, pay):
+        """``col_fn`` on every lane of a beat column: (beat column value, depth)."""
+        if self._ppc == 1:
+            col, dc = self._col_fn(pipe, taps, pay)
+            return Value.cast(col), dc
+        lanes = zip(*(self._split(t, self._tap_shape) for t in taps))
+        pays = self._split(pay, self._pay_shape) if pay is not None else [None] * self._ppc
+        outs = [self._col_fn(pipe, list(t), p) for t, p in zip(lanes, pays)]
+        self._col_shape = Value.cast(outs[0][0]).shape()
+        return Cat(*(Value.cast(c) for c, _ in outs)), outs[0][1]
+
+    def _window(self, pipe, cols, left, right):
+        """``win_fn`` on every output pixel of a beat: (beat value, depth).
+
+        ``cols`` are the beat columns left, centre, right (ppc > 1) or the 2R+1 pixel
+        columns (ppc 1). At ppc > 1 pixel k of the centre beat takes pixel columns
+        k-R..k+R: the left beat's last R, the centre's, the right beat's first R, the
+        centre beat's pixel 0 (``left``: beat 0 of a row) or pixel ppc-1 (``right``: the
+        row's last beat) replicated beyond the row's ends."""
+        if self._ppc == 1:
+            return self._win_fn(pipe, cols)
+        P, R = self._ppc, self._r
+        lb, cb, rb = (self._split(c, self._col_shape) for c in cols)
+        px = {}
+        for a in range(-R, P + R):
+            if a < 0:
+                px[a] = Mux(left, cb[0], lb[P + a])
+            elif a >= P:
+                px[a] = Mux(right, cb[P - 1], rb[a - P])
+            else:
+                px[a] = cb[a]
+        outs = [self._win_fn(pipe, [px[k + d] for d in range(-R, R + 1)]) for k in range(P)]
+        return Cat(*(Value.cast(v) for v, _ in outs)), outs[0][1]
 
 
 # ---- the median network and the enhancement arithmetic as column / window functions
@@ -545,7 +715,7 @@ def _stage_b_fns(bits, gain, shift):
 
 
 class Median3(wiring.Component):
-    """3x3 median filter, replicated borders, 1 pixel/clock; optional edge enhancement.
+    """3x3 median filter, replicated borders, 1-8 pixels/clock; optional edge enhancement.
 
     Equals :func:`tdicam.model.median3.median3` bit for bit (``scipy.ndimage.median_filter
     (frame, size=3, mode="nearest")`` without ``enhance``).
@@ -553,7 +723,8 @@ class Median3(wiring.Component):
     Parameters
     ----------
     width : int
-        Pixels per line, 3..8192 (elaboration: it sizes the line buffers).
+        Pixels per line, ``3 ppc``..8192 and a multiple of ``ppc`` (elaboration: it sizes
+        the line buffers).
     pixel_bits : int
         Input and output pixel width, 8..16.
     enhance : bool
@@ -562,13 +733,19 @@ class Median3(wiring.Component):
         0..255 (only with ``enhance``).
     enhance_shift : int or None
         0..48, ``None`` = ``pixel_bits + 2`` (only with ``enhance``).
+    ppc : int
+        Pixels per clock: 1, 2, 4 or 8. A beat carries ``ppc`` consecutive pixels of a row,
+        element 0 the leftmost (TDATA = ``ppc`` pixels, as ``tdi``); ``first`` (TUSER) on
+        a frame's first beat, ``last`` (TLAST) on a row's last. The filter, its borders
+        and the enhancement do not depend on it: the output equals the golden model at
+        every ppc.
 
     Attributes
     ----------
-    i_stream : In(pixel stream of ``unsigned(pixel_bits)``)
-    o_stream : Out(pixel stream of ``unsigned(pixel_bits)``)
-        Same frame geometry as the input; ``first`` on pixel (0, 0) of each frame,
-        ``last`` on the last pixel of each line.
+    i_stream : In(pixel stream of ``ppc`` x ``unsigned(pixel_bits)``)
+    o_stream : Out(pixel stream of ``ppc`` x ``unsigned(pixel_bits)``)
+        Same frame geometry as the input; ``first`` on beat (0, 0) of each frame,
+        ``last`` on the last beat of each line.
     height : In(16)
         Rows of the frame, run time; sampled with the frame's first pixel (``first``), so it
         may change from frame to frame. 0 counts as 1. The block must know which row is a
@@ -589,12 +766,16 @@ class Median3(wiring.Component):
     window median (5). With ``enhance`` the Laplacian/gradient stage (11 stages) feeds the
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 2, mask 2,
     add and clamp 2 = 15 stages): output (y, x) is valid 26 cycles after input
-    (min(y+3, H-1), min(x+3, W-1)).
+    (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the same cycle counts (11 and 26)
+    hold per beat: output beat (y, b) is valid :attr:`latency` cycles after input beat
+    (min(y+1, H-1), min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2,
+    W/ppc-1)) (each neighbourhood reaches one beat to the right).
 
-    **Throughput and backpressure.** One pixel per clock in and out, across rows and frames
-    (the borders of one frame overlap the start of the next). One exception, with
-    ``enhance`` only: a frame of a single row arriving while the 5x5 stage still produces
-    the previous frame's last two rows waits for them (at most ``width`` cycles). The whole pipeline moves on
+    **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
+    across rows and frames (the borders of one frame overlap the start of the next). One
+    exception, with ``enhance`` only: a frame of a single row arriving while the 5x5 stage
+    still produces the previous frame's last two rows waits for them (at most ``width /
+    ppc`` cycles). The whole pipeline moves on
     ``advance = ~o_stream.valid | o_stream.ready``; ``i_stream.ready`` is ``advance`` and,
     while the previous frame's last rows are being produced, the condition that the new
     frame does not overwrite a line still needed. No pixel is lost or duplicated whatever
@@ -603,7 +784,13 @@ class Median3(wiring.Component):
     **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With
     ``enhance`` in addition: 4 lines of the gradient (``pixel_bits + 3``) for the 5x5 mean
     and 2 lines of the centre pixel's median and Laplacian (``2 pixel_bits + 3``), i.e.
-    ``width * (10 pixel_bits + 18)`` bits in total (1280 x 12 bits: 176,640 bits).
+    ``width * (10 pixel_bits + 18)`` bits in total (1280 x 12 bits: 176,640 bits). The
+    same bits at every ``ppc``: each line buffer is ``width / ppc`` words of ``ppc``
+    values.
+
+    **Errors.** ``ppc`` not 1, 2, 4, 8, a width below ``3 ppc`` or not a multiple of
+    ``ppc``: one-line :class:`~tdicam.errors.TdicamError` naming the values
+    (:func:`check_geometry`).
 
     **Reset** (synchronous) clears the pipeline and the counters: the next pixel accepted
     is pixel (0, 0) of a new frame. Line buffer contents are never read before they are
@@ -611,8 +798,8 @@ class Median3(wiring.Component):
     """
 
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
-                 enhance_shift=None):
-        self._width = check_range("width", width, 3, MAX_WIDTH)
+                 enhance_shift=None, ppc=1):
+        self._ppc, self._width = check_geometry(width, ppc)
         self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
         if not isinstance(enhance, bool):
             raise TdicamError(f"enhance must be true or false, got {enhance!r}")
@@ -621,8 +808,8 @@ class Median3(wiring.Component):
         shift = default_enhance_shift(pixel_bits) if enhance_shift is None else enhance_shift
         self._shift = check_range("enhance_shift", shift, 0, MAX_SHIFT)
         super().__init__({
-            "i_stream": In(pixel_signature(unsigned(pixel_bits))),
-            "o_stream": Out(pixel_signature(unsigned(pixel_bits))),
+            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
+            "o_stream": Out(pixel_signature(channels_shape(pixel_bits, ppc))),
             "height": In(unsigned(_HMAX)),
             "marker_error": Out(unsigned(1)),
         })
@@ -634,6 +821,11 @@ class Median3(wiring.Component):
     @property
     def pixel_bits(self):
         return self._bits
+
+    @property
+    def ppc(self):
+        """Pixels per clock (per beat)."""
+        return self._ppc
 
     @property
     def enhance(self):
@@ -649,7 +841,8 @@ class Median3(wiring.Component):
 
     @property
     def latency(self):
-        """Register stages from the input pixel that completes a window to its output."""
+        """Register stages from the input beat that completes a window to its output: 11,
+        with ``enhance`` 26, at every ``ppc``."""
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
         return plain + 3 + 3 + 9 if self._enhance else plain
 
@@ -661,34 +854,35 @@ class Median3(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        b, w = self._bits, self._width
+        b, w, P = self._bits, self._width, self._ppc
         i, o = self.i_stream, self.o_stream
         hm1 = Mux(is_zero(self.height), 0, self.height - 1)
         if not self._enhance:
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a")
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P)
             last = a
         else:
             col_fn, win_fn = _stage_a_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a")
+                name="a", ppc=P)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b")
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
             ao, bi = a.o_stream, bb.i_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
-                bi.payload.data.tap.eq(ao.payload.data.val.g),
-                bi.payload.data.pay.med.eq(ao.payload.data.val.med),
-                bi.payload.data.pay.lap.eq(ao.payload.data.val.lap),
-                bi.payload.data.hm1.eq(ao.payload.data.hm1),
             ]
+            lanes = (lambda v: [v]) if P == 1 else (lambda v: [v[k] for k in range(P)])
+            for av, bt, bp in zip(lanes(ao.payload.data.val), lanes(bi.payload.data.tap),
+                                  lanes(bi.payload.data.pay)):
+                m.d.comb += [bt.eq(av.g), bp.med.eq(av.med), bp.lap.eq(av.lap)]
+            m.d.comb += bi.payload.data.hm1.eq(ao.payload.data.hm1)
             last = bb
         ai = a.i_stream
         m.d.comb += [

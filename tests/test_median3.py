@@ -247,7 +247,7 @@ def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, bad_last_at=None, hei
         timeout=1e-8 * int((len(stim) + 40 * params["width"]) * 3 * slow + 200),
         latency_from=None, ports=("height",), drain=50 + 4 * params["width"], trace=trace,
         watch=("marker_error",))
-    got = [(row[0], first, last) for row, first, last in got]
+    got = [(list(row), first, last) for row, first, last in got]
     return got, exp, {"acc": [c for k, c in trace if k == "i"],
                       "out": [c for k, c in trace if k == "o"],
                       "marker": final["watch"]["marker_error"], "latency": dut.latency}
@@ -255,14 +255,14 @@ def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, bad_last_at=None, hei
 
 def _assert_equal(got, exp):
     assert len(got) == len(exp), f"{len(got)} outputs, expected {len(exp)}"
-    np.testing.assert_array_equal(np.array([g[0] for g in got], np.uint64), exp.data[:, 0])
+    np.testing.assert_array_equal(np.array([g[0] for g in got], np.uint64), exp.data)
     np.testing.assert_array_equal([bool(g[1]) for g in got], exp.first)
     np.testing.assert_array_equal([bool(g[2]) for g in got], exp.last)
 
 
 def _params(**kw):
     p = {"width": 7, "pixel_bits": 12, "enhance": False, "enhance_gain": 1,
-         "enhance_shift": None}
+         "enhance_shift": None, "ppc": 1}
     p.update(kw)
     return p
 
@@ -352,3 +352,95 @@ def test_block_cases_cover_what_the_issue_asks():
     widths = {c.params["width"] for c in cases}
     assert min(widths) == 3 and max(widths) == 8192
     assert {c.params["pixel_bits"] for c in cases} == {8, 12, 16}
+
+
+# ---------------------------------------------------------------- pixels per clock
+
+
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+@pytest.mark.parametrize("enhance", [False, True])
+def test_ppc_full_rate_latency_and_no_bubbles(ppc, enhance):
+    """ppc pixels per beat, no stalls: one beat per clock in and out, latency as at ppc 1
+    (11, with enhance 26) from the input beat that completes the window of output beat
+    (0, 0): beat (1, 1), with enhance (3, 2) (each stage reaches one beat to the right)."""
+    rng = np.random.default_rng(ppc + 10 * enhance)
+    w = 4 * ppc
+    params = _params(width=w, enhance=enhance, enhance_gain=9, ppc=ppc)
+    frames = [rng.integers(0, 4096, (h, w)) for h in ((5, 2, 4, 3) if enhance else (5, 1, 4, 2))]
+    got, exp, st = _simulate(params, frames)
+    _assert_equal(got, exp)
+    acc, out = np.array(st["acc"]), np.array(st["out"])
+    assert len(acc) == len(exp) and (np.diff(acc) == 1).all()
+    assert (np.diff(out) == 1).all()
+    row, beat = (3, 2) if enhance else (1, 1)
+    assert st["latency"] == (26 if enhance else 11)
+    assert out[0] - acc[row * 4 + beat] == st["latency"]
+
+
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+@pytest.mark.parametrize("enhance", [False, True])
+@pytest.mark.parametrize("beats,idle,bp,seed", [(3, 0.3, 0.3, 1), (5, 0.6, 0.1, 2),
+                                                (4, 0.1, 0.7, 3)])
+def test_amaranth_sim_ppc_matches_model_with_stalls(ppc, enhance, beats, idle, bp, seed):
+    """Every lane equals the golden model (borders, enhancement, 1-row frames, 0 and full
+    scale) with random valid/ready, from the smallest width (3 beats) up."""
+    rng = np.random.default_rng(seed + 10 * ppc)
+    bits, width = (8, 12, 16)[seed % 3], beats * ppc
+    params = _params(width=width, pixel_bits=bits, enhance=enhance, ppc=ppc,
+                     enhance_gain=int(rng.integers(0, 256)) if enhance else 1,
+                     enhance_shift=int(seed * 7) if enhance else None)
+    full = (1 << bits) - 1
+    frames = [rng.integers(0, full + 1, (1, width)), rng.integers(0, 2, (5, width)) * full,
+              rng.integers(0, full + 1, (2, width)), np.full((3, width), full),
+              np.zeros((2, width), np.int64), rng.integers(0, full + 1, (4, width))]
+    got, exp, st = _simulate(params, frames, idle=idle, bp=bp, seed=seed)
+    _assert_equal(got, exp)
+    assert not any(st["marker"])
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+def test_ppc_params_and_errors_are_one_line():
+    dut, small = Median3(width=1280, ppc=8, enhance=True), Median3(width=24, ppc=8)
+    dut._MustUse__silence = small._MustUse__silence = True     # never elaborated
+    assert (dut.ppc, dut.latency, dut.line_buffer_bits) == (8, 26, 1280 * (10 * 12 + 18))
+    assert small.latency == 11
+    for kw, match in (({"ppc": 3}, r"^ppc = 3 is not valid; valid: 1, 2, 4, 8$"),
+                      ({"width": 16, "ppc": 8},
+                       r"^width \(ppc = 8\) = 16 is out of range; valid: 24\.\.8192$"),
+                      ({"width": 28, "ppc": 8}, r"^width = 28 is not a multiple of ppc = 8$"),
+                      ({"width": 2, "ppc": 1}, r"^width = 2 is out of range; valid: 3\.\.8192$")):
+        with pytest.raises(TdicamError, match=match):
+            Median3(**kw)
+    blk = blocks.get("median3")
+    with pytest.raises(TdicamError, match=r"^width = 30 is not a multiple of ppc = 4$"):
+        blk.resolve({"width": 30, "ppc": 4})
+    proc = subprocess.run([sys.executable, "-m", "tdicam", "verilog", "median3", "--ppc", "8",
+                           "--width", "20"], capture_output=True, text=True)
+    err = proc.stderr.strip()
+    assert proc.returncode == 2 and len(err.splitlines()) == 1 and "ppc = 8" in err \
+        and "20" in err and "Traceback" not in err
+
+
+def test_ppc_default_is_not_recorded():
+    """ppc-1 golden vectors and Verilog stay as before ``ppc`` existed; ppc 8 names it."""
+    import json
+    from tdicam.cosim import vectors as golden
+    from tdicam.hw import verilog
+    from tdicam.paths import GOLDEN
+    with np.load(GOLDEN / "median3" / "random_12b.npz") as z:
+        assert "ppc" not in json.loads(str(z["__params__"]))
+    with np.load(GOLDEN / "median3" / "p8_random_12b.npz") as z:
+        assert json.loads(str(z["__params__"]))["ppc"] == 8
+    assert golden.load("median3", "random_12b")[1]["ppc"] == 1
+    assert "ppc" not in verilog.generate("median3").splitlines()[1]
+    assert "ppc=8" in verilog.generate("median3", {"ppc": 8, "width": 24})
+
+
+def test_ppc_cases_cover_smallest_and_widest_at_every_ppc():
+    cases = [c for c in blocks.get("median3").cases() if c.params.get("ppc", 1) > 1]
+    for ppc in (2, 4, 8):
+        mine = [c for c in cases if c.params["ppc"] == ppc]
+        assert min(c.params["width"] for c in mine) == 3 * ppc
+        tags = {t for c in mine for t in c.tags}
+        assert {"smallest", "fullscale", "zeros", "reset", "enhance", "height-change"} <= tags
+    assert any(c.params["width"] == 8192 and c.params["ppc"] == 8 for c in cases)

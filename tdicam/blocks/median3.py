@@ -2,7 +2,8 @@
 
 Golden cases hold a stream of frames of possibly different heights (the block's run-time
 ``height`` port): ``frames`` (all rows, concatenated), ``heights`` (rows per frame),
-``keep`` (pixels of each frame actually sent: fewer means the frame is cut by a reset),
+``keep`` (pixels of each frame actually sent: fewer means the frame is cut by a reset; at
+``ppc`` > 1 rounded up to whole beats),
 ``reset_after`` (1 = reset the block before the next frame) and ``out`` (golden output of
 every frame, whole).
 """
@@ -14,11 +15,11 @@ import numpy as np
 from tdicam.beats import Beats, mark_resets
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
-from tdicam.hdl.median3 import Median3
+from tdicam.hdl.median3 import Median3, check_geometry
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from tdicam.blocks import Bench, StreamWork, SynthRef
-from tdicam.blocks import Block, Case, KeyDoc, Options, Param, Use, frame_stack
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param,
+                           StreamWork, SynthRef, Use, frame_stack)
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Step
 
@@ -51,21 +52,23 @@ def stream_case(frames, params, *, keep=None, reset_after=None):
 
 
 def case_beats(arrays, params):
-    """(stimulus, expected) Beats of a case; ``height`` rides in ``ctrl`` with every beat."""
-    w = params["width"]
+    """(stimulus, expected) Beats of a case; ``height`` rides in ``ctrl`` with every beat.
+    A beat carries ``ppc`` pixels of a row (element 0 the leftmost)."""
+    w, ppc = params["width"], params.get("ppc", 1)
+    check_geometry(w, ppc)
     heights, keep, reset_after = arrays["heights"], arrays["keep"], arrays["reset_after"]
     img, out = arrays["frames"], arrays["out"]
     stim_parts, exp_parts, resets, exp_resets = [], [], [], []
     row = n_stim = n_exp = 0
     for f, h in enumerate(heights.tolist()):
-        n = h * w
+        n = h * w // ppc
         idx = np.arange(n)
-        first, last = idx == 0, idx % w == w - 1
-        px = img[row:row + h].reshape(-1)
-        k = int(keep[f])
+        first, last = idx == 0, idx % (w // ppc) == w // ppc - 1
+        px = img[row:row + h].reshape(n, ppc)
+        k = -(-int(keep[f]) // ppc)
         stim_parts.append(Beats(px[:k], first[:k], last[:k],
                                 ctrl=np.full(k, h, np.uint64)))
-        exp_parts.append(Beats(out[row:row + h].reshape(-1), first, last))
+        exp_parts.append(Beats(out[row:row + h].reshape(n, ppc), first, last))
         n_stim += k
         n_exp += n
         row += h
@@ -149,11 +152,12 @@ def _edges(params, rng):
 
 
 def _reset_mid_frame(params, rng):
-    """Frame 0 cut after 2.5 rows by a reset; frame 1 clean; frame 2 ends and a reset hits
-    while its last row is still being produced (flush); frame 3 clean."""
-    b, w = params["pixel_bits"], params["width"]
+    """Frame 0 cut after 2.5 rows (rounded up to a whole beat) by a reset; frame 1 clean;
+    frame 2 ends and a reset hits while its last row is still being produced (flush); frame
+    3 clean."""
+    b, w, ppc = params["pixel_bits"], params["width"], params.get("ppc", 1)
     frames = [_rand(rng, b, h, w) for h in (6, 5, 4, 3)]
-    keep = [5 * w // 2, 5 * w, 4 * w, 3 * w]
+    keep = [-(-(5 * w // 2) // ppc) * ppc, 5 * w, 4 * w, 3 * w]
     return stream_case(frames, params, keep=keep, reset_after=[1, 0, 1, 0])
 
 
@@ -181,6 +185,47 @@ def _wide(params, rng):
     full = (1 << b) - 1
     runs = (np.arange(w) // 7 % 2) * full
     return stream_case([np.stack([_rand(rng, b, 1, w)[0], runs])], params)
+
+
+#: Parameter sets of the ppc 2, 4, 8 golden cases: the smallest width (3 beats) plain and
+#: with enhancement at every ppc; at ppc 8 also the widest line and a second enhancement
+#: setting (16-bit, gain 200, shift 30).
+for _p in (2, 4, 8):
+    BUILDS[f"p{_p}_w{3 * _p}_12b"] = _top_params(width=3 * _p, ppc=_p)
+    BUILDS[f"p{_p}_enh_w{4 * _p}_12b"] = _top_params(width=4 * _p, enhance=True, enhance_gain=9,
+                                                     ppc=_p)
+BUILDS["p8_w8192_8b"] = _top_params(width=MAX_WIDTH, pixel_bits=8, ppc=8)
+BUILDS["p8_enh_w40_16b"] = _top_params(width=40, pixel_bits=16, enhance=True,
+                                       enhance_gain=200, enhance_shift=30, ppc=8)
+
+
+def _ppc_cases():
+    """Golden cases at ppc 2, 4, 8: random frames of changing heights, 0 / full scale /
+    constant frames, a reset mid-frame and mid-row, with and without enhancement, at the
+    smallest width; the widest line and 16-bit enhancement at ppc 8."""
+    b, out = BUILDS, []
+    for k, p in enumerate((2, 4, 8)):
+        plain, enh, s = b[f"p{p}_w{3 * p}_12b"], b[f"p{p}_enh_w{4 * p}_12b"], 100 + 10 * k
+        out += [
+            Case(f"p{p}_random_12b", plain, _random([4, 1, 2, 3, 7]), seed=s,
+                 tags=("smallest", "height-change")),
+            Case(f"p{p}_flat_full_12b", plain, _flat_and_full, seed=s + 1,
+                 tags=("smallest", "fullscale", "zeros")),
+            Case(f"p{p}_reset_12b", plain, _reset_mid_frame, seed=s + 2, tags=("reset",)),
+            Case(f"p{p}_enh_edges_12b", enh, _edges, seed=s + 3, tags=("enhance",)),
+            Case(f"p{p}_enh_random_12b", enh, _random([5, 1, 2, 3]), seed=s + 4,
+                 tags=("enhance", "height-change")),
+            Case(f"p{p}_enh_reset_12b", enh, _reset_mid_frame, seed=s + 5,
+                 tags=("enhance", "reset")),
+        ]
+    out += [
+        Case("p8_w8192_8b", b["p8_w8192_8b"], _wide, seed=140, tags=("widest", "fullscale")),
+        Case("p8_enh_flat_full_16b", b["p8_enh_w40_16b"], _flat_and_full, seed=141,
+             tags=("enhance", "fullscale", "zeros")),
+        Case("p8_enh_salt_pepper_16b", b["p8_enh_w40_16b"], _salt_pepper([6, 2]), seed=142,
+             tags=("enhance",)),
+    ]
+    return out
 
 
 def _cases():
@@ -211,10 +256,12 @@ def _cases():
              tags=("enhance", "smallest")),
         Case("enh_w3_flat_full_16b", b["enh_w3_16b"], _flat_and_full, seed=16,
              tags=("enhance", "fullscale", "zeros")),
+        *_ppc_cases(),
     ]
 
 
 def _check(params):
+    check_geometry(params["width"], params["ppc"])
     if not params["enhance"] and (params["enhance_gain"] != 1
                                   or params["enhance_shift"] is not None):
         raise TdicamError("--enhance-gain and --enhance-shift need --enhance true")
@@ -263,15 +310,17 @@ def _pipeline_step(ctx):
 
 BLOCK = Block(
     name="median3",
-    summary="3x3 median, replicated borders, 1 pixel/clock, optional edge enhancement "
+    summary="3x3 median, replicated borders, 1-8 pixels/clock, optional edge enhancement "
             "(Ning et al. 2019 §4.4.3)",
     params=(
-        Param("width", 1280, "pixels per line (sizes the line buffers)", lo=3, hi=MAX_WIDTH),
+        Param("width", 1280, "pixels per line (sizes the line buffers; a multiple of ppc, "
+              ">= 3*ppc)", lo=3, hi=MAX_WIDTH),
         Param("pixel_bits", 12, "input and output pixel width", lo=8, hi=16),
         Param("enhance", False, "add the Laplacian x smoothed-gradient detail", type=bool),
         Param("enhance_gain", 1, "mask gain (with --enhance)", lo=0, hi=MAX_GAIN),
         Param("enhance_shift", None, "mask right shift (with --enhance; default "
               "pixel_bits + 2)", lo=0, hi=MAX_SHIFT),
+        PPC_PARAM,
     ),
     top=_top,
     cases=_cases,
