@@ -294,15 +294,17 @@ def inject_flips(rng, image, *, p_single, p_double, skip_header=True):
 
 #: Largest calibration image read (a 4 Gb NAND part with its spare areas is 528 MiB).
 MAX_IMAGE_BYTES = 1 << 30
+#: First bytes of a NAND image file (:mod:`tdicam.model.nand_store` writes them; here so that
+#: the reader can tell the two forms apart without importing the NAND model).
+NAND_FILE_MAGIC = b"TDINANDI"
 
 
 def _image_size(head, name):
     """The most bytes a file starting with ``head`` may hold: a plain image's header words
     say its length (one word more is let through, so that :func:`read_image` names trailing
-    data); a NAND image (:data:`tdicam.model.nand_store.FILE_MAGIC`) may hold
-    :data:`MAX_IMAGE_BYTES`; raises when the header is not a calibration image's."""
-    from tdicam.model.nand_store import FILE_MAGIC
-    if head.startswith(FILE_MAGIC) or len(head) < HEADER_WORDS * WORD_BYTES:
+    data); a NAND image (:data:`NAND_FILE_MAGIC`) may hold :data:`MAX_IMAGE_BYTES`; raises
+    when the header is not a calibration image's."""
+    if head.startswith(NAND_FILE_MAGIC) or len(head) < HEADER_WORDS * WORD_BYTES:
         return MAX_IMAGE_BYTES          # a NAND image, or short: read_image names it
     data, check = ecc.unpack_code(image_words(head, name))
     dec = ecc.decode(data, check)
