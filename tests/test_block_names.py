@@ -21,6 +21,10 @@ OTHER_MEANINGS = {
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
     ("tdicam/export/camera.py", "ddr"): "--memory ddr",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
+    ("model/ddr.py", "ddr"): "the recorded DDR traces' names (each DDR block's command "
+                             "order), the keys of the measured-efficiency table",
+    ("model/ddr.py", "cds_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
+    ("model/ddr.py", "tdi_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
     ("tdicam/api.py", "tdi"): "the simulation dataset's `tdi` image (what tdicam run writes "
                               "as tdi.npy)",
 }
