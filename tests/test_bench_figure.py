@@ -18,7 +18,7 @@ def rows():
                                  mismatches=None if lev == "golden" else 0))
     out.append(bench.row("ecc", "icarus fast", "word", 1000, 0.5, accuracy="3 mismatching",
                          mismatches=3))
-    out.append(bench._na("lvds", "pysim", "lane", "not run"))
+    out.append(bench.na_row("lvds", "pysim", "lane", "not run"))
     for fid, psnr in (("fast", 61.5), ("auto", 62.0), ("exact", None)):
         out.append(bench.row("scene", f"scene {fid}", "line", 256, 0.02 if fid != "exact"
                              else 0.4, accuracy="reference; other seed" if psnr is None else "PSNR",
