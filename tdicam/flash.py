@@ -25,7 +25,7 @@ from tdicam.model import calib, nand_store as nand
 from tdicam.model.nuc import NucFormat
 
 __all__ = ["load_maps", "write", "load_image", "report", "save_maps", "inject",
-           "check_not_input", "check_file", "controller_clock_hz"]
+           "check_not_input", "controller_clock_hz"]
 
 #: What np.load raises on a file that is not (or no longer, truncated) a numpy file.
 _NOT_NUMPY = (ValueError, EOFError, zipfile.BadZipFile)

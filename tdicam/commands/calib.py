@@ -12,6 +12,7 @@ The work is :mod:`tdicam.flash`'s; this module parses the arguments and prints.
 """
 
 from tdicam import flash
+from tdicam.files import check_file
 from tdicam.model import nand_store as nand
 from tdicam.model.nuc import DEFAULT_FORMAT
 
@@ -107,7 +108,7 @@ def _write(args):
 def _read(args):
     if args.output is not None:
         flash.check_not_input(args.output, args.image)
-        flash.check_file(args.output)
+        check_file(args.output)
     img, lines = flash.report(args.image, args.clock_mhz)
     _print(lines)
     if args.output is not None:
