@@ -22,7 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from tdicam.bench.util import machine, print_table
-from tdicam.sweep.runner import TIMING_COLUMNS, load_sweep, read_table, run_sweep
+from tdicam.sweeps.runner import TIMING_COLUMNS, load_sweep, read_table, run_sweep
 
 SCENE = """
 [orbit]
@@ -80,7 +80,7 @@ def run(columns=64, lines=32, repeats=1):
                           dashboard_address=None, env={"TDICAM_THREADS": "1"},
                           silence_logs=logging.CRITICAL) as cluster, \
                 Client(cluster) as client:
-            client.run(lambda: __import__("tdicam.sweep.runner"))     # warm imports in the workers
+            client.run(lambda: __import__("tdicam.sweeps.runner"))     # warm imports in the workers
             dt = run_sweep(sw, work / f"up{k}", scheduler=cluster.scheduler_address,
                            progress=False).compute_seconds
         cold = run_sweep(sw, work / f"cold{k}", workers=k, progress=False).compute_seconds

@@ -3,7 +3,7 @@
 The functions here are what the command line calls: ``tdicam run`` is
 ``simulate(scene, ...).save(dir)``, ``tdicam plan`` is :func:`plan`, ``tdicam sweep`` is
 :func:`sweep`. Each is a thin layer over a service (:mod:`tdicam.run`,
-:mod:`tdicam.planning`, :mod:`tdicam.sweep`); errors in the input are one-line
+:mod:`tdicam.planning`, :mod:`tdicam.sweeps`); errors in the input are one-line
 :class:`~tdicam.errors.TdicamError` exceptions, as on the command line.
 
 Layer: a service above the run, planning and sweep services; only the commands (and the
@@ -400,7 +400,7 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
         A bad sweep file or output folder, an unreachable scheduler (one line).
     """
     import xarray as xr
-    from tdicam.sweep.runner import load_sweep, run_sweep
+    from tdicam.sweeps.runner import load_sweep, run_sweep
     sw = load_sweep(source, force=force, impact=impact, progress=progress)
     out = Path(out_dir) if out_dir is not None else Path("out") / "sweeps" / sw.name
     res = run_sweep(sw, out, workers=workers, scheduler=scheduler, serial=serial,

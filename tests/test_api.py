@@ -104,10 +104,9 @@ def test_plan_is_tdicam_plan(capsys):
 
 def test_sweep_from_a_dict(tmp_path, monkeypatch):
     monkeypatch.chdir(SCENES)
-    # tdicam.api.sweep: once the tdicam.sweep package was imported (other tests import it),
-    # the package attribute shadows the lazy API name (known defect, see the closing note)
-    from tdicam.api import sweep
-    ds = sweep({"scene": "tao2012_ibis5_rolling_1_5_10.toml",
+    import tdicam.sweeps.runner                  # the sweep service's package does not shadow the API
+    assert tdicam.sweep is tdicam.api.sweep and callable(tdicam.sweep)
+    ds = tdicam.sweep({"scene": "tao2012_ibis5_rolling_1_5_10.toml",
                        "axes": {"tdi.stages": [1, 4]}, "set": {"run.lines": 16}},
                       tmp_path / "sw", serial=True)
     assert ds.sizes["tdi.stages"] == 2 and ds.attrs["failed"] == 0

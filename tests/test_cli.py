@@ -651,7 +651,7 @@ def test_a_reader_that_leaves_ends_the_command_quietly():
 
 
 def test_sweep_validation_says_how_many_points(tmp_path, capsys):
-    from tdicam.sweep.file import load_sweep
+    from tdicam.sweeps.file import load_sweep
     base = ROOT / "scenes" / "tao2012_ibis5_rolling_1_5_10.toml"
     f = tmp_path / "many.toml"
     f.write_text(f'scene = "{base}"\n[set]\n"run.lines" = 16\n[axes]\n"tdi.stages" = [1]\n'

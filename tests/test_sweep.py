@@ -17,7 +17,7 @@ import pytest
 
 from tdicam.cli import main
 from tdicam.errors import TdicamError
-from tdicam.sweep.runner import TIMING_COLUMNS, load_sweep, read_table, run_sweep
+from tdicam.sweeps.runner import TIMING_COLUMNS, load_sweep, read_table, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -164,8 +164,8 @@ def test_bad_sweep_files_one_line_errors(tmp_path, capsys, body, msg):
 
 
 def test_limit_is_lifted_by_force(tmp_path, monkeypatch):
-    import tdicam.sweep.file
-    monkeypatch.setattr(tdicam.sweep.file, "MAX_RUNS", 20)     # expanding 5000 runs takes ~10 s
+    import tdicam.sweeps.file
+    monkeypatch.setattr(tdicam.sweeps.file, "MAX_RUNS", 20)     # expanding 5000 runs takes ~10 s
     path = sweep_file(tmp_path, 'scene = "tiny.toml"\nrepeats = 3\n[axes]\n'
                                 '"target.signal_e" = {start = 1, stop = 7, step = 1}\n')
     with pytest.raises(TdicamError, match=r"target.signal_e \(7\) x repeats \(3\) = 21 runs, "

@@ -1,7 +1,7 @@
 """``tdicam sweep SWEEP.toml [-o DIR]``: a trade study over scene keys, run on Dask.
 
 The sweep file names a base scene, the scene keys to vary (lists or ranges, products and a
-zip group) and the Monte-Carlo repeats (:mod:`tdicam.sweep.runner`). Every run is stored as it
+zip group) and the Monte-Carlo repeats (:mod:`tdicam.sweeps.runner`). Every run is stored as it
 finishes, so a rerun computes only what is missing. Writes DIR/results.parquet, results.csv,
 sweep.nc, summary.json, plots and DIR/points/<hash>.json (each run's report). Exit status 0
 when every run succeeded, 1 when some failed (listed), 2 for a bad sweep file or an
@@ -47,7 +47,7 @@ def register(subparsers) -> None:
 
 
 def sweep(args):
-    from tdicam.sweep.runner import load_sweep, run_sweep
+    from tdicam.sweeps.runner import load_sweep, run_sweep
     check_range("--connect-timeout", args.connect_timeout, 0, 3600, integer=False,
                 lo_open=True)
     if args.limit is not None:          # before the points are expanded

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.version import __version__
-from tdicam.sweep.file import STORE_FORMAT, Run, Sweep
+from tdicam.sweeps.file import STORE_FORMAT, Run, Sweep
 
 __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "table", "dataset", "read_table",
            "write_results"]
@@ -210,7 +210,7 @@ def write_results(sweep: Sweep, out_dir: Path, done: dict) -> list[str]:
     atomic("results.csv", lambda p: df.to_csv(p, index=False))
     ds = dataset(sweep, df)
     atomic("sweep.nc", lambda p: ds.to_netcdf(p, engine="h5netcdf"))
-    from tdicam.sweep import plots as sweepplots
+    from tdicam.sweeps import plots as sweepplots
     for name, fig in sweepplots.figures(sweep, df):
         atomic(name, lambda p, fig=fig: sweepplots.save(fig, p))
     return files

@@ -1,4 +1,4 @@
-"""Figures of a sweep's tidy table (:mod:`tdicam.sweep.runner`), with matplotlib's Agg backend.
+"""Figures of a sweep's tidy table (:mod:`tdicam.sweeps.runner`), with matplotlib's Agg backend.
 
 * ``snr_vs_stages.png`` — flat targets, at least two stage counts: the measured SNR gain
   over one exposure of every repeat (dots), their mean and standard deviation (error bars),

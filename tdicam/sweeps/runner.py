@@ -1,9 +1,9 @@
 """Trade-study sweeps over scene keys on Dask: resumable, one tidy table, one labelled dataset.
 
 ``tdicam sweep`` (:mod:`tdicam.commands.sweep`) is the command line of this service. The
-sweep file, its points, runs and seeds: :mod:`tdicam.sweep.file`. The store of finished runs
-(resume), the table, the dataset and the figures: :mod:`tdicam.sweep.results` and
-:mod:`tdicam.sweep.plots`.
+sweep file, its points, runs and seeds: :mod:`tdicam.sweeps.file`. The store of finished runs
+(resume), the table, the dataset and the figures: :mod:`tdicam.sweeps.results` and
+:mod:`tdicam.sweeps.plots`.
 
 Execution
 ---------
@@ -37,8 +37,8 @@ import numpy as np
 from tdicam import files as outputs
 from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
-from tdicam.sweep.file import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
-from tdicam.sweep.results import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
+from tdicam.sweeps.file import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
+from tdicam.sweeps.results import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
                                   _store_record, _write_atomic, read_table, write_results)
 
 __all__ = ["MAX_RUNS", "ALLOWED_FAILURES", "STORE_FORMAT", "RESULT_COLUMNS", "TIMING_COLUMNS",
