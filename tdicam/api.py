@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, check_range
 from tdicam.scene.examples import examples
 from tdicam.scene.loader import Scene
 from tdicam.version import __version__
@@ -296,7 +296,7 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
     Parameters
     ----------
     scene : str or Path, optional
-        A scene file; ``options`` override it. Without a scene and orbit options: Qu 2010's
+        A scene file; ``options`` override it. Without a scene and orbit options: Qu et al. 2010's
         example (600 km; GSD 5, 2, 1 m; 12/24/48/96 stages; 1280 x 1024 12-bit sensor).
     onchip_kbit : float, optional
         On-chip RAM for the partial sums, kbit (1 kbit = 1024 bit).
@@ -362,8 +362,8 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
 
 def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = None, *,
           workers: int | None = None, scheduler: str | None = None, serial: bool = False,
-          impact: bool = False, force: bool = False, progress: bool = False
-          ) -> xarray.Dataset:
+          impact: bool = False, force: bool = False, limit: int | None = None,
+          connect_timeout: float = 10.0, progress: bool = False) -> xarray.Dataset:
     """Run a trade study (``tdicam sweep``) and return its labelled dataset.
 
     Parameters
@@ -383,7 +383,12 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
     impact : bool
         Measure each effect's impact in every run.
     force : bool
-        Accept more runs than the limit.
+        Accept more runs (points x repeats) than the safety limit.
+    limit : int, optional
+        Compute at most this many runs (>= 0); a rerun into the same ``out_dir`` finishes
+        the sweep. The dataset holds NaN (status ``missing``) where a run is missing.
+    connect_timeout : float
+        Seconds to wait for ``scheduler``, in (0, 3600].
     progress : bool
         Show a progress bar on a terminal.
 
@@ -391,21 +396,33 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
     -------
     xarray.Dataset
         What ``sweep.nc`` holds: one dimension per axis (``zip`` for a zip group) and
-        ``repeat``, the result columns as variables, provenance in the attributes. The
-        dataset's ``attrs["failed"]`` counts the runs that failed.
+        ``repeat``, the result columns as variables, provenance in the attributes. Two
+        attributes are added in memory: ``attrs["failed"]`` counts the runs that failed,
+        ``attrs["summary"]`` is the text ``tdicam sweep`` prints.
 
     Raises
     ------
     TdicamError
-        A bad sweep file or output folder, an unreachable scheduler (one line).
+        A bad sweep file, parameter or output folder, an unreachable scheduler (one line).
+    KeyboardInterrupt
+        Re-raised with the attribute ``out_dir``: the finished runs are kept there, and the
+        same call finishes the sweep.
     """
     import xarray as xr
     from tdicam.sweeps.runner import load_sweep, run_sweep
+    check_range("--connect-timeout", connect_timeout, 0, 3600, integer=False, lo_open=True)
+    if limit is not None:                   # before the points are expanded
+        check_range("--limit", limit, 0, None)
     sw = load_sweep(source, force=force, impact=impact, progress=progress)
     out = Path(out_dir) if out_dir is not None else Path("out") / "sweeps" / sw.name
-    res = run_sweep(sw, out, workers=workers, scheduler=scheduler, serial=serial,
-                    progress=progress)
+    try:
+        res = run_sweep(sw, out, workers=workers, scheduler=scheduler, serial=serial,
+                        limit=limit, progress=progress, connect_timeout=connect_timeout)
+    except KeyboardInterrupt as stop:
+        stop.out_dir = out
+        raise
     with xr.open_dataset(res.out_dir / "sweep.nc", engine="h5netcdf") as ds:
         data = ds.load()
     data.attrs["failed"] = len(res.failed)
+    data.attrs["summary"] = res.summary()
     return data

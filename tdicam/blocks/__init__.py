@@ -602,7 +602,8 @@ class Block:
 
     def cosim(self, arrays: dict | None = None, *, sim: str = "icarus", mode: str = "fast",
               idle: float = 0.2, backpressure: float = 0.2, seed: int = 1,
-              **params) -> list[dict]:
+              cases: list[str] | None = None, wave_dir: str | None = None,
+              on_case: Callable[[dict], None] | None = None, **params) -> list[dict]:
         """Co-simulate the block's Verilog against its golden model (cocotb).
 
         Parameters
@@ -618,6 +619,13 @@ class Block:
             Probabilities of an idle input cycle and of ``tready`` low, in [0, 1).
         seed : int
             Seed of the idle and backpressure pattern.
+        cases : list of str, optional
+            Only these golden cases (without ``arrays``; ``tdicam sim --case``).
+        wave_dir : str, optional
+            Where the waveform (FST) around a case's first mismatch is written (default:
+            the build folder's ``waves``); the row's ``waveform`` and ``message`` name it.
+        on_case : callable, optional
+            Called with each row as soon as its case has run (``tdicam sim`` prints it).
         **params
             Block parameters (with ``arrays`` only; a golden case has its own).
 
@@ -635,14 +643,22 @@ class Block:
         """
         from tdicam import cosim
         from tdicam.cosim.cases import run_cases
-        kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed)
+        kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed,
+                  wave_dir=wave_dir)
         if arrays is None:
             if params:
                 raise TdicamError(f"block {self.name}: parameters go with arrays (each golden "
                                   f"case has its own)")
-            return run_cases(self.name, report=lambda row: None, **kw)
+            return run_cases(self.name, cases=cases, report=on_case or (lambda row: None),
+                             **kw)
+        if cases:
+            raise TdicamError(f"block {self.name}: cases= selects golden cases; it does not go "
+                              f"with arrays")
         run, out = cosim.run_scene(self, arrays, params, **kw)
-        return [{"case": "arrays", **run.row(), "out": out}]
+        row = {"case": "arrays", **run.row(), "out": out}
+        if on_case is not None:
+            on_case(row)
+        return [row]
 
     def _per(self, key):
         return next((s.per for s in self.side_inputs if s.name == key), None)

@@ -1,4 +1,5 @@
-"""``tdicam sim BLOCK --sim icarus|verilator [--fast]``"""
+"""``tdicam sim BLOCK --sim icarus|verilator [--fast]``: the block's golden cases
+co-simulated (:meth:`tdicam.blocks.Block.cosim`), one printed row per case."""
 
 import time
 
@@ -6,7 +7,6 @@ from tdicam import blocks, cosim
 from tdicam.errors import check_range
 from tdicam.files import check_dir
 from tdicam.cosim.pauses import SEED_MAX, check_seed
-from tdicam.cosim.cases import run_cases
 
 
 def register(sub):
@@ -49,9 +49,10 @@ def _run(args):
                                                      f"  {r['message']}"))
 
     t0 = time.perf_counter()
-    rows = run_cases(args.block, sim=args.sim, mode=mode, idle=args.idle,
-                     backpressure=args.backpressure, seed=args.seed, cases=args.case,
-                     report=report, wave_dir=args.wave_dir)
+    rows = blocks.get(args.block).cosim(sim=args.sim, mode=mode, idle=args.idle,
+                                        backpressure=args.backpressure, seed=args.seed,
+                                        cases=args.case, wave_dir=args.wave_dir,
+                                        on_case=report)
     pixels = sum(r["pixels"] for r in rows)
     bad = sum(r["mismatches"] for r in rows)
     wall = sum(r["wall_s"] for r in rows)

@@ -5,15 +5,13 @@ zip group) and the Monte-Carlo repeats (:mod:`tdicam.sweeps.runner`). Every run 
 finishes, so a rerun computes only what is missing. Writes DIR/results.parquet, results.csv,
 sweep.nc, summary.json, plots and DIR/points/<hash>.json (each run's report). Exit status 0
 when every run succeeded, 1 when some failed (listed), 2 for a bad sweep file or an
-unreachable scheduler.
+unreachable scheduler. The command calls :func:`tdicam.api.sweep`.
 """
 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-from tdicam.errors import check_range
 from tdicam.files import named
 
 __all__ = ["register", "sweep"]
@@ -47,21 +45,16 @@ def register(subparsers) -> None:
 
 
 def sweep(args):
-    from tdicam.sweeps.runner import load_sweep, run_sweep
-    check_range("--connect-timeout", args.connect_timeout, 0, 3600, integer=False,
-                lo_open=True)
-    if args.limit is not None:          # before the points are expanded
-        check_range("--limit", args.limit, 0, None)
-    sw = load_sweep(args.sweep_file, force=args.force, impact=args.impact,
-                    progress=not args.no_progress)
-    out = named(args.out) if args.out is not None else Path("out") / "sweeps" / sw.name
+    from tdicam.api import sweep as run_study
+    out = named(args.out) if args.out is not None else None
     try:
-        res = run_sweep(sw, out, workers=args.workers, scheduler=args.scheduler,
-                        serial=args.serial, limit=args.limit, progress=not args.no_progress,
-                        connect_timeout=args.connect_timeout)
-    except KeyboardInterrupt:
-        print(f"tdicam: interrupted; the finished runs are kept in {out}/points: run the "
-              f"same command again to finish", file=sys.stderr)
+        ds = run_study(args.sweep_file, out, workers=args.workers, scheduler=args.scheduler,
+                       serial=args.serial, impact=args.impact, force=args.force,
+                       limit=args.limit, connect_timeout=args.connect_timeout,
+                       progress=not args.no_progress)
+    except KeyboardInterrupt as stop:
+        print(f"tdicam: interrupted; the finished runs are kept in {stop.out_dir}/points: "
+              f"run the same command again to finish", file=sys.stderr)
         return 130
-    print(res.summary())
-    return 1 if res.failed else 0
+    print(ds.attrs["summary"])
+    return 1 if ds.attrs["failed"] else 0
