@@ -100,7 +100,7 @@ def test_orbit_scene_plans_what_the_simulator_measures():
 
 
 def test_paper_model_reproduced():
-    # Yuan 2013: the mismatch factor is 0.637 at M dV/V = 1 and 0 at M dV/V = 2 (Nyquist)
+    # Yuan et al. 2013: the mismatch factor is 0.637 at M dV/V = 1 and 0 at M dV/V = 2 (Nyquist)
     for m in (4, 8, 32, 96, 128):
         assert P.mtf_velocity_mismatch(P.NYQUIST, m, 1 / m) == pytest.approx(2 / math.pi)
         assert P.mtf_velocity_mismatch(P.NYQUIST, m, 2 / m) == pytest.approx(0, abs=1e-12)

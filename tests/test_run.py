@@ -230,7 +230,7 @@ def test_saturated_bars_have_no_measured_mtf(tmp_path):
 
 def test_bar_mtf_planned_and_paper_model(tmp_path):
     """report.json/report.md print the planned MTF (tdicam.planning.predict.mtf_prediction) and the
-    paper's model (Yuan 2013 with the plain dV/V, no skew) beside the measured one; no
+    paper's model (Yuan et al. 2013 with the plain dV/V, no skew) beside the measured one; no
     negative MTF anywhere while M dV/V sweeps through 2, 3 and 6 (contrast reversal at the
     bar frequency 0.25, flagged) (issue 20)."""
     from tdicam.model.physics.mtf import mtf_system

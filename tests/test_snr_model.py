@@ -77,4 +77,4 @@ def test_plan_prints_prediction_and_eq28_worst_case():
                           str(ROOT / "scenes" / "flat_snr_sweep_96.toml")],
                          capture_output=True, text=True, check=True, cwd=ROOT).stdout
     assert "predicted digital TDI gain +19.82 dB" in out       # 10 log10(96): flat field
-    assert "paper's worst case: digital TDI G(96)" in out and "Tao 2012 eq 28" in out
+    assert "paper's worst case: digital TDI G(96)" in out and "Tao et al. 2012 eq 28" in out

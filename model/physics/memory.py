@@ -1,8 +1,8 @@
 """Line-buffer memory of the TDI accumulator and the DDR bandwidth of spilled partial sums.
 
-Qu 2010 (Qu Hongsong, Zhang Ye, Jin Guang, "Improving the function of area-array CMOS image
+Qu et al. 2010 (Qu Hongsong, Zhang Ye, Jin Guang, "Improving the function of area-array CMOS image
 sensors with a digital-domain TDI algorithm", Optics and Precision Engineering 18(8), 2010)
-section 3.2 for the basic and optimized accumulator structures; Ning 2019 (Ning Yonghui et
+section 3.2 for the basic and optimized accumulator structures; Ning et al. 2019 (Ning Yonghui et
 al., "Design of a large-array high-frame-rate CMOS imaging electronics system", Optics and
 Precision Engineering 27(5), 2019) section 4.2 for the DDR3 MIG user interface. The partial-
 sum width and the line counts are the golden model's own (:func:`tdicam.model.tdi.full_bits`,
@@ -38,11 +38,11 @@ __all__ = [
     "tdi_memory",
 ]
 
-#: DDR3 MIG user-interface data width of Ning 2019 (bits per word).
+#: DDR3 MIG user-interface data width of Ning et al. 2019 (bits per word).
 DDR_WORD_BITS = 256
-#: MIG user-interface clock of Ning 2019 (100 MHz).
+#: MIG user-interface clock of Ning et al. 2019 (100 MHz).
 DDR_USER_CLOCK_HZ = 100e6
-#: Interface efficiency Ning 2019 reached (> 80 %).
+#: Interface efficiency Ning et al. 2019 reached (> 80 %).
 DDR_EFFICIENCY = 0.8
 
 _STRUCTURES = ("optimized", "basic")
@@ -56,15 +56,15 @@ def _structure(structure):
 
 
 # --------------------------------------------------------------------------------------
-# line-buffer memory and DDR bandwidth (Qu 2010 section 3.2, Ning 2019 section 4.2)
+# line-buffer memory and DDR bandwidth (Qu et al. 2010 section 3.2, Ning et al. 2019 section 4.2)
 # --------------------------------------------------------------------------------------
 
 
 def tdi_line_buffer_lines(stages, structure="optimized"):
-    """Line buffers a TDI accumulator of ``stages`` stages needs, Qu 2010 section 3.2.
+    """Line buffers a TDI accumulator of ``stages`` stages needs, Qu et al. 2010 section 3.2.
 
-    The basic structure (Qu 2010 Fig. 7) delays row k by ``m - k`` lines before one adder:
-    ``m (m - 1) / 2`` lines of raw pixels. The optimized structure (Fig. 8; Yuan 2013 Table 2)
+    The basic structure (Qu et al. 2010 Fig. 7) delays row k by ``m - k`` lines before one adder:
+    ``m (m - 1) / 2`` lines of raw pixels. The optimized structure (Fig. 8; Yuan et al. 2013 Table 2)
     keeps ``m - 1`` running partial sums.
 
     Parameters
@@ -172,7 +172,7 @@ def ddr_bandwidth_needed(width, stages, pixel_bits, line_period_s, *, word_bits=
     adds the new window, and writes ``m - 1`` updated sums back (the oldest leaves as the
     output line, the newest is the window's last row): ``2 (m - 1)`` lines per line period,
     reads and writes sharing one interface. Sums are packed whole into interface words,
-    ``floor(word_bits / partial_sum_bits)`` per word (like Ning 2019 Table 2, which packs 24
+    ``floor(word_bits / partial_sum_bits)`` per word (like Ning et al. 2019 Table 2, which packs 24
     10-bit pixels per 256-bit word), and each line starts on a new word.
 
     Parameters

@@ -1,16 +1,16 @@
-"""Image-quality metrics measured on images (Ning 2019 eqs 1-3).
+"""Image-quality metrics measured on images (Ning et al. 2019 eqs 1-3).
 
 Ning Yonghui, Liu Hui, Zhao Qinglei, Guo Hanzhou, "Design of a large-array high-frame-rate
-CMOS imaging electronics system", Optics and Precision Engineering 27(5), 2019 ("Ning 2019").
+CMOS imaging electronics system", Optics and Precision Engineering 27(5), 2019 ("Ning et al. 2019").
 :func:`snr_db` here measures an image region; the planned SNR of m-stage TDI is
 :func:`tdicam.model.physics.snr.snr_tdi_db`.
 
-These are the measurements Ning 2019 Table 3 reports (PRNU 1.5 %, SNR 45 dB, MTF 0.08) and
+These are the measurements Ning et al. 2019 Table 3 reports (PRNU 1.5 %, SNR 45 dB, MTF 0.08) and
 that the scene simulator applies to its output: SNR = mean/std of a uniform region, PRNU =
 std/mean of a flat field, and MTF estimated from the contrast transfer function (CTF) of a
 bar target, ``MTF ~ (pi/4) CTF`` (the first harmonic of a square wave has amplitude 4/pi).
 
-All statistics use float64 and the population standard deviation (divide by n, as Ning 2019
+All statistics use float64 and the population standard deviation (divide by n, as Ning et al. 2019
 eqs 1-2 write). Bad input raises :class:`~tdicam.errors.TdicamError`.
 """
 
@@ -31,7 +31,7 @@ def _region(name, values):
 
 
 def snr(region):
-    """Linear SNR of a uniform region, Ning 2019 eq 1: ``mean / std``.
+    """Linear SNR of a uniform region, Ning et al. 2019 eq 1: ``mean / std``.
 
     Parameters
     ----------
@@ -54,7 +54,7 @@ def snr(region):
 
 
 def snr_db(region):
-    """SNR of a uniform region in decibels, ``20 log10(mean / std)`` (Ning 2019 eq 1).
+    """SNR of a uniform region in decibels, ``20 log10(mean / std)`` (Ning et al. 2019 eq 1).
 
     Parameters
     ----------
@@ -73,7 +73,7 @@ def snr_db(region):
 
 
 def prnu(flat):
-    """Photo-response non-uniformity of a flat field, Ning 2019 eq 2: ``std / mean``.
+    """Photo-response non-uniformity of a flat field, Ning et al. 2019 eq 2: ``std / mean``.
 
     Pass a temporally averaged flat (or a noiseless one) to measure the fixed pattern only;
     temporal noise in ``flat`` is counted as non-uniformity.
@@ -96,7 +96,7 @@ def prnu(flat):
 
 
 def ctf(i_max, i_min):
-    """Contrast transfer function (Michelson contrast), Ning 2019 eq 3.
+    """Contrast transfer function (Michelson contrast), Ning et al. 2019 eq 3.
 
     ``CTF = (I_max - I_min) / (I_max + I_min)``
 
@@ -120,7 +120,7 @@ def ctf(i_max, i_min):
 
 
 def mtf_from_ctf(ctf_value):
-    """MTF estimate from a square-wave CTF, Ning 2019 eq 3: ``(pi/4) * CTF``.
+    """MTF estimate from a square-wave CTF, Ning et al. 2019 eq 3: ``(pi/4) * CTF``.
 
     Parameters
     ----------

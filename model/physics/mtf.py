@@ -1,4 +1,4 @@
-"""Along-track MTF of a digital-TDI camera: one exposure and smear model, and Yuan 2013's.
+"""Along-track MTF of a digital-TDI camera: one exposure and smear model, and Yuan et al. 2013's.
 
 One model serves ``tdicam plan``, the run report and the scene simulator
 (:class:`tdicam.model.physics.optics.Geometry` evaluates its footprint with :func:`transfer_along`).
@@ -236,7 +236,7 @@ def _out(h, signed):
 
 
 def mtf_aperture(f, q_over_p=1.0, *, signed=False):
-    """Detector-aperture MTF (Yuan 2013 eq 3): ``|sinc(f q/p)|``.
+    """Detector-aperture MTF (Yuan et al. 2013 eq 3): ``|sinc(f q/p)|``.
 
     At Nyquist and a full aperture (q = p) it is ``2/pi = 0.637``.
 
@@ -255,7 +255,7 @@ def mtf_aperture(f, q_over_p=1.0, *, signed=False):
 
 
 def mtf_temporal(f, stages, *, signed=False):
-    """Temporal-sampling MTF of M-stage TDI as Yuan 2013 eq 3 writes it: ``|sinc(f M/(M+1))|``.
+    """Temporal-sampling MTF of M-stage TDI as Yuan et al. 2013 eq 3 writes it: ``|sinc(f M/(M+1))|``.
 
     The paper takes each exposure as ``T_int/T_L = M/(M+1)`` of a line period; the camera
     model (:func:`camera_mtf`) exposes for the sensor's integration time at the actual image
@@ -267,7 +267,7 @@ def mtf_temporal(f, stages, *, signed=False):
 
 
 def mtf_velocity_mismatch(f, stages, dv_over_v, *, signed=False):
-    """Velocity-mismatch MTF, Yuan 2013 eq 8: ``|sinc(f M dV/V)|``.
+    """Velocity-mismatch MTF, Yuan et al. 2013 eq 8: ``|sinc(f M dV/V)|``.
 
     At Nyquist: ``M dV/V = 1`` gives ``2/pi = 0.637``, ``M dV/V = 2`` gives 0 (the TDI-CCD
     tolerance), ``dV/V = 0`` gives exactly 1. Even in dV/V. The paper's formula is a
@@ -281,7 +281,7 @@ def mtf_velocity_mismatch(f, stages, dv_over_v, *, signed=False):
 
 
 def mtf_system(f, stages, dv_over_v=0.0, q_over_p=1.0, *, signed=False):
-    """The paper's model: aperture x temporal x velocity mismatch (Yuan 2013 eq 2).
+    """The paper's model: aperture x temporal x velocity mismatch (Yuan et al. 2013 eq 2).
 
     Optics and readout-circuit MTFs of eq 2 are taken as 1. A modulus unless ``signed``.
     """

@@ -1,16 +1,16 @@
 """Image formation of a push-broom TDI camera: where each exposure looks and what it integrates.
 
-Yuan 2013: Yuan Gaobin, Li Binqiao, Xu Jiangtao, Nie Kaiming, "MTF velocity-mismatch model of
-TDI area-array CMOS image sensors", 2013. Tao 2012: Tao Shuping, Jin Guang, Qu Hongsong, He
+Yuan et al. 2013: Yuan Gaobin, Li Binqiao, Xu Jiangtao, Nie Kaiming, "MTF velocity-mismatch model of
+TDI area-array CMOS image sensors", 2013. Tao et al. 2012: Tao Shuping, Jin Guang, Qu Hongsong, He
 Xiaojun, Yang Xiubin, "Design and analysis of a digital-domain TDI CMOS camera for
 high-resolution space imaging", 2012.
 
-Kinematics (first principles; Yuan 2013 and Tao 2012)
+Kinematics (first principles; Yuan et al. 2013 and Tao et al. 2012)
 -------------------------------------------------------
 Lengths are in sensor pixel pitches on the focal plane and times in line periods ``T``.
 The TDI clock moves the charge (or, in digital TDI, the addressing) by one row per line
 period; the image of the ground moves along track at ``v = 1 - dV/V`` rows per line period
-(Yuan 2013 eq 5 with ``dV = V - V_m``: a positive mismatch is an image slower than the clock)
+(Yuan et al. 2013 eq 5 with ``dV = V - V_m``: a positive mismatch is an image slower than the clock)
 and across track at ``v tan(theta)`` for a drift (crab) angle ``theta``. Consequences, all
 modelled exactly by :class:`Geometry`:
 
@@ -18,10 +18,10 @@ modelled exactly by :class:`Geometry`:
   the ground: a mismatch also rescales the image along track) and, with drift, at a cross-track
   shift ``g v tan(theta)`` (shear);
 * within one exposure the image moves ``v`` pitches along track and ``v tan(theta)`` across
-  (the temporal-sampling blur; Yuan 2013 writes it ``sinc(f T_int/T_L)``);
+  (the temporal-sampling blur; Yuan et al. 2013 writes it ``sinc(f T_int/T_L)``);
 * between two successive exposures of the same ground line the image moves ``v (1 - e)``
   while the row moves 1, so each stage lags by ``Delta = 1 - v (1 - e)`` (velocity mismatch;
-  Yuan 2013 eq 7's line-spread of width ``M dV/V`` is the first-order form). ``e`` is the
+  Yuan et al. 2013 eq 7's line-spread of width ``M dV/V`` is the first-order form). ``e`` is the
   rolling-shutter row skew: row ``k`` of the window is read ``k T_row`` after row 0, so two
   successive stages are ``T (1 - T_row/T)`` apart in the forward scan (``e = +T_row/T``) and
   ``T (1 + T_row/T)`` in the reverse scan (``e = -T_row/T``); ``e = 0`` for a global shutter.
@@ -47,7 +47,7 @@ Model MTF
 :meth:`Geometry.mtf_along` / :meth:`Geometry.mtf_cross` give the transfer function of that
 footprint summed over the M stages: ``sinc(f q/p) * sinc(f v) * exp(-2 pi^2 sigma^2 f^2) *
 D_M(f Delta)`` with the discrete-stage kernel ``D_M(u) = sin(pi M u) / (M sin(pi u))``
-(``-> sinc(M u)`` for small ``u``, Yuan 2013 eq 8). ``f`` is in cycles per pitch. The along-track
+(``-> sinc(M u)`` for small ``u``, Yuan et al. 2013 eq 8). ``f`` is in cycles per pitch. The along-track
 form is :func:`tdicam.model.physics.mtf.transfer_along`, the same model ``tdicam plan`` prints.
 """
 
@@ -122,7 +122,7 @@ class Geometry:
 
     @property
     def effective_dv_over_v(self) -> float:
-        """The velocity mismatch that alone would give the same stage lag (for Yuan 2013's
+        """The velocity mismatch that alone would give the same stage lag (for Yuan et al. 2013's
         ``sinc(f M dV/V)``): ``Delta``."""
         return self.stage_lag
 

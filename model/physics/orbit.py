@@ -2,8 +2,8 @@
 
 Closed-form equations of Qu Hongsong, Zhang Ye, Jin Guang, "Improving the function of
 area-array CMOS image sensors with a digital-domain TDI algorithm" (Optics and Precision
-Engineering 18(8), 2010; "Qu 2010" below) and Tao Shuping et al., "Design and analysis of a
-digital-domain TDI CMOS camera for high-resolution space imaging" (2012; "Tao 2012"), in
+Engineering 18(8), 2010; "Qu et al. 2010" below) and Tao Shuping et al., "Design and analysis of a
+digital-domain TDI CMOS camera for high-resolution space imaging" (2012; "Tao et al. 2012"), in
 float64 numpy: scalars give numpy scalars, arrays broadcast. SI units unless a name says
 otherwise. Bad input raises :class:`~tdicam.errors.TdicamError` naming the parameter and its
 valid range (:mod:`tdicam.model._args`).
@@ -33,9 +33,9 @@ __all__ = [
     "rolling_timing",
 ]
 
-#: Equatorial Earth radius R of Qu 2010 Table 1 (6378.137 km), in metres.
+#: Equatorial Earth radius R of Qu et al. 2010 Table 1 (6378.137 km), in metres.
 EARTH_RADIUS_M = 6378137.0
-#: Earth's gravitational parameter mu of Qu 2010 Table 1 (3.98600436e5 km^3/s^2), in m^3/s^2.
+#: Earth's gravitational parameter mu of Qu et al. 2010 Table 1 (3.98600436e5 km^3/s^2), in m^3/s^2.
 EARTH_MU_M3_S2 = 3.98600436e14
 #: Highest orbit altitude accepted, metres (100,000 km: 2.8 x geostationary; beyond it an
 #: Earth-observing push-broom camera makes no sense and the arithmetic is garbage).
@@ -43,12 +43,12 @@ MAX_ALTITUDE_M = 1e8
 
 
 # --------------------------------------------------------------------------------------
-# orbit, line rate, frame rate (Qu 2010 eqs 4-9)
+# orbit, line rate, frame rate (Qu et al. 2010 eqs 4-9)
 # --------------------------------------------------------------------------------------
 
 
 def ground_speed(altitude_m, *, radius_m=EARTH_RADIUS_M, mu_m3_s2=EARTH_MU_M3_S2):
-    """Ground-track (sub-satellite point) speed of a circular orbit, Qu 2010 eq 4.
+    """Ground-track (sub-satellite point) speed of a circular orbit, Qu et al. 2010 eq 4.
 
     ``v_g = R / (R + H) * sqrt(mu / (R + H))``
 
@@ -58,7 +58,7 @@ def ground_speed(altitude_m, *, radius_m=EARTH_RADIUS_M, mu_m3_s2=EARTH_MU_M3_S2
         Orbit altitude H above the sphere of radius ``radius_m``, metres,
         0..:data:`MAX_ALTITUDE_M`.
     radius_m : float, optional
-        Earth radius R, metres, > 0 (default 6378.137 km, Qu 2010 Table 1).
+        Earth radius R, metres, > 0 (default 6378.137 km, Qu et al. 2010 Table 1).
     mu_m3_s2 : float, optional
         Gravitational parameter mu, m^3/s^2, > 0 (default 3.98600436e14).
 
@@ -74,7 +74,7 @@ def ground_speed(altitude_m, *, radius_m=EARTH_RADIUS_M, mu_m3_s2=EARTH_MU_M3_S2
 
 
 def line_period(gsd_m, ground_speed_m_s):
-    """Line period that matches image motion to the line rate, Qu 2010 eq 5.
+    """Line period that matches image motion to the line rate, Qu et al. 2010 eq 5.
 
     ``T1 = GSD / v_g``
 
@@ -114,7 +114,7 @@ def orbit_line_period(altitude_m, gsd_m):
 
 
 def turntable_line_period(pitch_m, angular_speed_rad_s, distance_m):
-    """Line period of a turntable push-broom rig, Tao 2012 eq 5.
+    """Line period of a turntable push-broom rig, Tao et al. 2012 eq 5.
 
     ``T_line = a / (omega * l)`` with ``a`` the sensor pixel size, ``omega`` the turntable's
     angular speed and ``l`` the distance between the sensor and the turntable axis (the
@@ -169,17 +169,17 @@ def required_frame_rate(stages, rows, line_period_s):
 
 
 # --------------------------------------------------------------------------------------
-# rolling-shutter timing (Tao 2012 eqs 1-9, 13)
+# rolling-shutter timing (Tao et al. 2012 eqs 1-9, 13)
 # --------------------------------------------------------------------------------------
 
 
 def row_time(row_blanking_s, pixels_per_row, pixel_clock_hz):
-    """Time to read one row, Tao 2012 eq 4: ``T_row = t_rb + n_pixels / f_s``.
+    """Time to read one row, Tao et al. 2012 eq 4: ``T_row = t_rb + n_pixels / f_s``.
 
     Parameters
     ----------
     row_blanking_s : float
-        Row blanking t_rb, seconds, >= 0 (Tao 2012: typically 3.5 us, used for the
+        Row blanking t_rb, seconds, >= 0 (Tao et al. 2012: typically 3.5 us, used for the
         sensor's column CDS).
     pixels_per_row : int
         Pixels read per row n_pixels (the window width), >= 1.
@@ -200,7 +200,7 @@ def row_time(row_blanking_s, pixels_per_row, pixel_clock_hz):
 def row_time_from_frame_rate(frame_rate_hz, rows):
     """Row time implied by a datasheet full-frame rate: ``T_row = 1 / (r * F_f)``.
 
-    This is Qu 2010 eq 7 read backwards; with it, :func:`rolling_timing` gives the same
+    This is Qu et al. 2010 eq 7 read backwards; with it, :func:`rolling_timing` gives the same
     stage limit as the frame-rate condition of :func:`required_frame_rate`.
 
     Parameters
@@ -222,7 +222,7 @@ def row_time_from_frame_rate(frame_rate_hz, rows):
 
 @dataclass(frozen=True)
 class RollingTiming:
-    """Rolling-shutter TDI timing of one line period (Tao 2012 eqs 6-9, 13).
+    """Rolling-shutter TDI timing of one line period (Tao et al. 2012 eqs 6-9, 13).
 
     Attributes
     ----------

@@ -5,14 +5,14 @@ module and is re-exported here, so ``from tdicam.model import plan as P; P.groun
 reaches all of them:
 
 * :mod:`tdicam.model.physics.orbit` — ground-track speed, line period, required frame rate,
-  rolling-shutter window timing (Qu 2010, Tao 2012);
+  rolling-shutter window timing (Qu et al. 2010, Tao et al. 2012);
 * :mod:`tdicam.model.physics.memory` — line buffers of the basic and optimized TDI structures,
-  on-chip budgets, DDR bandwidth of spilled partial sums (Qu 2010, Ning 2019);
-* :mod:`tdicam.model.physics.snr` — SNR gain of digital and charge-domain TDI (Tao 2012, Zhou 2008)
+  on-chip budgets, DDR bandwidth of spilled partial sums (Qu et al. 2010, Ning et al. 2019);
+* :mod:`tdicam.model.physics.snr` — SNR gain of digital and charge-domain TDI (Tao et al. 2012, Zhou et al. 2008)
   and the planning model of shared quantization noise;
 * :mod:`tdicam.model.physics.mtf` — the camera's along-track MTF (exposure, smear at the actual image
   speed, rolling-shutter skew, M-stage misregistration) shared with the scene simulator, and
-  the paper's product (Yuan 2013).
+  the paper's product (Yuan et al. 2013).
 
 Papers: Qu Hongsong, Zhang Ye, Jin Guang, "Improving the function of area-array CMOS image
 sensors with a digital-domain TDI algorithm", Optics and Precision Engineering 18(8), 2010;

@@ -1,8 +1,8 @@
 """SNR of digital (and, for comparison, charge-domain) TDI.
 
-Tao 2012 (Tao Shuping, Jin Guang, Qu Hongsong, He Xiaojun, Yang Xiubin, "Design and analysis
+Tao et al. 2012 (Tao Shuping, Jin Guang, Qu Hongsong, He Xiaojun, Yang Xiubin, "Design and analysis
 of a digital-domain TDI CMOS camera for high-resolution space imaging", 2012) eqs 14-29, and
-Zhou 2008 (Zhou Huaide et al., "TDI operation of interline-transfer area CCDs", Optics and
+Zhou et al. 2008 (Zhou Huaide et al., "TDI operation of interline-transfer area CCDs", Optics and
 Precision Engineering 16(9), 2008) for charge-domain TDI; plus the planning model that splits
 quantization noise into its independent and shared parts. float64 numpy, scalars or arrays.
 """
@@ -29,7 +29,7 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------------------
-# SNR (Tao 2012 eqs 14-29; Zhou 2008 for charge-domain TDI)
+# SNR (Tao et al. 2012 eqs 14-29; Zhou et al. 2008 for charge-domain TDI)
 # --------------------------------------------------------------------------------------
 
 
@@ -56,7 +56,7 @@ def temporal_noise(signal_e, read_noise_e=0.0, dark_e=0.0):
     """Temporal noise of one exposure in electrons: ``sqrt(S + D + read**2)``.
 
     Photon shot noise of the signal ``S``, shot noise of the dark charge ``D`` and read noise
-    add in quadrature (Tao 2012 eq 25, expressed in electrons). This is ``sigma_CMOS``.
+    add in quadrature (Tao et al. 2012 eq 25, expressed in electrons). This is ``sigma_CMOS``.
 
     Parameters
     ----------
@@ -78,14 +78,14 @@ def temporal_noise(signal_e, read_noise_e=0.0, dark_e=0.0):
 
 
 def snr_gain_digital(stages, sigma_ad, sigma_cmos):
-    """Linear SNR gain of m-stage digital TDI over one exposure, Tao 2012 eq 28.
+    """Linear SNR gain of m-stage digital TDI over one exposure, Tao et al. 2012 eq 28.
 
     ``G(m) = m (s_AD + s_CMOS) / (m s_AD + sqrt(m) s_CMOS)``: the signal grows as m, the
     temporal noise ``s_CMOS`` as ``sqrt(m)`` and, because every exposure is quantized, the
-    quantization noise ``s_AD`` as m (Tao 2012 eq 27 adds the two standard deviations
+    quantization noise ``s_AD`` as m (Tao et al. 2012 eq 27 adds the two standard deviations
     linearly; this follows the paper). ``G(1) = 1`` exactly; ``G -> sqrt(m)`` when
     ``s_AD = 0``; ``G -> 1`` when quantization dominates. In decibels the gain is
-    ``20 log10 G`` *added* to the single-exposure SNR (Tao 2012 eq 29).
+    ``20 log10 G`` *added* to the single-exposure SNR (Tao et al. 2012 eq 29).
 
     Parameters
     ----------
@@ -126,7 +126,7 @@ def quantization_correlated_fraction(sigma_dn):
     quadrature like the temporal noise; ``b(mu)`` is the same for every exposure that sees the
     same level ``mu`` and adds linearly, growing as m. Over a scene whose levels spread over
     many steps its share of the uniform ``1/12`` variance is
-    ``rho = (6 / pi^2) sum_k exp(-4 pi^2 k^2 s^2) / k^2``: 1 without noise (Tao 2012 eq 28's
+    ``rho = (6 / pi^2) sum_k exp(-4 pi^2 k^2 s^2) / k^2``: 1 without noise (Tao et al. 2012 eq 28's
     case: every error is shared), ``6/pi^2 exp(-4 pi^2 s^2)`` < 3e-5 from ``s = 0.5`` on.
 
     Parameters
@@ -159,7 +159,7 @@ def snr_gain_digital_predicted(stages, sigma_ad, sigma_cmos, correlated=0.0):
     (and row-to-row fixed-pattern) noise ``c`` and the independent part ``(1 - rho) a^2`` of
     the quantization variance grow as ``sqrt(m)``; only the shared part ``rho a^2``
     (:func:`quantization_correlated_fraction`) grows as m. ``rho = 0`` gives ``sqrt(m)``;
-    ``rho = 1`` with ``c = 0`` gives 1, the limit of Tao 2012 eq 28
+    ``rho = 1`` with ``c = 0`` gives 1, the limit of Tao et al. 2012 eq 28
     (:func:`snr_gain_digital`), which lets all of ``a`` grow as m (and adds it linearly to
     ``c``): the paper's worst case, ``G_eq28 <= sqrt(m)``, right only when the noise does not
     dither the ADC and the scene has detail.
@@ -191,7 +191,7 @@ def snr_gain_digital_predicted(stages, sigma_ad, sigma_cmos, correlated=0.0):
 
 
 def snr_gain_charge(stages, sigma_ad, sigma_shot, sigma_read=0.0):
-    """Linear SNR gain of m-stage charge-domain TDI (TDI-CCD, Zhou 2008) for comparison.
+    """Linear SNR gain of m-stage charge-domain TDI (TDI-CCD, Zhou et al. 2008) for comparison.
 
     Charge is summed before one readout and one conversion, so read noise and quantization
     are added once while shot noise grows as ``sqrt(m)``. Using the same convention as
@@ -199,7 +199,7 @@ def snr_gain_charge(stages, sigma_ad, sigma_shot, sigma_read=0.0):
 
     ``G_c(m) = m (s_AD + sqrt(s_shot**2 + s_read**2)) / (s_AD + sqrt(m s_shot**2 + s_read**2))``
 
-    A read-noise-limited scene gains m (4 stages: +12.0 dB; Zhou 2008 measured 22.13 ->
+    A read-noise-limited scene gains m (4 stages: +12.0 dB; Zhou et al. 2008 measured 22.13 ->
     33.62 dB, +11.5 dB) where digital TDI gains ``sqrt(m)`` (+6.0 dB); a shot-noise-limited
     scene gains ``sqrt(m)`` in both domains. ``G_c(1) = 1`` exactly.
 
@@ -245,7 +245,7 @@ def gain_db(gain):
 
 
 def snr_tdi_db(signal, sigma_ad, sigma_cmos, stages=1):
-    """SNR in dB of m-stage digital TDI, Tao 2012 eqs 28-29.
+    """SNR in dB of m-stage digital TDI, Tao et al. 2012 eqs 28-29.
 
     ``20 log10( m S / (m s_AD + sqrt(m) s_CMOS) )`` — the single-exposure SNR
     ``20 log10(S / (s_AD + s_CMOS))`` plus ``20 log10 G(m)``.

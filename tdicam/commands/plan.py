@@ -1,17 +1,17 @@
 """``tdicam plan``: size a digital-TDI camera from the orbit (or turntable) and the sensor.
 
-Prints Qu 2010's Table 2 (line period and minimum frame rate per GSD and stage count) and a
+Prints Qu et al. 2010's Table 2 (line period and minimum frame rate per GSD and stage count) and a
 feasibility report for the most demanding point of the table (highest required frame rate):
 required vs available frame rate, the rolling-shutter window (n_lines, M0, back porch),
 partial-sum width and line-buffer memory of the basic and optimized structures, the DDR
 bandwidth the partial sums would need in external memory vs the interface, what the TDI
 gateware must do (pixel rate, pixels per clock, clock) and whether the reference synthesis
 does it, the expected SNR gain (digital and charge domain) and the MTF at Nyquist (the camera
-model the scene simulator renders, and the paper's model of Yuan 2013 beside it). Parameters
+model the scene simulator renders, and the paper's model of Yuan et al. 2013 beside it). Parameters
 come from a scene file (``--scene``), from options, or both (options override the file).
 ``--json`` prints the same numbers for scripts; ``--plot DIR`` writes three PNG figures.
 
-Without a scene or orbit options the command plans Qu 2010's example: 600 km, GSD 5, 2 and
+Without a scene or orbit options the command plans Qu et al. 2010's example: 600 km, GSD 5, 2 and
 1 m, 12/24/48/96 stages on a 1280 x 1024 12-bit sensor; without ``--stages`` the stage counts
 the sensor's rows or window ``M0`` do not allow are left out (the report says which). Stage
 counts given above ``M0`` are planned: the window check says NO (exit status 1).

@@ -21,7 +21,7 @@ def mtf_prediction(scene, stages, dv_over_v, f=_mtf.NYQUIST) -> dict:
     smear at the image speed ``1 - dV/V``, rolling-shutter skew from the sensor's row time
     (forward/reverse scan; none for a global shutter, one stage or an unknown row time), the
     M-stage term and the optics PSF — the footprint the scene simulator renders. Beside it,
-    ``paper``: Yuan 2013's ``aperture x temporal x mismatch`` (moduli). All values are moduli;
+    ``paper``: Yuan et al. 2013's ``aperture x temporal x mismatch`` (moduli). All values are moduli;
     ``reversed`` says when the camera's contrast is reversed. This is what a report prints.
     """
     s = scene.sensor

@@ -81,7 +81,7 @@ def _mtf_lines(d) -> list[str]:
                      f"M Delta = {mm['m_delta']:.3g} px; full-period "
                      f"exposure, image speed 1 - dV/V)")
         p = mm["paper"]
-        lines.append(f"                 paper's model (Yuan 2013): aperture {p['aperture']:.3f} x "
+        lines.append(f"                 paper's model (Yuan et al. 2013): aperture {p['aperture']:.3f} x "
                      f"temporal M/(M+1) {p['temporal']:.3f} x mismatch {p['mismatch']:.3f} = "
                      f"{p['system']:.3f}")
     return lines
@@ -96,7 +96,7 @@ def report_text(rep) -> str:
         o = rep["orbit"]
         lines.append(f"tdicam plan: {o['altitude_km']:g} km circular orbit, {head}")
         lines.append(f"ground-track speed v_g = {o['ground_speed_m_s'] / 1e3:.4f} km/s "
-                     "(Qu 2010 eq 4)")
+                     "(Qu et al. 2010 eq 4)")
     else:
         t = rep["turntable"]
         lines.append(f"tdicam plan: turntable {t['angular_speed_rad_s']:g} rad/s at "
@@ -113,7 +113,7 @@ def report_text(rep) -> str:
                      + f": {fits}")
     avail = s["available_frame_rate_hz"]
     lines.append("")
-    lines.append(f"Minimum frame rate, Qu 2010 Table 2 form: F_f >= m / (r T1), r = {s['rows']}"
+    lines.append(f"Minimum frame rate, Qu et al. 2010 Table 2 form: F_f >= m / (r T1), r = {s['rows']}"
                  + ("" if avail is None else f"; available {avail:.1f} frame/s"))
     hdr = f"{'GSD/m':>7}  {'T1/ms':>7}  {'m/stage':>7}  {'F_f/(frame/s)':>13}"
     if avail is not None:
@@ -216,7 +216,7 @@ def report_text(rep) -> str:
                      f"{pr['rho']:.3g} of it), SNR {pr['single_db']:.2f} -> "
                      f"{pr['tdi_db']:.2f} dB")
         lines.append(f"                 paper's worst case: digital TDI G({d['stages']}) = "
-                     f"{snr['gain_digital']:.3f} (+{snr['gain_digital_db']:.2f} dB, Tao 2012 "
+                     f"{snr['gain_digital']:.3f} (+{snr['gain_digital_db']:.2f} dB, Tao et al. 2012 "
                      f"eq 28); charge domain {snr['gain_charge']:.3f} "
                      f"(+{snr['gain_charge_db']:.2f} dB); sqrt(m) = {math.sqrt(d['stages']):.3f}")
         lines.append(f"                 eq 28 SNR after {snr['domain']} TDI "
@@ -243,7 +243,7 @@ def figures(rep, scenes) -> list:
     snr = d["snr"]
     out = []
 
-    # 1. SNR gain vs stages, digital vs charge domain (Tao 2012 eq 28, Zhou 2008).
+    # 1. SNR gain vs stages, digital vs charge domain (Tao et al. 2012 eq 28, Zhou et al. 2008).
     m_max = max(128, d["stages"])
     m = np.arange(1, m_max + 1)
     fig = Figure(figsize=(6.4, 4.4))
@@ -255,7 +255,7 @@ def figures(rep, scenes) -> list:
                                              snr["predicted"]["sigma_fpn_e"]),
             snr["predicted"]["rho"])), label="digital TDI (planning model)")
         ax.plot(m, P.gain_db(P.snr_gain_digital(m, snr["sigma_ad_e"], snr["sigma_cmos_e"])),
-                "--", label="digital TDI (Tao 2012 eq 28, worst case)")
+                "--", label="digital TDI (Tao et al. 2012 eq 28, worst case)")
         ax.plot(m, P.gain_db(P.snr_gain_charge(m, snr["sigma_ad_e"], shot,
                                                snr["read_noise_e"])),
                 label="charge-domain TDI")
@@ -270,7 +270,7 @@ def figures(rep, scenes) -> list:
     ax.legend()
     out.append(("snr_gain.png", fig))
 
-    # 2. MTF at Nyquist vs velocity mismatch: camera model and the paper's (Yuan 2013).
+    # 2. MTF at Nyquist vs velocity mismatch: camera model and the paper's (Yuan et al. 2013).
     q = rep["sensor"]["fill_factor"] ** 0.5
     fig = Figure(figsize=(10, 4.2))
     ax1, ax2 = fig.subplots(1, 2)
@@ -286,7 +286,7 @@ def figures(rep, scenes) -> list:
                  label=f"M = {stages}, paper's model")
     ax1.set_xlabel("dV/V")
     ax1.set_ylabel("velocity-mismatch MTF at Nyquist")
-    ax1.set_title("Yuan 2013 Fig. 8: |sinc(f p M dV/V)|", fontsize=9)
+    ax1.set_title("Yuan et al. 2013 Fig. 8: |sinc(f p M dV/V)|", fontsize=9)
     ax2.plot(x, P.mtf_velocity_mismatch(P.NYQUIST, 128, x / 128), "k:",
              label="paper's mismatch factor alone")
     ax2.axvline(2.0, color="grey", lw=0.8)
@@ -300,7 +300,7 @@ def figures(rep, scenes) -> list:
     fig.tight_layout()
     out.append(("mtf_mismatch.png", fig))
 
-    # 3. Frame rate vs stages for several GSDs (Qu 2010 eq 9).
+    # 3. Frame rate vs stages for several GSDs (Qu et al. 2010 eq 9).
     rows = rep["sensor"]["rows"]
     fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot()

@@ -6,12 +6,12 @@
 command (:mod:`tdicam.commands.plan`) only parses arguments.
 
 What is planned, for every GSD x stage count, and in detail for the most demanding point:
-the line period and required frame rate (Qu 2010), the rolling-shutter window, the partial-sum
-memory on chip or in DDR (Qu 2010, Ning 2019), what the gateware must do (the pixel rate into
+the line period and required frame rate (Qu et al. 2010), the rolling-shutter window, the partial-sum
+memory on chip or in DDR (Qu et al. 2010, Ning et al. 2019), what the gateware must do (the pixel rate into
 the TDI block, the pixels per clock and clock that meet it, and whether the reference TDI
-synthesis does), the SNR (Tao 2012) and the MTF at Nyquist: the camera model of
+synthesis does), the SNR (Tao et al. 2012) and the MTF at Nyquist: the camera model of
 :mod:`tdicam.model.physics.mtf` — the one the scene simulator renders — with the paper's product
-(Yuan 2013) beside it.
+(Yuan et al. 2013) beside it.
 
 Feasibility: :attr:`report["feasible"]` is False when any check of the design point says NO
 (frame rate, window, DDR bandwidth of spilled partial sums, gateware pixel rate); the command
@@ -37,7 +37,7 @@ __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
            "plan_scenes", "run_memory",
            "gateware_plan", "plan_report", "report_text", "figures"]
 
-#: Qu 2010 Table 2 grid, used when neither a scene nor orbit options are given.
+#: Qu et al. 2010 Table 2 grid, used when neither a scene nor orbit options are given.
 DEFAULT_GSDS_M = (5.0, 2.0, 1.0)
 DEFAULT_STAGES = (12, 24, 48, 96)
 DEFAULT_ALTITUDE_KM = 600.0
@@ -420,7 +420,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     onchip_budget_bits : int, optional
         On-chip RAM for the partial sums, bits.
     ddr_bits, ddr_clock_hz, ddr_efficiency
-        DDR user interface (defaults: Ning 2019's 256 bit, 100 MHz; efficiency: the
+        DDR user interface (defaults: Ning et al. 2019's 256 bit, 100 MHz; efficiency: the
         TDI spill's access pattern on the memory model with DRAM timing,
         :func:`tdicam.model.ddr.tdi_spill_efficiency`, per design point).
     fpga_clock_mhz : float, optional

@@ -458,7 +458,7 @@ def _figures(out_dir, scene, rows, main):
                 pred = [mtf_prediction(scene, m, v / m, f) for v in xx]
                 ax.plot(xx, [p["system"] for p in pred], "-", label=f"planned, M={m}")
                 ax.plot(xx, [p["paper"]["system"] for p in pred], ":",
-                        label=f"paper's model (Yuan 2013), M={m}")
+                        label=f"paper's model (Yuan et al. 2013), M={m}")
             ax.set_xlabel("M dV/V (pixels)")
             ax.set_title(f"MTF at {f:g} cycles/px vs velocity mismatch")
         else:
@@ -468,7 +468,7 @@ def _figures(out_dir, scene, rows, main):
             pred = [mtf_prediction(scene, g.stages, g.dv_over_v, v) for v in ff]
             ax.plot(ff, [p["system"] for p in pred], "--", label="planned (along)")
             ax.plot(ff, [p["paper"]["system"] for p in pred], ":",
-                    label="paper's model, Yuan 2013 (along)")
+                    label="paper's model, Yuan et al. 2013 (along)")
             for r in bars:
                 ax.plot([r["mtf"]["frequency_cyc_per_px"]], [r["mtf"]["measured"]], "o",
                         label=f"measured M={r['stages']}")
