@@ -4,6 +4,7 @@ scene's chain (:func:`scene_design`), then the chain's Verilog or its synthesis
 
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -13,7 +14,8 @@ from tdicam.camera.design import (ECP5_85F, PipelineBlock, check_options, plan, 
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
-from tdicam.hw.synth import synth
+from tdicam.hw.record import row_of
+from tdicam.hw.synth import synth, tool_versions
 from tdicam.hw.verilog import convert
 from tdicam.model.calib import load_image
 from tdicam.scene.loader import load_scene
@@ -81,11 +83,21 @@ def verilog_command(extra, output, *, show_help=False):
     return 0
 
 
-def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False):
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
-    chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F."""
+    chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F.
+    ``record(rows)``, when given, receives the result as a synthesis-record row (block
+    ``pipeline``, parameters ``scene`` (file name), ``blocks``, ``width``, ``stages``,
+    ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
     res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
+    if record is not None:
+        blocks = " -> ".join(s.block for s in p.steps)
+        ppc = getattr(p, "ppc", 1)
+        params = {"scene": Path(ns.scene).name, "blocks": blocks, "width": p.width,
+                  "stages": p.rows, "ppc": ppc}
+        record([row_of(f"{Path(ns.scene).stem} chain ppc={ppc}", "pipeline", params, res,
+                       target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
     if as_json:
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))

@@ -5,8 +5,9 @@ feasibility report for the most demanding point of the table (highest required f
 required vs available frame rate, the rolling-shutter window (n_lines, M0, back porch),
 partial-sum width and line-buffer memory of the basic and optimized structures, the DDR
 bandwidth the partial sums would need in external memory vs the interface, what the TDI
-gateware must do (pixel rate, pixels per clock, clock) and whether the reference synthesis
-does it, the expected SNR gain (digital and charge domain) and the MTF at Nyquist (the camera
+gateware must do (pixel rate, pixels per clock, clock) and whether the measured synthesis
+(the synthesis record: the TDI block per pixels-per-clock, and the scene's whole chain when it
+was placed and routed with ``tdicam synth pipeline --record``) does it, the expected SNR gain (digital and charge domain) and the MTF at Nyquist (the camera
 model the scene simulator renders, and the paper's model of Yuan et al. 2013 beside it). Parameters
 come from a scene file (``--scene``), from options, or both (options override the file).
 ``--json`` prints the same numbers for scripts; ``--plot DIR`` writes three PNG figures.
@@ -81,7 +82,7 @@ def register(subparsers) -> None:
                         "pattern's on the DRAM timing model, per design point)")
     p.add_argument("--fpga-clock-mhz", type=float, default=None, metavar="X",
                    help="clock of the TDI gateware in MHz, for every pixels-per-clock "
-                        "(default: the reference synthesis Fmax; valid "
+                        "(default: the synthesis record's Fmax; valid "
                         + _VALID["--fpga-clock-mhz"] + ")")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")

@@ -10,6 +10,7 @@ import sys
 
 from tdicam import blocks
 from tdicam.errors import TdicamError, check_range
+from tdicam.hw import record
 from tdicam.hw.synth import REFERENCE, reference_table, synth, tool_versions
 from tdicam.commands.verilog import parse_block_params
 
@@ -36,7 +37,23 @@ def register(sub):
                    help="place and route the bare top (port paths are then not timed)")
     p.add_argument("--markdown", action="store_true", help="print a markdown table")
     p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--record", nargs="?", const="", default=None, metavar="FILE",
+                   help="add the results to the synthesis record that tdicam plan reads "
+                        "(default FILE: the bundled tdicam/hw/silicon.json of a checkout; a "
+                        "row with the same label is replaced)")
     p.set_defaults(func=_run, _raw=True)
+
+
+def _record(rows, args):
+    """Write ``rows`` (:class:`tdicam.hw.record.Row`) into ``--record``'s file, and say so."""
+    if args.record is None:
+        return
+    dest = record.update(rows, args.record or None)
+    print(f"recorded {', '.join(r.label for r in rows)} in {dest}", file=sys.stderr)
+
+
+def _tools_text():
+    return ", ".join(tool_versions().values())
 
 
 def _xc7(r):
@@ -133,13 +150,20 @@ def _run(args):
     if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
         from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
-                             as_json=args.json)
+                             as_json=args.json,
+                             record=None if args.record is None else
+                             lambda rows: _record(rows, args))
     if args.block is None:
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())} (or --reference)")
     blk = blocks.get(args.block)
     params = parse_block_params(blk, args.extra)
+    if args.record is not None and args.no_harness:
+        raise TdicamError("--record keeps results with their ports registered: drop "
+                          "--no-harness")
     res = synth(blk.name, params, seeds=args.seeds, freq_mhz=args.freq,
                 xilinx=not args.no_xilinx, harness=not args.no_harness)
+    _record([record.row_of(f"{blk.name} {_params_text(params, blk.name)}", blk.name, params,
+                           res, target_mhz=args.freq, tools=_tools_text())], args)
     if args.json:
         print(json.dumps(res.to_dict(), indent=1))
         return 0
@@ -162,6 +186,9 @@ def _run_reference(args):
     rows = reference_table(seeds=args.seeds, xilinx=not args.no_xilinx, only=only or None,
                            progress=lambda t: print(t, file=sys.stderr, flush=True))
     versions = tool_versions()
+    _record([record.row_of(ref.label, ref.block, res.params, res, target_mhz=ref.target_mhz,
+                           tools=", ".join(versions.values()), note=ref.note)
+             for ref, res in rows], args)
     if args.json:
         print(json.dumps({"tools": versions, "rows": [
             {"label": ref.label, "target_mhz": ref.target_mhz, "note": ref.note,

@@ -64,6 +64,11 @@ def _gateware_lines(g) -> list[str]:
         how = "no ppc meets it"
     lines.append(f"                 {g['source']}: {have}; {how}: {_yes(g['ok'])} "
                  f"(margin {g['margin'] * 100:+.1f} %)")
+    for c in g.get("chain") or ():
+        lines.append(f"  whole chain    {c['label']} (synthesis record {c['date']}, "
+                     f"{c['width']} columns, {c['seeds']} seed(s)): ppc {c['ppc']} at "
+                     f"{c['fmax_mhz']:g} MHz = {_px(c['pixel_rate'])}; keeps up with the "
+                     f"sensor: {_yes(c['meets'])}")
     return lines
 
 

@@ -21,10 +21,12 @@ then exits with status 1 (:data:`EXIT_INFEASIBLE`).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
+from tdicam.hw import record
 from tdicam.model.physics import plan as P
 from tdicam.model import tdi as _tdi
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
@@ -33,7 +35,7 @@ from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
 
 __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
-           "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "PLAN_OPTIONS", "check_options",
+           "REFERENCE_TDI", "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "PLAN_OPTIONS", "check_options",
            "plan_scenes", "run_memory",
            "gateware_plan", "plan_report", "report_text", "figures"]
 
@@ -45,11 +47,15 @@ DEFAULT_ALTITUDE_KM = 600.0
 #: Exit status of ``tdicam plan`` when the feasibility report says NO (bad input: 2).
 EXIT_INFEASIBLE = 1
 
-#: Fmax in MHz of the reference TDI accumulator synthesis per pixels-per-clock: the silicon table's
-#: ``tdicam synth --reference`` figures (``tdi`` rows: width 1280, 96 stages, 12-bit pixels,
-#: ECP5-85F speed 8, median of 3 placement seeds). Update this table with them;
+#: Parameters of the reference TDI synthesis rows the plan reads (the orbit design point's
+#: 1280 columns x 96 stages, 12-bit pixels).
+REFERENCE_TDI = {"width": 1280, "stages": 96, "pixel_bits": 12}
+
+#: Fmax in MHz of the reference TDI accumulator per pixels-per-clock, as measured: the
+#: ``tdi`` rows of the synthesis record (:mod:`tdicam.hw.record`, written by ``tdicam synth
+#: --reference --record``; ECP5-85F speed 8, median of the placement seeds).
 #: ``tdicam plan --fpga-clock-mhz X`` overrides it.
-REFERENCE_TDI_FMAX_MHZ = {1: 151.8, 4: 165.8, 8: 156.0}
+REFERENCE_TDI_FMAX_MHZ = record.fmax_by_ppc("tdi", **REFERENCE_TDI)
 
 # (argparse dest, scene section, scene key, option, type, nargs, help)
 SCENE_OPTIONS = (
@@ -256,8 +262,9 @@ def plan_scenes(scene_path, given: dict):
 # --------------------------------------------------------------------------------------
 
 
-def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None) -> dict:
-    """What the TDI gateware must do for the camera, and whether the reference synthesis does.
+def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_file=None
+                  ) -> dict:
+    """What the TDI gateware must do for the camera, and whether the measured synthesis does.
 
     The TDI block receives the M-row window, ``M x W`` pixels, every line period:
     ``rate = M W / T`` pixels per second. At ``ppc`` pixels per clock it needs a clock of
@@ -265,6 +272,13 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None) -> dict:
     ``fpga_clock_mhz`` for every ppc) reaches it at some ppc the block offers for this width
     (:data:`tdicam.model.tdi.PPC_CHOICES`, ``W`` a multiple of ppc with >= 2 beats);
     ``margin`` is ``best pixel rate / rate - 1`` (negative: short).
+
+    ``chain``: the scene's whole processing chain as placed and routed, from the synthesis
+    record's ``pipeline`` rows of ``scene_file`` (a file name; :mod:`tdicam.hw.record`):
+    per recorded ppc its Fmax, pixel rate ``Fmax x ppc`` and whether that reaches ``rate``
+    (every block before TDI takes the M-row window at the same rate); the best row decides
+    ``chain_ok``. None without a record of the scene (``tdicam synth pipeline --scene S
+    --record`` makes one) or with ``fpga_clock_mhz``.
     """
     rate = stages * width / line_period_s
     clocks = REFERENCE_TDI_FMAX_MHZ if fpga_clock_mhz is None else {
@@ -283,9 +297,15 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None) -> dict:
     meeting = [o for o in known if o["meets"]]
     best = max(known, key=lambda o: o["pixel_rate"]) if known else None
     chosen = meeting[0] if meeting else None
+    chain = None if scene_file is None or fpga_clock_mhz is not None else [
+        {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": r.fmax_mhz,
+         "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
+         "pixel_rate": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)),
+         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= rate}
+        for r in record.find("pipeline", scene=scene_file)] or None
     return {
         "pixel_rate": rate, "stages": stages, "width": width,
-        "source": ("reference synthesis (ECP5-85F speed 8)" if fpga_clock_mhz is None
+        "source": ("synthesis record (ECP5-85F speed 8)" if fpga_clock_mhz is None
                    else f"--fpga-clock-mhz {fpga_clock_mhz:g}"),
         "options": options,
         "ppc": None if chosen is None else chosen["ppc"],
@@ -293,6 +313,8 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None) -> dict:
         "best_pixel_rate": None if best is None else best["pixel_rate"],
         "ok": None if best is None else bool(meeting),
         "margin": None if best is None else best["pixel_rate"] / rate - 1.0,
+        "chain": chain,
+        "chain_ok": None if chain is None else any(c["meets"] for c in chain),
     }
 
 
@@ -376,7 +398,9 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
                 "efficiency": ddr_eff, "pattern": pattern,
                 "pattern_text": PATTERNS[pattern][1] if pattern in PATTERNS else
                 "--ddr-efficiency"},
-        "gateware": gateware_plan(stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz),
+        "gateware": gateware_plan(
+            stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz,
+            scene_file=None if scene.source == "<command line>" else Path(scene.source).name),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
     }
@@ -393,6 +417,8 @@ def _verdict(point) -> list[str]:
         no.append("DDR bandwidth")
     if point["gateware"]["ok"] is False:
         no.append("gateware pixel rate")
+    if point["gateware"]["chain_ok"] is False:
+        no.append("chain pixel rate (synthesis record)")
     return no
 
 

@@ -1,0 +1,194 @@
+"""The synthesis record: measured place-and-route results that the rest of tdicam reads.
+
+``tdicam/hw/silicon.json`` (package data) holds one row per measured design: a block at
+given parameters, or a scene's whole chain (block ``pipeline``), placed and routed on the
+LFE5U-85F speed 8 by ``tdicam synth`` (yosys + nextpnr, ports registered by the timing
+harness). ``tdicam plan`` takes the TDI block's Fmax per pixels-per-clock and a scene
+chain's Fmax from it (:func:`fmax_by_ppc`, :func:`find`), and docs/guide/silicon.md's
+tables state the same figures (a test holds them equal). ``tdicam synth ... --record``
+adds or replaces rows (:func:`update`), so a new measurement reaches the plan without
+editing code.
+
+A row (:class:`Row`) carries the cell counts, the Fmax median of its placement seeds with
+every seed, the target, the date and the machine load of the run (the load changes the
+run time, not the figures).
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from tdicam.errors import TdicamError
+
+__all__ = ["Row", "RECORD", "load", "find", "fmax_by_ppc", "row_of", "update"]
+
+#: The bundled record (``tdicam/hw/silicon.json``).
+RECORD = resources.files("tdicam.hw") / "silicon.json"
+
+_COUNTS = ("lut4", "ccu2c", "comb", "ff", "dp16kd", "mult18")
+
+
+@dataclass(frozen=True)
+class Row:
+    """One measured design.
+
+    Attributes
+    ----------
+    label : str
+        Unique name of the row (the silicon table's first column).
+    block : str
+        A registered block's name, or ``pipeline`` for a scene's chain.
+    params : dict
+        The block's parameters as synthesized (for ``pipeline``: ``scene`` (file name),
+        ``blocks``, ``width``, ``stages``, ``ppc``).
+    fmax_mhz : float
+        Median Fmax over :attr:`fmax_seeds` (MHz, ECP5-85F speed 8, nextpnr's estimate).
+    fmax_seeds : list of float
+        Fmax of each placement seed (sorted).
+    target_mhz : float
+        nextpnr's ``--freq``; the row "meets" it when ``fmax_mhz >= target_mhz``.
+    lut4, ccu2c, comb, ff, dp16kd, mult18 : int or None
+        ECP5 cell counts of the top (None: not recorded).
+    xc7 : dict or None
+        yosys ``synth_xilinx -family xc7`` counts (``LUT``, ``LUTRAM+SRL``, ``FF``,
+        ``RAMB36``, ``RAMB18``, ``DSP48``), when run.
+    tool_seconds : float or None
+        Seconds of yosys + nextpnr (at the row's load).
+    date : str
+        ISO date of the measurement.
+    load : str
+        The machine's load average during the run ("" when not recorded).
+    tools : str
+        Tool versions.
+    note : str
+        Anything the figures need to be read right.
+    """
+
+    label: str
+    block: str
+    params: dict
+    fmax_mhz: float
+    fmax_seeds: list
+    target_mhz: float
+    date: str
+    lut4: int | None = None
+    ccu2c: int | None = None
+    comb: int | None = None
+    ff: int | None = None
+    dp16kd: int | None = None
+    mult18: int | None = None
+    xc7: dict | None = None
+    tool_seconds: float | None = None
+    load: str = ""
+    tools: str = ""
+    note: str = field(default="", compare=False)
+
+    @property
+    def meets(self) -> bool:
+        """True when the median Fmax reaches the target."""
+        return self.fmax_mhz >= self.target_mhz
+
+
+def _rows(doc, where):
+    if not isinstance(doc, dict) or not isinstance(doc.get("rows"), list):
+        raise TdicamError(f"{where}: not a tdicam synthesis record (no 'rows' list)")
+    out = []
+    for k, r in enumerate(doc["rows"]):
+        try:
+            row = Row(**r)
+        except TypeError as e:
+            raise TdicamError(f"{where}: row {k}: {e}") from None
+        if not isinstance(row.fmax_mhz, (int, float)) or not row.fmax_mhz > 0:
+            raise TdicamError(f"{where}: row {row.label!r}: fmax_mhz must be > 0, got "
+                              f"{row.fmax_mhz!r}")
+        out.append(row)
+    labels = [r.label for r in out]
+    dup = sorted({x for x in labels if labels.count(x) > 1})
+    if dup:
+        raise TdicamError(f"{where}: label {dup[0]!r} is in more than one row")
+    return out
+
+
+def load(path: str | Path | None = None) -> list[Row]:
+    """The rows of the record at ``path`` (default: the bundled :data:`RECORD`).
+
+    Raises
+    ------
+    TdicamError
+        A missing, unreadable or malformed record (one line naming the file).
+    """
+    src = RECORD if path is None else Path(path)
+    try:
+        doc = json.loads(src.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise TdicamError(f"{src}: cannot read the synthesis record: "
+                          f"{getattr(e, 'strerror', None) or e}") from None
+    return _rows(doc, str(src))
+
+
+def find(block: str, rows: list[Row] | None = None, **params) -> list[Row]:
+    """The rows of ``block`` whose parameters include ``params`` (every given key equal)."""
+    rows = load() if rows is None else rows
+    return [r for r in rows if r.block == block
+            and all(r.params.get(k) == v for k, v in params.items())]
+
+
+def fmax_by_ppc(block: str, rows: list[Row] | None = None, **params) -> dict[int, float]:
+    """``{ppc: Fmax MHz}`` of ``block``'s rows matching ``params`` (ppc 1 when a row has no
+    ``ppc``); the newest row wins where two share a ppc."""
+    out, when = {}, {}
+    for r in find(block, rows, **params):
+        ppc = int(r.params.get("ppc", 1))
+        if ppc not in when or r.date >= when[ppc]:
+            out[ppc], when[ppc] = float(r.fmax_mhz), r.date
+    return dict(sorted(out.items()))
+
+
+def row_of(label: str, block: str, params: dict, result, *, target_mhz: float,
+           tools: str = "", note: str = "", load: str | None = None) -> Row:
+    """A :class:`Row` from a :class:`tdicam.hw.synth.SynthResult` measured now (``load``:
+    the 1-minute load average when not given)."""
+    x = result.xilinx or {}
+    x = {"LUT": x.get("LUT", 0), "LUTRAM+SRL": x.get("LUTRAM", 0) + x.get("SRL", 0),
+         "FF": x.get("FF", 0), "RAMB36": x.get("RAMB36", 0), "RAMB18": x.get("RAMB18", 0),
+         "DSP48": x.get("DSP48", 0)} if x else None
+    return Row(label=label, block=block, params=_plain(params),
+               fmax_mhz=round(float(result.fmax_mhz), 1),
+               fmax_seeds=sorted(round(float(f), 1) for f in result.fmax_seeds),
+               target_mhz=float(target_mhz), date=datetime.date.today().isoformat(),
+               **{k: int(getattr(result, k)) for k in _COUNTS},
+               xc7=x, tool_seconds=round(float(result.tool_seconds)),
+               load=f"{os.getloadavg()[0]:.1f}" if load is None else load, tools=tools,
+               note=note)
+
+
+def _plain(params):
+    return {k: (v if isinstance(v, (bool, int, float, str, type(None))) else str(v))
+            for k, v in params.items()}
+
+
+def update(new: list[Row], path: str | Path | None = None) -> Path:
+    """Add ``new`` to the record at ``path`` (default: the bundled file; a row with the
+    same label is replaced) and write it back, rows sorted by label. Returns the path.
+
+    Raises
+    ------
+    TdicamError
+        The record cannot be read or written (e.g. an installed, read-only package).
+    """
+    dest = Path(str(RECORD)) if path is None else Path(path)
+    rows = {r.label: r for r in (load(dest) if dest.exists() else [])}
+    rows.update({r.label: r for r in new})
+    doc = {"about": "tdicam synthesis record: place-and-route results read by tdicam plan "
+                    "and stated in docs/guide/silicon.md (tdicam.hw.record)",
+           "rows": [asdict(rows[k]) for k in sorted(rows)]}
+    try:
+        dest.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    except OSError as e:
+        raise TdicamError(f"{dest}: cannot write the synthesis record: {e.strerror}") from None
+    return dest

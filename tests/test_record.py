@@ -1,0 +1,118 @@
+"""The synthesis record (tdicam/hw/silicon.json): complete, equal to the silicon page, read
+by the plan, and refused in one line when damaged."""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import pytest
+
+from tdicam.planning import sizing as planning
+from tdicam.cli import main
+from tdicam.errors import TdicamError
+from tdicam.hw import record
+from tdicam.hw.synth import REFERENCE, SynthResult
+from tdicam.paths import SCENES
+
+ROOT = Path(__file__).resolve().parents[1]
+SILICON = ROOT / "docs" / "guide" / "silicon.md"
+
+
+def _doc_rows():
+    rows = {}
+    for line in SILICON.read_text(encoding="utf-8").splitlines():
+        if line.startswith("| ") and not line.startswith("| block"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            rows.setdefault(cells[0], cells)
+    return rows
+
+
+def test_every_reference_row_is_measured_and_on_the_silicon_page():
+    rows = record.load()
+    labels = {r.label for r in rows}
+    assert {r.label for r in REFERENCE} <= labels
+    doc = _doc_rows()
+    for r in rows:
+        cells = doc.get(r.label)
+        assert cells is not None, f"{r.label}: not in {SILICON.name}"
+        spread = "1 seed" if len(r.fmax_seeds) == 1 else \
+            f"{min(r.fmax_seeds):.1f}–{max(r.fmax_seeds):.1f}"
+        assert f"{r.fmax_mhz:.1f} ({spread})" in " | ".join(cells), r.label
+        numbers = [re.match(r"\d+", c) for c in cells[1:]]
+        firsts = {int(m.group()) for m in numbers if m}
+        for name in ("lut4", "comb", "mult18"):
+            value = getattr(r, name)
+            assert value is None or value in firsts, (r.label, name, value)
+        assert sorted(r.fmax_seeds) == r.fmax_seeds
+        assert r.fmax_mhz == sorted(r.fmax_seeds)[len(r.fmax_seeds) // 2]
+
+
+def test_plan_reads_the_tdi_fmax_from_the_record():
+    tdi = record.find("tdi", **planning.REFERENCE_TDI)
+    assert {int(r.params["ppc"]): r.fmax_mhz for r in tdi} == planning.REFERENCE_TDI_FMAX_MHZ
+    assert set(planning.REFERENCE_TDI_FMAX_MHZ) == {1, 4, 8}
+    g = planning.gateware_plan(96, 1280, 1 / 6908)
+    assert [o["fmax_mhz"] for o in g["options"] if o["fmax_mhz"]] == \
+        [planning.REFERENCE_TDI_FMAX_MHZ[p] for p in (1, 4, 8)]
+
+
+def _with_chain(tmp_path, monkeypatch, fmax):
+    """A copy of the bundled record whose Ning et al. 2019 chain row has Fmax ``fmax``."""
+    rows = [replace(r, fmax_mhz=fmax, fmax_seeds=[fmax]) if r.block == "pipeline" else r
+            for r in record.load()]
+    path = tmp_path / "silicon.json"
+    record.update(rows, path)
+    monkeypatch.setattr(record, "RECORD", path)
+
+
+def test_plan_says_whether_the_chain_keeps_up(tmp_path, monkeypatch, capsys):
+    scene = str(SCENES / "ning2019_chain.toml")
+    assert main(["plan", "--scene", scene]) == 0
+    out = capsys.readouterr().out
+    assert "whole chain    camera pipeline (Ning et al. 2019 chain)" in out
+    assert "ppc 1 at 112.1 MHz" in out and "keeps up with the sensor: yes" in out
+    # the same scene with a chain too slow for its 2.8 M pixel/s: the plan says NO
+    _with_chain(tmp_path, monkeypatch, 1.0)
+    assert main(["plan", "--scene", scene, "--json"]) == planning.EXIT_INFEASIBLE
+    d = json.loads(capsys.readouterr().out)
+    point = d["points"][0]
+    assert point["gateware"]["chain_ok"] is False
+    assert d["infeasible"] == ["chain pixel rate (synthesis record)"]
+
+
+def test_a_scene_without_a_recorded_chain_has_none(capsys):
+    assert main(["plan", "--scene", str(SCENES / "orbit_600km_1m_96.toml"), "--json"]) in (0, 1)
+    d = json.loads(capsys.readouterr().out)
+    assert d["points"][0]["gateware"]["chain"] is None
+
+
+def test_update_replaces_by_label_and_keeps_order(tmp_path):
+    res = SynthResult(block="cds", params={"pixel_bits": 12}, lut4=15, ccu2c=6, comb=33,
+                      ff=15, fmax_mhz=320.0, fmax_seeds=[330.0, 310.0, 320.0],
+                      xilinx={"LUT": 35, "FF": 15, "SRL": 2}, tool_seconds=12.3)
+    row = record.row_of("cds", "cds", {"pixel_bits": 12}, res, target_mhz=150, load="0.5")
+    assert row.fmax_seeds == [310.0, 320.0, 330.0] and row.xc7["LUTRAM+SRL"] == 2
+    path = tmp_path / "r.json"
+    record.update([row, replace(row, label="a", fmax_mhz=1.0)], path)
+    record.update([replace(row, fmax_mhz=300.0)], path)
+    rows = record.load(path)
+    assert [r.label for r in rows] == ["a", "cds"] and rows[1].fmax_mhz == 300.0
+    assert json.loads(path.read_text())["rows"][1] == asdict(rows[1])
+
+
+@pytest.mark.parametrize("text, message", [
+    ("", "cannot read the synthesis record"),
+    ("[1, 2]", "not a tdicam synthesis record"),
+    ('{"rows": [{"label": "x"}]}', "row 0: "),
+    ('{"rows": [{"label": "x", "block": "cds", "params": {}, "fmax_mhz": -1, '
+     '"fmax_seeds": [], "target_mhz": 150, "date": "2026-01-01"}]}', "fmax_mhz must be > 0"),
+])
+def test_a_damaged_record_is_one_line(tmp_path, text, message):
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    with pytest.raises(TdicamError, match=re.escape(message)) as e:
+        record.load(path)
+    assert "\n" not in str(e.value) and str(path) in str(e.value)
