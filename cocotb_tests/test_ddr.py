@@ -11,7 +11,8 @@ Two kinds of runs:
 
 Budget (every distinct parameter set is a simulator build; Verilator ~30-100 s each): all
 small golden cases on Icarus; on Verilator the paper-size cases only — the 1280 x 1024
-10-bit full frame round trip, CDS 512 x 16, TDI 512 x 16 and the wide spill case
+10-bit full frame round trip, CDS 512 x 16 and at ppc 8 (the widest frame, 65,536
+columns), TDI 512 x 16 and the wide spill case
 (W = 4096, m = 32, ppc 4, which ``tdicam plan`` says must spill on an ECP5-25F). Icarus runs
 short forms of the big ones; the full forms (and the 72-channel full frame) with
 ``TDICAM_FULL=1``.
@@ -40,6 +41,7 @@ def _cases(block, big):
 SMALL = [(b, c) for b in ("ddr", "cds_ddr", "tdi_ddr") for c in _cases(b, False)]
 PER_BEAT = [("ddr", "paper_72ch_4x6"), ("ddr", "mono_50x4_p1"),
             ("cds_ddr", "random_24x4_12b"), ("cds_ddr", "reset_mid_frame_24x4_12b"),
+            ("cds_ddr", "random_24x4_12b_p2"), ("cds_ddr", "reset_mid_frame_24x4_12b_p8"),
             ("tdi_ddr", "stages_256x4_p1")]
 
 
@@ -106,6 +108,15 @@ def test_full_frame_72ch_verilator():
 def test_cds_512x16(sim):
     check_case("cds_ddr", "random_512x16_10b", sim=sim, mode="fast", idle=0.1,
                backpressure=0.1, seed=3)
+
+
+def test_cds_ppc8_verilator():
+    """ppc 8 on Verilator: the widest frame (65,536 columns, 16-value words: 2 beats each),
+    random frames and a reset mid-frame (one build for the two 24 x 4 cases)."""
+    for case in ("widest_65536x1_12b_p8", "random_24x4_12b_p8",
+                 "reset_mid_frame_24x4_12b_p8"):
+        check_case("cds_ddr", case, sim="verilator", mode="fast", idle=0.1,
+                   backpressure=0.1, seed=5)
 
 
 def test_tdi_512x16_verilator():

@@ -5,18 +5,19 @@
 :class:`~tdicam.hdl.ddr.LineReader` while the signal frame streams in.
 """
 
-from amaranth.hdl import Module, Mux, Signal, unsigned
+from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import check_range
+from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
-from tdicam.hdl.interfaces.stream import pixel_signature
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
-__all__ = ["CdsDdr"]
+__all__ = ["CdsDdr", "default_pixels_per_word"]
 
 
 class CdsDdr(wiring.Component):
@@ -32,20 +33,25 @@ class CdsDdr(wiring.Component):
         8..16 (the :class:`~tdicam.hdl.cds.Cds` core's range).
     pixels_per_word : int or None
         Reset values per 256-bit word; default 24 for 10-bit pixels (Ning et al. 2019, Table 2),
-        else ``256 // pixel_bits``.
+        else ``256 // pixel_bits``, rounded down to a multiple of ``ppc`` (12-bit: 21 at
+        ppc 1, 20 at ppc 2 and 4, 16 at ppc 8). A given value and ``ppc`` must divide one
+        another.
     line_stride, base, capacity_bytes
         Where the reset frame lives (:class:`~tdicam.model.ddr.LineLayout`).
+    ppc : int
+        Pixels per clock (per beat): 1, 2, 4 or 8; ``width`` must be a multiple of it.
 
     Attributes
     ----------
-    i_stream : In(pixel stream, ``pixel_bits``)
-        Frames, one pixel per beat; ``frame_kind`` presented with a frame's tuser beat
-        says what it is.
+    i_stream : In(pixel stream of ``ppc`` x ``pixel_bits``)
+        Frames, ``ppc`` pixels per beat (element 0 the leftmost, in the least significant
+        bits; a row is ``width / ppc`` beats); ``frame_kind`` presented with a frame's tuser
+        beat says what it is.
     frame_kind : In(1)
         1: a reset frame — written to DDR, no output; 0: a signal frame — each pixel paired
         with the stored reset pixel (read back line by line while the signal streams in)
         and output as ``max(signal - reset, 0)``. Before any reset frame the reset is 0.
-    o_stream : Out(pixel stream, ``pixel_bits``)
+    o_stream : Out(pixel stream of ``ppc`` x ``pixel_bits``)
         One frame per signal frame, ``first``/``last`` as on the input.
 
     Notes
@@ -53,37 +59,53 @@ class CdsDdr(wiring.Component):
     The reads of a signal frame start when its tuser beat is presented (not yet accepted)
     and the reset frame's last word has been queued; a signal beat is accepted only with its
     reset pixel in hand, so a following reset frame can never overwrite a line still to be
-    read. Throughput 1 pixel/clock once the first line's reads have returned; one DDR read
-    per ``pixels_per_word`` pixels.
+    read. Throughput ``ppc`` pixels/clock once the first line's reads have returned (while
+    the DDR model delivers a word per ``pixels_per_word / ppc`` clocks); one DDR read per
+    ``pixels_per_word`` pixels. :attr:`latency` (the CDS core's register) is 1 cycle from an
+    accepted signal beat to its output beat, at every ``ppc``.
+
+    Raises
+    ------
+    TdicamError
+        A parameter out of range, ``width`` not a multiple of ``ppc``, ``pixels_per_word``
+        and ``ppc`` that do not divide one another, a reset frame beyond the capacity
+        (one line each).
     """
 
     @quiet_reject
     def __init__(self, *, width, rows, pixel_bits=12, pixels_per_word=None, line_stride=None,
-                 base=0, capacity_bytes=CAPACITY_BYTES):
+                 base=0, capacity_bytes=CAPACITY_BYTES, ppc=1):
         check_range("pixel_bits", pixel_bits, 8, 16)
-        if pixels_per_word is None:
-            pixels_per_word = 24 if pixel_bits == 10 else WORD_BITS // pixel_bits
+        self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
+        if width % ppc:
+            raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+        pixels_per_word = default_pixels_per_word(pixel_bits, ppc, pixels_per_word)
         self.layout = _layout(width, 1, pixel_bits, pixels_per_word, line_stride, base)
         check_range("rows", rows, 1, 1 << 16)
         check_capacity(self.layout, rows, capacity_bytes, "reset frame")
         self._rows = rows
+        shape = channels_shape(pixel_bits, ppc)
         super().__init__({
-            "i_stream": In(pixel_signature(unsigned(pixel_bits))),
-            "o_stream": Out(pixel_signature(unsigned(pixel_bits))),
+            "i_stream": In(pixel_signature(shape)),
+            "o_stream": Out(pixel_signature(shape)),
             "frame_kind": In(1), "line_errors": Out(16), **mig_user_ports()})
 
     rows = property(lambda self: self._rows)
     pixel_bits = property(lambda self: self.layout.pixel_bits)
+    ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+    latency = property(lambda self: 1, doc="Cycles from an accepted signal beat to its "
+                                           "output beat being valid (1 at every ppc).")
 
     def elaborate(self, platform):
         from tdicam.hdl.cds import Cds
         m = Module()
         lay = self.layout
         m.submodules.port = port = MigPort()
-        m.submodules.writer = wr = LineWriter(layout=lay, elements=1, rows=self._rows)
+        ppc = self._ppc
+        m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows)
         m.submodules.reader = rd = LineReader(
-            layout=lay, elements=1, max_lines=port.rd_depth // lay.words_per_line + 3)
-        m.submodules.cds = cds = Cds(pixel_bits=lay.pixel_bits)
+            layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
+        m.submodules.cds = cds = Cds(pixel_bits=lay.pixel_bits, ppc=ppc)
         connect_mig(m, port, self)
         wiring.connect(m, cds.o_stream, wiring.flipped(self.o_stream))
         m.d.comb += [self.line_errors.eq(wr.line_errors), wr.line_ok.eq(1),
@@ -118,8 +140,10 @@ class CdsDdr(wiring.Component):
             wr.i_stream.payload.eq(i.payload),
             cds.i_stream.valid.eq(i.valid & ~cur_kind & (~have_reset | (
                 rs.valid & (~i.payload.first | launched)))),
-            cds.i_stream.payload.data[0].eq(i.payload.data),
-            cds.i_stream.payload.data[1].eq(Mux(have_reset, rs.payload.data, 0)),
+            *(cds.i_stream.payload.data[2 * k].eq(_elem(i.payload.data, k, ppc))
+              for k in range(ppc)),
+            *(cds.i_stream.payload.data[2 * k + 1].eq(
+                Mux(have_reset, _elem(rs.payload.data, k, ppc), 0)) for k in range(ppc)),
             cds.i_stream.payload.first.eq(i.payload.first),
             cds.i_stream.payload.last.eq(i.payload.last),
             i.ready.eq(Mux(cur_kind, wr.i_stream.ready, sig_ok)),
@@ -133,3 +157,21 @@ class CdsDdr(wiring.Component):
             with m.If(~cur_kind & i.payload.first):
                 m.d.sync += launched.eq(0)
         return m
+
+
+def _elem(data, k, ppc):
+    """Pixel ``k`` of a beat's ``data`` (the whole value at ppc 1)."""
+    return data[k] if ppc > 1 else data
+
+
+def default_pixels_per_word(pixel_bits, ppc, given=None):
+    """Values per 256-bit word of the reset frame: ``given``, else 24 for 10-bit pixels
+    (Ning et al. 2019, Table 2) or ``256 // pixel_bits``, rounded down to a multiple of
+    ``ppc``; a ``given`` value and ``ppc`` must divide one another (one line naming both)."""
+    if given is None:
+        ppw = 24 if pixel_bits == 10 else WORD_BITS // pixel_bits
+        return ppw - ppw % ppc
+    if given % ppc and ppc % given:
+        raise TdicamError(f"--pixels_per_word {given} and --ppc {ppc}: one must divide the "
+                          f"other")
+    return given

@@ -12,31 +12,29 @@ import numpy as np
 from tdicam.beats import Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
-from tdicam.blocks import Bench, StreamWork
-from tdicam.blocks import Block, Case, Param, SideInput
+from tdicam.blocks import PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, check_width
+from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
 
 
 def _layout(p):
-    ppw = p["pixels_per_word"]
-    if ppw is None:
-        ppw = 24 if p["pixel_bits"] == 10 else 256 // p["pixel_bits"]
+    ppw = default_pixels_per_word(p["pixel_bits"], p["ppc"], p["pixels_per_word"])
     return LineLayout(width=p["width"], pixel_bits=p["pixel_bits"], pixels_per_word=ppw,
                       line_stride=p["line_stride"], base=p["base"])
 
 
 def _check(p):
     check_stalls(p)
+    check_width(p["width"], p["ppc"])
     check_capacity(_layout(p), p["rows"], p["capacity_mib"] << 20, "reset frame")
 
 
 def _top(**p):
-    from tdicam.hdl.cds_ddr import CdsDdr
     core = CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
                   pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
-                  base=p["base"], capacity_bytes=p["capacity_mib"] << 20)
+                  base=p["base"], capacity_bytes=p["capacity_mib"] << 20, ppc=p["ppc"])
     return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
 
 
@@ -70,26 +68,30 @@ def _hard(params, rng):
 
 def _reset(params, rng):
     out = _random([1, 0, 0, 1, 0])(params, rng)
-    per = params["rows"] * params["width"]
+    per = params["rows"] * params["width"] // params["ppc"]      # beats per frame
     out["reset_before"] = np.array([2 * per + per // 2], np.int64)   # inside signal frame 2
     return out
 
 
 def cds_to_beats(arrays, params):
+    """``ppc`` pixels per beat (element 0 the leftmost); ``frame_kind`` with every beat; a
+    ``reset_before`` beat index cuts the stream there (reset mid-frame)."""
     fr, kinds = arrays["frames"], arrays["kinds"]
-    stim = frames_to_beats(fr)
-    per = fr.shape[1] * fr.shape[2]
+    ppc = params["ppc"]
+    stim = frames_to_beats(fr, ppc=ppc)
+    per = fr.shape[1] * fr.shape[2] // ppc
     stim.ctrl = np.repeat(kinds.astype(np.uint64), per)
     if "reset_before" not in arrays:
-        return stim, frames_to_beats(arrays["out"])
+        return stim, frames_to_beats(arrays["out"], ppc=ppc)
     # a reset forgets the stored reset frame: recompute the golden after it
     k = int(arrays["reset_before"][0])
     fi = k // per
     nxt = fi + 1
     before = cds_ddr_frames(fr[:nxt], kinds[:nxt], pixel_bits=params["pixel_bits"])
     after = cds_ddr_frames(fr[nxt:], kinds[nxt:], pixel_bits=params["pixel_bits"])
-    exp0 = frames_to_beats(before) if len(before) else Beats(np.zeros((0, 1)), [], [])
-    exp1 = frames_to_beats(after)
+    exp0 = frames_to_beats(before, ppc=ppc) if len(before) else \
+        Beats(np.zeros((0, ppc)), [], [])
+    exp1 = frames_to_beats(after, ppc=ppc)
     exp = Beats.concat([exp0, exp1])
     # the cut frame's tail (no tuser) is dropped by the stream contract: feed it with rst
     keep = np.ones(len(stim), bool)
@@ -121,6 +123,34 @@ def _p(width, rows, pixel_bits=12, ppw=None, stride=None, **kw):
             "line_stride": stride, **kw}
 
 
+def _ppc_cases():
+    """At ppc 2, 4 and 8: random frames with a reset frame mid-stream, hard values (zeros,
+    full scale, reset > signal), a reset mid-frame, the smallest width (one beat per row),
+    and at ppc 8 16-bit pixels, 10-bit Table 2 words (24 values: 3 beats a word) and the
+    widest frame (65,536 columns)."""
+    out = []
+    for k, ppc in enumerate((2, 4, 8)):
+        p = _p(24, 4, ppc=ppc)
+        out += [
+            Case(f"random_24x4_12b_p{ppc}", p, _random([1, 0, 0, 1, 0]), seed=30 + k),
+            Case(f"hard_24x3_12b_p{ppc}", _p(24, 3, ppc=ppc), _hard, seed=40 + k,
+                 tags=("fullscale", "zeros")),
+            Case(f"reset_mid_frame_24x4_12b_p{ppc}", p, _reset, seed=50 + k,
+                 tags=("reset",)),
+            Case(f"narrow_{ppc}x4_12b_p{ppc}", _p(ppc, 4, ppc=ppc), _random([1, 0, 0, 1, 0]),
+                 seed=60 + k, tags=("narrow",)),
+        ]
+    out += [
+        Case("hard_32x3_16b_p8", _p(32, 3, pixel_bits=16, ppc=8), _hard, seed=70,
+             tags=("fullscale",)),
+        Case("paper_10b_48x4_p8", _p(48, 4, pixel_bits=10, ppc=8), _random([1, 0, 1, 0]),
+             seed=71, tags=("layout",)),
+        Case("widest_65536x1_12b_p8", _p(1 << 16, 1, ppc=8), _random([1, 0, 0]), seed=72,
+             tags=("fast-only", "wide")),
+    ]
+    return out
+
+
 def _cases():
     return [
         Case("random_24x4_12b", _p(24, 4), _random([1, 0, 0, 1, 0]), seed=1),
@@ -133,7 +163,7 @@ def _cases():
         Case("reset_mid_frame_24x4_12b", _p(24, 4), _reset, seed=6, tags=("reset",)),
         Case("random_512x16_10b", _p(512, 16, pixel_bits=10), _random([1, 0, 0]),
              seed=7, tags=("fast-only",)),
-    ]
+    ] + _ppc_cases()
 
 
 BLOCK = Block(
@@ -144,14 +174,16 @@ BLOCK = Block(
         Param("rows", 16, "lines per frame", lo=1, hi=1 << 16),
         Param("pixel_bits", 12, "pixel width", lo=8, hi=16),
         Param("pixels_per_word", None, "values per 256-bit word; default 24 for 10 bit, "
-                                       "else 256 // pixel_bits", lo=1, hi=32),
+                                       "else 256 // pixel_bits (a multiple of ppc)",
+              lo=1, hi=32),
+        PPC_PARAM,
     ) + address_params("address of the reset frame's line 0") + STALL_PARAMS,
     top=_top,
     cases=_cases,
     check=_check,
     model_version="cds_ddr-1",
     to_beats=cds_to_beats,
-    frame_beats=lambda p: p["width"] * p["rows"],
+    frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
     stream="frames",
     side_inputs=(SideInput("kinds", "frame", "1 = a reset frame (stored in DDR, no output), "
                            "0 = a signal frame (output minus the stored reset); on the "
