@@ -12,7 +12,9 @@ random numbers for every other effect).
 
 Package layout: :mod:`~tdicam.engine.effects` (the table), :mod:`~tdicam.engine.context`
 (the run :class:`Context` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
-fidelities), :mod:`~tdicam.engine.blocks` (golden-model wiring of the pipeline blocks),
+fidelities), :mod:`~tdicam.engine.blocks` (the pipeline blocks' rows of the table, generated
+from the registry: what each block does to the frame stacks is its entry's
+:attr:`tdicam.blocks.Use.sim`),
 :mod:`~tdicam.engine.streams` (random numbers, threads, timing), this module (the entry
 point and the impact study).
 
@@ -22,8 +24,9 @@ optics (Gaussian PSF) -> aperture (pixel active area and the image motion during
 exposure) -> smear (stage misregistration from velocity mismatch and drift) -> rolling_skew
 (row read-time offsets of a rolling shutter) -> prnu -> dark_current -> dsnu -> shot_noise
 -> full_well -> reset_frames (for CDS) -> read_noise -> dual_gain (HG/LG channels) ->
-quantization (ADC per exposure) -> cds -> nuc -> hdr -> median3 (before TDI) -> tdi ->
-median3 (after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
+quantization (ADC per exposure) -> the pipeline blocks of the registry in their
+``[pipeline].blocks`` rank (cds -> nuc -> hdr -> median3 before TDI), the line-making block
+(tdi) and the blocks on its output (median3 after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
 and :mod:`tdicam.model.physics.sensor` (charge, noise, ADC); the hardware blocks run through their
 golden models ``tdicam.model.<block>``.
 
