@@ -392,8 +392,18 @@ def _sim_coeffs(c, gain_map, dark_map):
     return {"coeffs": out}
 
 
+def _sim_notes(c):
+    """The run's notes on the coefficients loaded from NAND flash (``c.flash``)."""
+    return [f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
+            f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "
+            f"{f['uncorrectable_words']} uncorrectable words of {f['words']}, "
+            f"{f['defaulted_pixels']} of {f['pixels']} pixels on the default "
+            f"coefficients (gain 1, offset 0)" for f in (c.flash[k] for k in sorted(c.flash))]
+
+
 #: The block in the scene simulator.
-SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_sim_coeffs),)
+SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_sim_coeffs,
+           notes=_sim_notes),)
 
 
 BLOCK = Block(

@@ -164,6 +164,9 @@ class Sim:
         fast path's raw single exposure).
     pedestal : callable(scene) -> float, or None
         DN its reset frames add to the ADC pedestal (the mean reset level).
+    notes : callable(c) -> list of str, or None
+        What the run's notes say of the step once the run is over (NUC: the coefficients'
+        NAND store, from ``c.flash``).
     """
 
     label: str
@@ -176,3 +179,4 @@ class Sim:
     prepare: Callable | None = None
     subtract: Callable | None = None
     pedestal: Callable | None = None
+    notes: Callable | None = None

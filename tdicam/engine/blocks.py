@@ -45,7 +45,8 @@ def _rows():
 #: The blocks' rows in physical order: by stage, then by the blocks' ``[pipeline].blocks``
 #: rank.
 ROWS = _rows()
-#: The line-making block's row (charge-domain TDI times its charge sum under this name).
+#: The line-making block's row: the TDI sum itself (never disabled, no impact of its own;
+#: charge-domain TDI times its charge sum under this name).
 LINES = next(r.name for r in ROWS if r.sim.stage == "lines")
 
 
