@@ -85,11 +85,15 @@ class LineWriter(wiring.Component):
         first_flag = Signal()
         errs = Signal(16)
         m.d.comb += self.line_errors.eq(errs)
-        last_col = col == W - 1
-        restart = i.payload.first & ~col.any()
-        line_start = ~col.any()
+        # col == 0 and col == W - 1 kept as registers (set a beat ahead), off the ready path
+        line_start = Signal(init=1)
+        last_col = Signal(init=int(W == 1))
+        restart = i.payload.first & line_start
         fire = Signal()
         m.d.comb += [fire.eq(i.valid & i.ready), self.line_start.eq(fire & line_start)]
+        with m.If(fire):
+            m.d.sync += [line_start.eq(last_col),
+                         last_col.eq(Mux(last_col, W == 1, col == W - 2))]
         beat = [i.payload.data[k] if E > 1 else i.payload.data for k in range(E)]
         end_base = lay.base + (self._rows - 1) * lay.line_stride
         next_base = Mux(restart, Const(lay.base, self._aw), line_base)
