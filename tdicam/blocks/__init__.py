@@ -397,7 +397,9 @@ class Block:
     ecp5_top : callable(params as keywords) -> wiring.Component, or None
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
-        their output register); same ports and behaviour. ``None``: :attr:`top`.
+        their output register); same ports and behaviour — except for a DDR block, whose
+        :attr:`top` holds the simulation MIG model and whose synthesis top is the core with
+        the MIG user interface at its ports (``cds_ddr``). ``None``: :attr:`top`.
     frame_beats : callable, optional
         ``frame_beats(params)``: input beats of one frame, the least a golden case streams
         (``tdicam export`` refuses parameters whose one frame is over its beat limit before

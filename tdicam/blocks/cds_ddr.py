@@ -31,11 +31,22 @@ def _check(p):
     check_capacity(_layout(p), p["rows"], p["capacity_mib"] << 20, "reset frame")
 
 
-def _top(**p):
-    core = CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
+def _core(p):
+    return CdsDdr(width=p["width"], rows=p["rows"], pixel_bits=p["pixel_bits"],
                   pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
                   base=p["base"], capacity_bytes=p["capacity_mib"] << 20, ppc=p["ppc"])
+
+
+def _top(**p):
+    core = _core(p)
     return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
+
+
+def _synth_top(**p):
+    """What ``tdicam synth`` places: the core with its MIG user interface at the ports (the
+    DDR3 controller's side; the memory model of :func:`_top` is simulation only)."""
+    from tdicam.hdl.interfaces.axis import AxisTop
+    return AxisTop(_core(p))
 
 
 def cds_arrays(frames, kinds, params):
@@ -179,6 +190,7 @@ BLOCK = Block(
         PPC_PARAM,
     ) + address_params("address of the reset frame's line 0") + STALL_PARAMS,
     top=_top,
+    ecp5_top=_synth_top,
     cases=_cases,
     check=_check,
     model_version="cds_ddr-1",

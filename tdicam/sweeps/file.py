@@ -305,7 +305,23 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
         loader rejects (its message, with the point), too many runs without ``force``
         (or more than :data:`MAX_FORCED_RUNS` with it), a key both fixed and swept.
     """
-    from tdicam.scene.loader import load_scene, scene_from_dict
+    doc, path, src = _read_doc(path)
+    scene_path, base = _base_scene(doc, path, src)
+    name = _name(doc, path, src)
+    repeats = _repeats(doc, src)
+    tables = _tables(doc, src)
+    _apply_set(base, tables, src)
+    axes, zipped, promoted = _axes(base, tables, scene_path, src)
+    _check_size(axes, zipped, repeats, force, src)
+    points, runs = _expand(base, axes, zipped, repeats, scene_path, src, impact=impact,
+                           progress=progress)
+    return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
+                 axes=tuple(axes), zipped=tuple(zipped), points=tuple(points),
+                 runs=tuple(runs), impact=bool(impact), promoted=tuple(promoted))
+
+
+def _read_doc(path):
+    """The sweep file's table, its path and the name messages give it; its keys checked."""
     if isinstance(path, Mapping):
         doc, path = dict(path), Path.cwd() / "sweep"
         src = "sweep"
@@ -319,6 +335,12 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
             raise TdicamError(f"{src}: {k}: unknown key"
                               + (f"; did you mean {close[0]!r}?" if close
                                  else "; valid: " + ", ".join(_FILE_KEYS)))
+    return doc, path, src
+
+
+def _base_scene(doc, path, src):
+    """The base scene's resolved path and its raw table (the scene validated first)."""
+    from tdicam.scene.loader import load_scene
     if "scene" not in doc:
         raise TdicamError(f"{src}: scene: missing (the base scene file, relative to the "
                           f"sweep file)")
@@ -327,22 +349,41 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
                           f"the sweep file), got {doc['scene']!r}")
     scene_path = (path.resolve().parent / doc["scene"]).resolve()
     load_scene(scene_path)                       # the base scene's own errors first
-    base = read_toml(scene_path, "scene file")
+    return scene_path, read_toml(scene_path, "scene file")
+
+
+def _name(doc, path, src):
+    """The sweep's ``name`` (a folder name; the file's stem by default)."""
     name = doc.get("name", path.stem)
     if not isinstance(name, str) or not name.strip() or name in (".", "..") \
             or "/" in name or "\\" in name:
         raise TdicamError(f"{src}: name: must be a folder name (no '/', not '.' or '..'; the "
                           f"default output is out/sweeps/NAME), got {name!r}")
+    return name
+
+
+def _repeats(doc, src):
+    """The sweep's ``repeats`` (an integer >= 1; 1 by default)."""
     repeats = doc.get("repeats", 1)
     if isinstance(repeats, bool) or not isinstance(repeats, int):
         raise TdicamError(f"{src}: repeats: must be an integer >= 1, got {repeats!r}")
     check_range(f"{src}: repeats", repeats, 1, None)
+    return repeats
+
+
+def _tables(doc, src):
+    """The ``set``, ``axes`` and ``zip`` tables, each flattened to dotted scene keys."""
     tables = {}
     for t in ("set", "axes", "zip"):
         v = doc.get(t, {})
         if not isinstance(v, dict):
             raise TdicamError(f"{src}: {t}: must be a table of scene keys, got {v!r}")
         tables[t] = _flatten(v, f"{src}: [{t}]")
+    return tables
+
+
+def _apply_set(base, tables, src):
+    """Write the ``[set]`` keys into the base scene's table (a key is fixed or swept)."""
     for key, value in tables["set"].items():
         for t in ("axes", "zip"):
             if key in tables[t]:
@@ -351,6 +392,11 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
         if "." not in key:
             raise TdicamError(f"{src}: [set] {key}: keys are section.key paths of the scene")
         _set_key(base, key, value)
+
+
+def _axes(base, tables, scene_path, src):
+    """The crossed axes, the zipped axes and the scene keys promoted to axes (the base
+    scene's own lists that no axis sweeps)."""
     axes = [_axis(k, v, f"{src}: [axes] {k}") for k, v in tables["axes"].items()]
     zipped = [_axis(k, v, f"{src}: [zip] {k}", True) for k, v in tables["zip"].items()]
     for z in zipped:
@@ -367,6 +413,12 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
         if isinstance(v, list) and key not in swept:
             axes.append(_axis(key, v, f"{scene_path}: {key}"))
             promoted.append(key)
+    return axes, zipped, promoted
+
+
+def _check_size(axes, zipped, repeats, force, src):
+    """Refuse more than :data:`MAX_RUNS` runs without ``force``, more than
+    :data:`MAX_FORCED_RUNS` with it."""
     n_points = math.prod(len(a.values) for a in axes) * (len(zipped[0].values) if zipped
                                                          else 1)
     n_runs = n_points * repeats
@@ -381,42 +433,66 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
                           f"{MAX_FORCED_RUNS:,} one sweep holds even with --force (each run "
                           f"is validated and kept in memory before the first is computed); "
                           f"split it into several sweep files")
+
+
+def _combos(axes, zipped):
+    """Every point as a tuple of (key, value): the axes crossed, the zip groups together."""
     combos = [()]
     for a in axes:
         combos = [c + ((a.key, v),) for c in combos for v in a.values]
     if zipped:
         combos = [c + tuple((z.key, z.values[i]) for z in zipped)
                   for c in combos for i in range(len(zipped[0].values))]
-    points, runs, base_dir = [], [], scene_path.parent
+    return combos
+
+
+def _expand(base, axes, zipped, repeats, scene_path, src, *, impact, progress):
+    """Every point (a dict of swept keys) and every run (each point's scene validated,
+    ``repeats`` times with its own seed and hash)."""
+    combos = _combos(axes, zipped)
+    points, runs = [], []
     bar = _validation_progress(len(combos), progress)
     for index, combo in enumerate(combos):
         if bar is not None:
             bar.update(1)
         point = dict(combo)
-        data = _deepcopy(base)
-        for key, value in combo:
-            _set_key(data, key, value)
-        try:
-            scene = scene_from_dict(data, base_dir=base_dir, source=str(scene_path))
-        except TdicamError as exc:
-            raise TdicamError(f"{src}: point {_show_point(point)}: {exc}") from None
-        for key in _SCENE_LISTS:
-            section, k = key.split(".")
-            if len(getattr(getattr(scene, section), k)) != 1:
-                raise TdicamError(f"{src}: point {_show_point(point)}: {key} must be one "
-                                  f"value per point, got a list")
-        key = _scene_key(scene)
-        for r in range(repeats):
-            seed = int.from_bytes(hashlib.sha256(
-                _canon({"scene": key, "repeat": r}).encode()).digest()[:8], "big") >> 1
-            sc = dataclasses.replace(scene, run=dataclasses.replace(scene.run, seed=seed))
-            settings = {**key, "run": {**key["run"], "seed": seed}}
-            h = _sha({"format": STORE_FORMAT, "tdicam": __version__, "impact": bool(impact),
-                      "scene": settings})
-            runs.append(Run(index, r, sc, seed, h, settings))
+        scene = _point_scene(base, combo, point, scene_path, src)
+        runs.extend(_point_runs(index, scene, repeats, impact))
         points.append(point)
     if bar is not None:
         bar.close()
-    return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
-                 axes=tuple(axes), zipped=tuple(zipped), points=tuple(points),
-                 runs=tuple(runs), impact=bool(impact), promoted=tuple(promoted))
+    return points, runs
+
+
+def _point_scene(base, combo, point, scene_path, src):
+    """One point's scene: the base table with the point's values, validated."""
+    from tdicam.scene.loader import scene_from_dict
+    data = _deepcopy(base)
+    for key, value in combo:
+        _set_key(data, key, value)
+    try:
+        scene = scene_from_dict(data, base_dir=scene_path.parent, source=str(scene_path))
+    except TdicamError as exc:
+        raise TdicamError(f"{src}: point {_show_point(point)}: {exc}") from None
+    for key in _SCENE_LISTS:
+        section, k = key.split(".")
+        if len(getattr(getattr(scene, section), k)) != 1:
+            raise TdicamError(f"{src}: point {_show_point(point)}: {key} must be one "
+                              f"value per point, got a list")
+    return scene
+
+
+def _point_runs(index, scene, repeats, impact):
+    """The ``repeats`` runs of point ``index``: each its seed (from the scene and the
+    repeat) and its hash (format, version, impact and settings)."""
+    key = _scene_key(scene)
+    runs = []
+    for r in range(repeats):
+        seed = int.from_bytes(hashlib.sha256(
+            _canon({"scene": key, "repeat": r}).encode()).digest()[:8], "big") >> 1
+        sc = dataclasses.replace(scene, run=dataclasses.replace(scene.run, seed=seed))
+        settings = {**key, "run": {**key["run"], "seed": seed}}
+        h = _sha({"format": STORE_FORMAT, "tdicam": __version__, "impact": bool(impact),
+                  "scene": settings})
+        runs.append(Run(index, r, sc, seed, h, settings))
+    return runs

@@ -304,12 +304,9 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
 
 def _run_sweep(sweep, out_dir, store, *, workers, scheduler, serial, limit, progress,
                connect_timeout, on_run, t0):
-    done = {}
-    for run in sweep.runs:
-        if run.hash not in done:
-            rec = _read_record(store, run.hash)
-            if rec is not None and rec["status"] == "ok":
-                done[run.hash] = rec
+    """The body of :func:`run_sweep` once ``out_dir`` and its store exist: reuse the stored
+    runs, compute the missing ones (up to ``limit``), write the results and the summary."""
+    done = _stored_runs(sweep, store)
     reused = sum(1 for r in sweep.runs if r.hash in done)
     todo = [r for r in sweep.runs if r.hash not in done]
     computed = 0
@@ -327,28 +324,53 @@ def _run_sweep(sweep, out_dir, store, *, workers, scheduler, serial, limit, prog
             on_run(run, done[run.hash])
         return limit is None or computed < limit
 
-    where = "serial"
     t_exec = time.perf_counter()
     try:
-        if todo and (limit is None or limit > 0):
-            if serial:
-                seen = set()
-                for run in todo:
-                    if run.hash in seen:
-                        continue
-                    seen.add(run.hash)
-                    if not on_done(run, run_one(run.scene, sweep.impact)):
-                        break
-            else:
-                _run_on_dask(todo, sweep, on_done, workers, scheduler, connect_timeout)
-                where = (f"Dask scheduler {scheduler}" if scheduler else
-                         f"local Dask cluster of {workers or os.cpu_count() or 1} workers")
-        elif not serial:
-            where = "nothing to compute"
+        where = _compute(todo, sweep, on_done, workers=workers, scheduler=scheduler,
+                         serial=serial, limit=limit, connect_timeout=connect_timeout)
     finally:
         if bar is not None:
             bar.close()
     t_exec = time.perf_counter() - t_exec
+    return _finish(sweep, out_dir, done, computed=computed, reused=reused, where=where,
+                   t_exec=t_exec, t0=t0)
+
+
+def _stored_runs(sweep, store):
+    """The sweep's runs already stored with status ``ok``: {hash: record}."""
+    done = {}
+    for run in sweep.runs:
+        if run.hash not in done:
+            rec = _read_record(store, run.hash)
+            if rec is not None and rec["status"] == "ok":
+                done[run.hash] = rec
+    return done
+
+
+def _compute(todo, sweep, on_done, *, workers, scheduler, serial, limit, connect_timeout):
+    """Compute the runs ``todo`` (each distinct hash once), in this process with ``serial``
+    else on Dask, until ``on_done`` returns False; where they ran, in words."""
+    where = "serial"
+    if todo and (limit is None or limit > 0):
+        if serial:
+            seen = set()
+            for run in todo:
+                if run.hash in seen:
+                    continue
+                seen.add(run.hash)
+                if not on_done(run, run_one(run.scene, sweep.impact)):
+                    break
+        else:
+            _run_on_dask(todo, sweep, on_done, workers, scheduler, connect_timeout)
+            where = (f"Dask scheduler {scheduler}" if scheduler else
+                     f"local Dask cluster of {workers or os.cpu_count() or 1} workers")
+    elif not serial:
+        where = "nothing to compute"
+    return where
+
+
+def _finish(sweep, out_dir, done, *, computed, reused, where, t_exec, t0):
+    """Write the result files and ``summary.json`` into ``out_dir``; the SweepResult."""
     with outputs.writing_in(out_dir):
         files = write_results(sweep, out_dir, done)
     failed = [{"point": r.point, "repeat": r.repeat, "hash": r.hash,
