@@ -45,7 +45,10 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
     ``lo_open``/``hi_open`` make a bound exclusive (floats, e.g. ``(0, 1]``). ``nan`` and
     infinities are never in range.
     """
+    shown = value                     # as given: 1e+308, not its 309 integer digits
     if integer and (isinstance(value, bool) or not isinstance(value, int)):
+        if isinstance(value, bool):
+            raise TdicamError(f"{name} must be an integer, got {value!r}")
         try:
             if int(value) != value:
                 raise ValueError
@@ -63,7 +66,7 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
     below = lo is not None and (value <= lo if lo_open else value < lo)
     above = hi is not None and (value >= hi if hi_open else value > hi)
     if below or above:
-        raise TdicamError(f"{name} = {value} is out of range; valid: "
+        raise TdicamError(f"{name} = {shown} is out of range; valid: "
                           f"{valid_range(lo, hi, lo_open=lo_open, hi_open=hi_open)}")
     return value
 

@@ -26,7 +26,7 @@ and the leaves; never a simulator driver, a hardware tool, the camera, a service
 import importlib
 import pkgutil
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -506,6 +506,9 @@ class Block:
         """Scene arrays with every side input present (defaults filled in) and ``pixel``
         side inputs broadcast to the stream's shape, or a :class:`TdicamError` naming the
         missing one."""
+        if not isinstance(arrays, Mapping):
+            raise TdicamError(f"block {self.name}: arrays must be a dict of arrays (its "
+                              f"stream input {self.stream!r}), got {type(arrays).__name__}")
         if self.stream not in arrays:
             raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
         out = dict(arrays)
@@ -650,6 +653,8 @@ class Block:
         """
         from tdicam import cosim
         from tdicam.cosim.cases import run_cases
+        from tdicam.cosim.pauses import check_seed
+        check_seed("seed", seed)             # a negative or wide seed would be folded
         kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed,
                   wave_dir=wave_dir)
         if arrays is None:

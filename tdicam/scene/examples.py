@@ -63,6 +63,8 @@ def example_path(name: str) -> Path:
     TdicamError
         No bundled scene has that name (one line listing the names).
     """
+    if not isinstance(name, str):
+        raise TdicamError(f"bundled scene: expected a name, got {type(name).__name__}")
     stem = name[:-5] if name.endswith(".toml") else name
     path = SCENES / f"{stem}.toml"
     if "/" in stem or not path.is_file():

@@ -434,7 +434,7 @@ def _sensor(sec: _Section) -> Sensor:
     gains_raw = sec.raw("gains", [1.0])
     if not isinstance(gains_raw, list) or not 1 <= len(gains_raw) <= 2:
         sec.fail("gains", f"must be a list of one or two gains, got {_show(gains_raw)}")
-    gains = tuple(sec.number("gains", value=g, lo=0.0, lo_open=True,
+    gains = tuple(sec.number("gains", value=g, lo=0.0, lo_open=True, hi=1e6,  # 1e308: inf
                              what=f"(entry {i} of the list)")
                   for i, g in enumerate(gains_raw))
     if len(gains) == 2 and not gains[0] > gains[1]:
@@ -767,11 +767,13 @@ def read_toml(path, what):
     (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, larger than
     :data:`tdicam.files.MAX_TOML_BYTES` (an endless file such as ``/dev/zero``), not UTF-8
     text, invalid TOML. A UTF-8 byte-order mark (which some editors write) is accepted."""
-    from tdicam.files import MAX_TOML_BYTES, read_bytes
-    p = Path(path)
+    from tdicam.files import MAX_TOML_BYTES, input_path, read_bytes
+    p = input_path(path, what)
     data = read_bytes(p, what, MAX_TOML_BYTES)
     try:
         return tomllib.loads(data.decode("utf-8-sig"))
+    except RecursionError:
+        raise TdicamError(f"{p}: invalid TOML: arrays or tables nested too deeply") from None
     except UnicodeDecodeError:
         raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
     except tomllib.TOMLDecodeError as exc:
@@ -808,7 +810,8 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
     base_dir = None
     source = "<command line>"
     if path is not None:
-        p = Path(path)
+        from tdicam.files import input_path
+        p = input_path(path, "scene file")
         data = read_toml(p, "scene file")
         base_dir = p.resolve().parent
         source = str(p)

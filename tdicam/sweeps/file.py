@@ -212,7 +212,8 @@ def _range(spec, label):
         return []
     count = (stop - start) / step + 1e-9            # inf for a tiny step: never int() it
     if count + 1 > _MAX_AXIS:
-        many = f"{int(count) + 1}" if math.isfinite(count) else "endlessly many"
+        many = (f"{int(count) + 1}" if count < 1e15 else f"about {count:.3g}"
+                if math.isfinite(count) else "endlessly many")
         raise TdicamError(f"{label}: range gives {many} values, more than {_MAX_AXIS}")
     n = int(math.floor(count)) + 1
     return [start + i * step if ints else float(start + i * step) for i in range(n)]
@@ -234,7 +235,10 @@ def _axis(key, raw, label, zipped=False):
     values = [_tidy(v) for v in values]
     seen = set()
     for v in values:
-        c = _canon(v)
+        try:
+            c = _canon(v)
+        except ValueError:                  # nan or inf (JSON has neither)
+            raise TdicamError(f"{label}: value {v!r} is not a finite number") from None
         if c in seen:
             raise TdicamError(f"{label}: value {v!r} is listed twice")
         seen.add(c)
@@ -438,7 +442,12 @@ def _base_scene(doc, path, src):
         raise TdicamError(f"{src}: scene: must be the base scene's file name (relative to "
                           f"the sweep file), got {doc['scene']!r}")
     scene_path = (path.resolve().parent / doc["scene"]).resolve()
-    load_scene(scene_path)                       # the base scene's own errors first
+    try:
+        load_scene(scene_path)                   # the base scene's own errors first
+    except TdicamError as exc:
+        if str(scene_path) in str(exc) or scene_path.name in str(exc):
+            raise
+        raise TdicamError(f"{src}: scene {scene_path}: {exc}") from None
     return scene_path, read_toml(scene_path, "scene file")
 
 
