@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.scene.examples import examples
 from tdicam.scene.loader import Scene
 from tdicam.version import __version__
@@ -97,6 +97,7 @@ class Simulation:
         return self.report
 
 
+@api_arguments
 def simulate(scene: Scene | str | Path, *, fidelity: str | None = None,
              lines: int | None = None, seed: int | None = None,
              force: tuple[str, ...] = (), impact: bool = True, rtl: bool = True,
@@ -287,6 +288,7 @@ def _json_default(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
+@api_arguments
 def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
          device: str | None = None, ddr_bits: int | None = None,
          ddr_clock_mhz: float | None = None, ddr_efficiency: float | None = None,
@@ -360,6 +362,7 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
 # --------------------------------------------------------------------------------------
 
 
+@api_arguments
 def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = None, *,
           workers: int | None = None, scheduler: str | None = None, serial: bool = False,
           impact: bool = False, force: bool = False, limit: int | None = None,

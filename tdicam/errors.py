@@ -36,6 +36,25 @@ def valid_range(lo, hi, *, lo_open=False, hi_open=False):
     return f"{'<' if hi_open else '<='} {_num(hi)}"
 
 
+def api_arguments(fn):
+    """Decorator of a public API function: a call with arguments ``fn`` does not take (an
+    unknown keyword, one too many, a required one missing) raises a one-line
+    :class:`TdicamError` naming ``fn`` and the argument, not Python's TypeError. The
+    signature (``inspect.signature``) and docstring stay ``fn``'s."""
+    import functools
+    import inspect
+    sig = inspect.signature(fn)
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            raise TdicamError(f"{fn.__qualname__}: {exc}") from None
+        return fn(*args, **kwargs)
+    return call
+
+
 def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=False):
     """Return ``value`` if it lies in the range (and is integral when ``integer``), else
     raise ``"NAME = V is out of range; valid: lo..hi"`` (see :func:`valid_range`).

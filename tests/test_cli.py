@@ -488,7 +488,8 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
 
 
 # The Python API with bad arguments: one-line TdicamErrors (found probing, session 9: each
-# was a TypeError, AttributeError or IndexError, or a seed folded silently)
+# was a TypeError, AttributeError or IndexError, or a seed folded silently; an argument the
+# function does not take is named by tdicam.errors.api_arguments)
 API_BAD = [
     ("Scene.load(3)", lambda t: t.Scene.load(3), "scene file: expected a file name, got int"),
     ("Scene.example(None)", lambda t: t.Scene.example(None),
@@ -500,6 +501,12 @@ API_BAD = [
      "block cds: arrays must be a dict of arrays (its stream input 'signal'), got NoneType"),
     ("cosim(seed=-1)", lambda t: t.blocks.get("cds").cosim(seed=-1),
      "seed = -1 is out of range; valid: 1..2147483647"),
+    ("simulate(nope=1)", lambda t: t.simulate(t.examples_path, nope=1),
+     "simulate: got an unexpected keyword argument 'nope'"),
+    ("with_run(nope=1)", lambda t: t.Scene.example("orbit_600km_1m_96").with_run(nope=1),
+     "Scene.with_run: got an unexpected keyword argument 'nope'"),
+    ("examples('x')", lambda t: t.examples("x"), "examples: too many positional arguments"),
+    ("Scene.load()", lambda t: t.Scene.load(), "Scene.load: missing a required argument: 'path'"),
     ("simulate(lines=True)", lambda t: t.simulate(t.examples_path, lines=True),
      "lines must be an integer, got True"),
     ("simulate(lines=1e308)", lambda t: t.simulate(t.examples_path, lines=1e308),

@@ -337,6 +337,10 @@ def test_limit_bounds_the_validation_and_a_rerun_finishes(reference, tmp_path, m
     ds = sweep(path, out, serial=True)
     assert "computed 7, reused 5" in ds.attrs["summary"]
     assert_same(read_table(out), ref)
+    ds = sweep(path, out, serial=True, limit=0)   # finished points validated: all reused
+    assert "computed 0, reused 12" in ds.attrs["summary"]
+    assert "validated" not in ds.attrs["summary"]
+    assert_same(read_table(out), ref)
 
 
 def test_limit_still_checks_every_axis_value(tmp_path):

@@ -653,8 +653,6 @@ class Block:
         """
         from tdicam import cosim
         from tdicam.cosim.cases import run_cases
-        from tdicam.cosim.pauses import check_seed
-        check_seed("seed", seed)             # a negative or wide seed would be folded
         kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed,
                   wave_dir=wave_dir)
         if arrays is None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, api_arguments
 from tdicam.paths import SCENES
 
 __all__ = ["examples", "example_path"]
@@ -34,6 +34,7 @@ def _description(path: Path) -> str:
     return first
 
 
+@api_arguments
 def examples() -> dict[str, str]:
     """The bundled scenes, ``{name: one-line description}``, sorted by name.
 

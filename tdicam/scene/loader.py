@@ -22,7 +22,7 @@ from typing import Any, Mapping
 
 from tdicam import blocks as _registry
 from tdicam.blocks import steps as _steps
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.model.physics import plan as _plan, targets as _targets
 from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
                                  TARGET_KINDS, Ddr, Motion, Optics, Orbit, Pipeline, RtlRun,
@@ -97,6 +97,7 @@ class Scene:
         return _plan.rolling_timing(self.line_period_s, t_row, self.sensor.rows)
 
     @classmethod
+    @api_arguments
     def load(cls, path: str | Path, *, overrides: Mapping[str, Any] | None = None) -> Scene:
         """Read and validate a scene TOML file (:func:`load_scene`).
 
@@ -119,6 +120,7 @@ class Scene:
         return load_scene(path, overrides=overrides)
 
     @classmethod
+    @api_arguments
     def from_dict(cls, data: Mapping[str, Any], *, base_dir: str | Path | None = None
                   ) -> Scene:
         """Validate a scene given as a dict (what :func:`tomllib.loads` makes of a scene
@@ -144,6 +146,7 @@ class Scene:
         return scene_from_dict(data, base_dir=base_dir)
 
     @classmethod
+    @api_arguments
     def example(cls, name: str) -> Scene:
         """A bundled scene by name (``tdicam scenes`` lists them).
 
@@ -164,6 +167,7 @@ class Scene:
         from tdicam.scene.examples import example_path
         return load_scene(example_path(name))
 
+    @api_arguments
     def with_run(self, *, lines: int | None = None, seed: int | None = None) -> Scene:
         """This scene with ``[run].lines`` and/or ``[run].seed`` replaced.
 

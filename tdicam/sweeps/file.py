@@ -356,7 +356,9 @@ def validate_sweep(sweep: Sweep, *, progress=False, limit=None, finished=None) -
         Show the validation's progress on stderr when there are many points.
     limit : int, optional
         Stop once the runs validated hold ``limit`` runs still to compute (not
-        ``finished``): only the points a ``limit``-bounded sweep runs are validated, after
+        ``finished``; a point whose runs are all finished is validated still, so that
+        ``limit=0`` reuses the finished prefix): only the points a ``limit``-bounded sweep
+        runs are validated, after
         the points that differ from the first in one axis (every value of every axis once,
         each a point of the sweep: a cheap check of the axes); the later points keep their
         placeholder runs. None: every point.
@@ -387,13 +389,16 @@ def validate_sweep(sweep: Sweep, *, progress=False, limit=None, finished=None) -
         scene(index)
         if bar is not None:
             bar.update(1)
-    runs, todo, index = [], set(), 0
-    while index < n_points and (limit is None or len(todo) < limit):
+    runs, todo, index, done = [], set(), 0, True
+    # past the limit, the points whose runs are all finished still count (reused runs)
+    while index < n_points and (limit is None or len(todo) < limit or done):
         if bar is not None:
             bar.update(1)
         new = _point_runs(index, scene(index), sweep.repeats, sweep.impact)
         if limit is not None:
-            todo.update(r.hash for r in new if not (finished is not None and finished(r.hash)))
+            fresh = {r.hash for r in new if not (finished is not None and finished(r.hash))}
+            todo |= fresh
+            done = not fresh
         runs += new
         index += 1
     if bar is not None:
