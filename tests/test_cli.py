@@ -337,6 +337,13 @@ BAD_INPUT += [
     # a huge count said in 300 digits
     (["sweep", "{d}/sw_tiny_step.toml", "-o", "{d}/sw_step_out"],
      "[axes] target.signal_e: range gives about 9.9e+301 values, more than 100000", 2),
+    # an export -o that cannot be made is refused before the work (8192 x 128: minutes)
+    (["export", "tdi", "--width", "8192", "--stages", "128", "-o", "/proc/nope/x"],
+     "-o '/proc/nope/x': cannot write the export: No such file or directory", 2),
+    # bars along track need two periods: the fix named (was only "period_px must be <= 0.5",
+    # below the key's own minimum of 2)
+    (["run", "scenes/orbit_600km_1m_96.toml", "--lines", "1", "-o", "{d}/l1"],
+     "got 4; or make --lines >= 8", 2),
     # a base scene's error names the scene file (was "[scene]: unknown section" alone)
     (["sweep", "{d}/sw_self.toml", "-o", "{d}/sw_self_out"],
      "sw_self.toml: scene {d}/sw_self.toml: [scene]: unknown section", 2),

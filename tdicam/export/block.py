@@ -34,6 +34,7 @@ import importlib
 import json
 import os
 import shutil
+import tempfile
 import textwrap
 import time
 from dataclasses import dataclass
@@ -627,6 +628,16 @@ def run_binary(blk, params, stim, exp, folder, *, seed=1, idle=0.1, backpressure
 def _check_target(out, block, params, force):
     if out.exists() and not out.is_dir():
         raise TdicamError(f"-o {str(out)!r}: exists and is not a folder")
+    # before any work (an 8192 x 128 export takes minutes): a folder can be made where the
+    # staging folder goes, beside -o, in its nearest existing parent
+    parent = out.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        tempfile.TemporaryDirectory(dir=parent, prefix=".tdicam-probe-").cleanup()
+    except OSError as exc:
+        raise TdicamError(f"-o {str(out)!r}: cannot write the export: "
+                          f"{exc.strerror or exc}") from None
     if out.is_dir() and any(out.iterdir()) and not force:
         mark = out / _MARK
         try:

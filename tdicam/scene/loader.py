@@ -749,7 +749,8 @@ def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None
                         else (cols, "[sensor].columns"))
         if t.period_px > extent / 2:
             target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "
-                                         f"the {extent} px of {what}), got {t.period_px:g}")
+                                         f"the {extent} px of {what}), got {t.period_px:g}; "
+                                         f"or make {what} >= {math.ceil(2 * t.period_px)}")
 
 
 def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
