@@ -11,7 +11,7 @@ Two kinds of runs:
 
 Budget (every distinct parameter set is a simulator build; Verilator ~30-100 s each): all
 small golden cases on Icarus; on Verilator the paper-size cases only — the 1280 x 1024
-10-bit full frame round trip, CDS 512 x 16 and at ppc 8 (the widest frame, 65,536
+10-bit full frame round trip, CDS 512 x 16 and at ppc 2, 4 and 8 (at 8 the widest frame, 65,536
 columns), TDI 512 x 16 and the wide spill case
 (W = 4096, m = 32, ppc 4, which ``tdicam plan`` says must spill on an ECP5-25F). Icarus runs
 short forms of the big ones; the full forms (and the 72-channel full frame) with
@@ -110,11 +110,15 @@ def test_cds_512x16(sim):
                backpressure=0.1, seed=3)
 
 
-def test_cds_ppc8_verilator():
-    """ppc 8 on Verilator: the widest frame (65,536 columns, 16-value words: 2 beats each),
-    random frames and a reset mid-frame (one build for the two 24 x 4 cases)."""
-    for case in ("widest_65536x1_12b_p8", "random_24x4_12b_p8",
-                 "reset_mid_frame_24x4_12b_p8"):
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+def test_cds_ppc_verilator(ppc):
+    """ppc 2, 4, 8 on Verilator (Icarus runs every case above): random frames and a reset
+    mid-frame (one build for the two 24 x 4 cases), and at ppc 8 the widest frame (65,536
+    columns, 16-value words: 2 beats each)."""
+    cases = [f"random_24x4_12b_p{ppc}", f"reset_mid_frame_24x4_12b_p{ppc}"]
+    if ppc == 8:
+        cases.insert(0, "widest_65536x1_12b_p8")
+    for case in cases:
         check_case("cds_ddr", case, sim="verilator", mode="fast", idle=0.1,
                    backpressure=0.1, seed=5)
 

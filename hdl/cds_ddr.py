@@ -14,7 +14,7 @@ from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
-from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CdsDdr", "default_pixels_per_word"]
@@ -133,7 +133,11 @@ class CdsDdr(wiring.Component):
         with m.If(launch):
             m.d.sync += [launched.eq(1), left.eq(self._rows), req_addr.eq(lay.base),
                          req_first.eq(1)]
-        rs = rd.o_stream
+        # the reset pixels through a register: the reader's word-to-value select and the
+        # subtraction in one cycle held the block near 100 MHz on the ECP5
+        m.submodules.reset_reg = reg = StreamRegister(rd.o_stream.payload.shape())
+        wiring.connect(m, rd.o_stream, reg.i_stream)
+        rs = reg.o_stream
         sig_ok = cds.i_stream.ready & (~have_reset | (rs.valid & (~i.payload.first | launched)))
         m.d.comb += [
             wr.i_stream.valid.eq(i.valid & cur_kind),

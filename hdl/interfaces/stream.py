@@ -8,10 +8,11 @@ of each row). A transfer happens on a clock edge where ``valid & ready``; a prod
 :mod:`tdicam.hdl.interfaces.axis`.
 """
 
-from amaranth.hdl import Shape, unsigned
-from amaranth.lib import data, stream
+from amaranth.hdl import Module, Shape, unsigned
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
 
-__all__ = ["pixel_layout", "pixel_signature", "channels_shape"]
+__all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister"]
 
 
 def pixel_layout(data_shape):
@@ -38,3 +39,33 @@ def element_bits(data_shape):
     if isinstance(data_shape, data.ArrayLayout):
         return Shape.cast(data_shape.elem_shape).width, data_shape.length
     return Shape.cast(data_shape).width, 1
+
+
+class StreamRegister(wiring.Component):
+    """A pipeline register on a stream: ``valid`` and ``payload`` registered, ``ready``
+    passed through (``i_stream.ready = ~o_stream.valid | o_stream.ready``).
+
+    Full throughput (a beat per clock while the sink is ready), no beat lost or duplicated
+    under any ``ready`` pattern; :attr:`latency` 1 cycle. Cuts a combinational path from
+    the producer's data and valid to the consumer's registers.
+
+    Parameters
+    ----------
+    payload_shape : shape-like
+        The stream's payload (e.g. :func:`pixel_layout` of a data shape).
+    """
+
+    def __init__(self, payload_shape):
+        super().__init__({"i_stream": In(stream.Signature(payload_shape)),
+                          "o_stream": Out(stream.Signature(payload_shape))})
+
+    latency = property(lambda self: 1, doc="Cycles from an accepted input beat to its "
+                                           "output beat being valid.")
+
+    def elaborate(self, platform):
+        m = Module()
+        i, o = self.i_stream, self.o_stream
+        m.d.comb += i.ready.eq(~o.valid | o.ready)
+        with m.If(i.ready):
+            m.d.sync += [o.valid.eq(i.valid), o.payload.eq(i.payload)]
+        return m
