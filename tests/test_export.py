@@ -260,7 +260,7 @@ def test_export_over_the_beat_limit_is_streamed_in_chunks(tmp_path, monkeypatch)
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="exports ~700 MB in several minutes (TDICAM_FULL=1)")
+@pytest.mark.skipif(not FULL, reason="exports ~550 MB in several minutes (TDICAM_FULL=1)")
 def test_largest_tdi_export_fits_8_gb_of_address_space(tmp_path):
     """tdicam export tdi at the largest legal parameters (8192 x 128) under ulimit -v 8 GB:
     streamed, its stated size what it writes."""
