@@ -133,8 +133,9 @@ class CdsDdr(wiring.Component):
         with m.If(launch):
             m.d.sync += [launched.eq(1), left.eq(self._rows), req_addr.eq(lay.base),
                          req_first.eq(1)]
-        # the reset pixels through a register: the reader's word-to-value select and the
-        # subtraction in one cycle held the block near 100 MHz on the ECP5
+        # the reset pixels through a register slice: the reader's word-to-value select and
+        # the subtraction in one cycle, and the ready chain back into the MIG port, held the
+        # block near 100 MHz on the ECP5
         m.submodules.reset_reg = reg = StreamRegister(rd.o_stream.payload.shape())
         wiring.connect(m, rd.o_stream, reg.i_stream)
         rs = reg.o_stream

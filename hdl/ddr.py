@@ -93,7 +93,11 @@ class LineWriter(wiring.Component):
         beat = [i.payload.data[k] if E > 1 else i.payload.data for k in range(E)]
         end_base = lay.base + (self._rows - 1) * lay.line_stride
         next_base = Mux(restart, Const(lay.base, self._aw), line_base)
-        next_line = Mux(next_base == end_base, lay.base, next_base + lay.line_stride)
+        # the slot after next_base; the compare and the add read registers only (a restart
+        # selects a constant), off the path from the beat's markers
+        after_base = lay.base if lay.base == end_base else lay.base + lay.line_stride
+        after_line = Mux(line_base == end_base, lay.base, line_base + lay.line_stride)
+        next_line = Mux(restart, Const(after_base, self._aw), after_line)
 
         with m.If(fire):
             with m.If(i.payload.last != last_col):

@@ -75,3 +75,20 @@ def test_other_meanings_are_still_used():
     """Every allowed entry still occurs (a stale entry would hide a new use)."""
     used = {u[:2] for u in _uses(set(blocks.names()))}
     assert set(OTHER_MEANINGS) <= used, set(OTHER_MEANINGS) - used
+
+
+def _engine_constants(root, names):
+    return [(p.name, node.value) for p in sorted((root / "tdicam" / "engine").glob("*.py"))
+            for node in ast.walk(ast.parse(p.read_text()))
+            if isinstance(node, ast.Constant) and node.value in names]
+
+
+def test_the_engine_names_no_block(tmp_path):
+    """The scene simulator knows the blocks only through their entries' ``Use.sim`` rows: no
+    string constant in ``tdicam/engine/`` equals a block name (in any use), and the scan
+    finds one when there is."""
+    names = set(blocks.names())
+    assert _engine_constants(REPO, names) == []
+    (tmp_path / "tdicam" / "engine").mkdir(parents=True)
+    (tmp_path / "tdicam" / "engine" / "probe.py").write_text("def f(c):\n    return c.ran('nuc')\n")
+    assert _engine_constants(tmp_path, names) == [("probe.py", "nuc")]

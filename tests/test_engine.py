@@ -209,7 +209,7 @@ def test_effect_table_is_in_physical_order_and_complete():
                      "dsnu", "shot_noise", "full_well", "reset_frames", "read_noise",
                      "dual_gain", "quantization", "cds", "nuc", "hdr", "median3_pre", "tdi",
                      "median3_post"]
-    stages = ["render", "pattern", "charge", "conversion", "blocks", "tdi", "output"]
+    stages = ["render", "pattern", "charge", "conversion", "blocks", "lines", "output"]
     order = [stages.index(e.stage) for e in engine.EFFECTS if e.stage]
     assert order == sorted(order)                  # the stages follow the physical order
     for e in engine.EFFECTS:

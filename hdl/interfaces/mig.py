@@ -3,8 +3,11 @@
 Addresses and words as :mod:`tdicam.model.ddr` states them (``app_addr`` counts 32-bit
 columns, a 256-bit word is 8 address steps).
 
-* :data:`MIG_PORT_NAMES`, :func:`mig_user_ports`, :func:`mig_model_ports`,
-  :func:`connect_mig` — the UI signals, their directions, and wiring a user to a controller.
+* :class:`MigSignature` — the UI as an Amaranth :class:`~amaranth.lib.wiring.Signature` (the
+  user side; its flip is the controller's). Components carry its members flat
+  (:func:`mig_user_ports`, :func:`mig_model_ports`: the Verilog ports stay ``app_*``, not
+  ``mig__app_*`` as a nested member would name them); :func:`connect_mig` wires a user to a
+  controller, or to a component's own pass-through ports, by the signature's member flows.
 * :class:`MigPort` — one user port on the controller: writes and reads enter one in-order
   command queue (so a read issued after a write to the same address sees the new data),
   write data goes to ``app_wdf_*`` ahead of its command (MIG allows data first), read
@@ -19,34 +22,62 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.model.ddr import ADDR_BITS, WORD_BITS
 
-__all__ = ["MIG_PORT_NAMES", "mig_user_ports", "mig_model_ports", "connect_mig", "MigPort"]
+__all__ = ["MIG_PORT_NAMES", "MigSignature", "mig_user_ports", "mig_model_ports", "connect_mig", "MigPort"]
 
 MIG_PORT_NAMES = ("app_addr", "app_cmd", "app_en", "app_rdy", "app_wdf_data", "app_wdf_wren",
                   "app_wdf_end", "app_wdf_rdy", "app_rd_data", "app_rd_data_valid")
 _TO_MEM = ("app_addr", "app_cmd", "app_en", "app_wdf_data", "app_wdf_wren", "app_wdf_end")
 
 
+class MigSignature(wiring.Signature):
+    """The user (FPGA logic) side of a MIG native UI: ``app_addr`` (``addr_bits`` wide, 32-bit
+    column address), ``app_cmd``, ``app_en``, ``app_wdf_data`` (256-bit word),
+    ``app_wdf_wren``, ``app_wdf_end`` toward the controller; ``app_rdy``, ``app_wdf_rdy``,
+    ``app_rd_data``, ``app_rd_data_valid`` from it (:data:`MIG_PORT_NAMES` order)."""
+
+    def __init__(self, addr_bits=ADDR_BITS):
+        self._addr_bits = addr_bits
+        shapes = {"app_addr": addr_bits, "app_cmd": 3, "app_en": 1, "app_rdy": 1,
+                  "app_wdf_data": WORD_BITS, "app_wdf_wren": 1, "app_wdf_end": 1,
+                  "app_wdf_rdy": 1, "app_rd_data": WORD_BITS, "app_rd_data_valid": 1}
+        super().__init__({n: (Out if n in _TO_MEM else In)(unsigned(shapes[n]))
+                          for n in MIG_PORT_NAMES})
+
+    addr_bits = property(lambda self: self._addr_bits)
+
+    def __eq__(self, other):
+        return type(other) is type(self) and other.addr_bits == self.addr_bits
+
+    def __hash__(self):
+        return hash((type(self), self._addr_bits))
+
+
 def mig_user_ports(addr_bits=ADDR_BITS):
-    """Signature members of the user (FPGA logic) side of a MIG native UI."""
-    shapes = {"app_addr": addr_bits, "app_cmd": 3, "app_en": 1, "app_rdy": 1,
-              "app_wdf_data": WORD_BITS, "app_wdf_wren": 1, "app_wdf_end": 1,
-              "app_wdf_rdy": 1, "app_rd_data": WORD_BITS, "app_rd_data_valid": 1}
-    return {n: (Out if n in _TO_MEM else In)(unsigned(shapes[n])) for n in MIG_PORT_NAMES}
+    """:class:`MigSignature`'s members, to be a component's own (flat) ports."""
+    return dict(MigSignature(addr_bits).members)
 
 
 def mig_model_ports(addr_bits=ADDR_BITS):
     """Members of the controller side (the flip of :func:`mig_user_ports`)."""
-    return {n: (In if n in _TO_MEM else Out)(m.shape)
-            for n, m in mig_user_ports(addr_bits).items()}
+    return dict(MigSignature(addr_bits).flip().members)
 
 
 def connect_mig(m, user, ctrl):
-    """Wire a user's UI ports to a controller's (both objects with the MIG port names)."""
-    for n in MIG_PORT_NAMES:
-        if n in _TO_MEM:
-            m.d.comb += getattr(ctrl, n).eq(getattr(user, n))
+    """Wire a user's UI ports to a controller's, or to a component's own pass-through UI
+    ports (both objects with :class:`MigSignature`'s member names, flat): each member toward
+    the controller (``Out`` in the signature) drives ``ctrl``'s, each other one ``user``'s.
+
+    The assignments follow the signature's member order. :func:`amaranth.lib.wiring.connect`
+    would connect the same signals in sorted name order, which renumbers the generated
+    Verilog's internal wires (e.g. ``\\app_rd_data$17`` becomes ``$7``) and changes which of
+    two equal nets (``app_wdf_wren``, ``app_wdf_end``) names a submodule's port, so the
+    DDR blocks' Verilog would not stay byte-identical.
+    """
+    for name, member in MigSignature(len(user.app_addr)).members.items():
+        if member.flow == Out:
+            m.d.comb += getattr(ctrl, name).eq(getattr(user, name))
         else:
-            m.d.comb += getattr(user, n).eq(getattr(ctrl, n))
+            m.d.comb += getattr(user, name).eq(getattr(ctrl, name))
 
 
 class MigPort(wiring.Component):

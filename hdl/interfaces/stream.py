@@ -8,7 +8,7 @@ of each row). A transfer happens on a clock edge where ``valid & ready``; a prod
 :mod:`tdicam.hdl.interfaces.axis`.
 """
 
-from amaranth.hdl import Module, Shape, unsigned
+from amaranth.hdl import Module, Shape, Signal, unsigned
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -42,12 +42,14 @@ def element_bits(data_shape):
 
 
 class StreamRegister(wiring.Component):
-    """A pipeline register on a stream: ``valid`` and ``payload`` registered, ``ready``
-    passed through (``i_stream.ready = ~o_stream.valid | o_stream.ready``).
+    """A register slice on a stream (a skid buffer): ``valid``, ``payload`` and the
+    upstream ``ready`` all come from registers.
 
     Full throughput (a beat per clock while the sink is ready), no beat lost or duplicated
-    under any ``ready`` pattern; :attr:`latency` 1 cycle. Cuts a combinational path from
-    the producer's data and valid to the consumer's registers.
+    under any ``ready`` pattern; :attr:`latency` 1 cycle. Cuts every combinational path
+    through it: the producer's data and valid to the consumer's registers, and the
+    consumer's ready back to the producer (a beat accepted while the sink stalls waits in
+    the second register).
 
     Parameters
     ----------
@@ -65,7 +67,14 @@ class StreamRegister(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         i, o = self.i_stream, self.o_stream
-        m.d.comb += i.ready.eq(~o.valid | o.ready)
-        with m.If(i.ready):
-            m.d.sync += [o.valid.eq(i.valid), o.payload.eq(i.payload)]
+        skid = Signal.like(i.payload)
+        skid_valid = Signal()
+        m.d.comb += i.ready.eq(~skid_valid)
+        with m.If(~o.valid | o.ready):
+            with m.If(skid_valid):
+                m.d.sync += [o.valid.eq(1), o.payload.eq(skid), skid_valid.eq(0)]
+            with m.Else():
+                m.d.sync += [o.valid.eq(i.valid), o.payload.eq(i.payload)]
+        with m.Elif(i.valid & ~skid_valid):
+            m.d.sync += [skid.eq(i.payload), skid_valid.eq(1)]
         return m

@@ -19,6 +19,12 @@ expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arra
 scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
 and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
 
+In a scene's pipeline (:class:`Use`) an entry also says how a scene sets the block (its one
+scene-to-parameters function, its ``[pipeline.<name>]`` options), how the gateware chain builds
+it, and what it does in the scene simulator (:attr:`Use.sim`: which frame stacks are its scene
+arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
+engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.blocks`).
+
 Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
 and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
 """
@@ -266,6 +272,10 @@ class Use:
         spill variant, chosen by the plan).
     options : Options or None
         The block's ``[pipeline.<name>]`` section, when it has one.
+    sim : tuple of tdicam.blocks.steps.Sim
+        Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
+        simulator's effects table (two for a block that may run on either side of the
+        line-making block); empty for a block a scene does not list.
     """
 
     step: Callable
@@ -286,6 +296,7 @@ class Use:
     post_bytes: float = 0.0
     rank: int | None = None
     options: Options | None = None
+    sim: tuple = ()
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,9 @@ from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
+from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Step
+from tdicam.blocks.steps import Sim, Step
 
 __all__ = ["BLOCK", "CdsOptions"]
 
@@ -137,6 +138,28 @@ def _pipeline_step(ctx):
     return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
 
 
+def _sim_step(c, fr):
+    """Digital CDS of every channel: signal minus reset frame."""
+    bits = c.sensor.bits
+    for ch, x in enumerate(fr.channels):
+        p = _sim.step(c, BLOCK, bits, x.shape[-1]).params
+        y = _sim.golden(BLOCK, {"signal": x, "reset": fr.resets[ch]}, p)
+        if fr.keep is not None and ch == 0:
+            fr.crop[BLOCK.name] = {"signal": fr.keep(x), "reset": fr.keep(fr.resets[ch]),
+                                   "out": fr.keep(y), "params": p}
+        fr.channels[ch] = y
+
+
+def _subtract_reset(signal, reset, bits):
+    """The golden model on one frame and its reset frame."""
+    return _sim.golden(BLOCK, {"signal": signal, "reset": reset}, {"pixel_bits": bits})
+
+
+#: The block in the scene simulator.
+SIM = (Sim("block cds (golden model)", _sim_step, aggregated=True, subtract=_subtract_reset,
+           pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),)
+
+
 BLOCK = Block(
     name="cds",
     summary="digital CDS: signal - reset per pixel, clamped at 0 (Ning et al. 2019 §4.4.1)",
@@ -162,7 +185,8 @@ BLOCK = Block(
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
                  scratch_bytes=14.0,
-                 options=OPTIONS),
+                 options=OPTIONS,
+                 sim=SIM),
     small=((4, 40), {}),
     order=10,
     bench=Bench("cds", StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel",

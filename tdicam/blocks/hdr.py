@@ -14,8 +14,9 @@ from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            frame_stack, check_width as _check_width)
+from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Step
+from tdicam.blocks.steps import Sim, Step
 
 __all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
@@ -295,6 +296,23 @@ def _pipeline_step(ctx):
     return Step("hdr", p), hdr_config(**p).out_bits
 
 
+def _sim_step(c, fr):
+    """Golden HDR merge of the HG and LG channels into one."""
+    if len(fr.channels) != 2:
+        return
+    p = _sim.step(c, BLOCK, fr.bits, fr.channels[0].shape[-1]).params
+    merged = _sim.golden(BLOCK, {"hg": fr.channels[0], "lg": fr.channels[1]}, p)
+    if fr.keep is not None:
+        fr.crop[BLOCK.name] = {"hg": fr.keep(fr.channels[0]), "lg": fr.keep(fr.channels[1]),
+                               "out": fr.keep(merged), "params": p}
+    fr.bits = hdr_config(**p).out_bits
+    fr.channels = [merged]
+
+
+#: The block in the scene simulator.
+SIM = (Sim("block hdr (golden model)", _sim_step, per_exposure=True),)
+
+
 BLOCK = Block(
     name="hdr",
     summary="HG/LG dual-gain merge, junction measured on the previous frame (Ning et al. 2019 §4.4.2)",
@@ -349,7 +367,8 @@ BLOCK = Block(
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage("merge"), merge=True, per_frame=True, rank=3,
                  scratch_bytes=22.0,
-                 options=OPTIONS),
+                 options=OPTIONS,
+                 sim=SIM),
     small=((4, 64), {}),
     order=40,
     bench=Bench("hdr", StreamWork("hdr", "hdr", {}, "pixel",

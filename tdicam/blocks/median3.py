@@ -20,8 +20,9 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param,
                            StreamWork, SynthRef, Use, frame_stack)
+from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Step
+from tdicam.blocks.steps import Sim, Step
 
 __all__ = ["BLOCK", "Median3Options", "BUILDS", "stream_case", "case_beats"]
 
@@ -308,6 +309,40 @@ def _pipeline_step(ctx):
     return Step("median3", p, {"height": ctx.m}), pb
 
 
+def _sim_pre(c, fr):
+    """Golden 3x3 median on single exposures (before TDI)."""
+    x = fr.channels[0]
+    _sim.check_bits(BLOCK, fr.bits, 8, 16, "[sensor].bits")
+    p = _sim.step(c, BLOCK, fr.bits, x.shape[-1]).params
+    y = _sim.golden(BLOCK, {"frames": x}, p)
+    if fr.keep is not None:
+        fr.crop[BLOCK.name] = {"frames": fr.keep(x), "out": None, "params": {
+            k: v for k, v in p.items() if k != "width"}}
+    fr.channels = [y]
+
+
+def _sim_post(c, fr):
+    """Golden 3x3 median on the TDI output."""
+    pb = max(1, int(fr.full_scale).bit_length())
+    if pb > 16:
+        raise TdicamError(f"[tdi].output: median3 after TDI takes at most 16-bit pixels; "
+                          f"the TDI output is {pb} bits: set output = 'saturate' with "
+                          f"output_bits <= 16")
+    p = _sim.step(c, BLOCK, pb, fr.out.shape[-1], after_lines=True).params
+    y = _sim.golden(BLOCK, {"frames": fr.out}, p).astype(np.int64)
+    if fr.keep_out is not None:
+        y0, h, x0, w = fr.keep_out
+        fr.crop[BLOCK.name] = {"frames": fr.out[y0:y0 + h, x0:x0 + w].copy(), "out": None,
+                               "params": {k: v for k, v in p.items() if k != "width"}}
+    fr.out = y
+
+
+#: The block in the scene simulator: on single exposures or on the TDI output, where
+#: ``[pipeline].blocks`` puts it.
+SIM = (Sim("block median3 before TDI (golden)", _sim_pre, where="pre", per_exposure=True),
+       Sim("block median3 after TDI (golden)", _sim_post, stage="output", where="post"))
+
+
 BLOCK = Block(
     name="median3",
     summary="3x3 median, replicated borders, 1-8 pixels/clock, optional edge enhancement "
@@ -333,7 +368,8 @@ BLOCK = Block(
     fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS,
-                 sharpens=lambda opts: opts.edge_enhance, post_bytes=190.0),
+                 sharpens=lambda opts: opts.edge_enhance, post_bytes=190.0,
+                 sim=SIM),
     small=((6, 0), {"width": 24}),
     order=50,
     bench=Bench("median3", StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12},

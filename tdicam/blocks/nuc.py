@@ -12,8 +12,11 @@ from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
+from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Step
+from tdicam.blocks.steps import Sim, Step
+from tdicam.errors import TdicamError
+from tdicam.model import ecc as _ecc, nand_store as _nand
 
 __all__ = ["BLOCK", "NucOptions", "cut_frame0"]
 
@@ -303,6 +306,106 @@ def _pipeline_identity(step, shape):
     return {"coeffs": identity_coeffs(shape, _fmt(step.params))}
 
 
+def _sim_format(c):
+    """The coefficients' :class:`~tdicam.model.nuc.NucFormat` in run context ``c``."""
+    return _fmt(_sim.step(c, BLOCK, c.sensor.bits, c.sensor.columns).params)
+
+
+def _sim_step(c, fr):
+    """Golden nuc of every channel with the ideal coefficients (``c.prepared["coeffs"]``),
+    through the ECC round trip or the NAND store when ``[pipeline.nuc]`` says so."""
+    fmt = _sim_format(c)
+    bits = c.sensor.bits
+    for ch, x in enumerate(fr.channels):
+        gain_c, off_c = c.prepared["coeffs"][ch]
+        if c.scene.pipeline.nuc.flash == "nand":
+            gain_c, off_c = _nand_roundtrip(c, ch, fmt, gain_c, off_c)
+        elif c.scene.pipeline.nuc.ecc:
+            gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
+        g = np.broadcast_to(gain_c, x.shape)
+        o = np.broadcast_to(off_c, x.shape)
+        p = _sim.step(c, BLOCK, bits, x.shape[-1]).params
+        y = _sim.golden(BLOCK, {"x": x, "gain": g, "offset": o}, p)
+        if fr.keep is not None and ch == 0:
+            fr.crop[BLOCK.name] = {"x": fr.keep(x), "gain": fr.keep(np.ascontiguousarray(g)),
+                                   "offset": fr.keep(np.ascontiguousarray(o)),
+                                   "out": fr.keep(y), "params": p}
+        fr.channels[ch] = y
+
+
+def _ecc_roundtrip(fmt, gain, offset):
+    """Store the coefficients as 64/72 SECDED words and read them back (no flips injected)."""
+    data = np.asarray(fmt.pack_words(gain, offset), np.uint64)
+    dec = _ecc.decode(data, _ecc.encode(data))
+    if np.any(dec.uncorrectable):
+        raise TdicamError("nuc coefficients: ECC round trip reported an uncorrectable word")
+    g, o = fmt.unpack_words(np.asarray(dec.data, np.uint64))
+    n = np.size(gain)
+    return g[:n].reshape(np.shape(gain)), o[:n].reshape(np.shape(offset))
+
+
+def _nand_roundtrip(c, ch, fmt, gain, offset):
+    """Store channel ``ch``'s coefficient codes in NAND flash with the ``[pipeline.nuc]``
+    faults and load them back as the camera does (:func:`tdicam.model.nand_store.store_roundtrip`:
+    bad-block scan, block map, ECC, defaults gain 1 / offset 0 for an uncorrectable word).
+
+    The first store of each channel in a run (the output's coefficients) is counted in
+    ``c.flash[ch]``: corrected and uncorrectable words, defaulted pixels, bad blocks found.
+    """
+    o = c.scene.pipeline.nuc
+    shape = np.shape(gain)
+    g2 = np.asarray(gain, np.int64).reshape(-1, shape[-1])
+    o2 = np.asarray(offset, np.int64).reshape(-1, shape[-1])
+    try:
+        g, off, res = _nand.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
+                                            p_single=o.flip_single, p_double=o.flip_double,
+                                            seed=o.seed + ch)
+    except TdicamError as exc:
+        raise TdicamError(f"[pipeline.nuc] flash = 'nand', bad_blocks = {o.bad_blocks}: "
+                          f"{exc}") from None
+    if ch not in c.flash:
+        img = res.image
+        c.flash[ch] = {"channel": ch, "pixels": int(g2.size), "words": int(res.words),
+                       "pages": int(res.pages), "bad_blocks": int(res.scan.bad_count),
+                       "corrected_words": int(img.corrected),
+                       "uncorrectable_words": int(img.uncorrectable),
+                       "defaulted_pixels": int(np.count_nonzero(img.defaulted))}
+    return g.reshape(shape), off.reshape(shape)
+
+
+def _sim_coeffs(c, gain_map, dark_map):
+    """Per-channel (gain, offset) codes that map each pixel onto the mean response, as the
+    scene data's ``coeffs``.
+
+    Pixel response (DN, before quantization): ``y = a/c (S (1+P) + d) + B``; the corrected
+    target is ``a/c (S + mean d) + B``. Least squares over signal levels gives exactly
+    ``gain = 1/(1+P)`` and ``offset = B + a/c mean(d) - gain (B + a/c d)``.
+    """
+    fmt = _sim_format(c)
+    out = []
+    base = c.zero_dn
+    for g in c.gains:
+        k = g / c.sensor.conversion_gain_e_per_dn
+        gr = 1.0 / np.maximum(gain_map, 1e-6)
+        off = base + k * dark_map.mean() - gr * (base + k * dark_map)
+        out.append((fmt.gain_code(gr), fmt.offset_code(off)))
+    return {"coeffs": out}
+
+
+def _sim_notes(c):
+    """The run's notes on the coefficients loaded from NAND flash (``c.flash``)."""
+    return [f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
+            f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "
+            f"{f['uncorrectable_words']} uncorrectable words of {f['words']}, "
+            f"{f['defaulted_pixels']} of {f['pixels']} pixels on the default "
+            f"coefficients (gain 1, offset 0)" for f in (c.flash[k] for k in sorted(c.flash))]
+
+
+#: The block in the scene simulator.
+SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_sim_coeffs,
+           notes=_sim_notes),)
+
+
 BLOCK = Block(
     name="nuc",
     summary="per-pixel correction y = gain*x + offset, round half up, saturated (Ning et al. 2019 §4.4.4)",
@@ -345,7 +448,8 @@ BLOCK = Block(
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
-                 scratch_bytes=38.0),
+                 scratch_bytes=38.0,
+                 sim=SIM),
     small=((4, 40), {}),
     order=30,
     bench=Bench("nuc", StreamWork("nuc", "nuc", {}, "pixel",

@@ -1,20 +1,24 @@
 """The data of a scene's chain that blocks and tools share: a :class:`Plan` of :class:`Step` s,
 the :class:`Context` a block's :attr:`tdicam.blocks.Use.step` plans from, and the raw
-:class:`SceneData` the chain runs on.
+:class:`SceneData` the chain runs on; for the scene simulator (:mod:`tdicam.engine`), the
+:class:`Frames` its frame stacks travel in and a block's :class:`Sim` rows (its steps there).
 
 :mod:`tdicam.camera.design` makes plans from scenes; each block's registry entry
-(:mod:`tdicam.blocks`) turns a :class:`Context` into its :class:`Step`.
+(:mod:`tdicam.blocks`) turns a :class:`Context` into its :class:`Step`, and its
+:attr:`tdicam.blocks.Use.sim` rows say what the block does to the simulator's frame stacks
+(the engine generates its effect rows for the blocks from them).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Step", "Plan", "SceneData", "Context"]
+__all__ = ["Step", "Plan", "SceneData", "Context", "Frames", "Sim"]
 
 
 @dataclass(frozen=True)
@@ -95,3 +99,84 @@ class Context:
     bits: int
     after_lines: bool = False
     block: str = ""
+
+
+@dataclass
+class Frames:
+    """Frame stacks on their way through the blocks of the scene simulator.
+
+    ``channels`` holds one stack per ADC channel (HG, LG) until a merging block makes one;
+    ``resets`` the reset frames (with CDS); ``bits`` the pixel width the next block gets;
+    ``timer`` the run's timer; ``keep`` cuts the RTL crop out of a stack (None: keep nothing)
+    into ``crop`` (per block: its scene arrays, output and parameters); after the
+    line-making block ``out`` holds the output lines, ``full_scale`` their largest value and
+    ``keep_out`` the output crop ``(y0, h, x0, w)``.
+    """
+
+    channels: list
+    resets: list | None
+    bits: int
+    timer: object
+    keep: object = None
+    crop: dict = field(default_factory=dict)
+    out: np.ndarray | None = None        # output lines (after the line-making block)
+    full_scale: int = 0                  # of ``out``
+    keep_out: tuple | None = None        # (y0, h, x0, w) of the output crop
+
+
+@dataclass(frozen=True)
+class Sim:
+    """One step of a block in the scene simulator (:mod:`tdicam.engine`): a row of its
+    effects table, named after the block (``<name>_<where>`` with ``where``).
+
+    The functions take the engine's run context ``c``
+    (:class:`tdicam.engine.context.Context`: ``c.scene``, ``c.m``, ``c.sensor``, ``c.gains``,
+    ``c.zero_dn``, ``c.prepared``, ``c.flash``, ``c.ran(row)``) and a :class:`Frames` ``fr``,
+    which they update in place (the block's golden model on its scene arrays, through the
+    entry).
+
+    Attributes
+    ----------
+    label : str
+        The report's label of the row.
+    exact : callable(c, fr)
+        The step on the frame stacks (exact fidelity; also fast when ``fast`` is None and
+        ``stage`` is ``output``).
+    stage : {"blocks", "lines", "output"}
+        ``blocks``: on the frame stacks before the line-making block (per exposure);
+        ``lines``: the line-making block (``Use.lines``); ``output``: on its output lines.
+    where : {"pre", "post"} or None
+        For a block that may run on either side of the line-making block, the side this
+        row is (``[pipeline].blocks`` order decides which runs).
+    fast : callable(c, fr) or None
+        The step on the fast aggregate (None: no step of its own there; an ``output`` row
+        runs ``exact``).
+    aggregated : bool
+        Fast fidelity changes how it is computed (the record shows the fidelity).
+    per_exposure : bool
+        Not linear on single exposures: fast fidelity cannot aggregate it (runs exact).
+    prepare : callable(c, gain_map, dark_map) -> dict, or None
+        Side inputs the block takes from the fixed pattern (``gain_map`` and ``dark_map`` of
+        the rows each output pixel sums), as :class:`SceneData` fields (NUC's ideal
+        coefficients); the engine keeps them in ``c.prepared``.
+    subtract : callable(signal, reset, bits) -> ndarray, or None
+        A block taking reset frames: its golden model on one frame and its reset frame (the
+        fast path's raw single exposure).
+    pedestal : callable(scene) -> float, or None
+        DN its reset frames add to the ADC pedestal (the mean reset level).
+    notes : callable(c) -> list of str, or None
+        What the run's notes say of the step once the run is over (NUC: the coefficients'
+        NAND store, from ``c.flash``).
+    """
+
+    label: str
+    exact: Callable
+    stage: str = "blocks"
+    where: str | None = None
+    fast: Callable | None = None
+    aggregated: bool = False
+    per_exposure: bool = False
+    prepare: Callable | None = None
+    subtract: Callable | None = None
+    pedestal: Callable | None = None
+    notes: Callable | None = None

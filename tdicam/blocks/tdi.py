@@ -23,12 +23,14 @@ from tdicam.beats import Beats, BeatStream, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
-from tdicam.model.tdi import check_params, out_width, tdi, tdi_stream
+from tdicam.model.tdi import PIXEL_BITS, check_params, full_bits, out_width, tdi, tdi_stream
 from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
+from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Step
+from tdicam.blocks.steps import Sim, Step
+from tdicam.errors import TdicamError
 
 __all__ = ["BLOCK", "PARAMS", "TdiOptions", "TDI_MEMORY", "pack_ctrl", "stream_arrays", "to_beats", "SCENE",
            "case_makers"]
@@ -450,6 +452,40 @@ PARAMS = (
 PIPELINE = dict(step=_pipeline_step, hw=lane_stage(), lines=True)
 
 
+def _sim_step(c, fr):
+    """Golden digital TDI of the frame stack (saturating when ``[tdi].output`` says so)."""
+    m, pb, x = c.m, fr.bits, fr.channels[0]
+    _sim.check_bits(BLOCK, pb, *PIXEL_BITS,
+                    "[sensor].bits" if pb == c.sensor.bits else "[pipeline].blocks (hdr output)")
+    full = full_bits(pb, m)
+    step = _sim.step(c, BLOCK, pb, x.shape[-1])
+    out_bits, direction = step.params["out_bits"], step.inputs["direction"]
+    if out_bits is not None and not pb <= out_bits <= full:
+        raise TdicamError(f"[tdi].output_bits: must be in {pb}..{full} for {pb}-bit pixels "
+                          f"and {m} stages, got {out_bits}")
+    # the golden model's own limits, not the gateware's (a scene may be wider than 8192)
+    out = BLOCK.run_golden({"frames": x, **step.inputs}, step.params)["out"]
+    out = out.astype(np.int64)
+    if fr.keep is not None:
+        y0, h, x0, w = fr.keep_out
+        fr.crop[BLOCK.name] = {"frames": fr.keep(x), "params": dict(
+            width=None, stages=m, pixel_bits=pb, out_bits=None if out_bits == full else out_bits,
+            direction=direction), "out": out[y0:y0 + h, x0:x0 + w].copy()}
+    fr.out = out
+    fr.full_scale = (1 << (out_bits if out_bits is not None else full)) - 1
+
+
+def _sim_fast(c, fr):
+    """The fast aggregate is the TDI sum; saturate it where ``[tdi].output`` says so."""
+    if c.digital and c.scene.tdi.output == "saturate":
+        np.minimum(fr.out, (1 << c.scene.tdi.output_bits) - 1, out=fr.out)
+        fr.full_scale = (1 << c.scene.tdi.output_bits) - 1
+
+
+#: The block in the scene simulator (its spill variant computes the same).
+SIM = (Sim("TDI accumulation", _sim_step, stage="lines", fast=_sim_fast, aggregated=True),)
+
+
 BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
@@ -467,7 +503,8 @@ BLOCK = Block(
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,
                  scratch_bytes=0.5,
-                 options=OPTIONS),
+                 options=OPTIONS,
+                 sim=SIM),
     small=((), {"width": 64, "stages": 4}),
     order=20,
     bench=Bench("tdi", StreamWork("tdi", "tdi",

@@ -153,19 +153,41 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False)
     why = available()
     if why:
         raise TdicamError(why)
-    from migen.sim import passive, run_simulation
+    top_addr = _check_addresses(trace)
+    top, ports = _build(len(trace.ports), read_time, write_time,
+                        max(2, top_addr // (BANKS * ROW_WORDS) + 1))
+    wdata, expect, need = _plan(trace)
+    state = {"first": None, "last": 0, "t": 0, "mismatch": 0, "beats": [],
+             "wdone": [0] * len(ports), "rdone": [0] * len(ports)}
+    gens = _generators(trace, ports, state, wdata, expect, need, steady=steady,
+                       max_cycles=max_cycles or 60 * trace.words + 4000)
+    wall, viol = _simulate(top, gens)
+    if steady:
+        words, cycles, eff = window_efficiency(state["beats"], state["first"], state["t"],
+                                               name=trace.name)
+    else:
+        words, cycles = trace.words, state["last"] - state["first"] + 1
+        eff = words / cycles
+    return ReplayResult(trace.name, words, cycles, eff, state["mismatch"], viol, wall,
+                        steady)
 
+
+def _check_addresses(trace):
+    """The trace's highest word address; refuses one outside the simulated memory."""
     cap = MEM_ROWS * BANKS * ROW_WORDS
     top_addr = max((a for p in trace.ports for _, a in p), default=0)
     if min((a for p in trace.ports for _, a in p), default=0) < 0 or top_addr >= cap:
         raise TdicamError(f"trace {trace.name}: word addresses must lie in 0..{cap - 1} "
                           f"(the simulated memory); the trace reaches {top_addr}")
-    top, ports = _build(len(trace.ports), read_time, write_time,
-                        max(2, top_addr // (BANKS * ROW_WORDS) + 1))
-    # write data, expected read data and cross-port dependencies from the global order
+    return top_addr
+
+
+def _plan(trace):
+    """Write data, expected read data and cross-port dependencies from the trace's global
+    order: ``wdata`` and ``expect`` {(port, index): word}, ``need`` {(port, index) of a
+    read: (port, write rank) of the other port's write it must follow}."""
     order = trace.order or [(0, k) for k in range(len(trace.ports[0]))]
     shadow, wdata, expect, need = {}, {}, {}, {}
-    done_at = {}            # (port, index) of a write -> its rank among its port's writes
     last_write = {}         # address -> (port, write rank)
     wrank = [0] * len(trace.ports)
     for n, (p, k) in enumerate(order):
@@ -179,15 +201,20 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False)
             d = _data(a, n)
             shadow[a] = d
             wdata[(p, k)] = d
-            done_at[(p, k)] = wrank[p]
             last_write[a] = (p, wrank[p])
             wrank[p] += 1
-    state = {"first": None, "last": 0, "t": 0, "mismatch": 0, "beats": [],
-             "wdone": [0] * len(ports), "rdone": [0] * len(ports)}
+    return wdata, expect, need
+
+
+def _generators(trace, ports, state, wdata, expect, need, *, steady, max_cycles):
+    """The Migen generators of a replay: the cycle counter (passive: it ends the run when
+    the steady window closes or ``max_cycles`` pass), and per port its commands, its write
+    data (if it writes) and its read data checks (if it reads); they update ``state``."""
+    from migen.sim import passive
+
     span = STARTUP + window_cycles()
     nreads = [sum(1 for rd, _ in p if rd) for p in trace.ports]
     nwrites = [len(p) - r for p, r in zip(trace.ports, nreads)]
-    max_cycles = max_cycles or 60 * trace.words + 4000
 
     def clock():
         while True:
@@ -244,14 +271,21 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False)
             state["last"] = max(state["last"], state["t"])
             state["beats"].append(state["t"])
 
-    gens = [None]
+    gens = [passive(clock)()]
     for p in range(len(ports)):
         gens.append(cmd_gen(p))
         if nwrites[p]:
             gens.append(wdata_gen(p))
         if nreads[p]:
             gens.append(rdata_gen(p))
-    gens[0] = passive(clock)()
+    return gens
+
+
+def _simulate(top, gens):
+    """Run the Migen simulation (its printout captured); the wall time and LiteDRAM's
+    timing-violation and late-refresh lines."""
+    from migen.sim import run_simulation
+
     log = io.StringIO()
     t0 = time.perf_counter()
     with contextlib.redirect_stdout(log):
@@ -262,14 +296,7 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False)
     wall = time.perf_counter() - t0
     viol = [ln.strip() for ln in log.getvalue().splitlines()
             if "violation" in ln or "Late refresh" in ln]
-    if steady:
-        words, cycles, eff = window_efficiency(state["beats"], state["first"], state["t"],
-                                               name=trace.name)
-    else:
-        words, cycles = trace.words, state["last"] - state["first"] + 1
-        eff = words / cycles
-    return ReplayResult(trace.name, words, cycles, eff, state["mismatch"], viol, wall,
-                        steady)
+    return wall, viol
 
 
 def replay_hdl(trace, dram=None, windows=None, **stalls):

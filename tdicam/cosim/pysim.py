@@ -3,7 +3,8 @@
 Same stimulus and output convention as :func:`tdicam.cosim.run_stream` (beats, run-time
 settings riding with each beat, resets before marked beats) and the same source/sink
 (:class:`tdicam.cosim.pauses.StreamDriver`: the same idle/backpressure pattern for the same
-seed), so the result compares with :func:`tdicam.cosim.compare`. Slow (Python per cycle);
+seed; the one Amaranth loop :func:`tdicam.cosim.streamsim.drive`, here on the top's AXI4-Stream
+ports), so the result compares with :func:`tdicam.cosim.compare`. Slow (Python per cycle);
 used as a fidelity level in benchmarks and as a cross-check in tests.
 """
 
@@ -17,6 +18,7 @@ from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim.pauses import StreamDriver
 from tdicam.cosim.stream import stream_ports
+from tdicam.cosim.streamsim import StreamEnds, drive, set_ports
 from tdicam.cosim.tbgen import RST_CYCLES
 
 __all__ = ["run_pysim"]
@@ -52,39 +54,33 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
                        rst_cycles=RST_CYCLES, drain=drain,
                        max_cycles=max_cycles or (n_in * 20 + 10000))
     out = {"data": [], "first": [], "last": [], "seg": []}
-    ctrl_total = sum(w for _, w in ctrl)
+    port_sigs = [(getattr(top, name), w) for name, w in ctrl]
+
+    def put(ctx, k):
+        ctx.set(top.s_axis_tdata, words[k])
+        ctx.set(top.s_axis_tuser, bool(stim.first[k]))
+        ctx.set(top.s_axis_tlast, bool(stim.last[k]))
+        set_ports(ctx, port_sigs, ctrl_vals[k])
+
+    def take(ctx):
+        d = ctx.get(top.m_axis_tdata)
+        return ([(d >> (k * opadded)) & ((1 << obits) - 1) for k in range(ocount)],
+                ctx.get(top.m_axis_tuser), ctx.get(top.m_axis_tlast))
+
+    def each(ctx, cycle, k, o_valid, took, beat):
+        if beat is not None:
+            for key, v in zip(("data", "first", "last"), beat):
+                out[key].append(v)
+            out["seg"].append(drv.seg)
+
+    ends = StreamEnds(top.s_axis_tvalid, top.s_axis_tready, top.m_axis_tvalid,
+                      top.m_axis_tready, put, take, rst=cd.rst)
 
     async def bench(ctx):
         ctx.set(cd.rst, 1)
         for _ in range(RST_CYCLES):
             await ctx.tick()
-        while not drv.finished:
-            rst, valid, ready = drv.drive()
-            ctx.set(cd.rst, rst)
-            ctx.set(top.s_axis_tvalid, valid)
-            ctx.set(top.m_axis_tready, ready)
-            if valid:
-                k = drv.idx
-                ctx.set(top.s_axis_tdata, words[k])
-                ctx.set(top.s_axis_tuser, bool(stim.first[k]))
-                ctx.set(top.s_axis_tlast, bool(stim.last[k]))
-                shift = ctrl_total
-                for name, w in ctrl:
-                    shift -= w
-                    ctx.set(getattr(top, name), (ctrl_vals[k] >> shift) & ((1 << w) - 1))
-            cycle = drv.cycle
-            took, fired = drv.settle(ctx.get(top.s_axis_tready),
-                                     not rst and ctx.get(top.m_axis_tvalid))
-            if fired:
-                d = ctx.get(top.m_axis_tdata)
-                out["data"].append([(d >> (k * opadded)) & ((1 << obits) - 1)
-                                    for k in range(ocount)])
-                out["first"].append(ctx.get(top.m_axis_tuser))
-                out["last"].append(ctx.get(top.m_axis_tlast))
-                out["seg"].append(drv.seg)
-            if trace is not None:
-                trace.extend([("i", cycle)] * took + [("o", cycle)] * fired)
-            await ctx.tick()
+        await drive(ctx, drv, ends, trace=trace, each=each)
 
     sim = Simulator(m)
     sim.add_clock(1e-8)

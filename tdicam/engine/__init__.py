@@ -12,7 +12,9 @@ random numbers for every other effect).
 
 Package layout: :mod:`~tdicam.engine.effects` (the table), :mod:`~tdicam.engine.context`
 (the run :class:`Context` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
-fidelities), :mod:`~tdicam.engine.blocks` (golden-model wiring of the pipeline blocks),
+fidelities), :mod:`~tdicam.engine.blocks` (the pipeline blocks' rows of the table, generated
+from the registry: what each block does to the frame stacks is its entry's
+:attr:`tdicam.blocks.Use.sim`),
 :mod:`~tdicam.engine.streams` (random numbers, threads, timing), this module (the entry
 point and the impact study).
 
@@ -22,8 +24,9 @@ optics (Gaussian PSF) -> aperture (pixel active area and the image motion during
 exposure) -> smear (stage misregistration from velocity mismatch and drift) -> rolling_skew
 (row read-time offsets of a rolling shutter) -> prnu -> dark_current -> dsnu -> shot_noise
 -> full_well -> reset_frames (for CDS) -> read_noise -> dual_gain (HG/LG channels) ->
-quantization (ADC per exposure) -> cds -> nuc -> hdr -> median3 (before TDI) -> tdi ->
-median3 (after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
+quantization (ADC per exposure) -> the pipeline blocks of the registry in their
+``[pipeline].blocks`` rank (cds -> nuc -> hdr -> median3 before TDI), the line-making block
+(tdi) and the blocks on its output (median3 after TDI). Physics lives in :mod:`tdicam.model.physics.optics` (where each exposure looks)
 and :mod:`tdicam.model.physics.sensor` (charge, noise, ADC); the hardware blocks run through their
 golden models ``tdicam.model.<block>``.
 
@@ -66,12 +69,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 from tdicam.model.physics import optics as _optics, targets as _targets
 from tdicam.scene.loader import digital_tdi_limits_error
 
 from tdicam.engine import exact as _exact, fast as _fast
+from tdicam.engine.blocks import LINES, ROWS
 from tdicam.engine.context import Context, EffectRecord, decide
 from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
 from tdicam.engine.streams import Timer, threads
@@ -208,8 +211,8 @@ def check_point(scene, m, dv, fid, force=(), disable=()):
     for name in list(force) + list(disable):
         if name not in EFFECT_NAMES:
             raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")
-    if _LINE_BLOCK in disable:
-        raise TdicamError(f"disable {_LINE_BLOCK}: the TDI sum is what the camera outputs; it "
+    if LINES in disable:
+        raise TdicamError(f"disable {LINES}: the TDI sum is what the camera outputs; it "
                           f"cannot be left out")
     if m > scene.sensor.rows:
         raise TdicamError(f"[tdi].stages: must be <= {scene.sensor.rows} (the sensor rows), "
@@ -294,23 +297,18 @@ def simulate(scene, *, stages=None, dv_over_v=None, fidelity=None, force=(), dis
                       r.output, records, r.pedestal_single, r.pedestal_output, r.full_scale,
                       seconds, r.exposure_pixels, geometry(c)[0], notes, r.crop, cpu_seconds,
                       [c.flash[k] for k in sorted(c.flash)] or None, c.raw_data)
-    for f in res.flash or ():
-        notes.append(f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
-                     f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "
-                     f"{f['uncorrectable_words']} uncorrectable words of {f['words']}, "
-                     f"{f['defaulted_pixels']} of {f['pixels']} pixels on the default "
-                     f"coefficients (gain 1, offset 0)")
+    for row in ROWS:
+        if row.sim.notes is not None:
+            notes.extend(row.sim.notes(c))
     if impact:
         _impacts(c, res)
     return res
 
 
-#: The block whose effect is the TDI sum itself (never disabled, no impact of its own).
-_LINE_BLOCK = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
-_RESET_TAKERS = {b.name for b in _registry.scene_blocks() if b.pipeline.elems == 2}
+_RESET_TAKERS = {r.name for r in ROWS if r.block.pipeline.elems == 2}
 #: Effects that cannot be removed alone: removing the key removes the values too (the
 #: gain merge without a second gain channel, a block that takes reset frames without them).
-_REMOVED_WITH = {"dual_gain": {b.name for b in _registry.scene_blocks() if b.pipeline.merge},
+_REMOVED_WITH = {"dual_gain": {r.name for r in ROWS if r.block.pipeline.merge},
                  "reset_frames": _RESET_TAKERS, **{b: {"reset_frames"} for b in _RESET_TAKERS}}
 
 
@@ -324,7 +322,7 @@ def _impacts(c, res):
         .astype(np.float64)
     peak = float(res.output_full_scale)
     for r in res.effects:
-        if not r.ran or r.name == _LINE_BLOCK:
+        if not r.ran or r.name == LINES:    # the TDI sum itself: no impact of its own
             continue
         if r.name == "quantization":
             r.impact = {"note": "the ADC cannot be removed; see the fast-vs-exact error"}

@@ -23,9 +23,9 @@ import resource
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tdicam import blocks as _registry
 from tdicam.errors import TdicamError
 
+from tdicam.engine.blocks import ROWS
 from tdicam.engine.context import decide
 from tdicam.engine.streams import BLOCK_PIXELS
 from tdicam.threads import threads
@@ -107,12 +107,12 @@ def _pass_bytes(c, lines, ncols, axes, k):
         grid = 8.0 * rows * cols
     work = threads() * BLOCK_PIXELS * 8.0 * 6
     # each block's figures are in its registry entry (Use.scratch_bytes, Use.post_bytes:
-    # measured with tracemalloc on the bundled chains); its engine step is the effect named
-    # after it, or <name>_pre / <name>_post for a block that may run on either side of TDI
-    listed = _registry.scene_blocks()
-    coeff = max([b.pipeline.scratch_bytes for b in listed
-                 if c.ran(b.name) or c.ran(f"{b.name}_pre")] or [0.0])
-    post_bytes = sum(b.pipeline.post_bytes for b in listed if c.ran(f"{b.name}_post"))
+    # measured with tracemalloc on the bundled chains); its engine steps are its rows of the
+    # effects table (ROWS), the "post" one on the output of the line-making block
+    coeff = max([r.block.pipeline.scratch_bytes for r in ROWS
+                 if r.sim.where != "post" and c.ran(r.name)] or [0.0])
+    post_bytes = sum(r.block.pipeline.post_bytes for r in ROWS
+                     if r.sim.where == "post" and c.ran(r.name))
     render = stacks + 3 * grid + work
     blocks = stacks + grid + 8.0 * n + elems * coeff
     post = held + grid + post_bytes * n

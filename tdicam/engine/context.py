@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from tdicam.errors import TdicamError
 
+from tdicam.engine.blocks import ROWS, pedestal, takes_resets
 from tdicam.engine.effects import EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, dark_charge_e, stage_skew
 
 __all__ = ["EffectRecord", "Context", "decide"]
@@ -62,7 +63,7 @@ class Context:
     bounds: dict
     fast_fpn_mean: bool = False   # fast: moving stages weighted by the mean row gain
     quant_moments: bool = False   # fast: exact moments of every rounding (noise < ~0.7 DN)
-    nuc_coeffs: list | None = None   # per channel (gain code, offset code) of the nuc block
+    prepared: dict = dataclasses.field(default_factory=dict)  # blocks' side inputs (prepare)
     flash: dict = dataclasses.field(default_factory=dict)  # NAND store counters per channel
     keep_raw: bool = False        # hand out the raw frames entering the blocks (exact digital)
     raw_data: dict | None = None  # {"signal", "reset", "coeffs"} when keep_raw
@@ -82,7 +83,7 @@ class Context:
         return out
 
     def with_effects(self, on):
-        return dataclasses.replace(self, on=frozenset(on), nuc_coeffs=None, keep_raw=False,
+        return dataclasses.replace(self, on=frozenset(on), prepared={}, keep_raw=False,
                                    raw_data=None)
 
     # ---- strengths in this pass
@@ -124,7 +125,7 @@ class Context:
     @property
     def zero_dn(self):
         """DN of zero light after the exposure blocks: 0 with CDS, else the pedestal."""
-        return 0.0 if self.ran("cds") else self.offset_dn
+        return 0.0 if takes_resets(self) else self.offset_dn
 
     def stage_row(self, s):
         """0-based window row that makes stage s (first exposure s = 0) of a ground line."""
@@ -154,8 +155,8 @@ def decide(scene, m, dv, fidelity, force, disable):
     rec = c.records
     c.on = frozenset(n for n, r in rec.items() if r.ran)
     c.n_reads = 2 if rec["reset_frames"].ran else 1
-    c.offset_dn = scene.sensor.black_level_dn + (scene.pipeline.cds.reset_level_dn
-                                                 if rec["reset_frames"].ran else 0.0)
+    c.offset_dn = scene.sensor.black_level_dn + (pedestal(scene) if rec["reset_frames"].ran
+                                                 else 0.0)
     bounds = c.bounds
     for eff in EFFECTS:
         if eff.bound is not None:
@@ -188,6 +189,7 @@ def decide(scene, m, dv, fidelity, force, disable):
             if note is not None:
                 rec[eff.name].bound, extra = note
                 rec[eff.name].why += extra
-    if len(scene.sensor.gains) == 2 and not rec["hdr"].ran:
+    if len(scene.sensor.gains) == 2 and not any(rec[r.name].ran for r in ROWS
+                                                 if r.block.pipeline.merge):
         c.notes.append("two gains but no hdr merge: the HG channel feeds the chain")
     return c

@@ -9,8 +9,9 @@ pattern), ``exact`` (what it does to one block of exposures in the exact path) a
 (what it does to the aggregated sum of the m exposures). The engine runs the entries that
 ran, in table order (:meth:`tdicam.engine.context.Context.steps`).
 
-Pipeline blocks (cds, nuc, hdr, median3, tdi) are entries too; their golden-model wiring is
-in :mod:`tdicam.engine.blocks`.
+The pipeline blocks are entries too, generated from the block registry: one per
+:class:`tdicam.blocks.steps.Sim` row of a block's entry (:mod:`tdicam.engine.blocks`), after
+the physical effects.
 """
 
 from __future__ import annotations
@@ -53,7 +54,8 @@ class Effect:
         rows' :class:`FixedPattern`), ``charge`` and ``conversion`` (one
         :class:`~tdicam.engine.exact.Exposure` block in the exact path, the
         :class:`~tdicam.engine.fast.Aggregate` in the fast path), ``blocks`` (frame stacks
-        before TDI), ``tdi``, ``output`` (after TDI).
+        before the line-making block), ``lines`` (the line-making block, TDI), ``output``
+        (after it).
     exact, fast : callable, optional
         Its implementation in the exact path and on the fast aggregate (the same function
         where fast fidelity does not change it; None where it has no step of its own there).
@@ -407,6 +409,19 @@ def _fast(name):
     return getattr(fast, name)
 
 
+
+def _block_effect(row):
+    """The effect of a block's :class:`~tdicam.engine.blocks.Row`: timed under its name; on
+    the fast aggregate its own fast step, or (after the line-making block) the exact one."""
+    sim = row.sim
+    fast = sim.fast
+    if fast is None and sim.stage == "output":
+        fast = _blocks.timed(row.name, sim.exact)
+    return Effect(row.name, sim.label, _blocks.need(row.block.name, sim.where), stage=sim.stage,
+                  exact=_blocks.timed(row.name, sim.exact), fast=fast,
+                  aggregated=sim.aggregated, per_exposure=sim.per_exposure)
+
+
 #: Every effect in the fixed physical order.
 EFFECTS = (
     Effect("optics", "optics PSF (Gaussian)", _need_optics, stage="render",
@@ -439,19 +454,7 @@ EFFECTS = (
     Effect("quantization", "ADC quantization per exposure", _need_quantization,
            bound=_bound_quantization, fast_note=_note_quantization, stage="conversion",
            exact=_exact_quantization, fast=_fast("quantization"), aggregated=True),
-    Effect("cds", "block cds (golden model)", _blocks.need("cds"), stage="blocks",
-           exact=_blocks.cds, aggregated=True),
-    Effect("nuc", "block nuc (golden model)", _blocks.need("nuc"), stage="blocks",
-           exact=_blocks.nuc, per_exposure=True),
-    Effect("hdr", "block hdr (golden model)", _blocks.need("hdr"), stage="blocks",
-           exact=_blocks.hdr, per_exposure=True),
-    Effect("median3_pre", "block median3 before TDI (golden)", _blocks.need("median3", "pre"),
-           stage="blocks", exact=_blocks.median3_pre, per_exposure=True),
-    Effect("tdi", "TDI accumulation", _blocks.need("tdi"), stage="tdi", exact=_blocks.tdi,
-           fast=_fast("tdi"), aggregated=True),
-    Effect("median3_post", "block median3 after TDI (golden)", _blocks.need("median3", "post"),
-           stage="output", exact=_blocks.median3_post, fast=_blocks.median3_post),
-)
+) + tuple(_block_effect(r) for r in _blocks.ROWS)
 EFFECT_NAMES = tuple(e.name for e in EFFECTS)
 #: Effects that can be forced on at zero strength (to check that skipping them is exact).
 FORCIBLE = tuple(e.name for e in EFFECTS if e.forcible)

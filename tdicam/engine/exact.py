@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from tdicam.engine.blocks import Frames, prepare
+from tdicam.engine.blocks import LINES, Frames, prepare
 from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks, stream
 
 __all__ = ["Exposure", "digital", "charge", "expose", "convert"]
@@ -147,13 +147,13 @@ def digital(c, p):
     prepare(c, gain_map, dark_map)
     if c.keep_raw:
         c.raw_data = {"signal": list(frames), "reset": None if resets is None else list(resets),
-                      "coeffs": c.nuc_coeffs}
+                      "coeffs": None, **c.prepared}
     fr = Frames(frames, resets, bits, p.timer, _keeper(p.keep_crop, m, True),
                 keep_out=p.keep_crop)
     for step in c.steps("blocks"):
         step(c, fr)
     single = fr.channels[0][:lines, r0, :].astype(np.int64)
-    for step in c.steps("tdi") + c.steps("output"):
+    for step in c.steps("lines") + c.steps("output"):
         step(c, fr)
     ped1 = c.zero_dn
     return p.result(fr.out, raw, single, ped1, m * ped1, fr.full_scale, n_f * m * ncols * n_ch,
@@ -184,18 +184,18 @@ def charge(c, p):
             first = e.copy()
         t = time.perf_counter()
         acc += e
-        p.timer.add("tdi", time.perf_counter() - t)
+        p.timer.add(LINES, time.perf_counter() - t)
         if p.progress is not None:
             p.progress(lines * ncols)
     fw = c.full_well_e
     if fw is not None:
         np.minimum(acc, fw, out=acc)
     n_ch = len(c.gains)
-    cds = c.resets
+    with_resets = c.resets
 
     def conv(e):
         dst = [np.empty(e.shape, np.int64) for _ in range(n_ch)]
-        rst = [np.empty(e.shape, np.int64) for _ in range(n_ch)] if cds else None
+        rst = [np.empty(e.shape, np.int64) for _ in range(n_ch)] if with_resets else None
         return Exposure(c, e, dst, rst, gens=gens)
     xs = [conv(acc), conv(first)]
     steps = c.steps("conversion", named=True)
@@ -210,13 +210,13 @@ def charge(c, p):
     keep = _keeper(p.keep_crop, m, False)
     # charge TDI: each output pixel's response is the column mean of the window's gains
     prepare(c, gain_map.mean(axis=0, keepdims=True), dark_map.sum(axis=0, keepdims=True))
-    fr = Frames([d[None] for d in out_x.dst], None if not cds else
+    fr = Frames([d[None] for d in out_x.dst], None if not with_resets else
                 [d[None] for d in out_x.reset_dst], c.sensor.bits, p.timer, keep,
                 keep_out=p.keep_crop)
     for step in c.steps("blocks"):
         step(c, fr)
     prepare(c, gain_map[:1], dark_map[:1])           # the single exposure: its own row
-    fr1 = Frames([d[None] for d in one_x.dst], None if not cds else
+    fr1 = Frames([d[None] for d in one_x.dst], None if not with_resets else
                  [d[None] for d in one_x.reset_dst], c.sensor.bits, p.timer)
     for step in c.steps("blocks"):
         step(c, fr1)

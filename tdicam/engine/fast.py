@@ -24,7 +24,7 @@ from tdicam.engine.blocks import Frames, subtract_reset
 from tdicam.engine.exact import Exposure, convert, expose
 from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks
 
-__all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization", "tdi",
+__all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization",
            "moment_sum", "integer_draw"]
 
 
@@ -88,13 +88,6 @@ def quantization(c, a):
     x += a.pedm + 0.5
     np.clip(x, 0.0, a.top + 0.5, out=x)
     a.out[...] = x                      # truncation of x >= 0: round half up
-
-
-def tdi(c, fr):
-    """The aggregate is the TDI sum; saturate it where ``[tdi].output`` says so."""
-    if c.digital and c.scene.tdi.output == "saturate":
-        np.minimum(fr.out, (1 << c.scene.tdi.output_bits) - 1, out=fr.out)
-        fr.full_scale = (1 << c.scene.tdi.output_bits) - 1
 
 
 def path(c, p):
@@ -186,7 +179,7 @@ def path(c, p):
         expose(c1, x)
         convert(c1, x)
         if rst1 is not None:
-            single[lo:hi] = subtract_reset(raw[lo:hi], rst1[0], sen.bits)
+            single[lo:hi] = subtract_reset(c, raw[lo:hi], rst1[0], sen.bits)
         else:
             single[lo:hi] = raw[lo:hi]
         dt["raw_exposure"] = time.perf_counter() - t
@@ -196,7 +189,7 @@ def path(c, p):
                       for ci, lo in enumerate(range(0, lines, chunk))],
                p.timer, p.progress, lambda ci, lo, hi: (hi - lo) * ncols * m)
     fr = Frames([out], None, sen.bits, p.timer, out=out, full_scale=top)
-    for step in c.steps("tdi", fast=True) + c.steps("output", fast=True):
+    for step in c.steps("lines", fast=True) + c.steps("output", fast=True):
         step(c, fr)
     return p.result(fr.out, raw, single, ped, pedm, fr.full_scale, lines * m * ncols, fr.crop)
 
