@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.scene.examples import examples
 from tdicam.scene.loader import Scene
 from tdicam.version import __version__
@@ -97,6 +97,7 @@ class Simulation:
         return self.report
 
 
+@api_arguments
 def simulate(scene: Scene | str | Path, *, fidelity: str | None = None,
              lines: int | None = None, seed: int | None = None,
              force: tuple[str, ...] = (), impact: bool = True, rtl: bool = True,
@@ -287,6 +288,7 @@ def _json_default(value):
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
+@api_arguments
 def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
          device: str | None = None, ddr_bits: int | None = None,
          ddr_clock_mhz: float | None = None, ddr_efficiency: float | None = None,
@@ -360,6 +362,7 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
 # --------------------------------------------------------------------------------------
 
 
+@api_arguments
 def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = None, *,
           workers: int | None = None, scheduler: str | None = None, serial: bool = False,
           impact: bool = False, force: bool = False, limit: int | None = None,
@@ -385,7 +388,8 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
     force : bool
         Accept more runs (points x repeats) than the safety limit.
     limit : int, optional
-        Compute at most this many runs (>= 0); a rerun into the same ``out_dir`` finishes
+        Compute at most this many runs (>= 0), and validate only the points they need
+        (plus every value of every axis once); a rerun into the same ``out_dir`` finishes
         the sweep. The dataset holds NaN (status ``missing``) where a run is missing.
     connect_timeout : float
         Seconds to wait for ``scheduler``, in (0, 3600].
@@ -409,12 +413,15 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
         same call finishes the sweep.
     """
     import xarray as xr
-    from tdicam.sweeps.runner import load_sweep, run_sweep
+    from tdicam.sweeps.runner import finished_in, read_sweep, run_sweep, validate_sweep
     check_range("--connect-timeout", connect_timeout, 0, 3600, integer=False, lo_open=True)
     if limit is not None:                   # before the points are expanded
         check_range("--limit", limit, 0, None)
-    sw = load_sweep(source, force=force, impact=impact, progress=progress)
+    sw = read_sweep(source, force=force, impact=impact)
     out = Path(out_dir) if out_dir is not None else Path("out") / "sweeps" / sw.name
+    # with a limit, only the points its runs need are validated (and each axis value once)
+    sw = validate_sweep(sw, progress=progress, limit=limit,
+                        finished=finished_in(out) if limit is not None else None)
     try:
         res = run_sweep(sw, out, workers=workers, scheduler=scheduler, serial=serial,
                         limit=limit, progress=progress, connect_timeout=connect_timeout)

@@ -16,7 +16,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Beats", "frames_to_beats", "beats_to_frames", "mark_resets"]
+__all__ = ["Beats", "BeatStream", "frames_to_beats", "beats_to_frames", "mark_resets"]
 
 
 @dataclass
@@ -70,6 +70,27 @@ class Beats:
     def concat(parts):
         return Beats(*(np.concatenate([getattr(p, f) for p in parts]) for f in
                        ("data", "first", "last", "seg", "ctrl", "rst")))
+
+
+@dataclass(frozen=True)
+class BeatStream:
+    """A golden case too large to hold in memory, made piece by piece.
+
+    Attributes
+    ----------
+    name : str
+        The case's name.
+    n_in, n_out : int
+        Stimulus and expected beats in all (known before any piece is made).
+    pieces : callable() -> iterator of (Beats, Beats)
+        Stimulus and expected beats in stream order, a bounded piece at a time (e.g. one
+        frame); the pieces' lengths add up to ``n_in`` and ``n_out``.
+    """
+
+    name: str
+    n_in: int
+    n_out: int
+    pieces: object
 
 
 def frames_to_beats(frames, *, ppc=1, channels=1):

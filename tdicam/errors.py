@@ -36,6 +36,25 @@ def valid_range(lo, hi, *, lo_open=False, hi_open=False):
     return f"{'<' if hi_open else '<='} {_num(hi)}"
 
 
+def api_arguments(fn):
+    """Decorator of a public API function: a call with arguments ``fn`` does not take (an
+    unknown keyword, one too many, a required one missing) raises a one-line
+    :class:`TdicamError` naming ``fn`` and the argument, not Python's TypeError. The
+    signature (``inspect.signature``) and docstring stay ``fn``'s."""
+    import functools
+    import inspect
+    sig = inspect.signature(fn)
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            raise TdicamError(f"{fn.__qualname__}: {exc}") from None
+        return fn(*args, **kwargs)
+    return call
+
+
 def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=False):
     """Return ``value`` if it lies in the range (and is integral when ``integer``), else
     raise ``"NAME = V is out of range; valid: lo..hi"`` (see :func:`valid_range`).
@@ -45,7 +64,10 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
     ``lo_open``/``hi_open`` make a bound exclusive (floats, e.g. ``(0, 1]``). ``nan`` and
     infinities are never in range.
     """
+    shown = value                     # as given: 1e+308, not its 309 integer digits
     if integer and (isinstance(value, bool) or not isinstance(value, int)):
+        if isinstance(value, bool):
+            raise TdicamError(f"{name} must be an integer, got {value!r}")
         try:
             if int(value) != value:
                 raise ValueError
@@ -63,7 +85,7 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
     below = lo is not None and (value <= lo if lo_open else value < lo)
     above = hi is not None and (value >= hi if hi_open else value > hi)
     if below or above:
-        raise TdicamError(f"{name} = {value} is out of range; valid: "
+        raise TdicamError(f"{name} = {shown} is out of range; valid: "
                           f"{valid_range(lo, hi, lo_open=lo_open, hi_open=hi_open)}")
     return value
 

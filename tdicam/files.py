@@ -46,6 +46,14 @@ def named(path, option="-o") -> Path:
     return Path(path)
 
 
+def input_path(path, what) -> Path:
+    """``path`` (a str or os.PathLike) as a Path, else ``WHAT: expected a file name, got
+    TYPE`` (the Python API's callers pass anything)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TdicamError(f"{what}: expected a file name, got {type(path).__name__}")
+    return Path(path)
+
+
 def check_file(path, option="-o") -> Path:
     """``path`` as a Path once a file can be written there, else a one-line error.
 

@@ -280,8 +280,9 @@ BAD_INPUT = [
       "-o", "{d}/camera.v"], "--lines = -1 is out of range; valid: 1..", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
       "-o", "{d}/camera.v"], "--device = 'nosuch' is not known", 2),
-    # an export too large for its beat limit: refused at once, with its size
-    (["export", "tdi", "--width", "8192", "--stages", "128", "-o", "{d}/exp_big"],
+    # an export too large for its beat limit and no streamed case (tdi_ddr): refused at
+    # once, with its size (tdi itself streams: tests/test_export.py)
+    (["export", "tdi_ddr", "--width", "8192", "--stages", "128", "-o", "{d}/exp_big"],
      "one frame is 1,048,576 input beats, over the export limit of 400,000", 2),
     # sweeps: a key fixed and swept, a product too large to hold, where to go instead
     (["sweep", "{d}/sw_dup.toml", "-o", "{d}/sw_dup_out"], "[set] tdi.stages: also in [axes]; "
@@ -320,6 +321,32 @@ BAD_INPUT += [
                                                          "valid: --pixel-bits", 2),
     (["sweep", "{d}/sw_step.toml", "-o", "{d}/sw_step_out"], "[axes] tdi.stages: range gives "
                                                              "endlessly many values", 2),
+]
+
+# found probing (session 9): a TOML nested past Python's recursion limit, a gain that
+# overflows the ADC to inf (ran with exit 0 and a numpy overflow warning)
+BAD_INPUT += [
+    (["run", "{d}/deep.toml", "-o", "{d}/deep_out"],
+     "deep.toml: invalid TOML: arrays or tables nested too deeply", 2),
+    (["sweep", "{d}/deep.toml", "-o", "{d}/deep_out"],
+     "deep.toml: invalid TOML: arrays or tables nested too deeply", 2),
+    (["run", "{d}/gain_huge.toml", "-o", "{d}/gain_out"],
+     "[sensor].gains (entry 0 of the list) = 1e+308 is out of range; valid: (0, 1000000]", 2),
+    (["sweep", "{d}/sw_nan.toml", "-o", "{d}/sw_nan_out"],
+     "[axes] tdi.stages: value nan is not a finite number", 2),
+    # a huge count said in 300 digits
+    (["sweep", "{d}/sw_tiny_step.toml", "-o", "{d}/sw_step_out"],
+     "[axes] target.signal_e: range gives about 9.9e+301 values, more than 100000", 2),
+    # an export -o that cannot be made is refused before the work (8192 x 128: minutes)
+    (["export", "tdi", "--width", "8192", "--stages", "128", "-o", "/proc/nope/x"],
+     "-o '/proc/nope/x': cannot write the export: No such file or directory", 2),
+    # bars along track need two periods: the fix named (was only "period_px must be <= 0.5",
+    # below the key's own minimum of 2)
+    (["run", "scenes/orbit_600km_1m_96.toml", "--lines", "1", "-o", "{d}/l1"],
+     "got 4; or make --lines >= 8", 2),
+    # a base scene's error names the scene file (was "[scene]: unknown section" alone)
+    (["sweep", "{d}/sw_self.toml", "-o", "{d}/sw_self_out"],
+     "sw_self.toml: scene {d}/sw_self.toml: [scene]: unknown section", 2),
 ]
 
 #: Options whose value is an output path a refused command must not create.
@@ -410,6 +437,14 @@ def bad_input_files(tmp_path_factory):
     (d / "sw_step.toml").write_text(f'scene = "{base}"\n[axes]\n"tdi.stages" = '
                                     '{start = 1, stop = 1e308, step = 1e-308}\n')
     (d / "notes.txt").write_text("meeting notes, not an array\n")
+    (d / "sw_tiny_step.toml").write_text(f'scene = "{base}"\n[axes]\n"target.signal_e" = '
+                                         '{start = 100, stop = 1, step = -1e-300}\n')
+    (d / "sw_self.toml").write_text('scene = "sw_self.toml"\n' + axes)
+    (d / "sw_nan.toml").write_text(f'scene = "{base}"\n[axes]\n"tdi.stages" = [1, nan]\n')
+    (d / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    (d / "gain_huge.toml").write_text(_SCENE.format(alt=600.0, sig=100.0, target="",
+                                                    sensor="gains = [1e308]", stages=8,
+                                                    lines=32))
     np.savez(d / "empty.npz", gain=np.ones((0, 16)), offset=np.zeros((0, 16)))
     (d / "foreign.json").write_text('{"name": "not a bench"}')
     (d / "list.json").write_text("[1, 2]")
@@ -457,6 +492,45 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     assert err.startswith("tdicam: error:") or "error:" in err, err
     assert expect.format(d=d) in err, err
     assert "Traceback" not in err
+
+
+# The Python API with bad arguments: one-line TdicamErrors (found probing, session 9: each
+# was a TypeError, AttributeError or IndexError, or a seed folded silently; an argument the
+# function does not take is named by tdicam.errors.api_arguments)
+API_BAD = [
+    ("Scene.load(3)", lambda t: t.Scene.load(3), "scene file: expected a file name, got int"),
+    ("Scene.example(None)", lambda t: t.Scene.example(None),
+     "bundled scene: expected a name, got NoneType"),
+    ("sweep(None)", lambda t: t.sweep(None), "sweep file: expected a file name, got NoneType"),
+    ("plan(gsd_m=[])", lambda t: t.plan(gsd_m=[]), "--gsd-m: must not be an empty list"),
+    ("plan(gsd_m=0)", lambda t: t.plan(gsd_m=0), "--gsd-m = 0 is out of range"),
+    ("golden_model(None)", lambda t: t.blocks.get("cds").golden_model(None),
+     "block cds: arrays must be a dict of arrays (its stream input 'signal'), got NoneType"),
+    ("cosim(seed=-1)", lambda t: t.blocks.get("cds").cosim(seed=-1),
+     "seed = -1 is out of range; valid: 1..2147483647"),
+    ("simulate(nope=1)", lambda t: t.simulate(t.examples_path, nope=1),
+     "simulate: got an unexpected keyword argument 'nope'"),
+    ("with_run(nope=1)", lambda t: t.Scene.example("orbit_600km_1m_96").with_run(nope=1),
+     "Scene.with_run: got an unexpected keyword argument 'nope'"),
+    ("examples('x')", lambda t: t.examples("x"), "examples: too many positional arguments"),
+    ("Scene.load()", lambda t: t.Scene.load(), "Scene.load: missing a required argument: 'path'"),
+    ("simulate(lines=True)", lambda t: t.simulate(t.examples_path, lines=True),
+     "lines must be an integer, got True"),
+    ("simulate(lines=1e308)", lambda t: t.simulate(t.examples_path, lines=1e308),
+     "lines = 1e+308 is out of range; valid: 1.."),
+]
+
+
+@pytest.mark.parametrize("call, message", [r[1:] for r in API_BAD], ids=[r[0] for r in API_BAD])
+def test_api_bad_arguments_are_one_line_tdicam_errors(call, message):
+    import types
+
+    import tdicam
+    api = types.SimpleNamespace(**{n: getattr(tdicam, n) for n in tdicam.__all__},
+                                examples_path=str(ROOT / "scenes" / "orbit_600km_1m_96.toml"))
+    with pytest.raises(tdicam.TdicamError) as info:
+        call(api)
+    assert message in str(info.value) and "\n" not in str(info.value), str(info.value)
 
 
 # Answers, not bad input: a plan that does not fit is the report's NO (exit 1); the default

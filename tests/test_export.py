@@ -205,6 +205,83 @@ def test_every_registered_block_exports_and_passes_on_icarus(name, tmp_path, req
         passed(r.stdout, ex.n_out)
 
 
+@pytest.mark.parametrize("given", [
+    {"width": 64, "stages": 4}, {"width": 16, "stages": 1},
+    {"width": 48, "stages": 5, "ppc": 2, "pixel_bits": 14},
+    {"width": 64, "stages": 3, "ppc": 8, "out_bits": 9, "pixel_bits": 8},
+])
+def test_streamed_case_is_the_beat_level_model(given):
+    """tdi's streamed case (made a frame at a time, each line from the whole-array model)
+    equals what the beat-level model of the golden cases gives for the same stimulus."""
+    from tdicam.blocks.tdi import _finish, _to_beats
+    blk = blocks.get("tdi")
+    params = blk.resolve(given)
+    bs = blk.streamed_case(params)
+    parts = list(bs.pieces())
+    stim = Beats.concat([a for a, _ in parts])
+    exp = Beats.concat([b for _, b in parts])
+    assert (len(stim), len(exp)) == (bs.n_in, bs.n_out) and bs.n_out > 0
+    arrays = {"pixels": stim.data, "first": stim.first, "last": stim.last,
+              "stages_active": (stim.ctrl >> np.uint64(1)).astype(np.uint8),
+              "direction": (stim.ctrl & np.uint64(1)).astype(np.uint8)}
+    _finish(arrays, params)
+    model = _to_beats(arrays, params)[1]
+    assert int(arrays["frame_errors"]) == 0
+    for f in ("data", "first", "last"):
+        np.testing.assert_array_equal(getattr(exp, f), getattr(model, f))
+
+
+def test_export_over_the_beat_limit_is_streamed_in_chunks(tmp_path, monkeypatch):
+    """One frame over the beat limit: tdi exports its streamed case, written chunk by chunk
+    (here 100-beat chunks, so frames straddle chunks) with the size stated first; the
+    folder equals the export of the same beats held whole, and passes on Icarus."""
+    from tdicam.cosim import tbgen
+    from tdicam.export.block import _stream_top, export_files
+    monkeypatch.setattr(tbgen, "DEPTH", 100)
+    said = []
+    out = tmp_path / "tdi"
+    ex = export_block("tdi", {"width": 64, "stages": 4}, out, max_beats=200, say=said.append)
+    assert ex.cases == ["stream_64x4_p1"] and (ex.n_in, ex.n_out) == (6 * 4 * 64, 3 * 64)
+    assert "one frame is 256 input beats, over the export limit of 200: exporting the case " \
+           "stream_64x4_p1 instead, 1,536 input beats written in chunks" in said[0], said
+    written = tree(out)
+    assert sum(k.startswith("vectors/stim_") for k in written) == 16
+    size = sum(len(v) for v in written.values())
+    assert f"{size / 1e6:.1f} MB in all" in said[1] and "1,536 input beats" in said[1]
+    blk = blocks.get("tdi")
+    params = blk.resolve({"width": 64, "stages": 4})
+    parts = list(blk.streamed_case(params).pieces())
+    whole = export_files(blk, params, _stream_top(blk, params),
+                         Beats.concat([a for a, _ in parts]), Beats.concat([b for _, b in parts]),
+                         cases=ex.cases)
+    assert written == {k: v.encode() if isinstance(v, str) else v for k, v in whole.items()}
+    r = icarus(out)
+    assert r.returncode == 0 and passed(r.stdout, ex.n_out) == ex.n_out, r.stdout[-2000:]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="exports ~550 MB in several minutes (TDICAM_FULL=1)")
+def test_largest_tdi_export_fits_8_gb_of_address_space(tmp_path):
+    """tdicam export tdi at the largest legal parameters (8192 x 128) under ulimit -v 8 GB:
+    streamed, its stated size what it writes."""
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (8_000_000 * 1024, 8_000_000 * 1024))
+    out = tmp_path / "big"
+    r = subprocess.run([sys.executable, "-m", "tdicam", "export", "tdi", "--width", "8192",
+                        "--stages", "128", "-o", str(out)], capture_output=True, text=True,
+                       preexec_fn=limit)
+    assert r.returncode == 0, r.stderr[-2000:]
+    m = re.search(r"export: ([\d,]+) input beats, ([\d,]+) expected beats, (\d+) vector "
+                  r"file\(s\), ([\d.]+) MB in all", r.stderr)
+    assert m, r.stderr
+    assert int(m.group(1).replace(",", "")) == 130 * 128 * 8192
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert len(list((out / "vectors").iterdir())) == int(m.group(3))
+    assert f"{sum(p.stat().st_size for p in files) / 1e6:.1f}" == m.group(4)
+
+
 @pytest.mark.parametrize("args, message", [
     (["export", "nosuch", "-o", "X"], "unknown block 'nosuch'"),
     (["export", "cds", "--nope", "1", "-o", "X"], "block cds has no parameter --nope"),

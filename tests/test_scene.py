@@ -373,7 +373,7 @@ def test_bad_target(tmp_path, target, expected):
     ("gains = 4.9\n", "[sensor].gains: must be a list of one or two gains, got 4.9"),
     ("gains = [0.8, 4.9]\n",
      "[sensor].gains: two gains must be [high, low] with high > low, got [0.8, 4.9]"),
-    ("gains = [4.9, 0]\n", "[sensor].gains (entry 1 of the list) = 0 is out of range; valid: > 0"),
+    ("gains = [4.9, 0]\n", "[sensor].gains (entry 1 of the list) = 0 is out of range; valid: (0, 1000000]"),
     ("pixel_clock_mhz = 100\nmax_frame_rate_hz = 650\n",
      "[sensor].max_frame_rate_hz: give either [sensor].pixel_clock_mhz"),
     ("pixel_clock_mhz = 0\n", "[sensor].pixel_clock_mhz = 0 is out of range; valid: 0.001..1000000"),

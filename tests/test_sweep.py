@@ -307,6 +307,53 @@ def test_resume_computes_only_missing_runs(reference, tmp_path):
     assert_same(read_table(out), ref)
 
 
+def test_limit_bounds_the_validation_and_a_rerun_finishes(reference, tmp_path, monkeypatch):
+    """``--limit N`` validates only the points of the N runs it computes plus every value of
+    every axis once (the points one axis away from the first), not every point; reruns
+    validate further and end equal to the sweep run at once."""
+    import tdicam.scene.loader as loader
+    from tdicam.api import sweep
+    calls = []
+    real = loader.scene_from_dict
+    monkeypatch.setattr(loader, "scene_from_dict",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    path, ref = reference                         # 3 stages x 2 signals, 2 repeats: 12 runs
+    out = tmp_path / "o"
+    ds = sweep(path, out, serial=True, limit=3)
+    # the base scene; the cross check: point 0, stages 2 and 4 (points 2, 4), signal 2000
+    # (point 1); then the points of the 3 runs to compute: points 0 and 1 (two repeats each)
+    assert len(calls) == 1 + 4 + 2
+    summary = ds.attrs["summary"]
+    assert "computed 3, reused 0" in summary and "missing 9" in summary
+    assert "validated 2 of 6 points (--limit" in summary
+    part = read_table(out)
+    assert (part["status"] == "missing").sum() == 9
+    later = part[part["point"] >= 2]
+    assert (later["seed"] == -1).all() and (later["hash"].fillna("") == "").all()
+    calls.clear()
+    sweep(path, out, serial=True, limit=2)        # reuses 3, validates up to 2 new runs
+    assert len(calls) == 1 + 4 + 3
+    assert (read_table(out)["status"] == "ok").sum() == 5
+    ds = sweep(path, out, serial=True)
+    assert "computed 7, reused 5" in ds.attrs["summary"]
+    assert_same(read_table(out), ref)
+    ds = sweep(path, out, serial=True, limit=0)   # finished points validated: all reused
+    assert "computed 0, reused 12" in ds.attrs["summary"]
+    assert "validated" not in ds.attrs["summary"]
+    assert_same(read_table(out), ref)
+
+
+def test_limit_still_checks_every_axis_value(tmp_path):
+    """A bad value far from the first point is found before any run, even with --limit 1."""
+    path = sweep_file(tmp_path, 'scene = "tiny.toml"\n[axes]\n"tdi.stages" = [1, 2, 4]\n'
+                                '"target.signal_e" = [500.0, 2000.0, 3000.0, -5.0]\n')
+    assert main(["sweep", str(path), "-o", str(tmp_path / "o"), "--serial", "--limit", "1"]) == 2
+    with pytest.raises(TdicamError, match=r"point tdi.stages = 1, target.signal_e = -5.0: "):
+        from tdicam.api import sweep
+        sweep(path, tmp_path / "o", serial=True, limit=1)
+    assert not (tmp_path / "o").exists()
+
+
 def test_ctrl_c_then_rerun(reference, tmp_path):
     path, ref = reference
     out = tmp_path / "o"

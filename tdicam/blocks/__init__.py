@@ -32,7 +32,7 @@ and the leaves; never a simulator driver, a hardware tool, the camera, a service
 import importlib
 import pkgutil
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -414,7 +414,11 @@ class Block:
     frame_beats : callable, optional
         ``frame_beats(params)``: input beats of one frame, the least a golden case streams
         (``tdicam export`` refuses parameters whose one frame is over its beat limit before
-        generating any case; None: unknown).
+        generating any case, or exports :attr:`streamed_case`; None: unknown).
+    streamed_case : callable(params) -> tdicam.beats.BeatStream, or None
+        The case ``tdicam export`` writes, piece by piece, when no golden case at
+        ``params`` fits its beat limit (one frame over it, say: the cases would not fit in
+        memory); None: such parameters are refused.
     export_harness : str or None
         ``"module:function"`` that exports the block with a self-checking harness of its own
         instead of the stream testbench (``lvds``'s link testbench), returning (Design, case
@@ -455,6 +459,7 @@ class Block:
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
     frame_beats: Callable | None = None
+    streamed_case: Callable | None = None
     export_harness: str | None = None
     small: tuple | None = None
     order: int = 1000
@@ -512,6 +517,9 @@ class Block:
         """Scene arrays with every side input present (defaults filled in) and ``pixel``
         side inputs broadcast to the stream's shape, or a :class:`TdicamError` naming the
         missing one."""
+        if not isinstance(arrays, Mapping):
+            raise TdicamError(f"block {self.name}: arrays must be a dict of arrays (its "
+                              f"stream input {self.stream!r}), got {type(arrays).__name__}")
         if self.stream not in arrays:
             raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
         out = dict(arrays)

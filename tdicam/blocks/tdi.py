@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.beats import Beats, mark_resets
+from collections import deque
+
+from tdicam.beats import Beats, BeatStream, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
@@ -308,6 +310,38 @@ def _to_beats(arrays, params):
     return stim, exp
 
 
+def _streamed_case(params, seed=1):
+    """``tdicam export`` above its beat limit: m_max + 2 random frames at m = m_max, forward
+    (three output lines), made one frame at a time; each expected line from the whole-array
+    model :func:`~tdicam.model.tdi.tdi` over the m frames it sums (memory: m frames)."""
+    mm, W, ppc = params["stages"], params["width"], params["ppc"]
+    wb, n_frames = W // ppc, mm + 2
+    dt = pixel_dtype(params["pixel_bits"])
+    settings = [(mm, 0)]
+
+    def pieces():
+        rng = np.random.default_rng(seed)
+        window = deque(maxlen=mm)
+        for _ in range(n_frames):
+            fr = rng.integers(0, 1 << params["pixel_bits"], (mm, W), dtype=dt)
+            window.append(fr)
+            a = stream_arrays([fr], settings, params)
+            stim = Beats(a["pixels"], a["first"], a["last"],
+                         ctrl=pack_ctrl(a["stages_active"], a["direction"]))
+            if len(window) < mm:
+                exp = Beats(np.zeros((0, ppc), np.uint64), np.zeros(0, bool), np.zeros(0, bool))
+            else:
+                line = tdi(np.stack(window), stages=mm, pixel_bits=params["pixel_bits"],
+                           out_bits=params["out_bits"], stages_active=mm)[-1]
+                edge = np.zeros(wb, bool)
+                exp = Beats(line.reshape(wb, ppc), edge.copy(), edge)
+                exp.first[0] = exp.last[-1] = True
+            yield stim, exp
+
+    return BeatStream(f"stream_{W}x{mm}_p{ppc}", n_in=n_frames * mm * wb,
+                      n_out=(n_frames - mm + 1) * wb, pieces=pieces)
+
+
 def _p(width, stages, ppc, out_bits=None, pixel_bits=12):
     return {"width": width, "stages": stages, "pixel_bits": pixel_bits, "out_bits": out_bits,
             "ppc": ppc}
@@ -464,6 +498,7 @@ BLOCK = Block(
     model_version="tdi-1",
     to_beats=_to_beats,
     frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
+    streamed_case=_streamed_case,
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,

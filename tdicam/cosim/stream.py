@@ -20,7 +20,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hw.verilog import convert
 from tdicam.cosim import codec, dp16kd, tbgen
 from tdicam.cosim.build import build_sources, run_cocotb
-from tdicam.cosim.pauses import thresholds
+from tdicam.cosim.pauses import check_seed, thresholds
 
 __all__ = ["MODES", "SimResult", "stream_ports", "run_stream"]
 
@@ -100,6 +100,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     if wave is not None and (sim, mode) != ("icarus", "fast"):
         raise TdicamError("a waveform window is written by Icarus in fast mode")
     idle_thr, bp_thr = thresholds(idle, backpressure)
+    check_seed("seed", seed)                 # a negative or wide seed would be folded
     blk = blocks.get(block)
     params = blk.resolve(params)
     bdir, build_time, top = _build(blk, params, sim, wave=wave is not None, ecp5=ecp5)

@@ -13,7 +13,11 @@ with no tdicam, cocotb or Python:
   expected and received) and ``$fatal(1)``; a reset in the stimulus drops the data in flight,
   so it passes with ``0 < n <=`` the expected count and then names the dropped beats
   (:class:`~tdicam.cosim.tbgen.SelfCheck`);
-* ``vectors/`` — those memory files, made from the block's golden vectors;
+* ``vectors/`` — those memory files, made from the block's golden vectors (cases in registry
+  order up to :data:`MAX_BEATS` input beats); when no golden case fits (``tdi`` at 8192 x 128:
+  one frame is 1,048,576 beats) a block's :attr:`~tdicam.blocks.Block.streamed_case` is
+  exported instead, made and written a piece at a time (bounded memory), its size stated
+  before anything is written;
 * ``tdicam_<block>.core`` — a FuseSoC CAPI2 core ``tdicam:blocks:<block>:<version>`` with
   ``rtl``, ``tb`` and ``vectors`` filesets and ``sim_icarus`` / ``sim_verilator`` targets;
 * ``README.md`` — ports, latency, parameters, and how to run it in Icarus, Verilator,
@@ -30,6 +34,7 @@ import importlib
 import json
 import os
 import shutil
+import tempfile
 import textwrap
 import time
 from dataclasses import dataclass
@@ -40,7 +45,7 @@ import numpy as np
 from tdicam import blocks
 from tdicam.version import __version__
 from tdicam.cosim import vectors as golden
-from tdicam.beats import Beats
+from tdicam.beats import Beats, BeatStream
 from tdicam.cosim import codec, stream_ports, tbgen
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
@@ -131,12 +136,12 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
     beats (only the first that fits for a block whose state survives a reset, see
     ``Block.reset_clears_state``). Returns (stim, exp, case names).
     """
-    per_frame = None if blk.frame_beats is None else blk.frame_beats(params)
-    if max_beats is not None and per_frame is not None and per_frame > max_beats:
-        raise TdicamError(f"block {blk.name} at " + ", ".join(f"{k}={v}" for k, v in
-                                                              params.items())
-                          + f": one frame is {per_frame:,} input beats, over the export "
-                          f"limit of {max_beats:,}; export smaller parameters")
+    per_frame = _frame_over(blk, params, max_beats)
+    if per_frame is not None:
+        raise _OverLimit(f"block {blk.name} at " + ", ".join(f"{k}={v}" for k, v in
+                                                             params.items()),
+                         f"one frame is {per_frame:,} input beats, over the export limit of "
+                         f"{max_beats:,}", "; export smaller parameters")
     errors = []
     found = golden_case_arrays(blk, params, max_beats=max_beats, errors=errors)
     if not found:
@@ -168,9 +173,111 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
         names.append(name)
         total += len(stim)
     if not names:
-        raise TdicamError(f"block {blk.name}: the smallest golden case at these parameters "
-                          f"has {smallest} input beats, over the export limit of {max_beats}")
+        raise _OverLimit(f"block {blk.name}", f"the smallest golden case at these parameters "
+                         f"has {smallest} input beats, over the export limit of {max_beats}",
+                         "")
     return Beats.concat(stims), Beats.concat(exps), names
+
+
+class _OverLimit(TdicamError):
+    """No golden case fits the export's beat limit (``why``: which limit, how far)."""
+
+    def __init__(self, where, why, advice):
+        super().__init__(f"{where}: {why}{advice}")
+        self.why = why
+
+
+def _frame_over(blk, params, max_beats):
+    """Input beats of one frame of ``blk`` at ``params`` when that is over ``max_beats``
+    (else None)."""
+    per_frame = None if blk.frame_beats is None else blk.frame_beats(params)
+    if max_beats is not None and per_frame is not None and per_frame > max_beats:
+        return per_frame
+    return None
+
+
+@dataclass(frozen=True)
+class Deferred:
+    """A vector file written piece by piece (too large to hold): ``size`` bytes from the
+    iterator ``chunks()`` of bytes."""
+
+    size: int
+    chunks: object
+
+
+class _Chunker:
+    """The ``stim_NNNNNN.bin`` files and ``expected.hex`` of a
+    :class:`~tdicam.beats.BeatStream`, made as they are written: each file in turn pulls
+    the stream's pieces it needs (the files must be written in order), the expected
+    beats are kept (they are few where a case is streamed) for ``expected.hex``."""
+
+    def __init__(self, bs, *, padded, ctrl_bits, out_padded, depth):
+        self.bs, self.padded, self.ctrl_bits, self.out_padded = bs, padded, ctrl_bits, out_padded
+        self.depth = depth
+        self._pieces = None
+        self._cur, self._pos, self._exp, self._next = None, 0, [], 0
+
+    def files(self, count_in, count_out):
+        """{name: Deferred} of every chunk and of ``expected.hex`` (``count_in`` and
+        ``count_out`` elements a beat)."""
+        record = codec.stimulus_word_bytes(elem_padded_bits=self.padded, count=count_in,
+                                           ctrl_bits=self.ctrl_bits)
+        out = {}
+        for k in range(0, max(self.bs.n_in, 1), self.depth):
+            beats = min(self.depth, self.bs.n_in - k)
+            out[f"stim_{k // self.depth:06d}.bin"] = Deferred(
+                beats * record, lambda k=k // self.depth: self._chunk(k))
+        line = codec.header_digits(8) + count_out * (self.out_padded // 4) + 1
+        out["expected.hex"] = Deferred(self.bs.n_out * line, self._expected)
+        return out
+
+    def _take(self, n):
+        """Up to ``n`` further stimulus beats (None at the end of the stream)."""
+        if self._pieces is None:
+            self._pieces = iter(self.bs.pieces())
+        parts = []
+        while n:
+            if self._cur is None or self._pos >= len(self._cur):
+                piece = next(self._pieces, None)
+                if piece is None:
+                    break
+                self._cur, self._pos = piece[0], 0
+                self._exp.append(piece[1])
+                continue
+            t = min(n, len(self._cur) - self._pos)
+            parts.append(self._cur.select(slice(self._pos, self._pos + t)))
+            self._pos += t
+            n -= t
+        return Beats.concat(parts) if parts else None
+
+    def _wrong(self):
+        return TdicamError(f"streamed case {self.bs.name}: the stream does not hold its "
+                           f"{self.bs.n_in:,} input and {self.bs.n_out:,} expected beats")
+
+    def _chunk(self, k):
+        if k != self._next:
+            raise RuntimeError("streamed stimulus chunks must be written in order")
+        self._next += 1
+        want = min(self.depth, self.bs.n_in - k * self.depth)
+        stim = self._take(want)
+        if stim is None or len(stim) != want:
+            raise self._wrong()
+        yield codec.encode_stimulus_bin(stim, elem_padded_bits=self.padded,
+                                        ctrl_bits=self.ctrl_bits)
+
+    def _expected(self):
+        if self._take(1) is not None:     # also takes the pieces after the last stimulus
+            raise self._wrong()
+        exp = Beats.concat(self._exp) if self._exp else None
+        if exp is None or len(exp) != self.bs.n_out:
+            raise self._wrong()
+        for k in range(0, len(exp), tbgen.DEPTH):
+            yield _expected_text(exp.select(slice(k, k + tbgen.DEPTH)),
+                                 self.out_padded).encode()
+
+
+def _size(content):
+    return content.size if isinstance(content, Deferred) else len(content)
 
 
 def _expected_text(exp, out_padded):
@@ -369,24 +476,35 @@ def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backp
         make = getattr(importlib.import_module(module), func)
     else:
         make = _stream_export
+    extra = {"say": say} if make is _stream_export else {}
     d, cases, n_in, n_out = make(blk, params, seed=seed, idle=idle, backpressure=backpressure,
-                                 max_beats=max_beats)
+                                 max_beats=max_beats, **extra)
     if say is not None:
-        size = sum(len(t) for t in design_files(d).values())
+        size = sum(_size(t) for t in design_files(d).values())
         say(f"export: {n_in:,} input beats, {n_out:,} expected beats, "
             f"{len(d.vectors)} vector file(s), {size / 1e6:.1f} MB in all")
     files = write_design(d, out, force=force)
     return Export(out, blk.name, params, cases, n_in, n_out, files)
 
 
-def _stream_export(blk, params, *, seed, idle, backpressure, max_beats):
+def _stream_export(blk, params, *, seed, idle, backpressure, max_beats, say=None):
     top = _stream_top(blk, params)
-    stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
+    try:
+        stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
+    except _OverLimit as over:
+        if blk.streamed_case is None:
+            raise
+        stim, exp = blk.streamed_case(params), None
+        cases = [stim.name]
+        if say is not None:
+            say(f"export: {blk.name}: {over.why}: exporting the case {stim.name} instead, "
+                f"{stim.n_in:,} input beats written in chunks as they are made")
     params = blk.resolve(params)
     d = stream_design(blk.name, blk.summary, block_rows(blk, params), params, top, stim, exp,
                       cases=cases, seed=seed, idle=idle, backpressure=backpressure,
                       rtl_header=header(blk.name, blk.recorded(params)))  # as tdicam verilog
-    return d, cases, len(stim), len(exp)
+    n_in, n_out = (stim.n_in, stim.n_out) if exp is None else (len(stim), len(exp))
+    return d, cases, n_in, n_out
 
 
 def _stream_top(blk, params):
@@ -400,44 +518,53 @@ def _stream_top(blk, params):
 def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, seed=1,
                   idle=0.1, backpressure=0.1, core=None, rtl_header=None):
     """:class:`Design` of the AXI4-Stream top ``top`` (module ``name``) checked against
-    stimulus ``stim`` and expected output ``exp`` (:class:`~tdicam.beats.Beats`); its Verilog
+    stimulus ``stim`` and expected output ``exp`` (:class:`~tdicam.beats.Beats`), or a
+    :class:`~tdicam.beats.BeatStream` ``stim`` (``exp`` None: its vector files are
+    :class:`Deferred`, made as they are written, in order); its Verilog
     starts with ``rtl_header`` (default: :func:`tdicam.hw.verilog.header` of ``name`` and
     ``params``), so that it equals what ``tdicam verilog`` writes."""
     in_bits, out_bits, ctrl = stream_ports(top)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     padded = top._in[2]
+    streamed = isinstance(stim, BeatStream)
+    n_in, n_out = (stim.n_in, stim.n_out) if streamed else (len(stim), len(exp))
     idle_thr, bp_thr = thresholds(idle, backpressure)
     slow = 1.0 / ((1 - idle) * (1 - backpressure))
-    sc = tbgen.SelfCheck(n_in=len(stim), n_out=len(exp),
-                         max_cycles=int((len(stim) + len(exp)) * 4 * slow) + 100_000,
+    sc = tbgen.SelfCheck(n_in=n_in, n_out=n_out,
+                         max_cycles=int((n_in + n_out) * 4 * slow) + 100_000,
                          idle=idle_thr, bp=bp_thr, seed=int(seed))
     # one chunk as deep as the stimulus, or full chunks and a short last one
-    depth = min(tbgen.DEPTH, max(len(stim), 1))
+    depth = min(tbgen.DEPTH, max(n_in, 1))
     tb = tbgen.stream_testbench(name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
                                 depth=depth, selfcheck=sc)
-    vectors = dict(tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits,
-                                        depth=depth))
-    vectors["expected.hex"] = _expected_text(exp, top._out[2])
-    resets = int(stim.rst.sum())
+    if streamed:                  # a streamed case has no resets
+        vectors = _Chunker(stim, padded=padded, ctrl_bits=ctrl_bits, out_padded=top._out[2],
+                           depth=depth).files(top._in[1], top._out[1])
+        resets = 0
+    else:
+        vectors = dict(tbgen.stimulus_files(stim, elem_padded_bits=padded,
+                                            ctrl_bits=ctrl_bits, depth=depth))
+        vectors["expected.hex"] = _expected_text(exp, top._out[2])
+        resets = int(stim.rst.sum())
     lat = getattr(getattr(top, "core", None), "latency", None)
     latency = (f"{lat} clock cycles from an accepted input beat to its output (no stalls)"
                if lat is not None else "see the block's documentation (data dependent)")
     checks = (f"`tb/tdicam_tb.v` (module `{tbgen.TB_TOP}`, plain Verilog-2005 with `$fread` "
-              f"and `$readmemh`) drives the {len(stim)} stimulus beats of the binary "
+              f"and `$readmemh`) drives the {n_in} stimulus beats of the binary "
               f"`vectors/stim_*.bin` (each beat `{{rst, ctrl, tuser, tlast, tdata}}` "
               f"zero-extended to whole bytes, most significant byte first; golden cases: "
               f"{', '.join(cases)}) with random idle cycles and backpressure, compares each of "
-              f"the {len(exp)} expected output transfers of `vectors/expected.hex` in HDL and "
+              f"the {n_out} expected output transfers of `vectors/expected.hex` in HDL and "
               f"prints `PASS n beats`, or `FAIL` with the first mismatching beat "
               f"(index, expected, got) and exits non-zero through `$fatal`. "
-              + (f"It passes with 0 < n <= {len(exp)}: the stimulus resets the block {resets} "
+              + (f"It passes with 0 < n <= {n_out}: the stimulus resets the block {resets} "
                  f"time(s) (mid-stream or between golden cases) and a reset drops the data in "
                  f"flight when it hits, so a segment cut short may end early; every "
                  f"transfer received must equal the next expected one of its segment, the last segment must be complete and "
                  f"nothing may be added. When beats were dropped the line says how many: "
-                 f"`PASS n beats (k of {len(exp)} expected beats dropped by mid-stream "
+                 f"`PASS n beats (k of {n_out} expected beats dropped by mid-stream "
                  f"resets; ...)`." if resets else
-                 f"It passes with n = {len(exp)} (the stimulus has no reset)."))
+                 f"It passes with n = {n_out} (the stimulus has no reset)."))
     plusargs = (f"Plusargs: `+seed=N` (default {sc.seed}), `+idle=N` and `+bp=N` (probability "
                 f"x 256 of an idle input cycle / of `m_axis_tready` low; default {sc.idle} "
                 f"and {sc.bp}), `+max_cycles=N` (default {sc.max_cycles}), `+drain=N`.")
@@ -501,6 +628,16 @@ def run_binary(blk, params, stim, exp, folder, *, seed=1, idle=0.1, backpressure
 def _check_target(out, block, params, force):
     if out.exists() and not out.is_dir():
         raise TdicamError(f"-o {str(out)!r}: exists and is not a folder")
+    # before any work (an 8192 x 128 export takes minutes): a folder can be made where the
+    # staging folder goes, beside -o, in its nearest existing parent
+    parent = out.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        tempfile.TemporaryDirectory(dir=parent, prefix=".tdicam-probe-").cleanup()
+    except OSError as exc:
+        raise TdicamError(f"-o {str(out)!r}: cannot write the export: "
+                          f"{exc.strerror or exc}") from None
     if out.is_dir() and any(out.iterdir()) and not force:
         mark = out / _MARK
         try:
@@ -514,21 +651,35 @@ def _check_target(out, block, params, force):
 
 
 def _write(out, files):
+    """Write ``files`` into a staging folder beside ``out``, then replace the export's
+    files in ``out`` with them: an error or Ctrl-C part way leaves ``out`` as it was."""
+    stage = out.parent / f".{out.name}.tdicam-export-{os.getpid()}-{os.urandom(4).hex()}"
     try:
-        if out.is_dir():
-            for sub in ("rtl", "tb", "vectors"):
-                shutil.rmtree(out / sub, ignore_errors=True)
-            for old in out.glob("tdicam_*.core"):
-                old.unlink()
-        for rel, text in files.items():
-            path = out / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(path.name + ".tmp")
-            if isinstance(text, bytes):
-                tmp.write_bytes(text)
+        try:
+            stage.mkdir(parents=True)
+            for rel, text in files.items():
+                path = stage / rel
+                path.parent.mkdir(parents=True, exist_ok=True)
+                if isinstance(text, Deferred):
+                    with open(path, "wb") as f:
+                        for chunk in text.chunks():
+                            f.write(chunk)
+                elif isinstance(text, bytes):
+                    path.write_bytes(text)
+                else:
+                    path.write_text(text)
+            if out.is_dir():
+                for sub in ("rtl", "tb", "vectors"):
+                    shutil.rmtree(out / sub, ignore_errors=True)
+                for old in out.glob("tdicam_*.core"):
+                    old.unlink()
+                for entry in sorted(stage.iterdir()):
+                    os.replace(entry, out / entry.name)
+                stage.rmdir()
             else:
-                tmp.write_text(text)
-            os.replace(tmp, path)
-    except OSError as exc:
-        raise TdicamError(f"-o {str(out)!r}: cannot write the export: "
-                          f"{exc.strerror or exc}") from None
+                os.replace(stage, out)
+        except OSError as exc:
+            raise TdicamError(f"-o {str(out)!r}: cannot write the export: "
+                              f"{exc.strerror or exc}") from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

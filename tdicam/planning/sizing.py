@@ -211,7 +211,10 @@ def plan_scenes(scene_path, given: dict):
             orbit.setdefault("altitude_km", DEFAULT_ALTITUDE_KM)
             labels.update({"orbit.altitude_km": "--altitude-km", "orbit.gsd_m": "--gsd-m"})
         if "gsd_m" in given:
-            gsds = list(given["gsd_m"])
+            g = given["gsd_m"]          # the API may give one number
+            gsds = list(g) if isinstance(g, (list, tuple)) else [g]
+            if not gsds:
+                raise TdicamError("--gsd-m: must not be an empty list")
             labels["orbit.gsd_m"] = "--gsd-m"
             twice = sorted({g for g in gsds if gsds.count(g) > 1})
             if twice:

@@ -151,7 +151,7 @@ KEYS = {
                                           "instead of pixel_clock_mhz"),
         "gains": KeyDoc("", "channel gains: one, or two as [high, low] with high > low "
                             "(Ning et al. 2019: [4.9, 0.8])",
-                        type="list of 1 or 2 numbers", range="each > 0"),
+                        type="list of 1 or 2 numbers", range="each in (0, 1e6]"),
         "black_level_dn": KeyDoc("DN", "ADC offset (pedestal) added to every sample, so that "
                                        "read noise around a dark level is not clipped at "
                                        "code 0", range="[0, 2**bits)"),

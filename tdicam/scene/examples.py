@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, api_arguments
 from tdicam.paths import SCENES
 
 __all__ = ["examples", "example_path"]
@@ -34,6 +34,7 @@ def _description(path: Path) -> str:
     return first
 
 
+@api_arguments
 def examples() -> dict[str, str]:
     """The bundled scenes, ``{name: one-line description}``, sorted by name.
 
@@ -63,6 +64,8 @@ def example_path(name: str) -> Path:
     TdicamError
         No bundled scene has that name (one line listing the names).
     """
+    if not isinstance(name, str):
+        raise TdicamError(f"bundled scene: expected a name, got {type(name).__name__}")
     stem = name[:-5] if name.endswith(".toml") else name
     path = SCENES / f"{stem}.toml"
     if "/" in stem or not path.is_file():

@@ -22,7 +22,7 @@ from typing import Any, Mapping
 
 from tdicam import blocks as _registry
 from tdicam.blocks import steps as _steps
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.model.physics import plan as _plan, targets as _targets
 from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
                                  TARGET_KINDS, Ddr, Motion, Optics, Orbit, Pipeline, RtlRun,
@@ -97,6 +97,7 @@ class Scene:
         return _plan.rolling_timing(self.line_period_s, t_row, self.sensor.rows)
 
     @classmethod
+    @api_arguments
     def load(cls, path: str | Path, *, overrides: Mapping[str, Any] | None = None) -> Scene:
         """Read and validate a scene TOML file (:func:`load_scene`).
 
@@ -119,6 +120,7 @@ class Scene:
         return load_scene(path, overrides=overrides)
 
     @classmethod
+    @api_arguments
     def from_dict(cls, data: Mapping[str, Any], *, base_dir: str | Path | None = None
                   ) -> Scene:
         """Validate a scene given as a dict (what :func:`tomllib.loads` makes of a scene
@@ -144,6 +146,7 @@ class Scene:
         return scene_from_dict(data, base_dir=base_dir)
 
     @classmethod
+    @api_arguments
     def example(cls, name: str) -> Scene:
         """A bundled scene by name (``tdicam scenes`` lists them).
 
@@ -164,6 +167,7 @@ class Scene:
         from tdicam.scene.examples import example_path
         return load_scene(example_path(name))
 
+    @api_arguments
     def with_run(self, *, lines: int | None = None, seed: int | None = None) -> Scene:
         """This scene with ``[run].lines`` and/or ``[run].seed`` replaced.
 
@@ -434,7 +438,7 @@ def _sensor(sec: _Section) -> Sensor:
     gains_raw = sec.raw("gains", [1.0])
     if not isinstance(gains_raw, list) or not 1 <= len(gains_raw) <= 2:
         sec.fail("gains", f"must be a list of one or two gains, got {_show(gains_raw)}")
-    gains = tuple(sec.number("gains", value=g, lo=0.0, lo_open=True,
+    gains = tuple(sec.number("gains", value=g, lo=0.0, lo_open=True, hi=1e6,  # 1e308: inf
                              what=f"(entry {i} of the list)")
                   for i, g in enumerate(gains_raw))
     if len(gains) == 2 and not gains[0] > gains[1]:
@@ -745,7 +749,8 @@ def _check_extent(target_sec: _Section, run_sec: _Section, scene: Scene) -> None
                         else (cols, "[sensor].columns"))
         if t.period_px > extent / 2:
             target_sec.fail("period_px", f"must be <= {extent / 2:g} (two bar periods across "
-                                         f"the {extent} px of {what}), got {t.period_px:g}")
+                                         f"the {extent} px of {what}), got {t.period_px:g}; "
+                                         f"or make {what} >= {math.ceil(2 * t.period_px)}")
 
 
 def _merge(base: dict, overrides: Mapping[str, Any]) -> dict:
@@ -767,11 +772,13 @@ def read_toml(path, what):
     (e.g. ``"scene file"``) and the problem: missing, a folder, unreadable, larger than
     :data:`tdicam.files.MAX_TOML_BYTES` (an endless file such as ``/dev/zero``), not UTF-8
     text, invalid TOML. A UTF-8 byte-order mark (which some editors write) is accepted."""
-    from tdicam.files import MAX_TOML_BYTES, read_bytes
-    p = Path(path)
+    from tdicam.files import MAX_TOML_BYTES, input_path, read_bytes
+    p = input_path(path, what)
     data = read_bytes(p, what, MAX_TOML_BYTES)
     try:
         return tomllib.loads(data.decode("utf-8-sig"))
+    except RecursionError:
+        raise TdicamError(f"{p}: invalid TOML: arrays or tables nested too deeply") from None
     except UnicodeDecodeError:
         raise TdicamError(f"{p}: not a TOML text file (it is not UTF-8)") from None
     except tomllib.TOMLDecodeError as exc:
@@ -808,7 +815,8 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
     base_dir = None
     source = "<command line>"
     if path is not None:
-        p = Path(path)
+        from tdicam.files import input_path
+        p = input_path(path, "scene file")
         data = read_toml(p, "scene file")
         base_dir = p.resolve().parent
         source = str(p)

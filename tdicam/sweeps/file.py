@@ -33,7 +33,10 @@ Points, runs and seeds
 A *point* is one combination of axis values; a *run* is one point and one repeat. Every
 point is validated through the scene loader (:func:`tdicam.scene.loader.scene_from_dict`) before
 anything runs, so a bad value gives the scene's own one-line error, prefixed with the sweep
-file and the point. The seed of run ``(point, repeat)`` replaces ``[run].seed``: the first 63
+file and the point. With a ``limit`` (``--limit N``) only the points the first N runs still to
+compute need are validated, plus every value of every axis once (the points that differ
+from the first in one axis); the other points stay unvalidated (``missing`` in the results,
+seed -1 and no hash) until a rerun reaches them. The seed of run ``(point, repeat)`` replaces ``[run].seed``: the first 63
 bits of ``sha256`` of the point's validated scene (with the base seed) and the repeat index —
 it depends on what is simulated, never on which worker runs it or in which order. More runs
 than :data:`MAX_RUNS` need ``force=True`` (``--force``); more than :data:`MAX_FORCED_RUNS`
@@ -56,10 +59,11 @@ import numpy as np
 
 from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
+from tdicam.files import input_path
 from tdicam.scene.loader import read_toml
 
 __all__ = ["MAX_RUNS", "MAX_FORCED_RUNS", "STORE_FORMAT", "Axis", "Run", "Sweep",
-           "load_sweep"]
+           "load_sweep", "read_sweep", "validate_sweep"]
 
 #: Largest number of runs (points x repeats) accepted without ``force``.
 MAX_RUNS = 5000
@@ -90,7 +94,8 @@ class Axis:
 class Run:
     """One task: point ``point`` (index into :attr:`Sweep.points`), repeat ``repeat``, its
     validated scene (seed set), ``seed``, the store ``hash`` and ``settings``, the scene as
-    the plain dict that was hashed."""
+    the plain dict that was hashed. A run of a point not validated yet (``limit`` of
+    :func:`validate_sweep`) has ``scene`` None, ``seed`` -1 and ``hash`` ""."""
 
     point: int
     repeat: int
@@ -102,7 +107,9 @@ class Run:
 
 @dataclass(frozen=True)
 class Sweep:
-    """A validated sweep: axes, points (dicts key -> value) and runs (point-major)."""
+    """A sweep: axes, points (dicts key -> value) and runs (point-major); the first
+    ``validated`` points are validated (all of them after :func:`load_sweep`; none after
+    :func:`read_sweep`), the others' runs are placeholders (see :class:`Run`)."""
 
     path: Path
     name: str
@@ -114,6 +121,9 @@ class Sweep:
     runs: tuple[Run, ...]
     impact: bool
     promoted: tuple[str, ...]
+    validated: int = 0
+    base: dict = dataclasses.field(default=None, repr=False, compare=False)
+    src: str = ""
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -202,7 +212,8 @@ def _range(spec, label):
         return []
     count = (stop - start) / step + 1e-9            # inf for a tiny step: never int() it
     if count + 1 > _MAX_AXIS:
-        many = f"{int(count) + 1}" if math.isfinite(count) else "endlessly many"
+        many = (f"{int(count) + 1}" if count < 1e15 else f"about {count:.3g}"
+                if math.isfinite(count) else "endlessly many")
         raise TdicamError(f"{label}: range gives {many} values, more than {_MAX_AXIS}")
     n = int(math.floor(count)) + 1
     return [start + i * step if ints else float(start + i * step) for i in range(n)]
@@ -224,7 +235,10 @@ def _axis(key, raw, label, zipped=False):
     values = [_tidy(v) for v in values]
     seen = set()
     for v in values:
-        c = _canon(v)
+        try:
+            c = _canon(v)
+        except ValueError:                  # nan or inf (JSON has neither)
+            raise TdicamError(f"{label}: value {v!r} is not a finite number") from None
         if c in seen:
             raise TdicamError(f"{label}: value {v!r} is listed twice")
         seen.add(c)
@@ -260,9 +274,10 @@ def _show_point(point):
     return ", ".join(f"{k} = {json.dumps(v)}" for k, v in point.items())
 
 
-def _validation_progress(n_points, enabled):
+def _validation_progress(n_points, enabled, bounded=False):
     """A progress bar (a terminal) or one line (otherwise) while ``n_points`` points are
-    validated, when there are enough to take a while; None when quiet."""
+    validated (``bounded``: about that many, a ``limit`` stops it), when there are enough
+    to take a while; None when quiet."""
     import os
     import sys
     if not enabled or n_points < 500:
@@ -273,13 +288,15 @@ def _validation_progress(n_points, enabled):
             return tqdm(total=n_points, desc="validating points", unit="point", leave=False)
         except ImportError:
             pass
-    print(f"sweep: validating {n_points:,} points (about {n_points * 2e-3:.0f} s)",
+    print(f"sweep: validating {'about ' * bounded}{n_points:,} points "
+          f"(about {n_points * 2e-3:.0f} s)",
           file=sys.stderr, flush=True)
     return None
 
 
 def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
-    """Read, expand and validate a sweep file (see the module docstring).
+    """Read, expand and validate a sweep file (see the module docstring):
+    :func:`validate_sweep` of :func:`read_sweep`, every point validated.
 
     Parameters
     ----------
@@ -305,6 +322,12 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
         loader rejects (its message, with the point), too many runs without ``force``
         (or more than :data:`MAX_FORCED_RUNS` with it), a key both fixed and swept.
     """
+    return validate_sweep(read_sweep(path, force=force, impact=impact), progress=progress)
+
+
+def read_sweep(path, *, force=False, impact=False) -> Sweep:
+    """Read and expand a sweep file, no point validated yet (:func:`load_sweep` without
+    the validation: every point listed, each run a placeholder, the counts checked)."""
     doc, path, src = _read_doc(path)
     scene_path, base = _base_scene(doc, path, src)
     name = _name(doc, path, src)
@@ -313,11 +336,87 @@ def load_sweep(path, *, force=False, impact=False, progress=False) -> Sweep:
     _apply_set(base, tables, src)
     axes, zipped, promoted = _axes(base, tables, scene_path, src)
     _check_size(axes, zipped, repeats, force, src)
-    points, runs = _expand(base, axes, zipped, repeats, scene_path, src, impact=impact,
-                           progress=progress)
+    points = tuple(dict(c) for c in _combos(axes, zipped))
+    runs = tuple(Run(i, r, None, -1, "", {}) for i in range(len(points))
+                 for r in range(repeats))
     return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
-                 axes=tuple(axes), zipped=tuple(zipped), points=tuple(points),
-                 runs=tuple(runs), impact=bool(impact), promoted=tuple(promoted))
+                 axes=tuple(axes), zipped=tuple(zipped), points=points, runs=runs,
+                 impact=bool(impact), promoted=tuple(promoted), base=base, src=src)
+
+
+def validate_sweep(sweep: Sweep, *, progress=False, limit=None, finished=None) -> Sweep:
+    """Validate the points of a :func:`read_sweep` sweep through the scene loader, in
+    order, and give their runs seeds and hashes (see the module docstring).
+
+    Parameters
+    ----------
+    sweep : Sweep
+        From :func:`read_sweep`.
+    progress : bool
+        Show the validation's progress on stderr when there are many points.
+    limit : int, optional
+        Stop once the runs validated hold ``limit`` runs still to compute (not
+        ``finished``; a point whose runs are all finished is validated still, so that
+        ``limit=0`` reuses the finished prefix): only the points a ``limit``-bounded sweep
+        runs are validated, after
+        the points that differ from the first in one axis (every value of every axis once,
+        each a point of the sweep: a cheap check of the axes); the later points keep their
+        placeholder runs. None: every point.
+    finished : callable(hash) -> bool, optional
+        Whether run ``hash`` has a finished record (the store a rerun resumes from).
+
+    Returns
+    -------
+    Sweep
+        ``sweep`` with the validated points' runs and :attr:`Sweep.validated` set.
+
+    Raises
+    ------
+    TdicamError
+        The first point the scene loader rejects (its message, with the point).
+    """
+    def scene(index):
+        point = sweep.points[index]
+        return _point_scene(sweep.base, tuple(point.items()), point, sweep.scene_path,
+                            sweep.src)
+
+    n_points = len(sweep.points)
+    cross = [] if limit is None else _cross(sweep)
+    expect = (n_points if limit is None
+              else min(n_points, len(cross) + -(-limit // sweep.repeats)))
+    bar = _validation_progress(expect, progress, bounded=limit is not None)
+    for index in cross:
+        scene(index)
+        if bar is not None:
+            bar.update(1)
+    runs, todo, index, done = [], set(), 0, True
+    # past the limit, the points whose runs are all finished still count (reused runs)
+    while index < n_points and (limit is None or len(todo) < limit or done):
+        if bar is not None:
+            bar.update(1)
+        new = _point_runs(index, scene(index), sweep.repeats, sweep.impact)
+        if limit is not None:
+            fresh = {r.hash for r in new if not (finished is not None and finished(r.hash))}
+            todo |= fresh
+            done = not fresh
+        runs += new
+        index += 1
+    if bar is not None:
+        bar.close()
+    return dataclasses.replace(sweep, runs=tuple(runs) + sweep.runs[len(runs):],
+                               validated=index)
+
+
+def _cross(sweep):
+    """Indices of the points that differ from the first in one axis only (every value of
+    every axis once, a zip group as one axis), the first included."""
+    sizes = [len(a.values) for a in sweep.axes] + ([len(sweep.zipped[0].values)]
+                                                   if sweep.zipped else [])
+    out, stride = [0], 1
+    for n in reversed(sizes):
+        out += [i * stride for i in range(1, n)]
+        stride *= n
+    return sorted(out)
 
 
 def _read_doc(path):
@@ -326,7 +425,7 @@ def _read_doc(path):
         doc, path = dict(path), Path.cwd() / "sweep"
         src = "sweep"
     else:
-        path = Path(path)
+        path = input_path(path, "sweep file")
         doc = read_toml(path, "sweep file")
         src = str(path)
     for k in doc:
@@ -348,7 +447,12 @@ def _base_scene(doc, path, src):
         raise TdicamError(f"{src}: scene: must be the base scene's file name (relative to "
                           f"the sweep file), got {doc['scene']!r}")
     scene_path = (path.resolve().parent / doc["scene"]).resolve()
-    load_scene(scene_path)                       # the base scene's own errors first
+    try:
+        load_scene(scene_path)                   # the base scene's own errors first
+    except TdicamError as exc:
+        if str(scene_path) in str(exc) or scene_path.name in str(exc):
+            raise
+        raise TdicamError(f"{src}: scene {scene_path}: {exc}") from None
     return scene_path, read_toml(scene_path, "scene file")
 
 
@@ -430,8 +534,8 @@ def _check_size(axes, zipped, repeats, force, src):
                           f"reduce the axes or pass --force")
     if n_runs > MAX_FORCED_RUNS:
         raise TdicamError(f"{src}: {n_runs:,} runs (points x repeats), over the "
-                          f"{MAX_FORCED_RUNS:,} one sweep holds even with --force (each run "
-                          f"is validated and kept in memory before the first is computed); "
+                          f"{MAX_FORCED_RUNS:,} one sweep holds even with --force (its "
+                          f"results table and dataset hold every run, even with --limit); "
                           f"split it into several sweep files")
 
 
@@ -444,24 +548,6 @@ def _combos(axes, zipped):
         combos = [c + tuple((z.key, z.values[i]) for z in zipped)
                   for c in combos for i in range(len(zipped[0].values))]
     return combos
-
-
-def _expand(base, axes, zipped, repeats, scene_path, src, *, impact, progress):
-    """Every point (a dict of swept keys) and every run (each point's scene validated,
-    ``repeats`` times with its own seed and hash)."""
-    combos = _combos(axes, zipped)
-    points, runs = [], []
-    bar = _validation_progress(len(combos), progress)
-    for index, combo in enumerate(combos):
-        if bar is not None:
-            bar.update(1)
-        point = dict(combo)
-        scene = _point_scene(base, combo, point, scene_path, src)
-        runs.extend(_point_runs(index, scene, repeats, impact))
-        points.append(point)
-    if bar is not None:
-        bar.close()
-    return points, runs
 
 
 def _point_scene(base, combo, point, scene_path, src):

@@ -37,13 +37,14 @@ import numpy as np
 from tdicam import files as outputs
 from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
-from tdicam.sweeps.file import MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep
+from tdicam.sweeps.file import (MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep,
+                                read_sweep, validate_sweep)
 from tdicam.sweeps.results import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
                                   _store_record, _write_atomic, read_table, write_results)
 
 __all__ = ["MAX_RUNS", "ALLOWED_FAILURES", "STORE_FORMAT", "RESULT_COLUMNS", "TIMING_COLUMNS",
-           "Axis", "Run", "Sweep", "SweepResult", "load_sweep", "run_sweep", "run_one",
-           "read_table"]
+           "Axis", "Run", "Sweep", "SweepResult", "load_sweep", "read_sweep", "validate_sweep",
+           "finished_in", "run_sweep", "run_one", "read_table"]
 
 #: A task whose worker dies this many times is recorded as failed.
 ALLOWED_FAILURES = 3
@@ -150,6 +151,10 @@ class SweepResult:
                  f"computed {self.computed}, reused {self.reused} from {self.out_dir}/points, "
                  f"failed {len(self.failed)}, missing {self.missing}; {self.where}: "
                  f"{self.compute_seconds:.1f} s{rate}, {self.wall_seconds:.1f} s in all"]
+        if sw.validated < len(sw.points):
+            lines.append(f"validated {sw.validated} of {len(sw.points)} points (--limit; "
+                         f"every axis value checked): the others' runs are missing until a "
+                         f"rerun reaches them")
         if sw.promoted:
             lines.append("axes taken from the scene's own lists: " + ", ".join(sw.promoted))
         for f in self.failed[:20]:
@@ -233,6 +238,17 @@ def _result(fut):
         return {"status": "failed", "error": _one_line(exc), "row": None, "worker": None}
 
 
+def finished_in(out_dir):
+    """``finished(hash)`` for :func:`~tdicam.sweeps.file.validate_sweep`: whether
+    ``out_dir/points`` holds run ``hash``'s finished (ok) record."""
+    store = Path(out_dir) / "points"
+
+    def finished(h):
+        rec = _read_record(store, h)
+        return rec is not None and rec["status"] == "ok"
+    return finished
+
+
 def _not_foreign(out_dir):
     """Refuse a folder that holds something and is not a sweep's (no ``points/``): the
     results would overwrite, or sit among, files that are not ours."""
@@ -308,9 +324,9 @@ def _run_sweep(sweep, out_dir, store, *, workers, scheduler, serial, limit, prog
     runs, compute the missing ones (up to ``limit``), write the results and the summary."""
     done = _stored_runs(sweep, store)
     reused = sum(1 for r in sweep.runs if r.hash in done)
-    todo = [r for r in sweep.runs if r.hash not in done]
+    todo = [r for r in sweep.runs if r.hash and r.hash not in done]  # "": not validated
     computed = 0
-    runs_of = Counter(r.hash for r in sweep.runs)
+    runs_of = Counter(r.hash for r in sweep.runs if r.hash)
     bar = _progress(len(sweep.runs), reused, sweep.name, progress)
 
     def on_done(run, result):
@@ -340,7 +356,7 @@ def _stored_runs(sweep, store):
     """The sweep's runs already stored with status ``ok``: {hash: record}."""
     done = {}
     for run in sweep.runs:
-        if run.hash not in done:
+        if run.hash and run.hash not in done:       # "": a point not validated (limit)
             rec = _read_record(store, run.hash)
             if rec is not None and rec["status"] == "ok":
                 done[run.hash] = rec
