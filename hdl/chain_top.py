@@ -61,33 +61,44 @@ class Link:
             Value.cast(stream.payload.data).eq(flat),
         ]
 
-    def select(self, lo, hi):
-        """The same beats with elements ``lo:hi`` only (no handshake of its own)."""
-        return Link(self.valid, self.ready, self.first, self.last, self.elems[lo:hi],
-                    self.bits)
+    def pixel_elems(self, lo, hi, ppc=1):
+        """Elements ``lo:hi`` of each of the beat's ``ppc`` pixels, pixel-major (the beat
+        carries ``ppc`` pixels of ``len(elems) / ppc`` elements each)."""
+        n = len(self.elems) // ppc
+        return [e for p in range(ppc) for e in self.elems[p * n + lo:p * n + hi]]
+
+    def select(self, lo, hi, ppc=1):
+        """The same beats with elements ``lo:hi`` of each pixel only (no handshake of its
+        own)."""
+        return Link(self.valid, self.ready, self.first, self.last,
+                    self.pixel_elems(lo, hi, ppc), self.bits)
 
 
-def fork(m, link, parts, name):
-    """Split ``link`` into streams of element ranges ``parts``; a beat moves when every
-    branch takes it (each branch's valid waits for the others' ready)."""
+def fork(m, link, parts, name, ppc=1):
+    """Split ``link`` into streams of each pixel's element ranges ``parts`` (``ppc``
+    pixels a beat); a beat moves when every branch takes it (each branch's valid waits for
+    the others' ready)."""
     if len(parts) == 1:
-        return [link.select(*parts[0])]
+        return [link.select(*parts[0], ppc)]
     readies = [Signal(name=f"{name}_ready{k}") for k in range(len(parts))]
     outs = []
     for k, (lo, hi) in enumerate(parts):
         others = Cat(*(r for j, r in enumerate(readies) if j != k)).all()
         outs.append(Link(link.valid & others, readies[k], link.first, link.last,
-                         link.elems[lo:hi], link.bits))
+                         link.pixel_elems(lo, hi, ppc), link.bits))
     m.d.comb += link.ready.eq(Cat(*readies).all())
     return outs
 
 
-def join(m, a, b, name):
-    """One stream whose beats carry ``a``'s elements then ``b``'s; markers from ``a``."""
+def join(m, a, b, name, ppc=1):
+    """One stream whose beats carry, for each of the ``ppc`` pixels, ``a``'s elements then
+    ``b``'s (pixel-major); markers from ``a``."""
     ready = Signal(name=f"{name}_ready")
     m.d.comb += [a.ready.eq(ready & b.valid), b.ready.eq(ready & a.valid)]
-    return Link(a.valid & b.valid, ready, a.first, a.last, a.elems + b.elems,
-                max(a.bits, b.bits))
+    na, nb = len(a.elems) // ppc, len(b.elems) // ppc
+    elems = [e for p in range(ppc)
+             for e in a.elems[p * na:(p + 1) * na] + b.elems[p * nb:(p + 1) * nb]]
+    return Link(a.valid & b.valid, ready, a.first, a.last, elems, max(a.bits, b.bits))
 
 
 def frame_group(m, link, height, name):
@@ -107,18 +118,26 @@ def frame_group(m, link, height, name):
 
 class CalibRom(wiring.Component):
     """The flash words of a calibration image (``(n, 9)`` bytes, as
-    :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one word
-    per clock while ``o_stream.ready`` is high: the simulation stand-in for the flash.
+    :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one beat
+    of ``per_beat`` words per clock while ``o_stream.ready`` is high: the simulation
+    stand-in for the flash (``n`` a multiple of ``per_beat``).
 
-    ``o_stream.data`` = 9 bytes, element ``k`` = byte ``k`` (the input of
-    :class:`~tdicam.hdl.calib.CalibReader`); ``first``/``last`` are 0. Two register stages
+    ``o_stream.data`` = 9 bytes a word, element ``9 j + k`` = byte ``k`` of the beat's word
+    ``j`` (the input of :class:`~tdicam.hdl.calib.CalibReader` with as many words per
+    beat); ``first``/``last`` are 0. Two register stages
     (the memory's read port, then an output register: the block RAM's data goes straight
     into a flip-flop, not into the reader's ECC decoder).
     """
 
-    def __init__(self, words):
-        self._words = [int.from_bytes(bytes(bytearray(w)), "little") for w in words]
-        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 9)))})
+    def __init__(self, words, per_beat=1):
+        words = [bytes(bytearray(w)) for w in words]
+        if len(words) % per_beat:
+            raise TdicamError(f"calibration ROM: {len(words)} words is not a whole number "
+                              f"of beats of {per_beat}")
+        self._words = [int.from_bytes(b"".join(words[k:k + per_beat]), "little")
+                       for k in range(0, len(words), per_beat)]
+        self._bits = 72 * per_beat
+        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 9 * per_beat)))})
 
     @property
     def depth(self):
@@ -127,7 +146,7 @@ class CalibRom(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         n = len(self._words)
-        m.submodules.mem = mem = Memory(shape=72, depth=max(n, 2),
+        m.submodules.mem = mem = Memory(shape=self._bits, depth=max(n, 2),
                                         init=self._words + [0] * (max(n, 2) - n))
         rd = mem.read_port()
         o = self.o_stream
@@ -198,11 +217,16 @@ class Pipeline(wiring.Component):
         Input elements per lane (2 when the first stage is CDS: signal, reset).
     taps : bool
         Expose every stage's output stream as ports (simulation).
+    ppc : int
+        Pixels per beat (1, 2, 4, 8) of every stream; the stages' components are built at
+        it (their streams carry ``ppc`` pixels a beat, pixel-major, element 0 the
+        leftmost).
 
     Attributes
     ----------
     i_stream : In(pixel stream)
-        ``lanes * lane_elems`` elements of ``in_bits``: lane 0's elements first.
+        ``ppc * lanes * lane_elems`` elements of ``in_bits``, pixel-major: pixel 0's lane
+        0 elements first, then its lane 1 elements, then pixel 1's.
     o_stream : Out(pixel stream)
         The last stage's output.
     <stage>_<port> : In
@@ -222,13 +246,13 @@ class Pipeline(wiring.Component):
     varies (DDR).
     """
 
-    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False):
+    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1):
         self._stages = list(stages)
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
-        self._taps = taps
+        self._taps, self._ppc = taps, ppc
         self._cores = self._plan()
         members = {"i_stream": In(pixel_signature(channels_shape(in_bits,
-                                                                 lanes * lane_elems)))}
+                                                                 ppc * lanes * lane_elems)))}
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
@@ -278,7 +302,7 @@ class Pipeline(wiring.Component):
                 self._tap_shapes.append((st.name + (f"_{k}" if len(cs) > 1 else ""), ob, oc))
         self._out_shape = (bits, oc if self._stages else 1)
         if not self._stages:
-            self._out_shape = (self._in_bits, self._lanes * self._lane_elems)
+            self._out_shape = (self._in_bits, self._ppc * self._lanes * self._lane_elems)
         return cores
 
     stages = property(lambda self: list(self._stages))
@@ -297,7 +321,8 @@ class Pipeline(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         i = self.i_stream
-        n_in = self._lanes * self._lane_elems
+        ppc = self._ppc
+        n_in = ppc * self._lanes * self._lane_elems
         d = i.payload.data
         src_ready = Signal(name="in_ready")
         m.d.comb += i.ready.eq(src_ready)
@@ -315,7 +340,7 @@ class Pipeline(wiring.Component):
                 else:
                     link = lanes[0]
                     for k, other in enumerate(lanes[1:]):
-                        link = join(m, link, other, f"{st.name}_join{k}")
+                        link = join(m, link, other, f"{st.name}_join{k}", ppc)
                     lanes = [link]
                 split, per = True, [sum(per)]
             elif not split:
@@ -323,7 +348,7 @@ class Pipeline(wiring.Component):
                 for n in per:
                     parts.append((lo, lo + n))
                     lo += n
-                lanes = fork(m, whole, parts, f"{st.name}_fork")
+                lanes = fork(m, whole, parts, f"{st.name}_fork", ppc)
                 split = True
             outs = []
             for k, (core, link) in enumerate(zip(cores, lanes)):
@@ -332,7 +357,7 @@ class Pipeline(wiring.Component):
                     link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
                                        f"{st.name}_group{k}")
                 if st.side is not None:
-                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}")
+                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
                 for pname, member in core.signature.members.items():
                     if pname in ("i_stream", "o_stream"):
@@ -354,7 +379,7 @@ class Pipeline(wiring.Component):
                     ]
                 tap += 1
                 outs.append(out)
-            lanes, per = outs, [len(o.elems) for o in outs]
+            lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:
             raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "
                               f"merging block (hdr) must join them")

@@ -86,6 +86,60 @@ def test_verilog_command(tmp_path, capsys):
     assert main(["verilog", "pipeline"]) != 0            # no --scene: one-line error
 
 
+def test_plan_and_top_at_every_ppc():
+    """Every block of the chain at the plan's ppc (the scene's [run.rtl].pixels_per_clock
+    or the ``ppc`` argument); at ppc 1 the steps' parameters are those of before (only tdi
+    states its ppc); the top's streams and taps carry ppc pixels a beat; the Verilog at
+    ppc 1 equals the scene's default top."""
+    sc = _small()
+    p1 = pl.plan(sc)
+    assert p1.ppc == 1 and [s.params.get("ppc") for s in p1.steps] == [None] * 3 + [1, None]
+    assert pl.plan(sc, ppc=1) == p1
+    assert pl.plan(_small(run={"rtl": {"pixels_per_clock": 4}})).ppc == 4
+    for ppc in (2, 4, 8):
+        p = pl.plan(sc, ppc=ppc)
+        assert p.ppc == ppc and all(s.params["ppc"] == ppc for s in p.steps)
+        assert [s.block for s in p.steps] == [s.block for s in p1.steps]
+        ax = pl.top(p, taps=True)
+        core = ax.core
+        ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
+        # 2 lanes x (signal, reset) per pixel in; one median pixel out
+        assert (ax._in[1], ax._out[1]) == (4 * ppc, ppc)
+        assert [c for _, _, c in core.tap_shapes] == [ppc] * 7      # one pixel each
+        assert all(cs[0].i_stream.payload.data.shape().length % ppc == 0
+                   for cs in core.cores)
+    assert pl.verilog(pl.plan(sc, ppc=1)) == pl.verilog(p1)
+
+
+@pytest.mark.parametrize("ppc, width, msg", [
+    (3, 24, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
+    (8, 20, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
+    (8, 16, r"^pipeline: tdi -> median3: width \(ppc = 8\) = 16 is out of range; valid: 24"),
+])
+def test_impossible_ppc_gives_one_line_errors(ppc, width, msg):
+    with pytest.raises(TdicamError, match=msg) as exc:
+        pl.plan(_small(sensor={"columns": width}), ppc=ppc)
+    assert "\n" not in str(exc.value)
+
+
+def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
+    """``--ppc`` on ``tdicam verilog pipeline``: the top at that ppc; a bad value or one
+    that does not divide the width is a one-line error naming the flag and both values."""
+    from tdicam.cli import main
+    out = tmp_path / "camera.v"
+    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "8", "-o",
+                 str(out)]) == 0
+    assert "8 pixel(s) per clock" in capsys.readouterr().err
+    head = out.read_text().splitlines()[2:7]                  # every block at ppc 8
+    assert len(head) == 5 and all(h.endswith(", ppc=8") for h in head), head
+    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "3"]) == 2
+    assert "--ppc = 3 is not valid; valid: 1, 2, 4, 8" in capsys.readouterr().err
+    sc = _small(sensor={"columns": 20})
+    with pytest.raises(TdicamError, match=r"^--ppc = 8: the width 20 is not a multiple of it$"):
+        pl.check_options(sc, ppc=8)
+    pl.check_options(sc, ppc=4)
+
+
 def test_chain_model_groups_and_merges():
     """The golden chain on its own: lanes merged by a merging stage, frames grouped."""
     a = np.arange(2 * 3 * 4).reshape(2, 3, 4)
@@ -185,16 +239,19 @@ def test_ddr_section_is_checked(over, msg):
         _small(**over)
 
 
-def test_charge_domain_and_wide_pixels_per_clock_are_refused():
+def test_charge_domain_and_impossible_pixels_per_clock_are_refused():
     """A chain the whole-chain top cannot build is refused: charge-domain TDI by the plan;
-    with [run.rtl], charge domain and more than one pixel per clock already by the scene
-    (issue 18: the scene took pixels_per_clock = 4, the top refused it later)."""
+    with [run.rtl], charge domain and a pixels per clock the top does not take or that
+    does not divide the width already by the scene."""
     sc = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml")
     with pytest.raises(TdicamError, match="charge"):
         pl.plan(sc)
-    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be 1, got 4: "
-                                          r"the whole-chain top"):
-        _small(run={"rtl": {"pixels_per_clock": 4}})
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be one of "
+                                          r"1, 2, 4, 8, got 3$"):
+        _small(run={"rtl": {"pixels_per_clock": 3}})
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: 8 does not divide "
+                                          r"the \[sensor\].columns 20"):
+        _small(sensor={"columns": 20}, run={"rtl": {"pixels_per_clock": 8}})
     with pytest.raises(TdicamError, match=r"^\[run.rtl\]: needs \[tdi\].domain = 'digital'"):
         load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                    overrides={"run": {"rtl": {}}})

@@ -28,7 +28,7 @@ _QUICK_LINES = 8
 
 
 def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=False,
-                 idle=0.0, backpressure=0.0, seed=1):
+                 idle=0.0, backpressure=0.0, seed=1, ppc=None):
     """One whole-chain run of ``scene`` (a path) on ``sim``.
 
     Parameters
@@ -39,11 +39,15 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
         Also write every block's output (slower; the mismatch search uses them).
     idle, backpressure : float
         Probability of an idle input cycle / of output backpressure per cycle.
+    ppc : int or None
+        Pixels per clock of the top (default: the scene's ``[run.rtl].pixels_per_clock``,
+        else 1).
 
     Returns
     -------
     dict
-        ``chain`` (blocks in order), ``frames``, ``rows``, ``width``, ``input_pixels``,
+        ``chain`` (blocks in order), ``frames``, ``rows``, ``width``, ``ppc``,
+        ``input_pixels``,
         ``cycles``, ``compared`` (output pixels), ``mismatches`` (output beats whose data or
         frame markers differ, plus any missing or extra), seconds of ``scene_s`` (exact
         scene run), ``golden_s`` (numpy chain), ``build_s`` (0 when the build was cached),
@@ -58,7 +62,7 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
     sc = load_scene(scene)
     m = int(sc.tdi.stages[0])
     lines = int(lines or sc.run.lines)
-    p = pl.plan(sc, stages=m, lines=lines)
+    p = pl.plan(sc, stages=m, lines=lines, ppc=ppc)
     t = time.perf_counter()
     data, _ = scene_data(sc, stages=m, dv_over_v=float(sc.motion.dv_over_v[0]), lines=lines)
     scene_s = time.perf_counter() - t
@@ -67,12 +71,12 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
     golden_s = time.perf_counter() - t
     got, info = run_top(p, data, sim, taps=taps, idle=idle, backpressure=backpressure,
                         seed=seed)
-    exp = frames_to_beats(gold[-1][2])
+    exp = frames_to_beats(gold[-1][2], ppc=p.ppc)
     out = got["out"]
     n = min(len(out), len(exp))
     bad = int(beats_differ(out, exp).sum()) + abs(len(out) - len(exp))
     return {"chain": [s.block for s in p.steps], "frames": p.frames, "rows": p.rows,
-            "width": p.width, "lanes": p.lanes, "lane_elems": p.lane_elems,
+            "width": p.width, "ppc": p.ppc, "lanes": p.lanes, "lane_elems": p.lane_elems,
             "input_pixels": p.input_pixels * p.lane_elems, "cycles": int(info["cycles"]),
             "compared": n * out.data.shape[1], "mismatches": bad, "scene_s": scene_s,
             "golden_s": golden_s, "build_s": info["build_seconds"],

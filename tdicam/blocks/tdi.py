@@ -368,7 +368,7 @@ def _pipeline_step(ctx):
     if m_max > m and out_bits is None:
         out_bits = tdi_model.full_bits(pb, m)
     step = Step(ctx.block, {"width": ctx.width, "stages": m_max, "pixel_bits": pb,
-                            "out_bits": out_bits, "ppc": 1},
+                            "out_bits": out_bits, "ppc": ctx.ppc},
                 {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
     return step, tdi_model.out_width(pb, m_max, out_bits)
 
