@@ -21,7 +21,8 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import channels_shape, element_bits, pixel_signature
 
-__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group"]
+__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group",
+           "register_slice"]
 
 
 class Link:
@@ -116,6 +117,33 @@ def frame_group(m, link, height, name):
     return Link(link.valid, ready, link.first & ~cnt.any(), link.last, link.elems, link.bits)
 
 
+def register_slice(m, link, name):
+    """A register slice (skid buffer) on ``link``: the beat, its markers and valid come out
+    of registers, and the ready handed back upstream is a register too, so no
+    combinational path crosses it; one beat a clock sustained, latency 1 cycle, no beat
+    lost or duplicated whatever ``ready`` does. Cuts the path from a block's unregistered
+    output (e.g. a memory read) into the next block's logic."""
+    width = sum(len(Value.cast(e)) for e in link.elems) + 2
+    word = Cat(*link.elems, link.first, link.last)
+    o_valid, o_data = Signal(name=f"{name}_valid"), Signal(width, name=f"{name}_data")
+    s_valid, s_data = Signal(name=f"{name}_skid_valid"), Signal(width, name=f"{name}_skid")
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += link.ready.eq(~s_valid)
+    with m.If(~o_valid | ready):                 # the output register takes a beat
+        with m.If(s_valid):
+            m.d.sync += [o_valid.eq(1), o_data.eq(s_data), s_valid.eq(0)]
+        with m.Else():
+            m.d.sync += [o_valid.eq(link.valid), o_data.eq(word)]
+    with m.Elif(link.valid & ~s_valid):          # output stalled: the beat waits aside
+        m.d.sync += [s_valid.eq(1), s_data.eq(word)]
+    elems, lo = [], 0
+    for e in link.elems:
+        n = len(Value.cast(e))
+        elems.append(o_data[lo:lo + n])
+        lo += n
+    return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits)
+
+
 class CalibRom(wiring.Component):
     """The flash words of a calibration image (``(n, 9)`` bytes, as
     :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one beat
@@ -184,6 +212,9 @@ class LaneStage:
     group : str or None
         A top-level port (of this stage) giving the number of incoming frames grouped into
         one frame before the block (see :func:`frame_group`).
+    out_slice : bool
+        The block's output is not registered (e.g. read straight from a memory): a
+        :func:`register_slice` follows it when another stage takes its output.
     """
 
     name: str
@@ -192,6 +223,7 @@ class LaneStage:
     ports: tuple = ()
     side: Callable | None = None
     group: str | None = None
+    out_slice: bool = False
     merge: bool = field(default=False, init=False)
 
 
@@ -239,11 +271,12 @@ class Pipeline(wiring.Component):
 
     Notes
     -----
-    Every block keeps its own handshake; the top adds no register on the pixel path: forks
-    and joins are combinational, a beat moves through a fork when every branch takes it.
-    :attr:`latency` is the sum of the blocks' ``latency`` figures, each as its block defines
-    it (a 2-D block's counts from the input pixel its output needs last); None when one
-    varies (DDR).
+    Every block keeps its own handshake; the top adds no register on the pixel path but a
+    :func:`register_slice` after a stage whose ``out_slice`` says its output is not
+    registered, when another stage follows: forks and joins are combinational, a beat moves
+    through a fork when every branch takes it. :attr:`latency` is the sum of the blocks'
+    ``latency`` figures, each as its block defines it (a 2-D block's counts from the input
+    pixel its output needs last), plus 1 per register slice; None when one varies (DDR).
     """
 
     def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1):
@@ -316,7 +349,12 @@ class Pipeline(wiring.Component):
         """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
         when a block's latency varies (a block with its memory in DDR)."""
         lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
-        return None if None in lats else sum(lats)
+        return None if None in lats else sum(lats) + len(self._slices)
+
+    @property
+    def _slices(self):
+        """Indices of the stages followed by a register slice."""
+        return [k for k, st in enumerate(self._stages[:-1]) if st.out_slice]
 
     def elaborate(self, platform):
         m = Module()
@@ -333,7 +371,7 @@ class Pipeline(wiring.Component):
         per = [self._lane_elems] * self._lanes
         split = self._lanes == 1
         tap = 0
-        for st, cores in zip(self._stages, self._cores):
+        for n_st, (st, cores) in enumerate(zip(self._stages, self._cores)):
             if st.merge:
                 if not split:
                     lanes = [whole]
@@ -352,7 +390,7 @@ class Pipeline(wiring.Component):
                 split = True
             outs = []
             for k, (core, link) in enumerate(zip(cores, lanes)):
-                m.submodules[f"{st.name}" + (f"_{k}" if len(cores) > 1 else "")] = core
+                m.submodules[core_name(st, k, len(cores))] = core
                 if st.group is not None:
                     link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
                                        f"{st.name}_group{k}")
@@ -378,6 +416,8 @@ class Pipeline(wiring.Component):
                         getattr(self, f"tap{tap}_{name}_data").eq(Cat(*out.elems)),
                     ]
                 tap += 1
+                if n_st in self._slices:
+                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice")
                 outs.append(out)
             lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:
@@ -389,6 +429,11 @@ class Pipeline(wiring.Component):
         else:
             whole.feed(m, o, who="pipeline output")
         return m
+
+
+def core_name(st, lane, lanes):
+    """The submodule name of stage ``st``'s component of ``lane`` (of ``lanes``)."""
+    return st.name + (f"_{lane}" if lanes > 1 else "")
 
 
 def _data_shape(component, port):

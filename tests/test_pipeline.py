@@ -61,8 +61,9 @@ def test_top_latency_is_the_sum_of_the_blocks_and_taps_match_the_golden_stages()
     ax = pl.top(p, taps=True)
     core = ax.core
     ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
-    assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores)
-    assert core.latency == 1 + 3 + 4 + 9 + 26            # cds nuc hdr tdi median3+enhance
+    assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores) + 1
+    # cds nuc hdr tdi median3+enhance, and the register slice after tdi (its FIFO read)
+    assert core.latency == 1 + 3 + 4 + 9 + 26 + 1
     names = [t[0] for t in core.tap_shapes]
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
     assert names == [g[0] for g in pl.golden(p, data)]
@@ -138,6 +139,44 @@ def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
     with pytest.raises(TdicamError, match=r"^--ppc = 8: the width 20 is not a multiple of it$"):
         pl.check_options(sc, ppc=8)
     pl.check_options(sc, ppc=4)
+
+
+def test_register_slice_passes_every_beat_once_at_full_rate():
+    """The register slice between stages: with random idle cycles and backpressure every
+    beat comes out once, in order, markers kept; with neither, one beat a clock after a
+    latency of 1 cycle."""
+    from amaranth.hdl import Module
+    from amaranth.lib import wiring
+    from amaranth.lib.wiring import In, Out
+    from tdicam.cosim.codec import Beats
+    from tdicam.cosim.streamsim import run_stream_component
+    from tdicam.hdl.chain_top import Link, register_slice
+    from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+
+    class Slice(wiring.Component):
+        i_stream: In(pixel_signature(channels_shape(12, 4)))
+        o_stream: Out(pixel_signature(channels_shape(12, 4)))
+
+        def elaborate(self, platform):
+            m = Module()
+            i = self.i_stream
+            link = Link(i.valid, i.ready, i.payload.first, i.payload.last,
+                        [i.payload.data[k] for k in range(4)], 12)
+            register_slice(m, link, "s").feed(m, self.o_stream, who="test")
+            return m
+
+    rng = np.random.default_rng(5)
+    n = 300
+    stim = Beats(rng.integers(0, 1 << 12, (n, 4)).astype(np.uint64),
+                 np.arange(n) % 40 == 0, np.arange(n) % 8 == 7)
+    for p, seed in ((0.6, 1), (0.9, 2), (0.3, 3)):
+        got, _, _ = run_stream_component(Slice(), stim, n, seed=seed, p_valid=p, p_ready=p,
+                                         latency_from=None, drain=20)
+        assert [r for r, _, _ in got] == stim.data.astype(int).tolist()
+        assert [f for _, f, _ in got] == stim.first.tolist()
+        assert [la for _, _, la in got] == stim.last.tolist()
+    got, lat, final = run_stream_component(Slice(), stim, n, p_valid=1.0, p_ready=1.0)
+    assert lat == [1] and final["cycles"] <= n + 2
 
 
 def test_chain_model_groups_and_merges():

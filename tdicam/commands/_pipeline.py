@@ -86,14 +86,16 @@ def verilog_command(extra, output, *, show_help=False):
     return 0
 
 
-def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None):
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
+                  xilinx=True):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
     chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F.
     ``record(rows)``, when given, receives the result as a synthesis-record row (block
     ``pipeline``, parameters ``scene`` (file name), ``blocks``, ``width``, ``stages``,
-    ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`)."""
+    ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
+    synth_xilinx cell counts (``--no-xilinx``: not)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
-    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
+    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
         ppc = p.ppc
