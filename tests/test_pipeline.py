@@ -112,6 +112,21 @@ def test_plan_and_top_at_every_ppc():
     assert pl.verilog(pl.plan(sc, ppc=1)) == pl.verilog(p1)
 
 
+def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
+    """scenes/orbit_chain.toml: Qu et al. 2010's orbit design point (1280 columns x 96
+    stages) with nuc -> tdi -> median3, every block at its [run.rtl] 8 pixels per clock,
+    NUC coefficients through the ECC calibration reader, TDI saturated at 16 bits."""
+    sc = load_scene(ROOT / "scenes" / "orbit_chain.toml")
+    assert sc.run.rtl.pixels_per_clock == 8 and sc.pipeline.nuc.ecc is True
+    p = pl.plan(sc)
+    assert (p.ppc, p.width, p.rows, p.lanes) == (8, 1280, 96, 1)
+    assert [(s.block, s.params["ppc"]) for s in p.steps] == [("nuc", 8), ("tdi", 8),
+                                                            ("median3", 8)]
+    by = {s.block: s for s in p.steps}
+    assert by["tdi"].params["out_bits"] == 16 and by["median3"].params["pixel_bits"] == 16
+    assert by["tdi"].params["stages"] == 96 and by["median3"].group == sc.run.lines
+
+
 @pytest.mark.parametrize("ppc, width, msg", [
     (3, 24, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
     (8, 20, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
