@@ -81,8 +81,8 @@ class CalibReader(wiring.Component):
     while the source delivers a word every other clock and ``o_stream.ready`` is high (at
     ``ppc`` >= 2: one beat of ``ppc`` pixels per clock while it delivers a beat of words
     per clock);
-    ``i_stream.ready`` depends only on registers; no word or pixel is lost or duplicated
-    whatever ``ready`` does.
+    ``i_stream.ready`` depends only on registers (at ``ppc`` >= 2 also on
+    ``o_stream.ready``); no word or pixel is lost or duplicated whatever ``ready`` does.
     """
 
     @quiet_reject
@@ -178,8 +178,12 @@ class CalibReader(wiring.Component):
 
         p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64 * k), Signal(k), Signal()
         p_cor, p_unc, p_single = Signal(cb), Signal(cb), Signal()
+        # at ppc >= 2 a payload beat is one output beat: the pending word moves on in the
+        # cycle the next one arrives (one beat a clock; i.ready then follows o.ready)
+        load_cur = Signal()
+        free = ~p_valid if ppc == 1 else ~p_valid | load_cur
         m.d.comb += [
-            d_go.eq(d_valid & (in_header | ~p_valid)),
+            d_go.eq(d_valid & (in_header | free)),
             i.ready.eq(~d_valid | d_go),
         ]
         with m.If(i.ready):
@@ -213,7 +217,6 @@ class CalibReader(wiring.Component):
         col = Signal(range(max(cols, 2)))
         take = Signal()
         cur_done = Signal()
-        load_cur = Signal()
         m.d.comb += [
             take.eq(o.valid & o.ready),
             cur_done.eq(take & (c_idx | c_single) if ppc == 1 else take),

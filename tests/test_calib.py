@@ -278,6 +278,25 @@ def test_amaranth_reader_at_ppc(ppc):
         == (int(m.corrected[-1]), int(m.uncorrectable[-1]), 1)
 
 
+@pytest.mark.parametrize("ppc", [2, 8])
+def test_amaranth_reader_full_rate_at_ppc(ppc):
+    """Beats of words offered every cycle, sink always ready: one output beat of ppc
+    pixels per clock (the camera's coefficient rate at ppc pixels per clock)."""
+    from tdicam.cosim.codec import Beats
+    rows, cols = 6, 4 * ppc
+    g, o = _maps(rows, cols, seed=ppc)
+    k = max(1, ppc // 2)
+    beats = calib.encode_image(g, o).reshape(-1, 9 * k).astype(np.uint64)
+    stim = Beats(beats, np.zeros(len(beats), bool), np.zeros(len(beats), bool))
+    n = rows * cols // ppc
+    out, _, final = run_stream_component(CalibReader(rows=rows, cols=cols, ppc=ppc), stim, n,
+                                         p_valid=1.0, p_ready=1.0, latency_from=None)
+    assert [r for r, _, _ in out] == np.stack([g.ravel(), o.ravel() & 0xFFFF],
+                                              axis=-1).reshape(n, -1).tolist()
+    # 4 / k header beats + 3-cycle latency + n beats at 1/clock
+    assert final["cycles"] <= 4 // k + 3 + n + 1
+
+
 @pytest.mark.parametrize("kw,match", [
     ({"ppc": 3}, "ppc = 3 is not valid; valid: 1, 2, 4, 8"),
     ({"ppc": 4, "cols": 6}, "cols = 6 is not a multiple of ppc = 4"),
