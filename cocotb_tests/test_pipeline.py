@@ -152,14 +152,15 @@ def test_corrupted_pixel_inside_a_wide_beat_is_named(small):
 @pytest.mark.slow
 @pytest.mark.skipif(not FULL, reason="DDR spill at ppc 4: TDICAM_FULL=1")
 def test_tdi_spilled_to_ddr_at_ppc_4_matches():
+    """560 columns: at ppc 4 a row of DDR partial sums needs more than 136 beats."""
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
-        "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6},
+        "sensor": {"columns": 560}, "tdi": {"stages": 4}, "run": {"lines": 6},
         "target": {"period_px": 3.0}})
     p = pl.plan(sc, spill=True, ppc=4)
     assert [(s.block, s.params["ppc"]) for s in p.steps] == [("tdi_ddr", 4)]
     data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
-    assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 160, rep["message"]
+    assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 560, rep["message"]
 
 
 @pytest.mark.slow
