@@ -3,8 +3,10 @@
 Default run (Icarus, small): the Ning et al. 2019 chain (cds -> nuc -> hdr -> tdi -> median3 with
 enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden stage is
 named with its first differing pixel, and the waveform around it is written; TDI spilled to
-DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene. With
-``TDICAM_FULL=1``: the whole small scene through Verilator.
+DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene; the chain at 8 pixels
+per clock on Icarus and on Verilator (one build each; a corrupted pixel inside a beat is
+named by its column). With ``TDICAM_FULL=1``: the whole small scene through Verilator, the
+chain at ppc 2 and 4 on both simulators, the DDR spill at ppc 4.
 """
 
 import os
@@ -104,6 +106,61 @@ def test_tdi_spilled_to_ddr_matches():
     data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
     assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 160, rep["message"]
+
+
+#: (simulator, ppc) of the wide-beat chain runs: one build per simulator by default.
+WIDE = [("icarus", 8), ("verilator", 8)] + ([("icarus", 2), ("icarus", 4), ("verilator", 2),
+                                             ("verilator", 4)] if FULL else [])
+
+
+@pytest.mark.parametrize("sim, ppc", WIDE)
+def test_chain_at_ppc_matches(small, sim, ppc):
+    """cds -> nuc -> hdr -> tdi -> median3 with every block at ``ppc`` pixels per clock
+    (NUC's coefficients ppc pairs a beat from the ECC calibration ROM), 20% idle cycles
+    and backpressure: every tap equal to the golden chain, in 1/ppc of the beats."""
+    p1, data = small
+    p = pl.plan(_scene(sim), ppc=ppc)
+    assert p.ppc == ppc and all(s.params["ppc"] == ppc for s in p.steps)
+    rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=ppc)
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert rep["pixels_compared"] == 6 * 24
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] == t["pixels"] // ppc
+               for t in rep["taps"]), rep["taps"]
+    assert rep["taps"][-1]["beats"] == 6 * 24 // ppc
+
+
+def test_corrupted_pixel_inside_a_wide_beat_is_named(small):
+    """At ppc 8 a corrupted pixel in the middle of a beat (column 13 = beat 1, element 5) is
+    named by its own frame, line and column (same Icarus build as the ppc-8 run)."""
+    _, data = small
+    p = pl.plan(_scene("icarus"), ppc=8)
+    hit = (2, 5, 13)                                       # frame, line, column of hdr
+
+    def corrupt(gold):
+        a = gold[4][2].copy()
+        a[hit] ^= 2
+        gold[4][2] = a
+
+    rep = cosimulate(p, data, "icarus", corrupt=corrupt, seed=8, idle=0.2,
+                     backpressure=0.2)
+    first = rep["first_mismatch"]
+    assert (first["tap"], first["frame"], first["line"], first["column"]) == ("hdr", *hit)
+    assert first["beat"] == (2 * 8 * 24 + 5 * 24 + 13) // 8
+    assert first["expected"] == first["received"] ^ 2 and rep["mismatches"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="DDR spill at ppc 4: TDICAM_FULL=1")
+def test_tdi_spilled_to_ddr_at_ppc_4_matches():
+    """560 columns: at ppc 4 a row of DDR partial sums needs more than 136 beats."""
+    sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
+        "sensor": {"columns": 560}, "tdi": {"stages": 4}, "run": {"lines": 6},
+        "target": {"period_px": 3.0}})
+    p = pl.plan(sc, spill=True, ppc=4)
+    assert [(s.block, s.params["ppc"]) for s in p.steps] == [("tdi_ddr", 4)]
+    data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
+    rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
+    assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 560, rep["message"]
 
 
 @pytest.mark.slow

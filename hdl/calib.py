@@ -2,11 +2,11 @@
 (Ning et al. 2019 §4.3). Image format and golden model:
 :mod:`tdicam.model.calib`."""
 
-from amaranth.hdl import Cat, Module, Mux, Signal
+from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import check_range
+from tdicam.errors import TdicamError, check_range
 from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, header_words,
                                 payload_words)
 from tdicam.model.nuc import NucFormat
@@ -36,18 +36,25 @@ class CalibReader(wiring.Component):
         Width of the saturating word counters, 8..32 (default 32).
     debug : bool
         Also carry, on every output pixel, the counters and flags (see ``o_stream``): the
-        co-simulation checks them pixel by pixel.
+        co-simulation checks them pixel by pixel. Only at ``ppc`` 1.
+    ppc : int
+        Pixels per output beat, 1, 2, 4 or 8 (``cols`` a multiple of it): at ``ppc`` >= 2
+        every input beat carries ``ppc / 2`` flash words (the pixels of one output beat)
+        and every output beat ``ppc`` pixels' coefficients (the ``nuc`` block's side input
+        at the same ppc).
 
     Attributes
     ----------
     i_stream : In(pixel stream)
-        One flash word per transfer: ``data`` = 9 bytes, element ``k < 8`` = data byte ``k``
+        One flash word per transfer (``max(1, ppc / 2)`` words, the first in the least
+        significant bytes): ``data`` = 9 bytes a word, element ``k < 8`` = data byte ``k``
         (least significant first), element 8 = the check byte (the image file's bytes in
         order; AXI ``tdata[71:0]`` = the 72-bit code word ``{check, data}``). ``first`` and
         ``last`` are ignored: the reader counts words from reset -- 4 header words, then
         ``ceil(rows*cols/2)`` payload words, then the next image's header.
     o_stream : Out(pixel stream)
-        One pixel's coefficients per transfer, raster order; ``first`` on pixel 0 of an
+        One pixel's coefficients per transfer (``ppc`` pixels', pixel-major: gain then
+        offset of the leftmost pixel first), raster order; ``first`` on pixel 0 of an
         image, ``last`` on the last pixel of each row. ``data`` elements of
         ``max(gain_bits, offset_bits)`` bits (``count_bits`` with ``debug``):
         ``data[0]`` = gain code, ``data[1]`` = offset code (two's complement in the low
@@ -71,17 +78,27 @@ class CalibReader(wiring.Component):
     input word; a decoded word register (header check and counters work from it), a
     pending and a current word register follow: :attr:`latency` = 3 cycles from the
     transfer of a payload word to its first pixel being valid. One pixel per clock
-    while the source delivers a word every other clock and ``o_stream.ready`` is high;
-    ``i_stream.ready`` depends only on registers; no word or pixel is lost or duplicated
-    whatever ``ready`` does.
+    while the source delivers a word every other clock and ``o_stream.ready`` is high (at
+    ``ppc`` >= 2: one beat of ``ppc`` pixels per clock while it delivers a beat of words
+    per clock);
+    ``i_stream.ready`` depends only on registers (at ``ppc`` >= 2 also on
+    ``o_stream.ready``); no word or pixel is lost or duplicated whatever ``ready`` does.
     """
 
     @quiet_reject
     def __init__(self, *, rows=3800, cols=5144, gain_int_bits=2, gain_frac_bits=14,
                  offset_bits=16, offset_frac_bits=0, count_bits=DEFAULT_COUNT_BITS,
-                 debug=False):
+                 debug=False, ppc=1):
         self._rows = check_range("rows", rows, 1, MAX_SIDE)
         self._cols = check_range("cols", cols, 1, MAX_SIDE)
+        if ppc not in (1, 2, 4, 8):
+            raise TdicamError(f"ppc = {ppc} is not valid; valid: 1, 2, 4, 8")
+        if cols % ppc:
+            raise TdicamError(f"cols = {cols} is not a multiple of ppc = {ppc}")
+        if debug and ppc > 1:
+            raise TdicamError(f"debug needs ppc = 1 (per-pixel counters), got ppc = {ppc}")
+        self._ppc = ppc
+        self._words = max(1, ppc // 2)
         self._fmt = NucFormat(gain_int_bits, gain_frac_bits, offset_bits, offset_frac_bits)
         self._fmt._check_slots()
         self._count_bits = check_range("count_bits", count_bits, 8, 32)
@@ -90,9 +107,9 @@ class CalibReader(wiring.Component):
         ebits = max(fmt.gain_bits, fmt.offset_bits, self._count_bits if debug else 0)
         self._elem_bits = ebits
         super().__init__({
-            "i_stream": In(pixel_signature(channels_shape(8, 9))),
-            "o_stream": Out(pixel_signature(channels_shape(ebits,
-                                                           DEBUG_ELEMENTS if debug else 2))),
+            "i_stream": In(pixel_signature(channels_shape(8, 9 * self._words))),
+            "o_stream": Out(pixel_signature(channels_shape(
+                ebits, DEBUG_ELEMENTS if debug else 2 * ppc))),
             "corrected_count": Out(self._count_bits),
             "uncorrectable_count": Out(self._count_bits),
             "header_error": Out(1),
@@ -103,6 +120,9 @@ class CalibReader(wiring.Component):
     fmt = property(lambda self: self._fmt, doc="The coefficient format (NucFormat).")
     count_bits = property(lambda self: self._count_bits)
     debug = property(lambda self: self._debug)
+    ppc = property(lambda self: self._ppc)
+    words_per_beat = property(lambda self: self._words,
+                              doc="Flash words in each input beat: max(1, ppc / 2).")
     elem_bits = property(lambda self: self._elem_bits)
 
     @property
@@ -115,19 +135,28 @@ class CalibReader(wiring.Component):
         i, o = self.i_stream, self.o_stream
         fmt, cb = self._fmt, self._count_bits
         rows, cols = self._rows, self._cols
-        n_pay = payload_words(rows, cols)
+        ppc, k = self._ppc, self._words          # pixels per output beat, words per beat
+        n_pay = payload_words(rows, cols) // k   # payload beats
         odd = (rows * cols) % 2 == 1
+        cols = cols // ppc                       # beats per row
 
-        m.submodules.dec = dec = SecdedDecoder()
-        m.d.comb += dec.code.eq(Cat(i.payload.data))
+        decs = [SecdedDecoder() for _ in range(k)]
+        if k == 1:
+            m.submodules.dec = decs[0]
+            m.d.comb += decs[0].code.eq(Cat(i.payload.data))
+        else:
+            for j, dec in enumerate(decs):
+                m.submodules[f"dec{j}"] = dec
+                m.d.comb += dec.code.eq(Cat(i.payload.data[9 * j + b] for b in range(9)))
+        dec = decs[0]
 
-        # ---- decode stage: the decoded word is registered before it is parsed (timing)
-        d_valid, d_data, d_cor, d_unc = Signal(), Signal(64), Signal(), Signal()
+        # ---- decode stage: the decoded words are registered before they are parsed (timing)
+        d_valid, d_data, d_cor, d_unc = Signal(), Signal(64 * k), Signal(k), Signal(k)
         d_go = Signal()  # the decoded word is consumed this cycle
 
         # ---- input side: header check, counters, pending word
         in_header = Signal(init=1)
-        hidx = Signal(range(HEADER_WORDS))
+        hidx = Signal(range(HEADER_WORDS // k))
         widx = Signal(range(max(n_pay, 2)))
         hdr_bad = Signal()
         cor = Signal(cb)
@@ -135,42 +164,62 @@ class CalibReader(wiring.Component):
         top = (1 << cb) - 1
         cor_next = Signal(cb)
         unc_next = Signal(cb)
+        if k == 1:
+            m.d.comb += [cor_next.eq(Mux(d_cor & (cor != top), cor + 1, cor)),
+                         unc_next.eq(Mux(d_unc & (unc != top), unc + 1, unc))]
+        else:                                    # several words a beat: add, saturate
+            for nxt, cnt, flags in ((cor_next, cor, d_cor), (unc_next, unc, d_unc)):
+                total = cnt + sum(flags[j] for j in range(k))
+                m.d.comb += nxt.eq(Mux(total > top, top, total))
         m.d.comb += [
-            cor_next.eq(Mux(d_cor & (cor != top), cor + 1, cor)),
-            unc_next.eq(Mux(d_unc & (unc != top), unc + 1, unc)),
             self.corrected_count.eq(cor), self.uncorrectable_count.eq(unc),
             self.header_error.eq(hdr_bad),
         ]
 
-        p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64), Signal(), Signal()
+        p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64 * k), Signal(k), Signal()
         p_cor, p_unc, p_single = Signal(cb), Signal(cb), Signal()
+        # at ppc >= 2 a payload beat is one output beat: the pending word moves on in the
+        # cycle the next one arrives (one beat a clock; i.ready then follows o.ready)
+        load_cur = Signal()
+        free = ~p_valid if ppc == 1 else ~p_valid | load_cur
         m.d.comb += [
-            d_go.eq(d_valid & (in_header | ~p_valid)),
+            d_go.eq(d_valid & (in_header | free)),
             i.ready.eq(~d_valid | d_go),
         ]
         with m.If(i.ready):
-            m.d.sync += [d_valid.eq(i.valid), d_data.eq(dec.data), d_cor.eq(dec.corrected),
-                         d_unc.eq(dec.uncorrectable)]
+            if k == 1:
+                m.d.sync += [d_valid.eq(i.valid), d_data.eq(dec.data),
+                             d_cor.eq(dec.corrected), d_unc.eq(dec.uncorrectable)]
+            else:
+                m.d.sync += [d_valid.eq(i.valid), d_data.eq(Cat(d.data for d in decs)),
+                             d_cor.eq(Cat(d.corrected for d in decs)),
+                             d_unc.eq(Cat(d.uncorrectable for d in decs))]
 
-        expect = header_words(rows, cols, fmt)
+        def word(j, what=d_data, bits=64):       # word j of a beat (the whole at k = 1)
+            return what if k == 1 else what[bits * j:bits * (j + 1)]
+
+        expect = header_words(self._rows, self._cols, fmt)
         mismatch = Signal()
         with m.Switch(hidx):
-            for k, word in enumerate(expect):
-                mask = 0xFFFF_FFFF if k == 3 else (1 << 64) - 1  # word 3: CRC not checked
-                with m.Case(k):
-                    m.d.comb += mismatch.eq(d_unc | ((d_data & mask) != (word & mask)))
+            for h in range(HEADER_WORDS // k):
+                bad = []
+                for j in range(k):
+                    n = h * k + j
+                    mask = 0xFFFF_FFFF if n == 3 else (1 << 64) - 1  # word 3: CRC not checked
+                    bad.append(word(j, d_unc, 1) | ((word(j) & mask) != (expect[n] & mask)))
+                with m.Case(h):
+                    m.d.comb += mismatch.eq(Cat(bad).any() if k > 1 else bad[0])
 
         # ---- output side: current word, pixel position
-        c_valid, c_data, c_bad, c_hbad = Signal(), Signal(64), Signal(), Signal()
+        c_valid, c_data, c_bad, c_hbad = Signal(), Signal(64 * k), Signal(k), Signal()
         c_cor, c_unc, c_single, c_idx = Signal(cb), Signal(cb), Signal(), Signal()
         row = Signal(range(max(rows, 2)))  # >= 1 bit: no zero-width vectors in Verilog
         col = Signal(range(max(cols, 2)))
         take = Signal()
         cur_done = Signal()
-        load_cur = Signal()
         m.d.comb += [
             take.eq(o.valid & o.ready),
-            cur_done.eq(take & (c_idx | c_single)),
+            cur_done.eq(take & (c_idx | c_single) if ppc == 1 else take),
             load_cur.eq(p_valid & (~c_valid | cur_done)),
         ]
 
@@ -180,13 +229,15 @@ class CalibReader(wiring.Component):
             m.d.sync += [cor.eq(cor_next), unc.eq(unc_next)]
             with m.If(in_header):
                 m.d.sync += hdr_bad.eq(Mux(~hidx.any(), mismatch, hdr_bad | mismatch))
-                with m.If(hidx == HEADER_WORDS - 1):
+                with m.If(hidx == HEADER_WORDS // k - 1):
                     m.d.sync += [hidx.eq(0), in_header.eq(0), widx.eq(0)]
                 with m.Else():
                     m.d.sync += hidx.eq(hidx + 1)
             with m.Else():
                 m.d.sync += [p_valid.eq(1), p_data.eq(d_data),
-                             p_bad.eq(d_unc | hdr_bad), p_hbad.eq(hdr_bad),
+                             p_bad.eq(d_unc | hdr_bad if k == 1 else
+                                      Mux(hdr_bad, Const(-1, k), d_unc)),
+                             p_hbad.eq(hdr_bad),
                              p_cor.eq(cor_next), p_unc.eq(unc_next),
                              p_single.eq(int(odd) & (widx == n_pay - 1))]
                 with m.If(widx == n_pay - 1):
@@ -210,11 +261,16 @@ class CalibReader(wiring.Component):
             with m.Else():
                 m.d.sync += col.eq(col + 1)
 
-        # slots of the current word: gain0, offset0, gain1, offset1 (16 bits each)
-        half = Mux(c_idx, c_data[32:], c_data[:32])
-        gain = Mux(c_bad, fmt.gain_one, half[:fmt.gain_bits])
-        offset = Mux(c_bad, 0, half[16:16 + fmt.offset_bits])
-        elems = [gain, offset]
+        # slots of a word: gain0, offset0, gain1, offset1 (16 bits each)
+        if ppc == 1:
+            halves = [(Mux(c_idx, c_data[32:], c_data[:32]), c_bad)]
+        else:                                    # every pixel of the beat's words
+            halves = [(c_data[32 * p:32 * (p + 1)], word(p // 2, c_bad, 1))
+                      for p in range(ppc)]
+        elems = []
+        for half, bad in halves:
+            elems += [Mux(bad, fmt.gain_one, half[:fmt.gain_bits]),
+                      Mux(bad, 0, half[16:16 + fmt.offset_bits])]
         if self._debug:
             elems += [c_cor, c_unc, Cat(c_bad, c_hbad)]
         slots = []

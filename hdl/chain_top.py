@@ -21,7 +21,8 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import channels_shape, element_bits, pixel_signature
 
-__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group"]
+__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group",
+           "register_slice"]
 
 
 class Link:
@@ -61,33 +62,44 @@ class Link:
             Value.cast(stream.payload.data).eq(flat),
         ]
 
-    def select(self, lo, hi):
-        """The same beats with elements ``lo:hi`` only (no handshake of its own)."""
-        return Link(self.valid, self.ready, self.first, self.last, self.elems[lo:hi],
-                    self.bits)
+    def pixel_elems(self, lo, hi, ppc=1):
+        """Elements ``lo:hi`` of each of the beat's ``ppc`` pixels, pixel-major (the beat
+        carries ``ppc`` pixels of ``len(elems) / ppc`` elements each)."""
+        n = len(self.elems) // ppc
+        return [e for p in range(ppc) for e in self.elems[p * n + lo:p * n + hi]]
+
+    def select(self, lo, hi, ppc=1):
+        """The same beats with elements ``lo:hi`` of each pixel only (no handshake of its
+        own)."""
+        return Link(self.valid, self.ready, self.first, self.last,
+                    self.pixel_elems(lo, hi, ppc), self.bits)
 
 
-def fork(m, link, parts, name):
-    """Split ``link`` into streams of element ranges ``parts``; a beat moves when every
-    branch takes it (each branch's valid waits for the others' ready)."""
+def fork(m, link, parts, name, ppc=1):
+    """Split ``link`` into streams of each pixel's element ranges ``parts`` (``ppc``
+    pixels a beat); a beat moves when every branch takes it (each branch's valid waits for
+    the others' ready)."""
     if len(parts) == 1:
-        return [link.select(*parts[0])]
+        return [link.select(*parts[0], ppc)]
     readies = [Signal(name=f"{name}_ready{k}") for k in range(len(parts))]
     outs = []
     for k, (lo, hi) in enumerate(parts):
         others = Cat(*(r for j, r in enumerate(readies) if j != k)).all()
         outs.append(Link(link.valid & others, readies[k], link.first, link.last,
-                         link.elems[lo:hi], link.bits))
+                         link.pixel_elems(lo, hi, ppc), link.bits))
     m.d.comb += link.ready.eq(Cat(*readies).all())
     return outs
 
 
-def join(m, a, b, name):
-    """One stream whose beats carry ``a``'s elements then ``b``'s; markers from ``a``."""
+def join(m, a, b, name, ppc=1):
+    """One stream whose beats carry, for each of the ``ppc`` pixels, ``a``'s elements then
+    ``b``'s (pixel-major); markers from ``a``."""
     ready = Signal(name=f"{name}_ready")
     m.d.comb += [a.ready.eq(ready & b.valid), b.ready.eq(ready & a.valid)]
-    return Link(a.valid & b.valid, ready, a.first, a.last, a.elems + b.elems,
-                max(a.bits, b.bits))
+    na, nb = len(a.elems) // ppc, len(b.elems) // ppc
+    elems = [e for p in range(ppc)
+             for e in a.elems[p * na:(p + 1) * na] + b.elems[p * nb:(p + 1) * nb]]
+    return Link(a.valid & b.valid, ready, a.first, a.last, elems, max(a.bits, b.bits))
 
 
 def frame_group(m, link, height, name):
@@ -105,20 +117,55 @@ def frame_group(m, link, height, name):
     return Link(link.valid, ready, link.first & ~cnt.any(), link.last, link.elems, link.bits)
 
 
+def register_slice(m, link, name):
+    """A register slice (skid buffer) on ``link``: the beat, its markers and valid come out
+    of registers, and the ready handed back upstream is a register too, so no
+    combinational path crosses it; one beat a clock sustained, latency 1 cycle, no beat
+    lost or duplicated whatever ``ready`` does. Cuts the path from a block's unregistered
+    output (e.g. a memory read) into the next block's logic."""
+    width = sum(len(Value.cast(e)) for e in link.elems) + 2
+    word = Cat(*link.elems, link.first, link.last)
+    o_valid, o_data = Signal(name=f"{name}_valid"), Signal(width, name=f"{name}_data")
+    s_valid, s_data = Signal(name=f"{name}_skid_valid"), Signal(width, name=f"{name}_skid")
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += link.ready.eq(~s_valid)
+    with m.If(~o_valid | ready):                 # the output register takes a beat
+        with m.If(s_valid):
+            m.d.sync += [o_valid.eq(1), o_data.eq(s_data), s_valid.eq(0)]
+        with m.Else():
+            m.d.sync += [o_valid.eq(link.valid), o_data.eq(word)]
+    with m.Elif(link.valid & ~s_valid):          # output stalled: the beat waits aside
+        m.d.sync += [s_valid.eq(1), s_data.eq(word)]
+    elems, lo = [], 0
+    for e in link.elems:
+        n = len(Value.cast(e))
+        elems.append(o_data[lo:lo + n])
+        lo += n
+    return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits)
+
+
 class CalibRom(wiring.Component):
     """The flash words of a calibration image (``(n, 9)`` bytes, as
-    :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one word
-    per clock while ``o_stream.ready`` is high: the simulation stand-in for the flash.
+    :func:`tdicam.model.calib.encode_image` writes them) streamed again and again, one beat
+    of ``per_beat`` words per clock while ``o_stream.ready`` is high: the simulation
+    stand-in for the flash (``n`` a multiple of ``per_beat``).
 
-    ``o_stream.data`` = 9 bytes, element ``k`` = byte ``k`` (the input of
-    :class:`~tdicam.hdl.calib.CalibReader`); ``first``/``last`` are 0. Two register stages
+    ``o_stream.data`` = 9 bytes a word, element ``9 j + k`` = byte ``k`` of the beat's word
+    ``j`` (the input of :class:`~tdicam.hdl.calib.CalibReader` with as many words per
+    beat); ``first``/``last`` are 0. Two register stages
     (the memory's read port, then an output register: the block RAM's data goes straight
     into a flip-flop, not into the reader's ECC decoder).
     """
 
-    def __init__(self, words):
-        self._words = [int.from_bytes(bytes(bytearray(w)), "little") for w in words]
-        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 9)))})
+    def __init__(self, words, per_beat=1):
+        words = [bytes(bytearray(w)) for w in words]
+        if len(words) % per_beat:
+            raise TdicamError(f"calibration ROM: {len(words)} words is not a whole number "
+                              f"of beats of {per_beat}")
+        self._words = [int.from_bytes(b"".join(words[k:k + per_beat]), "little")
+                       for k in range(0, len(words), per_beat)]
+        self._bits = 72 * per_beat
+        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 9 * per_beat)))})
 
     @property
     def depth(self):
@@ -127,7 +174,7 @@ class CalibRom(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         n = len(self._words)
-        m.submodules.mem = mem = Memory(shape=72, depth=max(n, 2),
+        m.submodules.mem = mem = Memory(shape=self._bits, depth=max(n, 2),
                                         init=self._words + [0] * (max(n, 2) - n))
         rd = mem.read_port()
         o = self.o_stream
@@ -165,6 +212,9 @@ class LaneStage:
     group : str or None
         A top-level port (of this stage) giving the number of incoming frames grouped into
         one frame before the block (see :func:`frame_group`).
+    out_slice : bool
+        The block's output is not registered (e.g. read straight from a memory): a
+        :func:`register_slice` follows it when another stage takes its output.
     """
 
     name: str
@@ -173,6 +223,7 @@ class LaneStage:
     ports: tuple = ()
     side: Callable | None = None
     group: str | None = None
+    out_slice: bool = False
     merge: bool = field(default=False, init=False)
 
 
@@ -198,11 +249,16 @@ class Pipeline(wiring.Component):
         Input elements per lane (2 when the first stage is CDS: signal, reset).
     taps : bool
         Expose every stage's output stream as ports (simulation).
+    ppc : int
+        Pixels per beat (1, 2, 4, 8) of every stream; the stages' components are built at
+        it (their streams carry ``ppc`` pixels a beat, pixel-major, element 0 the
+        leftmost).
 
     Attributes
     ----------
     i_stream : In(pixel stream)
-        ``lanes * lane_elems`` elements of ``in_bits``: lane 0's elements first.
+        ``ppc * lanes * lane_elems`` elements of ``in_bits``, pixel-major: pixel 0's lane
+        0 elements first, then its lane 1 elements, then pixel 1's.
     o_stream : Out(pixel stream)
         The last stage's output.
     <stage>_<port> : In
@@ -215,20 +271,21 @@ class Pipeline(wiring.Component):
 
     Notes
     -----
-    Every block keeps its own handshake; the top adds no register on the pixel path: forks
-    and joins are combinational, a beat moves through a fork when every branch takes it.
-    :attr:`latency` is the sum of the blocks' ``latency`` figures, each as its block defines
-    it (a 2-D block's counts from the input pixel its output needs last); None when one
-    varies (DDR).
+    Every block keeps its own handshake; the top adds no register on the pixel path but a
+    :func:`register_slice` after a stage whose ``out_slice`` says its output is not
+    registered, when another stage follows: forks and joins are combinational, a beat moves
+    through a fork when every branch takes it. :attr:`latency` is the sum of the blocks'
+    ``latency`` figures, each as its block defines it (a 2-D block's counts from the input
+    pixel its output needs last), plus 1 per register slice; None when one varies (DDR).
     """
 
-    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False):
+    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1):
         self._stages = list(stages)
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
-        self._taps = taps
+        self._taps, self._ppc = taps, ppc
         self._cores = self._plan()
         members = {"i_stream": In(pixel_signature(channels_shape(in_bits,
-                                                                 lanes * lane_elems)))}
+                                                                 ppc * lanes * lane_elems)))}
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
@@ -278,7 +335,7 @@ class Pipeline(wiring.Component):
                 self._tap_shapes.append((st.name + (f"_{k}" if len(cs) > 1 else ""), ob, oc))
         self._out_shape = (bits, oc if self._stages else 1)
         if not self._stages:
-            self._out_shape = (self._in_bits, self._lanes * self._lane_elems)
+            self._out_shape = (self._in_bits, self._ppc * self._lanes * self._lane_elems)
         return cores
 
     stages = property(lambda self: list(self._stages))
@@ -292,12 +349,18 @@ class Pipeline(wiring.Component):
         """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
         when a block's latency varies (a block with its memory in DDR)."""
         lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
-        return None if None in lats else sum(lats)
+        return None if None in lats else sum(lats) + len(self._slices)
+
+    @property
+    def _slices(self):
+        """Indices of the stages followed by a register slice."""
+        return [k for k, st in enumerate(self._stages[:-1]) if st.out_slice]
 
     def elaborate(self, platform):
         m = Module()
         i = self.i_stream
-        n_in = self._lanes * self._lane_elems
+        ppc = self._ppc
+        n_in = ppc * self._lanes * self._lane_elems
         d = i.payload.data
         src_ready = Signal(name="in_ready")
         m.d.comb += i.ready.eq(src_ready)
@@ -308,14 +371,14 @@ class Pipeline(wiring.Component):
         per = [self._lane_elems] * self._lanes
         split = self._lanes == 1
         tap = 0
-        for st, cores in zip(self._stages, self._cores):
+        for n_st, (st, cores) in enumerate(zip(self._stages, self._cores)):
             if st.merge:
                 if not split:
                     lanes = [whole]
                 else:
                     link = lanes[0]
                     for k, other in enumerate(lanes[1:]):
-                        link = join(m, link, other, f"{st.name}_join{k}")
+                        link = join(m, link, other, f"{st.name}_join{k}", ppc)
                     lanes = [link]
                 split, per = True, [sum(per)]
             elif not split:
@@ -323,16 +386,16 @@ class Pipeline(wiring.Component):
                 for n in per:
                     parts.append((lo, lo + n))
                     lo += n
-                lanes = fork(m, whole, parts, f"{st.name}_fork")
+                lanes = fork(m, whole, parts, f"{st.name}_fork", ppc)
                 split = True
             outs = []
             for k, (core, link) in enumerate(zip(cores, lanes)):
-                m.submodules[f"{st.name}" + (f"_{k}" if len(cores) > 1 else "")] = core
+                m.submodules[core_name(st, k, len(cores))] = core
                 if st.group is not None:
                     link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
                                        f"{st.name}_group{k}")
                 if st.side is not None:
-                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}")
+                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
                 for pname, member in core.signature.members.items():
                     if pname in ("i_stream", "o_stream"):
@@ -353,8 +416,10 @@ class Pipeline(wiring.Component):
                         getattr(self, f"tap{tap}_{name}_data").eq(Cat(*out.elems)),
                     ]
                 tap += 1
+                if n_st in self._slices:
+                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice")
                 outs.append(out)
-            lanes, per = outs, [len(o.elems) for o in outs]
+            lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:
             raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "
                               f"merging block (hdr) must join them")
@@ -364,6 +429,11 @@ class Pipeline(wiring.Component):
         else:
             whole.feed(m, o, who="pipeline output")
         return m
+
+
+def core_name(st, lane, lanes):
+    """The submodule name of stage ``st``'s component of ``lane`` (of ``lanes``)."""
+    return st.name + (f"_{lane}" if lanes > 1 else "")
 
 
 def _data_shape(component, port):

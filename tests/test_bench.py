@@ -212,8 +212,8 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
 
 def _pipeline_stand_in(seen):
     """A stand-in for :func:`tdicam.bench.camera.pipeline_run` (Icarus finds 3 mismatches)."""
-    def fake(scene, *, sim, lines, idle, backpressure):
-        seen.append((scene, sim, lines))
+    def fake(scene, *, sim, lines, idle, backpressure, ppc):
+        seen.append((scene, sim, lines, ppc))
         return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,
                 "input_pixels": 1_000_000, "cycles": 1_100_000, "compared": 512,
                 "mismatches": 3 if sim == "icarus" else 0, "golden_s": 0.5, "build_s": 7.0,
@@ -223,22 +223,27 @@ def _pipeline_stand_in(seen):
 
 def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     """``tdicam bench pipeline``: only when named; its rows carry the run's own figures
-    (a mismatch is counted, Icarus only with --quick, the target judged on wall time)."""
+    (a mismatch is counted, Icarus only with --quick, the target judged on wall time at
+    ppc 8), one row per ppc (1 and 8) side by side."""
     assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
     seen = []
     monkeypatch.setattr(benchpipe, "pipeline_run", _pipeline_stand_in(seen))
     rows = bench.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
     by = {r["level"]: r for r in rows}
     assert by["icarus fast"]["accuracy"] == "n/a" and seen == [
-        (benchpipe.PIPELINE_SCENE, "verilator", None)]
-    v = by["verilator fast"]
-    assert v["accuracy"] == "bit-exact" and v["rate"] == 1e6 and "target 500,000 px/s met" \
-        in v["note"] and v["build_s"] == 7.0 and by["golden"]["rate"] == 2e6
+        (benchpipe.PIPELINE_SCENE, "verilator", None, 1),
+        (benchpipe.PIPELINE_SCENE, "verilator", None, 8)]
+    assert benchpipe.PIPELINE_SCENE.name == "orbit_chain.toml"
+    v = by["verilator fast ppc 8"]
+    assert v["accuracy"] == "bit-exact" and v["rate"] == 1e6 and "target 8,000,000 px/s " \
+        "not met" in v["note"] and v["build_s"] == 7.0 and by["golden"]["rate"] == 2e6
+    assert "target judged at ppc 8" in by["verilator fast ppc 1"]["note"]
     seen.clear()
     rows = bench.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
-    assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8)]
-    assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching"]
-    assert "not met" in rows[1]["note"]
+    assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8, 1), (benchpipe.QUICK_SCENE, "icarus",
+                                                              8, 8)]
+    assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching", "3 mismatching"]
+    assert "not met" in rows[2]["note"]
 
 
 def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
@@ -250,7 +255,8 @@ def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "medians of" not in out and "fresh build" not in out, out
     legend = next(x for x in out.splitlines() if x.startswith("pipeline rows: "))
-    for part in ("the whole orbit_600km_1m_96.toml scene", "each row is one run",
+    for part in ("the whole orbit_chain.toml scene, through the top at 1 and 8 pixels per "
+                 "clock", "each row is one run",
                  "--repeat not used", "the build is timed apart",
                  "throughput = input pixels per wall second",
                  "input pixels per CPU second of the simulator process"):

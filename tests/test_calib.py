@@ -244,6 +244,69 @@ def test_amaranth_reader_tiny_images(rows, cols):
     assert [la for _, _, la in got] == exp.last.tolist()
 
 
+@pytest.mark.parametrize("ppc", [2, 4, 8])
+def test_amaranth_reader_at_ppc(ppc):
+    """ppc / 2 flash words a beat in, ppc pixels' coefficients a beat out (the pipeline
+    top's NUC side input at ppc): three images back to back -- single and double flips,
+    then a bad header (every pixel defaulted) -- equal to the golden reader model, with
+    idle cycles and backpressure; the counters at the end equal the model's."""
+    from tdicam.cosim.codec import Beats
+    rows, cols = 3, 2 * ppc
+    k = max(1, ppc // 2)
+    rng = np.random.default_rng(ppc)
+    imgs = [calib.inject_flips(rng, calib.encode_image(*_maps(rows, cols, seed=s)),
+                               p_single=0.3, p_double=0.2)[0] for s in range(2)]
+    wrong = calib.encode_image(*_maps(rows, cols + 1, seed=9))[:4]   # another size's header
+    imgs.append(np.concatenate([wrong, imgs[0][4:]]))
+    words = np.concatenate(imgs)
+    m = calib.reader_stream(words, rows=rows, cols=cols)
+    n = 3 * rows * cols
+    assert m.header_error[-1] and m.defaulted[-rows * cols:].all() and m.defaulted[:-rows * cols].any()
+    beats = words.reshape(-1, 9 * k).astype(np.uint64)
+    stim = Beats(beats, np.zeros(len(beats), bool), np.zeros(len(beats), bool))
+    dut = CalibReader(rows=rows, cols=cols, ppc=ppc)
+    assert dut.words_per_beat == k and dut.o_stream.payload.data.shape().length == 2 * ppc
+    got, _, final = run_stream_component(
+        dut, stim, n // ppc, seed=ppc, latency_from=None, timeout=1e-4,
+        status=("corrected_count", "uncorrectable_count", "header_error"))
+    exp = np.stack([m.gain, m.offset], axis=-1).reshape(-1, 2 * ppc)
+    assert [r for r, _, _ in got] == exp.astype(int).tolist()
+    beat = np.arange(n // ppc)
+    assert [f for _, f, _ in got] == (beat % (rows * cols // ppc) == 0).tolist()
+    assert [la for _, _, la in got] == (beat % (cols // ppc) == cols // ppc - 1).tolist()
+    assert (final["corrected_count"], final["uncorrectable_count"], final["header_error"]) \
+        == (int(m.corrected[-1]), int(m.uncorrectable[-1]), 1)
+
+
+@pytest.mark.parametrize("ppc", [2, 8])
+def test_amaranth_reader_full_rate_at_ppc(ppc):
+    """Beats of words offered every cycle, sink always ready: one output beat of ppc
+    pixels per clock (the camera's coefficient rate at ppc pixels per clock)."""
+    from tdicam.cosim.codec import Beats
+    rows, cols = 6, 4 * ppc
+    g, o = _maps(rows, cols, seed=ppc)
+    k = max(1, ppc // 2)
+    beats = calib.encode_image(g, o).reshape(-1, 9 * k).astype(np.uint64)
+    stim = Beats(beats, np.zeros(len(beats), bool), np.zeros(len(beats), bool))
+    n = rows * cols // ppc
+    out, _, final = run_stream_component(CalibReader(rows=rows, cols=cols, ppc=ppc), stim, n,
+                                         p_valid=1.0, p_ready=1.0, latency_from=None)
+    assert [r for r, _, _ in out] == np.stack([g.ravel(), o.ravel() & 0xFFFF],
+                                              axis=-1).reshape(n, -1).tolist()
+    # 4 / k header beats + 3-cycle latency + n beats at 1/clock
+    assert final["cycles"] <= 4 // k + 3 + n + 1
+
+
+@pytest.mark.parametrize("kw,match", [
+    ({"ppc": 3}, "ppc = 3 is not valid; valid: 1, 2, 4, 8"),
+    ({"ppc": 4, "cols": 6}, "cols = 6 is not a multiple of ppc = 4"),
+    ({"ppc": 2, "debug": True}, "debug needs ppc = 1"),
+])
+def test_reader_bad_ppc(kw, match):
+    with pytest.raises(TdicamError, match=match):
+        CalibReader(**kw)
+
+
 @pytest.mark.parametrize("kw,match", [
     ({"rows": 0}, "rows = 0 is out of range"),
     ({"gain_int_bits": 3}, "flash packing needs coefficients of at most 16 bits"),

@@ -435,6 +435,23 @@ def test_pipeline_export_rtl_is_what_tdicam_verilog_writes(tmp_path):
     assert (out / "rtl" / "pipeline.v").read_text() == v.stdout
 
 
+def test_pipeline_export_at_ppc_8_passes_on_icarus(tmp_path):
+    """``--ppc 8``: every block of the exported top at 8 pixels per clock, the stimulus and
+    the expected output in beats of 8 pixels (18 beats for 24 x 6 output pixels); a width
+    the ppc does not divide is a one-line error naming both."""
+    out = tmp_path / "chain8"
+    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
+            "--ppc", "8", "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "ppc=8" in (out / "rtl" / "pipeline.v").read_text().splitlines()[2]
+    r = icarus(out)
+    assert r.returncode == 0 and passed(r.stdout, 18) == 18, r.stdout[-2000:]
+    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "20", "--lines", "6",
+            "--ppc", "8", "-o", str(tmp_path / "bad"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--ppc = 8: the width 20 is not a multiple of it" in r.stderr
+
+
 @pytest.mark.parametrize("which", ["lvds", "chain"])
 def test_fusesoc_runs_lvds_and_the_pipeline_on_icarus(which, lvds_export, chain_export,
                                                       tmp_path):

@@ -25,9 +25,12 @@ def _est(over=None, **kw):
 
 @pytest.mark.parametrize("scene", sorted(p.name for p in (ROOT / "scenes").glob("*.toml")))
 def test_bundled_scene_estimates_in_range(scene):
-    """The bundled scenes measure 110..160 MiB peak (bench/bench_memory.py)."""
+    """The bundled scenes measure 110..160 MiB peak (bench/bench_memory.py); the orbit
+    chain (1280 columns x 96 stages, its NUC needing the exact path: every exposure of
+    127 frames kept) about 700 MiB."""
     est = budget.estimate(load_scene(ROOT / "scenes" / scene))
-    assert budget.BASE_BYTES <= est.peak_bytes < 400 << 20
+    limit = 800 << 20 if scene == "orbit_chain.toml" else 400 << 20
+    assert budget.BASE_BYTES <= est.peak_bytes < limit
     assert set(est.fidelity.values()) <= {"fast", "exact"} and est.fidelity
 
 

@@ -61,8 +61,9 @@ def test_top_latency_is_the_sum_of_the_blocks_and_taps_match_the_golden_stages()
     ax = pl.top(p, taps=True)
     core = ax.core
     ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
-    assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores)
-    assert core.latency == 1 + 3 + 4 + 9 + 26            # cds nuc hdr tdi median3+enhance
+    assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores) + 1
+    # cds nuc hdr tdi median3+enhance, and the register slice after tdi (its FIFO read)
+    assert core.latency == 1 + 3 + 4 + 9 + 26 + 1
     names = [t[0] for t in core.tap_shapes]
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
     assert names == [g[0] for g in pl.golden(p, data)]
@@ -84,6 +85,113 @@ def test_verilog_command(tmp_path, capsys):
     assert "cds -> nuc -> hdr -> tdi -> median3" in capsys.readouterr().err
     assert "s_axis_tdata" in out.read_text() and "tap0_cds" not in out.read_text()
     assert main(["verilog", "pipeline"]) != 0            # no --scene: one-line error
+
+
+def test_plan_and_top_at_every_ppc():
+    """Every block of the chain at the plan's ppc (the scene's [run.rtl].pixels_per_clock
+    or the ``ppc`` argument); at ppc 1 the steps' parameters are those of before (only tdi
+    states its ppc); the top's streams and taps carry ppc pixels a beat; the Verilog at
+    ppc 1 equals the scene's default top."""
+    sc = _small()
+    p1 = pl.plan(sc)
+    assert p1.ppc == 1 and [s.params.get("ppc") for s in p1.steps] == [None] * 3 + [1, None]
+    assert pl.plan(sc, ppc=1) == p1
+    assert pl.plan(_small(run={"rtl": {"pixels_per_clock": 4}})).ppc == 4
+    for ppc in (2, 4, 8):
+        p = pl.plan(sc, ppc=ppc)
+        assert p.ppc == ppc and all(s.params["ppc"] == ppc for s in p.steps)
+        assert [s.block for s in p.steps] == [s.block for s in p1.steps]
+        ax = pl.top(p, taps=True)
+        core = ax.core
+        ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
+        # 2 lanes x (signal, reset) per pixel in; one median pixel out
+        assert (ax._in[1], ax._out[1]) == (4 * ppc, ppc)
+        assert [c for _, _, c in core.tap_shapes] == [ppc] * 7      # one pixel each
+        assert all(cs[0].i_stream.payload.data.shape().length % ppc == 0
+                   for cs in core.cores)
+    assert pl.verilog(pl.plan(sc, ppc=1)) == pl.verilog(p1)
+
+
+def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
+    """scenes/orbit_chain.toml: Qu et al. 2010's orbit design point (1280 columns x 96
+    stages) with nuc -> tdi -> median3, every block at its [run.rtl] 8 pixels per clock,
+    NUC coefficients through the ECC calibration reader, TDI saturated at 16 bits."""
+    sc = load_scene(ROOT / "scenes" / "orbit_chain.toml")
+    assert sc.run.rtl.pixels_per_clock == 8 and sc.pipeline.nuc.ecc is True
+    p = pl.plan(sc)
+    assert (p.ppc, p.width, p.rows, p.lanes) == (8, 1280, 96, 1)
+    assert [(s.block, s.params["ppc"]) for s in p.steps] == [("nuc", 8), ("tdi", 8),
+                                                            ("median3", 8)]
+    by = {s.block: s for s in p.steps}
+    assert by["tdi"].params["out_bits"] == 16 and by["median3"].params["pixel_bits"] == 16
+    assert by["tdi"].params["stages"] == 96 and by["median3"].group == sc.run.lines
+
+
+@pytest.mark.parametrize("ppc, width, msg", [
+    (3, 24, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
+    (8, 20, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
+    (8, 16, r"^pipeline: tdi -> median3: width \(ppc = 8\) = 16 is out of range; valid: 24"),
+])
+def test_impossible_ppc_gives_one_line_errors(ppc, width, msg):
+    with pytest.raises(TdicamError, match=msg) as exc:
+        pl.plan(_small(sensor={"columns": width}), ppc=ppc)
+    assert "\n" not in str(exc.value)
+
+
+def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
+    """``--ppc`` on ``tdicam verilog pipeline``: the top at that ppc; a bad value or one
+    that does not divide the width is a one-line error naming the flag and both values."""
+    from tdicam.cli import main
+    out = tmp_path / "camera.v"
+    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "8", "-o",
+                 str(out)]) == 0
+    assert "8 pixel(s) per clock" in capsys.readouterr().err
+    head = out.read_text().splitlines()[2:7]                  # every block at ppc 8
+    assert len(head) == 5 and all(h.endswith(", ppc=8") for h in head), head
+    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "3"]) == 2
+    assert "--ppc = 3 is not valid; valid: 1, 2, 4, 8" in capsys.readouterr().err
+    sc = _small(sensor={"columns": 20})
+    with pytest.raises(TdicamError, match=r"^--ppc = 8: the width 20 is not a multiple of it$"):
+        pl.check_options(sc, ppc=8)
+    pl.check_options(sc, ppc=4)
+
+
+def test_register_slice_passes_every_beat_once_at_full_rate():
+    """The register slice between stages: with random idle cycles and backpressure every
+    beat comes out once, in order, markers kept; with neither, one beat a clock after a
+    latency of 1 cycle."""
+    from amaranth.hdl import Module
+    from amaranth.lib import wiring
+    from amaranth.lib.wiring import In, Out
+    from tdicam.cosim.codec import Beats
+    from tdicam.cosim.streamsim import run_stream_component
+    from tdicam.hdl.chain_top import Link, register_slice
+    from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+
+    class Slice(wiring.Component):
+        i_stream: In(pixel_signature(channels_shape(12, 4)))
+        o_stream: Out(pixel_signature(channels_shape(12, 4)))
+
+        def elaborate(self, platform):
+            m = Module()
+            i = self.i_stream
+            link = Link(i.valid, i.ready, i.payload.first, i.payload.last,
+                        [i.payload.data[k] for k in range(4)], 12)
+            register_slice(m, link, "s").feed(m, self.o_stream, who="test")
+            return m
+
+    rng = np.random.default_rng(5)
+    n = 300
+    stim = Beats(rng.integers(0, 1 << 12, (n, 4)).astype(np.uint64),
+                 np.arange(n) % 40 == 0, np.arange(n) % 8 == 7)
+    for p, seed in ((0.6, 1), (0.9, 2), (0.3, 3)):
+        got, _, _ = run_stream_component(Slice(), stim, n, seed=seed, p_valid=p, p_ready=p,
+                                         latency_from=None, drain=20)
+        assert [r for r, _, _ in got] == stim.data.astype(int).tolist()
+        assert [f for _, f, _ in got] == stim.first.tolist()
+        assert [la for _, _, la in got] == stim.last.tolist()
+    got, lat, final = run_stream_component(Slice(), stim, n, p_valid=1.0, p_ready=1.0)
+    assert lat == [1] and final["cycles"] <= n + 2
 
 
 def test_chain_model_groups_and_merges():
@@ -185,16 +293,19 @@ def test_ddr_section_is_checked(over, msg):
         _small(**over)
 
 
-def test_charge_domain_and_wide_pixels_per_clock_are_refused():
+def test_charge_domain_and_impossible_pixels_per_clock_are_refused():
     """A chain the whole-chain top cannot build is refused: charge-domain TDI by the plan;
-    with [run.rtl], charge domain and more than one pixel per clock already by the scene
-    (issue 18: the scene took pixels_per_clock = 4, the top refused it later)."""
+    with [run.rtl], charge domain and a pixels per clock the top does not take or that
+    does not divide the width already by the scene."""
     sc = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml")
     with pytest.raises(TdicamError, match="charge"):
         pl.plan(sc)
-    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be 1, got 4: "
-                                          r"the whole-chain top"):
-        _small(run={"rtl": {"pixels_per_clock": 4}})
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be one of "
+                                          r"1, 2, 4, 8, got 3$"):
+        _small(run={"rtl": {"pixels_per_clock": 3}})
+    with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: 8 does not divide "
+                                          r"the \[sensor\].columns 20"):
+        _small(sensor={"columns": 20}, run={"rtl": {"pixels_per_clock": 8}})
     with pytest.raises(TdicamError, match=r"^\[run.rtl\]: needs \[tdi\].domain = 'digital'"):
         load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                    overrides={"run": {"rtl": {}}})

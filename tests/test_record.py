@@ -83,6 +83,19 @@ def test_plan_says_whether_the_chain_keeps_up(tmp_path, monkeypatch, capsys):
     assert d["infeasible"] == ["chain pixel rate (synthesis record)"]
 
 
+def test_plan_of_the_orbit_chain_reads_its_ppc_8_row(capsys):
+    """scenes/orbit_chain.toml: the plan's whole-chain line is the recorded ppc-8 place and
+    route of its pipeline, and the verdict is Fmax x 8 against the sensor's rate."""
+    rows = record.find("pipeline", scene="orbit_chain.toml")
+    assert [int(r.params["ppc"]) for r in rows] == [8]
+    main(["plan", "--scene", str(SCENES / "orbit_chain.toml"), "--json"])
+    g = json.loads(capsys.readouterr().out)["points"][0]["gateware"]
+    (c,) = g["chain"]
+    assert (c["ppc"], c["fmax_mhz"], c["width"]) == (8, rows[0].fmax_mhz, 1280)
+    assert g["chain_ok"] == (rows[0].fmax_mhz * 8e6 >= g["pixel_rate"])
+    assert abs(g["pixel_rate"] - 848.9e6) < 0.1e6
+
+
 def test_a_scene_without_a_recorded_chain_has_none(capsys):
     assert main(["plan", "--scene", str(SCENES / "orbit_600km_1m_96.toml"), "--json"]) in (0, 1)
     d = json.loads(capsys.readouterr().out)

@@ -161,7 +161,8 @@ def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsy
     rep = json.loads((tmp_path / "o" / "report.json").read_text())
     assert "verilator: cannot start" in json.dumps(rep["rtl"])
     bad = tmp_path / "bad.toml"
-    bad.write_text(scene.read_text() + "pixels_per_clock = 8\n")
+    bad.write_text(scene.read_text() + "pixels_per_clock = 3\n")
     assert main(["run", str(bad), "-o", str(tmp_path / "o2"), "--no-impact"]) == 2
-    assert "[run.rtl].pixels_per_clock: must be 1, got 8" in capsys.readouterr().err
+    assert "[run.rtl].pixels_per_clock: must be one of 1, 2, 4, 8, got 3" in \
+        capsys.readouterr().err
     assert not (tmp_path / "o2").exists()

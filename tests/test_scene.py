@@ -480,12 +480,26 @@ def test_median_after_tdi(tmp_path):
     ("crop = [0, 0, 16]\n", "[run.rtl].crop: must be four integers"),
     ("crop = [-1, 0, 16, 16]\n", "[run.rtl].crop: needs x0, y0 >= 0"),
     ("simulator = \"modelsim\"\n", "[run.rtl].simulator: must be one of 'icarus', 'verilator'"),
-    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be 1, got 3: the whole-chain "
-                               "top that [run.rtl] co-simulates takes one pixel per clock"),
-    ("pixels_per_clock = 8\n", "[run.rtl].pixels_per_clock: must be 1, got 8"),
+    ("pixels_per_clock = 3\n", "[run.rtl].pixels_per_clock: must be one of 1, 2, 4, 8, got 3"),
+    ("pixels_per_clock = 8\ncrop = [0, 0, 12, 16]\n",
+     "[run.rtl].pixels_per_clock: 8 does not divide the [run.rtl].crop width 12: a beat "
+     "carries 8 pixels of a line"),
 ])
 def test_bad_rtl(tmp_path, rtl, expected):
     assert error_of(tmp_path, ORBIT + "[run.rtl]\n" + rtl).startswith(expected)
+
+
+def test_rtl_pixels_per_clock(tmp_path):
+    """1, 2, 4 or 8 pixels per clock dividing the width co-simulated: the crop's, or
+    without a crop the sensor's columns."""
+    for ppc in (1, 2, 4, 8):
+        sc = load_text(tmp_path, ORBIT + f"[run.rtl]\npixels_per_clock = {ppc}\n")
+        assert sc.run.rtl.pixels_per_clock == ppc
+    sc = load_text(tmp_path, ORBIT + "[run.rtl]\npixels_per_clock = 4\ncrop = [3, 0, 12, 8]\n")
+    assert sc.run.rtl.crop == (3, 0, 12, 8)
+    msg = error_of(tmp_path, ORBIT + "[sensor]\ncolumns = 1284\n[run.rtl]\npixels_per_clock = 8\n")
+    assert msg == ("[run.rtl].pixels_per_clock: 8 does not divide the [sensor].columns 1284: "
+                   "a beat carries 8 pixels of a line")
 
 
 def test_rtl_needs_digital_tdi(tmp_path):

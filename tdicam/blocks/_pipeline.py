@@ -4,11 +4,12 @@ pipeline-top stage of a block's registered component."""
 __all__ = ["lane_stage"]
 
 
-def lane_stage(kind="lane", elems=1, side=None):
+def lane_stage(kind="lane", elems=1, side=None, out_slice=False):
     """``Use.hw`` of a block: a :class:`~tdicam.hdl.chain_top.LaneStage` (``kind="merge"``:
     :class:`~tdicam.hdl.chain_top.MergeStage`) of the core of the block's registered Verilog
     top (``ecp5``: of its ECP5 synthesis top, :attr:`tdicam.blocks.Block.ecp5_top`, when it
-    has one); ``side(step, data)`` gives its joined side stream."""
+    has one); ``side(step, data)`` gives its joined side stream; ``out_slice``: its output
+    is not registered, a register slice follows it in the chain."""
     def make(step, data, *, ecp5=False):
         from tdicam.hdl.chain_top import LaneStage, MergeStage
         comp = _component(step, ecp5)
@@ -16,7 +17,8 @@ def lane_stage(kind="lane", elems=1, side=None):
         return stage(step.block, lambda lane: comp(),
                      elems=elems, ports=tuple(step.ports),
                      side=None if side is None else side(step, data),
-                     group="height" if step.group is not None else None)
+                     group="height" if step.group is not None else None,
+                     out_slice=out_slice)
     return make
 
 

@@ -277,16 +277,18 @@ def _pipeline_step(ctx):
 
 
 def _pipeline_side(step, data):
-    """Per lane: the lane's calibration image in a ROM, read through CalibReader."""
+    """Per lane: the lane's calibration image in a ROM, read through CalibReader (``ppc``
+    coefficient pairs a beat, the ROM ``ppc / 2`` flash words a beat)."""
     from tdicam.hdl.calib import CalibReader
     from tdicam.hdl.chain_top import CalibRom, Link
     from tdicam.model.calib import encode_image
     fmt = _fmt(step.params)
+    ppc = step.params.get("ppc", 1)
 
     def side(m, lane):
         gain, offset = data.coeffs[lane]
-        rom = CalibRom(encode_image(gain, offset, fmt))
-        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], **fmt.params())
+        rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], ppc=ppc, **fmt.params())
+        rom = CalibRom(encode_image(gain, offset, fmt), per_beat=rd.words_per_beat)
         m.submodules[f"nuc_calib_rom{lane}"] = rom
         m.submodules[f"nuc_calib{lane}"] = rd
         m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),

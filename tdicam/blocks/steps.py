@@ -37,7 +37,8 @@ class Step:
 @dataclass(frozen=True)
 class Plan:
     """A scene's chain: ``steps`` in order; input ``lanes`` (channels) of ``lane_elems``
-    elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them."""
+    elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them;
+    ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it)."""
 
     steps: tuple
     lanes: int
@@ -48,6 +49,7 @@ class Plan:
     frames: int
     lines: int
     source: str = ""
+    ppc: int = 1
 
     @property
     def input_pixels(self):
@@ -90,7 +92,9 @@ class SceneData:
 class Context:
     """What a block's :attr:`tdicam.blocks.Use.step` sees: the ``scene``, TDI stages ``m``,
     frame ``width``, output ``lines``, the chain's pixel width so far (``bits``), whether a
-    line-making block came before (``after_lines``) and the block being planned."""
+    line-making block came before (``after_lines``), the block being planned and the
+    pixels per clock of every block (``ppc``: :func:`tdicam.camera.design.plan` sets it in
+    each step's parameters)."""
 
     scene: object
     m: int
@@ -99,6 +103,7 @@ class Context:
     bits: int
     after_lines: bool = False
     block: str = ""
+    ppc: int = 1
 
 
 @dataclass

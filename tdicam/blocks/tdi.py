@@ -404,7 +404,7 @@ def _pipeline_step(ctx):
     if m_max > m and out_bits is None:
         out_bits = tdi_model.full_bits(pb, m)
     step = Step(ctx.block, {"width": ctx.width, "stages": m_max, "pixel_bits": pb,
-                            "out_bits": out_bits, "ppc": 1},
+                            "out_bits": out_bits, "ppc": ctx.ppc},
                 {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
     return step, tdi_model.out_width(pb, m_max, out_bits)
 
@@ -449,7 +449,10 @@ PARAMS = (
 
 
 #: ``tdi``'s and ``tdi_ddr``'s pipeline entry; ``tdi`` spills to ``tdi_ddr``.
-PIPELINE = dict(step=_pipeline_step, hw=lane_stage(), lines=True)
+#: The accumulator's output beat is read from its output FIFO's memory: a register slice
+#: follows it in a chain (the read into median3 was the Ning et al. 2019 chain's critical
+#: path, 9.2 ns on the ECP5).
+PIPELINE = dict(step=_pipeline_step, hw=lane_stage(out_slice=True), lines=True)
 
 
 def _sim_step(c, fr):

@@ -100,7 +100,7 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         return out
     for t in rep["taps"]:
         out["blocks"].append({"block": f"tap {t['tap']}", "status": "ran",
-                              "pixels_compared": t["beats"], "mismatches": t["mismatches"]})
+                              "pixels_compared": t["pixels"], "mismatches": t["mismatches"]})
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
@@ -198,7 +198,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     bits, count, padded, _ = ax._in
     n_in = len(stim)
-    n_out = int(np.prod(pl.output_shape(p)))
+    n_out = int(np.prod(pl.output_shape(p))) // p.ppc       # output beats
     max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
@@ -247,6 +247,21 @@ def beats_differ(got, exp):
         | (got.last[:n] != exp.last[:n])
 
 
+def _first_pixel(shape, d, got, exp, ppc):
+    """Beat ``d`` (the first that differs) as its first differing pixel: beat, frame, line,
+    column, expected and received value (None where a beat is missing or extra)."""
+    _, rows, w = shape
+    e = 0
+    if d < len(got) and d < len(exp):
+        diff = got.data[d] != exp.data[d]
+        e = int(np.argmax(diff)) if diff.any() else 0
+    px = d * ppc + e
+    return {"beat": d, "frame": px // (rows * w), "line": (px // w) % rows,
+            "column": px % w,
+            "expected": int(exp.data[d, e]) if d < len(exp) else None,
+            "received": int(got.data[d, e]) if d < len(got) else None}
+
+
 def _first_diff(got, exp):
     """Index of the first differing beat (or of the first missing/extra one), or None."""
     n = min(len(got), len(exp))
@@ -276,7 +291,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
         missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
         ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
-        mismatches) and, on a mismatch, ``first_mismatch`` (block, tap, frame, line, column,
+        mismatches; beats of ``p.ppc`` pixels) and, on a mismatch, ``first_mismatch`` (block,
+        tap, beat, frame, line, column of its first differing pixel,
         expected, received, cycle) and ``waveform``.
     """
     from tdicam.camera import design as pl
@@ -292,23 +308,20 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
            "taps": []}
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
+    ppc = p.ppc
     for k, (name, block, arr) in enumerate(gold):
-        exp = frames_to_beats(arr)
+        exp = frames_to_beats(arr, ppc=ppc)
         g, cyc = got[k]
         d = _first_diff(g, exp)
         n = min(len(g), len(exp))
         bad = int(((g.data[:n] != exp.data[:n]).any(axis=1)).sum()) + abs(len(g) - len(exp))
-        rep["taps"].append({"tap": name, "beats": len(exp), "received": len(g),
-                            "mismatches": bad})
+        rep["taps"].append({"tap": name, "beats": len(exp), "pixels": len(exp) * ppc,
+                            "received": len(g), "mismatches": bad})
         if d is not None and first is None:
-            fr, rows, w = arr.shape
+            first = _first_pixel(arr.shape, d, g, exp, ppc)
             cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
-            first = {"block": block, "tap": name, "beat": d,
-                     "frame": d // (rows * w), "line": (d // w) % rows, "column": d % w,
-                     "expected": int(exp.data[d, 0]) if d < len(exp) else None,
-                     "received": int(g.data[d, 0]) if d < len(g) else None,
-                     "cycle": cycle}
-    exp_out = frames_to_beats(gold[-1][2])
+            first.update({"block": block, "tap": name, "cycle": cycle})
+    exp_out = frames_to_beats(gold[-1][2], ppc=ppc)
     out = got["out"]
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))

@@ -17,6 +17,8 @@ its side inputs from. The orchestration below names no block.
 from __future__ import annotations
 
 
+from dataclasses import replace
+
 import numpy as np
 
 from tdicam.blocks.steps import Context, Plan, SceneData, Step
@@ -24,7 +26,7 @@ from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "PipelineBlock", "check_options",
-           "ECP5_85F"]
+           "ECP5_85F", "PPC_CHOICES", "scene_ppc"]
 
 
 # --------------------------------------------------------------------------------------
@@ -72,9 +74,23 @@ def _use(name):
 # --------------------------------------------------------------------------------------
 
 
+#: Pixels per clock a pipeline top can be built at (every block of the chain at the same).
+PPC_CHOICES = (1, 2, 4, 8)
+
+
+def scene_ppc(scene):
+    """The scene's ``[run.rtl].pixels_per_clock`` (1 without ``[run.rtl]``)."""
+    return 1 if scene.run.rtl is None else int(scene.run.rtl.pixels_per_clock)
+
+
 def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
-         device="ecp5-85f"):
+         device="ecp5-85f", ppc=None):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+
+    ``ppc``: pixels per clock of every block (1, 2, 4, 8; default the scene's
+    ``[run.rtl].pixels_per_clock``, 1 without it), set as each block's ``ppc`` parameter
+    (at 1 only where the block's own step states it: the ppc-1 parameters, Verilog and
+    golden vectors stay those of before); ``width`` must be a multiple of it.
 
     ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
     ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
@@ -88,7 +104,8 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     a block without a gateware stage, a per-exposure block after a line-making one, a
     merging block without two channels, a pixel width a block cannot take, a memory that
     does not fit on chip with no DDR variant, a spill without a ``[ddr]`` section, a DDR
-    too slow for the scene's line rate, a spill asked of a chain with nothing to spill.
+    too slow for the scene's line rate, a spill asked of a chain with nothing to spill, a
+    width not a multiple of ``ppc`` or too narrow for a block at it.
     """
     from tdicam import blocks as registry
     names = list(scene.pipeline.blocks if blocks is None else blocks)
@@ -98,9 +115,15 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     m = int(scene.tdi.stages[0] if stages is None else stages)
     n_lines = int(scene.run.lines if lines is None else lines)
     w = int(scene.sensor.columns if width is None else width)
+    ppc = scene_ppc(scene) if ppc is None else int(ppc)
+    if ppc not in PPC_CHOICES:
+        raise TdicamError(f"pipeline: pixels per clock {ppc} is not valid; valid: "
+                          f"{', '.join(map(str, PPC_CHOICES))}")
+    if w % ppc:
+        raise TdicamError(f"pipeline: width {w} is not a multiple of pixels per clock {ppc}")
     uses = [_use(n) for n in names]
     merge = any(u.merge for u in uses)
-    ctx = Context(scene, m, w, n_lines, scene.sensor.bits)
+    ctx = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
     steps, prev, spilled = [], "input", False
     for name, u in zip(names, uses):
         if u.per_frame and ctx.after_lines:
@@ -108,7 +131,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                               f"{prev}, which sums them into lines")
         try:
             ctx.block = name
-            step, out_bits = u.step(ctx)
+            step, out_bits = _at_ppc(*u.step(ctx), ppc)
             registry.get(name).resolve(step.params)
             go, why = _spills(u, step, scene, spill, device)
             if go and u.spill is None:
@@ -119,7 +142,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
             if go:
                 spilled = True
                 ctx.block = name = u.spill
-                step, out_bits = _use(name).step(ctx)
+                step, out_bits = _at_ppc(*_use(name).step(ctx), ppc)
                 registry.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
@@ -133,7 +156,18 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     return Plan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
-                source=str(scene.source))
+                source=str(scene.source), ppc=ppc)
+
+
+def _at_ppc(step, out_bits, ppc):
+    """``step`` with its block's ``ppc`` parameter set to ``ppc`` (unchanged at 1: the
+    block's default); a one-line error when the block takes one pixel per clock only."""
+    from tdicam import blocks as registry
+    if ppc == 1 and step.params.get("ppc", 1) == 1:
+        return step, out_bits
+    if "ppc" not in {p.name for p in registry.get(step.block).params}:
+        raise TdicamError(f"{step.block} takes one pixel per clock, the chain {ppc}")
+    return replace(step, params={**step.params, "ppc": ppc}), out_bits
 
 
 def _spills(u, step, scene, spill, device):
@@ -172,7 +206,7 @@ def top(p, data=None, *, taps=False, ecp5=False):
     stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:
         core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
-                        taps=taps)
+                        taps=taps, ppc=p.ppc)
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
     return AxisTop(core)
@@ -225,14 +259,14 @@ def stimulus(p, data, axis_top):
     """Input beats of the scene data (every lane's elements in each beat)."""
     from tdicam.beats import frames_to_beats
     arrs = [a for lane in data.lane_arrays(p) for a in lane]
-    stim = frames_to_beats(np.stack(arrs, axis=-1), channels=len(arrs))
+    stim = frames_to_beats(np.stack(arrs, axis=-1), ppc=p.ppc, channels=len(arrs))
     _, word = _ctrl(axis_top, p)
     stim.ctrl = np.full(len(stim), word, np.uint64)
     return stim
 
 
 def output_shape(p):
-    """(frames, rows, width) of the chain's output."""
+    """(frames, rows, width) of the chain's output (pixels; ``p.ppc`` of them a beat)."""
     frames, rows = p.frames, p.rows
     for s in p.steps:
         if _use(s.block).lines:
@@ -246,12 +280,21 @@ def output_shape(p):
 ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
 
-def check_options(scene, *, lines=None, device=None):
+def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
     """The command-line options of a scene's pipeline (``verilog``, ``synth`` and ``export
     pipeline``), checked under their names before a plan is made: ``--lines`` within the
-    bound of the scene's ``[run].lines`` (its output pixels), ``--device`` a known part."""
+    bound of the scene's ``[run].lines`` (its output pixels), ``--device`` a known part,
+    ``--ppc`` one of :data:`PPC_CHOICES` dividing the frame width (``width``, default the
+    scene's columns)."""
     from tdicam.model.physics.plan import ONCHIP_RAM_BITS
     from tdicam.scene.loader import MAX_OUTPUT_PIXELS
+    if ppc is not None:
+        if ppc not in PPC_CHOICES:
+            raise TdicamError(f"--ppc = {ppc} is not valid; valid: "
+                              f"{', '.join(map(str, PPC_CHOICES))}")
+        w = scene.sensor.columns if width is None else width
+        if w % ppc:
+            raise TdicamError(f"--ppc = {ppc}: the width {w} is not a multiple of it")
     if device is not None and str(device).lower() not in ONCHIP_RAM_BITS:
         raise TdicamError(f"--device = {device!r} is not known; valid: "
                           f"{', '.join(ONCHIP_RAM_BITS)}")

@@ -42,11 +42,13 @@ def scene_design(prog, extra):
                          "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
                          "DDR needs the scene's [ddr] section)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
+                    "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
     ns = ap.parse_args(list(extra))
     sc = load_scene(ns.scene)
-    check_options(sc, lines=ns.lines, device=ns.device)
+    check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
-    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device,
+    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
              spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
     data = None
     if ns.calib:
@@ -76,24 +78,27 @@ def verilog_command(extra, output, *, show_help=False):
     if output is not None:
         write_file(output, text)
         print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
-              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, latency {ax_lat}",
+              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, {p.ppc} pixel(s) per "
+              f"clock, latency {ax_lat}",
               file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0
 
 
-def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None):
+def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
+                  xilinx=True):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
     chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F.
     ``record(rows)``, when given, receives the result as a synthesis-record row (block
     ``pipeline``, parameters ``scene`` (file name), ``blocks``, ``width``, ``stages``,
-    ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`)."""
+    ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
+    synth_xilinx cell counts (``--no-xilinx``: not)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
-    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz)
+    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
-        ppc = getattr(p, "ppc", 1)
+        ppc = p.ppc
         params = {"scene": Path(ns.scene).name, "blocks": blocks, "width": p.width,
                   "stages": p.rows, "ppc": ppc}
         record([row_of(f"{Path(ns.scene).stem} chain ppc={ppc}", "pipeline", params, res,
@@ -103,7 +108,7 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None)
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
         return 0
     print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
-          f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
+          f"{p.lanes} channel(s), ppc {p.ppc}): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
           f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
           f"{res.xilinx}")

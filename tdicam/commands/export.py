@@ -37,7 +37,7 @@ def register(sub):
 
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
-    [--memory auto|chip|ddr] [--device D] -o DIR``."""
+    [--memory auto|chip|ddr] [--device D] [--ppc N] -o DIR``."""
     from tdicam.export.camera import MEMORY, export_pipeline
     ap = ArgsParser(
         prog="tdicam export pipeline",
@@ -54,6 +54,8 @@ def _pipeline(args):
     ap.add_argument("--memory", choices=tuple(MEMORY), default="auto",
                     help="TDI partial sums on chip or in DDR (auto: by --device's RAM)")
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
+                    "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
     if args.help:
         ap.print_help()
         return 0
@@ -62,7 +64,7 @@ def _pipeline(args):
         raise TdicamError("export needs -o DIR (the export folder)")
     ex = export_pipeline(ns.scene, args.output, force=args.force, seed=args.seed,
                          stages=ns.stages, lines=ns.lines, width=ns.width, memory=ns.memory,
-                         device=ns.device)
+                         device=ns.device, ppc=ns.ppc)
     print(f"wrote {ex.path}: pipeline {ex.params['blocks']} ({ex.params['width']} columns, "
           f"{ex.params['lines']} lines), {ex.n_in} stimulus beats, {ex.n_out} expected beats",
           file=sys.stderr)

@@ -150,7 +150,7 @@ def _run(args):
     if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
         from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
-                             as_json=args.json,
+                             as_json=args.json, xilinx=not args.no_xilinx,
                              record=None if args.record is None else
                              lambda rows: _record(rows, args))
     if args.block is None:

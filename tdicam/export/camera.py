@@ -27,23 +27,24 @@ MEMORY = {"auto": None, "chip": False, "ddr": True}
 
 
 def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="auto",
-                    device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1):
+                    device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None):
     """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
-    (default ``[run].lines``)."""
+    (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
+    ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
+    1)."""
     from tdicam.camera.cosim import scene_data
     from tdicam.scene.loader import load_scene
     from tdicam.camera.design import SceneData
     if memory not in MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
     sc = load_scene(scene_path)
-    pl.check_options(sc, lines=lines, device=device)
+    w = sc.sensor.columns if width is None else check_range("--width", width, 1,
+                                                             sc.sensor.columns)
+    pl.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
     spill = MEMORY[memory]
-    full = pl.plan(sc, stages=stages, lines=lines, device=device, spill=spill)
-    w = full.width if width is None else check_range("--width", width, 1, full.width)
-    p = full if w == full.width else pl.plan(sc, stages=stages, lines=lines, width=w,
-                                             device=device, spill=spill)
-    beats = p.frames * p.rows * p.width
+    p = pl.plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill, ppc=ppc)
+    beats = p.frames * p.rows * p.width // p.ppc
     if beats > MAX_BEATS:
         raise TdicamError(f"the pipeline of {Path(scene_path).name} takes {beats} input beats "
                           f"({p.frames} frames of {p.rows} x {p.width}), over the export limit "
@@ -54,7 +55,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
     top = pl.top(p, data)
     stim = pl.stimulus(p, data, top)
-    exp = frames_to_beats(pl.golden(p, data)[-1][2])
+    exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=p.ppc)
     name = Path(scene_path).name
     params = {"scene": name, "stages": p.rows, "lines": p.lines, "width": p.width,
               "memory": memory, "blocks": " -> ".join(s.block for s in p.steps)}
@@ -63,6 +64,9 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
             ("lines", p.lines, "output lines"),
             ("width", p.width, "columns (the scene's first ones)"),
             ("memory", memory, "TDI partial sums: chip, ddr, or auto by the device")]
+    if p.ppc != 1:
+        params["ppc"] = p.ppc
+        rows.append(("ppc", p.ppc, "pixels per clock of every block"))
     rows += [(f"{k + 1}. {s.block}", ", ".join(f"{a}={v}" for a, v in s.params.items()),
               "registry parameters" + (f"; run-time ports {s.ports}" if s.ports else ""))
              for k, s in enumerate(p.steps)]

@@ -204,10 +204,10 @@ KEYS = {
                        range="inside columns x lines"),
         "simulator": KeyDoc("", "the HDL simulator"),
         "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top "
-                                               "(one: the blocks other than tdi take one "
-                                               "pixel per clock; tdi alone runs 2, 4 and 8 "
-                                               "in its golden cases, tdicam sim tdi)",
-                                   range="1"),
+                                               "(every block at the same; also the default "
+                                               "--ppc of tdicam verilog|synth|export "
+                                               "pipeline)",
+                                   range="1, 2, 4, 8; dividing the crop width"),
     },
 }
 

@@ -537,6 +537,10 @@ def _ddr(sec: _Section) -> Ddr:
     return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base)
 
 
+#: ``[run.rtl].pixels_per_clock``: the whole-chain top's pixels per beat.
+RTL_PPC = (1, 2, 4, 8)
+
+
 def _run(sec: _Section, sensor: Sensor, labels) -> Run:
     sec.check_keys(("lines", "seed", "fidelity", "tolerance", "rtl"))
     lines = sec.integer("lines", 256, lo=1)
@@ -557,11 +561,14 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                                f"([sensor].columns x {sec.label('lines')}), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
-        if ppc != 1:
-            r.fail("pixels_per_clock", f"must be 1, got {ppc}: the whole-chain top that "
-                                       f"[run.rtl] co-simulates takes one pixel per clock "
-                                       f"(tdi alone runs 2, 4 and 8 in its golden cases: "
-                                       f"tdicam sim tdi)")
+        if ppc not in RTL_PPC:
+            r.fail("pixels_per_clock", f"must be one of {', '.join(map(str, RTL_PPC))}, "
+                                       f"got {ppc}")
+        width, what = ((sensor.columns, "[sensor].columns") if crop is None
+                       else (crop[2], f"{r.label('crop')} width"))
+        if width % ppc:
+            r.fail("pixels_per_clock", f"{ppc} does not divide the {what} {width}: a beat "
+                                       f"carries {ppc} pixels of a line")
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
                      pixels_per_clock=ppc)

@@ -122,8 +122,10 @@ The line period either gives must lie in 1e-8..100 s.
 ``[run.rtl]`` (optional)
     ``crop`` [whole frame]: ``[x0, y0, width, height]`` of the output to simulate
     cycle-accurately, inside ``columns x lines``. ``simulator`` ["verilator"]: ``icarus``
-    or ``verilator``. ``pixels_per_clock`` [1]: 1, the only value: the whole-chain top
-    takes one pixel per clock (the key stays for scenes that state it). Needs
+    or ``verilator``. ``pixels_per_clock`` [1]: 1, 2, 4 or 8 pixels per beat of the
+    whole-chain top (every block at the same), dividing the crop's width (without a crop,
+    ``[sensor].columns``); also the default ``--ppc`` of ``tdicam verilog|synth|export
+    pipeline``. Needs
     ``[tdi].domain = "digital"`` (charge-domain TDI has no gateware chain).
 
 The reader that validates a file into these (and the cross-section checks) is
