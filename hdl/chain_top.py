@@ -19,7 +19,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.interfaces.stream import channels_shape, element_bits, pixel_signature
+from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, element_bits,
+                                          pixel_signature)
 
 __all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group",
            "register_slice"]
@@ -118,30 +119,26 @@ def frame_group(m, link, height, name):
 
 
 def register_slice(m, link, name):
-    """A register slice (skid buffer) on ``link``: the beat, its markers and valid come out
-    of registers, and the ready handed back upstream is a register too, so no
-    combinational path crosses it; one beat a clock sustained, latency 1 cycle, no beat
-    lost or duplicated whatever ``ready`` does. Cuts the path from a block's unregistered
-    output (e.g. a memory read) into the next block's logic."""
+    """A register slice (skid buffer) on ``link``: a
+    :class:`~tdicam.hdl.interfaces.stream.StreamRegister` (submodule ``name``) on its beat and
+    markers, so the beat, its markers and valid come out of registers and the ready handed
+    back upstream is a register too: no combinational path crosses it; one beat a clock
+    sustained, latency 1 cycle, no beat lost or duplicated whatever ``ready`` does. Cuts the
+    path from a block's unregistered output (e.g. a memory read) into the next block's
+    logic."""
     width = sum(len(Value.cast(e)) for e in link.elems) + 2
-    word = Cat(*link.elems, link.first, link.last)
-    o_valid, o_data = Signal(name=f"{name}_valid"), Signal(width, name=f"{name}_data")
-    s_valid, s_data = Signal(name=f"{name}_skid_valid"), Signal(width, name=f"{name}_skid")
+    m.submodules[name] = reg = StreamRegister(width)
     ready = Signal(name=f"{name}_ready")
-    m.d.comb += link.ready.eq(~s_valid)
-    with m.If(~o_valid | ready):                 # the output register takes a beat
-        with m.If(s_valid):
-            m.d.sync += [o_valid.eq(1), o_data.eq(s_data), s_valid.eq(0)]
-        with m.Else():
-            m.d.sync += [o_valid.eq(link.valid), o_data.eq(word)]
-    with m.Elif(link.valid & ~s_valid):          # output stalled: the beat waits aside
-        m.d.sync += [s_valid.eq(1), s_data.eq(word)]
+    m.d.comb += [reg.i_stream.valid.eq(link.valid),
+                 reg.i_stream.payload.eq(Cat(*link.elems, link.first, link.last)),
+                 link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
+    o_data = reg.o_stream.payload
     elems, lo = [], 0
     for e in link.elems:
         n = len(Value.cast(e))
         elems.append(o_data[lo:lo + n])
         lo += n
-    return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits)
+    return Link(reg.o_stream.valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits)
 
 
 class CalibRom(wiring.Component):
