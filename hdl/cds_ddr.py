@@ -9,7 +9,7 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
@@ -77,8 +77,7 @@ class CdsDdr(wiring.Component):
                  base=0, capacity_bytes=CAPACITY_BYTES, ppc=1):
         check_range("pixel_bits", pixel_bits, 8, 16)
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
-        if width % ppc:
-            raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+        check_multiple(width, ppc)
         pixels_per_word = default_pixels_per_word(pixel_bits, ppc, pixels_per_word)
         self.layout = _layout(width, 1, pixel_bits, pixels_per_word, line_stride, base)
         check_range("rows", rows, 1, 1 << 16)
@@ -177,6 +176,6 @@ def default_pixels_per_word(pixel_bits, ppc, given=None):
         ppw = 24 if pixel_bits == 10 else WORD_BITS // pixel_bits
         return ppw - ppw % ppc
     if given % ppc and ppc % given:
-        raise TdicamError(f"--pixels_per_word {given} and --ppc {ppc}: one must divide the "
+        raise TdicamError(f"pixels_per_word = {given} and ppc = {ppc}: one must divide the "
                           f"other")
     return given

@@ -22,7 +22,7 @@ from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
@@ -109,9 +109,7 @@ def check_geometry(width, ppc):
     if ppc == 1:
         return ppc, check_range("width", width, 3, MAX_WIDTH)
     check_range(f"width (ppc = {ppc})", width, 3 * ppc, MAX_WIDTH)
-    if width % ppc:
-        raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
-    return ppc, width
+    return ppc, check_multiple(width, ppc)
 
 
 def _lanes(shape, ppc):

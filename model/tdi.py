@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, check_multiple, check_range
 from tdicam.threads import threads
 
 from tdicam.model.cds import check_pixels, pixel_dtype
@@ -94,8 +94,7 @@ def check_params(*, width=None, stages=None, pixel_bits=None, out_bits=None, ppc
         check_range("pixel_bits", pixel_bits, *PIXEL_BITS)
     if width is not None:
         check_range("width", width, 1, MAX_WIDTH)
-        if width % ppc:
-            raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+        check_multiple(width, ppc)
         if width // ppc < 2:
             raise TdicamError(f"width = {width} with ppc = {ppc} gives {width // ppc} beat per "
                               f"row; need at least 2 (width >= 2 * ppc)")

@@ -8,7 +8,7 @@ it never shows a traceback for these.
 Layer: the bottom leaf; imports nothing of tdicam.
 """
 
-__all__ = ["TdicamError", "check_range", "valid_range", "check_choice"]
+__all__ = ["TdicamError", "check_range", "valid_range", "check_choice", "check_multiple"]
 
 
 class TdicamError(ValueError):
@@ -88,6 +88,14 @@ def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=Fal
         raise TdicamError(f"{name} = {shown} is out of range; valid: "
                           f"{valid_range(lo, hi, lo_open=lo_open, hi_open=hi_open)}")
     return value
+
+
+def check_multiple(width, ppc):
+    """Return ``width`` if it is a multiple of ``ppc`` (pixels per clock), else raise
+    ``"width = W is not a multiple of ppc = P"``."""
+    if width % ppc:
+        raise TdicamError(f"width = {width} is not a multiple of ppc = {ppc}")
+    return width
 
 
 def check_choice(name, value, choices):

@@ -9,7 +9,7 @@ Table 2).
 import numpy as np
 
 from tdicam.beats import frames_to_beats, mark_resets
-from tdicam.errors import TdicamError
+from tdicam.errors import TdicamError, check_multiple
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
 from tdicam.blocks import Bench, StreamWork
@@ -29,8 +29,7 @@ def _check(p):
     check_stalls(p)
     lay = _layout(p)
     e = p["ppc"] * p["channels"]
-    if p["width"] % p["ppc"]:
-        raise TdicamError(f"width = {p['width']} is not a multiple of ppc = {p['ppc']}")
+    check_multiple(p["width"], p["ppc"])
     ppw = p["pixels_per_word"]
     if ppw % e and e % ppw:
         raise TdicamError(f"ppc x channels = {e} values per beat and pixels_per_word = {ppw}:"
