@@ -14,7 +14,7 @@ from tdicam.hdl.ecc import SecdedDecoder
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
-__all__ = ["CalibReader", "DEBUG_ELEMENTS"]
+__all__ = ["CalibReader", "CoeffBuffer", "DEBUG_ELEMENTS"]
 
 #: output elements with ``debug``: gain, offset, corrected count, uncorrectable count, flags
 DEBUG_ELEMENTS = 5
@@ -284,4 +284,98 @@ class CalibReader(wiring.Component):
             o.payload.last.eq(col == cols - 1),
             Cat(o.payload.data).eq(Cat(slots)),
         ]
+        return m
+
+
+class CoeffBuffer(wiring.Component):
+    """The decoded calibration kept on chip: ``rows`` x ``cols`` coefficient pairs written
+    once (the power-up load from flash), then streamed again and again, one frame of
+    coefficients after another, to the ``nuc`` block.
+
+    Parameters
+    ----------
+    rows, cols : int
+        The image (``cols`` a multiple of ``ppc``).
+    elem_bits : int
+        Width of each coefficient element (:attr:`CalibReader.elem_bits`).
+    ppc : int
+        Pixels per output beat, 1, 2, 4 or 8.
+
+    Attributes
+    ----------
+    i_stream : In(pixel stream of 2 elements)
+        The load: one pixel's (gain, offset) a beat in raster order, as
+        :class:`CalibReader`'s ``o_stream`` at ``ppc`` 1 (markers ignored); taken one a
+        clock until ``rows * cols`` pixels have been written, refused after.
+    o_stream : Out(pixel stream of ``2 * ppc`` elements)
+        Once loaded: the image in raster order, ``ppc`` pixels' (gain, offset) a beat
+        (pixel-major, as :class:`CalibReader`'s ``o_stream`` at ``ppc``), ``first`` on
+        pixel 0, ``last`` on each row's last beat, again and again; nothing before.
+    loaded : Out(1)
+        Every pixel has been written (stays high until reset).
+
+    Notes
+    -----
+    One memory of ``rows * cols / ppc`` words of ``2 * elem_bits * ppc`` bits; ``ppc``
+    loaded pixels are gathered in a register before each write. The output goes through
+    the memory's read port and an output register (two stages, as :class:`~tdicam.hdl.
+    chain_top.CalibRom`): one beat a clock while ``o_stream.ready`` is high.
+    """
+
+    @quiet_reject
+    def __init__(self, *, rows, cols, elem_bits, ppc=1):
+        self._rows = check_range("rows", rows, 1, MAX_SIDE)
+        self._cols = check_range("cols", cols, 1, MAX_SIDE)
+        if ppc not in (1, 2, 4, 8) or cols % ppc:
+            raise TdicamError(f"coefficient buffer: ppc = {ppc} must be 1, 2, 4 or 8 and "
+                              f"divide cols = {cols}")
+        self._ppc, self._ebits = ppc, elem_bits
+        super().__init__({
+            "i_stream": In(pixel_signature(channels_shape(elem_bits, 2))),
+            "o_stream": Out(pixel_signature(channels_shape(elem_bits, 2 * ppc))),
+            "loaded": Out(1),
+        })
+
+    def elaborate(self, platform):
+        from amaranth.lib.memory import Memory
+        m = Module()
+        ppc, eb = self._ppc, self._ebits
+        per_row = self._cols // ppc
+        n = self._rows * per_row
+        wbits = 2 * eb * ppc
+        m.submodules.mem = mem = Memory(shape=wbits, depth=max(n, 2), init=[])
+        wr, rd = mem.write_port(), mem.read_port()
+        i, o = self.i_stream, self.o_stream
+        # load: gather ppc pixels, write one word
+        waddr = Signal(range(n + 1))
+        gather = Signal(wbits)
+        k = Signal(range(ppc + 1))
+        m.d.comb += [i.ready.eq(~self.loaded), wr.addr.eq(waddr)]
+        pix = Cat(i.payload.data)
+        nxt = Cat(gather[2 * eb:], pix) if ppc > 1 else pix
+        with m.If(i.valid & i.ready):
+            m.d.sync += gather.eq(nxt)
+            if ppc > 1:
+                m.d.sync += k.eq(Mux(k == ppc - 1, 0, k + 1))
+            with m.If(k == ppc - 1 if ppc > 1 else 1):
+                m.d.comb += [wr.en.eq(1), wr.data.eq(nxt)]
+                m.d.sync += waddr.eq(waddr + 1)
+                with m.If(waddr == n - 1):
+                    m.d.sync += self.loaded.eq(1)
+        # replay: read port, then an output register
+        addr = Signal(range(max(n, 2)))
+        col = Signal(range(per_row))
+        v1, f1, l1 = Signal(), Signal(), Signal()
+        adv1, adv2 = Signal(), Signal()
+        m.d.comb += [adv2.eq(~o.valid | o.ready), adv1.eq(~v1 | adv2),
+                     rd.en.eq(adv1), rd.addr.eq(addr)]
+        with m.If(adv1):
+            m.d.sync += v1.eq(self.loaded)
+            with m.If(self.loaded):
+                m.d.sync += [f1.eq(addr == 0), l1.eq(col == per_row - 1),
+                             addr.eq(Mux(addr == n - 1, 0, addr + 1)),
+                             col.eq(Mux(col == per_row - 1, 0, col + 1))]
+        with m.If(adv2):
+            m.d.sync += [o.valid.eq(v1), Cat(o.payload.data).eq(rd.data),
+                         o.payload.first.eq(f1), o.payload.last.eq(l1)]
         return m

@@ -23,7 +23,7 @@ from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, elemen
                                           pixel_signature)
 
 __all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group",
-           "register_slice"]
+           "register_slice", "Device", "Board"]
 
 
 class Link:
@@ -89,6 +89,27 @@ def fork(m, link, parts, name, ppc=1):
         outs.append(Link(link.valid & others, readies[k], link.first, link.last,
                          link.pixel_elems(lo, hi, ppc), link.bits))
     m.d.comb += link.ready.eq(Cat(*readies).all())
+    return outs
+
+
+def eager_fork(m, link, parts, name, ppc=1):
+    """:func:`fork` for blocks whose input ``ready`` waits for ``valid`` (a DDR block
+    starts its reads on a presented frame start): each branch is offered the beat on its
+    own and takes it when it is ready (a per-branch taken flag, cleared when every branch
+    has it), so no branch's ``valid`` waits for another's ``ready`` (no combinational
+    loop); the beat leaves the source in the cycle its last branch takes it."""
+    taken = [Signal(name=f"{name}_taken{k}") for k in range(len(parts))]
+    readies = [Signal(name=f"{name}_ready{k}") for k in range(len(parts))]
+    done = Cat(*(r | t for r, t in zip(readies, taken))).all()
+    outs = []
+    for k, (lo, hi) in enumerate(parts):
+        outs.append(Link(link.valid & ~taken[k], readies[k], link.first, link.last,
+                         link.pixel_elems(lo, hi, ppc), link.bits))
+        with m.If(link.valid & done):
+            m.d.sync += taken[k].eq(0)
+        with m.Elif(link.valid & readies[k]):
+            m.d.sync += taken[k].eq(1)
+    m.d.comb += link.ready.eq(done)
     return outs
 
 
@@ -212,6 +233,26 @@ class LaneStage:
     out_slice : bool
         The block's output is not registered (e.g. read straight from a memory): a
         :func:`register_slice` follows it when another stage takes its output.
+    pins : tuple of str
+        Ports of the component (either direction) that are each lane's own top-level ports
+        ``<name>_<port>`` (lane 0) and ``<name>_<port>_<lane>``: an external part's
+        interface (the DDR controller's MIG user interface).
+    io : dict of str -> wiring member
+        Top-level ports of each lane made for ``side`` (named as ``pins``): ``side`` is
+        then called as ``side(m, lane, ports)`` with ``ports`` = {name: the lane's top-level
+        signal} (the NAND bus and the calibration status of NUC's coefficient store).
+    ready : str or None
+        An ``Out`` port of each lane (a status of the component or of ``io``) that must be
+        high on every lane before the top accepts its first input beat: the stage's
+        start-up (the calibration load). The top holds its input until then.
+    device : callable(lane) -> :class:`Device`, or None
+        The simulation model of the external part on the lane's pins, placed beside the
+        top by :class:`Board` (co-simulation only; the top itself has the pins).
+    startup : int
+        Cycles after reset the stage may hold the input at most (bounds a simulation).
+    waits : bool
+        The block's input ``ready`` waits for ``valid`` (a DDR block starts its reads on a
+        presented frame start): the lanes are forked to it by :func:`eager_fork`.
     """
 
     name: str
@@ -221,6 +262,12 @@ class LaneStage:
     side: Callable | None = None
     group: str | None = None
     out_slice: bool = False
+    pins: tuple = ()
+    io: dict = field(default_factory=dict)
+    ready: str | None = None
+    device: Callable | None = None
+    startup: int = 0
+    waits: bool = False
     merge: bool = field(default=False, init=False)
 
 
@@ -288,7 +335,10 @@ class Pipeline(wiring.Component):
             for pname, member in cores[0].signature.members.items():
                 if pname in ("i_stream", "o_stream"):
                     continue
-                if member.flow == wiring.In:
+                if pname in st.pins:
+                    for k in range(len(cores)):
+                        members[self._status(st, pname, k)] = member.flow(member.shape)
+                elif member.flow == wiring.In:
                     if pname not in st.ports:
                         raise TdicamError(f"pipeline: block {st.name}'s input port {pname} "
                                           f"has no source")
@@ -296,14 +346,41 @@ class Pipeline(wiring.Component):
                 else:
                     for k in range(len(cores)):
                         members[self._status(st, pname, k)] = Out(member.shape)
+            for pname, member in st.io.items():
+                for k in range(len(cores)):
+                    members[self._status(st, pname, k)] = member
             if st.group is not None and f"{st.name}_{st.group}" not in members:
                 members[f"{st.name}_{st.group}"] = In(16)
+        if self._holds():
+            members["startup_cycles"] = Out(32)
         if taps:
             for k, (name, bits, count) in enumerate(self._tap_shapes):
                 for s in ("valid", "ready", "first", "last"):
                     members[f"tap{k}_{name}_{s}"] = Out(1)
                 members[f"tap{k}_{name}_data"] = Out(bits * count)
         super().__init__(members)
+
+    def _holds(self):
+        """(stage, lanes) of the stages whose ``ready`` port holds the input."""
+        return [(st, len(cs)) for st, cs in zip(self._stages, self._cores)
+                if st.ready is not None]
+
+    @property
+    def startup_bound(self):
+        """Cycles after reset the top may hold its input at most (the stages' ``startup``)."""
+        return max([st.startup for st in self._stages] or [0])
+
+    def has_devices(self):
+        """Whether a stage has an external part (:class:`Device`) on its pins."""
+        return any(st.device is not None for st in self._stages)
+
+    def devices(self):
+        """[(stage, lane, :class:`Device`)] of the stages' external parts (simulation; made
+        once, for the :class:`Board` around this top)."""
+        if not hasattr(self, "_devices"):
+            self._devices = [(st, k, st.device(k)) for st, cs in zip(self._stages, self._cores)
+                             if st.device is not None for k in range(len(cs))]
+        return self._devices
 
     @staticmethod
     def _status(st, pname, lane):
@@ -360,8 +437,20 @@ class Pipeline(wiring.Component):
         n_in = ppc * self._lanes * self._lane_elems
         d = i.payload.data
         src_ready = Signal(name="in_ready")
-        m.d.comb += i.ready.eq(src_ready)
-        whole = Link(i.valid, src_ready, i.payload.first, i.payload.last,
+        valid = i.valid
+        holds = self._holds()
+        if holds:
+            # the input is held until every holding stage is ready (its start-up is done)
+            go = Signal(name="released")
+            m.d.comb += go.eq(Cat(*(getattr(self, self._status(st, st.ready, k))
+                                    for st, n in holds for k in range(n))).all())
+            with m.If(~go & (self.startup_cycles != 0xFFFFFFFF)):
+                m.d.sync += self.startup_cycles.eq(self.startup_cycles + 1)
+            m.d.comb += i.ready.eq(src_ready & go)
+            valid = i.valid & go
+        else:
+            m.d.comb += i.ready.eq(src_ready)
+        whole = Link(valid, src_ready, i.payload.first, i.payload.last,
                      [d[k] for k in range(n_in)] if n_in > 1 else [d], self._in_bits)
         # lanes stay one stream until a per-lane block needs them apart
         lanes = [whole]
@@ -383,7 +472,8 @@ class Pipeline(wiring.Component):
                 for n in per:
                     parts.append((lo, lo + n))
                     lo += n
-                lanes = fork(m, whole, parts, f"{st.name}_fork", ppc)
+                lanes = (eager_fork if st.waits else fork)(m, whole, parts,
+                                                           f"{st.name}_fork", ppc)
                 split = True
             outs = []
             for k, (core, link) in enumerate(zip(cores, lanes)):
@@ -392,12 +482,17 @@ class Pipeline(wiring.Component):
                     link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
                                        f"{st.name}_group{k}")
                 if st.side is not None:
-                    link = join(m, link, st.side(m, k), f"{st.name}_side{k}", ppc)
+                    args = (m, k) if not st.io else (m, k, {
+                        p: getattr(self, self._status(st, p, k)) for p in st.io})
+                    link = join(m, link, st.side(*args), f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
                 for pname, member in core.signature.members.items():
                     if pname in ("i_stream", "o_stream"):
                         continue
-                    if member.flow == wiring.In:
+                    if pname in st.pins and member.flow == wiring.In:
+                        m.d.comb += getattr(core, pname).eq(
+                            getattr(self, self._status(st, pname, k)))
+                    elif member.flow == wiring.In:
                         m.d.comb += getattr(core, pname).eq(getattr(self, f"{st.name}_{pname}"))
                     else:
                         m.d.comb += getattr(self, self._status(st, pname, k)).eq(
@@ -435,3 +530,81 @@ def core_name(st, lane, lanes):
 
 def _data_shape(component, port):
     return component.signature.members[port].signature.members["payload"].shape["data"].shape
+
+
+@dataclass
+class Device:
+    """The simulation model of an external part on a stage's pins (see :class:`Board`).
+
+    Attributes
+    ----------
+    model : wiring.Component
+        The part's model (e.g. the DDR3 controller and memory, the NAND part).
+    pins : dict of str -> str
+        The stage's pin (its top-level port name without stage and lane) -> the model's
+        port it connects to (the pin's direction decides which drives which).
+    status : dict of str -> str
+        The model's ``Out`` ports exposed on the board as ``<stage>_<name>[_<lane>]``
+        (the name is the key; the model's port the value).
+    """
+
+    model: object
+    pins: dict
+    status: dict = field(default_factory=dict)
+
+
+class Board(wiring.Component):
+    """A :class:`Pipeline` top with the simulation models of its external parts beside it:
+    the co-simulation's device under test. The top keeps its pins (the synthesized design's
+    ports); the board wires each stage's :class:`Device` to them and exposes every other
+    port of the top unchanged, plus the models' status outputs.
+
+    Parameters
+    ----------
+    top : :class:`Pipeline`
+    """
+
+    def __init__(self, top):
+        self._top = top
+        self._devices = top.devices()
+        used, extra = set(), {}
+        for st, k, dev in self._devices:
+            used.update(Pipeline._status(st, pin, k) for pin in dev.pins)
+            for name, port in dev.status.items():
+                extra[Pipeline._status(st, name, k)] = Out(
+                    dev.model.signature.members[port].shape)
+        members = {n: mem for n, mem in top.signature.members.items() if n not in used}
+        members.update(extra)
+        super().__init__(members)
+
+    core = property(lambda self: self._top, doc="The pipeline top.")
+    tap_shapes = property(lambda self: self._top.tap_shapes)
+    startup_bound = property(lambda self: self._top.startup_bound)
+    latency = property(lambda self: self._top.latency)
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.top = top = self._top
+        for st, k, dev in self._devices:
+            m.submodules[f"{core_name(st, k, 2)}_device"] = dev.model
+            for pin, port in dev.pins.items():
+                a = getattr(top, Pipeline._status(st, pin, k))
+                b = getattr(dev.model, port)
+                if top.signature.members[Pipeline._status(st, pin, k)].flow == wiring.Out:
+                    m.d.comb += b.eq(a)
+                else:
+                    m.d.comb += a.eq(b)
+            for name, port in dev.status.items():
+                m.d.comb += getattr(self, Pipeline._status(st, name, k)).eq(
+                    getattr(dev.model, port))
+        for name, mem in self.signature.members.items():
+            if name in ("i_stream", "o_stream") or not hasattr(top, name) \
+                    or name not in top.signature.members:
+                continue
+            if mem.flow == wiring.In:
+                m.d.comb += getattr(top, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(top, name))
+        wiring.connect(m, wiring.flipped(self.i_stream), top.i_stream)
+        wiring.connect(m, top.o_stream, wiring.flipped(self.o_stream))
+        return m

@@ -40,7 +40,7 @@ from tdicam.hdl.util import equals
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
 __all__ = ["NandCalibStore", "NandDeviceSim", "NandCalibTop", "LOAD_PAGE", "LOAD_SLOT",
-           "LOAD_MARKER", "LOAD_GO", "BUS_PORTS"]
+           "LOAD_MARKER", "LOAD_GO", "BUS_PORTS", "NandPart"]
 
 #: loader operations of :class:`NandDeviceSim` / :class:`NandCalibTop` (beat bits 31:30)
 LOAD_PAGE, LOAD_SLOT, LOAD_MARKER, LOAD_GO = 0, 1, 2, 3
@@ -466,4 +466,56 @@ class NandCalibTop(wiring.Component):
         for name in ("corrected_count", "uncorrectable_count", "header_error", "bad_blocks",
                      "done", "error"):
             m.d.comb += getattr(self, name).eq(getattr(st, name))
+        return m
+
+
+class NandPart(wiring.Component):
+    """Simulation: a NAND part holding a given image, on the controller's bus pins (the
+    co-simulation's part outside the camera top, :class:`tdicam.hdl.chain_top.Board`).
+
+    :class:`NandDeviceSim`, its contents written after reset from a ROM of loader words
+    (:func:`tdicam.blocks.nand_store.load_beats`), one a clock; R/B# reads busy until the
+    last is written (a part busy at power-up), so the controller's first command, the
+    RESET, waits for it.
+
+    Attributes
+    ----------
+    cle, ale, we_n, re_n, dq_in : In; dq_out, rb_n : Out
+        The bus, device side (:class:`NandDeviceSim`'s).
+    loaded : Out(1)
+        The image is in the part.
+    """
+
+    def __init__(self, loader, *, page_bytes=2048, pages_per_block=64, blocks=4096,
+                 slots=8, busy_cycles=16):
+        self._words = [int(w) for w in loader]
+        self._dev = NandDeviceSim(page_bytes=page_bytes, pages_per_block=pages_per_block,
+                                  blocks=blocks, slots=slots, busy_cycles=busy_cycles)
+        super().__init__({
+            "cle": In(1), "ale": In(1), "we_n": In(1), "re_n": In(1), "dq_in": In(8),
+            "dq_out": Out(8), "rb_n": Out(1), "loaded": Out(1),
+        })
+
+    load_cycles = property(lambda self: len(self._words) + 1,
+                           doc="Clocks from reset until the image is in the part.")
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.part = dev = self._dev
+        n = len(self._words)
+        m.submodules.rom = rom = Memory(shape=unsigned(32), depth=max(n, 2),
+                                        init=self._words + [0] * (max(n, 2) - n))
+        rd = rom.read_port()
+        addr = Signal(range(n + 2))
+        v = Signal()
+        m.d.comb += rd.addr.eq(addr)
+        with m.If(addr != n):
+            m.d.sync += addr.eq(addr + 1)
+        m.d.sync += v.eq(addr != n)
+        with m.If(~v & (addr == n)):
+            m.d.sync += self.loaded.eq(1)
+        m.d.comb += [dev.ld_valid.eq(v), dev.ld_word.eq(rd.data),
+                     dev.cle.eq(self.cle), dev.ale.eq(self.ale), dev.we_n.eq(self.we_n),
+                     dev.re_n.eq(self.re_n), dev.dq_in.eq(self.dq_in),
+                     self.dq_out.eq(dev.dq_out), self.rb_n.eq(dev.rb_n & self.loaded)]
         return m

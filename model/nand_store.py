@@ -98,7 +98,8 @@ __all__ = ["Geometry", "MT29F4G08", "NandDevice", "STATUS_PASS", "STATUS_FAIL", 
            "MARKER_BAD", "MAP_MAGIC", "FILE_MAGIC", "write_store", "scan", "ScanResult",
            "stream_words", "store_stream", "read_store", "StoreResult", "relayout",
            "save_image", "load_image", "read_image_bytes", "Timing", "timing",
-           "load_coefficients", "store_roundtrip", "blocks_needed", "CONTROLLER_CLOCK_HZ"]
+           "load_coefficients", "store_roundtrip", "store_device", "blocks_needed",
+           "CONTROLLER_CLOCK_HZ"]
 
 MARKER_GOOD = 0xFF
 MARKER_BAD = 0x00
@@ -611,14 +612,24 @@ def store_roundtrip(gain, offset, fmt=DEFAULT_FORMAT, *, geometry=MT29F4G08, bad
     (gain, offset, StoreResult)
         int64 code maps (defaults where a word was uncorrectable) and the counters.
     """
+    dev = store_device(gain, offset, fmt, geometry=geometry, bad_blocks=bad_blocks,
+                       p_single=p_single, p_double=p_double, seed=seed)
+    res = read_store(dev)
+    return res.image.gain, res.image.offset, res
+
+
+def store_device(gain, offset, fmt=DEFAULT_FORMAT, *, geometry=MT29F4G08, bad_blocks=0,
+                 p_single=0.0, p_double=0.0, seed=1):
+    """The NAND part of :func:`store_roundtrip` (same arguments, same random numbers):
+    the calibration image written with its bit flips on a part with ``bad_blocks`` random
+    factory bad blocks -- what the camera's flash holds at power-up."""
     rng = np.random.default_rng(seed)
     words = calib.encode_image(gain, offset, fmt)
     if p_single or p_double:
         words, _ = calib.inject_flips(rng, words, p_single=p_single, p_double=p_double)
     check_range("bad_blocks", bad_blocks, 0, geometry.blocks - 1)
     bad = rng.choice(np.arange(1, geometry.blocks), int(bad_blocks), replace=False)
-    res = read_store(write_store(words, geometry, bad_blocks=bad))
-    return res.image.gain, res.image.offset, res
+    return write_store(words, geometry, bad_blocks=bad)
 
 
 # ---------------------------------------------------------------- timing

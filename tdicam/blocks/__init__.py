@@ -255,6 +255,14 @@ class Use:
         The registered block that keeps that memory in DDR instead (same stream, ports and
         golden model), used when the plan says it must spill; its ``step`` takes the DDR
         interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    caller_places : bool
+        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
+        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
+        ``--memory`` flag is about TDI's partial sums).
+    reset_frames : bool
+        The block takes each reset frame as a frame of its own in its stream, before its
+        signal frame (and stores it), with its ``ports`` saying which is which; the chain's
+        input then carries the reset frames so (:attr:`tdicam.camera.design.Plan.reset_frames`).
     trim : int
         Pixels at each image edge whose statistics the block changes (its replicated
         borders), left out of flat-field measurements.
@@ -290,6 +298,8 @@ class Use:
     memory: str = "memory"
     placement: Callable | None = None
     spill: str | None = None
+    caller_places: bool = True
+    reset_frames: bool = False
     trim: int = 0
     sharpens: Callable | None = None
     scratch_bytes: float = 0.0

@@ -114,24 +114,35 @@ def _ppc_cases():
 
 
 
+#: ``[pipeline.cds].memory``: where the reset frame is kept.
+CDS_MEMORY = ("chip", "ddr")
+
+
 @dataclass(frozen=True)
 class CdsOptions:
-    """``[pipeline.cds]``: mean reset level present in both images, DN."""
+    """``[pipeline.cds]``: mean reset level present in both images, DN; where the gateware
+    keeps the reset frame (``memory``)."""
 
     reset_level_dn: float = 0.0
+    memory: str = "chip"
 
 
 def _read_options(sec, sensor):
     full = sensor.full_scale_dn
     return CdsOptions(reset_level_dn=sec.number("reset_level_dn", 0.0, lo=0.0,
-                                                hi=float(full + 1), hi_open=True))
+                                                hi=float(full + 1), hi_open=True),
+                      memory=sec.choice("memory", "chip", CDS_MEMORY))
 
 
 OPTIONS = Options(
     CdsOptions, _read_options,
     "Digital correlated double sampling: signal frame minus reset frame.",
     {"reset_level_dn": KeyDoc("DN", "mean reset level present in both frames",
-                              range="[0, 2**bits)")})
+                              range="[0, 2**bits)"),
+     "memory": KeyDoc("", "chip: the reset frame arrives beside each signal pixel; ddr: "
+                          "the sensor's reset frame arrives as a frame of its own before its "
+                          "signal frame, is written to the DDR of [ddr] and read back line by "
+                          "line (block cds_ddr, Ning et al. 2019 §4.4.1, §4.2)")})
 
 
 def _pipeline_step(ctx):
@@ -184,6 +195,8 @@ BLOCK = Block(
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
+                 placement=lambda scene: scene.pipeline.cds.memory, spill="cds_ddr",
+                 caller_places=False, memory="reset frames",
                  scratch_bytes=14.0,
                  options=OPTIONS,
                  sim=SIM),

@@ -12,7 +12,9 @@ import numpy as np
 from tdicam.beats import Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
-from tdicam.blocks import PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, check_width
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
+                           check_width)
+from tdicam.blocks.steps import Step
 from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
@@ -177,6 +179,39 @@ def _cases():
     ] + _ppc_cases()
 
 
+def _pipeline_step(ctx):
+    """``[pipeline.cds].memory = "ddr"``: the frame's size, the reset frame at the scene's
+    ``[ddr].base``; ``frame_kind`` 1 on the reset frame, 0 on its signal frame, in turn."""
+    return Step("cds_ddr", {"width": ctx.width, "rows": ctx.m, "pixel_bits": ctx.bits,
+                            "base": ctx.scene.ddr.base},
+                ports={"frame_kind": (1, 0)}), ctx.bits
+
+
+def _pipeline_hw(step, data, *, ecp5=False):
+    """Every lane's :class:`~tdicam.hdl.cds_ddr.CdsDdr` with its MIG user interface at the
+    top's ports (``cds_ddr_app_*``, ``cds_ddr_app_*_1``: a DDR3 part per channel, as the
+    paper's two) and, for co-simulation, the simulation MIG model (DRAM timing and the
+    block's stall pattern) beside the top on them."""
+    from tdicam.hdl.chain_top import Device, LaneStage
+    from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
+    from tdicam.hdl.simmodels.mig_model import MigModel
+    p = BLOCK.resolve(step.params)
+
+    def device(lane):
+        words = _layout(p).end_addr(p["rows"]) // ADDR_PER_WORD
+        return Device(MigModel(depth_words=max(1, words), **stalls_of(p)),
+                      {n: n for n in MIG_PORT_NAMES},
+                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads"})
+    return LaneStage(step.block, lambda lane: _core(p), ports=tuple(step.ports),
+                     pins=MIG_PORT_NAMES, device=device, waits=True)
+
+
+def _pipeline_kinds(step, data, lane):
+    """The golden side's ``kinds``: reset, signal, reset, ... for the lane's frames."""
+    n = len(data.signal[lane])
+    return {"kinds": np.tile(np.array([1, 0], np.int64), n)}
+
+
 BLOCK = Block(
     name="cds_ddr",
     summary="digital CDS with the reset frame in DDR (Ning et al. 2019 §4.4.1, §4.2)",
@@ -204,6 +239,8 @@ BLOCK = Block(
     fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["frames"])[-2:]))),
     unstream=_unstream,
     example=_example,
+    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_kinds, per_frame=True,
+                 reset_frames=True),
     small=((3, 24), {"width": 24, "rows": 3}),
     order=80,
     bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",

@@ -269,11 +269,50 @@ OPTIONS = Options(
     probe={"flash": "nand"})
 
 
+#: The NAND part's R/B# busy time after a page read in co-simulation, clocks (the
+#: ``nand_store`` block's simulation default; the real t_R, 25 us, is 2,500 clocks at
+#: 100 MHz: :func:`tdicam.model.nand_store.timing` gives the load time at it).
+NAND_SIM_BUSY = 16
+
+
 def _pipeline_step(ctx):
+    """``[pipeline.nuc]``: the coefficient format; with ``flash = "nand"`` the part's
+    geometry (the 4 Gb MT29F4G08), faults and seed in the step's ``device``."""
     opt = ctx.scene.pipeline.nuc
+    device = {}
+    if opt.flash == "nand":
+        g = _nand.MT29F4G08
+        device = {"bad_blocks": opt.bad_blocks, "flip_single": opt.flip_single,
+                  "flip_double": opt.flip_double, "seed": opt.seed, "blocks": g.blocks,
+                  "pages_per_block": g.pages_per_block, "page_bytes": g.page_bytes,
+                  "busy_cycles": NAND_SIM_BUSY}
     return Step("nuc", {"pixel_bits": ctx.bits, "gain_int_bits": 2,
                         "gain_frac_bits": opt.gain_frac_bits, "offset_bits": 16,
-                        "offset_frac_bits": 0}), ctx.bits
+                        "offset_frac_bits": 0}, device=device), ctx.bits
+
+
+def nand_geometry(device):
+    """The :class:`~tdicam.model.nand_store.Geometry` of a step's ``device`` settings."""
+    return _nand.Geometry(page_bytes=device["page_bytes"],
+                          pages_per_block=device["pages_per_block"], blocks=device["blocks"])
+
+
+def nand_part(step, gain, offset, lane):
+    """The NAND part holding lane ``lane``'s coefficient codes as the step's ``device``
+    says (faults seeded ``seed + lane``, as the scene simulator's channel ``lane``):
+    (:class:`~tdicam.model.nand_store.NandDevice`, what the camera loads from it,
+    :class:`~tdicam.model.nand_store.StoreResult`)."""
+    d = step.device
+    fmt = _fmt(step.params)
+    g2, o2 = (np.asarray(a, np.int64).reshape(-1, np.shape(a)[-1]) for a in (gain, offset))
+    try:
+        dev = _nand.store_device(g2, o2, fmt, geometry=nand_geometry(d),
+                                 bad_blocks=d["bad_blocks"], p_single=d["flip_single"],
+                                 p_double=d["flip_double"], seed=d["seed"] + lane)
+    except TdicamError as exc:
+        raise TdicamError(f"[pipeline.nuc] flash = 'nand', bad_blocks = {d['bad_blocks']}: "
+                          f"{exc}") from None
+    return dev, _nand.read_store(dev)
 
 
 def _pipeline_side(step, data):
@@ -299,8 +338,87 @@ def _pipeline_side(step, data):
 
 
 def _pipeline_arrays(step, data, lane):
+    """The lane's coefficients; with a NAND part, as the camera loads them from it
+    (defaults where a word is uncorrectable)."""
     gain, offset = data.coeffs[lane]
+    if step.device:
+        res = nand_part(step, gain, offset, lane)[1]
+        gain = res.image.gain.reshape(np.shape(gain))
+        offset = res.image.offset.reshape(np.shape(offset))
     return {"gain": gain, "offset": offset}
+
+
+#: The NAND bus pins at the top (the controller's side, :data:`tdicam.hdl.nand_store.BUS_PORTS`)
+#: and the calibration status outputs, per lane.
+def _nand_io(count_bits):
+    from amaranth.lib.wiring import In, Out
+    from tdicam.hdl.nand_store import BUS_PORTS
+    io = {name: (Out(w) if d == "out" else In(w)) for name, w, d in BUS_PORTS}
+    io.update({"calib_loaded": Out(1), "bad_blocks": Out(16),
+               "corrected_words": Out(count_bits), "uncorrectable_words": Out(count_bits),
+               "calib_error": Out(1)})
+    return io
+
+
+def _pipeline_hw(step, data, *, ecp5=False):
+    """The ROM stage (:func:`_pipeline_side`), or with a NAND part (``flash = "nand"``)
+    the camera's power-up load: per lane a :class:`~tdicam.hdl.nand_store.NandCalibStore`
+    (bad-block scan, block map, pages through :class:`~tdicam.hdl.calib.CalibReader`)
+    on the NAND bus at the top's ports (``nuc_nand_*``), its coefficients kept in a
+    :class:`~tdicam.hdl.calib.CoeffBuffer` and replayed every frame. The top holds its
+    input until every lane's ``nuc_calib_loaded``; ``nuc_bad_blocks``,
+    ``nuc_corrected_words``, ``nuc_uncorrectable_words`` and ``nuc_calib_error`` (the
+    store ran out of good blocks, or the image's header is bad) say what the load saw.
+    For co-simulation the part itself (:class:`~tdicam.hdl.nand_store.NandPart`, the
+    lane's image with its faults) is the stage's device, outside the top."""
+    from dataclasses import replace
+    if not step.device:
+        return lane_stage(side=_pipeline_side)(step, data, ecp5=ecp5)
+    from tdicam.hdl.calib import CoeffBuffer
+    from tdicam.hdl.chain_top import Device, Link
+    from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore, NandPart
+    from tdicam.blocks.nand_store import load_beats
+    from tdicam.model import calib as _calib
+    d, fmt = step.device, _fmt(step.params)
+    ppc = step.params.get("ppc", 1)
+    rows, cols = np.shape(data.coeffs[0][0])
+    geo = dict(page_bytes=d["page_bytes"], pages_per_block=d["pages_per_block"],
+               blocks=d["blocks"])
+
+    def side(m, lane, io):
+        st = NandCalibStore(rows=rows, cols=cols, **fmt.params(), **geo)
+        buf = CoeffBuffer(rows=rows, cols=cols, elem_bits=st.reader.elem_bits, ppc=ppc)
+        m.submodules[f"nuc_nand{lane}"] = st
+        m.submodules[f"nuc_coeffs{lane}"] = buf
+        m.d.comb += [st.start.eq(1), buf.i_stream.valid.eq(st.o_stream.valid),
+                     st.o_stream.ready.eq(buf.i_stream.ready),
+                     buf.i_stream.payload.eq(st.o_stream.payload),
+                     io["calib_loaded"].eq(buf.loaded), io["bad_blocks"].eq(st.bad_blocks),
+                     io["corrected_words"].eq(st.corrected_count),
+                     io["uncorrectable_words"].eq(st.uncorrectable_count),
+                     io["calib_error"].eq(st.error | st.header_error)]
+        for name, _, dr in BUS_PORTS:
+            if dr == "out":
+                m.d.comb += io[name].eq(getattr(st, name))
+            else:
+                m.d.comb += getattr(st, name).eq(io[name])
+        return Link.of_output(buf.o_stream)
+
+    def device(lane):
+        part, _ = nand_part(step, *data.coeffs[lane], lane)
+        pages = sum(1 for r in part.pages if (part.pages[r][:d["page_bytes"]] != 0xFF).any())
+        words = load_beats(part, max(1, pages))
+        model = NandPart(words, slots=max(1, pages), busy_cycles=d["busy_cycles"], **geo)
+        pins = {"nand_cle": "cle", "nand_ale": "ale", "nand_we_n": "we_n", "nand_re_n": "re_n",
+                "nand_dq_o": "dq_in", "nand_dq_i": "dq_out", "nand_rb_n": "rb_n"}
+        return Device(model, pins)
+
+    t = _nand.timing(rows, cols, _nand.Geometry(**geo), busy_cycles=d["busy_cycles"])
+    loader = (t.pages + 4) * (d["page_bytes"] + 1) + d["blocks"]   # the part's own load
+    bound = t.scan_cycles + t.load_cycles + loader + 10_000
+    stage = lane_stage(side=lambda s, dt: side)(step, data, ecp5=ecp5)
+    return replace(stage, io=_nand_io(_calib.DEFAULT_COUNT_BITS), ready="calib_loaded",
+                   device=device, startup=bound)
 
 
 def _pipeline_identity(step, shape):
@@ -448,7 +566,7 @@ BLOCK = Block(
     ),
     golden=_golden,
     example=_example,
-    pipeline=Use(_pipeline_step, lane_stage(side=_pipeline_side), side=_pipeline_arrays,
+    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
                  scratch_bytes=38.0,
                  sim=SIM),

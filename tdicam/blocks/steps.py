@@ -25,20 +25,27 @@ __all__ = ["Step", "Plan", "SceneData", "Context", "Frames", "Sim"]
 class Step:
     """One block of a plan: registry ``params``, run-time port values ``ports`` (gateware),
     ``inputs`` (the same settings as the registry's ``run`` side inputs, golden side) and
-    ``group`` (incoming frames grouped into one, or None)."""
+    ``group`` (incoming frames grouped into one, or None), ``device`` (settings of the
+    block's external part: the NAND flash holding NUC's coefficients, its geometry and
+    faults; empty: none). A ``ports`` value that is a tuple is a per-frame pattern: input
+    frame ``f`` presents element ``f % len``."""
 
     block: str
     params: dict
     ports: dict = field(default_factory=dict)
     group: int | None = None
     inputs: dict = field(default_factory=dict)
+    device: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class Plan:
     """A scene's chain: ``steps`` in order; input ``lanes`` (channels) of ``lane_elems``
     elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them;
-    ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it)."""
+    ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it);
+    ``reset_frames``: each lane's reset frames travel in the stream as frames of their own,
+    each before its signal frame (the first block stores them,
+    :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel."""
 
     steps: tuple
     lanes: int
@@ -50,6 +57,7 @@ class Plan:
     lines: int
     source: str = ""
     ppc: int = 1
+    reset_frames: bool = False
 
     @property
     def input_pixels(self):
@@ -70,7 +78,15 @@ class SceneData:
         out = []
         for k in range(plan.lanes):
             arrs = [np.asarray(self.signal[k])]
-            if plan.lane_elems == 2:
+            if plan.reset_frames:
+                if self.reset is None:
+                    raise TdicamError("pipeline: the chain starts with a block that stores "
+                                      "reset frames but the scene data has no reset frames")
+                r = np.asarray(self.reset[k])
+                both = np.empty((2 * len(arrs[0]),) + arrs[0].shape[1:], arrs[0].dtype)
+                both[0::2], both[1::2] = r, arrs[0]          # reset frame, then its signal
+                arrs = [both]
+            elif plan.lane_elems == 2:
                 if self.reset is None:
                     raise TdicamError("pipeline: the chain starts with a two-element block "
                                       "(CDS) but the scene data has no reset frames")

@@ -110,15 +110,32 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
 
 
 
+def status_ports(axis_top):
+    """[(name, width)] of the top's status outputs: its ``Out`` ports besides the streams
+    and the taps (the stages' status, the start-up counter, the external parts' models')."""
+    from amaranth.hdl import Shape
+    from amaranth.lib import wiring
+    return [(n, Shape.cast(mem.shape).width) for n, mem in axis_top.signature.members.items()
+            if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))]
+
+
 def _testbench(axis_top, taps, *, wave):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
-    file's format) and its cycle to ``tap<k>.cyc``; with ``wave`` tbgen's waveform window
-    (``wave.fst`` of cycles ``+wave_from .. +wave_to``)."""
+    file's format) and its cycle to ``tap<k>.cyc``, and every status output's value at the
+    end of the run to ``status.txt`` (``name value`` lines, decimal); with ``wave`` tbgen's
+    waveform window (``wave.fst`` of cycles ``+wave_from .. +wave_to``)."""
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
                                 ctrl_ports=ctrl, wave=wave)
     decl, conn, opens, writes, closes = [], [], [], [], []
+    status = status_ports(axis_top)
+    if status:
+        decl += [f"  wire [{w - 1}:0] st_{n};\n" for n, w in status] + ["  integer sfd;\n"]
+        conn += [f"    .{n}(st_{n})," for n, _ in status]
+        closes.append('      sfd = $fopen("status.txt", "w");')
+        closes += [f'      $fwrite(sfd, "{n} %0d\\n", st_{n});' for n, _ in status]
+        closes.append("      $fclose(sfd);")
     for k, (name, bits, count) in enumerate(taps):
         padded = -(-bits // 8) * 8
         base = f"tap{k}_{name}"
@@ -184,7 +201,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     from tdicam.cosim import codec, tbgen
     from tdicam.hw.verilog import convert
     t0 = time.perf_counter()
-    ax = pl.top(p, data, taps=taps)
+    ax = pl.top(p, data, taps=taps, board=True)
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")
     tb = _testbench(ax, tap_shapes, wave=wave is not None)
@@ -199,7 +216,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     bits, count, padded, _ = ax._in
     n_in = len(stim)
     n_out = int(np.prod(pl.output_shape(p))) // p.ppc       # output beats
-    max_cycles = (n_in + n_out) * 4 + 100_000 if wave is None else int(wave[1]) + 2
+    max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
+        else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
     for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
@@ -224,6 +242,9 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
         raise TdicamError(f"{sim} simulation of the pipeline failed; see "
                           f"{rundir / 'sim.log'}")
     info = json.loads(summary.read_text())
+    st = rundir / "status.txt"
+    info["status"] = {} if not st.exists() else {
+        ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
     got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
                                       elem_padded_bits=ax._out[2], count=ax._out[1])}
     for k, (name, b, c) in enumerate(tap_shapes):
@@ -306,6 +327,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
            "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
            "build_seconds": info["build_seconds"], "run_seconds": info["run_seconds"],
            "taps": []}
+    if info.get("status"):
+        rep["status"] = info["status"]
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
     ppc = p.ppc

@@ -153,10 +153,12 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
                           f"{' -> '.join(names)} keeps its memory in DDR")
+    first = _use(steps[0].block) if steps else None
     return Plan(tuple(steps), lanes=2 if merge else 1,
-                lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
+                lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
-                source=str(scene.source), ppc=ppc)
+                source=str(scene.source), ppc=ppc,
+                reset_frames=bool(first and first.reset_frames))
 
 
 def _at_ppc(step, out_bits, ppc):
@@ -173,13 +175,15 @@ def _at_ppc(step, out_bits, ppc):
 def _spills(u, step, scene, spill, device):
     """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
     from tdicam.model.physics.plan import onchip_budget
-    if u.memory_bits is None:
+    if u.memory_bits is None and u.placement is None:
         return False, ""
-    need, budget = u.memory_bits(step), onchip_budget(device)
-    if spill is not None:
+    if spill is not None and u.caller_places:
         asked, how = {True: "ddr", False: "chip", "auto": "auto"}[spill], "the caller"
     else:
         asked, how = (u.placement(scene) if u.placement else "auto"), "the scene"
+    if u.memory_bits is None:           # placed by the scene only, never by size
+        return asked == "ddr", f"its {u.memory} are placed in DDR by {how}"
+    need, budget = u.memory_bits(step), onchip_budget(device)
     if asked == "auto":
         return need > budget, (f"its {u.memory} ({need} bits) exceed the {device}'s on-chip "
                                f"RAM ({budget} bits)")
@@ -197,11 +201,13 @@ def identity_data(p):
     return SceneData([], **fields)
 
 
-def top(p, data=None, *, taps=False, ecp5=False):
+def top(p, data=None, *, taps=False, ecp5=False, board=False):
     """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
-    each block's ECP5 synthesis top where it has one, for ``tdicam synth``)."""
+    each block's ECP5 synthesis top where it has one, for ``tdicam synth``; ``board``: for
+    co-simulation, the top inside a :class:`~tdicam.hdl.chain_top.Board` with the
+    simulation models of its external parts on its pins, when it has any)."""
     from tdicam.hdl.interfaces.axis import AxisTop
-    from tdicam.hdl.chain_top import Pipeline
+    from tdicam.hdl.chain_top import Board, Pipeline
     data = identity_data(p) if data is None or data.coeffs is None else data
     stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:
@@ -209,6 +215,8 @@ def top(p, data=None, *, taps=False, ecp5=False):
                         taps=taps, ppc=p.ppc)
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
+    if board and core.has_devices():
+        core = Board(core)
     return AxisTop(core)
 
 
@@ -243,25 +251,36 @@ def golden(p, data):
 
 
 def _ctrl(axis_top, p):
-    """Packed run-time port values (first port in the most significant bits)."""
+    """Packed run-time port values (first port in the most significant bits), one word per
+    input frame of the ports' per-frame pattern (a tuple value, :class:`Step`): the words of
+    frames ``0 .. n-1``, repeating."""
+    from math import lcm
     from tdicam.cosim import stream_ports
     _, _, ctrl = stream_ports(axis_top)
     values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
-    word = 0
-    for name, width in ctrl:
-        if name not in values:
-            raise TdicamError(f"pipeline: no value for the top's input port {name}")
-        word = (word << width) | (int(values[name]) & ((1 << width) - 1))
-    return ctrl, word
+    period = lcm(1, *(len(v) for v in values.values() if isinstance(v, tuple)))
+    words = []
+    for f in range(period):
+        word = 0
+        for name, width in ctrl:
+            if name not in values:
+                raise TdicamError(f"pipeline: no value for the top's input port {name}")
+            v = values[name]
+            v = v[f % len(v)] if isinstance(v, tuple) else v
+            word = (word << width) | (int(v) & ((1 << width) - 1))
+        words.append(word)
+    return ctrl, words
 
 
 def stimulus(p, data, axis_top):
-    """Input beats of the scene data (every lane's elements in each beat)."""
+    """Input beats of the scene data (every lane's elements in each beat), each with the
+    run-time port values of its frame."""
     from tdicam.beats import frames_to_beats
     arrs = [a for lane in data.lane_arrays(p) for a in lane]
     stim = frames_to_beats(np.stack(arrs, axis=-1), ppc=p.ppc, channels=len(arrs))
-    _, word = _ctrl(axis_top, p)
-    stim.ctrl = np.full(len(stim), word, np.uint64)
+    _, words = _ctrl(axis_top, p)
+    frame = np.cumsum(stim.first) - 1
+    stim.ctrl = np.asarray(words, np.uint64)[frame % len(words)]
     return stim
 
 

@@ -1,0 +1,99 @@
+"""The camera's system top co-simulated whole against the golden chain: the reset frames
+through DDR (cds_ddr on the simulation MIG model's stalls), the NUC coefficients loaded at
+power-up from a NAND part with 200 bad blocks and flipped bits (the part's model outside the
+top, on its pins), HDR, TDI and the median; the top holds the frames until both channels'
+calibration is loaded and its status outputs say what the load saw.
+
+Default run: one Icarus build of a 24-column cut (a 512-block part: the power-up scan in
+~16 k cycles). With ``TDICAM_FULL=1``: the bundled system scene whole through Verilator
+(``tdicam run``), and its fault scene.
+"""
+
+import json
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tdicam.camera import design as pl
+from tdicam.camera.cosim import cosimulate, scene_data
+from tdicam.model import nand_store as nand
+from tdicam.scene.loader import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+FULL = os.environ.get("TDICAM_FULL") == "1"
+SYSTEM = ROOT / "scenes" / "ning2019_gmax0504_system.toml"
+FAULTS = ROOT / "scenes" / "ning2019_gmax0504_system_faults.toml"
+
+#: the MIG model's stall pattern, far worse than the default (refresh 44 of 780 cycles,
+#: each ready dropped 16/256): refresh 300 of every 700 cycles, ready dropped 96/256
+STALLS = {"refresh_period": 700, "refresh_cycles": 300, "drop": 96, "lat_lo": 30,
+          "lat_hi": 90}
+
+
+def _cut():
+    """A 24-column, 4-stage, 3-line cut of the fault scene; its NAND part 512 blocks."""
+    sc = load_scene(FAULTS, overrides={"sensor": {"columns": 24}, "tdi": {"stages": 4},
+                                       "run": {"lines": 3}})
+    p = pl.plan(sc)
+    steps = []
+    for s in p.steps:
+        if s.device:
+            s = replace(s, device={**s.device, "blocks": 512})
+        if "refresh_period" in s.params or s.block == "cds_ddr":
+            s = replace(s, params={**s.params, **STALLS})
+        steps.append(s)
+    return sc, replace(p, steps=tuple(steps))
+
+
+@pytest.fixture(scope="module")
+def icarus_run():
+    sc, p = _cut()
+    data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=3)
+    rep = cosimulate(p, data, "icarus", idle=0.2, backpressure=0.2, seed=5)
+    return p, data, rep
+
+
+def test_system_cut_matches_through_ddr_stalls_and_a_faulty_nand(icarus_run):
+    p, data, rep = icarus_run
+    assert [s.block for s in p.steps] == ["cds_ddr", "nuc", "hdr", "tdi", "median3"]
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert rep["pixels_compared"] == 3 * 24
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] for t in rep["taps"])
+    st = rep["status"]
+    # the reset frames went through DDR: a word per 24 pixels written and read back
+    words = p.frames * 4 * 24 // 24
+    for lane in ("", "_1"):
+        assert st[f"cds_ddr_ddr_writes{lane}"] == words == st[f"cds_ddr_ddr_reads{lane}"]
+        assert st[f"cds_ddr_ddr_error{lane}"] == 0
+
+
+def test_the_camera_reports_what_the_nand_load_saw(icarus_run):
+    """Status outputs against the model of the same parts: bad blocks found by the scan,
+    corrected and uncorrectable words, calibration loaded, no store error; the frames
+    were held until then (start-up cycles: the part's own load, the scan and the read)."""
+    from tdicam.blocks.nuc import nand_part
+    p, data, rep = icarus_run
+    st = rep["status"]
+    step = p.steps[1]
+    for lane, sfx in ((0, ""), (1, "_1")):
+        _, res = nand_part(step, *data.coeffs[lane], lane)
+        assert st[f"nuc_bad_blocks{sfx}"] == res.scan.bad_count == 200
+        assert st[f"nuc_corrected_words{sfx}"] == res.image.corrected > 0
+        assert st[f"nuc_uncorrectable_words{sfx}"] == res.image.uncorrectable > 0
+        assert st[f"nuc_calib_loaded{sfx}"] == 1 and st[f"nuc_calib_error{sfx}"] == 0
+    t = nand.timing(4, 24, nand.Geometry(blocks=512), busy_cycles=step.device["busy_cycles"])
+    assert st["startup_cycles"] > t.scan_cycles + t.load_cycles
+
+
+@pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: the system scenes through Verilator")
+@pytest.mark.parametrize("scene", [SYSTEM, FAULTS], ids=["system", "faults"])
+def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
+    from tdicam.commands.run import run_scene
+    run_scene(str(scene), str(tmp_path))
+    rep = json.loads((tmp_path / "report.json").read_text())
+    pipe = [b for b in rep["rtl"]["blocks"] if b["block"] == "pipeline"][0]
+    assert pipe["mismatches"] == 0 and pipe["engine_agrees"], pipe.get("message")
+    assert pipe["status"]["nuc_calib_loaded"] == 1

@@ -1,0 +1,182 @@
+"""The camera's system top (no Verilog simulator): CDS's reset frame through DDR
+(``[pipeline.cds] memory = "ddr"``: cds_ddr with the MIG user interface at the top's
+ports), NUC's coefficients loaded from NAND at power-up (``[pipeline.nuc] flash = "nand"``:
+the NAND bus at the top's ports, the part's model beside the top in co-simulation), the
+status outputs, and the coefficient buffer in the Amaranth simulator. The co-simulation
+of the whole is cocotb_tests/test_system.py."""
+
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tdicam.camera import design as pl
+from tdicam.camera.cosim import scene_data, status_ports
+from tdicam.errors import TdicamError
+from tdicam.scene.loader import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+CHAIN = ROOT / "scenes" / "ning2019_chain.toml"
+SYSTEM = {"cds": {"memory": "ddr"}, "nuc": {"flash": "nand", "bad_blocks": 20,
+                                             "flip_single": 0.25, "flip_double": 0.05}}
+
+
+def _scene(pipeline=SYSTEM, ddr=True, **over):
+    o = {"sensor": {"columns": 24}, "tdi": {"stages": 4}, "run": {"lines": 3},
+         "pipeline": pipeline, **over}
+    if ddr:
+        o["ddr"] = {"base": 4096}
+    return load_scene(CHAIN, overrides=o)
+
+
+def test_cds_memory_ddr_plans_cds_ddr_with_reset_frames_in_the_stream():
+    p = pl.plan(_scene())
+    assert [s.block for s in p.steps] == ["cds_ddr", "nuc", "hdr", "tdi", "median3"]
+    assert (p.lanes, p.lane_elems, p.reset_frames) == (2, 1, True)
+    st = p.steps[0]
+    assert st.params == {"width": 24, "rows": 4, "pixel_bits": 10, "base": 4096}
+    assert st.ports == {"frame_kind": (1, 0)}             # reset frame, then its signal
+    # the caller's --memory is about TDI's partial sums: it never moves the reset frame
+    assert [s.block for s in pl.plan(_scene(), spill=False).steps][0] == "cds_ddr"
+    assert [s.block for s in pl.plan(_scene(pipeline={})).steps][0] == "cds"
+    assert pl.plan(_scene(pipeline={}), spill="auto").steps[0].block == "cds"
+    assert not pl.plan(_scene(pipeline={})).reset_frames
+
+
+def test_cds_in_ddr_needs_a_ddr_section():
+    with pytest.raises(TdicamError, match=r"^pipeline: input -> cds: its reset frames are "
+                       r"placed in DDR by the scene: it spills to DDR through cds_ddr, but "
+                       r"the scene has no \[ddr\] section") as exc:
+        pl.plan(_scene(ddr=False))
+    assert "\n" not in str(exc.value)
+    with pytest.raises(TdicamError, match=r"^\[pipeline.cds\].memory: must be one of"):
+        _scene(pipeline={"cds": {"memory": "sram"}})
+
+
+def test_the_reset_frames_travel_before_their_signal_frames():
+    sc = _scene()
+    p = pl.plan(sc)
+    data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=3)
+    lanes = data.lane_arrays(p)
+    assert len(lanes) == 2 and all(len(a) == 1 for a in lanes)
+    both = lanes[1][0]
+    assert both.shape == (2 * p.frames, 4, 24)
+    assert np.array_equal(both[0::2], data.reset[1]) and np.array_equal(both[1::2],
+                                                                        data.signal[1])
+    ax = pl.top(p, data, board=True)
+    stim = pl.stimulus(p, data, ax)
+    ctrl = dict(status_ports(ax))                          # (no input among them)
+    assert "cds_ddr_frame_kind" not in ctrl
+    names = [n for n, _ in __import__("tdicam.cosim", fromlist=["x"]).stream_ports(ax)[2]]
+    assert names[0] == "cds_ddr_frame_kind"                # the most significant ctrl bit
+    width = sum(w for _, w in __import__("tdicam.cosim", fromlist=["x"]).stream_ports(ax)[2])
+    kind = (stim.ctrl >> np.uint64(width - 1)) & np.uint64(1)
+    frame = np.cumsum(stim.first) - 1
+    assert np.array_equal(kind, (frame % 2 == 0).astype(np.uint64))
+
+
+def _members(ax):
+    return {n: m.flow.name for n, m in ax.signature.members.items()}
+
+
+def test_system_top_has_the_parts_interfaces_at_its_ports_and_the_board_their_models():
+    """Synthesis form: each channel's MIG user interface and NAND bus are ports of the top
+    (no model inside); the co-simulation board wires the DDR and NAND models to them and
+    keeps the status outputs."""
+    p = pl.plan(_scene())
+    top = _members(pl.top(p))
+    for lane in ("", "_1"):
+        for port, flow in (("app_addr", "Out"), ("app_rdy", "In"), ("app_rd_data", "In"),
+                           ("app_wdf_data", "Out")):
+            assert top[f"cds_ddr_{port}{lane}"] == flow
+        for port, flow in (("nand_cle", "Out"), ("nand_re_n", "Out"), ("nand_dq_o", "Out"),
+                           ("nand_dq_i", "In"), ("nand_rb_n", "In"), ("calib_loaded", "Out"),
+                           ("bad_blocks", "Out"), ("corrected_words", "Out"),
+                           ("uncorrectable_words", "Out"), ("calib_error", "Out")):
+            assert top[f"nuc_{port}{lane}"] == flow
+    assert top["startup_cycles"] == "Out" and top["cds_ddr_frame_kind"] == "In"
+    board = _members(pl.top(p, board=True))
+    assert not any("app_" in n or "nand_" in n for n in board)
+    for name in ("nuc_calib_loaded_1", "nuc_bad_blocks", "startup_cycles",
+                 "cds_ddr_ddr_error", "cds_ddr_ddr_reads_1"):
+        assert board[name] == "Out"
+    # a chain without external parts is the same top either way
+    plain = pl.plan(_scene(pipeline={}))
+    assert _members(pl.top(plain, board=True)) == _members(pl.top(plain))
+    assert "startup_cycles" not in _members(pl.top(plain))
+
+
+def test_golden_chain_loads_the_coefficients_from_nand_as_the_scene_simulator_does():
+    """With flash = "nand" the golden chain's NUC gets the coefficients the camera loads
+    from the faulty part (defaults where a word is uncorrectable): the chain's output is
+    the scene simulator's, and differs from the chain on the ideal coefficients."""
+    sc = _scene(pipeline={"nuc": {"flash": "nand", "bad_blocks": 200, "flip_single": 0.25,
+                                  "flip_double": 0.2, "seed": 3}})
+    p = pl.plan(sc)
+    assert p.steps[1].device["bad_blocks"] == 200 and p.steps[1].device["seed"] == 3
+    data, ex = scene_data(sc, stages=4, dv_over_v=0.0, lines=3)
+    gold = pl.golden(p, data)
+    assert np.array_equal(gold[-1][2].reshape(ex.output.shape), ex.output)
+    from dataclasses import replace
+    bare = replace(p, steps=tuple(replace(s, device={}) for s in p.steps))
+    nuc0 = [g for g in gold if g[0] == "nuc_0"][0][2]
+    assert not np.array_equal([g for g in pl.golden(bare, data) if g[0] == "nuc_0"][0][2],
+                              nuc0)
+
+
+@pytest.mark.parametrize("ppc", [1, 4])
+def test_coefficient_buffer_loads_once_and_replays(ppc):
+    """CoeffBuffer in the Amaranth simulator, random idle cycles on the load and random
+    backpressure on the replay: the image comes out three times over, ppc pixels a beat,
+    markers on pixel 0 and on each row's last beat; nothing before the load is complete."""
+    from amaranth.sim import Simulator
+    from tdicam.hdl.calib import CoeffBuffer
+
+    rows, cols, eb = 3, 8, 16
+    rng = random.Random(ppc)
+    gain = [[rng.randrange(1 << eb) for _ in range(cols)] for _ in range(rows)]
+    off = [[rng.randrange(1 << eb) for _ in range(cols)] for _ in range(rows)]
+    dut = CoeffBuffer(rows=rows, cols=cols, elem_bits=eb, ppc=ppc)
+    got, early = [], []
+
+    async def load(ctx):
+        for r in range(rows):
+            for c in range(cols):
+                while rng.random() < 0.3:
+                    await ctx.tick()
+                ctx.set(dut.i_stream.payload.data[0], gain[r][c])
+                ctx.set(dut.i_stream.payload.data[1], off[r][c])
+                ctx.set(dut.i_stream.valid, 1)
+                await ctx.tick().until(dut.i_stream.ready)
+                ctx.set(dut.i_stream.valid, 0)
+
+    async def sink(ctx):
+        n = 0
+        while len(got) < 3 * rows * cols // ppc:
+            ready = rng.random() > 0.3
+            ctx.set(dut.o_stream.ready, ready)
+            await ctx.delay(1e-9)
+            if ctx.get(dut.o_stream.valid):
+                if not ctx.get(dut.loaded):
+                    early.append(n)
+                if ready:
+                    d = [ctx.get(dut.o_stream.payload.data[k]) for k in range(2 * ppc)]
+                    got.append((d, ctx.get(dut.o_stream.payload.first),
+                                ctx.get(dut.o_stream.payload.last)))
+            await ctx.tick()
+            n += 1
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(load)
+    sim.add_testbench(sink)
+    sim.run_until(2e-5)
+    per_row = cols // ppc
+    want = []
+    for _ in range(3):
+        for r in range(rows):
+            for b in range(per_row):
+                d = [v for c in range(b * ppc, (b + 1) * ppc) for v in (gain[r][c], off[r][c])]
+                want.append((d, int(r == 0 and b == 0), int(b == per_row - 1)))
+    assert got == want and not early
