@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from tdicam.camera import design as pl
-from tdicam.camera.cosim import cosimulate, scene_data
+from tdicam.camera.cosim import cosimulate, scene_data, system_figures
 from tdicam.model import nand_store as nand
 from tdicam.scene.loader import load_scene
 
@@ -34,14 +34,16 @@ STALLS = {"refresh_period": 700, "refresh_cycles": 300, "drop": 96, "lat_lo": 30
 
 
 def _cut():
-    """A 24-column, 4-stage, 3-line cut of the fault scene; its NAND part 512 blocks."""
+    """A 24-column, 4-stage, 3-line cut of the fault scene; its NAND parts 512 blocks, the
+    faults' seed 23: block 1, the first the writer would use, is bad on both channels, so a
+    camera that did not skip bad blocks would read garbage (its pixels differ)."""
     sc = load_scene(FAULTS, overrides={"sensor": {"columns": 24}, "tdi": {"stages": 4},
                                        "run": {"lines": 3}})
     p = pl.plan(sc)
     steps = []
     for s in p.steps:
         if s.device:
-            s = replace(s, device={**s.device, "blocks": 512})
+            s = replace(s, device={**s.device, "blocks": 512, "seed": 23})
         if "refresh_period" in s.params or s.block == "cds_ddr":
             s = replace(s, params={**s.params, **STALLS})
         steps.append(s)
@@ -62,7 +64,7 @@ def test_system_cut_matches_through_ddr_stalls_and_a_faulty_nand(icarus_run):
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert rep["pixels_compared"] == 3 * 24
     assert all(t["mismatches"] == 0 and t["received"] == t["beats"] for t in rep["taps"])
-    st = rep["status"]
+    st = rep["status_outputs"]
     # the reset frames went through DDR: a word per 24 pixels written and read back
     words = p.frames * 4 * 24 // 24
     for lane in ("", "_1"):
@@ -76,16 +78,23 @@ def test_the_camera_reports_what_the_nand_load_saw(icarus_run):
     were held until then (start-up cycles: the part's own load, the scan and the read)."""
     from tdicam.blocks.nuc import nand_part
     p, data, rep = icarus_run
-    st = rep["status"]
+    st = rep["status_outputs"]
     step = p.steps[1]
     for lane, sfx in ((0, ""), (1, "_1")):
         _, res = nand_part(step, *data.coeffs[lane], lane)
         assert st[f"nuc_bad_blocks{sfx}"] == res.scan.bad_count == 200
+        assert res.scan.bad[1]                     # the data starts past a bad block
         assert st[f"nuc_corrected_words{sfx}"] == res.image.corrected > 0
         assert st[f"nuc_uncorrectable_words{sfx}"] == res.image.uncorrectable > 0
         assert st[f"nuc_calib_loaded{sfx}"] == 1 and st[f"nuc_calib_error{sfx}"] == 0
     t = nand.timing(4, 24, nand.Geometry(blocks=512), busy_cycles=step.device["busy_cycles"])
     assert st["startup_cycles"] > t.scan_cycles + t.load_cycles
+    # the report's lines say the same (tdicam run's rtl section)
+    lines = {r["name"]: r for r in system_figures(p, rep)}
+    assert lines["calibration load, channel 1"]["value"] == 200
+    assert "200 bad blocks" in lines["calibration load, channel 0"]["text"]
+    assert lines["start-up cycles"]["model_cycles"] == t.scan_cycles + t.load_cycles
+    assert lines["CDS DDR traffic, channel 1"]["value"] == 2 * p.frames * 4
 
 
 @pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: the system scenes through Verilator")
@@ -96,4 +105,4 @@ def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
     rep = json.loads((tmp_path / "report.json").read_text())
     pipe = [b for b in rep["rtl"]["blocks"] if b["block"] == "pipeline"][0]
     assert pipe["mismatches"] == 0 and pipe["engine_agrees"], pipe.get("message")
-    assert pipe["status"]["nuc_calib_loaded"] == 1
+    assert pipe["status_outputs"]["nuc_calib_loaded"] == 1

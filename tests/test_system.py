@@ -180,3 +180,28 @@ def test_coefficient_buffer_loads_once_and_replays(ppc):
                 d = [v for c in range(b * ppc, (b + 1) * ppc) for v in (gain[r][c], off[r][c])]
                 want.append((d, int(r == 0 and b == 0), int(b == per_row - 1)))
     assert got == want and not early
+
+
+def test_plan_states_the_calibration_load_and_the_cds_ddr_bandwidth():
+    """tdicam plan of the system scene: the NAND load time before the first frame (the
+    model's scan of every block at t_R plus the image's pages, 50 MHz controller) and the
+    reset frame's DDR bandwidth against the interface at cds_ddr's measured efficiency."""
+    from tdicam.api import plan
+    from tdicam.model import nand_store as nand
+    from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN
+    rep = plan(ROOT / "scenes" / "ning2019_gmax0504_system.toml").to_dict()
+    rows = {r["name"]: r for r in rep["system"]}
+    t = nand.timing(8, 256)
+    assert rows["calibration load"]["value"] == pytest.approx(t.scan_s + t.load_s)
+    assert 0.1 < rows["calibration load"]["value"] < 0.11            # 4096 blocks x 25 us
+    ddr = rows["CDS DDR bandwidth"]
+    line = rep["design"]["line_period_s"]
+    assert ddr["value"] == pytest.approx(2 * 8 * 11 * 32 / line)       # 11 words a line
+    assert ddr["efficiency"] == pytest.approx(min(MEASURED_EFFICIENCY["cds_ddr"]) / 100
+                                              - PLAN_MARGIN)
+    assert ddr["ok"] is True and rep["feasible"]
+    text = plan(ROOT / "scenes" / "ning2019_gmax0504_system.toml").text()
+    assert "NUC calibration from NAND before the first frame: 104.2 ms" in text
+    assert "CDS reset frame in DDR (cds_ddr): 88 words" in text
+    # a chain without external parts has no system section
+    assert plan(CHAIN).to_dict()["system"] is None

@@ -284,6 +284,16 @@ class Use:
         Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
         simulator's effects table (two for a block that may run on either side of the
         line-making block); empty for a block a scene does not list.
+    system : callable(step, ctx) -> list of dict, or None
+        The block's figures in ``tdicam plan``'s system section (an external part's load
+        before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
+        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``}; each dict has ``name``, ``value``,
+        ``unit``, ``text`` (one line) and ``ok`` (True/False, or None: no verdict).
+    measured : callable(step, status, info) -> list of dict, or None
+        The same figures as a co-simulation measured them, from the top's status outputs
+        ``status`` ({port: value}) and ``info`` ({``cycles``, ``rows``, ``width``}), each dict
+        with ``name``,
+        ``value``, ``unit``, ``text`` (the run report's system section).
     """
 
     step: Callable
@@ -307,6 +317,8 @@ class Use:
     rank: int | None = None
     options: Options | None = None
     sim: tuple = ()
+    system: Callable | None = None
+    measured: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -206,6 +206,52 @@ def _pipeline_hw(step, data, *, ecp5=False):
                      pins=MIG_PORT_NAMES, device=device, waits=True)
 
 
+def _frame_words(params):
+    """256-bit DDR words of one reset frame."""
+    return _layout(BLOCK.resolve(params)).words_per_line * params["rows"]
+
+
+def _system(step, ctx):
+    """The plan: each channel's reset frame written and read back once a line period, on
+    its own DDR part, against the interface at the efficiency measured on cds_ddr's
+    command order (the lower of the memory model's and LiteDRAM's, less the plan margin)."""
+    from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN, WORD_BITS
+    words = _frame_words(step.params)
+    t = ctx["line_period_s"]
+    need = 2 * words * WORD_BITS / 8 / t
+    model, lite = MEASURED_EFFICIENCY["cds_ddr"]
+    eff = min(model, lite if lite is not None else model) / 100 - PLAN_MARGIN
+    avail = ctx["ddr_bits"] / 8 * ctx["ddr_clock_hz"] * eff
+    ok = need <= avail
+    return [{"name": "CDS DDR bandwidth", "value": need, "unit": "B/s", "ok": ok,
+             "available": avail, "efficiency": eff, "words_per_frame": words,
+             "text": f"CDS reset frame in DDR (cds_ddr): {words} words of {WORD_BITS} bit "
+                     f"written and read back each line period ({t * 1e6:.1f} us) = "
+                     f"{need / 1e6:.1f} MB/s per DDR part ({ctx['lanes']} part(s), one a "
+                     f"channel); available {avail / 1e6:.0f} MB/s ({ctx['ddr_bits']} bit x "
+                     f"{ctx['ddr_clock_hz'] / 1e6:g} MHz x {eff:.1%}: cds_ddr's measured "
+                     f"efficiency {min(model, lite or model):g} % less the "
+                     f"{PLAN_MARGIN:.0%} plan margin): {'OK' if ok else 'NO'}"}]
+
+
+def _measured(step, status, info):
+    """The co-simulation's DDR traffic per channel: words written and read back (one reset
+    frame's words per frame each way), and the MIG model's error flag."""
+    out = []
+    for k in sorted(int(n.rsplit("_", 1)[1]) if n[-1].isdigit() else 0
+                    for n in status if n.startswith("cds_ddr_ddr_writes")):
+        sfx = f"_{k}" if k else ""
+        w, r = status[f"cds_ddr_ddr_writes{sfx}"], status[f"cds_ddr_ddr_reads{sfx}"]
+        err = status[f"cds_ddr_ddr_error{sfx}"]
+        out.append({"name": f"CDS DDR traffic, channel {k}", "value": w + r, "unit": "words",
+                    "text": f"CDS DDR channel {k}: {w} words written, {r} read back "
+                            f"({_frame_words(step.params)} a reset frame), "
+                            f"{w + r} in {info['cycles']} cycles = "
+                            f"{(w + r) / max(info['cycles'], 1):.1%} of the interface's cycles"
+                            f"{', MIG model ERROR' if err else ''}"})
+    return out
+
+
 def _pipeline_kinds(step, data, lane):
     """The golden side's ``kinds``: reset, signal, reset, ... for the lane's frames."""
     n = len(data.signal[lane])
@@ -240,7 +286,7 @@ BLOCK = Block(
     unstream=_unstream,
     example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_kinds, per_frame=True,
-                 reset_frames=True),
+                 reset_frames=True, system=_system, measured=_measured),
     small=((3, 24), {"width": 24, "rows": 3}),
     order=80,
     bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",

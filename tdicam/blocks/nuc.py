@@ -348,6 +348,60 @@ def _pipeline_arrays(step, data, lane):
     return {"gain": gain, "offset": offset}
 
 
+def _system(step, ctx):
+    """The plan: the calibration load before the first frame, each channel's part loaded
+    in parallel (:func:`tdicam.model.nand_store.timing` at the part's t_R and the
+    controller's clock: the bad-block scan of every block, then the image's pages)."""
+    if not step.device:
+        return []
+    t = _nand.timing(ctx["rows"], ctx["width"], nand_geometry(step.device))
+    total = t.scan_s + t.load_s
+    return [{"name": "calibration load", "value": total, "unit": "s", "ok": None,
+             "scan_s": t.scan_s, "load_s": t.load_s, "pages": t.pages,
+             "text": f"NUC calibration from NAND before the first frame: {total * 1e3:.1f} ms "
+                     f"= bad-block scan {t.scan_s * 1e3:.1f} ms ({nand_geometry(step.device).blocks} "
+                     f"blocks, t_R {nand_geometry(step.device).t_r_s * 1e6:g} us) + load "
+                     f"{t.load_s * 1e3:.2f} ms ({t.pages} page(s) of the {ctx['rows']} x "
+                     f"{ctx['width']} image) at the controller's {t.clock_hz / 1e6:g} MHz; "
+                     f"{ctx['lanes']} part(s), one a channel, in parallel"}]
+
+
+def _measured(step, status, info):
+    """The co-simulation's calibration load: per channel the bad blocks the scan found, the
+    corrected and uncorrectable words, the load's state; the cycles the top held the frames
+    (``startup_cycles``: the part's own load in the simulation, the scan and the read at
+    the simulation's t_R of ``busy_cycles`` clocks) beside the model's scan and read
+    cycles (``info``: ``rows`` and ``width`` of the image)."""
+    if not step.device:
+        return []
+    out = []
+    k = 0
+    while f"nuc_calib_loaded{'_%d' % k if k else ''}" in status:
+        sfx = f"_{k}" if k else ""
+        out.append({"name": f"calibration load, channel {k}",
+                    "value": status[f"nuc_bad_blocks{sfx}"], "unit": "bad blocks",
+                    "text": f"NUC calibration channel {k}: "
+                            f"{'loaded' if status[f'nuc_calib_loaded{sfx}'] else 'NOT loaded'}"
+                            f"{', store ERROR' if status[f'nuc_calib_error{sfx}'] else ''}; "
+                            f"{status[f'nuc_bad_blocks{sfx}']} bad blocks, "
+                            f"{status[f'nuc_corrected_words{sfx}']} corrected and "
+                            f"{status[f'nuc_uncorrectable_words{sfx}']} uncorrectable words"})
+        k += 1
+    if "startup_cycles" in status:
+        busy = step.device["busy_cycles"]
+        t = _nand.timing(info["rows"], info["width"], nand_geometry(step.device),
+                         busy_cycles=busy)
+        out.append({"name": "start-up cycles", "value": status["startup_cycles"],
+                    "unit": "cycles", "model_cycles": t.scan_cycles + t.load_cycles,
+                    "text": f"frames held {status['startup_cycles']} cycles after reset until "
+                            f"the calibration was loaded: the simulated part's own load of "
+                            f"its image, then the controller's scan and read, "
+                            f"{t.scan_cycles} + {t.load_cycles} cycles by the model at the "
+                            f"simulation's t_R of {busy} clocks (tdicam plan gives the time at "
+                            f"the part's real t_R)"})
+    return out
+
+
 #: The NAND bus pins at the top (the controller's side, :data:`tdicam.hdl.nand_store.BUS_PORTS`)
 #: and the calibration status outputs, per lane.
 def _nand_io(count_bits):
@@ -566,7 +620,8 @@ BLOCK = Block(
     ),
     golden=_golden,
     example=_example,
-    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays,
+    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=_system,
+                 measured=_measured,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
                  scratch_bytes=38.0,
                  sim=SIM),

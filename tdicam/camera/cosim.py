@@ -26,7 +26,8 @@ import numpy as np
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
-__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "beats_differ", "WAVE_WINDOW"]
+__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "beats_differ", "WAVE_WINDOW",
+           "status_ports", "system_figures"]
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):
@@ -100,7 +101,11 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         return out
     for t in rep["taps"]:
         out["blocks"].append({"block": f"tap {t['tap']}", "status": "ran",
-                              "pixels_compared": t["pixels"], "mismatches": t["mismatches"]})
+                              "pixels_compared": t["pixels"], "mismatches": t["mismatches"],
+                              "beats": t["received"]})
+    system = system_figures(p, rep)
+    if system:
+        out["system"] = system
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
@@ -117,6 +122,17 @@ def status_ports(axis_top):
     from amaranth.lib import wiring
     return [(n, Shape.cast(mem.shape).width) for n, mem in axis_top.signature.members.items()
             if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))]
+
+
+def system_figures(p, rep):
+    """What the co-simulated camera saw, from its status outputs: each block's
+    :attr:`tdicam.blocks.Use.measured` figures (the calibration load, the DDR traffic) for a
+    :func:`cosimulate` report ``rep`` of plan ``p``; [] when no block has any."""
+    from tdicam.camera import design as pl
+    uses = pl.uses()
+    return [r for s in p.steps if uses[s.block].measured is not None
+            for r in uses[s.block].measured(s, rep.get("status_outputs", {}), {
+                "cycles": rep["cycles"], "rows": p.rows, "width": p.width})]
 
 
 def _testbench(axis_top, taps, *, wave):
@@ -312,7 +328,9 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
         missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
         ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
-        mismatches; beats of ``p.ppc`` pixels) and, on a mismatch, ``first_mismatch`` (block,
+        mismatches; beats of ``p.ppc`` pixels), ``status_outputs`` (every status output of
+        the top and its parts' models at the end of the run, {port: value}) and, on a
+        mismatch, ``first_mismatch`` (block,
         tap, beat, frame, line, column of its first differing pixel,
         expected, received, cycle) and ``waveform``.
     """
@@ -328,7 +346,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
            "build_seconds": info["build_seconds"], "run_seconds": info["run_seconds"],
            "taps": []}
     if info.get("status"):
-        rep["status"] = info["status"]
+        rep["status_outputs"] = info["status"]
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
     ppc = p.ppc

@@ -531,7 +531,8 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     idle_thr, bp_thr = thresholds(idle, backpressure)
     slow = 1.0 / ((1 - idle) * (1 - backpressure))
     sc = tbgen.SelfCheck(n_in=n_in, n_out=n_out,
-                         max_cycles=int((n_in + n_out) * 4 * slow) + 100_000,
+                         max_cycles=int((n_in + n_out) * 4 * slow) + 100_000
+                         + getattr(top.core, "startup_bound", 0),
                          idle=idle_thr, bp=bp_thr, seed=int(seed))
     # one chunk as deep as the stimulus, or full chunks and a short last one
     depth = min(tbgen.DEPTH, max(n_in, 1))

@@ -2,7 +2,9 @@
 self-checking testbench (see :mod:`tdicam.export.block`).
 
 The export holds the pipeline top exactly as ``tdicam verilog pipeline --scene S.toml``
-writes it (identity NUC coefficients in its calibration ROM), and the fast-mode stream
+writes it (identity NUC coefficients in its calibration ROM; a chain with external parts --
+the reset frame's DDR, the coefficients' NAND -- inside the co-simulation board with their
+simulation models on its pins, :class:`tdicam.hdl.chain_top.Board`), and the fast-mode stream
 testbench of :mod:`tdicam.cosim.tbgen` in its self-checking form. The stimulus is the
 scene's raw data (every exposure frame of every channel and the CDS reset frames, from an
 exact run of the scene simulator, :func:`tdicam.camera.cosim.scene_data`) made into the top's
@@ -36,6 +38,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     from tdicam.camera.cosim import scene_data
     from tdicam.scene.loader import load_scene
     from tdicam.camera.design import SceneData
+    from tdicam.hdl.chain_top import Board
     if memory not in MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
     sc = load_scene(scene_path)
@@ -53,7 +56,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     raw = raw.crop(0, p.width, 0, p.frames)
     # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
     data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
-    top = pl.top(p, data)
+    top = pl.top(p, data, board=True)      # with the external parts' models, if any
     stim = pl.stimulus(p, data, top)
     exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=p.ppc)
     name = Path(scene_path).name
@@ -73,8 +76,10 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(scene_path).stem)
     summary = (f"The camera pipeline of scene `{name}`: {params['blocks']}, {p.lanes} "
                f"channel(s), frames of {p.rows} x {p.width} pixels, {p.frames} exposure "
-               f"frames in, {p.lines} lines out; NUC calibration ROM with identity "
-               f"coefficients")
+               f"frames in, {p.lines} lines out; NUC calibration "
+               + ("ROM or NAND part with identity coefficients; the top with its external parts' "
+                  "simulation models beside it" if isinstance(top.core, Board)
+                  else "ROM with identity coefficients"))
     d = stream_design("pipeline", summary, rows, params, top, stim, exp,
                       cases=[f"scene {name}"], seed=seed, idle=idle,
                       backpressure=backpressure, core=f"tdicam:pipeline:{stem}",

@@ -227,6 +227,10 @@ def report_text(rep) -> str:
         lines.append(f"                 eq 28 SNR after {snr['domain']} TDI "
                      f"{snr['tdi_db']:.2f} dB")
     lines.extend(_mtf_lines(d))
+    if rep.get("system"):
+        lines.append("")
+        lines.append("System (the scene's pipeline as one design, at the design point):")
+        lines.extend(f"  {r['text']}" for r in rep["system"])
     lines.append("")
     if rep["feasible"]:
         lines.append("feasible: yes (no check says NO)")

@@ -425,6 +425,25 @@ def _verdict(point) -> list[str]:
     return no
 
 
+def system_plan(scene, point, *, ddr_bits, ddr_clock_hz):
+    """The system section: the figures of the scene's pipeline blocks at the design point
+    (each block's :attr:`tdicam.blocks.Use.system`: the calibration load before the first
+    frame, the reset frame's DDR bandwidth), or None when no block of the chain has any."""
+    from tdicam.camera import design
+    if scene.pipeline is None or not scene.pipeline.blocks:
+        return None
+    try:
+        p = design.plan(scene, stages=point["stages"])
+    except TdicamError:
+        return None
+    ctx = {"line_period_s": point["line_period_s"], "ddr_bits": ddr_bits,
+           "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.rows, "width": p.width}
+    uses = design.uses()
+    rows = [r for st in p.steps if uses[st.block].system is not None
+            for r in uses[st.block].system(st, ctx)]
+    return rows or None
+
+
 def run_memory(source):
     """What ``tdicam run SOURCE`` would need: its estimated peak memory
     (:func:`tdicam.engine.budget.estimate`, the ``"memory"`` entry of report.json) with the
@@ -479,6 +498,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
               for sc in scenes for m in sc.tdi.stages]
     design = max(range(len(points)), key=lambda i: points[i]["frame_rate"]["required_hz"])
     no = _verdict(points[design])
+    system = system_plan(first, points[design], ddr_bits=ddr_bits, ddr_clock_hz=ddr_clock_hz)
+    no += [r["name"] for r in system or () if r["ok"] is False]
     out = {
         "scene": None if first.source == "<command line>" else first.source,
         "run_memory": None if first.source == "<command line>" else run_memory(first.source),
@@ -493,6 +514,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
         "feasible": not no,
         "infeasible": no,
         "notes": list(notes),
+        "system": system,
     }
     if first.orbit is not None:
         out["orbit"] = {"altitude_km": first.orbit.altitude_km,

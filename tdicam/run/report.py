@@ -348,6 +348,9 @@ def markdown(scene, rep):
             md.append(f"| {b['block']} | {b.get('status')} | {b.get('pixels_compared', '-')} | "
                       f"{b.get('mismatches', '-')} |")
         md.append("")
+        if rep["rtl"].get("system"):
+            md += ["What the co-simulated camera saw (its status outputs):", ""]
+            md += [f"* {r['text']}" for r in rep["rtl"]["system"]] + [""]
     md += ["## Files", ""]
     md += [f"* `{f}`: {FILE_NOTES.get(f, '')}".rstrip(": ") for f in rep["files"]]
     md += ["* `report.json`: " + FILE_NOTES["report.json"], "* `report.md`: this report"]
