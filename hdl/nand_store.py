@@ -313,6 +313,14 @@ class NandDeviceSim(wiring.Component):
         slot ``byte`` (1..slots; 0 = erased, the reset state); :data:`LOAD_MARKER`: spare
         byte 0 of page 0 of block ``addr`` (reset ``0xFF``).
 
+    image : tdicam.model.nand_store.NandDevice or None
+        A part programmed at elaboration instead (the co-simulation of a camera's power-up:
+        :class:`NandPart`): its pages and bad-block markers are the memories' initial
+        contents and the row-to-slot look-up a comparison with its programmed rows (a
+        register, as the memory's read), so the Verilog does not hold a slot entry for each
+        of the part's rows; ``slots`` is then the number of programmed pages. The loader
+        still writes the page and marker memories.
+
     Notes
     -----
     Reads of an erased page, of spare bytes other than the marker and of columns past the
@@ -320,8 +328,15 @@ class NandDeviceSim(wiring.Component):
     """
 
     def __init__(self, *, page_bytes=2048, pages_per_block=64, blocks=4096, slots=8,
-                 busy_cycles=16):
+                 busy_cycles=16, image=None):
         self._geo = _geometry(page_bytes, pages_per_block, blocks)
+        self._image = None
+        if image is not None:
+            g = self._geo
+            rows = [r for r in sorted(image.pages) if (image.pages[r][:g.page_bytes] != 0xFF).any()]
+            slots = max(1, len(rows))
+            data = [int(b) for r in rows for b in image.pages[r][:g.page_bytes]]
+            self._image = (rows, data, [int(image.marker(b)) for b in range(g.blocks)])
         self._slots = check_range("slots", slots, 1, 255)
         self._busy = check_range("busy_cycles", busy_cycles, 3, 65535)
         super().__init__({
@@ -339,14 +354,19 @@ class NandDeviceSim(wiring.Component):
         pb_bits = (g.page_bytes - 1).bit_length()
         ppb_bits = (g.pages_per_block - 1).bit_length()
         n_rows = g.blocks * g.pages_per_block
+        img = self._image
         m.submodules.pages = pages = Memory(shape=unsigned(8), depth=self._slots * g.page_bytes,
-                                            init=[0xFF] * (self._slots * g.page_bytes))
-        m.submodules.slot = slot = Memory(shape=unsigned(8), depth=n_rows, init=[])
+                                            init=[0xFF] * (self._slots * g.page_bytes)
+                                            if img is None else img[1])
+        mems = [("pages", pages, LOAD_PAGE)]
+        if img is None:
+            m.submodules.slot = slot = Memory(shape=unsigned(8), depth=n_rows, init=[])
+            mems.append(("slot", slot, LOAD_SLOT))
         m.submodules.marker = marker = Memory(shape=unsigned(8), depth=g.blocks,
-                                              init=[0xFF] * g.blocks)
+                                              init=[0xFF] * g.blocks if img is None else img[2])
+        mems.append(("marker", marker, LOAD_MARKER))
         ops = {}
-        for name, mem, op in (("pages", pages, LOAD_PAGE), ("slot", slot, LOAD_SLOT),
-                              ("marker", marker, LOAD_MARKER)):
+        for name, mem, op in mems:
             wp = mem.write_port()
             m.d.comb += [wp.addr.eq(self.ld_word[8:30]), wp.data.eq(self.ld_word[:8]),
                          wp.en.eq(self.ld_valid & equals(self.ld_word[30:], op))]
@@ -375,9 +395,16 @@ class NandDeviceSim(wiring.Component):
         with m.If(~self.re_n):
             m.d.sync += col.eq(col + 1)
 
-        s = ops["slot"].data
+        if img is None:
+            s = ops["slot"].data
+            m.d.comb += ops["slot"].addr.eq(row)
+        else:                                   # the programmed rows, compared (registered)
+            s = Signal(8)
+            m.d.sync += s.eq(0)
+            for k, r in enumerate(img[0]):
+                with m.If(row == r):
+                    m.d.sync += s.eq(k + 1)
         m.d.comb += [
-            ops["slot"].addr.eq(row),
             ops["marker"].addr.eq(row[ppb_bits:]),
             ops["pages"].addr.eq(Cat(col[:pb_bits], (s - 1)[:8])),
         ]
@@ -471,51 +498,29 @@ class NandCalibTop(wiring.Component):
 
 class NandPart(wiring.Component):
     """Simulation: a NAND part holding a given image, on the controller's bus pins (the
-    co-simulation's part outside the camera top, :class:`tdicam.hdl.chain_top.Board`).
-
-    :class:`NandDeviceSim`, its contents written after reset from a ROM of loader words
-    (:func:`tdicam.blocks.nand_store.load_beats`), one a clock; R/B# reads busy until the
-    last is written (a part busy at power-up), so the controller's first command, the
-    RESET, waits for it.
+    co-simulation's part outside the camera top, :class:`tdicam.hdl.chain_top.Board`):
+    :class:`NandDeviceSim` programmed at elaboration (``image``), ready at power-up.
 
     Attributes
     ----------
     cle, ale, we_n, re_n, dq_in : In; dq_out, rb_n : Out
         The bus, device side (:class:`NandDeviceSim`'s).
-    loaded : Out(1)
-        The image is in the part.
     """
 
-    def __init__(self, loader, *, page_bytes=2048, pages_per_block=64, blocks=4096,
-                 slots=8, busy_cycles=16):
-        self._words = [int(w) for w in loader]
+    def __init__(self, image, *, page_bytes=2048, pages_per_block=64, blocks=4096,
+                 busy_cycles=16):
         self._dev = NandDeviceSim(page_bytes=page_bytes, pages_per_block=pages_per_block,
-                                  blocks=blocks, slots=slots, busy_cycles=busy_cycles)
+                                  blocks=blocks, busy_cycles=busy_cycles, image=image)
         super().__init__({
             "cle": In(1), "ale": In(1), "we_n": In(1), "re_n": In(1), "dq_in": In(8),
-            "dq_out": Out(8), "rb_n": Out(1), "loaded": Out(1),
+            "dq_out": Out(8), "rb_n": Out(1),
         })
-
-    load_cycles = property(lambda self: len(self._words) + 1,
-                           doc="Clocks from reset until the image is in the part.")
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.part = dev = self._dev
-        n = len(self._words)
-        m.submodules.rom = rom = Memory(shape=unsigned(32), depth=max(n, 2),
-                                        init=self._words + [0] * (max(n, 2) - n))
-        rd = rom.read_port()
-        addr = Signal(range(n + 2))
-        v = Signal()
-        m.d.comb += rd.addr.eq(addr)
-        with m.If(addr != n):
-            m.d.sync += addr.eq(addr + 1)
-        m.d.sync += v.eq(addr != n)
-        with m.If(~v & (addr == n)):
-            m.d.sync += self.loaded.eq(1)
-        m.d.comb += [dev.ld_valid.eq(v), dev.ld_word.eq(rd.data),
+        m.d.comb += [dev.ld_valid.eq(0), dev.ld_word.eq(0),
                      dev.cle.eq(self.cle), dev.ale.eq(self.ale), dev.we_n.eq(self.we_n),
                      dev.re_n.eq(self.re_n), dev.dq_in.eq(self.dq_in),
-                     self.dq_out.eq(dev.dq_out), self.rb_n.eq(dev.rb_n & self.loaded)]
+                     self.dq_out.eq(dev.dq_out), self.rb_n.eq(dev.rb_n)]
         return m

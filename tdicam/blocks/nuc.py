@@ -369,9 +369,8 @@ def _system(step, ctx):
 def _measured(step, status, info):
     """The co-simulation's calibration load: per channel the bad blocks the scan found, the
     corrected and uncorrectable words, the load's state; the cycles the top held the frames
-    (``startup_cycles``: the part's own load in the simulation, the scan and the read at
-    the simulation's t_R of ``busy_cycles`` clocks) beside the model's scan and read
-    cycles (``info``: ``rows`` and ``width`` of the image)."""
+    (``startup_cycles``: the scan and the read at the simulation's t_R of ``busy_cycles``
+    clocks) beside the model's cycles (``info``: ``rows`` and ``width`` of the image)."""
     if not step.device:
         return []
     out = []
@@ -394,10 +393,9 @@ def _measured(step, status, info):
         out.append({"name": "start-up cycles", "value": status["startup_cycles"],
                     "unit": "cycles", "model_cycles": t.scan_cycles + t.load_cycles,
                     "text": f"frames held {status['startup_cycles']} cycles after reset until "
-                            f"the calibration was loaded: the simulated part's own load of "
-                            f"its image, then the controller's scan and read, "
+                            f"the calibration was loaded (the bad-block scan and the read: "
                             f"{t.scan_cycles} + {t.load_cycles} cycles by the model at the "
-                            f"simulation's t_R of {busy} clocks (tdicam plan gives the time at "
+                            f"simulation's t_R of {busy} clocks; tdicam plan gives the time at "
                             f"the part's real t_R)"})
     return out
 
@@ -431,7 +429,6 @@ def _pipeline_hw(step, data, *, ecp5=False):
     from tdicam.hdl.calib import CoeffBuffer
     from tdicam.hdl.chain_top import Device, Link
     from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore, NandPart
-    from tdicam.blocks.nand_store import load_beats
     from tdicam.model import calib as _calib
     d, fmt = step.device, _fmt(step.params)
     ppc = step.params.get("ppc", 1)
@@ -460,16 +457,13 @@ def _pipeline_hw(step, data, *, ecp5=False):
 
     def device(lane):
         part, _ = nand_part(step, *data.coeffs[lane], lane)
-        pages = sum(1 for r in part.pages if (part.pages[r][:d["page_bytes"]] != 0xFF).any())
-        words = load_beats(part, max(1, pages))
-        model = NandPart(words, slots=max(1, pages), busy_cycles=d["busy_cycles"], **geo)
+        model = NandPart(part, busy_cycles=d["busy_cycles"], **geo)
         pins = {"nand_cle": "cle", "nand_ale": "ale", "nand_we_n": "we_n", "nand_re_n": "re_n",
                 "nand_dq_o": "dq_in", "nand_dq_i": "dq_out", "nand_rb_n": "rb_n"}
         return Device(model, pins)
 
     t = _nand.timing(rows, cols, _nand.Geometry(**geo), busy_cycles=d["busy_cycles"])
-    loader = (t.pages + 4) * (d["page_bytes"] + 1) + d["blocks"]   # the part's own load
-    bound = t.scan_cycles + t.load_cycles + loader + 10_000
+    bound = t.scan_cycles + t.load_cycles + 10_000
     stage = lane_stage(side=lambda s, dt: side)(step, data, ecp5=ecp5)
     return replace(stage, io=_nand_io(_calib.DEFAULT_COUNT_BITS), ready="calib_loaded",
                    device=device, startup=bound)
