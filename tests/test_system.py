@@ -6,6 +6,7 @@ status outputs, and the coefficient buffer in the Amaranth simulator. The co-sim
 of the whole is cocotb_tests/test_system.py."""
 
 import random
+import re
 from pathlib import Path
 
 import numpy as np
@@ -205,3 +206,14 @@ def test_plan_states_the_calibration_load_and_the_cds_ddr_bandwidth():
     assert "CDS reset frame in DDR (cds_ddr): 88 words" in text
     # a chain without external parts has no system section
     assert plan(CHAIN).to_dict()["system"] is None
+
+
+def test_system_verilog_is_deterministic_and_holds_no_model():
+    """`tdicam verilog pipeline` of a system chain: the same text twice; the parts' models
+    (the MIG model's memory, the NAND part) are not in it, the controller sides are."""
+    p = pl.plan(_scene())
+    a, b = pl.verilog(p), pl.verilog(p)
+    assert a == b
+    assert "nuc_nand0" in a and "cds_ddr_app_rd_data_valid_1" in a
+    assert not re.search(r"\brqd\b", a)                   # the MIG model's read queue
+    assert not re.search(r"reg \[7:0\] pages \[", a)      # the NAND part's pages
