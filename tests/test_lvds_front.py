@@ -10,32 +10,20 @@ whose eye is too narrow to train, a lane that dies mid-run and the retrain after
 import numpy as np
 import pytest
 
-from tdicam.cosim.lvds_front import FrontCase, frames_of, run_amaranth
+from tdicam.cosim.lvds_front import (GEOMETRY, SCENARIOS, FrontCase, check, frames_of,
+                                     run_amaranth, scenario, scenario_frames, scenario_lanes)
 from tdicam.errors import TdicamError
 from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
-L, G, C, R = 4, 2, 16, 3          # 4 lanes a gain, 2 gains, 16 columns: P = 4 words a line
-# eye centre, width (taps), whole-word delay: every lane trains (widths >= 12 taps)
-GOOD = [(10, 14, 0), (12, 16, 1), (8, 12, 0), (20, 15, 2), (14, 18, 0), (9, 13, 1),
-        (16, 20, 0), (11, 14, 1)]
-
-
-def _frames(nf, seed=3, bits=12):
-    rng = np.random.default_rng(seed)
-    fr = [rng.integers(0, 1 << bits, (nf, R, C)) for _ in range(G)]
-    fr[0][0, 0, 0] = (1 << bits) - 1          # full scale: sent as one less (sync code)
-    return fr
-
-
-def _lanes(spec=GOOD, over=None):
-    return [front.eye_lane(c, w, word_delay=d, seed=i, **(over or {}).get(i, {}))
-            for i, (c, w, d) in enumerate(spec)]
+L, G, C, R = (GEOMETRY[k] for k in ("lanes_per_gain", "gains", "columns", "rows"))
+_frames = scenario_frames
+_lanes = scenario_lanes
 
 
 # ---------------------------------------------------------------- golden model, format
 def test_lane_payload_is_the_line_format():
-    fr = _frames(2)
+    fr = _frames(2, 3)
     pay = front.lane_payload(fr, L, 12)
     assert len(pay) == G * L and all(len(p) == 2 * R * (C // L + 2) for p in pay)
     lw = C // L + 2
@@ -61,7 +49,7 @@ def test_invalid_columns_follow_the_convention():
     inv = front.invalid_columns([1, 6], C, L, G)
     assert np.flatnonzero(inv[0]).tolist() == [1, 5, 9, 13]
     assert np.flatnonzero(inv[1]).tolist() == [2, 6, 10, 14]
-    px, inv2 = front.receive(_frames(1), [6], L, 12)
+    px, inv2 = front.receive(_frames(1, 3), [6], L, 12)
     assert (px[1][..., 2::4] == 0).all() and np.array_equal(inv2, front.invalid_columns(
         [6], C, L, G))
 
@@ -81,75 +69,20 @@ def test_fifo_depth_from_the_rates():
 
 
 # ---------------------------------------------------------------- gateware, two clocks
-def _check_released(res, frames, bad, order=None):
-    got = frames_of(res["beats"], R, C, res.get("ppc", 1), G)
-    exp, _ = front.receive(frames, bad, L, 12)
-    if order is not None:
-        exp = exp[:, order]
-    assert got.shape == exp.shape
-    assert np.array_equal(got, exp)
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_scenario_in_amaranth(name):
+    """The must-show scenarios (:data:`tdicam.cosim.lvds_front.SCENARIOS`, ppc 2): the
+    crossing at r = P / (P + 2) (word clock faster) and r = 5.6 with backpressure (slower),
+    no pixel lost or duplicated; a narrow-eye lane reported, its columns invalid, the other
+    lanes exact; a lane dying mid-frame, the frame filled and counted, frames held until the
+    retrain."""
+    case = scenario(name)
+    assert check(name, case, run_amaranth(case)) == []
 
 
-# word clock faster (r = 4/6, the bound) and slower (r = 5.6) than the processing side's share
-@pytest.mark.parametrize("word_ns,proc_ns,ppc,ready", [(12.0, 9.0, 2, 1.0),
-                                                      (100.0, 9.0, 2, 0.5),
-                                                      (60.0, 10.0, 1, 0.8)])
-def test_cdc_no_pixel_lost_or_duplicated(word_ns, proc_ns, ppc, ready):
-    frames = _frames(5)
-    case = FrontCase(frames, _lanes(), L, ppc=ppc, word_ns=word_ns, proc_ns=proc_ns,
-                     ready=ready)
-    res = run_amaranth(case)
-    res["ppc"] = ppc
-    st = res["status"]
-    assert st["fifo_overflow"] == 0
-    assert (st["frames_out"], st["frames_dropped"], st["frames_affected"]) == (5, 0, 0)
-    assert res["frame_status"] == [0] * 5
-    _check_released(res, frames, [])
-
-
-def test_narrow_eye_lane_reported_and_its_columns_invalid():
-    spec = list(GOOD)
-    spec[5] = (12, 6, 0)                       # 6 taps: no run of 9, lane 5 cannot train
-    frames = _frames(4)
-    case = FrontCase(frames, _lanes(spec), L, word_ns=40.0, proc_ns=10.0)
-    gold = case.golden_run()
-    bad = [i for i, f in enumerate(gold.final) if f["error"]]
-    assert bad == [5]
-    res = run_amaranth(case)
-    st = res["status"]
-    assert st["lane_error"] == 1 << 5 and st["lane_locked"] == 0xFF & ~(1 << 5)
-    assert res["frame_status"] == [1 << 5] * 4   # every frame: lane 5's columns invalid
-    assert (st["frames_out"], st["frames_affected"]) == (4, 4)
-    _check_released(res, frames, bad)          # the other lanes' pixels bit-exact
-
-
-def test_lane_dies_mid_run_then_retrain():
-    """Lane 2 dies in the middle of frame 2: frame 2 is finished with invalid words and
-    counted affected, frames 3 and 4 are held (dropped, counted) until the retrain; the
-    retrain finds lane 2 dead (error), frames 5..7 come out with its columns invalid."""
-    frames = _frames(8, seed=5)
-    lw = C // L + 2
-    probe = FrontCase(frames, _lanes(), L, segments=(5, 3))
-    die_at = probe.segment_starts[0] + int(2.5 * R * lw)
-    spec = _lanes(over={2: {"change_at": die_at,
-                            "after": model.Lane(skew_ps=0.0, eye_ps=0.0)}})
-    case = FrontCase(frames, spec, L, segments=(5, 3), word_ns=40.0, proc_ns=10.0)
-    res = run_amaranth(case)
-    st = res["status"]
-    full = (1 << G * L) - 1
-    assert res["frame_status"] == [0, 0, full, 1 << 2, 1 << 2, 1 << 2]
-    assert (st["frames_out"], st["frames_dropped"], st["frames_affected"]) == (6, 2, 4)
-    assert st["lane_errors"] == 2 and st["need_retrain"] == 0
-    assert any(ev[1] == 2 and ev[3] == 1 and ev[0] < case.retrains[0] for ev in res["events"])
-    got = frames_of(res["beats"], R, C, 1, G)
-    exp, _ = front.receive(frames, [], L, 12)
-    assert np.array_equal(got[:, :2], exp[:, :2])              # before the death: exact
-    exp_after, _ = front.receive([f[5:] for f in frames], [2], L, 12)
-    assert np.array_equal(got[:, 3:], exp_after)               # after the retrain
-    # frame 2: the words before the fault are the sensor's (lane 2's columns excepted)
-    keep = ~front.invalid_columns([2], C, L, G)
-    first_row = got[:, 2, 0]
-    assert np.array_equal(first_row[keep], exp[:, 2, 0][keep])
+def test_cdc_at_one_pixel_per_clock():
+    case = FrontCase(_frames(5, 3), _lanes(), L, ppc=1, word_ns=60.0, proc_ns=10.0, ready=0.8)
+    assert check("cdc_slow", case, run_amaranth(case)) == []
 
 
 # ---------------------------------------------------------------- scene section and effect
@@ -214,3 +147,55 @@ def test_effect_row_and_invalid_columns_in_the_simulator():
     keep = np.ones(16, bool)
     keep[1::4] = False
     assert np.array_equal(sim.single[:, keep], base.single[:, keep])
+
+
+# ---------------------------------------------------------------- the front in a pipeline
+def _chain_scene(lvds=True, ppc=2):
+    from tdicam.scene.loader import scene_from_dict
+    sen = {"columns": C, "rows": 8, "bits": 12, "gains": [2.0, 1.0]}
+    if lvds:
+        sen["lvds"] = {"lanes_per_gain": L}
+    return scene_from_dict({"orbit": {"altitude_km": 600, "gsd_m": 1.0}, "sensor": sen,
+                            "tdi": {"stages": R}, "pipeline": {"blocks": ["hdr", "tdi"]},
+                            "run": {"lines": 4, "rtl": {"pixels_per_clock": ppc}}})
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+def test_plan_puts_the_front_first_and_the_top_takes_lanes():
+    from tdicam.camera import design
+    p = design.plan(_chain_scene())
+    assert [s.block for s in p.steps] == ["lvds", "hdr", "tdi"]
+    assert p.steps[0].params == {"lanes": 8, "word_bits": 12, "lanes_per_gain": 4,
+                                 "columns": 16, "bits": 12, "fifo_depth": 16, "ppc": 2}
+    assert p.steps[0].ports["frame_rows"] == R
+    top = design.top(p)
+    names = set(top.signature.members)
+    assert {"lvds_lane_raw", "lvds_lane_tap", "lvds_frame_invalid", "lvds_frames_dropped",
+            "m_axis_tdata"} <= names
+    assert not {n for n in names if n.startswith("s_axis")}
+    # without [sensor.lvds] the chain and its top are those of before
+    plain = design.plan(_chain_scene(lvds=False))
+    assert [s.block for s in plain.steps] == ["hdr", "tdi"]
+    assert "s_axis_tdata" in design.top(plain).signature.members
+    with pytest.raises(TdicamError, match=r"lvds \(the chain's source\): \[sensor.lvds\]"
+                                          r".lanes_per_gain = 4 does not divide"):
+        sc = _chain_scene()
+        design.plan(sc, width=18, ppc=2)
+
+
+def test_pipeline_from_lanes_to_tdi_output_is_bit_exact():
+    """The scene's whole top (front -> hdr -> tdi) in Amaranth's simulator, two clocks, from
+    the serial lanes to TDI's lines, equals the golden chain."""
+    from tdicam.blocks.steps import SceneData
+    from tdicam.camera import design
+    p = design.plan(_chain_scene())
+    frames = _frames(p.frames, seed=9)
+    case = FrontCase(frames, _lanes(), L, ppc=2, word_ns=40.0, proc_ns=10.0)
+    settings = {f"{s.block}_{k}": v for s in p.steps[1:] for k, v in s.ports.items()}
+    top = design.top(p)
+    top._MustUse__silence = True        # its core is simulated
+    res = run_amaranth(case, dut=top.core, prefix="lvds_", settings=settings, elems=2)
+    assert res["status"]["frames_out"] == p.frames
+    exp = design.golden(p, SceneData(signal=frames))[-1][2]
+    got = frames_of(res["beats"], 1, C, 2, 1)[0]
+    assert exp.shape == (p.lines, 1, C) and np.array_equal(got, exp)

@@ -8,7 +8,10 @@ two clock periods. :func:`raw_table` evaluates the link model once for every tap
 cycle, so a testbench only looks words up: the word the DUT gets at word clock ``k`` is
 ``raw(k)`` sampled with the tap loaded (``lane_ld``) two word clocks earlier.
 :func:`run_amaranth` runs a case in Amaranth's simulator and returns the output frames and
-the status; :func:`frames_of` cuts output beats into frames.
+the status; :func:`frames_of` cuts output beats into frames. :data:`SCENARIOS` are the
+must-show cases (the crossing at the worst rate ratios, a narrow eye, a lane dying mid-run
+and the retrain), shared by the Amaranth tests and the cocotb co-simulation: :func:`scenario`
+builds one, :func:`check` judges a run of it.
 """
 
 from dataclasses import dataclass, field
@@ -19,7 +22,8 @@ from tdicam.hdl.lvds import TAP_BITS
 from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
-__all__ = ["FrontCase", "raw_table", "run_amaranth", "frames_of"]
+__all__ = ["FrontCase", "raw_table", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES",
+           "CLOCKS", "SCENARIOS", "scenario_frames", "scenario_lanes", "scenario", "check"]
 
 
 @dataclass
@@ -116,13 +120,17 @@ def frames_of(beats, rows, columns, ppc, gains):
     return np.stack(frames, axis=1)
 
 
-def run_amaranth(case, *, dut=None, hook=None):
+def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=None):
     """Run ``case`` on :class:`~tdicam.hdl.lvds_front.LvdsFront` in Amaranth's simulator.
 
     Returns a dict: ``beats`` (first, last, elements) in order, ``status`` (the word-domain
     status ports at the end), ``frame_status`` (``frame_invalid`` at every ``frames_out``
     step, in order), ``events`` (cycle, lane, locked, error) lane status changes.
     ``hook(ctx, dut, k)``, when given, runs every word clock (fault injection).
+
+    ``dut`` may be a pipeline (:class:`tdicam.hdl.chain_top.Pipeline`) whose source is the
+    front: ``prefix`` is its ports' prefix (``"lvds_"``), ``settings`` the values of its
+    other input ports, ``elems`` the output elements per beat (default ``ppc * gains``).
     """
     from amaranth.sim import Simulator
 
@@ -134,33 +142,39 @@ def run_amaranth(case, *, dut=None, hook=None):
         dut = LvdsFront(lanes_per_gain=L, gains=g, word_bits=w, bits=bits,
                         columns=case.p * L, ppc=ppc, fifo_depth=case.fifo_depth,
                         settle=case.settle)
+    n_out = ppc * g if elems is None else elems
+
+    def port(name):
+        return getattr(dut, prefix + name)
     raw = raw_table(case.link, case.cycles)
     res = {"beats": [], "frame_status": [], "events": [], "status": {}}
     done = [False]
     tmask = (1 << TAP_BITS) - 1
 
     async def word_side(ctx):
-        for port, v in (("train_word", case.link.train_word),
+        for name, v in (("train_word", case.link.train_word),
                         ("sync_word", case.link.sync_word), ("n_check", case.n_check),
                         ("frame_rows", nr)):
-            ctx.set(getattr(dut, port), v)
+            ctx.set(port(name), v)
+        for name, v in (settings or {}).items():
+            ctx.set(getattr(dut, name), v)
         tapq, tap2 = [0] * n, [0] * n
         prev, out_seen = [(0, 0)] * n, 0
         for k in range(case.cycles):
-            ctx.set(dut.lane_raw, sum(int(raw[i, tap2[i], k]) << (i * w) for i in range(n)))
-            ctx.set(dut.retrain, int(k in case.retrains))
+            ctx.set(port("lane_raw"), sum(int(raw[i, tap2[i], k]) << (i * w) for i in range(n)))
+            ctx.set(port("retrain"), int(k in case.retrains))
             if hook is not None:
                 hook(ctx, dut, k)
-            ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
-            lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
+            ld, tap = ctx.get(port("lane_ld")), ctx.get(port("lane_tap"))
+            lk, er = ctx.get(port("lane_locked")), ctx.get(port("lane_error"))
             for i in range(n):
                 st = ((lk >> i) & 1, (er >> i) & 1)
                 if st != prev[i]:
                     res["events"].append((k, i) + st)
                     prev[i] = st
-            fo = ctx.get(dut.frames_out)
+            fo = ctx.get(port("frames_out"))
             if fo != out_seen:
-                res["frame_status"].append(ctx.get(dut.frame_invalid))
+                res["frame_status"].append(ctx.get(port("frame_invalid")))
                 out_seen = fo
             await ctx.tick(WORD_DOMAIN)
             for i in range(n):
@@ -170,7 +184,7 @@ def run_amaranth(case, *, dut=None, hook=None):
         for name in ("lane_locked", "lane_error", "frame_invalid", "trained", "releasing",
                      "need_retrain", "frames_out", "frames_dropped", "frames_affected",
                      "lane_errors", "fifo_overflow"):
-            res["status"][name] = ctx.get(getattr(dut, name))
+            res["status"][name] = ctx.get(port(name))
         done[0] = True
 
     async def proc_side(ctx):
@@ -181,7 +195,7 @@ def run_amaranth(case, *, dut=None, hook=None):
             ctx.set(o.ready, rdy)
             if rdy and ctx.get(o.valid):
                 d = ctx.get(o.payload.data)
-                elems = [int(d[i]) for i in range(ppc * g)] if ppc * g > 1 else [int(d)]
+                elems = [int(d[i]) for i in range(n_out)] if n_out > 1 else [int(d)]
                 res["beats"].append((ctx.get(o.payload.first), ctx.get(o.payload.last),
                                      elems))
             await ctx.tick()
@@ -193,3 +207,118 @@ def run_amaranth(case, *, dut=None, hook=None):
     sim.add_testbench(proc_side, background=True)
     sim.run()
     return res
+
+
+# ---------------------------------------------------------------- shared scenarios
+#: The scenarios' geometry: 4 lanes a gain, 2 gains, 16 columns (P = 4 words a line), 3 rows.
+GEOMETRY = {"lanes_per_gain": 4, "gains": 2, "columns": 16, "rows": 3}
+#: Eye centre, width (taps) and whole-word delay of the 8 lanes: every lane trains.
+GOOD_LANES = ((10, 14, 0), (12, 16, 1), (8, 12, 0), (20, 15, 2), (14, 18, 0), (9, 13, 1),
+              (16, 20, 0), (11, 14, 1))
+#: Scenario -> (word clock ns, processing clock ns, ready probability) at ppc 2: the word
+#: clock faster than the processing side's share at the bound r = P / (P + 2) (12 / 9 ns),
+#: slower (r = 5.6, with backpressure), and the fault scenarios at r = 2.
+CLOCKS = {"cdc_fast": (12.0, 9.0, 1.0), "cdc_slow": (100.0, 9.0, 0.5),
+          "narrow_eye": (40.0, 10.0, 0.9), "lane_dies": (40.0, 10.0, 1.0)}
+SCENARIOS = tuple(CLOCKS)
+NARROW_LANE, DYING_LANE = 5, 2
+
+
+def scenario_frames(nf, seed, bits=12):
+    """``nf`` random frames per gain; the first pixel at full scale (sent as one less)."""
+    rng = np.random.default_rng(seed)
+    g = GEOMETRY
+    fr = [rng.integers(0, 1 << bits, (nf, g["rows"], g["columns"])) for _ in range(g["gains"])]
+    fr[0][0, 0, 0] = (1 << bits) - 1
+    return fr
+
+
+def scenario_lanes(spec=GOOD_LANES, over=None):
+    """:func:`tdicam.model.lvds_front.eye_lane` of each (centre, width, word delay);
+    ``over``: lane -> extra keywords (``change_at``, ``after``)."""
+    return [front.eye_lane(c, w, word_delay=d, seed=i, **(over or {}).get(i, {}))
+            for i, (c, w, d) in enumerate(spec)]
+
+
+def scenario(name, *, ppc=2):
+    """The :class:`FrontCase` of scenario ``name`` (:data:`SCENARIOS`)."""
+    word_ns, proc_ns, ready = CLOCKS[name]
+    kw = dict(ppc=ppc, word_ns=word_ns, proc_ns=proc_ns, ready=ready)
+    L = GEOMETRY["lanes_per_gain"]
+    if name.startswith("cdc"):
+        return FrontCase(scenario_frames(5, 3), scenario_lanes(), L, **kw)
+    if name == "narrow_eye":
+        spec = list(GOOD_LANES)
+        spec[NARROW_LANE] = (12, 6, 0)            # 6 taps: no run of 9, cannot train
+        return FrontCase(scenario_frames(4, 4), scenario_lanes(spec), L, **kw)
+    # lane_dies: the lane dies in the middle of frame 2 of a first segment of 5 frames; the
+    # sensor controller retrains after it, 3 frames follow
+    frames = scenario_frames(8, 5)
+    probe = FrontCase(frames, scenario_lanes(), L, segments=(5, 3))
+    lw = probe.p + 2
+    die_at = probe.segment_starts[0] + int(2.5 * GEOMETRY["rows"] * lw)
+    lanes = scenario_lanes(over={DYING_LANE: {
+        "change_at": die_at, "after": model.Lane(skew_ps=0.0, eye_ps=0.0)}})
+    return FrontCase(frames, lanes, L, segments=(5, 3), **kw)
+
+
+def check(name, case, res):
+    """Problems (strings; none = pass) of a run of scenario ``name`` against the golden
+    model: the released frames bit for bit, the frame status, the counters.
+
+    * ``cdc_*``: every frame out exactly, nothing dropped, no overflow;
+    * ``narrow_eye``: lane 5 reported (error), every frame's status says lane 5, the frames
+      equal :func:`tdicam.model.lvds_front.receive` with lane 5 invalid (its columns 0);
+    * ``lane_dies``: frames 0, 1 exact; frame 2 cut by the death, filled and flagged
+      (status all lanes); frames 3, 4 held and counted dropped; after the retrain (lane 2
+      found dead) frames 5..7 exact with lane 2 invalid; two lane errors counted.
+    """
+    g = GEOMETRY
+    G, L, C, R = g["gains"], g["lanes_per_gain"], g["columns"], g["rows"]
+    n = G * L
+    st, out = res["status"], []
+    try:
+        got = frames_of(res["beats"], R, C, case.ppc, G)
+    except AssertionError as exc:
+        return [f"output stream: {exc}"]
+
+    def same(what, a, b):
+        if not (np.shape(a) == np.shape(b) and np.array_equal(a, b)):
+            out.append(f"{what}: got {np.shape(a)} {np.asarray(a).ravel()[:6]}..., expected "
+                       f"{np.shape(b)} {np.asarray(b).ravel()[:6]}...")
+
+    def counters(*want):
+        names = ("frames_out", "frames_dropped", "frames_affected", "lane_errors",
+                 "fifo_overflow", "need_retrain")
+        got_c = tuple(st[k] for k in names)
+        if got_c != want:
+            out.append(f"counters {names}: got {got_c}, expected {want}")
+    nf = len(case.frames[0])
+    if name.startswith("cdc"):
+        same("frames", got, front.receive(case.frames, [], L, case.word_bits)[0])
+        counters(nf, 0, 0, 0, 0, 0)
+        same("frame status", res["frame_status"], [0] * nf)
+    elif name == "narrow_eye":
+        bad = [i for i, f in enumerate(case.golden_run().final) if f["error"]]
+        same("golden untrained lanes", bad, [NARROW_LANE])
+        same("lane_error", st["lane_error"], 1 << NARROW_LANE)
+        same("frame status", res["frame_status"], [1 << NARROW_LANE] * nf)
+        same("frames", got, front.receive(case.frames, [NARROW_LANE], L, case.word_bits)[0])
+        counters(nf, 0, nf, 1, 0, 0)
+    else:
+        full = (1 << n) - 1
+        dead = 1 << DYING_LANE
+        same("frame status", res["frame_status"], [0, 0, full, dead, dead, dead])
+        counters(6, 2, 4, 2, 0, 0)
+        if not any(ev[1] == DYING_LANE and ev[3] == 1 and ev[0] < case.retrains[0]
+                   for ev in res["events"]):
+            out.append(f"lane {DYING_LANE}'s death was not reported before the retrain")
+        exp = front.receive(case.frames, [], L, case.word_bits)[0]
+        if got.shape[1] != 6:
+            return out + [f"{got.shape[1]} frames out, expected 6"]
+        same("frames 0-1", got[:, :2], exp[:, :2])
+        same("frames 5-7", got[:, 3:],
+             front.receive([f[5:] for f in case.frames], [DYING_LANE], L, case.word_bits)[0])
+        keep = ~front.invalid_columns([DYING_LANE], C, L, G)
+        same("frame 2 row 0", got[:, 2, 0][keep], exp[:, 2, 0][keep])
+    return out
