@@ -23,7 +23,8 @@ from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
 __all__ = ["FrontCase", "raw_table", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES",
-           "CLOCKS", "SCENARIOS", "scenario_frames", "scenario_lanes", "scenario", "check"]
+           "CLOCKS", "SCENARIOS", "scenario_frames", "scenario_lanes", "scenario", "check",
+           "run_cocotb"]
 
 
 @dataclass
@@ -241,9 +242,10 @@ def scenario_lanes(spec=GOOD_LANES, over=None):
 
 
 def scenario(name, *, ppc=2):
-    """The :class:`FrontCase` of scenario ``name`` (:data:`SCENARIOS`)."""
+    """The :class:`FrontCase` of scenario ``name`` (:data:`SCENARIOS`); at ``ppc`` other
+    than 2 the word clock period scales by ``2 / ppc`` (the same rate ratio ``r``)."""
     word_ns, proc_ns, ready = CLOCKS[name]
-    kw = dict(ppc=ppc, word_ns=word_ns, proc_ns=proc_ns, ready=ready)
+    kw = dict(ppc=ppc, word_ns=word_ns * 2 / ppc, proc_ns=proc_ns, ready=ready)
     L = GEOMETRY["lanes_per_gain"]
     if name.startswith("cdc"):
         return FrontCase(scenario_frames(5, 3), scenario_lanes(), L, **kw)
@@ -322,3 +324,50 @@ def check(name, case, res):
         keep = ~front.invalid_columns([DYING_LANE], C, L, G)
         same("frame 2 row 0", got[:, 2, 0][keep], exp[:, 2, 0][keep])
     return out
+
+
+def run_cocotb(names, sim, *, ppc=2, keep=False):
+    """Co-simulate scenarios ``names`` on the generated front (module ``lvds_front``, one
+    build per simulator and ``ppc``, every scenario in one simulator run) with cocotb
+    (:mod:`tdicam.simtb.lvds_front_tb`). Returns ``(cases, results, wall seconds, build
+    seconds)``, the results shaped like :func:`run_amaranth`'s."""
+    import json
+    import os
+    import shutil
+    import time
+
+    from tdicam.cosim.build import build_sources, run_cocotb as _run
+    from tdicam.errors import TdicamError
+    from tdicam.hdl.lvds_front import LvdsFront
+    from tdicam.hw.verilog import convert
+    g = GEOMETRY
+    params = dict(lanes_per_gain=g["lanes_per_gain"], gains=g["gains"], word_bits=12,
+                  bits=12, columns=g["columns"], ppc=ppc, fifo_depth=16, settle=4)
+    dut = convert(LvdsFront(**params), "lvds_front")
+    bdir, build_s = build_sources("lvds_front", params, sim, {"lvds_front.v": dut},
+                                  top="lvds_front")
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    cases, job = [], {"scenarios": []}
+    for k, name in enumerate(names):
+        case = scenario(name, ppc=ppc)
+        cases.append(case)
+        np.save(rundir / f"raw_{k}.npy", raw_table(case.link, case.cycles).astype(np.int32))
+        job["scenarios"].append({
+            "name": name, "lanes": len(case.lanes), "word_bits": case.word_bits,
+            "bits": case.bits, "elems": ppc * g["gains"], "cycles": case.cycles,
+            "retrains": list(case.retrains), "word_ps": int(case.word_ns * 1000),
+            "proc_ps": int(case.proc_ns * 1000), "ready": case.ready, "seed": case.seed,
+            "settings": {"train_word": case.link.train_word, "sync_word": case.link.sync_word,
+                         "n_check": case.n_check, "frame_rows": g["rows"]}})
+    (rundir / "job.json").write_text(json.dumps(job))
+    ok, wall = _run(bdir, sim, "lvds_front_tb", rundir, [], top="lvds_front")
+    results = []
+    for k in range(len(names)):
+        f = rundir / f"result_{k}.json"
+        if not ok or not f.exists():
+            raise TdicamError(f"{sim} simulation of lvds_front failed; see {rundir / 'sim.log'}")
+        results.append(json.loads(f.read_text()))
+    if not keep:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return cases, results, wall, build_s
