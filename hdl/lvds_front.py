@@ -38,7 +38,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
-from tdicam.hdl.lvds import TAP_BITS, LvdsRx
+from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LvdsFront", "WORD_DOMAIN"]
@@ -60,13 +60,26 @@ def _status_ports(n, w):
     }
 
 
+def _lane_ports(n, w, phy):
+    """The lane-side ports: the deserializers' words and the delay taps (the simulated
+    PHY), or the 7-series pins and clocks of :class:`~tdicam.hdl.lvds.LvdsXilinx`."""
+    if phy == "none":
+        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+    ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
+             "idelay_rdy": Out(1)}
+    if w == 12:
+        ports["clk_div"] = In(1)
+    return ports
+
+
 class _WordSide(wiring.Component):
     """Receiver and framer, written in ``sync`` (renamed to the word domain by
     :class:`LvdsFront`); ``w_*`` drive the crossing FIFO's write port."""
 
-    def __init__(self, *, n, w, bits, p, rx):
+    def __init__(self, *, n, w, bits, p, rx, phy):
         self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
-        ports = {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n),
+        self._lane_ports = _lane_ports(n, w, phy)
+        ports = {**self._lane_ports,
                  "w_data": Out(n * bits + 2), "w_en": Out(1), "w_rdy": In(1)}
         ports.update(_status_ports(n, w))
         super().__init__(ports)
@@ -75,9 +88,13 @@ class _WordSide(wiring.Component):
         m = Module()
         n, w, bits, p = self._n, self._w, self._bits, self._p
         m.submodules.rx = rx = self._rx
+        for name, member in self._lane_ports.items():
+            if member.flow == wiring.In:
+                m.d.comb += getattr(rx, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(rx, name))
         m.d.comb += [
-            rx.lane_raw.eq(self.lane_raw), self.lane_tap.eq(rx.lane_tap),
-            self.lane_ld.eq(rx.lane_ld), rx.train_word.eq(self.train_word),
+            rx.train_word.eq(self.train_word),
             rx.sync_word.eq(self.sync_word), rx.n_check.eq(self.n_check),
             rx.line_words.eq(p + 2), rx.retrain.eq(self.retrain),
             self.lane_locked.eq(rx.lane_locked), self.lane_error.eq(rx.lane_error),
@@ -204,13 +221,19 @@ class LvdsFront(wiring.Component):
         ``2**ceil(log2(ceil(P * max(0, 1 - f_p ppc / (L f_w))) + 8))``.
     settle, min_run, pick, deskew_depth
         :class:`tdicam.hdl.lvds.LvdsRx`'s.
+    phy : {"none", "xilinx7"}
+        ``none``: the generic simulated PHY (the deserializers' words in, the delay taps
+        out); ``xilinx7``: the receiver behind 7-series IBUFDS/IDELAYE2/ISERDESE2
+        (:class:`~tdicam.hdl.lvds.LvdsXilinx`: pins ``lane_p``/``lane_n``, ``clk_bit``,
+        ``clk_ref``, ``idelay_rdy``, ``clk_div`` with 12-bit words; the word clock is its
+        ``CLKDIV``), generated, not simulated.
 
     Attributes
     ----------
     lane_raw : In(gains*L*word_bits)
-        Deserializer words (word domain), lane 0 in the LSBs.
+        Deserializer words (word domain), lane 0 in the LSBs (``phy = "none"``).
     lane_tap, lane_ld : Out
-        Delay taps and load strobes (word domain).
+        Delay taps and load strobes (word domain; ``phy = "none"``).
     train_word, sync_word, n_check, frame_rows, retrain : In
         Word-domain settings: the training and sync words, words checked per tap, rows per
         frame (< 2**word_bits - 1), retrain request (the sensor trains from then on).
@@ -236,7 +259,8 @@ class LvdsFront(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, lanes_per_gain=4, gains=2, word_bits=12, bits=12, columns=32,
-                 ppc=1, fifo_depth=16, settle=8, min_run=9, pick=5, deskew_depth=8):
+                 ppc=1, fifo_depth=16, settle=8, min_run=9, pick=5, deskew_depth=8,
+                 phy="none"):
         L = check_range("lanes_per_gain", lanes_per_gain, 1, 64)
         self._g = check_choice("gains", gains, (1, 2))
         self._w = check_choice("word_bits", word_bits, (10, 12))
@@ -249,11 +273,12 @@ class LvdsFront(wiring.Component):
         if fifo_depth < 4 or fifo_depth & (fifo_depth - 1):
             raise TdicamError(f"fifo_depth = {fifo_depth} must be a power of two >= 4")
         self._L, self._p, self._depth = L, columns // L, fifo_depth
-        self._rx = LvdsRx(lanes=L * gains, word_bits=word_bits, settle=settle,
+        self._phy = check_choice("phy", phy, ("none", "xilinx7"))
+        rx_cls = LvdsXilinx if phy == "xilinx7" else LvdsRx
+        self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle,
                           min_run=min_run, pick=pick, deskew_depth=deskew_depth)
         n = L * gains
-        ports = {"lane_raw": In(n * word_bits), "lane_tap": Out(n * TAP_BITS),
-                 "lane_ld": Out(n),
+        ports = {**_lane_ports(n, word_bits, phy),
                  "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains)))}
         ports.update(_status_ports(n, word_bits))
         super().__init__(ports)
@@ -265,18 +290,17 @@ class LvdsFront(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
-        ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx)
+        ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
         m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 2, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)
-        for name in ("lane_raw", "train_word", "sync_word", "n_check", "frame_rows",
-                     "retrain"):
-            m.d.comb += getattr(ws, name).eq(getattr(self, name))
-        for name in _status_ports(n, self._w):
-            if name not in ("train_word", "sync_word", "n_check", "frame_rows", "retrain"):
+        outer = {**_lane_ports(n, self._w, self._phy), **_status_ports(n, self._w)}
+        for name, member in outer.items():
+            if member.flow == wiring.In:
+                m.d.comb += getattr(ws, name).eq(getattr(self, name))
+            else:
                 m.d.comb += getattr(self, name).eq(getattr(ws, name))
-        m.d.comb += [self.lane_tap.eq(ws.lane_tap), self.lane_ld.eq(ws.lane_ld),
-                     cdc.w_data.eq(ws.w_data), cdc.w_en.eq(ws.w_en), ws.w_rdy.eq(cdc.w_rdy)]
+        m.d.comb += [cdc.w_data.eq(ws.w_data), cdc.w_en.eq(ws.w_en), ws.w_rdy.eq(cdc.w_rdy)]
 
         # read side: one entry = L columns a channel -> L/ppc beats
         k = L // ppc

@@ -365,8 +365,6 @@ def test_block_registry_params():
     front._rx._MustUse__silence = True
     for bad, match in (({"lanes_per_gain": 3}, "--lanes = 8 must be --lanes-per-gain = 3"),
                        ({"lanes_per_gain": 4, "columns": 18}, "--columns = 18 must be a"),
-                       ({"lanes_per_gain": 4, "columns": 16, "phy": "xilinx7"},
-                        "--phy = xilinx7: the front end"),
                        ({"lanes_per_gain": 4, "columns": 16, "ppc": 8},
                         "--ppc = 8 does not divide --lanes-per-gain = 4")):
         with pytest.raises(TdicamError, match=match):

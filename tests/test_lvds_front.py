@@ -199,3 +199,34 @@ def test_pipeline_from_lanes_to_tdi_output_is_bit_exact():
     exp = design.golden(p, SceneData(signal=frames))[-1][2]
     got = frames_of(res["beats"], 1, C, 2, 1)[0]
     assert exp.shape == (p.lines, 1, C) and np.array_equal(got, exp)
+
+
+def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
+    """``tdicam verilog pipeline --scene`` of a scene with [sensor.lvds]: the top's input is
+    the lanes (generic PHY), or the 7-series pins with ``--phy xilinx7``; deterministic."""
+    from tdicam.cli import main
+    text = (f"[orbit]\naltitude_km = 600\ngsd_m = 1.0\n[sensor]\ncolumns = {C}\nrows = 8\n"
+            f"bits = 12\ngains = [2.0, 1.0]\n[tdi]\nstages = {R}\n[pipeline]\n"
+            f"blocks = [\"hdr\", \"tdi\"]\n[run]\nlines = 4\n")
+    f = tmp_path / "s.toml"
+    f.write_text(text + f"[sensor.lvds]\nlanes_per_gain = {L}\n")
+    outs = {}
+    for phy in ("none", "xilinx7", "none"):
+        out = tmp_path / f"{phy}.v"
+        assert main(["verilog", "pipeline", "--scene", str(f), "--phy", phy, "-o", str(out)]) == 0
+        outs.setdefault(phy, []).append(out.read_text())
+    generic, xil = outs["none"][0], outs["xilinx7"][0]
+    assert outs["none"][0] == outs["none"][1]
+    head = generic.split("module pipeline(")[1].split(")")[0]
+    assert "lvds_lane_raw" in head and "word_clk" in head and "s_axis_tdata" not in head
+    assert "IDELAYE2" not in generic
+    xhead = xil.split("module pipeline(")[1].split(")")[0]
+    assert "lvds_lane_p" in xhead and "lvds_clk_div" in xhead and "lvds_lane_raw" not in xhead
+    assert xil.count("IDELAYE2 #(") == 2 * L and xil.count("ISERDESE2 #(") == 2 * L
+    plain = tmp_path / "plain.toml"
+    plain.write_text(text)
+    capsys.readouterr()
+    assert main(["verilog", "pipeline", "--scene", str(plain), "--phy", "xilinx7"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert err == ("tdicam: error: pipeline: --phy = xilinx7 needs the sensor's lanes in the "
+                   "chain (a [sensor.lvds] section in the scene)")

@@ -33,7 +33,8 @@ def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_pe
     if lanes_per_gain:
         from tdicam.hdl.lvds_front import LvdsFront
         return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
-                         bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, **kw)
+                         bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
+                         **kw)
     return LvdsXilinx(lanes=lanes, **kw) if phy == "xilinx7" else LvdsRx(lanes=lanes, **kw)
 
 
@@ -45,9 +46,6 @@ def _check(p):
         if p["lanes"] not in (lpg, 2 * lpg):
             raise TdicamError(f"--lanes = {p['lanes']} must be --lanes-per-gain = {lpg} or "
                               f"twice it (one or two gain channels)")
-        if p["phy"] != "none":
-            raise TdicamError(f"--phy = {p['phy']}: the front end (--lanes-per-gain) is the "
-                              f"simulated core only")
         if not p["columns"] or p["columns"] % lpg:
             raise TdicamError(f"--columns = {p['columns']} must be a positive multiple of "
                               f"--lanes-per-gain = {lpg}")
@@ -83,12 +81,15 @@ def _front_step(ctx):
 
 
 def _front_hw(step, data, *, ecp5=False):
+    """The front end as the chain's :class:`~tdicam.hdl.chain_top.SourceStage`: every input
+    port of the component (lanes or pins, settings) becomes a top port ``lvds_<port>``."""
+    from amaranth.lib import wiring
     from tdicam.hdl.chain_top import SourceStage
     from tdicam.blocks import get
-    blk = get("lvds")
-    params = blk.resolve(step.params)
-    return SourceStage("lvds", lambda lane: _top(**params), ports=tuple(step.ports),
-                       out_slice=True)
+    comp = _top(**get("lvds").resolve(step.params))
+    ins = tuple(name for name, mem in comp.signature.members.items()
+                if mem.flow == wiring.In)
+    return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True)
 
 
 def _front_golden(step):
