@@ -284,6 +284,8 @@ class LvdsFront(wiring.Component):
         super().__init__(ports)
 
     lanes = property(lambda self: self._L * self._g)
+    latency = property(lambda self: None,
+                       doc="None: the output's timing depends on the two clocks' phases")
     line_words = property(lambda self: self._p + 2)
     fifo_depth = property(lambda self: self._depth)
 

@@ -35,7 +35,8 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds as link_model
 
 __all__ = ["GMAX0504", "line_words", "check_geometry", "wire_code", "lane_payload",
-           "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive", "fifo_depth", "eye_lane", "scene_lanes",
+           "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive", "data_words", "frames_from_lanes",
+           "fifo_depth", "eye_lane", "scene_lanes",
            "untrained_lanes"]
 
 #: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.
@@ -128,6 +129,70 @@ def receive(frames, bad_lanes, lanes_per_gain, word_bits):
     inv = invalid_columns(bad_lanes, px.shape[-1], lanes_per_gain, len(frames))
     px = np.where(inv[:, None, None, :], 0, px)
     return px, inv
+
+
+def data_words(link, lane_index):
+    """The words lane ``lane_index`` of ``link`` sends in its data segments, in order (its
+    :class:`tdicam.model.lvds.Link` payload's extent of them: what the receiver gets once
+    trained)."""
+    starts = [n for n, _ in link.schedule] + [None]
+    out, left = [], len(link.payload[lane_index]) if link.payload else 0
+    for (n0, mode), n1 in zip(link.schedule, starts[1:]):
+        if mode != "data" or left <= 0:
+            continue
+        k = left if n1 is None else min(left, n1 - n0)
+        out.append(link_model.sent_words(link, lane_index, np.arange(n0, n0 + k)))
+        left -= k
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
+def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
+    """The golden front on the lanes' words: ``words`` one int64 array per lane (high-gain
+    lanes first; each its data-segment words, e.g. :func:`data_words`), cut into lines
+    ``[sync, header, P pixels]``; a frame is ``rows`` lines from a header-0 line (blank
+    lines and lines outside a frame are skipped); the pixels of lane ``g L + k`` go to
+    columns ``k, k+L, ...`` of channel ``g``. Lanes ``bad_lanes`` (not trained) read 0.
+
+    Returns ``(pixels (G, F, R, C) int64, invalid (G, C) bool)``; a line format violation
+    (no sync where a line starts, lanes disagreeing on a header) is a :class:`TdicamError`.
+    """
+    L = lanes_per_gain
+    words = [np.asarray(x, np.int64) for x in words]
+    n, g = len(words), len(words) // L
+    sync = (1 << word_bits) - 1
+    good = [i for i in range(n) if i not in set(bad_lanes)]
+    if not good:
+        raise TdicamError("no lane trained: no frames")
+    total = len(words[good[0]])
+    lines = []
+    pos = 0
+    lw = None
+    while pos < total:
+        if words[good[0]][pos] != sync:
+            raise TdicamError(f"lane {good[0]}: word {pos} is not a sync word")
+        if lw is None:
+            nxt = np.flatnonzero(words[good[0]][pos + 1:] == sync)
+            lw = int(nxt[0]) + 1 if len(nxt) else total - pos
+        heads = {int(words[i][pos + 1]) for i in good}
+        if len(heads) != 1:
+            raise TdicamError(f"lanes disagree on the header of the line at word {pos}")
+        lines.append((heads.pop(), pos))
+        pos += lw
+    p = lw - 2
+    frames, k = [], 0
+    while k < len(lines):
+        if lines[k][0] == 0 and k + rows <= len(lines) and \
+                [h for h, _ in lines[k:k + rows]] == list(range(rows)):
+            f = np.zeros((g, rows, p * L), np.int64)
+            for r, (_, at) in enumerate(lines[k:k + rows]):
+                for i in good:
+                    f[i // L, r, i % L::L] = words[i][at + 2:at + 2 + p]
+            frames.append(f)
+            k += rows
+        else:
+            k += 1
+    px = np.stack(frames, axis=1) if frames else np.zeros((g, 0, rows, p * L), np.int64)
+    return px, invalid_columns(bad_lanes, p * L, L, g)
 
 
 def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):

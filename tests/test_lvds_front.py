@@ -45,6 +45,22 @@ def test_lane_payload_is_the_line_format():
     assert (after[::lw] == 0xFFF).all()
 
 
+def test_golden_front_from_the_lanes_round_trip():
+    """frames_from_lanes on the words the link model sends (data segments, blank lines
+    between) gives back the frames as the wire carries them, bad lanes' columns 0."""
+    case = scenario("lane_dies")
+    words = [front.data_words(case.link, i) for i in range(G * L)]
+    assert all(len(w) == (8 * R + 2) * (C // L + 2) for w in words)
+    for bad in ([], [3, 6]):
+        px, inv = front.frames_from_lanes(words, L, R, 12, bad)
+        exp, inv2 = front.receive(case.frames, bad, L, 12)
+        assert np.array_equal(px, exp) and np.array_equal(inv, inv2)
+    words[4] = words[4].copy()
+    words[4][1] = 1                         # a header the other lanes do not send
+    with pytest.raises(TdicamError, match="lanes disagree on the header"):
+        front.frames_from_lanes(words, L, R, 12)
+
+
 def test_invalid_columns_follow_the_convention():
     inv = front.invalid_columns([1, 6], C, L, G)
     assert np.flatnonzero(inv[0]).tolist() == [1, 5, 9, 13]

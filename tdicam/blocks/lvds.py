@@ -61,9 +61,10 @@ def _front_source(scene):
 
 
 def _front_step(ctx):
-    """The front end's step: the scene's ``[sensor.lvds]``, the chain's channels and frame
-    (rows = TDI stages), the crossing FIFO sized for the slowest processing clock the lane
-    format allows (:func:`tdicam.model.lvds_front.fifo_depth`)."""
+    """The front end's step: the scene's ``[sensor.lvds]``, the chain's channels (two with a
+    merging block; one without: the high-gain lanes only) and frame (rows = TDI stages),
+    the crossing FIFO sized for the slowest processing clock the lane format allows
+    (:func:`tdicam.model.lvds_front.fifo_depth`)."""
     lv = ctx.scene.sensor.lvds
     lpg, w = lv.lanes_per_gain, lv.word_bits
     front_model.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
