@@ -255,3 +255,12 @@ def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err == ("tdicam: error: pipeline: --phy = xilinx7 needs the sensor's lanes in the "
                    "chain (a [sensor.lvds] section in the scene)")
+
+
+def test_lvds_testbench_refuses_a_payload_link():
+    """The lvds block's HDL testbench makes its own data: a link carrying frames is refused
+    (one line), not silently simulated without them."""
+    from tdicam.cosim import lvds as cl
+    with pytest.raises(TdicamError, match="not a payload; a link carrying frames runs in"):
+        cl.run_link(scenario("cdc_fast").link, params={"lanes": 8, "word_bits": 12},
+                    cycles=10)
