@@ -22,7 +22,7 @@ from tdicam.hdl.lvds import TAP_BITS
 from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
-__all__ = ["FrontCase", "raw_table", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES",
+__all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES",
            "CLOCKS", "SCENARIOS", "scenario_frames", "scenario_lanes", "scenario", "check",
            "run_cocotb"]
 
@@ -121,6 +121,48 @@ def frames_of(beats, rows, columns, ppc, gains):
     return np.stack(frames, axis=1)
 
 
+#: The front's status ports a run reports at its end.
+STATUS = ("lane_locked", "lane_error", "frame_invalid", "trained", "releasing",
+          "need_retrain", "frames_out", "frames_dropped", "frames_affected", "lane_errors",
+          "fifo_overflow")
+
+
+class WordDriver:
+    """The word-clock side of a front testbench, simulator-neutral: the lanes' raw words
+    from ``raw`` (:func:`raw_table`) for the tap each lane loaded (``lane_ld``) two word
+    clocks earlier, the retrain pulses, and the log of lane status changes and frame
+    status into ``res`` (:func:`run_amaranth`'s ``events`` and ``frame_status``).
+
+    Per word clock ``k``: :meth:`inputs` (``lane_raw``, ``retrain`` to drive), then
+    :meth:`observe` with the status ports read in that cycle.
+    """
+
+    def __init__(self, raw, word_bits, retrains, res):
+        self.raw, self.w, self.retrains, self.res = raw, word_bits, set(retrains), res
+        self.n = raw.shape[0]
+        self.tapq, self.tap2 = [0] * self.n, [0] * self.n
+        self.prev, self.out_seen = [(0, 0)] * self.n, 0
+
+    def inputs(self, k):
+        raw = sum(int(self.raw[i, self.tap2[i], k]) << (i * self.w) for i in range(self.n))
+        return raw, int(k in self.retrains)
+
+    def observe(self, k, ld, tap, locked, error, frames_out, frame_invalid):
+        """``frame_invalid``: a callable reading the port (read only when a frame ends)."""
+        for i in range(self.n):
+            st = ((locked >> i) & 1, (error >> i) & 1)
+            if st != self.prev[i]:
+                self.res["events"].append((k, i) + st)
+                self.prev[i] = st
+        if frames_out != self.out_seen:
+            self.res["frame_status"].append(frame_invalid())
+            self.out_seen = frames_out
+        for i in range(self.n):          # the tap reaches the sampler 2 words after its load
+            self.tap2[i] = self.tapq[i]
+            if (ld >> i) & 1:
+                self.tapq[i] = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
+
+
 def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=None):
     """Run ``case`` on :class:`~tdicam.hdl.lvds_front.LvdsFront` in Amaranth's simulator.
 
@@ -150,7 +192,6 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     raw = raw_table(case.link, case.cycles)
     res = {"beats": [], "frame_status": [], "events": [], "status": {}}
     done = [False]
-    tmask = (1 << TAP_BITS) - 1
 
     async def word_side(ctx):
         for name, v in (("train_word", case.link.train_word),
@@ -159,32 +200,18 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
             ctx.set(port(name), v)
         for name, v in (settings or {}).items():
             ctx.set(getattr(dut, name), v)
-        tapq, tap2 = [0] * n, [0] * n
-        prev, out_seen = [(0, 0)] * n, 0
+        drv = WordDriver(raw, w, case.retrains, res)
         for k in range(case.cycles):
-            ctx.set(port("lane_raw"), sum(int(raw[i, tap2[i], k]) << (i * w) for i in range(n)))
-            ctx.set(port("retrain"), int(k in case.retrains))
+            lane_raw, retrain = drv.inputs(k)
+            ctx.set(port("lane_raw"), lane_raw)
+            ctx.set(port("retrain"), retrain)
             if hook is not None:
                 hook(ctx, dut, k)
-            ld, tap = ctx.get(port("lane_ld")), ctx.get(port("lane_tap"))
-            lk, er = ctx.get(port("lane_locked")), ctx.get(port("lane_error"))
-            for i in range(n):
-                st = ((lk >> i) & 1, (er >> i) & 1)
-                if st != prev[i]:
-                    res["events"].append((k, i) + st)
-                    prev[i] = st
-            fo = ctx.get(port("frames_out"))
-            if fo != out_seen:
-                res["frame_status"].append(ctx.get(port("frame_invalid")))
-                out_seen = fo
+            drv.observe(k, *(ctx.get(port(x)) for x in ("lane_ld", "lane_tap", "lane_locked",
+                                                        "lane_error", "frames_out")),
+                        lambda: ctx.get(port("frame_invalid")))
             await ctx.tick(WORD_DOMAIN)
-            for i in range(n):
-                tap2[i] = tapq[i]
-                if (ld >> i) & 1:
-                    tapq[i] = (tap >> TAP_BITS * i) & tmask
-        for name in ("lane_locked", "lane_error", "frame_invalid", "trained", "releasing",
-                     "need_retrain", "frames_out", "frames_dropped", "frames_affected",
-                     "lane_errors", "fifo_overflow"):
+        for name in STATUS:
             res["status"][name] = ctx.get(port(name))
         done[0] = True
 

@@ -17,10 +17,8 @@ import numpy as np
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, Timer
 
-TAP_BITS = 5
-STATUS = ("lane_locked", "lane_error", "frame_invalid", "trained", "releasing",
-          "need_retrain", "frames_out", "frames_dropped", "frames_affected", "lane_errors",
-          "fifo_overflow")
+from tdicam.cosim.lvds_front import STATUS, WordDriver
+
 
 
 def _get(sig):
@@ -30,8 +28,7 @@ def _get(sig):
 async def _scenario(dut, job, k):
     sc = job["scenarios"][k]
     raw = np.load(f"raw_{k}.npy")
-    n, w, cycles = sc["lanes"], sc["word_bits"], sc["cycles"]
-    retrains = set(sc["retrains"])
+    w, cycles = sc["word_bits"], sc["cycles"]
     res = {"beats": [], "frame_status": [], "events": [], "status": {}}
     wclk = Clock(dut.word_clk, sc["word_ps"], unit="ps")
     pclk = Clock(dut.clk, sc["proc_ps"], unit="ps")
@@ -67,28 +64,14 @@ async def _scenario(dut, job, k):
             dut.o_stream__ready.value = rdy
 
     proc = cocotb.start_soon(proc_side())
-    tapq, tap2 = [0] * n, [0] * n
-    prev, out_seen = [(0, 0)] * n, 0
+    drv = WordDriver(raw, w, sc["retrains"], res)
     for kk in range(cycles):
-        # cycle kk: the word side's inputs, read the status registers of the cycle
-        dut.lane_raw.value = sum(int(raw[i, tap2[i], kk]) << (i * w) for i in range(n))
-        dut.retrain.value = int(kk in retrains)
-        ld, tap = _get(dut.lane_ld), _get(dut.lane_tap)
-        lk, er = _get(dut.lane_locked), _get(dut.lane_error)
-        for i in range(n):
-            st = ((lk >> i) & 1, (er >> i) & 1)
-            if st != prev[i]:
-                res["events"].append([kk, i, *st])
-                prev[i] = st
-        fo = _get(dut.frames_out)
-        if fo != out_seen:
-            res["frame_status"].append(_get(dut.frame_invalid))
-            out_seen = fo
+        # cycle kk: the word side's inputs, the status registers of the cycle
+        dut.lane_raw.value, dut.retrain.value = drv.inputs(kk)
+        drv.observe(kk, *(_get(getattr(dut, x)) for x in (
+            "lane_ld", "lane_tap", "lane_locked", "lane_error", "frames_out")),
+            lambda: _get(dut.frame_invalid))
         await FallingEdge(dut.word_clk)
-        for i in range(n):
-            tap2[i] = tapq[i]
-            if (ld >> i) & 1:
-                tapq[i] = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
     for name in STATUS:
         res["status"][name] = _get(getattr(dut, name))
     done[0] = True
