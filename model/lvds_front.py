@@ -35,8 +35,8 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds as link_model
 
 __all__ = ["GMAX0504", "line_words", "check_geometry", "wire_code", "lane_payload",
-           "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive", "data_words", "frames_from_lanes",
-           "fifo_depth", "eye_lane", "scene_lanes",
+           "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
+           "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
            "untrained_lanes"]
 
 #: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.

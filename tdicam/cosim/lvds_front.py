@@ -22,9 +22,9 @@ from tdicam.hdl.lvds import TAP_BITS
 from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
-__all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES",
-           "CLOCKS", "SCENARIOS", "scenario_frames", "scenario_lanes", "scenario", "check",
-           "run_cocotb"]
+__all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of",
+           "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames",
+           "scenario_lanes", "scenario", "check", "run_cocotb"]
 
 
 @dataclass
