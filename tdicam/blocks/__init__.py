@@ -287,13 +287,21 @@ class Use:
     system : callable(step, ctx) -> list of dict, or None
         The block's figures in ``tdicam plan``'s system section (an external part's load
         before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
-        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``}; each dict has ``name``, ``value``,
-        ``unit``, ``text`` (one line) and ``ok`` (True/False, or None: no verdict).
+        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``}; each dict has
+        ``name``, ``value``, ``unit``, ``text`` (one line) and ``ok`` (True/False, or None:
+        no verdict).
     measured : callable(step, status, info) -> list of dict, or None
         The same figures as a co-simulation measured them, from the top's status outputs
-        ``status`` ({port: value}) and ``info`` ({``cycles``, ``rows``, ``width``}), each dict
-        with ``name``,
-        ``value``, ``unit``, ``text`` (the run report's system section).
+        ``status`` ({port: value}) and ``info`` ({``cycles``, ``rows``, ``width``}), each
+        dict with ``name``, ``value``, ``unit``, ``text`` (the run report's system section).
+    source : callable(scene) -> bool, or None
+        The block is the chain's *source* when this says so for a scene: the first stage,
+        fed by the top's own ports (the sensor's lanes) instead of pixels, its ``hw`` a
+        :class:`~tdicam.hdl.chain_top.SourceStage` (the ``lvds`` front end with a
+        ``[sensor.lvds]`` section). Its ``step`` sees ``ctx.lanes``, the chain's channels.
+    chain_golden : callable(step) -> callable(arrays, lane) -> ndarray, or None
+        Its golden stage in the chain when it is not the registry's golden model on scene
+        arrays (a source: what the front delivers of the sensor's frames).
     """
 
     step: Callable
@@ -319,6 +327,8 @@ class Use:
     sim: tuple = ()
     system: Callable | None = None
     measured: Callable | None = None
+    source: Callable | None = None
+    chain_golden: Callable | None = None
 
 
 @dataclass(frozen=True)
