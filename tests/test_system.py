@@ -217,3 +217,25 @@ def test_system_verilog_is_deterministic_and_holds_no_model():
     assert "nuc_nand0" in a and "cds_ddr_app_rd_data_valid_1" in a
     assert not re.search(r"\brqd\b", a)                   # the MIG model's read queue
     assert not re.search(r"reg \[7:0\] pages \[", a)      # the NAND part's pages
+
+
+def test_plan_states_the_lanes_pixel_rate_and_training_time():
+    """With the sensor's lanes ([sensor.lvds], the front end as the chain's source) the
+    plan also states lanes x lane rate = pixel rate against the window's and the training
+    time before the first frame."""
+    from tdicam.model import lvds
+    from tdicam.planning import sizing
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
+        "pipeline": {"blocks": ["nuc", "hdr", "tdi", "median3"], "cds": None},
+        "sensor": {"lvds": {"lanes_per_gain": 2}}})
+    rep = sizing.plan_report([sc])
+    rows = {r["name"]: r for r in rep["system"]}
+    lane = rows["lane pixel rate"]
+    assert lane["value"] == pytest.approx(4 * 300e6 / 12 * 128 / 130)   # sync + header
+    assert lane["needed"] == pytest.approx(2 * 8 * 256 / rep["design"]["line_period_s"])
+    assert lane["ok"] is True and "4 lanes x 300 Mbit/s / 12 bit" in lane["text"]
+    from tdicam import blocks
+    settle = {q.name: q.default for q in blocks.get("lvds").params}["settle"]
+    assert rows["lane training"]["value"] == pytest.approx(        # 25 M words/s a lane
+        lvds.training_words(12, 16, settle) / 25e6)
+    assert "calibration load" in rows

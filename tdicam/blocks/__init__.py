@@ -287,7 +287,7 @@ class Use:
     system : callable(step, ctx) -> list of dict, or None
         The block's figures in ``tdicam plan``'s system section (an external part's load
         before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
-        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``}; each dict has
+        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``, ``scene``}; each dict has
         ``name``, ``value``, ``unit``, ``text`` (one line) and ``ok`` (True/False, or None:
         no verdict).
     measured : callable(step, status, info) -> list of dict, or None

@@ -93,6 +93,32 @@ def _front_hw(step, data, *, ecp5=False):
     return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True)
 
 
+def _front_system(step, ctx):
+    """The plan: the lanes' pixel rate against the chain's (lanes x bit rate / word bits =
+    the pixels a second the sensor sends, each line's sync and header word included) and
+    the training time before the first frame (:func:`tdicam.model.lvds.training_words`: the
+    tap scan and the word alignment, at most, in word clocks)."""
+    from tdicam.blocks import get
+    lv = ctx["scene"].sensor.lvds
+    prm = get("lvds").resolve(step.params)
+    lanes, w = prm["lanes"], prm["word_bits"]
+    word_hz = lv.bit_rate_mbps * 1e6 / w
+    per_line = ctx["width"] // prm["lanes_per_gain"]              # pixel words a lane a line
+    rate = lanes * word_hz * per_line / (per_line + 2)           # pixels/s, all channels
+    need = ctx["lanes"] * ctx["rows"] * ctx["width"] / ctx["line_period_s"]
+    train = model.training_words(w, step.ports["n_check"], prm["settle"]) / word_hz
+    return [{"name": "lane pixel rate", "value": rate, "unit": "pixel/s", "ok": rate >= need,
+             "needed": need,
+             "text": f"sensor lanes: {lanes} lanes x {lv.bit_rate_mbps:g} Mbit/s / {w} bit = "
+                     f"{lanes * word_hz / 1e6:.1f} M words/s, {rate / 1e6:.1f} M pixels/s "
+                     f"after each line's sync and header words; the window needs "
+                     f"{need / 1e6:.2f} M pixels/s: {'OK' if rate >= need else 'NO'}"},
+            {"name": "lane training", "value": train, "unit": "s", "ok": None,
+             "text": f"lane training before the first frame: at most {train * 1e6:.1f} us "
+                     f"({model.training_words(w, step.ports['n_check'], prm['settle'])} word "
+                     f"clocks: {model.N_TAPS} taps scanned and {w} bitslips)"}]
+
+
 def _front_golden(step):
     """What the front delivers of the sensor's frames with every lane trained: the wire
     codes (the all-ones sync code sent as one less)."""
@@ -303,5 +329,6 @@ BLOCK = Block(
     order=70,
     bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
     synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
-    pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden),
+    pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden,
+                 system=_front_system),
 )

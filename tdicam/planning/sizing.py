@@ -437,7 +437,8 @@ def system_plan(scene, point, *, ddr_bits, ddr_clock_hz):
     except TdicamError:
         return None
     ctx = {"line_period_s": point["line_period_s"], "ddr_bits": ddr_bits,
-           "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.rows, "width": p.width}
+           "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.rows, "width": p.width,
+           "scene": scene}
     uses = design.uses()
     rows = [r for st in p.steps if uses[st.block].system is not None
             for r in uses[st.block].system(st, ctx)]
