@@ -22,8 +22,8 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, element_bits,
                                           pixel_signature)
 
-__all__ = ["Link", "LaneStage", "MergeStage", "Pipeline", "CalibRom", "frame_group",
-           "register_slice"]
+__all__ = ["Link", "LaneStage", "MergeStage", "SourceStage", "Pipeline", "CalibRom",
+           "frame_group", "register_slice"]
 
 
 class Link:
@@ -222,6 +222,7 @@ class LaneStage:
     group: str | None = None
     out_slice: bool = False
     merge: bool = field(default=False, init=False)
+    source: bool = field(default=False, init=False)
 
 
 @dataclass
@@ -229,6 +230,17 @@ class MergeStage(LaneStage):
     """A block that takes the elements of every lane in one beat (the HDR merge)."""
 
     merge: bool = field(default=True, init=False)
+
+
+@dataclass
+class SourceStage(LaneStage):
+    """The chain's first block when it makes the pixel stream itself (the sensor's front
+    end, :class:`~tdicam.hdl.lvds_front.LvdsFront`): no ``i_stream``; every ``In`` port
+    (listed in ``ports``) is a top port ``<name>_<port>``; its ``o_stream`` carries every
+    channel lane's elements, pixel-major, as the top's ``i_stream`` would. The top then has
+    no ``i_stream``."""
+
+    source: bool = field(default=True, init=False)
 
 
 class Pipeline(wiring.Component):
@@ -281,8 +293,9 @@ class Pipeline(wiring.Component):
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
         self._taps, self._ppc = taps, ppc
         self._cores = self._plan()
-        members = {"i_stream": In(pixel_signature(channels_shape(in_bits,
-                                                                 ppc * lanes * lane_elems)))}
+        self._source = bool(self._stages) and self._stages[0].source
+        members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
+            in_bits, ppc * lanes * lane_elems)))}
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
@@ -317,9 +330,11 @@ class Pipeline(wiring.Component):
             if st.merge:
                 cs = [st.make(0)]
                 lanes = 1
+            elif st.source:
+                cs = [st.make(0)]
             else:
                 cs = [st.make(k) for k in range(lanes)]
-            ib, _ = element_bits(_data_shape(cs[0], "i_stream"))
+            ib = bits if st.source else element_bits(_data_shape(cs[0], "i_stream"))[0]
             ob, oc = element_bits(_data_shape(cs[0], "o_stream"))
             if bits > ib:
                 names = [s.name for s in self._stages]
@@ -355,20 +370,32 @@ class Pipeline(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        i = self.i_stream
         ppc = self._ppc
-        n_in = ppc * self._lanes * self._lane_elems
-        d = i.payload.data
-        src_ready = Signal(name="in_ready")
-        m.d.comb += i.ready.eq(src_ready)
-        whole = Link(i.valid, src_ready, i.payload.first, i.payload.last,
-                     [d[k] for k in range(n_in)] if n_in > 1 else [d], self._in_bits)
+        tap = 0
+        if self._source:
+            # the source's output stands where the top's input would
+            st, core = self._stages[0], self._cores[0][0]
+            m.submodules[core_name(st, 0, 1)] = core
+            self._wire_ports(m, st, core, 0)
+            whole = Link.of_output(core.o_stream)
+            tap = self._tap(m, 0, whole)
+            if 0 in self._slices:
+                whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice")
+        else:
+            i = self.i_stream
+            n_in = ppc * self._lanes * self._lane_elems
+            d = i.payload.data
+            src_ready = Signal(name="in_ready")
+            m.d.comb += i.ready.eq(src_ready)
+            whole = Link(i.valid, src_ready, i.payload.first, i.payload.last,
+                         [d[k] for k in range(n_in)] if n_in > 1 else [d], self._in_bits)
         # lanes stay one stream until a per-lane block needs them apart
         lanes = [whole]
         per = [self._lane_elems] * self._lanes
         split = self._lanes == 1
-        tap = 0
         for n_st, (st, cores) in enumerate(zip(self._stages, self._cores)):
+            if st.source:
+                continue
             if st.merge:
                 if not split:
                     lanes = [whole]
@@ -394,25 +421,9 @@ class Pipeline(wiring.Component):
                 if st.side is not None:
                     link = join(m, link, st.side(m, k), f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
-                for pname, member in core.signature.members.items():
-                    if pname in ("i_stream", "o_stream"):
-                        continue
-                    if member.flow == wiring.In:
-                        m.d.comb += getattr(core, pname).eq(getattr(self, f"{st.name}_{pname}"))
-                    else:
-                        m.d.comb += getattr(self, self._status(st, pname, k)).eq(
-                            getattr(core, pname))
+                self._wire_ports(m, st, core, k)
                 out = Link.of_output(core.o_stream)
-                if self._taps:
-                    name = self._tap_shapes[tap][0]
-                    m.d.comb += [
-                        getattr(self, f"tap{tap}_{name}_valid").eq(out.valid),
-                        getattr(self, f"tap{tap}_{name}_ready").eq(out.ready),
-                        getattr(self, f"tap{tap}_{name}_first").eq(out.first),
-                        getattr(self, f"tap{tap}_{name}_last").eq(out.last),
-                        getattr(self, f"tap{tap}_{name}_data").eq(Cat(*out.elems)),
-                    ]
-                tap += 1
+                tap = self._tap(m, tap, out)
                 if n_st in self._slices:
                     out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice")
                 outs.append(out)
@@ -426,6 +437,30 @@ class Pipeline(wiring.Component):
         else:
             whole.feed(m, o, who="pipeline output")
         return m
+
+    def _wire_ports(self, m, st, core, k):
+        """Stage ``st``'s component ``core`` (lane ``k``): run-time inputs from the top's
+        ports, status outputs to them."""
+        for pname, member in core.signature.members.items():
+            if pname in ("i_stream", "o_stream"):
+                continue
+            if member.flow == wiring.In:
+                m.d.comb += getattr(core, pname).eq(getattr(self, f"{st.name}_{pname}"))
+            else:
+                m.d.comb += getattr(self, self._status(st, pname, k)).eq(getattr(core, pname))
+
+    def _tap(self, m, tap, out):
+        """Expose ``out`` as tap ``tap`` (with ``taps``); the next tap's number."""
+        if self._taps:
+            name = self._tap_shapes[tap][0]
+            m.d.comb += [
+                getattr(self, f"tap{tap}_{name}_valid").eq(out.valid),
+                getattr(self, f"tap{tap}_{name}_ready").eq(out.ready),
+                getattr(self, f"tap{tap}_{name}_first").eq(out.first),
+                getattr(self, f"tap{tap}_{name}_last").eq(out.last),
+                getattr(self, f"tap{tap}_{name}_data").eq(Cat(*out.elems)),
+            ]
+        return tap + 1
 
 
 def core_name(st, lane, lanes):

@@ -41,7 +41,10 @@ Sensor (all lanes)
 ``"train"`` (the training word, every word) or ``"data"``; before the first entry (including
 negative ``n``) it trains. In a data segment starting at ``n0``, word ``n`` is the sync word
 when ``(n - n0) % line_words == 0``, else ``mix32(n ^ dkey) & mask`` with the sync code
-avoided (``^ 1`` when equal to it).
+avoided (``^ 1`` when equal to it). With a ``payload`` (one int64 array per lane, e.g. the
+pixel lines :mod:`tdicam.model.lvds_front` makes of frames) the data segments carry it
+instead: data word ``q`` (counted over every data segment in order, sync positions included)
+is ``payload[lane][q]`` while ``q`` is inside it; past its end the rule above continues.
 
 Receiver timing (the contract of :class:`tdicam.hdl.lvds.LvdsRx`)
 -----------------------------------------------------------------
@@ -191,6 +194,7 @@ class Link:
     sync_word: int | None = None
     line_words: int = 64
     schedule: tuple = ()
+    payload: tuple = ()
 
     def __post_init__(self):
         w = check_choice("word_bits", self.word_bits, (10, 12))
@@ -212,6 +216,10 @@ class Link:
                 len({n for n, _ in sched}) != len(sched):
             raise TdicamError("schedule words must be strictly increasing")
         object.__setattr__(self, "schedule", sched)
+        pay = tuple(np.asarray(p, dtype=np.int64) for p in self.payload)
+        if pay and len(pay) != len(self.lanes):
+            raise TdicamError(f"payload has {len(pay)} lanes, the link {len(self.lanes)}")
+        object.__setattr__(self, "payload", pay)
 
 
 @lru_cache(maxsize=4096)
@@ -268,6 +276,14 @@ def sent_words(link, lane_index, n):
         d = (mix32(nn.astype(np.uint64) ^ np.uint64(dkey)) & np.uint64(mask)).astype(np.int64)
         d = np.where(d == link.sync_word, d ^ 1, d)
         out[seg_data] = np.where(p % link.line_words == 0, link.sync_word, d)
+        if link.payload:
+            pay = link.payload[lane_index]
+            seg_len = np.diff(np.append(starts, np.iinfo(np.int64).max // 4))
+            before = np.concatenate([[0], np.cumsum(np.where(is_data, seg_len, 0))[:-1]])
+            q = before[idx[seg_data]] + p
+            inside = q < len(pay)
+            sel = np.flatnonzero(seg_data)[inside]
+            out.reshape(-1)[sel] = pay[q[inside]]
     return out
 
 

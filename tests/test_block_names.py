@@ -16,6 +16,8 @@ from tdicam.paths import REPO
 OTHER_MEANINGS = {
     ("tdicam/scene/docs.py", "tdi"): "the [tdi] section of a scene (stages, domain, output)",
     ("tdicam/scene/docs.py", "ddr"): "the [ddr] section of a scene (the DDR beside the FPGA)",
+    ("tdicam/scene/docs.py", "lvds"): "the [sensor.lvds] section of a scene (the sensor's "
+                                      "lanes), in the page's probe scene",
     ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
     ("tdicam/camera/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",

@@ -207,8 +207,8 @@ def test_effect_table_is_in_physical_order_and_complete():
     names = [e.name for e in engine.EFFECTS]
     assert names == ["optics", "aperture", "smear", "rolling_skew", "prnu", "dark_current",
                      "dsnu", "shot_noise", "full_well", "reset_frames", "read_noise",
-                     "dual_gain", "quantization", "cds", "nuc", "hdr", "median3_pre", "tdi",
-                     "median3_post"]
+                     "dual_gain", "quantization", "sensor_lanes", "cds", "nuc", "hdr",
+                     "median3_pre", "tdi", "median3_post"]
     stages = ["render", "pattern", "charge", "conversion", "blocks", "lines", "output"]
     order = [stages.index(e.stage) for e in engine.EFFECTS if e.stage]
     assert order == sorted(order)                  # the stages follow the physical order

@@ -351,11 +351,24 @@ def test_xilinx_wrapper_generates(word_bits, tmp_path):
 def test_block_registry_params():
     blk = blocks.get("lvds")
     p = blk.resolve({})
-    assert p == {"lanes": 8, "word_bits": 10, "settle": 8, "min_run": 9, "pick": 5,
-                 "deskew_depth": 8, "phy": "none"}
+    assert blk.recorded(p) == {"lanes": 8, "word_bits": 10, "settle": 8, "min_run": 9,
+                               "pick": 5, "deskew_depth": 8, "phy": "none"}
+    # the front-end parameters (issue 30) hold their defaults: golden cases do not record them
+    assert {k: p[k] for k in set(p) - set(blk.recorded(p))} == {
+        "lanes_per_gain": 0, "columns": 0, "bits": 12, "ppc": 1, "fifo_depth": 16}
     for phy, cls in (("none", LvdsRx), ("xilinx7", LvdsXilinx)):
         top = blk.build({"lanes": 2, "phy": phy})
         assert isinstance(_quiet(top), cls)
+    from tdicam.hdl.lvds_front import LvdsFront
+    front = blk.build({"lanes": 8, "lanes_per_gain": 4, "columns": 16, "word_bits": 12})
+    assert isinstance(_quiet(front), LvdsFront)
+    front._rx._MustUse__silence = True
+    for bad, match in (({"lanes_per_gain": 3}, "--lanes = 8 must be --lanes-per-gain = 3"),
+                       ({"lanes_per_gain": 4, "columns": 18}, "--columns = 18 must be a"),
+                       ({"lanes_per_gain": 4, "columns": 16, "ppc": 8},
+                        "--ppc = 8 does not divide --lanes-per-gain = 4")):
+        with pytest.raises(TdicamError, match=match):
+            blk.resolve({"lanes": 8, **bad})
 
 
 def test_generated_verilog_is_deterministic():

@@ -37,14 +37,19 @@ class AxisTop(wiring.Component):
     def __init__(self, core):
         self._core = core
         csig = core.signature
-        self._in = tdata_layout(_data_shape(csig.members["i_stream"]))
+        # a core without i_stream (a pipeline whose first stage is the sensor's front end)
+        # has no s_axis ports
+        self._in = (tdata_layout(_data_shape(csig.members["i_stream"]))
+                    if "i_stream" in csig.members else None)
         self._out = tdata_layout(_data_shape(csig.members["o_stream"]))
-        members = {
+        members = {} if self._in is None else {
             "s_axis_tdata": In(self._in[3]),
             "s_axis_tvalid": In(1),
             "s_axis_tready": Out(1),
             "s_axis_tuser": In(1),
             "s_axis_tlast": In(1),
+        }
+        members |= {
             "m_axis_tdata": Out(self._out[3]),
             "m_axis_tvalid": Out(1),
             "m_axis_tready": In(1),
@@ -72,17 +77,18 @@ class AxisTop(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = self._core
-        i, o = core.i_stream, core.o_stream
-
-        bits, count, padded, _ = self._in
-        m.d.comb += [
-            i.valid.eq(self.s_axis_tvalid),
-            self.s_axis_tready.eq(i.ready),
-            i.payload.first.eq(self.s_axis_tuser),
-            i.payload.last.eq(self.s_axis_tlast),
-            Value.cast(i.payload.data).eq(
-                Cat(self.s_axis_tdata[k * padded:k * padded + bits] for k in range(count))),
-        ]
+        o = core.o_stream
+        if self._in is not None:
+            i = core.i_stream
+            bits, count, padded, _ = self._in
+            m.d.comb += [
+                i.valid.eq(self.s_axis_tvalid),
+                self.s_axis_tready.eq(i.ready),
+                i.payload.first.eq(self.s_axis_tuser),
+                i.payload.last.eq(self.s_axis_tlast),
+                Value.cast(i.payload.data).eq(
+                    Cat(self.s_axis_tdata[k * padded:k * padded + bits] for k in range(count))),
+            ]
         bits, count, padded, _ = self._out
         flat = Value.cast(o.payload.data)
         m.d.comb += [

@@ -276,6 +276,14 @@ class Use:
         Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
         simulator's effects table (two for a block that may run on either side of the
         line-making block); empty for a block a scene does not list.
+    source : callable(scene) -> bool, or None
+        The block is the chain's *source* when this says so for a scene: the first stage,
+        fed by the top's own ports (the sensor's lanes) instead of pixels, its ``hw`` a
+        :class:`~tdicam.hdl.chain_top.SourceStage` (the ``lvds`` front end with a
+        ``[sensor.lvds]`` section). Its ``step`` sees ``ctx.lanes``, the chain's channels.
+    chain_golden : callable(step) -> callable(arrays, lane) -> ndarray, or None
+        Its golden stage in the chain when it is not the registry's golden model on scene
+        arrays (a source: what the front delivers of the sensor's frames).
     """
 
     step: Callable
@@ -297,6 +305,8 @@ class Use:
     rank: int | None = None
     options: Options | None = None
     sim: tuple = ()
+    source: Callable | None = None
+    chain_golden: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,12 @@ sensor's schedule, retrain requests) and store the golden status events and fina
 ``cocotb_tests/test_lvds.py`` co-simulates them with :mod:`tdicam.cosim.lvds`.
 ``--phy xilinx7`` generates the 7-series wrapper (IDELAYE2/ISERDESE2 instances) instead of
 the simulated core.
+
+As the camera's front end (``--lanes-per-gain`` > 0, and in a scene's pipeline when the scene
+has a ``[sensor.lvds]`` section: :attr:`tdicam.blocks.Use.source`) the top is
+:class:`tdicam.hdl.lvds_front.LvdsFront`: the receiver, the lane-to-pixel reordering and the
+crossing into the processing clock, its output the pipeline's pixel stream
+(:mod:`tdicam.model.lvds_front`).
 """
 
 import numpy as np
@@ -12,21 +18,86 @@ import numpy as np
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
 from tdicam.model import lvds as model
-from tdicam.blocks import Bench, SynthRef
+from tdicam.blocks import PPC_PARAM, Bench, SynthRef, Use
 from tdicam.blocks import Block, Case, Param
+from tdicam.blocks.steps import Step
+from tdicam.model import lvds_front as front_model
 
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
 
 
-def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy):
-    kw = dict(lanes=lanes, word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
+def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_per_gain=0,
+         columns=0, bits=12, ppc=1, fifo_depth=16):
+    kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
               deskew_depth=deskew_depth)
-    return LvdsXilinx(**kw) if phy == "xilinx7" else LvdsRx(**kw)
+    if lanes_per_gain:
+        from tdicam.hdl.lvds_front import LvdsFront
+        return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
+                         bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
+                         **kw)
+    return LvdsXilinx(lanes=lanes, **kw) if phy == "xilinx7" else LvdsRx(lanes=lanes, **kw)
 
 
 def _check(p):
     if p["pick"] > p["min_run"]:
         raise TdicamError(f"--pick = {p['pick']} must not exceed --min-run = {p['min_run']}")
+    lpg = p["lanes_per_gain"]
+    if lpg:
+        if p["lanes"] not in (lpg, 2 * lpg):
+            raise TdicamError(f"--lanes = {p['lanes']} must be --lanes-per-gain = {lpg} or "
+                              f"twice it (one or two gain channels)")
+        if not p["columns"] or p["columns"] % lpg:
+            raise TdicamError(f"--columns = {p['columns']} must be a positive multiple of "
+                              f"--lanes-per-gain = {lpg}")
+        if lpg % p["ppc"]:
+            raise TdicamError(f"--ppc = {p['ppc']} does not divide --lanes-per-gain = {lpg}")
+        if p["bits"] > p["word_bits"]:
+            raise TdicamError(f"--bits = {p['bits']} exceeds --word-bits = {p['word_bits']}")
+
+
+# ---------------------------------------------------------------- the chain's front end
+def _front_source(scene):
+    return scene.sensor.lvds is not None
+
+
+def _front_step(ctx):
+    """The front end's step: the scene's ``[sensor.lvds]``, the chain's channels (two with a
+    merging block; one without: the high-gain lanes only) and frame (rows = TDI stages),
+    the crossing FIFO sized for the slowest processing clock the lane format allows
+    (:func:`tdicam.model.lvds_front.fifo_depth`)."""
+    lv = ctx.scene.sensor.lvds
+    lpg, w = lv.lanes_per_gain, lv.word_bits
+    front_model.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
+                               key="[sensor.lvds].lanes_per_gain")
+    word_mhz = lv.bit_rate_mbps / w
+    p = ctx.width // lpg
+    slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)
+    params = {"lanes": lpg * ctx.lanes, "word_bits": w, "lanes_per_gain": lpg,
+              "columns": ctx.width, "bits": ctx.bits,
+              "fifo_depth": front_model.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest)}
+    ports = {"lane_raw": 0, "train_word": lv.train_word,
+             "sync_word": model.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
+             "retrain": 0}
+    return Step("lvds", params, ports), ctx.bits
+
+
+def _front_hw(step, data, *, ecp5=False):
+    """The front end as the chain's :class:`~tdicam.hdl.chain_top.SourceStage`: every input
+    port of the component (lanes or pins, settings) becomes a top port ``lvds_<port>``."""
+    from amaranth.lib import wiring
+    from tdicam.hdl.chain_top import SourceStage
+    from tdicam.blocks import get
+    comp = _top(**get("lvds").resolve(step.params))
+    ins = tuple(name for name, mem in comp.signature.members.items()
+                if mem.flow == wiring.In)
+    return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True)
+
+
+def _front_golden(step):
+    """What the front delivers of the sensor's frames with every lane trained: the wire
+    codes (the all-ones sync code sent as one less)."""
+    w = step.params["word_bits"]
+    return lambda arrays, lane: front_model.wire_code(arrays[0], w)
 
 
 def link_arrays(link, *, cycles, retrains=(), n_check=16):
@@ -203,6 +274,15 @@ BLOCK = Block(
         Param("deskew_depth", 8, "deskew FIFO words per lane", choices=(8, 16, 32)),
         Param("phy", "none", "none: the core (simulated); xilinx7: IDELAYE2/ISERDESE2 "
               "wrapper", choices=("none", "xilinx7"), type=str),
+        Param("lanes_per_gain", 0, "> 0: the camera's front end (lanes -> pixel stream), "
+              "lanes per gain channel", lo=0, hi=64, implicit_default=True),
+        Param("columns", 0, "front end: frame width (a multiple of lanes_per_gain)", lo=0,
+              hi=65536, implicit_default=True),
+        Param("bits", 12, "front end: pixel bits (<= word_bits)", lo=1, hi=12,
+              implicit_default=True),
+        PPC_PARAM,
+        Param("fifo_depth", 16, "front end: crossing FIFO entries (power of two)",
+              choices=(4, 8, 16, 32, 64, 128, 256), implicit_default=True),
     ),
     top=_top,
     cases=lambda: [
@@ -223,4 +303,5 @@ BLOCK = Block(
     order=70,
     bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
     synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
+    pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden),
 )

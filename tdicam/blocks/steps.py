@@ -94,7 +94,8 @@ class Context:
     frame ``width``, output ``lines``, the chain's pixel width so far (``bits``), whether a
     line-making block came before (``after_lines``), the block being planned and the
     pixels per clock of every block (``ppc``: :func:`tdicam.camera.design.plan` sets it in
-    each step's parameters)."""
+    each step's parameters) and the chain's channel lanes (``lanes``: 2 with a merging
+    block, known when a source block is planned)."""
 
     scene: object
     m: int
@@ -104,6 +105,7 @@ class Context:
     after_lines: bool = False
     block: str = ""
     ppc: int = 1
+    lanes: int = 1
 
 
 @dataclass

@@ -185,6 +185,11 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     from tdicam.hw.verilog import convert
     t0 = time.perf_counter()
     ax = pl.top(p, data, taps=taps)
+    if "s_axis_tdata" not in ax.signature.members:
+        ax._MustUse__silence = True
+        raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): this "
+                          "co-simulation drives pixel beats; the front end's lane "
+                          "co-simulation is tdicam.cosim.lvds_front")
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")
     tb = _testbench(ax, tap_shapes, wave=wave is not None)

@@ -47,6 +47,9 @@ def _golden_stage(step, data):
     from tdicam.model.chain import GoldenStage
     blk = blocks.get(step.block)
     use = blk.pipeline
+    if use.chain_golden is not None:
+        return GoldenStage(step.block, use.chain_golden(step), merge=use.merge,
+                           group=step.group)
     params = blk.resolve(step.params)
     lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
 
@@ -59,6 +62,9 @@ def _golden_stage(step, data):
         rows = 1 if use.lines else out.shape[-2]
         return out.reshape(-1, rows, out.shape[-1])
     return GoldenStage(step.block, fn, merge=use.merge, group=step.group)
+
+
+_uses_table = uses
 
 
 def _use(name):
@@ -84,7 +90,7 @@ def scene_ppc(scene):
 
 
 def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
-         device="ecp5-85f", ppc=None):
+         device="ecp5-85f", ppc=None, phy=None):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
     ``ppc``: pixels per clock of every block (1, 2, 4, 8; default the scene's
@@ -99,6 +105,10 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     ``auto`` meaning DDR when it exceeds ``device``'s on-chip RAM
     (:data:`tdicam.model.physics.plan.ONCHIP_RAM_BITS`). A spill uses the DDR interface of the
     scene's ``[ddr]`` section.
+
+    ``phy``: the PHY of the chain's source block (the sensor's front end, with a
+    ``[sensor.lvds]`` section): ``"none"`` the generic simulated one, ``"xilinx7"`` the
+    7-series primitives (its ``phy`` parameter); None: the block's default.
 
     Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
     a block without a gateware stage, a per-exposure block after a line-making one, a
@@ -122,6 +132,10 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     if w % ppc:
         raise TdicamError(f"pipeline: width {w} is not a multiple of pixels per clock {ppc}")
     uses = [_use(n) for n in names]
+    for n, u in zip(names, uses):
+        if u.source is not None:
+            raise TdicamError(f"pipeline: block {n!r} has no gateware stage to list: it is "
+                              f"the chain's source, placed by the scene")
     merge = any(u.merge for u in uses)
     ctx = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
     steps, prev, spilled = [], "input", False
@@ -153,6 +167,27 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
                           f"{' -> '.join(names)} keeps its memory in DDR")
+    # a block that makes the pixel stream itself (the sensor's front end) goes first
+    sourced = False
+    for name, u in _uses_table().items():
+        if u.source is not None and u.source(scene):
+            src = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
+                          lanes=2 if merge else 1)
+            try:
+                step, _ = _at_ppc(*u.step(src), ppc)
+                if phy is not None:
+                    step = replace(step, params={**step.params, "phy": phy})
+                registry.get(name).resolve(step.params)
+            except TdicamError as exc:
+                raise TdicamError(f"pipeline: {name} (the chain's source): {exc}") from None
+            if uses and uses[0].elems != 1:
+                raise TdicamError(f"pipeline: {names[0]} takes {uses[0].elems} elements a "
+                                  f"pixel; the sensor's front end ({name}) gives one")
+            steps.insert(0, step)
+            sourced = True
+    if phy not in (None, "none") and not sourced:
+        raise TdicamError(f"pipeline: --phy = {phy} needs the sensor's lanes in the chain "
+                          f"(a [sensor.lvds] section in the scene)")
     return Plan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=uses[0].elems if uses else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,

@@ -44,12 +44,16 @@ def scene_design(prog, extra):
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
                     "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
+    ap.add_argument("--phy", choices=("none", "xilinx7"),
+                    help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
+                         "PHY (default) or the 7-series IDELAYE2/ISERDESE2 primitives")
     ns = ap.parse_args(list(extra))
     sc = load_scene(ns.scene)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
-             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory])
+             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory],
+             phy=ns.phy)
     data = None
     if ns.calib:
         if len(ns.calib) != p.lanes:

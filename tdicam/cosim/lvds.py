@@ -409,6 +409,9 @@ def run_link(link, *, params=None, cycles, retrains=(), n_check=16, sim="verilat
     groups = max(1, -(-n_link // n))
     if groups * n > LMAX:
         raise TdicamError(f"{n_link} lanes is more than one testbench run holds ({LMAX})")
+    if link.payload:
+        raise TdicamError("the lvds testbench's link sends the link model's own data, not a "
+                          "payload; a link carrying frames runs in tdicam.cosim.lvds_front")
     if len(link.schedule) > _NSCHED or len(retrains) > _NRETRAIN:
         raise TdicamError(f"at most {_NSCHED} schedule entries and {_NRETRAIN} retrains")
     if not 0 <= n_check <= 255:

@@ -195,6 +195,62 @@ def _need_quantization(c):
     return True, f"{sen.bits}-bit ADC, {sen.conversion_gain_e_per_dn:.4g} e-/DN at gain 1"
 
 
+def _lvds_bad_lanes(c):
+    """Lanes of ``[sensor.lvds]`` that cannot train (empty when the link is ideal)."""
+    lv = c.sensor.lvds
+    if not lv.simulate:
+        return []
+    from tdicam.model import lvds_front
+    lanes = lvds_front.scene_lanes(lv, len(c.sensor.gains), c.seed)
+    return lvds_front.untrained_lanes(lanes, lv.word_bits, lv.train_word)
+
+
+def _need_lvds(c):
+    lv = c.sensor.lvds
+    if lv is None:
+        return False, "no [sensor.lvds]: ideal lanes, no link simulated"
+    n = lv.lanes_per_gain * len(c.sensor.gains)
+    why = (f"{n} lanes at {lv.bit_rate_mbps:g} Mb/s, {lv.word_bits}-bit words, lane k of "
+           f"{lv.lanes_per_gain} carries columns k, k+{lv.lanes_per_gain}, ...")
+    if c.sensor.bits == lv.word_bits:
+        why += f"; code {(1 << lv.word_bits) - 1} is the sync word (sent as one less)"
+    if lv.simulate:
+        bad = _lvds_bad_lanes(c)
+        why += (f"; eyes and jitter given: every lane's training simulated (link model), "
+                + (f"lanes {', '.join(map(str, bad))} fail: their columns are invalid (0)"
+                   if bad else "all lanes lock"))
+    else:
+        why += "; no eye given: the link is ideal (training not simulated)"
+    return True, why
+
+
+def _exact_lvds(c, fr):
+    """The frames as the front delivers them: wire codes, invalid lanes' columns 0."""
+    from tdicam.model import lvds_front
+    lv = c.sensor.lvds
+    bad = _lvds_bad_lanes(c)
+    n_g = len(c.sensor.gains)
+
+    def deliver(stacks):
+        out = []
+        for k, a in enumerate(stacks):
+            inv = lvds_front.invalid_columns(bad, a.shape[-1], lv.lanes_per_gain, n_g)[k]
+            b = np.minimum(a, (1 << lv.word_bits) - 2).astype(a.dtype, copy=False)
+            if inv.any():
+                b = b.copy() if b is a else b
+                b[..., inv] = 0
+            out.append(b)
+        return out
+    fr.channels = deliver(fr.channels)
+    if fr.resets is not None:
+        fr.resets = deliver(fr.resets)
+    if bad:
+        note = (f"[sensor.lvds]: lanes {', '.join(map(str, bad))} did not train; their "
+                f"columns are invalid (0) in every frame")
+        if note not in c.notes:
+            c.notes.append(note)
+
+
 # --------------------------------------------------------------------------------------
 # fast-aggregate bounds
 # --------------------------------------------------------------------------------------
@@ -454,6 +510,8 @@ EFFECTS = (
     Effect("quantization", "ADC quantization per exposure", _need_quantization,
            bound=_bound_quantization, fast_note=_note_quantization, stage="conversion",
            exact=_exact_quantization, fast=_fast("quantization"), aggregated=True),
+    Effect("sensor_lanes", "sensor LVDS lanes (front end)", _need_lvds, stage="blocks",
+           exact=_exact_lvds, per_exposure=True),
 ) + tuple(_block_effect(r) for r in _blocks.ROWS)
 EFFECT_NAMES = tuple(e.name for e in EFFECTS)
 #: Effects that can be forced on at zero strength (to check that skipping them is exact).

@@ -64,6 +64,14 @@ SECTIONS = {
               "row_blanking_us) gives T_row = t_rb + columns / f_s, or max_frame_rate_hz "
               "gives T_row = 1 / (rows F); not both. With a row time the window limit M0 "
               "(rows read in one line period, Tao et al. 2012 eq 13) bounds [tdi].stages.",
+    "sensor.lvds": "Optional: the sensor's serial LVDS lanes (the front end of Ning et al. "
+                   "2019's camera; defaults the GMAX0504's: 40 lanes per gain channel, 12-bit "
+                   "words, 300 Mbit/s). Without it the lanes are ideal and no link is "
+                   "simulated. Lane g L + k carries columns k, k+L, ... of gain channel g "
+                   "(high-gain lanes first); with [sensor].bits = word_bits the all-ones "
+                   "code is the sync word and full scale is sent as one less. A lane whose "
+                   "eye is too narrow to train (no run of 9 taps) has its columns invalid (0, "
+                   "reported in the run's notes).",
     "optics": "The lens (optional section).",
     "tdi": "Time delay integration. Each stage count must not exceed [sensor].rows nor M0 "
            "when the row timing gives one; digital TDI takes at most 128 stages and, unless "
@@ -198,6 +206,27 @@ KEYS = {
                                "is below tolerance, else exact"),
         "tolerance": KeyDoc(_FRAC, "largest relative RMS error auto accepts from fast"),
     },
+    "sensor.lvds": {
+        "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel; must divide "
+                                          "[sensor].columns"),
+        "word_bits": KeyDoc("bits", "bits per word (>= [sensor].bits)", range="10, 12"),
+        "bit_rate_mbps": KeyDoc("Mbit/s", "bit rate of each lane"),
+        "mapping": KeyDoc("", "lane-to-column mapping: lane k carries columns k, k+L, ..."),
+        "train_word": KeyDoc("", "training word the sensor sends before the first frame",
+                             default="0xB92 (12 bits), 0x2E4 (10 bits)",
+                             range="0..2**word_bits-2, its rotations all different"),
+        "tap_ps": KeyDoc("ps", "IDELAY tap (paper 5 ns / 32; a 7-series IDELAYE2 at 200 MHz "
+                               "78.125 ps)"),
+        "eye_centre_taps": KeyDoc("taps", "delay tap at the centre of each lane's eye",
+                                  type="number or list (one per lane)", default="16",
+                                  range="[0, 31]"),
+        "eye_width_taps": KeyDoc("taps", "width of each lane's eye; given: the lanes' "
+                                         "training is simulated",
+                                 type="number or list (one per lane)",
+                                 default="the whole bit (ideal)", range="[0, UI / tap_ps]"),
+        "jitter_ps": KeyDoc("ps", "random capture band inside each eye edge; given: the "
+                                  "lanes' training is simulated", range="[0, UI]"),
+    },
     "run.rtl": {
         "crop": KeyDoc("px", "[x0, y0, width, height] of the output to co-simulate",
                        type="list of 4 integers", default="whole frame",
@@ -253,7 +282,12 @@ def _probes():
             {**orbit, "target": {"kind": "edge"}, "sensor": {"bits": bits},
              "pipeline": {"blocks": ["tdi", "median3"], "tdi": {"memory": "ddr"}},
              "ddr": {"interface": "mig", "base": 0}, "run": {"rtl": {"crop": [0, 0, 4, 4]}}},
-            {**orbit, "target": {"kind": "siemens"}, "sensor": {"bits": bits},
+            {**orbit, "target": {"kind": "siemens"}, "sensor": {
+                "bits": bits, "columns": 80, **({"lvds": {
+                    "lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0,
+                    "mapping": "interleaved", "train_word": 0xB92, "tap_ps": 156.25,
+                    "eye_centre_taps": 16.0, "eye_width_taps": 12.0, "jitter_ps": 0.0}}
+                    if bits <= 12 else {})},
              "pipeline": {"blocks": ["cds", "nuc", "tdi"]}},
             {**orbit, "target": {"kind": "image", "image": "camera"}, "sensor": {"bits": bits}},
         ]

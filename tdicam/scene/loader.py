@@ -23,9 +23,10 @@ from typing import Any, Mapping
 from tdicam import blocks as _registry
 from tdicam.blocks import steps as _steps
 from tdicam.errors import TdicamError, api_arguments, check_range
+from tdicam.model import lvds as link, lvds_front as front
 from tdicam.model.physics import plan as _plan, targets as _targets
 from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
-                                 TARGET_KINDS, Ddr, Motion, Optics, Orbit, Pipeline, RtlRun,
+                                 TARGET_KINDS, Ddr, Lvds, Motion, Optics, Orbit, Pipeline, RtlRun,
                                  Run, Sensor, TargetSpec, Tdi, Turntable)
 
 __all__ = [
@@ -216,7 +217,10 @@ class Scene:
             if isinstance(value, dict):
                 return {k: conv(v) for k, v in value.items()}
             return value
-        return conv(dataclasses.asdict(self))
+        d = conv(dataclasses.asdict(self))
+        if d["sensor"]["lvds"] is None:     # ideal lanes: the dict of before
+            del d["sensor"]["lvds"]
+        return d
 
 
 # --------------------------------------------------------------------------------------
@@ -420,7 +424,7 @@ def _target(sec: _Section, base_dir: Path) -> TargetSpec:
 _SENSOR_KEYS = ("columns", "rows", "pitch_um", "fill_factor", "bits", "full_well_e",
                 "conversion_gain_e_per_dn", "read_noise_e", "dark_current_e_per_s", "prnu",
                 "dsnu_e", "shutter", "row_blanking_us", "pixel_clock_mhz",
-                "max_frame_rate_hz", "gains", "black_level_dn")
+                "max_frame_rate_hz", "gains", "black_level_dn", "lvds")
 
 
 def _sensor(sec: _Section) -> Sensor:
@@ -443,8 +447,14 @@ def _sensor(sec: _Section) -> Sensor:
                   for i, g in enumerate(gains_raw))
     if len(gains) == 2 and not gains[0] > gains[1]:
         sec.fail("gains", f"two gains must be [high, low] with high > low, got {_show(gains_raw)}")
+    columns = sec.integer("columns", 1280)
+    lvds = None
+    if sec.has("lvds"):
+        lvds = _lvds(_Section(f"{sec.name}.lvds", sec.data["lvds"], sec.labels), columns, bits,
+                     len(gains))
     return Sensor(
-        columns=sec.integer("columns", 1280),
+        lvds=lvds,
+        columns=columns,
         rows=sec.integer("rows", 1024),
         pitch_um=sec.number("pitch_um", 5.5),
         fill_factor=sec.number("fill_factor", 1.0, lo=0.0, hi=1.0, lo_open=True),
@@ -463,6 +473,46 @@ def _sensor(sec: _Section) -> Sensor:
         black_level_dn=sec.number("black_level_dn", 0.0, lo=0.0, hi=float(1 << bits),
                                   hi_open=True),
     )
+
+
+def _lvds(sec: _Section, columns: int, bits: int, gains: int) -> Lvds:
+    sec.check_keys(("lanes_per_gain", "word_bits", "bit_rate_mbps", "mapping", "train_word",
+                    "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps"))
+    dflt = front.GMAX0504
+    lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
+    if columns % lanes:
+        sec.fail("lanes_per_gain", f"{lanes} does not divide [sensor].columns = {columns} "
+                                   f"(lane k carries columns k, k+L, ...)")
+    wb = sec.integer("word_bits", dflt["word_bits"])
+    if wb not in (10, 12):
+        sec.fail("word_bits", f"must be 10 or 12, got {wb}")
+    if wb < bits:
+        sec.fail("word_bits", f"{wb} is narrower than the {bits}-bit pixels ([sensor].bits)")
+    rate = sec.number("bit_rate_mbps", dflt["bit_rate_mbps"], lo=1.0, hi=2000.0)
+    ui = 1e6 / rate
+    mapping = sec.choice("mapping", "interleaved", ("interleaved",))
+    tw = sec.integer("train_word", link.default_train_word(wb), lo=0, hi=(1 << wb) - 1)
+    if len(set(link.rotations(tw, wb))) != wb or tw == (1 << wb) - 1:
+        sec.fail("train_word", f"{tw:#x} repeats under rotation: word alignment would be "
+                               f"ambiguous")
+    tap = sec.number("tap_ps", link.PAPER_TAP_PS, lo=1.0, hi=1000.0)
+    n = lanes * gains
+
+    def per_lane(key, default, lo, hi):
+        v = sec.raw(key, default)
+        vals = v if isinstance(v, list) else [v] * n
+        if len(vals) != n:
+            sec.fail(key, f"must be one number or one per lane ({n} = lanes_per_gain x "
+                          f"{gains} gain(s)), got {len(vals)} values")
+        return tuple(sec.number(key, value=x, lo=lo, hi=hi,
+                                what=f"(entry {i} of the list)" if isinstance(v, list) else None)
+                     for i, x in enumerate(vals))
+    centre = per_lane("eye_centre_taps", 16.0, 0.0, float(link.N_TAPS - 1))
+    width = per_lane("eye_width_taps", ui / tap, 0.0, ui / tap)
+    jitter = sec.number("jitter_ps", 0.0, lo=0.0, hi=ui)
+    return Lvds(lanes_per_gain=lanes, word_bits=wb, bit_rate_mbps=rate, mapping=mapping,
+                train_word=tw, tap_ps=tap, eye_centre_taps=centre, eye_width_taps=width,
+                jitter_ps=jitter, simulate=sec.has("eye_width_taps") or sec.has("jitter_ps"))
 
 
 def _optics(sec: _Section) -> Optics:

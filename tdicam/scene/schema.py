@@ -62,6 +62,18 @@ The line period either gives must lie in 1e-8..100 s.
     ``T_row = 1 / (rows F)``; not both. With a row time the window
     limit ``M0`` is known (Tao et al. 2012 eq 13). ``gains`` [[1.0]]: one gain, or two as
     ``[high, low]`` with high > low (Ning et al. 2019: ``[4.9, 0.8]``), each > 0.
+``[sensor.lvds]`` (optional; without it the lanes are ideal and no link is simulated)
+    The sensor's serial LVDS lanes (:mod:`tdicam.model.lvds_front`; defaults the GMAX0504 of
+    Ning et al. 2019): ``lanes_per_gain`` [40], 1..128, dividing ``columns``; ``word_bits``
+    [12], 10 or 12, >= ``bits`` (with ``bits = word_bits`` the all-ones code is the sync
+    word: full scale is sent as ``2**bits - 2``); ``bit_rate_mbps`` [300], 1..2000;
+    ``mapping`` ["interleaved"], the only one: lane ``g L + k`` carries columns ``k, k+L,
+    ...`` of gain channel ``g`` (high-gain lanes first); ``train_word`` [0xB92 / 0x2E4], its
+    ``word_bits`` rotations all different; ``tap_ps`` [156.25], 1..1000, the IDELAY tap;
+    ``eye_centre_taps`` [16], 0..31, and ``eye_width_taps``, 0..UI/tap: each a number or one
+    per lane (``lanes_per_gain x`` gains); ``jitter_ps`` [0], 0..UI. The link (training of
+    every lane) is simulated only when ``eye_width_taps`` or ``jitter_ps`` is given; a lane
+    that cannot train (no run of 9 taps) has its columns invalid (0 and reported).
 
 ``[optics]`` (optional)
     ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
@@ -145,7 +157,7 @@ from tdicam import blocks as _registry
 from tdicam.model.physics import plan as _plan
 
 __all__ = ["BOUNDS", "BUNDLED_IMAGES", "TARGET_KINDS", "BLOCKS", "DDR_INTERFACES", "Orbit",
-           "Turntable", "TargetSpec", "Sensor", "Optics", "Tdi", "Motion", "Ddr", "Pipeline",
+           "Turntable", "TargetSpec", "Lvds", "Sensor", "Optics", "Tdi", "Motion", "Ddr", "Pipeline",
            "RtlRun", "Run"]
 
 #: Pictures shipped inside scikit-image (``skimage.data.<name>()``), usable as
@@ -238,6 +250,24 @@ class TargetSpec:
 
 
 @dataclass(frozen=True)
+class Lvds:
+    """``[sensor.lvds]``: the sensor's serial lanes (see the module docstring). ``eye_*`` are
+    one value per lane; ``simulate`` is whether the link is simulated (an eye or jitter
+    given)."""
+
+    lanes_per_gain: int
+    word_bits: int
+    bit_rate_mbps: float
+    mapping: str
+    train_word: int
+    tap_ps: float
+    eye_centre_taps: tuple
+    eye_width_taps: tuple
+    jitter_ps: float
+    simulate: bool
+
+
+@dataclass(frozen=True)
 class Sensor:
     """The CMOS area sensor (see the module docstring for units and defaults)."""
 
@@ -258,6 +288,7 @@ class Sensor:
     max_frame_rate_hz: float | None
     gains: tuple[float, ...]
     black_level_dn: float = 0.0
+    lvds: Lvds | None = None
 
     @property
     def pitch_m(self) -> float:

@@ -1,0 +1,325 @@
+"""The camera's front end: the sensor's LVDS lanes in, the pipeline's pixel stream out.
+
+Ning et al. 2019 §4.1 (the GMAX0504: 40 lanes per gain channel, 12-bit words, 300 Mbit/s).
+The lane format and the lane-to-column convention (lane ``g*L + k`` carries columns ``k,
+k+L, ...`` of gain channel ``g``; lines ``[sync, row header, P pixel words]``) are
+:mod:`tdicam.model.lvds_front`'s, which is also the golden model.
+
+Clock domains and start-up::
+
+    word clock (domain "word", one word per lane per clock)           | processing clock ("sync")
+                                                                      |
+    lane_raw --> LvdsRx: train (IDELAY taps) -> bitslip -> deskew     |
+                 |  lane_locked / lane_error                          |
+                 v                                                    |
+              framer: HOLD until every lane has trained (locked or    |
+                      error) and the deskew is aligned, then RUN from |
+                      the next line whose header is row 0 (frames     |
+                      seen while held after a lane loss: dropped,     |
+                      counted); a lane lost mid-frame: FILL the frame |
+                      with invalid words (affected, counted), HOLD    |
+                      until ``retrain``                               |
+                 |  one entry = one word of every lane (L columns a   |
+                 |  channel) + first/last                             |
+                 v                                                    |
+              AsyncFIFO write ================ crossing ==============> AsyncFIFO read
+                                                                      |   -> L/ppc beats of ppc
+                                                                      |      pixels x G channels
+                                                                      |   -> o_stream
+
+Status outputs are in the word-clock domain (quasi-static registers and counters, for a
+processor to read through its own synchronizer); the run-time inputs too (``train_word``,
+``sync_word``, ``n_check``, ``frame_rows``, ``retrain``).
+"""
+
+from amaranth.hdl import Array, Cat, Const, DomainRenamer, Module, Mux, Signal
+from amaranth.lib import fifo, wiring
+from amaranth.lib.wiring import In, Out
+
+from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx
+from tdicam.hdl.util import quiet_reject
+
+__all__ = ["LvdsFront", "WORD_DOMAIN"]
+
+#: The clock domain of the lanes' words (ports ``word_clk``/``word_rst`` of a top).
+WORD_DOMAIN = "word"
+
+_HOLD, _RUN, _FILL = 1, 2, 3
+
+
+def _status_ports(n, w):
+    return {
+        "train_word": In(w), "sync_word": In(w), "n_check": In(8), "frame_rows": In(16),
+        "retrain": In(1),
+        "lane_locked": Out(n), "lane_error": Out(n), "lanes_bad": Out(n),
+        "frame_invalid": Out(n), "trained": Out(1), "releasing": Out(1),
+        "need_retrain": Out(1), "frames_out": Out(16), "frames_dropped": Out(16),
+        "frames_affected": Out(16), "lane_errors": Out(16), "fifo_overflow": Out(1),
+    }
+
+
+def _lane_ports(n, w, phy):
+    """The lane-side ports: the deserializers' words and the delay taps (the simulated
+    PHY), or the 7-series pins and clocks of :class:`~tdicam.hdl.lvds.LvdsXilinx`."""
+    if phy == "none":
+        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+    ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
+             "idelay_rdy": Out(1)}
+    if w == 12:
+        ports["clk_div"] = In(1)
+    return ports
+
+
+class _WordSide(wiring.Component):
+    """Receiver and framer, written in ``sync`` (renamed to the word domain by
+    :class:`LvdsFront`); ``w_*`` drive the crossing FIFO's write port."""
+
+    def __init__(self, *, n, w, bits, p, rx, phy):
+        self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
+        self._lane_ports = _lane_ports(n, w, phy)
+        ports = {**self._lane_ports,
+                 "w_data": Out(n * bits + 2), "w_en": Out(1), "w_rdy": In(1)}
+        ports.update(_status_ports(n, w))
+        super().__init__(ports)
+
+    def elaborate(self, platform):
+        m = Module()
+        n, w, bits, p = self._n, self._w, self._bits, self._p
+        m.submodules.rx = rx = self._rx
+        for name, member in self._lane_ports.items():
+            if member.flow == wiring.In:
+                m.d.comb += getattr(rx, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(rx, name))
+        m.d.comb += [
+            rx.train_word.eq(self.train_word),
+            rx.sync_word.eq(self.sync_word), rx.n_check.eq(self.n_check),
+            rx.line_words.eq(p + 2), rx.retrain.eq(self.retrain),
+            self.lane_locked.eq(rx.lane_locked), self.lane_error.eq(rx.lane_error),
+            self.trained.eq(rx.trained),
+        ]
+        locked = rx.lane_locked
+        bad_now = ~locked
+        m.d.comb += self.lanes_bad.eq(bad_now)
+        # a locked lane that drops out (not by a retrain) or a deskew fault: retrain needed
+        locked_q, retrain_q, err_q = Signal(n), Signal(), Signal(n)
+        m.d.sync += [locked_q.eq(locked), retrain_q.eq(self.retrain), err_q.eq(rx.lane_error)]
+        lost = (locked_q & ~locked).any() & ~retrain_q
+        with m.If((rx.lane_error & ~err_q).any()):
+            m.d.sync += self.lane_errors.eq(self.lane_errors + 1)
+
+        # the aligned words: position in the line, the header (OR of the lanes: masked
+        # lanes read 0, the others all carry the row)
+        words = [rx.o_data[i * w:(i + 1) * w] for i in range(n)]
+        header = Signal(w)
+        acc_h = Const(0, w)
+        for wd in words:
+            acc_h = acc_h | wd
+        m.d.comb += header.eq(acc_h)
+        pos = Signal(range(p + 2))
+        with m.If(rx.o_valid):
+            m.d.sync += pos.eq(Mux(pos == p + 1, 0, pos + 1))
+            with m.If(rx.o_sync):
+                m.d.sync += pos.eq(1)
+        at_sync = rx.o_valid & rx.o_sync
+        at_header = rx.o_valid & (pos == 1)
+        at_pixel = rx.o_valid & (pos >= 2)
+
+        state = Signal(2, init=_HOLD)
+        row = Signal(16)
+        acc = Signal(n)          # lanes bad during the frame being written
+        pend, pend_acc = Signal(), Signal(n)  # a finished frame waiting for the next sync
+        fill_col = Signal(range(p + 1))
+        rows_m1 = self.frame_rows - 1
+        pixels = Cat(*(wd[:bits] for wd in words))
+        m.d.comb += self.releasing.eq(state == _RUN)
+
+        def publish(m, mask):
+            m.d.sync += [self.frame_invalid.eq(mask), self.frames_out.eq(self.frames_out + 1),
+                         pend.eq(0)]
+            with m.If(mask.any()):
+                m.d.sync += self.frames_affected.eq(self.frames_affected + 1)
+
+        write = Signal()
+        m.d.comb += [self.w_en.eq(write), self.w_data.eq(0)]
+        with m.If(write & ~self.w_rdy):
+            m.d.sync += self.fifo_overflow.eq(1)
+
+        fault = lost | self.retrain | rx.deskew_error | ~rx.aligned
+        with m.If(lost | rx.deskew_error):
+            m.d.sync += self.need_retrain.eq(1)
+        with m.If(self.retrain):
+            m.d.sync += self.need_retrain.eq(0)
+        # a finished frame is judged once the next line's sync has passed the lane monitor
+        with m.If(pend & (at_sync | fault)):
+            publish(m, pend_acc | bad_now)
+
+        ok = rx.trained & rx.aligned & locked.any() & ~self.need_retrain & ~lost & \
+            ~self.retrain & ~rx.deskew_error
+        with m.Switch(state):
+            with m.Case(_HOLD):
+                with m.If(at_header & (header == 0)):
+                    with m.If(ok):
+                        m.d.sync += [state.eq(_RUN), row.eq(0), acc.eq(0)]
+                    with m.Elif(self.need_retrain & rx.aligned):
+                        m.d.sync += self.frames_dropped.eq(self.frames_dropped + 1)
+            with m.Case(_RUN):
+                in_frame = (row != 0) | (pos >= 2)
+                with m.If(fault | (at_header & (header != row))):
+                    # pixel words of this row already written: pos - 2 (none before pos 2)
+                    with m.If(in_frame):
+                        m.d.sync += [state.eq(_FILL), fill_col.eq(Mux(pos >= 2, pos - 2, 0))]
+                    with m.Else():
+                        m.d.sync += state.eq(_HOLD)
+                with m.Elif(at_pixel):
+                    m.d.comb += [write.eq(1), self.w_data.eq(Cat(
+                        pixels, (row == 0) & (pos == 2), pos == p + 1))]
+                    m.d.sync += acc.eq(acc | bad_now)
+                    with m.If(pos == p + 1):
+                        with m.If(row == rows_m1):
+                            m.d.sync += [row.eq(0), pend.eq(1), pend_acc.eq(acc | bad_now)]
+                            with m.If(self.need_retrain):
+                                m.d.sync += state.eq(_HOLD)
+                        with m.Else():
+                            m.d.sync += row.eq(row + 1)
+            with m.Case(_FILL):
+                # the rest of the frame as invalid words (all lanes flagged), one a clock
+                m.d.comb += [write.eq(1), self.w_data.eq(Cat(
+                    Const(0, n * bits), (row == 0) & (fill_col == 0), fill_col == p - 1))]
+                m.d.sync += fill_col.eq(fill_col + 1)
+                with m.If(fill_col == p - 1):
+                    m.d.sync += [fill_col.eq(0), row.eq(row + 1)]
+                    with m.If(row == rows_m1):
+                        m.d.sync += [state.eq(_HOLD), row.eq(0)]
+                        publish(m, Const((1 << n) - 1, n))
+        return m
+
+
+class LvdsFront(wiring.Component):
+    """Sensor lanes (word clock) to the pipeline's pixel stream (processing clock).
+
+    Parameters
+    ----------
+    lanes_per_gain : int, 1..64
+        ``L``; the receiver has ``gains * L`` lanes, high-gain lanes first.
+    gains : 1 or 2
+        Gain channels; the output beat carries, for each of its ``ppc`` pixels, the high-
+        then the low-gain value (the two channel lanes of the pipeline, as ``hdr`` takes
+        them).
+    word_bits : 10 or 12
+    bits : int
+        Pixel bits (<= ``word_bits``; the low bits of each word).
+    columns : int
+        Frame width, a multiple of ``L`` (``P = columns / L`` pixel words a line).
+    ppc : int
+        Pixels per output beat; must divide ``L``.
+    fifo_depth : int
+        Entries of the crossing FIFO (power of two), from the two clock rates:
+        :func:`tdicam.model.lvds_front.fifo_depth`,
+        ``2**ceil(log2(ceil(P * max(0, 1 - f_p ppc / (L f_w))) + 8))``.
+    settle, min_run, pick, deskew_depth
+        :class:`tdicam.hdl.lvds.LvdsRx`'s.
+    phy : {"none", "xilinx7"}
+        ``none``: the generic simulated PHY (the deserializers' words in, the delay taps
+        out); ``xilinx7``: the receiver behind 7-series IBUFDS/IDELAYE2/ISERDESE2
+        (:class:`~tdicam.hdl.lvds.LvdsXilinx`: pins ``lane_p``/``lane_n``, ``clk_bit``,
+        ``clk_ref``, ``idelay_rdy``, ``clk_div`` with 12-bit words; the word clock is its
+        ``CLKDIV``), generated, not simulated.
+
+    Attributes
+    ----------
+    lane_raw : In(gains*L*word_bits)
+        Deserializer words (word domain), lane 0 in the LSBs (``phy = "none"``).
+    lane_tap, lane_ld : Out
+        Delay taps and load strobes (word domain; ``phy = "none"``).
+    train_word, sync_word, n_check, frame_rows, retrain : In
+        Word-domain settings: the training and sync words, words checked per tap, rows per
+        frame (< 2**word_bits - 1), retrain request (the sensor trains from then on).
+    o_stream : Out(pixel stream), processing domain
+        ``ppc * gains`` elements of ``bits``, pixel-major; ``first`` on a frame's first beat,
+        ``last`` on each line's last. No backpressure reaches the sensor: the processing side
+        must take the rate (``fifo_overflow`` says when it did not).
+    lane_locked, lane_error : Out(gains*L)
+        Per-lane status (word domain); ``lanes_bad`` = not locked (their columns are invalid).
+    frame_invalid : Out(gains*L)
+        Lanes whose columns are invalid in the last finished frame (published at the next
+        frame's first sync word, after the lane monitor has judged the frame's last line;
+        all ones for a frame cut by a lane loss and filled).
+    trained, releasing, need_retrain : Out(1)
+        Every lane trained (locked or error); frames are being released; a lane was lost
+        or the deskew failed after training (frames held until ``retrain``).
+    frames_out, frames_dropped, frames_affected, lane_errors : Out(16)
+        Frames finished (released), frames seen but held, released frames with an invalid
+        lane, lane error events (cycles with a new lane error).
+    fifo_overflow : Out(1)
+        Sticky: an entry arrived with the FIFO full (pixels lost).
+    """
+
+    @quiet_reject
+    def __init__(self, *, lanes_per_gain=4, gains=2, word_bits=12, bits=12, columns=32,
+                 ppc=1, fifo_depth=16, settle=8, min_run=9, pick=5, deskew_depth=8,
+                 phy="none"):
+        L = check_range("lanes_per_gain", lanes_per_gain, 1, 64)
+        self._g = check_choice("gains", gains, (1, 2))
+        self._w = check_choice("word_bits", word_bits, (10, 12))
+        self._bits = check_range("bits", bits, 1, word_bits)
+        self._ppc = check_choice("ppc", ppc, (1, 2, 4, 8))
+        if columns % L:
+            raise TdicamError(f"lanes_per_gain = {L} does not divide columns = {columns}")
+        if L % ppc:
+            raise TdicamError(f"ppc = {ppc} does not divide lanes_per_gain = {L}")
+        if fifo_depth < 4 or fifo_depth & (fifo_depth - 1):
+            raise TdicamError(f"fifo_depth = {fifo_depth} must be a power of two >= 4")
+        self._L, self._p, self._depth = L, columns // L, fifo_depth
+        self._phy = check_choice("phy", phy, ("none", "xilinx7"))
+        rx_cls = LvdsXilinx if phy == "xilinx7" else LvdsRx
+        self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle,
+                          min_run=min_run, pick=pick, deskew_depth=deskew_depth)
+        n = L * gains
+        ports = {**_lane_ports(n, word_bits, phy),
+                 "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains)))}
+        ports.update(_status_ports(n, word_bits))
+        super().__init__(ports)
+
+    lanes = property(lambda self: self._L * self._g)
+    latency = property(lambda self: None,
+                       doc="None: the output's timing depends on the two clocks' phases")
+    line_words = property(lambda self: self._p + 2)
+    fifo_depth = property(lambda self: self._depth)
+
+    def elaborate(self, platform):
+        m = Module()
+        L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
+        ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy)
+        m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
+        m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 2, depth=self._depth,
+                                                r_domain="sync", w_domain=WORD_DOMAIN)
+        outer = {**_lane_ports(n, self._w, self._phy), **_status_ports(n, self._w)}
+        for name, member in outer.items():
+            if member.flow == wiring.In:
+                m.d.comb += getattr(ws, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(ws, name))
+        m.d.comb += [cdc.w_data.eq(ws.w_data), cdc.w_en.eq(ws.w_en), ws.w_rdy.eq(cdc.w_rdy)]
+
+        # read side: one entry = L columns a channel -> L/ppc beats
+        k = L // ppc
+        beat = Signal(range(max(k, 2)))
+        d = cdc.r_data
+        pix = [d[i * bits:(i + 1) * bits] for i in range(n)]
+        first, last = d[n * bits], d[n * bits + 1]
+        beats = [Cat(*(pix[c * L + b * ppc + q] for q in range(ppc) for c in range(g)))
+                 for b in range(k)]
+        o = self.o_stream
+        m.d.comb += [
+            o.valid.eq(cdc.r_rdy),
+            o.payload.data.eq(Array(beats)[beat] if k > 1 else beats[0]),
+            o.payload.first.eq(first & (beat == 0)),
+            o.payload.last.eq(last & (beat == k - 1)),
+            cdc.r_en.eq(o.ready & (beat == k - 1)),
+        ]
+        with m.If(o.valid & o.ready):
+            m.d.sync += beat.eq(Mux(beat == k - 1, 0, beat + 1))
+        return m

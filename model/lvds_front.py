@@ -1,0 +1,248 @@
+"""Golden model of the camera's front end: sensor frames -> serial lanes -> pixel frames.
+
+The sensor side (Ning et al. 2019 §4.1, the GMAX0504: 40 lanes per gain channel, 12-bit
+words, 300 Mbit/s) and the receiver side of :class:`tdicam.hdl.lvds_front.LvdsFront`, bit
+for bit, in plain integer numpy. The serial link itself (eye, skew, jitter, training) is
+:mod:`tdicam.model.lvds`; this module says what the lanes carry and what pixels and
+invalid-column mask the front makes of them.
+
+Lane-to-column convention (interleaved)
+---------------------------------------
+``L = lanes_per_gain`` lanes per gain channel; lane ``g*L + k`` (``g`` = 0 high gain, 1 low
+gain; ``k`` = 0..L-1) carries the columns ``k, k+L, k+2L, ...`` of channel ``g``: word ``j``
+of a line on lane ``k`` is column ``j*L + k``. One word clock therefore brings ``L``
+adjacent columns per channel (``columns`` must be a multiple of ``L``), which the front
+splits into beats of ``ppc`` pixels without a line buffer.
+
+Line format (every lane, in the link model's data segments)
+-----------------------------------------------------------
+``[sync, header, pixel word 0, ..., pixel word P-1]`` with ``P = columns / L``:
+``line_words = P + 2``. ``sync`` is the link's sync word (all ones); ``header`` is the row
+index inside the frame (0 = the frame's first line), the same on every lane, so the front
+finds frame starts; rows must therefore be < ``2**word_bits - 2``. Frames follow each other
+without gaps; a data segment carries whole frames and ends with a *blank line* (header
+``2**word_bits - 2``, pixel words 0: :func:`blank_line`), so the last frame's words have left
+the receiver before the sensor goes back to training.
+
+The all-ones code is reserved for sync (the link's monitor checks that it appears only at
+line starts): a pixel equal to it is sent as ``2**word_bits - 2`` (:func:`wire_code`); only
+a sensor whose ADC has as many bits as the word can produce it (its full-scale code).
+"""
+
+import numpy as np
+
+from tdicam.errors import TdicamError, check_range
+from tdicam.model import lvds as link_model
+
+__all__ = ["GMAX0504", "line_words", "check_geometry", "wire_code", "lane_payload",
+           "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
+           "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
+           "untrained_lanes"]
+
+#: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.
+GMAX0504 = {"lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0}
+
+
+def line_words(columns, lanes_per_gain):
+    """Words of one line on every lane: sync, header, ``columns / lanes_per_gain`` pixels."""
+    return columns // lanes_per_gain + 2
+
+
+def check_geometry(columns, rows, lanes_per_gain, word_bits, bits, *, key="lanes_per_gain"):
+    """One-line :class:`TdicamError` unless the frame fits the line format (``key`` names
+    the lane count as the caller's user wrote it)."""
+    check_range(key, lanes_per_gain, 1, 128)
+    if columns % lanes_per_gain:
+        raise TdicamError(f"{key} = {lanes_per_gain} does not divide the {columns} columns "
+                          f"(lane k carries columns k, k+L, ...: every lane the same count)")
+    if bits > word_bits:
+        raise TdicamError(f"word_bits = {word_bits} is narrower than the {bits}-bit pixels")
+    if rows >= (1 << word_bits) - 2:
+        raise TdicamError(f"{rows} rows a frame: the row header of a {word_bits}-bit word "
+                          f"counts to {(1 << word_bits) - 3}")
+
+
+def wire_code(frames, word_bits):
+    """Pixel codes as the sensor sends them: the all-ones sync code becomes all ones - 1."""
+    a = np.asarray(frames, dtype=np.int64)
+    sync = (1 << word_bits) - 1
+    return np.where(a == sync, sync - 1, a)
+
+
+def lane_payload(frames, lanes_per_gain, word_bits):
+    """The data-segment words of every lane for ``frames`` (one ``(F, R, C)`` stack per gain
+    channel): a tuple of ``G * L`` int64 arrays of ``F * R * line_words`` words (for
+    :class:`tdicam.model.lvds.Link` ``payload``)."""
+    L = lanes_per_gain
+    out = []
+    for stack in frames:
+        a = wire_code(stack, word_bits)
+        nf, nr, nc = a.shape
+        check_geometry(nc, nr, L, word_bits, word_bits)
+        p = nc // L
+        words = np.empty((L, nf, nr, p + 2), np.int64)
+        words[:, :, :, 0] = (1 << word_bits) - 1
+        words[:, :, :, 1] = np.arange(nr)[None, None, :]
+        words[:, :, :, 2:] = a.reshape(nf, nr, p, L).transpose(3, 0, 1, 2)
+        out.extend(words.reshape(L, -1))
+    return tuple(out)
+
+
+def blank_line(columns, lanes_per_gain, word_bits):
+    """The words of a blank line (the same on every lane): sync, header ``2**W - 2``, 0s."""
+    words = np.zeros(columns // lanes_per_gain + 2, np.int64)
+    words[:2] = (1 << word_bits) - 1, (1 << word_bits) - 2
+    return words
+
+
+def segment_payload(segments, lanes_per_gain, word_bits):
+    """:func:`lane_payload` of several data segments (each a list of per-gain frame
+    stacks), each followed by a :func:`blank_line`."""
+    parts = []
+    for frames in segments:
+        pay = lane_payload(frames, lanes_per_gain, word_bits)
+        blank = blank_line(np.asarray(frames[0]).shape[-1], lanes_per_gain, word_bits)
+        parts.append([np.concatenate([p, blank]) for p in pay])
+    return tuple(np.concatenate(lane) for lane in zip(*parts))
+
+
+def column_lane(columns, lanes_per_gain):
+    """Lane (within its gain channel) of each column: ``c % lanes_per_gain``."""
+    return np.arange(columns) % lanes_per_gain
+
+
+def invalid_columns(bad_lanes, columns, lanes_per_gain, gains):
+    """Invalid-column mask ``(gains, columns)`` bool of a set of lane numbers (0-based,
+    high-gain lanes first)."""
+    L = lanes_per_gain
+    bad = np.zeros(gains * L, bool)
+    bad[list(bad_lanes)] = True
+    lane = column_lane(columns, L)
+    return np.stack([bad[g * L + lane] for g in range(gains)])
+
+
+def receive(frames, bad_lanes, lanes_per_gain, word_bits):
+    """What the front delivers of ``frames`` (one ``(F, R, C)`` stack per gain) whose lanes
+    ``bad_lanes`` did not train: the wire codes, 0 in the invalid columns, and the
+    invalid-column mask ``(G, C)``. Returns ``(pixels (G, F, R, C) int64, invalid)``."""
+    px = np.stack([wire_code(f, word_bits) for f in frames])
+    inv = invalid_columns(bad_lanes, px.shape[-1], lanes_per_gain, len(frames))
+    px = np.where(inv[:, None, None, :], 0, px)
+    return px, inv
+
+
+def data_words(link, lane_index):
+    """The words lane ``lane_index`` of ``link`` sends in its data segments, in order (its
+    :class:`tdicam.model.lvds.Link` payload's extent of them: what the receiver gets once
+    trained)."""
+    starts = [n for n, _ in link.schedule] + [None]
+    out, left = [], len(link.payload[lane_index]) if link.payload else 0
+    for (n0, mode), n1 in zip(link.schedule, starts[1:]):
+        if mode != "data" or left <= 0:
+            continue
+        k = left if n1 is None else min(left, n1 - n0)
+        out.append(link_model.sent_words(link, lane_index, np.arange(n0, n0 + k)))
+        left -= k
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
+def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
+    """The golden front on the lanes' words: ``words`` one int64 array per lane (high-gain
+    lanes first; each its data-segment words, e.g. :func:`data_words`), cut into lines
+    ``[sync, header, P pixels]``; a frame is ``rows`` lines from a header-0 line (blank
+    lines and lines outside a frame are skipped); the pixels of lane ``g L + k`` go to
+    columns ``k, k+L, ...`` of channel ``g``. Lanes ``bad_lanes`` (not trained) read 0.
+
+    Returns ``(pixels (G, F, R, C) int64, invalid (G, C) bool)``; a line format violation
+    (no sync where a line starts, lanes disagreeing on a header) is a :class:`TdicamError`.
+    """
+    L = lanes_per_gain
+    words = [np.asarray(x, np.int64) for x in words]
+    n, g = len(words), len(words) // L
+    sync = (1 << word_bits) - 1
+    good = [i for i in range(n) if i not in set(bad_lanes)]
+    if not good:
+        raise TdicamError("no lane trained: no frames")
+    total = len(words[good[0]])
+    lines = []
+    pos = 0
+    lw = None
+    while pos < total:
+        if words[good[0]][pos] != sync:
+            raise TdicamError(f"lane {good[0]}: word {pos} is not a sync word")
+        if lw is None:
+            nxt = np.flatnonzero(words[good[0]][pos + 1:] == sync)
+            lw = int(nxt[0]) + 1 if len(nxt) else total - pos
+        heads = {int(words[i][pos + 1]) for i in good}
+        if len(heads) != 1:
+            raise TdicamError(f"lanes disagree on the header of the line at word {pos}")
+        lines.append((heads.pop(), pos))
+        pos += lw
+    p = lw - 2
+    frames, k = [], 0
+    while k < len(lines):
+        if lines[k][0] == 0 and k + rows <= len(lines) and \
+                [h for h, _ in lines[k:k + rows]] == list(range(rows)):
+            f = np.zeros((g, rows, p * L), np.int64)
+            for r, (_, at) in enumerate(lines[k:k + rows]):
+                for i in good:
+                    f[i // L, r, i % L::L] = words[i][at + 2:at + 2 + p]
+            frames.append(f)
+            k += rows
+        else:
+            k += 1
+    px = np.stack(frames, axis=1) if frames else np.zeros((g, 0, rows, p * L), np.int64)
+    return px, invalid_columns(bad_lanes, p * L, L, g)
+
+
+def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):
+    """Words of the front's clock-domain-crossing FIFO (a power of two, >= 8).
+
+    A FIFO entry is one word clock's words of every lane (``L`` columns per channel); the
+    processing clock takes ``L / ppc`` clocks to send an entry on. Entries arrive in bursts
+    of ``P = columns / L`` words a line (then 2 words of sync and header), at the word rate
+    ``f_w``; they leave at ``r = f_p ppc / L`` entries a second. The front keeps up when
+    ``r >= f_w P / (P + 2)`` (else a one-line :class:`TdicamError`); during a line's burst
+    the FIFO grows by at most ``P (1 - r / f_w)`` entries, so
+    ``depth = 2**ceil(log2(ceil(P * max(0, 1 - r / f_w)) + slack))`` with ``slack`` for the
+    crossing's synchronizer latency and the read side's pipeline.
+    """
+    L, p = lanes_per_gain, columns // lanes_per_gain
+    ratio = proc_mhz * ppc / (L * word_mhz)
+    if ratio * (p + 2) < p * (1 - 1e-9):
+        raise TdicamError(f"the processing clock ({proc_mhz:g} MHz x {ppc} pixels) cannot take "
+                          f"{L} lanes at {word_mhz:g} M words/s: needs >= "
+                          f"{word_mhz * L * p / ((p + 2) * ppc):.4g} MHz")
+    need = int(np.ceil(p * max(0.0, 1.0 - ratio))) + slack
+    return max(8, 1 << (need - 1).bit_length())
+
+
+def eye_lane(centre_taps, width_taps, *, tap_ps=link_model.PAPER_TAP_PS, jitter_ps=0.0,
+             bit_rate_mbps=300.0, word_delay=0, word_bits=12, seed=0, change_at=None,
+             after=None):
+    """A :class:`tdicam.model.lvds.Lane` whose eye is ``width_taps`` taps wide and centred
+    on delay tap ``centre_taps`` (the phase ``u = UI/2`` falls on that tap), delayed by a
+    further ``word_delay`` whole words."""
+    ui = 1e6 / bit_rate_mbps
+    eye = min(width_taps * tap_ps, ui)
+    skew = (-ui / 2 - centre_taps * tap_ps) % ui + word_delay * word_bits * ui
+    return link_model.Lane(skew_ps=skew, eye_ps=eye, jitter_ps=jitter_ps, tap_ps=tap_ps,
+                           bit_rate_mbps=bit_rate_mbps, seed=seed, change_at=change_at,
+                           after=after)
+
+
+def scene_lanes(spec, gains, seed=0):
+    """The :class:`tdicam.model.lvds.Lane` of every lane of a scene's ``[sensor.lvds]``
+    (:class:`tdicam.scene.schema.Lvds`): eye centre and width per lane, its jitter."""
+    n = spec.lanes_per_gain * gains
+    return [eye_lane(spec.eye_centre_taps[i], spec.eye_width_taps[i], tap_ps=spec.tap_ps,
+                     jitter_ps=spec.jitter_ps, bit_rate_mbps=spec.bit_rate_mbps,
+                     word_bits=spec.word_bits, seed=seed * 65536 + i) for i in range(n)]
+
+
+def untrained_lanes(lanes, word_bits, train_word=None, *, n_check=16, settle=8):
+    """Lane numbers whose golden training (:func:`tdicam.model.lvds.train_lane`) fails: no
+    run of 9 passing taps, or no bitslip matched."""
+    link = link_model.Link(lanes, word_bits=word_bits, train_word=train_word)
+    return [i for i in range(len(lanes))
+            if link_model.train_lane(link, i, 0, n_check=n_check, settle=settle).error]

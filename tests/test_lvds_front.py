@@ -1,0 +1,266 @@
+"""The camera's front end: sensor frames -> LVDS lanes -> pixel stream (issue 30).
+
+Golden model (:mod:`tdicam.model.lvds_front`), the ``[sensor.lvds]`` scene section and its
+effect row, and :class:`tdicam.hdl.lvds_front.LvdsFront` in Amaranth's simulator with two
+clocks (:mod:`tdicam.cosim.lvds_front`): the clock-domain crossing at the worst rate ratio
+the format allows (word clock faster and slower than the processing clock's share), a lane
+whose eye is too narrow to train, a lane that dies mid-run and the retrain after it.
+"""
+
+import numpy as np
+import pytest
+
+from tdicam.cosim.lvds_front import (GEOMETRY, SCENARIOS, FrontCase, check, frames_of,
+                                     run_amaranth, scenario, scenario_frames, scenario_lanes)
+from tdicam.errors import TdicamError
+from tdicam.model import lvds as model
+from tdicam.model import lvds_front as front
+
+L, G, C, R = (GEOMETRY[k] for k in ("lanes_per_gain", "gains", "columns", "rows"))
+_frames = scenario_frames
+_lanes = scenario_lanes
+
+
+# ---------------------------------------------------------------- golden model, format
+def test_lane_payload_is_the_line_format():
+    fr = _frames(2, 3)
+    pay = front.lane_payload(fr, L, 12)
+    assert len(pay) == G * L and all(len(p) == 2 * R * (C // L + 2) for p in pay)
+    lw = C // L + 2
+    for g in range(G):
+        for k in range(L):
+            words = pay[g * L + k].reshape(2, R, lw)
+            assert (words[:, :, 0] == 0xFFF).all()
+            assert (words[:, :, 1] == np.arange(R)).all()
+            assert np.array_equal(words[:, :, 2:], front.wire_code(fr[g][:, :, k::L], 12))
+    assert front.wire_code([4095, 4094, 0], 12).tolist() == [4094, 4094, 0]
+    # the link model carries the payload in its data segments, sync words included
+    link = model.Link(_lanes(), word_bits=12, line_words=lw, schedule=((50, "data"),),
+                      payload=pay)
+    n = np.arange(50, 50 + 2 * R * lw)
+    assert np.array_equal(model.sent_words(link, 5, n), pay[5])
+    assert (model.sent_words(link, 5, np.arange(50)) == link.train_word).all()
+    # past the payload: the link model's own data, sync every line
+    after = model.sent_words(link, 5, np.arange(50 + 2 * R * lw, 50 + 4 * R * lw))
+    assert (after[::lw] == 0xFFF).all()
+
+
+def test_golden_front_from_the_lanes_round_trip():
+    """frames_from_lanes on the words the link model sends (data segments, blank lines
+    between) gives back the frames as the wire carries them, bad lanes' columns 0."""
+    case = scenario("lane_dies")
+    words = [front.data_words(case.link, i) for i in range(G * L)]
+    assert all(len(w) == (8 * R + 2) * (C // L + 2) for w in words)
+    for bad in ([], [3, 6]):
+        px, inv = front.frames_from_lanes(words, L, R, 12, bad)
+        exp, inv2 = front.receive(case.frames, bad, L, 12)
+        assert np.array_equal(px, exp) and np.array_equal(inv, inv2)
+    words[4] = words[4].copy()
+    words[4][1] = 1                         # a header the other lanes do not send
+    with pytest.raises(TdicamError, match="lanes disagree on the header"):
+        front.frames_from_lanes(words, L, R, 12)
+
+
+def test_invalid_columns_follow_the_convention():
+    inv = front.invalid_columns([1, 6], C, L, G)
+    assert np.flatnonzero(inv[0]).tolist() == [1, 5, 9, 13]
+    assert np.flatnonzero(inv[1]).tolist() == [2, 6, 10, 14]
+    px, inv2 = front.receive(_frames(1, 3), [6], L, 12)
+    assert (px[1][..., 2::4] == 0).all() and np.array_equal(inv2, front.invalid_columns(
+        [6], C, L, G))
+
+
+def test_fifo_depth_from_the_rates():
+    # P = 4: the processing side must take >= 4/6 of the word rate's entries
+    assert front.fifo_depth(4, 1, 16, 25.0, 100.0) == 8         # r = 1: slack only
+    assert front.fifo_depth(40, 8, 5120, 25.0, 130.0) == 8       # GMAX0504, r = 1.04
+    assert front.fifo_depth(40, 8, 5120, 25.0, 124.0) == 16      # r = 0.992: 128 x 0.008
+    assert front.fifo_depth(4, 2, 16, 25.0, 100.0 / 3) == 16     # r = 4/6: 2 + 8 -> 16
+    with pytest.raises(TdicamError, match="needs >= 123.1 MHz"):
+        front.fifo_depth(40, 8, 5120, 25.0, 120.0)                # below P / (P + 2)
+    with pytest.raises(TdicamError, match="needs >= 33.33 MHz"):
+        front.fifo_depth(4, 2, 16, 25.0, 33.0)
+    with pytest.raises(TdicamError, match="does not divide the 18 columns"):
+        front.check_geometry(18, 4, 4, 12, 12)
+
+
+# ---------------------------------------------------------------- gateware, two clocks
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_scenario_in_amaranth(name):
+    """The must-show scenarios (:data:`tdicam.cosim.lvds_front.SCENARIOS`, ppc 2): the
+    crossing at r = P / (P + 2) (word clock faster) and r = 5.6 with backpressure (slower),
+    no pixel lost or duplicated; a narrow-eye lane reported, its columns invalid, the other
+    lanes exact; a lane dying mid-frame, the frame filled and counted, frames held until the
+    retrain."""
+    case = scenario(name)
+    assert check(name, case, run_amaranth(case)) == []
+
+
+def test_cdc_at_one_pixel_per_clock():
+    case = FrontCase(_frames(5, 3), _lanes(), L, ppc=1, word_ns=60.0, proc_ns=10.0, ready=0.8)
+    assert check("cdc_slow", case, run_amaranth(case)) == []
+
+
+# ---------------------------------------------------------------- scene section and effect
+def _scene(lvds=None, **sensor):
+    from tdicam.scene.loader import scene_from_dict
+    sen = {"columns": 16, "rows": 8, "bits": 12, "full_well_e": 4000.0,
+           "gains": [2.0, 1.0], **sensor}
+    if lvds is not None:
+        sen["lvds"] = lvds
+    return scene_from_dict({"orbit": {"altitude_km": 600, "gsd_m": 1.0},
+                            "target": {"kind": "flat", "signal_e": 900.0},
+                            "sensor": sen, "tdi": {"stages": 2},
+                            "pipeline": {"blocks": ["hdr", "tdi"]},
+                            "run": {"lines": 6, "fidelity": "exact"}})
+
+
+@pytest.mark.parametrize("lvds,match", [
+    ({"lanes_per_gain": 3}, r"\[sensor.lvds\].lanes_per_gain: 3 does not divide"),
+    ({"word_bits": 10}, r"\[sensor.lvds\].word_bits: 10 is narrower than the 12-bit"),
+    ({"train_word": 0x555}, r"\[sensor.lvds\].train_word: 0x555 repeats under rotation"),
+    ({"eye_width_taps": [10, 12]}, r"eye_width_taps: must be one number or one per lane \(8"),
+    ({"eye_centre_taps": 32}, r"eye_centre_taps = 32 is out of range; valid: 0..31"),
+    ({"jitter_ps": -1}, r"jitter_ps = -1 is out of range"),
+    ({"mapping": "blocks"}, r"mapping: must be one of 'interleaved', got 'blocks'"),
+    ({"lanes": 4}, r"\[sensor.lvds\].lanes: unknown key"),
+])
+def test_scene_section_errors_are_one_line(lvds, match):
+    with pytest.raises(TdicamError, match=match) as e:
+        _scene({"lanes_per_gain": 4, **lvds})
+    assert "\n" not in str(e.value)
+
+
+def test_scene_defaults_gmax0504_and_no_section_is_ideal():
+    sc = _scene({}, columns=80)
+    lv = sc.sensor.lvds
+    assert (lv.lanes_per_gain, lv.word_bits, lv.bit_rate_mbps, lv.simulate) == (40, 12, 300.0,
+                                                                              False)
+    assert lv.train_word == model.default_train_word(12)
+    plain = _scene()
+    assert plain.sensor.lvds is None and "lvds" not in plain.to_dict()["sensor"]
+
+
+def test_effect_row_and_invalid_columns_in_the_simulator():
+    from tdicam.engine import simulate
+    base = simulate(_scene(), impact=False, keep_raw=True)
+    row = {e.name: e for e in base.effects}["sensor_lanes"]
+    assert not row.ran and row.why == "no [sensor.lvds]: ideal lanes, no link simulated"
+    # ideal lanes: the same pixels (no code reaches the sync word at this light level)
+    ideal = simulate(_scene({"lanes_per_gain": 4}), impact=False)
+    assert np.array_equal(ideal.output, base.output)
+    assert "no eye given: the link is ideal" in {e.name: e for e in ideal.effects}[
+        "sensor_lanes"].why
+    # lane 1 (high gain) 6 taps wide: it cannot train, columns 1, 5, 9, 13 of HG are 0
+    widths = [14.0] * 8
+    widths[1] = 6.0
+    sim = simulate(_scene({"lanes_per_gain": 4, "eye_width_taps": widths}), impact=False,
+                   keep_raw=True)
+    row = {e.name: e for e in sim.effects}["sensor_lanes"]
+    assert row.ran and "lanes 1 fail" in row.why
+    assert any("lanes 1 did not train" in n for n in sim.notes)
+    assert (sim.single[:, 1::4] == 0).all() and (base.single[:, 1::4] > 0).all()
+    keep = np.ones(16, bool)
+    keep[1::4] = False
+    assert np.array_equal(sim.single[:, keep], base.single[:, keep])
+
+
+# ---------------------------------------------------------------- the front in a pipeline
+def _chain_scene(lvds=True, ppc=2):
+    from tdicam.scene.loader import scene_from_dict
+    sen = {"columns": C, "rows": 8, "bits": 12, "gains": [2.0, 1.0]}
+    if lvds:
+        sen["lvds"] = {"lanes_per_gain": L}
+    return scene_from_dict({"orbit": {"altitude_km": 600, "gsd_m": 1.0}, "sensor": sen,
+                            "tdi": {"stages": R}, "pipeline": {"blocks": ["hdr", "tdi"]},
+                            "run": {"lines": 4, "rtl": {"pixels_per_clock": ppc}}})
+
+
+def _inspected(top):
+    """Mark a top built only to read its ports, and everything in it (no
+    UnusedElaboratable warnings)."""
+    parts = [top, top.core] + [c for cs in top.core.cores for c in cs]
+    for c in parts + [getattr(c, "_rx", None) for c in parts]:
+        if c is not None:
+            c._MustUse__silence = True
+    return top
+
+
+def test_plan_puts_the_front_first_and_the_top_takes_lanes():
+    from tdicam.camera import design
+    p = design.plan(_chain_scene())
+    assert [s.block for s in p.steps] == ["lvds", "hdr", "tdi"]
+    assert p.steps[0].params == {"lanes": 8, "word_bits": 12, "lanes_per_gain": 4,
+                                 "columns": 16, "bits": 12, "fifo_depth": 16, "ppc": 2}
+    assert p.steps[0].ports["frame_rows"] == R
+    top = _inspected(design.top(p))
+    names = set(top.signature.members)
+    assert {"lvds_lane_raw", "lvds_lane_tap", "lvds_frame_invalid", "lvds_frames_dropped",
+            "m_axis_tdata"} <= names
+    assert not {n for n in names if n.startswith("s_axis")}
+    # without [sensor.lvds] the chain and its top are those of before
+    plain = design.plan(_chain_scene(lvds=False))
+    assert [s.block for s in plain.steps] == ["hdr", "tdi"]
+    assert "s_axis_tdata" in _inspected(design.top(plain)).signature.members
+    with pytest.raises(TdicamError, match=r"lvds \(the chain's source\): \[sensor.lvds\]"
+                                          r".lanes_per_gain = 4 does not divide"):
+        sc = _chain_scene()
+        design.plan(sc, width=18, ppc=2)
+
+
+def test_pipeline_from_lanes_to_tdi_output_is_bit_exact():
+    """The scene's whole top (front -> hdr -> tdi) in Amaranth's simulator, two clocks, from
+    the serial lanes to TDI's lines, equals the golden chain."""
+    from tdicam.blocks.steps import SceneData
+    from tdicam.camera import design
+    p = design.plan(_chain_scene())
+    frames = _frames(p.frames, seed=9)
+    case = FrontCase(frames, _lanes(), L, ppc=2, word_ns=40.0, proc_ns=10.0)
+    settings = {f"{s.block}_{k}": v for s in p.steps[1:] for k, v in s.ports.items()}
+    top = design.top(p)
+    top._MustUse__silence = True        # its core is simulated
+    res = run_amaranth(case, dut=top.core, prefix="lvds_", settings=settings, elems=2)
+    assert res["status"]["frames_out"] == p.frames
+    exp = design.golden(p, SceneData(signal=frames))[-1][2]
+    got = frames_of(res["beats"], 1, C, 2, 1)[0]
+    assert exp.shape == (p.lines, 1, C) and np.array_equal(got, exp)
+
+
+def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
+    """``tdicam verilog pipeline --scene`` of a scene with [sensor.lvds]: the top's input is
+    the lanes (generic PHY), or the 7-series pins with ``--phy xilinx7``; deterministic."""
+    from tdicam.cli import main
+    text = (f"[orbit]\naltitude_km = 600\ngsd_m = 1.0\n[sensor]\ncolumns = {C}\nrows = 8\n"
+            f"bits = 12\ngains = [2.0, 1.0]\n[tdi]\nstages = {R}\n[pipeline]\n"
+            f"blocks = [\"hdr\", \"tdi\"]\n[run]\nlines = 4\n")
+    f = tmp_path / "s.toml"
+    f.write_text(text + f"[sensor.lvds]\nlanes_per_gain = {L}\n")
+    outs = {}
+    for phy in ("none", "xilinx7", "none"):
+        out = tmp_path / f"{phy}.v"
+        assert main(["verilog", "pipeline", "--scene", str(f), "--phy", phy, "-o", str(out)]) == 0
+        outs.setdefault(phy, []).append(out.read_text())
+    generic, xil = outs["none"][0], outs["xilinx7"][0]
+    assert outs["none"][0] == outs["none"][1]
+    head = generic.split("module pipeline(")[1].split(")")[0]
+    assert "lvds_lane_raw" in head and "word_clk" in head and "s_axis_tdata" not in head
+    assert "IDELAYE2" not in generic
+    xhead = xil.split("module pipeline(")[1].split(")")[0]
+    assert "lvds_lane_p" in xhead and "lvds_clk_div" in xhead and "lvds_lane_raw" not in xhead
+    assert xil.count("IDELAYE2 #(") == 2 * L and xil.count("ISERDESE2 #(") == 2 * L
+    plain = tmp_path / "plain.toml"
+    plain.write_text(text)
+    capsys.readouterr()
+    assert main(["verilog", "pipeline", "--scene", str(plain), "--phy", "xilinx7"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert err == ("tdicam: error: pipeline: --phy = xilinx7 needs the sensor's lanes in the "
+                   "chain (a [sensor.lvds] section in the scene)")
+
+
+def test_lvds_testbench_refuses_a_payload_link():
+    """The lvds block's HDL testbench makes its own data: a link carrying frames is refused
+    (one line), not silently simulated without them."""
+    from tdicam.cosim import lvds as cl
+    with pytest.raises(TdicamError, match="not a payload; a link carrying frames runs in"):
+        cl.run_link(scenario("cdc_fast").link, params={"lanes": 8, "word_bits": 12},
+                    cycles=10)
