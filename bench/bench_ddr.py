@@ -170,10 +170,13 @@ def litedram(patterns=None, blocks=None):
     return rows
 
 
-def write_fixture(path, rows, how):
+def write_fixture(path, rows, how, merge=False):
     """Write the rows of :func:`litedram` as the fixture of tests/test_ddrref.py
-    (:func:`tdicam.cosim.litedram.fixture`)."""
+    (:func:`tdicam.cosim.litedram.fixture`). ``merge``: update only these rows' entries of
+    the fixture already at ``path`` (the others, and its ``how``, kept; ``how`` then gets
+    a note naming the rows replayed now and where)."""
     import json
+    from pathlib import Path
 
     from tdicam.cosim import litedram as ddrref
     pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2),
@@ -182,6 +185,16 @@ def write_fixture(path, rows, how):
     blk = {r["what"]: r for r in rows if r["kind"] == "block"}
     fx = ddrref.fixture({n: r["result"] for n, r in blk.items()},
                         {n: r["trace"] for n, r in blk.items()}, how, pats)
+    if merge and Path(path).exists():
+        old = json.loads(Path(path).read_text())
+        try:
+            for part in ("patterns", "blocks"):
+                old[part].update(fx[part])
+            old["how"] += f" Replayed again, {', '.join(r['what'] for r in rows)}: {how}"
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise TdicamError(f"{path}: not a LiteDRAM fixture of bench_ddr.py "
+                              f"(no {exc}): write a new file without --patterns") from None
+        fx = old
     with open(path, "w") as f:
         json.dump(fx, f, indent=1)
         f.write("\n")
@@ -202,7 +215,8 @@ def parse_args(argv=None):
                     help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
     ap.add_argument("--fixture", metavar="FILE",
                     help="with --litedram: write LiteDRAM's figures and the blocks' traces "
-                         "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json)")
+                         "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json); "
+                         "with --patterns: update only those entries of an existing fixture")
     ap.add_argument("--patterns", metavar="NAME,NAME",
                     help="with --litedram: replay only these access patterns and DDR blocks' "
                          f"command orders (default: all). Patterns: {', '.join(PATTERNS)}; "
@@ -210,8 +224,6 @@ def parse_args(argv=None):
     a = ap.parse_args(argv)
     try:
         a.patterns, a.blocks = select(a.patterns)
-        if a.fixture and a.patterns is not None:
-            raise TdicamError("--fixture records every pattern and block: drop --patterns")
     except TdicamError as exc:
         ap.exit(2, f"{ap.prog}: error: {exc}\n")
     return a
@@ -232,8 +244,13 @@ def main(argv=None):
                     title="DDR efficiency over 4 refresh intervals of steady state, memory "
                           "model vs LiteDRAM")
         if a.fixture:
-            write_fixture(a.fixture, rows, "python bench/bench_ddr.py --litedram --fixture "
-                                           f"FILE; {machine()}")
+            how = (f"python bench/bench_ddr.py --litedram --fixture FILE; "
+                   f"{time.strftime('%Y-%m-%d')}, {machine()}")
+            try:
+                write_fixture(a.fixture, rows, how,
+                              merge=a.patterns is not None or a.blocks is not None)
+            except TdicamError as exc:
+                raise SystemExit(f"bench_ddr.py: error: {exc}") from None
         return
     rows = run(quick=a.quick)
     print(machine())

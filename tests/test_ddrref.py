@@ -256,8 +256,7 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
     a = bd.parse_args(["--litedram", "--patterns", "blocks_8,tdi_ddr, write_only"])
     assert a.patterns == ["blocks_8", "write_only"] and a.blocks == ["tdi_ddr"]
     for argv, why in [(["--patterns", "write_only,nosuch"], "unknown name 'nosuch'; valid: "),
-                      (["--patterns", ","], "no name given; valid: "),
-                      (["--patterns", "tdi_ddr", "--fixture", "x.json"], "drop --patterns")]:
+                      (["--patterns", ","], "no name given; valid: ")]:
         with pytest.raises(SystemExit) as e:
             bd.parse_args(["--litedram", *argv])
         err = capsys.readouterr().err
@@ -275,3 +274,25 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
     monkeypatch.setattr(bd, "litedram", lambda **kw: picked.append(kw) or [])
     bd.main(["--litedram", "--patterns", "read_only,writer"])
     assert picked == [{"patterns": ["read_only"], "blocks": ["writer"]}]
+
+
+def test_bench_ddr_fixture_update_keeps_the_other_rows(tmp_path):
+    """``--fixture FILE --patterns NAME``: the named rows replace theirs in the fixture,
+    every other row and the ``how`` are kept (a note naming the rows is added); a file that
+    is not a fixture is refused in one line."""
+    from types import SimpleNamespace
+    bd = _bench_ddr()
+    path = tmp_path / "fx.json"
+    path.write_text(json.dumps(FIXTURE))
+    row = {"what": "write_only", "kind": "pattern", "lines": 62, "lite_eff": 86.94,
+           "window": 3128, "result": SimpleNamespace()}
+    bd.write_fixture(path, [row], "now", merge=True)
+    got = json.loads(path.read_text())
+    assert got["patterns"]["write_only"] == {"lines": 62, "efficiency": 86.94, "window": 3128}
+    assert {k: v for k, v in got["patterns"].items() if k != "write_only"} == \
+        {k: v for k, v in FIXTURE["patterns"].items() if k != "write_only"}
+    assert got["blocks"] == FIXTURE["blocks"]
+    assert got["how"].startswith(FIXTURE["how"]) and "write_only: now" in got["how"]
+    path.write_text("[1, 2]")
+    with pytest.raises(TdicamError, match="not a LiteDRAM fixture"):
+        bd.write_fixture(path, [row], "now", merge=True)

@@ -499,3 +499,16 @@ def test_lvds_export_at_other_parameters(tmp_path):
     ex = export_block("lvds", {"lanes": 4, "word_bits": 12}, tmp_path / "lvds")
     r = icarus(tmp_path / "lvds")
     assert r.returncode == 0 and f"PASS {ex.n_out} beats" in r.stdout, r.stdout[-2000:]
+
+
+def test_tdi_ddr_export_over_the_beat_limit_is_streamed(tmp_path):
+    """tdi_ddr (same stream and golden model as tdi, partial sums in the DDR model) exports
+    tdi's streamed case over the beat limit too, and it passes on Icarus."""
+    said = []
+    out = tmp_path / "tdi_ddr"
+    ex = export_block("tdi_ddr", {"width": 160, "stages": 3}, out, max_beats=400,
+                      say=said.append)
+    assert ex.cases == ["stream_160x3_p1"] and (ex.n_in, ex.n_out) == (5 * 3 * 160, 3 * 160)
+    assert "exporting the case stream_160x3_p1 instead" in said[0], said
+    r = icarus(out)
+    assert r.returncode == 0 and passed(r.stdout, ex.n_out) == ex.n_out, r.stdout[-2000:]

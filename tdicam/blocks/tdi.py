@@ -32,7 +32,7 @@ from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 from tdicam.errors import TdicamError
 
-__all__ = ["BLOCK", "PARAMS", "TdiOptions", "TDI_MEMORY", "pack_ctrl", "stream_arrays", "to_beats", "SCENE",
+__all__ = ["BLOCK", "PARAMS", "TdiOptions", "TDI_MEMORY", "pack_ctrl", "stream_arrays", "to_beats", "streamed_case", "SCENE",
            "case_makers"]
 
 CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
@@ -310,7 +310,7 @@ def _to_beats(arrays, params):
     return stim, exp
 
 
-def _streamed_case(params, seed=1):
+def streamed_case(params, seed=1):
     """``tdicam export`` above its beat limit: m_max + 2 random frames at m = m_max, forward
     (three output lines), made one frame at a time; each expected line from the whole-array
     model :func:`~tdicam.model.tdi.tdi` over the m frames it sums (memory: m frames)."""
@@ -501,7 +501,7 @@ BLOCK = Block(
     model_version="tdi-1",
     to_beats=_to_beats,
     frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
-    streamed_case=_streamed_case,
+    streamed_case=streamed_case,
     **SCENE,
     pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
                  placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,

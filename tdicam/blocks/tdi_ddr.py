@@ -106,6 +106,7 @@ BLOCK = Block(
     check=_check,
     model_version="tdi_ddr-1",
     to_beats=_tdi.to_beats,
+    streamed_case=_tdi.streamed_case,
     frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
     **_tdi.SCENE,
     pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),

@@ -468,7 +468,7 @@ def block_traces(*, width=1280, seed=1, wide=4096):
 
     rng = np.random.default_rng(seed)
     out = {}
-    wpl = LineLayout(width=width, channels=8, pixel_bits=10).words_per_line
+    wpl = LineLayout(width=width, channels=1, pixel_bits=10).words_per_line
     lines = _units(2 * wpl)
     fb = DdrFrameBuffer(width=width, rows=lines, elements=8)
     lay = fb.layout

@@ -39,5 +39,9 @@ def tool_env(sim):
         # gcc 12 crashes (internal compiler error in the SLP vectorizer) compiling some
         # models (tdi, 8-bit pixels, 8 pixels per clock); make passes OPT to the compiler.
         os.environ.setdefault("OPT", "-fno-tree-slp-vectorize")
+        # Every build compiles the same Verilator and cocotb runtime (~40 s of CPU): with
+        # ccache on PATH, verilated.mk's OBJCACHE reuses those objects across builds.
+        if "OBJCACHE" not in os.environ and shutil.which("ccache"):
+            os.environ["OBJCACHE"] = "ccache"
     elif shutil.which("iverilog") is None:
         raise TdicamError("Icarus Verilog is not installed: apt-get install iverilog")
