@@ -481,8 +481,9 @@ def _lvds(sec: _Section, columns: int, bits: int, gains: int) -> Lvds:
     dflt = front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
     if columns % lanes:
-        sec.fail("lanes_per_gain", f"{lanes} does not divide [sensor].columns = {columns} "
-                                   f"(lane k carries columns k, k+L, ...)")
+        given = "" if sec.has("lanes_per_gain") else " (the default, the GMAX0504's; give it)"
+        sec.fail("lanes_per_gain", f"{lanes}{given} does not divide [sensor].columns = "
+                                   f"{columns} (lane k carries columns k, k+L, ...)")
     wb = sec.integer("word_bits", dflt["word_bits"])
     if wb not in (10, 12):
         sec.fail("word_bits", f"must be 10 or 12, got {wb}")
