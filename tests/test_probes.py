@@ -72,6 +72,10 @@ SCENES = [
     (_text(None, sensor="lvds = [{lanes_per_gain = 4}]\n"), "[sensor.lvds]: must be a table"),
     (_text(LANES).replace("bits = 12", "bits = 16"),
      LV + "word_bits: 12 is narrower than the 16-bit pixels"),
+    (_text(LANES + "word_bits = 10\n").replace("bits = 12", "bits = 10").replace(
+        "rows = 8", "rows = 1022"),
+     LV + "word_bits: 10-bit words cannot number the 1022 rows of a frame ([sensor].rows): "
+          "the row header counts to 1021"),
     (_text(rtl="pixels_per_clock = 0\n"), "[run.rtl].pixels_per_clock: must be one of 1, 2, "
                                           "4, 8, got 0"),
     (_text(rtl="pixels_per_clock = 16\n"), "[run.rtl].pixels_per_clock: must be one of"),
@@ -191,6 +195,22 @@ def test_plan_of_the_bundled_chain_scene_is_an_answer(capsys):
     assert main(["plan", "--scene", "scenes/orbit_chain.toml"]) in (0, 1)
     out = capsys.readouterr().out
     assert "feasible:" in out and "whole chain" in out
+
+
+def test_plan_says_no_when_the_lanes_cannot_carry_the_frames(tmp_path, capsys):
+    """One 300 Mbit/s lane per gain for 1280 columns x 1024 rows at the orbit's frame rate
+    (10.2 Gbit/s a lane) was 'feasible: yes': the plan now checks the lanes' bit rate."""
+    f = tmp_path / "o.toml"
+    base = open("scenes/orbit_600km_1m_96.toml").read()
+    f.write_text(base + "\n[sensor.lvds]\nlanes_per_gain = 1\n")
+    assert main(["plan", "--scene", str(f)]) == 1
+    out = capsys.readouterr().out
+    assert "sensor lanes   1 per gain, 1282 words a line: each needs 10.20 Gbit/s, carries " \
+           "0.30 Gbit/s: NO" in out
+    assert "feasible: NO (sensor lanes ([sensor.lvds].bit_rate_mbps))" in out
+    f.write_text(base + "\n[sensor.lvds]\nlanes_per_gain = 40\n")     # the GMAX0504's 40
+    assert main(["plan", "--scene", str(f)]) == 0
+    assert "each needs 0.27 Gbit/s, carries 0.30 Gbit/s: ok" in capsys.readouterr().out
 
 
 # ---------------------------------------------------------------- the public API
