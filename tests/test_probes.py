@@ -115,6 +115,9 @@ FLAGS = [
     (["--ppc", "99999999999999999999"], True, "--ppc = 99999999999999999999 is not valid"),
     (["--ppc", "nan"], True, "argument --ppc: invalid int value: 'nan'"),
     (["--ppc", "1e3"], True, "argument --ppc: invalid int value: '1e3'"),
+    (["--ppc", "8"], True, "pipeline: lvds (the chain's source): pixels per clock (--ppc or "
+                           "[run.rtl].pixels_per_clock) = 8 does not divide "
+                           "[sensor.lvds].lanes_per_gain = 4"),
     (["--phy", "XILINX7"], True, "argument --phy: invalid choice: 'XILINX7'"),
     (["--phy", ""], True, "argument --phy: invalid choice: ''"),
     (["--phy", "xilinx7"], False, "pipeline: --phy = xilinx7 needs the sensor's lanes"),
