@@ -152,6 +152,9 @@ COMMANDS = [
      "--ppc = 3 is not valid"),
     (["export", "pipeline", "--scene", "{S}", "--lines", "0", "-o", "{D}/e"], 2,
      "--lines = 0 is out of range"),
+    (["export", "pipeline", "--scene", "{S}", "-o", "{D}/e"], 2,
+     "s.toml: the chain's input is the sensor's lanes ([sensor.lvds]); the export drives "
+     "pixel beats"),
     (["verilog", "pipeline", "--scene", "/dev/zero", "-o", "{D}/o.v"], 2,
      "/dev/zero: not a scene file: it goes on past 4 MiB"),
     (["verilog", "pipeline", "--scene", "{D}", "-o", "{D}/o.v"], 2, "scene file is a directory"),
