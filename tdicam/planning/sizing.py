@@ -14,8 +14,8 @@ synthesis does), the SNR (Tao et al. 2012) and the MTF at Nyquist: the camera mo
 (Yuan et al. 2013) beside it.
 
 Feasibility: :attr:`report["feasible"]` is False when any check of the design point says NO
-(frame rate, window, DDR bandwidth of spilled partial sums, gateware pixel rate); the command
-then exits with status 1 (:data:`EXIT_INFEASIBLE`).
+(frame rate, window, DDR bandwidth of spilled partial sums, the sensor lanes' bit rate,
+gateware pixel rate); the command then exits with status 1 (:data:`EXIT_INFEASIBLE`).
 """
 
 from __future__ import annotations
