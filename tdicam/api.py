@@ -148,6 +148,10 @@ def simulate(scene: Scene | str | Path, *, fidelity: str | None = None,
     """
     from tdicam.run.runner import simulate_scene
     sc = _scene(scene).with_run(lines=lines, seed=seed)
+    if isinstance(force, str) or not isinstance(force, (tuple, list)):
+        raise TdicamError(f"force must be a list of effect names, got {force!r}")
+    if labels is not None and not isinstance(labels, Mapping):
+        raise TdicamError(f"labels must be a mapping of scene keys to names, got {labels!r}")
     run = simulate_scene(sc, fidelity=fidelity, force=tuple(force), impact=impact, rtl=rtl,
                          progress=progress, labels=labels)
     return Simulation(sc, run)

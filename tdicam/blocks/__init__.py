@@ -556,6 +556,10 @@ class Block:
             raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
         out = dict(arrays)
         main = np.asarray(out[self.stream])
+        shaped = self.fit is not None or any(callable(s.default) for s in self.side_inputs)
+        if shaped and main.ndim < 2:        # what fits the parameters reads rows and cols
+            raise TdicamError(f"block {self.name}: input {self.stream!r} must be frames "
+                              f"(..., rows, cols), got shape {main.shape}")
         for side in self.side_inputs:
             if side.name not in out:
                 if side.default is None:
@@ -581,8 +585,16 @@ class Block:
 
     def case_arrays(self, arrays, params):
         """Case arrays (inputs + expected outputs, what :attr:`to_beats` reads) of scene
-        ``arrays`` for resolved ``params``."""
+        ``arrays`` for resolved ``params``: a one-line error for a block without a golden
+        function, an empty stream or one that is not integer codes."""
+        if self.to_case is None and self.golden is None:
+            raise TdicamError(f"block {self.name} has no golden function on scene arrays")
         arrays = self.inputs(arrays)
+        main = np.asarray(arrays[self.stream])
+        if main.size == 0 or not np.issubdtype(main.dtype, np.integer):
+            raise TdicamError(f"block {self.name}: {self.stream} must be a non-empty integer "
+                              f"array of pixel codes, got shape {main.shape}, dtype "
+                              f"{main.dtype}")
         if self.to_case is not None:
             return self.to_case(arrays, params)
         flat = {}
@@ -781,7 +793,7 @@ def in_order():
 def get(name):
     """The block called ``name``, or a :class:`TdicamError` listing the valid names."""
     reg = _load()
-    if name not in reg:
+    if not isinstance(name, str) or name not in reg:
         raise TdicamError(f"unknown block {name!r}; valid: {', '.join(sorted(reg))}")
     return reg[name]
 

@@ -69,6 +69,9 @@ def _front_step(ctx):
     lpg, w = lv.lanes_per_gain, lv.word_bits
     front_model.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
                                key="[sensor.lvds].lanes_per_gain")
+    if lpg % ctx.ppc:                   # a word clock brings lpg columns of each channel
+        raise TdicamError(f"pixels per clock (--ppc or [run.rtl].pixels_per_clock) = "
+                          f"{ctx.ppc} does not divide [sensor.lvds].lanes_per_gain = {lpg}")
     word_mhz = lv.bit_rate_mbps / w
     p = ctx.width // lpg
     slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)

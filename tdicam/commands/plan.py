@@ -39,7 +39,8 @@ __all__ = ["register", "run"]
 
 _EPILOG = (f"exit status: 0 when the plan is feasible (or a check is unknown), "
            f"{planning.EXIT_INFEASIBLE} when its feasibility report says NO (frame rate, "
-           f"window, DDR bandwidth of spilled partial sums or gateware pixel rate), 2 for bad "
+           f"window, DDR bandwidth of spilled partial sums, the sensor's LVDS lanes' bit rate "
+           f"or gateware pixel rate), 2 for bad "
            f"input. Reference TDI Fmax (MHz by ppc): "
            + ", ".join(f"ppc {k}: {v:g}" for k, v in planning.REFERENCE_TDI_FMAX_MHZ.items()))
 

@@ -451,7 +451,7 @@ def _sensor(sec: _Section) -> Sensor:
     lvds = None
     if sec.has("lvds"):
         lvds = _lvds(_Section(f"{sec.name}.lvds", sec.data["lvds"], sec.labels), columns, bits,
-                     len(gains))
+                     len(gains), sec.integer("rows", 1024))
     return Sensor(
         lvds=lvds,
         columns=columns,
@@ -475,19 +475,23 @@ def _sensor(sec: _Section) -> Sensor:
     )
 
 
-def _lvds(sec: _Section, columns: int, bits: int, gains: int) -> Lvds:
+def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds:
     sec.check_keys(("lanes_per_gain", "word_bits", "bit_rate_mbps", "mapping", "train_word",
                     "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps"))
     dflt = front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
     if columns % lanes:
-        sec.fail("lanes_per_gain", f"{lanes} does not divide [sensor].columns = {columns} "
-                                   f"(lane k carries columns k, k+L, ...)")
+        given = "" if sec.has("lanes_per_gain") else " (the default, the GMAX0504's; give it)"
+        sec.fail("lanes_per_gain", f"{lanes}{given} does not divide [sensor].columns = "
+                                   f"{columns} (lane k carries columns k, k+L, ...)")
     wb = sec.integer("word_bits", dflt["word_bits"])
     if wb not in (10, 12):
         sec.fail("word_bits", f"must be 10 or 12, got {wb}")
     if wb < bits:
         sec.fail("word_bits", f"{wb} is narrower than the {bits}-bit pixels ([sensor].bits)")
+    if rows >= (1 << wb) - 2:           # the line header is the row index (model.lvds_front)
+        sec.fail("word_bits", f"{wb}-bit words cannot number the {rows} rows of a frame "
+                              f"([sensor].rows): the row header counts to {(1 << wb) - 3}")
     rate = sec.number("bit_rate_mbps", dflt["bit_rate_mbps"], lo=1.0, hi=2000.0)
     ui = 1e6 / rate
     mapping = sec.choice("mapping", "interleaved", ("interleaved",))
