@@ -211,12 +211,14 @@ def test_plan_says_no_when_the_lanes_cannot_carry_the_frames(tmp_path, capsys):
     f.write_text(base + "\n[sensor.lvds]\nlanes_per_gain = 1\n")
     assert main(["plan", "--scene", str(f)]) == 1
     out = capsys.readouterr().out
-    assert "sensor lanes   1 per gain, 1282 words a line: each needs 10.20 Gbit/s, carries " \
-           "0.30 Gbit/s: NO" in out
-    assert "feasible: NO (sensor lanes ([sensor.lvds].bit_rate_mbps))" in out
+    assert "sensor lanes: 1 lanes x 300 Mbit/s / 12 bit = 25.0 M words/s, 25.0 M pixels/s " \
+           "after each line's sync and header words; the window needs 848.86 M pixels/s: NO" \
+           in out
+    assert "feasible: NO (lane pixel rate)" in out
     f.write_text(base + "\n[sensor.lvds]\nlanes_per_gain = 40\n")     # the GMAX0504's 40
     assert main(["plan", "--scene", str(f)]) == 0
-    assert "each needs 0.27 Gbit/s, carries 0.30 Gbit/s: ok" in capsys.readouterr().out
+    assert "941.2 M pixels/s after each line's sync and header words; the window needs " \
+           "848.86 M pixels/s: OK" in capsys.readouterr().out
 
 
 # ---------------------------------------------------------------- the public API

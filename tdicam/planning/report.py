@@ -168,11 +168,6 @@ def report_text(rep) -> str:
         lines.append(f"  window         T_row {w['row_time_s'] * 1e6:.3f} us, n_lines "
                      f"{w['n_lines']}, M0 {w['m0']}, T_back {w['back_porch_s'] * 1e6:.3f} us"
                      f"{cap}: {_ok(w['ok'])} ({d['stages']} <= M0)")
-    ln = d.get("lanes")
-    if ln is not None:
-        lines.append(f"  sensor lanes   {ln['lanes_per_gain']} per gain, {ln['line_words']} words "
-                     f"a line: each needs {_rate(ln['needed_bps'])}, carries "
-                     f"{_rate(ln['available_bps'])}: {_ok(ln['ok'])}")
     extra = mem["sum_bits"] - s["bits"]
     lines.append(f"  partial sums   {mem['sum_bits']} bits ({s['bits']}-bit pixels + "
                  f"ceil(log2 {d['stages']}) = {extra})")

@@ -14,8 +14,8 @@ synthesis does), the SNR (Tao et al. 2012) and the MTF at Nyquist: the camera mo
 (Yuan et al. 2013) beside it.
 
 Feasibility: :attr:`report["feasible"]` is False when any check of the design point says NO
-(frame rate, window, DDR bandwidth of spilled partial sums, the sensor lanes' bit rate,
-gateware pixel rate); the command then exits with status 1 (:data:`EXIT_INFEASIBLE`).
+(frame rate, window, DDR bandwidth of spilled partial sums, gateware pixel rate) or a
+system row of the scene's blocks does (the sensor lanes' pixel rate); the command then exits with status 1 (:data:`EXIT_INFEASIBLE`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.hw import record
 from tdicam.model.physics import plan as P
-from tdicam.model import lvds_front as _front, tdi as _tdi
+from tdicam.model import tdi as _tdi
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.planning.predict import mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
@@ -404,24 +404,9 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
         "gateware": gateware_plan(
             stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz,
             scene_file=None if scene.source == "<command line>" else Path(scene.source).name),
-        "lanes": _lanes(s, required),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
     }
-
-
-def _lanes(sensor, frame_rate_hz):
-    """The sensor's LVDS lanes ([sensor.lvds]) at ``frame_rate_hz``: the bit rate a lane
-    needs (its line words, sync and header included, every row, every frame) against its
-    ``bit_rate_mbps``; None without the section."""
-    lv = sensor.lvds
-    if lv is None:
-        return None
-    words = _front.line_words(sensor.columns, lv.lanes_per_gain)
-    needed = words * sensor.rows * lv.word_bits * frame_rate_hz
-    return {"lanes_per_gain": lv.lanes_per_gain, "line_words": words,
-            "needed_bps": needed, "available_bps": lv.bit_rate_mbps * 1e6,
-            "ok": needed <= lv.bit_rate_mbps * 1e6 * (1 + 1e-12)}
 
 
 def _verdict(point) -> list[str]:
@@ -433,8 +418,6 @@ def _verdict(point) -> list[str]:
         no.append("window (stages > M0)")
     if point["memory"]["must_spill"] and point["ddr"]["ok"] is False:
         no.append("DDR bandwidth")
-    if point["lanes"] is not None and not point["lanes"]["ok"]:
-        no.append("sensor lanes ([sensor.lvds].bit_rate_mbps)")
     if point["gateware"]["ok"] is False:
         no.append("gateware pixel rate")
     if point["gateware"]["chain_ok"] is False:
