@@ -217,11 +217,12 @@ class CalibRom(wiring.Component):
                 m.d.sync += [addr.eq(addr + 1), at_end.eq(addr == n - 2)]
         sel = Signal(self._bits)
         with m.Switch(sel2):
-            for b, q in enumerate(qs[:-1]):
+            for b, q in enumerate(qs):
                 with m.Case(b):
                     m.d.comb += sel.eq(q)
-            with m.Default():
-                m.d.comb += sel.eq(qs[-1])
+            if nb < 2 ** len(sel2):                  # values no bank has (never taken)
+                with m.Default():
+                    m.d.comb += sel.eq(qs[-1])
         o = self.o_stream
         m.d.comb += [out.i_stream.valid.eq(v2), out.i_stream.payload.eq(sel),
                      o.valid.eq(out.o_stream.valid), out.o_stream.ready.eq(o.ready),
