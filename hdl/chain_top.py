@@ -170,10 +170,23 @@ class CalibRom(wiring.Component):
 
     ``o_stream.data`` = 9 bytes a word, element ``9 j + k`` = byte ``k`` of the beat's word
     ``j`` (the input of :class:`~tdicam.hdl.calib.CalibReader` with as many words per
-    beat); ``first``/``last`` are 0. Two register stages
-    (the memory's read port, then an output register: the block RAM's data goes straight
-    into a flip-flop, not into the reader's ECC decoder).
+    beat); ``first``/``last`` are 0.
+
+    Notes
+    -----
+    The beats are held in banks of :attr:`BANK` beats (one block RAM deep: 2048 x 9 on an
+    ECP5), each a memory of its own with its read data registered right after it (the block
+    RAM's clock-to-out and the route to one flip-flop, no logic); the bank select follows
+    these registers (with the bank number delayed alike) and a register slice
+    (:class:`~tdicam.hdl.interfaces.stream.StreamRegister`) takes the selected beat. Every
+    stage moves on one enable, the slice's registered ``i_stream.ready`` (or an empty last
+    stage): no combinational path from ``o_stream.ready`` reaches the memories. A beat
+    is valid 3 clock edges after its address (read port, bank register, slice); one beat
+    a clock sustained.
     """
+
+    #: Beats per bank (the depth of one ECP5 DP16KD at 9 bits).
+    BANK = 2048
 
     def __init__(self, words, per_beat=1):
         words = [bytes(bytearray(w)) for w in words]
@@ -191,22 +204,50 @@ class CalibRom(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        n = len(self._words)
-        m.submodules.mem = mem = Memory(shape=self._bits, depth=max(n, 2),
-                                        init=self._words + [0] * (max(n, 2) - n))
-        rd = mem.read_port()
-        o = self.o_stream
+        n, bank = len(self._words), self.BANK
+        nb = -(-n // bank)
+        words = self._words + [0] * (nb * bank - n) if nb > 1 else self._words
+        m.submodules.out = out = StreamRegister(self._bits)
         addr = Signal(range(max(n, 2)))
-        v1 = Signal()                 # the read port holds a word
-        adv1, adv2 = Signal(), Signal()
-        m.d.comb += [adv2.eq(~o.valid | o.ready), adv1.eq(~v1 | adv2),
-                     rd.en.eq(adv1), rd.addr.eq(addr)]
-        with m.If(adv1):
-            m.d.sync += [v1.eq(1), addr.eq(addr + 1)]
-            with m.If(addr == n - 1):
-                m.d.sync += addr.eq(0)
-        with m.If(adv2):
-            m.d.sync += [o.valid.eq(v1), Value.cast(o.payload.data).eq(rd.data)]
+        at_end = Signal(init=n == 1)   # addr == n - 1
+        v1, v2 = Signal(), Signal()    # the read ports / the bank registers hold a beat
+        adv = Signal()
+        m.d.comb += adv.eq(~v2 | out.i_stream.ready)
+        lb = (bank - 1).bit_length() if nb > 1 else len(addr)
+        sel1 = Signal(range(max(nb, 2)))
+        sel2 = Signal.like(sel1)
+        qs = []
+        for b in range(nb):
+            chunk = words[b * bank:(b + 1) * bank]
+            m.submodules[f"bank{b}"] = mem = Memory(
+                shape=self._bits, depth=max(len(chunk), 2),
+                init=chunk + [0] * (max(len(chunk), 2) - len(chunk)))
+            rd = mem.read_port()
+            m.d.comb += [rd.en.eq(adv), rd.addr.eq(addr[:lb])]
+            q = Signal(self._bits, name=f"bank{b}_q")
+            with m.If(adv):
+                m.d.sync += q.eq(rd.data)
+            qs.append(q)
+        with m.If(adv):
+            m.d.sync += [v1.eq(1), v2.eq(v1), sel2.eq(sel1)]
+            if nb > 1:
+                m.d.sync += sel1.eq(addr[lb:])
+            with m.If(at_end):
+                m.d.sync += [addr.eq(0), at_end.eq(n == 1)]
+            with m.Else():
+                m.d.sync += [addr.eq(addr + 1), at_end.eq(addr == n - 2)]
+        sel = Signal(self._bits)
+        with m.Switch(sel2):
+            for b, q in enumerate(qs):
+                with m.Case(b):
+                    m.d.comb += sel.eq(q)
+            if nb < 2 ** len(sel2):                  # values no bank has (never taken)
+                with m.Default():
+                    m.d.comb += sel.eq(qs[-1])
+        o = self.o_stream
+        m.d.comb += [out.i_stream.valid.eq(v2), out.i_stream.payload.eq(sel),
+                     o.valid.eq(out.o_stream.valid), out.o_stream.ready.eq(o.ready),
+                     Value.cast(o.payload.data).eq(out.o_stream.payload)]
         return m
 
 

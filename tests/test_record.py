@@ -88,12 +88,16 @@ def test_plan_of_the_orbit_chain_reads_its_ppc_8_row(capsys):
     route of its pipeline, and the verdict is Fmax x 8 against the sensor's rate."""
     rows = record.find("pipeline", scene="orbit_chain.toml")
     assert [int(r.params["ppc"]) for r in rows] == [8]
-    main(["plan", "--scene", str(SCENES / "orbit_chain.toml"), "--json"])
+    code = main(["plan", "--scene", str(SCENES / "orbit_chain.toml"), "--json"])
     g = json.loads(capsys.readouterr().out)["points"][0]["gateware"]
     (c,) = g["chain"]
     assert (c["ppc"], c["fmax_mhz"], c["width"]) == (8, rows[0].fmax_mhz, 1280)
     assert g["chain_ok"] == (rows[0].fmax_mhz * 8e6 >= g["pixel_rate"])
     assert abs(g["pixel_rate"] - 848.9e6) < 0.1e6
+    # the recorded chain keeps up with the sensor: the plan says so and exits 0
+    assert g["chain_ok"] and code == 0
+    assert main(["plan", "--scene", str(SCENES / "orbit_chain.toml")]) == 0
+    assert "keeps up with the sensor: yes" in capsys.readouterr().out
 
 
 def test_a_scene_without_a_recorded_chain_has_none(capsys):

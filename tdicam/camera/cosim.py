@@ -143,7 +143,7 @@ def _testbench(axis_top, taps, *, wave):
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
-                                ctrl_ports=ctrl, wave=wave)
+                                ctrl_ports=ctrl, wave=wave, per_beat=False)
     decl, conn, opens, writes, closes = [], [], [], [], []
     status = status_ports(axis_top)
     if status:
@@ -230,7 +230,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
            "taps": taps, "wave": wave is not None}
     elab = time.perf_counter() - t0
     bdir, build_s = cosim.build_sources("pipeline", key, sim,
-                                        {"pipeline.v": dut, "tb.v": tb})
+                                        {"pipeline.v": dut, "tb.v": tb},
+                                        public=tbgen.FAST_PUBLIC)
     stim = pl.stimulus(p, data, ax)
     _, _, ctrl = cosim.stream_ports(ax)
     ctrl_bits = max(1, sum(w for _, w in ctrl))

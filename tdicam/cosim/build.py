@@ -33,9 +33,15 @@ _VERILATOR_ARGS = ("--timing", "-Wno-fatal", "-Wno-lint", "-Wno-style",
                    "--x-initial", "unique", "--no-public-flat-rw")
 
 
-def _public_vlt(top):
-    """Verilator control file: every signal of module ``top`` public and writable."""
-    return f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
+def _public_vlt(top, public=None):
+    """Verilator control file: every signal of module ``top`` public and writable, or only
+    those of ``public``, (name, written) pairs: written ones writable, the others
+    read-only."""
+    if public is None:
+        return f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
+    return "`verilator_config\n" + "".join(
+        f'public_flat_{"rw" if rw else "rd"} -module "{top}" -var "{name}"\n'
+        for name, rw in public)
 
 
 def build_dir_for(block, params, sim):
@@ -73,8 +79,12 @@ def _runner(sim):
     return get_runner(sim)
 
 
-def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP):
+def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP, public=None):
     """Build (or reuse) a simulator build of Verilog ``sources`` ({file name: text}).
+
+    ``public``: (name, written) pairs, the only signals of ``top`` a Verilator build makes
+    public (e.g. :data:`tdicam.cosim.tbgen.FAST_PUBLIC` for a fast-mode-only testbench);
+    None: every signal of ``top``, writable.
 
     Cached under :func:`build_dir_for` ``(name, params, sim)``, keyed by the source texts,
     the simulator and its arguments, and locked so concurrent runs share one build.
@@ -85,7 +95,7 @@ def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP):
     # always @* blocks at time 0 relies on (with -g2012 they stay X until an input moves).
     args = list(_VERILATOR_ARGS) if sim == "verilator" else ["-g2005"]
     if sim == "verilator":
-        sources = {**sources, "public.vlt": _public_vlt(top)}
+        sources = {**sources, "public.vlt": _public_vlt(top, public)}
     stamp = hashlib.sha256("\0".join([*sources.values(), sim, *args]).encode()).hexdigest()
     t0 = time.perf_counter()
     with _locked(bdir):

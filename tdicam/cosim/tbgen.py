@@ -29,7 +29,8 @@ from dataclasses import dataclass
 from tdicam.cosim.pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
 from tdicam.cosim import codec
 
-__all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
+__all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH",
+           "FAST_PUBLIC"]
 
 TB_TOP = "tdicam_tb"
 RST_CYCLES = 3
@@ -128,6 +129,31 @@ def _selfcheck_text(sc):
 """
 
 
+_PER_BEAT_REGS = """\
+  reg b_rst = 1'b1;
+  reg [IW-1:0] b_tdata = 0;
+  reg b_tvalid = 1'b0, b_tuser = 1'b0, b_tlast = 1'b0, b_tready = 1'b0;
+  reg [CW-1:0] b_ctrl = 0;
+"""
+
+#: The testbench signals the cocotb side of a fast-mode run touches, (name, written): the
+#: only public ones of a fast-mode-only build (``per_beat=False``).
+FAST_PUBLIC = (("beat_mode", True), ("start", True), ("clk", False), ("done", False),
+               ("cycles", False), ("in_idx", False), ("timeout", False))
+
+
+def _connections(per_beat):
+    """The DUT's input wires: the per-beat registers or the engine (``beat_mode``), or
+    the engine alone."""
+    wires = (("rst", "", "b_rst", "f_rst"), ("s_tdata", "[IW-1:0] ", "b_tdata", "cur[IW-1:0]"),
+             ("s_tvalid", "", "b_tvalid", "f_tvalid"), ("s_tuser", "", "b_tuser", "cur[IW+1]"),
+             ("s_tlast", "", "b_tlast", "cur[IW]"),
+             ("ctrl", "[CW-1:0] ", "b_ctrl", "cur[IW+2+CW-1:IW+2]"),
+             ("m_tready", "", "b_tready", "f_tready"))
+    return "".join(f"  wire {w}{name} = {f'beat_mode ? {b} : ' if per_beat else ''}{f};\n"
+                   for name, w, b, f in wires)
+
+
 def stimulus_files(stim, *, elem_padded_bits, ctrl_bits, depth=DEPTH):
     """(file name, bytes) of each stimulus chunk the fast-mode engine reads: ``depth``
     beats of :func:`tdicam.cosim.codec.encode_stimulus_bin` records per ``stim_NNNNNN.bin``
@@ -165,7 +191,7 @@ _WAVE_TEXT = """\
 
 
 def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None,
-                     wave=False):
+                     wave=False, per_beat=True):
     """Verilog text of the testbench around module ``dut_name``.
 
     Parameters
@@ -183,6 +209,12 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         Add the waveform window: with plusargs ``+wave_from=A +wave_to=B`` the simulator
         dumps cycles A..B of the fast engine to ``wave.fst`` (Icarus with the runner's
         ``WAVES=1``). A separate build: the plain testbench dumps nothing.
+    per_beat : bool
+        Keep the per-beat mode (the ``b_*`` registers cocotb writes). False: fast mode
+        only, the DUT's inputs driven by the engine alone, so that no signal cocotb may
+        write reaches the DUT (with :data:`FAST_PUBLIC` as the only public signals a
+        Verilator model evaluates its combinational logic once a clock edge, not again
+        at every time step for signals written from outside).
     """
     sc = selfcheck
     d = (dict(n_in=0, n_out=0, max_cycles=1000000, drain=1000, idle=0, bp=0, seed=1)
@@ -227,12 +259,8 @@ module {TB_TOP};
   endfunction
 
   // ---- per-beat mode: written by cocotb
-  reg beat_mode = 1'b{int(sc is None)};
-  reg b_rst = 1'b1;
-  reg [IW-1:0] b_tdata = 0;
-  reg b_tvalid = 1'b0, b_tuser = 1'b0, b_tlast = 1'b0, b_tready = 1'b0;
-  reg [CW-1:0] b_ctrl = 0;
-
+  reg beat_mode = 1'b{int(sc is None and per_beat)};
+{_PER_BEAT_REGS if per_beat else ""}
   // ---- fast mode engine
   reg start = 1'b0;
   reg running = 1'b0;
@@ -279,14 +307,7 @@ module {TB_TOP};
   wire f_tready = running && !f_rst && (lr[7:0] >= bp_thr[7:0]);
 
   // ---- DUT connections
-  wire rst = beat_mode ? b_rst : f_rst;
-  wire [IW-1:0] s_tdata = beat_mode ? b_tdata : cur[IW-1:0];
-  wire s_tvalid = beat_mode ? b_tvalid : f_tvalid;
-  wire s_tuser = beat_mode ? b_tuser : cur[IW+1];
-  wire s_tlast = beat_mode ? b_tlast : cur[IW];
-  wire [CW-1:0] ctrl = beat_mode ? b_ctrl : cur[IW+2+CW-1:IW+2];
-  wire m_tready = beat_mode ? b_tready : f_tready;
-  wire s_tready, m_tvalid, m_tuser, m_tlast;
+{_connections(per_beat)}  wire s_tready, m_tvalid, m_tuser, m_tlast;
   wire [OW-1:0] m_tdata;
 
   {dut_name} dut (
