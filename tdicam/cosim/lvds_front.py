@@ -24,7 +24,7 @@ from tdicam.model import lvds_front as front
 
 __all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of",
            "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
-           "scenario_lanes", "scenario", "check", "run_cocotb"]
+           "scenario_lanes", "scenario", "check", "run_cocotb", "plan_case"]
 
 
 @dataclass
@@ -37,7 +37,9 @@ class FrontCase:
     retrain request at its first word); ``word_ns``/``proc_ns``: the two clock
     periods; ``ready``: probability that the processing side takes a beat; ``kinds``: each
     frame's kind (1 a reset frame, 0 a signal frame; None: signal frames), sent in its row
-    headers.
+    headers; ``lead``: word clocks of training past the receiver's training time before the
+    first frame (a camera whose start-up holds frames longer, e.g. the calibration load,
+    starts the sensor later).
     """
 
     frames: list
@@ -55,6 +57,7 @@ class FrontCase:
     seed: int = 1
     tail: int = 200
     kinds: tuple | None = None
+    lead: int = 40
     retrains: tuple = field(default=(), init=False)
     link: object = field(default=None, init=False)
     cycles: int = field(default=0, init=False)
@@ -68,7 +71,7 @@ class FrontCase:
         segs = self.segments or (nf,)
         if sum(segs) != nf:
             raise ValueError("segments must add up to the frames")
-        sched, k, retrains, parts, f0 = [], tw + 40, [], [], 0
+        sched, k, retrains, parts, f0 = [], tw + self.lead, [], [], 0
         for i, f in enumerate(segs):
             if i:
                 retrains.append(k)
@@ -432,3 +435,19 @@ def run_cocotb(names, sim, *, ppc=2, keep=False):
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
     return cases, results, wall, build_s
+
+
+def plan_case(p, data, lanes, **kw):
+    """The :class:`FrontCase` of a pipeline plan ``p`` whose source is the front (a scene
+    with ``[sensor.lvds]``) on scene data ``data``: each channel's frames as the chain takes
+    them (:meth:`tdicam.blocks.steps.SceneData.lane_arrays`: with a first block that keeps
+    the reset frames, each reset frame before its signal frame, their kinds in the row
+    headers, :func:`cds_kinds`), the front's geometry and settle from its step, ``lanes``
+    (one :class:`tdicam.model.lvds.Lane` per lane); ``kw``: the other :class:`FrontCase`
+    fields (clocks, ``lead``, ``n_check``, ...)."""
+    from tdicam import blocks
+    prm = blocks.get("lvds").resolve(p.steps[0].params)
+    frames = [lane[0] for lane in data.lane_arrays(p)]
+    kinds = cds_kinds(len(frames[0])) if p.reset_frames else None
+    return FrontCase(frames, lanes, prm["lanes_per_gain"], word_bits=prm["word_bits"],
+                     bits=prm["bits"], ppc=p.ppc, settle=prm["settle"], kinds=kinds, **kw)
