@@ -6,7 +6,7 @@ resets both domains, starts the two clocks at the scenario's periods and runs tw
 the word side serves each lane's raw word from the scenario's table (``raw_<k>.npy``:
 ``[lane, tap, cycle]``) for the tap the DUT loaded two word clocks earlier, pulses
 ``retrain`` and logs lane status changes and frame status; the processing side takes beats
-with the scenario's ``ready`` probability. Results go to ``result_<k>.json``.
+with the scenario's ``ready`` probability and logs ``frame_kind`` at each frame's first. Results go to ``result_<k>.json``.
 """
 
 import json
@@ -29,7 +29,7 @@ async def _scenario(dut, job, k):
     sc = job["scenarios"][k]
     raw = np.load(f"raw_{k}.npy")
     w, cycles = sc["word_bits"], sc["cycles"]
-    res = {"beats": [], "frame_status": [], "events": [], "status": {}}
+    res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
     wclk = Clock(dut.word_clk, sc["word_ps"], unit="ps")
     pclk = Clock(dut.clk, sc["proc_ps"], unit="ps")
     wclk.start()
@@ -61,6 +61,8 @@ async def _scenario(dut, job, k):
                 res["beats"].append([(pay >> (n_out * bits)) & 1,
                                      (pay >> (n_out * bits + 1)) & 1,
                                      [(pay >> (i * bits)) & emask for i in range(n_out)]])
+                if (pay >> (n_out * bits)) & 1:
+                    res["kinds"].append(_get(dut.frame_kind))
             dut.o_stream__ready.value = rdy
 
     proc = cocotb.start_soon(proc_side())
