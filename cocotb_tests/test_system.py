@@ -118,6 +118,8 @@ def test_system_from_the_serial_lanes_matches_on_icarus():
     assert all(t["mismatches"] == 0 and t["received"] == t["beats"] > 0 for t in rep["taps"])
     st, up = rep["status_outputs"], rep["startup"]
     assert st["lvds_frames_out"] == 2 * p.frames and st["lvds_fifo_overflow"] == 0
+    assert (st["lvds_lane_locked"], st["lvds_lane_error"], st["lvds_need_retrain"]) == \
+        (15, 0, 0)                                  # 4 lanes locked, none lost
     assert max(up["lanes_trained"], up["nuc_calib_loaded_done"],
                up["nuc_calib_loaded_1_done"]) < up["frames_released"]
     assert st["startup_cycles"] > 0 and st["cds_ddr_ddr_writes"] == st["cds_ddr_ddr_reads"] > 0

@@ -277,15 +277,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    c0 = os.times()
-    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus,
-                                waves=wave is not None)
-    c1 = os.times()
-    summary = rundir / "summary.json"
-    if not ok or not summary.exists():
-        raise TdicamError(f"{sim} simulation of the pipeline failed; see "
-                          f"{rundir / 'sim.log'}")
-    info = json.loads(summary.read_text())
+    info, wall, cpu = _run_tb(bdir, sim, "stream_tb", rundir, plus, "summary.json",
+                              "the pipeline", waves=wave is not None)
     st = rundir / "status.txt"
     info["status"] = {} if not st.exists() else {
         ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
@@ -296,12 +289,25 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
                                       elem_padded_bits=-(-b // 8) * 8, count=c),
                   _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
     info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
-                 "run_cpu_seconds": (c1.children_user + c1.children_system)
-                 - (c0.children_user + c0.children_system),
+                 "run_cpu_seconds": cpu,
                  "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
     if not keep and wave is None:
         shutil.rmtree(rundir, ignore_errors=True)
     return got, info
+
+
+def _run_tb(bdir, sim, module, rundir, plus, result, what, **kw):
+    """Run cocotb testbench ``module`` on a build; (its ``result`` JSON file, wall seconds,
+    the simulator process's CPU seconds); a one-line error naming ``what`` when it failed."""
+    from tdicam import cosim
+    c0 = os.times()
+    ok, wall = cosim.run_cocotb(bdir, sim, module, rundir, plus, **kw)
+    c1 = os.times()
+    f = rundir / result
+    if not ok or not f.exists():
+        raise TdicamError(f"{sim} simulation of {what} failed; see {rundir / 'sim.log'}")
+    cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
+    return json.loads(f.read_text()), wall, cpu
 
 
 #: The processing clock of a co-simulation from the lanes (ns): 100 MHz, the MIG's clock of
@@ -359,14 +365,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
            "ready": ready, "status": [name for name, _ in status_ports(ax)]}
     (rundir / "job.json").write_text(json.dumps(job))
-    c0 = os.times()
-    ok, wall = cosim.run_cocotb(bdir, sim, "system_lanes_tb", rundir, [], top="pipeline")
-    c1 = os.times()
-    result = rundir / "result.json"
-    if not ok or not result.exists():
-        raise TdicamError(f"{sim} simulation of the pipeline from the lanes failed; see "
-                          f"{rundir / 'sim.log'}")
-    res = json.loads(result.read_text())
+    res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
+                             "the pipeline from the lanes", top="pipeline")
     from tdicam.beats import Beats
 
     def beats(rows, bits, count, stride):
@@ -392,8 +392,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
             "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": PROC_NS,
                         "first_frame_sent": case.segment_starts[0]},
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
-            "run_cpu_seconds": (c1.children_user + c1.children_system)
-            - (c0.children_user + c0.children_system), "rundir": str(rundir),
+            "run_cpu_seconds": cpu, "rundir": str(rundir),
             "input_beats": 0, "build_dir": str(bdir)}
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)

@@ -25,21 +25,19 @@ def _get(sig):
     return int(sig.value)
 
 
-async def _scenario(dut, job, k):
-    sc = job["scenarios"][k]
-    raw = np.load(f"raw_{k}.npy")
-    w, cycles = sc["word_bits"], sc["cycles"]
-    res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
-    wclk = Clock(dut.word_clk, sc["word_ps"], unit="ps")
-    pclk = Clock(dut.clk, sc["proc_ps"], unit="ps")
+async def start(dut, word_ps, proc_ps, settings, zero):
+    """Start the word and processing clocks, hold both domains' resets for 4 word clocks
+    with the ports ``zero`` at 0 and the run-time ``settings`` ({port: value}) set, release
+    them (processing first); returns the two clocks."""
+    wclk = Clock(dut.word_clk, word_ps, unit="ps")
+    pclk = Clock(dut.clk, proc_ps, unit="ps")
     wclk.start()
     pclk.start()
     dut.rst.value = 1
     dut.word_rst.value = 1
-    dut.lane_raw.value = 0
-    dut.retrain.value = 0
-    dut.o_stream__ready.value = 0
-    for name, v in sc["settings"].items():
+    for sig in zero:
+        sig.value = 0
+    for name, v in settings.items():
         getattr(dut, name).value = v
     for _ in range(4):
         await FallingEdge(dut.word_clk)
@@ -47,6 +45,16 @@ async def _scenario(dut, job, k):
     dut.rst.value = 0
     await FallingEdge(dut.word_clk)
     dut.word_rst.value = 0
+    return wclk, pclk
+
+
+async def _scenario(dut, job, k):
+    sc = job["scenarios"][k]
+    raw = np.load(f"raw_{k}.npy")
+    w, cycles = sc["word_bits"], sc["cycles"]
+    res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
+    wclk, pclk = await start(dut, sc["word_ps"], sc["proc_ps"], sc["settings"],
+                             (dut.lane_raw, dut.retrain, dut.o_stream__ready))
     done = [False]
     bits, n_out = sc["bits"], sc["elems"]
     emask = (1 << bits) - 1

@@ -9,7 +9,8 @@ and runs two coroutines: the word side serves each lane's raw word from ``raw.np
 clock at which the lanes have trained, the calibration is loaded and frames are released;
 the processing side takes every output beat and every tap's beats with the processing
 cycle. It stops ``drain`` processing clocks after the last expected output beat (or at
-``max_cycles``) and writes ``result.json``.
+``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the
+end of the sensor's words, the other status outputs at the end).
 """
 
 import json
@@ -17,10 +18,10 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, Timer
 
 from tdicam.cosim.lvds_front import WordDriver
+from tdicam.simtb.lvds_front_tb import start
 
 
 def _get(sig):
@@ -33,23 +34,8 @@ async def run_job(dut):
     raw = np.load("raw.npy")
     res = {"beats": [], "taps": [[] for _ in job["taps"]], "frame_status": [],
            "events": [], "status": {}, "startup": {}}
-    wclk = Clock(dut.word_clk, job["word_ps"], unit="ps")
-    pclk = Clock(dut.clk, job["proc_ps"], unit="ps")
-    wclk.start()
-    pclk.start()
-    dut.rst.value = 1
-    dut.word_rst.value = 1
-    dut.lvds_lane_raw.value = 0
-    dut.lvds_retrain.value = 0
-    dut.m_axis_tready.value = 0
-    for name, v in job["settings"].items():
-        getattr(dut, name).value = v
-    for _ in range(4):
-        await FallingEdge(dut.word_clk)
-    await FallingEdge(dut.clk)
-    dut.rst.value = 0
-    await FallingEdge(dut.word_clk)
-    dut.word_rst.value = 0
+    wclk, pclk = await start(dut, job["word_ps"], job["proc_ps"], job["settings"],
+                             (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready))
     done = [False]
     taps = [[getattr(dut, f"{base}_{s}") for s in ("valid", "ready", "first", "last", "data")]
             for base in job["taps"]]
@@ -89,9 +75,13 @@ async def run_job(dut):
             if key not in res["startup"] and _get(getattr(dut, port)):
                 res["startup"][key] = kk
         await FallingEdge(dut.word_clk)
+    # the front's status at the end of the sensor's words (past them the lanes stand still
+    # and lose their lock); the others once the output has drained
+    lanes = {name: _get(getattr(dut, name)) for name in job["status"]
+             if name.startswith("lvds_")}
     await proc
     for name in job["status"]:
-        res["status"][name] = _get(getattr(dut, name))
+        res["status"][name] = lanes.get(name, _get(getattr(dut, name)))
     wclk.stop()
     pclk.stop()
     await Timer(1, unit="ns")
