@@ -30,12 +30,16 @@ class Link:
     """One stream between two stages inside the top (producer side).
 
     ``valid``, ``first``, ``last`` and the pixel elements ``elems`` (a list of Values, one per
-    channel) are driven by the producer; ``ready`` is a Signal the consumer drives.
+    channel) are driven by the producer; ``ready`` is a Signal the consumer drives. ``user``:
+    per-beat side values the stream carries (name -> Value, e.g. the frame kind the
+    sensor's front end reads from its lanes, :attr:`SourceStage.carries`), kept with the
+    beat through forks, joins and register slices.
     """
 
-    def __init__(self, valid, ready, first, last, elems, bits):
+    def __init__(self, valid, ready, first, last, elems, bits, user=None):
         self.valid, self.ready, self.first, self.last = valid, ready, first, last
         self.elems, self.bits = list(elems), bits
+        self.user = dict(user or {})
 
     @classmethod
     def of_output(cls, stream):
@@ -73,7 +77,7 @@ class Link:
         """The same beats with elements ``lo:hi`` of each pixel only (no handshake of its
         own)."""
         return Link(self.valid, self.ready, self.first, self.last,
-                    self.pixel_elems(lo, hi, ppc), self.bits)
+                    self.pixel_elems(lo, hi, ppc), self.bits, self.user)
 
 
 def fork(m, link, parts, name, ppc=1):
@@ -87,7 +91,7 @@ def fork(m, link, parts, name, ppc=1):
     for k, (lo, hi) in enumerate(parts):
         others = Cat(*(r for j, r in enumerate(readies) if j != k)).all()
         outs.append(Link(link.valid & others, readies[k], link.first, link.last,
-                         link.pixel_elems(lo, hi, ppc), link.bits))
+                         link.pixel_elems(lo, hi, ppc), link.bits, link.user))
     m.d.comb += link.ready.eq(Cat(*readies).all())
     return outs
 
@@ -104,7 +108,7 @@ def eager_fork(m, link, parts, name, ppc=1):
     outs = []
     for k, (lo, hi) in enumerate(parts):
         outs.append(Link(link.valid & ~taken[k], readies[k], link.first, link.last,
-                         link.pixel_elems(lo, hi, ppc), link.bits))
+                         link.pixel_elems(lo, hi, ppc), link.bits, link.user))
         with m.If(link.valid & done):
             m.d.sync += taken[k].eq(0)
         with m.Elif(link.valid & readies[k]):
@@ -121,7 +125,8 @@ def join(m, a, b, name, ppc=1):
     na, nb = len(a.elems) // ppc, len(b.elems) // ppc
     elems = [e for p in range(ppc)
              for e in a.elems[p * na:(p + 1) * na] + b.elems[p * nb:(p + 1) * nb]]
-    return Link(a.valid & b.valid, ready, a.first, a.last, elems, max(a.bits, b.bits))
+    return Link(a.valid & b.valid, ready, a.first, a.last, elems, max(a.bits, b.bits),
+                {**b.user, **a.user})
 
 
 def frame_group(m, link, height, name):
@@ -136,7 +141,8 @@ def frame_group(m, link, height, name):
             m.d.sync += cnt.eq(0)
         with m.Else():
             m.d.sync += cnt.eq(cnt + 1)
-    return Link(link.valid, ready, link.first & ~cnt.any(), link.last, link.elems, link.bits)
+    return Link(link.valid, ready, link.first & ~cnt.any(), link.last, link.elems, link.bits,
+                link.user)
 
 
 def register_slice(m, link, name):
@@ -147,19 +153,25 @@ def register_slice(m, link, name):
     sustained, latency 1 cycle, no beat lost or duplicated whatever ``ready`` does. Cuts the
     path from a block's unregistered output (e.g. a memory read) into the next block's
     logic."""
-    width = sum(len(Value.cast(e)) for e in link.elems) + 2
+    user = list(link.user.values())
+    width = sum(len(Value.cast(e)) for e in link.elems + user) + 2
     m.submodules[name] = reg = StreamRegister(width)
     ready = Signal(name=f"{name}_ready")
     m.d.comb += [reg.i_stream.valid.eq(link.valid),
-                 reg.i_stream.payload.eq(Cat(*link.elems, link.first, link.last)),
+                 reg.i_stream.payload.eq(Cat(*link.elems, link.first, link.last, *user)),
                  link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
     o_data = reg.o_stream.payload
-    elems, lo = [], 0
-    for e in link.elems:
-        n = len(Value.cast(e))
-        elems.append(o_data[lo:lo + n])
-        lo += n
-    return Link(reg.o_stream.valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits)
+    def unpack(values, lo):
+        out = []
+        for e in values:
+            n = len(Value.cast(e))
+            out.append(o_data[lo:lo + n])
+            lo += n
+        return out, lo
+    elems, lo = unpack(link.elems, 0)
+    carried, _ = unpack(user, lo + 2)
+    return Link(reg.o_stream.valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
+                dict(zip(link.user, carried)))
 
 
 class CalibRom(wiring.Component):
@@ -326,8 +338,14 @@ class SourceStage(LaneStage):
     end, :class:`~tdicam.hdl.lvds_front.LvdsFront`): no ``i_stream``; every ``In`` port
     (listed in ``ports``) is a top port ``<name>_<port>``; its ``o_stream`` carries every
     channel lane's elements, pixel-major, as the top's ``i_stream`` would. The top then has
-    no ``i_stream``."""
+    no ``i_stream``.
 
+    ``carries``: ``Out`` ports of the component valid with each output beat that travel with
+    the beat (:attr:`Link.user`) and drive the ``In`` port of the same name of every later
+    stage's component, instead of a top port (the front's ``frame_kind`` -> the CDS stage's
+    ``frame_kind``, which says which frame is the reset frame to keep)."""
+
+    carries: tuple = ()
     source: bool = field(default=True, init=False)
 
 
@@ -382,12 +400,13 @@ class Pipeline(wiring.Component):
         self._taps, self._ppc = taps, ppc
         self._cores = self._plan()
         self._source = bool(self._stages) and self._stages[0].source
+        carried = set(self._stages[0].carries) if self._source else set()
         members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
             in_bits, ppc * lanes * lane_elems)))}
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
-                if pname in ("i_stream", "o_stream"):
+                if pname in ("i_stream", "o_stream") or pname in carried:
                     continue
                 if pname in st.pins:
                     for k in range(len(cores)):
@@ -496,6 +515,7 @@ class Pipeline(wiring.Component):
             m.submodules[core_name(st, 0, 1)] = core
             self._wire_ports(m, st, core, 0)
             whole = Link.of_output(core.o_stream)
+            whole.user = {name: getattr(core, name) for name in st.carries}
             tap = self._tap(m, 0, whole)
             if 0 in self._slices:
                 whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice")
@@ -518,7 +538,7 @@ class Pipeline(wiring.Component):
             held_ready = Signal(name="held_ready")
             m.d.comb += whole.ready.eq(held_ready & go)
             whole = Link(whole.valid & go, held_ready, whole.first, whole.last, whole.elems,
-                         whole.bits)
+                         whole.bits, whole.user)
         # lanes stay one stream until a per-lane block needs them apart
         lanes = [whole]
         per = [self._lane_elems] * self._lanes
@@ -554,7 +574,7 @@ class Pipeline(wiring.Component):
                         p: getattr(self, self._status(st, p, k)) for p in st.io})
                     link = join(m, link, st.side(*args), f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
-                self._wire_ports(m, st, core, k)
+                self._wire_ports(m, st, core, k, link.user)
                 out = Link.of_output(core.o_stream)
                 tap = self._tap(m, tap, out)
                 if n_st in self._slices:
@@ -571,11 +591,15 @@ class Pipeline(wiring.Component):
             whole.feed(m, o, who="pipeline output")
         return m
 
-    def _wire_ports(self, m, st, core, k):
+    def _wire_ports(self, m, st, core, k, user=None):
         """Stage ``st``'s component ``core`` (lane ``k``): run-time inputs from the top's
-        ports, status outputs to them."""
+        ports (or from the values ``user`` its input stream carries), status outputs to
+        them."""
         for pname, member in core.signature.members.items():
-            if pname in ("i_stream", "o_stream"):
+            if pname in ("i_stream", "o_stream") or (st.source and pname in st.carries):
+                continue
+            if user and pname in user and member.flow == wiring.In:
+                m.d.comb += getattr(core, pname).eq(user[pname])
                 continue
             if pname in st.pins and member.flow == wiring.In:
                 m.d.comb += getattr(core, pname).eq(getattr(self, self._status(st, pname, k)))

@@ -2,8 +2,10 @@
 
 Ning et al. 2019 §4.1 (the GMAX0504: 40 lanes per gain channel, 12-bit words, 300 Mbit/s).
 The lane format and the lane-to-column convention (lane ``g*L + k`` carries columns ``k,
-k+L, ...`` of gain channel ``g``; lines ``[sync, row header, P pixel words]``) are
-:mod:`tdicam.model.lvds_front`'s, which is also the golden model.
+k+L, ...`` of gain channel ``g``; lines ``[sync, row header, P pixel words]``, the header's
+top bit the frame's kind: 1 a reset frame, 0 a signal frame) are
+:mod:`tdicam.model.lvds_front`'s, which is also the golden model. The kind rides with every
+output beat (``frame_kind``), for the CDS stage that keeps the reset frame.
 
 Clock domains and start-up::
 
@@ -20,12 +22,12 @@ Clock domains and start-up::
                       with invalid words (affected, counted), HOLD    |
                       until ``retrain``                               |
                  |  one entry = one word of every lane (L columns a   |
-                 |  channel) + first/last                             |
+                 |  channel) + first/last + the frame's kind          |
                  v                                                    |
               AsyncFIFO write ================ crossing ==============> AsyncFIFO read
                                                                       |   -> L/ppc beats of ppc
                                                                       |      pixels x G channels
-                                                                      |   -> o_stream
+                                                                      |   -> o_stream, frame_kind
 
 Status outputs are in the word-clock domain (quasi-static registers and counters, for a
 processor to read through its own synchronizer); the run-time inputs too (``train_word``,
@@ -80,7 +82,7 @@ class _WordSide(wiring.Component):
         self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
         self._lane_ports = _lane_ports(n, w, phy)
         ports = {**self._lane_ports,
-                 "w_data": Out(n * bits + 2), "w_en": Out(1), "w_rdy": In(1)}
+                 "w_data": Out(n * bits + 3), "w_en": Out(1), "w_rdy": In(1)}
         ports.update(_status_ports(n, w))
         super().__init__(ports)
 
@@ -118,6 +120,8 @@ class _WordSide(wiring.Component):
         for wd in words:
             acc_h = acc_h | wd
         m.d.comb += header.eq(acc_h)
+        # the header's top bit: the frame's kind (1 reset, 0 signal); the row below it
+        h_row, h_kind = header[:w - 1], header[w - 1]
         pos = Signal(range(p + 2))
         with m.If(rx.o_valid):
             m.d.sync += pos.eq(Mux(pos == p + 1, 0, pos + 1))
@@ -129,6 +133,7 @@ class _WordSide(wiring.Component):
 
         state = Signal(2, init=_HOLD)
         row = Signal(16)
+        kind = Signal()          # the kind of the frame being written
         acc = Signal(n)          # lanes bad during the frame being written
         pend, pend_acc = Signal(), Signal(n)  # a finished frame waiting for the next sync
         fill_col = Signal(range(p + 1))
@@ -160,14 +165,18 @@ class _WordSide(wiring.Component):
             ~self.retrain & ~rx.deskew_error
         with m.Switch(state):
             with m.Case(_HOLD):
-                with m.If(at_header & (header == 0)):
+                with m.If(at_header & (h_row == 0)):
                     with m.If(ok):
-                        m.d.sync += [state.eq(_RUN), row.eq(0), acc.eq(0)]
+                        m.d.sync += [state.eq(_RUN), row.eq(0), acc.eq(0), kind.eq(h_kind)]
                     with m.Elif(self.need_retrain & rx.aligned):
                         m.d.sync += self.frames_dropped.eq(self.frames_dropped + 1)
             with m.Case(_RUN):
                 in_frame = (row != 0) | (pos >= 2)
-                with m.If(fault | (at_header & (header != row))):
+                # a frame's first line may be of either kind; its other lines of its kind
+                with m.If(at_header & (row == 0)):
+                    m.d.sync += kind.eq(h_kind)
+                with m.If(fault | (at_header & ((h_row != row) |
+                                                ((row != 0) & (h_kind != kind))))):
                     # pixel words of this row already written: pos - 2 (none before pos 2)
                     with m.If(in_frame):
                         m.d.sync += [state.eq(_FILL), fill_col.eq(Mux(pos >= 2, pos - 2, 0))]
@@ -175,7 +184,7 @@ class _WordSide(wiring.Component):
                         m.d.sync += state.eq(_HOLD)
                 with m.Elif(at_pixel):
                     m.d.comb += [write.eq(1), self.w_data.eq(Cat(
-                        pixels, (row == 0) & (pos == 2), pos == p + 1))]
+                        pixels, (row == 0) & (pos == 2), pos == p + 1, kind))]
                     m.d.sync += acc.eq(acc | bad_now)
                     with m.If(pos == p + 1):
                         with m.If(row == rows_m1):
@@ -187,7 +196,8 @@ class _WordSide(wiring.Component):
             with m.Case(_FILL):
                 # the rest of the frame as invalid words (all lanes flagged), one a clock
                 m.d.comb += [write.eq(1), self.w_data.eq(Cat(
-                    Const(0, n * bits), (row == 0) & (fill_col == 0), fill_col == p - 1))]
+                    Const(0, n * bits), (row == 0) & (fill_col == 0), fill_col == p - 1,
+                    kind))]
                 m.d.sync += fill_col.eq(fill_col + 1)
                 with m.If(fill_col == p - 1):
                     m.d.sync += [fill_col.eq(0), row.eq(row + 1)]
@@ -236,11 +246,14 @@ class LvdsFront(wiring.Component):
         Delay taps and load strobes (word domain; ``phy = "none"``).
     train_word, sync_word, n_check, frame_rows, retrain : In
         Word-domain settings: the training and sync words, words checked per tap, rows per
-        frame (< 2**word_bits - 1), retrain request (the sensor trains from then on).
+        frame (< 2**(word_bits - 1) - 2: the header's top bit is the frame kind), retrain request (the sensor trains from then on).
     o_stream : Out(pixel stream), processing domain
         ``ppc * gains`` elements of ``bits``, pixel-major; ``first`` on a frame's first beat,
         ``last`` on each line's last. No backpressure reaches the sensor: the processing side
         must take the rate (``fifo_overflow`` says when it did not).
+    frame_kind : Out(1), processing domain
+        The kind of the frame ``o_stream``'s beat belongs to (from its row header's top bit:
+        1 a reset frame, 0 a signal frame), valid with every beat.
     lane_locked, lane_error : Out(gains*L)
         Per-lane status (word domain); ``lanes_bad`` = not locked (their columns are invalid).
     frame_invalid : Out(gains*L)
@@ -279,7 +292,8 @@ class LvdsFront(wiring.Component):
                           min_run=min_run, pick=pick, deskew_depth=deskew_depth)
         n = L * gains
         ports = {**_lane_ports(n, word_bits, phy),
-                 "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains)))}
+                 "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains))),
+                 "frame_kind": Out(1)}
         ports.update(_status_ports(n, word_bits))
         super().__init__(ports)
 
@@ -294,7 +308,7 @@ class LvdsFront(wiring.Component):
         L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
         ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
-        m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 2, depth=self._depth,
+        m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)
         outer = {**_lane_ports(n, self._w, self._phy), **_status_ports(n, self._w)}
         for name, member in outer.items():
@@ -309,7 +323,7 @@ class LvdsFront(wiring.Component):
         beat = Signal(range(max(k, 2)))
         d = cdc.r_data
         pix = [d[i * bits:(i + 1) * bits] for i in range(n)]
-        first, last = d[n * bits], d[n * bits + 1]
+        first, last, kind = d[n * bits], d[n * bits + 1], d[n * bits + 2]
         beats = [Cat(*(pix[c * L + b * ppc + q] for q in range(ppc) for c in range(g)))
                  for b in range(k)]
         o = self.o_stream
@@ -318,6 +332,7 @@ class LvdsFront(wiring.Component):
             o.payload.data.eq(Array(beats)[beat] if k > 1 else beats[0]),
             o.payload.first.eq(first & (beat == 0)),
             o.payload.last.eq(last & (beat == k - 1)),
+            self.frame_kind.eq(kind),
             cdc.r_en.eq(o.ready & (beat == k - 1)),
         ]
         with m.If(o.valid & o.ready):

@@ -18,9 +18,12 @@ Line format (every lane, in the link model's data segments)
 -----------------------------------------------------------
 ``[sync, header, pixel word 0, ..., pixel word P-1]`` with ``P = columns / L``:
 ``line_words = P + 2``. ``sync`` is the link's sync word (all ones); ``header`` is the row
-index inside the frame (0 = the frame's first line), the same on every lane, so the front
-finds frame starts; rows must therefore be < ``2**word_bits - 2``. Frames follow each other
-without gaps; a data segment carries whole frames and ends with a *blank line* (header
+index inside the frame (0 = the frame's first line) in its low ``word_bits - 1`` bits and the
+frame's *kind* in its top bit (1: a reset frame, the sensor's reset level read for off-chip
+CDS; 0: a signal frame), the same on every lane, so the front finds frame starts and tells
+the CDS stage which frame is which (:func:`header_word`); rows must therefore be
+< ``2**(word_bits - 1) - 2``. A sensor read for CDS sends each reset frame before its signal
+frame; the front passes the kind on with every beat. Frames follow each other without gaps; a data segment carries whole frames and ends with a *blank line* (header
 ``2**word_bits - 2``, pixel words 0: :func:`blank_line`), so the last frame's words have left
 the receiver before the sensor goes back to training.
 
@@ -34,7 +37,8 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds as link_model
 
-__all__ = ["GMAX0504", "line_words", "check_geometry", "wire_code", "lane_payload",
+__all__ = ["GMAX0504", "line_words", "check_geometry", "header_word", "wire_code",
+           "lane_payload",
            "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
            "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
            "untrained_lanes"]
@@ -57,9 +61,16 @@ def check_geometry(columns, rows, lanes_per_gain, word_bits, bits, *, key="lanes
                           f"(lane k carries columns k, k+L, ...: every lane the same count)")
     if bits > word_bits:
         raise TdicamError(f"word_bits = {word_bits} is narrower than the {bits}-bit pixels")
-    if rows >= (1 << word_bits) - 2:
+    if rows >= (1 << (word_bits - 1)) - 2:
         raise TdicamError(f"{rows} rows a frame: the row header of a {word_bits}-bit word "
-                          f"counts to {(1 << word_bits) - 3}")
+                          f"(its top bit the frame kind) counts to "
+                          f"{(1 << (word_bits - 1)) - 3}")
+
+
+def header_word(row, kind, word_bits):
+    """The header word of line ``row`` of a frame of ``kind`` (1 reset, 0 signal): the row
+    in the low ``word_bits - 1`` bits, the kind in the top bit."""
+    return np.asarray(row, np.int64) | (np.asarray(kind, np.int64) << (word_bits - 1))
 
 
 def wire_code(frames, word_bits):
@@ -69,9 +80,10 @@ def wire_code(frames, word_bits):
     return np.where(a == sync, sync - 1, a)
 
 
-def lane_payload(frames, lanes_per_gain, word_bits):
+def lane_payload(frames, lanes_per_gain, word_bits, kinds=None):
     """The data-segment words of every lane for ``frames`` (one ``(F, R, C)`` stack per gain
-    channel): a tuple of ``G * L`` int64 arrays of ``F * R * line_words`` words (for
+    channel) of ``kinds`` (``F`` values, 1 a reset frame, 0 a signal frame; None: all
+    signal frames): a tuple of ``G * L`` int64 arrays of ``F * R * line_words`` words (for
     :class:`tdicam.model.lvds.Link` ``payload``)."""
     L = lanes_per_gain
     out = []
@@ -79,10 +91,12 @@ def lane_payload(frames, lanes_per_gain, word_bits):
         a = wire_code(stack, word_bits)
         nf, nr, nc = a.shape
         check_geometry(nc, nr, L, word_bits, word_bits)
+        kind = np.zeros(nf, np.int64) if kinds is None else np.asarray(kinds, np.int64)
         p = nc // L
         words = np.empty((L, nf, nr, p + 2), np.int64)
         words[:, :, :, 0] = (1 << word_bits) - 1
-        words[:, :, :, 1] = np.arange(nr)[None, None, :]
+        words[:, :, :, 1] = header_word(np.arange(nr)[None, :], kind[:, None],
+                                        word_bits)[None]
         words[:, :, :, 2:] = a.reshape(nf, nr, p, L).transpose(3, 0, 1, 2)
         out.extend(words.reshape(L, -1))
     return tuple(out)
@@ -95,12 +109,16 @@ def blank_line(columns, lanes_per_gain, word_bits):
     return words
 
 
-def segment_payload(segments, lanes_per_gain, word_bits):
+def segment_payload(segments, lanes_per_gain, word_bits, kinds=None):
     """:func:`lane_payload` of several data segments (each a list of per-gain frame
-    stacks), each followed by a :func:`blank_line`."""
-    parts = []
+    stacks), each followed by a :func:`blank_line`; ``kinds``: the frames' kinds, all
+    segments' in order (None: signal frames)."""
+    parts, f0 = [], 0
     for frames in segments:
-        pay = lane_payload(frames, lanes_per_gain, word_bits)
+        nf = len(frames[0])
+        pay = lane_payload(frames, lanes_per_gain, word_bits,
+                           None if kinds is None else np.asarray(kinds)[f0:f0 + nf])
+        f0 += nf
         blank = blank_line(np.asarray(frames[0]).shape[-1], lanes_per_gain, word_bits)
         parts.append([np.concatenate([p, blank]) for p in pay])
     return tuple(np.concatenate(lane) for lane in zip(*parts))
@@ -179,20 +197,24 @@ def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
         lines.append((heads.pop(), pos))
         pos += lw
     p = lw - 2
-    frames, k = [], 0
+    frames, kinds, k = [], [], 0
+    top = 1 << (word_bits - 1)
     while k < len(lines):
-        if lines[k][0] == 0 and k + rows <= len(lines) and \
-                [h for h, _ in lines[k:k + rows]] == list(range(rows)):
+        kind = lines[k][0] // top
+        want = list(header_word(np.arange(rows), kind, word_bits))
+        if lines[k][0] % top == 0 and k + rows <= len(lines) and \
+                [h for h, _ in lines[k:k + rows]] == want:
             f = np.zeros((g, rows, p * L), np.int64)
             for r, (_, at) in enumerate(lines[k:k + rows]):
                 for i in good:
                     f[i // L, r, i % L::L] = words[i][at + 2:at + 2 + p]
             frames.append(f)
+            kinds.append(kind)
             k += rows
         else:
             k += 1
     px = np.stack(frames, axis=1) if frames else np.zeros((g, 0, rows, p * L), np.int64)
-    return px, invalid_columns(bad_lanes, p * L, L, g)
+    return px, invalid_columns(bad_lanes, p * L, L, g), np.asarray(kinds, np.int64)
 
 
 def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):

@@ -31,9 +31,13 @@ def test_lane_payload_is_the_line_format():
         for k in range(L):
             words = pay[g * L + k].reshape(2, R, lw)
             assert (words[:, :, 0] == 0xFFF).all()
-            assert (words[:, :, 1] == np.arange(R)).all()
+            assert (words[:, :, 1] == np.arange(R)).all()       # signal frames: kind bit 0
             assert np.array_equal(words[:, :, 2:], front.wire_code(fr[g][:, :, k::L], 12))
     assert front.wire_code([4095, 4094, 0], 12).tolist() == [4094, 4094, 0]
+    # a reset frame's headers carry the kind in their top bit
+    kinds = front.lane_payload(fr, L, 12, kinds=[1, 0])[3].reshape(2, R, lw)[:, :, 1]
+    assert kinds.tolist() == [[0x800, 0x801, 0x802], [0, 1, 2]]
+    assert front.header_word(2, 1, 10) == 0x202
     # the link model carries the payload in its data segments, sync words included
     link = model.Link(_lanes(), word_bits=12, line_words=lw, schedule=((50, "data"),),
                       payload=pay)
@@ -52,9 +56,10 @@ def test_golden_front_from_the_lanes_round_trip():
     words = [front.data_words(case.link, i) for i in range(G * L)]
     assert all(len(w) == (8 * R + 2) * (C // L + 2) for w in words)
     for bad in ([], [3, 6]):
-        px, inv = front.frames_from_lanes(words, L, R, 12, bad)
+        px, inv, kinds = front.frames_from_lanes(words, L, R, 12, bad)
         exp, inv2 = front.receive(case.frames, bad, L, 12)
         assert np.array_equal(px, exp) and np.array_equal(inv, inv2)
+        assert kinds.tolist() == [1, 0, 1, 0, 1, 0, 1, 0]      # reset, signal, ... in turn
     words[4] = words[4].copy()
     words[4][1] = 1                         # a header the other lanes do not send
     with pytest.raises(TdicamError, match="lanes disagree on the header"):
@@ -82,6 +87,9 @@ def test_fifo_depth_from_the_rates():
         front.fifo_depth(4, 2, 16, 25.0, 33.0)
     with pytest.raises(TdicamError, match="does not divide the 18 columns"):
         front.check_geometry(18, 4, 4, 12, 12)
+    with pytest.raises(TdicamError, match="its top bit the frame kind\\) counts to 2045"):
+        front.check_geometry(16, 2046, 4, 12, 12)
+    front.check_geometry(16, 2045, 4, 12, 12)
 
 
 # ---------------------------------------------------------------- gateware, two clocks

@@ -239,3 +239,67 @@ def test_plan_states_the_lanes_pixel_rate_and_training_time():
     assert rows["lane training"]["value"] == pytest.approx(        # 25 M words/s a lane
         lvds.training_words(12, 16, settle) / 25e6)
     assert "calibration load" in rows
+
+
+def test_system_from_serial_lanes_to_output_in_amaranth():
+    """The system scene with the sensor's lanes ([sensor.lvds], 2 lanes a gain as the
+    scene's window, a 16-column crop, 3 TDI stages, a 16-block NAND part) whole in
+    Amaranth's simulator, two clocks at the camera's rates (25 M words/s a lane: 300 Mbit/s
+    of 12-bit words; 100 MHz processing):
+    the lanes carry each reset frame before its signal frame (the kind in the row headers:
+    the front's frame_kind drives cds_ddr's), the start-up -- lane training (word clock),
+    the NAND scan and calibration load (processing clock), then frames released -- and the
+    output of median3 equal to the golden chain's, bit for bit. The rate ratio is
+    r = f_clk / (2 f_word) = 2: the front has no backpressure, and cds_ddr behind the DDR
+    model's stalls does not take a beat every clock (with 4 lanes a gain, r = 1, the
+    crossing FIFO overflows)."""
+    from dataclasses import replace
+    from tdicam.cosim.lvds_front import (GOOD_LANES, frames_of, plan_case, run_amaranth,
+                                         scenario_lanes)
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2}}, "tdi": {"stages": 3},
+        "run": {"lines": 2}})
+    p = pl.plan(sc)
+    assert [s.block for s in p.steps] == ["lvds", "cds_ddr", "nuc", "hdr", "tdi", "median3"]
+    assert p.reset_frames
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    ax = pl.top(p, data, board=True)
+    ax._MustUse__silence = True                  # its board is simulated
+    board = ax.core
+    assert "cds_ddr_frame_kind" not in board.signature.members   # it comes from the lanes
+    case = plan_case(p, data, scenario_lanes(GOOD_LANES[:4]), word_ns=40.0, proc_ns=10.0,
+                     n_check=4, tail=100)
+    settings = {f"{s.block}_{k}": v for s in p.steps[1:] for k, v in s.ports.items()
+                if hasattr(board, f"{s.block}_{k}")}
+    seen = {}
+
+    def hook(ctx, dut, k):
+        for name in ("lvds_trained", "nuc_calib_loaded", "nuc_calib_loaded_1",
+                     "lvds_releasing"):
+            if name not in seen and ctx.get(getattr(dut, name)):
+                seen[name] = k
+        for name in ("startup_cycles", "cds_ddr_ddr_writes", "cds_ddr_ddr_reads",
+                     "cds_ddr_ddr_writes_1", "nuc_calib_error", "tdi_frame_errors"):
+            seen[name] = ctx.get(getattr(dut, name))
+    res = run_amaranth(case, dut=board, prefix="lvds_", settings=settings, elems=1,
+                       hook=hook)
+    st = res["status"]
+    assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"], st["lane_error"]) \
+        == (2 * p.frames, 0, 0, 0)
+    exp = pl.golden(p, data)[-1][2]
+    got = frames_of(res["beats"], exp.shape[1], 16, 1, 1)[0]
+    assert got.shape == exp.shape and np.array_equal(got, exp)
+    # start-up: the calibration loaded and the lanes trained before the first frame is
+    # released; the top held its input for the load (processing clocks)
+    assert max(seen["nuc_calib_loaded"], seen["nuc_calib_loaded_1"],
+               seen["lvds_trained"]) < seen["lvds_releasing"]
+    assert abs(seen["startup_cycles"] - 4 * seen["nuc_calib_loaded"]) <= 8
+    assert seen["nuc_calib_error"] == 0 and seen["tdi_frame_errors"] == 0
+    # each reset frame went to DDR and came back once (channel 0), channel 1 the same
+    assert seen["cds_ddr_ddr_writes"] == seen["cds_ddr_ddr_reads"] == \
+        seen["cds_ddr_ddr_writes_1"] > 0
+    print(f"start-up: lanes trained at word clock {seen['lvds_trained']}, calibration "
+          f"loaded after {seen['startup_cycles']} processing clocks, first frame released "
+          f"at word clock {seen['lvds_releasing']}")

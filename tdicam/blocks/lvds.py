@@ -86,14 +86,17 @@ def _front_step(ctx):
 
 def _front_hw(step, data, *, ecp5=False):
     """The front end as the chain's :class:`~tdicam.hdl.chain_top.SourceStage`: every input
-    port of the component (lanes or pins, settings) becomes a top port ``lvds_<port>``."""
+    port of the component (lanes or pins, settings) becomes a top port ``lvds_<port>``; the
+    frame kind the lanes' row headers carry travels with the beats to a later block's
+    ``frame_kind`` (the CDS stage keeping the reset frame in DDR)."""
     from amaranth.lib import wiring
     from tdicam.hdl.chain_top import SourceStage
     from tdicam.blocks import get
     comp = _top(**get("lvds").resolve(step.params))
     ins = tuple(name for name, mem in comp.signature.members.items()
                 if mem.flow == wiring.In)
-    return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True)
+    return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True,
+                       carries=("frame_kind",))
 
 
 def _front_system(step, ctx):

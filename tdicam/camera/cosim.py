@@ -94,8 +94,11 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
             if not agree:
                 raise TdicamError("[run.rtl]: the golden chain and the scene simulator's "
                                   "output differ")
+        lv = scene.sensor.lvds
+        front = None if lv is None else {
+            "lanes": lanes_of(lv, p.lanes), "word_ns": 1e3 * lv.word_bits / lv.bit_rate_mbps}
         rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
-                           wave_dir=out_dir)
+                         wave_dir=out_dir, front=front)
     except TdicamError as exc:
         out["blocks"].append({"block": "pipeline", "status": f"error: {exc}"})
         return out
@@ -113,6 +116,21 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     return out
 
 
+
+
+def lanes_of(lv, gains):
+    """The lanes of a scene's ``[sensor.lvds]`` for a co-simulation: the scene's eyes and
+    jitter when it simulates the link, else ideal lanes."""
+    from tdicam.model import lvds_front as front_model
+    if lv.simulate:
+        return front_model.scene_lanes(lv, gains)
+    return ideal_lanes(lv.lanes_per_gain * gains)
+
+
+def ideal_lanes(n):
+    """``n`` lanes with a wide-open eye (20 taps centred on tap 16), no jitter."""
+    from tdicam.model import lvds_front as front_model
+    return [front_model.eye_lane(16, 20, seed=i) for i in range(n)]
 
 
 def status_ports(axis_top):
@@ -201,7 +219,7 @@ def _hexcol(raw, digits):
 
 
 def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
-              keep=False):
+              keep=False, front=None):
     """Build (cached) and run the top on the scene data in fast mode.
 
     Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
@@ -211,6 +229,10 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     ``input_beats``.
 
     ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
+
+    A top whose input is the sensor's lanes (a ``[sensor.lvds]`` scene) runs from the lanes
+    (:func:`_run_lanes`; ``front``: its ``lanes`` and ``word_ns``); ``idle`` and
+    ``backpressure`` do not apply (the sensor sets the pace).
     """
     from tdicam import cosim
     from tdicam.camera import design as pl
@@ -219,10 +241,11 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     t0 = time.perf_counter()
     ax = pl.top(p, data, taps=taps, board=True)
     if "s_axis_tdata" not in ax.signature.members:
-        ax._MustUse__silence = True
-        raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): this "
-                          "co-simulation drives pixel beats; the front end's lane "
-                          "co-simulation is tdicam.cosim.lvds_front")
+        if wave is not None:
+            ax._MustUse__silence = True
+            raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
+                              "waveform re-run of a lane co-simulation")
+        return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")
     tb = _testbench(ax, tap_shapes, wave=wave is not None)
@@ -255,15 +278,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    c0 = os.times()
-    ok, wall = cosim.run_cocotb(bdir, sim, "stream_tb", rundir, plus,
-                                waves=wave is not None)
-    c1 = os.times()
-    summary = rundir / "summary.json"
-    if not ok or not summary.exists():
-        raise TdicamError(f"{sim} simulation of the pipeline failed; see "
-                          f"{rundir / 'sim.log'}")
-    info = json.loads(summary.read_text())
+    info, wall, cpu = _run_tb(bdir, sim, "stream_tb", rundir, plus, "summary.json",
+                              "the pipeline", waves=wave is not None)
     st = rundir / "status.txt"
     info["status"] = {} if not st.exists() else {
         ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
@@ -274,10 +290,112 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
                                       elem_padded_bits=-(-b // 8) * 8, count=c),
                   _hexcol((rundir / f"tap{k}.cyc").read_bytes(), 8))
     info.update({"build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
-                 "run_cpu_seconds": (c1.children_user + c1.children_system)
-                 - (c0.children_user + c0.children_system),
+                 "run_cpu_seconds": cpu,
                  "rundir": str(rundir), "input_beats": n_in, "build_dir": str(bdir)})
     if not keep and wave is None:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return got, info
+
+
+def _run_tb(bdir, sim, module, rundir, plus, result, what, **kw):
+    """Run cocotb testbench ``module`` on a build; (its ``result`` JSON file, wall seconds,
+    the simulator process's CPU seconds); a one-line error naming ``what`` when it failed."""
+    from tdicam import cosim
+    c0 = os.times()
+    ok, wall = cosim.run_cocotb(bdir, sim, module, rundir, plus, **kw)
+    c1 = os.times()
+    f = rundir / result
+    if not ok or not f.exists():
+        raise TdicamError(f"{sim} simulation of {what} failed; see {rundir / 'sim.log'}")
+    cpu = (c1.children_user + c1.children_system) - (c0.children_user + c0.children_system)
+    return json.loads(f.read_text()), wall, cpu
+
+
+#: The processing clock of a co-simulation from the lanes (ns): 100 MHz, the MIG's clock of
+#: Ning et al. 2019's camera.
+PROC_NS = 10.0
+
+
+def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
+    """:func:`run_top` of a top whose input is the sensor's lanes: the sensor's frames
+    (reset frames before their signal frames when the chain keeps them) sent on the lanes
+    after its training (:func:`tdicam.cosim.lvds_front.plan_case`), the first frame after
+    the top's start-up bound (the calibration load), the word clock at ``front["word_ns"]``
+    (default 40 ns: 300 Mbit/s of 12-bit words), the processing clock at :data:`PROC_NS`;
+    ``front["lanes"]``: the lanes (default ideal eyes). ``info["startup"]``: the word clock
+    at which the lanes had trained, each holding stage's ready port came up, and frames
+    were released."""
+    import math
+    from tdicam import blocks, cosim
+    from tdicam.camera import design as pl
+    from tdicam.cosim import codec
+    from tdicam.cosim.lvds_front import plan_case, raw_table
+    from tdicam.hw.verilog import convert
+    from tdicam.model import lvds as link_model
+    word_ns = float(front.get("word_ns", 40.0))
+    step = p.steps[0]
+    n = step.params["lanes"]
+    lanes = front.get("lanes") or ideal_lanes(n)
+    prm = blocks.get("lvds").resolve(step.params)
+    tw = link_model.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
+    lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
+    case = plan_case(p, data, lanes, word_ns=word_ns, proc_ns=PROC_NS,
+                     n_check=step.ports["n_check"], lead=lead, tail=40)
+    tap_shapes = ax.core.tap_shapes if taps else []
+    values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+    settings = {name: int(values[name]) for name, mem in ax.signature.members.items()
+                if mem.flow.name == "In" and name not in ("lvds_lane_raw", "lvds_retrain")
+                and not name.startswith("m_axis_")}
+    ready = [f"{st.name}_{st.ready}" + (f"_{k}" if k else "")
+             for st, nl in ax.core.core._holds() for k in range(nl)] \
+        if hasattr(ax.core, "core") else []
+    dut = convert(ax, "pipeline")
+    elab = time.perf_counter() - t0
+    key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps], "taps": taps,
+           "lanes": True}
+    bdir, build_s = cosim.build_sources("pipeline-lanes", key, sim, {"pipeline.v": dut},
+                                        top="pipeline")
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    np.save(rundir / "raw.npy", raw_table(case.link, case.cycles).astype(np.int32))
+    n_out = int(np.prod(pl.output_shape(p))) // p.ppc
+    job = {"word_ps": int(word_ns * 1000), "proc_ps": int(PROC_NS * 1000),
+           "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
+           "n_out": n_out, "drain": 2000,
+           "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
+           "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
+           "ready": ready, "status": [name for name, _ in status_ports(ax)]}
+    (rundir / "job.json").write_text(json.dumps(job))
+    res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
+                             "the pipeline from the lanes", top="pipeline")
+    from tdicam.beats import Beats
+
+    def beats(rows, bits, count, stride):
+        mask = (1 << bits) - 1
+        data_ = [[(int(d) >> (e * stride)) & mask for e in range(count)] for _, _, d, _ in rows]
+        return Beats(np.asarray(data_, np.uint64).reshape(len(rows), count),
+                     [r[0] for r in rows], [r[1] for r in rows]), \
+            np.asarray([r[3] for r in rows], np.int64)
+    ob, oc, opad, _ = ax._out
+    got = {"out": beats(res["beats"], ob, oc, opad)[0]}
+    listed = []
+    for k, (name, b, c) in enumerate(tap_shapes):
+        bt, cyc = beats(res["taps"][k], b, c, b)
+        if k == 0 and p.lanes > 1:
+            # the front's tap carries every channel (pixel-major); the golden chain has
+            # one array a channel
+            listed += [(Beats(bt.data[:, j::p.lanes], bt.first, bt.last), cyc)
+                       for j in range(p.lanes)]
+        else:
+            listed.append((bt, cyc))
+    got.update(enumerate(listed))
+    info = {"cycles": res["cycles"], "timeout": res["timeout"], "status": res["status"],
+            "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": PROC_NS,
+                        "first_frame_sent": case.segment_starts[0]},
+            "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
+            "run_cpu_seconds": cpu, "rundir": str(rundir),
+            "input_beats": 0, "build_dir": str(bdir)}
+    if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
     return got, info
 
@@ -315,7 +433,7 @@ def _first_diff(got, exp):
 
 
 def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
-               idle=0.0, backpressure=0.0):
+               idle=0.0, backpressure=0.0, front=None):
     """Run ``data`` through the generated top and compare every tap with the golden chain.
 
     Parameters
@@ -345,7 +463,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     gold = pl.golden(p, data) if gold is None else [list(g) for g in gold]
     if corrupt is not None:
         corrupt(gold)
-    got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure)
+    got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure,
+                        front=front)
     rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
            "input_pixels": int(sum(a.size for lane in data.lane_arrays(p) for a in lane)),
            "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
@@ -353,6 +472,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
            "taps": []}
     if info.get("status"):
         rep["status_outputs"] = info["status"]
+    if info.get("startup"):
+        rep["startup"] = info["startup"]
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
     ppc = p.ppc
@@ -383,7 +504,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
                           f"frame {first['frame']}, line {first['line']}, column "
                           f"{first['column']}: expected {first['expected']}, received "
                           f"{first['received']} (cycle {first['cycle']})")
-        if wave_dir is not None:
+        if wave_dir is not None and front is None:
             rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
                                         backpressure)
             rep["message"] += f"; waveform {rep['waveform']}"

@@ -180,18 +180,19 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                 registry.get(name).resolve(step.params)
             except TdicamError as exc:
                 raise TdicamError(f"pipeline: {name} (the chain's source): {exc}") from None
-            if uses and uses[0].elems != 1:
-                raise TdicamError(f"pipeline: {names[0]} takes {uses[0].elems} elements a "
+            # the block as placed (cds keeping its reset frame in DDR is cds_ddr)
+            head = _use(steps[0].block) if steps else None
+            if head is not None and head.elems != 1:
+                raise TdicamError(f"pipeline: {steps[0].block} takes {head.elems} elements a "
                                   f"pixel; the sensor's front end ({name}) gives one")
             steps.insert(0, step)
             sourced = True
     if phy not in (None, "none") and not sourced:
         raise TdicamError(f"pipeline: --phy = {phy} needs the sensor's lanes in the chain "
                           f"(a [sensor.lvds] section in the scene)")
+    # a first block taking the reset frames in the stream gets them from the lanes too:
+    # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
-    if sourced and first is not None and first.reset_frames:
-        raise TdicamError(f"pipeline: {steps[1].block} takes the reset frames in the stream; "
-                          f"the sensor's front end ({steps[0].block}) gives signal frames only")
     return Plan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,

@@ -23,8 +23,8 @@ from tdicam.model import lvds as model
 from tdicam.model import lvds_front as front
 
 __all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of",
-           "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames",
-           "scenario_lanes", "scenario", "check", "run_cocotb"]
+           "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
+           "scenario_lanes", "scenario", "check", "run_cocotb", "plan_case"]
 
 
 @dataclass
@@ -35,7 +35,11 @@ class FrontCase:
     :class:`tdicam.model.lvds.Lane` per lane (high-gain lanes first); ``segments``: frames
     per data segment (each ends with a blank line; a training segment before each, the
     retrain request at its first word); ``word_ns``/``proc_ns``: the two clock
-    periods; ``ready``: probability that the processing side takes a beat.
+    periods; ``ready``: probability that the processing side takes a beat; ``kinds``: each
+    frame's kind (1 a reset frame, 0 a signal frame; None: signal frames), sent in its row
+    headers; ``lead``: word clocks of training past the receiver's training time before the
+    first frame (a camera whose start-up holds frames longer, e.g. the calibration load,
+    starts the sensor later).
     """
 
     frames: list
@@ -52,6 +56,8 @@ class FrontCase:
     ready: float = 1.0
     seed: int = 1
     tail: int = 200
+    kinds: tuple | None = None
+    lead: int = 40
     retrains: tuple = field(default=(), init=False)
     link: object = field(default=None, init=False)
     cycles: int = field(default=0, init=False)
@@ -65,7 +71,7 @@ class FrontCase:
         segs = self.segments or (nf,)
         if sum(segs) != nf:
             raise ValueError("segments must add up to the frames")
-        sched, k, retrains, parts, f0 = [], tw + 40, [], [], 0
+        sched, k, retrains, parts, f0 = [], tw + self.lead, [], [], 0
         for i, f in enumerate(segs):
             if i:
                 retrains.append(k)
@@ -77,7 +83,7 @@ class FrontCase:
             f0 += f
         self.retrains = tuple(retrains)
         self.link = model.Link(self.lanes, word_bits=w, line_words=lw, schedule=tuple(sched),
-                               payload=front.segment_payload(parts, L, w))
+                               payload=front.segment_payload(parts, L, w, self.kinds))
         self.cycles = k + self.tail
         self.segment_starts = [s for s, mode in sched if mode == "data"]
 
@@ -166,7 +172,8 @@ class WordDriver:
 def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=None):
     """Run ``case`` on :class:`~tdicam.hdl.lvds_front.LvdsFront` in Amaranth's simulator.
 
-    Returns a dict: ``beats`` (first, last, elements) in order, ``status`` (the word-domain
+    Returns a dict: ``beats`` (first, last, elements) in order, ``kinds`` (``frame_kind`` at
+    every ``first`` beat), ``status`` (the word-domain
     status ports at the end), ``frame_status`` (``frame_invalid`` at every ``frames_out``
     step, in order), ``events`` (cycle, lane, locked, error) lane status changes.
     ``hook(ctx, dut, k)``, when given, runs every word clock (fault injection).
@@ -189,8 +196,9 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
 
     def port(name):
         return getattr(dut, prefix + name)
+    kind_port = getattr(dut, "frame_kind", None)
     raw = raw_table(case.link, case.cycles)
-    res = {"beats": [], "frame_status": [], "events": [], "status": {}}
+    res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
     done = [False]
 
     async def word_side(ctx):
@@ -226,6 +234,8 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
                 elems = [int(d[i]) for i in range(n_out)] if n_out > 1 else [int(d)]
                 res["beats"].append((ctx.get(o.payload.first), ctx.get(o.payload.last),
                                      elems))
+                if ctx.get(o.payload.first) and kind_port is not None:
+                    res["kinds"].append(ctx.get(kind_port))
             await ctx.tick()
 
     sim = Simulator(dut)
@@ -268,11 +278,19 @@ def scenario_lanes(spec=GOOD_LANES, over=None):
             for i, (c, w, d) in enumerate(spec)]
 
 
+def cds_kinds(nf):
+    """The kinds of ``nf`` frames of a sensor read for CDS: a reset frame (1) before each
+    signal frame (0)."""
+    return tuple(int(f % 2 == 0) for f in range(nf))
+
+
 def scenario(name, *, ppc=2):
     """The :class:`FrontCase` of scenario ``name`` (:data:`SCENARIOS`); at ``ppc`` other
-    than 2 the word clock period scales by ``2 / ppc`` (the same rate ratio ``r``)."""
+    than 2 the word clock period scales by ``2 / ppc`` (the same rate ratio ``r``). The
+    sensor sends reset and signal frames in turn (:func:`cds_kinds`)."""
     word_ns, proc_ns, ready = CLOCKS[name]
     kw = dict(ppc=ppc, word_ns=word_ns * 2 / ppc, proc_ns=proc_ns, ready=ready)
+    kw["kinds"] = cds_kinds(8 if name == "lane_dies" else 5 if name.startswith("cdc") else 4)
     L = GEOMETRY["lanes_per_gain"]
     if name.startswith("cdc"):
         return FrontCase(scenario_frames(5, 3), scenario_lanes(), L, **kw)
@@ -291,10 +309,19 @@ def scenario(name, *, ppc=2):
     return FrontCase(frames, lanes, L, segments=(5, 3), **kw)
 
 
+def _kinds_problems(res, want):
+    """The frames' kinds as the run saw them (``frame_kind`` at each first beat) against
+    ``want``."""
+    got = [int(k) for k in res["kinds"]]
+    return [] if got == [int(k) for k in want] else [f"frame kinds: got {got}, expected "
+                                                     f"{[int(k) for k in want]}"]
+
+
 def check(name, case, res):
     """Problems (strings; none = pass) of a run of scenario ``name`` against the golden
     model: the released frames bit for bit, the frame status, the counters.
 
+    * every scenario: each frame's kind (reset or signal) as its headers say;
     * ``cdc_*``: every frame out exactly, nothing dropped, no overflow;
     * ``narrow_eye``: lane 5 reported (error), every frame's status says lane 5, the frames
       equal the golden front on the lanes' words
@@ -328,8 +355,10 @@ def check(name, case, res):
 
     def expected(bad):      # the golden front on the lanes' words
         return front.frames_from_lanes(lane_words, L, R, case.word_bits, bad)[0]
+    kinds = front.frames_from_lanes(lane_words, L, R, case.word_bits)[2]
     if name.startswith("cdc"):
         same("frames", got, expected([]))
+        out += _kinds_problems(res, kinds)
         counters(nf, 0, 0, 0, 0, 0)
         same("frame status", res["frame_status"], [0] * nf)
     elif name == "narrow_eye":
@@ -338,11 +367,13 @@ def check(name, case, res):
         same("lane_error", st["lane_error"], 1 << NARROW_LANE)
         same("frame status", res["frame_status"], [1 << NARROW_LANE] * nf)
         same("frames", got, expected([NARROW_LANE]))
+        out += _kinds_problems(res, kinds)
         counters(nf, 0, nf, 1, 0, 0)
     else:
         full = (1 << n) - 1
         dead = 1 << DYING_LANE
         same("frame status", res["frame_status"], [0, 0, full, dead, dead, dead])
+        out += _kinds_problems(res, kinds[[0, 1, 2, 5, 6, 7]])
         counters(6, 2, 4, 2, 0, 0)
         if not any(ev[1] == DYING_LANE and ev[3] == 1 and ev[0] < case.retrains[0]
                    for ev in res["events"]):
@@ -402,3 +433,19 @@ def run_cocotb(names, sim, *, ppc=2, keep=False):
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
     return cases, results, wall, build_s
+
+
+def plan_case(p, data, lanes, **kw):
+    """The :class:`FrontCase` of a pipeline plan ``p`` whose source is the front (a scene
+    with ``[sensor.lvds]``) on scene data ``data``: each channel's frames as the chain takes
+    them (:meth:`tdicam.blocks.steps.SceneData.lane_arrays`: with a first block that keeps
+    the reset frames, each reset frame before its signal frame, their kinds in the row
+    headers, :func:`cds_kinds`), the front's geometry and settle from its step, ``lanes``
+    (one :class:`tdicam.model.lvds.Lane` per lane); ``kw``: the other :class:`FrontCase`
+    fields (clocks, ``lead``, ``n_check``, ...)."""
+    from tdicam import blocks
+    prm = blocks.get("lvds").resolve(p.steps[0].params)
+    frames = [lane[0] for lane in data.lane_arrays(p)]
+    kinds = cds_kinds(len(frames[0])) if p.reset_frames else None
+    return FrontCase(frames, lanes, prm["lanes_per_gain"], word_bits=prm["word_bits"],
+                     bits=prm["bits"], ppc=p.ppc, settle=prm["settle"], kinds=kinds, **kw)

@@ -6,7 +6,7 @@ resets both domains, starts the two clocks at the scenario's periods and runs tw
 the word side serves each lane's raw word from the scenario's table (``raw_<k>.npy``:
 ``[lane, tap, cycle]``) for the tap the DUT loaded two word clocks earlier, pulses
 ``retrain`` and logs lane status changes and frame status; the processing side takes beats
-with the scenario's ``ready`` probability. Results go to ``result_<k>.json``.
+with the scenario's ``ready`` probability and logs ``frame_kind`` at each frame's first. Results go to ``result_<k>.json``.
 """
 
 import json
@@ -25,21 +25,19 @@ def _get(sig):
     return int(sig.value)
 
 
-async def _scenario(dut, job, k):
-    sc = job["scenarios"][k]
-    raw = np.load(f"raw_{k}.npy")
-    w, cycles = sc["word_bits"], sc["cycles"]
-    res = {"beats": [], "frame_status": [], "events": [], "status": {}}
-    wclk = Clock(dut.word_clk, sc["word_ps"], unit="ps")
-    pclk = Clock(dut.clk, sc["proc_ps"], unit="ps")
+async def start(dut, word_ps, proc_ps, settings, zero):
+    """Start the word and processing clocks, hold both domains' resets for 4 word clocks
+    with the ports ``zero`` at 0 and the run-time ``settings`` ({port: value}) set, release
+    them (processing first); returns the two clocks."""
+    wclk = Clock(dut.word_clk, word_ps, unit="ps")
+    pclk = Clock(dut.clk, proc_ps, unit="ps")
     wclk.start()
     pclk.start()
     dut.rst.value = 1
     dut.word_rst.value = 1
-    dut.lane_raw.value = 0
-    dut.retrain.value = 0
-    dut.o_stream__ready.value = 0
-    for name, v in sc["settings"].items():
+    for sig in zero:
+        sig.value = 0
+    for name, v in settings.items():
         getattr(dut, name).value = v
     for _ in range(4):
         await FallingEdge(dut.word_clk)
@@ -47,6 +45,16 @@ async def _scenario(dut, job, k):
     dut.rst.value = 0
     await FallingEdge(dut.word_clk)
     dut.word_rst.value = 0
+    return wclk, pclk
+
+
+async def _scenario(dut, job, k):
+    sc = job["scenarios"][k]
+    raw = np.load(f"raw_{k}.npy")
+    w, cycles = sc["word_bits"], sc["cycles"]
+    res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
+    wclk, pclk = await start(dut, sc["word_ps"], sc["proc_ps"], sc["settings"],
+                             (dut.lane_raw, dut.retrain, dut.o_stream__ready))
     done = [False]
     bits, n_out = sc["bits"], sc["elems"]
     emask = (1 << bits) - 1
@@ -61,6 +69,8 @@ async def _scenario(dut, job, k):
                 res["beats"].append([(pay >> (n_out * bits)) & 1,
                                      (pay >> (n_out * bits + 1)) & 1,
                                      [(pay >> (i * bits)) & emask for i in range(n_out)]])
+                if (pay >> (n_out * bits)) & 1:
+                    res["kinds"].append(_get(dut.frame_kind))
             dut.o_stream__ready.value = rdy
 
     proc = cocotb.start_soon(proc_side())

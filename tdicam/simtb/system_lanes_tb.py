@@ -1,0 +1,88 @@
+"""cocotb side of a pipeline co-simulation from the sensor's lanes (see
+:func:`tdicam.camera.cosim.run_top` with a ``[sensor.lvds]`` scene).
+
+The DUT is the generated pipeline top whose input is the front's lanes (``lvds_lane_raw``,
+the word clock ``word_clk``) with the simulation models of its external parts beside it.
+The testbench resets both domains, sets the run-time ports of ``job.json`` (``settings``),
+and runs two coroutines: the word side serves each lane's raw word from ``raw.npy``
+(``[lane, tap, cycle]``, :class:`tdicam.cosim.lvds_front.WordDriver`) and notes the word
+clock at which the lanes have trained, the calibration is loaded and frames are released;
+the processing side takes every output beat and every tap's beats with the processing
+cycle. It stops ``drain`` processing clocks after the last expected output beat (or at
+``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the
+end of the sensor's words, the other status outputs at the end).
+"""
+
+import json
+from pathlib import Path
+
+import cocotb
+import numpy as np
+from cocotb.triggers import FallingEdge, Timer
+
+from tdicam.cosim.lvds_front import WordDriver
+from tdicam.simtb.lvds_front_tb import start
+
+
+def _get(sig):
+    return int(sig.value)
+
+
+@cocotb.test()
+async def run_job(dut):
+    job = json.loads(Path("job.json").read_text())
+    raw = np.load("raw.npy")
+    res = {"beats": [], "taps": [[] for _ in job["taps"]], "frame_status": [],
+           "events": [], "status": {}, "startup": {}}
+    wclk, pclk = await start(dut, job["word_ps"], job["proc_ps"], job["settings"],
+                             (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready))
+    done = [False]
+    taps = [[getattr(dut, f"{base}_{s}") for s in ("valid", "ready", "first", "last", "data")]
+            for base in job["taps"]]
+
+    async def proc_side():
+        cyc = 0
+        dut.m_axis_tready.value = 1
+        while True:
+            await FallingEdge(dut.clk)
+            cyc += 1
+            if _get(dut.m_axis_tvalid):
+                res["beats"].append([_get(dut.m_axis_tuser), _get(dut.m_axis_tlast),
+                                     str(_get(dut.m_axis_tdata)), cyc])
+            for k, (v, r, f, la, d) in enumerate(taps):
+                if _get(v) and _get(r):
+                    res["taps"][k].append([_get(f), _get(la), str(_get(d)), cyc])
+            if len(res["beats"]) >= job["n_out"] and not done[0]:
+                done[0] = True
+                res["cycles"] = cyc                 # the last expected output beat
+            if (done[0] and cyc >= res.get("cycles", cyc) + job["drain"]) \
+                    or cyc >= job["max_cycles"]:
+                res.setdefault("cycles", cyc)
+                res["timeout"] = not done[0]
+                return
+
+    proc = cocotb.start_soon(proc_side())
+    drv = WordDriver(raw, job["word_bits"], (), res)
+    watch = {"lanes_trained": "lvds_trained", "frames_released": "lvds_releasing"}
+    for name in job["ready"]:
+        watch[f"{name}_done"] = name
+    for kk in range(job["word_cycles"]):
+        dut.lvds_lane_raw.value, dut.lvds_retrain.value = drv.inputs(kk)
+        drv.observe(kk, *(_get(getattr(dut, "lvds_" + x)) for x in (
+            "lane_ld", "lane_tap", "lane_locked", "lane_error", "frames_out")),
+            lambda: _get(dut.lvds_frame_invalid))
+        for key, port in watch.items():
+            if key not in res["startup"] and _get(getattr(dut, port)):
+                res["startup"][key] = kk
+        await FallingEdge(dut.word_clk)
+    # the front's status at the end of the sensor's words (past them the lanes stand still
+    # and lose their lock); the others once the output has drained
+    lanes = {name: _get(getattr(dut, name)) for name in job["status"]
+             if name.startswith("lvds_")}
+    await proc
+    for name in job["status"]:
+        res["status"][name] = lanes.get(name, _get(getattr(dut, name)))
+    wclk.stop()
+    pclk.stop()
+    await Timer(1, unit="ns")
+    Path("result.json").write_text(json.dumps(res))
