@@ -239,12 +239,11 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     from tdicam.cosim import codec, tbgen
     from tdicam.hw.verilog import convert
     t0 = time.perf_counter()
+    if pl.sourced(p) and wave is not None:
+        raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
+                          "waveform re-run of a lane co-simulation")
     ax = pl.top(p, data, taps=taps, board=True)
-    if "s_axis_tdata" not in ax.signature.members:
-        if wave is not None:
-            ax._MustUse__silence = True
-            raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
-                              "waveform re-run of a lane co-simulation")
+    if pl.sourced(p):
         return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")

@@ -26,7 +26,7 @@ from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "PipelineBlock", "check_options",
-           "ECP5_85F", "PPC_CHOICES", "scene_ppc"]
+           "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced"]
 
 
 # --------------------------------------------------------------------------------------
@@ -238,6 +238,12 @@ def identity_data(p):
         if ident is not None:
             fields.update({k: [v] * p.lanes for k, v in ident(st, (p.rows, p.width)).items()})
     return SceneData([], **fields)
+
+
+def sourced(p):
+    """Whether plan ``p``'s chain starts at a source block (the sensor's front end): its top
+    then takes the sensor's lanes, not pixel beats (no ``s_axis_*`` ports)."""
+    return bool(p.steps) and _use(p.steps[0].block).source is not None
 
 
 def top(p, data=None, *, taps=False, ecp5=False, board=False):

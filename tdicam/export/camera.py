@@ -47,6 +47,10 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     pl.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
     spill = MEMORY[memory]
     p = pl.plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill, ppc=ppc)
+    if pl.sourced(p):
+        raise TdicamError(f"{Path(scene_path).name}: the chain's input is the sensor's lanes "
+                          f"([sensor.lvds]); the export drives pixel beats (the front end's "
+                          f"lane co-simulation is tdicam.cosim.lvds_front)")
     beats = p.frames * p.rows * p.width // p.ppc
     if beats > MAX_BEATS:
         raise TdicamError(f"the pipeline of {Path(scene_path).name} takes {beats} input beats "
@@ -57,11 +61,6 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
     data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
     top = pl.top(p, data, board=True)      # with the external parts' models, if any
-    if "s_axis_tdata" not in top.signature.members:     # a source block (the LVDS front) first
-        top._MustUse__silence = True
-        raise TdicamError(f"{Path(scene_path).name}: the chain's input is the sensor's lanes "
-                          f"([sensor.lvds]); the export drives pixel beats (the front end's "
-                          f"lane co-simulation is tdicam.cosim.lvds_front)")
     stim = pl.stimulus(p, data, top)
     exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=p.ppc)
     name = Path(scene_path).name
