@@ -280,9 +280,9 @@ BAD_INPUT = [
       "-o", "{d}/camera.v"], "--lines = -1 is out of range; valid: 1..", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--device", "nosuch",
       "-o", "{d}/camera.v"], "--device = 'nosuch' is not known", 2),
-    # an export too large for its beat limit and no streamed case (tdi_ddr): refused at
-    # once, with its size (tdi itself streams: tests/test_export.py)
-    (["export", "tdi_ddr", "--width", "8192", "--stages", "128", "-o", "{d}/exp_big"],
+    # an export too large for its beat limit and no streamed case (cds_ddr): refused at
+    # once, with its size (tdi and tdi_ddr stream instead: tests/test_export.py)
+    (["export", "cds_ddr", "--width", "8192", "--rows", "128", "-o", "{d}/exp_big"],
      "one frame is 1,048,576 input beats, over the export limit of 400,000", 2),
     # sweeps: a key fixed and swept, a product too large to hold, where to go instead
     (["sweep", "{d}/sw_dup.toml", "-o", "{d}/sw_dup_out"], "[set] tdi.stages: also in [axes]; "
