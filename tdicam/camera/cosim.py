@@ -153,15 +153,17 @@ def system_figures(p, rep):
                 "cycles": rep["cycles"], "rows": p.rows, "width": p.width})]
 
 
-def _testbench(axis_top, taps, *, wave):
+def _testbench(axis_top, taps, *, wave, standalone):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
     file's format) and its cycle to ``tap<k>.cyc``, and every status output's value at the
     end of the run to ``status.txt`` (``name value`` lines, decimal); with ``wave`` tbgen's
-    waveform window (``wave.fst`` of cycles ``+wave_from .. +wave_to``)."""
+    waveform window (``wave.fst`` of cycles ``+wave_from .. +wave_to``); ``standalone``:
+    tbgen's standalone form (clock from the C++ loop, no cocotb)."""
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
-                                ctrl_ports=ctrl, wave=wave, per_beat=False)
+                                ctrl_ports=ctrl, wave=wave, per_beat=False,
+                                standalone=standalone)
     decl, conn, opens, writes, closes = [], [], [], [], []
     status = status_ports(axis_top)
     if status:
@@ -247,13 +249,16 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
         return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")
-    tb = _testbench(ax, tap_shapes, wave=wave is not None)
+    # Verilator: the standalone testbench (no cocotb, no timing scheduler; ~2x the cycles
+    # per second); Icarus (and its waveform re-run): cocotb starts the engine
+    standalone = sim == "verilator" and wave is None
+    tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone)
     key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
-           "taps": taps, "wave": wave is not None}
+           "taps": taps, "wave": wave is not None, "standalone": standalone}
     elab = time.perf_counter() - t0
     bdir, build_s = cosim.build_sources("pipeline", key, sim,
                                         {"pipeline.v": dut, "tb.v": tb},
-                                        public=tbgen.FAST_PUBLIC)
+                                        standalone=standalone)
     stim = pl.stimulus(p, data, ax)
     _, _, ctrl = cosim.stream_ports(ax)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
@@ -277,8 +282,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
             f"+seed={int(seed) & 0x7fffffff}"]
     if wave is not None:
         plus += [f"+wave_from={int(wave[0])}", f"+wave_to={int(wave[1])}"]
-    info, wall, cpu = _run_tb(bdir, sim, "stream_tb", rundir, plus, "summary.json",
-                              "the pipeline", waves=wave is not None)
+    info, wall, cpu = _run_tb(bdir, sim, None if standalone else "stream_tb", rundir, plus,
+                              "summary.json", "the pipeline", waves=wave is not None)
     st = rundir / "status.txt"
     info["status"] = {} if not st.exists() else {
         ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
@@ -297,11 +302,13 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
 
 
 def _run_tb(bdir, sim, module, rundir, plus, result, what, **kw):
-    """Run cocotb testbench ``module`` on a build; (its ``result`` JSON file, wall seconds,
-    the simulator process's CPU seconds); a one-line error naming ``what`` when it failed."""
+    """Run cocotb testbench ``module`` on a build (None: the standalone build,
+    :func:`tdicam.cosim.run_standalone`); (its ``result`` JSON file, wall seconds, the
+    simulator process's CPU seconds); a one-line error naming ``what`` when it failed."""
     from tdicam import cosim
     c0 = os.times()
-    ok, wall = cosim.run_cocotb(bdir, sim, module, rundir, plus, **kw)
+    ok, wall = (cosim.run_standalone(bdir, rundir, plus) if module is None
+                else cosim.run_cocotb(bdir, sim, module, rundir, plus, **kw))
     c1 = os.times()
     f = rundir / result
     if not ok or not f.exists():

@@ -22,7 +22,7 @@ everything below; imported by the camera, the services and the commands.
 
 from tdicam.hw.tools import SIMULATORS, tool_env
 from tdicam.cosim.build import (BUILD_NOTICE_S, BUILD_ROOT, WAVE_DIR, build_dir_for,
-                                build_sources, check_build_root, run_cocotb)
+                                build_sources, check_build_root, run_cocotb, run_standalone)
 from tdicam.cosim.compare import Comparison, compare, locate
 from tdicam.cosim.stream import MODES, SimResult, run_stream, stream_ports
 from tdicam.cosim.run import (AMARANTH, WAVE_WINDOW, CaseRun, keep_wave, run_beats, run_case,
@@ -32,4 +32,4 @@ __all__ = ["SIMULATORS", "MODES", "BUILD_ROOT", "BUILD_NOTICE_S", "AMARANTH", "W
            "keep_wave", "SimResult", "Comparison", "CaseRun", "run_stream", "compare", "locate",
            "run_beats", "waveform", "run_case", "run_scene", "run_golden_case",
            "build_dir_for", "check_build_root", "tool_env", "stream_ports", "build_sources",
-           "run_cocotb"]
+           "run_cocotb", "run_standalone"]

@@ -29,8 +29,7 @@ from dataclasses import dataclass
 from tdicam.cosim.pauses import SEED_MAX, XOR_R, ZERO_SEED_STATE
 from tdicam.cosim import codec
 
-__all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH",
-           "FAST_PUBLIC"]
+__all__ = ["stream_testbench", "stimulus_files", "SelfCheck", "TB_TOP", "RST_CYCLES", "DEPTH"]
 
 TB_TOP = "tdicam_tb"
 RST_CYCLES = 3
@@ -129,18 +128,61 @@ def _selfcheck_text(sc):
 """
 
 
+_HDL_CLOCK = """\
+  reg clk = 1'b0;
+  always #5 clk = ~clk;
+"""
+
+#: A standalone testbench (clock from the C++ loop; ``start`` is 1 from time 0): at done the
+#: summary cocotb's ``stream_tb`` would write, then ``$finish``.
+_STANDALONE_TEXT = """\
+  // ---- standalone run: the summary, then the end
+  integer fd_sum;
+  always @(posedge clk) begin
+    if (done) begin
+      fd_sum = $fopen("summary.json", "w");
+      $fwrite(fd_sum, "{\\"cycles\\": %0d, \\"accepted\\": %0d, \\"timeout\\": %0d}\\n",
+              cycles, in_idx, timeout);
+      $fclose(fd_sum);
+      $finish;
+    end
+  end
+"""
+
+#: C++ (Verilator ``$c``) of a standalone build's stimulus read: what ``$fread(mem, fd)``
+#: does (records of ``@SB@`` bytes, most significant first, into at most ``@DEPTH@`` elements;
+#: the bytes read) in one ``fread`` instead of Verilator's ``fgetc`` a byte (~70
+#: instructions a byte: 17 % of a ppc-8 pipeline run).
+_BULK_READ = (
+    "[](IData fdi, auto& m) -> IData { FILE* const fp = VL_CVT_I_FP(fdi); if (!fp) return 0; "
+    "constexpr size_t SB = @SB@, DEPTH = @DEPTH@; "
+    "static std::vector<unsigned char> buf(SB * DEPTH); "
+    "const size_t n = std::fread(buf.data(), 1, buf.size(), fp); "
+    "for (size_t r = 0; r < n / SB; ++r) { const unsigned char* b = &buf[r * SB]; "
+    "auto& e = m[r]; using T = std::decay_t<decltype(e)>; "
+    "if constexpr (std::is_integral_v<T>) { T v = 0; "
+    "for (size_t j = 0; j < SB; ++j) v = (v << 8) | b[j]; e = v; } "
+    "else { for (size_t k = 0; k < (SB + 3) / 4; ++k) e[k] = 0; "
+    "for (size_t j = 0; j < SB; ++j) { const size_t s = (SB - 1 - j) * 8; "
+    "e[s / 32] |= static_cast<EData>(b[j]) << (s % 32); } } } "
+    "return static_cast<IData>(n); }(")
+
+
+def _fread(standalone, sb, depth):
+    """The stimulus read of ``load_chunk``: ``$fread``, or in a standalone (Verilator)
+    build the same read in one C++ ``fread`` (:data:`_BULK_READ`)."""
+    if not standalone:
+        return "$fread(mem, fd_s)"
+    code = _BULK_READ.replace("@SB@", str(sb)).replace("@DEPTH@", str(depth))
+    return f'$c32("{code}", fd_s, ", ", mem, ")")'
+
+
 _PER_BEAT_REGS = """\
   reg b_rst = 1'b1;
   reg [IW-1:0] b_tdata = 0;
   reg b_tvalid = 1'b0, b_tuser = 1'b0, b_tlast = 1'b0, b_tready = 1'b0;
   reg [CW-1:0] b_ctrl = 0;
 """
-
-#: The testbench signals the cocotb side of a fast-mode run touches, (name, written): the
-#: only public ones of a fast-mode-only build (``per_beat=False``).
-FAST_PUBLIC = (("beat_mode", True), ("start", True), ("clk", False), ("done", False),
-               ("cycles", False), ("in_idx", False), ("timeout", False))
-
 
 def _connections(per_beat):
     """The DUT's input wires: the per-beat registers or the engine (``beat_mode``), or
@@ -191,7 +233,7 @@ _WAVE_TEXT = """\
 
 
 def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None,
-                     wave=False, per_beat=True):
+                     wave=False, per_beat=True, standalone=False):
     """Verilog text of the testbench around module ``dut_name``.
 
     Parameters
@@ -211,10 +253,16 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         ``WAVES=1``). A separate build: the plain testbench dumps nothing.
     per_beat : bool
         Keep the per-beat mode (the ``b_*`` registers cocotb writes). False: fast mode
-        only, the DUT's inputs driven by the engine alone, so that no signal cocotb may
-        write reaches the DUT (with :data:`FAST_PUBLIC` as the only public signals a
-        Verilator model evaluates its combinational logic once a clock edge, not again
-        at every time step for signals written from outside).
+        only, the DUT's inputs driven by the engine alone.
+    standalone : bool
+        Fast mode with no cocotb and no timing (Verilator without ``--timing``, see
+        :func:`tdicam.cosim.build.build_sources` ``standalone``): ``clk`` is an input
+        of the testbench, toggled by a C++ loop; the engine starts at the first clock
+        edge (``start`` is 1 from time 0), and at ``done`` writes
+        ``summary.json`` (``cycles``, ``accepted`` input beats, ``timeout``: what
+        :mod:`tdicam.simtb.stream_tb` writes) and ends with ``$finish``. Needs
+        ``per_beat=False`` and no ``selfcheck``; the same stimulus, engine and output
+        files.
     """
     sc = selfcheck
     d = (dict(n_in=0, n_out=0, max_cycles=1000000, drain=1000, idle=0, bp=0, seed=1)
@@ -230,10 +278,13 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         lo -= w
         ctrl_conn.append(f"    .{name}(ctrl[{lo + w - 1}:{lo}]),")
     ctrl_conn = "\n".join(ctrl_conn)
+    if standalone and (per_beat or sc is not None):
+        raise ValueError("a standalone testbench is fast mode only (per_beat=False, no "
+                         "selfcheck)")
     return f"""\
 // Generated by tdicam: co-simulation testbench for {dut_name}. Not synthesizable.
 `timescale 1ns/1ps
-module {TB_TOP};
+module {TB_TOP}{"(input clk)" if standalone else ""};
   localparam IW = {in_bits};
   localparam OW = {out_bits};
   localparam CW = {cw};
@@ -242,9 +293,7 @@ module {TB_TOP};
   localparam DEPTH = {depth};
   localparam RST_CYCLES = {RST_CYCLES};
 
-  reg clk = 1'b0;
-  always #5 clk = ~clk;
-
+{"" if standalone else _HDL_CLOCK}
   function [7:0] digit(input [31:0] v, input [31:0] p);
     digit = 8'd48 + ((v / p) % 10);
   endfunction
@@ -262,7 +311,7 @@ module {TB_TOP};
   reg beat_mode = 1'b{int(sc is None and per_beat)};
 {_PER_BEAT_REGS if per_beat else ""}
   // ---- fast mode engine
-  reg start = 1'b0;
+  reg start = 1'b{int(standalone)};
   reg running = 1'b0;
   reg done = 1'b0;
   reg timeout = 1'b0;
@@ -290,7 +339,7 @@ module {TB_TOP};
         $display("FAIL cannot open the stimulus file %0s", fname);
         $fatal(1);
       end
-      got = $fread(mem, fd_s);
+      got = {_fread(standalone, -(-sw // 8), depth)};
       $fclose(fd_s);
       if (got != want) begin
         $display("FAIL stimulus file %0s: %0d bytes read, %0d expected", fname, got, want);
@@ -381,5 +430,5 @@ module {TB_TOP};
       end
     end
   end
-{_WAVE_TEXT.format(top=TB_TOP) if wave else ""}{"" if sc is None else _selfcheck_text(sc)}endmodule
+{_WAVE_TEXT.format(top=TB_TOP) if wave else ""}{_STANDALONE_TEXT if standalone else ""}{"" if sc is None else _selfcheck_text(sc)}endmodule
 """
