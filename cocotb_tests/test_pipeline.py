@@ -5,7 +5,8 @@ enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden 
 named with its first differing pixel, and the waveform around it is written; TDI spilled to
 DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene; the chain at 8 pixels
 per clock on Icarus and on Verilator (one build each; a corrupted pixel inside a beat is
-named by its column). With ``TDICAM_FULL=1``: the whole small scene through Verilator, the
+named by its column; the Verilator run is a standalone binary that fails without its
+stimulus). With ``TDICAM_FULL=1``: the whole small scene through Verilator, the
 chain at ppc 2 and 4 on both simulators, the DDR spill at ppc 4.
 """
 
@@ -18,7 +19,8 @@ import pytest
 
 from tdicam.camera import design as pl
 from tdicam.commands.run import run_scene
-from tdicam.camera.cosim import cosimulate, scene_data, WAVE_WINDOW
+from tdicam import cosim
+from tdicam.camera.cosim import cosimulate, run_top, scene_data, WAVE_WINDOW
 from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,6 +129,23 @@ def test_chain_at_ppc_matches(small, sim, ppc):
     assert all(t["mismatches"] == 0 and t["received"] == t["beats"] == t["pixels"] // ppc
                for t in rep["taps"]), rep["taps"]
     assert rep["taps"][-1]["beats"] == 6 * 24 // ppc
+
+
+def test_standalone_verilator_run_fails_on_a_missing_stimulus_chunk(small):
+    """The Verilator run is the standalone binary (no cocotb): it leaves the summary and
+    the output file, and without a stimulus chunk it ends with a non-zero status and the
+    FAIL line (same build as the ppc-8 Verilator run)."""
+    _, data = small
+    p = pl.plan(_scene("verilator"), ppc=8)
+    got, info = run_top(p, data, "verilator", seed=8, idle=0.2, backpressure=0.2, keep=True)
+    rundir = Path(info["rundir"])
+    assert (Path(info["build_dir"]) / "main.cpp").exists() and not info["timeout"]
+    assert info["accepted"] == info["input_beats"] and len(got["out"]) == 6 * 24 // 8
+    (rundir / "stim_000000.bin").unlink()
+    ok, _ = cosim.run_standalone(Path(info["build_dir"]), rundir,
+                                 [f"+n_in={info['input_beats']}", "+n_out=18"])
+    log = (rundir / "sim.log").read_text()
+    assert not ok and "FAIL cannot open the stimulus file stim_000000.bin" in log, log
 
 
 def test_corrupted_pixel_inside_a_wide_beat_is_named(small):

@@ -217,7 +217,7 @@ def _pipeline_stand_in(seen):
         return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,
                 "input_pixels": 1_000_000, "cycles": 1_100_000, "compared": 512,
                 "mismatches": 3 if sim == "icarus" else 0, "golden_s": 0.5, "build_s": 7.0,
-                "run_s": 1.0 if sim == "verilator" else 4.0, "cpu_s": 0.8}
+                "run_s": 1.0 if sim == "verilator" else 4.0, "cpu_s": 0.8, "load": 1.5}
     return fake
 
 
@@ -238,6 +238,7 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     assert v["accuracy"] == "bit-exact" and v["rate"] == 1e6 and "target 8,000,000 px/s " \
         "not met" in v["note"] and v["build_s"] == 7.0 and by["golden"]["rate"] == 2e6
     assert "target judged at ppc 8" in by["verilator fast ppc 1"]["note"]
+    assert "1,100,000 cycles; 1,250,000 px per simulator CPU s; load 1.5; " in v["note"]
     seen.clear()
     rows = bench.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
     assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8, 1), (benchpipe.QUICK_SCENE, "icarus",
@@ -259,7 +260,8 @@ def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
                  "clock", "each row is one run",
                  "--repeat not used", "the build is timed apart",
                  "throughput = input pixels per wall second",
-                 "input pixels per CPU second of the simulator process"):
+                 "input pixels per CPU second of the simulator process",
+                 "the 1-minute load average after the run"):
         assert part in legend, (part, legend)
     both = bench.legend(repeat=3, stalls=0.1, build="fresh", quick=True,
                         names=["cds", "pipeline"]).splitlines()

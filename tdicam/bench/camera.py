@@ -8,6 +8,7 @@ them through the golden chain and through the generated pipeline top
 ``bench/bench_pipeline.py``.
 """
 
+import os
 import time
 
 from tdicam.bench.util import row
@@ -55,8 +56,8 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
         ``cycles``, ``compared`` (output pixels), ``mismatches`` (output beats whose data or
         frame markers differ, plus any missing or extra), seconds of ``scene_s`` (exact
         scene run), ``golden_s`` (numpy chain), ``build_s`` (0 when the build was cached),
-        ``run_s`` (simulator wall time) and ``cpu_s`` (the simulator process's CPU time,
-        build excluded).
+        ``run_s`` (simulator wall time), ``cpu_s`` (the simulator process's CPU time,
+        build excluded) and ``load`` (the 1-minute load average after the run).
     """
     from tdicam.camera import design as pl
     from tdicam.beats import frames_to_beats
@@ -84,7 +85,8 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
             "input_pixels": p.input_pixels * p.lane_elems, "cycles": int(info["cycles"]),
             "compared": n * out.data.shape[1], "mismatches": bad, "scene_s": scene_s,
             "golden_s": golden_s, "build_s": info["build_seconds"],
-            "run_s": info["run_seconds"], "cpu_s": info["run_cpu_seconds"]}
+            "run_s": info["run_seconds"], "cpu_s": info["run_cpu_seconds"],
+            "load": os.getloadavg()[0]}
 
 
 def pipeline_rows(*, sims, repeat, quick, stalls, build):
@@ -125,7 +127,7 @@ def _sim_row(rows, gold, sim, ppc, quick, lines, stalls):
                     accuracy="bit-exact" if r["mismatches"] == 0
                     else f"{r['mismatches']} mismatching",
                     note=f"{r['cycles']:,} cycles; {n / max(r['cpu_s'], 1e-9):,.0f} px "
-                    f"per simulator CPU s; {target}"
+                    f"per simulator CPU s; load {r['load']:.1f}; {target}"
                     + (f" (quick scene, {r['cycles']:,} cycles: start-up dominates; "
                        "the target is for the whole orbit chain scene)" if quick
                        else " (whole scene)")))
@@ -142,8 +144,9 @@ def legend(*, stalls, quick):
             f"{stalls:.0%} idle and {stalls:.0%} backpressure; each row is one run (median s "
             f"= that run's seconds, --repeat not used), compared bit for bit with the golden "
             f"chain. Simulator rows: wall time of the simulator run incl. start-up and "
-            f"stimulus load; the build is timed apart (build s: that run's own build, 0.0 = "
-            f"cached build reused). throughput = input pixels per wall second; note: input "
-            f"pixels per CPU second of the simulator process, and the target of "
+            f"stimulus load (Verilator: the standalone binary, no cocotb); the build is "
+            f"timed apart (build s: that run's own build, 0.0 = cached build reused). throughput = input pixels per wall second; note: cycles, "
+            f"input pixels per CPU second of the simulator process, the 1-minute load "
+            f"average after the run, and the target of "
             f"{TARGET_PX_S:,} input pixels per wall second on the whole orbit chain scene at "
             f"ppc {max(PPCS)}.")
