@@ -14,10 +14,11 @@ Clock domains and start-up::
     lane_raw --> LvdsRx: train (IDELAY taps) -> bitslip -> deskew     |
                  |  lane_locked / lane_error                          |
                  v                                                    |
-              framer: HOLD until every lane has trained (locked or    |
-                      error) and the deskew is aligned, then RUN from |
-                      the next line whose header is row 0 (frames     |
-                      seen while held after a lane loss: dropped,     |
+              framer: HOLD until every lane has trained (locked or  <=sync== release
+                      error), the deskew is aligned and ``release``   |
+                      is high, then RUN from the next line whose      |
+                      header is row 0 (with ``pairs`` a reset         |
+                      frame's; frames seen while held: dropped,       |
                       counted); a lane lost mid-frame: FILL the frame |
                       with invalid words (affected, counted), HOLD    |
                       until ``retrain``                               |
@@ -268,7 +269,8 @@ class LvdsFront(wiring.Component):
         1 a reset frame, 0 a signal frame), valid with every beat.
     release : In(1, init 1), processing domain
         The processing side is ready for frames (in a pipeline: its start-up is done, e.g.
-        the NUC calibration loaded from NAND); synchronized into the word domain. Frames
+        the NUC calibration loaded from NAND); registered, then synchronized into the word
+        domain. Frames
         whose first line arrives while it is low are dropped whole and counted
         (``frames_dropped``); the first frame released is the first whole frame after it
         rises, so the sensor may start at power-up, before the calibration load.
@@ -338,7 +340,10 @@ class LvdsFront(wiring.Component):
         ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy,
                        pairs=self._pairs)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
-        m.submodules.release_sync = FFSynchronizer(self.release, ws.released,
+        # registered before the crossing (the top's gate is an AND of its stages' status)
+        release_q = Signal()
+        m.d.sync += release_q.eq(self.release)
+        m.submodules.release_sync = FFSynchronizer(release_q, ws.released,
                                                    o_domain=WORD_DOMAIN, init=0)
         m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)

@@ -117,7 +117,13 @@ def test_update_replaces_by_label_and_keeps_order(tmp_path):
     record.update([replace(row, fmax_mhz=300.0)], path)
     rows = record.load(path)
     assert [r.label for r in rows] == ["a", "cds"] and rows[1].fmax_mhz == 300.0
-    assert json.loads(path.read_text())["rows"][1] == asdict(rows[1])
+    # every field stored; fmax_clocks only when recorded (a one-clock result has none)
+    assert json.loads(path.read_text())["rows"][1] == \
+        {k: v for k, v in asdict(rows[1]).items() if k != "fmax_clocks"}
+    res.fmax_clocks = {"clk": 320.0, "word_clk": 200.0}
+    record.update([record.row_of("two", "cds", {}, res, target_mhz=150)], path)
+    assert json.loads(path.read_text())["rows"][2]["fmax_clocks"] == res.fmax_clocks
+    assert record.load(path)[2].fmax_clocks == res.fmax_clocks
 
 
 @pytest.mark.parametrize("text, message", [

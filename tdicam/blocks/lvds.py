@@ -126,6 +126,7 @@ def _front_system(step, ctx):
                      f"{lanes * word_hz / 1e6:.1f} M words/s, {rate / 1e6:.1f} M pixels/s "
                      f"after each line's sync and header words; the window needs "
                      f"{need / 1e6:.2f} M pixels/s: {'OK' if rate >= need else 'NO'}"},
+            _fifo_row(step, prm, lv, ctx),
             {"name": "lane training", "value": train, "unit": "s", "ok": None,
              "text": f"lane training before the first frame: at most {train * 1e6:.1f} us "
                      f"({model.training_words(w, step.ports['n_check'], prm['settle'])} word "
@@ -170,6 +171,32 @@ def _front_measured(step, status, info):
              "retrains": lanes.get("retrains", 0), "lane_errors": status["lvds_lane_errors"],
              "fifo_overflow": status["lvds_fifo_overflow"],
              "frame_status": lanes.get("frame_status"), "text": frames}]
+
+
+def _fifo_row(step, prm, lv, ctx):
+    """The plan's line on the crossing FIFO: its depth and why (the line burst at the
+    slowest processing clock the lanes allow, the DDR model's worst stall behind it, the
+    synchronizer slack: :func:`tdicam.model.lvds_front.fifo_depth`)."""
+    from tdicam.model.ddr import worst_stall
+    lpg, w, ppc = prm["lanes_per_gain"], prm["word_bits"], prm["ppc"]
+    word_mhz = lv.bit_rate_mbps / w
+    p = prm["columns"] // lpg
+    slowest = word_mhz * lpg * p / ((p + 2) * ppc)
+    bare = front_model.fifo_depth(lpg, ppc, prm["columns"], word_mhz, slowest)
+    depth = prm["fifo_depth"]
+    scene = ctx["scene"]
+    stall = worst_stall(dict(scene.ddr.stalls)) if scene.ddr is not None else 0
+    why = (f"crossing FIFO: {depth} entries of one word a lane: a line's burst at the "
+           f"slowest processing clock the lanes allow ({slowest:.1f} MHz x {ppc} pixel(s)) "
+           f"and 8 for the synchronizers")
+    if depth > bare:
+        why += (f", plus the DDR model's worst stall behind it ({stall} clocks: refresh "
+                f"cycles + the longest read latency, [ddr]) = "
+                f"{-(-stall * word_mhz // slowest):.0f} word clocks of entries ({bare} "
+                f"without it); the front has no backpressure")
+    return {"name": "crossing FIFO", "value": depth, "unit": "entries", "ok": None,
+            "without_stall_margin": bare, "stall_cycles": stall if depth > bare else 0,
+            "text": why}
 
 
 def _front_golden(step):

@@ -333,8 +333,10 @@ HELD = 2
 def _death(p, data, front, lanes, kw):
     """The lanes and sensor schedule of ``front["dies"] = (lane, frame)``: the lane dies in
     the middle of that frame (its middle line's middle word); the sensor sends :data:`HELD`
-    more frames, trains (the retrain) and sends the rest. Returns (lanes, segments, the word
-    of the frame the lane died at: ``r P + j``)."""
+    more frames, trains (the retrain) and sends the rest. Returns (lanes, segments, the
+    first pixel word of the frame, ``r P + j``, the death can reach: the lane's skew makes
+    the raw word at the death carry bits of earlier data words)."""
+    import math
     from dataclasses import replace
     from tdicam.cosim.lvds_front import plan_case
     from tdicam.model import lvds as link_model
@@ -354,9 +356,12 @@ def _death(p, data, front, lanes, kw):
     line, word = rows // 2, lw // 2
     at = probe.segment_starts[0] + (f * rows + line) * lw + word
     lanes = list(lanes)
+    # the lane's words arrive skewed: the raw word at the death carries bits of the data
+    # words up to ceil(skew / word) before it
+    back = math.ceil(lanes[lane].skew_ps / (probe.word_bits * lanes[lane].ui_ps))
     lanes[lane] = replace(lanes[lane], change_at=at,
                           after=link_model.Lane(skew_ps=0.0, eye_ps=0.0))
-    return lanes, segs, line * probe.p + word - 2
+    return lanes, segs, max(0, line * probe.p + word - 2 - back)
 
 
 def _run_lanes(p, data, sim, ax, taps, front, keep, t0):

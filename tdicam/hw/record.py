@@ -177,6 +177,14 @@ def _plain(params):
             for k, v in params.items()}
 
 
+def _plain_row(row):
+    """A row as the record stores it (``fmax_clocks`` only when recorded)."""
+    d = asdict(row)
+    if d["fmax_clocks"] is None:
+        del d["fmax_clocks"]
+    return d
+
+
 def update(new: list[Row], path: str | Path | None = None) -> Path:
     """Add ``new`` to the record at ``path`` (default: the bundled file; a row with the
     same label is replaced) and write it back, rows sorted by label. Returns the path.
@@ -191,7 +199,7 @@ def update(new: list[Row], path: str | Path | None = None) -> Path:
     rows.update({r.label: r for r in new})
     doc = {"about": "tdicam synthesis record: place-and-route results read by tdicam plan "
                     "and stated in docs/guide/silicon.md (tdicam.hw.record)",
-           "rows": [asdict(rows[k]) for k in sorted(rows)]}
+           "rows": [_plain_row(rows[k]) for k in sorted(rows)]}
     try:
         dest.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     except OSError as e:
@@ -219,7 +227,7 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
     :data:`tdicam.camera.design.ECP5_85F`)."""
     rows = load() if rows is None else rows
     out = ["| design | ppc | LUT4 | COMB | FF | DP16KD | MULT18 | Fmax per clock domain, MHz "
-           "(target) | fits |", "|---|---|---|---|---|---|---|---|---|"]
+           "(clk target) | fits |", "|---|---|---|---|---|---|---|---|---|"]
     for scene, ppc, what in README_CHAINS:
         found = [r for r in find("pipeline", rows, scene=scene)
                  if int(r.params.get("ppc", 1)) == ppc]
