@@ -170,8 +170,8 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
 @pytest.mark.parametrize("scene", [SYSTEM, FAULTS, LANES, LANE_FAULTS],
                          ids=["system", "faults", "lanes", "lane_faults"])
 def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
-    from tdicam.commands.run import run_scene
-    run_scene(str(scene), str(tmp_path))
+    from tdicam.cli import main
+    assert main(["run", str(scene), "-o", str(tmp_path)]) == 0    # exit 0: no mismatch
     rep = json.loads((tmp_path / "report.json").read_text())
     pipe = [b for b in rep["rtl"]["blocks"] if b["block"] == "pipeline"][0]
     whole = rep["rtl"]["crop"] is None          # a crop is not compared with the engine

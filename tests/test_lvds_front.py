@@ -104,6 +104,35 @@ def test_scenario_in_amaranth(name):
     assert check(name, case, run_amaranth(case)) == []
 
 
+def test_golden_front_of_a_lane_death():
+    """The golden front when a lane dies mid-frame: the cut frame healthy up to the death,
+    the dead lane's words as seen until the fill, 0s from the fill (the first word from
+    which every lane reads 0); the frames held until the retrain dropped; after it the dead
+    lane's columns 0; the frame status of each released frame (with ``pairs``, released
+    from the next reset frame on)."""
+    rng = np.random.default_rng(3)
+    frames = [rng.integers(1, 4000, (8, 3, 8)) for _ in range(2)]      # L = 2: P = 4
+    healthy = front.receive(frames, [3], 2, 12)[0][:, 3]
+    seen = healthy.copy()
+    seen[0, 1, 3::2][1:] = 77                 # lane 1 (gain 0, odd columns) dead from word 5
+    seen[:, 2, :] = 0                         # filled from word 8 (row 2)
+    cut, fill = front.cut_frame(healthy, seen, 2, 1, 5)
+    assert fill == 8 and np.array_equal(cut, seen)
+    seen[1, 1, 0] += 1                        # another lane wrong: not what the model gives
+    assert not np.array_equal(front.cut_frame(healthy, seen, 2, 1, 5)[0], seen)
+    kinds = [1, 0] * 4
+    px, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[3], lane=1, frame=3,
+                                              cut=cut, kinds=kinds, pairs=True)
+    assert dropped == 2 and list(k) == [1, 0, 1, 0, 1, 0]
+    assert status == [8, 8, 8, 15, 10, 10]
+    after = front.receive(frames, [1, 3], 2, 12)[0]
+    assert np.array_equal(px[:, 4:], after[:, 6:]) and (px[0, 4:, :, 1::2] == 0).all()
+    # a reset frame cut: with pairs the signal frame after the held ones is dropped too
+    _, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[], lane=1, frame=2,
+                                             cut=cut, kinds=kinds, pairs=True)
+    assert dropped == 3 and list(k) == [1, 0, 1, 1, 0] and status == [0, 0, 15, 2, 2]
+
+
 def test_fifo_depth_has_a_ddr_stall_margin():
     """A block behind the front that holds the stream (cds_ddr on the DDR model's worst
     stall: refresh cycles + the longest read latency) adds its entries to the depth."""

@@ -347,3 +347,51 @@ def test_front_fifo_takes_the_ddr_stalls_at_r_1():
                                            fifo_depth=16)
     assert res["status"]["fifo_overflow"] == 1
     assert len(res["beats"]) < exp.size
+
+
+@pytest.mark.parametrize("over, match", [
+    ({"ddr": {"base": 0, "refresh_period": 100, "refresh_cycles": 100}},
+     r"^\[ddr\]\.refresh_cycles = 100 is out of range"),
+    ({"ddr": {"base": 0, "lat_lo": 50, "lat_hi": 40}}, r"^\[ddr\]\.lat_hi = 40 is out of range"),
+    ({"ddr": {"base": 0, "drop": 256}}, r"^\[ddr\]\.drop = 256 is out of range"),
+    ({"run": {"rtl": {"lane_dies": [0, 1]}}},
+     r"^\[run\.rtl\]\.lane_dies: needs the sensor's lanes \(\[sensor\.lvds\]\)"),
+    ({"sensor": {"lvds": {"lanes_per_gain": 2}}, "run": {"rtl": {"lane_dies": [4, 1]}}},
+     r"^\[run\.rtl\]\.lane_dies: needs a lane 0\.\.3 and a frame >= 0, got \[4, 1\]"),
+    ({"sensor": {"lvds": {"lanes_per_gain": 2}}, "run": {"rtl": {"lane_dies": 3}}},
+     r"^\[run\.rtl\]\.lane_dies: must be two integers \[lane, frame\], got 3"),
+])
+def test_ddr_stalls_and_lane_death_keys_are_checked_in_one_line(over, match):
+    with pytest.raises(TdicamError, match=match) as exc:
+        load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides=over)
+    assert "\n" not in str(exc.value)
+
+
+def test_ddr_stall_keys_reach_the_ddr_blocks_and_the_report():
+    """[ddr]'s stall settings become cds_ddr's MIG model parameters (only those given away
+    from the defaults: the bundled scenes' Verilog unchanged) and the scene's dict."""
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system_lanes_faults.toml")
+    p = pl.plan(sc)
+    assert {k: p.steps[1].params[k] for k in LONG_STALLS} == LONG_STALLS
+    assert sc.to_dict()["ddr"] == {"interface": "mig", "base": 0, **LONG_STALLS}
+    assert sc.run.rtl.lane_dies == (0, 5)
+    plain = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml")
+    assert plain.to_dict()["ddr"] == {"interface": "mig", "base": 0}
+    assert "refresh_cycles" not in pl.plan(plain).steps[0].params
+    assert "lane_dies" not in plain.to_dict()["run"]["rtl"]
+
+
+def test_a_lane_death_in_a_reset_frame_is_refused_before_the_build():
+    """With reset frames in the stream the dying lane's frame must be a signal frame; the
+    co-simulation says so in one line before building anything."""
+    from tdicam.camera.cosim import cosimulate
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2}}, "tdi": {"stages": 3},
+        "run": {"lines": 2}})
+    p = pl.plan(sc)
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    for dies, match in (((0, 2), r"frame 2 is a reset frame"),
+                        ((0, 7), r"needs a lane 0\.\.3 and a frame before the last 3")):
+        with pytest.raises(TdicamError, match=r"^\[run\.rtl\]\.lane_dies = \[0, \d\]: .*"
+                                              + match):
+            cosimulate(p, data, "icarus", front={"dies": dies})

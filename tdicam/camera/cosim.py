@@ -601,9 +601,9 @@ def _delivered(p, data, got, front, dies):
 
     The golden front (:mod:`tdicam.model.lvds_front`) on the frames the sensor sent: the
     lanes that did not train (``front["untrained"]``, from the link model) read 0; with
-    ``dies = (lane, frame)`` the frame cut by the death (:func:`~tdicam.model.lvds_front.
-    cut_frame`, its fill point measured on the front's output and checked to lie within two
-    lines of the death), :data:`HELD` frames dropped, the dead lane's columns 0 after the
+    ``dies = (lane, frame)`` the frame cut by the death
+    (:func:`~tdicam.model.lvds_front.cut_frame`, its fill point measured on the front's
+    output and checked to lie within two lines of the death), :data:`HELD` frames dropped, the dead lane's columns 0 after the
     retrain. Returns (:class:`~tdicam.camera.design.SceneData` of the delivered frames,
     report: lane numbers, frames sent/released/dropped/affected, retrains, the expected and
     seen frame status, ``problems``)."""
@@ -625,7 +625,13 @@ def _delivered(p, data, got, front, dies):
     else:
         lane, f = dies
         healthy = fm.receive(sent, bad, L, w)[0][:, f]
-        seen = [got[k][0].data.reshape(-1, p.rows, p.width) for k in range(p.lanes)]
+        seen, size = [], p.rows * p.width
+        for k in range(p.lanes):
+            a = got[k][0].data.reshape(-1)
+            if a.size % size:
+                rep["problems"].append(f"channel {k}: the front delivered {a.size} pixels, "
+                                       f"not whole {p.rows} x {p.width} frames")
+            seen.append(a[:a.size // size * size].reshape(-1, p.rows, p.width))
         if any(len(a) <= f for a in seen):
             observed = np.zeros_like(healthy)
             rep["problems"].append(f"frame {f} (cut by lane {lane}'s death) not delivered")
