@@ -395,3 +395,14 @@ def test_a_lane_death_in_a_reset_frame_is_refused_before_the_build():
         with pytest.raises(TdicamError, match=r"^\[run\.rtl\]\.lane_dies = \[0, \d\]: .*"
                                               + match):
             cosimulate(p, data, "icarus", front={"dies": dies})
+
+
+def test_plan_states_the_crossing_fifo_depth_and_why():
+    """tdicam plan of the lanes scene: the crossing FIFO's depth with the DDR stall margin
+    (cds_ddr behind the front, the MIG model's refresh 44 + read latency 60 clocks)."""
+    from tdicam.planning import sizing
+    rep = sizing.plan_report([load_scene(ROOT / "scenes" /
+                                         "ning2019_gmax0504_system_lanes.toml")])
+    row = {r["name"]: r for r in rep["system"]}["crossing FIFO"]
+    assert (row["value"], row["without_stall_margin"], row["stall_cycles"]) == (64, 16, 104)
+    assert "worst stall behind it (104 clocks" in row["text"]
