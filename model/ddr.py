@@ -78,7 +78,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError, check_range
 
-__all__ = ["WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_BITS",
+__all__ = ["worst_stall", "WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_BYTES", "PIXEL_BITS",
            "PIXELS_PER_WORD", "PAPER_CHANNELS", "PAPER_LINE_STRIDE", "DEFAULT_STALLS",
            "LineLayout", "pack_words", "unpack_words", "pack_lines", "unpack_lines",
            "words_to_ints", "ints_to_words", "psums_per_word", "check_capacity",
@@ -302,6 +302,17 @@ def _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed):
     check_range("refresh_cycles", refresh_cycles, 0, refresh_period - 1)
     check_range("drop", drop, 0, 255)
     check_range("seed", seed, 1, 0xFFFFFFFF)
+
+
+def worst_stall(params):
+    """Processing clocks the simulation MIG model can keep a DDR user waiting at once
+    (:class:`tdicam.hdl.simmodels.mig_model.MigModel`, parameters ``params`` as a DDR
+    block's stall parameters): a read issued as a refresh begins waits ``refresh_cycles``
+    for the command and ``lat_hi`` for its data, ``refresh_cycles + lat_hi`` (104 with
+    :data:`DEFAULT_STALLS`). A DDR block at the head of a chain (cds_ddr reads each signal
+    frame's first reset line when the frame is presented) holds the stream that long."""
+    p = {**DEFAULT_STALLS, **{k: v for k, v in params.items() if k in DEFAULT_STALLS}}
+    return int(p["refresh_cycles"]) + int(p["lat_hi"])
 
 
 def _refreshing(t, period, cycles):
