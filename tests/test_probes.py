@@ -179,6 +179,10 @@ COMMANDS = [
     (["verilog", "lvds", "--lanes", "99999999999999999999"], 2, "--lanes = 99999999999999999999"),
     (["verilog", "lvds", "--word-bits", "11"], 2, "--word-bits = 11 is not valid; valid: 10, 12"),
     (["verilog", "lvds", "--fifo-depth", "3"], 2, "--fifo-depth = 3 is not valid"),
+    (["synth", "tdi", "--no-xilinx", "--record", "/dev/zero"], 2,       # before the tools
+     "/dev/zero: not a synthesis record: it goes on past 4 MiB"),
+    (["synth", "pipeline", "--scene", "{S}", "--record", "/nonexistent/d/r.json"], 2,
+     "/nonexistent/d/r.json: cannot write (no folder '/nonexistent/d')"),
     (["sim", "lvds"], 2, "block lvds has no stream co-simulation"),
     (["sim", "tdi", "--idle", "nan"], 2, "--idle = nan is out of range; valid: [0, 1)"),
 ]
