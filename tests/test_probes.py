@@ -179,6 +179,10 @@ COMMANDS = [
     (["verilog", "lvds", "--lanes", "99999999999999999999"], 2, "--lanes = 99999999999999999999"),
     (["verilog", "lvds", "--word-bits", "11"], 2, "--word-bits = 11 is not valid; valid: 10, 12"),
     (["verilog", "lvds", "--fifo-depth", "3"], 2, "--fifo-depth = 3 is not valid"),
+    (["synth", "tdi", "--no-xilinx", "--record", "/dev/zero"], 2,       # before the tools
+     "/dev/zero: not a synthesis record: it goes on past 4 MiB"),
+    (["synth", "pipeline", "--scene", "{S}", "--record", "/nonexistent/d/r.json"], 2,
+     "/nonexistent/d/r.json: cannot write (no folder '/nonexistent/d')"),
     (["sim", "lvds"], 2, "block lvds has no stream co-simulation"),
     (["sim", "tdi", "--idle", "nan"], 2, "--idle = nan is out of range; valid: [0, 1)"),
 ]
@@ -194,6 +198,44 @@ def test_command_probes(argv, code, fragment, tmp_path, capsys):
     assert main(argv) == code
     assert fragment in _one_line(capsys)
     assert set(tmp_path.iterdir()) == before          # nothing left at -o
+
+
+# (edit of the lanes-faults system scene, fragment): refused by `tdicam run --dry-run` (and so
+# by `tdicam run` before the scene simulation; the lane death was found only in the
+# co-simulation, and not at all by --dry-run)
+FAULTS = "scenes/ning2019_gmax0504_system_lanes_faults.toml"
+DIES = "lane_dies = [0, 5]"
+SYSTEM = [
+    ((DIES, "lane_dies = [0, 4]"), "[run.rtl].lane_dies = [0, 4]: frame 4 is a reset frame"),
+    ((DIES, "lane_dies = [0, 0]"), "[run.rtl].lane_dies = [0, 0]: frame 0 is a reset frame"),
+    ((DIES, "lane_dies = [0, 21]"), "[run.rtl].lane_dies = [0, 21]: needs a lane 0..3 and a "
+                                    "frame before the last 3 of the 24 the sensor sends"),
+    ((DIES, "lane_dies = [0, 999999]"), "lane_dies = [0, 999999]: needs a lane 0..3"),
+    (("crop = [0, 0, 32, 4]", "crop = [0, 28, 32, 4]"),
+     "[run.rtl].lane_dies = [0, 5]: the crop must end 1 line(s) before [run].lines = 32"),
+    (("lat_hi = 90", "lat_hi = 90\nlat_lo = 91"),
+     "[ddr].lat_lo = 91 must be <= [ddr].lat_hi = 90"),
+    (("lat_hi = 90", "lat_lo = 61"), "[ddr].lat_lo = 61 must be <= [ddr].lat_hi = 60 (the "
+                                     "default)"),
+    (("refresh_period = 2000", "refresh_period = 44"),
+     "[ddr].refresh_cycles = 200 must be < [ddr].refresh_period = 44"),
+    ((("refresh_period = 2000", "refresh_period = 1"), ("refresh_cycles = 200", "")),
+     "[ddr].refresh_cycles = 44 (the default) must be < [ddr].refresh_period = 1"),
+]
+
+
+@pytest.mark.parametrize("edits,fragment", SYSTEM,
+                         ids=[f"system{i}" for i in range(len(SYSTEM))])
+def test_system_scene_probes(edits, fragment, tmp_path, capsys):
+    text = open(FAULTS).read()
+    for old, new in (edits if isinstance(edits[0], tuple) else (edits,)):
+        assert old in text
+        text = text.replace(old, new)
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    assert main(["run", "--dry-run", str(f), "-o", str(tmp_path / "o")]) == 2
+    assert fragment in _one_line(capsys)
+    assert not (tmp_path / "o").exists()
 
 
 def test_plan_of_the_bundled_chain_scene_is_an_answer(capsys):

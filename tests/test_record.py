@@ -127,7 +127,7 @@ def test_update_replaces_by_label_and_keeps_order(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("", "cannot read the synthesis record"),
+    ("", "not a synthesis record: it is empty (0 bytes)"),
     ("[1, 2]", "not a tdicam synthesis record"),
     ('{"rows": [{"label": "x"}]}', "row 0: "),
     ('{"rows": [{"label": "x", "block": "cds", "params": {}, "fmax_mhz": -1, '

@@ -351,8 +351,9 @@ def test_front_fifo_takes_the_ddr_stalls_at_r_1():
 
 @pytest.mark.parametrize("over, match", [
     ({"ddr": {"base": 0, "refresh_period": 100, "refresh_cycles": 100}},
-     r"^\[ddr\]\.refresh_cycles = 100 is out of range"),
-    ({"ddr": {"base": 0, "lat_lo": 50, "lat_hi": 40}}, r"^\[ddr\]\.lat_hi = 40 is out of range"),
+     r"^\[ddr\]\.refresh_cycles = 100 must be < \[ddr\]\.refresh_period = 100$"),
+    ({"ddr": {"base": 0, "lat_lo": 50, "lat_hi": 40}},
+     r"^\[ddr\]\.lat_lo = 50 must be <= \[ddr\]\.lat_hi = 40$"),
     ({"ddr": {"base": 0, "drop": 256}}, r"^\[ddr\]\.drop = 256 is out of range"),
     ({"run": {"rtl": {"lane_dies": [0, 1]}}},
      r"^\[run\.rtl\]\.lane_dies: needs the sensor's lanes \(\[sensor\.lvds\]\)"),

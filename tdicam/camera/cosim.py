@@ -26,7 +26,8 @@ import numpy as np
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
-__all__ = ["cosim_scene", "scene_data", "cosimulate", "run_top", "beats_differ", "WAVE_WINDOW",
+__all__ = ["cosim_scene", "check_lane_death", "scene_data", "cosimulate", "run_top",
+           "beats_differ", "WAVE_WINDOW",
            "status_ports", "system_figures"]
 
 
@@ -83,18 +84,10 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         data, ex = scene_data(scene, stages=m, dv_over_v=res.dv_over_v, lines=lines)
         golden_s = time.perf_counter() - t0
         agree, gold = None, None
-        dies = rt.lane_dies
-        if dies is not None and rt.crop is None:
-            raise TdicamError("[run.rtl].lane_dies: needs a [run.rtl].crop (the sensor sends "
-                              "the crop's frames and those held for the retrain)")
+        extra = check_lane_death(scene, lines, stages=m)
         if rt.crop is not None:
             y0, h, x0, w = crop
             p = pl.plan(scene, stages=m, lines=h, width=w)
-            # a lane's death holds frames until the retrain: the sensor sends as many more
-            extra = 0 if dies is None else -(-HELD // (2 if p.reset_frames else 1))
-            if y0 + h + m - 1 + extra > len(data.signal[0]):
-                raise TdicamError(f"[run.rtl].lane_dies: the crop must end {extra} line(s) "
-                                  f"before [run].lines (the frames held for the retrain)")
             data = data.crop(x0, w, y0, h + m - 1 + extra)
         else:
             gold = pl.golden(p, data)
@@ -126,6 +119,52 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     return out
 
 
+
+
+def check_lane_death(scene, lines, *, stages=None, lines_key="[run].lines") -> int:
+    """Refuse ``[run.rtl].lane_dies`` before any work when the co-simulation of ``lines``
+    output lines at ``stages`` (default the scene's largest) cannot place it: no crop, a
+    crop that leaves no room for the frames the sensor sends until the retrain, a lane
+    death in a reset frame or in one of the last :data:`HELD` + 1 frames the sensor sends.
+    ``lines_key`` names where ``lines`` came from (``--lines``). Returns the extra output
+    lines of raw frames the crop takes (0 without a lane death).
+
+    Raises
+    ------
+    TdicamError
+        One line naming ``[run.rtl].lane_dies`` and its value.
+    """
+    rt = scene.run.rtl
+    if rt is None or rt.lane_dies is None:
+        return 0
+    lane, f = rt.lane_dies
+    key = f"[run.rtl].lane_dies = [{lane}, {f}]"
+    if rt.crop is None:
+        raise TdicamError(f"{key}: needs a [run.rtl].crop (the sensor sends the crop's frames "
+                          f"and those held for the retrain)")
+    from tdicam.camera import design as pl
+    x0, y0, w, h = rt.crop
+    m = max(scene.tdi.stages) if stages is None else stages
+    p = pl.plan(scene, stages=m, lines=h, width=w)
+    per = 2 if p.reset_frames else 1
+    extra = -(-HELD // per)           # the sensor sends the frames held for the retrain too
+    if y0 + h + extra > lines:
+        raise TdicamError(f"{key}: the crop must end {extra} line(s) before {lines_key} = "
+                          f"{lines} (the frames held for the retrain); it ends at {y0 + h}")
+    _check_death(lane, f, p.lanes * scene.sensor.lvds.lanes_per_gain,
+                 (h + m - 1 + extra) * per, p.reset_frames)
+    return extra
+
+
+def _check_death(lane, f, lanes, frames, reset_frames):
+    if not 0 <= lane < lanes or f + 1 + HELD >= frames:
+        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: needs a lane 0.."
+                          f"{lanes - 1} and a frame before the last {HELD + 1} of the "
+                          f"{frames} the sensor sends")
+    if reset_frames and f % 2 == 0:
+        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: frame {f} is a reset frame; "
+                          f"the sensor sends reset and signal frames in turn: give a signal "
+                          f"frame (odd)")
 
 
 def lanes_of(lv, gains):
@@ -349,14 +388,7 @@ def _death(p, data, front, lanes, kw):
     from tdicam.model import lvds as link_model
     lane, f = front["dies"]
     nf = len(data.lane_arrays(p)[0][0])
-    if not 0 <= lane < len(lanes) or f + 1 + HELD >= nf:
-        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: needs a lane 0.."
-                          f"{len(lanes) - 1} and a frame before the last {HELD + 1} of the "
-                          f"{nf} the sensor sends")
-    if p.reset_frames and f % 2 == 0:
-        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: frame {f} is a reset frame; "
-                          f"the sensor sends reset and signal frames in turn: give a signal "
-                          f"frame (odd)")
+    _check_death(lane, f, len(lanes), nf, p.reset_frames)
     segs = (f + 1 + HELD, nf - f - 1 - HELD)
     probe = plan_case(p, data, lanes, segments=segs, **kw)
     lw, rows = probe.p + 2, p.rows

@@ -145,6 +145,8 @@ def _markdown(rows):
 def _run(args):
     check_range("--seeds", args.seeds, 1, 100)
     check_range("--freq", args.freq, 1, 2000, integer=False)
+    if args.record is not None:        # before the tools' minutes, not after them
+        record.check_destination(args.record or None)
     if args.reference:
         return _run_reference(args)
     if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design

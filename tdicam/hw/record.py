@@ -25,7 +25,7 @@ from pathlib import Path
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Row", "RECORD", "load", "find", "fmax_by_ppc", "row_of", "update",
+__all__ = ["Row", "RECORD", "load", "check_destination", "find", "fmax_by_ppc", "row_of", "update",
            "README_CHAINS", "readme_table"]
 
 #: The bundled record (``tdicam/hw/silicon.json``).
@@ -127,9 +127,14 @@ def load(path: str | Path | None = None) -> list[Row]:
     TdicamError
         A missing, unreadable or malformed record (one line naming the file).
     """
+    from tdicam.files import MAX_TOML_BYTES, read_bytes
     src = RECORD if path is None else Path(path)
     try:
-        doc = json.loads(src.read_text(encoding="utf-8"))
+        raw = src.read_bytes() if path is None else read_bytes(src, "synthesis record",
+                                                                MAX_TOML_BYTES)
+        doc = json.loads(raw.decode("utf-8"))
+    except TdicamError:
+        raise
     except (OSError, UnicodeDecodeError, ValueError) as e:
         raise TdicamError(f"{src}: cannot read the synthesis record: "
                           f"{getattr(e, 'strerror', None) or e}") from None
@@ -183,6 +188,23 @@ def _plain_row(row):
     if d["fmax_clocks"] is None:
         del d["fmax_clocks"]
     return d
+
+
+def check_destination(path: str | Path | None = None) -> Path:
+    """Check before any work that :func:`update` can write the record at ``path`` (``--record
+    FILE``; default the bundled file): an existing file must be a synthesis record, a new
+    one a file that can be created. Returns the path.
+
+    Raises
+    ------
+    TdicamError
+        One line naming ``--record`` or the file.
+    """
+    from tdicam.files import check_file
+    dest = Path(str(RECORD)) if path is None else check_file(path, "--record")
+    if dest.exists():
+        load(dest)
+    return dest
 
 
 def update(new: list[Row], path: str | Path | None = None) -> Path:

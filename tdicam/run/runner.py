@@ -171,8 +171,13 @@ def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl
                  labels=None):
     """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
     a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
-    what there is, what to change)."""
+    what there is, what to change) or, with ``rtl``, when ``[run.rtl].lane_dies`` cannot be
+    placed in the co-simulation (:func:`tdicam.camera.cosim.check_lane_death`)."""
+    from tdicam.camera.cosim import check_lane_death
     from tdicam.engine import budget
+    if rtl:
+        check_lane_death(scene, int(scene.run.lines if lines is None else lines),
+                         lines_key=(labels or {}).get("run.lines", "[run].lines"))
     est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
                           rtl=rtl)
     return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)

@@ -596,14 +596,19 @@ def _ddr(sec: _Section) -> Ddr:
     if base % 8:
         sec.fail("base", f"must be a multiple of 8 (one address per byte of a 64-bit word), "
                          f"got {base}")
-    period = sec.integer("refresh_period", DEFAULT_STALLS["refresh_period"], lo=1,
-                         hi=1 << 20)
-    lat_lo = sec.integer("lat_lo", DEFAULT_STALLS["lat_lo"], lo=2, hi=1000)
-    got = {"refresh_period": period, "lat_lo": lat_lo,
-           "lat_hi": sec.integer("lat_hi", DEFAULT_STALLS["lat_hi"], lo=lat_lo, hi=1000),
+    got = {"refresh_period": sec.integer("refresh_period", DEFAULT_STALLS["refresh_period"],
+                                         lo=1, hi=1 << 20),
+           "lat_lo": sec.integer("lat_lo", DEFAULT_STALLS["lat_lo"], lo=2, hi=1000),
+           "lat_hi": sec.integer("lat_hi", DEFAULT_STALLS["lat_hi"], lo=2, hi=1000),
            "refresh_cycles": sec.integer("refresh_cycles", DEFAULT_STALLS["refresh_cycles"],
-                                         lo=0, hi=period - 1),
+                                         lo=0, hi=(1 << 20) - 1),
            "drop": sec.integer("drop", DEFAULT_STALLS["drop"], lo=0, hi=255)}
+    for small, big, rule in (("lat_lo", "lat_hi", "<="), ("refresh_cycles", "refresh_period",
+                                                          "<")):
+        if got[small] > got[big] or (rule == "<" and got[small] == got[big]):
+            shown = {k: f"{sec.label(k)} = {got[k]}" + ("" if sec.has(k) else " (the default)")
+                     for k in (small, big)}
+            raise TdicamError(f"{shown[small]} must be {rule} {shown[big]}")
     stalls = tuple((k, got[k]) for k in keys if got[k] != DEFAULT_STALLS[k])
     return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base,
                stalls=stalls)
