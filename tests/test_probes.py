@@ -245,6 +245,20 @@ def test_plan_of_the_bundled_chain_scene_is_an_answer(capsys):
     assert "feasible:" in out and "whole chain" in out
 
 
+def test_plan_names_the_lanes_whose_eyes_cannot_train(tmp_path, capsys):
+    """A scene whose eyes no lane can train on planned 'feasible: yes' (every column would be
+    invalid): the plan now says NO; one narrow lane is named, its columns invalid."""
+    base = open("scenes/ning2019_gmax0504_system_lanes_faults.toml").read()
+    assert main(["plan", "--scene", "scenes/ning2019_gmax0504_system_lanes_faults.toml"]) == 0
+    assert ("lane eyes: lane(s) 3 of 4 cannot train (eye too narrow): their columns are "
+            "invalid in every frame") in capsys.readouterr().out
+    f = tmp_path / "dead.toml"
+    f.write_text(base.replace("eye_width_taps = [20.0, 20.0, 20.0, 6.0]", "eye_width_taps = 0.0"))
+    assert main(["plan", "--scene", str(f)]) == 1
+    out = capsys.readouterr().out
+    assert "lane eyes: no lane can train" in out and "feasible: NO (lane eyes)" in out
+
+
 def test_plan_says_no_when_the_lanes_cannot_carry_the_frames(tmp_path, capsys):
     """One 300 Mbit/s lane per gain for 1280 columns x 1024 rows at the orbit's frame rate
     (10.2 Gbit/s a lane) was 'feasible: yes': the plan now checks the lanes' bit rate."""

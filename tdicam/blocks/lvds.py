@@ -130,7 +130,31 @@ def _front_system(step, ctx):
             {"name": "lane training", "value": train, "unit": "s", "ok": None,
              "text": f"lane training before the first frame: at most {train * 1e6:.1f} us "
                      f"({model.training_words(w, step.ports['n_check'], prm['settle'])} word "
-                     f"clocks: {model.N_TAPS} taps scanned and {w} bitslips)"}]
+                     f"clocks: {model.N_TAPS} taps scanned and {w} bitslips)"},
+            *_eye_rows(ctx["scene"], lanes, step.ports["n_check"], prm["settle"])]
+
+
+def _eye_rows(scene, lanes, n_check, settle):
+    """The plan's row for the eyes the scene gives (none when the link is ideal): the lanes
+    whose training fails (their columns invalid in every frame; NO when no lane trains)."""
+    lv = scene.sensor.lvds
+    if not lv.simulate:
+        return []
+    bad = front_model.untrained_lanes(front_model.scene_lanes(lv, len(scene.sensor.gains),
+                                                              scene.run.seed),
+                                      lv.word_bits, lv.train_word, n_check=n_check,
+                                      settle=settle)
+    ok = False if len(bad) == lanes else None
+    if not bad:
+        text = "lane eyes: every lane trains"
+    elif ok is False:
+        text = ("lane eyes: no lane can train (eyes too narrow or jitter too large): every "
+                "column invalid: NO")
+    else:
+        text = (f"lane eyes: lane(s) {', '.join(map(str, bad))} of {lanes} cannot train (eye "
+                f"too narrow): their columns are invalid in every frame")
+    return [{"name": "lane eyes", "value": lanes - len(bad), "unit": "lanes", "ok": ok,
+             "untrained": bad, "text": text}]
 
 
 def _front_measured(step, status, info):
