@@ -315,9 +315,10 @@ def nand_part(step, gain, offset, lane):
     return dev, _nand.read_store(dev)
 
 
-def _pipeline_side(step, data):
+def _pipeline_side(step, data, ecp5=False):
     """Per lane: the lane's calibration image in a ROM, read through CalibReader (``ppc``
-    coefficient pairs a beat, the ROM ``ppc / 2`` flash words a beat)."""
+    coefficient pairs a beat, the ROM ``ppc / 2`` flash words a beat); ``ecp5``: the ROM's
+    banks as DP16KD primitives with their output register (the ECP5 synthesis top)."""
     from tdicam.hdl.calib import CalibReader
     from tdicam.hdl.chain_top import CalibRom, Link
     from tdicam.model.calib import encode_image
@@ -327,7 +328,8 @@ def _pipeline_side(step, data):
     def side(m, lane):
         gain, offset = data.coeffs[lane]
         rd = CalibReader(rows=gain.shape[0], cols=gain.shape[1], ppc=ppc, **fmt.params())
-        rom = CalibRom(encode_image(gain, offset, fmt), per_beat=rd.words_per_beat)
+        rom = CalibRom(encode_image(gain, offset, fmt), per_beat=rd.words_per_beat,
+                       bram="ecp5" if ecp5 else "generic")
         m.submodules[f"nuc_calib_rom{lane}"] = rom
         m.submodules[f"nuc_calib{lane}"] = rd
         m.d.comb += [rd.i_stream.valid.eq(rom.o_stream.valid),
@@ -425,7 +427,8 @@ def _pipeline_hw(step, data, *, ecp5=False):
     lane's image with its faults) is the stage's device, outside the top."""
     from dataclasses import replace
     if not step.device:
-        return lane_stage(side=_pipeline_side)(step, data, ecp5=ecp5)
+        return lane_stage(side=lambda s, dt: _pipeline_side(s, dt, ecp5))(step, data,
+                                                                          ecp5=ecp5)
     from tdicam.hdl.calib import CoeffBuffer
     from tdicam.hdl.chain_top import Device, Link
     from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore, NandPart
