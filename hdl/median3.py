@@ -25,7 +25,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
@@ -870,11 +870,12 @@ class Median3(wiring.Component):
     (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the cycle counts hold per beat:
     output beat (y, b) is valid :attr:`latency` cycles after input beat (min(y+1, H-1),
     min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each
-    neighbourhood reaches one beat to the right); 11 without ``enhance``, 27 with it: the
+    neighbourhood reaches one beat to the right); 11 without ``enhance``, 28 with it: the
     5x5 stage's arithmetic after its sums is then 7 stages instead of 6, every multiplier
-    between two registers (mean 3, mask 3 with the add, clamp 1: :func:`_stage_b_wide_fns`;
+    between two registers (mean 3, mask 3 with the add, clamp 1: :func:`_wide_b_window`;
     at 8 pixels per clock a multiplier and its carry chain in one cycle cost the chain
-    60 MHz).
+    60 MHz), and a register slice between the two stages (1; without it the 5x5 stage's
+    ready reached the 3x3 stage's input ready and clock enables in one cycle: 96 MHz).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
@@ -947,12 +948,12 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11;
-        with ``enhance`` 26 at ``ppc`` 1, 27 at ``ppc`` 2, 4, 8 (every multiplier between
-        two registers)."""
+        with ``enhance`` 26 at ``ppc`` 1, 28 at ``ppc`` 2, 4, 8 (every multiplier between
+        two registers, a register slice between the two neighbourhoods)."""
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES)
+        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + 1)
 
     @property
     def line_buffer_bits(self):
@@ -982,6 +983,12 @@ class Median3(wiring.Component):
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
             ao, bi = a.o_stream, bb.i_stream
+            if P > 1:
+                # a register slice between the two neighbourhoods: stage B's ready no
+                # longer reaches stage A's input ready and clock enables in the same cycle
+                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
+                wiring.connect(m, ao, ab.i_stream)
+                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
