@@ -5,9 +5,10 @@ top, on its pins), HDR, TDI and the median; the top holds the frames until both 
 calibration is loaded and its status outputs say what the load saw.
 
 Default run: one Icarus build of a 24-column cut (a 512-block part: the power-up scan in
-~16 k cycles), and one of a 16-column cut from the sensor's serial lanes. With
-``TDICAM_FULL=1``: the bundled system scene whole through Verilator (``tdicam run``), its
-fault scene, and its lanes variant (a crop).
+~16 k cycles), and one of a 16-column cut from the sensor's serial lanes (run twice: healthy
+lanes, then a narrow-eye lane and a lane dying mid-run). With ``TDICAM_FULL=1``: the bundled
+system scene whole through Verilator (``tdicam run``), its fault scene, its lanes variant
+and the lanes' fault scene (crops).
 """
 
 import json
@@ -28,6 +29,7 @@ FULL = os.environ.get("TDICAM_FULL") == "1"
 SYSTEM = ROOT / "scenes" / "ning2019_gmax0504_system.toml"
 FAULTS = ROOT / "scenes" / "ning2019_gmax0504_system_faults.toml"
 LANES = ROOT / "scenes" / "ning2019_gmax0504_system_lanes.toml"
+LANE_FAULTS = ROOT / "scenes" / "ning2019_gmax0504_system_lanes_faults.toml"
 
 #: the MIG model's stall pattern, far worse than the default (refresh 44 of 780 cycles,
 #: each ready dropped 16/256): refresh 300 of every 700 cycles, ready dropped 96/256
@@ -125,17 +127,69 @@ def test_system_from_the_serial_lanes_matches_on_icarus():
     assert st["startup_cycles"] > 0 and st["cds_ddr_ddr_writes"] == st["cds_ddr_ddr_reads"] > 0
 
 
+def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus():
+    """The same cut (the same build) with the faults the camera must survive: lane 3's eye
+    6 taps wide (cannot train) and lane 0 dying in the middle of frame 3 (a signal frame;
+    the sensor sends 2 more, then the controller retrains). The front reports lane 3 by
+    number, every frame's status names it, the cut frame is filled and flagged (every
+    lane), the 2 frames held until the retrain are dropped and counted, lane 0's columns
+    are invalid after it; every block's output equals the golden chain on what the golden
+    front delivers (the other lanes' pixels bit-exact)."""
+    from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
+    from tdicam.model import lvds_front as fm
+    sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
+                                      "run": {"lines": 3, "rtl": {"crop": None}}})
+    p = pl.plan(sc, lines=2)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)
+    data = data.crop(0, 16, 0, p.frames + 1)          # one pair more: held for the retrain
+    spec = list(GOOD_LANES[:4])
+    spec[3] = (12, 6, 0)                              # 6 taps: no run of 9, cannot train
+    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "dies": (0, 3),
+                                               "lanes": scenario_lanes(spec)})
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] > 0 for t in rep["taps"])
+    lanes, st = rep["lanes"], rep["status_outputs"]
+    assert lanes["untrained"] == [3] and lanes["died"] == 0 and lanes["problems"] == []
+    assert st["lvds_lane_error"] == 0b1001 and st["lvds_lane_locked"] == 0b0110
+    narrow, both = fm.lane_mask([3]), fm.lane_mask([0, 3])
+    assert lanes["frame_status"] == [narrow] * 3 + [0b1111] + [both] * 4
+    assert lanes["died_at_word"] <= lanes["filled_from_word"] <= 3 * 8     # in the frame
+    assert (st["lvds_frames_out"], st["lvds_frames_dropped"], st["lvds_frames_affected"]) \
+        == (8, 2, 8)
+    assert lanes["retrains"] == 1 and st["lvds_fifo_overflow"] == 0
+    rows = {r["name"]: r for r in system_figures(p, rep)}
+    assert rows["sensor lanes"]["untrained"] == [3] and rows["sensor lanes"]["died"] == 0
+    assert "lane 0 died in frame 3" in rows["sensor lanes"]["text"]
+    assert rows["sensor frames"]["dropped"] == 2 and rows["sensor frames"]["retrains"] == 1
+    assert rows["CDS DDR traffic, channel 0"]["stall_cycles"] > 0
+
+
 @pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: the system scenes through Verilator")
-@pytest.mark.parametrize("scene", [SYSTEM, FAULTS, LANES], ids=["system", "faults", "lanes"])
+@pytest.mark.parametrize("scene", [SYSTEM, FAULTS, LANES, LANE_FAULTS],
+                         ids=["system", "faults", "lanes", "lane_faults"])
 def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
-    from tdicam.commands.run import run_scene
-    run_scene(str(scene), str(tmp_path))
+    from tdicam.cli import main
+    assert main(["run", str(scene), "-o", str(tmp_path)]) == 0    # exit 0: no mismatch
     rep = json.loads((tmp_path / "report.json").read_text())
     pipe = [b for b in rep["rtl"]["blocks"] if b["block"] == "pipeline"][0]
     whole = rep["rtl"]["crop"] is None          # a crop is not compared with the engine
     assert pipe["mismatches"] == 0, pipe.get("message")
     assert pipe["engine_agrees"] is (True if whole else None)
     assert pipe["status_outputs"]["nuc_calib_loaded"] == 1
-    if scene == LANES:
+    if scene in (LANES, LANE_FAULTS):
         up = pipe["startup"]
         assert max(up["lanes_trained"], up["nuc_calib_loaded_done"]) < up["frames_released"]
+    if scene == LANE_FAULTS:
+        # the faults in report.json and report.md: lane numbers, frames, retrain, stalls
+        lanes, st = pipe["lanes"], pipe["status_outputs"]
+        assert lanes["untrained"] == [3] and lanes["died"] == 0 and lanes["problems"] == []
+        assert (lanes["frames_dropped"], lanes["retrains"]) == (2, 1)
+        assert lanes["frame_status"][5] == 0b1111 and st["lvds_fifo_overflow"] == 0
+        rows = {r["name"]: r for r in rep["rtl"]["system"]}
+        assert rows["sensor frames"]["dropped"] == 2
+        assert rows["CDS DDR traffic, channel 0"]["stall_cycles"] > 0
+        md = (tmp_path / "report.md").read_text()
+        assert "lane 0 died in frame 5" in md and "did not train" in md
+        assert "cycles waited on the MIG model's stalls (refresh 200 of every 2000" in md

@@ -374,9 +374,16 @@ class SourceStage(LaneStage):
     ``carries``: ``Out`` ports of the component valid with each output beat that travel with
     the beat (:attr:`Link.user`) and drive the ``In`` port of the same name of every later
     stage's component, instead of a top port (the front's ``frame_kind`` -> the CDS stage's
-    ``frame_kind``, which says which frame is the reset frame to keep)."""
+    ``frame_kind``, which says which frame is the reset frame to keep).
+
+    ``gate``: an ``In`` port of the component the top drives (instead of a top port) with
+    its ``released`` signal: high once every holding stage is ready (its start-up done, e.g.
+    the calibration loaded), always high without one. A source with no backpressure (the
+    sensor) then drops whole frames until the top can take them, instead of filling its
+    buffer."""
 
     carries: tuple = ()
+    gate: str | None = None
     source: bool = field(default=True, init=False)
 
 
@@ -420,7 +427,15 @@ class Pipeline(wiring.Component):
     Every block keeps its own handshake; the top adds no register on the pixel path but a
     :func:`register_slice` after a stage whose ``out_slice`` says its output is not
     registered, when another stage follows: forks and joins are combinational, a beat moves
-    through a fork when every branch takes it. :attr:`latency` is the sum of the blocks'
+    through a fork when every branch takes it.
+
+    Start-up: the top holds its input until every holding stage (``ready``) is ready, e.g.
+    every channel's NUC calibration loaded from NAND (``startup_cycles`` counts the held
+    cycles). A source stage cannot be held (the sensor sets the pace): its ``gate`` port
+    gets the same signal, and the sensor's front end drops whole frames until then and
+    counts them (``lvds_frames_dropped``), releasing from the first whole frame (with reset
+    frames: the first reset frame) after it. So the sensor may start at power-up, before
+    the calibration load: it need not wait for ``nuc_calib_loaded``. :attr:`latency` is the sum of the blocks'
     ``latency`` figures, each as its block defines it (a 2-D block's counts from the input
     pixel its output needs last), plus 1 per register slice; None when one varies (DDR).
     """
@@ -432,6 +447,8 @@ class Pipeline(wiring.Component):
         self._cores = self._plan()
         self._source = bool(self._stages) and self._stages[0].source
         carried = set(self._stages[0].carries) if self._source else set()
+        if self._source and self._stages[0].gate is not None:
+            carried.add(self._stages[0].gate)
         members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
             in_bits, ppc * lanes * lane_elems)))}
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
@@ -468,6 +485,19 @@ class Pipeline(wiring.Component):
         """(stage, lanes) of the stages whose ``ready`` port holds the input."""
         return [(st, len(cs)) for st, cs in zip(self._stages, self._cores)
                 if st.ready is not None]
+
+    @property
+    def port_domains(self):
+        """{top port: clock domain} of the ports its components have outside the processing
+        clock (their ``port_domains``; e.g. the sensor front end's word-clock ports)."""
+        out = {}
+        for st, cores in zip(self._stages, self._cores):
+            for k, core in enumerate(cores):
+                for pname, dom in (getattr(core, "port_domains", None) or {}).items():
+                    flow = core.signature.members[pname].flow
+                    out[f"{st.name}_{pname}" if flow == wiring.In and pname not in st.pins
+                        else self._status(st, pname, k)] = dom
+        return out
 
     @property
     def startup_bound(self):
@@ -570,6 +600,8 @@ class Pipeline(wiring.Component):
             m.d.comb += whole.ready.eq(held_ready & go)
             whole = Link(whole.valid & go, held_ready, whole.first, whole.last, whole.elems,
                          whole.bits, whole.user)
+        if self._source and self._stages[0].gate is not None:
+            m.d.comb += getattr(self._cores[0][0], self._stages[0].gate).eq(go if holds else 1)
         # lanes stay one stream until a per-lane block needs them apart
         lanes = [whole]
         per = [self._lane_elems] * self._lanes
@@ -627,7 +659,8 @@ class Pipeline(wiring.Component):
         ports (or from the values ``user`` its input stream carries), status outputs to
         them."""
         for pname, member in core.signature.members.items():
-            if pname in ("i_stream", "o_stream") or (st.source and pname in st.carries):
+            if pname in ("i_stream", "o_stream") or (st.source and pname in st.carries) \
+                    or (st.source and pname == st.gate):
                 continue
             if user and pname in user and member.flow == wiring.In:
                 m.d.comb += getattr(core, pname).eq(user[pname])

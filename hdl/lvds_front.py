@@ -14,10 +14,11 @@ Clock domains and start-up::
     lane_raw --> LvdsRx: train (IDELAY taps) -> bitslip -> deskew     |
                  |  lane_locked / lane_error                          |
                  v                                                    |
-              framer: HOLD until every lane has trained (locked or    |
-                      error) and the deskew is aligned, then RUN from |
-                      the next line whose header is row 0 (frames     |
-                      seen while held after a lane loss: dropped,     |
+              framer: HOLD until every lane has trained (locked or  <=sync== release
+                      error), the deskew is aligned and ``release``   |
+                      is high, then RUN from the next line whose      |
+                      header is row 0 (with ``pairs`` a reset         |
+                      frame's; frames seen while held: dropped,       |
                       counted); a lane lost mid-frame: FILL the frame |
                       with invalid words (affected, counted), HOLD    |
                       until ``retrain``                               |
@@ -36,6 +37,7 @@ processor to read through its own synchronizer); the run-time inputs too (``trai
 
 from amaranth.hdl import Array, Cat, Const, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import fifo, wiring
+from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
@@ -78,11 +80,13 @@ class _WordSide(wiring.Component):
     """Receiver and framer, written in ``sync`` (renamed to the word domain by
     :class:`LvdsFront`); ``w_*`` drive the crossing FIFO's write port."""
 
-    def __init__(self, *, n, w, bits, p, rx, phy):
+    def __init__(self, *, n, w, bits, p, rx, phy, pairs=False):
         self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
+        self._pairs = pairs
         self._lane_ports = _lane_ports(n, w, phy)
         ports = {**self._lane_ports,
-                 "w_data": Out(n * bits + 3), "w_en": Out(1), "w_rdy": In(1)}
+                 "w_data": Out(n * bits + 3), "w_en": Out(1), "w_rdy": In(1),
+                 "released": In(1)}
         ports.update(_status_ports(n, w))
         super().__init__(ports)
 
@@ -165,11 +169,16 @@ class _WordSide(wiring.Component):
             ~self.retrain & ~rx.deskew_error
         with m.Switch(state):
             with m.Case(_HOLD):
-                with m.If(at_header & (h_row == 0)):
-                    with m.If(ok):
-                        m.d.sync += [state.eq(_RUN), row.eq(0), acc.eq(0), kind.eq(h_kind)]
-                    with m.Elif(self.need_retrain & rx.aligned):
-                        m.d.sync += self.frames_dropped.eq(self.frames_dropped + 1)
+                # a run starts at a frame's first line (with ``pairs``: a reset frame's, so
+                # the CDS stage never pairs a signal frame with a reset frame it missed)
+                start = at_header & (h_row == 0)
+                with m.If(start & ok & self.released & (h_kind if self._pairs else 1)):
+                    m.d.sync += [state.eq(_RUN), row.eq(0), acc.eq(0), kind.eq(h_kind)]
+                with m.Elif(start & ((self.need_retrain & rx.aligned) | ok)):
+                    # held: a lane lost (until ``retrain``), the top not ready yet (its
+                    # start-up: the calibration load), or the signal frame of a pair
+                    # whose reset frame was not taken
+                    m.d.sync += self.frames_dropped.eq(self.frames_dropped + 1)
             with m.Case(_RUN):
                 in_frame = (row != 0) | (pos >= 2)
                 # a frame's first line may be of either kind; its other lines of its kind
@@ -237,6 +246,10 @@ class LvdsFront(wiring.Component):
         (:class:`~tdicam.hdl.lvds.LvdsXilinx`: pins ``lane_p``/``lane_n``, ``clk_bit``,
         ``clk_ref``, ``idelay_rdy``, ``clk_div`` with 12-bit words; the word clock is its
         ``CLKDIV``), generated, not simulated.
+    pairs : bool
+        The sensor sends each reset frame before its signal frame (off-chip CDS): after any
+        hold (start-up, ``release`` low, a retrain) frames are released from a reset frame
+        on, so the CDS stage never pairs a signal frame with a reset frame it did not get.
 
     Attributes
     ----------
@@ -254,6 +267,13 @@ class LvdsFront(wiring.Component):
     frame_kind : Out(1), processing domain
         The kind of the frame ``o_stream``'s beat belongs to (from its row header's top bit:
         1 a reset frame, 0 a signal frame), valid with every beat.
+    release : In(1, init 1), processing domain
+        The processing side is ready for frames (in a pipeline: its start-up is done, e.g.
+        the NUC calibration loaded from NAND); registered, then synchronized into the word
+        domain. Frames
+        whose first line arrives while it is low are dropped whole and counted
+        (``frames_dropped``); the first frame released is the first whole frame after it
+        rises, so the sensor may start at power-up, before the calibration load.
     lane_locked, lane_error : Out(gains*L)
         Per-lane status (word domain); ``lanes_bad`` = not locked (their columns are invalid).
     frame_invalid : Out(gains*L)
@@ -264,8 +284,10 @@ class LvdsFront(wiring.Component):
         Every lane trained (locked or error); frames are being released; a lane was lost
         or the deskew failed after training (frames held until ``retrain``).
     frames_out, frames_dropped, frames_affected, lane_errors : Out(16)
-        Frames finished (released), frames seen but held, released frames with an invalid
-        lane, lane error events (cycles with a new lane error).
+        Frames finished (released); whole frames seen but not released (after a lane loss
+        until ``retrain``, before ``release``, with ``pairs`` a signal frame whose reset
+        frame was not released); released frames with an invalid lane; lane error events
+        (cycles with a new lane error).
     fifo_overflow : Out(1)
         Sticky: an entry arrived with the FIFO full (pixels lost).
     """
@@ -273,7 +295,7 @@ class LvdsFront(wiring.Component):
     @quiet_reject
     def __init__(self, *, lanes_per_gain=4, gains=2, word_bits=12, bits=12, columns=32,
                  ppc=1, fifo_depth=16, settle=8, min_run=9, pick=5, deskew_depth=8,
-                 phy="none"):
+                 phy="none", pairs=False):
         L = check_range("lanes_per_gain", lanes_per_gain, 1, 64)
         self._g = check_choice("gains", gains, (1, 2))
         self._w = check_choice("word_bits", word_bits, (10, 12))
@@ -287,13 +309,14 @@ class LvdsFront(wiring.Component):
             raise TdicamError(f"fifo_depth = {fifo_depth} must be a power of two >= 4")
         self._L, self._p, self._depth = L, columns // L, fifo_depth
         self._phy = check_choice("phy", phy, ("none", "xilinx7"))
+        self._pairs = bool(pairs)
         rx_cls = LvdsXilinx if phy == "xilinx7" else LvdsRx
         self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle,
                           min_run=min_run, pick=pick, deskew_depth=deskew_depth)
         n = L * gains
         ports = {**_lane_ports(n, word_bits, phy),
                  "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains))),
-                 "frame_kind": Out(1)}
+                 "frame_kind": Out(1), "release": In(1, init=1)}
         ports.update(_status_ports(n, word_bits))
         super().__init__(ports)
 
@@ -303,11 +326,25 @@ class LvdsFront(wiring.Component):
     line_words = property(lambda self: self._p + 2)
     fifo_depth = property(lambda self: self._depth)
 
+    @property
+    def port_domains(self):
+        """{port: clock domain} of the ports not in the processing clock (``sync``): the
+        lanes' and the status and settings ports, in the word domain."""
+        n = self._L * self._g
+        return {name: WORD_DOMAIN for name in {**_lane_ports(n, self._w, self._phy),
+                                                **_status_ports(n, self._w)}}
+
     def elaborate(self, platform):
         m = Module()
         L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
-        ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy)
+        ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy,
+                       pairs=self._pairs)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
+        # registered before the crossing (the top's gate is an AND of its stages' status)
+        release_q = Signal()
+        m.d.sync += release_q.eq(self.release)
+        m.submodules.release_sync = FFSynchronizer(release_q, ws.released,
+                                                   o_domain=WORD_DOMAIN, init=0)
         m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)
         outer = {**_lane_ports(n, self._w, self._phy), **_status_ports(n, self._w)}

@@ -41,7 +41,7 @@ __all__ = ["GMAX0504", "line_words", "check_geometry", "header_word", "wire_code
            "lane_payload",
            "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
            "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
-           "untrained_lanes"]
+           "untrained_lanes", "lane_mask", "cut_frame", "lane_death"]
 
 #: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.
 GMAX0504 = {"lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0}
@@ -217,7 +217,8 @@ def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
     return px, invalid_columns(bad_lanes, p * L, L, g), np.asarray(kinds, np.int64)
 
 
-def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):
+def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
+               stall_cycles=0):
     """Words of the front's clock-domain-crossing FIFO (a power of two, >= 8).
 
     A FIFO entry is one word clock's words of every lane (``L`` columns per channel); the
@@ -225,9 +226,23 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):
     of ``P = columns / L`` words a line (then 2 words of sync and header), at the word rate
     ``f_w``; they leave at ``r = f_p ppc / L`` entries a second. The front keeps up when
     ``r >= f_w P / (P + 2)`` (else a one-line :class:`TdicamError`); during a line's burst
-    the FIFO grows by at most ``P (1 - r / f_w)`` entries, so
-    ``depth = 2**ceil(log2(ceil(P * max(0, 1 - r / f_w)) + slack))`` with ``slack`` for the
-    crossing's synchronizer latency and the read side's pipeline.
+    the FIFO grows by at most ``P (1 - r / f_w)`` entries.
+
+    The front has no backpressure (the sensor sets the pace): a block behind it that
+    holds the stream -- ``stall_cycles`` processing clocks at once, the DDR model's worst
+    stall (:func:`tdicam.model.ddr.worst_stall`: refresh cycles + the longest read latency,
+    104 by default; cds_ddr waits for each signal frame's first reset line) -- lets
+    ``stall_cycles f_w / f_p`` more entries pile up. So::
+
+        depth = 2**ceil(log2(ceil(P max(0, 1 - r / f_w)) + ceil(stall_cycles f_w / f_p)
+                              + slack))
+
+    with ``slack`` for the crossing's synchronizer latency and the read side's pipeline.
+    The depth covers one worst stall; the processing side drains it with what it has to
+    spare, ``(P + 2) r / f_w - P`` entries a line, so a stall once a frame pair (cds_ddr's,
+    at each signal frame) is drained before the next when the ``2 R`` lines of a
+    reset/signal pair spare the stall's entries (e.g. ``r = f_w``: 2 entries a line, a
+    104-clock stall at ``f_p = 4 f_w`` is 26 entries: ``R >= 7`` rows).
     """
     L, p = lanes_per_gain, columns // lanes_per_gain
     ratio = proc_mhz * ppc / (L * word_mhz)
@@ -235,7 +250,8 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8):
         raise TdicamError(f"the processing clock ({proc_mhz:g} MHz x {ppc} pixels) cannot take "
                           f"{L} lanes at {word_mhz:g} M words/s: needs >= "
                           f"{word_mhz * L * p / ((p + 2) * ppc):.4g} MHz")
-    need = int(np.ceil(p * max(0.0, 1.0 - ratio))) + slack
+    need = int(np.ceil(p * max(0.0, 1.0 - ratio))) + slack \
+        + int(np.ceil(stall_cycles * word_mhz / proc_mhz - 1e-9))
     return max(8, 1 << (need - 1).bit_length())
 
 
@@ -268,3 +284,66 @@ def untrained_lanes(lanes, word_bits, train_word=None, *, n_check=16, settle=8):
     link = link_model.Link(lanes, word_bits=word_bits, train_word=train_word)
     return [i for i in range(len(lanes))
             if link_model.train_lane(link, i, 0, n_check=n_check, settle=settle).error]
+
+
+def lane_mask(lanes):
+    """The frame-status word of a set of lane numbers (bit ``i`` = lane ``i`` invalid)."""
+    return sum(1 << int(i) for i in set(lanes))
+
+
+def cut_frame(healthy, observed, lanes_per_gain, lane, died):
+    """The frame a lane's death cut, as the front delivers it: ``(frame (G, R, C), fill)``.
+
+    ``healthy``: the frame as the front would deliver it with the lane alive (wire codes,
+    untrained lanes 0); ``observed``: what it delivered; ``lane`` died at pixel word
+    ``died`` (``r P + j``: row ``r``, word ``j`` of the ``P = C / L`` a line). Up to the
+    death every word is the healthy one; from the death until the front sees the loss (its
+    lane monitor, at a line's sync word) the dead lane's words are what its deserializer
+    made of a dead line (taken from ``observed``: invalid, and the frame is flagged); from
+    ``fill`` -- the first word from which every lane reads 0 to the frame's end, measured
+    on ``observed``, never before the death -- the front fills the frame with 0s.
+    """
+    L = lanes_per_gain
+    g_n, r_n, c_n = np.shape(healthy)
+    p = c_n // L
+
+    def words(a):           # (R P, G, L): word r P + j of every lane of every gain
+        return np.asarray(a, np.int64).reshape(g_n, r_n, p, L).transpose(1, 2, 0, 3) \
+            .reshape(r_n * p, g_n, L)
+    obs, exp = words(observed), words(healthy).copy()
+    nz = np.flatnonzero(obs.reshape(r_n * p, -1).any(axis=1))
+    fill = max(int(nz[-1]) + 1 if len(nz) else 0, int(died))
+    g, k = divmod(int(lane), L)
+    exp[died:fill, g, k] = obs[died:fill, g, k]
+    exp[fill:] = 0
+    return exp.reshape(r_n, p, g_n, L).transpose(2, 0, 1, 3).reshape(g_n, r_n, c_n), fill
+
+
+def lane_death(frames, lanes_per_gain, word_bits, *, bad_lanes, lane, frame, cut, kinds=None,
+               held=2, pairs=False):
+    """What the front delivers of ``frames`` (one ``(F, R, C)`` stack per gain, as the sensor
+    sends them) when lanes ``bad_lanes`` did not train and lane ``lane`` dies in ``frame``:
+    the frames before it as :func:`receive` gives them; ``cut`` (:func:`cut_frame`: the cut
+    frame as delivered); ``held`` frames dropped while the lanes wait for the retrain; from
+    the retrain on (with ``pairs``: from the next reset frame, ``kinds`` 1) the frames with
+    ``lane`` invalid too.
+
+    Returns ``(pixels (G, F', R, C), kinds (F',) or None, frame status [F' words], dropped)``
+    with the frame status as the front publishes it (:func:`lane_mask`: the untrained lanes,
+    every lane for the cut frame, the dead lane after) and the frames not released.
+    """
+    bad = sorted(set(bad_lanes))
+    n = len(frames) * lanes_per_gain
+    before, _ = receive(frames, bad, lanes_per_gain, word_bits)
+    after, _ = receive(frames, sorted(set(bad) | {lane}), lanes_per_gain, word_bits)
+    nf = before.shape[1]
+    start = frame + 1 + held
+    if pairs and kinds is not None:
+        while start < nf and kinds[start] != 1:
+            start += 1
+    keep = list(range(frame)) + [frame] + list(range(start, nf))
+    px = np.concatenate([before[:, :frame], np.asarray(cut, np.int64)[:, None],
+                         after[:, start:]], axis=1)
+    status = [lane_mask(bad)] * frame + [(1 << n) - 1] + \
+        [lane_mask(bad + [lane])] * (nf - start)
+    return px, None if kinds is None else np.asarray(kinds)[keep], status, start - frame - 1

@@ -104,6 +104,77 @@ def test_scenario_in_amaranth(name):
     assert check(name, case, run_amaranth(case)) == []
 
 
+def test_golden_front_of_a_lane_death():
+    """The golden front when a lane dies mid-frame: the cut frame healthy up to the death,
+    the dead lane's words as seen until the fill, 0s from the fill (the first word from
+    which every lane reads 0); the frames held until the retrain dropped; after it the dead
+    lane's columns 0; the frame status of each released frame (with ``pairs``, released
+    from the next reset frame on)."""
+    rng = np.random.default_rng(3)
+    frames = [rng.integers(1, 4000, (8, 3, 8)) for _ in range(2)]      # L = 2: P = 4
+    healthy = front.receive(frames, [3], 2, 12)[0][:, 3]
+    seen = healthy.copy()
+    seen[0, 1, 3::2][1:] = 77                 # lane 1 (gain 0, odd columns) dead from word 5
+    seen[:, 2, :] = 0                         # filled from word 8 (row 2)
+    cut, fill = front.cut_frame(healthy, seen, 2, 1, 5)
+    assert fill == 8 and np.array_equal(cut, seen)
+    seen[1, 1, 0] += 1                        # another lane wrong: not what the model gives
+    assert not np.array_equal(front.cut_frame(healthy, seen, 2, 1, 5)[0], seen)
+    kinds = [1, 0] * 4
+    px, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[3], lane=1, frame=3,
+                                              cut=cut, kinds=kinds, pairs=True)
+    assert dropped == 2 and list(k) == [1, 0, 1, 0, 1, 0]
+    assert status == [8, 8, 8, 15, 10, 10]
+    after = front.receive(frames, [1, 3], 2, 12)[0]
+    assert np.array_equal(px[:, 4:], after[:, 6:]) and (px[0, 4:, :, 1::2] == 0).all()
+    # a reset frame cut: with pairs the signal frame after the held ones is dropped too
+    _, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[], lane=1, frame=2,
+                                             cut=cut, kinds=kinds, pairs=True)
+    assert dropped == 3 and list(k) == [1, 0, 1, 1, 0] and status == [0, 0, 15, 2, 2]
+
+
+def test_fifo_depth_has_a_ddr_stall_margin():
+    """A block behind the front that holds the stream (cds_ddr on the DDR model's worst
+    stall: refresh cycles + the longest read latency) adds its entries to the depth."""
+    from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
+    assert worst_stall({}) == worst_stall(DEFAULT_STALLS) == 44 + 60
+    # r = 1 at 4 lanes x 25 M words/s, 100 MHz: 104 clocks are 26 entries
+    assert front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=104) == 64    # 26 + 8
+    assert front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=96) == 32     # 24 + 8
+
+
+@pytest.mark.parametrize("pairs", [0, 1])
+def test_frames_before_release_are_dropped_whole_and_counted(pairs):
+    """The top releases the front only when its start-up is done (the calibration loaded):
+    the sensor may start before. Frames whose first line arrives while ``release`` is low
+    are dropped whole and counted (``frames_dropped``); the released frames are whole and
+    exact, the first the next frame to start after the release (with ``pairs``, the next
+    reset frame: the CDS stage never gets a signal frame without its reset)."""
+    from tdicam.cosim.lvds_front import cds_kinds
+    from tdicam.hdl.lvds_front import LvdsFront
+    nf = 6
+    case = FrontCase(_frames(nf, 7), _lanes(), L, ppc=2, word_ns=40.0, proc_ns=10.0,
+                     kinds=cds_kinds(nf))
+    dut = LvdsFront(lanes_per_gain=L, gains=G, word_bits=12, bits=12, columns=C, ppc=2,
+                    fifo_depth=case.fifo_depth, settle=case.settle, pairs=pairs)
+    lw = case.p + 2
+    # released in the middle of frame 0's second line (1 + blank: frame 1 starts next)
+    at = case.segment_starts[0] + lw + 3
+
+    def hook(ctx, d, k):
+        ctx.set(d.release, int(k >= at))
+    res = run_amaranth(case, dut=dut, hook=hook)
+    first = 2 if pairs else 1                   # frame 1 is a signal frame
+    st = res["status"]
+    assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"]) == \
+        (nf - first, first, 0)
+    got = frames_of(res["beats"], R, C, 2, G)
+    words = [front.data_words(case.link, i) for i in range(G * L)]
+    exp, _, kinds = front.frames_from_lanes(words, L, R, 12)
+    assert np.array_equal(got, exp[:, first:])
+    assert res["kinds"] == list(kinds[first:])
+
+
 def test_cdc_at_one_pixel_per_clock():
     case = FrontCase(_frames(5, 3), _lanes(), L, ppc=1, word_ns=60.0, proc_ns=10.0, ready=0.8)
     assert check("cdc_slow", case, run_amaranth(case)) == []

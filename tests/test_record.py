@@ -117,7 +117,13 @@ def test_update_replaces_by_label_and_keeps_order(tmp_path):
     record.update([replace(row, fmax_mhz=300.0)], path)
     rows = record.load(path)
     assert [r.label for r in rows] == ["a", "cds"] and rows[1].fmax_mhz == 300.0
-    assert json.loads(path.read_text())["rows"][1] == asdict(rows[1])
+    # every field stored; fmax_clocks only when recorded (a one-clock result has none)
+    assert json.loads(path.read_text())["rows"][1] == \
+        {k: v for k, v in asdict(rows[1]).items() if k != "fmax_clocks"}
+    res.fmax_clocks = {"clk": 320.0, "word_clk": 200.0}
+    record.update([record.row_of("two", "cds", {}, res, target_mhz=150)], path)
+    assert json.loads(path.read_text())["rows"][2]["fmax_clocks"] == res.fmax_clocks
+    assert record.load(path)[2].fmax_clocks == res.fmax_clocks
 
 
 @pytest.mark.parametrize("text, message", [
@@ -133,3 +139,21 @@ def test_a_damaged_record_is_one_line(tmp_path, text, message):
     with pytest.raises(TdicamError, match=re.escape(message)) as e:
         record.load(path)
     assert "\n" not in str(e.value) and str(path) in str(e.value)
+
+
+def test_readme_silicon_table_is_the_record():
+    """The README's "Silicon (ECP5-85F)" table is generated from the record: the chains at
+    ppc 8 and the system scene from the lanes with its Fmax per clock domain."""
+    from tdicam.camera.design import ECP5_85F
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    begin = "<!-- silicon table: generated from tdicam/hw/silicon.json -->\n"
+    table = text[text.index(begin) + len(begin):text.index("<!-- end of silicon table -->")]
+    assert table == record.readme_table(limits=ECP5_85F), \
+        "README.md's silicon table is stale: paste tdicam.hw.record.readme_table()"
+    assert table.count("\n") >= 4
+    # a two-domain row shows each clock; a design over the part says what does not fit
+    row = replace(record.load()[0], label="x", block="pipeline", date="2099-01-01",
+                  params={"scene": "ning2019_chain.toml", "ppc": 8}, comb=90000,
+                  fmax_clocks={"clk": 101.5, "word_clk": 180.2})
+    t = record.readme_table([row], limits=ECP5_85F)
+    assert "clk 101.5, word_clk 180.2" in t and "no: comb 90000 > 83640" in t

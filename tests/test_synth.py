@@ -121,6 +121,76 @@ def test_ecp5_top_is_what_the_ecp5_places():
     assert rtlil(cds.build(ecp5=True), "cds") == rtlil(cds.build(), "cds")
 
 
+def test_harness_registers_each_port_in_its_clock_domain():
+    """A top whose ports live in another clock domain (``port_domains``, e.g. the sensor
+    lanes' word clock) gets its harness registers in that domain: with only the word clock
+    running, a word-domain input reaches the word-domain output (3 edges: in, core, out);
+    harnessed in ``sync`` it would never arrive."""
+    from amaranth.hdl import Module
+    from amaranth.lib import wiring
+    from amaranth.lib.wiring import In, Out
+
+    class Word(wiring.Component):
+        a: In(8)
+        y: Out(8)
+        port_domains = {"a": "word", "y": "word"}
+
+        def elaborate(self, platform):
+            m = Module()
+            m.d.word += self.y.eq(self.a)
+            return m
+
+    dut = timing_harness(Word())
+    got = []
+
+    async def bench(ctx):
+        for v in (5, 6, 7, 8, 9):
+            ctx.set(dut.a, v)
+            await ctx.tick("word")
+            got.append(ctx.get(dut.y))
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-6, domain="word")
+    sim.add_testbench(bench)
+    sim.run()
+    assert got == [0, 0, 5, 6, 7]
+
+
+def test_parse_ecp5_keeps_each_clocks_fmax(tmp_path):
+    """Two clock domains: ``fmax_mhz`` is the median over seeds of the slowest clock,
+    ``fmax_clocks`` each clock's own median; the LPF constrains each extra clock."""
+    from tdicam.hw.synth import clock_constraints, parse_ecp5
+    (tmp_path / "stat.json").write_text(json.dumps(
+        {"modules": {"\\t": {"num_cells_by_type": {"LUT4": 3}}}}))
+    reports = []
+    for k, (clk, word) in enumerate(((120.0, 90.0), (130.0, 95.0), (110.0, 99.0))):
+        rp = tmp_path / f"r{k}.json"
+        rp.write_text(json.dumps({"fmax": {"clk": {"achieved": clk, "constraint": 150},
+                                           "word_clk": {"achieved": word, "constraint": 25}},
+                                  "utilization": {}}))
+        reports.append(rp)
+    res = parse_ecp5(tmp_path / "stat.json", "t", reports)
+    assert res["fmax_seeds"] == [90.0, 95.0, 99.0] and res["fmax_mhz"] == 95.0
+    assert res["fmax_clocks"] == {"clk": 120.0, "word_clk": 95.0}
+    assert clock_constraints({"word_clk": 25.0}) == 'FREQUENCY NET "word_clk" 25 MHZ;\n'
+
+
+def test_system_lanes_top_has_the_word_clock_constrained():
+    """The system scene from the lanes: synthesis constrains the word clock at the lanes'
+    rate (300 Mbit/s / 12 bit = 25 MHz) beside ``clk``, and the harness registers the front's
+    lane and status ports in the word domain."""
+    from pathlib import Path
+    from tdicam.camera import design as pl
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(Path(__file__).resolve().parents[1] / "scenes" /
+                    "ning2019_gmax0504_system_lanes.toml")
+    p = pl.plan(sc)
+    assert pl.PipelineBlock(p, None).clocks() == {"word_clk": 25.0}
+    doms = pl.top(p).port_domains
+    assert doms["lvds_lane_raw"] == doms["lvds_frames_out"] == doms["lvds_retrain"] == "word"
+    assert "m_axis_tdata" not in doms and "nuc_calib_loaded" not in doms
+
+
 @needs_tools
 @pytest.mark.parametrize("depth,bits", [(2048, 9), (1000, 18)])
 def test_ecp5_rom_initval_layout_is_yosys_own(tmp_path, depth, bits):

@@ -241,36 +241,31 @@ def test_plan_states_the_lanes_pixel_rate_and_training_time():
     assert "calibration load" in rows
 
 
-def test_system_from_serial_lanes_to_output_in_amaranth():
-    """The system scene with the sensor's lanes ([sensor.lvds], 2 lanes a gain as the
-    scene's window, a 16-column crop, 3 TDI stages, a 16-block NAND part) whole in
-    Amaranth's simulator, two clocks at the camera's rates (25 M words/s a lane: 300 Mbit/s
-    of 12-bit words; 100 MHz processing):
-    the lanes carry each reset frame before its signal frame (the kind in the row headers:
-    the front's frame_kind drives cds_ddr's), the start-up -- lane training (word clock),
-    the NAND scan and calibration load (processing clock), then frames released -- and the
-    output of median3 equal to the golden chain's, bit for bit. The rate ratio is
-    r = f_clk / (2 f_word) = 2: the front has no backpressure, and cds_ddr behind the DDR
-    model's stalls does not take a beat every clock (with 4 lanes a gain, r = 1, the
-    crossing FIFO overflows)."""
+def _lanes_in_amaranth(*, lanes_per_gain=2, stages=3, lines=2, fifo_depth=None,
+                       lead=40, tail=100, ddr=None):
+    """The system scene with the sensor's lanes ([sensor.lvds]; a 16-column crop, 16-block
+    NAND parts) whole in Amaranth's simulator, two clocks at the camera's rates (25 M
+    words/s a lane: 300 Mbit/s of 12-bit words; 100 MHz processing), the MIG model's
+    default stalls behind cds_ddr: (plan, golden output, run result, start-up record)."""
     from dataclasses import replace
-    from tdicam.cosim.lvds_front import (GOOD_LANES, frames_of, plan_case, run_amaranth,
-                                         scenario_lanes)
+    from tdicam.cosim.lvds_front import GOOD_LANES, plan_case, run_amaranth, scenario_lanes
     sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
-        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2}}, "tdi": {"stages": 3},
-        "run": {"lines": 2}})
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": lanes_per_gain}},
+        "tdi": {"stages": stages}, "run": {"lines": lines}, "ddr": {"base": 0, **(ddr or {})}})
     p = pl.plan(sc)
-    assert [s.block for s in p.steps] == ["lvds", "cds_ddr", "nuc", "hdr", "tdi", "median3"]
-    assert p.reset_frames
     p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
                                else s for s in p.steps))
-    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    if fifo_depth is not None:
+        p = replace(p, steps=(replace(p.steps[0], params={**p.steps[0].params,
+                                                          "fifo_depth": fifo_depth}),)
+                    + p.steps[1:])
+    data, _ = scene_data(sc, stages=stages, dv_over_v=0.0, lines=lines)
     ax = pl.top(p, data, board=True)
     ax._MustUse__silence = True                  # its board is simulated
     board = ax.core
-    assert "cds_ddr_frame_kind" not in board.signature.members   # it comes from the lanes
-    case = plan_case(p, data, scenario_lanes(GOOD_LANES[:4]), word_ns=40.0, proc_ns=10.0,
-                     n_check=4, tail=100)
+    lanes = scenario_lanes((GOOD_LANES * 2)[:2 * lanes_per_gain])
+    case = plan_case(p, data, lanes, word_ns=40.0, proc_ns=10.0, n_check=4, tail=tail,
+                     lead=lead)
     settings = {f"{s.block}_{k}": v for s in p.steps[1:] for k, v in s.ports.items()
                 if hasattr(board, f"{s.block}_{k}")}
     seen = {}
@@ -285,10 +280,27 @@ def test_system_from_serial_lanes_to_output_in_amaranth():
             seen[name] = ctx.get(getattr(dut, name))
     res = run_amaranth(case, dut=board, prefix="lvds_", settings=settings, elems=1,
                        hook=hook)
+    return p, pl.golden(p, data)[-1][2], res, seen, board
+
+
+def test_system_from_serial_lanes_to_output_in_amaranth():
+    """The system scene with the sensor's lanes ([sensor.lvds], 2 lanes a gain as the
+    scene's window, a 16-column crop, 3 TDI stages, a 16-block NAND part) whole in
+    Amaranth's simulator, two clocks at the camera's rates (25 M words/s a lane: 300 Mbit/s
+    of 12-bit words; 100 MHz processing):
+    the lanes carry each reset frame before its signal frame (the kind in the row headers:
+    the front's frame_kind drives cds_ddr's), the start-up -- lane training (word clock),
+    the NAND scan and calibration load (processing clock), then frames released -- and the
+    output of median3 equal to the golden chain's, bit for bit. The rate ratio is
+    r = f_clk / (2 f_word) = 2 (r = 1: :func:`test_front_fifo_takes_the_ddr_stalls_at_r_1`)."""
+    from tdicam.cosim.lvds_front import frames_of
+    p, exp, res, seen, board = _lanes_in_amaranth()
+    assert [s.block for s in p.steps] == ["lvds", "cds_ddr", "nuc", "hdr", "tdi", "median3"]
+    assert p.reset_frames and p.steps[0].params["pairs"] == 1
+    assert "cds_ddr_frame_kind" not in board.signature.members   # it comes from the lanes
     st = res["status"]
     assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"], st["lane_error"]) \
         == (2 * p.frames, 0, 0, 0)
-    exp = pl.golden(p, data)[-1][2]
     got = frames_of(res["beats"], exp.shape[1], 16, 1, 1)[0]
     assert got.shape == exp.shape and np.array_equal(got, exp)
     # start-up: the calibration loaded and the lanes trained before the first frame is
@@ -303,3 +315,94 @@ def test_system_from_serial_lanes_to_output_in_amaranth():
     print(f"start-up: lanes trained at word clock {seen['lvds_trained']}, calibration "
           f"loaded after {seen['startup_cycles']} processing clocks, first frame released "
           f"at word clock {seen['lvds_releasing']}")
+
+
+#: A MIG model stall pattern with long refreshes (200 of every 2000 cycles, reads up to 90
+#: cycles late): the worst stall 290 processing clocks (tdicam.model.ddr.worst_stall)
+LONG_STALLS = {"refresh_period": 2000, "refresh_cycles": 200, "lat_hi": 90}
+
+
+def test_front_fifo_takes_the_ddr_stalls_at_r_1():
+    """4 lanes a gain at 25 M words/s into a 100 MHz processing clock: r = f_clk / (4 f_word)
+    = 1, the front's no-backpressure stream behind cds_ddr and the MIG model's long
+    refreshes. The crossing FIFO is sized with the DDR model's worst stall (refresh cycles
+    + the longest read latency, 290 clocks = 73 entries at the slowest clock the lanes
+    allow): no overflow, every frame out, median3's output bit-exact; at the depth of
+    before the margin (16, the line burst only) the FIFO overflows and pixels are lost."""
+    from tdicam.cosim.lvds_front import frames_of
+    from tdicam.model import lvds_front as front
+    from tdicam.model.ddr import worst_stall
+    p, exp, res, _, _ = _lanes_in_amaranth(lanes_per_gain=4, stages=8, ddr=LONG_STALLS)
+    assert worst_stall(p.steps[1].params) == 290
+    slowest = 25.0 * 4 * 4 / 6                     # P = 4 words a line + sync + header
+    depth = p.steps[0].params["fifo_depth"]
+    assert depth == front.fifo_depth(4, 1, 16, 25.0, slowest, stall_cycles=290) == 128
+    assert front.fifo_depth(4, 1, 16, 25.0, slowest) == 16        # without the margin
+    st = res["status"]
+    assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"]) == (2 * p.frames, 0, 0)
+    got = frames_of(res["beats"], exp.shape[1], 16, 1, 1)[0]
+    assert got.shape == exp.shape and np.array_equal(got, exp)
+    # the depth of before: overflow, pixels lost (a shorter run shows it)
+    _, exp, res, _, _ = _lanes_in_amaranth(lanes_per_gain=4, stages=3, ddr=LONG_STALLS,
+                                           fifo_depth=16)
+    assert res["status"]["fifo_overflow"] == 1
+    assert len(res["beats"]) < exp.size
+
+
+@pytest.mark.parametrize("over, match", [
+    ({"ddr": {"base": 0, "refresh_period": 100, "refresh_cycles": 100}},
+     r"^\[ddr\]\.refresh_cycles = 100 is out of range"),
+    ({"ddr": {"base": 0, "lat_lo": 50, "lat_hi": 40}}, r"^\[ddr\]\.lat_hi = 40 is out of range"),
+    ({"ddr": {"base": 0, "drop": 256}}, r"^\[ddr\]\.drop = 256 is out of range"),
+    ({"run": {"rtl": {"lane_dies": [0, 1]}}},
+     r"^\[run\.rtl\]\.lane_dies: needs the sensor's lanes \(\[sensor\.lvds\]\)"),
+    ({"sensor": {"lvds": {"lanes_per_gain": 2}}, "run": {"rtl": {"lane_dies": [4, 1]}}},
+     r"^\[run\.rtl\]\.lane_dies: needs a lane 0\.\.3 and a frame >= 0, got \[4, 1\]"),
+    ({"sensor": {"lvds": {"lanes_per_gain": 2}}, "run": {"rtl": {"lane_dies": 3}}},
+     r"^\[run\.rtl\]\.lane_dies: must be two integers \[lane, frame\], got 3"),
+])
+def test_ddr_stalls_and_lane_death_keys_are_checked_in_one_line(over, match):
+    with pytest.raises(TdicamError, match=match) as exc:
+        load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides=over)
+    assert "\n" not in str(exc.value)
+
+
+def test_ddr_stall_keys_reach_the_ddr_blocks_and_the_report():
+    """[ddr]'s stall settings become cds_ddr's MIG model parameters (only those given away
+    from the defaults: the bundled scenes' Verilog unchanged) and the scene's dict."""
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system_lanes_faults.toml")
+    p = pl.plan(sc)
+    assert {k: p.steps[1].params[k] for k in LONG_STALLS} == LONG_STALLS
+    assert sc.to_dict()["ddr"] == {"interface": "mig", "base": 0, **LONG_STALLS}
+    assert sc.run.rtl.lane_dies == (0, 5)
+    plain = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml")
+    assert plain.to_dict()["ddr"] == {"interface": "mig", "base": 0}
+    assert "refresh_cycles" not in pl.plan(plain).steps[0].params
+    assert "lane_dies" not in plain.to_dict()["run"]["rtl"]
+
+
+def test_a_lane_death_in_a_reset_frame_is_refused_before_the_build():
+    """With reset frames in the stream the dying lane's frame must be a signal frame; the
+    co-simulation says so in one line before building anything."""
+    from tdicam.camera.cosim import cosimulate
+    sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2}}, "tdi": {"stages": 3},
+        "run": {"lines": 2}})
+    p = pl.plan(sc)
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    for dies, match in (((0, 2), r"frame 2 is a reset frame"),
+                        ((0, 7), r"needs a lane 0\.\.3 and a frame before the last 3")):
+        with pytest.raises(TdicamError, match=r"^\[run\.rtl\]\.lane_dies = \[0, \d\]: .*"
+                                              + match):
+            cosimulate(p, data, "icarus", front={"dies": dies})
+
+
+def test_plan_states_the_crossing_fifo_depth_and_why():
+    """tdicam plan of the lanes scene: the crossing FIFO's depth with the DDR stall margin
+    (cds_ddr behind the front, the MIG model's refresh 44 + read latency 60 clocks)."""
+    from tdicam.planning import sizing
+    rep = sizing.plan_report([load_scene(ROOT / "scenes" /
+                                         "ning2019_gmax0504_system_lanes.toml")])
+    row = {r["name"]: r for r in rep["system"]}["crossing FIFO"]
+    assert (row["value"], row["without_stall_margin"], row["stall_cycles"]) == (64, 16, 104)
+    assert "worst stall behind it (104 clocks" in row["text"]

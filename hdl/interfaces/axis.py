@@ -74,6 +74,12 @@ class AxisTop(wiring.Component):
     def latency(self):
         return self._core.latency
 
+    @property
+    def port_domains(self):
+        """The core's ``port_domains`` (the ports keep their names): {port: clock domain}
+        of the ports outside the processing clock."""
+        return dict(getattr(self._core, "port_domains", None) or {})
+
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = self._core

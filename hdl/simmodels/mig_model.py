@@ -51,6 +51,10 @@ class MigModel(wiring.Component):
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
     beat, or an ``app_cmd`` other than 0/1. The offending command is ignored.
+
+    With ``count_stalls``, ``stalls`` (Out(32)) counts the cycles the user waited on the
+    controller: a command (``app_en``) or write data (``app_wdf_wren``) presented and not
+    taken (refresh, a dropped ready, the DRAM timing, a full queue).
     """
 
     WDF_DEPTH = 16
@@ -58,7 +62,8 @@ class MigModel(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, depth_words, addr_bits=ADDR_BITS, lat_lo=20, lat_hi=60,
-                 refresh_period=780, refresh_cycles=44, drop=16, seed=1, dram=None):
+                 refresh_period=780, refresh_cycles=44, drop=16, seed=1, dram=None,
+                 count_stalls=False):
         _check_stalls(lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
         self._dram = dram
         check_range("depth_words", depth_words, 1, 1 << (addr_bits - 3))
@@ -66,8 +71,10 @@ class MigModel(wiring.Component):
         self._aw = addr_bits
         self._p = (lat_lo, lat_hi, refresh_period, refresh_cycles, drop, seed)
         self.memory = None
+        self._count = bool(count_stalls)
         super().__init__({**mig_model_ports(addr_bits), "error": Out(1),
-                          "writes": Out(32), "reads": Out(32)})
+                          "writes": Out(32), "reads": Out(32),
+                          **({"stalls": Out(32)} if count_stalls else {})})
 
     depth_words = property(lambda self: self._depth)
     dram = property(lambda self: self._dram)
@@ -178,6 +185,11 @@ class MigModel(wiring.Component):
         wr_count, rd_count = Signal(32), Signal(32)
         m.d.sync += [wr_count.eq(wr_count + do_wr), rd_count.eq(rd_count + do_rd)]
         m.d.comb += [self.writes.eq(wr_count), self.reads.eq(rd_count)]
+        if self._count:
+            waits = Signal(32)
+            with m.If((self.app_en & ~self.app_rdy) | (self.app_wdf_wren & ~self.app_wdf_rdy)):
+                m.d.sync += waits.eq(waits + 1)
+            m.d.comb += self.stalls.eq(waits)
         return m
 
     def _dram_timing(self, m, refresh):

@@ -181,9 +181,9 @@ def _cases():
 
 def _pipeline_step(ctx):
     """``[pipeline.cds].memory = "ddr"``: the frame's size, the reset frame at the scene's
-    ``[ddr].base``; ``frame_kind`` 1 on the reset frame, 0 on its signal frame, in turn."""
+    ``[ddr].base`` (the MIG model's stall settings the scene's ``[ddr]`` gives); ``frame_kind`` 1 on the reset frame, 0 on its signal frame, in turn."""
     return Step("cds_ddr", {"width": ctx.width, "rows": ctx.m, "pixel_bits": ctx.bits,
-                            "base": ctx.scene.ddr.base},
+                            "base": ctx.scene.ddr.base, **dict(ctx.scene.ddr.stalls)},
                 ports={"frame_kind": (1, 0)}), ctx.bits
 
 
@@ -199,9 +199,10 @@ def _pipeline_hw(step, data, *, ecp5=False):
 
     def device(lane):
         words = _layout(p).end_addr(p["rows"]) // ADDR_PER_WORD
-        return Device(MigModel(depth_words=max(1, words), **stalls_of(p)),
+        return Device(MigModel(depth_words=max(1, words), count_stalls=True, **stalls_of(p)),
                       {n: n for n in MIG_PORT_NAMES},
-                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads"})
+                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
+                       "ddr_stalls": "stalls"})
     return LaneStage(step.block, lambda lane: _core(p), ports=tuple(step.ports),
                      pins=MIG_PORT_NAMES, device=device, waits=True)
 
@@ -236,19 +237,26 @@ def _system(step, ctx):
 
 def _measured(step, status, info):
     """The co-simulation's DDR traffic per channel: words written and read back (one reset
-    frame's words per frame each way), and the MIG model's error flag."""
-    out = []
+    frame's words per frame each way), the cycles cds_ddr waited on the MIG model's stalls
+    (its refresh and stall settings, ``[ddr]``), and the model's error flag."""
+    out, q = [], BLOCK.resolve(step.params)
     for k in sorted(int(n.rsplit("_", 1)[1]) if n[-1].isdigit() else 0
                     for n in status if n.startswith("cds_ddr_ddr_writes")):
         sfx = f"_{k}" if k else ""
         w, r = status[f"cds_ddr_ddr_writes{sfx}"], status[f"cds_ddr_ddr_reads{sfx}"]
         err = status[f"cds_ddr_ddr_error{sfx}"]
+        stalls = status.get(f"cds_ddr_ddr_stalls{sfx}")
         out.append({"name": f"CDS DDR traffic, channel {k}", "value": w + r, "unit": "words",
+                    "stall_cycles": stalls,
                     "text": f"CDS DDR channel {k}: {w} words written, {r} read back "
                             f"({_frame_words(step.params)} a reset frame), "
                             f"{w + r} in {info['cycles']} cycles = "
                             f"{(w + r) / max(info['cycles'], 1):.1%} of the interface's cycles"
-                            f"{', MIG model ERROR' if err else ''}"})
+                            + (f"; {stalls} cycles waited on the MIG model's stalls "
+                               f"(refresh {q['refresh_cycles']} of every "
+                               f"{q['refresh_period']} cycles)"
+                               if stalls is not None else "")
+                            + (", MIG model ERROR" if err else "")})
     return out
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
+from tdicam.hdl.lvds_front import WORD_DOMAIN
 from tdicam.model import lvds as model
 from tdicam.blocks import PPC_PARAM, Bench, SynthRef, Use
 from tdicam.blocks import Block, Case, Param
@@ -27,14 +28,14 @@ __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_li
 
 
 def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_per_gain=0,
-         columns=0, bits=12, ppc=1, fifo_depth=16):
+         columns=0, bits=12, ppc=1, fifo_depth=16, pairs=0):
     kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
               deskew_depth=deskew_depth)
     if lanes_per_gain:
         from tdicam.hdl.lvds_front import LvdsFront
         return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
                          bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
-                         **kw)
+                         pairs=bool(pairs), **kw)
     return LvdsXilinx(lanes=lanes, **kw) if phy == "xilinx7" else LvdsRx(lanes=lanes, **kw)
 
 
@@ -63,8 +64,9 @@ def _front_source(scene):
 def _front_step(ctx):
     """The front end's step: the scene's ``[sensor.lvds]``, the chain's channels (two with a
     merging block; one without: the high-gain lanes only) and frame (rows = TDI stages),
-    the crossing FIFO sized for the slowest processing clock the lane format allows
-    (:func:`tdicam.model.lvds_front.fifo_depth`)."""
+    the crossing FIFO sized for the slowest processing clock the lane format allows and the
+    worst DDR stall of the blocks behind it (``ctx.stall_cycles``;
+    :func:`tdicam.model.lvds_front.fifo_depth`)."""
     lv = ctx.scene.sensor.lvds
     lpg, w = lv.lanes_per_gain, lv.word_bits
     front_model.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
@@ -77,26 +79,31 @@ def _front_step(ctx):
     slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)
     params = {"lanes": lpg * ctx.lanes, "word_bits": w, "lanes_per_gain": lpg,
               "columns": ctx.width, "bits": ctx.bits,
-              "fifo_depth": front_model.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest)}
+              "fifo_depth": front_model.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest,
+                                                   stall_cycles=ctx.stall_cycles)}
+    if ctx.reset_frames:                 # reset/signal pairs: release from a reset frame
+        params["pairs"] = 1
     ports = {"lane_raw": 0, "train_word": lv.train_word,
              "sync_word": model.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
              "retrain": 0}
-    return Step("lvds", params, ports), ctx.bits
+    return Step("lvds", params, ports, clocks={WORD_DOMAIN: word_mhz}), ctx.bits
 
 
 def _front_hw(step, data, *, ecp5=False):
     """The front end as the chain's :class:`~tdicam.hdl.chain_top.SourceStage`: every input
     port of the component (lanes or pins, settings) becomes a top port ``lvds_<port>``; the
     frame kind the lanes' row headers carry travels with the beats to a later block's
-    ``frame_kind`` (the CDS stage keeping the reset frame in DDR)."""
+    ``frame_kind`` (the CDS stage keeping the reset frame in DDR); its ``release`` is the
+    top's start-up gate (frames before the calibration load are dropped whole and
+    counted)."""
     from amaranth.lib import wiring
     from tdicam.hdl.chain_top import SourceStage
     from tdicam.blocks import get
     comp = _top(**get("lvds").resolve(step.params))
     ins = tuple(name for name, mem in comp.signature.members.items()
-                if mem.flow == wiring.In)
+                if mem.flow == wiring.In and name != "release")
     return SourceStage("lvds", lambda lane: comp, ports=ins, out_slice=True,
-                       carries=("frame_kind",))
+                       carries=("frame_kind",), gate="release")
 
 
 def _front_system(step, ctx):
@@ -119,10 +126,77 @@ def _front_system(step, ctx):
                      f"{lanes * word_hz / 1e6:.1f} M words/s, {rate / 1e6:.1f} M pixels/s "
                      f"after each line's sync and header words; the window needs "
                      f"{need / 1e6:.2f} M pixels/s: {'OK' if rate >= need else 'NO'}"},
+            _fifo_row(step, prm, lv, ctx),
             {"name": "lane training", "value": train, "unit": "s", "ok": None,
              "text": f"lane training before the first frame: at most {train * 1e6:.1f} us "
                      f"({model.training_words(w, step.ports['n_check'], prm['settle'])} word "
                      f"clocks: {model.N_TAPS} taps scanned and {w} bitslips)"}]
+
+
+def _front_measured(step, status, info):
+    """What the co-simulated front saw (its status at the end of the sensor's words, and
+    ``info["lanes"]``, the lanes' report of :func:`tdicam.camera.cosim.cosimulate`): the
+    lanes locked and in error by number (an untrained lane's columns are invalid in every
+    frame, a dead lane's from its death on), frames released, dropped (held: before the
+    start-up gate, after a lane loss until the retrain), affected (with invalid columns),
+    the retrains and lane error events, and whether the crossing FIFO overflowed."""
+    if "lvds_lane_locked" not in status:
+        return []
+    lanes = info.get("lanes") or {}
+    n = lanes.get("lanes") or step.params["lanes"]
+    locked = [i for i in range(n) if status["lvds_lane_locked"] >> i & 1]
+    err = [i for i in range(n) if status["lvds_lane_error"] >> i & 1]
+    untrained = lanes.get("untrained", [])
+    died = lanes.get("died")
+    text = (f"sensor lanes: {len(locked)} of {n} locked"
+            + (f"; lane(s) {', '.join(map(str, err))} in error" if err else "")
+            + (f" (did not train, eye too narrow: {', '.join(map(str, untrained))}; their "
+               f"columns invalid in every frame)" if untrained else "")
+            + (f"; lane {died} died in frame {lanes['died_in_frame']} (the frame filled from "
+               f"pixel word {lanes['filled_from_word']} and flagged, its columns invalid "
+               f"after the retrain)" if died is not None else ""))
+    frames = (f"sensor frames: {status['lvds_frames_out']} released, "
+              f"{status['lvds_frames_dropped']} dropped (held until the retrain or the "
+              f"start-up), {status['lvds_frames_affected']} with invalid columns, "
+              f"{lanes.get('retrains', 0)} retrain(s), {status['lvds_lane_errors']} lane "
+              f"error event(s); crossing FIFO "
+              + ("OVERFLOWED (pixels lost)" if status["lvds_fifo_overflow"] else
+                 f"no overflow (depth {step.params.get('fifo_depth', 16)})"))
+    return [{"name": "sensor lanes", "value": len(locked), "unit": "lanes",
+             "locked": locked, "error": err, "untrained": untrained, "died": died,
+             "text": text},
+            {"name": "sensor frames", "value": status["lvds_frames_out"], "unit": "frames",
+             "dropped": status["lvds_frames_dropped"],
+             "affected": status["lvds_frames_affected"],
+             "retrains": lanes.get("retrains", 0), "lane_errors": status["lvds_lane_errors"],
+             "fifo_overflow": status["lvds_fifo_overflow"],
+             "frame_status": lanes.get("frame_status"), "text": frames}]
+
+
+def _fifo_row(step, prm, lv, ctx):
+    """The plan's line on the crossing FIFO: its depth and why (the line burst at the
+    slowest processing clock the lanes allow, the DDR model's worst stall behind it, the
+    synchronizer slack: :func:`tdicam.model.lvds_front.fifo_depth`)."""
+    from tdicam.model.ddr import worst_stall
+    lpg, w, ppc = prm["lanes_per_gain"], prm["word_bits"], prm["ppc"]
+    word_mhz = lv.bit_rate_mbps / w
+    p = prm["columns"] // lpg
+    slowest = word_mhz * lpg * p / ((p + 2) * ppc)
+    bare = front_model.fifo_depth(lpg, ppc, prm["columns"], word_mhz, slowest)
+    depth = prm["fifo_depth"]
+    scene = ctx["scene"]
+    stall = worst_stall(dict(scene.ddr.stalls)) if scene.ddr is not None else 0
+    why = (f"crossing FIFO: {depth} entries of one word a lane: a line's burst at the "
+           f"slowest processing clock the lanes allow ({slowest:.1f} MHz x {ppc} pixel(s)) "
+           f"and 8 for the synchronizers")
+    if depth > bare:
+        why += (f", plus the DDR model's worst stall behind it ({stall} clocks: refresh "
+                f"cycles + the longest read latency, [ddr]) = "
+                f"{-(-stall * word_mhz // slowest):.0f} word clocks of entries ({bare} "
+                f"without it); the front has no backpressure")
+    return {"name": "crossing FIFO", "value": depth, "unit": "entries", "ok": None,
+            "without_stall_margin": bare, "stall_cycles": stall if depth > bare else 0,
+            "text": why}
 
 
 def _front_golden(step):
@@ -315,6 +389,8 @@ BLOCK = Block(
         PPC_PARAM,
         Param("fifo_depth", 16, "front end: crossing FIFO entries (power of two)",
               choices=(4, 8, 16, 32, 64, 128, 256), implicit_default=True),
+        Param("pairs", 0, "front end: 1 = reset/signal frame pairs (released from a reset "
+              "frame on)", choices=(0, 1), implicit_default=True),
     ),
     top=_top,
     cases=lambda: [
@@ -336,5 +412,5 @@ BLOCK = Block(
     bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
     synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
     pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden,
-                 system=_front_system),
+                 system=_front_system, measured=_front_measured),
 )

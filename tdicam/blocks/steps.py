@@ -27,8 +27,9 @@ class Step:
     ``inputs`` (the same settings as the registry's ``run`` side inputs, golden side) and
     ``group`` (incoming frames grouped into one, or None), ``device`` (settings of the
     block's external part: the NAND flash holding NUC's coefficients, its geometry and
-    faults; empty: none). A ``ports`` value that is a tuple is a per-frame pattern: input
-    frame ``f`` presents element ``f % len``."""
+    faults; empty: none), ``clocks`` (the block's clock domains besides the processing
+    clock, {domain: MHz}: the sensor lanes' word clock of the front end). A ``ports`` value
+    that is a tuple is a per-frame pattern: input frame ``f`` presents element ``f % len``."""
 
     block: str
     params: dict
@@ -36,6 +37,7 @@ class Step:
     group: int | None = None
     inputs: dict = field(default_factory=dict)
     device: dict = field(default_factory=dict)
+    clocks: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -111,7 +113,11 @@ class Context:
     line-making block came before (``after_lines``), the block being planned and the
     pixels per clock of every block (``ppc``: :func:`tdicam.camera.design.plan` sets it in
     each step's parameters) and the chain's channel lanes (``lanes``: 2 with a merging
-    block, known when a source block is planned)."""
+    block, known when a source block is planned); ``stall_cycles``: the longest the blocks
+    after a source block may hold the stream at once (the DDR model's worst stall,
+    :func:`tdicam.model.ddr.worst_stall`, of a DDR block in the chain; 0 without one);
+    ``reset_frames``: the chain after a source block takes reset frames in the stream,
+    each before its signal frame."""
 
     scene: object
     m: int
@@ -122,6 +128,8 @@ class Context:
     block: str = ""
     ppc: int = 1
     lanes: int = 1
+    stall_cycles: int = 0
+    reset_frames: bool = False
 
 
 @dataclass

@@ -85,7 +85,8 @@ def _pipeline_step(ctx):
     """``tdi``'s step, its partial sums at the scene's ``[ddr].base``."""
     from dataclasses import replace
     step, out_bits = _tdi.PIPELINE["step"](ctx)
-    return replace(step, params={**step.params, "base": ctx.scene.ddr.base}), out_bits
+    return replace(step, params={**step.params, "base": ctx.scene.ddr.base,
+                                 **dict(ctx.scene.ddr.stalls)}), out_bits
 
 
 BLOCK = Block(

@@ -83,10 +83,19 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         data, ex = scene_data(scene, stages=m, dv_over_v=res.dv_over_v, lines=lines)
         golden_s = time.perf_counter() - t0
         agree, gold = None, None
+        dies = rt.lane_dies
+        if dies is not None and rt.crop is None:
+            raise TdicamError("[run.rtl].lane_dies: needs a [run.rtl].crop (the sensor sends "
+                              "the crop's frames and those held for the retrain)")
         if rt.crop is not None:
             y0, h, x0, w = crop
-            data = data.crop(x0, w, y0, h + m - 1)
             p = pl.plan(scene, stages=m, lines=h, width=w)
+            # a lane's death holds frames until the retrain: the sensor sends as many more
+            extra = 0 if dies is None else -(-HELD // (2 if p.reset_frames else 1))
+            if y0 + h + m - 1 + extra > len(data.signal[0]):
+                raise TdicamError(f"[run.rtl].lane_dies: the crop must end {extra} line(s) "
+                                  f"before [run].lines (the frames held for the retrain)")
+            data = data.crop(x0, w, y0, h + m - 1 + extra)
         else:
             gold = pl.golden(p, data)
             last = gold[-1][2]
@@ -96,7 +105,8 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
                                   "output differ")
         lv = scene.sensor.lvds
         front = None if lv is None else {
-            "lanes": lanes_of(lv, p.lanes), "word_ns": 1e3 * lv.word_bits / lv.bit_rate_mbps}
+            "lanes": lanes_of(lv, p.lanes), "word_ns": 1e3 * lv.word_bits / lv.bit_rate_mbps,
+            "dies": rt.lane_dies}
         rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
                          wave_dir=out_dir, front=front)
     except TdicamError as exc:
@@ -150,7 +160,8 @@ def system_figures(p, rep):
     uses = pl.uses()
     return [r for s in p.steps if uses[s.block].measured is not None
             for r in uses[s.block].measured(s, rep.get("status_outputs", {}), {
-                "cycles": rep["cycles"], "rows": p.rows, "width": p.width})]
+                "cycles": rep["cycles"], "rows": p.rows, "width": p.width,
+                "lanes": rep.get("lanes")})]
 
 
 def _testbench(axis_top, taps, *, wave):
@@ -314,6 +325,44 @@ def _run_tb(bdir, sim, module, rundir, plus, result, what, **kw):
 #: Ning et al. 2019's camera.
 PROC_NS = 10.0
 
+#: Frames the sensor sends after a lane's death before the camera's controller retrains the
+#: lanes (``[run.rtl].lane_dies``): the front holds them (dropped, counted).
+HELD = 2
+
+
+def _death(p, data, front, lanes, kw):
+    """The lanes and sensor schedule of ``front["dies"] = (lane, frame)``: the lane dies in
+    the middle of that frame (its middle line's middle word); the sensor sends :data:`HELD`
+    more frames, trains (the retrain) and sends the rest. Returns (lanes, segments, the
+    first pixel word of the frame, ``r P + j``, the death can reach: the lane's skew makes
+    the raw word at the death carry bits of earlier data words)."""
+    import math
+    from dataclasses import replace
+    from tdicam.cosim.lvds_front import plan_case
+    from tdicam.model import lvds as link_model
+    lane, f = front["dies"]
+    nf = len(data.lane_arrays(p)[0][0])
+    if not 0 <= lane < len(lanes) or f + 1 + HELD >= nf:
+        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: needs a lane 0.."
+                          f"{len(lanes) - 1} and a frame before the last {HELD + 1} of the "
+                          f"{nf} the sensor sends")
+    if p.reset_frames and f % 2 == 0:
+        raise TdicamError(f"[run.rtl].lane_dies = [{lane}, {f}]: frame {f} is a reset frame; "
+                          f"the sensor sends reset and signal frames in turn: give a signal "
+                          f"frame (odd)")
+    segs = (f + 1 + HELD, nf - f - 1 - HELD)
+    probe = plan_case(p, data, lanes, segments=segs, **kw)
+    lw, rows = probe.p + 2, p.rows
+    line, word = rows // 2, lw // 2
+    at = probe.segment_starts[0] + (f * rows + line) * lw + word
+    lanes = list(lanes)
+    # the lane's words arrive skewed: the raw word at the death carries bits of the data
+    # words up to ceil(skew / word) before it
+    back = math.ceil(lanes[lane].skew_ps / (probe.word_bits * lanes[lane].ui_ps))
+    lanes[lane] = replace(lanes[lane], change_at=at,
+                          after=link_model.Lane(skew_ps=0.0, eye_ps=0.0))
+    return lanes, segs, max(0, line * probe.p + word - 2 - back)
+
 
 def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     """:func:`run_top` of a top whose input is the sensor's lanes: the sensor's frames
@@ -325,6 +374,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     at which the lanes had trained, each holding stage's ready port came up, and frames
     were released."""
     import math
+    from dataclasses import replace
     from tdicam import blocks, cosim
     from tdicam.camera import design as pl
     from tdicam.cosim import codec
@@ -338,8 +388,12 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     prm = blocks.get("lvds").resolve(step.params)
     tw = link_model.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
     lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
-    case = plan_case(p, data, lanes, word_ns=word_ns, proc_ns=PROC_NS,
-                     n_check=step.ports["n_check"], lead=lead, tail=40)
+    kw = dict(word_ns=word_ns, proc_ns=PROC_NS, n_check=step.ports["n_check"], lead=lead,
+              tail=40)
+    died, segs = None, None
+    if front.get("dies") is not None:
+        lanes, segs, died = _death(p, data, front, lanes, kw)
+    case = plan_case(p, data, lanes, segments=segs, **kw)
     tap_shapes = ax.core.tap_shapes if taps else []
     values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
     settings = {name: int(values[name]) for name, mem in ax.signature.members.items()
@@ -363,7 +417,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "n_out": n_out, "drain": 2000,
            "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
-           "ready": ready, "status": [name for name, _ in status_ports(ax)]}
+           "ready": ready, "status": [name for name, _ in status_ports(ax)],
+           "retrains": list(case.retrains)}
     (rundir / "job.json").write_text(json.dumps(job))
     res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
                              "the pipeline from the lanes", top="pipeline")
@@ -388,9 +443,17 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
         else:
             listed.append((bt, cyc))
     got.update(enumerate(listed))
+    from tdicam.model import lvds_front as front_model
     info = {"cycles": res["cycles"], "timeout": res["timeout"], "status": res["status"],
             "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": PROC_NS,
                         "first_frame_sent": case.segment_starts[0]},
+            "front": {"frame_status": res["frame_status"], "retrains": len(case.retrains),
+                      "frames_sent": len(case.frames[0]), "died_word": died,
+                      "untrained": front_model.untrained_lanes(
+                          [ln if ln.change_at is None else replace(ln, change_at=None,
+                                                                   after=None)
+                           for ln in lanes], prm["word_bits"], case.link.train_word,
+                          n_check=case.n_check, settle=case.settle)},
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
             "run_cpu_seconds": cpu, "rundir": str(rundir),
             "input_beats": 0, "build_dir": str(bdir)}
@@ -459,11 +522,22 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     """
     from tdicam.camera import design as pl
     from tdicam.beats import frames_to_beats
-    gold = pl.golden(p, data) if gold is None else [list(g) for g in gold]
-    if corrupt is not None:
-        corrupt(gold)
+    dies = (front or {}).get("dies")
+    if dies is None:
+        gold = pl.golden(p, data) if gold is None else [list(g) for g in gold]
+        if corrupt is not None:
+            corrupt(gold)
     got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure,
                         front=front)
+    lane_fault = None
+    if "front" in info:
+        # what the front delivered: the golden front's frames (a dead lane's cut frame as
+        # it measured), the golden chain on them
+        delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
+        if dies is not None:
+            gold = pl.golden(p, delivered)
+            if corrupt is not None:
+                corrupt(gold)
     rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
            "input_pixels": int(sum(a.size for lane in data.lane_arrays(p) for a in lane)),
            "cycles": int(info["cycles"]), "timeout": bool(info["timeout"]),
@@ -473,6 +547,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         rep["status_outputs"] = info["status"]
     if info.get("startup"):
         rep["startup"] = info["startup"]
+    if lane_fault is not None:
+        rep["lanes"] = lane_fault
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
     ppc = p.ppc
@@ -497,6 +573,9 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
                              | (out.first[:n] != exp_out.first[:n])
                              | (out.last[:n] != exp_out.last[:n])).sum()) \
         + abs(len(out) - len(exp_out))
+    problems = [] if lane_fault is None else lane_fault["problems"]
+    if problems:              # the front's status is part of the result: never silent
+        rep["mismatches"] += len(problems)
     if first is not None:
         rep["first_mismatch"] = first
         rep["message"] = (f"first mismatch in block {first['block']} (tap {first['tap']}): "
@@ -509,9 +588,75 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             rep["message"] += f"; waveform {rep['waveform']}"
     elif d is not None:
         rep["message"] = f"output beat {d} differs"
+    elif problems:
+        rep["message"] = "the front's status differs from its golden model: " + \
+            "; ".join(problems)
     else:
         rep["message"] = "match"
     return rep
+
+
+def _delivered(p, data, got, front, dies):
+    """The frames the sensor's front end should have delivered and the lanes' report.
+
+    The golden front (:mod:`tdicam.model.lvds_front`) on the frames the sensor sent: the
+    lanes that did not train (``front["untrained"]``, from the link model) read 0; with
+    ``dies = (lane, frame)`` the frame cut by the death
+    (:func:`~tdicam.model.lvds_front.cut_frame`, its fill point measured on the front's
+    output and checked to lie within two lines of the death), :data:`HELD` frames dropped, the dead lane's columns 0 after the
+    retrain. Returns (:class:`~tdicam.camera.design.SceneData` of the delivered frames,
+    report: lane numbers, frames sent/released/dropped/affected, retrains, the expected and
+    seen frame status, ``problems``)."""
+    from tdicam import blocks
+    from tdicam.blocks.steps import SceneData
+    from tdicam.cosim.lvds_front import cds_kinds
+    from tdicam.model import lvds_front as fm
+    prm = blocks.get("lvds").resolve(p.steps[0].params)
+    L, w = prm["lanes_per_gain"], prm["word_bits"]
+    sent = [lane[0] for lane in data.lane_arrays(p)]
+    nf = len(sent[0])
+    kinds = cds_kinds(nf) if p.reset_frames else None
+    bad = list(front["untrained"])
+    rep = {"lanes": p.lanes * L, "untrained": bad, "frames_sent": nf,
+           "retrains": front["retrains"], "problems": []}
+    if dies is None:
+        px, _ = fm.receive(sent, bad, L, w)
+        status, dropped = [fm.lane_mask(bad)] * nf, 0
+    else:
+        lane, f = dies
+        healthy = fm.receive(sent, bad, L, w)[0][:, f]
+        seen, size = [], p.rows * p.width
+        for k in range(p.lanes):
+            a = got[k][0].data.reshape(-1)
+            if a.size % size:
+                rep["problems"].append(f"channel {k}: the front delivered {a.size} pixels, "
+                                       f"not whole {p.rows} x {p.width} frames")
+            seen.append(a[:a.size // size * size].reshape(-1, p.rows, p.width))
+        if any(len(a) <= f for a in seen):
+            observed = np.zeros_like(healthy)
+            rep["problems"].append(f"frame {f} (cut by lane {lane}'s death) not delivered")
+        else:
+            observed = np.stack([a[f] for a in seen]).astype(np.int64)
+        cut, fill = fm.cut_frame(healthy, observed, L, lane, front["died_word"])
+        if fill > front["died_word"] + 2 * (p.width // L + 2):
+            rep["problems"].append(f"frame {f}: filled from word {fill}, more than two "
+                                   f"lines after lane {lane} died (word "
+                                   f"{front['died_word']})")
+        px, kinds, status, dropped = fm.lane_death(
+            sent, L, w, bad_lanes=bad, lane=lane, frame=f, cut=cut, kinds=kinds,
+            held=HELD, pairs=p.reset_frames)
+        rep.update({"died": lane, "died_in_frame": f, "died_at_word": front["died_word"],
+                    "filled_from_word": fill})
+    rep.update({"frames_released": len(status), "frames_dropped": dropped,
+                "frames_affected": sum(1 for s in status if s),
+                "frame_status": front["frame_status"], "expected_frame_status": status})
+    if front["frame_status"] != status:
+        rep["problems"].append(f"frame status {front['frame_status']}, expected {status}")
+    if p.reset_frames:
+        delivered = SceneData([a[1::2] for a in px], [a[0::2] for a in px], data.coeffs)
+    else:
+        delivered = SceneData(list(px), data.reset, data.coeffs)
+    return delivered, rep
 
 
 def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):

@@ -167,12 +167,17 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
                           f"{' -> '.join(names)} keeps its memory in DDR")
-    # a block that makes the pixel stream itself (the sensor's front end) goes first
+    # a block that makes the pixel stream itself (the sensor's front end) goes first; it
+    # is sized for the longest hold of a DDR block after it (the MIG model's worst stall)
+    from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
+    held = [registry.get(s.block).resolve(s.params) for s in steps]
+    stall = max([worst_stall(q) for q in held if set(DEFAULT_STALLS) <= set(q)] or [0])
     sourced = False
     for name, u in _uses_table().items():
         if u.source is not None and u.source(scene):
             src = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
-                          lanes=2 if merge else 1)
+                          lanes=2 if merge else 1, stall_cycles=stall,
+                          reset_frames=bool(steps) and bool(_use(steps[0].block).reset_frames))
             try:
                 step, _ = _at_ppc(*u.step(src), ppc)
                 if phy is not None:
@@ -375,6 +380,11 @@ class PipelineBlock:
     def resolve(self, params=None):
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
                                                    for s in self._p.steps]}
+
+    def clocks(self, params=None):
+        """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
+        domains (the sensor lanes' word clock, ``word_clk``)."""
+        return {f"{dom}_clk": mhz for s in self._p.steps for dom, mhz in s.clocks.items()}
 
     def build(self, params=None, *, ecp5=False):
         """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one

@@ -116,6 +116,11 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
           f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
           f"{res.xilinx}")
+    if len(res.fmax_clocks) > 1:
+        want = {"clk": freq_mhz, **PipelineBlock(p, data).clocks()}
+        print("Fmax per clock domain: " + ", ".join(
+            f"{name} {mhz:.1f} MHz (target {want.get(name, freq_mhz):g})"
+            for name, mhz in res.fmax_clocks.items()))
     print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
         f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
     return 0

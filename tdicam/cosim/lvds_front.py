@@ -421,7 +421,7 @@ def run_cocotb(names, sim, *, ppc=2, keep=False):
             "retrains": list(case.retrains), "word_ps": int(case.word_ns * 1000),
             "proc_ps": int(case.proc_ns * 1000), "ready": case.ready, "seed": case.seed,
             "settings": {"train_word": case.link.train_word, "sync_word": case.link.sync_word,
-                         "n_check": case.n_check, "frame_rows": g["rows"]}})
+                         "n_check": case.n_check, "frame_rows": g["rows"], "release": 1}})
     (rundir / "job.json").write_text(json.dumps(job))
     ok, wall = _run(bdir, sim, "lvds_front_tb", rundir, [], top="lvds_front")
     results = []

@@ -25,7 +25,8 @@ from pathlib import Path
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Row", "RECORD", "load", "find", "fmax_by_ppc", "row_of", "update"]
+__all__ = ["Row", "RECORD", "load", "find", "fmax_by_ppc", "row_of", "update",
+           "README_CHAINS", "readme_table"]
 
 #: The bundled record (``tdicam/hw/silicon.json``).
 RECORD = resources.files("tdicam.hw") / "silicon.json"
@@ -52,6 +53,9 @@ class Row:
         Fmax of each placement seed (sorted).
     target_mhz : float
         nextpnr's ``--freq``; the row "meets" it when ``fmax_mhz >= target_mhz``.
+    fmax_clocks : dict or None
+        Each clock's own Fmax, {clock: median MHz over the seeds}, for a design with more
+        than one clock domain (the slowest of them is :attr:`fmax_mhz`); None: not recorded.
     lut4, ccu2c, comb, ff, dp16kd, mult18 : int or None
         ECP5 cell counts of the top (None: not recorded).
     xc7 : dict or None
@@ -87,6 +91,7 @@ class Row:
     load: str = ""
     tools: str = ""
     note: str = field(default="", compare=False)
+    fmax_clocks: dict | None = None
 
     @property
     def meets(self) -> bool:
@@ -164,12 +169,20 @@ def row_of(label: str, block: str, params: dict, result, *, target_mhz: float,
                **{k: int(getattr(result, k)) for k in _COUNTS},
                xc7=x, tool_seconds=round(float(result.tool_seconds)),
                load=f"{os.getloadavg()[0]:.1f}" if load is None else load, tools=tools,
-               note=note)
+               note=note, fmax_clocks=dict(getattr(result, "fmax_clocks", None) or {}) or None)
 
 
 def _plain(params):
     return {k: (v if isinstance(v, (bool, int, float, str, type(None))) else str(v))
             for k, v in params.items()}
+
+
+def _plain_row(row):
+    """A row as the record stores it (``fmax_clocks`` only when recorded)."""
+    d = asdict(row)
+    if d["fmax_clocks"] is None:
+        del d["fmax_clocks"]
+    return d
 
 
 def update(new: list[Row], path: str | Path | None = None) -> Path:
@@ -186,9 +199,48 @@ def update(new: list[Row], path: str | Path | None = None) -> Path:
     rows.update({r.label: r for r in new})
     doc = {"about": "tdicam synthesis record: place-and-route results read by tdicam plan "
                     "and stated in docs/guide/silicon.md (tdicam.hw.record)",
-           "rows": [asdict(rows[k]) for k in sorted(rows)]}
+           "rows": [_plain_row(rows[k]) for k in sorted(rows)]}
     try:
         dest.write_text(json.dumps(doc, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     except OSError as e:
         raise TdicamError(f"{dest}: cannot write the synthesis record: {e.strerror}") from None
     return dest
+
+
+#: The README's silicon table: (scene file, pixels per clock, what it is) of each row, the
+#: newest recorded ``pipeline`` row of that scene and ppc (:func:`readme_table`).
+README_CHAINS = (
+    ("orbit_chain.toml", 8, "orbit chain (Qu et al. 2010 design point): nuc -> tdi -> "
+                            "median3, 1280 columns x 96 stages"),
+    ("ning2019_chain.toml", 8, "Ning et al. 2019 chain: cds -> nuc -> hdr -> tdi -> "
+                               "median3, 256 columns"),
+    ("ning2019_gmax0504_system_lanes.toml", 1, "Ning et al. 2019 camera from the sensor's "
+     "lanes: lvds -> cds_ddr -> nuc (NAND) -> hdr -> tdi -> median3, 256 columns"),
+)
+
+
+def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
+    """The README's "Silicon (ECP5-85F)" table, from the record: one row per
+    :data:`README_CHAINS` entry that has a measurement (the newest), with its cells, its
+    Fmax per clock domain (:attr:`Row.fmax_clocks`; the slowest alone when not recorded)
+    and whether it fits the part (``limits``: {count name: the part's cells}, e.g.
+    :data:`tdicam.camera.design.ECP5_85F`)."""
+    rows = load() if rows is None else rows
+    out = ["| design | ppc | LUT4 | COMB | FF | DP16KD | MULT18 | Fmax per clock domain, MHz "
+           "(clk target) | fits |", "|---|---|---|---|---|---|---|---|---|"]
+    for scene, ppc, what in README_CHAINS:
+        found = [r for r in find("pipeline", rows, scene=scene)
+                 if int(r.params.get("ppc", 1)) == ppc]
+        if not found:
+            continue
+        r = max(found, key=lambda x: x.date)
+        clocks = r.fmax_clocks or {"clk": r.fmax_mhz}
+        fmax = ", ".join(f"{name} {mhz:.1f}" for name, mhz in clocks.items())
+        seeds = "1 seed" if len(r.fmax_seeds) == 1 else f"{len(r.fmax_seeds)} seeds"
+        over = [k for k, v in limits.items() if getattr(r, k) is not None and
+                getattr(r, k) > v]
+        fits = "yes" if not over else "no: " + ", ".join(
+            f"{k} {getattr(r, k)} > {limits[k]}" for k in over)
+        out.append(f"| {what} (`scenes/{scene}`) | {ppc} | {r.lut4} | {r.comb} | {r.ff} | "
+                   f"{r.dp16kd} | {r.mult18} | {fmax} ({r.target_mhz:g}; {seeds}) | {fits} |")
+    return "\n".join(out) + "\n"

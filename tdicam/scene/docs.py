@@ -196,6 +196,18 @@ KEYS = {
         "interface": KeyDoc("", "the DDR controller's user interface"),
         "base": KeyDoc("byte", "byte address of the first buffer", range="multiple of 8, "
                                                                           "0..2**28 - 8"),
+        "refresh_period": KeyDoc("cycles", "co-simulation: the DDR controller model's cycles "
+                                           "between refresh starts"),
+        "refresh_cycles": KeyDoc("cycles", "co-simulation: cycles of each refresh (the "
+                                           "controller not ready)",
+                                 range="0..refresh_period - 1"),
+        "lat_lo": KeyDoc("cycles", "co-simulation: the model's shortest read latency"),
+        "lat_hi": KeyDoc("cycles", "co-simulation: the model's longest read latency; "
+                                   "refresh_cycles + lat_hi is the longest stall, which also "
+                                   "sizes the sensor front end's crossing FIFO",
+                         range="lat_lo..1000"),
+        "drop": KeyDoc("/256", "co-simulation: each ready of the model dropped with "
+                               "probability drop/256 a cycle"),
     },
     "run": {
         "lines": KeyDoc("lines", "output lines to simulate"),
@@ -237,6 +249,13 @@ KEYS = {
                                                "--ppc of tdicam verilog|synth|export "
                                                "pipeline)",
                                    range="1, 2, 4, 8; dividing the crop width"),
+        "lane_dies": KeyDoc("", "[lane, frame]: a sensor lane dying in the middle of that "
+                                "frame of the co-simulation (frames as the sensor sends "
+                                "them, reset frames included); the controller retrains "
+                                "after the next two frames",
+                            type="list of 2 integers", default="none",
+                            range="lane 0..lanes - 1; with reset frames a signal frame "
+                                  "(odd); needs [sensor.lvds]"),
     },
 }
 
@@ -281,7 +300,9 @@ def _probes():
                                                             "max_frame_rate_hz": 100.0}},
             {**orbit, "target": {"kind": "edge"}, "sensor": {"bits": bits},
              "pipeline": {"blocks": ["tdi", "median3"], "tdi": {"memory": "ddr"}},
-             "ddr": {"interface": "mig", "base": 0}, "run": {"rtl": {"crop": [0, 0, 4, 4]}}},
+             "ddr": {"interface": "mig", "base": 0, "refresh_period": 780, "refresh_cycles": 44,
+                     "lat_lo": 20, "lat_hi": 60, "drop": 16},
+             "run": {"rtl": {"crop": [0, 0, 4, 4]}}},
             {**orbit, "target": {"kind": "siemens"}, "sensor": {
                 "bits": bits, "columns": 80, **({"lvds": {
                     "lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0,

@@ -220,6 +220,12 @@ class Scene:
         d = conv(dataclasses.asdict(self))
         if d["sensor"]["lvds"] is None:     # ideal lanes: the dict of before
             del d["sensor"]["lvds"]
+        rtl = d["run"]["rtl"]
+        if rtl is not None and rtl["lane_dies"] is None:      # no fault: the dict of before
+            del rtl["lane_dies"]
+        if d.get("ddr") is not None:        # the model's stall pattern, as given
+            stalls = d["ddr"].pop("stalls")
+            d["ddr"].update({k: v for k, v in stalls})
         return d
 
 
@@ -583,12 +589,24 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
 
 
 def _ddr(sec: _Section) -> Ddr:
-    sec.check_keys(("interface", "base"))
+    from tdicam.model.ddr import DEFAULT_STALLS
+    keys = tuple(k for k in DEFAULT_STALLS if k != "seed")
+    sec.check_keys(("interface", "base") + keys)
     base = sec.integer("base", 0, lo=0, hi=(1 << 28) - 8)
     if base % 8:
         sec.fail("base", f"must be a multiple of 8 (one address per byte of a 64-bit word), "
                          f"got {base}")
-    return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base)
+    period = sec.integer("refresh_period", DEFAULT_STALLS["refresh_period"], lo=1,
+                         hi=1 << 20)
+    lat_lo = sec.integer("lat_lo", DEFAULT_STALLS["lat_lo"], lo=2, hi=1000)
+    got = {"refresh_period": period, "lat_lo": lat_lo,
+           "lat_hi": sec.integer("lat_hi", DEFAULT_STALLS["lat_hi"], lo=lat_lo, hi=1000),
+           "refresh_cycles": sec.integer("refresh_cycles", DEFAULT_STALLS["refresh_cycles"],
+                                         lo=0, hi=period - 1),
+           "drop": sec.integer("drop", DEFAULT_STALLS["drop"], lo=0, hi=255)}
+    stalls = tuple((k, got[k]) for k in keys if got[k] != DEFAULT_STALLS[k])
+    return Ddr(interface=sec.choice("interface", "mig", DDR_INTERFACES), base=base,
+               stalls=stalls)
 
 
 #: ``[run.rtl].pixels_per_clock``: the whole-chain top's pixels per beat.
@@ -601,7 +619,7 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
     rtl = None
     if sec.has("rtl"):
         r = _Section(f"{sec.name}.rtl", sec.data["rtl"], labels)
-        r.check_keys(("crop", "simulator", "pixels_per_clock"))
+        r.check_keys(("crop", "simulator", "pixels_per_clock", "lane_dies"))
         crop = r.raw("crop", None)
         if crop is not None:
             if (not isinstance(crop, list) or len(crop) != 4
@@ -623,9 +641,21 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
         if width % ppc:
             r.fail("pixels_per_clock", f"{ppc} does not divide the {what} {width}: a beat "
                                        f"carries {ppc} pixels of a line")
+        dies = r.raw("lane_dies", None)
+        if dies is not None:
+            if (not isinstance(dies, list) or len(dies) != 2
+                    or not all(isinstance(c, int) and not isinstance(c, bool) for c in dies)):
+                r.fail("lane_dies", f"must be two integers [lane, frame], got {_show(dies)}")
+            if sensor.lvds is None:
+                r.fail("lane_dies", "needs the sensor's lanes ([sensor.lvds])")
+            n = sensor.lvds.lanes_per_gain * len(sensor.gains)
+            if not 0 <= dies[0] < n or dies[1] < 0:
+                r.fail("lane_dies", f"needs a lane 0..{n - 1} and a frame >= 0, got "
+                                    f"{_show(dies)}")
+            dies = tuple(dies)
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
-                     pixels_per_clock=ppc)
+                     pixels_per_clock=ppc, lane_dies=dies)
     return Run(lines=lines, seed=sec.integer("seed", 0, lo=0),
                fidelity=sec.choice("fidelity", "auto", ("exact", "fast", "auto")),
                tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,

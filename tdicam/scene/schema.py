@@ -123,7 +123,13 @@ The line period either gives must lie in 1e-8..100 s.
     controller's user interface (``mig``: Xilinx MIG-style ``app_*`` ports, 64-bit words;
     the pipeline top's simulation puts a model of the controller behind it); ``base`` [0],
     byte address of the first buffer, a multiple of 8 below 2**28. Without it a pipeline
-    whose memory must spill is an error.
+    whose memory must spill is an error. Co-simulation only (the gateware is the same): the
+    stall pattern of the simulation controller model behind the top's DDR ports,
+    ``refresh_period`` [780] cycles between refreshes, ``refresh_cycles`` [44] of each
+    (below ``refresh_period``), ``lat_lo`` [20] .. ``lat_hi`` [60] cycles of read latency
+    (2..1000), ``drop`` [16]: each ready dropped with probability drop/256 (0..255). The
+    longest stall, ``refresh_cycles + lat_hi``, also sizes the sensor front end's crossing
+    FIFO (``[sensor.lvds]``).
 
 ``[run]``
     ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
@@ -137,7 +143,11 @@ The line period either gives must lie in 1e-8..100 s.
     or ``verilator``. ``pixels_per_clock`` [1]: 1, 2, 4 or 8 pixels per beat of the
     whole-chain top (every block at the same), dividing the crop's width (without a crop,
     ``[sensor].columns``); also the default ``--ppc`` of ``tdicam verilog|synth|export
-    pipeline``. Needs
+    pipeline``. ``lane_dies`` [none]: ``[lane, frame]``, with ``[sensor.lvds]``: in the
+    co-simulation the sensor's lane ``lane`` dies in the middle of ``frame`` (the frames the
+    sensor sends, from 0, reset frames included: then a signal frame, odd); the camera's
+    controller retrains the lanes after the next two frames (the scene simulator's frames
+    are those of a healthy link). Needs
     ``[tdi].domain = "digital"`` (charge-domain TDI has no gateware chain).
 
 The reader that validates a file into these (and the cross-section checks) is
@@ -355,10 +365,13 @@ class Motion:
 
 @dataclass(frozen=True)
 class Ddr:
-    """``[ddr]``: the DDR user interface a pipeline's spill uses (``DDR_INTERFACES``)."""
+    """``[ddr]``: the DDR user interface a pipeline's spill uses (``DDR_INTERFACES``);
+    ``stalls``: the simulation controller model's stall settings given away from their
+    defaults, ((key, value), ...)."""
 
     interface: str = "mig"
     base: int = 0
+    stalls: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -392,11 +405,13 @@ class Pipeline:
 
 @dataclass(frozen=True)
 class RtlRun:
-    """``[run.rtl]``: cycle-accurate crop ``(x0, y0, width, height)`` (None = whole frame)."""
+    """``[run.rtl]``: cycle-accurate crop ``(x0, y0, width, height)`` (None = whole frame);
+    ``lane_dies``: ``(lane, frame)`` a sensor lane that dies in the co-simulation, or None."""
 
     crop: tuple[int, int, int, int] | None
     simulator: str
     pixels_per_clock: int
+    lane_dies: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)

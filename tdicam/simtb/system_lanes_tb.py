@@ -62,7 +62,7 @@ async def run_job(dut):
                 return
 
     proc = cocotb.start_soon(proc_side())
-    drv = WordDriver(raw, job["word_bits"], (), res)
+    drv = WordDriver(raw, job["word_bits"], job.get("retrains", ()), res)
     watch = {"lanes_trained": "lvds_trained", "frames_released": "lvds_releasing"}
     for name in job["ready"]:
         watch[f"{name}_done"] = name
