@@ -111,3 +111,69 @@ def test_production_build_full_rate(sim):
     # 30 x (4 header + 30 payload words) in, 1800 pixels out at 1/clock: the header words
     # are the only bubbles (plus latency and the 2000-cycle drain window)
     assert res.cycles <= 30 * (4 + 60) + 2 + 2000 + 4
+
+
+def test_calib_rom_ecp5_dp16kd_icarus(tmp_path):
+    """The calibration ROM of the ECP5 synthesis top (``CalibRom(bram="ecp5")``: DP16KD
+    primitives with their output register, the contents as INITVAL) on Icarus with the
+    DP16KD model (:mod:`tdicam.cosim.dp16kd`): every beat once, in order, wrapping, under
+    random backpressure; at full rate one beat a clock from its latency (4) on. Two ROMs in
+    one build: three banks of 4 beats x 144 bits (x18 primitives, a partly used last bank),
+    and 2053 beats x 72 bits (a full 2048-beat bank of x9 primitives, then a 5-beat one;
+    two bytes constant in every word: bits no primitive holds)."""
+    import shutil
+    import subprocess
+    from amaranth.back import verilog
+    from tdicam.cosim import dp16kd
+    from tdicam.hdl.chain_top import CalibRom
+    from tdicam.hw.tools import tool_env
+
+    if shutil.which("iverilog") is None:
+        pytest.skip("Icarus Verilog is not installed")
+    rng = np.random.default_rng(29)
+    words_a = rng.integers(0, 256, (22, 9))
+    words_b = rng.integers(0, 256, (2053, 9))
+    words_b[:, 2], words_b[:, 7] = 0xA5, 0
+    roms = {"a": (words_a, 2, 4), "b": (words_b, 1, 2048)}
+    src, cycles = [dp16kd.MODEL], 9000
+    # rst rises after time 0: an event that starts Amaranth's combinational processes
+    tb = ["`timescale 1ns/1ps", "module tb;", "  reg clk = 0, rst = 0;", "  integer cyc;",
+          "  always #5 clk = ~clk;"]
+    beats = {}
+    for name, (words, per_beat, bank) in roms.items():
+        rom = type("Rom", (CalibRom,), {"BANK": bank})(words.tolist(), per_beat=per_beat,
+                                                         bram="ecp5")
+        assert rom.latency == 4
+        bits = 72 * per_beat
+        beats[name] = [int.from_bytes(bytes(words[k:k + per_beat].ravel().tolist()), "little")
+                       for k in range(0, len(words), per_beat)]
+        src.append(verilog.convert(rom, name=f"rom_{name}"))
+        tb += [f"  wire v_{name}; reg r_{name} = 0; wire [{bits + 1}:0] d_{name};",
+               f"  rom_{name} u_{name} (.clk(clk), .rst(rst), .o_stream__valid(v_{name}),",
+               f"    .o_stream__ready(r_{name}), .o_stream__payload(d_{name}));",
+               "  always @(posedge clk) begin",
+               f"    if (!rst && v_{name} && r_{name})",
+               f"      $display(\"{name} %0d %h\", cyc, d_{name}[{bits - 1}:0]);",
+               f"    r_{name} <= (cyc < 40) || ($random % 10 < 6 && $random % 10 > -6);",
+               "  end"]
+    assert "INITVAL_00" in src[1] and "REGMODE_B(\"OUTREG\")" in src[1]
+    tb += ["  initial begin", "    cyc = 0; #1 rst = 1; @(posedge clk); #1 rst = 0;",
+           f"    repeat ({cycles}) begin @(posedge clk); #1 cyc = cyc + 1; end",
+           "    $finish;", "  end", "endmodule"]
+    (tmp_path / "dut.v").write_text("\n".join(src))
+    (tmp_path / "tb.v").write_text("\n".join(tb) + "\n")
+    env = tool_env("icarus")
+    subprocess.run(["iverilog", "-g2012", "-o", "sim.vvp", "tb.v", "dut.v"], cwd=tmp_path,
+                   check=True, env=env)
+    out = subprocess.run(["vvp", "-n", "sim.vvp"], cwd=tmp_path, check=True, env=env,
+                         capture_output=True, text=True).stdout
+    for name, want in beats.items():
+        got = [line.split()[1:] for line in out.splitlines() if line.startswith(name + " ")]
+        cyc = [int(c) for c, _ in got]
+        data = [int(d, 16) for _, d in got]
+        n = len(want)
+        assert len(data) > n + 100, (name, len(data))
+        assert data == [want[k % n] for k in range(len(data))], name
+        # ready from the first cycle: the first beat at its latency (cycles counted from
+        # the first edge after reset, 3 for the generic ROM), then one a clock
+        assert cyc[:20] == list(range(4, 24)), (name, cyc[:20])

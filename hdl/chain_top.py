@@ -21,6 +21,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, element_bits,
                                           pixel_signature)
+from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Link", "LaneStage", "MergeStage", "SourceStage", "Pipeline", "CalibRom",
            "frame_group", "register_slice", "Device", "Board"]
@@ -193,14 +194,28 @@ class CalibRom(wiring.Component):
     (:class:`~tdicam.hdl.interfaces.stream.StreamRegister`) takes the selected beat. Every
     stage moves on one enable, the slice's registered ``i_stream.ready`` (or an empty last
     stage): no combinational path from ``o_stream.ready`` reaches the memories. A beat
-    is valid 3 clock edges after its address (read port, bank register, slice); one beat
-    a clock sustained.
+    is valid :attr:`latency` = 3 clock edges after its address (read port, bank register,
+    slice); one beat a clock sustained.
+
+    ``bram="ecp5"`` (the ECP5 synthesis top, as
+    :class:`~tdicam.hdl.tdi.TdiAccumulator`'s): each bank is DP16KD primitives with their
+    output register (:func:`tdicam.hdl.vendor.ecp5_bram.rom`, the contents as ``INITVAL``;
+    yosys' own mapping of a memory leaves the output register unused, and a read's 4.1 ns
+    clock-to-out plus the route to the bank register was the orbit chain's critical
+    path), the output register moving on the same enable as the read: one stage more,
+    a beat valid 4 edges after its address, the same beats in the same order.
     """
 
     #: Beats per bank (the depth of one ECP5 DP16KD at 9 bits).
     BANK = 2048
 
-    def __init__(self, words, per_beat=1):
+    #: Bank descriptions (``bram=``): read stages each adds to the generic memory's.
+    BRAMS = {"generic": 0, "ecp5": 1}
+
+    def __init__(self, words, per_beat=1, bram="generic"):
+        if bram not in self.BRAMS:
+            raise TdicamError(f"bram = {bram!r} is not valid; valid: {', '.join(self.BRAMS)}")
+        self._bram = bram
         words = [bytes(bytearray(w)) for w in words]
         if len(words) % per_beat:
             raise TdicamError(f"calibration ROM: {len(words)} words is not a whole number "
@@ -214,6 +229,12 @@ class CalibRom(wiring.Component):
     def depth(self):
         return len(self._words)
 
+    @property
+    def latency(self):
+        """Clock edges from a beat's address to the beat at ``o_stream`` (3, ``bram="ecp5"``
+        4), when nothing stalls."""
+        return 3 + self.BRAMS[self._bram]
+
     def elaborate(self, platform):
         m = Module()
         n, bank = len(self._words), self.BANK
@@ -222,26 +243,36 @@ class CalibRom(wiring.Component):
         m.submodules.out = out = StreamRegister(self._bits)
         addr = Signal(range(max(n, 2)))
         at_end = Signal(init=n == 1)   # addr == n - 1
-        v1, v2 = Signal(), Signal()    # the read ports / the bank registers hold a beat
+        extra = self.BRAMS[self._bram]
+        # valid / bank number of the beat in each read stage (the read port's output, the
+        # block RAM's output register with ecp5, the bank registers)
+        # (the names the generic ROM's Verilog always had: the last is v2)
+        vs = [Signal() for _ in range(1 + extra)] + [Signal(name="v2")]
         adv = Signal()
-        m.d.comb += adv.eq(~v2 | out.i_stream.ready)
+        m.d.comb += adv.eq(~vs[-1] | out.i_stream.ready)
         lb = (bank - 1).bit_length() if nb > 1 else len(addr)
-        sel1 = Signal(range(max(nb, 2)))
-        sel2 = Signal.like(sel1)
+        sels = [Signal(range(max(nb, 2)), name=f"sel{k}") for k in range(1, 3 + extra)]
         qs = []
         for b in range(nb):
             chunk = words[b * bank:(b + 1) * bank]
-            m.submodules[f"bank{b}"] = mem = Memory(
-                shape=self._bits, depth=max(len(chunk), 2),
-                init=chunk + [0] * (max(len(chunk), 2) - len(chunk)))
-            rd = mem.read_port()
-            m.d.comb += [rd.en.eq(adv), rd.addr.eq(addr[:lb])]
+            if self._bram == "ecp5":
+                data = ecp5_bram.rom(m, f"bank{b}", words=chunk, bits=self._bits,
+                                     addr=addr[:lb], en=adv)
+            else:
+                m.submodules[f"bank{b}"] = mem = Memory(
+                    shape=self._bits, depth=max(len(chunk), 2),
+                    init=chunk + [0] * (max(len(chunk), 2) - len(chunk)))
+                rd = mem.read_port()
+                m.d.comb += [rd.en.eq(adv), rd.addr.eq(addr[:lb])]
+                data = rd.data
             q = Signal(self._bits, name=f"bank{b}_q")
             with m.If(adv):
-                m.d.sync += q.eq(rd.data)
+                m.d.sync += q.eq(data)
             qs.append(q)
+        sel1, sel2 = sels[0], sels[-1]
         with m.If(adv):
-            m.d.sync += [v1.eq(1), v2.eq(v1), sel2.eq(sel1)]
+            m.d.sync += [vs[0].eq(1)] + [vs[k].eq(vs[k - 1]) for k in range(1, len(vs))]
+            m.d.sync += [sels[k].eq(sels[k - 1]) for k in range(1, len(sels))]
             if nb > 1:
                 m.d.sync += sel1.eq(addr[lb:])
             with m.If(at_end):
@@ -257,7 +288,7 @@ class CalibRom(wiring.Component):
                 with m.Default():
                     m.d.comb += sel.eq(qs[-1])
         o = self.o_stream
-        m.d.comb += [out.i_stream.valid.eq(v2), out.i_stream.payload.eq(sel),
+        m.d.comb += [out.i_stream.valid.eq(vs[-1]), out.i_stream.payload.eq(sel),
                      o.valid.eq(out.o_stream.valid), out.o_stream.ready.eq(o.ready),
                      Value.cast(o.payload.data).eq(out.o_stream.payload)]
         return m

@@ -25,7 +25,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
@@ -666,24 +666,91 @@ def _pay_layout(bits):
     return data.StructLayout({"med": bits, "lap": signed(bits + 3)})
 
 
-def _stage_b_fns(bits, gain, shift):
-    """5x5 box sum of the gradient, mean, mask and final add (enhance mode, stage B)."""
+#: Widest operand chunk of a product in :func:`_mul_add`: one MULT18X18D (18 x 18 signed;
+#: an unsigned chunk is 17 bits, 18 as signed).
+_DSP_BITS = 18
+_CHUNK = _DSP_BITS - 1
+
+#: Register stages of :func:`_mul_add`: the chunk products, two sums of partial terms, their
+#: sum.
+MUL_ADD_STAGES = 3
+
+
+def _chunks(x):
+    """``x`` (a value or an int >= 0) as ``[(chunk, shift)]``, each chunk fitting one
+    MULT18X18D operand: a value of at most 18 bits (17 unsigned) whole, else its low 17 bits
+    (unsigned) and the rest (with ``x``'s sign); an int in 17-bit pieces, zero pieces left
+    out."""
+    if isinstance(x, int):
+        out, sh = [], 0
+        while x:
+            if x & ((1 << _CHUNK) - 1):
+                out.append((x & ((1 << _CHUNK) - 1), sh))
+            x, sh = x >> _CHUNK, sh + _CHUNK
+        return out
+    x = Value.cast(x)
+    sh = x.shape()
+    if len(x) <= (_DSP_BITS if sh.signed else _CHUNK):
+        return [(x, 0)]
+    hi = x[_CHUNK:].as_signed() if sh.signed else x[_CHUNK:]
+    assert len(hi) <= (_DSP_BITS if sh.signed else _CHUNK), "operand wider than 2 chunks"
+    return [(x[:_CHUNK], 0), (hi, _CHUNK)]
+
+
+def _mul_add(pipe, a, b, name, extra=None):
+    """``a * b (+ extra)`` in :data:`MUL_ADD_STAGES` register stages, every multiplier one
+    MULT18X18D between two registers (``a`` and ``extra`` must be registers or wiring of
+    registers, ``b`` too or an int).
+
+    Stage 1: the products of ``a``'s and ``b``'s chunks (:func:`_chunks`) and ``extra``,
+    registered; stage 2: two sums of about half the terms each, shifted into place; stage 3:
+    their sum, in the shape of ``a * b + extra`` (exact: no bit of any term is lost).
+    """
+    prod = Value.cast(a) * b
+    shape = (prod if extra is None else prod + extra).shape()
+    wide = signed(shape.width + 2)
+    terms = [(pipe.reg(ca * cb, name=f"{name}p"), sa + sb)
+             for ca, sa in _chunks(a) for cb, sb in _chunks(b)]
+    if extra is not None:
+        terms.append((pipe.reg(extra, name=f"{name}x"), 0))
+    half = (len(terms) + 1) // 2
+
+    def total(ts):
+        v = Const(0, 1)
+        for t, sh in ts:
+            v = v + (t << sh)
+        return v
+    lo = pipe.reg(total(terms[:half]), shape=wide, name=f"{name}s")
+    hi = pipe.reg(total(terms[half:]), shape=wide, name=f"{name}s")
+    return pipe.reg(lo + hi, shape=shape, name=name)
+
+
+def _add_tree(pipe, vals, width, name, plus=0):
+    """The sum of 5 values (+ a constant ``plus``, added to the fifth in the first stage)
+    in 3 register stages, one adder deep each."""
+    a = pipe.reg(vals[0] + vals[1], shape=unsigned(width), name=name)
+    b = pipe.reg(vals[2] + vals[3], shape=unsigned(width), name=name)
+    e = pipe.reg(vals[4] + plus, shape=unsigned(width), name=name) if plus else \
+        pipe.reg(vals[4], name=name)
+    ab = pipe.reg(a + b, shape=unsigned(width), name=name)
+    e2 = pipe.reg(e, name=name)
+    return pipe.reg(ab + e2, shape=unsigned(width), name=name)
+
+
+def _stage_b_fns(bits, gain, shift, ppc=1):
+    """5x5 box sum of the gradient, mean, mask and final add (enhance mode, stage B).
+
+    At ``ppc`` 1 the arithmetic after the box sum is one stage per operation (9 stages in
+    all, a multiplier's carry chain in the same stage as its multiplier); at ``ppc`` >= 2
+    (:func:`_wide_b_window`) every multiplier sits between two registers."""
     full = (1 << bits) - 1
     gb = bits + 3
     k, s = reciprocal_25(200 * full + 12)
     play = _pay_layout(bits)
     clay = data.StructLayout({"v": gb + 3, "pay": play})
 
-    def add_tree(pipe, vals, width, name):
-        a = pipe.reg(vals[0] + vals[1], shape=unsigned(width), name=name)
-        b = pipe.reg(vals[2] + vals[3], shape=unsigned(width), name=name)
-        e = pipe.reg(vals[4], name=name)
-        ab = pipe.reg(a + b, shape=unsigned(width), name=name)
-        e2 = pipe.reg(e, name=name)
-        return pipe.reg(ab + e2, shape=unsigned(width), name=name)
-
     def col_fn(pipe, taps, pay):
-        v = add_tree(pipe, taps, gb + 3, "vs")
+        v = _add_tree(pipe, taps, gb + 3, "vs")
         p = pipe.delay(data.View(play, pay), 3, name="bpay")
         col = Signal(clay, name="b_col")
         pipe.m.d.comb += [col.v.eq(v), col.pay.eq(p)]
@@ -691,7 +758,7 @@ def _stage_b_fns(bits, gain, shift):
 
     def win_fn(pipe, cols):
         c = [data.View(clay, x) for x in cols]
-        box = add_tree(pipe, [x.v for x in c], gb + 5, "box")                  # 3 stages
+        box = _add_tree(pipe, [x.v for x in c], gb + 5, "box")                  # 3 stages
         pay = pipe.delay(c[2].pay, 3, name="wpay")
         nb = box.shape().width + 1
         t = pipe.reg(box + 12, shape=unsigned(nb), name="box12")               # 4
@@ -709,7 +776,43 @@ def _stage_b_fns(bits, gain, shift):
         out = pipe.reg(Mux(tot < 0, 0, Mux(tot > full, full, tot)), shape=unsigned(bits),
                        name="clamp")                                            # 9
         return out, 9
-    return col_fn, win_fn
+    return col_fn, (_wide_b_window(bits, gain, shift, clay) if ppc > 1 else win_fn)
+
+
+#: Register stages of stage B's window function at ppc >= 2 (:func:`_wide_b_window`).
+WIDE_B_STAGES = 3 + 2 * MUL_ADD_STAGES + 1
+
+
+def _wide_b_window(bits, gain, shift, clay):
+    """Stage B's window function with every multiplier between two registers (ppc >= 2,
+    where a chain at 8 pixels per clock meets 150 MHz only so), :data:`WIDE_B_STAGES` = 10
+    stages; ``clay`` the layout of the column values.
+
+    The same integers as the golden model, regrouped exactly: box sum + 12 (3 stages, the
+    12 added in the first); ``gmean = (box12 * k) >> s`` and, beside it, ``lapg = lap *
+    gain`` (:func:`_mul_add`, 3 each); ``tot = (lapg * gmean + (med << shift) + rnd) >>
+    shift`` (3; ``med * 2**shift + rnd`` is ``med`` and ``rnd``'s bits side by side, and
+    ``floor((m 2**s + x + r) / 2**s) = m + floor((x + r) / 2**s)``); the clamp (1)."""
+    full = (1 << bits) - 1
+    gb = bits + 3
+    k, s = reciprocal_25(200 * full + 12)
+    rnd = (1 << (shift - 1)) if shift else 0
+
+    def win_fn(pipe, cols):
+        c = [data.View(clay, x) for x in cols]
+        box12 = _add_tree(pipe, [x.v for x in c], gb + 5, "box", plus=12)       # 3 stages
+        pay = pipe.delay(c[2].pay, 3, name="wpay")
+        gsum = _mul_add(pipe, box12, k, "gsum")                                # 6
+        gmean = gsum[s:s + gb]
+        lapg = _mul_add(pipe, pay.lap, gain, "lapg")                           # 6
+        med = pipe.delay(pay.med, MUL_ADD_STAGES, name="bmed")
+        tsum = _mul_add(pipe, lapg, gmean, "tsum",
+                        extra=Cat(Const(rnd, shift), med) if shift else med)   # 9
+        tot = tsum >> shift
+        out = pipe.reg(Mux(tot < 0, 0, Mux(tot > full, full, tot)), shape=unsigned(bits),
+                       name="clamp")                                            # 10
+        return out, WIDE_B_STAGES
+    return win_fn
 
 
 class Median3(wiring.Component):
@@ -764,10 +867,15 @@ class Median3(wiring.Component):
     window median (5). With ``enhance`` the Laplacian/gradient stage (11 stages) feeds the
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 2, mask 2,
     add and clamp 2 = 15 stages): output (y, x) is valid 26 cycles after input
-    (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the same cycle counts (11 and 26)
-    hold per beat: output beat (y, b) is valid :attr:`latency` cycles after input beat
-    (min(y+1, H-1), min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2,
-    W/ppc-1)) (each neighbourhood reaches one beat to the right).
+    (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the cycle counts hold per beat:
+    output beat (y, b) is valid :attr:`latency` cycles after input beat (min(y+1, H-1),
+    min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each
+    neighbourhood reaches one beat to the right); 11 without ``enhance``, 28 with it: the
+    5x5 stage's arithmetic after its sums is then 7 stages instead of 6, every multiplier
+    between two registers (mean 3, mask 3 with the add, clamp 1: :func:`_wide_b_window`;
+    at 8 pixels per clock a multiplier and its carry chain in one cycle cost the chain
+    60 MHz), and a register slice between the two stages (1; without it the 5x5 stage's
+    ready reached the 3x3 stage's input ready and clock enables in one cycle: 96 MHz).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
@@ -839,10 +947,13 @@ class Median3(wiring.Component):
 
     @property
     def latency(self):
-        """Register stages from the input beat that completes a window to its output: 11,
-        with ``enhance`` 26, at every ``ppc``."""
+        """Register stages from the input beat that completes a window to its output: 11;
+        with ``enhance`` 26 at ``ppc`` 1, 28 at ``ppc`` 2, 4, 8 (every multiplier between
+        two registers, a register slice between the two neighbourhoods)."""
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
-        return plain + 3 + 3 + 9 if self._enhance else plain
+        if not self._enhance:
+            return plain
+        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + 1)
 
     @property
     def line_buffer_bits(self):
@@ -867,11 +978,17 @@ class Median3(wiring.Component):
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
                 name="a", ppc=P)
-            col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
+            col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift, P)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
             ao, bi = a.o_stream, bb.i_stream
+            if P > 1:
+                # a register slice between the two neighbourhoods: stage B's ready no
+                # longer reaches stage A's input ready and clock enables in the same cycle
+                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
+                wiring.connect(m, ao, ab.i_stream)
+                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),

@@ -360,9 +360,11 @@ def test_block_cases_cover_what_the_issue_asks():
 @pytest.mark.parametrize("ppc", [2, 4, 8])
 @pytest.mark.parametrize("enhance", [False, True])
 def test_ppc_full_rate_latency_and_no_bubbles(ppc, enhance):
-    """ppc pixels per beat, no stalls: one beat per clock in and out, latency as at ppc 1
-    (11, with enhance 26) from the input beat that completes the window of output beat
-    (0, 0): beat (1, 1), with enhance (3, 2) (each stage reaches one beat to the right)."""
+    """ppc pixels per beat, no stalls: one beat per clock in and out, latency 11 (with
+    enhance 28: two more than at ppc 1, every multiplier between two registers and a
+    register slice between the 3x3 and the 5x5 stage) from
+    the input beat that completes the window of output beat (0, 0): beat (1, 1), with
+    enhance (3, 2) (each stage reaches one beat to the right)."""
     rng = np.random.default_rng(ppc + 10 * enhance)
     w = 4 * ppc
     params = _params(width=w, enhance=enhance, enhance_gain=9, ppc=ppc)
@@ -373,7 +375,7 @@ def test_ppc_full_rate_latency_and_no_bubbles(ppc, enhance):
     assert len(acc) == len(exp) and (np.diff(acc) == 1).all()
     assert (np.diff(out) == 1).all()
     row, beat = (3, 2) if enhance else (1, 1)
-    assert st["latency"] == (26 if enhance else 11)
+    assert st["latency"] == (28 if enhance else 11)
     assert out[0] - acc[row * 4 + beat] == st["latency"]
 
 
@@ -402,8 +404,11 @@ def test_amaranth_sim_ppc_matches_model_with_stalls(ppc, enhance, beats, idle, b
 def test_ppc_params_and_errors_are_one_line():
     dut, small = Median3(width=1280, ppc=8, enhance=True), Median3(width=24, ppc=8)
     dut._MustUse__silence = small._MustUse__silence = True     # never elaborated
-    assert (dut.ppc, dut.latency, dut.line_buffer_bits) == (8, 26, 1280 * (10 * 12 + 18))
+    assert (dut.ppc, dut.latency, dut.line_buffer_bits) == (8, 28, 1280 * (10 * 12 + 18))
     assert small.latency == 11
+    two = Median3(width=24, ppc=2, enhance=True, enhance_gain=200, enhance_shift=30)
+    two._MustUse__silence = True
+    assert two.latency == 28
     for kw, match in (({"ppc": 3}, r"^ppc = 3 is not valid; valid: 1, 2, 4, 8$"),
                       ({"width": 16, "ppc": 8},
                        r"^width \(ppc = 8\) = 16 is out of range; valid: 24\.\.8192$"),

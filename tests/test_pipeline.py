@@ -228,14 +228,17 @@ def test_impossible_pipelines_give_one_line_errors(blocks_, over, msg):
 
 def test_synthesis_top_uses_each_blocks_ecp5_top():
     """``tdicam synth pipeline`` places each block's ECP5 top where it has one (the TDI
-    stage's DP16KD banks, one read stage more); the plain top (``tdicam verilog
+    stage's DP16KD banks, one read stage more; the NUC calibration ROM's banks as DP16KD
+    with their contents as INITVAL, off the pixels' path); the plain top (``tdicam verilog
     pipeline``, every simulation) keeps the generic descriptions."""
     from tdicam.hw.verilog import rtlil
     p = pl.plan(_small())
     block = pl.PipelineBlock(p, None)
     ecp5, plain = block.build(ecp5=True), block.build()
     assert ecp5.latency == plain.latency + 1
-    assert "DP16KD" in rtlil(ecp5, "pipeline") and "DP16KD" not in rtlil(plain, "pipeline")
+    text = rtlil(ecp5, "pipeline")
+    assert "DP16KD" in text and "DP16KD" not in rtlil(plain, "pipeline")
+    assert "rom_bank0_0" in text and "INITVAL_00" in text     # the ROM of lane 0
 
 
 @pytest.mark.filterwarnings("ignore:.*created but never used")   # top inspected only

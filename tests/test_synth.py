@@ -189,3 +189,44 @@ def test_system_lanes_top_has_the_word_clock_constrained():
     doms = pl.top(p).port_domains
     assert doms["lvds_lane_raw"] == doms["lvds_frames_out"] == doms["lvds_retrain"] == "word"
     assert "m_axis_tdata" not in doms and "nuc_calib_loaded" not in doms
+
+
+@needs_tools
+@pytest.mark.parametrize("depth,bits", [(2048, 9), (1000, 18)])
+def test_ecp5_rom_initval_layout_is_yosys_own(tmp_path, depth, bits):
+    """:func:`tdicam.hdl.vendor.ecp5_bram.rom_initvals` (the calibration ROM's DP16KD
+    contents in the ECP5 synthesis top, and the DP16KD simulation model's reading of
+    them) lays words out as yosys' ``synth_ecp5`` does for an inferred memory of the same
+    contents: the same INITVAL parameters, 2048 x 9 (x9 word ``w`` the low / high byte of
+    row ``w // 2``) and up to 1024 x 18."""
+    import subprocess
+    from amaranth.hdl import Module
+    from amaranth.lib import wiring
+    from amaranth.lib.memory import Memory
+    from amaranth.lib.wiring import In, Out
+    from tdicam.hdl.vendor.ecp5_bram import rom_initvals
+    from tdicam.hw.synth import _tool
+    from tdicam.hw.verilog import rtlil
+
+    words = np.random.default_rng(depth).integers(0, 1 << bits, depth).tolist()
+
+    class Top(wiring.Component):
+        addr: In(11)
+        data: Out(bits)
+
+        def elaborate(self, platform):
+            m = Module()
+            m.submodules.mem = mem = Memory(shape=bits, depth=depth, init=words)
+            rd = mem.read_port()
+            m.d.comb += [rd.addr.eq(self.addr), self.data.eq(rd.data)]
+            return m
+
+    (tmp_path / "top.il").write_text(rtlil(Top(), "top"))
+    subprocess.run([_tool("yosys"), "-q", "-p", "read_rtlil top.il; synth_ecp5 -top top; "
+                    "write_json out.json"], cwd=tmp_path, check=True)
+    cells = json.loads((tmp_path / "out.json").read_text())["modules"]["top"]["cells"]
+    prims = [c["parameters"] for c in cells.values() if c["type"] == "DP16KD"]
+    assert len(prims) == 1      # (yosys reads the 2048 x 9 one at x18, a mux after it)
+    want = rom_initvals(words, depth)
+    got = {k: int(v, 2) for k, v in prims[0].items() if k.startswith("INITVAL_")}
+    assert got == want

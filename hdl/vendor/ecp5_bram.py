@@ -16,7 +16,8 @@ simulation keep the generic description unless asked.
 
 from amaranth.hdl import Cat, ClockSignal, Const, Instance, Mux, Signal
 
-__all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank"]
+__all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank", "rom",
+           "rom_initvals", "ROM_DEPTH"]
 
 #: Read stages a bank adds to the generic memory's (address edge, data, registers): the
 #: DP16KD output register between the data and the fabric register.
@@ -110,3 +111,104 @@ def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
     q = Signal(bits, name=f"q_{tag}")
     m.d.sync += q.eq(Cat(*outs))
     return q
+
+
+#: Deepest :func:`rom`: one DP16KD at 9 bits (a ROM of at most 1024 words uses x18).
+ROM_DEPTH = 2048
+
+
+def _rom_width(depth):
+    if not 1 <= depth <= ROM_DEPTH:
+        raise ValueError(f"ECP5 ROM depth {depth}: 1..{ROM_DEPTH}")
+    return 18 if depth <= 1024 else 9
+
+
+def rom_initvals(columns, depth):
+    """The ``INITVAL_00`` .. ``INITVAL_3F`` parameters (name -> 320-bit int) of a DP16KD
+    holding ``columns`` (the primitive's word ``w`` = ``columns[w]``, ``depth`` words) at
+    the data width :func:`rom` gives it (x18 up to 1024 words, else x9).
+
+    The array is 1024 rows of 18 bits (two bytes of 9), row ``r`` at bits ``20 (r mod 16)``
+    .. ``+ 17`` of ``INITVAL_<r // 16>`` (the 2 bits above each row unused); an x9 word
+    ``w`` is byte ``w mod 2`` (byte 0 the low 9 bits) of row ``w // 2``. This is the layout
+    yosys gives an inferred memory's contents (``brams_map_16kd.v``; a test compares the
+    two)."""
+    pw = _rom_width(depth)
+    rows = [0] * 1024
+    for w, v in enumerate(columns):
+        if pw == 18:
+            rows[w] = v
+        else:
+            rows[w >> 1] |= v << (9 * (w & 1))
+    out = {}
+    for i in range(64):
+        out[f"INITVAL_{i:02X}"] = sum(rows[16 * i + j] << (20 * j) for j in range(16))
+    return out
+
+
+def rom(m, tag, *, words, bits, addr, en):
+    """A ROM of ``words`` (ints of ``bits`` bits, at most :data:`ROM_DEPTH`) as DP16KD
+    primitives with their output register (``REGMODE_B = "OUTREG"``).
+
+    Only the bits that differ between words are stored, packed side by side into as few
+    primitives as hold them (x18 for up to 1024 words, else x9); a bit equal in every word
+    is a constant (what yosys does with an inferred memory's constant bits).
+
+    Parameters
+    ----------
+    m : Module
+        Where the primitives go.
+    tag : str
+        Name stem of the instances (``rom_<tag>_<i>``).
+    words : list of int
+        The contents, word 0 first.
+    bits : int
+        Word width.
+    addr : Value
+        Read address (its low bits address the words), sampled at a clock edge with ``en``
+        high (the port B address register, clock enable ``CEB``).
+    en : Value
+        Clock enable of both read stages: the address register (``CEB``) and the output
+        register (``OCEB``). The ROM is then a two-stage pipeline moving on ``en``.
+
+    Returns
+    -------
+    Value
+        ``bits`` wide: the word addressed at the edge with ``en`` before the last edge with
+        ``en`` (the block RAM's output register: a flip-flop, its short clock-to-out in
+        place of the 4.1 ns of a read without it). Before two such edges: undefined (zero
+        on the device, the output register's reset value).
+    """
+    depth = len(words)
+    pw = _rom_width(depth)
+    vary = [j for j in range(bits) if any((w >> j) & 1 != (words[0] >> j) & 1 for w in words)]
+    const = words[0] if words else 0
+    out = [Const((const >> j) & 1, 1) for j in range(bits)]
+    lg = {18: 4, 9: 3}[pw]
+    for i in range(-(-len(vary) // pw)):
+        cols = vary[i * pw:(i + 1) * pw]
+        data = [sum(((w >> j) & 1) << k for k, j in enumerate(cols)) for w in words]
+        do = Signal(pw, name=f"rom_{tag}_{i}_do")
+        ports = {"i_CLKA": ClockSignal(), "i_CEA": Const(0), "i_OCEA": Const(0),
+                 "i_WEA": Const(0), "i_RSTA": Const(0),
+                 "i_CLKB": ClockSignal(), "i_CEB": en, "i_OCEB": en,
+                 "i_WEB": Const(0), "i_RSTB": Const(0)}
+        for n in range(3):
+            ports[f"i_CSA{n}"] = ports[f"i_CSB{n}"] = Const(0)
+        for n in range(_ABITS):
+            k = n - lg
+            ports[f"i_ADA{n}"] = Const(0)
+            ports[f"i_ADB{n}"] = addr[k] if 0 <= k < len(addr) else Const(0)
+        for n in range(18):
+            ports[f"i_DIA{n}"] = ports[f"i_DIB{n}"] = Const(0)
+            if n < pw:
+                ports[f"o_DOB{n}"] = do[n]
+        init = {f"p_{k}": Const(v, 320) for k, v in rom_initvals(data, depth).items()}
+        m.submodules[f"rom_{tag}_{i}"] = Instance(
+            "DP16KD", p_DATA_WIDTH_A=pw, p_DATA_WIDTH_B=pw, p_REGMODE_A="NOREG",
+            p_REGMODE_B="OUTREG", p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
+            p_CSDECODE_A="0b000", p_CSDECODE_B="0b000", p_WRITEMODE_A="NORMAL",
+            p_WRITEMODE_B="NORMAL", p_GSR="AUTO", **init, **ports)
+        for k, j in enumerate(cols):
+            out[j] = do[k]
+    return Cat(*out)

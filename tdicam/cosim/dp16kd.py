@@ -13,9 +13,15 @@ Memory Usage Guide" (FPGA-TN-02204) port description. Modelled:
   modelled); a read loads the output latch. ``REGMODE = OUTREG`` adds the output register,
   loaded from the latch when ``OCE`` is high. ``RST`` (``RESETMODE = SYNC``) zeroes latch
   and register at the clock edge, whatever ``CE``/``OCE`` (yosys' view of the block).
-* A read of the word the other port writes at the same edge returns x (undefined), and the
-  contents start x (the ``INITVAL`` parameters are not modelled): a design that used either
-  would show x in its output.
+* A read of the word the other port writes at the same edge returns x (undefined): a
+  design that used one would show x in its output.
+* The contents start as the ``INITVAL_00`` .. ``INITVAL_3F`` parameters say at x9 and x18
+  (1024 rows of 18 bits, row ``r`` at bits ``20 (r mod 16)`` .. ``+ 17`` of
+  ``INITVAL_<r // 16>``, an x9 word ``w`` the low / high 9 bits of row ``w // 2`` for
+  even / odd ``w``: :func:`tdicam.hdl.vendor.ecp5_bram.rom_initvals`, yosys' layout), and
+  x when every ``INITVAL`` is zero (a RAM whose words are written before they are read:
+  a read of a word never written shows x); a nonzero ``INITVAL`` at x1, x2 or x4 stops the
+  simulation (not modelled).
 
 Anything else (other widths or modes, ``CSDECODE`` other than ``0b000``) stops the
 simulation at time 0 with ``$fatal``.
@@ -71,6 +77,15 @@ def _ports(x):
             f"  output {bits('DO', 18)}")
 
 
+#: The INITVAL parameters, a function ``iv(i)`` giving ``INITVAL_<i>`` and ``IV_ANY`` (one
+#: of them is nonzero).
+_INITVAL = "".join(f"  parameter [319:0] INITVAL_{i:02X} = 320'h0;\n" for i in range(64)) + \
+    "  function [319:0] iv(input integer i);\n    case (i)\n" + \
+    "".join(f"      {i}: iv = INITVAL_{i:02X};\n" for i in range(64)) + \
+    "      default: iv = 320'h0;\n    endcase\n  endfunction\n" + \
+    "  localparam IV_ANY = " + \
+    " || ".join(f"INITVAL_{i:02X} != 0" for i in range(64)) + ";\n"
+
 #: The model's Verilog text (module ``DP16KD``; every parameter of the primitive accepted).
 MODEL = f"""// DP16KD simulation model (tdicam.cosim.dp16kd): the subset tdicam uses
 module DP16KD (
@@ -88,7 +103,7 @@ module DP16KD (
   parameter WRITEMODE_A = "NORMAL";
   parameter WRITEMODE_B = "NORMAL";
   parameter GSR = "ENABLED";
-  localparam W = DATA_WIDTH_A;
+{_INITVAL}  localparam W = DATA_WIDTH_A;
   localparam LG = W == 18 ? 4 : W == 9 ? 3 : W == 4 ? 2 : W == 2 ? 1 : 0;
   localparam [17:0] mask = (18'd1 << W) - 1;
   initial begin
@@ -104,5 +119,21 @@ module DP16KD (
     word = ad >> LG;
   endfunction
   reg [17:0] mem [0:16383];
+  integer r;
+  reg [319:0] ivr;
+  initial if (IV_ANY) begin
+    if (W != 9 && W != 18)
+      $fatal(1, "DP16KD model: INITVAL at DATA_WIDTH 9 and 18 only");
+    for (r = 0; r < 1024; r = r + 1) begin
+      if (r % 16 == 0)
+        ivr = iv(r / 16);
+      if (W == 18)
+        mem[r] = ivr[20 * (r % 16) +: 18];
+      else begin
+        mem[2 * r] = {{9'd0, ivr[20 * (r % 16) +: 9]}};
+        mem[2 * r + 1] = {{9'd0, ivr[20 * (r % 16) + 9 +: 9]}};
+      end
+    end
+  end
 {_port("A")}{_port("B")}endmodule
 """
