@@ -28,6 +28,7 @@ from pathlib import Path
 
 from amaranth.back import rtlil as _rtlil
 from amaranth.back import verilog as _verilog
+from amaranth.hdl import _ir
 
 from tdicam import blocks
 from tdicam.version import __version__
@@ -65,6 +66,41 @@ def _apply_memory_attrs(text):
             chunk = re.sub(rf"  attribute \\{re.escape(NO_INIT)} [^\n]*\n", "", chunk)
         out.append(chunk)
     return "".join(out)
+
+
+def _create_missing_domains(self, missing_domain, *, platform=None):
+    # Amaranth 0.5's Fragment._create_missing_domains, with the missing domains taken in
+    # name order: it iterates a set of names, so a design with two undefined domains (the
+    # lanes' word clock and the processing clock) had its clock ports in an order that
+    # changed with PYTHONHASHSEED from one run to the next
+    from amaranth.hdl import _cd
+    from amaranth.hdl._xfrm import DomainCollector
+    collector = DomainCollector()
+    collector(self)
+    new_domains = []
+    for domain_name in sorted(collector.used_domains - collector.defined_domains):
+        if domain_name == "comb":
+            continue
+        value = missing_domain(domain_name)
+        if value is None:
+            raise _cd.DomainError(f"Domain '{domain_name}' is used but not defined")
+        if type(value) is _cd.ClockDomain:
+            self.add_domains(value)
+            new_domains.append(value)
+        else:
+            new_fragment = _ir.Fragment.get(value, platform=platform)
+            if domain_name not in new_fragment.domains:
+                defined = new_fragment.domains.keys()
+                raise _cd.DomainError(
+                    "Fragment returned by missing domain callback does not define "
+                    "requested domain '{}' (defines {})."
+                    .format(domain_name, ", ".join(f"'{n}'" for n in defined)))
+            self.add_subfragment(new_fragment, f"cd_{domain_name}")
+            self.add_domains(new_fragment.domains.values())
+    return new_domains
+
+
+_ir.Fragment._create_missing_domains = _create_missing_domains
 
 
 def rtlil(top, name):
