@@ -211,7 +211,7 @@ class MigModel(wiring.Component):
         is_rd = self.app_cmd[0]
         vis, turn, act, cost = (Signal(range(top + 1), name=n)
                                 for n in ("vis", "turn", "act", "cost"))
-        was_rd, hit, conflict = Signal(), Signal(), Signal()
+        was_rd, hit, conflict, wr_conflict = Signal(), Signal(), Signal(), Signal()
         m.d.comb += [
             vis.eq(Mux(last_valid, Mux(bank != last_bank, d.bank, 0), d.first)),
             was_rd.eq(~last_valid | last_rd),
@@ -220,10 +220,11 @@ class MigModel(wiring.Component):
                             vis + d.rd_to_wr))),
             hit.eq(open_valid[bank] & (open_rows[bank] == row)),
             conflict.eq(open_valid[bank] & (open_rows[bank] != row)),
-            act.eq(Mux(hit, 0, d.activate) + Mux(conflict, d.precharge, 0)
-                   + Mux(conflict & last_valid & (bank == last_bank) & ~last_rd,
-                         d.write_recovery, 0)),
-            cost.eq(turn + act),
+            act.eq(Mux(hit, 0, d.activate) + Mux(conflict, d.precharge, 0)),
+            wr_conflict.eq(conflict & last_valid & (bank == last_bank) & ~last_rd),
+            # tWR runs during the turnaround
+            cost.eq(Mux(wr_conflict & (turn < d.write_recovery), d.write_recovery, turn)
+                    + act),
         ]
         with m.If(self.app_en & self.app_rdy):
             m.d.sync += [busy.eq(cost), last_valid.eq(1), last_rd.eq(is_rd),
