@@ -37,7 +37,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds as link_model
 
-__all__ = ["GMAX0504", "line_words", "check_geometry", "header_word", "wire_code",
+__all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "check_geometry", "header_word", "wire_code",
            "lane_payload",
            "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
            "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
@@ -276,6 +276,15 @@ def scene_lanes(spec, gains, seed=0):
     return [eye_lane(spec.eye_centre_taps[i], spec.eye_width_taps[i], tap_ps=spec.tap_ps,
                      jitter_ps=spec.jitter_ps, bit_rate_mbps=spec.bit_rate_mbps,
                      word_bits=spec.word_bits, seed=seed * 65536 + i) for i in range(n)]
+
+
+def scene_untrained_lanes(spec, gains, seed=0, *, n_check=16, settle=8):
+    """Lane numbers of a scene's ``[sensor.lvds]`` (``spec``) whose golden training fails
+    (:func:`untrained_lanes` of :func:`scene_lanes`); empty when the link is ideal."""
+    if not spec.simulate:
+        return []
+    return untrained_lanes(scene_lanes(spec, gains, seed), spec.word_bits, spec.train_word,
+                           n_check=n_check, settle=settle)
 
 
 def untrained_lanes(lanes, word_bits, train_word=None, *, n_check=16, settle=8):

@@ -137,13 +137,10 @@ def _front_system(step, ctx):
 def _eye_rows(scene, lanes, n_check, settle):
     """The plan's row for the eyes the scene gives (none when the link is ideal): the lanes
     whose training fails (their columns invalid in every frame; NO when no lane trains)."""
-    lv = scene.sensor.lvds
-    if not lv.simulate:
+    if not scene.sensor.lvds.simulate:
         return []
-    bad = front_model.untrained_lanes(front_model.scene_lanes(lv, len(scene.sensor.gains),
-                                                              scene.run.seed),
-                                      lv.word_bits, lv.train_word, n_check=n_check,
-                                      settle=settle)
+    bad = front_model.scene_untrained_lanes(scene.sensor.lvds, len(scene.sensor.gains),
+                                            scene.run.seed, n_check=n_check, settle=settle)
     ok = False if len(bad) == lanes else None
     if not bad:
         text = "lane eyes: every lane trains"

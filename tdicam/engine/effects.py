@@ -197,12 +197,8 @@ def _need_quantization(c):
 
 def _lvds_bad_lanes(c):
     """Lanes of ``[sensor.lvds]`` that cannot train (empty when the link is ideal)."""
-    lv = c.sensor.lvds
-    if not lv.simulate:
-        return []
     from tdicam.model import lvds_front
-    lanes = lvds_front.scene_lanes(lv, len(c.sensor.gains), c.seed)
-    return lvds_front.untrained_lanes(lanes, lv.word_bits, lv.train_word)
+    return lvds_front.scene_untrained_lanes(c.sensor.lvds, len(c.sensor.gains), c.seed)
 
 
 def _need_lvds(c):
