@@ -21,6 +21,8 @@ class TdicamError(ValueError):
 def _num(v):
     if isinstance(v, float) and v.is_integer() and abs(v) < 1e16:
         return str(int(v))
+    if isinstance(v, float) and 1e-4 <= abs(v) < 1e6:
+        return f"{v:.6g}"               # a derived bound: 21.3333, not 21.333333333333336
     return str(v)
 
 

@@ -115,6 +115,9 @@ BAD_INPUT = [
     (["bench", "cds", "--quick", "-o", "{d}/afile"], "cannot write (it exists and is not a "
                                                      "folder)", 2),
     (["run", "scenes/flat_snr_sweep_96.toml", "-o", ""], "-o: the output name is empty", 2),
+    # a dry run is refused where the run would be
+    (["run", "scenes/flat_snr_sweep_96.toml", "--dry-run", "-o", "/dev/full"],
+     "/dev/full: cannot write (it exists and is not a folder)", 2),
     (["sweep", "scenes/sweeps/tao2012_snr_vs_stages.toml", "-o", " "],
      "-o: the output name is empty", 2),
     (["run", "scenes/flat_snr_sweep_96.toml", "--lines", "99999999999999"],

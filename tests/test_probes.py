@@ -64,7 +64,7 @@ SCENES = [
     (_text(LANES + "eye_width_taps = {a = 1}\n"), LV + "eye_width_taps: must be a number, "
                                                       "got a table"),
     (_text(LANES + "eye_width_taps = 1e9\n"), LV + "eye_width_taps = 1000000000.0 is out of "
-                                                   "range"),
+                                                   "range; valid: 0..21.3333"),
     (_text(LANES + "jitter_ps = inf\n"), LV + "jitter_ps: must be a finite number, got inf"),
     (_text(LANES + "jitter_ps = 3334\n"), LV + "jitter_ps = 3334 is out of range"),
     (_text(LANES + "lanes = 4\n"), LV + "lanes: unknown key"),

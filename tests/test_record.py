@@ -157,3 +157,23 @@ def test_readme_silicon_table_is_the_record():
                   fmax_clocks={"clk": 101.5, "word_clk": 180.2})
     t = record.readme_table([row], limits=ECP5_85F)
     assert "clk 101.5, word_clk 180.2" in t and "no: comb 90000 > 83640" in t
+
+
+def test_readme_blocks_table_is_the_record():
+    """README's table of the stream blocks at ppc 8 is generated from the record, with each
+    block's LUT4 against its ppc-1 row (the issue's <= 8x) and the target met or not."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    begin = "<!-- blocks table: generated from tdicam/hw/silicon.json -->\n"
+    table = text[text.index(begin) + len(begin):text.index("<!-- end of blocks table -->")]
+    assert table == record.readme_blocks_table(), \
+        "README.md's blocks table is stale: paste tdicam.hw.record.readme_blocks_table()"
+    for block in ("cds", "nuc", "hdr", "median3", "tdi"):
+        assert f"| {block}" in table
+    base = record.load()
+    one = replace(base[0], label="a", block="nuc", params={}, lut4=10, date="2099-01-01")
+    eight = replace(one, label="b", params={"ppc": 8}, lut4=95, fmax_mhz=140.0,
+                    fmax_seeds=[139.0, 140.0, 141.5], target_mhz=150.0)
+    enh = replace(eight, label="c", block="median3", params={"ppc": 8, "enhance": True})
+    t = record.readme_blocks_table([one, eight, enh])
+    assert "| nuc | 95 (9.5x) |" in t and "140.0 (139.0-141.5, 3) | 150: **not met** |" in t
+    assert "| median3 with edge enhancement | 95 (-) |" in t and "| median3 |" not in t

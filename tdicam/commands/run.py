@@ -75,6 +75,7 @@ def dry_run(scene, out, args, labels):
     from tdicam.run.runner import memory_check
     from tdicam.threads import threads
     threads()
+    check_output(out)                   # a run into ``out`` would be refused: so is this
     est = memory_check(scene, fidelity=args.fidelity, force=args.force,
                        impact=not args.no_impact, rtl=not args.no_rtl, labels=labels)
     conf = scenereport.configuration(scene, None, None, args.fidelity or scene.run.fidelity,

@@ -26,7 +26,7 @@ from pathlib import Path
 from tdicam.errors import TdicamError
 
 __all__ = ["Row", "RECORD", "load", "check_destination", "find", "fmax_by_ppc", "row_of", "update",
-           "README_CHAINS", "readme_table"]
+           "README_CHAINS", "readme_table", "README_BLOCKS", "readme_blocks_table"]
 
 #: The bundled record (``tdicam/hw/silicon.json``).
 RECORD = resources.files("tdicam.hw") / "silicon.json"
@@ -265,4 +265,47 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
             f"{k} {getattr(r, k)} > {limits[k]}" for k in over)
         out.append(f"| {what} (`scenes/{scene}`) | {ppc} | {r.lut4} | {r.comb} | {r.ff} | "
                    f"{r.dp16kd} | {r.mult18} | {fmax} ({r.target_mhz:g}; {seeds}) | {fits} |")
+    return "\n".join(out) + "\n"
+
+
+#: The README's table of stream blocks at 8 pixels per clock: (block, variant parameters,
+#: what it is) of each row, the newest recorded ppc-8 row of that block and variant beside
+#: its ppc-1 row (:func:`readme_blocks_table`).
+README_BLOCKS = (
+    ("cds", {}, "cds"),
+    ("cds_ddr", {}, "cds_ddr (reset frames through DDR)"),
+    ("nuc", {}, "nuc"),
+    ("hdr", {}, "hdr"),
+    ("median3", {}, "median3"),
+    ("median3", {"enhance": True}, "median3 with edge enhancement"),
+    ("tdi", {}, "tdi (1280 x 96 stages)"),
+)
+
+
+def _variant(row, variant):
+    return all(bool(row.params.get(k, False)) == bool(v) for k, v in variant.items()) and \
+        not (not variant.get("enhance") and row.params.get("enhance"))
+
+
+def readme_blocks_table(rows: list[Row] | None = None) -> str:
+    """The README's "stream blocks at 8 pixels per clock" table, from the record: one row per
+    :data:`README_BLOCKS` entry with a ppc-8 measurement (the newest): its cells, LUT4 as a
+    multiple of the same block's newest ppc-1 row ("-" when none is recorded), its Fmax
+    median with the seeds' range and count, and whether it meets its target."""
+    rows = load() if rows is None else rows
+    out = ["| block | LUT4 ppc 8 (x ppc 1) | FF | DP16KD | MULT18 | Fmax MHz ppc 8 "
+           "(min-max, seeds) | target |", "|---|---|---|---|---|---|---|"]
+    for block, variant, what in README_BLOCKS:
+        mine = [r for r in find(block, rows) if _variant(r, variant)]
+        by_ppc = {p: [r for r in mine if int(r.params.get("ppc", 1)) == p] for p in (1, 8)}
+        if not by_ppc[8]:
+            continue
+        r = max(by_ppc[8], key=lambda x: x.date)
+        one = max(by_ppc[1], key=lambda x: x.date) if by_ppc[1] else None
+        ratio = f" ({r.lut4 / one.lut4:.1f}x)" if one and one.lut4 and r.lut4 else " (-)"
+        cell = lambda v: "-" if v is None else str(v)   # noqa: E731
+        seeds = f"{min(r.fmax_seeds):.1f}-{max(r.fmax_seeds):.1f}, {len(r.fmax_seeds)}"
+        met = "met" if r.meets else "**not met**"
+        out.append(f"| {what} | {cell(r.lut4)}{ratio} | {cell(r.ff)} | {cell(r.dp16kd)} | "
+                   f"{cell(r.mult18)} | {r.fmax_mhz:.1f} ({seeds}) | {r.target_mhz:g}: {met} |")
     return "\n".join(out) + "\n"
