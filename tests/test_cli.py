@@ -702,6 +702,23 @@ def test_a_long_build_says_so(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.parametrize("cxx, expected", [
+    ("/nonexistent/c++", ()),                   # no compiler: no flag, no error
+    ("false", ()),                              # a compiler that refuses -march=native
+    ("true", ("-CFLAGS", "-march=native")),     # one that takes it
+])
+def test_standalone_builds_ask_the_compiler_for_native_code(monkeypatch, cxx, expected):
+    """The standalone Verilator build adds -march=native only when the C++ compiler takes
+    it (and then stamps the build with the processor, see build_sources)."""
+    from tdicam.cosim import build
+    monkeypatch.setenv("CXX", cxx)
+    build._native_flags.cache_clear()
+    try:
+        assert build._native_flags() == expected
+    finally:
+        build._native_flags.cache_clear()
+
+
 @pytest.mark.parametrize("argv, enhance, width", [
     (["--enhance"], True, 1280),
     (["--enhance", "--width", "64"], True, 64),

@@ -7,6 +7,7 @@ Layer: part of :mod:`tdicam.cosim`; imports :mod:`tdicam.hw.tools` and the leave
 
 import contextlib
 import fcntl
+import functools
 import hashlib
 import json
 import os
@@ -42,6 +43,44 @@ def _public_vlt(top):
 #: What a standalone build (:func:`build_sources` ``standalone``) leaves out of
 #: :data:`_VERILATOR_ARGS`: its clock comes from :data:`_STANDALONE_MAIN`, not from a delay.
 _STANDALONE_DROP = ("--timing",)
+
+#: What a standalone build adds, when the C++ compiler takes it (:func:`_native_flags`):
+#: code for the building machine's own processor. The orbit chain top at ppc 8 (AMD EPYC,
+#: gcc 12): 10 % fewer instructions, 3x fewer instruction-cache misses, ~25 % less CPU
+#: time (three-operand shifts, bit-field instructions, a parity from popcnt).
+_NATIVE = "-march=native"
+
+
+@functools.lru_cache(maxsize=None)
+def _native_flags():
+    """``("-CFLAGS", "-march=native")`` when the C++ compiler the Verilator build uses
+    (``CXX``, else ``c++``) accepts the flag, else ``()``; with it, the building machine's
+    processor (:func:`_host_cpu`) goes into the build's stamp, so a cached build is not
+    reused on a machine that cannot run it."""
+    import subprocess
+    try:
+        r = subprocess.run([os.environ.get("CXX", "c++"), _NATIVE, "-x", "c++", "-E",
+                            os.devnull], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return ()
+    return ("-CFLAGS", _NATIVE) if r.returncode == 0 else ()
+
+
+def _host_cpu():
+    """The processor this runs on, as far as the compiler's ``-march=native`` sees it: the
+    machine type and, on Linux, the first processor's model and feature lines."""
+    import platform
+    first = {}
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                key = line.split(":")[0].strip()
+                if key in ("model name", "flags", "Features", "CPU part"):
+                    first.setdefault(key, line.strip())
+    except OSError:
+        pass
+    return "\n".join([platform.machine(), platform.processor(), *first.values()])
 
 #: The C++ main of a standalone build: the testbench's ``clk`` input toggled every 5 ns
 #: (its 10 ns period) until ``$finish``; plusargs from the command line.
@@ -129,7 +168,8 @@ def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP, standalone=Fa
     standalone=True)``, built without cocotb and without ``--timing``
     (:data:`_STANDALONE_DROP`) around the C++ clock loop :data:`_STANDALONE_MAIN`, and run
     with :func:`run_standalone`: the simulator steps the clock at full speed, with no
-    timing scheduler and no VPI callbacks.
+    timing scheduler and no VPI callbacks; compiled for the building machine's processor
+    when the compiler can (:data:`_NATIVE`).
 
     Cached under :func:`build_dir_for` ``(name, params, sim)``, keyed by the source texts,
     the simulator and its arguments, and locked so concurrent runs share one build.
@@ -140,12 +180,15 @@ def build_sources(name, params, sim, sources, *, top=tbgen.TB_TOP, standalone=Fa
     # always @* blocks at time 0 relies on (with -g2012 they stay X until an input moves).
     args = list(_VERILATOR_ARGS) if sim == "verilator" else ["-g2005"]
     standalone = standalone and sim == "verilator"
+    host = []
     if standalone:
-        args = [a for a in args if a not in _STANDALONE_DROP]
+        args = [a for a in args if a not in _STANDALONE_DROP] + list(_native_flags())
         sources = {**sources, "main.cpp": _STANDALONE_MAIN}
+        host = [_host_cpu()] if _NATIVE in args else []
     elif sim == "verilator":
         sources = {**sources, "public.vlt": _public_vlt(top)}
-    stamp = hashlib.sha256("\0".join([*sources.values(), sim, *args]).encode()).hexdigest()
+    stamp = hashlib.sha256("\0".join([*sources.values(), sim, *args, *host]).encode()
+                           ).hexdigest()
     t0 = time.perf_counter()
     with _locked(bdir):
         if (bdir / "stamp").exists() and (bdir / "stamp").read_text() == stamp:
