@@ -27,6 +27,7 @@ from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
+from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
@@ -144,6 +145,33 @@ class _Pipe:
         return value
 
 
+def _generic_line(m, pipe, tag, *, depth, bits, ra, wa, wd, we, rname):
+    """A line buffer as an ``amaranth.lib.memory.Memory`` (read port enabled on the
+    pipeline's advance) and a fabric register after its read port."""
+    mem = Memory(shape=unsigned(bits), depth=depth, init=[])
+    m.submodules[tag] = mem
+    rp, wp = mem.read_port(), mem.write_port()
+    q = pipe.reg(rp.data, name=rname)
+    m.d.comb += [rp.addr.eq(ra), rp.en.eq(pipe.adv), wp.addr.eq(wa), wp.data.eq(wd),
+                 wp.en.eq(we)]
+    return q
+
+
+def _ecp5_line(m, pipe, tag, *, depth, bits, ra, wa, wd, we, rname):
+    """A line buffer as ECP5 DP16KD primitives whose own output register (clock enable the
+    pipeline's advance) is the read's second stage (:func:`tdicam.hdl.vendor.ecp5_bram.
+    pipe_bank`): the same two advances as :func:`_generic_line`."""
+    return ecp5_bram.pipe_bank(m, tag, depth=depth, bits=bits, ra=ra, wa=wa, wd=wd, we=we,
+                               en=pipe.adv)
+
+
+#: How the line buffers are described (``bram=``): ``"generic"`` (``tdicam verilog``, every
+#: simulation: yosys maps the memory, its block RAM's output register unused) or ``"ecp5"``
+#: (the ECP5 synthesis top: DP16KD instances, their output register the read's second
+#: stage). Both read in 2 advances; the block's latency and cycle behaviour are the same.
+BRAMS = {"generic": _generic_line, "ecp5": _ecp5_line}
+
+
 class _LineBuffers(wiring.Component):
     """The line buffers of a neighbourhood.
 
@@ -154,11 +182,13 @@ class _LineBuffers(wiring.Component):
     address, so a read never meets a write to the same address. ``rd_taps[k]`` /
     ``rd_pays[k]`` hold memory k's word :attr:`latency` = 2 advances after its address:
     the read (1) and an output register with nothing in between (1; a block RAM's
-    clock-to-out is slow: ~4.3 ns on ECP5 without its own output register).
+    clock-to-out is slow: ~4.1 ns on ECP5 without its own output register). ``bram`` (a
+    key of :data:`BRAMS`): ``"ecp5"`` makes that register the DP16KD's own.
     """
 
-    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name):
+    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name, bram="generic"):
         self._taps, self._pays, self._depth, self._name = taps, pays, depth, name
+        self._line = BRAMS[check_choice("bram", bram, BRAMS)]
         self._slot_bits = (taps - 1).bit_length()
         ports = {
             "adv": In(1), "rd_addr": In(range(depth)), "w_en": In(1),
@@ -184,13 +214,10 @@ class _LineBuffers(wiring.Component):
                           [Const(1, 1)]))
         for wdata, rd, mname, rname, slots in ports:
             for k, slot in enumerate(slots):
-                mem = Memory(shape=unsigned(len(wdata)), depth=self._depth, init=[])
-                m.submodules[f"{self._name}_{mname}{k}"] = mem
-                rp, wp = mem.read_port(), mem.write_port()
-                m.d.comb += [rp.addr.eq(self.rd_addr), rp.en.eq(self.adv),
-                             wp.addr.eq(self.w_addr), wp.data.eq(wdata),
-                             wp.en.eq(self.adv & self.w_en & slot),
-                             rd[k].eq(pipe.reg(rp.data, name=rname))]
+                m.d.comb += rd[k].eq(self._line(
+                    m, pipe, f"{self._name}_{mname}{k}", depth=self._depth, bits=len(wdata),
+                    ra=self.rd_addr, wa=self.w_addr, wd=wdata,
+                    we=self.adv & self.w_en & slot, rname=rname))
         return m
 
 
@@ -327,11 +354,13 @@ class _Neighbourhood(wiring.Component):
     beat (pixel k of a beat needs pixels k-R..k+R, R <= 2 <= ppc: the neighbour beats' last
     / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
     column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
+
+    ``bram``: how the line buffers are described (:data:`BRAMS`).
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb", ppc=1):
-        self._r, self._w, self._ppc = radius, width, ppc
+                 carry_hm1=False, name="nb", ppc=1, bram="generic"):
+        self._r, self._w, self._ppc, self._bram = radius, width, ppc, bram
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
         self._name = name
@@ -464,7 +493,7 @@ class _Neighbourhood(wiring.Component):
         # from S1 (one cycle after the read of the same beat)
         m.submodules[f"{self._name}_lb"] = lb = _LineBuffers(
             taps=N, pays=R if has_pay else 0, depth=W, tap_bits=tap_bits, pay_bits=pay_bits,
-            name=self._name)
+            name=self._name, bram=self._bram)
         s1_we = pipe.reg(take, name="we", reset=True)
         s1_waddr = pipe.reg(in_col, name="waddr")
         s1_wslot = pipe.reg(wslot, name="wslot")
@@ -840,6 +869,14 @@ class Median3(wiring.Component):
         a frame's first beat, ``last`` (TLAST) on a row's last. The filter, its borders
         and the enhancement do not depend on it: the output equals the golden model at
         every ppc.
+    bram : {"generic", "ecp5"}
+        How the line buffers are described (:data:`BRAMS`): ``"generic"`` memories (what
+        ``tdicam verilog`` writes and every simulation runs) or, in the ECP5 synthesis top
+        (``tdicam synth``), DP16KD instances whose output register is the line buffers'
+        output register (:func:`tdicam.hdl.vendor.ecp5_bram.pipe_bank`; without it the
+        block RAM's 4.1 ns clock-to-out and the routing to a fabric register were the orbit
+        chain's slowest path). The same latency and cycle behaviour either way; any other
+        value is a one-line :class:`~tdicam.errors.TdicamError`.
 
     Attributes
     ----------
@@ -904,8 +941,9 @@ class Median3(wiring.Component):
     """
 
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
-                 enhance_shift=None, ppc=1):
+                 enhance_shift=None, ppc=1, bram="generic"):
         self._ppc, self._width = check_geometry(width, ppc)
+        self._bram = check_choice("bram", bram, BRAMS)
         self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
         if not isinstance(enhance, bool):
             raise TdicamError(f"enhance must be true or false, got {enhance!r}")
@@ -936,6 +974,9 @@ class Median3(wiring.Component):
     @property
     def enhance(self):
         return self._enhance
+
+    bram = property(lambda self: self._bram, doc="Line-buffer description, a key of "
+                                                 ":data:`BRAMS`.")
 
     @property
     def enhance_gain(self):
@@ -970,18 +1011,20 @@ class Median3(wiring.Component):
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P)
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P,
+                bram=self._bram)
             last = a
         else:
             col_fn, win_fn = _stage_a_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a", ppc=P)
+                name="a", ppc=P, bram=self._bram)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift, P)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
+                bram=self._bram)
             ao, bi = a.o_stream, bb.i_stream
             if P > 1:
                 # a register slice between the two neighbourhoods: stage B's ready no

@@ -1,5 +1,6 @@
 """Golden model, median network and Amaranth simulation of the ``median3`` block."""
 
+import gc
 import itertools
 import os
 import subprocess
@@ -449,3 +450,33 @@ def test_ppc_cases_cover_smallest_and_widest_at_every_ppc():
         tags = {t for c in mine for t in c.tags}
         assert {"smallest", "fullscale", "zeros", "reset", "enhance", "height-change"} <= tags
     assert any(c.params["width"] == 8192 and c.params["ppc"] == 8 for c in cases)
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+@pytest.mark.parametrize("params,lines", [
+    ({"width": 24, "pixel_bits": 16}, [(24, 16)] * 2),
+    ({"width": 1280, "pixel_bits": 16, "ppc": 8}, [(160, 128)] * 2),
+    ({"width": 32, "enhance": True, "ppc": 8},
+     [(4, 96)] * 2 + [(4, 8 * 15)] * 4 + [(4, 8 * 27)] * 2),
+])
+def test_ecp5_line_buffers_are_dp16kd_with_output_register(params, lines):
+    """``bram="ecp5"`` (the block's ECP5 synthesis top): every line buffer (``lines``: depth
+    in beats, bits of a beat; enhance: 2 of stage A, 4 gradient and 2 payload lines of
+    stage B) is DP16KD primitives with their output register, no generic memory left, the
+    same latency; the plain top keeps the generic memories; any other ``bram`` is a
+    one-line error."""
+    from tdicam.hdl.vendor.ecp5_bram import prims_per_bank
+    from tdicam.hw.verilog import rtlil
+    blk = blocks.get("median3")
+    ecp5, plain = blk.build(params, ecp5=True), blk.build(params)
+    assert (ecp5.core.bram, plain.core.bram) == ("ecp5", "generic")
+    assert ecp5.core.latency == plain.core.latency
+    e, g = rtlil(ecp5, "median3"), rtlil(plain, "median3")
+    mems = lambda text: [ln for ln in text.splitlines() if ln.startswith("  memory ")]  # noqa
+    assert len(mems(g)) == len(lines) and mems(e) == []
+    n = sum(prims_per_bank(d, b) for d, b in lines)
+    assert e.count("cell \\DP16KD ") == e.count('\\REGMODE_B "OUTREG"') == n
+    assert "DP16KD" not in g
+    with pytest.raises(TdicamError, match=r"^bram = 'xc7' is not valid; valid: generic, ecp5$"):
+        Median3(width=24, bram="xc7")
+    gc.collect()     # the refused component's "never used" warning, filtered, fires here
