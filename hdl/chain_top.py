@@ -15,6 +15,7 @@ from typing import Callable
 
 from amaranth.hdl import Cat, Const, Module, Signal, Value
 from amaranth.lib import wiring
+from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
@@ -146,22 +147,38 @@ def frame_group(m, link, height, name):
                 link.user)
 
 
-def register_slice(m, link, name):
+def register_slice(m, link, name, ppc=1):
     """A register slice (skid buffer) on ``link``: a
     :class:`~tdicam.hdl.interfaces.stream.StreamRegister` (submodule ``name``) on its beat and
     markers, so the beat, its markers and valid come out of registers and the ready handed
     back upstream is a register too: no combinational path crosses it; one beat a clock
     sustained, latency 1 cycle, no beat lost or duplicated whatever ``ready`` does. Cuts the
     path from a block's unregistered output (e.g. a memory read) into the next block's
-    logic."""
+    logic.
+
+    At ``ppc`` >= 2 the slice is a 2-beat FIFO instead (``amaranth.lib.fifo.SyncFIFO``,
+    submodule ``name``): the same handshake, latency and rate, its ready and valid flags of
+    its fill level (a register), the beat read from its 2-word storage through the read
+    multiplexer. A skid buffer's output register loads on the consumer's ready, so that
+    ready (often a block's logic, several LUTs deep) fans out to every bit of a wide beat
+    (ppc x 16 bits and more: the orbit chain's slowest path at 8 pixels per clock, median3's
+    input ready into the TDI slice, 7.9 ns); here it reaches the read pointer and the level
+    only."""
     user = list(link.user.values())
     width = sum(len(Value.cast(e)) for e in link.elems + user) + 2
-    m.submodules[name] = reg = StreamRegister(width)
     ready = Signal(name=f"{name}_ready")
-    m.d.comb += [reg.i_stream.valid.eq(link.valid),
-                 reg.i_stream.payload.eq(Cat(*link.elems, link.first, link.last, *user)),
-                 link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
-    o_data = reg.o_stream.payload
+    word = Cat(*link.elems, link.first, link.last, *user)
+    if ppc == 1:
+        m.submodules[name] = reg = StreamRegister(width)
+        m.d.comb += [reg.i_stream.valid.eq(link.valid), reg.i_stream.payload.eq(word),
+                     link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
+        o_valid, o_data = reg.o_stream.valid, reg.o_stream.payload
+    else:
+        m.submodules[name] = fifo = SyncFIFO(width=width, depth=2)
+        m.d.comb += [fifo.w_en.eq(link.valid), fifo.w_data.eq(word),
+                     link.ready.eq(fifo.w_rdy), fifo.r_en.eq(ready)]
+        o_valid, o_data = fifo.r_rdy, fifo.r_data
+
     def unpack(values, lo):
         out = []
         for e in values:
@@ -171,7 +188,7 @@ def register_slice(m, link, name):
         return out, lo
     elems, lo = unpack(link.elems, 0)
     carried, _ = unpack(user, lo + 2)
-    return Link(reg.o_stream.valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
+    return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
                 dict(zip(link.user, carried)))
 
 
@@ -579,7 +596,7 @@ class Pipeline(wiring.Component):
             whole.user = {name: getattr(core, name) for name in st.carries}
             tap = self._tap(m, 0, whole)
             if 0 in self._slices:
-                whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice")
+                whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice", ppc)
         else:
             i = self.i_stream
             n_in = ppc * self._lanes * self._lane_elems
@@ -641,7 +658,8 @@ class Pipeline(wiring.Component):
                 out = Link.of_output(core.o_stream)
                 tap = self._tap(m, tap, out)
                 if n_st in self._slices:
-                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice")
+                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice",
+                                         ppc)
                 outs.append(out)
             lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:
