@@ -17,6 +17,8 @@ of named sub-components, each with its ``latency``: :class:`_LineBuffers` (2),
 :class:`_Window` (0).
 """
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
 from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
@@ -25,7 +27,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 from tdicam.hdl.vendor import ecp5_bram
 
@@ -123,8 +125,36 @@ def _minmax(fn, a, b):
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
 
 
+class _Enables:
+    """Copies of a neighbourhood's advance at ppc >= 2: equal registers (the bits of its
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`'s ``adv``), each the clock enable
+    of about :attr:`BITS` register bits (:meth:`take`) or of one sub-component (:meth:`own`),
+    so that no copy fans out to the thousands of flip-flops of a pipeline 8 pixels wide."""
+
+    BITS = 256
+
+    def __init__(self, name):
+        self.name, self.copies, self.used = name, [], self.BITS
+
+    def own(self):
+        """A copy of its own (for a sub-component or the sequencer)."""
+        self.used = self.BITS
+        sig = Signal(name=f"{self.name}_adv{len(self.copies)}")
+        self.copies.append(sig)
+        return sig
+
+    def take(self, bits):
+        """The copy for a register of ``bits`` bits: the current one while it has room."""
+        if self.used + bits > self.BITS:
+            self.own()
+            self.used = 0
+        self.used += bits
+        return self.copies[-1]
+
+
 class _Pipe:
-    """Registers that all move on one global advance (the pipeline's clock enable)."""
+    """Registers that all move on one global advance (the pipeline's clock enable): ``adv``
+    a signal, or :class:`_Enables` (copies of it)."""
 
     def __init__(self, m, adv, prefix):
         self.m, self.adv, self.prefix, self.n = m, adv, prefix, 0
@@ -135,7 +165,9 @@ class _Pipe:
                 Value.cast(value).shape()
         self.n += 1
         sig = Signal(shape, name=f"{self.prefix}_{name or 'r'}_{self.n}", reset_less=not reset)
-        with self.m.If(self.adv):
+        adv = self.adv.take(len(Value.cast(sig))) if isinstance(self.adv, _Enables) else \
+            self.adv
+        with self.m.If(adv):
             self.m.d.sync += sig.eq(value)
         return sig
 
@@ -384,9 +416,16 @@ class _Neighbourhood(wiring.Component):
         Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
-        adv = Signal(name=f"{self._name}_adv")
-        m.d.comb += adv.eq(~o.valid | o.ready)
-        pipe = _Pipe(m, adv, self._name)
+        if P == 1:
+            adv = Signal(name=f"{self._name}_adv")
+            m.d.comb += adv.eq(~o.valid | o.ready)
+            en, own = adv, (lambda: adv)
+        else:
+            # the advance from registers (AdvanceBuffer, in copies): o.ready reaches no
+            # clock enable; the sequencer's copy drives i.ready
+            en = _Enables(self._name)
+            adv, own = en.own(), en.own
+        pipe = _Pipe(m, en, self._name)
         has_pay = self._pay_shape is not None
         pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
         tap_bits = P * self._tap_shape.width
@@ -499,7 +538,7 @@ class _Neighbourhood(wiring.Component):
         s1_wslot = pipe.reg(wslot, name="wslot")
         s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
-        m.d.comb += [lb.adv.eq(adv), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
+        m.d.comb += [lb.adv.eq(own()), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
                      lb.w_addr.eq(s1_waddr), lb.w_slot.eq(s1_wslot), lb.w_tap.eq(s1_tap)]
         if has_pay:
             m.d.comb += lb.w_pay.eq(s1_pay)
@@ -537,12 +576,12 @@ class _Neighbourhood(wiring.Component):
 
         # ---- column reduction, the column's position delayed alongside (_Align)
         col, dc = self._columns(pipe, taps, pay)
-        hmeta = self._align(m, adv, meta, dc, "ca")
+        hmeta = self._align(m, own(), meta, dc, "ca")
 
         # ---- window (_Window): the 2R+1 columns of the next output (beat)
         m.submodules[f"{self._name}_win"] = win = _Window(
             radius=Rh, width=W, col_shape=col.shape(), name=self._name)
-        m.d.comb += [win.adv.eq(adv), win.col.eq(col), win.valid.eq(hmeta.cv),
+        m.d.comb += [win.adv.eq(own()), win.col.eq(col), win.valid.eq(hmeta.cv),
                      win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
         cols = [win.cols[t] for t in range(2 * Rh + 1)]
 
@@ -550,12 +589,20 @@ class _Neighbourhood(wiring.Component):
         wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
-        out = self._align(m, adv, wmeta, dw, "wa")
-        m.d.comb += [o.valid.eq(out.ov), o.payload.first.eq(out.of),
-                     o.payload.last.eq(out.ol), o.payload.data.val.eq(val)]
+        out = self._align(m, own(), wmeta, dw, "wa")
+        if P == 1:
+            dst = o
+        else:
+            m.submodules[f"{self._name}_obuf"] = buf = AdvanceBuffer(o.payload.shape(),
+                                                                     copies=len(en.copies))
+            m.d.comb += [c.eq(buf.adv[k]) for k, c in enumerate(en.copies)]
+            wiring.connect(m, buf.o_stream, wiring.flipped(o))
+            dst = SimpleNamespace(valid=buf.i_valid, payload=buf.i_payload)
+        m.d.comb += [dst.valid.eq(out.ov), dst.payload.first.eq(out.of),
+                     dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:
-            m.d.comb += o.payload.data.hm1.eq(out.hm1)
-        self.depth = 3 + dc + dw
+            m.d.comb += dst.payload.data.hm1.eq(out.hm1)
+        self.depth = 3 + dc + dw + (P > 1)
         return m
 
     def _align(self, m, adv, values, n, name):
@@ -907,22 +954,26 @@ class Median3(wiring.Component):
     (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the cycle counts hold per beat:
     output beat (y, b) is valid :attr:`latency` cycles after input beat (min(y+1, H-1),
     min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each
-    neighbourhood reaches one beat to the right); 11 without ``enhance``, 28 with it: the
-    5x5 stage's arithmetic after its sums is then 7 stages instead of 6, every multiplier
-    between two registers (mean 3, mask 3 with the add, clamp 1: :func:`_wide_b_window`;
-    at 8 pixels per clock a multiplier and its carry chain in one cycle cost the chain
-    60 MHz), and a register slice between the two stages (1; without it the 5x5 stage's
-    ready reached the 3x3 stage's input ready and clock enables in one cycle: 96 MHz).
+    neighbourhood reaches one beat to the right); 12 without ``enhance``, 29 with it: each
+    neighbourhood ends in an output buffer (1 each, :class:`~tdicam.hdl.interfaces.stream.
+    AdvanceBuffer`, see below), and the 5x5 stage's arithmetic after its sums is 7 stages
+    instead of 6, every multiplier between two registers (mean 3, mask 3 with the add,
+    clamp 1: :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry
+    chain in one cycle cost the chain 60 MHz).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
     exception, with ``enhance`` only: a frame of a single row arriving while the 5x5 stage
     still produces the previous frame's last two rows waits for them (at most ``width /
-    ppc`` cycles). The whole pipeline moves on
-    ``advance = ~o_stream.valid | o_stream.ready``; ``i_stream.ready`` is ``advance`` and,
-    while the previous frame's last rows are being produced, the condition that the new
-    frame does not overwrite a line still needed. No pixel is lost or duplicated whatever
-    ``ready`` does.
+    ppc`` cycles). Each neighbourhood's pipeline moves on one ``advance``: at ``ppc`` 1
+    ``~o_stream.valid | o_stream.ready``; at ``ppc`` 2, 4, 8 a register, set while the
+    neighbourhood's 3-beat output buffer has room for the beat its pipeline may push next
+    (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`), so no combinational path runs
+    from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
+    (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
+    MHz). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
+    being produced, the condition that the new frame does not overwrite a line still
+    needed. No pixel is lost or duplicated whatever ``ready`` does.
 
     **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With
     ``enhance`` in addition: 4 lines of the gradient (``pixel_bits + 3``) for the 5x5 mean
@@ -988,13 +1039,15 @@ class Median3(wiring.Component):
 
     @property
     def latency(self):
-        """Register stages from the input beat that completes a window to its output: 11;
-        with ``enhance`` 26 at ``ppc`` 1, 28 at ``ppc`` 2, 4, 8 (every multiplier between
-        two registers, a register slice between the two neighbourhoods)."""
-        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
+        """Register stages from the input beat that completes a window to its output: 11
+        at ``ppc`` 1, 12 at ``ppc`` 2, 4, 8; with ``enhance`` 26 at ``ppc`` 1, 29 at
+        ``ppc`` 2, 4, 8 (every multiplier between two registers; at ppc >= 2 each
+        neighbourhood's output buffer, 1)."""
+        buf = int(self._ppc > 1)  # each neighbourhood's AdvanceBuffer
+        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + buf
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + 1)
+        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + buf)
 
     @property
     def line_buffer_bits(self):
@@ -1026,12 +1079,6 @@ class Median3(wiring.Component):
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
                 bram=self._bram)
             ao, bi = a.o_stream, bb.i_stream
-            if P > 1:
-                # a register slice between the two neighbourhoods: stage B's ready no
-                # longer reaches stage A's input ready and clock enables in the same cycle
-                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
-                wiring.connect(m, ao, ab.i_stream)
-                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
