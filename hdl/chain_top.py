@@ -15,13 +15,12 @@ from typing import Callable
 
 from amaranth.hdl import Cat, Const, Module, Signal, Value
 from amaranth.lib import wiring
-from amaranth.lib.fifo import SyncFIFO
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, element_bits,
-                                          pixel_signature)
+from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
+                                          element_bits, pixel_signature)
 from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Link", "LaneStage", "MergeStage", "SourceStage", "Pipeline", "CalibRom",
@@ -156,14 +155,15 @@ def register_slice(m, link, name, ppc=1):
     path from a block's unregistered output (e.g. a memory read) into the next block's
     logic.
 
-    At ``ppc`` >= 2 the slice is a 2-beat FIFO instead (``amaranth.lib.fifo.SyncFIFO``,
-    submodule ``name``): the same handshake, latency and rate, its ready and valid flags of
-    its fill level (a register), the beat read from its 2-word storage through the read
-    multiplexer. A skid buffer's output register loads on the consumer's ready, so that
-    ready (often a block's logic, several LUTs deep) fans out to every bit of a wide beat
-    (ppc x 16 bits and more: the orbit chain's slowest path at 8 pixels per clock, median3's
-    input ready into the TDI slice, 7.9 ns); here it reaches the read pointer and the level
-    only."""
+    At ``ppc`` >= 2 the slice is a 3-beat FIFO instead
+    (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`, submodule ``name``): the same
+    latency (1) and rate, the ready handed upstream a register (computed one cycle ahead
+    from the FIFO's level and this cycle's push), valid a flag of the level, the beat read
+    from the FIFO's slots through its read multiplexer. A skid buffer's output register
+    loads on the consumer's ready, so that ready (often a block's logic, several LUTs deep)
+    fans out to every bit of a wide beat (ppc x 16 bits and more: the orbit chain's slowest
+    path at 8 pixels per clock, median3's input ready into the TDI slice, 7.9 ns); here it
+    reaches the FIFO's read pointer and level counters only."""
     user = list(link.user.values())
     width = sum(len(Value.cast(e)) for e in link.elems + user) + 2
     ready = Signal(name=f"{name}_ready")
@@ -174,10 +174,10 @@ def register_slice(m, link, name, ppc=1):
                      link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
         o_valid, o_data = reg.o_stream.valid, reg.o_stream.payload
     else:
-        m.submodules[name] = fifo = SyncFIFO(width=width, depth=2)
-        m.d.comb += [fifo.w_en.eq(link.valid), fifo.w_data.eq(word),
-                     link.ready.eq(fifo.w_rdy), fifo.r_en.eq(ready)]
-        o_valid, o_data = fifo.r_rdy, fifo.r_data
+        m.submodules[name] = buf = AdvanceBuffer(width)
+        m.d.comb += [buf.i_valid.eq(link.valid), buf.i_payload.eq(word),
+                     link.ready.eq(buf.adv), buf.o_stream.ready.eq(ready)]
+        o_valid, o_data = buf.o_stream.valid, buf.o_stream.payload
 
     def unpack(values, lo):
         out = []
@@ -652,7 +652,14 @@ class Pipeline(wiring.Component):
                 if st.side is not None:
                     args = (m, k) if not st.io else (m, k, {
                         p: getattr(self, self._status(st, p, k)) for p in st.io})
-                    link = join(m, link, st.side(*args), f"{st.name}_side{k}", ppc)
+                    side = st.side(*args)
+                    if ppc > 1:
+                        # the join's ready (the block's input ready and the pixels' valid)
+                        # stops at the slice, not in the side stream's source (at ppc 8 the
+                        # orbit chain's slowest path ran on into NUC's coefficient reader
+                        # and calibration ROM, 7.58 ns)
+                        side = register_slice(m, side, f"{st.name}_side{k}_slice", ppc)
+                    link = join(m, link, side, f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
                 self._wire_ports(m, st, core, k, link.user)
                 out = Link.of_output(core.o_stream)
