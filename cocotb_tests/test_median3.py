@@ -7,7 +7,9 @@ with TDICAM_FULL=1) run as one stream
 (frames are independent, so back to back they also check that no line leaks from one case to
 the next).
 The 1280 x 64 stream is marked slow: set TDICAM_FULL=1 to run it (the benchmark
-``bench/bench_median3.py`` runs it too, and asserts equality).
+``bench/bench_median3.py`` runs it too, and asserts equality). The ECP5 synthesis top (line
+buffers as DP16KD, with the DP16KD model) runs on Icarus, two parameter sets in CI, four with
+TDICAM_FULL=1.
 """
 
 import numpy as np
@@ -75,9 +77,11 @@ def test_golden_fast(build, sim):
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
 @pytest.mark.parametrize("build", ["w24_12b", "enh_w16_12b", "p8_w24_12b", "p8_enh_w32_12b"])
-@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
+@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0), (0.0, 0.5)])
 def test_extreme_stalls(sim, build, idle, bp):
-    """Full throughput, nearly always stalled sink, nearly always idle source."""
+    """Full throughput, nearly always stalled sink, nearly always idle source, a source
+    always offering into a sink ready half the time (at ppc >= 2 the output buffers of
+    median3's neighbourhoods fill and drain on every level)."""
     params, stim, exp, resets, single = _build_stream(build)
     res = check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=idle,
                       backpressure=bp, seed=3)
@@ -113,3 +117,25 @@ def test_1280x64_stream(sim, enhance):
     stim, exp = case_beats(stream_case(frames, params), params)
     check_beats("median3", params, stim, exp, sim=sim, mode="fast", idle=0.1,
                 backpressure=0.1)
+
+
+#: Parameter sets co-simulated as the ECP5 synthesis top on Icarus (one build each): plain
+#: and enhanced at ppc 1 and 8; CI runs the enhanced one at ppc 1 (both neighbourhoods:
+#: tap and payload line buffers) and the plain one at ppc 8 (the orbit chain's), the other
+#: two with TDICAM_FULL=1.
+ECP5_BUILDS = ("w24_12b", "enh_w16_12b", "p8_w24_12b", "p8_enh_w32_12b")
+ECP5_DEFAULT = ("enh_w16_12b", "p8_w24_12b")
+
+
+@pytest.mark.parametrize("build", ECP5_BUILDS)
+def test_golden_ecp5_line_buffers_icarus(build):
+    """The ECP5 synthesis top (``bram="ecp5"``: every line buffer DP16KD primitives whose
+    output register is the line buffers' output register) with the DP16KD model of
+    :mod:`tdicam.cosim.dp16kd` on Icarus: all golden cases of the parameter set as one
+    stream (resets, height changes, full scale), 25 % idle and 25 % backpressure, bit-exact
+    (a read of a word never written, or written at the same edge, would show x)."""
+    if build not in ECP5_DEFAULT and not FULL:
+        pytest.skip("another Icarus build of the ECP5 variant: runs with TDICAM_FULL=1")
+    params, stim, exp, _, _ = _build_stream(build)
+    check_beats("median3", params, stim, exp, sim="icarus", mode="fast", idle=0.25,
+                backpressure=0.25, seed=7, ecp5=True)

@@ -19,8 +19,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.interfaces.stream import (StreamRegister, channels_shape, element_bits,
-                                          pixel_signature)
+from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
+                                          element_bits, pixel_signature)
 from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Link", "LaneStage", "MergeStage", "SourceStage", "Pipeline", "CalibRom",
@@ -146,22 +146,39 @@ def frame_group(m, link, height, name):
                 link.user)
 
 
-def register_slice(m, link, name):
+def register_slice(m, link, name, ppc=1):
     """A register slice (skid buffer) on ``link``: a
     :class:`~tdicam.hdl.interfaces.stream.StreamRegister` (submodule ``name``) on its beat and
     markers, so the beat, its markers and valid come out of registers and the ready handed
     back upstream is a register too: no combinational path crosses it; one beat a clock
     sustained, latency 1 cycle, no beat lost or duplicated whatever ``ready`` does. Cuts the
     path from a block's unregistered output (e.g. a memory read) into the next block's
-    logic."""
+    logic.
+
+    At ``ppc`` >= 2 the slice is a 3-beat FIFO instead
+    (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`, submodule ``name``): the same
+    latency (1) and rate, the ready handed upstream a register (computed one cycle ahead
+    from the FIFO's level and this cycle's push), valid a flag of the level, the beat read
+    from the FIFO's slots through its read multiplexer. A skid buffer's output register
+    loads on the consumer's ready, so that ready (often a block's logic, several LUTs deep)
+    fans out to every bit of a wide beat (ppc x 16 bits and more: the orbit chain's slowest
+    path at 8 pixels per clock, median3's input ready into the TDI slice, 7.9 ns); here it
+    reaches the FIFO's read pointer and level counters only."""
     user = list(link.user.values())
     width = sum(len(Value.cast(e)) for e in link.elems + user) + 2
-    m.submodules[name] = reg = StreamRegister(width)
     ready = Signal(name=f"{name}_ready")
-    m.d.comb += [reg.i_stream.valid.eq(link.valid),
-                 reg.i_stream.payload.eq(Cat(*link.elems, link.first, link.last, *user)),
-                 link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
-    o_data = reg.o_stream.payload
+    word = Cat(*link.elems, link.first, link.last, *user)
+    if ppc == 1:
+        m.submodules[name] = reg = StreamRegister(width)
+        m.d.comb += [reg.i_stream.valid.eq(link.valid), reg.i_stream.payload.eq(word),
+                     link.ready.eq(reg.i_stream.ready), reg.o_stream.ready.eq(ready)]
+        o_valid, o_data = reg.o_stream.valid, reg.o_stream.payload
+    else:
+        m.submodules[name] = buf = AdvanceBuffer(width)
+        m.d.comb += [buf.i_valid.eq(link.valid), buf.i_payload.eq(word),
+                     link.ready.eq(buf.adv), buf.o_stream.ready.eq(ready)]
+        o_valid, o_data = buf.o_stream.valid, buf.o_stream.payload
+
     def unpack(values, lo):
         out = []
         for e in values:
@@ -171,7 +188,7 @@ def register_slice(m, link, name):
         return out, lo
     elems, lo = unpack(link.elems, 0)
     carried, _ = unpack(user, lo + 2)
-    return Link(reg.o_stream.valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
+    return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
                 dict(zip(link.user, carried)))
 
 
@@ -579,7 +596,7 @@ class Pipeline(wiring.Component):
             whole.user = {name: getattr(core, name) for name in st.carries}
             tap = self._tap(m, 0, whole)
             if 0 in self._slices:
-                whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice")
+                whole = register_slice(m, whole, f"{core_name(st, 0, 1)}_slice", ppc)
         else:
             i = self.i_stream
             n_in = ppc * self._lanes * self._lane_elems
@@ -635,13 +652,21 @@ class Pipeline(wiring.Component):
                 if st.side is not None:
                     args = (m, k) if not st.io else (m, k, {
                         p: getattr(self, self._status(st, p, k)) for p in st.io})
-                    link = join(m, link, st.side(*args), f"{st.name}_side{k}", ppc)
+                    side = st.side(*args)
+                    if ppc > 1:
+                        # the join's ready (the block's input ready and the pixels' valid)
+                        # stops at the slice, not in the side stream's source (at ppc 8 the
+                        # orbit chain's slowest path ran on into NUC's coefficient reader
+                        # and calibration ROM, 7.58 ns)
+                        side = register_slice(m, side, f"{st.name}_side{k}_slice", ppc)
+                    link = join(m, link, side, f"{st.name}_side{k}", ppc)
                 link.feed(m, core.i_stream, who=st.name)
                 self._wire_ports(m, st, core, k, link.user)
                 out = Link.of_output(core.o_stream)
                 tap = self._tap(m, tap, out)
                 if n_st in self._slices:
-                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice")
+                    out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice",
+                                         ppc)
                 outs.append(out)
             lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:

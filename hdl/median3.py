@@ -17,6 +17,8 @@ of named sub-components, each with its ``latency``: :class:`_LineBuffers` (2),
 :class:`_Window` (0).
 """
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
 from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
@@ -25,8 +27,9 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
+from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
@@ -122,8 +125,36 @@ def _minmax(fn, a, b):
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
 
 
+class _Enables:
+    """Copies of a neighbourhood's advance at ppc >= 2: equal registers (the bits of its
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`'s ``adv``), each the clock enable
+    of about :attr:`BITS` register bits (:meth:`take`) or of one sub-component (:meth:`own`),
+    so that no copy fans out to the thousands of flip-flops of a pipeline 8 pixels wide."""
+
+    BITS = 256
+
+    def __init__(self, name):
+        self.name, self.copies, self.used = name, [], self.BITS
+
+    def own(self):
+        """A copy of its own (for a sub-component or the sequencer)."""
+        self.used = self.BITS
+        sig = Signal(name=f"{self.name}_adv{len(self.copies)}")
+        self.copies.append(sig)
+        return sig
+
+    def take(self, bits):
+        """The copy for a register of ``bits`` bits: the current one while it has room."""
+        if self.used + bits > self.BITS:
+            self.own()
+            self.used = 0
+        self.used += bits
+        return self.copies[-1]
+
+
 class _Pipe:
-    """Registers that all move on one global advance (the pipeline's clock enable)."""
+    """Registers that all move on one global advance (the pipeline's clock enable): ``adv``
+    a signal, or :class:`_Enables` (copies of it)."""
 
     def __init__(self, m, adv, prefix):
         self.m, self.adv, self.prefix, self.n = m, adv, prefix, 0
@@ -134,7 +165,9 @@ class _Pipe:
                 Value.cast(value).shape()
         self.n += 1
         sig = Signal(shape, name=f"{self.prefix}_{name or 'r'}_{self.n}", reset_less=not reset)
-        with self.m.If(self.adv):
+        adv = self.adv.take(len(Value.cast(sig))) if isinstance(self.adv, _Enables) else \
+            self.adv
+        with self.m.If(adv):
             self.m.d.sync += sig.eq(value)
         return sig
 
@@ -142,6 +175,33 @@ class _Pipe:
         for _ in range(n):
             value = self.reg(value, name=name, reset=reset)
         return value
+
+
+def _generic_line(m, pipe, tag, *, depth, bits, ra, wa, wd, we, rname):
+    """A line buffer as an ``amaranth.lib.memory.Memory`` (read port enabled on the
+    pipeline's advance) and a fabric register after its read port."""
+    mem = Memory(shape=unsigned(bits), depth=depth, init=[])
+    m.submodules[tag] = mem
+    rp, wp = mem.read_port(), mem.write_port()
+    q = pipe.reg(rp.data, name=rname)
+    m.d.comb += [rp.addr.eq(ra), rp.en.eq(pipe.adv), wp.addr.eq(wa), wp.data.eq(wd),
+                 wp.en.eq(we)]
+    return q
+
+
+def _ecp5_line(m, pipe, tag, *, depth, bits, ra, wa, wd, we, rname):
+    """A line buffer as ECP5 DP16KD primitives whose own output register (clock enable the
+    pipeline's advance) is the read's second stage (:func:`tdicam.hdl.vendor.ecp5_bram.
+    pipe_bank`): the same two advances as :func:`_generic_line`."""
+    return ecp5_bram.pipe_bank(m, tag, depth=depth, bits=bits, ra=ra, wa=wa, wd=wd, we=we,
+                               en=pipe.adv)
+
+
+#: How the line buffers are described (``bram=``): ``"generic"`` (``tdicam verilog``, every
+#: simulation: yosys maps the memory, its block RAM's output register unused) or ``"ecp5"``
+#: (the ECP5 synthesis top: DP16KD instances, their output register the read's second
+#: stage). Both read in 2 advances; the block's latency and cycle behaviour are the same.
+BRAMS = {"generic": _generic_line, "ecp5": _ecp5_line}
 
 
 class _LineBuffers(wiring.Component):
@@ -154,11 +214,13 @@ class _LineBuffers(wiring.Component):
     address, so a read never meets a write to the same address. ``rd_taps[k]`` /
     ``rd_pays[k]`` hold memory k's word :attr:`latency` = 2 advances after its address:
     the read (1) and an output register with nothing in between (1; a block RAM's
-    clock-to-out is slow: ~4.3 ns on ECP5 without its own output register).
+    clock-to-out is slow: ~4.1 ns on ECP5 without its own output register). ``bram`` (a
+    key of :data:`BRAMS`): ``"ecp5"`` makes that register the DP16KD's own.
     """
 
-    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name):
+    def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name, bram="generic"):
         self._taps, self._pays, self._depth, self._name = taps, pays, depth, name
+        self._line = BRAMS[check_choice("bram", bram, BRAMS)]
         self._slot_bits = (taps - 1).bit_length()
         ports = {
             "adv": In(1), "rd_addr": In(range(depth)), "w_en": In(1),
@@ -184,13 +246,10 @@ class _LineBuffers(wiring.Component):
                           [Const(1, 1)]))
         for wdata, rd, mname, rname, slots in ports:
             for k, slot in enumerate(slots):
-                mem = Memory(shape=unsigned(len(wdata)), depth=self._depth, init=[])
-                m.submodules[f"{self._name}_{mname}{k}"] = mem
-                rp, wp = mem.read_port(), mem.write_port()
-                m.d.comb += [rp.addr.eq(self.rd_addr), rp.en.eq(self.adv),
-                             wp.addr.eq(self.w_addr), wp.data.eq(wdata),
-                             wp.en.eq(self.adv & self.w_en & slot),
-                             rd[k].eq(pipe.reg(rp.data, name=rname))]
+                m.d.comb += rd[k].eq(self._line(
+                    m, pipe, f"{self._name}_{mname}{k}", depth=self._depth, bits=len(wdata),
+                    ra=self.rd_addr, wa=self.w_addr, wd=wdata,
+                    we=self.adv & self.w_en & slot, rname=rname))
         return m
 
 
@@ -327,11 +386,13 @@ class _Neighbourhood(wiring.Component):
     beat (pixel k of a beat needs pixels k-R..k+R, R <= 2 <= ppc: the neighbour beats' last
     / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
     column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
+
+    ``bram``: how the line buffers are described (:data:`BRAMS`).
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb", ppc=1):
-        self._r, self._w, self._ppc = radius, width, ppc
+                 carry_hm1=False, name="nb", ppc=1, bram="generic"):
+        self._r, self._w, self._ppc, self._bram = radius, width, ppc, bram
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
         self._name = name
@@ -355,9 +416,16 @@ class _Neighbourhood(wiring.Component):
         Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
-        adv = Signal(name=f"{self._name}_adv")
-        m.d.comb += adv.eq(~o.valid | o.ready)
-        pipe = _Pipe(m, adv, self._name)
+        if P == 1:
+            adv = Signal(name=f"{self._name}_adv")
+            m.d.comb += adv.eq(~o.valid | o.ready)
+            en, own = adv, (lambda: adv)
+        else:
+            # the advance from registers (AdvanceBuffer, in copies): o.ready reaches no
+            # clock enable; the sequencer's copy drives i.ready
+            en = _Enables(self._name)
+            adv, own = en.own(), en.own
+        pipe = _Pipe(m, en, self._name)
         has_pay = self._pay_shape is not None
         pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
         tap_bits = P * self._tap_shape.width
@@ -464,13 +532,13 @@ class _Neighbourhood(wiring.Component):
         # from S1 (one cycle after the read of the same beat)
         m.submodules[f"{self._name}_lb"] = lb = _LineBuffers(
             taps=N, pays=R if has_pay else 0, depth=W, tap_bits=tap_bits, pay_bits=pay_bits,
-            name=self._name)
+            name=self._name, bram=self._bram)
         s1_we = pipe.reg(take, name="we", reset=True)
         s1_waddr = pipe.reg(in_col, name="waddr")
         s1_wslot = pipe.reg(wslot, name="wslot")
         s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
-        m.d.comb += [lb.adv.eq(adv), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
+        m.d.comb += [lb.adv.eq(own()), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
                      lb.w_addr.eq(s1_waddr), lb.w_slot.eq(s1_wslot), lb.w_tap.eq(s1_tap)]
         if has_pay:
             m.d.comb += lb.w_pay.eq(s1_pay)
@@ -508,12 +576,12 @@ class _Neighbourhood(wiring.Component):
 
         # ---- column reduction, the column's position delayed alongside (_Align)
         col, dc = self._columns(pipe, taps, pay)
-        hmeta = self._align(m, adv, meta, dc, "ca")
+        hmeta = self._align(m, own(), meta, dc, "ca")
 
         # ---- window (_Window): the 2R+1 columns of the next output (beat)
         m.submodules[f"{self._name}_win"] = win = _Window(
             radius=Rh, width=W, col_shape=col.shape(), name=self._name)
-        m.d.comb += [win.adv.eq(adv), win.col.eq(col), win.valid.eq(hmeta.cv),
+        m.d.comb += [win.adv.eq(own()), win.col.eq(col), win.valid.eq(hmeta.cv),
                      win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
         cols = [win.cols[t] for t in range(2 * Rh + 1)]
 
@@ -521,12 +589,20 @@ class _Neighbourhood(wiring.Component):
         wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
-        out = self._align(m, adv, wmeta, dw, "wa")
-        m.d.comb += [o.valid.eq(out.ov), o.payload.first.eq(out.of),
-                     o.payload.last.eq(out.ol), o.payload.data.val.eq(val)]
+        out = self._align(m, own(), wmeta, dw, "wa")
+        if P == 1:
+            dst = o
+        else:
+            m.submodules[f"{self._name}_obuf"] = buf = AdvanceBuffer(o.payload.shape(),
+                                                                     copies=len(en.copies))
+            m.d.comb += [c.eq(buf.adv[k]) for k, c in enumerate(en.copies)]
+            wiring.connect(m, buf.o_stream, wiring.flipped(o))
+            dst = SimpleNamespace(valid=buf.i_valid, payload=buf.i_payload)
+        m.d.comb += [dst.valid.eq(out.ov), dst.payload.first.eq(out.of),
+                     dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:
-            m.d.comb += o.payload.data.hm1.eq(out.hm1)
-        self.depth = 3 + dc + dw
+            m.d.comb += dst.payload.data.hm1.eq(out.hm1)
+        self.depth = 3 + dc + dw + (P > 1)
         return m
 
     def _align(self, m, adv, values, n, name):
@@ -840,6 +916,14 @@ class Median3(wiring.Component):
         a frame's first beat, ``last`` (TLAST) on a row's last. The filter, its borders
         and the enhancement do not depend on it: the output equals the golden model at
         every ppc.
+    bram : {"generic", "ecp5"}
+        How the line buffers are described (:data:`BRAMS`): ``"generic"`` memories (what
+        ``tdicam verilog`` writes and every simulation runs) or, in the ECP5 synthesis top
+        (``tdicam synth``), DP16KD instances whose output register is the line buffers'
+        output register (:func:`tdicam.hdl.vendor.ecp5_bram.pipe_bank`; without it the
+        block RAM's 4.1 ns clock-to-out and the routing to a fabric register were the orbit
+        chain's slowest path). The same latency and cycle behaviour either way; any other
+        value is a one-line :class:`~tdicam.errors.TdicamError`.
 
     Attributes
     ----------
@@ -870,22 +954,26 @@ class Median3(wiring.Component):
     (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the cycle counts hold per beat:
     output beat (y, b) is valid :attr:`latency` cycles after input beat (min(y+1, H-1),
     min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each
-    neighbourhood reaches one beat to the right); 11 without ``enhance``, 28 with it: the
-    5x5 stage's arithmetic after its sums is then 7 stages instead of 6, every multiplier
-    between two registers (mean 3, mask 3 with the add, clamp 1: :func:`_wide_b_window`;
-    at 8 pixels per clock a multiplier and its carry chain in one cycle cost the chain
-    60 MHz), and a register slice between the two stages (1; without it the 5x5 stage's
-    ready reached the 3x3 stage's input ready and clock enables in one cycle: 96 MHz).
+    neighbourhood reaches one beat to the right); 12 without ``enhance``, 29 with it: each
+    neighbourhood ends in an output buffer (1 each, :class:`~tdicam.hdl.interfaces.stream.
+    AdvanceBuffer`, see below), and the 5x5 stage's arithmetic after its sums is 7 stages
+    instead of 6, every multiplier between two registers (mean 3, mask 3 with the add,
+    clamp 1: :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry
+    chain in one cycle cost the chain 60 MHz).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
     exception, with ``enhance`` only: a frame of a single row arriving while the 5x5 stage
     still produces the previous frame's last two rows waits for them (at most ``width /
-    ppc`` cycles). The whole pipeline moves on
-    ``advance = ~o_stream.valid | o_stream.ready``; ``i_stream.ready`` is ``advance`` and,
-    while the previous frame's last rows are being produced, the condition that the new
-    frame does not overwrite a line still needed. No pixel is lost or duplicated whatever
-    ``ready`` does.
+    ppc`` cycles). Each neighbourhood's pipeline moves on one ``advance``: at ``ppc`` 1
+    ``~o_stream.valid | o_stream.ready``; at ``ppc`` 2, 4, 8 a register, set while the
+    neighbourhood's 3-beat output buffer has room for the beat its pipeline may push next
+    (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`), so no combinational path runs
+    from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
+    (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
+    MHz). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
+    being produced, the condition that the new frame does not overwrite a line still
+    needed. No pixel is lost or duplicated whatever ``ready`` does.
 
     **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With
     ``enhance`` in addition: 4 lines of the gradient (``pixel_bits + 3``) for the 5x5 mean
@@ -904,8 +992,9 @@ class Median3(wiring.Component):
     """
 
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
-                 enhance_shift=None, ppc=1):
+                 enhance_shift=None, ppc=1, bram="generic"):
         self._ppc, self._width = check_geometry(width, ppc)
+        self._bram = check_choice("bram", bram, BRAMS)
         self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
         if not isinstance(enhance, bool):
             raise TdicamError(f"enhance must be true or false, got {enhance!r}")
@@ -937,6 +1026,9 @@ class Median3(wiring.Component):
     def enhance(self):
         return self._enhance
 
+    bram = property(lambda self: self._bram, doc="Line-buffer description, a key of "
+                                                 ":data:`BRAMS`.")
+
     @property
     def enhance_gain(self):
         return self._gain
@@ -947,13 +1039,15 @@ class Median3(wiring.Component):
 
     @property
     def latency(self):
-        """Register stages from the input beat that completes a window to its output: 11;
-        with ``enhance`` 26 at ``ppc`` 1, 28 at ``ppc`` 2, 4, 8 (every multiplier between
-        two registers, a register slice between the two neighbourhoods)."""
-        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN)
+        """Register stages from the input beat that completes a window to its output: 11
+        at ``ppc`` 1, 12 at ``ppc`` 2, 4, 8; with ``enhance`` 26 at ``ppc`` 1, 29 at
+        ``ppc`` 2, 4, 8 (every multiplier between two registers; at ppc >= 2 each
+        neighbourhood's output buffer, 1)."""
+        buf = int(self._ppc > 1)  # each neighbourhood's AdvanceBuffer
+        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + buf
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + 1)
+        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + buf)
 
     @property
     def line_buffer_bits(self):
@@ -970,25 +1064,21 @@ class Median3(wiring.Component):
             col_fn, win_fn = _median_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P)
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P,
+                bram=self._bram)
             last = a
         else:
             col_fn, win_fn = _stage_a_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a", ppc=P)
+                name="a", ppc=P, bram=self._bram)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift, P)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
-                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P)
+                out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
+                bram=self._bram)
             ao, bi = a.o_stream, bb.i_stream
-            if P > 1:
-                # a register slice between the two neighbourhoods: stage B's ready no
-                # longer reaches stage A's input ready and clock enables in the same cycle
-                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
-                wiring.connect(m, ao, ab.i_stream)
-                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),

@@ -156,10 +156,11 @@ def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
     pl.check_options(sc, ppc=4)
 
 
-def test_register_slice_passes_every_beat_once_at_full_rate():
-    """The register slice between stages: with random idle cycles and backpressure every
-    beat comes out once, in order, markers kept; with neither, one beat a clock after a
-    latency of 1 cycle."""
+@pytest.mark.parametrize("ppc", [1, 4])
+def test_register_slice_passes_every_beat_once_at_full_rate(ppc):
+    """The register slice between stages (a skid buffer at ppc 1, a 2-beat FIFO at ppc >=
+    2): with random idle cycles and backpressure every beat comes out once, in order,
+    markers kept; with neither, one beat a clock after a latency of 1 cycle."""
     from amaranth.hdl import Module
     from amaranth.lib import wiring
     from amaranth.lib.wiring import In, Out
@@ -177,7 +178,7 @@ def test_register_slice_passes_every_beat_once_at_full_rate():
             i = self.i_stream
             link = Link(i.valid, i.ready, i.payload.first, i.payload.last,
                         [i.payload.data[k] for k in range(4)], 12)
-            register_slice(m, link, "s").feed(m, self.o_stream, who="test")
+            register_slice(m, link, "s", ppc).feed(m, self.o_stream, who="test")
             return m
 
     rng = np.random.default_rng(5)

@@ -8,11 +8,12 @@ of each row). A transfer happens on a clock edge where ``valid & ready``; a prod
 :mod:`tdicam.hdl.interfaces.axis`.
 """
 
-from amaranth.hdl import Module, Shape, Signal, unsigned
+from amaranth.hdl import Array, Module, Mux, Shape, Signal, Value, unsigned
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister"]
+__all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister",
+           "AdvanceBuffer"]
 
 
 def pixel_layout(data_shape):
@@ -77,4 +78,83 @@ class StreamRegister(wiring.Component):
                 m.d.sync += [o.valid.eq(i.valid), o.payload.eq(i.payload)]
         with m.Elif(i.valid & ~skid_valid):
             m.d.sync += [skid.eq(i.payload), skid_valid.eq(1)]
+        return m
+
+
+class AdvanceBuffer(wiring.Component):
+    """The output buffer of a pipeline that moves on one clock enable, which makes that
+    enable a register: no combinational path from the consumer's ``ready`` to the
+    pipeline's clock enables (or through them to its input ``ready``).
+
+    The pipeline's registers move on :attr:`adv` (flip-flops); its last stage's beat
+    (``i_valid``, ``i_payload``, registers of the pipeline) is pushed into a :attr:`depth`
+    = 3 beat FIFO on every cycle with ``adv & i_valid``; ``o_stream`` delivers the FIFO's
+    head. ``adv`` of the next cycle is computed from registers only, one cycle ahead: the
+    FIFO's level now plus this cycle's push (an upper bound of the next level, whatever
+    ``ready`` does) leaves room for a beat. So a push always finds room, no beat is lost or
+    duplicated under any ``ready`` pattern, and while ``o_stream.ready`` stays high the
+    pipeline advances on every cycle (the level stays at 1: one beat per clock in and out).
+    After a stall ``adv`` returns one cycle after the first pop; the FIFO's two other beats
+    cover that cycle, so the output has no bubble.
+
+    Parameters
+    ----------
+    payload_shape : shape-like
+        The stream's payload.
+    copies : int
+        Bits of :attr:`adv`: equal copies of the enable, each from its own level counter
+        (copies that synthesis cannot merge), so that each drives a part of the pipeline
+        and none fans out to all of it. The FIFO has a counter of its own.
+
+    Attributes
+    ----------
+    adv : Out(copies)
+        The pipeline's clock enable, ``copies`` equal registers (reset 1).
+    i_valid, i_payload : In
+        The pipeline's last stage: a beat, taken when ``adv & i_valid``.
+    o_stream : Out(stream of ``payload_shape``)
+        The beats in order, :attr:`latency` 1 cycle after their push.
+    """
+
+    depth = 3
+
+    def __init__(self, payload_shape, copies=1):
+        self._copies = copies
+        super().__init__({"adv": Out(copies, init=(1 << copies) - 1), "i_valid": In(1),
+                          "i_payload": In(payload_shape),
+                          "o_stream": Out(stream.Signature(payload_shape))})
+
+    latency = property(lambda self: 1, doc="Cycles from a push to the beat at the FIFO's "
+                                           "head (when it was empty).")
+
+    def elaborate(self, platform):
+        m = Module()
+        F, o = self.depth, self.o_stream
+        pop = o.valid & o.ready
+
+        def counter(adv, name):
+            """``adv`` (a register) and its level counter; the push it gives."""
+            level = Signal(range(F + 1), name=f"{name}level")
+            push = adv & self.i_valid
+            m.d.sync += [level.eq(level + push - pop), adv.eq(level + push < F)]
+            return level, push
+        adv = Signal(init=1, name="fifo_adv")
+        self.level, push = counter(adv, "fifo_")
+        for k in range(self._copies):
+            counter(self.adv[k], f"adv{k}_")
+        pay = Value.cast(self.i_payload)
+        slots = [Signal(len(pay), name=f"slot{k}", reset_less=True) for k in range(F)]
+        wp, rp = Signal(range(F)), Signal(range(F))
+
+        def step(p):
+            return Mux(p == F - 1, 0, p + 1)
+        with m.If(push):
+            m.d.sync += wp.eq(step(wp))
+            with m.Switch(wp):
+                for k in range(F):
+                    with m.Case(k):
+                        m.d.sync += slots[k].eq(pay)
+        with m.If(pop):
+            m.d.sync += rp.eq(step(rp))
+        m.d.comb += [o.valid.eq(self.level != 0), o.payload.eq(Array(slots)[rp])]
         return m

@@ -1,12 +1,18 @@
-"""A TDI partial-sum bank as Lattice ECP5 DP16KD instances, output register in the block RAM.
+"""Block-RAM banks and ROMs as Lattice ECP5 DP16KD instances, output register in the block RAM.
 
-:class:`tdicam.hdl.tdi.TdiAccumulator` (``bram="ecp5"``) builds each memory bank with
-:func:`bank` instead of an ``amaranth.lib.memory.Memory`` and a fabric register: yosys'
-ECP5 block-RAM mapping always sets ``REGMODE = NOREG``, so the register after the block RAM
-sits in the fabric and the block RAM's 4.26 ns clock-to-out plus the routing to it is the
-accumulator's critical path. Here the register is the DP16KD's own output register
-(``REGMODE_B = "OUTREG"``) and a fabric register follows it with no logic in between: one
-read stage more than the generic memory (:data:`EXTRA_STAGES`).
+yosys' ECP5 block-RAM mapping always sets ``REGMODE = NOREG``, so a register after the
+block RAM sits in the fabric and the block RAM's ~4.1-4.3 ns clock-to-out plus the routing to
+it becomes the design's critical path. The ECP5 synthesis tops build their memories here
+instead, the register being the DP16KD's own output register (``REGMODE_B = "OUTREG"``):
+
+* :func:`bank` (:class:`tdicam.hdl.tdi.TdiAccumulator`, ``bram="ecp5"``): output register
+  always enabled, a fabric register after it with no logic in between: one read stage more
+  than the generic memory (:data:`EXTRA_STAGES`);
+* :func:`pipe_bank` (:class:`tdicam.hdl.median3.Median3`'s line buffers, ``bram="ecp5"``):
+  both read stages on one clock enable, the output register *is* the second stage of a
+  generic read-plus-register, no stage added;
+* :func:`rom` (:class:`tdicam.hdl.chain_top.CalibRom`, ``bram="ecp5"``): the contents as
+  ``INITVAL``, both read stages on one clock enable.
 
 The Verilog this gives instantiates ``DP16KD`` cells: yosys/nextpnr (and Lattice's tools)
 take it as is; a simulator needs a DP16KD model (yosys ships only a black box;
@@ -16,7 +22,7 @@ simulation keep the generic description unless asked.
 
 from amaranth.hdl import Cat, ClockSignal, Const, Instance, Mux, Signal
 
-__all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "prim_depth", "prims_per_bank", "rom",
+__all__ = ["PRIM_WIDTH", "EXTRA_STAGES", "bank", "pipe_bank", "prim_depth", "prims_per_bank", "rom",
            "rom_initvals", "ROM_DEPTH"]
 
 #: Read stages a bank adds to the generic memory's (address edge, data, registers): the
@@ -39,6 +45,43 @@ def prim_depth(depth, bits):
 def prims_per_bank(depth, bits):
     """DP16KD primitives of a bank of ``depth`` words of ``bits``."""
     return -(-bits // PRIM_WIDTH[prim_depth(depth, bits)])
+
+
+def _prims(m, tag, *, depth, bits, ra, ceb, oceb, wa, wd, we):
+    """The DP16KD primitives of a ``depth`` x ``bits`` bank side by side (port A writes
+    ``wd`` at ``wa`` when ``we``, port B reads ``ra`` with clock enable ``ceb`` into its
+    output register, clock enable ``oceb``): ``[(DOB signal, lo, hi)]``, primitive ``i``
+    holding bits ``lo`` .. ``hi - 1`` of a word in its DOB bits ``0`` .. ``hi - lo - 1``."""
+    pd = prim_depth(depth, bits)
+    pw = PRIM_WIDTH[pd]
+    lg = pd.bit_length() - 1
+    shift = _ABITS - lg
+    out = []
+    for i in range(-(-bits // pw)):
+        lo, hi = i * pw, min((i + 1) * pw, bits)
+        do = Signal(pw, name=f"do_{tag}_{i}")
+        out.append((do, lo, hi))
+        ports = {"i_CLKA": ClockSignal(), "i_CEA": Const(1), "i_OCEA": Const(1),
+                 "i_WEA": we, "i_RSTA": Const(0),
+                 "i_CLKB": ClockSignal(), "i_CEB": ceb, "i_OCEB": oceb,
+                 "i_WEB": Const(0), "i_RSTB": Const(0)}
+        for n in range(3):
+            ports[f"i_CSA{n}"] = ports[f"i_CSB{n}"] = Const(0)
+        for n in range(_ABITS):
+            k = n - shift        # x18: AD[1:0] are the write's byte enables, both on
+            ports[f"i_ADA{n}"] = wa[k] if 0 <= k < len(wa) else Const(int(n < 2 and pw == 18))
+            ports[f"i_ADB{n}"] = ra[k] if 0 <= k < len(ra) else Const(int(n < 2 and pw == 18))
+        for n in range(18):
+            ports[f"i_DIA{n}"] = wd[lo + n] if lo + n < hi else Const(0)
+            ports[f"i_DIB{n}"] = Const(0)
+            if n < pw:
+                ports[f"o_DOB{n}"] = do[n]
+        m.submodules[f"ram_{tag}_{i}"] = Instance(
+            "DP16KD", p_DATA_WIDTH_A=pw, p_DATA_WIDTH_B=pw, p_REGMODE_A="NOREG",
+            p_REGMODE_B="OUTREG", p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
+            p_CSDECODE_A="0b000", p_CSDECODE_B="0b000", p_WRITEMODE_A="NORMAL",
+            p_WRITEMODE_B="NORMAL", p_GSR="AUTO", **ports)
+    return out
 
 
 def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
@@ -77,40 +120,53 @@ def bank(m, tag, *, depth, bits, ra, re, rh, wa, wd, we):
         the address written at the same edge is undefined (the design never uses one). No
         reset: the words start undefined; ``RSTA``/``RSTB`` are tied low.
     """
-    pd = prim_depth(depth, bits)
-    pw = PRIM_WIDTH[pd]
-    lg = pd.bit_length() - 1
-    shift = _ABITS - lg
     outs = []
-    for i in range(-(-bits // pw)):
-        lo, hi = i * pw, min((i + 1) * pw, bits)
-        do = Signal(pw, name=f"do_{tag}_{i}")
+    for i, (do, lo, hi) in enumerate(_prims(m, tag, depth=depth, bits=bits, ra=ra, ceb=re,
+                                            oceb=Const(1), wa=wa, wd=wd, we=we)):
         sel = Signal(name=f"rq_{tag}_{i}")     # data valid at DOB: one register per primitive
         m.d.sync += sel.eq(rh)
-        ports = {"i_CLKA": ClockSignal(), "i_CEA": Const(1), "i_OCEA": Const(1),
-                 "i_WEA": we, "i_RSTA": Const(0),
-                 "i_CLKB": ClockSignal(), "i_CEB": re, "i_OCEB": Const(1),
-                 "i_WEB": Const(0), "i_RSTB": Const(0)}
-        for n in range(3):
-            ports[f"i_CSA{n}"] = ports[f"i_CSB{n}"] = Const(0)
-        for n in range(_ABITS):
-            k = n - shift        # x18: AD[1:0] are the write's byte enables, both on
-            ports[f"i_ADA{n}"] = wa[k] if 0 <= k < len(wa) else Const(int(n < 2 and pw == 18))
-            ports[f"i_ADB{n}"] = ra[k] if 0 <= k < len(ra) else Const(int(n < 2 and pw == 18))
-        for n in range(18):
-            ports[f"i_DIA{n}"] = wd[lo + n] if lo + n < hi else Const(0)
-            ports[f"i_DIB{n}"] = Const(0)
-            if n < pw:
-                ports[f"o_DOB{n}"] = do[n]
-        m.submodules[f"ram_{tag}_{i}"] = Instance(
-            "DP16KD", p_DATA_WIDTH_A=pw, p_DATA_WIDTH_B=pw, p_REGMODE_A="NOREG",
-            p_REGMODE_B="OUTREG", p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
-            p_CSDECODE_A="0b000", p_CSDECODE_B="0b000", p_WRITEMODE_A="NORMAL",
-            p_WRITEMODE_B="NORMAL", p_GSR="AUTO", **ports)
         outs.append(Mux(sel, do[:hi - lo], 0))
     q = Signal(bits, name=f"q_{tag}")
     m.d.sync += q.eq(Cat(*outs))
     return q
+
+
+def pipe_bank(m, tag, *, depth, bits, ra, wa, wd, we, en):
+    """A bank of ``depth`` x ``bits`` (DP16KD primitives side by side, as :func:`bank`)
+    whose read is a two-stage pipeline moving on ``en``: the address register (``CEB``)
+    and the DP16KD output register (``OCEB``, ``REGMODE_B = "OUTREG"``), nothing after it.
+
+    The read behaves as a generic memory's read port with enable ``en`` followed by a
+    register on ``en`` (what :class:`tdicam.hdl.median3.Median3`'s line buffers are), with
+    the block RAM's short output-register clock-to-out in place of the 4.1 ns of a read
+    without it.
+
+    Parameters
+    ----------
+    m : Module
+        Where the primitives go.
+    tag : str
+        Name stem of the instances (``ram_<tag>_<i>``).
+    depth, bits : int
+        As :func:`bank`.
+    ra : Value
+        Read address, sampled at a clock edge with ``en`` high.
+    wa, wd, we : Value
+        Write address, data and enable (port A), sampled at a clock edge.
+    en : Value
+        Clock enable of both read stages.
+
+    Returns
+    -------
+    Value
+        ``bits`` wide: the word addressed at the edge with ``en`` before the last edge with
+        ``en`` (the DP16KD output registers, no fabric logic). Undefined before two such
+        edges and for a word never written (no reset, no initial contents); a read of the
+        address written at the same edge is undefined (the caller never makes one).
+    """
+    return Cat(*(do[:hi - lo] for do, lo, hi in _prims(m, tag, depth=depth, bits=bits,
+                                                        ra=ra, ceb=en, oceb=en, wa=wa, wd=wd,
+                                                        we=we)))
 
 
 #: Deepest :func:`rom`: one DP16KD at 9 bits (a ROM of at most 1024 words uses x18).

@@ -31,6 +31,12 @@ def _top(**params):
     return AxisTop(Median3(**params))
 
 
+def _ecp5_top(**params):
+    """The ECP5 synthesis top: line buffers as DP16KD whose output register is the line
+    buffers' own (``bram="ecp5"``; the same latency and cycles as :func:`_top`)."""
+    return AxisTop(Median3(**params, bram="ecp5"))
+
+
 def _model_kw(params):
     return {k: params[k] for k in ("pixel_bits", "enhance", "enhance_gain", "enhance_shift")}
 
@@ -358,6 +364,7 @@ BLOCK = Block(
         PPC_PARAM,
     ),
     top=_top,
+    ecp5_top=_ecp5_top,
     cases=_cases,
     check=_check,
     model_version="median3-1",

@@ -22,7 +22,7 @@ states ``v_c``, ``r_c``:
 from tdicam.errors import check_range
 from tdicam.model.ddr import xorshift32
 
-__all__ = ["Pauses", "thresholds", "xorshift32", "XOR_R", "ZERO_SEED_STATE", "start_state",
+__all__ = ["Pauses", "PatternPauses", "thresholds", "xorshift32", "XOR_R", "ZERO_SEED_STATE", "start_state",
            "check_seed", "SEED_MAX"]
 
 #: Largest seed the generators take (31 bits); the commands' --seed is 1..SEED_MAX.
@@ -77,6 +77,26 @@ class Pauses:
         """Advance to the next cycle."""
         self.v = xorshift32(self.v)
         self.r = xorshift32(self.r)
+
+
+class PatternPauses:
+    """:class:`Pauses` whose sink ``ready`` follows ``pattern`` (booleans, one a cycle,
+    repeated) instead of its draws; the source's offers are ``base``'s. For stall bursts
+    longer than random draws give (the Amaranth simulator only: the Verilog engines draw
+    from :class:`Pauses`)."""
+
+    def __init__(self, base, pattern):
+        self.base, self.pattern, self.cycle = base, [bool(x) for x in pattern], 0
+
+    def offer(self):
+        return self.base.offer()
+
+    def ready(self):
+        return self.pattern[self.cycle % len(self.pattern)]
+
+    def step(self):
+        self.base.step()
+        self.cycle += 1
 
 
 class StreamDriver:

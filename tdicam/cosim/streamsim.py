@@ -13,7 +13,7 @@ from typing import Any, Callable
 from amaranth.lib import data as _data
 from amaranth.sim import Simulator
 
-from tdicam.cosim.pauses import StreamDriver
+from tdicam.cosim.pauses import PatternPauses, StreamDriver
 
 __all__ = ["StreamEnds", "drive", "run_stream_component", "probe_latency"]
 
@@ -103,7 +103,8 @@ def _component_ends(dut, stim, ports):
 
 
 def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, timeout=1e-3,
-                         status=(), latency_from=0, ports=(), drain=0, trace=None, watch=()):
+                         status=(), latency_from=0, ports=(), drain=0, trace=None, watch=(),
+                         ready_pattern=None):
     """Drive ``stim`` (Beats) into an Amaranth stream component with random idle cycles and
     backpressure (``p_valid``/``p_ready``: probability of offering / accepting on a cycle),
     drawn by :class:`tdicam.cosim.pauses.StreamDriver` (the same pattern as the Verilog
@@ -120,10 +121,14 @@ def run_stream_component(dut, stim, n_out, *, seed=1, p_valid=0.7, p_ready=0.6, 
     each beat (first port in the most significant bits, as at the Verilog top); ``drain``
     cycles keep running after the ``n_out``-th output (so extra outputs show in ``out``);
     ``trace``, a list, receives ``("i" | "o", cycle)`` of every transfer; ``watch`` names
-    signals sampled every cycle, returned as ``final["watch"][name]`` lists.
+    signals sampled every cycle, returned as ``final["watch"][name]`` lists;
+    ``ready_pattern`` (booleans, repeated) replaces the sink's ``p_ready`` draws, e.g. for
+    long stall bursts.
     """
     drv = StreamDriver([False] * len(stim), seed=seed, idle=1 - p_valid,
                        backpressure=1 - p_ready, max_cycles=max(1, round(timeout / 1e-8)))
+    if ready_pattern is not None:
+        drv.pauses = PatternPauses(drv.pauses, ready_pattern)
     out, lat = [], []
     final = {}
     ends = _component_ends(dut, stim, ports)
