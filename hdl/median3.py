@@ -125,8 +125,36 @@ def _minmax(fn, a, b):
     return Mux(lt, b, a) if fn == "min" else Mux(lt, a, b)
 
 
+class _Enables:
+    """Copies of a neighbourhood's advance at ppc >= 2: equal registers (the bits of its
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`'s ``adv``), each the clock enable
+    of about :attr:`BITS` register bits (:meth:`take`) or of one sub-component (:meth:`own`),
+    so that no copy fans out to the thousands of flip-flops of a pipeline 8 pixels wide."""
+
+    BITS = 256
+
+    def __init__(self, name):
+        self.name, self.copies, self.used = name, [], self.BITS
+
+    def own(self):
+        """A copy of its own (for a sub-component or the sequencer)."""
+        self.used = self.BITS
+        sig = Signal(name=f"{self.name}_adv{len(self.copies)}")
+        self.copies.append(sig)
+        return sig
+
+    def take(self, bits):
+        """The copy for a register of ``bits`` bits: the current one while it has room."""
+        if self.used + bits > self.BITS:
+            self.own()
+            self.used = 0
+        self.used += bits
+        return self.copies[-1]
+
+
 class _Pipe:
-    """Registers that all move on one global advance (the pipeline's clock enable)."""
+    """Registers that all move on one global advance (the pipeline's clock enable): ``adv``
+    a signal, or :class:`_Enables` (copies of it)."""
 
     def __init__(self, m, adv, prefix):
         self.m, self.adv, self.prefix, self.n = m, adv, prefix, 0
@@ -137,7 +165,9 @@ class _Pipe:
                 Value.cast(value).shape()
         self.n += 1
         sig = Signal(shape, name=f"{self.prefix}_{name or 'r'}_{self.n}", reset_less=not reset)
-        with self.m.If(self.adv):
+        adv = self.adv.take(len(Value.cast(sig))) if isinstance(self.adv, _Enables) else \
+            self.adv
+        with self.m.If(adv):
             self.m.d.sync += sig.eq(value)
         return sig
 
@@ -386,17 +416,16 @@ class _Neighbourhood(wiring.Component):
         Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
-        adv = Signal(name=f"{self._name}_adv")
         if P == 1:
+            adv = Signal(name=f"{self._name}_adv")
             m.d.comb += adv.eq(~o.valid | o.ready)
-            dst = o
+            en, own = adv, (lambda: adv)
         else:
-            # the advance from a register (AdvanceBuffer): o.ready reaches no clock enable
-            m.submodules[f"{self._name}_obuf"] = buf = AdvanceBuffer(o.payload.shape())
-            m.d.comb += adv.eq(buf.adv)
-            wiring.connect(m, buf.o_stream, wiring.flipped(o))
-            dst = SimpleNamespace(valid=buf.i_valid, payload=buf.i_payload)
-        pipe = _Pipe(m, adv, self._name)
+            # the advance from registers (AdvanceBuffer, in copies): o.ready reaches no
+            # clock enable; the sequencer's copy drives i.ready
+            en = _Enables(self._name)
+            adv, own = en.own(), en.own
+        pipe = _Pipe(m, en, self._name)
         has_pay = self._pay_shape is not None
         pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
         tap_bits = P * self._tap_shape.width
@@ -509,7 +538,7 @@ class _Neighbourhood(wiring.Component):
         s1_wslot = pipe.reg(wslot, name="wslot")
         s1_tap = pipe.reg(Value.cast(i.payload.data.tap), shape=unsigned(tap_bits), name="tap")
         s1_pay = pipe.reg(Value.cast(i.payload.data.pay), name="pay") if has_pay else None
-        m.d.comb += [lb.adv.eq(adv), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
+        m.d.comb += [lb.adv.eq(own()), lb.rd_addr.eq(Mux(flush, fc, in_col)), lb.w_en.eq(s1_we),
                      lb.w_addr.eq(s1_waddr), lb.w_slot.eq(s1_wslot), lb.w_tap.eq(s1_tap)]
         if has_pay:
             m.d.comb += lb.w_pay.eq(s1_pay)
@@ -547,12 +576,12 @@ class _Neighbourhood(wiring.Component):
 
         # ---- column reduction, the column's position delayed alongside (_Align)
         col, dc = self._columns(pipe, taps, pay)
-        hmeta = self._align(m, adv, meta, dc, "ca")
+        hmeta = self._align(m, own(), meta, dc, "ca")
 
         # ---- window (_Window): the 2R+1 columns of the next output (beat)
         m.submodules[f"{self._name}_win"] = win = _Window(
             radius=Rh, width=W, col_shape=col.shape(), name=self._name)
-        m.d.comb += [win.adv.eq(adv), win.col.eq(col), win.valid.eq(hmeta.cv),
+        m.d.comb += [win.adv.eq(own()), win.col.eq(col), win.valid.eq(hmeta.cv),
                      win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
         cols = [win.cols[t] for t in range(2 * Rh + 1)]
 
@@ -560,7 +589,15 @@ class _Neighbourhood(wiring.Component):
         wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
-        out = self._align(m, adv, wmeta, dw, "wa")
+        out = self._align(m, own(), wmeta, dw, "wa")
+        if P == 1:
+            dst = o
+        else:
+            m.submodules[f"{self._name}_obuf"] = buf = AdvanceBuffer(o.payload.shape(),
+                                                                     copies=len(en.copies))
+            m.d.comb += [c.eq(buf.adv[k]) for k, c in enumerate(en.copies)]
+            wiring.connect(m, buf.o_stream, wiring.flipped(o))
+            dst = SimpleNamespace(valid=buf.i_valid, payload=buf.i_payload)
         m.d.comb += [dst.valid.eq(out.ov), dst.payload.first.eq(out.of),
                      dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:

@@ -86,7 +86,7 @@ class AdvanceBuffer(wiring.Component):
     enable a register: no combinational path from the consumer's ``ready`` to the
     pipeline's clock enables (or through them to its input ``ready``).
 
-    The pipeline's registers move on :attr:`adv` (a flip-flop); its last stage's beat
+    The pipeline's registers move on :attr:`adv` (flip-flops); its last stage's beat
     (``i_valid``, ``i_payload``, registers of the pipeline) is pushed into a :attr:`depth`
     = 3 beat FIFO on every cycle with ``adv & i_valid``; ``o_stream`` delivers the FIFO's
     head. ``adv`` of the next cycle is computed from registers only, one cycle ahead: the
@@ -101,11 +101,15 @@ class AdvanceBuffer(wiring.Component):
     ----------
     payload_shape : shape-like
         The stream's payload.
+    copies : int
+        Bits of :attr:`adv`: equal copies of the enable, each from its own level counter
+        (copies that synthesis cannot merge), so that each drives a part of the pipeline
+        and none fans out to all of it. The FIFO has a counter of its own.
 
     Attributes
     ----------
-    adv : Out(1)
-        The pipeline's clock enable, a register (reset 1).
+    adv : Out(copies)
+        The pipeline's clock enable, ``copies`` equal registers (reset 1).
     i_valid, i_payload : In
         The pipeline's last stage: a beat, taken when ``adv & i_valid``.
     o_stream : Out(stream of ``payload_shape``)
@@ -114,8 +118,9 @@ class AdvanceBuffer(wiring.Component):
 
     depth = 3
 
-    def __init__(self, payload_shape):
-        super().__init__({"adv": Out(1, init=1), "i_valid": In(1),
+    def __init__(self, payload_shape, copies=1):
+        self._copies = copies
+        super().__init__({"adv": Out(copies, init=(1 << copies) - 1), "i_valid": In(1),
                           "i_payload": In(payload_shape),
                           "o_stream": Out(stream.Signature(payload_shape))})
 
@@ -125,12 +130,21 @@ class AdvanceBuffer(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         F, o = self.depth, self.o_stream
+        pop = o.valid & o.ready
+
+        def counter(adv, name):
+            """``adv`` (a register) and its level counter; the push it gives."""
+            level = Signal(range(F + 1), name=f"{name}level")
+            push = adv & self.i_valid
+            m.d.sync += [level.eq(level + push - pop), adv.eq(level + push < F)]
+            return level, push
+        adv = Signal(init=1, name="fifo_adv")
+        self.level, push = counter(adv, "fifo_")
+        for k in range(self._copies):
+            counter(self.adv[k], f"adv{k}_")
         pay = Value.cast(self.i_payload)
         slots = [Signal(len(pay), name=f"slot{k}", reset_less=True) for k in range(F)]
         wp, rp = Signal(range(F)), Signal(range(F))
-        self.level = level = Signal(range(F + 1))
-        push = self.adv & self.i_valid
-        pop = o.valid & o.ready
 
         def step(p):
             return Mux(p == F - 1, 0, p + 1)
@@ -142,6 +156,5 @@ class AdvanceBuffer(wiring.Component):
                         m.d.sync += slots[k].eq(pay)
         with m.If(pop):
             m.d.sync += rp.eq(step(rp))
-        m.d.sync += [level.eq(level + push - pop), self.adv.eq(level + push < F)]
-        m.d.comb += [o.valid.eq(level != 0), o.payload.eq(Array(slots)[rp])]
+        m.d.comb += [o.valid.eq(self.level != 0), o.payload.eq(Array(slots)[rp])]
         return m
