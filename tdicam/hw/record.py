@@ -282,9 +282,12 @@ README_BLOCKS = (
 )
 
 
+#: The flags that make a measured block a variant of its own (not the plain block's row).
+_VARIANT_FLAGS = ("enhance",)
+
+
 def _variant(row, variant):
-    return all(bool(row.params.get(k, False)) == bool(v) for k, v in variant.items()) and \
-        not (not variant.get("enhance") and row.params.get("enhance"))
+    return all(bool(row.params.get(k)) == bool(variant.get(k)) for k in _VARIANT_FLAGS)
 
 
 def readme_blocks_table(rows: list[Row] | None = None) -> str:
