@@ -220,7 +220,7 @@ class _LineBuffers(wiring.Component):
 
     def __init__(self, *, taps, pays, depth, tap_bits, pay_bits, name, bram="generic"):
         self._taps, self._pays, self._depth, self._name = taps, pays, depth, name
-        self._line = BRAMS[check_choice("bram", bram, BRAMS)]
+        self._line = BRAMS[bram]          # checked by Median3
         self._slot_bits = (taps - 1).bit_length()
         ports = {
             "adv": In(1), "rd_addr": In(range(depth)), "w_en": In(1),
