@@ -229,6 +229,11 @@ def update(new: list[Row], path: str | Path | None = None) -> Path:
     return dest
 
 
+def _newest(rows):
+    """The most recently measured of ``rows`` (None when there is none)."""
+    return max(rows, key=lambda r: r.date, default=None)
+
+
 #: The README's silicon table: (scene file, pixels per clock, what it is) of each row, the
 #: newest recorded ``pipeline`` row of that scene and ppc (:func:`readme_table`).
 README_CHAINS = (
@@ -255,7 +260,7 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
                  if int(r.params.get("ppc", 1)) == ppc]
         if not found:
             continue
-        r = max(found, key=lambda x: x.date)
+        r = _newest(found)
         clocks = r.fmax_clocks or {"clk": r.fmax_mhz}
         fmax = ", ".join(f"{name} {mhz:.1f}" for name, mhz in clocks.items())
         seeds = "1 seed" if len(r.fmax_seeds) == 1 else f"{len(r.fmax_seeds)} seeds"
@@ -303,8 +308,7 @@ def readme_blocks_table(rows: list[Row] | None = None) -> str:
         by_ppc = {p: [r for r in mine if int(r.params.get("ppc", 1)) == p] for p in (1, 8)}
         if not by_ppc[8]:
             continue
-        r = max(by_ppc[8], key=lambda x: x.date)
-        one = max(by_ppc[1], key=lambda x: x.date) if by_ppc[1] else None
+        r, one = _newest(by_ppc[8]), _newest(by_ppc[1])
         ratio = f" ({r.lut4 / one.lut4:.1f}x)" if one and one.lut4 and r.lut4 else " (-)"
         cell = lambda v: "-" if v is None else str(v)   # noqa: E731
         seeds = f"{min(r.fmax_seeds):.1f}-{max(r.fmax_seeds):.1f}, {len(r.fmax_seeds)}"
