@@ -108,11 +108,14 @@ def _banks(acc, m, p, do_write, sum_word, ports):
         q = []
         for c, bd in enumerate(depths):
             if c % rep == 0:
-                # replicated issue and write-back address and data registers
+                # replicated issue and write-back address and data registers: ``keep``
+                # (tdicam synth keeps the flip-flops of a keep wire, so yosys does not
+                # merge the copies), no reset (the bank enables say when they count)
                 g = c // rep
-                ra = Signal(aw, name=f"ra_b{lo}_g{g}", attrs={"keep": 1})
-                wa = Signal(aw, name=f"wa_b{lo}_g{g}", attrs={"keep": 1})
-                wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", attrs={"keep": 1})
+                rep_reg = dict(attrs={"keep": 1}, reset_less=True)
+                ra = Signal(aw, name=f"ra_b{lo}_g{g}", **rep_reg)
+                wa = Signal(aw, name=f"wa_b{lo}_g{g}", **rep_reg)
+                wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", **rep_reg)
                 m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
                              wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
                                          for k in range(PPC))))]

