@@ -584,12 +584,17 @@ class _Neighbourhood(wiring.Component):
         m.d.comb += [win.adv.eq(own()), win.col.eq(col), win.valid.eq(hmeta.cv),
                      win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
         cols = [win.cols[t] for t in range(2 * Rh + 1)]
+        left, right = win.left, win.right
+        if P > 1:
+            # a register between the window's column select and the first compare
+            cols = [pipe.reg(c, name="wc") for c in cols]
+            left, right = pipe.reg(left, name="wl"), pipe.reg(right, name="wr")
 
-        val, dw = self._window(pipe, cols, win.left, win.right)
+        val, dw = self._window(pipe, cols, left, right)
         wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
-        out = self._align(m, own(), wmeta, dw, "wa")
+        out = self._align(m, own(), wmeta, dw + (P > 1), "wa")
         if P == 1:
             dst = o
         else:
@@ -602,7 +607,7 @@ class _Neighbourhood(wiring.Component):
                      dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:
             m.d.comb += dst.payload.data.hm1.eq(out.hm1)
-        self.depth = 3 + dc + dw + (P > 1)
+        self.depth = 3 + dc + dw + 2 * (P > 1)
         return m
 
     def _align(self, m, adv, values, n, name):
@@ -1040,14 +1045,15 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
-        at ``ppc`` 1, 12 at ``ppc`` 2, 4, 8; with ``enhance`` 26 at ``ppc`` 1, 29 at
+        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 26 at ``ppc`` 1, 31 at
         ``ppc`` 2, 4, 8 (every multiplier between two registers; at ppc >= 2 each
-        neighbourhood's output buffer, 1)."""
-        buf = int(self._ppc > 1)  # each neighbourhood's AdvanceBuffer
-        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + buf
+        neighbourhood has 2 more: a register after its window's column select and its
+        output buffer)."""
+        wide = 2 * int(self._ppc > 1)  # each neighbourhood's window register, AdvanceBuffer
+        plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + buf)
+        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + wide)
 
     @property
     def line_buffer_bits(self):

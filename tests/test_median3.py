@@ -362,9 +362,10 @@ def test_block_cases_cover_what_the_issue_asks():
 @pytest.mark.parametrize("ppc", [2, 4, 8])
 @pytest.mark.parametrize("enhance", [False, True])
 def test_ppc_full_rate_latency_and_no_bubbles(ppc, enhance):
-    """ppc pixels per beat, no stalls: one beat per clock in and out, latency 12 (with
-    enhance 29: three more than at ppc 1, every multiplier between two registers and each
-    neighbourhood's output buffer, whose room gives its advance from a register) from
+    """ppc pixels per beat, no stalls: one beat per clock in and out, latency 13 (with
+    enhance 31: five more than at ppc 1, every multiplier between two registers and in
+    each neighbourhood a register after the window's column select and the output buffer,
+    whose room gives its advance from a register) from
     the input beat that completes the window of output beat (0, 0): beat (1, 1), with
     enhance (3, 2) (each stage reaches one beat to the right)."""
     rng = np.random.default_rng(ppc + 10 * enhance)
@@ -377,7 +378,7 @@ def test_ppc_full_rate_latency_and_no_bubbles(ppc, enhance):
     assert len(acc) == len(exp) and (np.diff(acc) == 1).all()
     assert (np.diff(out) == 1).all()
     row, beat = (3, 2) if enhance else (1, 1)
-    assert st["latency"] == (29 if enhance else 12)
+    assert st["latency"] == (31 if enhance else 13)
     assert out[0] - acc[row * 4 + beat] == st["latency"]
 
 
@@ -426,11 +427,11 @@ def test_ppc_long_stall_bursts_at_full_rate(ppc, enhance):
 def test_ppc_params_and_errors_are_one_line():
     dut, small = Median3(width=1280, ppc=8, enhance=True), Median3(width=24, ppc=8)
     dut._MustUse__silence = small._MustUse__silence = True     # never elaborated
-    assert (dut.ppc, dut.latency, dut.line_buffer_bits) == (8, 29, 1280 * (10 * 12 + 18))
-    assert small.latency == 12
+    assert (dut.ppc, dut.latency, dut.line_buffer_bits) == (8, 31, 1280 * (10 * 12 + 18))
+    assert small.latency == 13
     two = Median3(width=24, ppc=2, enhance=True, enhance_gain=200, enhance_shift=30)
     two._MustUse__silence = True
-    assert two.latency == 29
+    assert two.latency == 31
     for kw, match in (({"ppc": 3}, r"^ppc = 3 is not valid; valid: 1, 2, 4, 8$"),
                       ({"width": 16, "ppc": 8},
                        r"^width \(ppc = 8\) = 16 is out of range; valid: 24\.\.8192$"),
