@@ -23,6 +23,7 @@ __all__ = ["TdiAccumulator", "BRAMS"]
 # 4096 x 4, 8192 x 2, 16384 x 1) or, for x18, two 2048 x 9 blocks side by side (no read mux)
 _BANK_DEPTH = {18: 2048, 9: 2048, 4: 4096, 2: 8192, 1: 16384}
 _GROUP = 8        # banks per first-level OR; block RAMs per replicated address register
+_REPLICA = {"attrs": {"keep": 1}, "reset_less": True}   # Signal() of a replicated register
 _READ_STAGES = 5  # issue (C), block RAM data, three registers (banks: per bank, OR of 8, OR)
 
 
@@ -112,10 +113,9 @@ def _banks(acc, m, p, do_write, sum_word, ports):
                 # (tdicam synth keeps the flip-flops of a keep wire, so yosys does not
                 # merge the copies), no reset (the bank enables say when they count)
                 g = c // rep
-                rep_reg = dict(attrs={"keep": 1}, reset_less=True)
-                ra = Signal(aw, name=f"ra_b{lo}_g{g}", **rep_reg)
-                wa = Signal(aw, name=f"wa_b{lo}_g{g}", **rep_reg)
-                wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", **rep_reg)
+                ra = Signal(aw, name=f"ra_b{lo}_g{g}", **_REPLICA)
+                wa = Signal(aw, name=f"wa_b{lo}_g{g}", **_REPLICA)
+                wd = Signal(PPC * pw, name=f"wd_b{lo}_g{g}", **_REPLICA)
                 m.d.sync += [ra.eq(p[0]["addr"]), wa.eq(ps_["addr"]),
                              wd.eq(Cat(*(sum_word[k * PS + lo:k * PS + lo + pw]
                                          for k in range(PPC))))]

@@ -95,7 +95,7 @@ class TdiFrameControl(wiring.Component):
         check_params(width=width, stages=stages, pixel_bits=pixel_bits, ppc=ppc)
         self._width, self._stages, self._pixel_bits, self._ppc = width, stages, pixel_bits, ppc
         self._stride = width // ppc if stride is None else stride
-        self._skid = ppc >= 2
+        self._wide = ppc >= 2      # stage A of _wide_input
         self._row_cycles = row_cycles
         self._addr_bits = max(1, bits_for(max((stages - 1) * self._stride - 1, 0)))
         super().__init__({
@@ -141,23 +141,22 @@ class TdiFrameControl(wiring.Component):
             m.d.sync += skid_valid.eq(0)
         with m.Elif(accept):
             m.d.sync += [skid_valid.eq(1), *(r.eq(v) for r, v in zip(skid, beat))]
+        # beats fill the pixel slots alternately and reach A in the same order
+        pixels = Value.cast(i.payload.data)
+        slots = [Signal(len(pixels), name=f"a_slot{k}") for k in (0, 1)]
+        w_slot, a_slot = Signal(), Signal(init=1)
         with m.If(a_free & (skid_valid | i.valid)):
-            m.d.sync += [a_valid.eq(1),
+            m.d.sync += [a_valid.eq(1), a_slot.eq(~a_slot),
                          *self._settings(regs, *(Mux(skid_valid, r, v)
                                                  for r, v in zip(skid, beat)))]
         with m.Elif(a_take):
             m.d.sync += a_valid.eq(0)
-        # beats fill the slots alternately and reach A in the same order
-        slots = [Signal(len(Value.cast(i.payload.data)), name=f"a_slot{k}") for k in (0, 1)]
-        w_slot, a_slot = Signal(), Signal(init=1)
         with m.If(accept):
             m.d.sync += w_slot.eq(~w_slot)
             for k, slot in enumerate(slots):
                 with m.If(w_slot == k):
-                    m.d.sync += slot.eq(Value.cast(i.payload.data))
-        with m.If(a_free & (skid_valid | i.valid)):
-            m.d.sync += a_slot.eq(~a_slot)
-        return wire("a_data", Mux(a_slot, slots[1], slots[0]), len(slots[0]))
+                    m.d.sync += slot.eq(pixels)
+        return wire("a_data", Mux(a_slot, slots[1], slots[0]), len(pixels))
 
     def elaborate(self, platform):
         m = Module()
@@ -175,17 +174,17 @@ class TdiFrameControl(wiring.Component):
 
         # ---- stage A: input register (beat + the settings presented with it, predecoded)
         a_valid = Signal()
-        a_data = Signal(PPC * PB)
         a_first, a_last, a_dir = Signal(), Signal(), Signal()
         a_m = Signal(len(self.stages_active))
         a_m1 = Signal(mb)         # m - 1
         a_ok = Signal()           # the settings are valid
         a_lines = Signal(mb)      # partial-sum lines the settings use (m-1 forward, m reverse)
         a_take = Signal()
-        if self._skid:
+        if self._wide:
             a_data = self._wide_input(m, wire, a_take, a_valid,
                                       [a_first, a_last, a_m, a_dir, a_m1, a_ok, a_lines])
         else:
+            a_data = Signal(PPC * PB)
             m.d.comb += i.ready.eq(~a_valid | a_take)
             with m.If(i.valid & i.ready):
                 m.d.sync += [a_valid.eq(1), a_data.eq(Value.cast(i.payload.data)),
@@ -321,11 +320,11 @@ class TdiFrameControl(wiring.Component):
 
         # pixels: at ppc >= 2 B takes A's whenever it can take a beat (whatever B then
         # holds, a zero beat's pixels are not used), so no decode drives their enables
-        if self._skid:
+        if self._wide:
             with m.If(b_can):
                 m.d.sync += b_data.eq(a_data)
         with m.If(step):
-            m.d.sync += [b_valid.eq(1), *([] if self._skid else [b_data.eq(a_data)]),
+            m.d.sync += [b_valid.eq(1), *([] if self._wide else [b_data.eq(a_data)]),
                          b_addr.eq(e_addr),
                          b_use.eq(e_use), b_wr.eq(~e_out), b_out.eq(e_out & e_out_en),
                          b_first.eq(start | ~col.any()), b_last.eq(last_col), b_zero.eq(0)]

@@ -290,14 +290,16 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
                           _rtlil(timing_harness(blk.build(params, ecp5=True)), blk.name))
         pnr_json, stat, stat_module = "ecp5_harness.json", "ecp5_harness_stat.json", \
             f"{blk.name}.dut"
-        script = (f"read_rtlil harness.il; {_KEEP_FFS} setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
+        script = (f"read_rtlil harness.il; {_KEEP_FFS} "
+                  f"setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
                   f"synth_ecp5 -top {blk.name}; tee -q -o {stat} stat -json; "
                   f"flatten; write_json {pnr_json}")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5-harness.full.log", "-p", script], wd,
                        "yosys-ecp5-harness", ["harness.il"], [pnr_json, stat])
     else:
         pnr_json, stat, stat_module = "ecp5.json", "ecp5_stat.json", None
-        script = (f"read_rtlil ecp5_top.il; {_KEEP_FFS} synth_ecp5 -top {blk.name} -json ecp5.json; "
+        script = (f"read_rtlil ecp5_top.il; {_KEEP_FFS} "
+                  f"synth_ecp5 -top {blk.name} -json ecp5.json; "
                   f"tee -q -o ecp5_stat.json stat -json")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
                        "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
