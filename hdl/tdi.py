@@ -225,7 +225,8 @@ class TdiAccumulator(wiring.Component):
     with no stall: C (read issue: address and read enable registered), block RAM data, three
     registers (``ecp5``: per-bank register next to its block RAM, zero when the bank was
     not read; OR of 8 banks; OR of the groups), the last one masked to zero when the stored
-    sum is not used -> add, saturate, into the output register and the write-back registers
+    sum is not used -> add, into the output register (the whole sums; saturation and the
+    padding's zeros on the way from it into the output FIFO) and the write-back registers
     (address, data, write enable), which write one cycle later. A line's address is read
     again at the earliest one row after its write (the next frame's neighbouring row), and
     the write lands 6 cycles after the read was issued: rows of fewer than 6 beats get
@@ -358,28 +359,35 @@ class TdiAccumulator(wiring.Component):
         self.memories, ports = [], []
         lanes = self._memory_maker(self, m, p, do_write, sum_word, ports)
 
-        sums, outs, wraps = [], [], []
+        sums, full, wraps = [], [], []
         for k in range(PPC):
             px = ps_["data"][k * PB:(k + 1) * PB]
             s = Signal(PS + 1, name=f"sum{k}")
             m.d.comb += s.eq(lanes[k] + px)
             sums.append(s[:PS])
             wraps.append(s[PS])
-            if self._saturate and OB < PS + 1:
-                v = Mux(s > (1 << OB) - 1, (1 << OB) - 1, s[:OB])
-            else:
-                v = s[:OB]
-            outs.append(Mux(ps_["zero"], 0, v))
+            full.append(s)
         m.d.comb += sum_word.eq(Cat(*sums))
 
-        # ---- output FIFO; credits: an output beat issues only with room reserved for it
-        # (an output register between the adder and the FIFO's write port)
-        o_en, o_word = Signal(), Signal(PPC * OB + 2)
-        m.d.sync += [o_en.eq(ps_["valid"] & ps_["out"]),
-                     o_word.eq(Cat(*outs, ps_["first"] & ~ps_["zero"], ps_["last"]))]
+        # ---- output register (the whole sums: saturation and zero padding after it, so
+        # the adders end in flip-flops), then the FIFO; credits: an output beat issues only
+        # with room reserved for it
+        o_en, o_zero, o_first, o_last = Signal(), Signal(), Signal(), Signal()
+        o_sum = Signal(PPC * (PS + 1))
+        m.d.sync += [o_en.eq(ps_["valid"] & ps_["out"]), o_sum.eq(Cat(*full)),
+                     o_zero.eq(ps_["zero"]), o_first.eq(ps_["first"] & ~ps_["zero"]),
+                     o_last.eq(ps_["last"])]
+        outs = []
+        for k in range(PPC):
+            s = o_sum[k * (PS + 1):(k + 1) * (PS + 1)]
+            if self._saturate and OB < PS + 1:
+                v = Mux(s[OB:].any(), (1 << OB) - 1, s[:OB])
+            else:
+                v = s[:OB]
+            outs.append(Mux(o_zero, 0, v))
         n_fifo = self._read_stages + 3
         m.submodules.out_fifo = fifo = SyncFIFO(width=PPC * OB + 2, depth=n_fifo)
-        m.d.comb += [fifo.w_data.eq(o_word), fifo.w_en.eq(o_en),
+        m.d.comb += [fifo.w_data.eq(Cat(*outs, o_first, o_last)), fifo.w_en.eq(o_en),
                      o.valid.eq(fifo.r_rdy), fifo.r_en.eq(o.ready),
                      Value.cast(o.payload.data).eq(fifo.r_data[:PPC * OB]),
                      o.payload.first.eq(fifo.r_data[PPC * OB]),

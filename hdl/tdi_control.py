@@ -8,7 +8,7 @@ output, and the output beat's markers. The on-chip accumulator
 the partial sums live. The beat-level contract is :func:`tdicam.model.tdi.tdi_stream`.
 """
 
-from amaranth.hdl import Const, Module, Mux, Signal, Value, unsigned
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, Value, unsigned
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
@@ -32,7 +32,12 @@ def tdi_ports(pixel_bits, out_bits, stages, ppc):
         "frame_errors": Out(unsigned(16)),
     }
 
-_WAIT, _RUN, _DROP, _PAD = range(4)   # (x == 0 written ~x.any(): yosys prints x == 0 as !x)
+_WAIT, _RUN, _DROP, _PAD = range(4)   # frame states, each a flag register (one-hot)
+_SLOTS = 3                            # pixel slots at ppc >= 2: the skid's, A's and B's beats
+
+
+def _next_slot(k):
+    return Mux(k == _SLOTS - 1, 0, k + 1)
 
 
 def beat_layout(*, ppc, pixel_bits, addr_bits):
@@ -125,11 +130,11 @@ class TdiFrameControl(wiring.Component):
                 a_m1.eq(sa - 1), a_ok.eq(ok), a_lines.eq(Mux(sa == 1, 0, sa - 1 + sd))]
 
     def _wide_input(self, m, wire, a_take, a_valid, regs):
-        """Stage A at ppc >= 2: ``i_stream.ready`` a register, and the pixels off the
-        decode's clock enables. A skid register holds the markers and settings of a beat
-        accepted while A is held (``ready`` is low only while it is full); the pixels go
-        into one of two slots on acceptance (A's beat and the skid's never share one) and
-        A's pixels are the slot of its beat. Returns A's pixels."""
+        """Stage A at ppc >= 2: ``i_stream.ready`` a register, and the pixels on no decoded
+        clock enable. A skid register holds the markers and settings of a beat accepted
+        while A is held (``ready`` is low only while it is full); the pixels go into one of
+        three slots on acceptance, in turn, and stay there until the beat leaves B (the
+        skid's, A's and B's beats never share one). Returns A's slot."""
         i = self.i_stream
         beat = [i.payload.first, i.payload.last, self.stages_active, self.direction]
         skid = [Signal.like(v, name=f"skid_{k}") for k, v in enumerate(beat)]
@@ -140,23 +145,24 @@ class TdiFrameControl(wiring.Component):
         with m.If(a_free):
             m.d.sync += skid_valid.eq(0)
         with m.Elif(accept):
-            m.d.sync += [skid_valid.eq(1), *(r.eq(v) for r, v in zip(skid, beat))]
-        # beats fill the pixel slots alternately and reach A in the same order
+            m.d.sync += skid_valid.eq(1)
+        with m.If(accept):      # (unused unless skid_valid is set with it)
+            m.d.sync += [r.eq(v) for r, v in zip(skid, beat)]
         pixels = Value.cast(i.payload.data)
-        slots = [Signal(len(pixels), name=f"a_slot{k}") for k in (0, 1)]
-        w_slot, a_slot = Signal(), Signal(init=1)
+        self._slots = [Signal(len(pixels), name=f"a_slot{k}") for k in range(_SLOTS)]
+        w_slot, a_slot = Signal(range(_SLOTS)), Signal(range(_SLOTS), init=_SLOTS - 1)
         with m.If(a_free & (skid_valid | i.valid)):
-            m.d.sync += [a_valid.eq(1), a_slot.eq(~a_slot),
+            m.d.sync += [a_valid.eq(1), a_slot.eq(_next_slot(a_slot)),
                          *self._settings(regs, *(Mux(skid_valid, r, v)
                                                  for r, v in zip(skid, beat)))]
         with m.Elif(a_take):
             m.d.sync += a_valid.eq(0)
         with m.If(accept):
-            m.d.sync += w_slot.eq(~w_slot)
-            for k, slot in enumerate(slots):
+            m.d.sync += w_slot.eq(_next_slot(w_slot))
+            for k, slot in enumerate(self._slots):
                 with m.If(w_slot == k):
                     m.d.sync += slot.eq(pixels)
-        return wire("a_data", Mux(a_slot, slots[1], slots[0]), len(pixels))
+        return a_slot
 
     def elaborate(self, platform):
         m = Module()
@@ -181,7 +187,7 @@ class TdiFrameControl(wiring.Component):
         a_lines = Signal(mb)      # partial-sum lines the settings use (m-1 forward, m reverse)
         a_take = Signal()
         if self._wide:
-            a_data = self._wide_input(m, wire, a_take, a_valid,
+            a_slot = self._wide_input(m, wire, a_take, a_valid,
                                       [a_first, a_last, a_m, a_dir, a_m1, a_ok, a_lines])
         else:
             a_data = Signal(PPC * PB)
@@ -194,8 +200,14 @@ class TdiFrameControl(wiring.Component):
             with m.Elif(a_take):
                 m.d.sync += a_valid.eq(0)
 
-        # ---- control state
-        state = Signal(2, init=_WAIT)
+        # ---- control state: one flag per state, and idle (_WAIT or _DROP)
+        st = [Signal(init=k == _WAIT, name=f"st_{n}")
+              for k, n in enumerate(("wait", "run", "drop", "pad"))]
+        st_idle = Signal(init=1)
+
+        def goto(k):
+            return [*(f.eq(j == k) for j, f in enumerate(st)),
+                    st_idle.eq(k in (_WAIT, _DROP))]
         m_reg = Signal(mb)
         m1_reg = Signal(mb)       # m_reg - 1
         dir_reg = Signal()
@@ -203,6 +215,9 @@ class TdiFrameControl(wiring.Component):
         f = Signal(mb)            # run at the start of the current frame
         col = Signal(range(WB))
         col_last = Signal()       # col == WB - 1
+        col_zero = Signal(init=1)  # col == 0
+        line_open = Signal()      # r_out & out_en & (col != 0): the current frame's output
+                                  # line has started (meaningful in _RUN)
         # the current row: its age (m-1-r forward, r reverse), whether it is the output row,
         # uses the stored sum, is the frame's last row; whether this frame outputs
         age = Signal(mb)
@@ -220,7 +235,11 @@ class TdiFrameControl(wiring.Component):
 
         # ---- stage B: the decoded beat (o_stream)
         b_valid, b_use, b_wr, b_out, b_first, b_last, b_zero = (Signal() for _ in range(7))
-        b_data = Signal(PPC * PB)
+        if self._wide:            # B's pixels: its beat's slot
+            b_slot = Signal(range(_SLOTS))
+            b_data = wire("b_data", Array(self._slots)[b_slot], PPC * PB)
+        else:
+            b_data = Signal(PPC * PB)
         b_addr = Signal(aw)
         gap_cycles = max(0, self._row_cycles - WB)
         gap = Signal(range(gap_cycles + 1)) if gap_cycles else Const(0, 1)
@@ -254,34 +273,35 @@ class TdiFrameControl(wiring.Component):
         e_out_en = wire("e_out_en", Mux(start, s_out_en, out_en))
         e_addr = wire("e_addr", Mux(start, base_next, cur), aw)
         last_col = wire("last_col", ~start & col_last)     # a row has >= 2 beats
-        tlast_ok = wire("tlast_ok", a_last == last_col)
         frame_end = wire("frame_end", last_col & r_last)
-        # the current frame's output line has started (only meaningful in _RUN)
-        line_open = wire("line_open", r_out & out_en & col.any())
+        s_run, s_pad = st[_RUN], st[_PAD]
 
-        busy = wire("busy", a_valid & (state != _PAD))
-        proc = wire("proc", busy & Mux(start, (state != _RUN) & a_ok, state == _RUN))
-        cut = wire("cut", busy & start & (state == _RUN))
-        invalid = wire("invalid", busy & start & (state != _RUN) & ~a_ok)
-        stray = wire("stray", busy & ~start & (state != _RUN))
-        anomaly = wire("anomaly", proc & ~tlast_ok)
-        step = wire("step", proc & tlast_ok & b_can)
-        pad_now = wire("pad_now", (state == _PAD) & b_can)
-        error = wire("error", cut | invalid | anomaly | (stray & ~state.any()))  # _WAIT == 0
+        # A's beat: the frame's first, with valid settings, no tlast (a_go) or not (a_bad),
+        # or its row's next (tlast where col_last says, or an anomaly)
+        a_go = wire("a_go", a_first & a_ok & ~a_last)
+        a_bad = wire("a_bad", a_first & ~(a_ok & ~a_last))
+        a_tl = wire("a_tl", a_last == col_last)
+        step = wire("step", a_valid & b_can & ((st_idle & a_go) | (s_run & ~a_first & a_tl)))
+        cut = wire("cut", a_valid & a_first & s_run)
+        invalid = wire("invalid", a_valid & st_idle & a_first & ~a_ok)
+        stray = wire("stray", a_valid & st_idle & ~a_first)
+        anomaly = wire("anomaly", a_valid & ((st_idle & a_bad & a_ok) | (s_run & ~a_first & ~a_tl)))
+        pad_now = wire("pad_now", s_pad & b_can)
+        error = wire("error", cut | invalid | anomaly | (stray & st[_WAIT]))
 
         with m.If(error):
             m.d.sync += run.eq(0)
             saturating_increment(m, errors)
         with m.If(cut | (anomaly & ~start)):
             with m.If(line_open):
-                m.d.sync += [state.eq(_PAD), pad_col.eq(col)]
+                m.d.sync += [*goto(_PAD), pad_col.eq(col)]
             with m.Else():
-                m.d.sync += state.eq(_DROP)
-        with m.If(anomaly & start):
-            m.d.sync += state.eq(_DROP)
-        with m.If(invalid | stray):
-            m.d.sync += state.eq(_DROP)
-        m.d.comb += a_take.eq(step | invalid | stray | (anomaly & (start | ~line_open)))
+                m.d.sync += goto(_DROP)
+        with m.If((anomaly & start) | invalid | stray):
+            m.d.sync += goto(_DROP)
+        m.d.comb += a_take.eq(a_valid & (
+            (st_idle & (~a_first | a_bad | (a_go & b_can))) |
+            (s_run & ~a_first & Mux(a_tl, b_can, ~line_open))))
 
         # the next row, from registers (a row's last beat is never a frame's first)
         fwd = wire("fwd", row_addr + S, aw + 1)
@@ -298,36 +318,35 @@ class TdiFrameControl(wiring.Component):
                              age.eq(Mux(a_dir, 0, a_m1)),
                              r_out.eq(s_out), r_use.eq(s_use), r_last.eq(m1_zero),
                              out_en.eq(s_out_en), col.eq(1), col_last.eq(WB == 2),
+                             col_zero.eq(0), line_open.eq(s_out & s_out_en),
                              row_addr.eq(base_next),
                              cur.eq(Mux(same, bnext_cur, step_in_row))]
             with m.Elif(last_col):
-                m.d.sync += [col.eq(0), col_last.eq(0), row_addr.eq(row_next),
+                m.d.sync += [col.eq(0), col_last.eq(0), col_zero.eq(1), line_open.eq(0),
+                             row_addr.eq(row_next),
                              cur.eq(row_next), age.eq(age_next),
                              r_out.eq(age_next == m1_reg),
                              r_use.eq(age_next.any() & (age_next <= f)),
                              r_last.eq(Mux(dir_reg, age_next == m1_reg, ~age_next.any()))]
             with m.Else():
-                m.d.sync += [col.eq(col + 1), col_last.eq(col == WB - 2),
+                m.d.sync += [col.eq(col + 1), col_last.eq(col == WB - 2), col_zero.eq(0),
+                             line_open.eq(r_out & out_en),
                              cur.eq(cur + step_in_row)]
             with m.If(frame_end):
-                m.d.sync += [state.eq(_WAIT), run.eq(Mux(f == M, M, f + 1))]
+                m.d.sync += [*goto(_WAIT), run.eq(Mux(f == M, M, f + 1))]
             with m.Else():
-                m.d.sync += state.eq(_RUN)
+                m.d.sync += goto(_RUN)
         with m.If(pad_now):
             m.d.sync += pad_col.eq(pad_col + 1)
             with m.If(pad_col == WB - 1):
-                m.d.sync += state.eq(_DROP)
+                m.d.sync += goto(_DROP)
 
-        # pixels: at ppc >= 2 B takes A's whenever it can take a beat (whatever B then
-        # holds, a zero beat's pixels are not used), so no decode drives their enables
-        if self._wide:
-            with m.If(b_can):
-                m.d.sync += b_data.eq(a_data)
         with m.If(step):
-            m.d.sync += [b_valid.eq(1), *([] if self._wide else [b_data.eq(a_data)]),
+            m.d.sync += [b_valid.eq(1),
+                         b_slot.eq(a_slot) if self._wide else b_data.eq(a_data),
                          b_addr.eq(e_addr),
                          b_use.eq(e_use), b_wr.eq(~e_out), b_out.eq(e_out & e_out_en),
-                         b_first.eq(start | ~col.any()), b_last.eq(last_col), b_zero.eq(0)]
+                         b_first.eq(start | col_zero), b_last.eq(last_col), b_zero.eq(0)]
         with m.Elif(pad_now):
             m.d.sync += [b_valid.eq(1), b_use.eq(0), b_wr.eq(0), b_out.eq(1), b_first.eq(0),
                          b_last.eq(pad_col == WB - 1), b_zero.eq(1)]
@@ -340,5 +359,5 @@ class TdiFrameControl(wiring.Component):
             with m.Elif(gap.any()):
                 m.d.sync += gap.eq(gap - 1)
 
-        self.probe = {"state": state, "run": run}
+        self.probe = {"state": Cat(*st), "run": run}
         return m
