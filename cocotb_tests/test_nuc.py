@@ -96,3 +96,14 @@ def test_widest_rows(sim, ppc):
     exp = frames_to_beats(nuc(x, g, o), ppc=ppc)
     mark_resets(stim, exp, [(4 * 8192 + 4100) // ppc])
     check_beats("nuc", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)
+
+
+@pytest.mark.parametrize("case", ["random_12b_p8", "saturate_wide_p8", "reset_mid_frame_12b",
+                                  "identity_16b_p8"])
+def test_golden_ecp5_dsp(case, sim):
+    """The ECP5 synthesis top (``dsp="ecp5"``: each lane's multiplier a MULT18X18D with its
+    own input and product registers) with the model of :mod:`tdicam.cosim.mult18x18d`,
+    against the golden vectors with 25 % idle and 25 % backpressure: random, saturating
+    (the widest gain and offset), reset mid-frame and full-scale identity cases."""
+    check_case("nuc", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=11,
+               ecp5=True)

@@ -10,6 +10,7 @@ from tdicam.model.nuc import check_nuc_params
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
+from tdicam.hdl.vendor import ecp5_dsp
 
 __all__ = ["Nuc"]
 
@@ -30,6 +31,11 @@ class Nuc(wiring.Component):
         Output width 8..20 (``None``: ``pixel_bits``).
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8 (default 1).
+    dsp : str
+        ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
+        synthesis top: each lane's input and product registers are a MULT18X18D's own,
+        :mod:`tdicam.hdl.vendor.ecp5_dsp`; the same cycles, a simulator needs
+        :mod:`tdicam.cosim.mult18x18d`).
 
     Attributes
     ----------
@@ -63,10 +69,16 @@ class Nuc(wiring.Component):
         Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
 
+    #: Multiplier descriptions (``dsp=``): ``"generic"`` (``*`` between fabric registers,
+    #: mapped by the synthesis tool) or ``"ecp5"`` (MULT18X18D with its input and output
+    #: registers, :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
+    DSPS = ("generic", "ecp5")
+
     @quiet_reject
     def __init__(self, *, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14, offset_bits=16,
-                 offset_frac_bits=0, out_bits=None, ppc=1):
+                 offset_frac_bits=0, out_bits=None, ppc=1, dsp="generic"):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
+        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._out_bits = check_nuc_params(
             pixel_bits=pixel_bits, gain_int_bits=gain_int_bits,
             gain_frac_bits=gain_frac_bits, offset_bits=offset_bits,
@@ -92,6 +104,7 @@ class Nuc(wiring.Component):
                          doc="Width of each input element (x, gain, offset).")
 
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+    dsp = property(lambda self: self._dsp, doc="Multiplier description, one of :attr:`DSPS`.")
 
     @property
     def gain_bits(self):
@@ -146,15 +159,21 @@ class Nuc(wiring.Component):
         d, rng = i.payload.data, range(self._ppc)
         outs = [o.payload.data] if self._ppc == 1 else [o.payload.data[k] for k in rng]
 
+        fabric = self._dsp != "ecp5"     # else x1, g1 and p2 are the DSP blocks' registers
+        if not fabric:
+            for k in rng:
+                m.d.comb += p2s[k].eq(ecp5_dsp.mult(m, f"mul{k}", d[3 * k][:pb],
+                                                    d[3 * k + 1][:gb], en))
+        lanes = rng if fabric else ()
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid),
-                *(x1s[k].eq(d[3 * k][:pb]) for k in rng),
-                *(g1s[k].eq(d[3 * k + 1][:gb]) for k in rng),
+                *(x1s[k].eq(d[3 * k][:pb]) for k in lanes),
+                *(g1s[k].eq(d[3 * k + 1][:gb]) for k in lanes),
                 *(off1s[k].eq(d[3 * k + 2][:ob]) for k in rng),
                 f1.eq(i.payload.first),
                 l1.eq(i.payload.last),
-                v2.eq(v1), *(p2s[k].eq(x1s[k] * g1s[k]) for k in rng),
+                v2.eq(v1), *(p2s[k].eq(x1s[k] * g1s[k]) for k in lanes),
                 *(off2s[k].eq(off1s[k]) for k in rng), f2.eq(f1), l2.eq(l1),
                 o.valid.eq(v2),
                 *(outs[k].eq(sats[k]) for k in rng),

@@ -27,6 +27,12 @@ def _top(**params):
     return AxisTop(Nuc(**params))
 
 
+def _ecp5_top(**params):
+    """The ECP5 synthesis top: each lane's multiplier a MULT18X18D with its own input and
+    product registers (``dsp="ecp5"``; the same latency and cycles as :func:`_top`)."""
+    return AxisTop(Nuc(**params, dsp="ecp5"))
+
+
 def _model(params):
     """The golden model's parameters: the block's without ``ppc`` (the model does not know
     how many pixels a beat carries)."""
@@ -596,6 +602,7 @@ BLOCK = Block(
         PPC_PARAM,
     ),
     top=_top,
+    ecp5_top=_ecp5_top,
     cases=lambda: [
         Case("random_12b", {}, _random(3, 16, 24), seed=1),
         Case("identity_12b", {}, _identity, seed=2, tags=("identity", "zeros", "fullscale")),

@@ -18,7 +18,7 @@ from tdicam.beats import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hw.verilog import convert
-from tdicam.cosim import codec, dp16kd, tbgen
+from tdicam.cosim import codec, dp16kd, mult18x18d, tbgen
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.pauses import check_seed, thresholds
 
@@ -38,8 +38,9 @@ def stream_ports(top):
 
 def _build(blk, params, sim, wave=False, ecp5=False):
     """Build (or reuse) the testbench (``wave``: with the waveform window, its own build;
-    ``ecp5``: the block's ECP5 top, :attr:`~tdicam.blocks.Block.ecp5_top`, with the DP16KD
-    model :data:`tdicam.cosim.dp16kd.MODEL`, its own build); returns (build dir, seconds
+    ``ecp5``: the block's ECP5 top, :attr:`~tdicam.blocks.Block.ecp5_top`, with the
+    vendor primitives' models :data:`tdicam.cosim.dp16kd.MODEL` and
+    :data:`tdicam.cosim.mult18x18d.MODEL`, its own build); returns (build dir, seconds
     spent building, top)."""
     top = blk.build(params, ecp5=ecp5)
     if not isinstance(top, AxisTop):
@@ -47,7 +48,7 @@ def _build(blk, params, sim, wave=False, ecp5=False):
     in_bits, out_bits, ctrl = stream_ports(top)
     sources = {f"{blk.name}.v": convert(top, blk.name)}
     if ecp5:
-        sources[dp16kd.FILE] = dp16kd.MODEL
+        sources.update({dp16kd.FILE: dp16kd.MODEL, mult18x18d.FILE: mult18x18d.MODEL})
     sources["tb.v"] = tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
                                              ctrl_ports=ctrl, wave=wave)
     bdir, build_time = build_sources(blk.name + ".ecp5" * ecp5 + ".wave" * wave, params, sim,
@@ -93,7 +94,8 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
         :func:`tdicam.cosim.tbgen.stream_testbench`).
     ecp5 : bool
         Simulate the block's ECP5 synthesis top (:attr:`tdicam.blocks.Block.ecp5_top`:
-        vendor primitives) with the DP16KD model of :mod:`tdicam.cosim.dp16kd`.
+        vendor primitives) with the models of :mod:`tdicam.cosim.dp16kd` and
+        :mod:`tdicam.cosim.mult18x18d`.
     """
     if mode not in MODES:
         raise TdicamError(f"unknown mode {mode!r}; valid: {', '.join(MODES)}")

@@ -1,0 +1,55 @@
+"""Registered multipliers as Lattice ECP5 MULT18X18D instances, registers in the DSP block.
+
+yosys' ECP5 multiplier mapping (``mul2dsp`` to ``MULT18X18D``) leaves every register of the
+block unused (``REG_* = "NONE"``): a pipelined multiply's input and product registers sit
+in the fabric, and the routing from them into the DSP block and back (2 ns each way in the
+orbit chain at ppc 8, beside the block's 3.1 ns multiply) became the chain's critical
+path. The ECP5 synthesis tops build their multipliers here instead, with the block's own
+input registers (A, B) and output register (P) on one clock enable: the same two stages
+as a fabric input register and product register.
+
+The Verilog this gives instantiates ``MULT18X18D`` cells: yosys/nextpnr take it as is; a
+simulator needs a model (yosys ships only a black box; :mod:`tdicam.cosim.mult18x18d`
+models the configuration used here). ``tdicam verilog`` and every simulation keep the
+generic description unless asked.
+"""
+
+from amaranth.hdl import ClockSignal, Const, Instance, Signal
+
+__all__ = ["MAX_BITS", "mult"]
+
+#: Widest unsigned operand of one MULT18X18D.
+MAX_BITS = 18
+
+
+def mult(m, tag, a, b, en):
+    """``a * b`` (unsigned, each at most :data:`MAX_BITS` bits) two clock edges later: the
+    operands go into the block's input registers and the product into its output
+    register, both loading at a rising edge of the ``sync`` clock when ``en`` is high
+    (``en`` low: both hold). Returns the product register's value, ``len(a) + len(b)``
+    bits. No reset: the registers start at zero (the block's global reset)."""
+    if max(len(a), len(b)) > MAX_BITS:
+        raise ValueError(f"operands of {len(a)} and {len(b)} bits: at most {MAX_BITS} each")
+    p = Signal(len(a) + len(b), name=f"{tag}_p")
+    ports = {"i_CLK0": ClockSignal(), "i_CE0": en, "i_RST0": Const(0),
+             "i_SIGNEDA": Const(0), "i_SIGNEDB": Const(0),
+             "i_SOURCEA": Const(0), "i_SOURCEB": Const(0)}
+    for n in range(1, 4):
+        ports.update({f"i_CLK{n}": Const(0), f"i_CE{n}": Const(0), f"i_RST{n}": Const(0)})
+    for n in range(MAX_BITS):
+        ports[f"i_A{n}"] = a[n] if n < len(a) else Const(0)
+        ports[f"i_B{n}"] = b[n] if n < len(b) else Const(0)
+        ports[f"i_C{n}"] = Const(0)
+    for n in range(len(p)):
+        ports[f"o_P{n}"] = p[n]
+    m.submodules[f"{tag}_dsp"] = Instance(
+        "MULT18X18D",
+        p_REG_INPUTA_CLK="CLK0", p_REG_INPUTA_CE="CE0", p_REG_INPUTA_RST="RST0",
+        p_REG_INPUTB_CLK="CLK0", p_REG_INPUTB_CE="CE0", p_REG_INPUTB_RST="RST0",
+        p_REG_INPUTC_CLK="NONE", p_REG_PIPELINE_CLK="NONE",
+        p_REG_OUTPUT_CLK="CLK0", p_REG_OUTPUT_CE="CE0", p_REG_OUTPUT_RST="RST0",
+        p_GSR="DISABLED", p_RESETMODE="SYNC", p_SOURCEB_MODE="B_SHIFT",
+        p_MULT_BYPASS="DISABLED", p_CAS_MATCH_REG="FALSE", p_HIGHSPEED_CLK="NONE",
+        p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED", p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED",
+        **ports)
+    return p
