@@ -76,7 +76,8 @@ class TdiFrameControl(wiring.Component):
         payload. Every beat reaches ``o_stream`` in input order; malformed frames give no
         beats except the zero padding that completes an output line already started.
     frame_errors : Out(16)
-        Saturating count of malformed frames and invalid settings.
+        Saturating count of malformed frames and invalid settings (counted one cycle after
+        the beat that shows the error is decoded).
 
     Notes
     -----
@@ -289,8 +290,11 @@ class TdiFrameControl(wiring.Component):
         pad_now = wire("pad_now", s_pad & b_can)
         error = wire("error", cut | invalid | anomaly | (stray & st[_WAIT]))
 
+        counted = Signal()        # error, registered: the count follows one cycle later
+        m.d.sync += counted.eq(error)
         with m.If(error):
             m.d.sync += run.eq(0)
+        with m.If(counted):
             saturating_increment(m, errors)
         with m.If(cut | (anomaly & ~start)):
             with m.If(line_open):

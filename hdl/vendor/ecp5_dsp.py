@@ -14,7 +14,7 @@ models the configuration used here). ``tdicam verilog`` and every simulation kee
 generic description unless asked.
 """
 
-from amaranth.hdl import ClockSignal, Const, Instance, Signal
+from amaranth.hdl import ClockSignal, Const, Elaboratable, Instance, Module, Signal
 
 __all__ = ["MAX_BITS", "mult"]
 
@@ -27,10 +27,31 @@ def mult(m, tag, a, b, en):
     operands go into the block's input registers and the product into its output
     register, both loading at a rising edge of the ``sync`` clock when ``en`` is high
     (``en`` low: both hold). Returns the product register's value, ``len(a) + len(b)``
-    bits. No reset: the registers start at zero (the block's global reset)."""
+    bits. No reset: the registers start at zero (the block's global reset).
+
+    The instance sits in a submodule of ``m`` named ``tag`` (yosys 0.70's ABC9 asserted in
+    ``ABC_OPS_REINTEGRATE`` on NUC at ppc 4 and 8 with the instances in the block's own
+    module; flattened from submodules it maps them)."""
     if max(len(a), len(b)) > MAX_BITS:
         raise ValueError(f"operands of {len(a)} and {len(b)} bits: at most {MAX_BITS} each")
-    p = Signal(len(a) + len(b), name=f"{tag}_p")
+    u = m.submodules[tag] = _Mult(len(a), len(b))
+    m.d.comb += [u.a.eq(a), u.b.eq(b), u.en.eq(en)]
+    return u.p
+
+
+class _Mult(Elaboratable):
+    def __init__(self, wa, wb):
+        self.a, self.b, self.en = Signal(wa), Signal(wb), Signal()
+        self.p = Signal(wa + wb)
+
+    def elaborate(self, platform):
+        m = Module()
+        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en))
+        return m
+
+
+def _instance(m, a, b, en):
+    p = Signal(len(a) + len(b), name="p")
     ports = {"i_CLK0": ClockSignal(), "i_CE0": en, "i_RST0": Const(0),
              "i_SIGNEDA": Const(0), "i_SIGNEDB": Const(0),
              "i_SOURCEA": Const(0), "i_SOURCEB": Const(0)}
@@ -42,7 +63,7 @@ def mult(m, tag, a, b, en):
         ports[f"i_C{n}"] = Const(0)
     for n in range(len(p)):
         ports[f"o_P{n}"] = p[n]
-    m.submodules[f"{tag}_dsp"] = Instance(
+    m.submodules.dsp = Instance(
         "MULT18X18D",
         p_REG_INPUTA_CLK="CLK0", p_REG_INPUTA_CE="CE0", p_REG_INPUTA_RST="RST0",
         p_REG_INPUTB_CLK="CLK0", p_REG_INPUTB_CE="CE0", p_REG_INPUTB_RST="RST0",
