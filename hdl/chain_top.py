@@ -210,7 +210,8 @@ class CalibRom(wiring.Component):
     these registers (with the bank number delayed alike) and a register slice
     (:class:`~tdicam.hdl.interfaces.stream.StreamRegister`) takes the selected beat. Every
     stage moves on one enable, the slice's registered ``i_stream.ready`` (or an empty last
-    stage): no combinational path from ``o_stream.ready`` reaches the memories. A beat
+    stage; the generic banks read, and their registers load, only for a beat of their
+    own): no combinational path from ``o_stream.ready`` reaches the memories. A beat
     is valid :attr:`latency` = 3 clock edges after its address (read port, bank register,
     slice); one beat a clock sustained.
 
@@ -280,10 +281,14 @@ class CalibRom(wiring.Component):
                     shape=self._bits, depth=max(len(chunk), 2),
                     init=chunk + [0] * (max(len(chunk), 2) - len(chunk)))
                 rd = mem.read_port()
-                m.d.comb += [rd.en.eq(adv), rd.addr.eq(addr[:lb])]
+                # only the addressed bank reads and only its bank register loads (the
+                # others' data is never selected; a simulator copies one bank a clock)
+                hit = (addr[lb:] == b) if nb > 1 else Const(1)
+                m.d.comb += [rd.en.eq(adv & hit), rd.addr.eq(addr[:lb])]
                 data = rd.data
             q = Signal(self._bits, name=f"bank{b}_q")
-            with m.If(adv):
+            load = adv & (sels[0] == b) if nb > 1 and self._bram == "generic" else adv
+            with m.If(load):
                 m.d.sync += q.eq(data)
             qs.append(q)
         sel1, sel2 = sels[0], sels[-1]
