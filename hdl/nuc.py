@@ -33,9 +33,9 @@ class Nuc(wiring.Component):
         Pixels per clock (per beat): 1, 2, 4 or 8 (default 1).
     dsp : str
         ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
-        synthesis top: each lane's input and product registers are a MULT18X18D's own,
-        :mod:`tdicam.hdl.vendor.ecp5_dsp`; the same cycles, a simulator needs
-        :mod:`tdicam.cosim.mult18x18d`).
+        synthesis top: each lane's input registers are a MULT18X18D's own, the product
+        register in the fabric beside the adder, :mod:`tdicam.hdl.vendor.ecp5_dsp`; the
+        same cycles, a simulator needs :mod:`tdicam.cosim.mult18x18d`).
 
     Attributes
     ----------
@@ -70,8 +70,8 @@ class Nuc(wiring.Component):
     """
 
     #: Multiplier descriptions (``dsp=``): ``"generic"`` (``*`` between fabric registers,
-    #: mapped by the synthesis tool) or ``"ecp5"`` (MULT18X18D with its input and output
-    #: registers, :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
+    #: mapped by the synthesis tool) or ``"ecp5"`` (MULT18X18D with its input registers,
+    #: :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
     DSPS = ("generic", "ecp5")
 
     @quiet_reject
@@ -159,11 +159,11 @@ class Nuc(wiring.Component):
         d, rng = i.payload.data, range(self._ppc)
         outs = [o.payload.data] if self._ppc == 1 else [o.payload.data[k] for k in rng]
 
-        fabric = self._dsp != "ecp5"     # else x1, g1 and p2 are the DSP blocks' registers
-        if not fabric:
-            for k in rng:
-                m.d.comb += p2s[k].eq(ecp5_dsp.mult(m, f"mul{k}", d[3 * k][:pb],
-                                                    d[3 * k + 1][:gb], en))
+        # ecp5: x1 and g1 are the DSP blocks' input registers, p2 loads their product
+        fabric = self._dsp != "ecp5"
+        prods = ([x1s[k] * g1s[k] for k in rng] if fabric else
+                 [ecp5_dsp.mult(m, f"mul{k}", d[3 * k][:pb], d[3 * k + 1][:gb], en)
+                  for k in rng])
         lanes = rng if fabric else ()
         with m.If(en):
             m.d.sync += [
@@ -173,7 +173,7 @@ class Nuc(wiring.Component):
                 *(off1s[k].eq(d[3 * k + 2][:ob]) for k in rng),
                 f1.eq(i.payload.first),
                 l1.eq(i.payload.last),
-                v2.eq(v1), *(p2s[k].eq(x1s[k] * g1s[k]) for k in lanes),
+                v2.eq(v1), *(p2s[k].eq(prods[k]) for k in rng),
                 *(off2s[k].eq(off1s[k]) for k in rng), f2.eq(f1), l2.eq(l1),
                 o.valid.eq(v2),
                 *(outs[k].eq(sats[k]) for k in rng),

@@ -5,8 +5,8 @@ block unused (``REG_* = "NONE"``): a pipelined multiply's input and product regi
 in the fabric, and the routing from them into the DSP block and back (2 ns each way in the
 orbit chain at ppc 8, beside the block's 3.1 ns multiply) became the chain's critical
 path. The ECP5 synthesis tops build their multipliers here instead, with the block's own
-input registers (A, B) and output register (P) on one clock enable: the same two stages
-as a fabric input register and product register.
+input registers (A, B) and, where asked, its output register (P) on one clock enable: the
+same stages as fabric input registers (and a product register).
 
 The Verilog this gives instantiates ``MULT18X18D`` cells: yosys/nextpnr take it as is; a
 simulator needs a model (yosys ships only a black box; :mod:`tdicam.cosim.mult18x18d`
@@ -22,36 +22,39 @@ __all__ = ["MAX_BITS", "mult"]
 MAX_BITS = 18
 
 
-def mult(m, tag, a, b, en):
-    """``a * b`` (unsigned, each at most :data:`MAX_BITS` bits) two clock edges later: the
-    operands go into the block's input registers and the product into its output
-    register, both loading at a rising edge of the ``sync`` clock when ``en`` is high
-    (``en`` low: both hold). Returns the product register's value, ``len(a) + len(b)``
-    bits. No reset: the registers start at zero (the block's global reset).
+def mult(m, tag, a, b, en, *, out_reg=False):
+    """``a * b`` (unsigned, each at most :data:`MAX_BITS` bits) of the operands registered
+    in the block: they load at a rising edge of the ``sync`` clock when ``en`` is high
+    (``en`` low: they hold). Returns the product of the registered operands,
+    ``len(a) + len(b)`` bits, combinational after them (one clock edge after the
+    operands: the caller registers it) or with ``out_reg`` the block's output register
+    loading it on the same enable (two edges). No reset: the registers start at zero.
 
-    The instance sits in a submodule of ``m`` named ``tag`` (yosys 0.70's ABC9 asserted in
-    ``ABC_OPS_REINTEGRATE`` on NUC at ppc 4 and 8 with the instances in the block's own
-    module; flattened from submodules it maps them)."""
+    The instance sits in a submodule of ``m`` named ``tag``, every output port of it
+    connected (yosys 0.70's ABC9 asserted in ``ABC_OPS_REINTEGRATE`` on NUC at ppc 2, 4
+    or 8, depending on the netlist, while the cascade outputs were left open)."""
     if max(len(a), len(b)) > MAX_BITS:
         raise ValueError(f"operands of {len(a)} and {len(b)} bits: at most {MAX_BITS} each")
-    u = m.submodules[tag] = _Mult(len(a), len(b))
+    u = m.submodules[tag] = _Mult(len(a), len(b), out_reg)
     m.d.comb += [u.a.eq(a), u.b.eq(b), u.en.eq(en)]
     return u.p
 
 
 class _Mult(Elaboratable):
-    def __init__(self, wa, wb):
+    def __init__(self, wa, wb, out_reg):
         self.a, self.b, self.en = Signal(wa), Signal(wb), Signal()
         self.p = Signal(wa + wb)
+        self.out_reg = out_reg
 
     def elaborate(self, platform):
         m = Module()
-        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en))
+        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en, self.out_reg))
         return m
 
 
-def _instance(m, a, b, en):
+def _instance(m, a, b, en, out_reg):
     p = Signal(len(a) + len(b), name="p")
+    full = Signal(2 * MAX_BITS, name="p36")
     ports = {"i_CLK0": ClockSignal(), "i_CE0": en, "i_RST0": Const(0),
              "i_SIGNEDA": Const(0), "i_SIGNEDB": Const(0),
              "i_SOURCEA": Const(0), "i_SOURCEB": Const(0)}
@@ -61,14 +64,20 @@ def _instance(m, a, b, en):
         ports[f"i_A{n}"] = a[n] if n < len(a) else Const(0)
         ports[f"i_B{n}"] = b[n] if n < len(b) else Const(0)
         ports[f"i_C{n}"] = Const(0)
-    for n in range(len(p)):
-        ports[f"o_P{n}"] = p[n]
+    for n in range(2 * MAX_BITS):
+        ports[f"o_P{n}"] = full[n]
+    for name in ("ROA", "ROB", "ROC", "SROA", "SROB"):     # unused, connected (see mult)
+        out = Signal(MAX_BITS, name=name.lower())
+        ports.update({f"o_{name}{n}": out[n] for n in range(MAX_BITS)})
+    ports["o_SIGNEDP"] = Signal(name="signedp")
+    m.d.comb += p.eq(full)
     m.submodules.dsp = Instance(
         "MULT18X18D",
         p_REG_INPUTA_CLK="CLK0", p_REG_INPUTA_CE="CE0", p_REG_INPUTA_RST="RST0",
         p_REG_INPUTB_CLK="CLK0", p_REG_INPUTB_CE="CE0", p_REG_INPUTB_RST="RST0",
         p_REG_INPUTC_CLK="NONE", p_REG_PIPELINE_CLK="NONE",
-        p_REG_OUTPUT_CLK="CLK0", p_REG_OUTPUT_CE="CE0", p_REG_OUTPUT_RST="RST0",
+        p_REG_OUTPUT_CLK="CLK0" if out_reg else "NONE", p_REG_OUTPUT_CE="CE0",
+        p_REG_OUTPUT_RST="RST0",
         p_GSR="DISABLED", p_RESETMODE="SYNC", p_SOURCEB_MODE="B_SHIFT",
         p_MULT_BYPASS="DISABLED", p_CAS_MATCH_REG="FALSE", p_HIGHSPEED_CLK="NONE",
         p_CLK0_DIV="ENABLED", p_CLK1_DIV="ENABLED", p_CLK2_DIV="ENABLED", p_CLK3_DIV="ENABLED",
