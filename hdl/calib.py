@@ -158,7 +158,9 @@ class CalibReader(wiring.Component):
         in_header = Signal(init=1)
         hidx = Signal(range(HEADER_WORDS // k))
         widx = Signal(range(max(n_pay, 2)))
-        hdr_bad = Signal()
+        hdr_bad = Signal()        # hdr_acc | hdr_last: the header read so far was bad
+        hdr_acc = Signal()        # its words before the last consumed one
+        hdr_last = Signal()       # the last consumed header word (registered compare)
         cor = Signal(cb)
         unc = Signal(cb)
         top = (1 << cb) - 1
@@ -173,7 +175,7 @@ class CalibReader(wiring.Component):
                 m.d.comb += nxt.eq(Mux(total > top, top, total))
         m.d.comb += [
             self.corrected_count.eq(cor), self.uncorrectable_count.eq(unc),
-            self.header_error.eq(hdr_bad),
+            self.header_error.eq(hdr_bad), hdr_bad.eq(hdr_acc | hdr_last),
         ]
 
         p_valid, p_data, p_bad, p_hbad = Signal(), Signal(64 * k), Signal(k), Signal()
@@ -228,7 +230,7 @@ class CalibReader(wiring.Component):
         with m.If(d_go):
             m.d.sync += [cor.eq(cor_next), unc.eq(unc_next)]
             with m.If(in_header):
-                m.d.sync += hdr_bad.eq(Mux(~hidx.any(), mismatch, hdr_bad | mismatch))
+                m.d.sync += [hdr_last.eq(mismatch), hdr_acc.eq(hidx.any() & hdr_bad)]
                 with m.If(hidx == HEADER_WORDS // k - 1):
                     m.d.sync += [hidx.eq(0), in_header.eq(0), widx.eq(0)]
                 with m.Else():
