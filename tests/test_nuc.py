@@ -318,3 +318,19 @@ def test_ppc_errors_are_one_line():
     g, o = identity_coeffs(x.shape)
     with pytest.raises(TdicamError, match=r"^--width 6 is not a multiple of --ppc 4$"):
         blk.to_beats({"x": x, "gain": g, "offset": o, "out": x}, p)
+
+
+def test_ecp5_top_multipliers_are_dsp_blocks_with_their_input_registers():
+    """``dsp="ecp5"``: one MULT18X18D a lane with REG_INPUTA/B on CLK0 and no output
+    register (the product register stays in the fabric), the same latency; an unknown
+    ``dsp`` is a one-line error naming it and the valid values."""
+    from amaranth.back import rtlil
+    for ppc in (1, 8):
+        top = Nuc(ppc=ppc, dsp="ecp5")
+        assert top.latency == Nuc(ppc=ppc).latency == 3
+        text = rtlil.convert(top)
+        assert text.count("cell \\MULT18X18D") == ppc
+        assert text.count('parameter \\REG_INPUTA_CLK "CLK0"') == ppc
+        assert text.count('parameter \\REG_OUTPUT_CLK "NONE"') == ppc
+    with pytest.raises(TdicamError, match="dsp.*'xilinx'.*generic, ecp5"):
+        Nuc(dsp="xilinx")
