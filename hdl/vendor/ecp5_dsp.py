@@ -5,8 +5,9 @@ block unused (``REG_* = "NONE"``): a pipelined multiply's input and product regi
 in the fabric, and the routing from them into the DSP block and back (2 ns each way in the
 orbit chain at ppc 8, beside the block's 3.1 ns multiply) became the chain's critical
 path. The ECP5 synthesis tops build their multipliers here instead, with the block's own
-input registers (A, B) and, where asked, its output register (P) on one clock enable: the
-same stages as fabric input registers (and a product register).
+input registers (A, B) on the stage's clock enable; the product register stays in the
+fabric beside what adds to it (with the block's output register too, its 0.6 ns
+clock-to-out and the route into the adder were NUC's slowest path).
 
 The Verilog this gives instantiates ``MULT18X18D`` cells: yosys/nextpnr take it as is; a
 simulator needs a model (yosys ships only a black box; :mod:`tdicam.cosim.mult18x18d`
@@ -22,37 +23,35 @@ __all__ = ["MAX_BITS", "mult"]
 MAX_BITS = 18
 
 
-def mult(m, tag, a, b, en, *, out_reg=False):
+def mult(m, tag, a, b, en):
     """``a * b`` (unsigned, each at most :data:`MAX_BITS` bits) of the operands registered
     in the block: they load at a rising edge of the ``sync`` clock when ``en`` is high
     (``en`` low: they hold). Returns the product of the registered operands,
     ``len(a) + len(b)`` bits, combinational after them (one clock edge after the
-    operands: the caller registers it) or with ``out_reg`` the block's output register
-    loading it on the same enable (two edges). No reset: the registers start at zero.
+    operands: the caller registers it). No reset: the registers start at zero.
 
     The instance sits in a submodule of ``m`` named ``tag``, every output port of it
     connected (yosys 0.70's ABC9 asserted in ``ABC_OPS_REINTEGRATE`` on NUC at ppc 2, 4
     or 8, depending on the netlist, while the cascade outputs were left open)."""
     if max(len(a), len(b)) > MAX_BITS:
         raise ValueError(f"operands of {len(a)} and {len(b)} bits: at most {MAX_BITS} each")
-    u = m.submodules[tag] = _Mult(len(a), len(b), out_reg)
+    u = m.submodules[tag] = _Mult(len(a), len(b))
     m.d.comb += [u.a.eq(a), u.b.eq(b), u.en.eq(en)]
     return u.p
 
 
 class _Mult(Elaboratable):
-    def __init__(self, wa, wb, out_reg):
+    def __init__(self, wa, wb):
         self.a, self.b, self.en = Signal(wa), Signal(wb), Signal()
         self.p = Signal(wa + wb)
-        self.out_reg = out_reg
 
     def elaborate(self, platform):
         m = Module()
-        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en, self.out_reg))
+        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en))
         return m
 
 
-def _instance(m, a, b, en, out_reg):
+def _instance(m, a, b, en):
     p = Signal(len(a) + len(b), name="p")
     full = Signal(2 * MAX_BITS, name="p36")
     ports = {"i_CLK0": ClockSignal(), "i_CE0": en, "i_RST0": Const(0),
@@ -76,7 +75,7 @@ def _instance(m, a, b, en, out_reg):
         p_REG_INPUTA_CLK="CLK0", p_REG_INPUTA_CE="CE0", p_REG_INPUTA_RST="RST0",
         p_REG_INPUTB_CLK="CLK0", p_REG_INPUTB_CE="CE0", p_REG_INPUTB_RST="RST0",
         p_REG_INPUTC_CLK="NONE", p_REG_PIPELINE_CLK="NONE",
-        p_REG_OUTPUT_CLK="CLK0" if out_reg else "NONE", p_REG_OUTPUT_CE="CE0",
+        p_REG_OUTPUT_CLK="NONE", p_REG_OUTPUT_CE="CE0",
         p_REG_OUTPUT_RST="RST0",
         p_GSR="DISABLED", p_RESETMODE="SYNC", p_SOURCEB_MODE="B_SHIFT",
         p_MULT_BYPASS="DISABLED", p_CAS_MATCH_REG="FALSE", p_HIGHSPEED_CLK="NONE",
