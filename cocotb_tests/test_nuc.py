@@ -102,8 +102,9 @@ def test_widest_rows(sim, ppc):
                                   "identity_16b_p8"])
 def test_golden_ecp5_dsp(case, sim):
     """The ECP5 synthesis top (``dsp="ecp5"``: each lane's multiplier a MULT18X18D with its
-    own input and product registers) with the model of :mod:`tdicam.cosim.mult18x18d`,
-    against the golden vectors with 25 % idle and 25 % backpressure: random, saturating
-    (the widest gain and offset), reset mid-frame and full-scale identity cases."""
+    own input registers, the product register in the fabric) with the model of
+    :mod:`tdicam.cosim.mult18x18d`, against the golden vectors with 25 % idle and 25 %
+    backpressure: random, saturating (the widest gain and offset), reset mid-frame and
+    full-scale identity cases."""
     check_case("nuc", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=11,
                ecp5=True)

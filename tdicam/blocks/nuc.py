@@ -28,8 +28,9 @@ def _top(**params):
 
 
 def _ecp5_top(**params):
-    """The ECP5 synthesis top: each lane's multiplier a MULT18X18D with its own input and
-    product registers (``dsp="ecp5"``; the same latency and cycles as :func:`_top`)."""
+    """The ECP5 synthesis top: each lane's multiplier a MULT18X18D with its own input
+    registers, the product register in the fabric (``dsp="ecp5"``; the same latency and
+    cycles as :func:`_top`)."""
     return AxisTop(Nuc(**params, dsp="ecp5"))
 
 
