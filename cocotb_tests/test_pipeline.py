@@ -4,10 +4,11 @@ Default run (Icarus, small): the Ning et al. 2019 chain (cds -> nuc -> hdr -> td
 enhancement) on a cut of its scene's raw data: 0 mismatches; a corrupted golden stage is
 named with its first differing pixel, and the waveform around it is written; TDI spilled to
 DDR (tdi_ddr and the MIG model) on a small cut of the spilling scene; the chain at 8 pixels
-per clock on Icarus and on Verilator (one build each; a corrupted pixel inside a beat is
-named by its column; the Verilator run is a standalone binary that fails without its
-stimulus). With ``TDICAM_FULL=1``: the whole small scene through Verilator, the
-chain at ppc 2 and 4 on both simulators, the DDR spill at ppc 4.
+per clock up to TDI, the median after it at 1 behind a width converter, on Icarus and on
+Verilator (one build each), and with 2 TDI stages on Icarus (the median at 4); a corrupted
+pixel inside a beat is named by its column; the Verilator run is a standalone binary that
+fails without its stimulus. With ``TDICAM_FULL=1``: the whole small scene through
+Verilator, the chain at ppc 2 and 4 on both simulators, the DDR spill at ppc 4.
 """
 
 import os
@@ -110,25 +111,35 @@ def test_tdi_spilled_to_ddr_matches():
     assert rep["mismatches"] == 0 and rep["pixels_compared"] == 6 * 160, rep["message"]
 
 
-#: (simulator, ppc) of the wide-beat chain runs: one build per simulator by default.
-WIDE = [("icarus", 8), ("verilator", 8)] + ([("icarus", 2), ("icarus", 4), ("verilator", 2),
-                                             ("verilator", 4)] if FULL else [])
+#: (simulator, ppc, TDI stages) of the wide-beat chain runs: one build per simulator, and
+#: one with the median at 4 pixels per clock behind a 2:1 width converter by default (its
+#: frames of 2 rows x 3 beats are shorter than the chain's latency: TDI starts its last
+#: frames after the stimulus ended, on the last beat's run-time port values).
+WIDE = [("icarus", 8, 8), ("verilator", 8, 8), ("icarus", 8, 2)] + (
+    [("icarus", 2, 8), ("icarus", 4, 8), ("verilator", 2, 8), ("verilator", 4, 8),
+     ("verilator", 8, 2), ("icarus", 8, 4), ("verilator", 4, 1)] if FULL else [])
 
 
-@pytest.mark.parametrize("sim, ppc", WIDE)
-def test_chain_at_ppc_matches(small, sim, ppc):
-    """cds -> nuc -> hdr -> tdi -> median3 with every block at ``ppc`` pixels per clock
-    (NUC's coefficients ppc pairs a beat from the ECC calibration ROM), 20% idle cycles
-    and backpressure: every tap equal to the golden chain, in 1/ppc of the beats."""
+@pytest.mark.parametrize("sim, ppc, stages", WIDE)
+def test_chain_at_ppc_matches(small, sim, ppc, stages):
+    """cds -> nuc -> hdr -> tdi at ``ppc`` pixels per clock (NUC's coefficients ppc pairs
+    a beat from the ECC calibration ROM), then a width converter and median3 at ``ppc /
+    stages`` (at least 1), 20% idle cycles and backpressure: every tap equal to the golden
+    chain, in beats of its stage's pixels."""
     p1, data = small
-    p = pl.plan(_scene(sim), ppc=ppc)
-    assert p.ppc == ppc and all(s.params["ppc"] == ppc for s in p.steps)
+    sc = _scene(sim)
+    p = pl.plan(sc, ppc=ppc, stages=stages)
+    mp = pl.rate_ppc(ppc, stages)
+    assert p.ppc == ppc and [pl.step_ppc(s) for s in p.steps] == [ppc] * 4 + [mp]
+    if stages != 8:
+        data, _ = scene_data(sc, stages=stages, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=ppc)
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert rep["pixels_compared"] == 6 * 24
-    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] == t["pixels"] // ppc
-               for t in rep["taps"]), rep["taps"]
-    assert rep["taps"][-1]["beats"] == 6 * 24 // ppc
+    per = [ppc] * (len(rep["taps"]) - 1) + [mp]
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] == t["pixels"] // n
+               for t, n in zip(rep["taps"], per)), rep["taps"]
+    assert rep["taps"][-1]["beats"] == 6 * 24 // mp
 
 
 def test_standalone_verilator_run_fails_on_a_missing_stimulus_chunk(small):
@@ -140,10 +151,10 @@ def test_standalone_verilator_run_fails_on_a_missing_stimulus_chunk(small):
     got, info = run_top(p, data, "verilator", seed=8, idle=0.2, backpressure=0.2, keep=True)
     rundir = Path(info["rundir"])
     assert (Path(info["build_dir"]) / "main.cpp").exists() and not info["timeout"]
-    assert info["accepted"] == info["input_beats"] and len(got["out"]) == 6 * 24 // 8
+    assert info["accepted"] == info["input_beats"] and len(got["out"]) == 6 * 24
     (rundir / "stim_000000.bin").unlink()
     ok, _ = cosim.run_standalone(Path(info["build_dir"]), rundir,
-                                 [f"+n_in={info['input_beats']}", "+n_out=18"])
+                                 [f"+n_in={info['input_beats']}", "+n_out=144"])
     log = (rundir / "sim.log").read_text()
     assert not ok and "FAIL cannot open the stimulus file stim_000000.bin" in log, log
 
@@ -193,3 +204,21 @@ def test_verilator_whole_small_scene(tmp_path):
     assert last["mismatches"] == 0 and last["pixels_compared"] == 64 * 16
     assert last["input_pixels"] == 2 * 2 * (16 + 7) * 8 * 64
     assert "| tap median3 | ran | 1024 | 0 |" in (tmp_path / "report.md").read_text()
+
+
+@pytest.mark.parametrize("sim", ["icarus", "verilator"])
+def test_orbit_chain_ecp5_synthesis_top_matches(sim):
+    """The top ``tdicam synth pipeline`` places for the orbit chain at ppc 8 (NUC's
+    MULT18X18D, TDI's and median3's DP16KD banks, the width converter's FIFO in DP16KD with
+    its output register), co-simulated with the primitives' models on a 48-column cut with
+    8 stages (the median at 1 pixel per clock), 20 % idle cycles and backpressure: every
+    tap equal to the golden chain."""
+    sc = load_scene(ROOT / "scenes" / "orbit_chain.toml", overrides={
+        "sensor": {"columns": 48}, "run": {"lines": 8, "rtl": {"crop": [0, 0, 48, 8]}}})
+    p = pl.plan(sc, stages=8, ppc=8)
+    assert [pl.step_ppc(s) for s in p.steps] == [8, 8, 1]
+    data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=8)
+    rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=3, ecp5=True)
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert [(t["tap"], t["received"], t["mismatches"]) for t in rep["taps"]] == [
+        ("nuc", 720, 0), ("tdi", 48, 0), ("median3", 384, 0)]

@@ -19,12 +19,12 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
-                                          element_bits, pixel_signature)
+from tdicam.hdl.interfaces.stream import (AdvanceBuffer, Narrower, StreamRegister,
+                                          channels_shape, element_bits, pixel_signature)
 from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Link", "LaneStage", "MergeStage", "SourceStage", "Pipeline", "CalibRom",
-           "frame_group", "register_slice", "Device", "Board"]
+           "frame_group", "register_slice", "narrow", "Device", "Board"]
 
 
 class Link:
@@ -190,6 +190,32 @@ def register_slice(m, link, name, ppc=1):
     carried, _ = unpack(user, lo + 2)
     return Link(o_valid, ready, o_data[lo], o_data[lo + 1], elems, link.bits,
                 dict(zip(link.user, carried)))
+
+
+def narrow(m, link, ppc_in, ppc_out, depth, name, bram="generic"):
+    """``link`` (``ppc_in`` pixels a beat) as beats of ``ppc_out`` pixels, through a
+    :class:`~tdicam.hdl.interfaces.stream.Narrower` (submodule ``name``) whose FIFO holds
+    ``depth`` input beats (its memory described as ``bram``), then a :func:`register_slice`
+    (the consumer's ready reaches a register, not the converter's FIFO read): for a block
+    after TDI, whose output is ``stages`` times slower than its input and needs fewer
+    pixels per clock. Pixels, rows and frames unchanged;
+    latency 5 cycles (:attr:`Narrower.latency` and the slice's 1)."""
+    if link.user:
+        raise TdicamError(f"pipeline: {name}: a stream carrying {', '.join(link.user)} "
+                          f"cannot change its pixels per clock")
+    n = len(link.elems) // ppc_in
+    m.submodules[name] = nar = Narrower(link.bits, len(link.elems), n * ppc_out, depth, bram)
+    word = Cat(*(Cat(e, Const(0, link.bits - len(Value.cast(e)))) for e in link.elems))
+    i, o = nar.i_stream, nar.o_stream
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += [i.valid.eq(link.valid), link.ready.eq(i.ready), i.payload.first.eq(link.first),
+                 i.payload.last.eq(link.last), Value.cast(i.payload.data).eq(word),
+                 o.ready.eq(ready)]
+    d = Value.cast(o.payload.data)
+    return register_slice(m, Link(o.valid, ready, o.payload.first, o.payload.last,
+                                  [d[k * link.bits:(k + 1) * link.bits]
+                                   for k in range(n * ppc_out)], link.bits),
+                          f"{name}_slice", ppc_out)
 
 
 class CalibRom(wiring.Component):
@@ -425,9 +451,16 @@ class Pipeline(wiring.Component):
     taps : bool
         Expose every stage's output stream as ports (simulation).
     ppc : int
-        Pixels per beat (1, 2, 4, 8) of every stream; the stages' components are built at
-        it (their streams carry ``ppc`` pixels a beat, pixel-major, element 0 the
-        leftmost).
+        Pixels per beat (1, 2, 4, 8) of the input stream (pixel-major, element 0 the
+        leftmost). A stage's component may take fewer (its ``ppc``, 1 without one: a block
+        after TDI, whose output is ``stages`` times slower than its input): a
+        :func:`narrow` before it converts the beats, its FIFO one row (``width / ppc``
+        beats) deep. A stage never takes more pixels a beat than the one before gives.
+    width : int or None
+        Pixels a row; needed when a stage takes fewer pixels a beat than its input.
+    bram : {"generic", "ecp5"}
+        The width converters' FIFO memories (:class:`Narrower`): ``"ecp5"`` in the ECP5
+        synthesis top.
 
     Attributes
     ----------
@@ -459,13 +492,15 @@ class Pipeline(wiring.Component):
     frames: the first reset frame) after it. So the sensor may start at power-up, before
     the calibration load: it need not wait for ``nuc_calib_loaded``. :attr:`latency` is the sum of the blocks'
     ``latency`` figures, each as its block defines it (a 2-D block's counts from the input
-    pixel its output needs last), plus 1 per register slice; None when one varies (DDR).
+    pixel its output needs last), plus 1 per register slice and 5 per width converter
+    (:func:`narrow`); None when one varies (DDR).
     """
 
-    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1):
+    def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1,
+                 width=None, bram="generic"):
         self._stages = list(stages)
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
-        self._taps, self._ppc = taps, ppc
+        self._taps, self._ppc, self._width, self._bram = taps, ppc, width, bram
         self._cores = self._plan()
         self._source = bool(self._stages) and self._stages[0].source
         carried = set(self._stages[0].carries) if self._source else set()
@@ -544,8 +579,8 @@ class Pipeline(wiring.Component):
 
     def _plan(self):
         """Make every component once; check lane counts and widths (one-line errors)."""
-        cores, lanes, bits = [], self._lanes, self._in_bits
-        self._tap_shapes = []
+        cores, lanes, bits, ppc = [], self._lanes, self._in_bits, self._ppc
+        self._tap_shapes, self._narrows, self._ppcs = [], [], []
         for st in self._stages:
             if st.merge:
                 cs = [st.make(0)]
@@ -562,7 +597,17 @@ class Pipeline(wiring.Component):
                 raise TdicamError(f"pipeline: {prev} gives {bits}-bit pixels, {st.name} "
                                   f"takes {ib}-bit pixels")
             bits = ob
+            sp = ppc if st.source else getattr(cs[0], "ppc", 1)     # a source gives ppc
+            if sp > ppc or (sp < ppc and (self._width is None or self._width % ppc)):
+                raise TdicamError(
+                    f"pipeline: {st.name} takes {sp} pixel(s) a beat after {ppc}: a stage "
+                    f"takes at most as many as the one before" if sp > ppc else
+                    f"pipeline: {st.name} takes {sp} pixel(s) a beat after {ppc}: the row "
+                    f"width (a multiple of {ppc}) is needed for the converter's FIFO")
+            self._narrows.append(sp < ppc and not st.source)
+            ppc = sp
             cores.append(cs)
+            self._ppcs.append(sp)
             for k in range(len(cs)):
                 self._tap_shapes.append((st.name + (f"_{k}" if len(cs) > 1 else ""), ob, oc))
         self._out_shape = (bits, oc if self._stages else 1)
@@ -575,13 +620,16 @@ class Pipeline(wiring.Component):
                      doc="The blocks' components, per stage and lane.")
     tap_shapes = property(lambda self: list(self._tap_shapes),
                           doc="(name, element bits, element count) of each tap.")
+    stage_ppc = property(lambda self: list(self._ppcs),
+                         doc="Pixels a beat each stage's component takes, in stage order.")
 
     @property
     def latency(self):
         """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
         when a block's latency varies (a block with its memory in DDR)."""
         lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
-        return None if None in lats else sum(lats) + len(self._slices)
+        return None if None in lats else \
+            sum(lats) + len(self._slices) + (Narrower.LATENCY + 1) * sum(self._narrows)
 
     @property
     def _slices(self):
@@ -590,7 +638,7 @@ class Pipeline(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        ppc = self._ppc
+        ppc = self._ppc         # pixels a beat of the streams reaching the next stage
         tap = 0
         if self._source:
             # the source's output stands where the top's input would
@@ -648,9 +696,12 @@ class Pipeline(wiring.Component):
                 lanes = (eager_fork if st.waits else fork)(m, whole, parts,
                                                            f"{st.name}_fork", ppc)
                 split = True
-            outs = []
+            outs, sp = [], self._ppcs[n_st]
             for k, (core, link) in enumerate(zip(cores, lanes)):
                 m.submodules[core_name(st, k, len(cores))] = core
+                if self._narrows[n_st]:
+                    link = narrow(m, link, ppc, sp, self._width // ppc,
+                                  f"{core_name(st, k, len(cores))}_narrow", self._bram)
                 if st.group is not None:
                     link = frame_group(m, link, getattr(self, f"{st.name}_{st.group}"),
                                        f"{st.name}_group{k}")
@@ -658,21 +709,22 @@ class Pipeline(wiring.Component):
                     args = (m, k) if not st.io else (m, k, {
                         p: getattr(self, self._status(st, p, k)) for p in st.io})
                     side = st.side(*args)
-                    if ppc > 1:
+                    if sp > 1:
                         # the join's ready (the block's input ready and the pixels' valid)
                         # stops at the slice, not in the side stream's source (at ppc 8 the
                         # orbit chain's slowest path ran on into NUC's coefficient reader
                         # and calibration ROM, 7.58 ns)
-                        side = register_slice(m, side, f"{st.name}_side{k}_slice", ppc)
-                    link = join(m, link, side, f"{st.name}_side{k}", ppc)
+                        side = register_slice(m, side, f"{st.name}_side{k}_slice", sp)
+                    link = join(m, link, side, f"{st.name}_side{k}", sp)
                 link.feed(m, core.i_stream, who=st.name)
                 self._wire_ports(m, st, core, k, link.user)
                 out = Link.of_output(core.o_stream)
                 tap = self._tap(m, tap, out)
                 if n_st in self._slices:
                     out = register_slice(m, out, f"{core_name(st, k, len(cores))}_slice",
-                                         ppc)
+                                         sp)
                 outs.append(out)
+            ppc = sp
             lanes, per = outs, [len(o.elems) // ppc for o in outs]
         if len(lanes) != 1 and self._stages:
             raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "

@@ -142,19 +142,18 @@ class Nuc(wiring.Component):
             p2s.append(Signal(unsigned(pb + gb), name=f"p2_{k}"))
             off2s.append(Signal(signed(ob), name=f"off2_{k}"))
 
-        # unsigned datapath: offset biased by 2**(ob-1) (MSB flipped), bias removed after the
-        # shift; exact because offset_frac_bits < offset_bits
-        bias = 1 << (ob - 1 - of)
+        # signed sum, floor shift (round half up with the half added); the clamp reads bits
+        # (the sign, any bit above out_bits), no comparator after the adder
+        ow = self._out_bits
         sats = []
         for k, (p2, off2) in enumerate(zip(p2s, off2s)):
-            acc = (p2 << (frac - gf)) + (Cat(off2[:ob - 1], ~off2[ob - 1]) << (frac - of))
+            acc = (p2 << (frac - gf)) + (off2 << (frac - of))
             if frac:
-                acc = (acc + (1 << (frac - 1))) >> frac
-            y = Signal(unsigned(acc.shape().width), name=f"y_{k}" if k else "y")
-            m.d.comb += y.eq(acc)
-            sats.append(Mux(y < Const(bias, y.shape()), Const(0, y.shape()),
-                            Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()),
-                                y - bias)))
+                acc = acc + (1 << (frac - 1))
+            y = Signal(signed(acc.shape().width - frac), name=f"y_{k}" if k else "y")
+            m.d.comb += y.eq(acc[frac:])
+            over = y[ow:-1].any() if len(y) - 1 > ow else Const(0)
+            sats.append(Mux(y[-1], 0, Mux(over, top, y[:ow])))
         # pixel k of the beat: elements 3k (x), 3k + 1 (gain), 3k + 2 (offset)
         d, rng = i.payload.data, range(self._ppc)
         outs = [o.payload.data] if self._ppc == 1 else [o.payload.data[k] for k in rng]

@@ -312,7 +312,9 @@ class TdiFrameControl(wiring.Component):
         nxt_fwd = wire("nxt_fwd", Mux(row_addr < lim_s, fwd, 0), aw)
         nxt_rev = wire("nxt_rev", Mux(row_addr.any(), row_addr - S, lim_s), aw)
         row_next = wire("row_next", Mux(dir_reg, nxt_rev, nxt_fwd), aw)
-        age_next = wire("age_next", Mux(dir_reg, age + 1, age - 1), mb)
+        # the next row's age, a register kept one row ahead (no adder before the compares
+        # of r_out / r_use / r_last): set at a frame's first beat, stepped at a row's end
+        age_next = Signal(mb, init=(1 << mb) - 1, name="age_next")
         # lines x stride without a multiplier: a sum of shifted copies
         lim_new = sum((a_lines << k for k in range(S.bit_length()) if S >> k & 1), Const(0))
         with m.If(step):
@@ -320,6 +322,7 @@ class TdiFrameControl(wiring.Component):
                 m.d.sync += [m_reg.eq(a_m), m1_reg.eq(a_m1), dir_reg.eq(a_dir), f.eq(s_f),
                              base.eq(base_next), lim_s.eq(Mux(a_lines.any(), lim_new - S, 0)),
                              age.eq(Mux(a_dir, 0, a_m1)),
+                             age_next.eq(Mux(a_dir, 1, a_m1 - 1)),
                              r_out.eq(s_out), r_use.eq(s_use), r_last.eq(m1_zero),
                              out_en.eq(s_out_en), col.eq(1), col_last.eq(WB == 2),
                              col_zero.eq(0), line_open.eq(s_out & s_out_en),
@@ -329,6 +332,7 @@ class TdiFrameControl(wiring.Component):
                 m.d.sync += [col.eq(0), col_last.eq(0), col_zero.eq(1), line_open.eq(0),
                              row_addr.eq(row_next),
                              cur.eq(row_next), age.eq(age_next),
+                             age_next.eq(Mux(dir_reg, age_next + 1, age_next - 1)),
                              r_out.eq(age_next == m1_reg),
                              r_use.eq(age_next.any() & (age_next <= f)),
                              r_last.eq(Mux(dir_reg, age_next == m1_reg, ~age_next.any()))]

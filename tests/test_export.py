@@ -436,8 +436,9 @@ def test_pipeline_export_rtl_is_what_tdicam_verilog_writes(tmp_path):
 
 
 def test_pipeline_export_at_ppc_8_passes_on_icarus(tmp_path):
-    """``--ppc 8``: every block of the exported top at 8 pixels per clock, the stimulus and
-    the expected output in beats of 8 pixels (18 beats for 24 x 6 output pixels); a width
+    """``--ppc 8``: every block of the exported top up to TDI at 8 pixels per clock, the
+    median after TDI's 8 stages at 1 (a width converter before it), the stimulus in beats
+    of 8 pixels, the expected output in beats of 1 (144 for 24 x 6 output pixels); a width
     the ppc does not divide is a one-line error naming both."""
     out = tmp_path / "chain8"
     r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
@@ -445,7 +446,7 @@ def test_pipeline_export_at_ppc_8_passes_on_icarus(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "ppc=8" in (out / "rtl" / "pipeline.v").read_text().splitlines()[2]
     r = icarus(out)
-    assert r.returncode == 0 and passed(r.stdout, 18) == 18, r.stdout[-2000:]
+    assert r.returncode == 0 and passed(r.stdout, 144) == 144, r.stdout[-2000:]
     r = cli("export", "pipeline", "--scene", CHAIN, "--width", "20", "--lines", "6",
             "--ppc", "8", "-o", str(tmp_path / "bad"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr

@@ -10,8 +10,8 @@ from amaranth.lib import stream, wiring
 from amaranth.lib.wiring import In, Out
 from amaranth.sim import Simulator
 
-from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
-                                          pixel_layout)
+from tdicam.hdl.interfaces.stream import (AdvanceBuffer, Narrower, StreamRegister,
+                                          channels_shape, pixel_layout)
 
 
 @pytest.mark.parametrize("count,seed,p_valid,p_ready", [
@@ -112,3 +112,66 @@ def test_advance_buffer_long_stalls_at_full_rate(stages):
     pops = np.cumsum([r and ov for r, ov in fired])
     last = int(np.argmax(pops == n))
     assert all(ov for r, ov in fired[first:last + 1] if r)
+
+
+def _narrowed(stim, ratio):
+    """What a :class:`Narrower` of ``ratio`` must give for ``stim``: each beat's elements
+    in ``ratio`` beats, first on the first, last on the last."""
+    n, count = stim.data.shape
+    data = stim.data.reshape(n * ratio, count // ratio)
+    first = np.zeros(n * ratio, bool)
+    last = np.zeros(n * ratio, bool)
+    first[0::ratio], last[ratio - 1::ratio] = stim.first, stim.last
+    return data, first, last
+
+
+@pytest.mark.parametrize("count_in,count_out,depth,seed,p_valid,p_ready", [
+    (8, 1, 160, 1, 0.7, 0.6), (8, 1, 4, 2, 1.0, 1.0), (8, 2, 16, 3, 0.3, 0.9),
+    (4, 1, 2, 4, 0.9, 0.2), (8, 4, 8, 5, 1.0, 0.3), (2, 1, 3, 6, 0.5, 1.0)])
+def test_narrower_splits_every_beat_in_order(count_in, count_out, depth, seed, p_valid,
+                                             p_ready):
+    """Random idle cycles and backpressure, full-scale and zero elements, a one-beat row:
+    every input beat's elements leave in ``count_in / count_out`` beats in element order,
+    ``first`` on the first, ``last`` on the last, nothing lost or repeated; latency 4."""
+    rng = np.random.default_rng(seed)
+    n = 300
+    data = rng.integers(0, 1 << 16, (n, count_in))
+    data[:20], data[20:40] = 0xFFFF, 0
+    k = np.arange(n)
+    stim = Beats(data, k % 50 == 0, (k % 10 == 9) | (k == 3))
+    dut = Narrower(16, count_in, count_out, depth)
+    assert (dut.ratio, dut.latency) == (count_in // count_out, 4)
+    ratio = dut.ratio
+    got, lat, _ = run_stream_component(dut, stim, n * ratio, seed=seed, p_valid=p_valid,
+                                       p_ready=p_ready, drain=30)
+    want, first, last = _narrowed(stim, ratio)
+    assert len(got) == n * ratio
+    np.testing.assert_array_equal(
+        np.array([g[0] for g in got], np.int64).reshape(n * ratio, count_out), want)
+    np.testing.assert_array_equal([g[1] for g in got], first)
+    np.testing.assert_array_equal([g[2] for g in got], last)
+    assert lat == [4]
+
+
+def test_narrower_takes_a_burst_of_depth_beats_while_the_output_drains():
+    """Offered every cycle with the sink always ready: the input is never held while the
+    FIFO has room (a line of ``depth`` beats goes in at one a clock), and the output moves
+    ``count_out`` elements every clock once started (no bubble between input beats)."""
+    depth, n = 40, 40
+    k = np.arange(n)
+    stim = Beats(np.tile(k[:, None], (1, 8)), k == 0, k == n - 1)
+    trace = []
+    got, _, _ = run_stream_component(Narrower(12, 8, 1, depth), stim, n * 8, p_valid=1.0,
+                                     p_ready=1.0, latency_from=None, trace=trace)
+    ins = [c for d, c in trace if d == "i"]
+    outs = [c for d, c in trace if d == "o"]
+    assert ins == list(range(ins[0], ins[0] + n))
+    assert outs == list(range(outs[0], outs[0] + 8 * n))
+    assert len(got) == 8 * n
+
+
+@pytest.mark.parametrize("args", [(16, 8, 3, 4), (16, 8, 1, 1), (16, 4, 0, 4)])
+def test_narrower_refuses_impossible_shapes_in_one_line(args):
+    with pytest.raises(ValueError, match="Narrower") as e:
+        Narrower(*args)
+    assert "\n" not in str(e.value)

@@ -88,10 +88,11 @@ def test_verilog_command(tmp_path, capsys):
 
 
 def test_plan_and_top_at_every_ppc():
-    """Every block of the chain at the plan's ppc (the scene's [run.rtl].pixels_per_clock
-    or the ``ppc`` argument); at ppc 1 the steps' parameters are those of before (only tdi
-    states its ppc); the top's streams and taps carry ppc pixels a beat; the Verilog at
-    ppc 1 equals the scene's default top."""
+    """Every block up to TDI at the plan's ppc (the scene's [run.rtl].pixels_per_clock or
+    the ``ppc`` argument), the median after TDI's 8 stages at 1 (8 times fewer pixels a
+    second), a width converter before it; at ppc 1 the steps' parameters are those of
+    before (only tdi states its ppc); the top's streams and taps carry each stage's ppc
+    pixels a beat; the Verilog at ppc 1 equals the scene's default top."""
     sc = _small()
     p1 = pl.plan(sc)
     assert p1.ppc == 1 and [s.params.get("ppc") for s in p1.steps] == [None] * 3 + [1, None]
@@ -99,43 +100,64 @@ def test_plan_and_top_at_every_ppc():
     assert pl.plan(_small(run={"rtl": {"pixels_per_clock": 4}})).ppc == 4
     for ppc in (2, 4, 8):
         p = pl.plan(sc, ppc=ppc)
-        assert p.ppc == ppc and all(s.params["ppc"] == ppc for s in p.steps)
+        assert p.ppc == ppc and [s.params.get("ppc") for s in p.steps] == [ppc] * 4 + [None]
         assert [s.block for s in p.steps] == [s.block for s in p1.steps]
+        assert pl.out_ppc(p) == 1 and pl.chain_text(p) == (
+            f"cds -> nuc -> hdr -> tdi ({ppc} pixels per clock) -> {ppc}:1 width converter "
+            f"-> median3 (1 pixel per clock)")
         ax = pl.top(p, taps=True)
         core = ax.core
         ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
         # 2 lanes x (signal, reset) per pixel in; one median pixel out
-        assert (ax._in[1], ax._out[1]) == (4 * ppc, ppc)
-        assert [c for _, _, c in core.tap_shapes] == [ppc] * 7      # one pixel each
+        assert (ax._in[1], ax._out[1]) == (4 * ppc, 1)
+        assert [c for _, _, c in core.tap_shapes] == [ppc] * 6 + [1]  # one pixel each
+        assert core.stage_ppc == [ppc] * 4 + [1]
         assert all(cs[0].i_stream.payload.data.shape().length % ppc == 0
-                   for cs in core.cores)
+                   for cs in core.cores[:-1])
     assert pl.verilog(pl.plan(sc, ppc=1)) == pl.verilog(p1)
 
 
 def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
     """scenes/orbit_chain.toml: Qu et al. 2010's orbit design point (1280 columns x 96
-    stages) with nuc -> tdi -> median3, every block at its [run.rtl] 8 pixels per clock,
+    stages) with nuc -> tdi -> median3, nuc and tdi at its [run.rtl] 8 pixels per clock,
+    median3 at 1 after a width converter,
     NUC coefficients through the ECC calibration reader, TDI saturated at 16 bits."""
     sc = load_scene(ROOT / "scenes" / "orbit_chain.toml")
     assert sc.run.rtl.pixels_per_clock == 8 and sc.pipeline.nuc.ecc is True
     p = pl.plan(sc)
     assert (p.ppc, p.width, p.rows, p.lanes) == (8, 1280, 96, 1)
-    assert [(s.block, s.params["ppc"]) for s in p.steps] == [("nuc", 8), ("tdi", 8),
-                                                            ("median3", 8)]
+    assert [(s.block, s.params.get("ppc", 1)) for s in p.steps] == [
+        ("nuc", 8), ("tdi", 8), ("median3", 1)]               # 96 stages: 96 x fewer pixels
     by = {s.block: s for s in p.steps}
     assert by["tdi"].params["out_bits"] == 16 and by["median3"].params["pixel_bits"] == 16
     assert by["tdi"].params["stages"] == 96 and by["median3"].group == sc.run.lines
 
 
-@pytest.mark.parametrize("ppc, width, msg", [
-    (3, 24, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
-    (8, 20, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
-    (8, 16, r"^pipeline: tdi -> median3: width \(ppc = 8\) = 16 is out of range; valid: 24"),
+@pytest.mark.parametrize("ppc, width, stages, msg", [
+    (3, 24, None, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
+    (8, 20, None, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
+    (8, 16, 1, r"^pipeline: tdi -> median3: width \(ppc = 8\) = 16 is out of range; "
+               r"valid: 24"),
 ])
-def test_impossible_ppc_gives_one_line_errors(ppc, width, msg):
+def test_impossible_ppc_gives_one_line_errors(ppc, width, stages, msg):
     with pytest.raises(TdicamError, match=msg) as exc:
-        pl.plan(_small(sensor={"columns": width}), ppc=ppc)
+        pl.plan(_small(sensor={"columns": width}), ppc=ppc, stages=stages)
     assert "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("stages, ppc, median_ppc", [(1, 8, 8), (2, 8, 4), (4, 8, 2),
+                                                     (8, 8, 1), (3, 4, 2), (96, 2, 1)])
+def test_a_block_after_tdi_gets_the_pixels_per_clock_of_its_rate(stages, ppc, median_ppc):
+    """The median after TDI of ``stages`` gets ``stages`` times fewer pixels a second: it is
+    built at ``ppc / stages`` rounded up to 1, 2, 4 or 8 (never fewer than carry the
+    input's full rate), a width converter before it when that is fewer than ``ppc``."""
+    p = pl.plan(_small(), ppc=ppc, stages=stages)
+    assert [pl.step_ppc(s) for s in p.steps] == [ppc] * 4 + [median_ppc]
+    assert median_ppc * stages >= ppc and (median_ppc == 1 or median_ppc * stages < 2 * ppc)
+    assert ("width converter" in pl.chain_text(p)) == (median_ppc < ppc)
+    ax = pl.top(p)
+    ax._MustUse__silence = ax.core._MustUse__silence = True
+    assert ax._out[1] == median_ppc and ax.core.stage_ppc[-1] == median_ppc
 
 
 def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
@@ -145,9 +167,11 @@ def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
     out = tmp_path / "camera.v"
     assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "8", "-o",
                  str(out)]) == 0
-    assert "8 pixel(s) per clock" in capsys.readouterr().err
-    head = out.read_text().splitlines()[2:7]                  # every block at ppc 8
-    assert len(head) == 5 and all(h.endswith(", ppc=8") for h in head), head
+    assert ("tdi (8 pixels per clock) -> 8:1 width converter -> median3 (1 pixel per "
+            "clock)") in capsys.readouterr().err
+    head = out.read_text().splitlines()[2:7]          # every block up to TDI at ppc 8
+    assert len(head) == 5 and all(h.endswith(", ppc=8") for h in head[:4]), head
+    assert "ppc=" not in head[4], head
     assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "3"]) == 2
     assert "--ppc = 3 is not valid; valid: 1, 2, 4, 8" in capsys.readouterr().err
     sc = _small(sensor={"columns": 20})

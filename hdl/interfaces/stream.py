@@ -8,12 +8,13 @@ of each row). A transfer happens on a clock edge where ``valid & ready``; a prod
 :mod:`tdicam.hdl.interfaces.axis`.
 """
 
-from amaranth.hdl import Array, Module, Mux, Shape, Signal, Value, unsigned
+from amaranth.hdl import Array, Cat, Module, Mux, Shape, Signal, Value, unsigned
 from amaranth.lib import data, stream, wiring
+from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 __all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister",
-           "AdvanceBuffer"]
+           "AdvanceBuffer", "Narrower"]
 
 
 def pixel_layout(data_shape):
@@ -157,4 +158,131 @@ class AdvanceBuffer(wiring.Component):
         with m.If(pop):
             m.d.sync += rp.eq(step(rp))
         m.d.comb += [o.valid.eq(self.level != 0), o.payload.eq(Array(slots)[rp])]
+        return m
+
+
+def _pipe_memory(m, tag, *, bram, depth, bits, ra, wa, wd, we, en):
+    """A ``depth`` x ``bits`` memory whose read is two stages moving on ``en`` (address
+    edge, then a register): ``"generic"`` an ``amaranth.lib.memory.Memory`` read port and a
+    fabric register after it, ``"ecp5"`` DP16KD primitives with their own output register
+    (:func:`tdicam.hdl.vendor.ecp5_bram.pipe_bank`; a block RAM's read without it leaves
+    the block 4.1-4.3 ns after the clock). Returns the read word."""
+    if bram == "ecp5":
+        from tdicam.hdl.vendor import ecp5_bram
+        return ecp5_bram.pipe_bank(m, tag, depth=depth, bits=bits, ra=ra, wa=wa, wd=wd,
+                                   we=we, en=en)
+    m.submodules[tag] = mem = Memory(shape=unsigned(bits), depth=depth, init=[])
+    rd, wr = mem.read_port(), mem.write_port()
+    q = Signal(bits, name=f"{tag}_q")
+    m.d.comb += [rd.addr.eq(ra), rd.en.eq(en), wr.addr.eq(wa), wr.data.eq(wd), wr.en.eq(we)]
+    with m.If(en):
+        m.d.sync += q.eq(rd.data)
+    return q
+
+
+class Narrower(wiring.Component):
+    """A width converter to fewer elements a beat, with a FIFO before it: a stream of
+    ``count_in`` elements a beat in, of ``count_out`` a beat out (fewer pixels per clock).
+
+    Each input beat leaves as ``ratio = count_in // count_out`` output beats, in element
+    order: output beat ``k`` carries input elements ``k * count_out`` to
+    ``(k + 1) * count_out - 1`` (the leftmost pixels first, as pixel-major beats put them).
+    ``first`` is on the first of them only, ``last`` on the last only: rows, frames and
+    pixels come out as they went in. The input beats wait in a FIFO of :attr:`depth` beats
+    (a block RAM in synthesis) that takes one a clock while it has room, so a burst of up
+    to ``depth`` beats (a line of TDI's output at the chain's pixels per clock) passes
+    without holding the producer while the output drains ``count_out`` elements a clock.
+
+    Backpressure: ``i_stream.ready`` is a register (the FIFO has room); the output beat is
+    a register that holds while ``o_stream.ready`` is low (that ready reaches the FIFO's
+    read: a register slice after the converter keeps a consumer's ready out of it). No
+    beat is lost or duplicated under any ``valid`` or ``ready`` pattern. Throughput:
+    ``count_out`` elements a clock out while the FIFO is not empty and the sink is ready.
+    :attr:`latency` = 4 cycles from an input beat taken into an empty FIFO to its first
+    output beat being valid (the write, the read's address and its register, the output
+    register).
+
+    Parameters
+    ----------
+    bits : int
+        Width of each element.
+    count_in, count_out : int
+        Elements a beat in and out; ``count_out`` divides ``count_in``.
+    depth : int
+        FIFO depth in input beats (at least 2).
+    bram : {"generic", "ecp5"}
+        The FIFO's memory: an ``amaranth.lib.memory.Memory`` (every simulation, ``tdicam
+        verilog``) or, in the ECP5 synthesis top, DP16KD primitives whose output register
+        is the read's second stage (the same cycles).
+
+    Raises
+    ------
+    ValueError
+        ``count_out`` does not divide ``count_in``, ``depth`` < 2, or an unknown ``bram``
+        (one line).
+    """
+
+    #: Cycles from an input beat taken into an empty FIFO to its first output beat being valid.
+    LATENCY = 4
+
+    def __init__(self, bits, count_in, count_out, depth, bram="generic"):
+        if count_out < 1 or count_in % count_out:
+            raise ValueError(f"Narrower: {count_out} elements a beat out do not divide "
+                             f"{count_in} in")
+        if depth < 2:
+            raise ValueError(f"Narrower: FIFO depth {depth} beats: at least 2")
+        if bram not in ("generic", "ecp5"):
+            raise ValueError(f"Narrower: bram = {bram!r}; valid: generic, ecp5")
+        self._bits, self._in, self._out, self._depth = bits, count_in, count_out, depth
+        self._bram = bram
+        super().__init__({"i_stream": In(pixel_signature(channels_shape(bits, count_in))),
+                          "o_stream": Out(pixel_signature(channels_shape(bits, count_out)))})
+
+    bits = property(lambda self: self._bits, doc="Width of each element.")
+    count_in = property(lambda self: self._in, doc="Elements an input beat.")
+    count_out = property(lambda self: self._out, doc="Elements an output beat.")
+    depth = property(lambda self: self._depth, doc="FIFO depth, input beats.")
+    bram = property(lambda self: self._bram, doc="The FIFO's memory description.")
+    ratio = property(lambda self: self._in // self._out, doc="Output beats an input beat.")
+    latency = property(lambda self: self.LATENCY, doc="Cycles from an input beat taken into "
+                                                      "an empty FIFO to its first output "
+                                                      "beat being valid.")
+
+    def elaborate(self, platform):
+        m = Module()
+        i, o = self.i_stream, self.o_stream
+        n, w, depth = self.ratio, self._bits * self._out, self._depth
+        word = Cat(Value.cast(i.payload.data), i.payload.first, i.payload.last)
+        wp, rp = Signal(range(depth)), Signal(range(depth))
+        level = Signal(range(depth + 1))        # written, not yet out of the head
+        avail = Signal(range(depth + 1))        # written, not yet read
+        v1, v2 = Signal(), Signal()             # read stage 1 (address), 2 (head) hold one
+        k = Signal(range(n), name="part")
+        end = k == n - 1
+        load = ~o.valid | o.ready               # the output register takes a part
+        pop = load & v2 & end                   # the head's last part leaves
+        en = ~v2 | pop                          # the read pipeline moves
+        issue = en & (avail != 0)
+        push = i.valid & i.ready
+        m.d.comb += i.ready.eq(level != depth)
+
+        def step(p):
+            return Mux(p == depth - 1, 0, p + 1)
+        m.d.sync += [level.eq(level + push - pop), avail.eq(avail + push - issue)]
+        with m.If(push):
+            m.d.sync += wp.eq(step(wp))
+        with m.If(issue):
+            m.d.sync += rp.eq(step(rp))
+        with m.If(en):
+            m.d.sync += [v1.eq(issue), v2.eq(v1)]
+        head = _pipe_memory(m, "fifo", bram=self._bram, depth=depth, bits=len(word), ra=rp,
+                            wa=wp, wd=word, we=push, en=en)
+        with m.If(load):
+            m.d.sync += [o.valid.eq(v2),
+                         Value.cast(o.payload.data).eq(
+                             Array(head[j * w:(j + 1) * w] for j in range(n))[k]),
+                         o.payload.first.eq(head[-2] & (k == 0)),
+                         o.payload.last.eq(head[-1] & end)]
+            with m.If(v2):
+                m.d.sync += k.eq(Mux(end, 0, k + 1))
         return m

@@ -76,7 +76,7 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
     golden_s = time.perf_counter() - t
     got, info = run_top(p, data, sim, taps=taps, idle=idle, backpressure=backpressure,
                         seed=seed)
-    exp = frames_to_beats(gold[-1][2], ppc=p.ppc)
+    exp = frames_to_beats(gold[-1][2], ppc=pl.out_ppc(p))
     out = got["out"]
     n = min(len(out), len(exp))
     bad = int(beats_differ(out, exp).sum()) + abs(len(out) - len(exp))

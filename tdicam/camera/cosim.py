@@ -271,7 +271,7 @@ def _hexcol(raw, digits):
 
 
 def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
-              keep=False, front=None):
+              keep=False, front=None, ecp5=False):
     """Build (cached) and run the top on the scene data in fast mode.
 
     Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
@@ -281,6 +281,9 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     ``input_beats``.
 
     ``wave = (from, to)`` writes ``wave.fst`` of those cycles (Icarus) and stops there.
+    ``ecp5``: the chain's ECP5 synthesis top (what ``tdicam synth pipeline`` places: DP16KD
+    and MULT18X18D instances) with the primitives' simulation models
+    (:mod:`tdicam.cosim.dp16kd`, :mod:`tdicam.cosim.mult18x18d`).
 
     A top whose input is the sensor's lanes (a ``[sensor.lvds]`` scene) runs from the lanes
     (:func:`_run_lanes`; ``front``: its ``lanes`` and ``word_ns``); ``idle`` and
@@ -294,7 +297,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     if pl.sourced(p) and wave is not None:
         raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
                           "waveform re-run of a lane co-simulation")
-    ax = pl.top(p, data, taps=taps, board=True)
+    ax = pl.top(p, data, taps=taps, board=True, ecp5=ecp5)
     if pl.sourced(p):
         return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
@@ -304,17 +307,20 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     standalone = sim == "verilator" and wave is None
     tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone)
     key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
-           "taps": taps, "wave": wave is not None, "standalone": standalone}
+           "taps": taps, "wave": wave is not None, "standalone": standalone} | \
+        ({"ecp5": True} if ecp5 else {})
     elab = time.perf_counter() - t0
-    bdir, build_s = cosim.build_sources("pipeline", key, sim,
-                                        {"pipeline.v": dut, "tb.v": tb},
-                                        standalone=standalone)
+    sources = {"pipeline.v": dut, "tb.v": tb}
+    if ecp5:
+        from tdicam.cosim import dp16kd, mult18x18d
+        sources.update({dp16kd.FILE: dp16kd.MODEL, mult18x18d.FILE: mult18x18d.MODEL})
+    bdir, build_s = cosim.build_sources("pipeline", key, sim, sources, standalone=standalone)
     stim = pl.stimulus(p, data, ax)
     _, _, ctrl = cosim.stream_ports(ax)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     bits, count, padded, _ = ax._in
     n_in = len(stim)
-    n_out = int(np.prod(pl.output_shape(p))) // p.ppc       # output beats
+    n_out = int(np.prod(pl.output_shape(p))) // pl.out_ppc(p)       # output beats
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
         else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -450,7 +456,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
     np.save(rundir / "raw.npy", raw_table(case.link, case.cycles).astype(np.int32))
-    n_out = int(np.prod(pl.output_shape(p))) // p.ppc
+    n_out = int(np.prod(pl.output_shape(p))) // pl.out_ppc(p)
     job = {"word_ps": int(word_ns * 1000), "proc_ps": int(PROC_NS * 1000),
            "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
            "n_out": n_out, "drain": 2000,
@@ -534,7 +540,7 @@ def _first_diff(got, exp):
 
 
 def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
-               idle=0.0, backpressure=0.0, front=None):
+               idle=0.0, backpressure=0.0, front=None, ecp5=False):
     """Run ``data`` through the generated top and compare every tap with the golden chain.
 
     Parameters
@@ -546,6 +552,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     wave_dir : path or None
         Where the waveform of a mismatch is written (``<wave_dir>/pipeline_mismatch.fst``, FST: GTKWave, Surfer);
         None: no waveform.
+    ecp5 : bool
+        Run the chain's ECP5 synthesis top (:func:`run_top`).
 
     Returns
     -------
@@ -553,7 +561,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         ``pixels_compared`` (output pixels), ``mismatches`` (output beats that differ, plus
         missing or extra ones), ``input_pixels``, ``build_seconds``, ``run_seconds``,
         ``input_pixels_per_s`` (run time only), ``cycles``, ``taps`` (per stage: beats and
-        mismatches; beats of ``p.ppc`` pixels), ``status_outputs`` (every status output of
+        mismatches; beats of the stage's pixels per clock), ``status_outputs`` (every status output of
         the top and its parts' models at the end of the run, {port: value}) and, on a
         mismatch, ``first_mismatch`` (block,
         tap, beat, frame, line, column of its first differing pixel,
@@ -567,7 +575,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         if corrupt is not None:
             corrupt(gold)
     got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure,
-                        front=front)
+                        front=front, ecp5=ecp5)
     lane_fault = None
     if "front" in info:
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
@@ -590,8 +598,9 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         rep["lanes"] = lane_fault
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
-    ppc = p.ppc
+    ppcs = {s.block: pl.step_ppc(s) for s in p.steps}
     for k, (name, block, arr) in enumerate(gold):
+        ppc = ppcs[block]
         exp = frames_to_beats(arr, ppc=ppc)
         g, cyc = got[k]
         d = _first_diff(g, exp)
@@ -603,7 +612,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             first = _first_pixel(arr.shape, d, g, exp, ppc)
             cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
             first.update({"block": block, "tap": name, "cycle": cycle})
-    exp_out = frames_to_beats(gold[-1][2], ppc=ppc)
+    exp_out = frames_to_beats(gold[-1][2], ppc=pl.out_ppc(p))
     out = got["out"]
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))

@@ -26,7 +26,8 @@ from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "PipelineBlock", "check_options",
-           "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced"]
+           "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced", "rate_ppc", "step_ppc",
+           "out_ppc", "chain_text"]
 
 
 # --------------------------------------------------------------------------------------
@@ -80,7 +81,8 @@ def _use(name):
 # --------------------------------------------------------------------------------------
 
 
-#: Pixels per clock a pipeline top can be built at (every block of the chain at the same).
+#: Pixels per clock a pipeline top can be built at (every block up to TDI at the same; after
+#: it at :func:`rate_ppc`).
 PPC_CHOICES = (1, 2, 4, 8)
 
 
@@ -93,10 +95,14 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
          device="ecp5-85f", ppc=None, phy=None):
     """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
-    ``ppc``: pixels per clock of every block (1, 2, 4, 8; default the scene's
-    ``[run.rtl].pixels_per_clock``, 1 without it), set as each block's ``ppc`` parameter
-    (at 1 only where the block's own step states it: the ppc-1 parameters, Verilog and
-    golden vectors stay those of before); ``width`` must be a multiple of it.
+    ``ppc``: pixels per clock of the chain's input and of every block before a line-making
+    one (1, 2, 4, 8; default the scene's ``[run.rtl].pixels_per_clock``, 1 without it),
+    set as each block's ``ppc`` parameter (at 1 only where the block's own step states it:
+    the ppc-1 parameters, Verilog and golden vectors stay those of before); ``width`` must
+    be a multiple of it. A block after TDI of ``m`` stages gets ``m`` times fewer pixels a
+    second and is built at :func:`rate_ppc` (``ppc / m`` rounded up to a choice: 1 for the
+    bundled chains at 8), a width converter with a one-row FIFO before it
+    (:func:`tdicam.hdl.chain_top.narrow`).
 
     ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
     ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
@@ -138,14 +144,15 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                               f"the chain's source, placed by the scene")
     merge = any(u.merge for u in uses)
     ctx = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
-    steps, prev, spilled = [], "input", False
+    steps, prev, spilled, slower = [], "input", False, 1
     for name, u in zip(names, uses):
         if u.per_frame and ctx.after_lines:
             raise TdicamError(f"pipeline: {name} acts on single exposures and cannot follow "
                               f"{prev}, which sums them into lines")
+        ctx.ppc = rate_ppc(ppc, slower)
         try:
             ctx.block = name
-            step, out_bits = _at_ppc(*u.step(ctx), ppc)
+            step, out_bits = _at_ppc(*u.step(ctx), ctx.ppc)
             registry.get(name).resolve(step.params)
             go, why = _spills(u, step, scene, spill, device)
             if go and u.spill is None:
@@ -156,13 +163,14 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
             if go:
                 spilled = True
                 ctx.block = name = u.spill
-                step, out_bits = _at_ppc(*_use(name).step(ctx), ppc)
+                step, out_bits = _at_ppc(*_use(name).step(ctx), ctx.ppc)
                 registry.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
         ctx.bits = out_bits
         ctx.after_lines = ctx.after_lines or u.lines
+        slower *= m if u.lines else 1
         prev = name
     if spill is True and not spilled:
         raise TdicamError(f"pipeline: a DDR spill was asked but no block of "
@@ -203,6 +211,44 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
                 rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                 source=str(scene.source), ppc=ppc,
                 reset_frames=bool(first and first.reset_frames))
+
+
+def rate_ppc(ppc, slower):
+    """Pixels per clock of a block whose stream is ``slower`` times slower than the chain's
+    input at ``ppc`` (after TDI of ``m`` stages: ``m``): the fewest of :data:`PPC_CHOICES`
+    that carry its pixels at the input's full rate, ``ppc / slower`` rounded up (the
+    orbit chain at 8, after 96 stages: 1; Ning et al. 2019's at 8, after 8 stages: 1)."""
+    return min(c for c in PPC_CHOICES if c * slower >= ppc)
+
+
+def step_ppc(step):
+    """Pixels a beat of a plan step's block (its ``ppc`` parameter, 1 without one)."""
+    return int(step.params.get("ppc", 1))
+
+
+def out_ppc(p):
+    """Pixels a beat of plan ``p``'s output stream (its last block's)."""
+    return step_ppc(p.steps[-1]) if p.steps else p.ppc
+
+
+def chain_text(p):
+    """The blocks of plan ``p`` in order with their pixels per clock, and the width
+    converters between them: ``"nuc -> tdi -> median3 at 8 pixels per clock"``, or
+    ``"nuc -> tdi (8 pixels per clock) -> 8:1 width converter -> median3 (1 pixel per
+    clock)"``."""
+    def at(n):
+        return f"{n} pixel{'s' if n > 1 else ''} per clock"
+    ppcs = [step_ppc(s) for s in p.steps]
+    if len(set(ppcs + [p.ppc])) <= 1:
+        return f"{' -> '.join(s.block for s in p.steps)} at {at(p.ppc)}"
+    parts, cur = [], p.ppc
+    for s, n in zip(p.steps, ppcs):
+        if n < cur:
+            parts[-1] += f" ({at(cur)})"
+            parts.append(f"{cur // n}:1 width converter")
+        parts.append(s.block)
+        cur = n
+    return " -> ".join(parts) + f" ({at(cur)})"
 
 
 def _at_ppc(step, out_bits, ppc):
@@ -262,7 +308,8 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False):
     stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:
         core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
-                        taps=taps, ppc=p.ppc)
+                        taps=taps, ppc=p.ppc, width=p.width,
+                        bram="ecp5" if ecp5 else "generic")
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
     if board and core.has_devices():
@@ -335,7 +382,8 @@ def stimulus(p, data, axis_top):
 
 
 def output_shape(p):
-    """(frames, rows, width) of the chain's output (pixels; ``p.ppc`` of them a beat)."""
+    """(frames, rows, width) of the chain's output (pixels; :func:`out_ppc` of them a
+    beat)."""
     frames, rows = p.frames, p.rows
     for s in p.steps:
         if _use(s.block).lines:

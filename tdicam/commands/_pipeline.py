@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.blocks.steps import SceneData
-from tdicam.camera.design import (ECP5_85F, PipelineBlock, check_options, plan, top,
+from tdicam.camera.design import (ECP5_85F, PipelineBlock, chain_text, check_options, plan, top,
                                   verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
@@ -81,10 +81,8 @@ def verilog_command(extra, output, *, show_help=False):
     text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps))
     if output is not None:
         write_file(output, text)
-        print(f"wrote {output}: module pipeline, {' -> '.join(s.block for s in p.steps)}, "
-              f"{p.lanes} channel(s), {p.width} x {p.rows} frames, {p.ppc} pixel(s) per "
-              f"clock, latency {ax_lat}",
-              file=sys.stderr)
+        print(f"wrote {output}: module pipeline, {chain_text(p)}, {p.lanes} channel(s), "
+              f"{p.width} x {p.rows} frames, latency {ax_lat}", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0
@@ -111,8 +109,8 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
     if as_json:
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
         return 0
-    print(f"pipeline {' -> '.join(s.block for s in p.steps)} ({p.width} x {p.rows}, "
-          f"{p.lanes} channel(s), ppc {p.ppc}): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
+    print(f"pipeline {chain_text(p)} ({p.width} x {p.rows}, "
+          f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
           f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
           f"{res.xilinx}")

@@ -330,7 +330,11 @@ module {TB_TOP}{"(input clk)" if standalone else ""};
   reg [3:0] rst_cnt = 0;
   reg rst_served = 1'b0, held = 1'b0, tracing = 1'b0;
   integer fd_t;
-  wire [8*SB-1:0] cur_rec = mem[in_idx % DEPTH];
+  // past the last beat the last beat's record stays on the wires: its run-time port values
+  // (ctrl) hold for the frames still in the chain (a block sampling them at a frame start
+  // after the stimulus ended saw the memory's next, never-written word)
+  wire [31:0] rec_idx = (in_idx < n_in || n_in == 0) ? in_idx : n_in - 1;
+  wire [8*SB-1:0] cur_rec = mem[rec_idx % DEPTH];
   wire [SW-1:0] cur = cur_rec[SW-1:0];
 
   // chunk `chunk` of the stimulus (stim_NNNNNN.bin) into mem; a bad file ends the run

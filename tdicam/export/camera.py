@@ -62,7 +62,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
     top = pl.top(p, data, board=True)      # with the external parts' models, if any
     stim = pl.stimulus(p, data, top)
-    exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=p.ppc)
+    exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=pl.out_ppc(p))
     name = Path(scene_path).name
     params = {"scene": name, "stages": p.rows, "lines": p.lines, "width": p.width,
               "memory": memory, "blocks": " -> ".join(s.block for s in p.steps)}
@@ -73,7 +73,8 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
             ("memory", memory, "TDI partial sums: chip, ddr, or auto by the device")]
     if p.ppc != 1:
         params["ppc"] = p.ppc
-        rows.append(("ppc", p.ppc, "pixels per clock of every block"))
+        rows.append(("ppc", p.ppc, "pixels per clock of the input (of each block: its "
+                                   "ppc parameter below)"))
     rows += [(f"{k + 1}. {s.block}", ", ".join(f"{a}={v}" for a, v in s.params.items()),
               "registry parameters" + (f"; run-time ports {s.ports}" if s.ports else ""))
              for k, s in enumerate(p.steps)]

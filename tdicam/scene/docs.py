@@ -244,8 +244,10 @@ KEYS = {
                        type="list of 4 integers", default="whole frame",
                        range="inside columns x lines"),
         "simulator": KeyDoc("", "the HDL simulator"),
-        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top "
-                                               "(every block at the same; also the default "
+        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top's "
+                                               "input and of every block up to TDI (a block "
+                                               "after TDI's m stages at ppc / m, at least 1, "
+                                               "behind a width converter; also the default "
                                                "--ppc of tdicam verilog|synth|export "
                                                "pipeline)",
                                    range="1, 2, 4, 8; dividing the crop width"),

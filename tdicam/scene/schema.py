@@ -141,7 +141,9 @@ The line period either gives must lie in 1e-8..100 s.
     ``crop`` [whole frame]: ``[x0, y0, width, height]`` of the output to simulate
     cycle-accurately, inside ``columns x lines``. ``simulator`` ["verilator"]: ``icarus``
     or ``verilator``. ``pixels_per_clock`` [1]: 1, 2, 4 or 8 pixels per beat of the
-    whole-chain top (every block at the same), dividing the crop's width (without a crop,
+    whole-chain top's input and of every block up to TDI (a block after TDI's ``m`` stages
+    gets ``m`` times fewer pixels a second and runs at ``ppc / m``, at least 1, behind a
+    width converter), dividing the crop's width (without a crop,
     ``[sensor].columns``); also the default ``--ppc`` of ``tdicam verilog|synth|export
     pipeline``. ``lane_dies`` [none]: ``[lane, frame]``, with ``[sensor.lvds]``: in the
     co-simulation the sensor's lane ``lane`` dies in the middle of ``frame`` (the frames the
