@@ -50,8 +50,10 @@ def test_run_cosimulates_the_chain_on_the_crop(report):
 
 def test_run_at_4_pixels_per_clock_matches_in_fewer_cycles(report, tmp_path):
     """``[run.rtl] pixels_per_clock = 4``: the same crop through the top at 4 pixels per
-    clock (Icarus), bit-exact on every tap, in fewer clock cycles than at ppc 1 (a quarter
-    of the input beats; the fixed reset and drain cycles stay)."""
+    clock (Icarus; the median after TDI's 4 stages at 1 behind a width converter),
+    bit-exact on every tap, in fewer clock cycles than at ppc 1 (a quarter of the input
+    beats; the fixed reset and drain cycles stay, and the last output line leaves at one
+    pixel a clock)."""
     rep1, _, simulator = report
     if simulator != "icarus":
         pytest.skip("compared with the Icarus run at ppc 1")
@@ -62,7 +64,7 @@ def test_run_at_4_pixels_per_clock_matches_in_fewer_cycles(report, tmp_path):
     assert got["pipeline"]["pixels_compared"] == CROP[2] * CROP[3]
     beats1 = got["pipeline"]["input_pixels"]                 # input beats at ppc 1
     c1 = {b["block"]: b for b in rep1["rtl"]["blocks"]}["pipeline"]["cycles"]
-    assert got["pipeline"]["cycles"] <= c1 - beats1 * 3 // 4 * 0.8, (got["pipeline"], c1)
+    assert got["pipeline"]["cycles"] <= c1 - beats1 * 3 // 4 * 0.6, (got["pipeline"], c1)
 
 
 def test_corrupted_golden_stage_is_named(report, tmp_path):

@@ -268,7 +268,11 @@ class Narrower(wiring.Component):
 
         def step(p):
             return Mux(p == depth - 1, 0, p + 1)
-        m.d.sync += [level.eq(level + push - pop), avail.eq(avail + push - issue)]
+        # every outcome computed from the registers alone: push, pop and issue (late, from
+        # the consumer's ready and the producer's valid) only select
+        def count(c, up, down):
+            return Mux(up, Mux(down, c, c + 1), Mux(down, c - 1, c))
+        m.d.sync += [level.eq(count(level, push, pop)), avail.eq(count(avail, push, issue))]
         with m.If(push):
             m.d.sync += wp.eq(step(wp))
         with m.If(issue):
