@@ -818,15 +818,12 @@ def _add_tree(pipe, vals, width, name, plus=0):
     return pipe.reg(ab + e2, shape=unsigned(width), name=name)
 
 
-def _stage_b_fns(bits, gain, shift, ppc=1):
-    """5x5 box sum of the gradient, mean, mask and final add (enhance mode, stage B).
-
-    At ``ppc`` 1 the arithmetic after the box sum is one stage per operation (9 stages in
-    all, a multiplier's carry chain in the same stage as its multiplier); at ``ppc`` >= 2
-    (:func:`_wide_b_window`) every multiplier sits between two registers."""
-    full = (1 << bits) - 1
+def _stage_b_fns(bits, gain, shift):
+    """5x5 box sum of the gradient, mean, mask and final add (enhance mode, stage B), at
+    every ``ppc`` with every multiplier between two registers (:func:`_wide_b_window`; at
+    ppc 1 the multiplies once shared a stage with their carry chains: the Ning et al. 2019
+    chain's slowest path after its median went to 1 pixel per clock)."""
     gb = bits + 3
-    k, s = reciprocal_25(200 * full + 12)
     play = _pay_layout(bits)
     clay = data.StructLayout({"v": gb + 3, "pay": play})
 
@@ -837,27 +834,7 @@ def _stage_b_fns(bits, gain, shift, ppc=1):
         pipe.m.d.comb += [col.v.eq(v), col.pay.eq(p)]
         return col, 3
 
-    def win_fn(pipe, cols):
-        c = [data.View(clay, x) for x in cols]
-        box = _add_tree(pipe, [x.v for x in c], gb + 5, "box")                  # 3 stages
-        pay = pipe.delay(c[2].pay, 3, name="wpay")
-        nb = box.shape().width + 1
-        t = pipe.reg(box + 12, shape=unsigned(nb), name="box12")               # 4
-        pay = pipe.reg(pay, shape=play)
-        gmean = pipe.reg((t * k) >> s, shape=unsigned(gb), name="gmean")      # 5
-        pay = pipe.reg(pay, shape=play)
-        pw = 2 * bits + 7
-        prod = pipe.reg(pay.lap * gmean, shape=signed(pw), name="prod")       # 6
-        med = pipe.reg(pay.med)
-        sw = max(pw + 9, shift + 2)
-        rnd = (1 << (shift - 1)) if shift else 0
-        sc = pipe.reg(prod * gain + rnd, shape=signed(sw), name="scaled")      # 7
-        med = pipe.reg(med)
-        tot = pipe.reg(med + (sc >> shift), shape=signed(sw + 1), name="tot")  # 8
-        out = pipe.reg(Mux(tot < 0, 0, Mux(tot > full, full, tot)), shape=unsigned(bits),
-                       name="clamp")                                            # 9
-        return out, 9
-    return col_fn, (_wide_b_window(bits, gain, shift, clay) if ppc > 1 else win_fn)
+    return col_fn, _wide_b_window(bits, gain, shift, clay)
 
 
 #: Register stages of stage B's window function at ppc >= 2 (:func:`_wide_b_window`).
@@ -865,9 +842,9 @@ WIDE_B_STAGES = 3 + 2 * MUL_ADD_STAGES + 1
 
 
 def _wide_b_window(bits, gain, shift, clay):
-    """Stage B's window function with every multiplier between two registers (ppc >= 2,
-    where a chain at 8 pixels per clock meets 150 MHz only so), :data:`WIDE_B_STAGES` = 10
-    stages; ``clay`` the layout of the column values.
+    """Stage B's window function with every multiplier between two registers (a chain
+    meets 150 MHz only so), :data:`WIDE_B_STAGES` = 10 stages; ``clay`` the layout of the
+    column values.
 
     The same integers as the golden model, regrouped exactly: box sum + 12 (3 stages, the
     12 added in the first); ``gmean = (box12 * k) >> s`` and, beside it, ``lapg = lap *
@@ -1045,7 +1022,7 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
-        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 26 at ``ppc`` 1, 31 at
+        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 27 at ``ppc`` 1, 31 at
         ``ppc`` 2, 4, 8 (every multiplier between two registers; at ppc >= 2 each
         neighbourhood has 2 more: a register after its window's column select and its
         output buffer)."""
@@ -1053,7 +1030,7 @@ class Median3(wiring.Component):
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + (9 if self._ppc == 1 else WIDE_B_STAGES + wide)
+        return plain + 3 + 3 + WIDE_B_STAGES + wide
 
     @property
     def line_buffer_bits(self):
@@ -1079,7 +1056,7 @@ class Median3(wiring.Component):
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
                 name="a", ppc=P, bram=self._bram)
-            col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift, P)
+            col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,

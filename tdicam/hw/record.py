@@ -238,9 +238,10 @@ def _newest(rows):
 #: newest recorded ``pipeline`` row of that scene and ppc (:func:`readme_table`).
 README_CHAINS = (
     ("orbit_chain.toml", 8, "orbit chain (Qu et al. 2010 design point): nuc -> tdi -> "
-                            "median3, 1280 columns x 96 stages"),
+                            "median3 (at 1 after an 8:1 width converter), 1280 columns x 96 "
+                            "stages"),
     ("ning2019_chain.toml", 8, "Ning et al. 2019 chain: cds -> nuc -> hdr -> tdi -> "
-                               "median3, 256 columns"),
+                               "median3 (at 1 after an 8:1 width converter), 256 columns"),
     ("ning2019_gmax0504_system_lanes.toml", 1, "Ning et al. 2019 camera from the sensor's "
      "lanes: lvds -> cds_ddr -> nuc (NAND) -> hdr -> tdi -> median3, 256 columns"),
 )
