@@ -205,17 +205,8 @@ def narrow(m, link, ppc_in, ppc_out, depth, name, bram="generic"):
                           f"cannot change its pixels per clock")
     n = len(link.elems) // ppc_in
     m.submodules[name] = nar = Narrower(link.bits, len(link.elems), n * ppc_out, depth, bram)
-    word = Cat(*(Cat(e, Const(0, link.bits - len(Value.cast(e)))) for e in link.elems))
-    i, o = nar.i_stream, nar.o_stream
-    ready = Signal(name=f"{name}_ready")
-    m.d.comb += [i.valid.eq(link.valid), link.ready.eq(i.ready), i.payload.first.eq(link.first),
-                 i.payload.last.eq(link.last), Value.cast(i.payload.data).eq(word),
-                 o.ready.eq(ready)]
-    d = Value.cast(o.payload.data)
-    return register_slice(m, Link(o.valid, ready, o.payload.first, o.payload.last,
-                                  [d[k * link.bits:(k + 1) * link.bits]
-                                   for k in range(n * ppc_out)], link.bits),
-                          f"{name}_slice", ppc_out)
+    link.feed(m, nar.i_stream, who=name)
+    return register_slice(m, Link.of_output(nar.o_stream), f"{name}_slice", ppc_out)
 
 
 class CalibRom(wiring.Component):
@@ -604,7 +595,7 @@ class Pipeline(wiring.Component):
                     f"takes at most as many as the one before" if sp > ppc else
                     f"pipeline: {st.name} takes {sp} pixel(s) a beat after {ppc}: the row "
                     f"width (a multiple of {ppc}) is needed for the converter's FIFO")
-            self._narrows.append(sp < ppc and not st.source)
+            self._narrows.append(sp < ppc)
             ppc = sp
             cores.append(cs)
             self._ppcs.append(sp)

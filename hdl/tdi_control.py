@@ -219,9 +219,9 @@ class TdiFrameControl(wiring.Component):
         col_zero = Signal(init=1)  # col == 0
         line_open = Signal()      # r_out & out_en & (col != 0): the current frame's output
                                   # line has started (meaningful in _RUN)
-        # the current row: its age (m-1-r forward, r reverse), whether it is the output row,
-        # uses the stored sum, is the frame's last row; whether this frame outputs
-        age = Signal(mb)
+        # the current row (of age m-1-r forward, r reverse; the next row's age is age_next,
+        # below): whether it is the output row, uses the stored sum, is the frame's last row;
+        # whether this frame outputs
         r_out, r_use, r_last, out_en = Signal(), Signal(), Signal(), Signal()
         base = Signal(aw)         # first address of the line row 0 uses this frame
         bnext = Signal(aw)        # base's successor (registered: base changes >= 2 cycles apart)
@@ -321,7 +321,6 @@ class TdiFrameControl(wiring.Component):
             with m.If(start):
                 m.d.sync += [m_reg.eq(a_m), m1_reg.eq(a_m1), dir_reg.eq(a_dir), f.eq(s_f),
                              base.eq(base_next), lim_s.eq(Mux(a_lines.any(), lim_new - S, 0)),
-                             age.eq(Mux(a_dir, 0, a_m1)),
                              age_next.eq(Mux(a_dir, 1, a_m1 - 1)),
                              r_out.eq(s_out), r_use.eq(s_use), r_last.eq(m1_zero),
                              out_en.eq(s_out_en), col.eq(1), col_last.eq(WB == 2),
@@ -331,7 +330,7 @@ class TdiFrameControl(wiring.Component):
             with m.Elif(last_col):
                 m.d.sync += [col.eq(0), col_last.eq(0), col_zero.eq(1), line_open.eq(0),
                              row_addr.eq(row_next),
-                             cur.eq(row_next), age.eq(age_next),
+                             cur.eq(row_next),
                              age_next.eq(Mux(dir_reg, age_next + 1, age_next - 1)),
                              r_out.eq(age_next == m1_reg),
                              r_use.eq(age_next.any() & (age_next <= f)),
