@@ -70,13 +70,13 @@ def test_long_frames_1280_wide():
 @pytest.mark.parametrize("ppc", [2, 4, 8])
 def test_full_rate_ppc(sim, ppc):
     """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock apart from the
-    frame-start divisions (two cycles longer than at ppc 1)."""
+    frame-start divisions (three cycles longer than at ppc 1)."""
     res = check_case("hdr", f"scene_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
                      backpressure=0.0, seed=3)
     arrays, params = golden.load("hdr", f"scene_12b_p{ppc}")
     n = arrays["hg"].size // ppc
     starts = len(arrays["hg"]) - 1
-    stall = 12 + 4 + 3 + 2       # frame_start_cycles at ppc > 1
+    stall = 12 + 4 + 3 + 3       # frame_start_cycles at ppc > 1
     assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 
 
@@ -97,3 +97,15 @@ def test_widest_rows(sim, ppc):
     stim, exp = stim.select(keep), exp.select(keep)
     mark_resets(stim, exp, [cut // ppc])
     check_beats("hdr", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)
+
+
+@pytest.mark.parametrize("case", ["extremes_12b", "gain_change_multi_p8", "extremes_12b_p8",
+                                  "reset_mid_frame_multi_p8"])
+def test_golden_ecp5_dsp(case, sim):
+    """The ECP5 synthesis top (``dsp="ecp5"``: each lane's multiplier a signed MULT18X18D
+    with its own input registers, the product register in the fabric) with the model of
+    :mod:`tdicam.cosim.mult18x18d`, against the golden vectors with 25 % idle and 25 %
+    backpressure: full-scale HG over zero LG (the most negative junction difference),
+    gain pairs switching frame to frame, a reset mid-frame."""
+    check_case("hdr", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=11,
+               ecp5=True)

@@ -1,6 +1,8 @@
 """High/low-gain HDR merge (Ning et al. 2019 §4.4.2); golden model
 :func:`tdicam.model.hdr.hdr` (its docstring defines the arithmetic and the frame state)."""
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
@@ -10,6 +12,7 @@ from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
+from tdicam.hdl.vendor import ecp5_dsp
 
 __all__ = ["Hdr"]
 
@@ -25,6 +28,15 @@ class Hdr(wiring.Component):
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8 (default 1). The golden model does not
         know it: the output equals :func:`~tdicam.model.hdr.hdr` at every ppc.
+    dsp : str
+        ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
+        synthesis top: each lane's operand registers, the junction difference and the
+        slope, are a MULT18X18D's own input registers, the product register in the fabric,
+        :mod:`tdicam.hdl.vendor.ecp5_dsp`; the same cycles, a simulator needs
+        :mod:`tdicam.cosim.mult18x18d`). Only where the signed difference
+        (``pixel_bits + lgt_frac_bits + 1`` bits) and the slope (with a sign bit) fit the
+        block's 18 bits; otherwise the multiply stays generic (:attr:`dsp_blocks` says
+        which).
 
     Attributes
     ----------
@@ -52,10 +64,12 @@ class Hdr(wiring.Component):
     the count, plus the band pixels before it in the beat, is below ``2**count_bits - 1``
     (the first band pixels in raster order, as the model). At ``ppc`` > 1 the count is
     updated one cycle after the beat and the sums three (the taken pixels masked, their
-    beat sum, the accumulation: one adder per stage, for 150 MHz at ppc 8). Frame start:
-    when a beat with ``first`` is presented and the previous frame had band pixels,
+    beat sum, the accumulation: one adder per stage, for 150 MHz at ppc 8), each a cycle
+    after the band pixels before it in the beat are counted (the band compares and that
+    count in one cycle were the Ning et al. 2019 chain's slowest path at ppc 8). Frame
+    start: when a beat with ``first`` is presented and the previous frame had band pixels,
     ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (ppc 1: ``pixel_bits
-    + lgt_frac_bits + 3``; ppc 2, 4, 8: two more, the sums' extra stages) while two
+    + lgt_frac_bits + 3``; ppc 2, 4, 8: three more, the statistics' extra stages) while two
     restoring dividers (one quotient bit per cycle, ``pixel_bits +
     lgt_frac_bits`` bits) turn the band sums into ``L_T`` and ``H_T``; the beat is then
     accepted with them. Pixels of the previous frame still in the pipeline are unaffected
@@ -66,14 +80,19 @@ class Hdr(wiring.Component):
     Raises
     ------
     TdicamError
-        Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
+        Bad parameters, ``ppc`` not one of 1, 2, 4, 8, ``dsp`` not one of :attr:`DSPS`
+        (one line).
     """
+
+    #: Multiplier descriptions (``dsp=``), as :attr:`tdicam.hdl.nuc.Nuc.DSPS`.
+    DSPS = ("generic", "ecp5")
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,
                  slope_frac_bits=8, lgt_frac_bits=4, anchor="band", count_bits=24,
-                 out_bits=None, ppc=1):
+                 out_bits=None, ppc=1, dsp="generic"):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
+        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._cfg = cfg = hdr_config(
             pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
             slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
@@ -101,6 +120,15 @@ class Hdr(wiring.Component):
     count_bits = property(lambda self: self._cfg.count_bits)
     out_bits = property(lambda self: self._cfg.out_bits)
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+    dsp = property(lambda self: self._dsp, doc="Multiplier description, one of :attr:`DSPS`.")
+
+    @property
+    def dsp_blocks(self):
+        """True when the multipliers are MULT18X18D instances with their input registers
+        (``dsp="ecp5"`` and the operands fit, see ``dsp``)."""
+        c = self._cfg
+        return self._dsp == "ecp5" and max(c.pixel_bits + c.lgt_frac_bits + 1,
+                                           c.slope_bits + 1) <= ecp5_dsp.MAX_BITS
 
     @property
     def latency(self):
@@ -112,16 +140,16 @@ class Hdr(wiring.Component):
     def frame_start_cycles(self):
         """Cycles ``i_stream.ready`` is held low at a frame start after a non-empty band
         (last pixel counted, divider load, one per quotient bit, write-back; at ``ppc`` > 1
-        two more: the band sums are three stages behind the beat)."""
-        return self._cfg.lt_bits + 3 + (2 if self._ppc > 1 else 0)
+        three more: the band sums are four stages behind the beat)."""
+        return self._cfg.lt_bits + 3 + (3 if self._ppc > 1 else 0)
 
-    def _lane_statistics(self, m, in_bands, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l,
-                         sum_h):
-        """Band statistics at ppc > 1, three stages behind the accepted beat (timing).
+    def _lane_statistics(self, m, s_v, s_first, s_bands, s_hgs, s_lgs, c, n, sum_l, sum_h):
+        """Band statistics at ppc > 1, four stages behind the accepted beat (timing).
 
-        S (the registers ``s_*``, with the beat's band count and, per pixel, the band pixels
-        before it in the beat): T counts ``n`` and masks the pixels taken; U adds the taken
-        pixels of the beat (adder tree); V accumulates the sums. The first band pixels in
+        S (the registers ``s_*``: the beat and its band decisions); C (``c``: the beat
+        again, with its band count and, per pixel, the band pixels before it in the beat):
+        T counts ``n`` and masks the pixels taken; U adds the taken pixels of the beat
+        (adder tree); V accumulates the sums. The first band pixels in
         raster order are taken while the count has room: pixel k when ``n`` + (band pixels
         before it) < ``count_max`` = ``2**count_bits - 1``. ``safe`` (``n`` of the cycle
         before + ``2 ppc - 1`` < ``count_max``; ``n`` grows by at most ``ppc`` a cycle)
@@ -130,27 +158,31 @@ class Hdr(wiring.Component):
         division wrote it back before the beat was accepted)."""
         cfg, P = self._cfg, self._ppc
         cb, cmax = cfg.count_bits, cfg.count_max
-        # S: prefix band counts of the beat (from the input, registered with s_bands)
-        s_before, s_cnt, acc = [], Signal(range(P + 1), name="s_cnt"), Const(0, 1)
+        # C: prefix band counts of the beat (from S's band registers)
+        c_before, c_cnt, acc = [], Signal(range(P + 1), name="c_cnt"), Const(0, 1)
         for k in range(P):
-            b = Signal(range(P), name=f"s_before_{k}")
+            b = Signal(range(P), name=f"c_before_{k}")
             m.d.sync += b.eq(acc)
-            s_before.append(b)
-            acc = acc + in_bands[k]
-        m.d.sync += s_cnt.eq(acc)
+            c_before.append(b)
+            acc = acc + s_bands[k]
+        c_hgs = [Signal.like(h, name=f"c_hg_{k}") for k, h in enumerate(s_hgs)]
+        c_lgs = [Signal.like(x, name=f"c_lg_{k}") for k, x in enumerate(s_lgs)]
+        m.d.sync += [c_cnt.eq(acc), c.v.eq(s_v), c.first.eq(s_first),
+                     *(d.eq(x) for d, x in zip(c.bands + c_hgs + c_lgs,
+                                               s_bands + s_hgs + s_lgs))]
         # T: count, mask
         safe = Signal(init=1, name="n_safe")
         m.d.sync += safe.eq(n + (2 * P - 1) < cmax)
         room = (~n)[:min(cb, 4)]
-        add_n = Mux(safe | (s_cnt < room), s_cnt, room)
-        with m.If(s_v):
-            m.d.sync += n.eq(Mux(s_first, 0, n) + add_n)
+        add_n = Mux(safe | (c_cnt < room), c_cnt, room)
+        with m.If(c.v):
+            m.d.sync += n.eq(Mux(c.first, 0, n) + add_n)
         t_v, t_first = Signal(name="t_v"), Signal(name="t_first")
-        m.d.sync += [t_v.eq(s_v), t_first.eq(s_first)]
+        m.d.sync += [t_v.eq(c.v), t_first.eq(c.first)]
         t_l, t_h = [], []
         for k in range(P):
-            tk = s_bands[k] & (safe | (s_before[k] < room))
-            for src, dst in ((s_lgs[k], t_l), (s_hgs[k], t_h)):
+            tk = c.bands[k] & (safe | (c_before[k] < room))
+            for src, dst in ((c_lgs[k], t_l), (c_hgs[k], t_h)):
                 r = Signal.like(src, name=f"t_{'l' if dst is t_l else 'h'}_{k}")
                 m.d.sync += r.eq(Mux(tk, src, 0))
                 dst.append(r)
@@ -216,6 +248,13 @@ class Hdr(wiring.Component):
             s_lgs.append(Signal(pb, name=f"s_lg_{k}"))
         s_any = s_band if P == 1 else Cat(*s_bands).any()
         n_nz = Mux(s_v, s_any | (~s_first & (n != 0)), n != 0)
+        c = None
+        if P > 1:  # C, the stage after S, not yet counted either
+            c = SimpleNamespace(v=Signal(name="c_v"), first=Signal(name="c_first"),
+                                bands=[Signal(name=f"c_band_{k}") for k in lanes])
+            c_any = c.v & Cat(*c.bands).any()
+            n_nz = Mux(s_v & s_first, s_any,
+                       (s_v & s_any) | c_any | (~(c.v & c.first) & (n != 0)))
         need_div = i.valid & first & n_nz
         load = Signal()
         divs = [(rem_l, num_l, quo_l, sum_l)]
@@ -233,7 +272,7 @@ class Hdr(wiring.Component):
             numer = Signal(pb + cb + f)
             m.d.comb += numer.eq((total << f) + (n >> 1))
             starts += [rem.eq(numer[q:]), num.eq(numer[:q])]
-        # ppc > 1: the sums are complete two cycles later (two more statistics stages)
+        # ppc > 1: the sums are complete three cycles later (three more statistics stages)
         hold, branch = Signal(2), m.If
         if P > 1:
             with m.If(hold != 0):
@@ -256,7 +295,7 @@ class Hdr(wiring.Component):
                 m.d.sync += [busy.eq(0), lt.eq(quo_l), n.eq(0),
                              ht.eq(quo_h if len(divs) == 2 else cfg.h_seed)]
         with m.Elif(need_div):
-            m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(2)]
+            m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(3)]
 
         # ---- band statistics and frame registers, on accepted beats
         def band_of(h):
@@ -279,8 +318,7 @@ class Hdr(wiring.Component):
                     n.eq(Mux(s_first, 0, n) + add_n),
                 ]
         else:
-            self._lane_statistics(m, [band_of(h) for h in hgs], s_v, s_first, s_bands,
-                                  s_hgs, s_lgs, n, sum_l, sum_h)
+            self._lane_statistics(m, s_v, s_first, s_bands, s_hgs, s_lgs, c, n, sum_l, sum_h)
 
         # ---- pixel pipeline (global enable); lane 0 declared as before ppc existed (the
         # Verilog at ppc 1 is byte-identical to the single-pixel design's)
@@ -320,13 +358,22 @@ class Hdr(wiring.Component):
         outs = [o.payload.data] if P == 1 else [o.payload.data[k] for k in lanes]
         st = {name: [] for name in ("below1", "hg1", "d1", "below2", "hg2", "p2", "below3",
                                     "hg3", "acc3", "out")}
+        # dsp_blocks: d1 and s1 are each lane's MULT18X18D input registers, p2 loads the
+        # product
+        dsp = self.dsp_blocks
         for k in lanes:
             st["below1"].append(L["below1"][k].eq(hgs[k] < t))
             st["hg1"].append(L["hg1"][k].eq(hgs[k]))
-            st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
             st["below2"].append(L["below2"][k].eq(L["below1"][k]))
             st["hg2"].append(L["hg2"][k].eq(L["hg1"][k]))
-            st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
+            if dsp:
+                d0 = Signal(signed(pb + f + 1), name=f"d0_{k}")
+                m.d.comb += d0.eq((lgs[k] << f) - lt_eff)
+                st["p2"].append(L["p2"][k].eq(
+                    ecp5_dsp.mult(m, f"mul{k}", d0, slopes[sel_eff], en)))
+            else:
+                st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
+                st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
             st["below3"].append(L["below3"][k].eq(L["below2"][k]))
             st["hg3"].append(L["hg3"][k].eq(L["hg2"][k]))
             st["acc3"].append(L["acc3"][k].eq(accs[k]))
@@ -335,7 +382,8 @@ class Hdr(wiring.Component):
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid & i.ready), f1.eq(first), l1.eq(i.payload.last),
-                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
+                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff),
+                *([] if dsp else [s1.eq(slopes[sel_eff])]),
                 v2.eq(v1), f2.eq(f1), l2.eq(l1), *st["below2"], *st["hg2"], ht2.eq(ht1),
                 *st["p2"],
                 v3.eq(v2), f3.eq(f2), l3.eq(l2), *st["below3"], *st["hg3"], *st["acc3"],

@@ -27,7 +27,8 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
+                                          pixel_signature)
 from tdicam.hdl.util import equals, is_zero
 from tdicam.hdl.vendor import ecp5_bram
 
@@ -931,17 +932,18 @@ class Median3(wiring.Component):
     flush, which starts the cycle after the frame's last pixel): register stages are line
     buffer read (1), its output register (1), column with border rows (1), column sort (3),
     window median (5). With ``enhance`` the Laplacian/gradient stage (11 stages) feeds the
-    5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 2, mask 2,
-    add and clamp 2 = 15 stages): output (y, x) is valid 26 cycles after input
-    (min(y+3, H-1), min(x+3, W-1)). At ``ppc`` 2, 4, 8 the cycle counts hold per beat:
-    output beat (y, b) is valid :attr:`latency` cycles after input beat (min(y+1, H-1),
-    min(b+1, W/ppc-1)), with ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each
-    neighbourhood reaches one beat to the right); 12 without ``enhance``, 29 with it: each
-    neighbourhood ends in an output buffer (1 each, :class:`~tdicam.hdl.interfaces.stream.
-    AdvanceBuffer`, see below), and the 5x5 stage's arithmetic after its sums is 7 stages
-    instead of 6, every multiplier between two registers (mean 3, mask 3 with the add,
-    clamp 1: :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry
-    chain in one cycle cost the chain 60 MHz).
+    5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 3, mask 3
+    with the add, clamp 1 = 16 stages, every multiplier between two registers:
+    :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry chain in one
+    cycle cost the chain 60 MHz) through a register slice (1, at ``ppc`` 1, see below):
+    output (y, x) is valid 28 cycles after input (min(y+3, H-1), min(x+3, W-1)). At
+    ``ppc`` 2, 4, 8 the cycle counts hold per beat: output beat (y, b) is valid
+    :attr:`latency` cycles after input beat (min(y+1, H-1), min(b+1, W/ppc-1)), with
+    ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each neighbourhood reaches one beat to
+    the right); 13 without ``enhance``, 31 with it: each neighbourhood has a register after
+    its window's column select and ends in an output buffer (1 + 1 each,
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`, see below; no slice between
+    them).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
@@ -953,7 +955,11 @@ class Median3(wiring.Component):
     (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`), so no combinational path runs
     from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
     (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
-    MHz). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
+    MHz). With ``enhance`` at ``ppc`` 1 a register slice
+    (:class:`~tdicam.hdl.interfaces.stream.StreamRegister`) stands between the two
+    neighbourhoods: the 5x5 stage's input ready (its advance and flush state) reached the
+    first stage's clock enables in one cycle (Ning et al. 2019's chain at 8 pixels per
+    clock, median3 at 1 after TDI: 6.9 ns). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
     being produced, the condition that the new frame does not overwrite a line still
     needed. No pixel is lost or duplicated whatever ``ready`` does.
 
@@ -1022,15 +1028,16 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
-        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 27 at ``ppc`` 1, 31 at
-        ``ppc`` 2, 4, 8 (every multiplier between two registers; at ppc >= 2 each
-        neighbourhood has 2 more: a register after its window's column select and its
-        output buffer)."""
+        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 28 at ``ppc`` 1 (with the
+        register slice between the neighbourhoods), 31 at ``ppc`` 2, 4, 8 (every
+        multiplier between two registers; at ppc >= 2 each neighbourhood has 2 more: a
+        register after its window's column select and its output buffer)."""
         wide = 2 * int(self._ppc > 1)  # each neighbourhood's window register, AdvanceBuffer
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        return plain + 3 + 3 + WIDE_B_STAGES + wide
+        between = int(self._ppc == 1)  # the StreamRegister between the neighbourhoods
+        return plain + between + 3 + 3 + WIDE_B_STAGES + wide
 
     @property
     def line_buffer_bits(self):
@@ -1062,6 +1069,11 @@ class Median3(wiring.Component):
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
                 bram=self._bram)
             ao, bi = a.o_stream, bb.i_stream
+            if P == 1:  # no combinational path from the 5x5 stage's ready to a's enables
+                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
+                m.d.comb += [ab.i_stream.valid.eq(ao.valid), ab.i_stream.payload.eq(ao.payload),
+                             ao.ready.eq(ab.i_stream.ready)]
+                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),
