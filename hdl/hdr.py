@@ -143,7 +143,7 @@ class Hdr(wiring.Component):
         three more: the band sums are four stages behind the beat)."""
         return self._cfg.lt_bits + 3 + (3 if self._ppc > 1 else 0)
 
-    def _lane_statistics(self, m, s_v, s_first, s_bands, s_hgs, s_lgs, c, n, sum_l, sum_h):
+    def _lane_statistics(self, m, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l, sum_h):
         """Band statistics at ppc > 1, four stages behind the accepted beat (timing).
 
         S (the registers ``s_*``: the beat and its band decisions); C (``c``: the beat
@@ -159,6 +159,8 @@ class Hdr(wiring.Component):
         cfg, P = self._cfg, self._ppc
         cb, cmax = cfg.count_bits, cfg.count_max
         # C: prefix band counts of the beat (from S's band registers)
+        c = SimpleNamespace(v=Signal(name="c_v"), first=Signal(name="c_first"),
+                            bands=[Signal(name=f"c_band_{k}") for k in range(P)])
         c_before, c_cnt, acc = [], Signal(range(P + 1), name="c_cnt"), Const(0, 1)
         for k in range(P):
             b = Signal(range(P), name=f"c_before_{k}")
@@ -248,13 +250,14 @@ class Hdr(wiring.Component):
             s_lgs.append(Signal(pb, name=f"s_lg_{k}"))
         s_any = s_band if P == 1 else Cat(*s_bands).any()
         n_nz = Mux(s_v, s_any | (~s_first & (n != 0)), n != 0)
-        c = None
-        if P > 1:  # C, the stage after S, not yet counted either
-            c = SimpleNamespace(v=Signal(name="c_v"), first=Signal(name="c_first"),
-                                bands=[Signal(name=f"c_band_{k}") for k in lanes])
-            c_any = c.v & Cat(*c.bands).any()
-            n_nz = Mux(s_v & s_first, s_any,
-                       (s_v & s_any) | c_any | (~(c.v & c.first) & (n != 0)))
+        if P > 1:
+            seen = Signal(name="band_seen")
+            # a flag instead of n != 0 and the stages behind S (this feeds i.ready, which
+            # the producer's FIFO takes as its pop): the beats of the current frame past S
+            # had band pixels (cleared by the division's write-back)
+            with m.If(s_v):
+                m.d.sync += seen.eq(Mux(s_first, 0, seen) | s_any)
+            n_nz = Mux(s_v & s_first, s_any, (s_v & s_any) | seen)
         need_div = i.valid & first & n_nz
         load = Signal()
         divs = [(rem_l, num_l, quo_l, sum_l)]
@@ -294,6 +297,8 @@ class Hdr(wiring.Component):
             with m.Else():  # write back; n = 0 lets the waiting first pixel in
                 m.d.sync += [busy.eq(0), lt.eq(quo_l), n.eq(0),
                              ht.eq(quo_h if len(divs) == 2 else cfg.h_seed)]
+                if P > 1:
+                    m.d.sync += seen.eq(0)
         with m.Elif(need_div):
             m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(3)]
 
@@ -318,7 +323,7 @@ class Hdr(wiring.Component):
                     n.eq(Mux(s_first, 0, n) + add_n),
                 ]
         else:
-            self._lane_statistics(m, s_v, s_first, s_bands, s_hgs, s_lgs, c, n, sum_l, sum_h)
+            self._lane_statistics(m, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l, sum_h)
 
         # ---- pixel pipeline (global enable); lane 0 declared as before ppc existed (the
         # Verilog at ppc 1 is byte-identical to the single-pixel design's)
