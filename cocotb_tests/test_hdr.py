@@ -98,14 +98,3 @@ def test_widest_rows(sim, ppc):
     mark_resets(stim, exp, [cut // ppc])
     check_beats("hdr", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)
 
-
-@pytest.mark.parametrize("case", ["extremes_12b", "gain_change_multi_p8", "extremes_12b_p8",
-                                  "reset_mid_frame_multi_p8"])
-def test_golden_ecp5_dsp(case, sim):
-    """The ECP5 synthesis top (``dsp="ecp5"``: each lane's multiplier a signed MULT18X18D
-    with its own input registers, the product register in the fabric) with the model of
-    :mod:`tdicam.cosim.mult18x18d`, against the golden vectors with 25 % idle and 25 %
-    backpressure: full-scale HG over zero LG (the most negative junction difference),
-    gain pairs switching frame to frame, a reset mid-frame."""
-    check_case("hdr", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=11,
-               ecp5=True)

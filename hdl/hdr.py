@@ -12,7 +12,6 @@ from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
-from tdicam.hdl.vendor import ecp5_dsp
 
 __all__ = ["Hdr"]
 
@@ -28,15 +27,6 @@ class Hdr(wiring.Component):
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8 (default 1). The golden model does not
         know it: the output equals :func:`~tdicam.model.hdr.hdr` at every ppc.
-    dsp : str
-        ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
-        synthesis top: each lane's operand registers, the junction difference and the
-        slope, are a MULT18X18D's own input registers, the product register in the fabric,
-        :mod:`tdicam.hdl.vendor.ecp5_dsp`; the same cycles, a simulator needs
-        :mod:`tdicam.cosim.mult18x18d`). Only where the signed difference
-        (``pixel_bits + lgt_frac_bits + 1`` bits) and the slope (with a sign bit) fit the
-        block's 18 bits; otherwise the multiply stays generic (:attr:`dsp_blocks` says
-        which).
 
     Attributes
     ----------
@@ -80,19 +70,14 @@ class Hdr(wiring.Component):
     Raises
     ------
     TdicamError
-        Bad parameters, ``ppc`` not one of 1, 2, 4, 8, ``dsp`` not one of :attr:`DSPS`
-        (one line).
+        Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
-
-    #: Multiplier descriptions (``dsp=``), as :attr:`tdicam.hdl.nuc.Nuc.DSPS`.
-    DSPS = ("generic", "ecp5")
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,
                  slope_frac_bits=8, lgt_frac_bits=4, anchor="band", count_bits=24,
-                 out_bits=None, ppc=1, dsp="generic"):
+                 out_bits=None, ppc=1):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
-        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._cfg = cfg = hdr_config(
             pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
             slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
@@ -120,15 +105,6 @@ class Hdr(wiring.Component):
     count_bits = property(lambda self: self._cfg.count_bits)
     out_bits = property(lambda self: self._cfg.out_bits)
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
-    dsp = property(lambda self: self._dsp, doc="Multiplier description, one of :attr:`DSPS`.")
-
-    @property
-    def dsp_blocks(self):
-        """True when the multipliers are MULT18X18D instances with their input registers
-        (``dsp="ecp5"`` and the operands fit, see ``dsp``)."""
-        c = self._cfg
-        return self._dsp == "ecp5" and max(c.pixel_bits + c.lgt_frac_bits + 1,
-                                           c.slope_bits + 1) <= ecp5_dsp.MAX_BITS
 
     @property
     def latency(self):
@@ -363,22 +339,13 @@ class Hdr(wiring.Component):
         outs = [o.payload.data] if P == 1 else [o.payload.data[k] for k in lanes]
         st = {name: [] for name in ("below1", "hg1", "d1", "below2", "hg2", "p2", "below3",
                                     "hg3", "acc3", "out")}
-        # dsp_blocks: d1 and s1 are each lane's MULT18X18D input registers, p2 loads the
-        # product
-        dsp = self.dsp_blocks
         for k in lanes:
             st["below1"].append(L["below1"][k].eq(hgs[k] < t))
             st["hg1"].append(L["hg1"][k].eq(hgs[k]))
+            st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
             st["below2"].append(L["below2"][k].eq(L["below1"][k]))
             st["hg2"].append(L["hg2"][k].eq(L["hg1"][k]))
-            if dsp:
-                d0 = Signal(signed(pb + f + 1), name=f"d0_{k}")
-                m.d.comb += d0.eq((lgs[k] << f) - lt_eff)
-                st["p2"].append(L["p2"][k].eq(
-                    ecp5_dsp.mult(m, f"mul{k}", d0, slopes[sel_eff], en)))
-            else:
-                st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
-                st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
+            st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
             st["below3"].append(L["below3"][k].eq(L["below2"][k]))
             st["hg3"].append(L["hg3"][k].eq(L["hg2"][k]))
             st["acc3"].append(L["acc3"][k].eq(accs[k]))
@@ -387,8 +354,7 @@ class Hdr(wiring.Component):
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid & i.ready), f1.eq(first), l1.eq(i.payload.last),
-                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff),
-                *([] if dsp else [s1.eq(slopes[sel_eff])]),
+                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
                 v2.eq(v1), f2.eq(f1), l2.eq(l1), *st["below2"], *st["hg2"], ht2.eq(ht1),
                 *st["p2"],
                 v3.eq(v2), f3.eq(f2), l3.eq(l2), *st["below3"], *st["hg3"], *st["acc3"],

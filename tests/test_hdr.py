@@ -434,22 +434,3 @@ def test_ppc_errors_are_one_line():
     with pytest.raises(TdicamError, match=r"^--width 12 is not a multiple of --ppc 8$"):
         blk.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)
 
-
-def test_ecp5_top_multipliers_are_signed_dsp_blocks_with_their_input_registers():
-    """``dsp="ecp5"``: one signed MULT18X18D a lane (SIGNEDA = SIGNEDB = 1: the junction
-    difference is signed) with its input registers on CLK0 and no output register, the
-    same latency; operands too wide for the block (16-bit pixels) keep the generic
-    multiply; an unknown ``dsp`` is a one-line error naming the valid values."""
-    from amaranth.back import rtlil
-    for ppc in (1, 8):
-        top = Hdr(ppc=ppc, dsp="ecp5")
-        assert top.dsp_blocks and top.latency == 4  # as generic (test_latency)
-        text = rtlil.convert(top)
-        assert text.count("cell \\MULT18X18D") == ppc
-        assert text.count('parameter \\REG_INPUTB_CLK "CLK0"') == ppc
-        assert text.count('parameter \\REG_OUTPUT_CLK "NONE"') == ppc
-        assert text.count("connect \\SIGNEDA 1'1") == ppc
-    wide = Hdr(pixel_bits=16, dsp="ecp5")
-    assert not wide.dsp_blocks and "MULT18X18D" not in rtlil.convert(wide)
-    with pytest.raises(TdicamError, match="dsp.*'dsp48'.*generic, ecp5"):
-        Hdr(dsp="dsp48")

@@ -15,8 +15,7 @@ models the configuration used here). ``tdicam verilog`` and every simulation kee
 generic description unless asked.
 """
 
-from amaranth.hdl import (ClockSignal, Const, Elaboratable, Instance, Module, Signal, Value,
-                          signed, unsigned)
+from amaranth.hdl import ClockSignal, Const, Elaboratable, Instance, Module, Signal
 
 __all__ = ["MAX_BITS", "mult"]
 
@@ -25,57 +24,44 @@ MAX_BITS = 18
 
 
 def mult(m, tag, a, b, en):
-    """``a * b`` of the operands registered in the block: they load at a rising edge of the
-    ``sync`` clock when ``en`` is high (``en`` low: they hold). Returns the product of the
-    registered operands, ``len(a) + len(b)`` bits (one more when exactly one operand is
-    signed), combinational after them (one clock edge after the operands: the caller
-    registers it). No reset: the registers start at zero.
-
-    Each operand is unsigned or signed (its Amaranth shape). Two unsigned operands multiply
-    unsigned (``SIGNEDA`` = ``SIGNEDB`` = 0), anything else signed (both 1; an unsigned
-    operand beside a signed one is zero-extended by a bit, so it takes one bit of the 18):
-    at most :data:`MAX_BITS` bits each as the block sees them, else ``ValueError``. The
-    product is signed when an operand is.
+    """``a * b`` (unsigned, each at most :data:`MAX_BITS` bits) of the operands registered
+    in the block: they load at a rising edge of the ``sync`` clock when ``en`` is high
+    (``en`` low: they hold). Returns the product of the registered operands,
+    ``len(a) + len(b)`` bits, combinational after them (one clock edge after the
+    operands: the caller registers it). No reset: the registers start at zero.
 
     The instance sits in a submodule of ``m`` named ``tag``, every output port of it
     connected (yosys 0.70's ABC9 asserted in ``ABC_OPS_REINTEGRATE`` on NUC at ppc 2, 4
     or 8, depending on the netlist, while the cascade outputs were left open)."""
-    a, b = Value.cast(a), Value.cast(b)
-    signed_ = a.shape().signed or b.shape().signed
-    wa = len(a) + int(signed_ and not a.shape().signed)
-    wb = len(b) + int(signed_ and not b.shape().signed)
-    if max(wa, wb) > MAX_BITS:
-        raise ValueError(f"operands of {wa} and {wb} bits: at most {MAX_BITS} each")
-    u = m.submodules[tag] = _Mult(wa, wb, signed_)
+    if max(len(a), len(b)) > MAX_BITS:
+        raise ValueError(f"operands of {len(a)} and {len(b)} bits: at most {MAX_BITS} each")
+    u = m.submodules[tag] = _Mult(len(a), len(b))
     m.d.comb += [u.a.eq(a), u.b.eq(b), u.en.eq(en)]
     return u.p
 
 
 class _Mult(Elaboratable):
-    def __init__(self, wa, wb, signed_):
-        sh = signed if signed_ else unsigned
-        self.a, self.b, self.en = Signal(sh(wa)), Signal(sh(wb)), Signal()
-        self.p = Signal(sh(wa + wb))
-        self._signed = signed_
+    def __init__(self, wa, wb):
+        self.a, self.b, self.en = Signal(wa), Signal(wb), Signal()
+        self.p = Signal(wa + wb)
 
     def elaborate(self, platform):
         m = Module()
-        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en, self._signed))
+        m.d.comb += self.p.eq(_instance(m, self.a, self.b, self.en))
         return m
 
 
-def _instance(m, a, b, en, signed_):
+def _instance(m, a, b, en):
     p = Signal(len(a) + len(b), name="p")
     full = Signal(2 * MAX_BITS, name="p36")
-    a, b = a.as_signed() if signed_ else a, b.as_signed() if signed_ else b
     ports = {"i_CLK0": ClockSignal(), "i_CE0": en, "i_RST0": Const(0),
-             "i_SIGNEDA": Const(int(signed_)), "i_SIGNEDB": Const(int(signed_)),
+             "i_SIGNEDA": Const(0), "i_SIGNEDB": Const(0),
              "i_SOURCEA": Const(0), "i_SOURCEB": Const(0)}
     for n in range(1, 4):
         ports.update({f"i_CLK{n}": Const(0), f"i_CE{n}": Const(0), f"i_RST{n}": Const(0)})
     for n in range(MAX_BITS):
-        ports[f"i_A{n}"] = a[min(n, len(a) - 1)] if n < len(a) or signed_ else Const(0)
-        ports[f"i_B{n}"] = b[min(n, len(b) - 1)] if n < len(b) or signed_ else Const(0)
+        ports[f"i_A{n}"] = a[n] if n < len(a) else Const(0)
+        ports[f"i_B{n}"] = b[n] if n < len(b) else Const(0)
         ports[f"i_C{n}"] = Const(0)
     for n in range(2 * MAX_BITS):
         ports[f"o_P{n}"] = full[n]

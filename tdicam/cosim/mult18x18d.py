@@ -6,17 +6,15 @@ multipliers keep their registers in the DSP block (:mod:`tdicam.hdl.vendor.ecp5_
 needs a model: :data:`MODEL`, written from Lattice's "ECP5 and ECP5-5G sysDSP Usage Guide"
 (FPGA-TN-02205) port and attribute description. Modelled:
 
-* an 18 x 18 multiply of operands from A and B (``SOURCEA`` = ``SOURCEB`` = 0), each
-  unsigned (``SIGNEDA`` / ``SIGNEDB`` low) or two's complement (high): ``P[35:0]`` = the
-  low 36 bits of their product, ``SIGNEDP`` = ``SIGNEDA | SIGNEDB`` (the sign inputs are
-  taken as they are, not through the input registers: tdicam ties them to constants);
+* an unsigned 18 x 18 multiply (``SIGNEDA`` = ``SIGNEDB`` = 0, ``SOURCEA`` = ``SOURCEB``
+  = 0): ``P[35:0] = A * B``;
 * the input registers (``REG_INPUTA_CLK``, ``REG_INPUTB_CLK``) and the output register
   (``REG_OUTPUT_CLK``), each ``"NONE"`` (bypassed) or ``"CLK0"`` with ``CE0`` and
   ``RST0`` (``RESETMODE = SYNC``: zeroed at the clock edge, whatever ``CE0``); they start
   at zero.
 
-Anything else (a pipeline register, another clock, enable or reset, ``SOURCEA`` or
-``SOURCEB`` high) stops the simulation with ``$fatal``.
+Anything else (a pipeline register, another clock, enable or reset, ``SIGNEDA``,
+``SIGNEDB``, ``SOURCEA`` or ``SOURCEB`` high) stops the simulation with ``$fatal``.
 """
 
 __all__ = ["MODEL", "FILE"]
@@ -90,13 +88,10 @@ module MULT18X18D (
   reg [35:0] rp = 36'd0;
   wire [17:0] ia = RA ? ra : a;
   wire [17:0] ib = RB ? rb : b;
-  wire signed [18:0] xa = {{SIGNEDA & ia[17], ia}};
-  wire signed [18:0] xb = {{SIGNEDB & ib[17], ib}};
-  wire signed [37:0] sprod = xa * xb;
-  wire [35:0] prod = sprod[35:0];
+  wire [35:0] prod = ia * ib;
   always @(posedge CLK0) begin
-    if (SOURCEA || SOURCEB)
-      $fatal(1, "MULT18X18D model: operands from A and B only");
+    if (SIGNEDA || SIGNEDB || SOURCEA || SOURCEB)
+      $fatal(1, "MULT18X18D model: unsigned operands from A and B only");
     if (RST0) begin
       ra <= 18'd0; rb <= 18'd0; rp <= 36'd0;
     end else if (CE0) begin
@@ -104,7 +99,7 @@ module MULT18X18D (
     end
   end
   assign {{{_bus("P", 36)}}} = RP ? rp : prod;
-  assign SIGNEDP = SIGNEDA | SIGNEDB;
+  assign SIGNEDP = 1'b0;
   assign {{{_bus("SROA", 18)}}} = 18'd0;
   assign {{{_bus("SROB", 18)}}} = 18'd0;
   assign {{{_bus("ROA", 18)}}} = 18'd0;
