@@ -27,8 +27,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
-from tdicam.hdl.interfaces.stream import (AdvanceBuffer, StreamRegister, channels_shape,
-                                          pixel_signature)
+from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero
 from tdicam.hdl.vendor import ecp5_bram
 
@@ -388,12 +387,17 @@ class _Neighbourhood(wiring.Component):
     / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
     column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
 
-    ``bram``: how the line buffers are described (:data:`BRAMS`).
+    ``bram``: how the line buffers are described (:data:`BRAMS`). ``buffered`` (default:
+    at ``ppc`` > 1): the pipeline moves on copies of an advance register and ends in an
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer` (one cycle more), so no
+    combinational path runs from ``o_stream.ready`` to its clock enables; otherwise the
+    advance is ``~o_stream.valid | o_stream.ready``.
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb", ppc=1, bram="generic"):
+                 carry_hm1=False, name="nb", ppc=1, bram="generic", buffered=None):
         self._r, self._w, self._ppc, self._bram = radius, width, ppc, bram
+        self._buf = ppc > 1 if buffered is None else buffered
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
         self._name = name
@@ -417,7 +421,7 @@ class _Neighbourhood(wiring.Component):
         Rh = R if P == 1 else 1  # horizontal radius in beats: R <= 2 <= P pixels of a beat
         i, o = self.i_stream, self.o_stream
         nb = N.bit_length() - 1  # N is 2 or 4
-        if P == 1:
+        if not self._buf:
             adv = Signal(name=f"{self._name}_adv")
             m.d.comb += adv.eq(~o.valid | o.ready)
             en, own = adv, (lambda: adv)
@@ -596,7 +600,7 @@ class _Neighbourhood(wiring.Component):
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
         out = self._align(m, own(), wmeta, dw + (P > 1), "wa")
-        if P == 1:
+        if not self._buf:
             dst = o
         else:
             m.submodules[f"{self._name}_obuf"] = buf = AdvanceBuffer(o.payload.shape(),
@@ -608,7 +612,7 @@ class _Neighbourhood(wiring.Component):
                      dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:
             m.d.comb += dst.payload.data.hm1.eq(out.hm1)
-        self.depth = 3 + dc + dw + 2 * (P > 1)
+        self.depth = 3 + dc + dw + (P > 1) + self._buf
         return m
 
     def _align(self, m, adv, values, n, name):
@@ -935,7 +939,8 @@ class Median3(wiring.Component):
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 3, mask 3
     with the add, clamp 1 = 16 stages, every multiplier between two registers:
     :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry chain in one
-    cycle cost the chain 60 MHz) through a register slice (1, at ``ppc`` 1, see below):
+    cycle cost the chain 60 MHz) through the first stage's output buffer (1, at ``ppc`` 1,
+    see below):
     output (y, x) is valid 28 cycles after input (min(y+3, H-1), min(x+3, W-1)). At
     ``ppc`` 2, 4, 8 the cycle counts hold per beat: output beat (y, b) is valid
     :attr:`latency` cycles after input beat (min(y+1, H-1), min(b+1, W/ppc-1)), with
@@ -955,11 +960,11 @@ class Median3(wiring.Component):
     (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`), so no combinational path runs
     from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
     (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
-    MHz). With ``enhance`` at ``ppc`` 1 a register slice
-    (:class:`~tdicam.hdl.interfaces.stream.StreamRegister`) stands between the two
-    neighbourhoods: the 5x5 stage's input ready (its advance and flush state) reached the
-    first stage's clock enables in one cycle (Ning et al. 2019's chain at 8 pixels per
-    clock, median3 at 1 after TDI: 6.9 ns). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
+    MHz). With ``enhance`` the first neighbourhood moves so at ``ppc`` 1 too (its output
+    buffer adds the cycle; no window register): with the advance combinational, the 5x5
+    stage's input ready reached its clock enables in one cycle (Ning et al. 2019's chain
+    at 8 pixels per clock, median3 at 1 after TDI: 6.9 ns; behind a register slice, the
+    slice's full flag fanned out to them instead, 7.5 ns). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
     being produced, the condition that the new frame does not overwrite a line still
     needed. No pixel is lost or duplicated whatever ``ready`` does.
 
@@ -1029,14 +1034,14 @@ class Median3(wiring.Component):
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
         at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 28 at ``ppc`` 1 (with the
-        register slice between the neighbourhoods), 31 at ``ppc`` 2, 4, 8 (every
+        first neighbourhood's output buffer), 31 at ``ppc`` 2, 4, 8 (every
         multiplier between two registers; at ppc >= 2 each neighbourhood has 2 more: a
         register after its window's column select and its output buffer)."""
         wide = 2 * int(self._ppc > 1)  # each neighbourhood's window register, AdvanceBuffer
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        between = int(self._ppc == 1)  # the StreamRegister between the neighbourhoods
+        between = int(self._ppc == 1)  # the first neighbourhood's AdvanceBuffer at ppc 1
         return plain + between + 3 + 3 + WIDE_B_STAGES + wide
 
     @property
@@ -1062,18 +1067,13 @@ class Median3(wiring.Component):
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a", ppc=P, bram=self._bram)
+                name="a", ppc=P, bram=self._bram, buffered=True)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
                 bram=self._bram)
             ao, bi = a.o_stream, bb.i_stream
-            if P == 1:  # no combinational path from the 5x5 stage's ready to a's enables
-                m.submodules.ab = ab = StreamRegister(ao.payload.shape())
-                m.d.comb += [ab.i_stream.valid.eq(ao.valid), ab.i_stream.payload.eq(ao.payload),
-                             ao.ready.eq(ab.i_stream.ready)]
-                ao = ab.o_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),
                 bi.payload.first.eq(ao.payload.first), bi.payload.last.eq(ao.payload.last),

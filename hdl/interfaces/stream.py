@@ -13,6 +13,8 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
+from tdicam.hdl.util import equals
+
 __all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister",
            "AdvanceBuffer", "Narrower"]
 
@@ -151,13 +153,14 @@ class AdvanceBuffer(wiring.Component):
             return Mux(p == F - 1, 0, p + 1)
         with m.If(push):
             m.d.sync += wp.eq(step(wp))
-            with m.Switch(wp):
-                for k in range(F):
-                    with m.Case(k):
-                        m.d.sync += slots[k].eq(pay)
+            for k in range(F):
+                with m.If(equals(wp, k)):
+                    m.d.sync += slots[k].eq(pay)
         with m.If(pop):
             m.d.sync += rp.eq(step(rp))
-        m.d.comb += [o.valid.eq(self.level != 0), o.payload.eq(Array(slots)[rp])]
+        # the read mux over every value of rp's bits (the last slot repeated): a complete case
+        m.d.comb += [o.valid.eq(self.level != 0),
+                     o.payload.eq(Array(slots + [slots[-1]] * ((1 << len(rp)) - F))[rp])]
         return m
 
 
