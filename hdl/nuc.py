@@ -142,11 +142,26 @@ class Nuc(wiring.Component):
             p2s.append(Signal(unsigned(pb + gb), name=f"p2_{k}"))
             off2s.append(Signal(signed(ob), name=f"off2_{k}"))
 
-        # signed sum, floor shift (round half up with the half added); the clamp reads bits
-        # (the sign, any bit above out_bits), no comparator after the adder
+        # ppc 1: the design of before ppc existed, an unsigned datapath (offset biased by
+        # 2**(ob-1), MSB flipped; bias removed after the shift, exact as offset_frac_bits <
+        # offset_bits) clamped by compares (the bit clamp below made yosys 0.70's ABC9
+        # assert at ppc 1). ppc 2-8: a signed sum, floor shift (round half up with the half
+        # added), the clamp reading bits (the sign, any bit above out_bits): no comparator
+        # after the adder (the orbit chain's timing at ppc 8)
         ow = self._out_bits
+        bias = 1 << (ob - 1 - of)
         sats = []
         for k, (p2, off2) in enumerate(zip(p2s, off2s)):
+            if self._ppc == 1:
+                acc = (p2 << (frac - gf)) + (Cat(off2[:ob - 1], ~off2[ob - 1]) << (frac - of))
+                if frac:
+                    acc = (acc + (1 << (frac - 1))) >> frac
+                y = Signal(unsigned(acc.shape().width), name="y")
+                m.d.comb += y.eq(acc)
+                sats.append(Mux(y < Const(bias, y.shape()), Const(0, y.shape()),
+                                Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()),
+                                    y - bias)))
+                continue
             acc = (p2 << (frac - gf)) + (off2 << (frac - of))
             if frac:
                 acc = acc + (1 << (frac - 1))
