@@ -97,4 +97,3 @@ def test_widest_rows(sim, ppc):
     stim, exp = stim.select(keep), exp.select(keep)
     mark_resets(stim, exp, [cut // ppc])
     check_beats("hdr", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)
-

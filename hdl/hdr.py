@@ -1,8 +1,6 @@
 """High/low-gain HDR merge (Ning et al. 2019 §4.4.2); golden model
 :func:`tdicam.model.hdr.hdr` (its docstring defines the arithmetic and the frame state)."""
 
-from types import SimpleNamespace
-
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
@@ -122,7 +120,7 @@ class Hdr(wiring.Component):
     def _lane_statistics(self, m, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l, sum_h):
         """Band statistics at ppc > 1, four stages behind the accepted beat (timing).
 
-        S (the registers ``s_*``: the beat and its band decisions); C (``c``: the beat
+        S (the registers ``s_*``: the beat and its band decisions); C (``c_*``: the beat
         again, with its band count and, per pixel, the band pixels before it in the beat):
         T counts ``n`` and masks the pixels taken; U adds the taken pixels of the beat
         (adder tree); V accumulates the sums. The first band pixels in
@@ -135,8 +133,8 @@ class Hdr(wiring.Component):
         cfg, P = self._cfg, self._ppc
         cb, cmax = cfg.count_bits, cfg.count_max
         # C: prefix band counts of the beat (from S's band registers)
-        c = SimpleNamespace(v=Signal(name="c_v"), first=Signal(name="c_first"),
-                            bands=[Signal(name=f"c_band_{k}") for k in range(P)])
+        c_v, c_first = Signal(name="c_v"), Signal(name="c_first")
+        c_bands = [Signal(name=f"c_band_{k}") for k in range(P)]
         c_before, c_cnt, acc = [], Signal(range(P + 1), name="c_cnt"), Const(0, 1)
         for k in range(P):
             b = Signal(range(P), name=f"c_before_{k}")
@@ -145,21 +143,21 @@ class Hdr(wiring.Component):
             acc = acc + s_bands[k]
         c_hgs = [Signal.like(h, name=f"c_hg_{k}") for k, h in enumerate(s_hgs)]
         c_lgs = [Signal.like(x, name=f"c_lg_{k}") for k, x in enumerate(s_lgs)]
-        m.d.sync += [c_cnt.eq(acc), c.v.eq(s_v), c.first.eq(s_first),
-                     *(d.eq(x) for d, x in zip(c.bands + c_hgs + c_lgs,
+        m.d.sync += [c_cnt.eq(acc), c_v.eq(s_v), c_first.eq(s_first),
+                     *(d.eq(x) for d, x in zip(c_bands + c_hgs + c_lgs,
                                                s_bands + s_hgs + s_lgs))]
         # T: count, mask
         safe = Signal(init=1, name="n_safe")
         m.d.sync += safe.eq(n + (2 * P - 1) < cmax)
         room = (~n)[:min(cb, 4)]
         add_n = Mux(safe | (c_cnt < room), c_cnt, room)
-        with m.If(c.v):
-            m.d.sync += n.eq(Mux(c.first, 0, n) + add_n)
+        with m.If(c_v):
+            m.d.sync += n.eq(Mux(c_first, 0, n) + add_n)
         t_v, t_first = Signal(name="t_v"), Signal(name="t_first")
-        m.d.sync += [t_v.eq(c.v), t_first.eq(c.first)]
+        m.d.sync += [t_v.eq(c_v), t_first.eq(c_first)]
         t_l, t_h = [], []
         for k in range(P):
-            tk = c.bands[k] & (safe | (c_before[k] < room))
+            tk = c_bands[k] & (safe | (c_before[k] < room))
             for src, dst in ((c_lgs[k], t_l), (c_hgs[k], t_h)):
                 r = Signal.like(src, name=f"t_{'l' if dst is t_l else 'h'}_{k}")
                 m.d.sync += r.eq(Mux(tk, src, 0))
@@ -225,8 +223,9 @@ class Hdr(wiring.Component):
             s_hgs.append(Signal(pb, name=f"s_hg_{k}"))
             s_lgs.append(Signal(pb, name=f"s_lg_{k}"))
         s_any = s_band if P == 1 else Cat(*s_bands).any()
-        n_nz = Mux(s_v, s_any | (~s_first & (n != 0)), n != 0)
-        if P > 1:
+        if P == 1:
+            n_nz = Mux(s_v, s_any | (~s_first & (n != 0)), n != 0)
+        else:
             seen = Signal(name="band_seen")
             # a flag instead of n != 0 and the stages behind S (this feeds i.ready, which
             # the producer's FIFO takes as its pop): the beats of the current frame past S

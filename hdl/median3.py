@@ -19,7 +19,7 @@ of named sub-components, each with its ``latency``: :class:`_LineBuffers` (2),
 
 from types import SimpleNamespace
 
-from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.hdl import Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
 from amaranth.lib import data, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
@@ -28,7 +28,7 @@ from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
-from tdicam.hdl.util import equals, is_zero
+from tdicam.hdl.util import equals, is_zero, pick
 from tdicam.hdl.vendor import ecp5_bram
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
@@ -96,12 +96,6 @@ def reciprocal_25(n_max):
         if n_max * (25 * k - (1 << s)) < (1 << s):
             return k, s
         s += 1
-
-
-def _pick(values, sel):
-    """``values[sel]`` through a mux whose case statement covers every ``sel`` value."""
-    n = 1 << (len(values) - 1).bit_length()
-    return Array(list(values) + [values[-1]] * (n - len(values)))[sel]
 
 
 def check_geometry(width, ppc):
@@ -348,7 +342,7 @@ class _Window(wiring.Component):
                             m.d.comb += sel.eq(x + R if x + d < 0 else R - d)
                     with m.Default():
                         m.d.comb += sel.eq(R - d)
-            m.d.comb += self.cols[t].eq(_pick(sr, sel))
+            m.d.comb += self.cols[t].eq(pick(sr, sel))
         m.d.comb += [self.out_valid.eq(is_pad | is_norm),
                      self.left.eq(is_norm & (hcc == R)),
                      self.first.eq(is_norm & (hcc == R) & self.row0),
@@ -569,10 +563,10 @@ class _Neighbourhood(wiring.Component):
         s1_hm1 = pipe.reg(s1_hm1) if self._carry else None
 
         # ---- S2: the column with its border rows replicated
-        taps = [pipe.reg(Mux(s1_str[t], s1_tap, _pick(tap_rd, s1_sel[t])),
+        taps = [pipe.reg(Mux(s1_str[t], s1_tap, pick(tap_rd, s1_sel[t])),
                          shape=unsigned(tap_bits),
                          name=f"tap{t}") for t in range(2 * R + 1)]
-        pay = pipe.reg(_pick(pay_rd, s1_psel) if R > 1 else pay_rd[0],
+        pay = pipe.reg(pick(pay_rd, s1_psel) if R > 1 else pay_rd[0],
                        shape=unsigned(pay_bits), name="cpay") if has_pay else None
         meta = {n: pipe.reg(v, name=n, reset=(n == "cv")) for v, n in
                 ((s1_valid, "cv"), (s1_cc, "cc"), (s1_lastc, "lastc"), (s1_row0, "row0"))}
@@ -940,15 +934,14 @@ class Median3(wiring.Component):
     with the add, clamp 1 = 16 stages, every multiplier between two registers:
     :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry chain in one
     cycle cost the chain 60 MHz) through the first stage's output buffer (1, at ``ppc`` 1,
-    see below):
-    output (y, x) is valid 28 cycles after input (min(y+3, H-1), min(x+3, W-1)). At
+    see below): output (y, x) is valid 28 cycles after input (min(y+3, H-1), min(x+3,
+    W-1)). At
     ``ppc`` 2, 4, 8 the cycle counts hold per beat: output beat (y, b) is valid
     :attr:`latency` cycles after input beat (min(y+1, H-1), min(b+1, W/ppc-1)), with
     ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each neighbourhood reaches one beat to
     the right); 13 without ``enhance``, 31 with it: each neighbourhood has a register after
     its window's column select and ends in an output buffer (1 + 1 each,
-    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`, see below; no slice between
-    them).
+    :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`, see below).
 
     **Throughput and backpressure.** One beat (``ppc`` pixels) per clock in and out,
     across rows and frames (the borders of one frame overlap the start of the next). One
@@ -964,8 +957,8 @@ class Median3(wiring.Component):
     buffer adds the cycle; no window register): with the advance combinational, the 5x5
     stage's input ready reached its clock enables in one cycle (Ning et al. 2019's chain
     at 8 pixels per clock, median3 at 1 after TDI: 6.9 ns; behind a register slice, the
-    slice's full flag fanned out to them instead, 7.5 ns). ``i_stream.ready`` is ``advance`` and, while the previous frame's last rows are
-    being produced, the condition that the new frame does not overwrite a line still
+    slice's full flag fanned out to them instead, 7.5 ns). ``i_stream.ready`` is
+    ``advance`` and, while the previous frame's last rows are being produced, the condition that the new frame does not overwrite a line still
     needed. No pixel is lost or duplicated whatever ``ready`` does.
 
     **Memory.** Plain median: 2 line buffers of ``width`` x ``pixel_bits``. With

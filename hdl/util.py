@@ -13,7 +13,7 @@
 
 import functools
 
-from amaranth.hdl import Mux
+from amaranth.hdl import Array, Mux
 
 from tdicam.errors import TdicamError
 
@@ -34,6 +34,13 @@ def is_zero(value):
 def equals(value, const):
     """``value == const``, through :func:`is_zero` when ``const`` is 0."""
     return is_zero(value) if const == 0 else value == const
+
+
+def pick(values, sel):
+    """``values[sel]`` through a mux whose case statement covers every value of ``sel``'s
+    bits (the last value repeated): a complete case, lint-clean in the generated Verilog."""
+    n = 1 << (len(values) - 1).bit_length()
+    return Array(list(values) + [values[-1]] * (n - len(values)))[sel]
 
 
 def saturating_increment(m, counter):

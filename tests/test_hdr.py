@@ -433,4 +433,3 @@ def test_ppc_errors_are_one_line():
     z = np.zeros((1, 2, 12), np.uint16)
     with pytest.raises(TdicamError, match=r"^--width 12 is not a multiple of --ppc 8$"):
         blk.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)
-

@@ -13,7 +13,7 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from tdicam.hdl.util import equals
+from tdicam.hdl.util import equals, pick
 
 __all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister",
            "AdvanceBuffer", "Narrower"]
@@ -158,9 +158,7 @@ class AdvanceBuffer(wiring.Component):
                     m.d.sync += slots[k].eq(pay)
         with m.If(pop):
             m.d.sync += rp.eq(step(rp))
-        # the read mux over every value of rp's bits (the last slot repeated): a complete case
-        m.d.comb += [o.valid.eq(self.level != 0),
-                     o.payload.eq(Array(slots + [slots[-1]] * ((1 << len(rp)) - F))[rp])]
+        m.d.comb += [o.valid.eq(self.level != 0), o.payload.eq(pick(slots, rp))]
         return m
 
 
