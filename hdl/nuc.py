@@ -56,10 +56,11 @@ class Nuc(wiring.Component):
 
     Notes
     -----
-    Three register stages (inputs, product, rounded and clamped sum), all advancing together
-    when the output register is empty or taken: :attr:`latency` = 3 cycles at every ``ppc``
-    (1, 2, 4, 8: 3, 3, 3, 3), ``ppc`` pixels/clock while ``o_stream.ready`` is high, no
-    pixel lost or duplicated whatever ``ready`` does. Each pixel lane has its own
+    Register stages all advancing together when the output register is empty or taken: at
+    ``ppc`` 1 three (inputs, product, rounded and clamped sum), at ``ppc`` 2-8 four (inputs,
+    product, rounded sum, clamp): :attr:`latency` = 3, 4, 4, 4 cycles at ``ppc`` 1, 2, 4, 8;
+    ``ppc`` pixels/clock while ``o_stream.ready`` is high, no pixel lost or duplicated
+    whatever ``ready`` does. Each pixel lane has its own
     multiplier, at most 18 x 16 bits with registered inputs and output (``ppc`` ECP5
     MULT18X18D / 7-series DSP48).
 
@@ -113,8 +114,8 @@ class Nuc(wiring.Component):
     @property
     def latency(self):
         """Cycles from an input transfer to the corresponding output being valid: 3 at
-        every ``ppc``."""
-        return 3
+        ``ppc`` 1, 4 at ``ppc`` 2, 4 and 8."""
+        return 3 if self._ppc == 1 else 4
 
     def elaborate(self, platform):
         m = Module()
@@ -144,13 +145,13 @@ class Nuc(wiring.Component):
 
         # ppc 1: the design of before ppc existed, an unsigned datapath (offset biased by
         # 2**(ob-1), MSB flipped; bias removed after the shift, exact as offset_frac_bits <
-        # offset_bits) clamped by compares (the bit clamp below made yosys 0.70's ABC9
-        # assert at ppc 1). ppc 2-8: a signed sum, floor shift (round half up with the half
-        # added), the clamp reading bits (the sign, any bit above out_bits): no comparator
-        # after the adder (the orbit chain's timing at ppc 8)
+        # offset_bits) clamped by compares (a bit clamp made yosys 0.70's ABC9 assert at
+        # ppc 1). ppc 2-8: the signed sum (floor shift, round half up with the half added)
+        # registered, then clamped by reading its bits (the sign, any bit above out_bits):
+        # nothing after the adder's carry chain, a LUT a bit after the register
         ow = self._out_bits
         bias = 1 << (ob - 1 - of)
-        sats = []
+        sats, sums, v3, f3, l3 = [], [], Signal(), Signal(), Signal()
         for k, (p2, off2) in enumerate(zip(p2s, off2s)):
             if self._ppc == 1:
                 acc = (p2 << (frac - gf)) + (Cat(off2[:ob - 1], ~off2[ob - 1]) << (frac - of))
@@ -166,7 +167,7 @@ class Nuc(wiring.Component):
             if frac:
                 acc = acc + (1 << (frac - 1))
             y = Signal(signed(acc.shape().width - frac), name=f"y_{k}" if k else "y")
-            m.d.comb += y.eq(acc[frac:])
+            sums.append(y.eq(acc[frac:]))
             over = y[ow:-1].any() if len(y) - 1 > ow else Const(0)
             sats.append(Mux(y[-1], 0, Mux(over, top, y[:ow])))
         # pixel k of the beat: elements 3k (x), 3k + 1 (gain), 3k + 2 (offset)
@@ -189,9 +190,11 @@ class Nuc(wiring.Component):
                 l1.eq(i.payload.last),
                 v2.eq(v1), *(p2s[k].eq(prods[k]) for k in rng),
                 *(off2s[k].eq(off1s[k]) for k in rng), f2.eq(f1), l2.eq(l1),
-                o.valid.eq(v2),
+                # ppc 2-8: the sum stage between the product and the output register
+                *((v3.eq(v2), f3.eq(f2), l3.eq(l2), *sums) if sums else ()),
+                o.valid.eq(v3 if sums else v2),
                 *(outs[k].eq(sats[k]) for k in rng),
-                o.payload.first.eq(f2),
-                o.payload.last.eq(l2),
+                o.payload.first.eq(f3 if sums else f2),
+                o.payload.last.eq(l3 if sums else l2),
             ]
         return m

@@ -255,12 +255,14 @@ def test_stream_elements_two_complement_offset():
 # ---- pixels per clock
 
 @pytest.mark.parametrize("ppc", [1, 2, 4, 8])
-def test_ppc_latency_is_three_cycles(ppc):
+def test_ppc_latency_is_three_cycles_at_ppc_1_four_above(ppc):
     dut = Nuc(ppc=ppc)
-    assert dut.ppc == ppc and dut.latency == 3
+    lat = 3 if ppc == 1 else 4
+    assert dut.ppc == ppc and dut.latency == lat
     data = [v for k in range(ppc) for v in (1000 + k, DEFAULT_FORMAT.gain_one, 0)]
     seen = probe_latency(dut, data, cycles=6)
-    assert [v for v, _ in seen] == [0, 0, 1, 0, 0, 0] and seen[2][1] == 1000
+    assert [v for v, _ in seen] == [int(c == lat - 1) for c in range(6)]
+    assert seen[lat - 1][1] == 1000
 
 
 @pytest.mark.parametrize("p,ppc", [(FORMATS[0], 2), (FORMATS[2], 4), (FORMATS[3], 8),
@@ -295,7 +297,7 @@ def test_amaranth_sim_ppc_with_stalls_and_padding_garbage(p, ppc):
     np.testing.assert_array_equal(np.array([r for r, _, _ in got]), want)
     assert [f for _, f, _ in got] == (k == 0).tolist()
     assert [lst for _, _, lst in got] == (k % 6 == 5).tolist()
-    assert lat == [3]
+    assert lat == [dut.latency] and dut.latency == (3 if ppc == 1 else 4)
 
 
 @pytest.mark.parametrize("case", ["saturate_wide_p8", "reset_mid_frame_12b_p4"])
@@ -327,7 +329,7 @@ def test_ecp5_top_multipliers_are_dsp_blocks_with_their_input_registers():
     from amaranth.back import rtlil
     for ppc in (1, 8):
         top = Nuc(ppc=ppc, dsp="ecp5")
-        assert top.latency == Nuc(ppc=ppc).latency == 3
+        assert top.latency == Nuc(ppc=ppc).latency == (3 if ppc == 1 else 4)
         text = rtlil.convert(top)
         assert text.count("cell \\MULT18X18D") == ppc
         assert text.count('parameter \\REG_INPUTA_CLK "CLK0"') == ppc
