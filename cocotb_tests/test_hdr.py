@@ -76,7 +76,7 @@ def test_full_rate_ppc(sim, ppc):
     arrays, params = golden.load("hdr", f"scene_12b_p{ppc}")
     n = arrays["hg"].size // ppc
     starts = len(arrays["hg"]) - 1
-    stall = 12 + 4 + 3 + 3       # frame_start_cycles at ppc > 1
+    stall = 12 + 4 + 3 + 4       # frame_start_cycles at ppc > 1
     assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 
 
@@ -97,3 +97,16 @@ def test_widest_rows(sim, ppc):
     stim, exp = stim.select(keep), exp.select(keep)
     mark_resets(stim, exp, [cut // ppc])
     check_beats("hdr", params, stim, exp, sim=sim, mode="fast", idle=0.1, backpressure=0.1)
+
+
+@pytest.mark.parametrize("case", ["extremes_12b_p8", "gain_change_multi_p8", "scene_12b_p2",
+                                  "reset_mid_frame_multi", "extremes_coarse_16b"])
+def test_golden_ecp5_dsp(case, sim):
+    """The ECP5 synthesis top (``dsp="ecp5"``: each lane's multiplier a signed MULT18X18D
+    with its own input registers, the product register in the fabric) with the model of
+    :mod:`tdicam.cosim.mult18x18d`, against the golden vectors with 25 % idle and 25 %
+    backpressure: full scale (negative junction differences), gain pairs changing between
+    frames (the slope register), reset mid-frame at ppc 1, and 16-bit pixels without
+    fraction bits (a 17-bit difference, the widest that fits one block)."""
+    check_case("hdr", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=11,
+               ecp5=True)

@@ -10,6 +10,7 @@ from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
 from tdicam.model.tdi import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
+from tdicam.hdl.vendor import ecp5_dsp
 
 __all__ = ["Hdr"]
 
@@ -25,6 +26,13 @@ class Hdr(wiring.Component):
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8 (default 1). The golden model does not
         know it: the output equals :func:`~tdicam.model.hdr.hdr` at every ppc.
+    dsp : str
+        ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
+        synthesis top: each lane's junction difference and the slope are a signed
+        MULT18X18D's own input registers, the product register in the fabric,
+        :mod:`tdicam.hdl.vendor.ecp5_dsp`, when they fit one (a difference ``pixel_bits +
+        lgt_frac_bits + 1`` <= 18 bits, a slope <= 17 bits; otherwise the generic
+        multiply); the same cycles, a simulator needs :mod:`tdicam.cosim.mult18x18d`).
 
     Attributes
     ----------
@@ -51,13 +59,14 @@ class Hdr(wiring.Component):
     decisions), adding the beat's band pixels: pixel ``k`` counts when it is in the band and
     the count, plus the band pixels before it in the beat, is below ``2**count_bits - 1``
     (the first band pixels in raster order, as the model). At ``ppc`` > 1 the count is
-    updated one cycle after the beat and the sums three (the taken pixels masked, their
-    beat sum, the accumulation: one adder per stage, for 150 MHz at ppc 8), each a cycle
+    updated one cycle after the beat and the sums four (the taken pixels masked, the sums
+    of each half of the beat, their sum, the accumulation: at most two adders per stage,
+    for 150 MHz at ppc 8), each a cycle
     after the band pixels before it in the beat are counted (the band compares and that
     count in one cycle were the Ning et al. 2019 chain's slowest path at ppc 8). Frame
     start: when a beat with ``first`` is presented and the previous frame had band pixels,
     ``i_stream.ready`` stays low for :attr:`frame_start_cycles` cycles (ppc 1: ``pixel_bits
-    + lgt_frac_bits + 3``; ppc 2, 4, 8: three more, the statistics' extra stages) while two
+    + lgt_frac_bits + 3``; ppc 2, 4, 8: four more, the statistics' extra stages) while two
     restoring dividers (one quotient bit per cycle, ``pixel_bits +
     lgt_frac_bits`` bits) turn the band sums into ``L_T`` and ``H_T``; the beat is then
     accepted with them. Pixels of the previous frame still in the pipeline are unaffected
@@ -71,11 +80,17 @@ class Hdr(wiring.Component):
         Bad parameters, ``ppc`` not one of 1, 2, 4, 8 (one line).
     """
 
+    #: Multiplier descriptions (``dsp=``): ``"generic"`` (``*`` between fabric registers,
+    #: mapped by the synthesis tool) or ``"ecp5"`` (a signed MULT18X18D with its input
+    #: registers, :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
+    DSPS = ("generic", "ecp5")
+
     @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,
                  slope_frac_bits=8, lgt_frac_bits=4, anchor="band", count_bits=24,
-                 out_bits=None, ppc=1):
+                 out_bits=None, ppc=1, dsp="generic"):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
+        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._cfg = cfg = hdr_config(
             pixel_bits=pixel_bits, threshold=threshold, band=band, gain_pairs=gain_pairs,
             slope_frac_bits=slope_frac_bits, lgt_frac_bits=lgt_frac_bits, anchor=anchor,
@@ -103,6 +118,7 @@ class Hdr(wiring.Component):
     count_bits = property(lambda self: self._cfg.count_bits)
     out_bits = property(lambda self: self._cfg.out_bits)
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+    dsp = property(lambda self: self._dsp, doc="Multiplier description, one of :attr:`DSPS`.")
 
     @property
     def latency(self):
@@ -114,16 +130,16 @@ class Hdr(wiring.Component):
     def frame_start_cycles(self):
         """Cycles ``i_stream.ready`` is held low at a frame start after a non-empty band
         (last pixel counted, divider load, one per quotient bit, write-back; at ``ppc`` > 1
-        three more: the band sums are four stages behind the beat)."""
-        return self._cfg.lt_bits + 3 + (3 if self._ppc > 1 else 0)
+        four more: the band sums are five stages behind the beat)."""
+        return self._cfg.lt_bits + 3 + (4 if self._ppc > 1 else 0)
 
     def _lane_statistics(self, m, s_v, s_first, s_bands, s_hgs, s_lgs, n, sum_l, sum_h):
-        """Band statistics at ppc > 1, four stages behind the accepted beat (timing).
+        """Band statistics at ppc > 1, five stages behind the accepted beat (timing).
 
         S (the registers ``s_*``: the beat and its band decisions); C (``c_*``: the beat
         again, with its band count and, per pixel, the band pixels before it in the beat):
-        T counts ``n`` and masks the pixels taken; U adds the taken pixels of the beat
-        (adder tree); V accumulates the sums. The first band pixels in
+        T counts ``n`` and masks the pixels taken; W adds the taken pixels of each half of
+        the beat (adder trees), U the halves; V accumulates the sums. The first band pixels in
         raster order are taken while the count has room: pixel k when ``n`` + (band pixels
         before it) < ``count_max`` = ``2**count_bits - 1``. ``safe`` (``n`` of the cycle
         before + ``2 ppc - 1`` < ``count_max``; ``n`` grows by at most ``ppc`` a cycle)
@@ -162,11 +178,20 @@ class Hdr(wiring.Component):
                 r = Signal.like(src, name=f"t_{'l' if dst is t_l else 'h'}_{k}")
                 m.d.sync += r.eq(Mux(tk, src, 0))
                 dst.append(r)
-        # U: the beat's sums
+        # U: the beat's sums, two stages: each half of the beat's lanes (adder tree), then
+        # the halves (the eight lanes' tree in one cycle was 6.4-6.7 ns in the Ning et al.
+        # 2019 chain at ppc 8)
         u_v, u_first = Signal(name="u_v"), Signal(name="u_first")
+        w_v, w_first = Signal(name="w_v"), Signal(name="w_first")
         u_l, u_h = Signal(len(t_l[0]) + 3, name="u_l"), Signal(len(t_h[0]) + 3, name="u_h")
-        m.d.sync += [u_v.eq(t_v), u_first.eq(t_first), u_l.eq(_tree(t_l)),
-                     u_h.eq(_tree(t_h))]
+        halves = []
+        for t_x, tag in ((t_l, "l"), (t_h, "h")):
+            for j, part in enumerate((t_x[:P // 2], t_x[P // 2:])):
+                r = Signal(len(t_x[0]) + 2, name=f"w_{tag}{j}")
+                m.d.sync += r.eq(_tree(part))
+                halves.append(r)
+        m.d.sync += [w_v.eq(t_v), w_first.eq(t_first), u_v.eq(w_v), u_first.eq(w_first),
+                     u_l.eq(halves[0] + halves[1]), u_h.eq(halves[2] + halves[3])]
         # V: accumulate (a frame's first beat restarts the sums)
         with m.If(u_v):
             m.d.sync += [sum_l.eq(Mux(u_first, 0, sum_l) + u_l),
@@ -250,8 +275,8 @@ class Hdr(wiring.Component):
             numer = Signal(pb + cb + f)
             m.d.comb += numer.eq((total << f) + (n >> 1))
             starts += [rem.eq(numer[q:]), num.eq(numer[:q])]
-        # ppc > 1: the sums are complete three cycles later (three more statistics stages)
-        hold, branch = Signal(2), m.If
+        # ppc > 1: the sums are complete four cycles later (four more statistics stages)
+        hold, branch = Signal(3), m.If
         if P > 1:
             with m.If(hold != 0):
                 m.d.sync += [hold.eq(hold - 1), load.eq(hold == 1)]
@@ -275,7 +300,7 @@ class Hdr(wiring.Component):
                 if P > 1:
                     m.d.sync += seen.eq(0)
         with m.Elif(need_div):
-            m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(3)]
+            m.d.sync += [busy.eq(1), load.eq(1) if P == 1 else hold.eq(4)]
 
         # ---- band statistics and frame registers, on accepted beats
         def band_of(h):
@@ -338,13 +363,20 @@ class Hdr(wiring.Component):
         outs = [o.payload.data] if P == 1 else [o.payload.data[k] for k in lanes]
         st = {name: [] for name in ("below1", "hg1", "d1", "below2", "hg2", "p2", "below3",
                                     "hg3", "acc3", "out")}
+        # ecp5: d1 and s1 are each DSP block's input registers, p2 loads their product
+        slope = slopes[sel_eff]
+        fabric = self._dsp != "ecp5" or not ecp5_dsp.fits(d1.shape(), s1.shape())
         for k in lanes:
+            diff = (lgs[k] << f) - lt_eff
+            prod = L["d1"][k] * s1 if fabric else ecp5_dsp.mult(
+                m, f"mul{k}", diff[:len(d1)].as_signed(), slope, en)
             st["below1"].append(L["below1"][k].eq(hgs[k] < t))
             st["hg1"].append(L["hg1"][k].eq(hgs[k]))
-            st["d1"].append(L["d1"][k].eq((lgs[k] << f) - lt_eff))
+            if fabric:
+                st["d1"].append(L["d1"][k].eq(diff))
             st["below2"].append(L["below2"][k].eq(L["below1"][k]))
             st["hg2"].append(L["hg2"][k].eq(L["hg1"][k]))
-            st["p2"].append(L["p2"][k].eq(L["d1"][k] * s1))
+            st["p2"].append(L["p2"][k].eq(prod))
             st["below3"].append(L["below3"][k].eq(L["below2"][k]))
             st["hg3"].append(L["hg3"][k].eq(L["hg2"][k]))
             st["acc3"].append(L["acc3"][k].eq(accs[k]))
@@ -353,7 +385,8 @@ class Hdr(wiring.Component):
         with m.If(en):
             m.d.sync += [
                 v1.eq(i.valid & i.ready), f1.eq(first), l1.eq(i.payload.last),
-                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff), s1.eq(slopes[sel_eff]),
+                *st["below1"], *st["hg1"], *st["d1"], ht1.eq(ht_eff),
+                *((s1.eq(slope),) if fabric else ()),
                 v2.eq(v1), f2.eq(f1), l2.eq(l1), *st["below2"], *st["hg2"], ht2.eq(ht1),
                 *st["p2"],
                 v3.eq(v2), f3.eq(f2), l3.eq(l2), *st["below3"], *st["hg3"], *st["acc3"],

@@ -29,7 +29,7 @@ from tdicam.model.tdi import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero, pick
-from tdicam.hdl.vendor import ecp5_bram
+from tdicam.hdl.vendor import ecp5_bram, ecp5_dsp
 
 __all__ = ["Median3", "check_geometry", "COLUMN_SORT", "WINDOW_MEDIAN", "run_network", "network_stats",
            "reciprocal_25"]
@@ -148,10 +148,14 @@ class _Enables:
 
 class _Pipe:
     """Registers that all move on one global advance (the pipeline's clock enable): ``adv``
-    a signal, or :class:`_Enables` (copies of it)."""
+    a signal, or :class:`_Enables` (copies of it). ``dsp``: how :meth:`product` registers a
+    product ("generic" or "ecp5", :attr:`Median3.DSPS`)."""
 
-    def __init__(self, m, adv, prefix):
-        self.m, self.adv, self.prefix, self.n = m, adv, prefix, 0
+    def __init__(self, m, adv, prefix, dsp="generic"):
+        self.m, self.adv, self.prefix, self.n, self.dsp = m, adv, prefix, 0, dsp
+
+    def _enable(self, bits):
+        return self.adv.take(bits) if isinstance(self.adv, _Enables) else self.adv
 
     def reg(self, value, shape=None, name=None, reset=False):
         if shape is None:
@@ -159,11 +163,22 @@ class _Pipe:
                 Value.cast(value).shape()
         self.n += 1
         sig = Signal(shape, name=f"{self.prefix}_{name or 'r'}_{self.n}", reset_less=not reset)
-        adv = self.adv.take(len(Value.cast(sig))) if isinstance(self.adv, _Enables) else \
-            self.adv
-        with self.m.If(adv):
+        with self.m.If(self._enable(len(Value.cast(sig)))):
             self.m.d.sync += sig.eq(value)
         return sig
+
+    def product(self, a, b, name):
+        """``a * b`` (``b`` a value or an int) registered on the advance: a fabric register
+        after a ``*``, or with ``dsp="ecp5"`` a MULT18X18D's own output register when the
+        operands fit one and are at least 2 bits each (what yosys maps to one; the same
+        value and cycle)."""
+        a, b = Value.cast(a), Value.cast(b)
+        if self.dsp != "ecp5" or min(len(a), len(b)) < 2 or \
+                not ecp5_dsp.fits(a.shape(), b.shape()):
+            return self.reg(a * b, name=name)
+        self.n += 1
+        return ecp5_dsp.mult(self.m, f"{self.prefix}_{name}_{self.n}", a, b,
+                             self._enable(len(a) + len(b)), registers="output")
 
     def delay(self, value, n, name=None, reset=False):
         for _ in range(n):
@@ -381,16 +396,19 @@ class _Neighbourhood(wiring.Component):
     / first R pixels), so one pad step ends a row. ``col_fn`` runs on every lane of a beat
     column; ``win_fn`` on every pixel's 2R+1 pixel columns (:meth:`_window`).
 
-    ``bram``: how the line buffers are described (:data:`BRAMS`). ``buffered`` (default:
+    ``bram``: how the line buffers are described (:data:`BRAMS`); ``dsp``: the products'
+    registers (:meth:`_Pipe.product`). ``buffered`` (default:
     at ``ppc`` > 1): the pipeline moves on copies of an advance register and ends in an
     :class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer` (one cycle more), so no
-    combinational path runs from ``o_stream.ready`` to its clock enables; otherwise the
-    advance is ``~o_stream.valid | o_stream.ready``.
+    combinational path runs from ``o_stream.ready`` to its clock enables, and has a
+    register after its window's column select (one cycle more); otherwise the advance is
+    ``~o_stream.valid | o_stream.ready``.
     """
 
     def __init__(self, *, radius, width, tap_shape, pay_shape, out_shape, col_fn, win_fn,
-                 carry_hm1=False, name="nb", ppc=1, bram="generic", buffered=None):
-        self._r, self._w, self._ppc, self._bram = radius, width, ppc, bram
+                 carry_hm1=False, name="nb", ppc=1, bram="generic", buffered=None,
+                 dsp="generic"):
+        self._r, self._w, self._ppc, self._bram, self._dsp = radius, width, ppc, bram, dsp
         self._buf = ppc > 1 if buffered is None else buffered
         self._tap_shape, self._pay_shape = Shape.cast(tap_shape), pay_shape
         self._col_fn, self._win_fn, self._carry = col_fn, win_fn, carry_hm1
@@ -424,7 +442,7 @@ class _Neighbourhood(wiring.Component):
             # clock enable; the sequencer's copy drives i.ready
             en = _Enables(self._name)
             adv, own = en.own(), en.own
-        pipe = _Pipe(m, en, self._name)
+        pipe = _Pipe(m, en, self._name, self._dsp)
         has_pay = self._pay_shape is not None
         pay_bits = P * Shape.cast(self._pay_shape).width if has_pay else 0
         tap_bits = P * self._tap_shape.width
@@ -584,7 +602,8 @@ class _Neighbourhood(wiring.Component):
                      win.cc.eq(hmeta.cc), win.lastc.eq(hmeta.lastc), win.row0.eq(hmeta.row0)]
         cols = [win.cols[t] for t in range(2 * Rh + 1)]
         left, right = win.left, win.right
-        if P > 1:
+        wreg = P > 1 or self._buf
+        if wreg:
             # a register between the window's column select and the first compare
             cols = [pipe.reg(c, name="wc") for c in cols]
             left, right = pipe.reg(left, name="wl"), pipe.reg(right, name="wr")
@@ -593,7 +612,7 @@ class _Neighbourhood(wiring.Component):
         wmeta = {"ov": win.out_valid, "of": win.first, "ol": win.last}
         if self._carry:
             wmeta["hm1"] = hmeta.hm1
-        out = self._align(m, own(), wmeta, dw + (P > 1), "wa")
+        out = self._align(m, own(), wmeta, dw + wreg, "wa")
         if not self._buf:
             dst = o
         else:
@@ -606,7 +625,7 @@ class _Neighbourhood(wiring.Component):
                      dst.payload.last.eq(out.ol), dst.payload.data.val.eq(val)]
         if self._carry:
             m.d.comb += dst.payload.data.hm1.eq(out.hm1)
-        self.depth = 3 + dc + dw + (P > 1) + self._buf
+        self.depth = 3 + dc + dw + wreg + self._buf
         return m
 
     def _align(self, m, adv, values, n, name):
@@ -789,7 +808,7 @@ def _mul_add(pipe, a, b, name, extra=None):
     prod = Value.cast(a) * b
     shape = (prod if extra is None else prod + extra).shape()
     wide = signed(shape.width + 2)
-    terms = [(pipe.reg(ca * cb, name=f"{name}p"), sa + sb)
+    terms = [(pipe.product(ca, cb, name=f"{name}p"), sa + sb)
              for ca, sa in _chunks(a) for cb, sb in _chunks(b)]
     if extra is not None:
         terms.append((pipe.reg(extra, name=f"{name}x"), 0))
@@ -905,6 +924,14 @@ class Median3(wiring.Component):
         block RAM's 4.1 ns clock-to-out and the routing to a fabric register were the orbit
         chain's slowest path). The same latency and cycle behaviour either way; any other
         value is a one-line :class:`~tdicam.errors.TdicamError`.
+    dsp : {"generic", "ecp5"}
+        How the enhancement's products are registered (:attr:`DSPS`): in the fabric after a
+        ``*`` (``"generic"``, what ``tdicam verilog`` writes) or, in the ECP5 synthesis top,
+        in each MULT18X18D's own output register (:func:`tdicam.hdl.vendor.ecp5_dsp.mult`;
+        with the product register in the fabric the route out of the DSP block and back
+        was Ning et al. 2019's chain's slowest path at ppc 8, 6.7 ns). The same latency and
+        cycles either way; a simulator of the ECP5 top needs
+        :mod:`tdicam.cosim.mult18x18d`.
 
     Attributes
     ----------
@@ -933,9 +960,9 @@ class Median3(wiring.Component):
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 3, mask 3
     with the add, clamp 1 = 16 stages, every multiplier between two registers:
     :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry chain in one
-    cycle cost the chain 60 MHz) through the first stage's output buffer (1, at ``ppc`` 1,
-    see below): output (y, x) is valid 28 cycles after input (min(y+3, H-1), min(x+3,
-    W-1)). At
+    cycle cost the chain 60 MHz) through the first stage's window register and output
+    buffer (1 + 1, at ``ppc`` 1, see below): output (y, x) is valid 29 cycles after input
+    (min(y+3, H-1), min(x+3, W-1)). At
     ``ppc`` 2, 4, 8 the cycle counts hold per beat: output beat (y, b) is valid
     :attr:`latency` cycles after input beat (min(y+1, H-1), min(b+1, W/ppc-1)), with
     ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each neighbourhood reaches one beat to
@@ -954,7 +981,9 @@ class Median3(wiring.Component):
     from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
     (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
     MHz). With ``enhance`` the first neighbourhood moves so at ``ppc`` 1 too (its output
-    buffer adds the cycle; no window register): with the advance combinational, the 5x5
+    buffer and its window register add two cycles; the column select and the first compare
+    in one cycle were the Ning et al. 2019 chain's slowest path at ppc 8, 6.9 ns, once the
+    advance was a register): with the advance combinational, the 5x5
     stage's input ready reached its clock enables in one cycle (Ning et al. 2019's chain
     at 8 pixels per clock, median3 at 1 after TDI: 6.9 ns; behind a register slice, the
     slice's full flag fanned out to them instead, 7.5 ns). ``i_stream.ready`` is
@@ -977,10 +1006,15 @@ class Median3(wiring.Component):
     written within the same frame, so nothing leaks across frames or resets.
     """
 
+    #: Product registers (``dsp=``): ``"generic"`` (fabric registers after a ``*``) or
+    #: ``"ecp5"`` (each MULT18X18D's output register): the same values and cycles.
+    DSPS = ("generic", "ecp5")
+
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
-                 enhance_shift=None, ppc=1, bram="generic"):
+                 enhance_shift=None, ppc=1, bram="generic", dsp="generic"):
         self._ppc, self._width = check_geometry(width, ppc)
         self._bram = check_choice("bram", bram, BRAMS)
+        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._bits = check_range("pixel_bits", pixel_bits, 8, 16)
         if not isinstance(enhance, bool):
             raise TdicamError(f"enhance must be true or false, got {enhance!r}")
@@ -1014,6 +1048,7 @@ class Median3(wiring.Component):
 
     bram = property(lambda self: self._bram, doc="Line-buffer description, a key of "
                                                  ":data:`BRAMS`.")
+    dsp = property(lambda self: self._dsp, doc="Product registers, one of :attr:`DSPS`.")
 
     @property
     def enhance_gain(self):
@@ -1026,15 +1061,16 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
-        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 28 at ``ppc`` 1 (with the
-        first neighbourhood's output buffer), 31 at ``ppc`` 2, 4, 8 (every
+        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 29 at ``ppc`` 1 (with the
+        first neighbourhood's window register and output buffer), 31 at ``ppc`` 2, 4, 8 (every
         multiplier between two registers; at ppc >= 2 each neighbourhood has 2 more: a
         register after its window's column select and its output buffer)."""
         wide = 2 * int(self._ppc > 1)  # each neighbourhood's window register, AdvanceBuffer
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        between = int(self._ppc == 1)  # the first neighbourhood's AdvanceBuffer at ppc 1
+        # the first neighbourhood's window register and AdvanceBuffer at ppc 1
+        between = 2 * int(self._ppc == 1)
         return plain + between + 3 + 3 + WIDE_B_STAGES + wide
 
     @property
@@ -1053,19 +1089,19 @@ class Median3(wiring.Component):
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="a", ppc=P,
-                bram=self._bram)
+                bram=self._bram, dsp=self._dsp)
             last = a
         else:
             col_fn, win_fn = _stage_a_fns(b)
             m.submodules.a = a = _Neighbourhood(
                 radius=1, width=w, tap_shape=unsigned(b), pay_shape=None,
                 out_shape=_a_out_layout(b), col_fn=col_fn, win_fn=win_fn, carry_hm1=True,
-                name="a", ppc=P, bram=self._bram, buffered=True)
+                name="a", ppc=P, bram=self._bram, buffered=True, dsp=self._dsp)
             col_fn, win_fn = _stage_b_fns(b, self._gain, self._shift)
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
-                bram=self._bram)
+                bram=self._bram, dsp=self._dsp)
             ao, bi = a.o_stream, bb.i_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),

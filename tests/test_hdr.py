@@ -349,7 +349,7 @@ def test_ppc_latency_is_four_cycles(ppc):
     dut = Hdr(ppc=ppc)
     assert dut.ppc == ppc and dut.latency == 4
     # ppc > 1: three more (the band sums four stages behind the beat, for timing)
-    assert dut.frame_start_cycles == 12 + 4 + 3 + (3 if ppc > 1 else 0)
+    assert dut.frame_start_cycles == 12 + 4 + 3 + (4 if ppc > 1 else 0)
     seen = probe_latency(dut, [v for k in range(ppc) for v in (1234 + k, 200)], cycles=5)
     assert [v for v, _ in seen] == [0, 0, 0, 1, 0] and seen[3][1] == 1234
 
@@ -357,7 +357,7 @@ def test_ppc_latency_is_four_cycles(ppc):
 @pytest.mark.parametrize("ppc", [2, 8])
 def test_frame_start_stall_ppc(ppc):
     """At ppc pixels per beat the frame-start division stalls exactly
-    frame_start_cycles (three more than at ppc 1) after a frame with band pixels (lanes 1 and ppc - 1), none after
+    frame_start_cycles (four more than at ppc 1) after a frame with band pixels (lanes 1 and ppc - 1), none after
     an empty band; the merged lanes equal the golden model."""
     dut = Hdr(pixel_bits=12, ppc=ppc)
     t = dut.threshold
@@ -433,3 +433,23 @@ def test_ppc_errors_are_one_line():
     z = np.zeros((1, 2, 12), np.uint16)
     with pytest.raises(TdicamError, match=r"^--width 12 is not a multiple of --ppc 8$"):
         blk.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)
+
+
+def test_ecp5_top_multipliers_are_signed_dsp_blocks_with_their_input_registers():
+    """``dsp="ecp5"``: one signed MULT18X18D a lane with REG_INPUTA/B on CLK0 and no output
+    register, the same latency; operands too wide for one block (16-bit pixels with 4
+    fraction bits: a 21-bit difference) keep the generic multiply; an unknown ``dsp`` is a
+    one-line error naming it and the valid values."""
+    from amaranth.back import rtlil
+    for ppc in (1, 8):
+        top = Hdr(ppc=ppc, dsp="ecp5")
+        assert top.dsp == "ecp5" and top.latency == Hdr(ppc=ppc).latency == 4
+        text = rtlil.convert(top)
+        assert text.count("cell \\MULT18X18D") == ppc
+        assert text.count('parameter \\REG_INPUTA_CLK "CLK0"') == ppc
+        assert text.count('parameter \\REG_INPUTB_CLK "CLK0"') == ppc
+        assert text.count('parameter \\REG_OUTPUT_CLK "NONE"') == ppc
+        assert text.count("connect \\SIGNEDA 1'1") == ppc
+    assert "MULT18X18D" not in rtlil.convert(Hdr(pixel_bits=16, ppc=2, dsp="ecp5"))
+    with pytest.raises(TdicamError, match="dsp.*'xilinx'.*generic, ecp5"):
+        Hdr(dsp="xilinx")

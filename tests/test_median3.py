@@ -204,7 +204,7 @@ def test_component_params_and_errors():
     assert dut.latency == 11
     assert dut.line_buffer_bits == 2 * 640 * 10
     e = Median3(width=1280, pixel_bits=12, enhance=True)
-    assert e.latency == 28 and e.enhance_shift == 14 and e.enhance_gain == 1
+    assert e.latency == 29 and e.enhance_shift == 14 and e.enhance_gain == 1
     assert e.line_buffer_bits == 1280 * (10 * 12 + 18) == 176_640
     for kw, match in (({"width": 2}, "width = 2 is out of range; valid: 3..8192"),
                       ({"width": 8193}, "width = 8193"),
@@ -502,3 +502,25 @@ def test_ecp5_line_buffers_are_dp16kd_with_output_register(params, lines):
     with pytest.raises(TdicamError, match=r"^bram = 'xc7' is not valid; valid: generic, ecp5$"):
         Median3(width=24, bram="xc7")
     gc.collect()     # the refused component's "never used" warning, filtered, fires here
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
+@pytest.mark.parametrize("ppc", [1, 8])
+def test_ecp5_top_products_in_dsp_output_registers(ppc):
+    """``dsp="ecp5"`` (with enhance, the block's ECP5 synthesis top): each product of the
+    5x5 stage of at least 2 x 2 bits is a MULT18X18D with its output register and no input
+    register (5 a pixel with the default gain and shift: 4 chunk products of the box mean
+    and the detail's), the same latency as the plain top, which has none; any other
+    ``dsp`` is a one-line error."""
+    from tdicam.hw.verilog import rtlil
+    blk = blocks.get("median3")
+    params = {"width": 32, "enhance": True, "ppc": ppc}
+    ecp5, plain = blk.build(params, ecp5=True), blk.build(params)
+    assert (ecp5.core.dsp, plain.core.dsp) == ("ecp5", "generic")
+    assert ecp5.core.latency == plain.core.latency
+    e = rtlil(ecp5, "median3")
+    assert e.count("cell \\MULT18X18D") == e.count('\\REG_OUTPUT_CLK "CLK0"') == 5 * ppc
+    assert e.count('\\REG_INPUTA_CLK "NONE"') == 5 * ppc
+    assert "MULT18X18D" not in rtlil(plain, "median3")
+    with pytest.raises(TdicamError, match="dsp.*'dsp48'.*generic, ecp5"):
+        Median3(width=32, dsp="dsp48")

@@ -25,6 +25,13 @@ def _top(**params):
     return AxisTop(Hdr(**params))
 
 
+def _ecp5_top(**params):
+    """The ECP5 synthesis top: each lane's multiplier a signed MULT18X18D with its own input
+    registers, the product register in the fabric (``dsp="ecp5"``; the same latency and
+    cycles as :func:`_top`)."""
+    return AxisTop(Hdr(**params, dsp="ecp5"))
+
+
 def _model(params):
     """The golden model's parameters: the block's without ``ppc`` (the model does not know
     how many pixels a beat carries)."""
@@ -342,6 +349,7 @@ BLOCK = Block(
         PPC_PARAM,
     ),
     top=_top,
+    ecp5_top=_ecp5_top,
     cases=lambda: [
         Case("ramp_12b", {}, _ramp, seed=1, tags=("monotonic", "threshold", "fullscale")),
         Case("scene_12b", {}, _scene(3, 16, 32), seed=2),

@@ -33,8 +33,9 @@ def _top(**params):
 
 def _ecp5_top(**params):
     """The ECP5 synthesis top: line buffers as DP16KD whose output register is the line
-    buffers' own (``bram="ecp5"``; the same latency and cycles as :func:`_top`)."""
-    return AxisTop(Median3(**params, bram="ecp5"))
+    buffers' own (``bram="ecp5"``), the enhancement's products in MULT18X18D output
+    registers (``dsp="ecp5"``); the same latency and cycles as :func:`_top`."""
+    return AxisTop(Median3(**params, bram="ecp5", dsp="ecp5"))
 
 
 def _model_kw(params):

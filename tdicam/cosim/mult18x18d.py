@@ -6,15 +6,17 @@ multipliers keep their registers in the DSP block (:mod:`tdicam.hdl.vendor.ecp5_
 needs a model: :data:`MODEL`, written from Lattice's "ECP5 and ECP5-5G sysDSP Usage Guide"
 (FPGA-TN-02205) port and attribute description. Modelled:
 
-* an unsigned 18 x 18 multiply (``SIGNEDA`` = ``SIGNEDB`` = 0, ``SOURCEA`` = ``SOURCEB``
-  = 0): ``P[35:0] = A * B``;
+* an unsigned or a signed 18 x 18 multiply (``SIGNEDA`` = ``SIGNEDB`` = 0: ``P[35:0] =
+  A * B``; both 1: two's complement operands and product), operands from ``A`` and ``B``
+  (``SOURCEA`` = ``SOURCEB`` = 0);
 * the input registers (``REG_INPUTA_CLK``, ``REG_INPUTB_CLK``) and the output register
   (``REG_OUTPUT_CLK``), each ``"NONE"`` (bypassed) or ``"CLK0"`` with ``CE0`` and
   ``RST0`` (``RESETMODE = SYNC``: zeroed at the clock edge, whatever ``CE0``); they start
   at zero.
 
-Anything else (a pipeline register, another clock, enable or reset, ``SIGNEDA``,
-``SIGNEDB``, ``SOURCEA`` or ``SOURCEB`` high) stops the simulation with ``$fatal``.
+Anything else (a pipeline register, another clock, enable or reset, ``SIGNEDA`` and
+``SIGNEDB`` different, ``SOURCEA`` or ``SOURCEB`` high) stops the simulation with
+``$fatal``.
 """
 
 __all__ = ["MODEL", "FILE"]
@@ -88,10 +90,12 @@ module MULT18X18D (
   reg [35:0] rp = 36'd0;
   wire [17:0] ia = RA ? ra : a;
   wire [17:0] ib = RB ? rb : b;
-  wire [35:0] prod = ia * ib;
+  wire signed [35:0] sprod = $signed(ia) * $signed(ib);
+  wire [35:0] uprod = ia * ib;
+  wire [35:0] prod = SIGNEDA ? sprod : uprod;
   always @(posedge CLK0) begin
-    if (SIGNEDA || SIGNEDB || SOURCEA || SOURCEB)
-      $fatal(1, "MULT18X18D model: unsigned operands from A and B only");
+    if (SIGNEDA != SIGNEDB || SOURCEA || SOURCEB)
+      $fatal(1, "MULT18X18D model: operands from A and B, both unsigned or both signed");
     if (RST0) begin
       ra <= 18'd0; rb <= 18'd0; rp <= 36'd0;
     end else if (CE0) begin
@@ -99,7 +103,7 @@ module MULT18X18D (
     end
   end
   assign {{{_bus("P", 36)}}} = RP ? rp : prod;
-  assign SIGNEDP = 1'b0;
+  assign SIGNEDP = SIGNEDA;
   assign {{{_bus("SROA", 18)}}} = 18'd0;
   assign {{{_bus("SROB", 18)}}} = 18'd0;
   assign {{{_bus("ROA", 18)}}} = 18'd0;
