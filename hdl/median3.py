@@ -960,9 +960,9 @@ class Median3(wiring.Component):
     5x5 stage (line buffers 2, column 1, vertical sum 3, horizontal sum 3, mean 3, mask 3
     with the add, clamp 1 = 16 stages, every multiplier between two registers:
     :func:`_wide_b_window`; at 8 pixels per clock a multiplier and its carry chain in one
-    cycle cost the chain 60 MHz) through the first stage's window register and output
-    buffer (1 + 1, at ``ppc`` 1, see below): output (y, x) is valid 29 cycles after input
-    (min(y+3, H-1), min(x+3, W-1)). At
+    cycle cost the chain 60 MHz), each stage with a window register and an output buffer
+    (1 + 1, see below): output (y, x) is valid 31 cycles after input (min(y+3, H-1),
+    min(x+3, W-1)). At
     ``ppc`` 2, 4, 8 the cycle counts hold per beat: output beat (y, b) is valid
     :attr:`latency` cycles after input beat (min(y+1, H-1), min(b+1, W/ppc-1)), with
     ``enhance`` (min(y+3, H-1), min(b+2, W/ppc-1)) (each neighbourhood reaches one beat to
@@ -980,10 +980,11 @@ class Median3(wiring.Component):
     (:class:`~tdicam.hdl.interfaces.stream.AdvanceBuffer`), so no combinational path runs
     from ``o_stream.ready`` to the thousands of clock enables or to ``i_stream.ready``
     (with the ready in the enables median3 --enhance at 8 pixels per clock closed at 96
-    MHz). With ``enhance`` the first neighbourhood moves so at ``ppc`` 1 too (its output
-    buffer and its window register add two cycles; the column select and the first compare
-    in one cycle were the Ning et al. 2019 chain's slowest path at ppc 8, 6.9 ns, once the
-    advance was a register): with the advance combinational, the 5x5
+    MHz). With ``enhance`` both neighbourhoods move so at ``ppc`` 1 too (each one's output
+    buffer and window register add two cycles; the first's column select and first compare
+    in one cycle, and the 5x5 stage's output valid through its ready into its sequencer,
+    were each the Ning et al. 2019 chain's slowest path at ppc 8, 6.7-6.9 ns): with the
+    first's advance combinational, the 5x5
     stage's input ready reached its clock enables in one cycle (Ning et al. 2019's chain
     at 8 pixels per clock, median3 at 1 after TDI: 6.9 ns; behind a register slice, the
     slice's full flag fanned out to them instead, 7.5 ns). ``i_stream.ready`` is
@@ -1061,17 +1062,16 @@ class Median3(wiring.Component):
     @property
     def latency(self):
         """Register stages from the input beat that completes a window to its output: 11
-        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 29 at ``ppc`` 1 (with the
-        first neighbourhood's window register and output buffer), 31 at ``ppc`` 2, 4, 8 (every
-        multiplier between two registers; at ppc >= 2 each neighbourhood has 2 more: a
-        register after its window's column select and its output buffer)."""
-        wide = 2 * int(self._ppc > 1)  # each neighbourhood's window register, AdvanceBuffer
+        at ``ppc`` 1, 13 at ``ppc`` 2, 4, 8; with ``enhance`` 31 at every ``ppc`` (every
+        multiplier between two registers; each neighbourhood has 2 more than the plain
+        median's at ppc 1: a register after its window's column select and its output
+        buffer)."""
+        # each neighbourhood's window register and AdvanceBuffer
+        wide = 2 * int(self._ppc > 1 or self._enhance)
         plain = 3 + len(COLUMN_SORT) + len(WINDOW_MEDIAN) + wide
         if not self._enhance:
             return plain
-        # the first neighbourhood's window register and AdvanceBuffer at ppc 1
-        between = 2 * int(self._ppc == 1)
-        return plain + between + 3 + 3 + WIDE_B_STAGES + wide
+        return plain + 3 + 3 + WIDE_B_STAGES + wide
 
     @property
     def line_buffer_bits(self):
@@ -1101,7 +1101,7 @@ class Median3(wiring.Component):
             m.submodules.b = bb = _Neighbourhood(
                 radius=2, width=w, tap_shape=unsigned(b + 3), pay_shape=_pay_layout(b),
                 out_shape=unsigned(b), col_fn=col_fn, win_fn=win_fn, name="b", ppc=P,
-                bram=self._bram, dsp=self._dsp)
+                bram=self._bram, buffered=True, dsp=self._dsp)
             ao, bi = a.o_stream, bb.i_stream
             m.d.comb += [
                 bi.valid.eq(ao.valid), ao.ready.eq(bi.ready),

@@ -127,7 +127,8 @@ def _narrowed(stim, ratio):
 
 @pytest.mark.parametrize("count_in,count_out,depth,seed,p_valid,p_ready", [
     (8, 1, 160, 1, 0.7, 0.6), (8, 1, 4, 2, 1.0, 1.0), (8, 2, 16, 3, 0.3, 0.9),
-    (4, 1, 2, 4, 0.9, 0.2), (8, 4, 8, 5, 1.0, 0.3), (2, 1, 3, 6, 0.5, 1.0)])
+    (4, 1, 2, 4, 0.9, 0.2), (8, 4, 8, 5, 1.0, 0.3), (2, 1, 3, 6, 0.5, 1.0),
+    (4, 4, 3, 7, 0.6, 0.7)])
 def test_narrower_splits_every_beat_in_order(count_in, count_out, depth, seed, p_valid,
                                              p_ready):
     """Random idle cycles and backpressure, full-scale and zero elements, a one-beat row:

@@ -204,7 +204,7 @@ def test_component_params_and_errors():
     assert dut.latency == 11
     assert dut.line_buffer_bits == 2 * 640 * 10
     e = Median3(width=1280, pixel_bits=12, enhance=True)
-    assert e.latency == 29 and e.enhance_shift == 14 and e.enhance_gain == 1
+    assert e.latency == 31 and e.enhance_shift == 14 and e.enhance_gain == 1
     assert e.line_buffer_bits == 1280 * (10 * 12 + 18) == 176_640
     for kw, match in (({"width": 2}, "width = 2 is out of range; valid: 3..8192"),
                       ({"width": 8193}, "width = 8193"),

@@ -63,7 +63,7 @@ def test_top_latency_is_the_sum_of_the_blocks_and_taps_match_the_golden_stages()
     ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
     assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores) + 1
     # cds nuc hdr tdi median3+enhance, and the register slice after tdi (its FIFO read)
-    assert core.latency == 1 + 3 + 4 + 9 + 29 + 1
+    assert core.latency == 1 + 3 + 4 + 9 + 31 + 1
     names = [t[0] for t in core.tap_shapes]
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
     assert names == [g[0] for g in pl.golden(p, data)]
