@@ -199,7 +199,7 @@ def narrow(m, link, ppc_in, ppc_out, depth, name, bram="generic"):
     (the consumer's ready reaches a register, not the converter's FIFO read): for a block
     after TDI, whose output is ``stages`` times slower than its input and needs fewer
     pixels per clock. Pixels, rows and frames unchanged;
-    latency 5 cycles (:attr:`Narrower.latency` and the slice's 1)."""
+    latency 6 cycles (:attr:`Narrower.latency` and the slice's 1)."""
     if link.user:
         raise TdicamError(f"pipeline: {name}: a stream carrying {', '.join(link.user)} "
                           f"cannot change its pixels per clock")

@@ -133,7 +133,7 @@ def test_narrower_splits_every_beat_in_order(count_in, count_out, depth, seed, p
                                              p_ready):
     """Random idle cycles and backpressure, full-scale and zero elements, a one-beat row:
     every input beat's elements leave in ``count_in / count_out`` beats in element order,
-    ``first`` on the first, ``last`` on the last, nothing lost or repeated; latency 4."""
+    ``first`` on the first, ``last`` on the last, nothing lost or repeated; latency 5."""
     rng = np.random.default_rng(seed)
     n = 300
     data = rng.integers(0, 1 << 16, (n, count_in))
@@ -141,7 +141,7 @@ def test_narrower_splits_every_beat_in_order(count_in, count_out, depth, seed, p
     k = np.arange(n)
     stim = Beats(data, k % 50 == 0, (k % 10 == 9) | (k == 3))
     dut = Narrower(16, count_in, count_out, depth)
-    assert (dut.ratio, dut.latency) == (count_in // count_out, 4)
+    assert (dut.ratio, dut.latency) == (count_in // count_out, 5)
     ratio = dut.ratio
     got, lat, _ = run_stream_component(dut, stim, n * ratio, seed=seed, p_valid=p_valid,
                                        p_ready=p_ready, drain=30)
@@ -151,7 +151,7 @@ def test_narrower_splits_every_beat_in_order(count_in, count_out, depth, seed, p
         np.array([g[0] for g in got], np.int64).reshape(n * ratio, count_out), want)
     np.testing.assert_array_equal([g[1] for g in got], first)
     np.testing.assert_array_equal([g[2] for g in got], last)
-    assert lat == [4]
+    assert lat == [5]
 
 
 def test_narrower_takes_a_burst_of_depth_beats_while_the_output_drains():
