@@ -222,3 +222,19 @@ def test_orbit_chain_ecp5_synthesis_top_matches(sim):
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert [(t["tap"], t["received"], t["mismatches"]) for t in rep["taps"]] == [
         ("nuc", 720, 0), ("tdi", 48, 0), ("median3", 384, 0)]
+
+
+@pytest.mark.parametrize("sim", ["icarus", "verilator"])
+def test_ning_chain_ecp5_synthesis_top_matches(small, sim):
+    """The top ``tdicam synth pipeline`` places for the Ning et al. 2019 chain at ppc 8
+    (NUC's and hdr's MULT18X18D with their input registers, the products of median3's edge
+    enhancement in MULT18X18D output registers, TDI's and median3's DP16KD banks, the
+    width converter's FIFO), co-simulated with the primitives' models on its 24-column cut,
+    20 % idle cycles and backpressure: every tap equal to the golden chain."""
+    _, data = small
+    p = pl.plan(_scene(sim), ppc=8, stages=8)
+    assert [pl.step_ppc(s) for s in p.steps] == [8, 8, 8, 8, 1]
+    rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=5, ecp5=True)
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert rep["pixels_compared"] == 6 * 24
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] for t in rep["taps"])
