@@ -110,7 +110,7 @@ def test_production_build_full_rate(sim):
                                   np.concatenate([g.ravel() for g in gs]))
     # 30 x (4 header + 30 payload words) in, 1800 pixels out at 1/clock: the header words
     # are the only bubbles (plus latency and the 2000-cycle drain window)
-    assert res.cycles <= 30 * (4 + 60) + 2 + 2000 + 4
+    assert res.cycles <= 30 * (4 + 60) + 2 + 2000 + 5
 
 
 def test_calib_rom_ecp5_dp16kd_icarus(tmp_path):

@@ -20,7 +20,7 @@ from tdicam.model.ecc import CHECK_BITS, CODE_BITS, COLUMNS, DATA_BITS, ROW_MASK
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
 __all__ = ["SecdedEncoder", "SecdedDecoder", "SecdedEncoderStream", "SecdedDecoderStream",
-           "DEC_OUT_BYTES"]
+           "DEC_OUT_BYTES", "syndrome", "correct"]
 
 #: bytes of one decoder-stream output beat: 8 data bytes, the syndrome, the flags
 DEC_OUT_BYTES = 10
@@ -53,6 +53,36 @@ def _data_column_hits(s):
              for r in rows]
         return (t[0] & t[1]) & (t[2] & t[3])
     return half(range(4)) & half(range(4, CHECK_BITS))
+
+
+def syndrome(code):
+    """``(syndrome, data)`` of a 72-bit code word ``{check, data}``: the first half of the
+    decode (8 XOR trees), for a decoder split over two register stages; :func:`correct`
+    is the second."""
+    d, c = code[:DATA_BITS], code[DATA_BITS:]
+    return c ^ _check_bits(d), d
+
+
+def correct(m, s, d):
+    """The second half of the decode: ``(data, corrected, uncorrectable)`` of syndrome
+    ``s`` and received data ``d`` (as :class:`SecdedDecoder`'s outputs)."""
+    flip = Signal(DATA_BITS)
+    m.d.comb += flip.eq(_data_column_hits(s))
+    is_col = _is_column(m, s)
+    return d ^ flip, is_col, s.any() & ~is_col
+
+
+def _is_column(m, s):
+    """1 when the 8-bit syndrome ``s`` equals one of the 72 columns: a 256-entry table
+    indexed by ``s`` (synthesis maps it to 8-input logic: fewer LUTs and levels than
+    counting the syndrome's weight)."""
+    is_col = Signal()
+    with m.Switch(s):
+        with m.Case(*sorted(int(c) for c in COLUMNS)):
+            m.d.comb += is_col.eq(1)
+        with m.Default():  # explicit: no incomplete case in the Verilog
+            m.d.comb += is_col.eq(0)
+    return is_col
 
 
 class SecdedEncoder(wiring.Component):
@@ -154,18 +184,6 @@ class SecdedDecoder(wiring.Component):
         """Cycles from ``code`` to the outputs: ``registered + pipelined``."""
         return int(self._registered) + int(self._pipelined)
 
-    def _is_column(self, m, s):
-        """1 when the 8-bit syndrome ``s`` equals one of the 72 columns: a 256-entry table
-        indexed by ``s`` (synthesis maps it to 8-input logic: fewer LUTs and levels than
-        counting the syndrome's weight)."""
-        is_col = Signal()
-        with m.Switch(s):
-            with m.Case(*sorted(int(c) for c in COLUMNS)):
-                m.d.comb += is_col.eq(1)
-            with m.Default():  # explicit: no incomplete case in the Verilog
-                m.d.comb += is_col.eq(0)
-        return is_col
-
     def elaborate(self, platform):
         m = Module()
         d, c = self.code[:DATA_BITS], self.code[DATA_BITS:]
@@ -179,7 +197,7 @@ class SecdedDecoder(wiring.Component):
         flip = Signal(DATA_BITS)
         m.d.comb += flip.eq(_data_column_hits(s))
         is_col = Signal()
-        m.d.comb += is_col.eq(self._is_column(m, s))
+        m.d.comb += is_col.eq(_is_column(m, s))
         outs = Cat(d ^ flip, is_col, s.any() & ~is_col, s)
         flat = Cat(self.data, self.corrected, self.uncorrectable, self.syndrome)
         if self._registered:

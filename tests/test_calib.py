@@ -197,7 +197,7 @@ def test_amaranth_reader_matches_model_with_stalls():
     assert final["uncorrectable_count"] == int((arrays["flips"] == 2).sum())
     assert final["header_error"] == 0
     # the first payload word is the 5th word: its pixel is valid `latency` cycles later
-    assert lat == [dut.latency] == [3]
+    assert lat == [dut.latency] == [4]
 
 
 def test_amaranth_reader_bad_headers_and_plain_build():
@@ -218,8 +218,8 @@ def test_amaranth_reader_full_rate():
                                            latency_from=None)
     assert [r[0] for r, _, _ in out] == g.ravel().tolist()
     assert [r[1] for r, _, _ in out] == (o.ravel() & 0xFFFF).tolist()
-    # 4 header words + 3-cycle latency + 60 pixels at 1/clock
-    assert final["cycles"] <= 4 + 3 + 60 + 1
+    # 4 header words + 4-cycle latency + 60 pixels at 1/clock
+    assert final["cycles"] <= 4 + 4 + 60 + 1
 
 
 @pytest.mark.parametrize("rows,cols", [(1, 1), (1, 3), (2, 1), (3, 5)])
@@ -293,8 +293,8 @@ def test_amaranth_reader_full_rate_at_ppc(ppc):
                                          p_valid=1.0, p_ready=1.0, latency_from=None)
     assert [r for r, _, _ in out] == np.stack([g.ravel(), o.ravel() & 0xFFFF],
                                               axis=-1).reshape(n, -1).tolist()
-    # 4 / k header beats + 3-cycle latency + n beats at 1/clock
-    assert final["cycles"] <= 4 // k + 3 + n + 1
+    # 4 / k header beats + 4-cycle latency + n beats at 1/clock
+    assert final["cycles"] <= 4 // k + 4 + n + 1
 
 
 @pytest.mark.parametrize("kw,match", [
