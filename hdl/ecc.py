@@ -184,6 +184,11 @@ class SecdedDecoder(wiring.Component):
         """Cycles from ``code`` to the outputs: ``registered + pipelined``."""
         return int(self._registered) + int(self._pipelined)
 
+    def _is_column(self, m, s):
+        """1 when the syndrome ``s`` equals one of the 72 columns (:func:`_is_column`; a
+        method, so the formal tests' mutants can replace it)."""
+        return _is_column(m, s)
+
     def elaborate(self, platform):
         m = Module()
         d, c = self.code[:DATA_BITS], self.code[DATA_BITS:]
@@ -197,7 +202,7 @@ class SecdedDecoder(wiring.Component):
         flip = Signal(DATA_BITS)
         m.d.comb += flip.eq(_data_column_hits(s))
         is_col = Signal()
-        m.d.comb += is_col.eq(_is_column(m, s))
+        m.d.comb += is_col.eq(self._is_column(m, s))
         outs = Cat(d ^ flip, is_col, s.any() & ~is_col, s)
         flat = Cat(self.data, self.corrected, self.uncorrectable, self.syndrome)
         if self._registered:
