@@ -154,7 +154,7 @@ class CalibReader(wiring.Component):
         d_valid, d_data = Signal(name="d_valid"), Signal(64 * k, name="d_data")
         d_cor, d_unc = Signal(k, name="d_cor"), Signal(k, name="d_unc")
         d_go = Signal()  # the decoded word is consumed this cycle
-        d_adv, e_adv = Signal(), Signal()
+        d_adv, e_adv = Signal(name="d_adv"), Signal(name="e_adv")  # D, E take a word
 
         # ---- input side: header check, counters, pending word
         in_header = Signal(init=1)

@@ -63,12 +63,14 @@ def syndrome(code):
     return c ^ _check_bits(d), d
 
 
-def correct(m, s, d):
+def correct(m, s, d, is_column=None):
     """The second half of the decode: ``(data, corrected, uncorrectable)`` of syndrome
-    ``s`` and received data ``d`` (as :class:`SecdedDecoder`'s outputs)."""
+    ``s`` and received data ``d`` (as :class:`SecdedDecoder`'s outputs). ``is_column(m,
+    s)``: the column test (default :func:`_is_column`)."""
     flip = Signal(DATA_BITS)
     m.d.comb += flip.eq(_data_column_hits(s))
-    is_col = _is_column(m, s)
+    is_col = Signal()
+    m.d.comb += is_col.eq((is_column or _is_column)(m, s))
     return d ^ flip, is_col, s.any() & ~is_col
 
 
@@ -191,19 +193,15 @@ class SecdedDecoder(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        d, c = self.code[:DATA_BITS], self.code[DATA_BITS:]
         s = Signal(CHECK_BITS)
-        m.d.comb += s.eq(c ^ _check_bits(d))
+        syn, d = syndrome(self.code)
+        m.d.comb += s.eq(syn)
         if self._pipelined:
             s_reg = Signal(CHECK_BITS, reset_less=True)
             d_reg = Signal(DATA_BITS, reset_less=True)
             m.d.sync += [s_reg.eq(s), d_reg.eq(d)]
             s, d = s_reg, d_reg
-        flip = Signal(DATA_BITS)
-        m.d.comb += flip.eq(_data_column_hits(s))
-        is_col = Signal()
-        m.d.comb += is_col.eq(self._is_column(m, s))
-        outs = Cat(d ^ flip, is_col, s.any() & ~is_col, s)
+        outs = Cat(*correct(m, s, d, self._is_column), s)
         flat = Cat(self.data, self.corrected, self.uncorrectable, self.syndrome)
         if self._registered:
             reg = Signal(len(flat), reset_less=True)

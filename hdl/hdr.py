@@ -83,7 +83,7 @@ class Hdr(wiring.Component):
     #: Multiplier descriptions (``dsp=``): ``"generic"`` (``*`` between fabric registers,
     #: mapped by the synthesis tool) or ``"ecp5"`` (a signed MULT18X18D with its input
     #: registers, :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
-    DSPS = ("generic", "ecp5")
+    DSPS = ecp5_dsp.DSPS
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, threshold=None, band=None, gain_pairs=DEFAULT_GAINS,

@@ -1009,7 +1009,7 @@ class Median3(wiring.Component):
 
     #: Product registers (``dsp=``): ``"generic"`` (fabric registers after a ``*``) or
     #: ``"ecp5"`` (each MULT18X18D's output register): the same values and cycles.
-    DSPS = ("generic", "ecp5")
+    DSPS = ecp5_dsp.DSPS
 
     def __init__(self, *, width=1280, pixel_bits=12, enhance=False, enhance_gain=1,
                  enhance_shift=None, ppc=1, bram="generic", dsp="generic"):

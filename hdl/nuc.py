@@ -73,7 +73,7 @@ class Nuc(wiring.Component):
     #: Multiplier descriptions (``dsp=``): ``"generic"`` (``*`` between fabric registers,
     #: mapped by the synthesis tool) or ``"ecp5"`` (MULT18X18D with its input registers,
     #: :func:`tdicam.hdl.vendor.ecp5_dsp.mult`: the same stages and cycles).
-    DSPS = ("generic", "ecp5")
+    DSPS = ecp5_dsp.DSPS
 
     @quiet_reject
     def __init__(self, *, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14, offset_bits=16,

@@ -17,7 +17,13 @@ generic description unless asked.
 
 from amaranth.hdl import ClockSignal, Const, Elaboratable, Instance, Module, Signal, Value, signed
 
-__all__ = ["MAX_BITS", "REGISTERS", "fits", "mult"]
+__all__ = ["DSPS", "MAX_BITS", "REGISTERS", "fits", "mult"]
+
+#: How a block describes its multipliers (its ``dsp=`` parameter): ``"generic"`` (``*``
+#: between fabric registers, what ``tdicam verilog`` writes; the synthesis tool maps it) or
+#: ``"ecp5"`` (MULT18X18D instances keeping a register stage in the block, :func:`mult`:
+#: the same values and cycles).
+DSPS = ("generic", "ecp5")
 
 #: Widest operand of one MULT18X18D (unsigned product; a signed product takes signed
 #: operands of at most 18 bits and unsigned ones of at most 17).
