@@ -29,7 +29,7 @@ from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
-           "RUN_BITS"]
+           "RUN_BITS", "forward_core", "rx_ports", "lane_ports"]
 
 TAP_BITS = 5
 SLIP_BITS = 4
@@ -72,6 +72,11 @@ class LaneTrainer(wiring.Component):
         Sync word period in data mode (>= 2).
     restart : In(1)
         Restart training next cycle (retrain request).
+    hold : In(1), with ``hold=True`` only
+        The delay line is still moving to the step's tap (a delay stepped one count at a
+        time, the ECP5 DELAYF): the step's word counter stays at 0 while it is high, so the
+        ``settle`` words start once the delay has arrived. Without it every step has the
+        fixed length of :meth:`step_words`.
     tap, ld : Out(5), Out(1)
         Delay tap and its load strobe (high in the first cycle of every step).
     slip : Out(4)
@@ -94,17 +99,21 @@ class LaneTrainer(wiring.Component):
     """
 
     @quiet_reject
-    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5):
+    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False):
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
+        self._hold = bool(hold)
         w = word_bits
-        super().__init__({
+        ports = {
             "raw": In(w), "train_word": In(w), "sync_word": In(w), "n_check": In(8),
             "line_words": In(16), "restart": In(1),
             "tap": Out(TAP_BITS), "ld": Out(1, init=1), "slip": Out(SLIP_BITS),
             "locked": Out(1), "error": Out(1), "run": Out(RUN_BITS), "scan": Out(N_TAPS),
             "word": Out(w), "word_sync": Out(1),
-        })
+        }
+        if hold:
+            ports["hold"] = In(1)
+        super().__init__(ports)
 
     @property
     def word_bits(self):
@@ -232,6 +241,9 @@ class LaneTrainer(wiring.Component):
                     m.d.sync += state.eq(_DECIDE)
                 with m.Else():
                     m.d.sync += [self.tap.eq(self.tap + 1), self.ld.eq(1)]
+            if self._hold:
+                with m.If(self.hold):
+                    m.d.sync += cnt.eq(0)
         with m.Elif(state == _DECIDE):
             m.d.sync += [cnt.eq(0), self.slip.eq(0), self.ld.eq(1)]
             with m.If(best_len >= self._min_run):
@@ -249,6 +261,9 @@ class LaneTrainer(wiring.Component):
                                  self.slip.eq(0), self.ld.eq(1)]
                 with m.Else():
                     m.d.sync += [self.slip.eq(self.slip + 1), self.ld.eq(1)]
+            if self._hold:
+                with m.If(self.hold):
+                    m.d.sync += cnt.eq(0)
         with m.Elif(state == _LOCKED):
             with m.If(go_error_mon):
                 m.d.sync += [state.eq(_ERROR), self.locked.eq(0), self.error.eq(1)]
@@ -382,7 +397,35 @@ class Deskew(wiring.Component):
         return m
 
 
-def _rx_ports(lanes, w):
+def lane_ports(phy, n, w):
+    """The lane-side ports of a receiver top with PHY ``phy`` ({name: member}): the
+    deserializers' words and the delay taps (``none``: :class:`LvdsRx`), or the pins and
+    clocks (``xilinx7``: :class:`LvdsXilinx`; ``ecp5``: :class:`tdicam.hdl.lvds_phy.LvdsEcp5`).
+    """
+    if phy == "none":
+        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+    if phy == "ecp5":
+        return {"lane_p": In(n), "clk_eclk": In(1)}
+    ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
+             "idelay_rdy": Out(1)}
+    if w == 12:
+        ports["clk_div"] = In(1)
+    return ports
+
+
+def forward_core(m, outer, core):
+    """Connect the register and status ports of a PHY wrapper ``outer`` to its
+    :class:`LvdsRx` ``core`` (settings in, status out)."""
+    for name in rx_ports(core.lanes, core.word_bits):
+        port, inner = getattr(outer, name), getattr(core, name)
+        if name in ("train_word", "sync_word", "n_check", "line_words", "retrain"):
+            m.d.comb += inner.eq(port)
+        else:
+            m.d.comb += port.eq(inner)
+
+
+def rx_ports(lanes, w):
+    """The register and status ports every receiver top has ({name: member})."""
     return {
         "train_word": In(w), "sync_word": In(w), "n_check": In(8), "line_words": In(16),
         "retrain": In(1),
@@ -405,6 +448,8 @@ class LvdsRx(wiring.Component):
     word_bits : 10 or 12
     settle, min_run, pick : see :class:`LaneTrainer`
     deskew_depth : 8, 16 or 32
+    hold : bool
+        Add ``lane_hold`` (:class:`LaneTrainer`'s ``hold`` of every lane).
 
     Attributes
     ----------
@@ -433,15 +478,18 @@ class LvdsRx(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8):
+                 deskew_depth=8, hold=False):
         _check_common(word_bits, settle, min_run, pick)
         self._n = check_range("lanes", lanes, 1, 128)
         self._w = word_bits
-        self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick)
+        self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
+                        hold=bool(hold))
         self._depth = check_choice("deskew_depth", deskew_depth, (8, 16, 32))
         ports = {"lane_raw": In(lanes * word_bits), "lane_tap": Out(lanes * TAP_BITS),
                  "lane_ld": Out(lanes)}
-        ports.update(_rx_ports(lanes, word_bits))
+        if hold:
+            ports["lane_hold"] = In(lanes)
+        ports.update(rx_ports(lanes, word_bits))
         super().__init__(ports)
 
     @property
@@ -484,6 +532,8 @@ class LvdsRx(wiring.Component):
                 self.lane_scan[i * N_TAPS:(i + 1) * N_TAPS].eq(t.scan),
                 dsk.words[i * w:(i + 1) * w].eq(t.word), dsk.syncs[i].eq(t.word_sync),
             ]
+            if self._kw["hold"]:
+                m.d.comb += t.hold.eq(self.lane_hold[i])
             done.append(t.locked | t.error)
         m.d.comb += self.lane_mask.eq(self.lane_locked)
         m.d.sync += [self.all_locked.eq(self.lane_locked.all() & ~self.retrain),
@@ -519,11 +569,8 @@ class LvdsXilinx(wiring.Component):
                  deskew_depth=8):
         self._core = LvdsRx(lanes=lanes, word_bits=word_bits, settle=settle, min_run=min_run,
                             pick=pick, deskew_depth=deskew_depth)
-        ports = {"lane_p": In(lanes), "lane_n": In(lanes), "clk_bit": In(1), "clk_ref": In(1),
-                 "idelay_rdy": Out(1)}
-        if word_bits == 12:
-            ports["clk_div"] = In(1)
-        ports.update(_rx_ports(lanes, word_bits))
+        ports = lane_ports("xilinx7", lanes, word_bits)
+        ports.update(rx_ports(lanes, word_bits))
         super().__init__(ports)
 
     @property
@@ -535,12 +582,7 @@ class LvdsXilinx(wiring.Component):
         core = self._core
         m.submodules.core = core
         n, w = core.lanes, core.word_bits
-        for name in _rx_ports(n, w):
-            port, inner = getattr(self, name), getattr(core, name)
-            if name in ("train_word", "sync_word", "n_check", "line_words", "retrain"):
-                m.d.comb += inner.eq(port)
-            else:
-                m.d.comb += port.eq(inner)
+        forward_core(m, self, core)
         rst = ResetSignal("sync")
         m.submodules.idelayctrl = Instance(
             "IDELAYCTRL", a_IODELAY_GROUP="tdicam_lvds",

@@ -42,7 +42,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
-from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx
+from tdicam.hdl.lvds import lane_ports
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LvdsFront", "WORD_DOMAIN"]
@@ -64,18 +64,6 @@ def _status_ports(n, w):
     }
 
 
-def _lane_ports(n, w, phy):
-    """The lane-side ports: the deserializers' words and the delay taps (the simulated
-    PHY), or the 7-series pins and clocks of :class:`~tdicam.hdl.lvds.LvdsXilinx`."""
-    if phy == "none":
-        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
-    ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
-             "idelay_rdy": Out(1)}
-    if w == 12:
-        ports["clk_div"] = In(1)
-    return ports
-
-
 class _WordSide(wiring.Component):
     """Receiver and framer, written in ``sync`` (renamed to the word domain by
     :class:`LvdsFront`); ``w_*`` drive the crossing FIFO's write port."""
@@ -83,7 +71,7 @@ class _WordSide(wiring.Component):
     def __init__(self, *, n, w, bits, p, rx, phy, pairs=False):
         self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
         self._pairs = pairs
-        self._lane_ports = _lane_ports(n, w, phy)
+        self._lane_ports = lane_ports(phy, n, w)
         ports = {**self._lane_ports,
                  "w_data": Out(n * bits + 3), "w_en": Out(1), "w_rdy": In(1),
                  "released": In(1)}
@@ -240,12 +228,13 @@ class LvdsFront(wiring.Component):
         ``2**ceil(log2(ceil(P * max(0, 1 - f_p ppc / (L f_w))) + 8))``.
     settle, min_run, pick, deskew_depth
         :class:`tdicam.hdl.lvds.LvdsRx`'s.
-    phy : {"none", "xilinx7"}
+    phy : {"none", "xilinx7", "ecp5"}
         ``none``: the generic simulated PHY (the deserializers' words in, the delay taps
-        out); ``xilinx7``: the receiver behind 7-series IBUFDS/IDELAYE2/ISERDESE2
+        out); ``ecp5``: :class:`~tdicam.hdl.lvds_phy.LvdsEcp5` (pins ``lane_p``, the edge
+        clock ``clk_eclk``); ``xilinx7``: the receiver behind 7-series IBUFDS/IDELAYE2/ISERDESE2
         (:class:`~tdicam.hdl.lvds.LvdsXilinx`: pins ``lane_p``/``lane_n``, ``clk_bit``,
         ``clk_ref``, ``idelay_rdy``, ``clk_div`` with 12-bit words; the word clock is its
-        ``CLKDIV``), generated, not simulated.
+        ``CLKDIV``).
     pairs : bool
         The sensor sends each reset frame before its signal frame (off-chip CDS): after any
         hold (start-up, ``release`` low, a retrain) frames are released from a reset frame
@@ -308,13 +297,14 @@ class LvdsFront(wiring.Component):
         if fifo_depth < 4 or fifo_depth & (fifo_depth - 1):
             raise TdicamError(f"fifo_depth = {fifo_depth} must be a power of two >= 4")
         self._L, self._p, self._depth = L, columns // L, fifo_depth
-        self._phy = check_choice("phy", phy, ("none", "xilinx7"))
+        from tdicam.hdl.lvds_phy import PHYS
+        self._phy = check_choice("phy", phy, tuple(PHYS))
         self._pairs = bool(pairs)
-        rx_cls = LvdsXilinx if phy == "xilinx7" else LvdsRx
+        rx_cls = PHYS[phy]
         self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle,
                           min_run=min_run, pick=pick, deskew_depth=deskew_depth)
         n = L * gains
-        ports = {**_lane_ports(n, word_bits, phy),
+        ports = {**lane_ports(phy, n, word_bits),
                  "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains))),
                  "frame_kind": Out(1), "release": In(1, init=1)}
         ports.update(_status_ports(n, word_bits))
@@ -331,7 +321,7 @@ class LvdsFront(wiring.Component):
         """{port: clock domain} of the ports not in the processing clock (``sync``): the
         lanes' and the status and settings ports, in the word domain."""
         n = self._L * self._g
-        return {name: WORD_DOMAIN for name in {**_lane_ports(n, self._w, self._phy),
+        return {name: WORD_DOMAIN for name in {**lane_ports(self._phy, n, self._w),
                                                 **_status_ports(n, self._w)}}
 
     def elaborate(self, platform):
@@ -347,7 +337,7 @@ class LvdsFront(wiring.Component):
                                                    o_domain=WORD_DOMAIN, init=0)
         m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)
-        outer = {**_lane_ports(n, self._w, self._phy), **_status_ports(n, self._w)}
+        outer = {**lane_ports(self._phy, n, self._w), **_status_ports(n, self._w)}
         for name, member in outer.items():
             if member.flow == wiring.In:
                 m.d.comb += getattr(ws, name).eq(getattr(self, name))

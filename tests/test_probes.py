@@ -175,7 +175,7 @@ COMMANDS = [
     (["bench", "bogus"], 2, "unknown benchmark 'bogus'"),
     (["run", "{S}", "-o", "{D}/run", "--lines", "0"], 2, "--lines = 0 is out of range"),
     (["verilog", "lvds", "--ppc", "3"], 2, "--ppc = 3 is not valid"),
-    (["verilog", "lvds", "--phy", "bogus"], 2, "--phy = bogus is not valid; valid: none, xilinx7"),
+    (["verilog", "lvds", "--phy", "bogus"], 2, "--phy = bogus is not valid; valid: none, xilinx7, ecp5"),
     (["verilog", "lvds", "--lanes", "99999999999999999999"], 2, "--lanes = 99999999999999999999"),
     (["verilog", "lvds", "--word-bits", "11"], 2, "--word-bits = 11 is not valid; valid: 10, 12"),
     (["verilog", "lvds", "--fifo-depth", "3"], 2, "--fifo-depth = 3 is not valid"),

@@ -3,8 +3,9 @@
 Not a video stream: golden cases describe a link (per-lane analogue parameters, the
 sensor's schedule, retrain requests) and store the golden status events and final status;
 ``cocotb_tests/test_lvds.py`` co-simulates them with :mod:`tdicam.cosim.lvds`.
-``--phy xilinx7`` generates the 7-series wrapper (IDELAYE2/ISERDESE2 instances) instead of
-the simulated core.
+``--phy xilinx7`` / ``--phy ecp5`` generate the receiver behind the 7-series
+(IBUFDS/IDELAYE2/ISERDESE2) or ECP5 (DELAYF/IDDRX2F/ECLKSYNCB/CLKDIVF) input primitives
+(:data:`tdicam.hdl.lvds_phy.PHYS`) instead of the generic core.
 
 As the camera's front end (``--lanes-per-gain`` > 0, and in a scene's pipeline when the scene
 has a ``[sensor.lvds]`` section: :attr:`tdicam.blocks.Use.source`) the top is
@@ -16,7 +17,7 @@ crossing into the processing clock, its output the pipeline's pixel stream
 import numpy as np
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.lvds import LvdsRx, LvdsXilinx
+from tdicam.hdl.lvds_phy import PHYS
 from tdicam.hdl.lvds_front import WORD_DOMAIN
 from tdicam.model import lvds as model
 from tdicam.blocks import PPC_PARAM, Bench, SynthRef, Use
@@ -36,7 +37,7 @@ def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_pe
         return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
                          bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
                          pairs=bool(pairs), **kw)
-    return LvdsXilinx(lanes=lanes, **kw) if phy == "xilinx7" else LvdsRx(lanes=lanes, **kw)
+    return PHYS[phy](lanes=lanes, **kw)
 
 
 def _check(p):
@@ -400,7 +401,7 @@ BLOCK = Block(
         Param("pick", 5, "sample at this tap of the run (1 = first)", lo=1, hi=32),
         Param("deskew_depth", 8, "deskew FIFO words per lane", choices=(8, 16, 32)),
         Param("phy", "none", "none: the core (simulated); xilinx7: IDELAYE2/ISERDESE2 "
-              "wrapper", choices=("none", "xilinx7"), type=str),
+              "wrapper; ecp5: DELAYF/IDDRX2F wrapper", choices=tuple(PHYS), type=str),
         Param("lanes_per_gain", 0, "> 0: the camera's front end (lanes -> pixel stream), "
               "lanes per gain channel", lo=0, hi=64, implicit_default=True),
         Param("columns", 0, "front end: frame width (a multiple of lanes_per_gain)", lo=0,

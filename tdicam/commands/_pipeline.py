@@ -44,9 +44,11 @@ def scene_design(prog, extra):
     ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
     ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
                     "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
-    ap.add_argument("--phy", choices=("none", "xilinx7"),
+    from tdicam.hdl.lvds_phy import PHYS
+    ap.add_argument("--phy", choices=tuple(PHYS),
                     help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
-                         "PHY (default) or the 7-series IDELAYE2/ISERDESE2 primitives")
+                         "PHY (default), the 7-series IDELAYE2/ISERDESE2 or the ECP5 "
+                         "DELAYF/IDDRX2F primitives")
     ns = ap.parse_args(list(extra))
     sc = load_scene(ns.scene)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)

@@ -387,9 +387,11 @@ def lvds_export(blk, params, *, seed=1, idle=0.1, backpressure=0.1, max_beats=No
     ``lvds`` at ``params`` (``seed``, ``idle``, ``backpressure``, ``max_beats``: unused, the
     sensor cannot be stalled; every golden case runs)."""
     if params["phy"] != "none":
-        raise TdicamError("lvds --phy xilinx7 instantiates 7-series primitives (IBUFDS, "
-                          "IDELAYE2, ISERDESE2) that no open simulator has; export --phy none, "
-                          "the core that wrapper contains")
+        prims = {"xilinx7": "7-series primitives (IBUFDS, IDELAYE2, ISERDESE2)",
+                 "ecp5": "ECP5 primitives (DELAYF, IDDRX2F, ECLKSYNCB, CLKDIVF)"}
+        raise TdicamError(f"lvds --phy {params['phy']} instantiates {prims[params['phy']]} "
+                          f"that no open simulator has; export --phy none, the core that "
+                          f"wrapper contains")
     files, names, counts = lvds_vectors(blk, params)
     top = blk.build(params)
     tb = selfcheck_testbench(top, names, counts)
