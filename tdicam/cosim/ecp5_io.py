@@ -16,7 +16,8 @@ Modelled:
     one step at ``MOVE``'s falling edge, where ``DIRECTION`` is sampled: 0 one step more
     delay, 1 one step less. The count saturates at 0 and 127; ``CFLAG`` is high when it is
     at the limit the current ``DIRECTION`` moves to (127 with ``DIRECTION = 0``, 0 with 1).
-    As in :mod:`tdicam.cosim.xilinx7_io`, a new count delays the transitions that follow.
+    A transport delay (:func:`tdicam.cosim.xilinx7_io.transport_delay`): a new count
+    delays the transitions that follow.
 ``DELAYG``
     ``Z`` = ``A`` delayed by ``DEL_VALUE x STEP_PS`` (``DEL_MODE = "USER_DEFINED"``).
 ``IDDRX1F``
@@ -48,6 +49,8 @@ What stops the simulation with ``$fatal``: ``DEL_MODE`` other than ``USER_DEFINE
 Not modelled: the delay's insertion delay and its process/voltage/temperature variation,
 GSR, the DQS paths (``DQSBUFM``), ``IDDR71B``.
 """
+
+from tdicam.cosim.xilinx7_io import transport_delay
 
 __all__ = ["MODEL", "FILE", "STEP_PS", "N_STEPS"]
 
@@ -87,15 +90,11 @@ module DELAYF (input A, input LOADN, input MOVE, input DIRECTION, output reg Z,
     end else if (cnt != 7'd{N_STEPS - 1})
       cnt <= cnt + 7'd1;
   assign CFLAG = DIRECTION ? (cnt == 7'd0) : (cnt == 7'd{N_STEPS - 1});
-  always @(A)
-    Z <= #(cnt * STEP_PS) A;
-endmodule
+{transport_delay("Z", "A", "cnt * STEP_PS")}endmodule
 
 module DELAYG (input A, output reg Z);
 {_delay_common()}  initial Z = 1'b0;
-  always @(A)
-    Z <= #(DEL_VALUE * STEP_PS) A;
-endmodule
+{transport_delay("Z", "A", "DEL_VALUE * STEP_PS")}endmodule
 
 module IDDRX1F (input D, input SCLK, input RST, output reg Q0, output reg Q1);
   parameter GSR = "ENABLED";

@@ -48,6 +48,52 @@ _BIASW = 256         # sender word bias keeping indices positive in the testbenc
 _RST_CYCLES = tbgen.RST_CYCLES
 
 
+def _link_functions(nsched):
+    """Verilog of the testbench functions ``mix`` (the link model's hash) and ``sent`` (the
+    word the sensor sends, from the schedule registers ``sched``/``n_sched`` and the run-time
+    words), shared by the word-level and the pin-level testbenches."""
+    return _LINK_FUNCTIONS.replace("%NSCHED%", str(nsched))
+
+
+_LINK_FUNCTIONS = """  function [31:0] mix(input [31:0] x);
+    reg [31:0] y;
+    begin
+      y = x ^ (x >> 16);
+      y = y * 32'h7feb352d;
+      y = y ^ (y >> 15);
+      y = y * 32'h846ca68b;
+      mix = y ^ (y >> 16);
+    end
+  endfunction
+
+  // word the sensor sends at biased sender index nb (sender word nb - BIASW)
+  function [W-1:0] sent(input [31:0] nb, input [31:0] dkey);
+    integer q;
+    reg isd;
+    reg [31:0] st, d;
+    begin
+      isd = 1'b0;
+      st = 0;
+      for (q = 0; q < %NSCHED%; q = q + 1)
+        if (q < n_sched && nb >= sched[q][31:0] + BIASW) begin
+          isd = sched[q][32];
+          st = sched[q][31:0] + BIASW;
+        end
+      if (!isd)
+        sent = train_word;
+      else if ((nb - st) % {16'd0, line_words} == 0)
+        sent = sync_word;
+      else begin
+        d = mix((nb - BIASW) ^ dkey);
+        sent = d[W-1:0];
+        if (sent == sync_word) sent = sent ^ 1;
+      end
+    end
+  endfunction
+
+"""
+
+
 def linkcheck_tap(k, lane):
     """Tap the testbench drives on ``lane`` at cycle ``k`` in link-check mode."""
     return ((np.asarray(k) >> 2) * 5 + lane * 11) & 31
@@ -140,43 +186,7 @@ module {tbgen.TB_TOP};
   reg rst = 1'b1;
   reg [3:0] rcnt = 0;
 
-{h.decls}  function [31:0] mix(input [31:0] x);
-    reg [31:0] y;
-    begin
-      y = x ^ (x >> 16);
-      y = y * 32'h7feb352d;
-      y = y ^ (y >> 15);
-      y = y * 32'h846ca68b;
-      mix = y ^ (y >> 16);
-    end
-  endfunction
-
-  // word the sensor sends at biased sender index nb (sender word nb - BIASW)
-  function [W-1:0] sent(input [31:0] nb, input [31:0] dkey);
-    integer q;
-    reg isd;
-    reg [31:0] st, d;
-    begin
-      isd = 1'b0;
-      st = 0;
-      for (q = 0; q < {_NSCHED}; q = q + 1)
-        if (q < n_sched && nb >= sched[q][31:0] + BIASW) begin
-          isd = sched[q][32];
-          st = sched[q][31:0] + BIASW;
-        end
-      if (!isd)
-        sent = train_word;
-      else if ((nb - st) % {{16'd0, line_words}} == 0)
-        sent = sync_word;
-      else begin
-        d = mix((nb - BIASW) ^ dkey);
-        sent = d[W-1:0];
-        if (sent == sync_word) sent = sent ^ 1;
-      end
-    end
-  endfunction
-
-  function is_retrain(input [31:0] kk);
+{h.decls}{_link_functions(_NSCHED)}  function is_retrain(input [31:0] kk);
     integer q;
     begin
       is_retrain = 1'b0;

@@ -21,9 +21,10 @@ restores the project's ``1ns/1ps`` at its end. Modelled:
     ``FIXED`` (tap = ``IDELAY_VALUE``), ``VARIABLE`` (at a rising ``C`` edge: ``LD`` loads
     ``IDELAY_VALUE``, else ``CE`` steps the tap up (``INC = 1``) or down, wrapping 31 <-> 0)
     and ``VAR_LOAD`` (``LD`` loads ``CNTVALUEIN``, ``CE``/``INC`` as ``VARIABLE``).
-    ``CNTVALUEOUT`` is the tap. A new tap delays the input transitions that follow it;
-    transitions already in the line keep their delay (a shorter tap can reorder them, as a
-    glitch would: the receiver ignores words for ``settle`` cycles after a load).
+    ``CNTVALUEOUT`` is the tap. A transport delay (:func:`transport_delay`): a new tap
+    delays the input transitions that follow it; transitions already in the line keep
+    their delay and their order (after a shorter tap the next ones wait behind them: the
+    receiver ignores words for ``settle`` cycles after a load).
 ``ISERDESE2``
     ``INTERFACE_TYPE = "NETWORKING"``, ``DATA_RATE = "DDR"``, ``DATA_WIDTH`` 4, 6, 8 (a
     ``MASTER``) or 10, 14 (width expansion: a ``MASTER`` and a ``SLAVE`` whose ``SHIFTIN1``
@@ -58,7 +59,7 @@ its tap-to-tap variation, IDELAYCTRL's effect on the taps (the tap is always the
 one), INIT_Q/SRVAL_Q values (outputs reset to 0), the OCLK (memory) paths, SDR mode.
 """
 
-__all__ = ["MODEL", "FILE", "TAP_PS"]
+__all__ = ["MODEL", "FILE", "TAP_PS", "transport_delay"]
 
 #: File name the co-simulation build gives :data:`MODEL`.
 FILE = "xilinx7_io_sim.v"
@@ -67,6 +68,38 @@ FILE = "xilinx7_io_sim.v"
 def TAP_PS(refclk_mhz=200.0):
     """The IDELAYE2 tap in ps: ``1e6 / (32 * 2 * refclk_mhz)`` (78.125 at 200 MHz)."""
     return 1e6 / (64.0 * refclk_mhz)
+
+
+def transport_delay(out, src, delay):
+    """Verilog of a transport delay line: every change of ``src`` reaches the ``reg`` ``out``
+    ``delay`` (a real expression, time units) after it, with the delay in force when it
+    entered; changes leave in the order they entered (a shorter delay waits behind the
+    changes in flight). A queue of 64 changes and one process: ``out <= #(delay) src``
+    would be inertial in some simulators and swallow pulses shorter than the delay."""
+    return f"""  realtime q_t [0:63];
+  reg q_v [0:63];
+  reg [6:0] q_w = 7'd0, q_r = 7'd0;
+  realtime q_due, q_last = 0.0;
+  always @({src}) begin
+    if (q_w - q_r == 7'd64)
+      $fatal(1, "delay line model: more than 64 changes in flight");
+    q_t[q_w[5:0]] = $realtime + ({delay});
+    q_v[q_w[5:0]] = {src};
+    q_w = q_w + 7'd1;
+  end
+  always begin
+    if (q_r == q_w)
+      @(q_w);
+    else begin
+      q_due = q_t[q_r[5:0]] > q_last ? q_t[q_r[5:0]] : q_last;
+      if (q_due > $realtime)
+        #(q_due - $realtime);
+      {out} = q_v[q_r[5:0]];
+      q_last = q_due;
+      q_r = q_r + 7'd1;
+    end
+  end
+"""
 
 
 def _q_assign(name):
@@ -153,9 +186,7 @@ module IDELAYE2 (
     end
   assign CNTVALUEOUT = tap;
   wire src = (DELAY_SRC == "DATAIN") ? DATAIN : IDATAIN;
-  always @(src)
-    DATAOUT <= #(tap * TAP) src;
-endmodule
+{transport_delay("DATAOUT", "src", "tap * TAP")}endmodule
 
 module ISERDESE2 (
   input D, input DDLY, input CLK, input CLKB, input CLKDIV, input CLKDIVP, input OCLK,

@@ -1,0 +1,339 @@
+"""Serial-bit co-simulation of the LVDS receiver behind its vendor PHYs (``xilinx7``,
+``ecp5``): the link model drives every lane's pins at the bit rate, the generated receiver
+with the primitive models (:mod:`tdicam.cosim.xilinx7_io`, :mod:`tdicam.cosim.ecp5_io`)
+trains, locks and delivers words.
+
+The pins (testbench, timescale 1 fs)
+------------------------------------
+Bit ``n`` of a lane (the sender's bits, most significant bit of each word first:
+:func:`tdicam.model.lvds.sent_words`) occupies ``[T0 + skew + n UI, T0 + skew + (n+1) UI)``
+(``T0``: the start of port cycle 0, the first word clock after reset; ``UI`` a whole number
+of fs: :func:`ui_fs`). Its value is on the pins only inside its eye ``[lo + jl + d, hi - jr
++ d')`` of the bit (``lo, hi = (UI -/+ eye) / 2``); before and after, the pins show a
+random level (the closed eye: what a sampler captures there is random). ``jl``, ``jr``
+(random jitter) are drawn per bit, uniform in ``[0, jitter)`` (the lowbias32 hash of the
+bit index and the lane's jitter key: 16 bits each); duty-cycle distortion ``dcd`` widens
+the eye of a 1 by ``dcd / 2`` on each side and narrows that of a 0 as much (``d = -dcd/2,
+d' = +dcd/2`` for a 1, the opposite for a 0). The P pin carries the level, N its
+complement (the ECP5 PHY has the P pin only). The clocks are exact: tick ``j`` at ``j UI``;
+the bit clock (``CLK`` / ``ECLK``, half the bit rate) rises at even ticks, the word clock
+``clk`` at ticks ``j % W == 0`` (7-series 12-bit: ``clk_div`` at ``j % 6 == 0``), so sample
+``m`` is taken at ``T0 + m UI`` as in :mod:`tdicam.model.lvds`.
+
+What it must give (:func:`predict`)
+-----------------------------------
+With ``dcd`` and jitter 0 a lane's capture at tap ``t`` is the link model's with
+``eye - dcd`` (the eye of the zeros) and the PHY's tap (:func:`tdicam.hdl.lvds_phy.tap_ps`):
+every lane locks or fails as :func:`tdicam.model.lvds.train_lane` says, at its tap, with
+its bitslip once the PHY's word phase (``c``: the raw words are samples ``(k - L) W + c``
+..; the PHY's pipeline) is accounted for; a jittered lane's run may lose taps at the edges
+of its eye (their captures are random), so its tap may be below the prediction by at most
+the taps of the random band. Every locked lane delivers, from the data start, exactly the
+words sent (the deskewed output: no word lost, repeated or changed); a lane with no eye
+reports ``lane_error``.
+"""
+
+import json
+import math
+import os
+import shutil
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from tdicam import blocks
+from tdicam.errors import TdicamError
+from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
+from tdicam.hdl.lvds_phy import tap_ps
+from tdicam.hw.verilog import convert
+from tdicam.model import lvds as model
+from tdicam.cosim import ecp5_io, tbgen, xilinx7_io
+from tdicam.cosim.build import build_sources, run_cocotb
+from tdicam.cosim.lvds import _BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports
+
+__all__ = ["PinRun", "run_pins", "predict", "band_taps", "ui_fs", "rate_for_ui", "PIN_PHYS"]
+
+#: The PHYs simulated from pins: {phy: primitive model module}.
+PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
+_RST = 4             # word clocks in reset at the start
+_PRM = 8             # 64-bit parameters per lane
+
+
+def ui_fs(rate_mbps):
+    """The bit period in fs; the rate must give a whole number of them (within 0.001 fs)."""
+    ui = 1e9 / float(rate_mbps)
+    if abs(ui - round(ui)) > 1e-3:
+        raise TdicamError(f"bit rate {rate_mbps} Mb/s is not a whole number of fs a bit "
+                          f"({ui:.3f} fs); use rate_for_ui({round(ui)}) = "
+                          f"{rate_for_ui(round(ui))!r} Mb/s")
+    return int(round(ui))
+
+
+def rate_for_ui(ui):
+    """The bit rate (Mb/s) whose bit is ``ui`` fs (300 Mb/s: ``rate_for_ui(3333333)``)."""
+    return 1e9 / int(ui)
+
+
+@dataclass
+class PinRun:
+    """What the pin-level testbench reported: ``final`` per lane dict (tap, slip, locked,
+    error, run, scan); ``outputs`` (k, sync, data[lanes]) of every deskewed output cycle;
+    ``wall``, ``build_time`` (s); ``cycles`` (word clocks simulated)."""
+
+    final: list
+    outputs: tuple
+    wall: float
+    build_time: float
+    cycles: int
+
+
+def _testbench(top, phy, w):
+    n = top.lanes if phy == "none" else top.core.lanes
+    ins = {"lane_p", "lane_n", "clk_bit", "clk_ref", "clk_div", "clk_eclk", "retrain",
+           "train_word", "sync_word", "n_check", "line_words"}
+    ports = _ports(top)
+    wires = "\n".join(f"  wire [{wd - 1}:0] d_{p};" for p, flow, wd in ports if flow == "Out")
+    conns = ",\n".join(f"    .{p}({p if p in ins else 'd_' + p})" for p, _, _ in ports)
+    out_fields = " ".join(["%h"] * n)
+    out_args = ", ".join(f"d_o_data[{i * w} +: {w}]" for i in range(n))
+    st_lines = "\n".join(
+        f'        $fwrite(fd_st, "%h %h %h %h %h %h %h\\n", 8\'d{i}, '
+        f'{{{8 - TAP_BITS}\'b0, d_lane_tap_q[{i * TAP_BITS} +: {TAP_BITS}]}}, '
+        f'{{{8 - SLIP_BITS}\'b0, d_lane_slip[{i * SLIP_BITS} +: {SLIP_BITS}]}}, '
+        f'{{3\'b0, d_lane_locked[{i}]}}, {{3\'b0, d_lane_error[{i}]}}, '
+        f'{{2\'b0, d_lane_run[{i * RUN_BITS} +: {RUN_BITS}]}}, d_lane_scan[{i * 32} +: 32]);'
+        for i in range(n))
+    return f"""\
+// Generated by tdicam: LVDS receiver pin-level testbench ({phy}). Not synthesizable.
+`timescale 1fs/1fs
+module {tbgen.TB_TOP};
+  localparam N = {n};
+  localparam W = {w};
+  localparam BIASW = {_BIASW};
+  reg signed [63:0] ui = 0, t0 = 0;
+  reg [63:0] prm [0:N*{_PRM}-1];    // lane: skew, lo, hi, jitter, dcd, jkey, dkey, 0 (fs)
+  reg [32:0] sched [0:{_NSCHED - 1}];
+  reg [31:0] n_sched = 0, cycles = 0, v_train = 0, v_sync = 0, v_ncheck = 0, v_line = 0;
+  reg [W-1:0] train_word = 0, sync_word = 0;
+  reg [7:0] n_check = 0;
+  reg [15:0] line_words = 0;
+  reg retrain = 1'b0;
+  reg start = 1'b0, done = 1'b0, ready = 1'b0;
+  // the clocks' levels at tick 0 (the first edges come at ticks 1 and later)
+  reg clk = 1'b1, clk_bit = 1'b1, clk_div = 1'b1, clk_ref = 1'b0, clk_eclk = 1'b1;
+  reg rst = 1'b1;
+  reg [N-1:0] lane_p = 0, lane_n = {{N{{1'b1}}}};
+  integer fd_st, fd_out;
+  reg [31:0] k = 0;
+  reg [63:0] j = 0;
+{_link_functions(_NSCHED)}
+  initial begin
+    if (!$value$plusargs("ui=%d", ui)) ui = 3333333;
+    if (!$value$plusargs("cycles=%d", cycles)) cycles = 1000;
+    if (!$value$plusargs("n_sched=%d", n_sched)) n_sched = 0;
+    if (!$value$plusargs("train_word=%d", v_train)) v_train = 0;
+    if (!$value$plusargs("sync_word=%d", v_sync)) v_sync = 0;
+    if (!$value$plusargs("n_check=%d", v_ncheck)) v_ncheck = 1;
+    if (!$value$plusargs("line_words=%d", v_line)) v_line = 2;
+    train_word = v_train[W-1:0];
+    sync_word = v_sync[W-1:0];
+    n_check = v_ncheck[7:0];
+    line_words = v_line[15:0];
+    $readmemh("pins.hex", prm);
+    if (n_sched != 0) $readmemh("sched.hex", sched);
+    fd_st = $fopen("status.hex", "w");
+    fd_out = $fopen("out.hex", "w");
+    t0 = ({_RST} + 1) * W * ui;     // word clock edges at ticks W, 2W, ..: reset for {_RST}
+    ready = 1'b1;
+    // the clocks: tick j at j UI
+    forever begin
+      #(ui);
+      j = j + 1;
+      clk_bit = (j % 2 == 0);
+      clk_eclk = (j % 2 == 0);
+      clk_div = (j % 6) < 3;
+      clk = (j % W) < W / 2;
+    end
+  end
+  always #2500000 clk_ref = ~clk_ref;
+
+  genvar gi;
+  generate
+    for (gi = 0; gi < N; gi = gi + 1) begin : ln
+      reg signed [63:0] sk, lo, hi, jt, dc, base, ts, te, now, jl, jr, hd;
+      reg [31:0] jk, dk, h, hz;
+      reg [63:0] nbb;
+      reg [W-1:0] wd;
+      reg b;
+      initial begin
+        wait (ready);
+        sk = prm[gi*{_PRM}]; lo = prm[gi*{_PRM}+1]; hi = prm[gi*{_PRM}+2];
+        jt = prm[gi*{_PRM}+3]; dc = prm[gi*{_PRM}+4];
+        jk = prm[gi*{_PRM}+5]; dk = prm[gi*{_PRM}+6];
+        // first bit: the one whose eye is open at time 0 or later
+        nbb = BIASW * W - (t0 + sk) / ui - 2;
+        forever begin
+          wd = sent(nbb / W, dk);
+          b = wd[W - 1 - nbb % W];
+          h = mix(nbb[31:0] ^ jk);
+          hz = mix(nbb[31:0] ^ ~jk);
+          base = t0 + sk + ($signed(nbb) - BIASW * W) * ui;
+          // (every term a signed 64-bit register: no unsigned division of a negative)
+          jl = (jt * $signed({{1'b0, h[31:16]}})) >>> 16;
+          jr = (jt * $signed({{1'b0, h[15:0]}})) >>> 16;
+          hd = b ? -(dc >>> 1) : (dc >>> 1);
+          ts = base + lo + jl + hd;
+          te = base + hi - jr - hd;
+          now = $time;
+          if (ts > now) #(ts - now);
+          lane_p[gi] = b;
+          lane_n[gi] = !b;
+          now = $time;
+          if (te > now) #(te - now);
+          lane_p[gi] = hz[0];
+          lane_n[gi] = !hz[0];
+          nbb = nbb + 1;
+        end
+      end
+    end
+  endgenerate
+
+  wire [N*{TAP_BITS}-1:0] d_lane_tap_q;
+{wires}
+
+  lvds dut (
+    .clk(clk),
+    .rst(rst),
+{conns}
+  );
+
+  // the lanes' taps: the core's, whatever the PHY
+  assign d_lane_tap_q = dut.{"" if phy == "none" else "core."}lane_tap;
+
+  reg [7:0] rcnt = {_RST};
+  always @(posedge clk) begin
+    if (rcnt != 0) begin
+      rcnt <= rcnt - 1;
+      if (rcnt == 1) rst <= 1'b0;
+    end else if (!done) begin
+      if (d_o_valid)
+        $fwrite(fd_out, "%h %h {out_fields}\\n", k, {{3'b0, d_o_sync}}, {out_args});
+      if (k + 1 == cycles) begin
+{st_lines}
+        $fclose(fd_st);
+        $fclose(fd_out);
+        done <= 1'b1;
+      end
+      k <= k + 1;
+    end
+  end
+endmodule
+"""
+
+
+def _lane_files(link, phy, dcd, ui):
+    tap = tap_ps(phy)
+    rows = []
+    for i, lane in enumerate(link.lanes):
+        if abs(lane.tap_ps - tap) > 1e-9:
+            raise TdicamError(f"lane {i}: tap_ps = {lane.tap_ps} is not the {phy} PHY's tap "
+                              f"({tap} ps)")
+        if ui_fs(lane.bit_rate_mbps) != ui:
+            raise TdicamError(f"lane {i}: every lane of a pin-level run has one bit rate")
+        d = int(round(dcd[i] * 1000)) // 2 * 2
+        eye = int(round(lane.eye_ps * 1000))
+        if d < 0 or eye + d > ui or d > eye and eye > 0:
+            raise TdicamError(f"lane {i}: dcd = {dcd[i]} ps must be in 0..eye_ps and "
+                              f"eye_ps + dcd <= UI")
+        jkey, dkey = model._keys(lane)
+        lo, hi = (ui - eye) // 2, (ui - eye) // 2 + eye
+        rows.append([int(round(lane.skew_ps * 1000)), lo, hi,
+                     int(round(lane.jitter_ps * 1000)), d, jkey, dkey, 0])
+        if lane.change_at is not None:
+            raise TdicamError(f"lane {i}: a lane that changes (change_at) is not simulated "
+                              f"from pins")
+    prm = np.array(rows, dtype=np.uint64).reshape(-1)
+    files = {"pins.hex": _hex_lines([prm], [16])}
+    if link.schedule:
+        sched = np.array([(int(m == "data") << 32) | s for s, m in link.schedule], np.uint64)
+        files["sched.hex"] = _hex_lines([sched], [9])
+    return files
+
+
+def run_pins(link, phy, *, dcd=None, params=None, cycles, n_check=16, sim="icarus",
+             keep=False):
+    """Simulate ``link`` (one lane per receiver lane) through the generated ``lvds``
+    receiver with ``phy`` from its pins (see the module docstring).
+
+    ``dcd``: per-lane duty-cycle distortion (ps), default 0; ``params``: block parameters.
+    Returns a :class:`PinRun`.
+    """
+    if phy not in PIN_PHYS:
+        raise TdicamError(f"phy = {phy} is not simulated from pins; valid: "
+                          f"{', '.join(PIN_PHYS)}")
+    if link.payload or len(link.schedule) > _NSCHED:
+        raise TdicamError(f"a pin-level run takes the link model's own data and at most "
+                          f"{_NSCHED} schedule entries")
+    blk = blocks.get("lvds")
+    params = blk.resolve(dict(params or {}, phy=phy, lanes=len(link.lanes),
+                              word_bits=link.word_bits))
+    dcd = tuple(dcd) if dcd is not None else (0.0,) * len(link.lanes)
+    ui = ui_fs(link.lanes[0].bit_rate_mbps)
+    files = _lane_files(link, phy, dcd, ui)
+    top = blk.build(params)
+    dut = convert(top, "lvds")
+    tb = _testbench(top, phy, link.word_bits)
+    mod = PIN_PHYS[phy]
+    bdir, build_time = build_sources("lvds_pins", params, sim,
+                                     {mod.FILE: mod.MODEL, "lvds.v": dut, "tb.v": tb})
+    rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
+    rundir.mkdir(parents=True)
+    for name, text in files.items():
+        (rundir / name).write_bytes(text)
+    plusargs = [f"+ui={ui}", f"+cycles={int(cycles)}", f"+n_sched={len(link.schedule)}",
+                f"+train_word={link.train_word}", f"+sync_word={link.sync_word}",
+                f"+n_check={n_check}", f"+line_words={link.line_words}"]
+    (rundir / "job.json").write_text(json.dumps({"groups": 1, "cycles": int(cycles)}))
+    ok, wall = run_cocotb(bdir, sim, "lvds_tb", rundir, plusargs)
+    if not ok or not (rundir / "status.hex").exists():
+        raise TdicamError(f"{sim} pin-level simulation of lvds --phy {phy} failed; see "
+                          f"{rundir / 'sim.log'}")
+    n, wd = len(link.lanes), -(-link.word_bits // 4)
+    st = _parse((rundir / "status.hex").read_bytes(), [2, 2, 2, 1, 1, 2, 8])
+    final = [None] * n
+    for lane, tap, slip, lk, er, rn, scan in zip(*(a.astype(np.int64).tolist() for a in st)):
+        final[lane] = {"tap": tap, "slip": slip, "locked": lk, "error": er, "run": rn,
+                       "scan": scan}
+    out = _parse((rundir / "out.hex").read_bytes(), [8, 1] + [wd] * n)
+    outputs = (out[0].astype(np.int64), out[1].astype(bool),
+               np.stack(out[2:], axis=1).astype(np.int64) if n else np.zeros((0, 0)))
+    if not keep:
+        shutil.rmtree(rundir, ignore_errors=True)
+    return PinRun(final, outputs, wall, build_time, int(cycles))
+
+
+def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settle=8,
+            min_run=9, pick=5):
+    """The golden outcome of each lane of a pin-level run: a list of
+    :class:`tdicam.model.lvds.LaneResult` of :func:`tdicam.model.lvds.train_lane` on the
+    lane seen through the PHY: its eye less ``dcd``, its samples shifted by the PHY's word
+    phase ``word_phase`` (bits; the PHY's words are samples ``(k - L) W + word_phase`` ..);
+    ``jitter=False``: as if the lanes had none."""
+    dcd = tuple(dcd) if dcd is not None else (0.0,) * len(link.lanes)
+    w = link.word_bits
+    lanes = []
+    for lane, d in zip(link.lanes, dcd):
+        shift = ((w - word_phase) % w) * lane.ui_ps
+        lanes.append(replace(lane, eye_ps=max(lane.eye_ps - d, 0.0),
+                             skew_ps=lane.skew_ps + shift,
+                             jitter_ps=lane.jitter_ps if jitter else 0.0))
+    eq = replace(link, lanes=tuple(lanes))
+    return [model.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
+                             pick=pick) for i in range(len(lanes))]
+
+
+def band_taps(lane):
+    """Taps of the random band at each edge of ``lane``'s eye (its jitter in taps, rounded
+    up): how far below the jitter-free prediction a jittered lane's tap may be."""
+    return math.ceil(lane.jitter_ps / lane.tap_ps) if lane.jitter_ps else 0
