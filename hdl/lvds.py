@@ -485,8 +485,7 @@ class LvdsRx(wiring.Component):
         self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
                         hold=bool(hold))
         self._depth = check_choice("deskew_depth", deskew_depth, (8, 16, 32))
-        ports = {"lane_raw": In(lanes * word_bits), "lane_tap": Out(lanes * TAP_BITS),
-                 "lane_ld": Out(lanes)}
+        ports = lane_ports("none", lanes, word_bits)
         if hold:
             ports["lane_hold"] = In(lanes)
         ports.update(rx_ports(lanes, word_bits))

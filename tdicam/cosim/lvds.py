@@ -48,6 +48,18 @@ _BIASW = 256         # sender word bias keeping indices positive in the testbenc
 _RST_CYCLES = tbgen.RST_CYCLES
 
 
+def _settings_args(indent):
+    """Verilog statements reading the receiver's run-time settings from the plusargs
+    (``+train_word=``, ``+sync_word=``, ``+n_check=``, ``+line_words=``) into their registers."""
+    lines = ['if (!$value$plusargs("train_word=%d", v_train)) v_train = 0;',
+             'if (!$value$plusargs("sync_word=%d", v_sync)) v_sync = 0;',
+             'if (!$value$plusargs("n_check=%d", v_ncheck)) v_ncheck = 1;',
+             'if (!$value$plusargs("line_words=%d", v_line)) v_line = 2;',
+             "train_word = v_train[W-1:0];", "sync_word = v_sync[W-1:0];",
+             "n_check = v_ncheck[7:0];", "line_words = v_line[15:0];"]
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
 def _link_functions(nsched):
     """Verilog of the testbench functions ``mix`` (the link model's hash) and ``sent`` (the
     word the sensor sends, from the schedule registers ``sched``/``n_sched`` and the run-time
@@ -267,15 +279,7 @@ module {tbgen.TB_TOP};
       if (!$value$plusargs("linkcheck=%d", linkcheck)) linkcheck = 0;
       if (!$value$plusargs("n_sched=%d", n_sched)) n_sched = 0;
       if (!$value$plusargs("n_rt=%d", n_rt)) n_rt = 0;
-      if (!$value$plusargs("train_word=%d", v_train)) v_train = 0;
-      if (!$value$plusargs("sync_word=%d", v_sync)) v_sync = 0;
-      if (!$value$plusargs("n_check=%d", v_ncheck)) v_ncheck = 1;
-      if (!$value$plusargs("line_words=%d", v_line)) v_line = 2;
-      train_word = v_train[W-1:0];
-      sync_word = v_sync[W-1:0];
-      n_check = v_ncheck[7:0];
-      line_words = v_line[15:0];
-      $readmemh("tab.hex", tab);
+{_settings_args('      ')}      $readmemh("tab.hex", tab);
       $readmemh("info.hex", info);
       if (n_sched != 0) $readmemh("sched.hex", sched);
       if (n_rt != 0) $readmemh("retrain.hex", rt_at);

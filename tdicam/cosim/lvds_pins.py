@@ -50,7 +50,8 @@ from tdicam.hw.verilog import convert
 from tdicam.model import lvds as model
 from tdicam.cosim import ecp5_io, tbgen, xilinx7_io
 from tdicam.cosim.build import build_sources, run_cocotb
-from tdicam.cosim.lvds import _BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports
+from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
+                               _settings_args)
 
 __all__ = ["PinRun", "run_pins", "predict", "band_taps", "ui_fs", "rate_for_ui", "PIN_PHYS"]
 
@@ -132,15 +133,7 @@ module {tbgen.TB_TOP};
     if (!$value$plusargs("ui=%d", ui)) ui = 3333333;
     if (!$value$plusargs("cycles=%d", cycles)) cycles = 1000;
     if (!$value$plusargs("n_sched=%d", n_sched)) n_sched = 0;
-    if (!$value$plusargs("train_word=%d", v_train)) v_train = 0;
-    if (!$value$plusargs("sync_word=%d", v_sync)) v_sync = 0;
-    if (!$value$plusargs("n_check=%d", v_ncheck)) v_ncheck = 1;
-    if (!$value$plusargs("line_words=%d", v_line)) v_line = 2;
-    train_word = v_train[W-1:0];
-    sync_word = v_sync[W-1:0];
-    n_check = v_ncheck[7:0];
-    line_words = v_line[15:0];
-    $readmemh("pins.hex", prm);
+{_settings_args('    ')}    $readmemh("pins.hex", prm);
     if (n_sched != 0) $readmemh("sched.hex", sched);
     fd_st = $fopen("status.hex", "w");
     fd_out = $fopen("out.hex", "w");
