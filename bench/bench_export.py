@@ -70,7 +70,7 @@ def _timed(cmd, cwd):
 
 def bench_own(arg, work):
     """Export ``lvds`` or ``pipeline=SCENE`` and run it under Icarus and Verilator."""
-    from tdicam.export.camera import export_pipeline
+    from tdicam.export.chain import export_pipeline
     t0 = time.perf_counter()
     if arg == "lvds":
         ex = export_block("lvds", {}, work / "lvds")

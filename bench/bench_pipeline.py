@@ -6,7 +6,7 @@
 (``tdicam bench pipeline`` gives the same run at ppc 1 and 8 as rows of the benchmark table.)
 
 The scene's raw frames (an exact run of the scene simulator) go through the generated top
-(:mod:`tdicam.camera.design`) without taps unless ``--taps``, at ``--ppc`` pixels per clock
+(:mod:`tdicam.chain.design`) without taps unless ``--taps``, at ``--ppc`` pixels per clock
 (default: the scene's ``[run.rtl].pixels_per_clock``); the output is compared bit for bit
 with the golden chain. Target (issue "the camera at its sensor's rate"): >= 8 M input
 pixels per wall second through the whole orbit chain scene (127 frames x 96 x 1280 = 15.6 M
@@ -27,14 +27,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "orbit_chain.toml"))
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"))
-    from tdicam.camera.design import PPC_CHOICES
+    from tdicam.chain.design import PPC_CHOICES
     ap.add_argument("--ppc", type=int, choices=PPC_CHOICES,
                     help="pixels per clock (default: the scene's)")
     ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")
     ap.add_argument("--taps", action="store_true", help="write every block's output too")
     args = ap.parse_args(argv)
 
-    from tdicam.bench.camera import TARGET_PX_S, pipeline_run
+    from tdicam.bench.chain import TARGET_PX_S, pipeline_run
 
     r = pipeline_run(args.scene, sim=args.sim, lines=args.lines, taps=args.taps, ppc=args.ppc)
     n_px, bad = r["input_pixels"], r["mismatches"]

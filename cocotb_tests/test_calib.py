@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.calib import reader_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model import calib

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats

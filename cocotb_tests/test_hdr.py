@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.hdr import scene_frames
 from tdicam.beats import mark_resets
 from tdicam.cosim.codec import frames_to_beats

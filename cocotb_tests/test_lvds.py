@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.lvds import link_from_arrays
 from tdicam.cosim import lvds as cl
 from tdicam.model import lvds as model

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.median3 import BUILDS, case_beats, stream_case
 from tdicam.cosim.codec import Beats
 from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.cosim.testing import check_beats, check_case
 from tdicam.model import calib, nand_store as nand

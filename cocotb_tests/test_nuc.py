@@ -5,7 +5,7 @@ import pytest
 
 from tdicam import blocks
 from tdicam.beats import mark_resets
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.cosim.codec import frames_to_beats
 from tdicam.cosim.testing import beat_cases, check_beats, check_case, FULL, WIDE_PPC
 from tdicam.model.nuc import DEFAULT_FORMAT, nuc

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam.camera import design as pl
+from tdicam.chain import design
 from tdicam.commands.run import run_scene
 from tdicam import cosim
-from tdicam.camera.cosim import cosimulate, run_top, scene_data, WAVE_WINDOW
+from tdicam.chain.cosim import cosimulate, run_top, scene_data, WAVE_WINDOW
 from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,7 +39,7 @@ def _scene(sim, cols=24, lines=6, crop=None):
 @pytest.fixture(scope="module")
 def small():
     sc = _scene("icarus")
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
     return p, data
 
@@ -103,8 +103,8 @@ def test_tdi_spilled_to_ddr_matches():
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
         "sensor": {"columns": 160}, "tdi": {"stages": 4}, "run": {"lines": 6},
         "target": {"period_px": 3.0}})
-    assert [s.block for s in pl.plan(sc).steps] == ["tdi"]          # fits on chip
-    p = pl.plan(sc, spill=True)
+    assert [s.block for s in design.chain_plan(sc).steps] == ["tdi"]          # fits on chip
+    p = design.chain_plan(sc, spill=True)
     assert [s.block for s in p.steps] == ["tdi_ddr"]
     data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
@@ -128,9 +128,9 @@ def test_chain_at_ppc_matches(small, sim, ppc, stages):
     chain, in beats of its stage's pixels."""
     p1, data = small
     sc = _scene(sim)
-    p = pl.plan(sc, ppc=ppc, stages=stages)
-    mp = pl.rate_ppc(ppc, stages)
-    assert p.ppc == ppc and [pl.step_ppc(s) for s in p.steps] == [ppc] * 4 + [mp]
+    p = design.chain_plan(sc, ppc=ppc, stages=stages)
+    mp = design.rate_ppc(ppc, stages)
+    assert p.ppc == ppc and [design.step_ppc(s) for s in p.steps] == [ppc] * 4 + [mp]
     if stages != 8:
         data, _ = scene_data(sc, stages=stages, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=ppc)
@@ -147,7 +147,7 @@ def test_standalone_verilator_run_fails_on_a_missing_stimulus_chunk(small):
     the output file, and without a stimulus chunk it ends with a non-zero status and the
     FAIL line (same build as the ppc-8 Verilator run)."""
     _, data = small
-    p = pl.plan(_scene("verilator"), ppc=8)
+    p = design.chain_plan(_scene("verilator"), ppc=8)
     got, info = run_top(p, data, "verilator", seed=8, idle=0.2, backpressure=0.2, keep=True)
     rundir = Path(info["rundir"])
     assert (Path(info["build_dir"]) / "main.cpp").exists() and not info["timeout"]
@@ -163,7 +163,7 @@ def test_corrupted_pixel_inside_a_wide_beat_is_named(small):
     """At ppc 8 a corrupted pixel in the middle of a beat (column 13 = beat 1, element 5) is
     named by its own frame, line and column (same Icarus build as the ppc-8 run)."""
     _, data = small
-    p = pl.plan(_scene("icarus"), ppc=8)
+    p = design.chain_plan(_scene("icarus"), ppc=8)
     hit = (2, 5, 13)                                       # frame, line, column of hdr
 
     def corrupt(gold):
@@ -186,7 +186,7 @@ def test_tdi_spilled_to_ddr_at_ppc_4_matches():
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml", overrides={
         "sensor": {"columns": 560}, "tdi": {"stages": 4}, "run": {"lines": 6},
         "target": {"period_px": 3.0}})
-    p = pl.plan(sc, spill=True, ppc=4)
+    p = design.chain_plan(sc, spill=True, ppc=4)
     assert [(s.block, s.params["ppc"]) for s in p.steps] == [("tdi_ddr", 4)]
     data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=6)
     rep = cosimulate(p, data, "icarus", idle=0.1, backpressure=0.1)
@@ -215,8 +215,8 @@ def test_orbit_chain_ecp5_synthesis_top_matches(sim):
     tap equal to the golden chain."""
     sc = load_scene(ROOT / "scenes" / "orbit_chain.toml", overrides={
         "sensor": {"columns": 48}, "run": {"lines": 8, "rtl": {"crop": [0, 0, 48, 8]}}})
-    p = pl.plan(sc, stages=8, ppc=8)
-    assert [pl.step_ppc(s) for s in p.steps] == [8, 8, 1]
+    p = design.chain_plan(sc, stages=8, ppc=8)
+    assert [design.step_ppc(s) for s in p.steps] == [8, 8, 1]
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=8)
     rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=3, ecp5=True)
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
@@ -232,8 +232,8 @@ def test_ning_chain_ecp5_synthesis_top_matches(small, sim):
     width converter's FIFO), co-simulated with the primitives' models on its 24-column cut,
     20 % idle cycles and backpressure: every tap equal to the golden chain."""
     _, data = small
-    p = pl.plan(_scene(sim), ppc=8, stages=8)
-    assert [pl.step_ppc(s) for s in p.steps] == [8, 8, 8, 8, 1]
+    p = design.chain_plan(_scene(sim), ppc=8, stages=8)
+    assert [design.step_ppc(s) for s in p.steps] == [8, 8, 8, 8, 1]
     rep = cosimulate(p, data, sim, idle=0.2, backpressure=0.2, seed=5, ecp5=True)
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert rep["pixels_compared"] == 6 * 24

@@ -10,7 +10,7 @@ import pytest
 
 from tdicam import engine
 from tdicam.run.runner import run_scene
-from tdicam.camera.cosim import cosim_scene
+from tdicam.chain.cosim import cosim_scene
 from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]

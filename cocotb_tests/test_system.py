@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam.camera import design as pl
-from tdicam.camera.cosim import cosimulate, scene_data, system_figures
+from tdicam.chain import design
+from tdicam.chain.cosim import cosimulate, scene_data, system_figures
 from tdicam.model import nand_store as nand
 from tdicam.scene.loader import load_scene
 
@@ -43,7 +43,7 @@ def _cut():
     camera that did not skip bad blocks would read garbage (its pixels differ)."""
     sc = load_scene(FAULTS, overrides={"sensor": {"columns": 24}, "tdi": {"stages": 4},
                                        "run": {"lines": 3}})
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     steps = []
     for s in p.steps:
         if s.device:
@@ -109,7 +109,7 @@ def test_system_from_the_serial_lanes_matches_on_icarus():
     output, the front's per channel included, equals the golden chain's."""
     sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
                                       "run": {"lines": 2, "rtl": {"crop": None}}})
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
                                else s for s in p.steps))
     assert [s.block for s in p.steps][:2] == ["lvds", "cds_ddr"] and p.reset_frames
@@ -139,7 +139,7 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
     from tdicam.model import lvds_front as fm
     sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
                                       "run": {"lines": 3, "rtl": {"crop": None}}})
-    p = pl.plan(sc, lines=2)
+    p = design.chain_plan(sc, lines=2)
     p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
                                else s for s in p.steps))
     data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)

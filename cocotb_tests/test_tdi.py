@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim import stream_ports
 from tdicam.cosim.codec import Beats

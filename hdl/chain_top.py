@@ -3,7 +3,7 @@
 The top knows no block by name. It is built from a list of *stage* objects (see
 :class:`LaneStage` and :class:`MergeStage`), each of which makes the block's component
 and wires its side inputs; the table that turns a scene's ``[pipeline]`` into stages lives
-in :mod:`tdicam.camera.design`. Generic pieces used by the stages are here too: the fork of the
+in :mod:`tdicam.chain.design`. Generic pieces used by the stages are here too: the fork of the
 input beat into channel lanes, the join of two streams into one beat (a lane and its
 coefficient stream, or the HDR gain channels), the calibration-image ROM that feeds
 :class:`~tdicam.hdl.calib.CalibReader`, and the re-framing of TDI's one-line frames into

@@ -2,7 +2,7 @@
 
 :func:`chain` knows no block by name: each :class:`GoldenStage` carries its block's golden
 function with the block's parameters and side inputs already bound (the table that makes
-them from a scene is :mod:`tdicam.camera.design`). It returns every stage's output, the values
+them from a scene is :mod:`tdicam.chain.design`). It returns every stage's output, the values
 the gateware top's taps must show, bit for bit.
 """
 

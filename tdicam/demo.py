@@ -1,7 +1,7 @@
 """The end-to-end path on one block (``tdicam demo``): a smoke run of the whole tool."""
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.cosim.cases import run_cases
 from tdicam.hw.lint import lint
 from tdicam.files import check_dir

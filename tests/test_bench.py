@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from tdicam.bench import suite as bench, camera as benchpipe
+from tdicam.bench import suite as bench, chain
 from tdicam.cli import main
 
 SIM_LEVELS = ["icarus beat", "icarus fast", "verilator beat", "verilator fast"]
@@ -211,7 +211,7 @@ def test_lvds_quick_both_simulators(tmp_path, capsys):
 
 
 def _pipeline_stand_in(seen):
-    """A stand-in for :func:`tdicam.bench.camera.pipeline_run` (Icarus finds 3 mismatches)."""
+    """A stand-in for :func:`tdicam.bench.chain.pipeline_run` (Icarus finds 3 mismatches)."""
     def fake(scene, *, sim, lines, idle, backpressure, ppc):
         seen.append((scene, sim, lines, ppc))
         return {"chain": ["cds", "tdi"], "frames": 10, "rows": 8, "width": 64,
@@ -227,13 +227,13 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     ppc 8), one row per ppc (1 and 8) side by side."""
     assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
     seen = []
-    monkeypatch.setattr(benchpipe, "pipeline_run", _pipeline_stand_in(seen))
+    monkeypatch.setattr(chain, "pipeline_run", _pipeline_stand_in(seen))
     rows = bench.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
     by = {r["level"]: r for r in rows}
     assert by["icarus fast"]["accuracy"] == "n/a" and seen == [
-        (benchpipe.PIPELINE_SCENE, "verilator", None, 1),
-        (benchpipe.PIPELINE_SCENE, "verilator", None, 8)]
-    assert benchpipe.PIPELINE_SCENE.name == "orbit_chain.toml"
+        (chain.PIPELINE_SCENE, "verilator", None, 1),
+        (chain.PIPELINE_SCENE, "verilator", None, 8)]
+    assert chain.PIPELINE_SCENE.name == "orbit_chain.toml"
     v = by["verilator fast ppc 8"]
     assert v["accuracy"] == "bit-exact" and v["rate"] == 1e6 and "target 8,000,000 px/s " \
         "not met" in v["note"] and v["build_s"] == 7.0 and by["golden"]["rate"] == 2e6
@@ -241,7 +241,7 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     assert "1,100,000 cycles; 1,250,000 px per simulator CPU s; load 1.5; " in v["note"]
     seen.clear()
     rows = bench.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
-    assert seen == [(benchpipe.QUICK_SCENE, "icarus", 8, 1), (benchpipe.QUICK_SCENE, "icarus",
+    assert seen == [(chain.QUICK_SCENE, "icarus", 8, 1), (chain.QUICK_SCENE, "icarus",
                                                               8, 8)]
     assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching", "3 mismatching"]
     assert "not met" in rows[2]["note"]
@@ -251,7 +251,7 @@ def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
     """The pipeline rows are one run each with the build timed apart: their legend says what
     ran, once, and per wall and simulator CPU second, not the blocks' medians of --repeat
     runs and fresh builds; beside other rows each has its own line."""
-    monkeypatch.setattr(benchpipe, "pipeline_run", _pipeline_stand_in([]))
+    monkeypatch.setattr(chain, "pipeline_run", _pipeline_stand_in([]))
     assert main(["bench", "pipeline", "--sims", "verilator", "--png", "none"]) == 0
     out = capsys.readouterr().out
     assert "medians of" not in out and "fresh build" not in out, out

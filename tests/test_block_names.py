@@ -19,9 +19,9 @@ OTHER_MEANINGS = {
     ("tdicam/scene/docs.py", "lvds"): "the [sensor.lvds] section of a scene (the sensor's "
                                       "lanes), in the page's probe scene",
     ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
-    ("tdicam/camera/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
+    ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
-    ("tdicam/export/camera.py", "ddr"): "--memory ddr",
+    ("tdicam/export/chain.py", "ddr"): "--memory ddr",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
     ("model/ddr.py", "ddr"): "the recorded DDR traces' names (each DDR block's command "
                              "order), the keys of the measured-efficiency table",

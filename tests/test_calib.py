@@ -5,7 +5,7 @@ import pytest
 from amaranth.hdl import Signal
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.calib import random_codes, reader_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.calib import CalibReader

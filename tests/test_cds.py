@@ -83,7 +83,7 @@ def test_amaranth_sim_matches_model_with_stalls():
 def test_amaranth_pysim_of_verilog_top_matches_golden_cases():
     """The AXI4-Stream top in Amaranth's simulator, with stalls and a mid-frame reset."""
     from tdicam import blocks
-    from tdicam.cosim import vectors as golden, compare
+    from tdicam.cosim import golden, compare
     from tdicam.cosim.pysim import run_pysim
     blk = blocks.get("cds")
     for case in ("hard_12b", "reset_mid_frame_12b"):
@@ -160,7 +160,7 @@ def test_ppc_default_is_not_recorded():
     """Golden vectors and Verilog from before ``ppc`` existed stay byte-identical: a case
     or a design at ppc 1 does not name it; ppc 8 does."""
     import json
-    from tdicam.cosim import vectors as golden
+    from tdicam.cosim import golden
     from tdicam.hw import verilog
     from tdicam.paths import GOLDEN
     with np.load(GOLDEN / "cds" / "random_12b.npz") as z:

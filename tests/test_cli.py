@@ -460,7 +460,7 @@ def bad_input_files(tmp_path_factory):
 def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     from tdicam import paths
     from tdicam.bench import suite as bench
-    from tdicam.cosim import vectors as golden
+    from tdicam.cosim import golden
     argv, expect, code, *manifest = row
     d = str(bad_input_files)
     if manifest:
@@ -605,7 +605,7 @@ def test_build_folder_that_is_not_one_is_named():
 
 
 def test_golden_regen_refuses_a_case_file_that_is_a_folder(tmp_path, monkeypatch, capsys):
-    from tdicam.cosim import vectors as golden
+    from tdicam.cosim import golden
     monkeypatch.setattr(golden, "golden_dir", lambda: tmp_path)
     (tmp_path / "cds" / "hard_12b.npz").mkdir(parents=True)
     assert main(["golden", "regen", "cds"]) == 2
@@ -758,7 +758,7 @@ def test_sweep_validation_says_how_many_points(tmp_path, capsys):
 
 
 def test_golden_file_that_is_text_is_not_offered_as_a_pickle(tmp_path, monkeypatch, capsys):
-    from tdicam.cosim import vectors as golden
+    from tdicam.cosim import golden
     monkeypatch.setattr(golden, "golden_dir", lambda: tmp_path)
     assert main(["golden", "regen", "cds"]) == 0
     (tmp_path / "cds" / "hard_12b.npz").write_text("meeting notes\n")

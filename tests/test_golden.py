@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.cli import main
 from tdicam.errors import TdicamError
 

@@ -12,7 +12,7 @@ from amaranth.sim import Simulator
 
 from tdicam import blocks
 from tdicam.beats import frames_to_beats
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.blocks.hdr import ramp_frame, scene_frames
 from tdicam.cosim import compare
 from tdicam.cosim.pysim import run_pysim

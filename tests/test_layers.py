@@ -1,5 +1,5 @@
 """The layers of the code base are a contract: ``lint-imports`` (import-linter) checks the
-``[tool.importlinter]`` contracts of pyproject.toml — commands > services > camera / engine /
+``[tool.importlinter]`` contracts of pyproject.toml — commands > services > chain / engine /
 scene > simulation and hardware tools > blocks > hdl > model > leaves, and no import cycle
 between the modules of any package.
 
@@ -47,10 +47,10 @@ def test_layers_kept(tmp_path):
     # the golden models may not reach up into the scene engine
     ("model/tdi.py", "import tdicam.engine", "tdicam.model is not allowed to import tdicam.engine"),
     # a block's registry entry may not use the camera built from it
-    ("blocks/cds.py", "from tdicam.camera import design",
-     "tdicam.blocks is not allowed to import tdicam.camera"),
+    ("blocks/cds.py", "from tdicam.chain import design",
+     "tdicam.blocks is not allowed to import tdicam.chain"),
     # a function-level import counts too
-    ("hdl/cds.py", "def _later():\n    from tdicam.cosim import vectors",
+    ("hdl/cds.py", "def _later():\n    from tdicam.cosim import golden",
      "tdicam.hdl is not allowed to import tdicam.cosim"),
     # a cycle inside a package
     ("engine/streams.py", "from tdicam.engine import effects", "No cycles are allowed in tdicam.engine"),

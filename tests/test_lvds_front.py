@@ -266,8 +266,8 @@ def _inspected(top):
 
 
 def test_plan_puts_the_front_first_and_the_top_takes_lanes():
-    from tdicam.camera import design
-    p = design.plan(_chain_scene())
+    from tdicam.chain import design
+    p = design.chain_plan(_chain_scene())
     assert [s.block for s in p.steps] == ["lvds", "hdr", "tdi"]
     assert p.steps[0].params == {"lanes": 8, "word_bits": 12, "lanes_per_gain": 4,
                                  "columns": 16, "bits": 12, "fifo_depth": 16, "ppc": 2}
@@ -278,21 +278,21 @@ def test_plan_puts_the_front_first_and_the_top_takes_lanes():
             "m_axis_tdata"} <= names
     assert not {n for n in names if n.startswith("s_axis")}
     # without [sensor.lvds] the chain and its top are those of before
-    plain = design.plan(_chain_scene(lvds=False))
+    plain = design.chain_plan(_chain_scene(lvds=False))
     assert [s.block for s in plain.steps] == ["hdr", "tdi"]
     assert "s_axis_tdata" in _inspected(design.top(plain)).signature.members
     with pytest.raises(TdicamError, match=r"lvds \(the chain's source\): \[sensor.lvds\]"
                                           r".lanes_per_gain = 4 does not divide"):
         sc = _chain_scene()
-        design.plan(sc, width=18, ppc=2)
+        design.chain_plan(sc, width=18, ppc=2)
 
 
 def test_pipeline_from_lanes_to_tdi_output_is_bit_exact():
     """The scene's whole top (front -> hdr -> tdi) in Amaranth's simulator, two clocks, from
     the serial lanes to TDI's lines, equals the golden chain."""
     from tdicam.blocks.steps import SceneData
-    from tdicam.camera import design
-    p = design.plan(_chain_scene())
+    from tdicam.chain import design
+    p = design.chain_plan(_chain_scene())
     frames = _frames(p.frames, seed=9)
     case = FrontCase(frames, _lanes(), L, ppc=2, word_ns=40.0, proc_ns=10.0)
     settings = {f"{s.block}_{k}": v for s in p.steps[1:] for k, v in s.ports.items()}

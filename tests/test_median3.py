@@ -452,7 +452,7 @@ def test_ppc_params_and_errors_are_one_line():
 def test_ppc_default_is_not_recorded():
     """ppc-1 golden vectors and Verilog stay as before ``ppc`` existed; ppc 8 names it."""
     import json
-    from tdicam.cosim import vectors as golden
+    from tdicam.cosim import golden
     from tdicam.hw import verilog
     from tdicam.paths import GOLDEN
     with np.load(GOLDEN / "median3" / "random_12b.npz") as z:

@@ -8,7 +8,7 @@ import pytest
 from amaranth.hdl import Fragment
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden, compare
+from tdicam.cosim import golden, compare
 from tdicam.cosim.codec import Beats
 from tdicam.cosim.pysim import run_pysim
 from tdicam.errors import TdicamError

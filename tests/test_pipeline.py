@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.camera import design as pl
+from tdicam.chain import design
 from tdicam.errors import TdicamError
 from tdicam.hw.lint import lint
 from tdicam.model.chain import GoldenStage, chain
-from tdicam.camera.cosim import scene_data
+from tdicam.chain.cosim import scene_data
 from tdicam.scene.loader import Ddr, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,10 +29,10 @@ def _small(path=CHAIN, **over):
 
 
 def test_plan_of_the_ning2019_chain():
-    p = pl.plan(_small())
+    p = design.chain_plan(_small())
     assert [s.block for s in p.steps] == ["cds", "nuc", "hdr", "tdi", "median3"]
     assert (p.lanes, p.lane_elems, p.in_bits) == (2, 2, 10)
-    assert (p.rows, p.width, p.frames, p.lines) == (8, 24, 13, 6)
+    assert (p.stages, p.width, p.frames, p.lines) == (8, 24, 13, 6)
     by = {s.block: s for s in p.steps}
     assert by["tdi"].params["pixel_bits"] == 13          # the HDR output width
     assert by["tdi"].ports == {"stages_active": 8, "direction": 0}
@@ -44,9 +44,9 @@ def test_plan_of_the_ning2019_chain():
 
 def test_golden_chain_equals_the_scene_simulator():
     sc = _small()
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     data, res = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
-    gold = pl.golden(p, data)
+    gold = design.golden(p, data)
     assert [g[0] for g in gold] == ["cds_0", "cds_1", "nuc_0", "nuc_1", "hdr", "tdi",
                                     "median3"]
     assert gold[0][2].shape == (13, 8, 24) and gold[5][2].shape == (6, 1, 24)
@@ -57,8 +57,8 @@ def test_golden_chain_equals_the_scene_simulator():
 
 def test_top_latency_is_the_sum_of_the_blocks_and_taps_match_the_golden_stages():
     sc = _small()
-    p = pl.plan(sc)
-    ax = pl.top(p, taps=True)
+    p = design.chain_plan(sc)
+    ax = design.top(p, taps=True)
     core = ax.core
     ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
     assert ax.latency == core.latency == sum(cs[0].latency for cs in core.cores) + 1
@@ -66,12 +66,12 @@ def test_top_latency_is_the_sum_of_the_blocks_and_taps_match_the_golden_stages()
     assert core.latency == 1 + 3 + 4 + 9 + 31 + 1
     names = [t[0] for t in core.tap_shapes]
     data, _ = scene_data(sc, stages=8, dv_over_v=0.0, lines=6)
-    assert names == [g[0] for g in pl.golden(p, data)]
+    assert names == [g[0] for g in design.golden(p, data)]
 
 
 def test_verilog_is_deterministic_and_lint_clean(tmp_path):
-    p = pl.plan(_small())
-    a, b = pl.verilog(p), pl.verilog(p)
+    p = design.chain_plan(_small())
+    a, b = design.verilog(p), design.verilog(p)
     assert a == b and "module pipeline" in a and str(ROOT) not in a
     f = tmp_path / "camera.v"
     f.write_text(a)
@@ -94,18 +94,18 @@ def test_plan_and_top_at_every_ppc():
     before (only tdi states its ppc); the top's streams and taps carry each stage's ppc
     pixels a beat; the Verilog at ppc 1 equals the scene's default top."""
     sc = _small()
-    p1 = pl.plan(sc)
+    p1 = design.chain_plan(sc)
     assert p1.ppc == 1 and [s.params.get("ppc") for s in p1.steps] == [None] * 3 + [1, None]
-    assert pl.plan(sc, ppc=1) == p1
-    assert pl.plan(_small(run={"rtl": {"pixels_per_clock": 4}})).ppc == 4
+    assert design.chain_plan(sc, ppc=1) == p1
+    assert design.chain_plan(_small(run={"rtl": {"pixels_per_clock": 4}})).ppc == 4
     for ppc in (2, 4, 8):
-        p = pl.plan(sc, ppc=ppc)
+        p = design.chain_plan(sc, ppc=ppc)
         assert p.ppc == ppc and [s.params.get("ppc") for s in p.steps] == [ppc] * 4 + [None]
         assert [s.block for s in p.steps] == [s.block for s in p1.steps]
-        assert pl.out_ppc(p) == 1 and pl.chain_text(p) == (
+        assert design.out_ppc(p) == 1 and design.chain_text(p) == (
             f"cds -> nuc -> hdr -> tdi ({ppc} pixels per clock) -> {ppc}:1 width converter "
             f"-> median3 (1 pixel per clock)")
-        ax = pl.top(p, taps=True)
+        ax = design.top(p, taps=True)
         core = ax.core
         ax._MustUse__silence = core._MustUse__silence = True   # inspected, not elaborated
         # 2 lanes x (signal, reset) per pixel in; one median pixel out
@@ -114,7 +114,7 @@ def test_plan_and_top_at_every_ppc():
         assert core.stage_ppc == [ppc] * 4 + [1]
         assert all(cs[0].i_stream.payload.data.shape().length % ppc == 0
                    for cs in core.cores[:-1])
-    assert pl.verilog(pl.plan(sc, ppc=1)) == pl.verilog(p1)
+    assert design.verilog(design.chain_plan(sc, ppc=1)) == design.verilog(p1)
 
 
 def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
@@ -124,8 +124,8 @@ def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
     NUC coefficients through the ECC calibration reader, TDI saturated at 16 bits."""
     sc = load_scene(ROOT / "scenes" / "orbit_chain.toml")
     assert sc.run.rtl.pixels_per_clock == 8 and sc.pipeline.nuc.ecc is True
-    p = pl.plan(sc)
-    assert (p.ppc, p.width, p.rows, p.lanes) == (8, 1280, 96, 1)
+    p = design.chain_plan(sc)
+    assert (p.ppc, p.width, p.stages, p.lanes) == (8, 1280, 96, 1)
     assert [(s.block, s.params.get("ppc", 1)) for s in p.steps] == [
         ("nuc", 8), ("tdi", 8), ("median3", 1)]               # 96 stages: 96 x fewer pixels
     by = {s.block: s for s in p.steps}
@@ -141,7 +141,7 @@ def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
 ])
 def test_impossible_ppc_gives_one_line_errors(ppc, width, stages, msg):
     with pytest.raises(TdicamError, match=msg) as exc:
-        pl.plan(_small(sensor={"columns": width}), ppc=ppc, stages=stages)
+        design.chain_plan(_small(sensor={"columns": width}), ppc=ppc, stages=stages)
     assert "\n" not in str(exc.value)
 
 
@@ -151,11 +151,11 @@ def test_a_block_after_tdi_gets_the_pixels_per_clock_of_its_rate(stages, ppc, me
     """The median after TDI of ``stages`` gets ``stages`` times fewer pixels a second: it is
     built at ``ppc / stages`` rounded up to 1, 2, 4 or 8 (never fewer than carry the
     input's full rate), a width converter before it when that is fewer than ``ppc``."""
-    p = pl.plan(_small(), ppc=ppc, stages=stages)
-    assert [pl.step_ppc(s) for s in p.steps] == [ppc] * 4 + [median_ppc]
+    p = design.chain_plan(_small(), ppc=ppc, stages=stages)
+    assert [design.step_ppc(s) for s in p.steps] == [ppc] * 4 + [median_ppc]
     assert median_ppc * stages >= ppc and (median_ppc == 1 or median_ppc * stages < 2 * ppc)
-    assert ("width converter" in pl.chain_text(p)) == (median_ppc < ppc)
-    ax = pl.top(p)
+    assert ("width converter" in design.chain_text(p)) == (median_ppc < ppc)
+    ax = design.top(p)
     ax._MustUse__silence = ax.core._MustUse__silence = True
     assert ax._out[1] == median_ppc and ax.core.stage_ppc[-1] == median_ppc
 
@@ -176,8 +176,8 @@ def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
     assert "--ppc = 3 is not valid; valid: 1, 2, 4, 8" in capsys.readouterr().err
     sc = _small(sensor={"columns": 20})
     with pytest.raises(TdicamError, match=r"^--ppc = 8: the width 20 is not a multiple of it$"):
-        pl.check_options(sc, ppc=8)
-    pl.check_options(sc, ppc=4)
+        design.check_options(sc, ppc=8)
+    design.check_options(sc, ppc=4)
 
 
 @pytest.mark.parametrize("ppc", [1, 4])
@@ -247,7 +247,7 @@ def test_chain_model_groups_and_merges():
 def test_impossible_pipelines_give_one_line_errors(blocks_, over, msg):
     sc = _small(**over)
     with pytest.raises(TdicamError, match=msg) as exc:
-        pl.plan(sc, blocks=blocks_)
+        design.chain_plan(sc, blocks=blocks_)
     assert "\n" not in str(exc.value)
 
 
@@ -257,8 +257,8 @@ def test_synthesis_top_uses_each_blocks_ecp5_top():
     with their contents as INITVAL, off the pixels' path); the plain top (``tdicam verilog
     pipeline``, every simulation) keeps the generic descriptions."""
     from tdicam.hw.verilog import rtlil
-    p = pl.plan(_small())
-    block = pl.PipelineBlock(p, None)
+    p = design.chain_plan(_small())
+    block = design.PipelineBlock(p, None)
     ecp5, plain = block.build(ecp5=True), block.build()
     assert ecp5.latency == plain.latency + 1
     text = rtlil(ecp5, "pipeline")
@@ -269,17 +269,17 @@ def test_synthesis_top_uses_each_blocks_ecp5_top():
 @pytest.mark.filterwarnings("ignore:.*created but never used")   # top inspected only
 def test_spill_to_ddr_is_planned_when_the_memory_does_not_fit():
     sc = load_scene(ROOT / "scenes" / "orbit_4096_ddr_spill.toml")
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     assert [s.block for s in p.steps] == ["tdi_ddr"]          # 7.39 Mbit > 3.83 Mbit
-    ax = pl.top(p)
+    ax = design.top(p)
     assert ax.latency is None                                 # DDR: variable
     del ax
     gc.collect()                       # its "never used" warnings, filtered, fire here
-    assert [s.block for s in pl.plan(sc, spill=False).steps] == ["tdi"]
-    assert [s.block for s in pl.plan(sc, device="xc7k325t").steps] == ["tdi"]
+    assert [s.block for s in design.chain_plan(sc, spill=False).steps] == ["tdi"]
+    assert [s.block for s in design.chain_plan(sc, device="xc7k325t").steps] == ["tdi"]
     with pytest.raises(TdicamError, match=r"^pipeline: a DDR spill was asked but no block "
                                           r"of cds -> nuc -> hdr keeps its memory in DDR"):
-        pl.plan(_small(), blocks=["cds", "nuc", "hdr"], spill=True)
+        design.chain_plan(_small(), blocks=["cds", "nuc", "hdr"], spill=True)
 
 
 def test_a_spill_needs_a_ddr_section():
@@ -294,20 +294,20 @@ def test_a_spill_needs_a_ddr_section():
                        r"\(7393280 bits\) exceed the ecp5-85f's on-chip RAM \(3833856 bits\): "
                        r"it spills to DDR through tdi_ddr, but the scene has no \[ddr\] "
                        r"section") as exc:
-        pl.plan(scene_from_dict(data))
+        design.chain_plan(scene_from_dict(data))
     assert "\n" not in str(exc.value)
     data["pipeline"]["tdi"] = {"memory": "chip"}              # on chip: no DDR needed
-    assert [s.block for s in pl.plan(scene_from_dict(data)).steps] == ["tdi"]
+    assert [s.block for s in design.chain_plan(scene_from_dict(data)).steps] == ["tdi"]
     with pytest.raises(TdicamError, match=r"^pipeline: hdr -> tdi: its partial sums "
                        r"\(\d+ bits\) are placed in DDR by the scene: it spills to DDR "
                        r"through tdi_ddr, but the scene has no \[ddr\] section"):
-        pl.plan(_small(pipeline={"tdi": {"memory": "ddr"}}))
+        design.chain_plan(_small(pipeline={"tdi": {"memory": "ddr"}}))
     sc = _small(pipeline={"tdi": {"memory": "ddr"}}, ddr={"base": 4096},
                 sensor={"columns": 160})            # tdi_ddr: more than 148 beats a row
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     assert [s.block for s in p.steps] == ["cds", "nuc", "hdr", "tdi_ddr", "median3"]
     assert p.steps[3].params["base"] == 4096
-    assert [s.block for s in pl.plan(sc, spill="auto").steps][3] == "tdi"   # --memory auto
+    assert [s.block for s in design.chain_plan(sc, spill="auto").steps][3] == "tdi"   # --memory auto
 
 
 @pytest.mark.parametrize("over, msg", [
@@ -327,7 +327,7 @@ def test_charge_domain_and_impossible_pixels_per_clock_are_refused():
     does not divide the width already by the scene."""
     sc = load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml")
     with pytest.raises(TdicamError, match="charge"):
-        pl.plan(sc)
+        design.chain_plan(sc)
     with pytest.raises(TdicamError, match=r"^\[run.rtl\].pixels_per_clock: must be one of "
                                           r"1, 2, 4, 8, got 3$"):
         _small(run={"rtl": {"pixels_per_clock": 3}})
@@ -338,7 +338,7 @@ def test_charge_domain_and_impossible_pixels_per_clock_are_refused():
         load_scene(ROOT / "scenes" / "zhou2008_interline_ccd_charge_4.toml",
                    overrides={"run": {"rtl": {}}})
     sc = _small(run={"rtl": {"pixels_per_clock": 1}})
-    assert sc.pipeline.after_lines("median3") is True and pl.plan(sc).steps
+    assert sc.pipeline.after_lines("median3") is True and design.chain_plan(sc).steps
 
 
 @pytest.mark.parametrize("n, bank", [(11, 4), (8, 4), (3, 2048), (1, 2048)])

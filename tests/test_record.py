@@ -144,7 +144,7 @@ def test_a_damaged_record_is_one_line(tmp_path, text, message):
 def test_readme_silicon_table_is_the_record():
     """The README's "Silicon (ECP5-85F)" table is generated from the record: the chains at
     ppc 8 and the system scene from the lanes with its Fmax per clock domain."""
-    from tdicam.camera.design import ECP5_85F
+    from tdicam.chain.design import ECP5_85F
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     begin = "<!-- silicon table: generated from tdicam/hw/silicon.json -->\n"
     table = text[text.index(begin) + len(begin):text.index("<!-- end of silicon table -->")]

@@ -147,7 +147,7 @@ def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsy
     """[run.rtl] that cannot run (here: the simulator fails to start; a scene the chain
     cannot take is refused when the scene is read, exit 2) is in the report and the exit
     status, not only a line of the summary."""
-    from tdicam.camera import cosim as rtl
+    from tdicam.chain import cosim as rtl
     from tdicam.errors import TdicamError
 
     def broken(*args, **kw):

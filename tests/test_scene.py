@@ -529,7 +529,7 @@ def test_median3_enhance_gain_reaches_engine_and_chain():
     the scene engine's golden run and for the gateware chain."""
     import numpy as np
     from tdicam import engine
-    from tdicam.camera import design
+    from tdicam.chain import design
     base = {"orbit": {"altitude_km": 600.0, "gsd_m": 1.0}, "target": {"kind": "bars"},
             "sensor": {"bits": 12, "columns": 64, "rows": 8}, "tdi": {"stages": [4]},
             "run": {"lines": 16}}
@@ -537,7 +537,7 @@ def test_median3_enhance_gain_reaches_engine_and_chain():
     for gain in (1, 3):
         sc = scene_from_dict({**base, "pipeline": {"blocks": ["tdi", "median3"], "median3": {
             "edge_enhance": True, "enhance_gain": gain}}})
-        step = design.plan(sc).steps[-1]
+        step = design.chain_plan(sc).steps[-1]
         assert step.params["enhance_gain"] == gain
         outs.append(engine.simulate(sc, impact=False).output)
     assert not np.array_equal(outs[0], outs[1])

@@ -180,13 +180,13 @@ def test_system_lanes_top_has_the_word_clock_constrained():
     rate (300 Mbit/s / 12 bit = 25 MHz) beside ``clk``, and the harness registers the front's
     lane and status ports in the word domain."""
     from pathlib import Path
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     from tdicam.scene.loader import load_scene
     sc = load_scene(Path(__file__).resolve().parents[1] / "scenes" /
                     "ning2019_gmax0504_system_lanes.toml")
-    p = pl.plan(sc)
-    assert pl.PipelineBlock(p, None).clocks() == {"word_clk": 25.0}
-    doms = pl.top(p).port_domains
+    p = design.chain_plan(sc)
+    assert design.PipelineBlock(p, None).clocks() == {"word_clk": 25.0}
+    doms = design.top(p).port_domains
     assert doms["lvds_lane_raw"] == doms["lvds_frames_out"] == doms["lvds_retrain"] == "word"
     assert "m_axis_tdata" not in doms and "nuc_calib_loaded" not in doms
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tdicam.camera import design as pl
-from tdicam.camera.cosim import scene_data, status_ports
+from tdicam.chain import design
+from tdicam.chain.cosim import scene_data, status_ports
 from tdicam.errors import TdicamError
 from tdicam.scene.loader import load_scene
 
@@ -32,24 +32,24 @@ def _scene(pipeline=SYSTEM, ddr=True, **over):
 
 
 def test_cds_memory_ddr_plans_cds_ddr_with_reset_frames_in_the_stream():
-    p = pl.plan(_scene())
+    p = design.chain_plan(_scene())
     assert [s.block for s in p.steps] == ["cds_ddr", "nuc", "hdr", "tdi", "median3"]
     assert (p.lanes, p.lane_elems, p.reset_frames) == (2, 1, True)
     st = p.steps[0]
     assert st.params == {"width": 24, "rows": 4, "pixel_bits": 10, "base": 4096}
     assert st.ports == {"frame_kind": (1, 0)}             # reset frame, then its signal
     # the caller's --memory is about TDI's partial sums: it never moves the reset frame
-    assert [s.block for s in pl.plan(_scene(), spill=False).steps][0] == "cds_ddr"
-    assert [s.block for s in pl.plan(_scene(pipeline={})).steps][0] == "cds"
-    assert pl.plan(_scene(pipeline={}), spill="auto").steps[0].block == "cds"
-    assert not pl.plan(_scene(pipeline={})).reset_frames
+    assert [s.block for s in design.chain_plan(_scene(), spill=False).steps][0] == "cds_ddr"
+    assert [s.block for s in design.chain_plan(_scene(pipeline={})).steps][0] == "cds"
+    assert design.chain_plan(_scene(pipeline={}), spill="auto").steps[0].block == "cds"
+    assert not design.chain_plan(_scene(pipeline={})).reset_frames
 
 
 def test_cds_in_ddr_needs_a_ddr_section():
     with pytest.raises(TdicamError, match=r"^pipeline: input -> cds: its reset frames are "
                        r"placed in DDR by the scene: it spills to DDR through cds_ddr, but "
                        r"the scene has no \[ddr\] section") as exc:
-        pl.plan(_scene(ddr=False))
+        design.chain_plan(_scene(ddr=False))
     assert "\n" not in str(exc.value)
     with pytest.raises(TdicamError, match=r"^\[pipeline.cds\].memory: must be one of"):
         _scene(pipeline={"cds": {"memory": "sram"}})
@@ -57,7 +57,7 @@ def test_cds_in_ddr_needs_a_ddr_section():
 
 def test_the_reset_frames_travel_before_their_signal_frames():
     sc = _scene()
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     data, _ = scene_data(sc, stages=4, dv_over_v=0.0, lines=3)
     lanes = data.lane_arrays(p)
     assert len(lanes) == 2 and all(len(a) == 1 for a in lanes)
@@ -65,8 +65,8 @@ def test_the_reset_frames_travel_before_their_signal_frames():
     assert both.shape == (2 * p.frames, 4, 24)
     assert np.array_equal(both[0::2], data.reset[1]) and np.array_equal(both[1::2],
                                                                         data.signal[1])
-    ax = pl.top(p, data, board=True)
-    stim = pl.stimulus(p, data, ax)
+    ax = design.top(p, data, board=True)
+    stim = design.stimulus(p, data, ax)
     ctrl = dict(status_ports(ax))                          # (no input among them)
     assert "cds_ddr_frame_kind" not in ctrl
     names = [n for n, _ in __import__("tdicam.cosim", fromlist=["x"]).stream_ports(ax)[2]]
@@ -85,8 +85,8 @@ def test_system_top_has_the_parts_interfaces_at_its_ports_and_the_board_their_mo
     """Synthesis form: each channel's MIG user interface and NAND bus are ports of the top
     (no model inside); the co-simulation board wires the DDR and NAND models to them and
     keeps the status outputs."""
-    p = pl.plan(_scene())
-    top = _members(pl.top(p))
+    p = design.chain_plan(_scene())
+    top = _members(design.top(p))
     for lane in ("", "_1"):
         for port, flow in (("app_addr", "Out"), ("app_rdy", "In"), ("app_rd_data", "In"),
                            ("app_wdf_data", "Out")):
@@ -97,15 +97,15 @@ def test_system_top_has_the_parts_interfaces_at_its_ports_and_the_board_their_mo
                            ("uncorrectable_words", "Out"), ("calib_error", "Out")):
             assert top[f"nuc_{port}{lane}"] == flow
     assert top["startup_cycles"] == "Out" and top["cds_ddr_frame_kind"] == "In"
-    board = _members(pl.top(p, board=True))
+    board = _members(design.top(p, board=True))
     assert not any("app_" in n or "nand_" in n for n in board)
     for name in ("nuc_calib_loaded_1", "nuc_bad_blocks", "startup_cycles",
                  "cds_ddr_ddr_error", "cds_ddr_ddr_reads_1"):
         assert board[name] == "Out"
     # a chain without external parts is the same top either way
-    plain = pl.plan(_scene(pipeline={}))
-    assert _members(pl.top(plain, board=True)) == _members(pl.top(plain))
-    assert "startup_cycles" not in _members(pl.top(plain))
+    plain = design.chain_plan(_scene(pipeline={}))
+    assert _members(design.top(plain, board=True)) == _members(design.top(plain))
+    assert "startup_cycles" not in _members(design.top(plain))
 
 
 def test_golden_chain_loads_the_coefficients_from_nand_as_the_scene_simulator_does():
@@ -114,15 +114,15 @@ def test_golden_chain_loads_the_coefficients_from_nand_as_the_scene_simulator_do
     the scene simulator's, and differs from the chain on the ideal coefficients."""
     sc = _scene(pipeline={"nuc": {"flash": "nand", "bad_blocks": 200, "flip_single": 0.25,
                                   "flip_double": 0.2, "seed": 3}})
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     assert p.steps[1].device["bad_blocks"] == 200 and p.steps[1].device["seed"] == 3
     data, ex = scene_data(sc, stages=4, dv_over_v=0.0, lines=3)
-    gold = pl.golden(p, data)
+    gold = design.golden(p, data)
     assert np.array_equal(gold[-1][2].reshape(ex.output.shape), ex.output)
     from dataclasses import replace
     bare = replace(p, steps=tuple(replace(s, device={}) for s in p.steps))
     nuc0 = [g for g in gold if g[0] == "nuc_0"][0][2]
-    assert not np.array_equal([g for g in pl.golden(bare, data) if g[0] == "nuc_0"][0][2],
+    assert not np.array_equal([g for g in design.golden(bare, data) if g[0] == "nuc_0"][0][2],
                               nuc0)
 
 
@@ -211,8 +211,8 @@ def test_plan_states_the_calibration_load_and_the_cds_ddr_bandwidth():
 def test_system_verilog_is_deterministic_and_holds_no_model():
     """`tdicam verilog pipeline` of a system chain: the same text twice; the parts' models
     (the MIG model's memory, the NAND part) are not in it, the controller sides are."""
-    p = pl.plan(_scene())
-    a, b = pl.verilog(p), pl.verilog(p)
+    p = design.chain_plan(_scene())
+    a, b = design.verilog(p), design.verilog(p)
     assert a == b
     assert "nuc_nand0" in a and "cds_ddr_app_rd_data_valid_1" in a
     assert not re.search(r"\brqd\b", a)                   # the MIG model's read queue
@@ -252,7 +252,7 @@ def _lanes_in_amaranth(*, lanes_per_gain=2, stages=3, lines=2, fifo_depth=None,
     sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
         "sensor": {"columns": 16, "lvds": {"lanes_per_gain": lanes_per_gain}},
         "tdi": {"stages": stages}, "run": {"lines": lines}, "ddr": {"base": 0, **(ddr or {})}})
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
                                else s for s in p.steps))
     if fifo_depth is not None:
@@ -260,7 +260,7 @@ def _lanes_in_amaranth(*, lanes_per_gain=2, stages=3, lines=2, fifo_depth=None,
                                                           "fifo_depth": fifo_depth}),)
                     + p.steps[1:])
     data, _ = scene_data(sc, stages=stages, dv_over_v=0.0, lines=lines)
-    ax = pl.top(p, data, board=True)
+    ax = design.top(p, data, board=True)
     ax._MustUse__silence = True                  # its board is simulated
     board = ax.core
     lanes = scenario_lanes((GOOD_LANES * 2)[:2 * lanes_per_gain])
@@ -280,7 +280,7 @@ def _lanes_in_amaranth(*, lanes_per_gain=2, stages=3, lines=2, fifo_depth=None,
             seen[name] = ctx.get(getattr(dut, name))
     res = run_amaranth(case, dut=board, prefix="lvds_", settings=settings, elems=1,
                        hook=hook)
-    return p, pl.golden(p, data)[-1][2], res, seen, board
+    return p, design.golden(p, data)[-1][2], res, seen, board
 
 
 def test_system_from_serial_lanes_to_output_in_amaranth():
@@ -372,24 +372,24 @@ def test_ddr_stall_keys_reach_the_ddr_blocks_and_the_report():
     """[ddr]'s stall settings become cds_ddr's MIG model parameters (only those given away
     from the defaults: the bundled scenes' Verilog unchanged) and the scene's dict."""
     sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system_lanes_faults.toml")
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     assert {k: p.steps[1].params[k] for k in LONG_STALLS} == LONG_STALLS
     assert sc.to_dict()["ddr"] == {"interface": "mig", "base": 0, **LONG_STALLS}
     assert sc.run.rtl.lane_dies == (0, 5)
     plain = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml")
     assert plain.to_dict()["ddr"] == {"interface": "mig", "base": 0}
-    assert "refresh_cycles" not in pl.plan(plain).steps[0].params
+    assert "refresh_cycles" not in design.chain_plan(plain).steps[0].params
     assert "lane_dies" not in plain.to_dict()["run"]["rtl"]
 
 
 def test_a_lane_death_in_a_reset_frame_is_refused_before_the_build():
     """With reset frames in the stream the dying lane's frame must be a signal frame; the
     co-simulation says so in one line before building anything."""
-    from tdicam.camera.cosim import cosimulate
+    from tdicam.chain.cosim import cosimulate
     sc = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml", overrides={
         "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2}}, "tdi": {"stages": 3},
         "run": {"lines": 2}})
-    p = pl.plan(sc)
+    p = design.chain_plan(sc)
     data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
     for dies, match in (((0, 2), r"frame 2 is a reset frame"),
                         ((0, 7), r"needs a lane 0\.\.3 and a frame before the last 3")):

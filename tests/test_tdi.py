@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tdicam import blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.cosim.codec import Beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.tdi import TdiAccumulator

@@ -13,7 +13,7 @@
 ``scene fast|auto|exact``
     the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene;
 ``pipeline`` (only when named, :data:`EXTRA`)
-    the orbit scene's whole chain through its generated top (:mod:`tdicam.bench.camera`): one
+    the orbit scene's whole chain through its generated top (:mod:`tdicam.bench.chain`): one
     run per row, its build timed apart, with its own legend (:data:`LEGENDS`).
 
 Every level of a block runs on the same generated input: the slow levels (Python simulator,
@@ -48,7 +48,7 @@ import numpy as np
 
 from tdicam import blocks, cosim
 from tdicam.blocks import StreamWork
-from tdicam.bench import camera as benchpipe
+from tdicam.bench import chain
 from tdicam.bench.plot import plot, tradeoff_points
 from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, na_row, row
 from tdicam.errors import TdicamError, check_range
@@ -96,7 +96,7 @@ def _units(blk, inputs):
 #: (``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer), then the scene.
 NAMES = tuple(dict.fromkeys(b.bench.group for b in _benched())) + ("scene",)
 #: Benchmarks run only when named (minutes each): ``pipeline``, the orbit scene's whole
-#: chain through its generated top (:mod:`tdicam.bench.camera`).
+#: chain through its generated top (:mod:`tdicam.bench.chain`).
 EXTRA = ("pipeline",)
 
 
@@ -241,10 +241,10 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
 
 
 #: The benchmarks that are not a block's: the scene simulator and the whole camera.
-RUNNERS = {"scene": _scene_rows, "pipeline": benchpipe.pipeline_rows}
+RUNNERS = {"scene": _scene_rows, "pipeline": chain.pipeline_rows}
 #: Benchmarks whose rows are measured their own way, with their own legend
 #: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
-LEGENDS = {"pipeline": benchpipe.legend}
+LEGENDS = {"pipeline": chain.legend}
 
 
 def expand(names):

@@ -213,7 +213,7 @@ class Options:
 
 @dataclass(frozen=True)
 class Use:
-    """How a block takes part in a scene's pipeline (:mod:`tdicam.camera.design`).
+    """How a block takes part in a scene's pipeline (:mod:`tdicam.chain.design`).
 
     The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
     arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
@@ -222,17 +222,17 @@ class Use:
 
     Attributes
     ----------
-    step : callable(ctx) -> (tdicam.camera.design.Step, out_bits)
-        The block's parameters from the scene context :class:`tdicam.camera.design.Context`
+    step : callable(ctx) -> (tdicam.chain.design.Step, out_bits)
+        The block's parameters from the scene context :class:`tdicam.chain.design.StepContext`
         (scene, stages, width, lines, the chain's pixel width so far in ``ctx.bits``).
     hw : callable(step, data) -> stage
-        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.camera.design.SceneData`,
+        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.chain.design.SceneData`,
         for side inputs built into the top such as NUC's calibration image).
     side : callable(step, data, lane) -> dict, or None
         Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
         coefficients).
     identity : callable(step, shape) -> dict, or None
-        One lane's :class:`tdicam.camera.design.SceneData` fields that make the block a no-op
+        One lane's :class:`tdicam.chain.design.SceneData` fields that make the block a no-op
         when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
         width).
     merge : bool
@@ -262,7 +262,7 @@ class Use:
     reset_frames : bool
         The block takes each reset frame as a frame of its own in its stream, before its
         signal frame (and stores it), with its ``ports`` saying which is which; the chain's
-        input then carries the reset frames so (:attr:`tdicam.camera.design.Plan.reset_frames`).
+        input then carries the reset frames so (:attr:`tdicam.chain.design.ChainPlan.reset_frames`).
     trim : int
         Pixels at each image edge whose statistics the block changes (its replicated
         borders), left out of flat-field measurements.

@@ -2,7 +2,7 @@
 block's parameters in the engine's run context and its golden model on scene arrays, both
 through the block's own entry."""
 
-from tdicam.blocks.steps import Context
+from tdicam.blocks.steps import StepContext
 from tdicam.errors import TdicamError
 
 
@@ -16,7 +16,7 @@ def step(c, block, bits, width, *, after_lines=False):
     """``block``'s :class:`~tdicam.blocks.steps.Step` in the engine's run context ``c`` for
     ``bits``-bit input pixels, ``width`` wide: its entry's scene-to-parameters function
     (:attr:`tdicam.blocks.Use.step`)."""
-    ctx = Context(scene=c.scene, m=c.m, width=width, lines=0, bits=bits,
+    ctx = StepContext(scene=c.scene, m=c.m, width=width, lines=0, bits=bits,
                   after_lines=after_lines, block=block.name)
     return block.pipeline.step(ctx)[0]
 

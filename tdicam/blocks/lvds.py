@@ -157,7 +157,7 @@ def _eye_rows(scene, lanes, n_check, settle):
 
 def _front_measured(step, status, info):
     """What the co-simulated front saw (its status at the end of the sensor's words, and
-    ``info["lanes"]``, the lanes' report of :func:`tdicam.camera.cosim.cosimulate`): the
+    ``info["lanes"]``, the lanes' report of :func:`tdicam.chain.cosim.cosimulate`): the
     lanes locked and in error by number (an untrained lane's columns are invalid in every
     frame, a dead lane's from its death on), frames released, dropped (held: before the
     start-up gate, after a lane loss until the retrain), affected (with invalid columns),

@@ -1,10 +1,10 @@
-"""The data of a scene's chain that blocks and tools share: a :class:`Plan` of :class:`Step` s,
-the :class:`Context` a block's :attr:`tdicam.blocks.Use.step` plans from, and the raw
+"""The data of a scene's chain that blocks and tools share: a :class:`ChainPlan` of :class:`Step` s,
+the :class:`StepContext` a block's :attr:`tdicam.blocks.Use.step` plans from, and the raw
 :class:`SceneData` the chain runs on; for the scene simulator (:mod:`tdicam.engine`), the
 :class:`Frames` its frame stacks travel in and a block's :class:`Sim` rows (its steps there).
 
-:mod:`tdicam.camera.design` makes plans from scenes; each block's registry entry
-(:mod:`tdicam.blocks`) turns a :class:`Context` into its :class:`Step`, and its
+:mod:`tdicam.chain.design` makes plans from scenes; each block's registry entry
+(:mod:`tdicam.blocks`) turns a :class:`StepContext` into its :class:`Step`, and its
 :attr:`tdicam.blocks.Use.sim` rows say what the block does to the simulator's frame stacks
 (the engine generates its effect rows for the blocks from them).
 """
@@ -18,7 +18,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Step", "Plan", "SceneData", "Context", "Frames", "Sim"]
+__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "Frames", "Sim"]
 
 
 @dataclass(frozen=True)
@@ -41,9 +41,10 @@ class Step:
 
 
 @dataclass(frozen=True)
-class Plan:
-    """A scene's chain: ``steps`` in order; input ``lanes`` (channels) of ``lane_elems``
-    elements of ``in_bits``; frames of ``rows`` x ``width`` pixels, ``frames`` of them;
+class ChainPlan:
+    """A scene's chain (:func:`tdicam.chain.design.chain_plan` makes it): ``steps`` in order;
+    input ``lanes`` (channels) of ``lane_elems`` elements of ``in_bits``; frames of ``stages``
+    x ``width`` pixels (one row per TDI stage: the sensor's window), ``frames`` of them;
     ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it);
     ``reset_frames``: each lane's reset frames travel in the stream as frames of their own,
     each before its signal frame (the first block stores them,
@@ -53,7 +54,7 @@ class Plan:
     lanes: int
     lane_elems: int
     in_bits: int
-    rows: int
+    stages: int
     width: int
     frames: int
     lines: int
@@ -63,7 +64,7 @@ class Plan:
 
     @property
     def input_pixels(self):
-        return self.frames * self.rows * self.width * self.lanes
+        return self.frames * self.stages * self.width * self.lanes
 
 
 @dataclass
@@ -107,11 +108,11 @@ class SceneData:
 
 
 @dataclass
-class Context:
+class StepContext:
     """What a block's :attr:`tdicam.blocks.Use.step` sees: the ``scene``, TDI stages ``m``,
     frame ``width``, output ``lines``, the chain's pixel width so far (``bits``), whether a
     line-making block came before (``after_lines``), the block being planned and the
-    pixels per clock of every block (``ppc``: :func:`tdicam.camera.design.plan` sets it in
+    pixels per clock of every block (``ppc``: :func:`tdicam.chain.design.chain_plan` sets it in
     each step's parameters) and the chain's channel lanes (``lanes``: 2 with a merging
     block, known when a source block is planned); ``stall_cycles``: the longest the blocks
     after a source block may hold the stream at once (the DDR model's worst stall,
@@ -161,7 +162,7 @@ class Sim:
     effects table, named after the block (``<name>_<where>`` with ``where``).
 
     The functions take the engine's run context ``c``
-    (:class:`tdicam.engine.context.Context`: ``c.scene``, ``c.m``, ``c.sensor``, ``c.gains``,
+    (:class:`tdicam.engine.context.RunContext`: ``c.scene``, ``c.m``, ``c.sensor``, ``c.gains``,
     ``c.zero_dn``, ``c.prepared``, ``c.flash``, ``c.ran(row)``) and a :class:`Frames` ``fr``,
     which they update in place (the block's golden model on its scene arrays, through the
     entry).

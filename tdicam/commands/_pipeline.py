@@ -1,6 +1,6 @@
 """``tdicam verilog pipeline`` and ``tdicam synth pipeline``: the arguments that pick a
 scene's chain (:func:`scene_design`), then the chain's Verilog or its synthesis
-(:mod:`tdicam.camera.design`, :func:`tdicam.hw.synth.synth`)."""
+(:mod:`tdicam.chain.design`, :func:`tdicam.hw.synth.synth`)."""
 
 import json
 import sys
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.blocks.steps import SceneData
-from tdicam.camera.design import (ECP5_85F, PipelineBlock, chain_text, check_options, plan, top,
+from tdicam.chain.design import (ECP5_85F, PipelineBlock, chain_text, check_options, chain_plan, top,
                                   verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
@@ -24,7 +24,7 @@ __all__ = ["scene_design", "verilog_command", "synth_command"]
 
 
 def scene_design(prog, extra):
-    """(parsed arguments, :class:`~tdicam.blocks.steps.Plan`, :class:`SceneData` or None) of
+    """(parsed arguments, :class:`~tdicam.blocks.steps.ChainPlan`, :class:`SceneData` or None) of
     ``tdicam verilog|synth pipeline`` arguments ``extra``."""
     ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
                                  "([pipeline] blocks in order, NUC coefficients identity "
@@ -53,7 +53,7 @@ def scene_design(prog, extra):
     sc = load_scene(ns.scene)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
-    p = plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
+    p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
              spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory],
              phy=ns.phy)
     data = None
@@ -63,9 +63,9 @@ def scene_design(prog, extra):
                               f"{len(ns.calib)} image(s)")
         coeffs = []
         for path, img in zip(ns.calib, images):
-            if img.shape != (p.rows, p.width):
+            if img.shape != (p.stages, p.width):
                 raise TdicamError(f"--calib {path}: a {img.shape[0]} x {img.shape[1]} image; "
-                                  f"the pipeline's frames are {p.rows} x {p.width}")
+                                  f"the pipeline's frames are {p.stages} x {p.width}")
             coeffs.append((np.asarray(img.gain), np.asarray(img.offset)))
         data = SceneData([], None, coeffs)
     return ns, p, data
@@ -84,7 +84,7 @@ def verilog_command(extra, output, *, show_help=False):
     if output is not None:
         write_file(output, text)
         print(f"wrote {output}: module pipeline, {chain_text(p)}, {p.lanes} channel(s), "
-              f"{p.width} x {p.rows} frames, latency {ax_lat}", file=sys.stderr)
+              f"{p.width} x {p.stages} frames, latency {ax_lat}", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0
@@ -104,14 +104,14 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
         blocks = " -> ".join(s.block for s in p.steps)
         ppc = p.ppc
         params = {"scene": Path(ns.scene).name, "blocks": blocks, "width": p.width,
-                  "stages": p.rows, "ppc": ppc}
+                  "stages": p.stages, "ppc": ppc}
         record([row_of(f"{Path(ns.scene).stem} chain ppc={ppc}", "pipeline", params, res,
                        target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
     if as_json:
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
         return 0
-    print(f"pipeline {chain_text(p)} ({p.width} x {p.rows}, "
+    print(f"pipeline {chain_text(p)} ({p.width} x {p.stages}, "
           f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
           f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "

@@ -38,7 +38,7 @@ def register(sub):
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] [--ppc N] -o DIR``."""
-    from tdicam.export.camera import MEMORY, export_pipeline
+    from tdicam.export.chain import MEMORY, export_pipeline
     ap = ArgsParser(
         prog="tdicam export pipeline",
         description="A scene's whole [pipeline] as one exported design: the top as "
@@ -73,7 +73,7 @@ def _pipeline(args):
 
 def _run(args):
     check_seed("--seed", args.seed)
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.export.camera
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.export.chain
         return _pipeline(args)
     blk = pick_block(args, "without parameters: those of most of the block's golden cases")
     if blk is None:

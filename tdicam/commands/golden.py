@@ -1,7 +1,7 @@
 """``tdicam golden regen|check [BLOCK ...]``"""
 
 from tdicam import blocks as _blocks
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 
 
 def register(sub):

@@ -149,7 +149,7 @@ def _run(args):
         record.check_destination(args.record or None)
     if args.reference:
         return _run_reference(args)
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.chain.design
         from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json, xilinx=not args.no_xilinx,

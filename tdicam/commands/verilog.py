@@ -66,7 +66,7 @@ def pick_block(args, more_help=None):
 
 
 def _run(args):
-    if args.block == "pipeline":       # a scene's whole chain: tdicam.camera.design
+    if args.block == "pipeline":       # a scene's whole chain: tdicam.chain.design
         from tdicam.commands._pipeline import verilog_command
         return verilog_command(args.extra, args.output, show_help=args.help)
     blk = pick_block(args)

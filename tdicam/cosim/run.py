@@ -16,7 +16,7 @@ from tdicam.errors import TdicamError
 from tdicam.cosim.compare import Comparison, compare
 from tdicam.cosim.pysim import run_pysim
 from tdicam.cosim.stream import SimResult, run_stream
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 
 __all__ = ["AMARANTH", "CaseRun", "run_beats", "WAVE_WINDOW", "wave_window", "keep_wave",
            "waveform", "run_case", "run_scene", "run_golden_case"]

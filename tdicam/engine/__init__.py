@@ -11,7 +11,7 @@ RMS change of the output against the output without that effect, on a crop, with
 random numbers for every other effect).
 
 Package layout: :mod:`~tdicam.engine.effects` (the table), :mod:`~tdicam.engine.context`
-(the run :class:`Context` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
+(the run :class:`RunContext` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
 fidelities), :mod:`~tdicam.engine.blocks` (the pipeline blocks' rows of the table, generated
 from the registry: what each block does to the frame stacks is its entry's
 :attr:`tdicam.blocks.Use.sim`),
@@ -58,7 +58,7 @@ Fidelity
 ``auto``
     per effect: fast where its bound is below ``[run].tolerance``, exact otherwise.
 
-Layer: above :mod:`tdicam.scene` and the tools; below :mod:`tdicam.camera` and the services.
+Layer: above :mod:`tdicam.scene` and the tools; below :mod:`tdicam.chain` and the services.
 """
 
 from __future__ import annotations
@@ -75,12 +75,12 @@ from tdicam.scene.loader import digital_tdi_limits_error
 
 from tdicam.engine import exact as _exact, fast as _fast
 from tdicam.engine.blocks import LINES, ROWS
-from tdicam.engine.context import Context, EffectRecord, decide
+from tdicam.engine.context import RunContext, EffectRecord, decide
 from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
 from tdicam.engine.streams import Timer, threads
 
 __all__ = ["EFFECTS", "EFFECT_NAMES", "EFFECT_LABELS", "FORCIBLE", "EffectRecord",
-           "SceneResult", "Context", "simulate", "check_point", "threads",
+           "SceneResult", "RunContext", "simulate", "check_point", "threads",
            "MOMENTS_BELOW_DITHER"]
 
 EFFECT_LABELS = {e.name: e.label for e in EFFECTS}

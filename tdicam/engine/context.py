@@ -2,8 +2,8 @@
 
 :func:`decide` asks every :data:`~tdicam.engine.effects.EFFECTS` entry whether the scene
 needs it and why, applies ``--force`` / ``disable``, gathers the fast bounds and picks the
-fidelity; the resulting :class:`Context` is passed through the engine instead of positional
-tuples, and :meth:`Context.steps` gives each stage the implementations of the running
+fidelity; the resulting :class:`RunContext` is passed through the engine instead of positional
+tuples, and :meth:`RunContext.steps` gives each stage the implementations of the running
 effects in physical order.
 """
 
@@ -17,7 +17,7 @@ from tdicam.errors import TdicamError
 from tdicam.engine.blocks import ROWS, pedestal, takes_resets
 from tdicam.engine.effects import EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, dark_charge_e, stage_skew
 
-__all__ = ["EffectRecord", "Context", "decide"]
+__all__ = ["EffectRecord", "RunContext", "decide"]
 
 
 @dataclass
@@ -38,7 +38,7 @@ class EffectRecord:
 
 
 @dataclass
-class Context:
+class RunContext:
     """Everything one run of the engine needs, passed through instead of positional tuples.
 
     The configuration (:func:`decide`) fixes the scene point, the records and the fidelity;
@@ -140,7 +140,7 @@ class Context:
 def decide(scene, m, dv, fidelity, force, disable):
     """The context of one scene point: which effects run and why, the fidelity, the bounds."""
     force, disable = frozenset(force), frozenset(disable)
-    c = Context(scene, m, dv, fidelity, {}, frozenset(), force, False, stage_skew(scene, m),
+    c = RunContext(scene, m, dv, fidelity, {}, frozenset(), force, False, stage_skew(scene, m),
                 dark_charge_e(scene), 1, 0.0, [], {})
     for eff in EFFECTS:
         need, why = eff.need(c)

@@ -7,7 +7,7 @@ instead, :attr:`Effect.fast_note`), and its implementations: ``render`` (how it 
 each exposure sees, the same in both fidelities), ``pattern`` (its share of the fixed
 pattern), ``exact`` (what it does to one block of exposures in the exact path) and ``fast``
 (what it does to the aggregated sum of the m exposures). The engine runs the entries that
-ran, in table order (:meth:`tdicam.engine.context.Context.steps`).
+ran, in table order (:meth:`tdicam.engine.context.RunContext.steps`).
 
 The pipeline blocks are entries too, generated from the block registry: one per
 :class:`tdicam.blocks.steps.Sim` row of a block's entry (:mod:`tdicam.engine.blocks`), after
@@ -41,12 +41,12 @@ class Effect:
     ----------
     name, label : str
         Key (``--force``, ``--disable``, report) and the report's label.
-    need : callable(Context) -> (bool, str)
+    need : callable(RunContext) -> (bool, str)
         Whether the scene needs the effect, and why (printed in the report).
-    bound : callable(Context) -> dict, optional
+    bound : callable(RunContext) -> dict, optional
         Named error bounds of the fast aggregate for this effect (``{}``: exact in
         distribution); ``auto`` runs fast when the largest is within ``[run].tolerance``.
-    fast_note : callable(Context, dict) -> (float, str) or None, optional
+    fast_note : callable(RunContext, dict) -> (float, str) or None, optional
         The bound the record states in fast fidelity and what fast does instead.
     stage : str
         Where its implementations act: ``render`` (keywords of

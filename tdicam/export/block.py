@@ -44,7 +44,7 @@ import numpy as np
 
 from tdicam import blocks
 from tdicam.version import __version__
-from tdicam.cosim import vectors as golden
+from tdicam.cosim import golden
 from tdicam.beats import Beats, BeatStream
 from tdicam.cosim import codec, stream_ports, tbgen
 from tdicam.errors import TdicamError

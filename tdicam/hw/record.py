@@ -252,7 +252,7 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
     :data:`README_CHAINS` entry that has a measurement (the newest), with its cells, its
     Fmax per clock domain (:attr:`Row.fmax_clocks`; the slowest alone when not recorded)
     and whether it fits the part (``limits``: {count name: the part's cells}, e.g.
-    :data:`tdicam.camera.design.ECP5_85F`)."""
+    :data:`tdicam.chain.design.ECP5_85F`)."""
     rows = load() if rows is None else rows
     out = ["| design | ppc | LUT4 | COMB | FF | DP16KD | MULT18 | Fmax per clock domain, MHz "
            "(clk target) | fits |", "|---|---|---|---|---|---|---|---|---|"]

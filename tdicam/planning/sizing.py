@@ -429,15 +429,15 @@ def system_plan(scene, point, *, ddr_bits, ddr_clock_hz):
     """The system section: the figures of the scene's pipeline blocks at the design point
     (each block's :attr:`tdicam.blocks.Use.system`: the calibration load before the first
     frame, the reset frame's DDR bandwidth), or None when no block of the chain has any."""
-    from tdicam.camera import design
+    from tdicam.chain import design
     if scene.pipeline is None or not scene.pipeline.blocks:
         return None
     try:
-        p = design.plan(scene, stages=point["stages"])
+        p = design.chain_plan(scene, stages=point["stages"])
     except TdicamError:
         return None
     ctx = {"line_period_s": point["line_period_s"], "ddr_bits": ddr_bits,
-           "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.rows, "width": p.width,
+           "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.stages, "width": p.width,
            "scene": scene}
     uses = design.uses()
     rows = [r for st in p.steps if uses[st.block].system is not None

@@ -5,6 +5,6 @@ co-simulation) and writes the outputs; :mod:`~tdicam.run.measure` measures image
 next to the planning model's predictions; :mod:`~tdicam.run.report` writes report.md and
 the summary.
 
-Layer: a service. May import :mod:`tdicam.planning`, the camera, the engine, the scene
+Layer: a service. May import :mod:`tdicam.planning`, :mod:`tdicam.chain`, the engine, the scene
 reader and everything below them; imported by the sweeps, the benchmarks and the commands.
 """

@@ -172,8 +172,8 @@ def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl
     """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
     a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
     what there is, what to change) or, with ``rtl``, when ``[run.rtl].lane_dies`` cannot be
-    placed in the co-simulation (:func:`tdicam.camera.cosim.check_lane_death`)."""
-    from tdicam.camera.cosim import check_lane_death
+    placed in the co-simulation (:func:`tdicam.chain.cosim.check_lane_death`)."""
+    from tdicam.chain.cosim import check_lane_death
     from tdicam.engine import budget
     if rtl:
         check_lane_death(scene, int(scene.run.lines if lines is None else lines),
@@ -195,7 +195,7 @@ def _write(run, out_dir, stage):
         files += _figures(out_dir, scene, rows, main)
     rtl_report = None
     if crop is not None:
-        from tdicam.camera.cosim import cosim_scene
+        from tdicam.chain.cosim import cosim_scene
         rtl_report = cosim_scene(scene, main, crop, out_dir=out_dir)
         wave = (rtl_report or {}).get("waveform")
         if wave and Path(wave).parent.resolve() == out_dir.resolve():

@@ -712,7 +712,7 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
         # must take what it gives; the merge block's step says how wide
         merge = next(b for b in scene.pipeline.blocks if _registry.get(b).pipeline.merge)
         g = scene.sensor.gains
-        ctx = _steps.Context(scene=scene, m=stages, width=scene.sensor.columns, lines=0,
+        ctx = _steps.StepContext(scene=scene, m=stages, width=scene.sensor.columns, lines=0,
                              bits=scene.sensor.bits, block=merge)
         try:
             _, out = _registry.get(merge).pipeline.step(ctx)

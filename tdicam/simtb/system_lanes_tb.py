@@ -1,5 +1,5 @@
 """cocotb side of a pipeline co-simulation from the sensor's lanes (see
-:func:`tdicam.camera.cosim.run_top` with a ``[sensor.lvds]`` scene).
+:func:`tdicam.chain.cosim.run_top` with a ``[sensor.lvds]`` scene).
 
 The DUT is the generated pipeline top whose input is the front's lanes (``lvds_lane_raw``,
 the word clock ``word_clk``) with the simulation models of its external parts beside it.

@@ -62,7 +62,7 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.files import input_path
 from tdicam.scene.loader import read_toml
 
-__all__ = ["MAX_RUNS", "MAX_FORCED_RUNS", "STORE_FORMAT", "Axis", "Run", "Sweep",
+__all__ = ["MAX_RUNS", "MAX_FORCED_RUNS", "STORE_FORMAT", "Axis", "SweepRun", "Sweep",
            "load_sweep", "read_sweep", "validate_sweep"]
 
 #: Largest number of runs (points x repeats) accepted without ``force``.
@@ -91,10 +91,11 @@ class Axis:
 
 
 @dataclass(frozen=True)
-class Run:
-    """One task: point ``point`` (index into :attr:`Sweep.points`), repeat ``repeat``, its
-    validated scene (seed set), ``seed``, the store ``hash`` and ``settings``, the scene as
-    the plain dict that was hashed. A run of a point not validated yet (``limit`` of
+class SweepRun:
+    """One run of a sweep (a task: the scene run of one point, one repeat): point ``point``
+    (index into :attr:`Sweep.points`), repeat ``repeat``, its validated scene (seed set),
+    ``seed``, the store ``hash`` and ``settings``, the scene as the plain dict that was
+    hashed. A run of a point not validated yet (``limit`` of
     :func:`validate_sweep`) has ``scene`` None, ``seed`` -1 and ``hash`` ""."""
 
     point: int
@@ -109,7 +110,7 @@ class Run:
 class Sweep:
     """A sweep: axes, points (dicts key -> value) and runs (point-major); the first
     ``validated`` points are validated (all of them after :func:`load_sweep`; none after
-    :func:`read_sweep`), the others' runs are placeholders (see :class:`Run`)."""
+    :func:`read_sweep`), the others' runs are placeholders (see :class:`SweepRun`)."""
 
     path: Path
     name: str
@@ -118,7 +119,7 @@ class Sweep:
     axes: tuple[Axis, ...]
     zipped: tuple[Axis, ...]
     points: tuple[dict, ...]
-    runs: tuple[Run, ...]
+    runs: tuple[SweepRun, ...]
     impact: bool
     promoted: tuple[str, ...]
     validated: int = 0
@@ -337,7 +338,7 @@ def read_sweep(path, *, force=False, impact=False) -> Sweep:
     axes, zipped, promoted = _axes(base, tables, scene_path, src)
     _check_size(axes, zipped, repeats, force, src)
     points = tuple(dict(c) for c in _combos(axes, zipped))
-    runs = tuple(Run(i, r, None, -1, "", {}) for i in range(len(points))
+    runs = tuple(SweepRun(i, r, None, -1, "", {}) for i in range(len(points))
                  for r in range(repeats))
     return Sweep(path=path, name=name, scene_path=scene_path, repeats=repeats,
                  axes=tuple(axes), zipped=tuple(zipped), points=points, runs=runs,
@@ -580,5 +581,5 @@ def _point_runs(index, scene, repeats, impact):
         settings = {**key, "run": {**key["run"], "seed": seed}}
         h = _sha({"format": STORE_FORMAT, "tdicam": __version__, "impact": bool(impact),
                   "scene": settings})
-        runs.append(Run(index, r, sc, seed, h, settings))
+        runs.append(SweepRun(index, r, sc, seed, h, settings))
     return runs

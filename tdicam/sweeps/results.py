@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.version import __version__
-from tdicam.sweeps.file import STORE_FORMAT, Run, Sweep
+from tdicam.sweeps.file import STORE_FORMAT, SweepRun, Sweep
 
 __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "table", "dataset", "read_table",
            "write_results"]
@@ -101,7 +101,7 @@ def _write_atomic(path: Path, text: str) -> None:
         raise
 
 
-def _store_record(store: Path, sweep: Sweep, run: Run, result: dict) -> dict:
+def _store_record(store: Path, sweep: Sweep, run: SweepRun, result: dict) -> dict:
     point = sweep.points[run.point]
     rec = {"format": STORE_FORMAT, "tdicam": __version__, "hash": run.hash,
            "sweep": str(sweep.path), "axes": point, "repeat": run.repeat, "seed": run.seed,

@@ -37,13 +37,13 @@ import numpy as np
 from tdicam import files as outputs
 from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
-from tdicam.sweeps.file import (MAX_RUNS, STORE_FORMAT, Axis, Run, Sweep, _show_point, load_sweep,
-                                read_sweep, validate_sweep)
+from tdicam.sweeps.file import (MAX_RUNS, STORE_FORMAT, Axis, SweepRun, Sweep, _show_point,
+                                load_sweep, read_sweep, validate_sweep)
 from tdicam.sweeps.results import (RESULT_COLUMNS, TIMING_COLUMNS, _jsonable, _read_record,
                                   _store_record, _write_atomic, read_table, write_results)
 
 __all__ = ["MAX_RUNS", "ALLOWED_FAILURES", "STORE_FORMAT", "RESULT_COLUMNS", "TIMING_COLUMNS",
-           "Axis", "Run", "Sweep", "SweepResult", "load_sweep", "read_sweep", "validate_sweep",
+           "Axis", "SweepRun", "Sweep", "SweepResult", "load_sweep", "read_sweep", "validate_sweep",
            "finished_in", "run_sweep", "run_one", "read_table"]
 
 #: A task whose worker dies this many times is recorded as failed.

@@ -1,11 +1,12 @@
 """A scene's ``[pipeline]`` as one design: its gateware top, its golden chain, and the
 whole-scene co-simulation of the one against the other.
 
-:func:`plan` turns a scene into a :class:`Plan` (the blocks in order with their registry
-parameters, run-time settings and side inputs). From a plan, :func:`top` builds the Verilog
-top (:class:`tdicam.hdl.chain_top.Pipeline` behind :class:`~tdicam.hdl.interfaces.axis.AxisTop`),
+:func:`chain_plan` turns a scene into a :class:`ChainPlan` (the blocks in order with their
+registry parameters, run-time settings and side inputs). From a chain plan, :func:`top` builds
+the Verilog top (:class:`tdicam.hdl.chain_top.Pipeline` behind
+:class:`~tdicam.hdl.interfaces.axis.AxisTop`),
 :func:`golden` runs the golden chain (:func:`tdicam.model.chain.chain`) and
-:func:`stimulus` makes the top's input beats; :mod:`tdicam.camera.cosim` co-simulates the one
+:func:`stimulus` makes the top's input beats; :mod:`tdicam.chain.cosim` co-simulates the one
 against the other.
 
 Everything about a block comes from its registry entry (:mod:`tdicam.blocks`): its golden
@@ -21,10 +22,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from tdicam.blocks.steps import Context, Plan, SceneData, Step
+from tdicam.blocks.steps import StepContext, ChainPlan, SceneData, Step
 from tdicam.errors import TdicamError, check_range
 
-__all__ = ["Step", "Plan", "SceneData", "Context", "uses", "plan", "top", "golden", "stimulus",
+__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden", "stimulus",
            "output_shape", "verilog", "identity_data", "PipelineBlock", "check_options",
            "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced", "rate_ppc", "step_ppc",
            "out_ppc", "chain_text"]
@@ -77,7 +78,7 @@ def _use(name):
 
 
 # --------------------------------------------------------------------------------------
-# plan, top, golden chain
+# chain plan, top, golden chain
 # --------------------------------------------------------------------------------------
 
 
@@ -91,9 +92,9 @@ def scene_ppc(scene):
     return 1 if scene.run.rtl is None else int(scene.run.rtl.pixels_per_clock)
 
 
-def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
+def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
          device="ecp5-85f", ppc=None, phy=None):
-    """The :class:`Plan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
+    """The :class:`ChainPlan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
     ``ppc``: pixels per clock of the chain's input and of every block before a line-making
     one (1, 2, 4, 8; default the scene's ``[run.rtl].pixels_per_clock``, 1 without it),
@@ -143,7 +144,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
             raise TdicamError(f"pipeline: block {n!r} has no gateware stage to list: it is "
                               f"the chain's source, placed by the scene")
     merge = any(u.merge for u in uses)
-    ctx = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
+    ctx = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
     steps, prev, spilled, slower = [], "input", False, 1
     for name, u in zip(names, uses):
         if u.per_frame and ctx.after_lines:
@@ -183,7 +184,7 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     sourced = False
     for name, u in _uses_table().items():
         if u.source is not None and u.source(scene):
-            src = Context(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
+            src = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
                           lanes=2 if merge else 1, stall_cycles=stall,
                           reset_frames=bool(steps) and bool(_use(steps[0].block).reset_frames))
             try:
@@ -206,9 +207,9 @@ def plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
     # a first block taking the reset frames in the stream gets them from the lanes too:
     # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
-    return Plan(tuple(steps), lanes=2 if merge else 1,
+    return ChainPlan(tuple(steps), lanes=2 if merge else 1,
                 lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
-                rows=m, width=w, frames=n_lines + m - 1, lines=n_lines,
+                stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                 source=str(scene.source), ppc=ppc,
                 reset_frames=bool(first and first.reset_frames))
 
@@ -287,7 +288,7 @@ def identity_data(p):
     for st in p.steps:
         ident = _use(st.block).identity
         if ident is not None:
-            fields.update({k: [v] * p.lanes for k, v in ident(st, (p.rows, p.width)).items()})
+            fields.update({k: [v] * p.lanes for k, v in ident(st, (p.stages, p.width)).items()})
     return SceneData([], **fields)
 
 
@@ -331,7 +332,7 @@ def verilog_header(p, *, taps=False):
     from tdicam.hw.verilog import header
     return header("pipeline", {
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
-        "channels": p.lanes, "frame": f"{p.width}x{p.rows}", "lines": p.lines,
+        "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
         "taps": taps} | {s.block: s.params for s in p.steps})
 
 
@@ -384,7 +385,7 @@ def stimulus(p, data, axis_top):
 def output_shape(p):
     """(frames, rows, width) of the chain's output (pixels; :func:`out_ppc` of them a
     beat)."""
-    frames, rows = p.frames, p.rows
+    frames, rows = p.frames, p.stages
     for s in p.steps:
         if _use(s.block).lines:
             frames, rows = max(frames - s.params["stages"] + 1, 0), 1

@@ -1,6 +1,6 @@
 """Co-simulation of a scene's whole pipeline in RTL (``[run.rtl]`` of a scene file).
 
-The scene's ``[pipeline]`` becomes one generated top (:mod:`tdicam.camera.design`); the scene's
+The scene's ``[pipeline]`` becomes one generated top (:mod:`tdicam.chain.design`); the scene's
 raw data -- every exposure frame of every channel, the reset frames, the NUC calibration
 codes -- runs through it in fast mode and every block's output (tap) is compared bit for
 bit with the golden chain on the same data. Without ``crop`` the whole scene runs; with
@@ -32,7 +32,7 @@ __all__ = ["cosim_scene", "check_lane_death", "scene_data", "cosimulate", "run_t
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):
-    """The raw data of one exact simulation of ``scene``: (:class:`~tdicam.camera.design.
+    """The raw data of one exact simulation of ``scene``: (:class:`~tdicam.chain.design.
     SceneData`, engine result).
 
     The frames are those the scene simulator hands out with ``keep_raw`` (every channel's
@@ -41,7 +41,7 @@ def scene_data(scene, *, stages, dv_over_v, lines):
     result.
     """
     from tdicam import engine
-    from tdicam.camera.design import SceneData
+    from tdicam.chain.design import SceneData
     res = engine.simulate(scene, stages=stages, dv_over_v=dv_over_v, fidelity="exact",
                           lines=lines, impact=False, keep_raw=True)
     raw = res.raw_data
@@ -73,13 +73,13 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         ``pipeline`` entry with the totals: pixels compared, mismatches, input pixels, build
         and run seconds, input pixels/s, the first mismatch and the waveform path).
     """
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     rt = scene.run.rtl
     m, lines = int(res.stages), int(res.output.shape[0])
     out = {"simulator": rt.simulator, "crop": None if rt.crop is None else list(rt.crop),
            "blocks": []}
     try:
-        p = pl.plan(scene, stages=m, lines=lines)
+        p = design.chain_plan(scene, stages=m, lines=lines)
         t0 = time.perf_counter()
         data, ex = scene_data(scene, stages=m, dv_over_v=res.dv_over_v, lines=lines)
         golden_s = time.perf_counter() - t0
@@ -87,10 +87,10 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         extra = check_lane_death(scene, lines, stages=m)
         if rt.crop is not None:
             y0, h, x0, w = crop
-            p = pl.plan(scene, stages=m, lines=h, width=w)
+            p = design.chain_plan(scene, stages=m, lines=h, width=w)
             data = data.crop(x0, w, y0, h + m - 1 + extra)
         else:
-            gold = pl.golden(p, data)
+            gold = design.golden(p, data)
             last = gold[-1][2]
             agree = bool(np.array_equal(last.reshape(ex.output.shape), ex.output))
             if not agree:
@@ -142,10 +142,10 @@ def check_lane_death(scene, lines, *, stages=None, lines_key="[run].lines") -> i
     if rt.crop is None:
         raise TdicamError(f"{key}: needs a [run.rtl].crop (the sensor sends the crop's frames "
                           f"and those held for the retrain)")
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     x0, y0, w, h = rt.crop
     m = max(scene.tdi.stages) if stages is None else stages
-    p = pl.plan(scene, stages=m, lines=h, width=w)
+    p = design.chain_plan(scene, stages=m, lines=h, width=w)
     per = 2 if p.reset_frames else 1
     extra = -(-HELD // per)           # the sensor sends the frames held for the retrain too
     if y0 + h + extra > lines:
@@ -195,11 +195,11 @@ def system_figures(p, rep):
     """What the co-simulated camera saw, from its status outputs: each block's
     :attr:`tdicam.blocks.Use.measured` figures (the calibration load, the DDR traffic) for a
     :func:`cosimulate` report ``rep`` of plan ``p``; [] when no block has any."""
-    from tdicam.camera import design as pl
-    uses = pl.uses()
+    from tdicam.chain import design
+    uses = design.uses()
     return [r for s in p.steps if uses[s.block].measured is not None
             for r in uses[s.block].measured(s, rep.get("status_outputs", {}), {
-                "cycles": rep["cycles"], "rows": p.rows, "width": p.width,
+                "cycles": rep["cycles"], "rows": p.stages, "width": p.width,
                 "lanes": rep.get("lanes")})]
 
 
@@ -247,7 +247,7 @@ def _testbench(axis_top, taps, *, wave, standalone):
     marker = "  pipeline dut (\n    .clk(clk),\n"
     if marker not in tb:
         raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
-                          "tdicam.camera.design._testbench")
+                          "tdicam.chain.design._testbench")
     tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
     body = ["  initial begin", *opens, "  end",
             "  always @(posedge clk) begin",
@@ -290,15 +290,15 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     ``backpressure`` do not apply (the sensor sets the pace).
     """
     from tdicam import cosim
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     from tdicam.cosim import codec, tbgen
     from tdicam.hw.verilog import convert
     t0 = time.perf_counter()
-    if pl.sourced(p) and wave is not None:
+    if design.sourced(p) and wave is not None:
         raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
                           "waveform re-run of a lane co-simulation")
-    ax = pl.top(p, data, taps=taps, board=True, ecp5=ecp5)
-    if pl.sourced(p):
+    ax = design.top(p, data, taps=taps, board=True, ecp5=ecp5)
+    if design.sourced(p):
         return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
     dut = convert(ax, "pipeline")
@@ -315,12 +315,12 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
         from tdicam.cosim import dp16kd, mult18x18d
         sources.update({dp16kd.FILE: dp16kd.MODEL, mult18x18d.FILE: mult18x18d.MODEL})
     bdir, build_s = cosim.build_sources("pipeline", key, sim, sources, standalone=standalone)
-    stim = pl.stimulus(p, data, ax)
+    stim = design.stimulus(p, data, ax)
     _, _, ctrl = cosim.stream_ports(ax)
     ctrl_bits = max(1, sum(w for _, w in ctrl))
     bits, count, padded, _ = ax._in
     n_in = len(stim)
-    n_out = int(np.prod(pl.output_shape(p))) // pl.out_ppc(p)       # output beats
+    n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)       # output beats
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
         else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -397,7 +397,7 @@ def _death(p, data, front, lanes, kw):
     _check_death(lane, f, len(lanes), nf, p.reset_frames)
     segs = (f + 1 + HELD, nf - f - 1 - HELD)
     probe = plan_case(p, data, lanes, segments=segs, **kw)
-    lw, rows = probe.p + 2, p.rows
+    lw, rows = probe.p + 2, p.stages
     line, word = rows // 2, lw // 2
     at = probe.segment_starts[0] + (f * rows + line) * lw + word
     lanes = list(lanes)
@@ -421,7 +421,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     import math
     from dataclasses import replace
     from tdicam import blocks, cosim
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     from tdicam.cosim import codec
     from tdicam.cosim.lvds_front import plan_case, raw_table
     from tdicam.hw.verilog import convert
@@ -456,7 +456,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
     np.save(rundir / "raw.npy", raw_table(case.link, case.cycles).astype(np.int32))
-    n_out = int(np.prod(pl.output_shape(p))) // pl.out_ppc(p)
+    n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)
     job = {"word_ps": int(word_ns * 1000), "proc_ps": int(PROC_NS * 1000),
            "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
            "n_out": n_out, "drain": 2000,
@@ -546,7 +546,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     Parameters
     ----------
     gold : list or None
-        :func:`tdicam.camera.design.golden` of ``(p, data)`` if already computed.
+        :func:`tdicam.chain.design.golden` of ``(p, data)`` if already computed.
     corrupt : callable(list of (name, ndarray)) or None
         Alters the golden stages before the comparison (to show the check can fail).
     wave_dir : path or None
@@ -567,11 +567,11 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         tap, beat, frame, line, column of its first differing pixel,
         expected, received, cycle) and ``waveform``.
     """
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     from tdicam.beats import frames_to_beats
     dies = (front or {}).get("dies")
     if dies is None:
-        gold = pl.golden(p, data) if gold is None else [list(g) for g in gold]
+        gold = design.golden(p, data) if gold is None else [list(g) for g in gold]
         if corrupt is not None:
             corrupt(gold)
     got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure,
@@ -582,7 +582,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         # it measured), the golden chain on them
         delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
         if dies is not None:
-            gold = pl.golden(p, delivered)
+            gold = design.golden(p, delivered)
             if corrupt is not None:
                 corrupt(gold)
     rep = {"simulator": sim, "blocks": [s.block for s in p.steps],
@@ -598,7 +598,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         rep["lanes"] = lane_fault
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
-    ppcs = {s.block: pl.step_ppc(s) for s in p.steps}
+    ppcs = {s.block: design.step_ppc(s) for s in p.steps}
     for k, (name, block, arr) in enumerate(gold):
         ppc = ppcs[block]
         exp = frames_to_beats(arr, ppc=ppc)
@@ -612,7 +612,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             first = _first_pixel(arr.shape, d, g, exp, ppc)
             cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
             first.update({"block": block, "tap": name, "cycle": cycle})
-    exp_out = frames_to_beats(gold[-1][2], ppc=pl.out_ppc(p))
+    exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
     out = got["out"]
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))
@@ -652,7 +652,7 @@ def _delivered(p, data, got, front, dies):
     ``dies = (lane, frame)`` the frame cut by the death
     (:func:`~tdicam.model.lvds_front.cut_frame`, its fill point measured on the front's
     output and checked to lie within two lines of the death), :data:`HELD` frames dropped, the dead lane's columns 0 after the
-    retrain. Returns (:class:`~tdicam.camera.design.SceneData` of the delivered frames,
+    retrain. Returns (:class:`~tdicam.chain.design.SceneData` of the delivered frames,
     report: lane numbers, frames sent/released/dropped/affected, retrains, the expected and
     seen frame status, ``problems``)."""
     from tdicam import blocks
@@ -673,13 +673,13 @@ def _delivered(p, data, got, front, dies):
     else:
         lane, f = dies
         healthy = fm.receive(sent, bad, L, w)[0][:, f]
-        seen, size = [], p.rows * p.width
+        seen, size = [], p.stages * p.width
         for k in range(p.lanes):
             a = got[k][0].data.reshape(-1)
             if a.size % size:
                 rep["problems"].append(f"channel {k}: the front delivered {a.size} pixels, "
-                                       f"not whole {p.rows} x {p.width} frames")
-            seen.append(a[:a.size // size * size].reshape(-1, p.rows, p.width))
+                                       f"not whole {p.stages} x {p.width} frames")
+            seen.append(a[:a.size // size * size].reshape(-1, p.stages, p.width))
         if any(len(a) <= f for a in seen):
             observed = np.zeros_like(healthy)
             rep["problems"].append(f"frame {f} (cut by lane {lane}'s death) not delivered")

@@ -7,9 +7,9 @@ the reset frame's DDR, the coefficients' NAND -- inside the co-simulation board 
 simulation models on its pins, :class:`tdicam.hdl.chain_top.Board`), and the fast-mode stream
 testbench of :mod:`tdicam.cosim.tbgen` in its self-checking form. The stimulus is the
 scene's raw data (every exposure frame of every channel and the CDS reset frames, from an
-exact run of the scene simulator, :func:`tdicam.camera.cosim.scene_data`) made into the top's
-input beats by :func:`tdicam.camera.design.stimulus`; the expected output is the last stage of
-the golden chain (:func:`tdicam.camera.design.golden`) on the same data.
+exact run of the scene simulator, :func:`tdicam.chain.cosim.scene_data`) made into the top's
+input beats by :func:`tdicam.chain.design.stimulus`; the expected output is the last stage of
+the golden chain (:func:`tdicam.chain.design.golden`) on the same data.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from tdicam.camera import design as pl
+from tdicam.chain import design
 from tdicam.beats import frames_to_beats
 from tdicam.errors import TdicamError, check_range
 from tdicam.export.block import MAX_BEATS, Export, stream_design, write_design
@@ -35,39 +35,39 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
     1)."""
-    from tdicam.camera.cosim import scene_data
+    from tdicam.chain.cosim import scene_data
     from tdicam.scene.loader import load_scene
-    from tdicam.camera.design import SceneData
+    from tdicam.chain.design import SceneData
     from tdicam.hdl.chain_top import Board
     if memory not in MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
     sc = load_scene(scene_path)
     w = sc.sensor.columns if width is None else check_range("--width", width, 1,
                                                              sc.sensor.columns)
-    pl.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
+    design.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
     spill = MEMORY[memory]
-    p = pl.plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill, ppc=ppc)
-    if pl.sourced(p):
+    p = design.chain_plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill, ppc=ppc)
+    if design.sourced(p):
         raise TdicamError(f"{Path(scene_path).name}: the chain's input is the sensor's lanes "
                           f"([sensor.lvds]); the export drives pixel beats (the front end's "
                           f"lane co-simulation is tdicam.cosim.lvds_front)")
-    beats = p.frames * p.rows * p.width // p.ppc
+    beats = p.frames * p.stages * p.width // p.ppc
     if beats > MAX_BEATS:
         raise TdicamError(f"the pipeline of {Path(scene_path).name} takes {beats} input beats "
-                          f"({p.frames} frames of {p.rows} x {p.width}), over the export limit "
+                          f"({p.frames} frames of {p.stages} x {p.width}), over the export limit "
                           f"of {MAX_BEATS}; cut it with --width / --lines")
-    raw, _ = scene_data(sc, stages=p.rows, dv_over_v=None, lines=p.lines)
+    raw, _ = scene_data(sc, stages=p.stages, dv_over_v=None, lines=p.lines)
     raw = raw.crop(0, p.width, 0, p.frames)
     # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
-    data = SceneData(raw.signal, raw.reset, pl.identity_data(p).coeffs)
-    top = pl.top(p, data, board=True)      # with the external parts' models, if any
-    stim = pl.stimulus(p, data, top)
-    exp = frames_to_beats(pl.golden(p, data)[-1][2], ppc=pl.out_ppc(p))
+    data = SceneData(raw.signal, raw.reset, design.identity_data(p).coeffs)
+    top = design.top(p, data, board=True)      # with the external parts' models, if any
+    stim = design.stimulus(p, data, top)
+    exp = frames_to_beats(design.golden(p, data)[-1][2], ppc=design.out_ppc(p))
     name = Path(scene_path).name
-    params = {"scene": name, "stages": p.rows, "lines": p.lines, "width": p.width,
+    params = {"scene": name, "stages": p.stages, "lines": p.lines, "width": p.width,
               "memory": memory, "blocks": " -> ".join(s.block for s in p.steps)}
     rows = [("scene", name, "scene file ([pipeline] blocks in order)"),
-            ("stages", p.rows, "TDI stages (rows per exposure frame)"),
+            ("stages", p.stages, "TDI stages (rows per exposure frame)"),
             ("lines", p.lines, "output lines"),
             ("width", p.width, "columns (the scene's first ones)"),
             ("memory", memory, "TDI partial sums: chip, ddr, or auto by the device")]
@@ -80,7 +80,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
              for k, s in enumerate(p.steps)]
     stem = re.sub(r"[^A-Za-z0-9_]", "_", Path(scene_path).stem)
     summary = (f"The camera pipeline of scene `{name}`: {params['blocks']}, {p.lanes} "
-               f"channel(s), frames of {p.rows} x {p.width} pixels, {p.frames} exposure "
+               f"channel(s), frames of {p.stages} x {p.width} pixels, {p.frames} exposure "
                f"frames in, {p.lines} lines out; NUC calibration "
                + ("ROM or NAND part with identity coefficients; the top with its external parts' "
                   "simulation models beside it" if isinstance(top.core, Board)
@@ -88,7 +88,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     d = stream_design("pipeline", summary, rows, params, top, stim, exp,
                       cases=[f"scene {name}"], seed=seed, idle=idle,
                       backpressure=backpressure, core=f"tdicam:pipeline:{stem}",
-                      rtl_header=pl.verilog_header(p))
+                      rtl_header=design.verilog_header(p))
     return d, p, stim, exp
 
 

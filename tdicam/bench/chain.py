@@ -1,8 +1,8 @@
-"""The camera as one design, timed: a scene's whole pipeline top in fast-mode co-simulation.
+"""A scene's chain as one design, timed: a scene's whole pipeline top in fast-mode co-simulation.
 
 :func:`pipeline_run` makes a scene's raw frames (one exact run of the scene simulator), runs
 them through the golden chain and through the generated pipeline top
-(:mod:`tdicam.camera.design`, :func:`tdicam.camera.cosim.run_top`), and compares the output bit for bit;
+(:mod:`tdicam.chain.design`, :func:`tdicam.chain.cosim.run_top`), and compares the output bit for bit;
 :func:`pipeline_rows` turns that into ``tdicam bench pipeline`` rows (``golden`` and one
 ``<sim> fast`` row per simulator). Used by ``tdicam bench pipeline`` and
 ``bench/bench_pipeline.py``.
@@ -59,28 +59,28 @@ def pipeline_run(scene=PIPELINE_SCENE, *, sim="verilator", lines=None, taps=Fals
         ``run_s`` (simulator wall time), ``cpu_s`` (the simulator process's CPU time,
         build excluded) and ``load`` (the 1-minute load average after the run).
     """
-    from tdicam.camera import design as pl
+    from tdicam.chain import design
     from tdicam.beats import frames_to_beats
-    from tdicam.camera.cosim import beats_differ, run_top, scene_data
+    from tdicam.chain.cosim import beats_differ, run_top, scene_data
     from tdicam.scene.loader import load_scene
 
     sc = load_scene(scene)
     m = int(sc.tdi.stages[0])
     lines = int(lines or sc.run.lines)
-    p = pl.plan(sc, stages=m, lines=lines, ppc=ppc)
+    p = design.chain_plan(sc, stages=m, lines=lines, ppc=ppc)
     t = time.perf_counter()
     data, _ = scene_data(sc, stages=m, dv_over_v=float(sc.motion.dv_over_v[0]), lines=lines)
     scene_s = time.perf_counter() - t
     t = time.perf_counter()
-    gold = pl.golden(p, data)
+    gold = design.golden(p, data)
     golden_s = time.perf_counter() - t
     got, info = run_top(p, data, sim, taps=taps, idle=idle, backpressure=backpressure,
                         seed=seed)
-    exp = frames_to_beats(gold[-1][2], ppc=pl.out_ppc(p))
+    exp = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
     out = got["out"]
     n = min(len(out), len(exp))
     bad = int(beats_differ(out, exp).sum()) + abs(len(out) - len(exp))
-    return {"chain": [s.block for s in p.steps], "frames": p.frames, "rows": p.rows,
+    return {"chain": [s.block for s in p.steps], "frames": p.frames, "rows": p.stages,
             "width": p.width, "ppc": p.ppc, "lanes": p.lanes, "lane_elems": p.lane_elems,
             "input_pixels": p.input_pixels * p.lane_elems, "cycles": int(info["cycles"]),
             "compared": n * out.data.shape[1], "mismatches": bad, "scene_s": scene_s,
