@@ -139,14 +139,14 @@ def litedram(patterns=None, blocks=None):
     memory model with the plain stall pattern, with DRAM timing
     (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is cycle-equal with it) and on
     LiteDRAM, and what the planner counts on for the block."""
-    from tdicam.cosim import litedram as ddrref
+    from tdicam.cosim.litedram import block_traces, replay
     from tdicam.model.ddr import (DramTiming, pattern_lines, pattern_trace, replay_model,
                                   window_cycles)
     rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
         kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
-        r = ddrref.replay(trace, steady=True, **kw)
+        r = replay(trace, steady=True, **kw)
         rows.append({"what": name, "kind": kind, "words": trace.words, "lines": lines_of[name],
                      "window": window_cycles(), "trace": trace, "result": r,
                      "stall_eff": 100 * replay_model(trace, steady=True)[2],
@@ -161,9 +161,9 @@ def litedram(patterns=None, blocks=None):
     for name in PATTERNS if patterns is None else patterns:
         lines_of[name] = pattern_lines(name)
         one("pattern", name, pattern_trace(name, lines=lines_of[name]), PATTERNS[name][2])
-    blocks = ddrref.BLOCKS if blocks is None else blocks
+    blocks = DDR_BLOCKS if blocks is None else blocks
     if blocks:
-        traces = ddrref.block_traces()
+        traces = block_traces()
         for name in blocks:
             lines_of[name] = None
             one("block", name, traces[name])
@@ -178,13 +178,13 @@ def write_fixture(path, rows, how, merge=False):
     import json
     from pathlib import Path
 
-    from tdicam.cosim import litedram as ddrref
+    from tdicam.cosim.litedram import fixture
     pats = {r["what"]: {"lines": r["lines"], "efficiency": round(r["lite_eff"], 2),
                         "window": r["window"]}
             for r in rows if r["kind"] == "pattern"}
     blk = {r["what"]: r for r in rows if r["kind"] == "block"}
-    fx = ddrref.fixture({n: r["result"] for n, r in blk.items()},
-                        {n: r["trace"] for n, r in blk.items()}, how, pats)
+    fx = fixture({n: r["result"] for n, r in blk.items()},
+                 {n: r["trace"] for n, r in blk.items()}, how, pats)
     if merge and Path(path).exists():
         old = json.loads(Path(path).read_text())
         try:

@@ -16,20 +16,20 @@ import time
 
 import numpy as np
 
-from tdicam.cosim import lvds as cl
-from tdicam.model import lvds as model
+from tdicam.cosim.lvds import check_run, run_link
+from tdicam.model import lvds
 
 __all__ = ["run", "main"]
 
 
 def _link(n, seed, words, n_check):
     rng = np.random.default_rng(seed)
-    lanes = [model.random_lane(rng, max_word_delay=1) for _ in range(n)]
-    tw = model.training_words(10, n_check, 8)
+    lanes = [lvds.random_lane(rng, max_word_delay=1) for _ in range(n)]
+    tw = lvds.training_words(10, n_check, 8)
     if words:
         nd = tw + 16
-        return model.Link(lanes, line_words=64, schedule=((nd, "data"),)), nd + words + 16
-    return model.Link(lanes), tw + 8
+        return lvds.Link(lanes, line_words=64, schedule=((nd, "data"),)), nd + words + 16
+    return lvds.Link(lanes), tw + 8
 
 
 def run(sims=("verilator",), lanes=256, words=20_000, data_lanes=64, n_check=16):
@@ -37,7 +37,7 @@ def run(sims=("verilator",), lanes=256, words=20_000, data_lanes=64, n_check=16)
     rows = []
     link, cycles = _link(lanes, 1, 0, n_check)
     t0 = time.perf_counter()
-    model.run(link, cycles=cycles, n_check=n_check)
+    lvds.run(link, cycles=cycles, n_check=n_check)
     wall = time.perf_counter() - t0
     rows.append({"what": "train", "sim": "golden (numpy)", "lanes": lanes, "words": 0,
                  "cycles": 0, "wall_s": wall, "lanes_per_s": lanes / wall,
@@ -45,9 +45,9 @@ def run(sims=("verilator",), lanes=256, words=20_000, data_lanes=64, n_check=16)
     for sim in sims:
         for what, n, w in (("train", lanes, 0), ("data", data_lanes, words)):
             link, cycles = _link(n, 2, w, n_check)
-            gold = model.run(link, cycles=cycles, n_check=n_check)
-            res = cl.run_link(link, cycles=cycles, n_check=n_check, sim=sim)
-            ok = not cl.check_run(link, res, gold, cycles=cycles)
+            gold = lvds.run(link, cycles=cycles, n_check=n_check)
+            res = run_link(link, cycles=cycles, n_check=n_check, sim=sim)
+            ok = not check_run(link, res, gold, cycles=cycles)
             delivered = sum(len(o[0]) * int(np.count_nonzero(o[2].any(axis=0)))
                             for o in res.outputs)
             dut_cycles = res.groups * cycles

@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 from tdicam.blocks.calib import random_codes
-from tdicam.model import calib, nand_store as nand
+from tdicam.model import calib, nand_store
 from tdicam.model.nuc import DEFAULT_FORMAT
 
 SENSORS = (("1280 x 1024", 1024, 1280), ("GMAX0504 3800 x 5144 (19.5 Mpixel)", 3800, 5144),
@@ -24,7 +24,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clock-mhz", type=float, nargs="+", default=[50.0, 100.0])
     args = ap.parse_args(argv)
-    geo = nand.MT29F4G08
+    geo = nand_store.MT29F4G08
     print(f"part: {geo.blocks} blocks x {geo.pages_per_block} pages x {geo.page_bytes}+"
           f"{geo.spare_bytes} bytes, t_R {geo.t_r_s * 1e6:g} us; {geo.words_per_page} "
           f"ECC words (9 bytes) per page; a bus cycle = 2 controller clocks")
@@ -32,7 +32,7 @@ def main(argv=None):
           f"{'scan ms':>8s} {'load s':>8s} {'total s':>8s}")
     for label, rows, cols in SENSORS:
         for mhz in args.clock_mhz:
-            t = nand.timing(rows, cols, geo, clock_hz=mhz * 1e6)
+            t = nand_store.timing(rows, cols, geo, clock_hz=mhz * 1e6)
             n = calib.HEADER_WORDS + calib.payload_words(rows, cols)
             print(f"{label:38s} {mhz:5g}MHz {n:11,d} {t.pages:7,d} {t.blocks:6d} "
                   f"{t.scan_s * 1e3:8.1f} {t.load_s:8.3f} {t.scan_s + t.load_s:8.3f}")
@@ -41,9 +41,9 @@ def main(argv=None):
     words = calib.encode_image(g, o, DEFAULT_FORMAT)
     bad = rng.choice(np.arange(1, geo.blocks), 100, replace=False)
     t0 = time.perf_counter()
-    dev = nand.write_store(words, geo, bad_blocks=bad)
+    dev = nand_store.write_store(words, geo, bad_blocks=bad)
     t1 = time.perf_counter()
-    res = nand.read_store(dev)
+    res = nand_store.read_store(dev)
     t2 = time.perf_counter()
     ok = bool((res.image.gain == g).all() and (res.image.offset == o).all())
     print(f"numpy model, 1280 x 1024 with 100 bad blocks: write {t1 - t0:.2f} s, power-up scan "

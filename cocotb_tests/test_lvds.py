@@ -19,8 +19,8 @@ import pytest
 from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.blocks.lvds import link_from_arrays
-from tdicam.cosim import lvds as cl
-from tdicam.model import lvds as model
+from tdicam.cosim.lvds import check_run, expected_outputs, linkcheck_tap, run_link
+from tdicam.model import lvds
 
 CASES = [c.name for c in blocks.get("lvds").cases()]
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -32,10 +32,10 @@ def _run_case(name, sim):
     """Simulate golden case ``name`` once per simulator (later tests reuse the run)."""
     arrays, params = golden.load("lvds", name)
     link, cycles, retrains, n_check = link_from_arrays(arrays)
-    gold = model.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
-                     settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
-    res = cl.run_link(link, params=params, cycles=cycles, retrains=retrains, n_check=n_check,
-                      sim=sim)
+    gold = lvds.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
+                    settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
+    res = run_link(link, params=params, cycles=cycles, retrains=retrains, n_check=n_check,
+                   sim=sim)
     return arrays, link, gold, res, cycles, retrains
 
 
@@ -48,7 +48,7 @@ def test_golden_case(case, sim):
     for key in ("tap", "slip", "locked", "error", "run", "scan"):
         got = np.array([f[key] for f in res.final], arrays[key].dtype)
         np.testing.assert_array_equal(got, arrays[key], err_msg=f"{case}: lane {key}")
-    assert cl.check_run(link, res, gold, cycles=cycles, retrains=retrains) == []
+    assert check_run(link, res, gold, cycles=cycles, retrains=retrains) == []
     locked = arrays["locked"].astype(bool)
     for grp, gl in enumerate(res.globals):
         ids = range(grp * res.lanes, min((grp + 1) * res.lanes, len(link.lanes)))
@@ -91,42 +91,42 @@ def test_deskew_spans_three_words(sim):
     assert max(delays) - min(delays) >= 3
     ks, syncs, data = res.outputs[0]
     assert len(ks) > 500 and syncs[0] and syncs.sum() == len(range(0, len(ks), 32))
-    assert cl.check_run(link, res, gold, cycles=cycles) == []
+    assert check_run(link, res, gold, cycles=cycles) == []
 
 
 def test_link_matches_model(sim):
     """The testbench's link serves, word for word, the raw words of the Python link model
     (random lanes with jitter, a lane change, training then data)."""
     rng = np.random.default_rng(21)
-    lanes = [model.random_lane(rng, max_word_delay=3) for _ in range(15)]
-    lanes.append(model.Lane(skew_ps=500.0, eye_ps=2000.0, jitter_ps=400.0, seed=9,
-                            change_at=150, after=model.Lane(skew_ps=1700.0, eye_ps=900.0,
-                                                            jitter_ps=150.0)))
-    link = model.Link(lanes, line_words=7, schedule=((100, "data"), (220, "train"),
-                                                     (260, "data")))
-    res = cl.run_link(link, cycles=400, sim=sim, linkcheck=True)
+    lanes = [lvds.random_lane(rng, max_word_delay=3) for _ in range(15)]
+    lanes.append(lvds.Lane(skew_ps=500.0, eye_ps=2000.0, jitter_ps=400.0, seed=9,
+                           change_at=150, after=lvds.Lane(skew_ps=1700.0, eye_ps=900.0,
+                                                          jitter_ps=150.0)))
+    link = lvds.Link(lanes, line_words=7, schedule=((100, "data"), (220, "train"),
+                                                    (260, "data")))
+    res = run_link(link, cycles=400, sim=sim, linkcheck=True)
     for grp, (ks, _, data) in enumerate(res.outputs):
         assert np.array_equal(ks, np.arange(400))
         for j in range(res.lanes):
-            taps = np.where(ks >= 2, cl.linkcheck_tap(ks - 2, j), 0)
-            exp = model.raw_words(link, grp * res.lanes + j, taps, ks)
+            taps = np.where(ks >= 2, linkcheck_tap(ks - 2, j), 0)
+            exp = lvds.raw_words(link, grp * res.lanes + j, taps, ks)
             np.testing.assert_array_equal(data[:, j], exp, err_msg=f"lane {grp * 8 + j}")
 
 
 def _random_link(n, word_bits, seed, n_check, words):
     rng = np.random.default_rng(seed)
-    lanes = [model.random_lane(rng, max_word_delay=1, word_bits=word_bits) for _ in range(n)]
-    nd = model.training_words(word_bits, n_check, 8) + 16
-    link = model.Link(lanes, word_bits=word_bits, line_words=64, schedule=((nd, "data"),))
+    lanes = [lvds.random_lane(rng, max_word_delay=1, word_bits=word_bits) for _ in range(n)]
+    nd = lvds.training_words(word_bits, n_check, 8) + 16
+    link = lvds.Link(lanes, word_bits=word_bits, line_words=64, schedule=((nd, "data"),))
     return link, nd + words + 16
 
 
 def _check_random(n, word_bits, seed, *, n_check, words, sim):
     link, cycles = _random_link(n, word_bits, seed, n_check, words)
     params = {"word_bits": word_bits}
-    gold = model.run(link, cycles=cycles, n_check=n_check)
-    res = cl.run_link(link, params=params, cycles=cycles, n_check=n_check, sim=sim)
-    assert cl.check_run(link, res, gold, cycles=cycles) == []
+    gold = lvds.run(link, cycles=cycles, n_check=n_check)
+    res = run_link(link, params=params, cycles=cycles, n_check=n_check, sim=sim)
+    assert check_run(link, res, gold, cycles=cycles) == []
     results = gold.trainings[0]
     runs = np.array([r.run_len for r in results])
     locked = np.array([f["locked"] for f in res.final], bool)
@@ -138,7 +138,7 @@ def _check_random(n, word_bits, seed, *, n_check, words, sim):
         ids = range(grp * res.lanes, min((grp + 1) * res.lanes, n))
         assert gl["mask"] == sum(1 << (i - grp * res.lanes) for i in ids if locked[i])
     # every locked lane delivered >= `words` checked words (check_run compared each one)
-    exp = cl.expected_outputs(link, gold, lanes=res.lanes, cycles=cycles)
+    exp = expected_outputs(link, gold, lanes=res.lanes, cycles=cycles)
     for grp, segs in enumerate(exp):
         if any(locked[grp * res.lanes:(grp + 1) * res.lanes]):
             assert len(segs) == 1 and segs[0][1] >= words
@@ -146,7 +146,7 @@ def _check_random(n, word_bits, seed, *, n_check, words, sim):
     jit = np.array([ln.jitter_ps > 0 for ln in link.lanes])
     taps = np.array([ln.tap_ps for ln in link.lanes])
     assert locked[jit].any() and locked[~jit].any() and error.any()
-    assert locked[taps == model.XILINX_TAP_PS].any() and locked[taps == model.PAPER_TAP_PS].any()
+    assert locked[taps == lvds.XILINX_TAP_PS].any() and locked[taps == lvds.PAPER_TAP_PS].any()
     return res
 
 

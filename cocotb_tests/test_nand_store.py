@@ -21,7 +21,7 @@ from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.cosim.testing import check_beats, check_case
-from tdicam.model import calib, nand_store as nand
+from tdicam.model import calib, nand_store
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -61,7 +61,7 @@ def test_cases_exercise_what_they_claim():
     assert (k == 2).sum() > 20 and int(d["out_uncorrectable"][-1]) == (k == 2).sum()
     assert d["out_defaulted"].sum() == 2 * (k == 2).sum()  # 2 pixels = 4 coefficients each
     assert not arr["out_of_blocks"]["complete"] and len(arr["out_of_blocks"]["out_gain"]) \
-        == 2 * (nand.Geometry(pages_per_block=2, blocks=128).words_per_block
+        == 2 * (nand_store.Geometry(pages_per_block=2, blocks=128).words_per_block
                 - calib.HEADER_WORDS)
 
 
@@ -76,10 +76,10 @@ def test_round_trip_against_maps(sim):
     g, o = calib.codes_from_values(g_val, o_val, FMT)
     words, k = calib.inject_flips(rng, calib.encode_image(g, o, FMT), p_single=0.3,
                                   p_double=0.1)
-    geo = nand.Geometry(pages_per_block=2, blocks=128)
-    dev = nand.write_store(words, geo, bad_blocks=rng.choice(np.arange(1, 128), 30,
-                                                             replace=False))
-    out, sr, _ = nand.store_stream(dev, rows=30, cols=40, fmt=FMT)
+    geo = nand_store.Geometry(pages_per_block=2, blocks=128)
+    dev = nand_store.write_store(words, geo, bad_blocks=rng.choice(np.arange(1, 128), 30,
+                                                                   replace=False))
+    out, sr, _ = nand_store.store_stream(dev, rows=30, cols=40, fmt=FMT)
     exp = {f: getattr(out, f) for f in ("gain", "offset", "corrected", "uncorrectable",
                                         "defaulted", "header_error", "first", "last")}
     exp["bad_blocks"] = sr.bad_count

@@ -21,7 +21,7 @@ import pytest
 
 from tdicam.chain import design
 from tdicam.chain.cosim import cosimulate, scene_data, system_figures
-from tdicam.model import nand_store as nand
+from tdicam.model import nand_store
 from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,7 +91,8 @@ def test_the_camera_reports_what_the_nand_load_saw(icarus_run):
         assert st[f"nuc_corrected_words{sfx}"] == res.image.corrected > 0
         assert st[f"nuc_uncorrectable_words{sfx}"] == res.image.uncorrectable > 0
         assert st[f"nuc_calib_loaded{sfx}"] == 1 and st[f"nuc_calib_error{sfx}"] == 0
-    t = nand.timing(4, 24, nand.Geometry(blocks=512), busy_cycles=step.device["busy_cycles"])
+    t = nand_store.timing(4, 24, nand_store.Geometry(blocks=512),
+                          busy_cycles=step.device["busy_cycles"])
     assert st["startup_cycles"] > t.scan_cycles + t.load_cycles
     # the report's lines say the same (tdicam run's rtl section)
     lines = {r["name"]: r for r in system_figures(p, rep)}
@@ -136,7 +137,7 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
     are invalid after it; every block's output equals the golden chain on what the golden
     front delivers (the other lanes' pixels bit-exact)."""
     from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
-    from tdicam.model import lvds_front as fm
+    from tdicam.model import lvds_front
     sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
                                       "run": {"lines": 3, "rtl": {"crop": None}}})
     p = design.chain_plan(sc, lines=2)
@@ -153,7 +154,7 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
     lanes, st = rep["lanes"], rep["status_outputs"]
     assert lanes["untrained"] == [3] and lanes["died"] == 0 and lanes["problems"] == []
     assert st["lvds_lane_error"] == 0b1001 and st["lvds_lane_locked"] == 0b0110
-    narrow, both = fm.lane_mask([3]), fm.lane_mask([0, 3])
+    narrow, both = lvds_front.lane_mask([3]), lvds_front.lane_mask([0, 3])
     assert lanes["frame_status"] == [narrow] * 3 + [0b1111] + [both] * 4
     assert lanes["died_at_word"] <= lanes["filled_from_word"] <= 3 * 8     # in the frame
     assert (st["lvds_frames_out"], st["lvds_frames_dropped"], st["lvds_frames_affected"]) \

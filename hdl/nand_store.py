@@ -34,7 +34,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_range
-from tdicam.model import calib as mcalib, nand_store as mnand
+from tdicam.model import calib, nand_store
 from tdicam.hdl.calib import DEBUG_ELEMENTS, CalibReader
 from tdicam.hdl.util import equals
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
@@ -53,8 +53,8 @@ CMD_READ, CMD_READ_GO, CMD_RESET = 0x00, 0x30, 0xFF
 
 
 def _geometry(page_bytes, pages_per_block, blocks):
-    return mnand.Geometry(page_bytes=page_bytes, pages_per_block=pages_per_block,
-                          blocks=blocks)
+    return nand_store.Geometry(page_bytes=page_bytes, pages_per_block=pages_per_block,
+                               blocks=blocks)
 
 
 class NandCalibStore(wiring.Component):
@@ -106,7 +106,7 @@ class NandCalibStore(wiring.Component):
     """
 
     def __init__(self, *, rows=3800, cols=5144, gain_int_bits=2, gain_frac_bits=14,
-                 offset_bits=16, offset_frac_bits=0, count_bits=mcalib.DEFAULT_COUNT_BITS,
+                 offset_bits=16, offset_frac_bits=0, count_bits=calib.DEFAULT_COUNT_BITS,
                  debug=False, page_bytes=2048, pages_per_block=64, blocks=4096):
         try:
             self._geo = _geometry(page_bytes, pages_per_block, blocks)
@@ -117,8 +117,8 @@ class NandCalibStore(wiring.Component):
                                    gain_frac_bits=gain_frac_bits, offset_bits=offset_bits,
                                    offset_frac_bits=offset_frac_bits, count_bits=count_bits,
                                    debug=debug)
-        self._n_words = mcalib.HEADER_WORDS + mcalib.payload_words(rows, cols)
-        self._need = mnand.blocks_needed(self._n_words, self._geo)
+        self._n_words = calib.HEADER_WORDS + calib.payload_words(rows, cols)
+        self._need = nand_store.blocks_needed(self._n_words, self._geo)
         members = {name: (Out(w) if d == "out" else In(w)) for name, w, d in BUS_PORTS}
         members.update({
             "start": In(1),
@@ -237,7 +237,7 @@ class NandCalibStore(wiring.Component):
             m.d.sync += phase.eq(~phase)
             is_bad = Signal()
             with m.If(~phase):
-                m.d.sync += is_bad.eq(self.nand_dq_i != mnand.MARKER_GOOD)
+                m.d.sync += is_bad.eq(self.nand_dq_i != nand_store.MARKER_GOOD)
             with m.Else():
                 with m.If(is_bad):
                     m.d.sync += bad.eq(Mux(bad == 0xFFFF, bad, bad + 1))

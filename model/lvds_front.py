@@ -35,7 +35,7 @@ a sensor whose ADC has as many bits as the word can produce it (its full-scale c
 import numpy as np
 
 from tdicam.errors import TdicamError, check_range
-from tdicam.model import lvds as link_model
+from tdicam.model import lvds
 
 __all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "check_geometry", "header_word", "wire_code",
            "lane_payload",
@@ -159,7 +159,7 @@ def data_words(link, lane_index):
         if mode != "data" or left <= 0:
             continue
         k = left if n1 is None else min(left, n1 - n0)
-        out.append(link_model.sent_words(link, lane_index, np.arange(n0, n0 + k)))
+        out.append(lvds.sent_words(link, lane_index, np.arange(n0, n0 + k)))
         left -= k
     return np.concatenate(out) if out else np.zeros(0, np.int64)
 
@@ -255,7 +255,7 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
     return max(8, 1 << (need - 1).bit_length())
 
 
-def eye_lane(centre_taps, width_taps, *, tap_ps=link_model.PAPER_TAP_PS, jitter_ps=0.0,
+def eye_lane(centre_taps, width_taps, *, tap_ps=lvds.PAPER_TAP_PS, jitter_ps=0.0,
              bit_rate_mbps=300.0, word_delay=0, word_bits=12, seed=0, change_at=None,
              after=None):
     """A :class:`tdicam.model.lvds.Lane` whose eye is ``width_taps`` taps wide and centred
@@ -264,9 +264,9 @@ def eye_lane(centre_taps, width_taps, *, tap_ps=link_model.PAPER_TAP_PS, jitter_
     ui = 1e6 / bit_rate_mbps
     eye = min(width_taps * tap_ps, ui)
     skew = (-ui / 2 - centre_taps * tap_ps) % ui + word_delay * word_bits * ui
-    return link_model.Lane(skew_ps=skew, eye_ps=eye, jitter_ps=jitter_ps, tap_ps=tap_ps,
-                           bit_rate_mbps=bit_rate_mbps, seed=seed, change_at=change_at,
-                           after=after)
+    return lvds.Lane(skew_ps=skew, eye_ps=eye, jitter_ps=jitter_ps, tap_ps=tap_ps,
+                     bit_rate_mbps=bit_rate_mbps, seed=seed, change_at=change_at,
+                     after=after)
 
 
 def scene_lanes(spec, gains, seed=0):
@@ -290,9 +290,9 @@ def scene_untrained_lanes(spec, gains, seed=0, *, n_check=16, settle=8):
 def untrained_lanes(lanes, word_bits, train_word=None, *, n_check=16, settle=8):
     """Lane numbers whose golden training (:func:`tdicam.model.lvds.train_lane`) fails: no
     run of 9 passing taps, or no bitslip matched."""
-    link = link_model.Link(lanes, word_bits=word_bits, train_word=train_word)
+    link = lvds.Link(lanes, word_bits=word_bits, train_word=train_word)
     return [i for i in range(len(lanes))
-            if link_model.train_lane(link, i, 0, n_check=n_check, settle=settle).error]
+            if lvds.train_lane(link, i, 0, n_check=n_check, settle=settle).error]
 
 
 def lane_mask(lanes):

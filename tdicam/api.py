@@ -329,7 +329,7 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
     TdicamError
         A value out of its range or an unknown option (one line).
     """
-    from tdicam.model.physics import plan as P
+    from tdicam.model.physics.plan import DDR_USER_CLOCK_HZ, DDR_WORD_BITS, onchip_budget
     from tdicam.planning import sizing
     known = {dest for dest, *_ in sizing.SCENE_OPTIONS}
     for name in options:
@@ -343,13 +343,13 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
     if values["onchip_kbit"] is not None:
         budget = int(round(values["onchip_kbit"] * 1024))
     elif device is not None:
-        budget = P.onchip_budget(device)
+        budget = onchip_budget(device)
     else:
         budget = None
     given = {k: v for k, v in options.items() if v is not None}
     scenes, labels = sizing.plan_scenes(None if scene is None else str(scene), given)
-    ddr_bits = P.DDR_WORD_BITS if values["ddr_bits"] is None else values["ddr_bits"]
-    ddr_hz = P.DDR_USER_CLOCK_HZ if ddr_clock_mhz is None else values["ddr_clock_mhz"] * 1e6
+    ddr_bits = DDR_WORD_BITS if values["ddr_bits"] is None else values["ddr_bits"]
+    ddr_hz = DDR_USER_CLOCK_HZ if ddr_clock_mhz is None else values["ddr_clock_mhz"] * 1e6
     rep = sizing.plan_report(scenes, onchip_budget_bits=budget, ddr_bits=ddr_bits,
                              ddr_clock_hz=ddr_hz, ddr_efficiency=values["ddr_efficiency"],
                              fpga_clock_mhz=values["fpga_clock_mhz"],

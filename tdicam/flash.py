@@ -21,7 +21,7 @@ import numpy as np
 from tdicam import blocks
 from tdicam.errors import TdicamError, check_range
 from tdicam.files import check_file, open_output
-from tdicam.model import calib, nand_store as nand
+from tdicam.model import calib, nand_store
 from tdicam.model.nuc import NucFormat
 
 __all__ = ["load_maps", "write", "load_image", "report", "save_maps", "inject",
@@ -113,12 +113,12 @@ def check_not_input(output, *inputs):
 def controller_clock_hz(clock_mhz=None):
     """The NAND controller clock in Hz: ``clock_mhz`` (checked, 1..1000) or the default."""
     if clock_mhz is None:
-        return nand.CONTROLLER_CLOCK_HZ
+        return nand_store.CONTROLLER_CLOCK_HZ
     return check_range("--clock-mhz", clock_mhz, 1, 1000, integer=False) * 1e6
 
 
 def _timing_line(rows, cols, geometry, clock_hz):
-    t = nand.timing(rows, cols, geometry, clock_hz=clock_hz)
+    t = nand_store.timing(rows, cols, geometry, clock_hz=clock_hz)
     return (f"gateware at {clock_hz / 1e6:g} MHz (t_R {geometry.t_r_s * 1e6:g} us = "
             f"{t.busy_cycles} clocks): power-up scan of {geometry.blocks} blocks "
             f"{t.scan_s * 1e3:.1f} ms, calibration load of {t.pages} pages in {t.blocks} "
@@ -172,15 +172,15 @@ def write(output, *, maps=None, gain=None, offset=None, codes=False, gain_int_bi
 
 def _write_nand(output, words, rows, cols, blocks_, pages_per_block, clock_mhz):
     try:
-        g = nand.MT29F4G08
-        geo = nand.Geometry(
+        g = nand_store.MT29F4G08
+        geo = nand_store.Geometry(
             pages_per_block=g.pages_per_block if pages_per_block is None else pages_per_block,
             blocks=g.blocks if blocks_ is None else blocks_)
     except TdicamError as exc:
         raise TdicamError(f"--nand geometry: {exc}") from None
     clock = controller_clock_hz(clock_mhz)
-    dev = nand.write_store(words, geo)
-    n = nand.save_image(dev, output)
+    dev = nand_store.write_store(words, geo)
+    n = nand_store.save_image(dev, output)
     return [f"wrote {output}: NAND image, {rows} x {cols} pixels, {len(words)} flash words "
             f"in {-(-len(words) // geo.words_per_page)} pages of {geo.page_bytes}+"
             f"{geo.spare_bytes} bytes, part of {geo.blocks} blocks x {geo.pages_per_block} "
@@ -191,9 +191,9 @@ def _write_nand(output, words, rows, cols, blocks_, pages_per_block, clock_mhz):
 def load_image(path):
     """(CalibImage, StoreResult or None, geometry or None) of a plain or NAND image."""
     raw = calib.read_file(path)
-    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
-        dev = nand.read_image_bytes(raw, name=path)
-        res = nand.read_store(dev, name=path)
+    if raw[:len(nand_store.FILE_MAGIC)] == nand_store.FILE_MAGIC:
+        dev = nand_store.read_image_bytes(raw, name=path)
+        res = nand_store.read_store(dev, name=path)
         return res.image, res, dev.geometry
     return calib.read_image(raw, name=path), None, None
 
@@ -216,7 +216,7 @@ def report(path, clock_mhz=None):
     if store is not None:
         lines += [f"{path}: NAND, {geo.blocks} blocks x {geo.pages_per_block} pages: "
                   f"{store.scan.bad_count} bad blocks (markers), data in "
-                  f"{nand.blocks_needed(store.words, geo)} blocks, {store.pages} pages, the "
+                  f"{nand_store.blocks_needed(store.words, geo)} blocks, {store.pages} pages, the "
                   f"stored block map agrees with the scan",
                   _timing_line(rows, cols, geo, clock)]
     return img, lines
@@ -252,8 +252,8 @@ def inject(image, output, *, single=0.01, double=0.0, header=False, bad_blocks=0
     check_file(output)
     rng = np.random.default_rng(seed)
     raw = calib.read_file(image)
-    if raw[:len(nand.FILE_MAGIC)] == nand.FILE_MAGIC:
-        dev = nand.read_image_bytes(raw, name=image)
+    if raw[:len(nand_store.FILE_MAGIC)] == nand_store.FILE_MAGIC:
+        dev = nand_store.read_image_bytes(raw, name=image)
         return _inject_nand(dev, image, output, rng, single, double, header, bad_blocks,
                             fail_program)
     if bad_blocks or fail_program:
@@ -292,9 +292,9 @@ def _inject_nand(dev, image, output, rng, single, double, header, bad_blocks, fa
                           f"left after block 0")
     new_bad = rng.choice(free, bad_blocks, replace=False) if bad_blocks else []
     flips = (single, double) if single or double else None
-    out, k = nand.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng,
-                           name=image)
-    nand.save_image(out, output)
+    out, k = nand_store.relayout(dev, bad_blocks=new_bad, fail_program=fail, flips=flips, rng=rng,
+                                 name=image)
+    nand_store.save_image(out, output)
     return (f"wrote {output}: NAND image, {len(new_bad)} more bad blocks "
             f"({len(out.bad_blocks())} in all, {len(out.grown)} grown by program failures), "
             f"{int((k == 1).sum())} words with 1 flipped bit, {int((k == 2).sum())} with 2, "

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from tdicam.bench import suite as bench, chain
+from tdicam.bench import suite, chain
 from tdicam.cli import main
 
 SIM_LEVELS = ["icarus beat", "icarus fast", "verilator beat", "verilator fast"]
@@ -64,7 +64,7 @@ def test_secded_words_and_json_to_stdout(tmp_path, capsys):
     assert "secded_dec" in cap.err and "bit-exact" in cap.err
     assert [r["level"] for r in doc["rows"]] == ["golden", "pysim"] + SIM_LEVELS[2:] \
         + SIM_LEVELS[:2]
-    assert bench.expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
+    assert suite.expand(["secded", "secded_dec"]) == ["secded_enc", "secded_dec"]
     assert {r["unit"] for r in doc["rows"]} == {"word"}
     assert all(r["accuracy"] == "bit-exact" for r in doc["rows"] if r["level"] != "golden")
     _check_png(tmp_path / "s.png")
@@ -73,14 +73,14 @@ def test_secded_words_and_json_to_stdout(tmp_path, capsys):
 def test_a_wrong_golden_model_is_counted_not_passed(monkeypatch, tmp_path, capsys):
     """Corrupt three output pixels of the golden model: every simulator row must count
     exactly those three mismatches and the command must fail."""
-    cds = next(w for w in bench.STREAM_WORKS if w.name == "cds")
+    cds = next(w for w in suite.STREAM_WORKS if w.name == "cds")
 
     def wrong(arrays):
         arrays["out"].reshape(-1)[[5, 700, 5000]] ^= 1
 
     works = tuple(dataclasses.replace(w, corrupt=wrong) if w is cds else w
-                  for w in bench.STREAM_WORKS)
-    monkeypatch.setattr(bench, "STREAM_WORKS", works)
+                  for w in suite.STREAM_WORKS)
+    monkeypatch.setattr(suite, "STREAM_WORKS", works)
     js = tmp_path / "w.json"
     assert main(["bench", "cds", "--quick", "--sims", "verilator", "--png", "none",
                  "--json", str(js)]) == 1
@@ -110,38 +110,38 @@ def test_scene_rows(tmp_path, capsys):
 def test_benchmarks_come_from_the_registry():
     """The benchmark names are the block entries' groups (then the scene); a group runs
     its blocks, a block name the block alone; every DDR buffer is in the ddr group."""
-    benched = [b for b in bench.blocks.in_order() if b.bench is not None]
-    assert bench.NAMES == tuple(dict.fromkeys(b.bench.group for b in benched)) + ("scene",)
-    assert bench.expand(["ddr"]) == [n for n in ("cds_ddr", "ddr", "tdi_ddr")]
-    assert bench.expand(["tdi_ddr", "secded"]) == ["tdi_ddr", "secded_enc", "secded_dec"]
-    assert {w.block for w in bench.STREAM_WORKS} == {b.name for b in benched if b.bench.work}
-    assert bench.blocks.get("lvds").bench.runner == "tdicam.bench.lvds:rows"
+    benched = [b for b in suite.blocks.in_order() if b.bench is not None]
+    assert suite.NAMES == tuple(dict.fromkeys(b.bench.group for b in benched)) + ("scene",)
+    assert suite.expand(["ddr"]) == [n for n in ("cds_ddr", "ddr", "tdi_ddr")]
+    assert suite.expand(["tdi_ddr", "secded"]) == ["tdi_ddr", "secded_enc", "secded_dec"]
+    assert {w.block for w in suite.STREAM_WORKS} == {b.name for b in benched if b.bench.work}
+    assert suite.blocks.get("lvds").bench.runner == "tdicam.bench.lvds:rows"
 
 
 def test_fresh_build_is_timed_in_its_own_folder():
     """Build seconds: the first run's own build when it built, else (fresh) a build from
     scratch in <block>.bench-* (Icarus here: cheap); cached reports the first run's 0."""
-    blk = bench.blocks.get("cds")
+    blk = suite.blocks.get("cds")
     params = blk.resolve({"pixel_bits": 12})
-    stamp = bench.cosim.build_dir_for("cds.bench", params, "icarus") / "stamp"
+    stamp = suite.cosim.build_dir_for("cds.bench", params, "icarus") / "stamp"
 
     def sources():
-        return bench.stream_sources(blk, params)
-    assert bench.build_seconds(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
-    assert bench.build_seconds(0.0, "cached", "cds", params, "icarus", sources) == 0.0
+        return suite.stream_sources(blk, params)
+    assert suite.build_seconds(2.5, "fresh", "cds", params, "icarus", sources) == 2.5
+    assert suite.build_seconds(0.0, "cached", "cds", params, "icarus", sources) == 0.0
     t0 = time.time()
-    assert bench.build_seconds(0.0, "fresh", "cds", params, "icarus", sources) > 0
+    assert suite.build_seconds(0.0, "fresh", "cds", params, "icarus", sources) > 0
     assert stamp.stat().st_mtime >= t0 - 1
-    assert bench.fresh_build("cds", params, "icarus", sources()) > 0      # every time
+    assert suite.fresh_build("cds", params, "icarus", sources()) > 0      # every time
 
 
 def test_ddr_works_feed_their_blocks():
     """Stimulus and golden output of every DDR workload (no simulation): the round trip
     returns its input, CDS outputs only signal frames, TDI from frame `stages` on."""
-    for w in bench.STREAM_WORKS:
-        if w.block not in bench.expand(["ddr"]):
+    for w in suite.STREAM_WORKS:
+        if w.block not in suite.expand(["ddr"]):
             continue
-        blk, params, inp = bench.work_inputs(w)
+        blk, params, inp = suite.work_inputs(w)
         stim, exp = blk.to_beats(blk.case_arrays(inp, params), params)
         px = inp["frames"].size
         assert stim.data.size == px, w.name
@@ -156,7 +156,7 @@ def test_ddr_works_feed_their_blocks():
 def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
     def broken(**kw):
         raise RuntimeError("simulator exploded")
-    monkeypatch.setitem(bench.RUNNERS, "scene", broken)
+    monkeypatch.setitem(suite.RUNNERS, "scene", broken)
     assert main(["bench", "scene", "--png", "none", "--sims", "none"]) == 1
     cap = capsys.readouterr()
     row = next(ln for ln in cap.out.splitlines() if ln.startswith("scene "))
@@ -189,14 +189,14 @@ def test_from_json_needs_a_bench_file(tmp_path, capsys):
 
 
 def test_table_formatting():
-    rows = [bench.row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
+    rows = [suite.row("x", "golden", "pixel", 1000, 1e-4, x_ref=1.0, accuracy="reference",
                        input="1,000 px"),
-            bench.row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
+            suite.row("x", "verilator fast", "pixel", 1000, 0.5, x_ref=2e-4, x_beat=12.0,
                        accuracy="bit-exact", input="1,000 px", build_s=12.34)]
-    text = bench.format_table(rows).splitlines()
+    text = suite.format_table(rows).splitlines()
     assert "10 Mpx/s" in text[2] and "100 ns/px" in text[2]
     assert "1/5k" in text[3] and "12.0" in text[3] and "12.3" in text[3]
-    md = bench.format_table(rows, markdown=True).splitlines()
+    md = suite.format_table(rows, markdown=True).splitlines()
     assert md[0].startswith("| block | level |") and len(md) == 4
 
 
@@ -225,10 +225,10 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     """``tdicam bench pipeline``: only when named; its rows carry the run's own figures
     (a mismatch is counted, Icarus only with --quick, the target judged on wall time at
     ppc 8), one row per ppc (1 and 8) side by side."""
-    assert "pipeline" not in bench.expand([]) and bench.expand(["pipeline"]) == ["pipeline"]
+    assert "pipeline" not in suite.expand([]) and suite.expand(["pipeline"]) == ["pipeline"]
     seen = []
     monkeypatch.setattr(chain, "pipeline_run", _pipeline_stand_in(seen))
-    rows = bench.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
+    rows = suite.run(["pipeline"], sims=("icarus", "verilator"), repeat=1, quick=False)
     by = {r["level"]: r for r in rows}
     assert by["icarus fast"]["accuracy"] == "n/a" and seen == [
         (chain.PIPELINE_SCENE, "verilator", None, 1),
@@ -240,9 +240,9 @@ def test_pipeline_is_named_not_default_and_reports_what_it_ran(monkeypatch):
     assert "target judged at ppc 8" in by["verilator fast ppc 1"]["note"]
     assert "1,100,000 cycles; 1,250,000 px per simulator CPU s; load 1.5; " in v["note"]
     seen.clear()
-    rows = bench.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
+    rows = suite.run(["pipeline"], sims=("icarus",), repeat=1, quick=True)
     assert seen == [(chain.QUICK_SCENE, "icarus", 8, 1), (chain.QUICK_SCENE, "icarus",
-                                                              8, 8)]
+                                                          8, 8)]
     assert [r["accuracy"] for r in rows] == ["reference", "3 mismatching", "3 mismatching"]
     assert "not met" in rows[2]["note"]
 
@@ -263,7 +263,7 @@ def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
                  "input pixels per CPU second of the simulator process",
                  "the 1-minute load average after the run"):
         assert part in legend, (part, legend)
-    both = bench.legend(repeat=3, stalls=0.1, build="fresh", quick=True,
+    both = suite.legend(repeat=3, stalls=0.1, build="fresh", quick=True,
                         names=["cds", "pipeline"]).splitlines()
     assert len(both) == 2 and both[0].startswith("other rows: medians of 3 run(s)") \
         and both[1].startswith("pipeline rows: 8 output lines of ning2019_chain.toml")

@@ -3,7 +3,7 @@ level by its accuracy against the reference (no simulator run: synthetic rows)."
 
 from PIL import Image
 
-from tdicam.bench import suite as bench
+from tdicam.bench import suite
 
 LEVELS = ("golden", "pysim", "icarus beat", "icarus fast", "verilator beat", "verilator fast",
           "export verilator")
@@ -14,13 +14,13 @@ def rows():
     for b, unit in (("tdi", "pixel"), ("median3", "pixel"), ("ecc", "word")):
         for k, lev in enumerate(LEVELS):
             acc = "reference" if lev == "golden" else "bit-exact"
-            out.append(bench.row(b, lev, unit, 1000, 1e-3 * 10 ** k, accuracy=acc,
+            out.append(suite.row(b, lev, unit, 1000, 1e-3 * 10 ** k, accuracy=acc,
                                  mismatches=None if lev == "golden" else 0))
-    out.append(bench.row("ecc", "icarus fast", "word", 1000, 0.5, accuracy="3 mismatching",
+    out.append(suite.row("ecc", "icarus fast", "word", 1000, 0.5, accuracy="3 mismatching",
                          mismatches=3))
-    out.append(bench.na_row("lvds", "pysim", "lane", "not run"))
+    out.append(suite.na_row("lvds", "pysim", "lane", "not run"))
     for fid, psnr in (("fast", 61.5), ("auto", 62.0), ("exact", None)):
-        out.append(bench.row("scene", f"scene {fid}", "line", 256, 0.02 if fid != "exact"
+        out.append(suite.row("scene", f"scene {fid}", "line", 256, 0.02 if fid != "exact"
                              else 0.4, accuracy="reference; other seed" if psnr is None else "PSNR",
                              psnr_db=psnr, snr_error_db=0.01,
                              noise_floor_psnr_db=61.8))
@@ -28,7 +28,7 @@ def rows():
 
 
 def test_tradeoff_points_classify_every_timed_level():
-    pts = bench.tradeoff_points(rows())
+    pts = suite.tradeoff_points(rows())
     kinds = {(r["block"], r["level"]): (y, k) for r, y, k in pts}
     assert kinds[("tdi", "golden")] == (None, "exact")
     assert kinds[("tdi", "verilator fast")] == (None, "exact")
@@ -51,7 +51,7 @@ def test_plot_keeps_legends_inside_the_image(tmp_path, monkeypatch):
         saved["fig"] = fig
         return real_close(fig)
     monkeypatch.setattr(plt, "close", keep)
-    path = bench.plot(rows(), tmp_path / "b.png", real_time=6908.0)
+    path = suite.plot(rows(), tmp_path / "b.png", real_time=6908.0)
     fig = saved["fig"]
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     renderer = FigureCanvasAgg(fig).get_renderer()

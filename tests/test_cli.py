@@ -459,7 +459,7 @@ def bad_input_files(tmp_path_factory):
 @pytest.mark.parametrize("row", BAD_INPUT, ids=lambda r: " ".join(r[0])[:60])
 def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
     from tdicam import paths
-    from tdicam.bench import suite as bench
+    from tdicam.bench import suite
     from tdicam.cosim import golden
     argv, expect, code, *manifest = row
     d = str(bad_input_files)
@@ -471,7 +471,7 @@ def test_bad_input_is_one_line(row, bad_input_files, monkeypatch, capsys):
 
     def ran(*args, **kw):
         raise AssertionError("bench ran before its output paths were checked")
-    monkeypatch.setattr(bench, "run", ran)
+    monkeypatch.setattr(suite, "run", ran)
     monkeypatch.chdir(paths.REPO)
     argv = [a.format(d=d) for a in argv]
     outs = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a in _OUTPUT_OPTIONS]

@@ -28,11 +28,11 @@ FULL = os.environ.get("TDICAM_FULL") == "1"
 
 
 def _ref():
-    from tdicam.cosim import litedram as ddrref
-    why = ddrref.available()
+    from tdicam.cosim import litedram
+    why = litedram.available()
     if why:
         pytest.skip(why)
-    return ddrref
+    return litedram
 
 
 @pytest.mark.parametrize("name", [n for n in ddr.PATTERNS
@@ -245,7 +245,7 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
     valid ones, and only the picked ones replayed (LiteDRAM itself stood in for)."""
     from types import SimpleNamespace
 
-    from tdicam.cosim import litedram as ddrref
+    from tdicam.cosim import litedram
     bd = _bench_ddr()
     with pytest.raises(SystemExit) as e:
         bd.parse_args(["--help"])
@@ -264,7 +264,7 @@ def test_bench_ddr_patterns_pick_what_litedram_replays(monkeypatch, capsys):
         if "valid" in why:
             assert ", ".join([*ddr.PATTERNS, *BLOCKS]) in err
     seen = []
-    monkeypatch.setattr(ddrref, "replay", lambda trace, **kw: seen.append(trace.name)
+    monkeypatch.setattr(litedram, "replay", lambda trace, **kw: seen.append(trace.name)
                         or SimpleNamespace(efficiency=0.5, ok=True, wall=0.0))
     rows = bd.litedram(patterns=["write_only"], blocks=[])
     assert [r["what"] for r in rows] == ["write_only"] and len(seen) == 1

@@ -66,14 +66,14 @@ def test_tampered_array_is_named(store):
 
 
 def test_model_drift_names_case_and_index(store, monkeypatch):
-    import tdicam.blocks.cds as mod
-    real = mod.cds
+    from tdicam.blocks import cds
+    real = cds.cds
 
     def drifted(s, r, pixel_bits):
         out = real(s, r, pixel_bits=pixel_bits)
         out.flat[5] ^= 1
         return out
-    monkeypatch.setattr(mod, "cds", drifted)
+    monkeypatch.setattr(cds, "cds", drifted)
     bad = [r for r in golden.check(["cds"]) if not r.ok]
     assert bad
     assert "array 'out': first difference at index" in bad[0].message

@@ -6,8 +6,12 @@ between the modules of any package.
 ``hdl/`` and ``model/`` are installed as ``tdicam.hdl`` and ``tdicam.model``; import-linter reads
 a package from one folder, so the test lays the three folders out as installed in a
 temporary folder and checks that copy (what a wheel holds).
+
+A project module is imported under its own name (``from tdicam.model import lvds``, or
+``lvds as _lvds`` to keep it private), never renamed (``lvds as link``).
 """
 
+import ast
 import shutil
 import subprocess
 import sys
@@ -63,3 +67,66 @@ def test_contract_is_live(tmp_path, module, line, broken):
     res = _lint(root)
     assert res.returncode != 0
     assert broken in res.stdout, res.stdout[-4000:]
+
+
+# ------------------------------------------------------------------------------------------
+# one name per module: a project module is imported under its own name
+# ------------------------------------------------------------------------------------------
+
+#: The folders whose Python files the alias check reads.
+ALIAS_TREES = ("tdicam", "hdl", "model", "tests", "cocotb_tests", "bench")
+
+
+def _module_file(root, dotted):
+    """The file of project module ``dotted`` (``tdicam.hdl.x`` in ``hdl/``, ``tdicam.model.x``
+    in ``model/``), or None when it is no project module (a function, a third-party module)."""
+    parts = dotted.split(".")
+    if parts[0] != "tdicam":
+        return None
+    if parts[1:2] in (["hdl"], ["model"]):
+        parts = parts[1:]
+    base = root.joinpath(*parts)
+    for p in (base.with_suffix(".py"), base / "__init__.py"):
+        if p.exists():
+            return p
+    return None
+
+
+def _renaming_aliases(root):
+    """``(file, line, module, alias)`` of every project module imported under another name
+    (``_name``, the module's own name kept private, is its own name)."""
+    out = []
+    for top in ALIAS_TREES:
+        for path in sorted((root / top).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                    pairs = [(f"{node.module}.{a.name}", a.asname) for a in node.names]
+                elif isinstance(node, ast.Import):
+                    pairs = [(a.name, a.asname) for a in node.names]
+                else:
+                    continue
+                for dotted, alias in pairs:
+                    own = dotted.rsplit(".", 1)[-1]
+                    if alias in (None, own, "_" + own) or _module_file(root, dotted) is None:
+                        continue
+                    out.append((path.relative_to(root).as_posix(), node.lineno, dotted, alias))
+    return out
+
+
+def test_no_module_is_imported_under_another_name():
+    """``from tdicam.model import lvds`` (or ``lvds as _lvds``), never ``lvds as link``: a
+    module is read under one name everywhere."""
+    found = _renaming_aliases(REPO)
+    assert not found, "project modules imported under another name: " + ", ".join(
+        f"{f}:{line} {mod} as {alias}" for f, line, mod, alias in found)
+
+
+def test_the_alias_check_finds_a_renaming_alias(tmp_path):
+    """The check sees a renamed module (it is live) and lets a renamed function pass."""
+    for top in ALIAS_TREES:
+        (tmp_path / top).mkdir()
+    (tmp_path / "model" / "lvds.py").write_text("def rotations():\n    pass\n")
+    (tmp_path / "tdicam" / "probe.py").write_text(
+        "from tdicam.model import lvds as link\nfrom tdicam.model import lvds as _lvds\n"
+        "from tdicam.model.lvds import rotations as rot\nimport numpy as np\n")
+    assert _renaming_aliases(tmp_path) == [("tdicam/probe.py", 1, "tdicam.model.lvds", "link")]

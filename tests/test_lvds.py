@@ -10,11 +10,11 @@ import pytest
 
 from tdicam import blocks
 from tdicam.cli import main
-from tdicam.cosim import lvds as cl
+from tdicam.cosim.lvds import expected_outputs, run_amaranth
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import Deskew, LaneTrainer, LvdsRx, LvdsXilinx
 from tdicam.hw.lint import lint
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 from tdicam.hw.verilog import convert
 
 
@@ -39,17 +39,17 @@ def _mix32_ref(x):
 
 def test_mix32_matches_reference():
     xs = [0, 1, 2, 0xFFFFFFFF, 0x12345678, -1, -5]
-    assert model.mix32(np.array(xs)).tolist() == [_mix32_ref(x) for x in xs]
+    assert lvds.mix32(np.array(xs)).tolist() == [_mix32_ref(x) for x in xs]
 
 
 def test_training_words_are_rotation_unique():
     for w in (10, 12):
-        word = model.default_train_word(w)
-        assert len(set(model.rotations(word, w))) == w
+        word = lvds.default_train_word(w)
+        assert len(set(lvds.rotations(word, w))) == w
     with pytest.raises(TdicamError, match="repeats under rotation"):
-        model.check_train_word(0x155, 10)
+        lvds.check_train_word(0x155, 10)
     with pytest.raises(TdicamError, match="train_word = 4096 is out of range"):
-        model.check_train_word(4096, 12)
+        lvds.check_train_word(4096, 12)
 
 
 @pytest.mark.parametrize("kw,match", [
@@ -59,52 +59,52 @@ def test_training_words_are_rotation_unique():
 ])
 def test_lane_errors(kw, match):
     with pytest.raises(TdicamError, match=match):
-        model.Lane(**kw)
+        lvds.Lane(**kw)
 
 
 def test_link_errors():
-    lane = model.Lane(skew_ps=0, eye_ps=2000)
+    lane = lvds.Lane(skew_ps=0, eye_ps=2000)
     with pytest.raises(TdicamError, match="sync_word must not be a rotation"):
-        model.Link([lane], sync_word=model.rotations(0x2E4, 10)[3])
+        lvds.Link([lane], sync_word=lvds.rotations(0x2E4, 10)[3])
     with pytest.raises(TdicamError, match="strictly increasing"):
-        model.Link([lane], schedule=((10, "data"), (5, "train")))
+        lvds.Link([lane], schedule=((10, "data"), (5, "train")))
     with pytest.raises(TdicamError, match="word_bits = 11"):
-        model.Link([lane], word_bits=11)
+        lvds.Link([lane], word_bits=11)
 
 
 def test_tables_follow_the_eye():
     """Taps inside the eye by more than the jitter are never random, outside always."""
     ui = 1e6 / 300
-    lane = model.Lane(skew_ps=1000.0, eye_ps=2000.0, jitter_ps=300.0)
-    delay, thresh = model.lane_tables(lane)
+    lane = lvds.Lane(skew_ps=1000.0, eye_ps=2000.0, jitter_ps=300.0)
+    delay, thresh = lvds.lane_tables(lane)
     t = np.arange(32)
-    u = np.mod(-(1000.0 + t * model.PAPER_TAP_PS), ui)
+    u = np.mod(-(1000.0 + t * lvds.PAPER_TAP_PS), ui)
     lo, hi = (ui - 2000) / 2, (ui + 2000) / 2
     solid = (u >= lo + 300) & (u <= hi - 300)
     outside = (u < lo) | (u >= hi)
     assert (thresh[0][solid] == 0).all() and (thresh[0][outside] == 65536).all()
     band = ~solid & ~outside
     assert band.any() and ((thresh[0][band] > 0) & (thresh[0][band] < 65536)).all()
-    assert np.array_equal(delay[0], np.ceil((1000.0 + t * model.PAPER_TAP_PS) / ui))
+    assert np.array_equal(delay[0], np.ceil((1000.0 + t * lvds.PAPER_TAP_PS) / ui))
 
 
 def test_gearbox_definition():
     """lane_words(k, slip) is raw(k-1)|raw(k) shifted by slip, first bit in the MSB."""
     rng = np.random.default_rng(2)
-    link = model.Link([model.random_lane(rng)], schedule=((5, "data"),))
+    link = lvds.Link([lvds.random_lane(rng)], schedule=((5, "data"),))
     k = np.arange(1, 60)
-    raw = model.raw_words(link, 0, 7, np.arange(0, 60))
+    raw = lvds.raw_words(link, 0, 7, np.arange(0, 60))
     for s in range(10):
         both = (raw[:-1] << 10) | raw[1:]
         exp = (both >> (10 - s)) & 0x3FF
-        assert np.array_equal(model.lane_words(link, 0, 7, s, k), exp)
+        assert np.array_equal(lvds.lane_words(link, 0, 7, s, k), exp)
 
 
 def test_sent_words_format():
-    link = model.Link([model.Lane(skew_ps=0, eye_ps=3000, seed=3)], line_words=5,
-                      schedule=((10, "data"), (40, "train")))
+    link = lvds.Link([lvds.Lane(skew_ps=0, eye_ps=3000, seed=3)], line_words=5,
+                     schedule=((10, "data"), (40, "train")))
     n = np.arange(-5, 60)
-    words = model.sent_words(link, 0, n)
+    words = lvds.sent_words(link, 0, n)
     data = (n >= 10) & (n < 40)
     assert (words[~data] == link.train_word).all()
     sync = data & ((n - 10) % 5 == 0)
@@ -116,7 +116,7 @@ def test_sent_words_format():
 def _decide(pattern, words=None, **kw):
     passes = [c != "." for c in pattern]
     words = words or [0 if c in "#." else ord(c) for c in pattern]
-    return model.decide(passes, words, **kw)
+    return lvds.decide(passes, words, **kw)
 
 
 @pytest.mark.parametrize("pattern,expect", [
@@ -145,12 +145,12 @@ def test_pick_and_min_run_are_parameters():
 
 def test_flickering_tap_fails():
     """A tap passes only if all its checked words match: one bad word fails it."""
-    lane = model.Lane(skew_ps=900.0, eye_ps=2000.0, jitter_ps=600.0, seed=4)
-    link = model.Link([lane])
-    res = model.train_lane(link, 0, 0, n_check=64, settle=8)
-    p = model.step_words(64, 8)
+    lane = lvds.Lane(skew_ps=900.0, eye_ps=2000.0, jitter_ps=600.0, seed=4)
+    link = lvds.Link([lane])
+    res = lvds.train_lane(link, 0, 0, n_check=64, settle=8)
+    p = lvds.step_words(64, 8)
     ks = np.arange(32)[:, None] * p + 8 + np.arange(64)
-    words = model.lane_words(link, 0, np.arange(32)[:, None], 0, ks)
+    words = lvds.lane_words(link, 0, np.arange(32)[:, None], 0, ks)
     flicker = [(w != w[0]).any() for w in words]
     assert any(flicker)
     assert not any(res.passes[t] for t in range(32) if flicker[t])
@@ -162,27 +162,27 @@ def test_fifth_tap_of_a_run_is_clear_of_jitter():
     rng = np.random.default_rng(8)
     checked = 0
     for _ in range(300):
-        lane = model.random_lane(rng, jitter=True)
-        link = model.Link([lane])
-        res = model.train_lane(link, 0, 0, n_check=4, settle=8)
+        lane = lvds.random_lane(rng, jitter=True)
+        link = lvds.Link([lane])
+        res = lvds.train_lane(link, 0, 0, n_check=4, settle=8)
         if res.locked:
-            assert model.lane_tables(lane)[1][0, res.tap] == 0
+            assert lvds.lane_tables(lane)[1][0, res.tap] == 0
             checked += 1
     assert checked > 50
 
 
 def test_run_errors_are_one_line():
-    link = model.Link([model.Lane(skew_ps=0, eye_ps=2000)])
+    link = lvds.Link([lvds.Lane(skew_ps=0, eye_ps=2000)])
     with pytest.raises(TdicamError, match="settle = 3 is out of range"):
-        model.run(link, cycles=5000, settle=3)
+        lvds.run(link, cycles=5000, settle=3)
     with pytest.raises(TdicamError, match="cannot end before cycle 100"):
-        model.run(link, cycles=100)
+        lvds.run(link, cycles=100)
 
 
 # ---------------------------------------------------------------- Amaranth simulation
 def _amaranth_run(link, cycles, retrains=(), n_check=4, settle=4):
-    events, outs, _ = cl.run_amaranth(link, cycles, retrains=retrains, n_check=n_check,
-                                      settle=settle)
+    events, outs, _ = run_amaranth(link, cycles, retrains=retrains, n_check=n_check,
+                                   settle=settle)
     return events, outs
 
 
@@ -190,23 +190,23 @@ def test_amaranth_sim_matches_golden_with_retrain():
     """Three lanes (one jumps skew, one dies after lock) through a retrain; events exact,
     deskewed output starts exactly `latency` cycles after the last lane's sync word."""
     lanes = [
-        model.Lane(skew_ps=800, eye_ps=2500, seed=5, change_at=700,
-                   after=model.Lane(skew_ps=2300, eye_ps=2500)),
-        model.Lane(skew_ps=300, eye_ps=2600, jitter_ps=300, seed=6, change_at=650,
-                   after=model.Lane(skew_ps=300, eye_ps=0)),
-        model.Lane(skew_ps=3300 * 2 + 400, eye_ps=2200, seed=7),
+        lvds.Lane(skew_ps=800, eye_ps=2500, seed=5, change_at=700,
+                  after=lvds.Lane(skew_ps=2300, eye_ps=2500)),
+        lvds.Lane(skew_ps=300, eye_ps=2600, jitter_ps=300, seed=6, change_at=650,
+                  after=lvds.Lane(skew_ps=300, eye_ps=0)),
+        lvds.Lane(skew_ps=3300 * 2 + 400, eye_ps=2200, seed=7),
     ]
     nc, st = 4, 4
-    tw = model.training_words(10, nc, st)
+    tw = lvds.training_words(10, nc, st)
     kr = tw + 330
-    link = model.Link(lanes, line_words=16,
-                      schedule=((tw + 20, "data"), (kr, "train"), (kr + tw + 30, "data")))
+    link = lvds.Link(lanes, line_words=16,
+                     schedule=((tw + 20, "data"), (kr, "train"), (kr + tw + 30, "data")))
     cycles = kr + tw + 30 + 120
-    gold = model.run(link, cycles=cycles, retrains=(kr,), n_check=nc, settle=st)
+    gold = lvds.run(link, cycles=cycles, retrains=(kr,), n_check=nc, settle=st)
     events, outs = _amaranth_run(link, cycles, (kr,), nc, st)
     assert events == gold.events
     assert any(e[1] == 0 and e[3] == 1 and e[0] < kr for e in events)  # skew jump reported
-    segs = cl.expected_outputs(link, gold, lanes=3, cycles=cycles, retrains=(kr,))[0]
+    segs = expected_outputs(link, gold, lanes=3, cycles=cycles, retrains=(kr,))[0]
     assert len(segs) == 2
     for k_first, n_words, cols, dying in segs:
         got = [o for o in outs if k_first <= o[0] < k_first + n_words]
@@ -222,7 +222,7 @@ def test_amaranth_sim_matches_golden_with_retrain():
 def test_component_params():
     t = LaneTrainer(word_bits=12, settle=6)
     assert (t.word_bits, t.settle, t.latency, t.step_words(16)) == (12, 6, 2, 25)
-    assert t.step_words(0) == model.step_words(0, 6)
+    assert t.step_words(0) == lvds.step_words(0, 6)
     assert _quiet(Deskew(lanes=4)).latency == 2
     _quiet(t)
     with pytest.raises(TdicamError, match="pick = 10 must not exceed min_run = 9"):

@@ -13,8 +13,8 @@ import pytest
 from tdicam.cosim.lvds_front import (GEOMETRY, SCENARIOS, FrontCase, check, frames_of,
                                      run_amaranth, scenario, scenario_frames, scenario_lanes)
 from tdicam.errors import TdicamError
-from tdicam.model import lvds as model
-from tdicam.model import lvds_front as front
+from tdicam.model.lvds import Link, default_train_word, sent_words
+from tdicam.model import lvds_front
 
 L, G, C, R = (GEOMETRY[k] for k in ("lanes_per_gain", "gains", "columns", "rows"))
 _frames = scenario_frames
@@ -24,7 +24,7 @@ _lanes = scenario_lanes
 # ---------------------------------------------------------------- golden model, format
 def test_lane_payload_is_the_line_format():
     fr = _frames(2, 3)
-    pay = front.lane_payload(fr, L, 12)
+    pay = lvds_front.lane_payload(fr, L, 12)
     assert len(pay) == G * L and all(len(p) == 2 * R * (C // L + 2) for p in pay)
     lw = C // L + 2
     for g in range(G):
@@ -32,20 +32,20 @@ def test_lane_payload_is_the_line_format():
             words = pay[g * L + k].reshape(2, R, lw)
             assert (words[:, :, 0] == 0xFFF).all()
             assert (words[:, :, 1] == np.arange(R)).all()       # signal frames: kind bit 0
-            assert np.array_equal(words[:, :, 2:], front.wire_code(fr[g][:, :, k::L], 12))
-    assert front.wire_code([4095, 4094, 0], 12).tolist() == [4094, 4094, 0]
+            assert np.array_equal(words[:, :, 2:], lvds_front.wire_code(fr[g][:, :, k::L], 12))
+    assert lvds_front.wire_code([4095, 4094, 0], 12).tolist() == [4094, 4094, 0]
     # a reset frame's headers carry the kind in their top bit
-    kinds = front.lane_payload(fr, L, 12, kinds=[1, 0])[3].reshape(2, R, lw)[:, :, 1]
+    kinds = lvds_front.lane_payload(fr, L, 12, kinds=[1, 0])[3].reshape(2, R, lw)[:, :, 1]
     assert kinds.tolist() == [[0x800, 0x801, 0x802], [0, 1, 2]]
-    assert front.header_word(2, 1, 10) == 0x202
+    assert lvds_front.header_word(2, 1, 10) == 0x202
     # the link model carries the payload in its data segments, sync words included
-    link = model.Link(_lanes(), word_bits=12, line_words=lw, schedule=((50, "data"),),
-                      payload=pay)
+    link = Link(_lanes(), word_bits=12, line_words=lw, schedule=((50, "data"),),
+                payload=pay)
     n = np.arange(50, 50 + 2 * R * lw)
-    assert np.array_equal(model.sent_words(link, 5, n), pay[5])
-    assert (model.sent_words(link, 5, np.arange(50)) == link.train_word).all()
+    assert np.array_equal(sent_words(link, 5, n), pay[5])
+    assert (sent_words(link, 5, np.arange(50)) == link.train_word).all()
     # past the payload: the link model's own data, sync every line
-    after = model.sent_words(link, 5, np.arange(50 + 2 * R * lw, 50 + 4 * R * lw))
+    after = sent_words(link, 5, np.arange(50 + 2 * R * lw, 50 + 4 * R * lw))
     assert (after[::lw] == 0xFFF).all()
 
 
@@ -53,43 +53,43 @@ def test_golden_front_from_the_lanes_round_trip():
     """frames_from_lanes on the words the link model sends (data segments, blank lines
     between) gives back the frames as the wire carries them, bad lanes' columns 0."""
     case = scenario("lane_dies")
-    words = [front.data_words(case.link, i) for i in range(G * L)]
+    words = [lvds_front.data_words(case.link, i) for i in range(G * L)]
     assert all(len(w) == (8 * R + 2) * (C // L + 2) for w in words)
     for bad in ([], [3, 6]):
-        px, inv, kinds = front.frames_from_lanes(words, L, R, 12, bad)
-        exp, inv2 = front.receive(case.frames, bad, L, 12)
+        px, inv, kinds = lvds_front.frames_from_lanes(words, L, R, 12, bad)
+        exp, inv2 = lvds_front.receive(case.frames, bad, L, 12)
         assert np.array_equal(px, exp) and np.array_equal(inv, inv2)
         assert kinds.tolist() == [1, 0, 1, 0, 1, 0, 1, 0]      # reset, signal, ... in turn
     words[4] = words[4].copy()
     words[4][1] = 1                         # a header the other lanes do not send
     with pytest.raises(TdicamError, match="lanes disagree on the header"):
-        front.frames_from_lanes(words, L, R, 12)
+        lvds_front.frames_from_lanes(words, L, R, 12)
 
 
 def test_invalid_columns_follow_the_convention():
-    inv = front.invalid_columns([1, 6], C, L, G)
+    inv = lvds_front.invalid_columns([1, 6], C, L, G)
     assert np.flatnonzero(inv[0]).tolist() == [1, 5, 9, 13]
     assert np.flatnonzero(inv[1]).tolist() == [2, 6, 10, 14]
-    px, inv2 = front.receive(_frames(1, 3), [6], L, 12)
-    assert (px[1][..., 2::4] == 0).all() and np.array_equal(inv2, front.invalid_columns(
+    px, inv2 = lvds_front.receive(_frames(1, 3), [6], L, 12)
+    assert (px[1][..., 2::4] == 0).all() and np.array_equal(inv2, lvds_front.invalid_columns(
         [6], C, L, G))
 
 
 def test_fifo_depth_from_the_rates():
     # P = 4: the processing side must take >= 4/6 of the word rate's entries
-    assert front.fifo_depth(4, 1, 16, 25.0, 100.0) == 8         # r = 1: slack only
-    assert front.fifo_depth(40, 8, 5120, 25.0, 130.0) == 8       # GMAX0504, r = 1.04
-    assert front.fifo_depth(40, 8, 5120, 25.0, 124.0) == 16      # r = 0.992: 128 x 0.008
-    assert front.fifo_depth(4, 2, 16, 25.0, 100.0 / 3) == 16     # r = 4/6: 2 + 8 -> 16
+    assert lvds_front.fifo_depth(4, 1, 16, 25.0, 100.0) == 8         # r = 1: slack only
+    assert lvds_front.fifo_depth(40, 8, 5120, 25.0, 130.0) == 8       # GMAX0504, r = 1.04
+    assert lvds_front.fifo_depth(40, 8, 5120, 25.0, 124.0) == 16      # r = 0.992: 128 x 0.008
+    assert lvds_front.fifo_depth(4, 2, 16, 25.0, 100.0 / 3) == 16     # r = 4/6: 2 + 8 -> 16
     with pytest.raises(TdicamError, match="needs >= 123.1 MHz"):
-        front.fifo_depth(40, 8, 5120, 25.0, 120.0)                # below P / (P + 2)
+        lvds_front.fifo_depth(40, 8, 5120, 25.0, 120.0)                # below P / (P + 2)
     with pytest.raises(TdicamError, match="needs >= 33.33 MHz"):
-        front.fifo_depth(4, 2, 16, 25.0, 33.0)
+        lvds_front.fifo_depth(4, 2, 16, 25.0, 33.0)
     with pytest.raises(TdicamError, match="does not divide the 18 columns"):
-        front.check_geometry(18, 4, 4, 12, 12)
+        lvds_front.check_geometry(18, 4, 4, 12, 12)
     with pytest.raises(TdicamError, match="its top bit the frame kind\\) counts to 2045"):
-        front.check_geometry(16, 2046, 4, 12, 12)
-    front.check_geometry(16, 2045, 4, 12, 12)
+        lvds_front.check_geometry(16, 2046, 4, 12, 12)
+    lvds_front.check_geometry(16, 2045, 4, 12, 12)
 
 
 # ---------------------------------------------------------------- gateware, two clocks
@@ -112,24 +112,24 @@ def test_golden_front_of_a_lane_death():
     from the next reset frame on)."""
     rng = np.random.default_rng(3)
     frames = [rng.integers(1, 4000, (8, 3, 8)) for _ in range(2)]      # L = 2: P = 4
-    healthy = front.receive(frames, [3], 2, 12)[0][:, 3]
+    healthy = lvds_front.receive(frames, [3], 2, 12)[0][:, 3]
     seen = healthy.copy()
     seen[0, 1, 3::2][1:] = 77                 # lane 1 (gain 0, odd columns) dead from word 5
     seen[:, 2, :] = 0                         # filled from word 8 (row 2)
-    cut, fill = front.cut_frame(healthy, seen, 2, 1, 5)
+    cut, fill = lvds_front.cut_frame(healthy, seen, 2, 1, 5)
     assert fill == 8 and np.array_equal(cut, seen)
     seen[1, 1, 0] += 1                        # another lane wrong: not what the model gives
-    assert not np.array_equal(front.cut_frame(healthy, seen, 2, 1, 5)[0], seen)
+    assert not np.array_equal(lvds_front.cut_frame(healthy, seen, 2, 1, 5)[0], seen)
     kinds = [1, 0] * 4
-    px, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[3], lane=1, frame=3,
-                                              cut=cut, kinds=kinds, pairs=True)
+    px, k, status, dropped = lvds_front.lane_death(frames, 2, 12, bad_lanes=[3], lane=1, frame=3,
+                                                   cut=cut, kinds=kinds, pairs=True)
     assert dropped == 2 and list(k) == [1, 0, 1, 0, 1, 0]
     assert status == [8, 8, 8, 15, 10, 10]
-    after = front.receive(frames, [1, 3], 2, 12)[0]
+    after = lvds_front.receive(frames, [1, 3], 2, 12)[0]
     assert np.array_equal(px[:, 4:], after[:, 6:]) and (px[0, 4:, :, 1::2] == 0).all()
     # a reset frame cut: with pairs the signal frame after the held ones is dropped too
-    _, k, status, dropped = front.lane_death(frames, 2, 12, bad_lanes=[], lane=1, frame=2,
-                                             cut=cut, kinds=kinds, pairs=True)
+    _, k, status, dropped = lvds_front.lane_death(frames, 2, 12, bad_lanes=[], lane=1, frame=2,
+                                                  cut=cut, kinds=kinds, pairs=True)
     assert dropped == 3 and list(k) == [1, 0, 1, 1, 0] and status == [0, 0, 15, 2, 2]
 
 
@@ -139,8 +139,8 @@ def test_fifo_depth_has_a_ddr_stall_margin():
     from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
     assert worst_stall({}) == worst_stall(DEFAULT_STALLS) == 44 + 60
     # r = 1 at 4 lanes x 25 M words/s, 100 MHz: 104 clocks are 26 entries
-    assert front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=104) == 64    # 26 + 8
-    assert front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=96) == 32     # 24 + 8
+    assert lvds_front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=104) == 64    # 26 + 8
+    assert lvds_front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=96) == 32     # 24 + 8
 
 
 @pytest.mark.parametrize("pairs", [0, 1])
@@ -169,8 +169,8 @@ def test_frames_before_release_are_dropped_whole_and_counted(pairs):
     assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"]) == \
         (nf - first, first, 0)
     got = frames_of(res["beats"], R, C, 2, G)
-    words = [front.data_words(case.link, i) for i in range(G * L)]
-    exp, _, kinds = front.frames_from_lanes(words, L, R, 12)
+    words = [lvds_front.data_words(case.link, i) for i in range(G * L)]
+    exp, _, kinds = lvds_front.frames_from_lanes(words, L, R, 12)
     assert np.array_equal(got, exp[:, first:])
     assert res["kinds"] == list(kinds[first:])
 
@@ -215,7 +215,7 @@ def test_scene_defaults_gmax0504_and_no_section_is_ideal():
     lv = sc.sensor.lvds
     assert (lv.lanes_per_gain, lv.word_bits, lv.bit_rate_mbps, lv.simulate) == (40, 12, 300.0,
                                                                               False)
-    assert lv.train_word == model.default_train_word(12)
+    assert lv.train_word == default_train_word(12)
     plain = _scene()
     assert plain.sensor.lvds is None and "lvds" not in plain.to_dict()["sensor"]
 
@@ -339,7 +339,7 @@ def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
 def test_lvds_testbench_refuses_a_payload_link():
     """The lvds block's HDL testbench makes its own data: a link carrying frames is refused
     (one line), not silently simulated without them."""
-    from tdicam.cosim import lvds as cl
+    from tdicam.cosim import lvds
     with pytest.raises(TdicamError, match="not a payload; a link carrying frames runs in"):
-        cl.run_link(scenario("cdc_fast").link, params={"lanes": 8, "word_bits": 12},
-                    cycles=10)
+        lvds.run_link(scenario("cdc_fast").link, params={"lanes": 8, "word_bits": 12},
+                      cycles=10)

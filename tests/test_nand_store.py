@@ -13,7 +13,7 @@ from tdicam.blocks.calib import random_codes
 from tdicam.blocks.nand_store import load_beats, store_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.nand_store import NandCalibTop
-from tdicam.model import calib, ecc, nand_store as nand
+from tdicam.model import calib, ecc, nand_store
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 
@@ -22,31 +22,31 @@ def _words(rows, cols, seed=0):
     return calib.encode_image(g, o, FMT), g, o
 
 
-SMALL = nand.Geometry(pages_per_block=2, blocks=16)
+SMALL = nand_store.Geometry(pages_per_block=2, blocks=16)
 
 
 # ---------------------------------------------------------------- device
 def test_default_geometry_is_a_4gb_x8_part():
-    g = nand.MT29F4G08
+    g = nand_store.MT29F4G08
     assert (g.page_bytes, g.spare_bytes, g.pages_per_block, g.blocks) == (2048, 64, 64, 4096)
     assert g.bits == 4 << 30 and g.page_size == 2112 and g.words_per_page == 227
     assert g.marker_column == 2048
 
 
 def test_device_program_erase_status_busy():
-    d = nand.NandDevice(SMALL, fail_program=[3])
+    d = nand_store.NandDevice(SMALL, fail_program=[3])
     page = np.full(2112, 0xFF, np.uint8)
     page[:4] = [0x0F, 0xF0, 0x00, 0xAA]
-    assert d.program_page(1, 0, page) == nand.STATUS_PASS
+    assert d.program_page(1, 0, page) == nand_store.STATUS_PASS
     again = np.full(2112, 0xFF, np.uint8)
     again[:4] = [0xF0, 0xFF, 0xFF, 0x55]
-    assert d.program_page(1, 0, again) == nand.STATUS_PASS
+    assert d.program_page(1, 0, again) == nand_store.STATUS_PASS
     assert d.read_page(1, 0)[:4].tolist() == [0x00, 0xF0, 0x00, 0x00]  # bits only clear
     assert (d.read_page(1, 1) == 0xFF).all() and not d.is_bad(1)
-    assert d.program_page(3, 0, page) == nand.STATUS_FAIL
+    assert d.program_page(3, 0, page) == nand_store.STATUS_FAIL
     assert (d.read_page(3, 0) == 0xFF).all()             # a failed program leaves it erased
-    assert d.mark_bad(3) == nand.STATUS_PASS and d.is_bad(3)  # the marker write sticks
-    assert d.erase_block(1) == nand.STATUS_PASS and (d.read_page(1, 0) == 0xFF).all()
+    assert d.mark_bad(3) == nand_store.STATUS_PASS and d.is_bad(3)  # the marker write sticks
+    assert d.erase_block(1) == nand_store.STATUS_PASS and (d.read_page(1, 0) == 0xFF).all()
     assert d.busy_s == pytest.approx(4 * 25e-6 + 4 * 200e-6 + 700e-6)
     d.flip_bits(3, 0, [0])
     assert d.read_page(3, 0)[0] == 0xFE
@@ -60,8 +60,8 @@ def test_sparse_4gb_part_with_100_bad_blocks_1280x1024():
     rng = np.random.default_rng(3)
     words, g, o = _words(64, 1280, seed=1)  # 1/16 of the sensor: same code paths, 1/16 time
     bad = rng.choice(np.arange(1, 4096), 100, replace=False)
-    dev = nand.write_store(words, bad_blocks=bad)
-    res = nand.read_store(dev)
+    dev = nand_store.write_store(words, bad_blocks=bad)
+    res = nand_store.read_store(dev)
     assert res.scan.bad_count == 100 and (res.image.gain == g).all()
     assert set(res.scan.l2p[:3]).isdisjoint(bad)
     assert len(dev.pages) == res.pages + 100 + 1  # data pages, markers, the block map page
@@ -70,52 +70,52 @@ def test_sparse_4gb_part_with_100_bad_blocks_1280x1024():
 # ---------------------------------------------------------------- stored image
 @pytest.mark.parametrize("n_bad", [1, 10, 100])
 def test_bad_blocks_skipped_and_map_matches_scan(n_bad):
-    geo = nand.Geometry(pages_per_block=2, blocks=128)
+    geo = nand_store.Geometry(pages_per_block=2, blocks=128)
     words, g, o = _words(30, 40, seed=n_bad)
     rng = np.random.default_rng(n_bad)
     bad = rng.choice(np.arange(1, 5 if n_bad == 1 else 128), n_bad, replace=False)
-    dev = nand.write_store(words, geo, bad_blocks=bad)
-    sr = nand.scan(dev)
+    dev = nand_store.write_store(words, geo, bad_blocks=bad)
+    sr = nand_store.scan(dev)
     assert sr.bad_count == n_bad and sr.bad[bad].all() and not sr.bad[0]
-    res = nand.read_store(dev)
+    res = nand_store.read_store(dev)
     np.testing.assert_array_equal(res.image.gain, g)
     np.testing.assert_array_equal(res.image.offset, o)
-    assert nand._read_map(dev)[0] == sr.l2p[:2].tolist()
+    assert nand_store._read_map(dev)[0] == sr.l2p[:2].tolist()
 
 
 def test_grown_bad_block_after_program_failure():
     words, g, _ = _words(30, 40)
-    dev = nand.write_store(words, SMALL, fail_program=[1, 3])
+    dev = nand_store.write_store(words, SMALL, fail_program=[1, 3])
     assert dev.grown == [1, 3] and dev.bad_blocks() == [1, 3]
-    sr = nand.scan(dev)
+    sr = nand_store.scan(dev)
     assert sr.l2p[:2].tolist() == [2, 4]
-    assert (nand.read_store(dev).image.gain == g).all()
+    assert (nand_store.read_store(dev).image.gain == g).all()
 
 
 def test_more_bad_blocks_than_spare_capacity_one_line_error():
     words, _, _ = _words(30, 40)
     with pytest.raises(TdicamError, match=r"^nand: too many bad blocks: 14 of 16 \(1 good "
                                           r"after block 0\), the calibration needs 2 blocks"):
-        nand.write_store(words, SMALL, bad_blocks=range(2, 16))
+        nand_store.write_store(words, SMALL, bad_blocks=range(2, 16))
     with pytest.raises(TdicamError, match="block 0 is guaranteed good"):
-        nand.write_store(words, SMALL, bad_blocks=[0])
-    dev = nand.write_store(words, SMALL)
+        nand_store.write_store(words, SMALL, bad_blocks=[0])
+    dev = nand_store.write_store(words, SMALL)
     for b in range(2, 16):
         dev.mark_bad(b)  # went bad after writing
     with pytest.raises(TdicamError, match="too many bad blocks: 14 of 16, the calibration "
                                           "needs 2 good blocks after block 0, the part has 1"):
-        nand.read_store(dev)
-    out, sr, complete = nand.store_stream(dev, rows=30, cols=40)
+        nand_store.read_store(dev)
+    out, sr, complete = nand_store.store_stream(dev, rows=30, cols=40)
     assert not complete and len(out) == 2 * (SMALL.words_per_block - 4)
 
 
 def test_stored_map_disagreeing_with_scan_is_an_error():
     words, _, _ = _words(30, 40)
-    dev = nand.write_store(words, nand.Geometry(pages_per_block=2, blocks=32))
+    dev = nand_store.write_store(words, nand_store.Geometry(pages_per_block=2, blocks=32))
     dev.mark_bad(1)  # a data block marked after writing: the map still lists it
     with pytest.raises(TdicamError, match=r"stored block map disagrees with the bad-block scan "
                                           r"at logical block 0 \(map: 1, scan: 2\)"):
-        nand.read_store(dev)
+        nand_store.read_store(dev)
 
 
 def test_flips_in_pages_single_corrected_double_default_four_coefficients():
@@ -126,8 +126,8 @@ def test_flips_in_pages_single_corrected_double_default_four_coefficients():
     pos = np.full((len(words), 2), -1)
     for w in np.nonzero(k)[0]:
         pos[w, :k[w]] = rng.choice(72, k[w], replace=False)
-    dev = nand.write_store(calib.flip_image_bits(words, pos), SMALL, bad_blocks=[2])
-    out, sr, complete = nand.store_stream(dev, rows=30, cols=40)
+    dev = nand_store.write_store(calib.flip_image_bits(words, pos), SMALL, bad_blocks=[2])
+    out, sr, complete = nand_store.store_stream(dev, rows=30, cols=40)
     assert complete and sr.bad_count == 1
     assert int(out.corrected[-1]) == (k == 1).sum() and int(out.uncorrectable[-1]) == (k == 2).sum()
     bad_px = np.repeat(k[4:] == 2, 2)
@@ -138,7 +138,7 @@ def test_flips_in_pages_single_corrected_double_default_four_coefficients():
 
 def test_page_layout_and_map_block():
     words, _, _ = _words(30, 40)
-    dev = nand.write_store(words, SMALL)
+    dev = nand_store.write_store(words, SMALL)
     p = dev.read_page(1, 0)
     np.testing.assert_array_equal(p[:227 * 9].reshape(227, 9), words[:227])
     assert (p[227 * 9:] == 0xFF).all()                  # pad bytes and spare area erased
@@ -152,39 +152,39 @@ def test_page_layout_and_map_block():
 
 def test_image_file_round_trip_and_errors(tmp_path):
     words, g, _ = _words(30, 40)
-    dev = nand.write_store(words, SMALL, bad_blocks=[3])
+    dev = nand_store.write_store(words, SMALL, bad_blocks=[3])
     f = tmp_path / "a.nand"
-    n = nand.save_image(dev, f)
+    n = nand_store.save_image(dev, f)
     assert n == 24 + len(dev.pages) * (4 + 2112)
-    back = nand.load_image(f)
+    back = nand_store.load_image(f)
     assert back.pages.keys() == dev.pages.keys() and back.bad_blocks() == [3]
     raw = f.read_bytes()
     for data, match in ((raw[:-1], "truncated"), (raw + b"\0", "wrong size"),
                         (raw[:10], "truncated: 10 bytes"), (b"X" * 30, "not a tdicam NAND")):
         with pytest.raises(TdicamError, match=match):
-            nand.read_image_bytes(data, name="x")
+            nand_store.read_image_bytes(data, name="x")
 
 
 def test_relayout_and_load_coefficients(tmp_path):
     words, g, o = _words(30, 40)
-    dev = nand.write_store(words, nand.Geometry(pages_per_block=2, blocks=64))
-    new, k = nand.relayout(dev, bad_blocks=[1, 2], fail_program=[4], flips=(0.2, 0.0),
-                           rng=np.random.default_rng(1))
+    dev = nand_store.write_store(words, nand_store.Geometry(pages_per_block=2, blocks=64))
+    new, k = nand_store.relayout(dev, bad_blocks=[1, 2], fail_program=[4], flips=(0.2, 0.0),
+                                 rng=np.random.default_rng(1))
     assert new.bad_blocks() == [1, 2, 4] and (k == 1).sum() > 50
-    nand.save_image(new, tmp_path / "n.nand")
-    gain, offset, res = nand.load_coefficients(tmp_path / "n.nand", rows=30, cols=40)
+    nand_store.save_image(new, tmp_path / "n.nand")
+    gain, offset, res = nand_store.load_coefficients(tmp_path / "n.nand", rows=30, cols=40)
     np.testing.assert_array_equal(gain, g / FMT.gain_one)
     np.testing.assert_array_equal(offset, o)
     assert res.image.corrected == (k == 1).sum()
     with pytest.raises(TdicamError, match="calibration is 30 x 40 pixels, the sensor is 10 x 40"):
-        nand.load_coefficients(tmp_path / "n.nand", rows=10, cols=40)
+        nand_store.load_coefficients(tmp_path / "n.nand", rows=10, cols=40)
 
 
 def test_store_roundtrip_for_the_scene_pipeline():
     words, g, o = _words(30, 40, seed=4)
-    gain, offset, res = nand.store_roundtrip(g, o, geometry=nand.Geometry(pages_per_block=2,
-                                                                          blocks=64),
-                                             bad_blocks=20, p_double=0.05, seed=3)
+    geometry = nand_store.Geometry(pages_per_block=2, blocks=64)
+    gain, offset, res = nand_store.store_roundtrip(g, o, geometry=geometry, bad_blocks=20,
+                                                   p_double=0.05, seed=3)
     assert res.scan.bad_count == 20 and res.image.uncorrectable > 0
     d = res.image.defaulted
     assert d.sum() == 2 * res.image.uncorrectable
@@ -194,11 +194,11 @@ def test_store_roundtrip_for_the_scene_pipeline():
 
 def test_timing_figures():
     """The stated load times at 50 MHz (t_R = 25 us), from the cycle model."""
-    t = nand.timing(1024, 1280)
+    t = nand_store.timing(1024, 1280)
     assert t.busy_cycles == 1250 and t.pages == 2888 and t.blocks == 46
     assert t.scan_cycles == 3 + 1250 + 4096 * (14 + 1250 + 2)
     assert round(t.scan_s * 1e3, 1) == 103.7 and round(t.load_s, 3) == 0.309
-    big = nand.timing(5120, 5120)
+    big = nand_store.timing(5120, 5120)
     assert big.pages == 57741 and round(big.load_s, 2) == 6.18
 
 
@@ -253,7 +253,7 @@ def _run(params, dev, *, p_ready=1.0, seed=1):
 
 
 def _expected(dev, params):
-    out, sr, complete = nand.store_stream(dev, rows=params["rows"], cols=params["cols"])
+    out, sr, complete = nand_store.store_stream(dev, rows=params["rows"], cols=params["cols"])
     cols = [out.gain, out.offset]
     if params["debug"]:
         cols += [out.corrected, out.uncorrectable,
@@ -276,25 +276,25 @@ def _params(geo, **kw):
 def test_amaranth_matches_golden_and_cycle_model(ppb, blocks_, busy, bad, fail):
     """Golden equality (doubles and singles, bad and grown blocks) and the exact scan and
     load cycle counts of :func:`tdicam.model.nand_store.timing`."""
-    geo = nand.Geometry(pages_per_block=ppb, blocks=blocks_)
+    geo = nand_store.Geometry(pages_per_block=ppb, blocks=blocks_)
     words, _, _ = _words(20, 30, seed=ppb)
     words, k = calib.inject_flips(np.random.default_rng(ppb), words, p_single=0.2,
                                   p_double=0.1)
-    dev = nand.write_store(words, geo, bad_blocks=bad, fail_program=fail)
+    dev = nand_store.write_store(words, geo, bad_blocks=bad, fail_program=fail)
     params = _params(geo, busy_cycles=busy)
     got, ev = _run(params, dev)
     want, complete = _expected(dev, params)
     assert complete and (k == 2).any() and not ev["error"]
     np.testing.assert_array_equal(got, want)
-    t = nand.timing(20, 30, geo, busy_cycles=busy)
+    t = nand_store.timing(20, 30, geo, busy_cycles=busy)
     assert ev["scan"] - ev["start"] == t.scan_cycles
     assert ev["done"] - ev["scan"] == t.load_cycles
 
 
 def test_amaranth_out_of_blocks_error_and_backpressure():
-    geo = nand.Geometry(pages_per_block=1, blocks=4)
+    geo = nand_store.Geometry(pages_per_block=1, blocks=4)
     words, _, _ = _words(20, 30, seed=9)
-    dev = nand.write_store(words, geo)
+    dev = nand_store.write_store(words, geo)
     dev.mark_bad(2)  # went bad after writing: only block 1 is left for 2 logical blocks
     dev.mark_bad(3)
     params = _params(geo, busy_cycles=3)
@@ -333,7 +333,7 @@ def test_cli_nand_write_read_inject(tmp_path):
     assert main(["calib", "inject", img, "-o", bad, "--bad-blocks", "40", "--single", "0",
                  "--double", "0.05", "--fail-program", "1"]) == 0
     assert main(["calib", "check", bad]) == 1   # uncorrectable words
-    dev = nand.load_image(bad)
+    dev = nand_store.load_image(bad)
     assert len(dev.bad_blocks()) >= 40
     out = tmp_path / "dec"                      # no .npz suffix: written as given
     assert main(["calib", "read", bad, "-o", out]) == 0
@@ -378,8 +378,8 @@ def test_cli_nand_reports_times(tmp_path):
 def test_cli_nand_one_line_errors(tmp_path, args, match):
     np.savez(tmp_path / "m.npz", gain=np.ones((30, 40)), offset=np.zeros((30, 40)))
     words, _, _ = _words(30, 40)
-    nand.save_image(nand.write_store(words, nand.Geometry(pages_per_block=2, blocks=64)),
-                    tmp_path / "a.nand")
+    geometry = nand_store.Geometry(pages_per_block=2, blocks=64)
+    nand_store.save_image(nand_store.write_store(words, geometry), tmp_path / "a.nand")
     raw = (tmp_path / "a.nand").read_bytes()
     (tmp_path / "t.nand").write_bytes(raw[:100])
     (tmp_path / "w.nand").write_bytes(raw + raw[24:30])

@@ -307,7 +307,8 @@ def test_a_spill_needs_a_ddr_section():
     p = design.chain_plan(sc)
     assert [s.block for s in p.steps] == ["cds", "nuc", "hdr", "tdi_ddr", "median3"]
     assert p.steps[3].params["base"] == 4096
-    assert [s.block for s in design.chain_plan(sc, spill="auto").steps][3] == "tdi"   # --memory auto
+    # --memory auto
+    assert [s.block for s in design.chain_plan(sc, spill="auto").steps][3] == "tdi"
 
 
 @pytest.mark.parametrize("over, msg", [

@@ -14,9 +14,9 @@ import pytest
 from scipy import integrate
 from scipy.special import ndtr
 
-from tdicam.planning import sizing as planning
+from tdicam.planning import sizing
 from tdicam.cli import main
-from tdicam.model.physics import plan as P
+from tdicam.model.physics import plan
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "orbit_600km_1m_96.toml"
@@ -42,7 +42,7 @@ def test_gateware_rate_of_the_orbit_scene(capsys):
     assert [o["ppc"] for o in g["options"]] == [1, 2, 4, 8]
     assert g["options"][3]["clock_needed_mhz"] == pytest.approx(849 / 8, abs=0.1)
     # reference synthesis: ppc 1 and 4 are short (< 106 MHz x 8 / ppc needed), ppc 8 meets it
-    ref = planning.REFERENCE_TDI_FMAX_MHZ
+    ref = sizing.REFERENCE_TDI_FMAX_MHZ
     assert [o["meets"] for o in g["options"]] == [False, None, False, True]   # no ppc 2 row
     assert g["ok"] is True and g["ppc"] == 8 and g["clock_mhz"] == ref[8]
     assert g["best_pixel_rate"] == pytest.approx(8 * ref[8] * 1e6)
@@ -65,7 +65,7 @@ def test_gateware_with_a_given_clock(capsys):
 
 
 def test_gateware_skips_ppc_the_width_does_not_allow():
-    g = planning.gateware_plan(4, 12, 1e-3)
+    g = sizing.gateware_plan(4, 12, 1e-3)
     assert [o["ppc"] for o in g["options"]] == [1, 2, 4]     # 12 is no multiple of 8
 
 
@@ -110,7 +110,7 @@ def test_help_states_defaults_bounds_and_exit_status(capsys):
     assert "RMS read noise in electrons (default 0: an ideal readout" in text
     assert "--gsd-m" in text and "valid 0.001..100000" in text
     assert "valid 0..100000" in text                                  # altitude, km
-    assert f"{planning.EXIT_INFEASIBLE} when its feasibility report says NO" in text
+    assert f"{sizing.EXIT_INFEASIBLE} when its feasibility report says NO" in text
 
 
 # ------------------------------------------------------------------ exit status
@@ -120,7 +120,7 @@ def test_exit_status_follows_the_feasibility(capsys):
     ok = ("--scene", str(SCENE), "--fpga-clock-mhz", "200")
     assert run_cli(capsys, *ok)[0] == 0
     code, out, _ = run_cli(capsys, "--scene", str(SCENE), "--fpga-clock-mhz", "50")
-    assert code == planning.EXIT_INFEASIBLE and "feasible: NO (gateware pixel rate)" in out
+    assert code == sizing.EXIT_INFEASIBLE and "feasible: NO (gateware pixel rate)" in out
     code, out, _ = run_cli(capsys, *ok, "--device", "ecp5-25f", "--ddr-clock-mhz", "10",
                            "--json")
     rep = json.loads(out)
@@ -144,7 +144,7 @@ def test_closed_pipe_is_not_a_traceback():
     err = p.stderr.read().decode()
     p.wait(timeout=120)
     assert "Traceback" not in err and "BrokenPipe" not in err, err
-    assert p.returncode in (0, planning.EXIT_INFEASIBLE)
+    assert p.returncode in (0, sizing.EXIT_INFEASIBLE)
 
 
 # ------------------------------------------------------------------ absurd physics
@@ -184,7 +184,7 @@ def test_model_bounds_the_altitude():
     from tdicam.errors import TdicamError
     with pytest.raises(TdicamError, match="altitude_m = 1000000000000000 is out of range; valid: "
                                           "0..100000000"):
-        P.ground_speed(1e15)
+        plan.ground_speed(1e15)
 
 
 # ------------------------------------------------------------------ shared quantization
@@ -207,7 +207,7 @@ def _rho_independent(s):
 
 @pytest.mark.parametrize("s", list(np.logspace(-9, 1, 21)) + [3.4e-4, 1.5e-7, 1.7e-3])
 def test_correlated_fraction_against_quadrature(s):
-    assert float(P.quantization_correlated_fraction(s)) == pytest.approx(
+    assert float(plan.quantization_correlated_fraction(s)) == pytest.approx(
         _rho_independent(s), abs=2e-8)
 
 

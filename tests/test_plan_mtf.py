@@ -14,12 +14,14 @@ import numpy as np
 import pytest
 
 from tdicam import engine
-from tdicam.planning import sizing as planning
+from tdicam.planning import sizing
 from tdicam.planning.predict import mtf_prediction
 from tdicam.cli import main
 from tdicam.errors import TdicamError
 from tdicam.run.measure import measure
-from tdicam.model.physics import mtf as MTF, plan as P
+from tdicam.model.physics.mtf import dirichlet
+from tdicam.model.physics.plan import (NYQUIST, camera_mtf, mtf_system, mtf_velocity_mismatch,
+                                       stage_lag)
 from tdicam.model.physics.optics import Geometry
 from tdicam.scene.loader import load_scene, scene_from_dict
 
@@ -102,38 +104,38 @@ def test_orbit_scene_plans_what_the_simulator_measures():
 def test_paper_model_reproduced():
     # Yuan et al. 2013: the mismatch factor is 0.637 at M dV/V = 1 and 0 at M dV/V = 2 (Nyquist)
     for m in (4, 8, 32, 96, 128):
-        assert P.mtf_velocity_mismatch(P.NYQUIST, m, 1 / m) == pytest.approx(2 / math.pi)
-        assert P.mtf_velocity_mismatch(P.NYQUIST, m, 2 / m) == pytest.approx(0, abs=1e-12)
+        assert mtf_velocity_mismatch(NYQUIST, m, 1 / m) == pytest.approx(2 / math.pi)
+        assert mtf_velocity_mismatch(NYQUIST, m, 2 / m) == pytest.approx(0, abs=1e-12)
 
 
 @pytest.mark.parametrize("m, gap", [(1, 0.168), (8, 0.044), (32, 0.012), (96, 0.004)])
 def test_paper_exposure_vs_full_line_period(m, gap):
     # the paper exposes M/(M+1) of a line period, the camera the whole of it
-    assert float(P.mtf_system(P.NYQUIST, m) - P.camera_mtf(P.NYQUIST, m)) == pytest.approx(
+    assert float(mtf_system(NYQUIST, m) - camera_mtf(NYQUIST, m)) == pytest.approx(
         gap, abs=0.001)
 
 
 def test_smear_at_the_image_speed_depends_on_the_sign():
-    a, b = P.camera_mtf(P.NYQUIST, 8, 0.05), P.camera_mtf(P.NYQUIST, 8, -0.05)
+    a, b = camera_mtf(NYQUIST, 8, 0.05), camera_mtf(NYQUIST, 8, -0.05)
     assert a != pytest.approx(b, abs=1e-3)            # the image moves 0.95 or 1.05 px
-    assert float(P.mtf_system(P.NYQUIST, 8, 0.05)) == float(P.mtf_system(P.NYQUIST, 8, -0.05))
+    assert float(mtf_system(NYQUIST, 8, 0.05)) == float(mtf_system(NYQUIST, 8, -0.05))
     assert float(a) == pytest.approx(abs(np.sinc(0.5) * np.sinc(0.5 * 0.95)
-                                         * MTF.dirichlet(0.5 * 0.05, 8)))
+                                         * dirichlet(0.5 * 0.05, 8)))
 
 
 def test_geometry_uses_the_planning_model():
     g = Geometry(stages=32, dv_over_v=0.02, skew=0.01, q_over_p=0.9, psf_sigma_px=0.3)
     f = np.linspace(0, 0.5, 7)
     np.testing.assert_allclose(np.abs(g.mtf_along(f)),
-                               P.camera_mtf(f, 32, 0.02, 0.01, 0.9, 1.0, 0.3), rtol=0,
+                               camera_mtf(f, 32, 0.02, 0.01, 0.9, 1.0, 0.3), rtol=0,
                                atol=1e-15)
 
 
 @pytest.mark.parametrize("call", [
     lambda: Geometry(stages=4, dv_over_v=1.0),
     lambda: Geometry(stages=4, dv_over_v=-1.5),
-    lambda: P.camera_mtf(0.5, 8, 1.0),
-    lambda: P.stage_lag(1.0),
+    lambda: camera_mtf(0.5, 8, 1.0),
+    lambda: stage_lag(1.0),
     lambda: mtf_prediction(bar_scene(8, 0, "global"), 1, 1.0),
 ])
 def test_dv_out_of_range(call):
@@ -169,9 +171,9 @@ def test_no_negative_mtf_in_plan(capsys):
 
 
 def test_no_negative_mtf_in_figures():
-    scenes, _ = planning.plan_scenes(None, {"gsd_m": [1.0], "stages": [8]})
-    rep = planning.plan_report(scenes)
-    figs = dict(planning.figures(rep, scenes))
+    scenes, _ = sizing.plan_scenes(None, {"gsd_m": [1.0], "stages": [8]})
+    rep = sizing.plan_report(scenes)
+    figs = dict(sizing.figures(rep, scenes))
     lines = [ln for ax in figs["mtf_mismatch.png"].axes for ln in ax.get_lines()]
     assert len(lines) > 8
     for ln in lines:

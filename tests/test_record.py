@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from tdicam.planning import sizing as planning
+from tdicam.planning import sizing
 from tdicam.cli import main
 from tdicam.errors import TdicamError
 from tdicam.hw import record
@@ -51,12 +51,12 @@ def test_every_reference_row_is_measured_and_on_the_silicon_page():
 
 
 def test_plan_reads_the_tdi_fmax_from_the_record():
-    tdi = record.find("tdi", **planning.REFERENCE_TDI)
-    assert {int(r.params["ppc"]): r.fmax_mhz for r in tdi} == planning.REFERENCE_TDI_FMAX_MHZ
-    assert set(planning.REFERENCE_TDI_FMAX_MHZ) == {1, 4, 8}
-    g = planning.gateware_plan(96, 1280, 1 / 6908)
+    tdi = record.find("tdi", **sizing.REFERENCE_TDI)
+    assert {int(r.params["ppc"]): r.fmax_mhz for r in tdi} == sizing.REFERENCE_TDI_FMAX_MHZ
+    assert set(sizing.REFERENCE_TDI_FMAX_MHZ) == {1, 4, 8}
+    g = sizing.gateware_plan(96, 1280, 1 / 6908)
     assert [o["fmax_mhz"] for o in g["options"] if o["fmax_mhz"]] == \
-        [planning.REFERENCE_TDI_FMAX_MHZ[p] for p in (1, 4, 8)]
+        [sizing.REFERENCE_TDI_FMAX_MHZ[p] for p in (1, 4, 8)]
 
 
 def _with_chain(tmp_path, monkeypatch, fmax):
@@ -76,7 +76,7 @@ def test_plan_says_whether_the_chain_keeps_up(tmp_path, monkeypatch, capsys):
     assert "ppc 1 at 112.1 MHz" in out and "keeps up with the sensor: yes" in out
     # the same scene with a chain too slow for its 2.8 M pixel/s: the plan says NO
     _with_chain(tmp_path, monkeypatch, 0.3)        # 2.4 M pixel/s even at ppc 8
-    assert main(["plan", "--scene", scene, "--json"]) == planning.EXIT_INFEASIBLE
+    assert main(["plan", "--scene", scene, "--json"]) == sizing.EXIT_INFEASIBLE
     d = json.loads(capsys.readouterr().out)
     point = d["points"][0]
     assert point["gateware"]["chain_ok"] is False

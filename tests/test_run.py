@@ -352,16 +352,16 @@ def test_every_lines_the_schema_allows_runs(tmp_path, monkeypatch, scene):
     """[run].lines at 1, the scene's default, a non-round value and the schema's maximum
     (lowered with the scene's width: see SHORT_MAX_LINES): raw exposure and TDI output have
     the lines asked for (fast runs gave 256 raw lines, then crashed above ~448 lines)."""
-    from tdicam.scene import loader as scene_mod
+    from tdicam.scene import loader
     from tdicam.scene.loader import load_scene
     path = ROOT / "scenes" / scene
     base = load_scene(path)
     cols = min(base.sensor.columns, SHORT_COLUMNS)
     over = {"sensor": {"columns": cols}, "run": {"rtl": None}}
-    monkeypatch.setattr(scene_mod, "MAX_OUTPUT_PIXELS", cols * SHORT_MAX_LINES)
+    monkeypatch.setattr(loader, "MAX_OUTPUT_PIXELS", cols * SHORT_MAX_LINES)
     for lines in _lines_values(base, SHORT_MAX_LINES):
         _check_run_at_lines(tmp_path, path, over, lines)
-    with pytest.raises(scene_mod.TdicamError, match=r"\[run\]\.lines: .* simulate at most 601"):
+    with pytest.raises(loader.TdicamError, match=r"\[run\]\.lines: .* simulate at most 601"):
         load_scene(path, overrides={**over, "run": {"rtl": None, "lines": SHORT_MAX_LINES + 1}})
 
 

@@ -129,11 +129,11 @@ def test_a_saturated_flat_field_is_reported_as_saturated_not_as_an_snr(tmp_path,
 def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatch, capsys):
     import errno
 
-    from tdicam.run import runner as scenerun
+    from tdicam.run import runner
 
     def full(out_dir, res):
         raise OSError(errno.ENOSPC, "No space left on device", str(out_dir / "tdi.tif"))
-    monkeypatch.setattr(scenerun, "_write_images", full)
+    monkeypatch.setattr(runner, "_write_images", full)
     scene = tmp_path / "s.toml"
     scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast")))
     assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 2
@@ -147,12 +147,12 @@ def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsy
     """[run.rtl] that cannot run (here: the simulator fails to start; a scene the chain
     cannot take is refused when the scene is read, exit 2) is in the report and the exit
     status, not only a line of the summary."""
-    from tdicam.chain import cosim as rtl
+    from tdicam.chain import cosim
     from tdicam.errors import TdicamError
 
     def broken(*args, **kw):
         raise TdicamError("verilator: cannot start (not installed)")
-    monkeypatch.setattr(rtl, "cosimulate", broken)
+    monkeypatch.setattr(cosim, "cosimulate", broken)
     scene = tmp_path / "s.toml"
     scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast"))
                      + "[run.rtl]\n")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.model.physics import plan as P
+from tdicam.model.physics import plan
 from tdicam.scene.loader import BUNDLED_IMAGES, Scene, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,7 +56,7 @@ def test_bundled_scene():
     assert sc.orbit.altitude_km == 600.0 and sc.orbit.gsd_m == 1.0 and sc.turntable is None
     assert (sc.sensor.columns, sc.sensor.rows, sc.sensor.bits) == (1280, 1024, 12)
     assert sc.tdi.stages == (96,) and sc.tdi.domain == "digital"
-    assert sc.line_period_s == pytest.approx(1.0 / P.ground_speed(600e3), rel=1e-15)
+    assert sc.line_period_s == pytest.approx(1.0 / plan.ground_speed(600e3), rel=1e-15)
     assert sc.timing.m0 == 96
     assert sc.target.kind == "bars" and sc.target.period_px == 4.0
     assert sc.source.endswith("orbit_600km_1m_96.toml")
@@ -170,7 +170,7 @@ def test_overrides_and_labels(tmp_path):
 
 def test_scene_from_dict():
     sc = scene_from_dict({"orbit": {"altitude_km": 500, "gsd_m": 2}, "tdi": {"stages": 4}})
-    assert sc.orbit.line_period_s == pytest.approx(float(P.orbit_line_period(500e3, 2.0)))
+    assert sc.orbit.line_period_s == pytest.approx(float(plan.orbit_line_period(500e3, 2.0)))
 
 
 # ------------------------------------------------------------------ file-level errors
@@ -408,7 +408,7 @@ def test_tao2012_default_blanking_limits_96_stages(tmp_path):
     # with Tao et al. 2012's 3.5 us blanking even the fastest pixel clock the schema takes gives 41
     msg = error_of(tmp_path, ORBIT + "[sensor]\npixel_clock_mhz = 1e6\n[tdi]\nstages = 96\n")
     assert "M0 = 41" in msg
-    assert math.floor(P.orbit_line_period(600e3, 1.0) / 3.5e-6) == 41
+    assert math.floor(plan.orbit_line_period(600e3, 1.0) / 3.5e-6) == 41
 
 
 # ------------------------------------------------------------------ pipeline and run

@@ -18,7 +18,8 @@ import pytest
 
 from tdicam.engine import simulate
 from tdicam.run.measure import measure
-from tdicam.model.physics import plan as P, sensor as S
+from tdicam.model.physics import plan
+from tdicam.model.physics.sensor import eq28_validity_db, quantized_moments
 from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,7 +80,7 @@ def test_shared_quantization_error_grows_as_m():
     k = 1 / 20.0
     levels = 16.0 + 20.0 * (np.arange(8) + 0.5) / 8       # electrons: one DN step in 8
     sig = np.sqrt(levels + 4.0) * k
-    b = S.quantized_moments(levels * k, sig)[0] - levels * k
+    b = quantized_moments(levels * k, sig)[0] - levels * k
     assert np.sqrt(np.mean(b ** 2)) > 0.04                  # a visible staircase
     for fidelity in ("exact", "fast"):
         err = {1: [], 16: []}
@@ -95,13 +96,13 @@ def test_shared_quantization_error_grows_as_m():
         slope = float(e16 @ e1 / (e1 @ e1))
         assert 14.0 < slope < 18.0, (fidelity, slope, e1, e16)
     # over levels spread across many steps the shared variance is rho / 12 (planning model)
-    rho = P.quantization_correlated_fraction(sig)
+    rho = plan.quantization_correlated_fraction(sig)
     mu = np.linspace(0, 1, 400, endpoint=False)[:, None]
-    bb = S.quantized_moments(mu, sig[None, :])[0] - mu
+    bb = quantized_moments(mu, sig[None, :])[0] - mu
     assert np.allclose(12 * (bb ** 2).mean(axis=0), rho, rtol=1e-3)
     # a scene with detail therefore gains less than sqrt(m)
-    g = float(P.gain_db(P.snr_gain_digital_predicted(96, 1 / k / math.sqrt(12),
-                                                      sig[0] / k, rho[0])))
+    g = float(plan.gain_db(plan.snr_gain_digital_predicted(96, 1 / k / math.sqrt(12),
+                                                            sig[0] / k, rho[0])))
     assert g < 20 * math.log10(math.sqrt(96)) - 1.0
 
 
@@ -114,7 +115,7 @@ def test_eq28_underestimates_when_quantization_is_coarse():
     for m in (5, 10):
         s = measure(sc, simulate(sc, stages=m, fidelity="exact", impact=False))["snr"]
         assert abs(s["gain_db"] - s["predicted_db"]) < 0.35
-        gap = float(S.eq28_validity_db(m, s["sigma_ad_e"], s["sigma_cmos_e"]))
+        gap = float(eq28_validity_db(m, s["sigma_ad_e"], s["sigma_cmos_e"]))
         assert gap > 2.0
         assert abs((s["gain_db"] - s["eq28_db"]) - gap) < 0.35
 
@@ -148,7 +149,7 @@ def test_mtf_at_nyquist_vs_mismatch(m, fidelity):
     for mdv in (0.0, 0.5, 1.0, 1.5):
         res = simulate(sc, stages=m, dv_over_v=mdv / m, fidelity=fidelity, impact=False)
         t = measure(sc, res)["mtf"]
-        model = float(P.mtf_system(0.5, m, mdv / m, 1.0))
+        model = float(plan.mtf_system(0.5, m, mdv / m, 1.0))
         assert abs(t["measured"] - model) < 0.05, (m, mdv, t["measured"], model)
         assert abs(t["measured"] - t["footprint_model"]) < 0.02, (m, mdv, t)
         assert t["yuan2013_model"] == pytest.approx(model)

@@ -4,19 +4,19 @@ from pathlib import Path
 
 import pytest
 
-from tdicam.scene import loader as scene, docs as scenedoc
+from tdicam.scene import loader, docs
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scene-format.md"
 
 
 def test_page_is_up_to_date():
-    assert PAGE.read_text() == scenedoc.render(), (
+    assert PAGE.read_text() == docs.render(), (
         "docs/scene-format.md is stale: python -m tdicam.scene.docs docs/scene-format.md")
 
 
 def test_every_key_the_reader_accepts_is_documented_with_its_range():
-    allowed, info = scenedoc.schema()
-    assert set(allowed) == set(scenedoc.SECTIONS)
+    allowed, info = docs.schema()
+    assert set(allowed) == set(docs.SECTIONS)
     text = PAGE.read_text()
     for section, keys in allowed.items():
         assert f"## [{section}]" in text
@@ -29,22 +29,22 @@ def test_every_key_the_reader_accepts_is_documented_with_its_range():
 
 
 def test_schema_probe_leaves_the_reader_untouched():
-    before = {n: getattr(scene._Section, n) for n in ("number", "integer", "raw")}
-    scenedoc.schema()
-    assert {n: getattr(scene._Section, n) for n in before} == before
+    before = {n: getattr(loader._Section, n) for n in ("number", "integer", "raw")}
+    docs.schema()
+    assert {n: getattr(loader._Section, n) for n in before} == before
 
 
 def test_an_undocumented_key_is_refused(monkeypatch):
-    keys = {s: dict(k) for s, k in scenedoc.KEYS.items()}
+    keys = {s: dict(k) for s, k in docs.KEYS.items()}
     del keys["sensor"]["prnu"]
-    monkeypatch.setattr(scenedoc, "KEYS", keys)
+    monkeypatch.setattr(docs, "KEYS", keys)
     with pytest.raises(ValueError, match=r"\[sensor\].*prnu"):
-        scenedoc.render()
+        docs.render()
 
 
 def test_a_computed_default_needs_a_written_rule(monkeypatch):
-    keys = {s: dict(k) for s, k in scenedoc.KEYS.items()}
-    keys["tdi"]["output_bits"] = scenedoc.KeyDoc("bit", "output width")
-    monkeypatch.setattr(scenedoc, "KEYS", keys)
+    keys = {s: dict(k) for s, k in docs.KEYS.items()}
+    keys["tdi"]["output_bits"] = docs.KeyDoc("bit", "output width")
+    monkeypatch.setattr(docs, "KEYS", keys)
     with pytest.raises(ValueError, match=r"\[tdi\]\.output_bits: the default depends"):
-        scenedoc.render()
+        docs.render()

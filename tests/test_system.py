@@ -188,11 +188,11 @@ def test_plan_states_the_calibration_load_and_the_cds_ddr_bandwidth():
     model's scan of every block at t_R plus the image's pages, 50 MHz controller) and the
     reset frame's DDR bandwidth against the interface at cds_ddr's measured efficiency."""
     from tdicam.api import plan
-    from tdicam.model import nand_store as nand
+    from tdicam.model import nand_store
     from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN
     rep = plan(ROOT / "scenes" / "ning2019_gmax0504_system.toml").to_dict()
     rows = {r["name"]: r for r in rep["system"]}
-    t = nand.timing(8, 256)
+    t = nand_store.timing(8, 256)
     assert rows["calibration load"]["value"] == pytest.approx(t.scan_s + t.load_s)
     assert 0.1 < rows["calibration load"]["value"] < 0.11            # 4096 blocks x 25 us
     ddr = rows["CDS DDR bandwidth"]
@@ -330,14 +330,14 @@ def test_front_fifo_takes_the_ddr_stalls_at_r_1():
     allow): no overflow, every frame out, median3's output bit-exact; at the depth of
     before the margin (16, the line burst only) the FIFO overflows and pixels are lost."""
     from tdicam.cosim.lvds_front import frames_of
-    from tdicam.model import lvds_front as front
+    from tdicam.model import lvds_front
     from tdicam.model.ddr import worst_stall
     p, exp, res, _, _ = _lanes_in_amaranth(lanes_per_gain=4, stages=8, ddr=LONG_STALLS)
     assert worst_stall(p.steps[1].params) == 290
     slowest = 25.0 * 4 * 4 / 6                     # P = 4 words a line + sync + header
     depth = p.steps[0].params["fifo_depth"]
-    assert depth == front.fifo_depth(4, 1, 16, 25.0, slowest, stall_cycles=290) == 128
-    assert front.fifo_depth(4, 1, 16, 25.0, slowest) == 16        # without the margin
+    assert depth == lvds_front.fifo_depth(4, 1, 16, 25.0, slowest, stall_cycles=290) == 128
+    assert lvds_front.fifo_depth(4, 1, 16, 25.0, slowest) == 16        # without the margin
     st = res["status"]
     assert (st["frames_out"], st["frames_dropped"], st["fifo_overflow"]) == (2 * p.frames, 0, 0)
     got = frames_of(res["beats"], exp.shape[1], 16, 1, 1)[0]

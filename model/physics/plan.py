@@ -1,7 +1,7 @@
 """Planning physics of a digital-TDI push-broom camera: one namespace over four job modules.
 
 ``tdicam plan`` and the run report use these closed-form models. Each job lives in its own
-module and is re-exported here, so ``from tdicam.model import plan as P; P.ground_speed(...)``
+module and is re-exported here, so ``from tdicam.model.physics import plan; plan.ground_speed(...)``
 reaches all of them:
 
 * :mod:`tdicam.model.physics.orbit` — ground-track speed, line period, required frame rate,

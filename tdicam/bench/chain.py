@@ -2,7 +2,8 @@
 
 :func:`pipeline_run` makes a scene's raw frames (one exact run of the scene simulator), runs
 them through the golden chain and through the generated pipeline top
-(:mod:`tdicam.chain.design`, :func:`tdicam.chain.cosim.run_top`), and compares the output bit for bit;
+(:mod:`tdicam.chain.design`, :func:`tdicam.chain.cosim.run_top`), and compares the output bit
+for bit;
 :func:`pipeline_rows` turns that into ``tdicam bench pipeline`` rows (``golden`` and one
 ``<sim> fast`` row per simulator). Used by ``tdicam bench pipeline`` and
 ``bench/bench_pipeline.py``.

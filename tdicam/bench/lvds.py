@@ -6,9 +6,9 @@ import numpy as np
 from tdicam import blocks
 from tdicam.bench.suite import build_seconds
 from tdicam.bench.util import median_time, na_row, row
-from tdicam.cosim import lvds as cl
+from tdicam.cosim.lvds import check_run, run_amaranth, run_link, testbench
 from tdicam.hw.verilog import convert
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 
 __all__ = ["rows"]
 
@@ -19,16 +19,16 @@ def rows(*, sims, repeat, quick, stalls, build):
     each simulator (HDL-driven link; no per-beat level). ``stalls`` does not apply."""
     n, n_check = (8, 4) if quick else (32, 16)
     rng = np.random.default_rng(1)
-    link = model.Link([model.random_lane(rng, max_word_delay=1) for _ in range(n)])
-    cycles = model.training_words(10, n_check, 8) + 8
-    t, gold = median_time(lambda: model.run(link, cycles=cycles, n_check=n_check), repeat)
+    link = lvds.Link([lvds.random_lane(rng, max_word_delay=1) for _ in range(n)])
+    cycles = lvds.training_words(10, n_check, 8) + 8
+    t, gold = median_time(lambda: lvds.run(link, cycles=cycles, n_check=n_check), repeat)
     name, inp = "lvds", f"{n} lanes, training (n_check {n_check})"
     params = blocks.get("lvds").resolve({"phy": "none"})
     out = [row(name, "golden", "lane", n, t, input=inp, accuracy="reference", x_ref=1.0)]
     # the Python simulator trains the first group of lanes (a prefix of the same link)
     k = params["lanes"]
-    part = model.Link(link.lanes[:k])
-    gold_k = model.run(part, cycles=cycles, n_check=n_check)
+    part = lvds.Link(link.lanes[:k])
+    gold_k = lvds.run(part, cycles=cycles, n_check=n_check)
     res = [_pysim(part, cycles, n_check, params) for _ in range(repeat)]
     bad = max(len(set(ev) ^ set(gold_k.events)) for ev, _ in res)
     out.append(row(name, "pysim", "lane", k, float(np.median([w for _, w in res])),
@@ -38,13 +38,13 @@ def rows(*, sims, repeat, quick, stalls, build):
 
     def sources():
         top = blocks.get("lvds").build(params)
-        return {"lvds.v": convert(top, "lvds"), "tb.v": cl.testbench(top)[0]}
+        return {"lvds.v": convert(top, "lvds"), "tb.v": testbench(top)[0]}
 
     for sim in sims:
         out.append(na_row(name, f"{sim} beat", "lane", "HDL-driven link only"))
-        res = [cl.run_link(link, cycles=cycles, n_check=n_check, sim=sim)
+        res = [run_link(link, cycles=cycles, n_check=n_check, sim=sim)
                for _ in range(repeat)]
-        bad = [len(cl.check_run(link, r, gold, cycles=cycles)) for r in res]
+        bad = [len(check_run(link, r, gold, cycles=cycles)) for r in res]
         acc = "bit-exact" if max(bad) == 0 else f"{max(bad)} lanes/segments differ"
         out.append(row(name, f"{sim} fast", "lane", n,
                          float(np.median([r.wall for r in res])), input=inp, accuracy=acc,
@@ -57,6 +57,6 @@ def rows(*, sims, repeat, quick, stalls, build):
 def _pysim(link, cycles, n_check, params):
     """Train ``link`` (one DUT's worth of lanes) on :class:`~tdicam.hdl.lvds.LvdsRx` in
     Amaranth's simulator: (status events as the golden model lists them, wall seconds)."""
-    events, _, seconds = cl.run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
-                                      min_run=params["min_run"], pick=params["pick"])
+    events, _, seconds = run_amaranth(link, cycles, n_check=n_check, settle=params["settle"],
+                                   min_run=params["min_run"], pick=params["pick"])
     return events, seconds

@@ -23,7 +23,7 @@ In a scene's pipeline (:class:`Use`) an entry also says how a scene sets the blo
 scene-to-parameters function, its ``[pipeline.<name>]`` options), how the gateware chain builds
 it, and what it does in the scene simulator (:attr:`Use.sim`: which frame stacks are its scene
 arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
-engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.blocks`).
+engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.block_rows`).
 
 Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
 and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
@@ -222,17 +222,18 @@ class Use:
 
     Attributes
     ----------
-    step : callable(ctx) -> (tdicam.chain.design.Step, out_bits)
-        The block's parameters from the scene context :class:`tdicam.chain.design.StepContext`
-        (scene, stages, width, lines, the chain's pixel width so far in ``ctx.bits``).
+    step : callable(ctx) -> (tdicam.blocks.steps.Step, out_bits)
+        The block's parameters from the :class:`tdicam.blocks.steps.StepContext` ``ctx`` of
+        the chain being planned (scene, stages, width, lines, the chain's pixel width so far
+        in ``ctx.bits``).
     hw : callable(step, data) -> stage
-        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.chain.design.SceneData`,
+        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.blocks.steps.SceneData`,
         for side inputs built into the top such as NUC's calibration image).
     side : callable(step, data, lane) -> dict, or None
         Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
         coefficients).
     identity : callable(step, shape) -> dict, or None
-        One lane's :class:`tdicam.chain.design.SceneData` fields that make the block a no-op
+        One lane's :class:`tdicam.blocks.steps.SceneData` fields that make the block a no-op
         when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
         width).
     merge : bool
@@ -262,7 +263,7 @@ class Use:
     reset_frames : bool
         The block takes each reset frame as a frame of its own in its stream, before its
         signal frame (and stores it), with its ``ports`` saying which is which; the chain's
-        input then carries the reset frames so (:attr:`tdicam.chain.design.ChainPlan.reset_frames`).
+        input then carries the reset frames so (:attr:`tdicam.blocks.steps.ChainPlan.reset_frames`).
     trim : int
         Pixels at each image edge whose statistics the block changes (its replicated
         borders), left out of flat-field measurements.

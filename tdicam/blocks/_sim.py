@@ -17,7 +17,7 @@ def step(c, block, bits, width, *, after_lines=False):
     ``bits``-bit input pixels, ``width`` wide: its entry's scene-to-parameters function
     (:attr:`tdicam.blocks.Use.step`)."""
     ctx = StepContext(scene=c.scene, m=c.m, width=width, lines=0, bits=bits,
-                  after_lines=after_lines, block=block.name)
+                      after_lines=after_lines, block=block.name)
     return block.pipeline.step(ctx)[0]
 
 

@@ -19,11 +19,11 @@ import numpy as np
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds_phy import PHYS
 from tdicam.hdl.lvds_front import WORD_DOMAIN
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 from tdicam.blocks import PPC_PARAM, Bench, SynthRef, Use
 from tdicam.blocks import Block, Case, Param
 from tdicam.blocks.steps import Step
-from tdicam.model import lvds_front as front_model
+from tdicam.model import lvds_front
 
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
 
@@ -70,8 +70,8 @@ def _front_step(ctx):
     :func:`tdicam.model.lvds_front.fifo_depth`)."""
     lv = ctx.scene.sensor.lvds
     lpg, w = lv.lanes_per_gain, lv.word_bits
-    front_model.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
-                               key="[sensor.lvds].lanes_per_gain")
+    lvds_front.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
+                              key="[sensor.lvds].lanes_per_gain")
     if lpg % ctx.ppc:                   # a word clock brings lpg columns of each channel
         raise TdicamError(f"pixels per clock (--ppc or [run.rtl].pixels_per_clock) = "
                           f"{ctx.ppc} does not divide [sensor.lvds].lanes_per_gain = {lpg}")
@@ -80,12 +80,12 @@ def _front_step(ctx):
     slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)
     params = {"lanes": lpg * ctx.lanes, "word_bits": w, "lanes_per_gain": lpg,
               "columns": ctx.width, "bits": ctx.bits,
-              "fifo_depth": front_model.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest,
-                                                   stall_cycles=ctx.stall_cycles)}
+              "fifo_depth": lvds_front.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest,
+                                                  stall_cycles=ctx.stall_cycles)}
     if ctx.reset_frames:                 # reset/signal pairs: release from a reset frame
         params["pairs"] = 1
     ports = {"lane_raw": 0, "train_word": lv.train_word,
-             "sync_word": model.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
+             "sync_word": lvds.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
              "retrain": 0}
     return Step("lvds", params, ports, clocks={WORD_DOMAIN: word_mhz}), ctx.bits
 
@@ -120,7 +120,7 @@ def _front_system(step, ctx):
     per_line = ctx["width"] // prm["lanes_per_gain"]              # pixel words a lane a line
     rate = lanes * word_hz * per_line / (per_line + 2)           # pixels/s, all channels
     need = ctx["lanes"] * ctx["rows"] * ctx["width"] / ctx["line_period_s"]
-    train = model.training_words(w, step.ports["n_check"], prm["settle"]) / word_hz
+    train = lvds.training_words(w, step.ports["n_check"], prm["settle"]) / word_hz
     return [{"name": "lane pixel rate", "value": rate, "unit": "pixel/s", "ok": rate >= need,
              "needed": need,
              "text": f"sensor lanes: {lanes} lanes x {lv.bit_rate_mbps:g} Mbit/s / {w} bit = "
@@ -130,8 +130,8 @@ def _front_system(step, ctx):
             _fifo_row(step, prm, lv, ctx),
             {"name": "lane training", "value": train, "unit": "s", "ok": None,
              "text": f"lane training before the first frame: at most {train * 1e6:.1f} us "
-                     f"({model.training_words(w, step.ports['n_check'], prm['settle'])} word "
-                     f"clocks: {model.N_TAPS} taps scanned and {w} bitslips)"},
+                     f"({lvds.training_words(w, step.ports['n_check'], prm['settle'])} word "
+                     f"clocks: {lvds.N_TAPS} taps scanned and {w} bitslips)"},
             *_eye_rows(ctx["scene"], lanes, step.ports["n_check"], prm["settle"])]
 
 
@@ -140,8 +140,8 @@ def _eye_rows(scene, lanes, n_check, settle):
     whose training fails (their columns invalid in every frame; NO when no lane trains)."""
     if not scene.sensor.lvds.simulate:
         return []
-    bad = front_model.scene_untrained_lanes(scene.sensor.lvds, len(scene.sensor.gains),
-                                            scene.run.seed, n_check=n_check, settle=settle)
+    bad = lvds_front.scene_untrained_lanes(scene.sensor.lvds, len(scene.sensor.gains),
+                                           scene.run.seed, n_check=n_check, settle=settle)
     ok = False if len(bad) == lanes else None
     if not bad:
         text = "lane eyes: every lane trains"
@@ -204,7 +204,7 @@ def _fifo_row(step, prm, lv, ctx):
     word_mhz = lv.bit_rate_mbps / w
     p = prm["columns"] // lpg
     slowest = word_mhz * lpg * p / ((p + 2) * ppc)
-    bare = front_model.fifo_depth(lpg, ppc, prm["columns"], word_mhz, slowest)
+    bare = lvds_front.fifo_depth(lpg, ppc, prm["columns"], word_mhz, slowest)
     depth = prm["fifo_depth"]
     scene = ctx["scene"]
     stall = worst_stall(dict(scene.ddr.stalls)) if scene.ddr is not None else 0
@@ -225,7 +225,7 @@ def _front_golden(step):
     """What the front delivers of the sensor's frames with every lane trained: the wire
     codes (the all-ones sync code sent as one less)."""
     w = step.params["word_bits"]
-    return lambda arrays, lane: front_model.wire_code(arrays[0], w)
+    return lambda arrays, lane: lvds_front.wire_code(arrays[0], w)
 
 
 def link_arrays(link, *, cycles, retrains=(), n_check=16):
@@ -256,25 +256,25 @@ def link_from_arrays(a):
     for i in range(len(a["skew_ps"])):
         after = None
         if a["change_at"][i] >= 0:
-            after = model.Lane(skew_ps=float(a["after_skew_ps"][i]),
-                               eye_ps=float(a["after_eye_ps"][i]),
-                               jitter_ps=float(a["after_jitter_ps"][i]),
-                               tap_ps=float(a["after_tap_ps"][i]))
-        lanes.append(model.Lane(
+            after = lvds.Lane(skew_ps=float(a["after_skew_ps"][i]),
+                              eye_ps=float(a["after_eye_ps"][i]),
+                              jitter_ps=float(a["after_jitter_ps"][i]),
+                              tap_ps=float(a["after_tap_ps"][i]))
+        lanes.append(lvds.Lane(
             skew_ps=float(a["skew_ps"][i]), eye_ps=float(a["eye_ps"][i]),
             jitter_ps=float(a["jitter_ps"][i]), tap_ps=float(a["tap_ps"][i]),
             seed=int(a["seed"][i]),
             change_at=None if after is None else int(a["change_at"][i]), after=after))
     sched = tuple((int(n), "data" if m else "train") for n, m in a["schedule"])
-    link = model.Link(lanes, word_bits=w, train_word=train, sync_word=sync, line_words=line,
-                      schedule=sched)
+    link = lvds.Link(lanes, word_bits=w, train_word=train, sync_word=sync, line_words=line,
+                     schedule=sched)
     return link, cycles, tuple(int(k) for k in a["retrains"]), n_check
 
 
 def golden_arrays(link, params, *, cycles, retrains=(), n_check=16):
     """Golden run of ``link`` with block ``params``: events and final status as arrays."""
-    g = model.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
-                  settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
+    g = lvds.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
+                 settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
     fin = g.final
     col = lambda key, dt: np.array([f[key] for f in fin], dt)  # noqa: E731
     return {
@@ -286,7 +286,7 @@ def golden_arrays(link, params, *, cycles, retrains=(), n_check=16):
 
 
 def _data_start(w, n_check, settle):
-    return model.training_words(w, n_check, settle) + 16
+    return lvds.training_words(w, n_check, settle) + 16
 
 
 def _case(build):
@@ -302,10 +302,10 @@ def _case(build):
 def _random(n, *, n_check=16, words=400, max_word_delay=1):
     def build(params, rng):
         w = params["word_bits"]
-        lanes = [model.random_lane(rng, max_word_delay=max_word_delay, word_bits=w)
+        lanes = [lvds.random_lane(rng, max_word_delay=max_word_delay, word_bits=w)
                  for _ in range(n)]
         nd = _data_start(w, n_check, params["settle"])
-        link = model.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
+        link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
         return link, nd + words, (), n_check
     return build
 
@@ -313,9 +313,9 @@ def _random(n, *, n_check=16, words=400, max_word_delay=1):
 def _windows(params, rng):
     """Hand-made eyes: clipped windows, two windows, a tie, too narrow, dead, flickering."""
     w = params["word_bits"]
-    tap = model.PAPER_TAP_PS
+    tap = lvds.PAPER_TAP_PS
     ui = 1e6 / 300
-    lane = model.Lane
+    lane = lvds.Lane
 
     def at(first_tap, eye_taps, **kw):
         # eye starting just after tap `first_tap - 1`: phase u of tap t decreases with t
@@ -324,7 +324,7 @@ def _windows(params, rng):
         skew = (-(hi - 1.0) - (first_tap - 1) * tap) % ui
         return lane(skew_ps=skew, eye_ps=eye, **kw)
 
-    xt = model.XILINX_TAP_PS
+    xt = lvds.XILINX_TAP_PS
     lanes = [
         lane(skew_ps=1515.0, eye_ps=20 * xt, tap_ps=xt, seed=1),  # clipped at tap 0 (12 taps)
         lane(skew_ps=2660.0, eye_ps=20 * xt, tap_ps=xt, seed=2),  # clipped at tap 31
@@ -337,7 +337,7 @@ def _windows(params, rng):
         at(10, 20.0, seed=9),                                       # widest eye
     ]
     nd = _data_start(w, 8, params["settle"])
-    link = model.Link(lanes, word_bits=w, line_words=16, schedule=((nd, "data"),))
+    link = lvds.Link(lanes, word_bits=w, line_words=16, schedule=((nd, "data"),))
     return link, nd + 300, (), 8
 
 
@@ -347,12 +347,12 @@ def _deskew(params, rng):
     ui = 1e6 / 300
     lanes = []
     for i in range(8):
-        base = model.random_lane(rng, jitter=False, word_bits=w)
+        base = lvds.random_lane(rng, jitter=False, word_bits=w)
         eye = float(rng.uniform(14, 20)) * base.tap_ps
-        lanes.append(model.Lane(skew_ps=base.skew_ps % ui + (i % 4) * w * ui, eye_ps=min(eye, ui),
-                                tap_ps=base.tap_ps, seed=100 + i))
+        lanes.append(lvds.Lane(skew_ps=base.skew_ps % ui + (i % 4) * w * ui, eye_ps=min(eye, ui),
+                               tap_ps=base.tap_ps, seed=100 + i))
     nd = _data_start(w, 8, params["settle"])
-    link = model.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
+    link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
     return link, nd + 600, (), 8
 
 
@@ -361,13 +361,13 @@ def _retrain(params, rng):
     dying during the bitslip search, a lane coming back to life at the retrain."""
     w = params["word_bits"]
     n_check, settle = 4, params["settle"]
-    tw = model.training_words(w, n_check, settle)
+    tw = lvds.training_words(w, n_check, settle)
     nd = tw + 16
     kr = nd + 300
     nd2 = kr + 1 + tw + 16
-    p = model.step_words(n_check, settle)
-    in_slip = model.N_TAPS * p + 1 + p // 2     # inside slip step 0
-    lane = model.Lane
+    p = lvds.step_words(n_check, settle)
+    in_slip = lvds.N_TAPS * p + 1 + p // 2     # inside slip step 0
+    lane = lvds.Lane
     lanes = [
         lane(skew_ps=700.0, eye_ps=2600.0, seed=11, change_at=nd + 120,
              after=lane(skew_ps=2400.0, eye_ps=2600.0)),              # skew jumps
@@ -380,8 +380,8 @@ def _retrain(params, rng):
         lane(skew_ps=4000.0, eye_ps=2900.0, jitter_ps=200.0, seed=15),  # steady
         lane(skew_ps=2500.0, eye_ps=2000.0, seed=16),                 # steady
     ]
-    link = model.Link(lanes, word_bits=w, line_words=24,
-                      schedule=((nd, "data"), (kr, "train"), (nd2, "data")))
+    link = lvds.Link(lanes, word_bits=w, line_words=24,
+                     schedule=((nd, "data"), (kr, "train"), (nd2, "data")))
     return link, nd2 + 200, (kr,), n_check
 
 

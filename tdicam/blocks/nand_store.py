@@ -17,7 +17,7 @@ import numpy as np
 from tdicam.beats import Beats
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
-from tdicam.model import calib, nand_store as nand
+from tdicam.model import calib, nand_store
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
 from tdicam.blocks import SynthRef
@@ -37,8 +37,8 @@ def _fmt(params):
 
 def geometry_of(params):
     """The :class:`~tdicam.model.nand_store.Geometry` of a parameter dict."""
-    return nand.Geometry(page_bytes=params["page_bytes"],
-                         pages_per_block=params["pages_per_block"], blocks=params["blocks"])
+    return nand_store.Geometry(page_bytes=params["page_bytes"],
+                               pages_per_block=params["pages_per_block"], blocks=params["blocks"])
 
 
 def _check(params):
@@ -100,8 +100,8 @@ def _case(build):
         g, o = random_codes(rng, params["rows"], params["cols"], fmt)
         words = calib.encode_image(g, o, fmt)
         dev, flips = build(params, rng, words)
-        out, sr, complete = nand.store_stream(dev, rows=params["rows"], cols=params["cols"],
-                                              fmt=fmt, count_bits=params["count_bits"])
+        out, sr, complete = nand_store.store_stream(dev, rows=params["rows"], cols=params["cols"],
+                                                    fmt=fmt, count_bits=params["count_bits"])
         arrays = {"gain_map": g, "offset_map": o, "flips": np.asarray(flips, np.uint8),
                   "loader": load_beats(dev, params["slots"]),
                   "bad": sr.bad, "l2p": sr.l2p, "bad_blocks": np.int64(sr.bad_count),
@@ -116,14 +116,14 @@ def _bad(n, first_blocks=None):
     def build(params, rng, words):
         top = first_blocks or params["blocks"] - 1
         bad = rng.choice(np.arange(1, top + 1), n, replace=False)
-        return nand.write_store(words, geometry_of(params), bad_blocks=bad), \
+        return nand_store.write_store(words, geometry_of(params), bad_blocks=bad), \
             np.zeros(len(words))
     return build
 
 
 def _grown(params, rng, words):
     """Block 1 fails program (marked bad by the writer), block 3 factory bad."""
-    dev = nand.write_store(words, geometry_of(params), bad_blocks=[3], fail_program=[1])
+    dev = nand_store.write_store(words, geometry_of(params), bad_blocks=[3], fail_program=[1])
     assert dev.grown == [1]
     return dev, np.zeros(len(words))
 
@@ -135,7 +135,7 @@ def _flips(p_single, p_double, every=False):
             words, k = calib.flip_image_bits(words, pos[:, None]), np.ones(len(words))
         else:
             words, k = calib.inject_flips(rng, words, p_single=p_single, p_double=p_double)
-        return nand.write_store(words, geometry_of(params), bad_blocks=[2]), k
+        return nand_store.write_store(words, geometry_of(params), bad_blocks=[2]), k
     return build
 
 
@@ -143,7 +143,7 @@ def _out_of_blocks(params, rng, words):
     """Written on a clean part, then every block after the first data block went bad: the
     store reads one logical block and stops with ``error``."""
     g = geometry_of(params)
-    dev = nand.write_store(words, g)
+    dev = nand_store.write_store(words, g)
     for b in range(2, g.blocks):
         dev.mark_bad(b)
     return dev, np.zeros(len(words))
@@ -153,9 +153,9 @@ def _to_case(arrays, params):
     """Scene arrays ``{"words": one flash image}`` -> case arrays: the image written on a
     clean part of the block's geometry, the loader words and the store's golden output."""
     words = np.asarray(arrays["words"], np.uint64)
-    dev = nand.write_store(words, geometry_of(params))
-    out, sr, complete = nand.store_stream(dev, rows=params["rows"], cols=params["cols"],
-                                          fmt=_fmt(params), count_bits=params["count_bits"])
+    dev = nand_store.write_store(words, geometry_of(params))
+    out, sr, complete = nand_store.store_stream(dev, rows=params["rows"], cols=params["cols"],
+                                                fmt=_fmt(params), count_bits=params["count_bits"])
     case = {"words": words, "loader": load_beats(dev, params["slots"]),
             "bad_blocks": np.int64(sr.bad_count), "complete": np.bool_(complete)}
     case.update({f"out_{f}": getattr(out, f) for f in _OUT_FIELDS})

@@ -16,7 +16,7 @@ from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 from tdicam.errors import TdicamError
-from tdicam.model import ecc as _ecc, nand_store as _nand
+from tdicam.model import ecc as _ecc, nand_store
 
 __all__ = ["BLOCK", "NucOptions", "cut_frame0"]
 
@@ -288,7 +288,7 @@ def _pipeline_step(ctx):
     opt = ctx.scene.pipeline.nuc
     device = {}
     if opt.flash == "nand":
-        g = _nand.MT29F4G08
+        g = nand_store.MT29F4G08
         device = {"bad_blocks": opt.bad_blocks, "flip_single": opt.flip_single,
                   "flip_double": opt.flip_double, "seed": opt.seed, "blocks": g.blocks,
                   "pages_per_block": g.pages_per_block, "page_bytes": g.page_bytes,
@@ -300,8 +300,8 @@ def _pipeline_step(ctx):
 
 def nand_geometry(device):
     """The :class:`~tdicam.model.nand_store.Geometry` of a step's ``device`` settings."""
-    return _nand.Geometry(page_bytes=device["page_bytes"],
-                          pages_per_block=device["pages_per_block"], blocks=device["blocks"])
+    return nand_store.Geometry(page_bytes=device["page_bytes"],
+                               pages_per_block=device["pages_per_block"], blocks=device["blocks"])
 
 
 def nand_part(step, gain, offset, lane):
@@ -313,13 +313,13 @@ def nand_part(step, gain, offset, lane):
     fmt = _fmt(step.params)
     g2, o2 = (np.asarray(a, np.int64).reshape(-1, np.shape(a)[-1]) for a in (gain, offset))
     try:
-        dev = _nand.store_device(g2, o2, fmt, geometry=nand_geometry(d),
-                                 bad_blocks=d["bad_blocks"], p_single=d["flip_single"],
-                                 p_double=d["flip_double"], seed=d["seed"] + lane)
+        dev = nand_store.store_device(g2, o2, fmt, geometry=nand_geometry(d),
+                                      bad_blocks=d["bad_blocks"], p_single=d["flip_single"],
+                                      p_double=d["flip_double"], seed=d["seed"] + lane)
     except TdicamError as exc:
         raise TdicamError(f"[pipeline.nuc] flash = 'nand', bad_blocks = {d['bad_blocks']}: "
                           f"{exc}") from None
-    return dev, _nand.read_store(dev)
+    return dev, nand_store.read_store(dev)
 
 
 def _pipeline_side(step, data, ecp5=False):
@@ -363,7 +363,7 @@ def _system(step, ctx):
     controller's clock: the bad-block scan of every block, then the image's pages)."""
     if not step.device:
         return []
-    t = _nand.timing(ctx["rows"], ctx["width"], nand_geometry(step.device))
+    t = nand_store.timing(ctx["rows"], ctx["width"], nand_geometry(step.device))
     total = t.scan_s + t.load_s
     return [{"name": "calibration load", "value": total, "unit": "s", "ok": None,
              "scan_s": t.scan_s, "load_s": t.load_s, "pages": t.pages,
@@ -397,8 +397,8 @@ def _measured(step, status, info):
         k += 1
     if "startup_cycles" in status:
         busy = step.device["busy_cycles"]
-        t = _nand.timing(info["rows"], info["width"], nand_geometry(step.device),
-                         busy_cycles=busy)
+        t = nand_store.timing(info["rows"], info["width"], nand_geometry(step.device),
+                              busy_cycles=busy)
         out.append({"name": "start-up cycles", "value": status["startup_cycles"],
                     "unit": "cycles", "model_cycles": t.scan_cycles + t.load_cycles,
                     "text": f"frames held {status['startup_cycles']} cycles after reset until "
@@ -478,7 +478,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
                 "nand_dq_o": "dq_in", "nand_dq_i": "dq_out", "nand_rb_n": "rb_n"}
         return Device(model, pins)
 
-    t = _nand.timing(rows, cols, _nand.Geometry(**geo), busy_cycles=d["busy_cycles"])
+    t = nand_store.timing(rows, cols, nand_store.Geometry(**geo), busy_cycles=d["busy_cycles"])
     bound = t.scan_cycles + t.load_cycles + 10_000
     stage = lane_stage(side=lambda s, dt: side, out_slice=cut)(step, data, ecp5=ecp5)
     return replace(stage, io=_nand_io(_calib.DEFAULT_COUNT_BITS), ready="calib_loaded",
@@ -541,9 +541,9 @@ def _nand_roundtrip(c, ch, fmt, gain, offset):
     g2 = np.asarray(gain, np.int64).reshape(-1, shape[-1])
     o2 = np.asarray(offset, np.int64).reshape(-1, shape[-1])
     try:
-        g, off, res = _nand.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
-                                            p_single=o.flip_single, p_double=o.flip_double,
-                                            seed=o.seed + ch)
+        g, off, res = nand_store.store_roundtrip(g2, o2, fmt, bad_blocks=o.bad_blocks,
+                                                 p_single=o.flip_single, p_double=o.flip_double,
+                                                 seed=o.seed + ch)
     except TdicamError as exc:
         raise TdicamError(f"[pipeline.nuc] flash = 'nand', bad_blocks = {o.bad_blocks}: "
                           f"{exc}") from None

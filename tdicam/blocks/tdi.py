@@ -391,22 +391,21 @@ def _cases():
 def _pipeline_step(ctx):
     """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
     output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
-    from tdicam.model import tdi as tdi_model
     t = ctx.scene.tdi
     m, pb = ctx.m, ctx.bits
     out_bits = t.output_bits if t.output == "saturate" else None
-    if out_bits is not None and out_bits >= tdi_model.full_bits(pb, m):
+    if out_bits is not None and out_bits >= full_bits(pb, m):
         out_bits = None
     d = 0 if t.direction == "forward" else 1
     # a reverse scan needs one partial-sum line more (tdicam.model.tdi.settings_valid): one
     # stage more built in, the output kept at m stages' full width
     m_max = m + 1 if d and m > 1 else m
     if m_max > m and out_bits is None:
-        out_bits = tdi_model.full_bits(pb, m)
+        out_bits = full_bits(pb, m)
     step = Step(ctx.block, {"width": ctx.width, "stages": m_max, "pixel_bits": pb,
                             "out_bits": out_bits, "ppc": ctx.ppc},
                 {"stages_active": m, "direction": d}, inputs={"stages": m, "direction": d})
-    return step, tdi_model.out_width(pb, m_max, out_bits)
+    return step, out_width(pb, m_max, out_bits)
 
 
 def _memory_bits(step):

@@ -170,16 +170,16 @@ def _check_death(lane, f, lanes, frames, reset_frames):
 def lanes_of(lv, gains):
     """The lanes of a scene's ``[sensor.lvds]`` for a co-simulation: the scene's eyes and
     jitter when it simulates the link, else ideal lanes."""
-    from tdicam.model import lvds_front as front_model
+    from tdicam.model import lvds_front
     if lv.simulate:
-        return front_model.scene_lanes(lv, gains)
+        return lvds_front.scene_lanes(lv, gains)
     return ideal_lanes(lv.lanes_per_gain * gains)
 
 
 def ideal_lanes(n):
     """``n`` lanes with a wide-open eye (20 taps centred on tap 16), no jitter."""
-    from tdicam.model import lvds_front as front_model
-    return [front_model.eye_lane(16, 20, seed=i) for i in range(n)]
+    from tdicam.model import lvds_front
+    return [lvds_front.eye_lane(16, 20, seed=i) for i in range(n)]
 
 
 def status_ports(axis_top):
@@ -391,7 +391,7 @@ def _death(p, data, front, lanes, kw):
     import math
     from dataclasses import replace
     from tdicam.cosim.lvds_front import plan_case
-    from tdicam.model import lvds as link_model
+    from tdicam.model import lvds
     lane, f = front["dies"]
     nf = len(data.lane_arrays(p)[0][0])
     _check_death(lane, f, len(lanes), nf, p.reset_frames)
@@ -405,7 +405,7 @@ def _death(p, data, front, lanes, kw):
     # words up to ceil(skew / word) before it
     back = math.ceil(lanes[lane].skew_ps / (probe.word_bits * lanes[lane].ui_ps))
     lanes[lane] = replace(lanes[lane], change_at=at,
-                          after=link_model.Lane(skew_ps=0.0, eye_ps=0.0))
+                          after=lvds.Lane(skew_ps=0.0, eye_ps=0.0))
     return lanes, segs, max(0, line * probe.p + word - 2 - back)
 
 
@@ -425,13 +425,13 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     from tdicam.cosim import codec
     from tdicam.cosim.lvds_front import plan_case, raw_table
     from tdicam.hw.verilog import convert
-    from tdicam.model import lvds as link_model
+    from tdicam.model import lvds
     word_ns = float(front.get("word_ns", 40.0))
     step = p.steps[0]
     n = step.params["lanes"]
     lanes = front.get("lanes") or ideal_lanes(n)
     prm = blocks.get("lvds").resolve(step.params)
-    tw = link_model.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
+    tw = lvds.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
     lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
     kw = dict(word_ns=word_ns, proc_ns=PROC_NS, n_check=step.ports["n_check"], lead=lead,
               tail=40)
@@ -488,13 +488,13 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
         else:
             listed.append((bt, cyc))
     got.update(enumerate(listed))
-    from tdicam.model import lvds_front as front_model
+    from tdicam.model import lvds_front
     info = {"cycles": res["cycles"], "timeout": res["timeout"], "status": res["status"],
             "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": PROC_NS,
                         "first_frame_sent": case.segment_starts[0]},
             "front": {"frame_status": res["frame_status"], "retrains": len(case.retrains),
                       "frames_sent": len(case.frames[0]), "died_word": died,
-                      "untrained": front_model.untrained_lanes(
+                      "untrained": lvds_front.untrained_lanes(
                           [ln if ln.change_at is None else replace(ln, change_at=None,
                                                                    after=None)
                            for ln in lanes], prm["word_bits"], case.link.train_word,
@@ -658,7 +658,7 @@ def _delivered(p, data, got, front, dies):
     from tdicam import blocks
     from tdicam.blocks.steps import SceneData
     from tdicam.cosim.lvds_front import cds_kinds
-    from tdicam.model import lvds_front as fm
+    from tdicam.model import lvds_front
     prm = blocks.get("lvds").resolve(p.steps[0].params)
     L, w = prm["lanes_per_gain"], prm["word_bits"]
     sent = [lane[0] for lane in data.lane_arrays(p)]
@@ -668,11 +668,11 @@ def _delivered(p, data, got, front, dies):
     rep = {"lanes": p.lanes * L, "untrained": bad, "frames_sent": nf,
            "retrains": front["retrains"], "problems": []}
     if dies is None:
-        px, _ = fm.receive(sent, bad, L, w)
-        status, dropped = [fm.lane_mask(bad)] * nf, 0
+        px, _ = lvds_front.receive(sent, bad, L, w)
+        status, dropped = [lvds_front.lane_mask(bad)] * nf, 0
     else:
         lane, f = dies
-        healthy = fm.receive(sent, bad, L, w)[0][:, f]
+        healthy = lvds_front.receive(sent, bad, L, w)[0][:, f]
         seen, size = [], p.stages * p.width
         for k in range(p.lanes):
             a = got[k][0].data.reshape(-1)
@@ -685,12 +685,12 @@ def _delivered(p, data, got, front, dies):
             rep["problems"].append(f"frame {f} (cut by lane {lane}'s death) not delivered")
         else:
             observed = np.stack([a[f] for a in seen]).astype(np.int64)
-        cut, fill = fm.cut_frame(healthy, observed, L, lane, front["died_word"])
+        cut, fill = lvds_front.cut_frame(healthy, observed, L, lane, front["died_word"])
         if fill > front["died_word"] + 2 * (p.width // L + 2):
             rep["problems"].append(f"frame {f}: filled from word {fill}, more than two "
                                    f"lines after lane {lane} died (word "
                                    f"{front['died_word']})")
-        px, kinds, status, dropped = fm.lane_death(
+        px, kinds, status, dropped = lvds_front.lane_death(
             sent, L, w, bad_lanes=bad, lane=lane, frame=f, cut=cut, kinds=kinds,
             held=HELD, pairs=p.reset_frames)
         rep.update({"died": lane, "died_in_frame": f, "died_at_word": front["died_word"],

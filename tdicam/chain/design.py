@@ -22,13 +22,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from tdicam.blocks.steps import StepContext, ChainPlan, SceneData, Step
+from tdicam.blocks.steps import ChainPlan, SceneData, Step, StepContext
 from tdicam.errors import TdicamError, check_range
 
-__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden", "stimulus",
-           "output_shape", "verilog", "identity_data", "PipelineBlock", "check_options",
-           "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced", "rate_ppc", "step_ppc",
-           "out_ppc", "chain_text"]
+__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
+           "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
+           "check_options", "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced", "rate_ppc",
+           "step_ppc", "out_ppc", "chain_text"]
 
 
 # --------------------------------------------------------------------------------------
@@ -93,7 +93,7 @@ def scene_ppc(scene):
 
 
 def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
-         device="ecp5-85f", ppc=None, phy=None):
+               device="ecp5-85f", ppc=None, phy=None):
     """The :class:`ChainPlan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
     ``ppc``: pixels per clock of the chain's input and of every block before a line-making
@@ -124,7 +124,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     too slow for the scene's line rate, a spill asked of a chain with nothing to spill, a
     width not a multiple of ``ppc`` or too narrow for a block at it.
     """
-    from tdicam import blocks as registry
+    import tdicam.blocks
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
         raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
@@ -154,7 +154,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
         try:
             ctx.block = name
             step, out_bits = _at_ppc(*u.step(ctx), ctx.ppc)
-            registry.get(name).resolve(step.params)
+            tdicam.blocks.get(name).resolve(step.params)
             go, why = _spills(u, step, scene, spill, device)
             if go and u.spill is None:
                 raise TdicamError(f"{why} and it has no DDR variant")
@@ -165,7 +165,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                 spilled = True
                 ctx.block = name = u.spill
                 step, out_bits = _at_ppc(*_use(name).step(ctx), ctx.ppc)
-                registry.get(name).resolve(step.params)
+                tdicam.blocks.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
@@ -179,19 +179,19 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     # a block that makes the pixel stream itself (the sensor's front end) goes first; it
     # is sized for the longest hold of a DDR block after it (the MIG model's worst stall)
     from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
-    held = [registry.get(s.block).resolve(s.params) for s in steps]
+    held = [tdicam.blocks.get(s.block).resolve(s.params) for s in steps]
     stall = max([worst_stall(q) for q in held if set(DEFAULT_STALLS) <= set(q)] or [0])
     sourced = False
     for name, u in _uses_table().items():
         if u.source is not None and u.source(scene):
             src = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
-                          lanes=2 if merge else 1, stall_cycles=stall,
-                          reset_frames=bool(steps) and bool(_use(steps[0].block).reset_frames))
+                              lanes=2 if merge else 1, stall_cycles=stall,
+                              reset_frames=bool(steps) and bool(_use(steps[0].block).reset_frames))
             try:
                 step, _ = _at_ppc(*u.step(src), ppc)
                 if phy is not None:
                     step = replace(step, params={**step.params, "phy": phy})
-                registry.get(name).resolve(step.params)
+                tdicam.blocks.get(name).resolve(step.params)
             except TdicamError as exc:
                 raise TdicamError(f"pipeline: {name} (the chain's source): {exc}") from None
             # the block as placed (cds keeping its reset frame in DDR is cds_ddr)
@@ -208,10 +208,10 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
     return ChainPlan(tuple(steps), lanes=2 if merge else 1,
-                lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
-                stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
-                source=str(scene.source), ppc=ppc,
-                reset_frames=bool(first and first.reset_frames))
+                     lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
+                     stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
+                     source=str(scene.source), ppc=ppc,
+                     reset_frames=bool(first and first.reset_frames))
 
 
 def rate_ppc(ppc, slower):
@@ -255,10 +255,10 @@ def chain_text(p):
 def _at_ppc(step, out_bits, ppc):
     """``step`` with its block's ``ppc`` parameter set to ``ppc`` (unchanged at 1: the
     block's default); a one-line error when the block takes one pixel per clock only."""
-    from tdicam import blocks as registry
+    from tdicam import blocks
     if ppc == 1 and step.params.get("ppc", 1) == 1:
         return step, out_bits
-    if "ppc" not in {p.name for p in registry.get(step.block).params}:
+    if "ppc" not in {p.name for p in blocks.get(step.block).params}:
         raise TdicamError(f"{step.block} takes one pixel per clock, the chain {ppc}")
     return replace(step, params={**step.params, "ppc": ppc}), out_bits
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.blocks.steps import SceneData
-from tdicam.chain.design import (ECP5_85F, PipelineBlock, chain_text, check_options, chain_plan, top,
-                                  verilog_header)
+from tdicam.chain.design import (ECP5_85F, PipelineBlock, chain_plan, chain_text, check_options,
+                                 top, verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
@@ -54,8 +54,8 @@ def scene_design(prog, extra):
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
-             spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory],
-             phy=ns.phy)
+                   spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory],
+                   phy=ns.phy)
     data = None
     if ns.calib:
         if len(ns.calib) != p.lanes:

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from tdicam import cosim
-from tdicam.bench import suite as bench
+from tdicam.bench import suite
 from tdicam.errors import TdicamError, check_range
 from tdicam.files import check_dir, check_file, read_bytes, write_file
 
@@ -25,12 +25,12 @@ def register(sub):
                     "PSNR of their output against exact, exact's seed-to-seed PSNR as the "
                     "noise floor).")
     p.add_argument("names", nargs="*", metavar="BLOCK",
-                   help=f"benchmarks to run (default: all of {', '.join(bench.NAMES)}); "
-                   f"also {', '.join(bench.EXTRA)} (the orbit scene's whole camera pipeline "
+                   help=f"benchmarks to run (default: all of {', '.join(suite.NAMES)}); "
+                   f"also {', '.join(suite.EXTRA)} (the orbit scene's whole camera pipeline "
                    "through its generated top, minutes; --quick: 8 lines of the Ning et al. 2019 "
                    "chain)")
     p.add_argument("--repeat", type=int, default=None,
-                   help=f"runs per level, 1..{bench.MAX_REPEAT} (3; --quick: 1); pipeline "
+                   help=f"runs per level, 1..{suite.MAX_REPEAT} (3; --quick: 1); pipeline "
                         f"runs once")
     p.add_argument("--quick", action="store_true", help="short inputs, one run per level")
     p.add_argument("--sims", default=",".join(cosim.SIMULATORS),
@@ -111,7 +111,7 @@ def _run(args):
         rows, mline, settings, wall = _load(args.from_json)
         try:                            # rendered once before anything is printed or written
             _legend(settings)
-            bench.format_table(rows, markdown=args.markdown)
+            suite.format_table(rows, markdown=args.markdown)
             f"{mline.split(',')[0]} {float(wall):.0f}"
             [r for r in rows if r["mismatches"] or r["accuracy"] == "error"]
         except _NOT_BENCH as exc:
@@ -121,28 +121,28 @@ def _run(args):
         return _report(args, rows, mline, settings, wall)
     # every option checked before the output folder is made
     if args.repeat is not None:
-        check_range("--repeat", args.repeat, 1, bench.MAX_REPEAT)
+        check_range("--repeat", args.repeat, 1, suite.MAX_REPEAT)
     repeat = args.repeat if args.repeat is not None else (1 if args.quick else 3)
     build = args.build_time or ("cached" if args.quick else "fresh")
     check_range("--stalls", args.stalls, 0, 1, integer=False, hi_open=True)
-    bench.expand(args.names)        # unknown names fail before anything runs
+    suite.expand(args.names)        # unknown names fail before anything runs
     sims = _sims(args.sims)
     if sims:
         cosim.check_build_root()
     args.png_path = _outputs(args)
     t0 = time.perf_counter()
-    rows = bench.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
+    rows = suite.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
                      stalls=args.stalls, build=build,
                      progress=lambda n: print(f"bench: {n} ...", file=sys.stderr, flush=True))
     wall = time.perf_counter() - t0
-    settings = {"names": list(args.names) or list(bench.NAMES), "sims": list(sims),
+    settings = {"names": list(args.names) or list(suite.NAMES), "sims": list(sims),
                 "repeat": repeat, "quick": args.quick, "stalls": args.stalls,
                 "build_time": build}
-    return _report(args, rows, bench.describe_machine(), settings, wall)
+    return _report(args, rows, suite.describe_machine(), settings, wall)
 
 
 def _legend(settings):
-    return bench.legend(repeat=settings["repeat"], stalls=settings["stalls"],
+    return suite.legend(repeat=settings["repeat"], stalls=settings["stalls"],
                         build=settings["build_time"], quick=settings["quick"],
                         names=settings.get("names", ()))
 
@@ -153,11 +153,11 @@ def _report(args, rows, mline, settings, wall):
     log = sys.stderr if to_stdout else sys.stdout
     legend = _legend(settings)
     print(mline, file=log)
-    print(bench.format_table(rows, markdown=args.markdown), file=log)
+    print(suite.format_table(rows, markdown=args.markdown), file=log)
     print(legend, file=log)
     print(f"wall time {wall:.0f} s", file=log)
     if args.json:
-        text = bench.to_json(rows, machine_line=mline, settings=settings, wall_s=wall)
+        text = suite.to_json(rows, machine_line=mline, settings=settings, wall_s=wall)
         if to_stdout:
             print(text)
         else:
@@ -165,7 +165,7 @@ def _report(args, rows, mline, settings, wall):
             print(f"wrote {args.json}", file=log)
     png = args.png_path
     if png is not None:
-        bench.plot(rows, png, title=f"tdicam bench ({mline.split(',')[0]})")
+        suite.plot(rows, png, title=f"tdicam bench ({mline.split(',')[0]})")
         print(f"wrote {png}", file=log)
     bad = [r for r in rows if r["mismatches"] or r["accuracy"] == "error"]
     if bad:

@@ -13,7 +13,7 @@ The work is :mod:`tdicam.flash`'s; this module parses the arguments and prints.
 
 from tdicam import flash
 from tdicam.files import check_file
-from tdicam.model import nand_store as nand
+from tdicam.model import nand_store
 from tdicam.model.nuc import DEFAULT_FORMAT
 
 
@@ -76,11 +76,11 @@ def register(sub):
 def _clock_arg(p):
     p.add_argument("--clock-mhz", type=float, default=None,
                    help=f"NAND images only: controller clock of the reported scan and load "
-                        f"times ({nand.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
+                        f"times ({nand_store.CONTROLLER_CLOCK_HZ / 1e6:g} MHz)")
 
 
 def _nand_args(p):
-    g = nand.MT29F4G08
+    g = nand_store.MT29F4G08
     p.add_argument("--nand", action="store_true",
                    help="write a NAND image (pages + spare, bad blocks, block map) instead "
                         "of a plain word image")

@@ -30,23 +30,23 @@ import sys
 from pathlib import Path
 
 from tdicam.api import plan
-from tdicam.planning import sizing as planning
+from tdicam.planning import sizing
 from tdicam.errors import valid_range
 from tdicam.files import check_dir, open_output
-from tdicam.model.physics import plan as P
+from tdicam.model.physics.plan import DDR_USER_CLOCK_HZ, DDR_WORD_BITS, ONCHIP_RAM_BITS
 
 __all__ = ["register", "run"]
 
 _EPILOG = (f"exit status: 0 when the plan is feasible (or a check is unknown), "
-           f"{planning.EXIT_INFEASIBLE} when its feasibility report says NO (frame rate, "
+           f"{sizing.EXIT_INFEASIBLE} when its feasibility report says NO (frame rate, "
            f"window, DDR bandwidth of spilled partial sums, the sensor's LVDS lanes' bit rate "
            f"or gateware pixel rate), 2 for bad "
            f"input. Reference TDI Fmax (MHz by ppc): "
-           + ", ".join(f"ppc {k}: {v:g}" for k, v in planning.REFERENCE_TDI_FMAX_MHZ.items()))
+           + ", ".join(f"ppc {k}: {v:g}" for k, v in sizing.REFERENCE_TDI_FMAX_MHZ.items()))
 
 #: The valid range of each of the plan's own options, as its errors print it.
 _VALID = {opt: valid_range(lo, hi, lo_open=lo_open)
-          for _, opt, lo, hi, _, lo_open in planning.PLAN_OPTIONS}
+          for _, opt, lo, hi, _, lo_open in sizing.PLAN_OPTIONS}
 
 # argparse reads "-1e-12" as an option: accept every float literal as a (negative) number
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
@@ -61,21 +61,21 @@ def register(subparsers) -> None:
     p._negative_number_matcher = _NEGATIVE_NUMBER
     p.add_argument("--scene", metavar="FILE", help="scene TOML file (options override it)")
     metavars = {int: "N", float: "X", str: "NAME"}
-    for dest, sec, key, opt, typ, nargs, text in planning.SCENE_OPTIONS:
+    for dest, sec, key, opt, typ, nargs, text in sizing.SCENE_OPTIONS:
         p.add_argument(opt, dest=dest, type=typ, nargs=nargs, default=None,
-                       metavar=metavars[typ], help=text + planning.bounds_text(sec, key))
+                       metavar=metavars[typ], help=text + sizing.bounds_text(sec, key))
     p.add_argument("--onchip-kbit", type=float, default=None, metavar="X",
                    help="on-chip RAM available for the partial sums, kbit (1 kbit = 1024 bit; "
                         "the report's kbit/Mbit are binary too; valid "
                         + _VALID["--onchip-kbit"] + ")")
     p.add_argument("--device", default=None, metavar="NAME",
                    help="FPGA part whose block RAM is the on-chip budget when --onchip-kbit "
-                        "is not given: " + ", ".join(P.ONCHIP_RAM_BITS))
-    p.add_argument("--ddr-bits", type=int, default=P.DDR_WORD_BITS, metavar="N",
+                        "is not given: " + ", ".join(ONCHIP_RAM_BITS))
+    p.add_argument("--ddr-bits", type=int, default=DDR_WORD_BITS, metavar="N",
                    help="DDR user-interface width in bits, at least one partial sum "
                         "(default 256; valid up to " + _VALID["--ddr-bits"].split("..")[1]
                         + ")")
-    p.add_argument("--ddr-clock-mhz", type=float, default=P.DDR_USER_CLOCK_HZ / 1e6, metavar="X",
+    p.add_argument("--ddr-clock-mhz", type=float, default=DDR_USER_CLOCK_HZ / 1e6, metavar="X",
                    help="DDR user-interface clock in MHz (default 100; valid "
                         + _VALID["--ddr-clock-mhz"] + ")")
     p.add_argument("--ddr-efficiency", type=float, default=None, metavar="X",
@@ -111,7 +111,7 @@ def _emit(text) -> None:
 
 def run(args) -> int:
     """Run ``tdicam plan`` for parsed arguments; returns the exit code (see the epilog)."""
-    given = {dest: getattr(args, dest) for dest, *_ in planning.SCENE_OPTIONS
+    given = {dest: getattr(args, dest) for dest, *_ in sizing.SCENE_OPTIONS
              if getattr(args, dest, None) is not None}
     the_plan = plan(args.scene, onchip_kbit=args.onchip_kbit, device=args.device,
                     ddr_bits=args.ddr_bits, ddr_clock_mhz=args.ddr_clock_mhz,
@@ -129,5 +129,5 @@ def run(args) -> int:
         if plot_dir is not None:
             text += "\n\nwrote " + ", ".join(rep["plots"])
         _emit(text)
-    return 0 if the_plan.feasible else planning.EXIT_INFEASIBLE
+    return 0 if the_plan.feasible else sizing.EXIT_INFEASIBLE
 

@@ -71,18 +71,18 @@ def run(args):
 def dry_run(scene, out, args, labels):
     """``--dry-run``: the configuration report.md would start with, and the memory
     estimate; exit status 2 (one line) when the run would be refused, else 0."""
-    from tdicam.run import report as scenereport
+    from tdicam.run import report
     from tdicam.run.runner import memory_check
     from tdicam.threads import threads
     threads()
     check_output(out)                   # a run into ``out`` would be refused: so is this
     est = memory_check(scene, fidelity=args.fidelity, force=args.force,
                        impact=not args.no_impact, rtl=not args.no_rtl, labels=labels)
-    conf = scenereport.configuration(scene, None, None, args.fidelity or scene.run.fidelity,
-                                     None, memory=est)
+    conf = report.configuration(scene, None, None, args.fidelity or scene.run.fidelity,
+                                None, memory=est)
     print(f"{scene.source}: dry run, nothing written (the run would write into {out})")
     print("\n".join(line.replace("**", "").replace(", used ", ", will use ")
-                    for line in scenereport.config_lines(conf)[2:] if line))
+                    for line in report.config_lines(conf)[2:] if line))
     if scene.run.rtl is not None and not args.no_rtl:
         print("* [run.rtl]: the RTL co-simulation's simulator runs in processes of its own "
               "(not in the estimate; its input is)")

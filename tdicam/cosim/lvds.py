@@ -32,7 +32,7 @@ from amaranth.hdl import Shape
 from tdicam import blocks
 from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 from tdicam.hw.verilog import convert
 from tdicam.cosim import tbgen
 from tdicam.cosim.build import build_sources, run_cocotb
@@ -379,16 +379,16 @@ def link_files(lanes, link, retrains=()):
     lane_tables`), ``info.hex`` (per lane: change word, data and jitter keys), and with a
     schedule / retrains ``sched.hex`` / ``retrain.hex``. ``lanes``: the link's lanes,
     padded to whole groups."""
-    delay = np.zeros((len(lanes), 2, model.N_TAPS), np.uint64)
+    delay = np.zeros((len(lanes), 2, lvds.N_TAPS), np.uint64)
     thresh = np.zeros_like(delay)
     info = np.zeros((len(lanes), 3), np.uint64)
     for i, lane in enumerate(lanes):
-        d, r = model.lane_tables(lane)
+        d, r = lvds.lane_tables(lane)
         if d.max() > 255 - 2 * link.word_bits:
             raise TdicamError(f"lane {i}: skew {lane.skew_ps} ps is beyond the testbench's "
                               f"255-bit delay range")
         delay[i], thresh[i] = d, r
-        jkey, dkey = model._keys(lane)
+        jkey, dkey = lvds._keys(lane)
         info[i] = (jkey, dkey, 0xFFFFFFFF if lane.change_at is None else lane.change_at)
     tab = (delay.reshape(-1) << np.uint64(17)) | thresh.reshape(-1)
     files = {"tab.hex": _hex_lines([tab], [7]),
@@ -403,7 +403,7 @@ def link_files(lanes, link, retrains=()):
 
 def dead_lane(seed):
     """A pad lane (no eye): what fills a group of lanes up."""
-    return model.Lane(skew_ps=0.0, eye_ps=0.0, seed=seed)
+    return lvds.Lane(skew_ps=0.0, eye_ps=0.0, seed=seed)
 
 
 def run_link(link, *, params=None, cycles, retrains=(), n_check=16, sim="verilator",
@@ -515,7 +515,7 @@ def expected_outputs(link, golden, *, lanes, cycles, retrains=()):
                 dying = {}
                 for i in range(grp * lanes, (grp + 1) * lanes):
                     if i in locked:
-                        cols.append(model.sent_words(link, i, nd + np.arange(n_words)))
+                        cols.append(lvds.sent_words(link, i, nd + np.arange(n_words)))
                         errs = [ev[0] for ev in res[i].events if ev[2] == 1]
                         if errs:
                             dying[i - grp * lanes] = errs[0]
@@ -611,7 +611,7 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
             ctx.set(getattr(dut, port), v)
         tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
         for k in range(cycles):
-            ctx.set(dut.lane_raw, sum(int(model.raw_words(link, i, tap2[i], k)) << (i * w)
+            ctx.set(dut.lane_raw, sum(int(lvds.raw_words(link, i, tap2[i], k)) << (i * w)
                                       for i in range(n)))
             ctx.set(dut.retrain, int(k in retrains))
             ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)

@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tdicam.hdl.lvds import TAP_BITS
-from tdicam.model import lvds as model
-from tdicam.model import lvds_front as front
+from tdicam.model import lvds
+from tdicam.model import lvds_front
 
 __all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of",
            "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
@@ -67,7 +67,7 @@ class FrontCase:
         nf, nr, nc = np.asarray(self.frames[0]).shape
         self.p = nc // L
         lw = self.p + 2
-        tw = model.training_words(w, self.n_check, self.settle)
+        tw = lvds.training_words(w, self.n_check, self.settle)
         segs = self.segments or (nf,)
         if sum(segs) != nf:
             raise ValueError("segments must add up to the frames")
@@ -82,26 +82,26 @@ class FrontCase:
             parts.append([np.asarray(a)[f0:f0 + f] for a in self.frames])
             f0 += f
         self.retrains = tuple(retrains)
-        self.link = model.Link(self.lanes, word_bits=w, line_words=lw, schedule=tuple(sched),
-                               payload=front.segment_payload(parts, L, w, self.kinds))
+        self.link = lvds.Link(self.lanes, word_bits=w, line_words=lw, schedule=tuple(sched),
+                              payload=lvds_front.segment_payload(parts, L, w, self.kinds))
         self.cycles = k + self.tail
         self.segment_starts = [s for s, mode in sched if mode == "data"]
 
     @property
     def fifo_depth(self):
-        return front.fifo_depth(self.lanes_per_gain, self.ppc, self.p * self.lanes_per_gain,
-                                1e3 / self.word_ns, 1e3 / self.proc_ns)
+        return lvds_front.fifo_depth(self.lanes_per_gain, self.ppc, self.p * self.lanes_per_gain,
+                                     1e3 / self.word_ns, 1e3 / self.proc_ns)
 
     def golden_run(self):
-        return model.run(self.link, cycles=self.cycles, retrains=self.retrains,
-                         n_check=self.n_check, settle=self.settle)
+        return lvds.run(self.link, cycles=self.cycles, retrains=self.retrains,
+                        n_check=self.n_check, settle=self.settle)
 
 
 def raw_table(link, cycles):
     """``raw[lane, tap, k]``: the raw word of every lane at every tap and word clock."""
-    k = np.broadcast_to(np.arange(cycles, dtype=np.int64), (model.N_TAPS, cycles))
-    taps = np.arange(model.N_TAPS, dtype=np.int64)[:, None]
-    return np.stack([model.raw_words(link, i, taps, k)
+    k = np.broadcast_to(np.arange(cycles, dtype=np.int64), (lvds.N_TAPS, cycles))
+    taps = np.arange(lvds.N_TAPS, dtype=np.int64)[:, None]
+    return np.stack([lvds.raw_words(link, i, taps, k)
                      for i in range(len(link.lanes))])
 
 
@@ -274,7 +274,7 @@ def scenario_frames(nf, seed, bits=12):
 def scenario_lanes(spec=GOOD_LANES, over=None):
     """:func:`tdicam.model.lvds_front.eye_lane` of each (centre, width, word delay);
     ``over``: lane -> extra keywords (``change_at``, ``after``)."""
-    return [front.eye_lane(c, w, word_delay=d, seed=i, **(over or {}).get(i, {}))
+    return [lvds_front.eye_lane(c, w, word_delay=d, seed=i, **(over or {}).get(i, {}))
             for i, (c, w, d) in enumerate(spec)]
 
 
@@ -305,7 +305,7 @@ def scenario(name, *, ppc=2):
     lw = probe.p + 2
     die_at = probe.segment_starts[0] + int(2.5 * GEOMETRY["rows"] * lw)
     lanes = scenario_lanes(over={DYING_LANE: {
-        "change_at": die_at, "after": model.Lane(skew_ps=0.0, eye_ps=0.0)}})
+        "change_at": die_at, "after": lvds.Lane(skew_ps=0.0, eye_ps=0.0)}})
     return FrontCase(frames, lanes, L, segments=(5, 3), **kw)
 
 
@@ -351,11 +351,11 @@ def check(name, case, res):
         if got_c != want:
             out.append(f"counters {names}: got {got_c}, expected {want}")
     nf = len(case.frames[0])
-    lane_words = [front.data_words(case.link, i) for i in range(n)]
+    lane_words = [lvds_front.data_words(case.link, i) for i in range(n)]
 
     def expected(bad):      # the golden front on the lanes' words
-        return front.frames_from_lanes(lane_words, L, R, case.word_bits, bad)[0]
-    kinds = front.frames_from_lanes(lane_words, L, R, case.word_bits)[2]
+        return lvds_front.frames_from_lanes(lane_words, L, R, case.word_bits, bad)[0]
+    kinds = lvds_front.frames_from_lanes(lane_words, L, R, case.word_bits)[2]
     if name.startswith("cdc"):
         same("frames", got, expected([]))
         out += _kinds_problems(res, kinds)
@@ -383,7 +383,7 @@ def check(name, case, res):
             return out + [f"{got.shape[1]} frames out, expected 6"]
         same("frames 0-1", got[:, :2], exp[:, :2])
         same("frames 5-7", got[:, 3:], expected([DYING_LANE])[:, 5:])
-        keep = ~front.invalid_columns([DYING_LANE], C, L, G)
+        keep = ~lvds_front.invalid_columns([DYING_LANE], C, L, G)
         same("frame 2 row 0", got[:, 2, 0][keep], exp[:, 2, 0][keep])
     return out
 

@@ -11,12 +11,11 @@ RMS change of the output against the output without that effect, on a crop, with
 random numbers for every other effect).
 
 Package layout: :mod:`~tdicam.engine.effects` (the table), :mod:`~tdicam.engine.context`
-(the run :class:`RunContext` and its configuration), :mod:`~tdicam.engine.exact` and :mod:`~tdicam.engine.fast` (the two
-fidelities), :mod:`~tdicam.engine.blocks` (the pipeline blocks' rows of the table, generated
-from the registry: what each block does to the frame stacks is its entry's
-:attr:`tdicam.blocks.Use.sim`),
-:mod:`~tdicam.engine.streams` (random numbers, threads, timing), this module (the entry
-point and the impact study).
+(the :class:`RunContext` of one run and its configuration), :mod:`~tdicam.engine.exact` and
+:mod:`~tdicam.engine.fast` (the two fidelities), :mod:`~tdicam.engine.block_rows` (the
+pipeline blocks' rows of the table, generated from the registry: what each block does to the
+frame stacks is its entry's :attr:`tdicam.blocks.Use.sim`), :mod:`~tdicam.engine.streams`
+(random numbers, threads, timing), this module (the entry point and the impact study).
 
 Physical order
 --------------
@@ -74,7 +73,7 @@ from tdicam.model.physics import optics as _optics, targets as _targets
 from tdicam.scene.loader import digital_tdi_limits_error
 
 from tdicam.engine import exact as _exact, fast as _fast
-from tdicam.engine.blocks import LINES, ROWS
+from tdicam.engine.block_rows import LINES, ROWS
 from tdicam.engine.context import RunContext, EffectRecord, decide
 from tdicam.engine.effects import EFFECT_NAMES, EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, FixedPattern
 from tdicam.engine.streams import Timer, threads

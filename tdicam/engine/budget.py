@@ -25,9 +25,9 @@ from pathlib import Path
 
 from tdicam.errors import TdicamError
 
-from tdicam.engine.blocks import ROWS
+from tdicam.engine.block_rows import ROWS
 from tdicam.engine.context import decide
-from tdicam.engine.streams import BLOCK_PIXELS
+from tdicam.engine.streams import CHUNK_PIXELS
 from tdicam.threads import threads
 
 __all__ = ["BASE_BYTES", "MemoryEstimate", "estimate", "available_bytes", "check_fits",
@@ -87,7 +87,7 @@ def _pass_bytes(c, lines, ncols, axes, k):
     geo = geometry(c)[0]
     tgt = 8.0 * n if "x" in axes else 8.0 * lines
     held = 24.0 * n + tgt
-    chunk_px = float(min(n, ncols * max(1, BLOCK_PIXELS // max(ncols, 1))))
+    chunk_px = float(min(n, ncols * max(1, CHUNK_PIXELS // max(ncols, 1))))
     if c.fast:
         per = (m + 8) if (geo.moving and "x" in axes) else 10
         return 28.0 * n + tgt + threads() * chunk_px * 8.0 * per
@@ -105,7 +105,7 @@ def _pass_bytes(c, lines, ncols, axes, k):
         rows = ky * (n_f * abs(geo.speed) + m + 8)
         cols = kx * (ncols + abs(geo.line_shear) * n_f + 8)
         grid = 8.0 * rows * cols
-    work = threads() * BLOCK_PIXELS * 8.0 * 6
+    work = threads() * CHUNK_PIXELS * 8.0 * 6
     # each block's figures are in its registry entry (Use.scratch_bytes, Use.post_bytes:
     # measured with tracemalloc on the bundled chains); its engine steps are its rows of the
     # effects table (ROWS), the "post" one on the output of the line-making block

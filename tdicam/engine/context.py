@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from tdicam.errors import TdicamError
 
-from tdicam.engine.blocks import ROWS, pedestal, takes_resets
+from tdicam.engine.block_rows import ROWS, pedestal, takes_resets
 from tdicam.engine.effects import EFFECTS, FORCIBLE, MOMENTS_BELOW_DITHER, dark_charge_e, stage_skew
 
 __all__ = ["EffectRecord", "RunContext", "decide"]
@@ -141,7 +141,7 @@ def decide(scene, m, dv, fidelity, force, disable):
     """The context of one scene point: which effects run and why, the fidelity, the bounds."""
     force, disable = frozenset(force), frozenset(disable)
     c = RunContext(scene, m, dv, fidelity, {}, frozenset(), force, False, stage_skew(scene, m),
-                dark_charge_e(scene), 1, 0.0, [], {})
+                   dark_charge_e(scene), 1, 0.0, [], {})
     for eff in EFFECTS:
         need, why = eff.need(c)
         if eff.name in disable:

@@ -5,12 +5,12 @@ label, when a scene needs it and why (:attr:`Effect.need`, the reason the report
 its stated error bound in the fast aggregate (:attr:`Effect.bound`, with what fast does
 instead, :attr:`Effect.fast_note`), and its implementations: ``render`` (how it shapes what
 each exposure sees, the same in both fidelities), ``pattern`` (its share of the fixed
-pattern), ``exact`` (what it does to one block of exposures in the exact path) and ``fast``
+pattern), ``exact`` (what it does to one chunk of exposures in the exact path) and ``fast``
 (what it does to the aggregated sum of the m exposures). The engine runs the entries that
 ran, in table order (:meth:`tdicam.engine.context.RunContext.steps`).
 
 The pipeline blocks are entries too, generated from the block registry: one per
-:class:`tdicam.blocks.steps.Sim` row of a block's entry (:mod:`tdicam.engine.blocks`), after
+:class:`tdicam.blocks.steps.Sim` row of a block's entry (:mod:`tdicam.engine.block_rows`), after
 the physical effects.
 """
 
@@ -22,8 +22,8 @@ from typing import Callable
 
 import numpy as np
 
-from tdicam import blocks as _registry
-from tdicam.engine import blocks as _blocks, fast
+from tdicam import blocks
+from tdicam.engine import block_rows, fast
 from tdicam.engine.streams import stream
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "FORCIBLE", "FixedPattern", "rounding_defect",
@@ -52,7 +52,7 @@ class Effect:
         Where its implementations act: ``render`` (keywords of
         :class:`~tdicam.model.physics.optics.Geometry` and the renderer), ``pattern`` (the window
         rows' :class:`FixedPattern`), ``charge`` and ``conversion`` (one
-        :class:`~tdicam.engine.exact.Exposure` block in the exact path, the
+        :class:`~tdicam.engine.exact.Exposure` chunk in the exact path, the
         :class:`~tdicam.engine.fast.Aggregate` in the fast path), ``blocks`` (frame stacks
         before the line-making block), ``lines`` (the line-making block, TDI), ``output``
         (after it).
@@ -175,7 +175,7 @@ def _need_full_well(c):
 
 
 def _need_reset_frames(c):
-    takers = [b for b in c.scene.pipeline.blocks if _registry.get(b).pipeline.elems == 2]
+    takers = [b for b in c.scene.pipeline.blocks if blocks.get(b).pipeline.elems == 2]
     return bool(takers), (f"the {takers[0]} block subtracts a reset frame" if takers
                           else "no cds block in the pipeline")
 
@@ -414,7 +414,7 @@ def _pattern_dsnu(c, fp):
 
 
 # --------------------------------------------------------------------------------------
-# implementations: charge and conversion on one block of exposures (exact)
+# implementations: charge and conversion on one chunk of exposures (exact)
 # --------------------------------------------------------------------------------------
 
 
@@ -463,14 +463,14 @@ def _fast(name):
 
 
 def _block_effect(row):
-    """The effect of a block's :class:`~tdicam.engine.blocks.Row`: timed under its name; on
+    """The effect of a block's :class:`~tdicam.engine.block_rows.Row`: timed under its name; on
     the fast aggregate its own fast step, or (after the line-making block) the exact one."""
     sim = row.sim
     fast = sim.fast
     if fast is None and sim.stage == "output":
-        fast = _blocks.timed(row.name, sim.exact)
-    return Effect(row.name, sim.label, _blocks.need(row.block.name, sim.where), stage=sim.stage,
-                  exact=_blocks.timed(row.name, sim.exact), fast=fast,
+        fast = block_rows.timed(row.name, sim.exact)
+    return Effect(row.name, sim.label, block_rows.need(row.block.name, sim.where), stage=sim.stage,
+                  exact=block_rows.timed(row.name, sim.exact), fast=fast,
                   aggregated=sim.aggregated, per_exposure=sim.per_exposure)
 
 
@@ -508,7 +508,7 @@ EFFECTS = (
            exact=_exact_quantization, fast=_fast("quantization"), aggregated=True),
     Effect("sensor_lanes", "sensor LVDS lanes (front end)", _need_lvds, stage="blocks",
            exact=_exact_lvds, per_exposure=True),
-) + tuple(_block_effect(r) for r in _blocks.ROWS)
+) + tuple(_block_effect(r) for r in block_rows.ROWS)
 EFFECT_NAMES = tuple(e.name for e in EFFECTS)
 #: Effects that can be forced on at zero strength (to check that skipping them is exact).
 FORCIBLE = tuple(e.name for e in EFFECTS if e.forcible)

@@ -1,7 +1,7 @@
 """Exact fidelity: every exposure of every pixel is generated and converted.
 
-Digital TDI (:func:`digital`): each frame row of each stage is cut into blocks of
-:data:`~tdicam.engine.streams.BLOCK_PIXELS`; on each block (an :class:`Exposure`) the
+Digital TDI (:func:`digital`): each frame row of each stage is cut into chunks of
+:data:`~tdicam.engine.streams.CHUNK_PIXELS`; on each chunk (an :class:`Exposure`) the
 charge effects of the table run (Poisson charge, full-well clip), then for every ADC channel
 the conversion effects (reset sample, read noise, ADC); the frame stacks then go through the
 golden blocks and the golden TDI accumulator. Charge-domain TDI (:func:`charge`): the charge
@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
-from tdicam.engine.blocks import LINES, Frames, prepare
-from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks, stream
+from tdicam.engine.block_rows import LINES, Frames, prepare
+from tdicam.engine.streams import CHUNK_PIXELS, chunk_rng, run_chunks, stream
 
 __all__ = ["Exposure", "digital", "charge", "expose", "convert"]
 
@@ -24,16 +24,16 @@ _RESET = ("read_reset", "read_reset_lg")
 
 
 class Exposure:
-    """One block of exposures: its mean charge, generators and output frames.
+    """One chunk of exposures: its mean charge, generators and output frames.
 
     ``lam`` is the mean charge; the charge effects turn it into ``e``; for each channel the
     conversion effects work on ``v`` (a copy of ``e``) and write ``dst[ch]`` and
-    ``reset_dst[ch]``. ``rng(name)`` gives the generator of stream ``name``: per block
-    (``block = (seed, stage, j)``, single precision noise: the parallel digital loop) or the
+    ``reset_dst[ch]``. ``rng(name)`` gives the generator of stream ``name``: per chunk
+    (``chunk = (seed, stage, j)``, single precision noise: the parallel digital loop) or the
     whole-pass generators (``gens``, double precision: the charge-domain loop).
     """
 
-    def __init__(self, c, lam, dst, reset_dst, *, block=None, gens=None):
+    def __init__(self, c, lam, dst, reset_dst, *, chunk=None, gens=None):
         self.lam = lam
         self.e = lam
         self.v = None
@@ -41,21 +41,21 @@ class Exposure:
         self.k = [g / c.sensor.conversion_gain_e_per_dn for g in c.gains]
         self.add = c.offset_dn + 0.5
         self.top = float(c.sensor.full_scale_dn)
-        self._block = block
+        self._chunk = chunk
         self._gens = gens if gens is not None else {}
         self.dt = {}
 
     def rng(self, name):
         g = self._gens.get(name)
         if g is None:
-            seed, s, j = self._block
-            g = self._gens[name] = block_rng(seed, name, s, j)
+            seed, s, j = self._chunk
+            g = self._gens[name] = chunk_rng(seed, name, s, j)
         return g
 
     def read_noise(self, ch, r_e):
         """Read noise of the signal sample of channel ``ch`` (electrons)."""
         rng = self.rng(_READ[ch])
-        if self._block is None:
+        if self._chunk is None:
             return r_e * rng.standard_normal(self.v.shape)
         z = rng.standard_normal(self.v.shape, np.float32)
         z *= np.float32(r_e)
@@ -67,7 +67,7 @@ class Exposure:
         if r_e <= 0:
             return np.zeros(shape)
         rng = self.rng(_RESET[ch])
-        if self._block is None:
+        if self._chunk is None:
             return r_e * rng.standard_normal(shape)
         v = rng.standard_normal(shape, np.float32).astype(np.float64)
         v *= r_e
@@ -75,12 +75,12 @@ class Exposure:
 
 
 def expose(c, x):
-    """The charge effects of the table on exposure block ``x``."""
+    """The charge effects of the table on exposure chunk ``x``."""
     _steps(c, x, c.steps("charge", named=True))
 
 
 def convert(c, x):
-    """The conversion effects of the table, for every channel, on exposure block ``x``."""
+    """The conversion effects of the table, for every channel, on exposure chunk ``x``."""
     steps = c.steps("conversion", named=True)
     for ch in range(len(c.gains)):
         x.v = np.array(x.e, np.float64)
@@ -119,8 +119,8 @@ def digital(c, p):
     frames = [np.empty((n_f, m, ncols), dt) for _ in range(n_ch)]
     resets = [np.empty((n_f, m, ncols), dt) for _ in range(n_ch)] if c.resets \
         else None
-    rows = max(1, BLOCK_PIXELS // max(ncols, 1))
-    blocks = [(j, a, min(n_f, a + rows)) for j, a in enumerate(range(0, n_f, rows))]
+    rows = max(1, CHUNK_PIXELS // max(ncols, 1))
+    chunks = [(j, a, min(n_f, a + rows)) for j, a in enumerate(range(0, n_f, rows))]
     moving = p.geometry.moving
     S, gain_map, dark_map = c.signal_e, p.pattern.gain, p.pattern.dark
 
@@ -134,13 +134,13 @@ def digital(c, p):
         lam = np.broadcast_to(lam, (b - a, ncols))
         x = Exposure(c, lam, [f[a:b, r, :] for f in frames],
                      None if resets is None else [f[a:b, r, :] for f in resets],
-                     block=(c.seed, s, j))
+                     chunk=(c.seed, s, j))
         x.dt["render"] = time.perf_counter() - t
         expose(c, x)
         convert(c, x)
         return x.dt
 
-    run_blocks(task, [(s, j, a, b) for s in range(m) for j, a, b in blocks], p.timer,
+    run_chunks(task, [(s, j, a, b) for s in range(m) for j, a, b in chunks], p.timer,
                p.progress, lambda s, j, a, b: (b - a) * ncols)
     r0 = c.stage_row(0)
     raw = frames[0][:lines, r0, :].astype(np.int64)

@@ -1,6 +1,6 @@
 """Fast fidelity: the m exposures of a ground line aggregated (see :mod:`tdicam.engine`).
 
-Output lines are cut in chunks of :data:`~tdicam.engine.streams.BLOCK_PIXELS`; on each chunk
+Output lines are cut in chunks of :data:`~tdicam.engine.streams.CHUNK_PIXELS`; on each chunk
 the summed mean charge (rendering and fixed pattern as in exact, full well clipped on the
 mean of every exposure) becomes an :class:`Aggregate` on which the fast implementations of
 the table run in order — shot noise (Normal of the summed variance, Poisson where the summed
@@ -20,9 +20,9 @@ import numpy as np
 
 from tdicam.model.physics import sensor as _sensor
 
-from tdicam.engine.blocks import Frames, subtract_reset
+from tdicam.engine.block_rows import Frames, subtract_reset
 from tdicam.engine.exact import Exposure, convert, expose
-from tdicam.engine.streams import BLOCK_PIXELS, block_rng, run_blocks
+from tdicam.engine.streams import CHUNK_PIXELS, chunk_rng, run_chunks
 
 __all__ = ["Aggregate", "path", "shot_noise", "full_well", "read_noise", "quantization",
            "moment_sum", "integer_draw"]
@@ -107,7 +107,7 @@ def path(c, p):
     out = np.empty((lines, ncols), np.int64)
     raw = np.empty((lines, ncols), np.int64)
     single = np.empty((lines, ncols), np.int64)
-    chunk = max(1, min(lines, BLOCK_PIXELS // max(ncols, 1)))
+    chunk = max(1, min(lines, CHUNK_PIXELS // max(ncols, 1)))
     ped = c.offset_dn if not c.resets else 0.0
     pedm = ped * (m if digital else 1)
     fw = c.full_well_e
@@ -122,8 +122,8 @@ def path(c, p):
     def work(ci, lo, hi):
         """Output lines lo..hi-1 (and their raw exposure) from the generators of chunk ci."""
         dt = {}
-        rng_q = block_rng(c.seed, "quant", 0, ci)
-        rng_shot = block_rng(c.seed, "shot", 0, ci)
+        rng_q = chunk_rng(c.seed, "quant", 0, ci)
+        rng_shot = chunk_rng(c.seed, "shot", 0, ci)
         g_lines = np.arange(lo, hi)
         t = time.perf_counter()
         grid = rend.grid(lo, hi - 1)
@@ -174,7 +174,7 @@ def path(c, p):
         t = time.perf_counter()
         lam1 = np.broadcast_to((S * first) * gain_map[r0] + dark_map[r0], (hi - lo, ncols))
         rst1 = [np.empty((hi - lo, ncols), np.int64)] if c.resets else None
-        x = Exposure(c1, lam1, [raw[lo:hi]], rst1, block=(c.seed, 0, ci),
+        x = Exposure(c1, lam1, [raw[lo:hi]], rst1, chunk=(c.seed, 0, ci),
                      gens={"shot": rng_shot})
         expose(c1, x)
         convert(c1, x)
@@ -185,7 +185,7 @@ def path(c, p):
         dt["raw_exposure"] = time.perf_counter() - t
         return dt
 
-    run_blocks(work, [(ci, lo, min(lines, lo + chunk))
+    run_chunks(work, [(ci, lo, min(lines, lo + chunk))
                       for ci, lo in enumerate(range(0, lines, chunk))],
                p.timer, p.progress, lambda ci, lo, hi: (hi - lo) * ncols * m)
     fr = Frames([out], None, sen.bits, p.timer, out=out, full_scale=top)

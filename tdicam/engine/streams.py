@@ -2,11 +2,11 @@
 
 Every random draw of a run comes from a generator named by its stream: a fixed stream per
 effect, so disabling one effect never changes another's random numbers. Whole-pass streams
-(:func:`stream`) serve the fixed pattern and the charge-domain loop; the block-parallel loops
-draw block ``j`` of stage ``s`` from :func:`block_rng` ``(seed, stream, s, j)``, so their
+(:func:`stream`) serve the fixed pattern and the charge-domain loop; the chunk-parallel loops
+draw chunk ``j`` of stage ``s`` from :func:`chunk_rng` ``(seed, stream, s, j)``, so their
 output does not depend on the thread count or timing (numpy's Generator releases the GIL
-while it fills an array, so blocks run on :func:`threads` threads through
-:func:`run_blocks`).
+while it fills an array, so chunks run on :func:`threads` threads through
+:func:`run_chunks`).
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ import numpy as np
 
 from tdicam.threads import threads
 
-__all__ = ["STREAMS", "BLOCK_PIXELS", "stream", "block_rng", "threads", "run_blocks", "Timer"]
+__all__ = ["STREAMS", "CHUNK_PIXELS", "stream", "chunk_rng", "threads", "run_chunks", "Timer"]
 
 #: Fixed random stream of each use: disabling one effect never changes another's numbers.
 STREAMS = {"fpn_prnu": 1, "fpn_dsnu": 2, "shot": 3, "read": 4, "read_reset": 5, "quant": 6,
            "read_lg": 7, "read_reset_lg": 8}
-#: Pixels per random-number block of the block-parallel loops (rows = this // width).
-BLOCK_PIXELS = 1 << 16
+#: Pixels per random-number chunk of the chunk-parallel loops (rows = this // width).
+CHUNK_PIXELS = 1 << 16
 
 
 def stream(seed, name):
@@ -31,10 +31,10 @@ def stream(seed, name):
     return np.random.default_rng(np.random.SeedSequence([int(seed), STREAMS[name]]))
 
 
-def block_rng(seed, name, stage, block):
-    """The generator of stream ``name`` for block ``block`` of stage ``stage``."""
+def chunk_rng(seed, name, stage, chunk):
+    """The generator of stream ``name`` for chunk ``chunk`` of stage ``stage``."""
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
-        [int(seed), STREAMS[name], int(stage), int(block)])))
+        [int(seed), STREAMS[name], int(stage), int(chunk)])))
 
 
 class Timer:
@@ -51,7 +51,7 @@ class Timer:
             self.add(name, v)
 
 
-def run_blocks(fn, args, timer, progress, work_of):
+def run_chunks(fn, args, timer, progress, work_of):
     """``fn(*a)`` for every ``a`` in ``args`` on :func:`threads` threads; each returns
     ``{effect: seconds}``. Timings and progress are collected in order, here."""
     n_thr = min(threads(), len(args))

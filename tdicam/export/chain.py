@@ -46,7 +46,8 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
                                                              sc.sensor.columns)
     design.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
     spill = MEMORY[memory]
-    p = design.chain_plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill, ppc=ppc)
+    p = design.chain_plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill,
+                          ppc=ppc)
     if design.sourced(p):
         raise TdicamError(f"{Path(scene_path).name}: the chain's input is the sensor's lanes "
                           f"([sensor.lvds]); the export drives pixel beats (the front end's "

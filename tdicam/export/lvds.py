@@ -31,11 +31,12 @@ from __future__ import annotations
 import numpy as np
 
 from tdicam.blocks.lvds import link_from_arrays
-from tdicam.cosim import lvds as cl, tbgen
+from tdicam.cosim import tbgen
+from tdicam.cosim.lvds import TbParts, dead_lane, expected_outputs, link_files, testbench
 from tdicam.errors import TdicamError
 from tdicam.export.block import Design, block_rows, golden_case_arrays
 from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 from tdicam.hw.verilog import convert, header
 
 __all__ = ["lvds_export", "lvds_vectors"]
@@ -93,20 +94,20 @@ def lvds_vectors(blk, params):
                               f"retrains")
         n_link = len(link.lanes)
         groups = -(-n_link // n)
-        pads = [cl.dead_lane(10_000 + i) for i in range(groups * n - n_link)]
+        pads = [dead_lane(10_000 + i) for i in range(groups * n - n_link)]
         kw = dict(cycles=cycles, retrains=retrains, n_check=n_check, settle=params["settle"],
                   min_run=params["min_run"], pick=params["pick"])
-        gold = model.run(link, **kw)
+        gold = lvds.run(link, **kw)
         _check_golden(name, arrays, gold)
         evs, finals = list(gold.events), list(gold.final)
         if pads:
-            pad_link = model.Link(pads, word_bits=w, train_word=link.train_word,
-                                  sync_word=link.sync_word, line_words=link.line_words,
-                                  schedule=link.schedule)
-            pg = model.run(pad_link, **kw)
+            pad_link = lvds.Link(pads, word_bits=w, train_word=link.train_word,
+                                 sync_word=link.sync_word, line_words=link.line_words,
+                                 schedule=link.schedule)
+            pg = lvds.run(pad_link, **kw)
             evs += [(e[0], e[1] + n_link) + tuple(e[2:]) for e in pg.events]
             finals += pg.final
-        expected = cl.expected_outputs(link, gold, lanes=n, cycles=cycles, retrains=retrains)
+        expected = expected_outputs(link, gold, lanes=n, cycles=cycles, retrains=retrains)
         g0 = len(gtext)
         for grp in range(groups):
             g = g0 + grp
@@ -131,7 +132,7 @@ def lvds_vectors(blk, params):
         lanes_all += list(link.lanes) + pads
         cycles_total += groups * cycles
         names.append(name)
-    tables = cl.link_files(lanes_all, model.Link(lanes_all[:1], word_bits=w))
+    tables = link_files(lanes_all, lvds.Link(lanes_all[:1], word_bits=w))
     files = {"tab.hex": tables["tab.hex"].decode(), "info.hex": tables["info.hex"].decode(),
              "groups.hex": "".join(gtext), "sched_all.hex": "".join(sched),
              "retrain_all.hex": "".join(rts), "ev_first.hex": "".join(
@@ -375,10 +376,10 @@ def selfcheck_testbench(top, names, counts):
   end
 """
     # the tables hold exactly the exported lanes (LMAX = slots)
-    parts = cl.TbParts(title="self-checking", lmax=slots, decls=decl, lane=lane_check,
-                       start="      groups = NG;\n      load_group(0);\n",
-                       next_group="            load_group(g + 1);\n", body=main)
-    return cl.testbench(top, parts=parts)[0]
+    parts = TbParts(title="self-checking", lmax=slots, decls=decl, lane=lane_check,
+                    start="      groups = NG;\n      load_group(0);\n",
+                    next_group="            load_group(g + 1);\n", body=main)
+    return testbench(top, parts=parts)[0]
 
 
 def lvds_export(blk, params, *, seed=1, idle=0.1, backpressure=0.1, max_beats=None):
@@ -419,7 +420,8 @@ def lvds_export(blk, params, *, seed=1, idle=0.1, backpressure=0.1, max_beats=No
                vectors=files, ports=ports,
                latency=f"{top.latency} word clocks from the raw word carrying the last lane's "
                        f"first sync word to `o_valid`; no backpressure (the sensor cannot be "
-                       f"stalled); training takes about {model.training_words(w, 16, params['settle'])} word clocks",
+                       f"stalled); training takes about "
+                       f"{lvds.training_words(w, 16, params['settle'])} word clocks",
                checks=checks, plusargs="The link is fixed by the vectors and the receiver cannot be "
                         "stalled: there are no run-setting plusargs.")
     return d, names, counts["cycles"], counts["outputs"]

@@ -6,6 +6,6 @@ bandwidth, gateware rate, SNR, MTF) and its feasibility; :mod:`~tdicam.planning.
 what the planning model predicts a run measures (MTF, SNR gain), shared with ``tdicam run``;
 :mod:`~tdicam.planning.report` its text and figures.
 
-Layer: a service below :mod:`tdicam.run`. May import :mod:`tdicam.chain`, the engine, the scene reader
-and everything below them.
+Layer: a service below :mod:`tdicam.run`. May import :mod:`tdicam.chain`, the engine, the
+scene reader and everything below them.
 """

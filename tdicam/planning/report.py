@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from tdicam.model.physics import plan as P
+from tdicam.model.physics import plan
 from tdicam.model.ddr import (BLOCK_TEXT, PLAN_MARGIN, WINDOW_REFRESHES, closest_block,
                               window_cycles)
 from tdicam.model.physics.memory import DDR_EFFICIENCY
@@ -259,14 +259,14 @@ def figures(rep, scenes) -> list:
     ax = fig.add_subplot()
     if snr["predicted"] is not None:
         shot = math.sqrt(snr["signal_e"] + snr["dark_e"])
-        ax.plot(m, P.gain_db(P.snr_gain_digital_predicted(
+        ax.plot(m, plan.gain_db(plan.snr_gain_digital_predicted(
             m, snr["sigma_ad_e"], math.hypot(snr["sigma_cmos_e"],
                                              snr["predicted"]["sigma_fpn_e"]),
             snr["predicted"]["rho"])), label="digital TDI (planning model)")
-        ax.plot(m, P.gain_db(P.snr_gain_digital(m, snr["sigma_ad_e"], snr["sigma_cmos_e"])),
+        ax.plot(m, plan.gain_db(plan.snr_gain_digital(m, snr["sigma_ad_e"], snr["sigma_cmos_e"])),
                 "--", label="digital TDI (Tao et al. 2012 eq 28, worst case)")
-        ax.plot(m, P.gain_db(P.snr_gain_charge(m, snr["sigma_ad_e"], shot,
-                                               snr["read_noise_e"])),
+        ax.plot(m, plan.gain_db(plan.snr_gain_charge(m, snr["sigma_ad_e"], shot,
+                                                     snr["read_noise_e"])),
                 label="charge-domain TDI")
         ax.set_title(f"signal {snr['signal_e']:g} e-, read noise {snr['read_noise_e']:g} e-, "
                      f"quantization {snr['sigma_ad_e']:.3g} e-", fontsize=9)
@@ -287,16 +287,16 @@ def figures(rep, scenes) -> list:
     x = np.linspace(0.0, 3.0, 601)
     for k, stages in enumerate((8, 32, 96, 128)):
         c = f"C{k}"
-        ax1.plot(dv, P.mtf_velocity_mismatch(P.NYQUIST, stages, dv), color=c,
+        ax1.plot(dv, plan.mtf_velocity_mismatch(plan.NYQUIST, stages, dv), color=c,
                  label=f"M = {stages}")
-        ax2.plot(x, P.camera_mtf(P.NYQUIST, stages, x / stages, 0.0, q), color=c,
+        ax2.plot(x, plan.camera_mtf(plan.NYQUIST, stages, x / stages, 0.0, q), color=c,
                  label=f"M = {stages}, camera model")
-        ax2.plot(x, P.mtf_system(P.NYQUIST, stages, x / stages, q), "--", color=c, lw=0.8,
+        ax2.plot(x, plan.mtf_system(plan.NYQUIST, stages, x / stages, q), "--", color=c, lw=0.8,
                  label=f"M = {stages}, paper's model")
     ax1.set_xlabel("dV/V")
     ax1.set_ylabel("velocity-mismatch MTF at Nyquist")
     ax1.set_title("Yuan et al. 2013 Fig. 8: |sinc(f p M dV/V)|", fontsize=9)
-    ax2.plot(x, P.mtf_velocity_mismatch(P.NYQUIST, 128, x / 128), "k:",
+    ax2.plot(x, plan.mtf_velocity_mismatch(plan.NYQUIST, 128, x / 128), "k:",
              label="paper's mismatch factor alone")
     ax2.axvline(2.0, color="grey", lw=0.8)
     ax2.set_xlabel("M dV/V")
@@ -318,10 +318,11 @@ def figures(rep, scenes) -> list:
         v = rep["orbit"]["ground_speed_m_s"]
         gsds = sorted({0.5, 1.0, 2.0, 5.0} | {sc.orbit.gsd_m for sc in scenes})
         for g in gsds:
-            ax.plot(m, P.required_frame_rate(m, rows, P.line_period(g, v)), label=f"GSD {g:g} m")
+            ax.plot(m, plan.required_frame_rate(m, rows, plan.line_period(g, v)),
+                    label=f"GSD {g:g} m")
         ax.set_title(f"{rep['orbit']['altitude_km']:g} km orbit, r = {rows}", fontsize=9)
     else:
-        ax.plot(m, P.required_frame_rate(m, rows, d["line_period_s"]),
+        ax.plot(m, plan.required_frame_rate(m, rows, d["line_period_s"]),
                 label=f"T_line {d['line_period_s'] * 1e6:.1f} us")
     avail = rep["sensor"]["available_frame_rate_hz"]
     if avail is not None:

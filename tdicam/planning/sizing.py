@@ -27,7 +27,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError, check_range
 from tdicam.hw import record
-from tdicam.model.physics import plan as P
+from tdicam.model.physics import plan
 from tdicam.model import tdi as _tdi
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.planning.predict import mtf_prediction, snr_prediction
@@ -131,9 +131,9 @@ def check_options(values: dict) -> dict:
         if out.get(dest) is not None:
             out[dest] = check_range(option, out[dest], lo, hi, integer=integer,
                                     lo_open=lo_open)
-    if out.get("device") is not None and str(out["device"]).lower() not in P.ONCHIP_RAM_BITS:
+    if out.get("device") is not None and str(out["device"]).lower() not in plan.ONCHIP_RAM_BITS:
         raise TdicamError(f"--device = {out['device']!r} is not known; valid: "
-                          f"{', '.join(P.ONCHIP_RAM_BITS)}")
+                          f"{', '.join(plan.ONCHIP_RAM_BITS)}")
     return out
 
 
@@ -336,28 +336,28 @@ def _snr(scene, stages):
     cap = max(per_exposure_well - dark_e, 0.0)
     signal = min(asked, cap)
     clipped = asked > cap
-    sigma_ad = float(P.quantization_noise(s.conversion_gain_e_per_dn))
+    sigma_ad = float(plan.quantization_noise(s.conversion_gain_e_per_dn))
     out = {"domain": scene.tdi.domain, "signal_e": signal, "signal_asked_e": asked,
            "clipped_at_full_well": clipped, "full_well_e": s.full_well_e, "dark_e": dark_e,
            "read_noise_e": s.read_noise_e, "sigma_ad_e": sigma_ad,
-           "sigma_cmos_e": float(P.temporal_noise(signal, s.read_noise_e, dark_e)),
+           "sigma_cmos_e": float(plan.temporal_noise(signal, s.read_noise_e, dark_e)),
            "single_db": None, "gain_digital": None, "gain_digital_db": None,
            "gain_charge": None, "gain_charge_db": None, "tdi_db": None, "predicted": None}
     if signal <= 0:
         return out          # no signal: no SNR, and no SNR gain to speak of
     sigma_cmos = out["sigma_cmos_e"]
-    g_dig = float(P.snr_gain_digital(stages, sigma_ad, sigma_cmos))
-    g_chg = float(P.snr_gain_charge(stages, sigma_ad, math.sqrt(signal + dark_e),
-                                    s.read_noise_e))
+    g_dig = float(plan.snr_gain_digital(stages, sigma_ad, sigma_cmos))
+    g_chg = float(plan.snr_gain_charge(stages, sigma_ad, math.sqrt(signal + dark_e),
+                                       s.read_noise_e))
     single = float(20 * np.log10(signal / (sigma_ad + sigma_cmos)))
     gain = g_dig if scene.tdi.domain == "digital" else g_chg
     sc = scene if not clipped else dataclasses.replace(
         scene, target=dataclasses.replace(scene.target, signal_e=signal))
     pred = snr_prediction(sc, stages)
     out.update({
-        "single_db": single, "gain_digital": g_dig, "gain_digital_db": float(P.gain_db(g_dig)),
-        "gain_charge": g_chg, "gain_charge_db": float(P.gain_db(g_chg)),
-        "tdi_db": single + float(P.gain_db(gain)),
+        "single_db": single, "gain_digital": g_dig, "gain_digital_db": float(plan.gain_db(g_dig)),
+        "gain_charge": g_chg, "gain_charge_db": float(plan.gain_db(g_chg)),
+        "tdi_db": single + float(plan.gain_db(gain)),
         "predicted": {"single_db": pred["snr1_db"], "gain_db": pred["predicted_db"],
                       "tdi_db": pred["snr1_db"] + pred["predicted_db"], "rho": pred["rho"],
                       "sigma_fpn_e": pred["sigma_fpn_e"]}})
@@ -368,14 +368,14 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
            fpga_clock_mhz):
     s = scene.sensor
     t_line = scene.line_period_s
-    required = float(P.required_frame_rate(stages, s.rows, t_line))
+    required = float(plan.required_frame_rate(stages, s.rows, t_line))
     available = s.available_frame_rate_hz
     timing = scene.timing
     pattern = "given"
     if ddr_eff is None:
         pattern, ddr_eff = tdi_spill_efficiency(s.columns, stages, s.bits)
-    mem = P.tdi_memory(s.columns, stages, s.bits, t_line, onchip_budget_bits=onchip_budget_bits,
-                       word_bits=ddr_bits, user_clock_hz=ddr_clock_hz, efficiency=ddr_eff)
+    mem = plan.tdi_memory(s.columns, stages, s.bits, t_line, onchip_budget_bits=onchip_budget_bits,
+                          word_bits=ddr_bits, user_clock_hz=ddr_clock_hz, efficiency=ddr_eff)
     return {
         "gsd_m": None if scene.orbit is None else scene.orbit.gsd_m,
         "line_period_s": t_line,
@@ -457,8 +457,8 @@ def run_memory(source):
             else bool(est.peak_bytes <= est.available_bytes)}
 
 
-def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
-                ddr_clock_hz=P.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
+def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
+                ddr_clock_hz=plan.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
                 fpga_clock_mhz=None, notes=()) -> dict:
     """All planning numbers for the scenes (one per GSD) as a JSON-ready dict.
 
@@ -486,8 +486,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=P.DDR_WORD_BITS,
     """
     first = scenes[0]
     s = first.sensor
-    P.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency or 1)  # validate early
-    sum_bits = max(P.partial_sum_bits(sc.sensor.bits, max(sc.tdi.stages)) for sc in scenes)
+    plan.ddr_bandwidth_available(ddr_bits, ddr_clock_hz, ddr_efficiency or 1)  # validate early
+    sum_bits = max(plan.partial_sum_bits(sc.sensor.bits, max(sc.tdi.stages)) for sc in scenes)
     if ddr_bits < sum_bits:
         raise TdicamError(f"--ddr-bits = {ddr_bits} is out of range; valid: {sum_bits}..4096 "
                           f"(a DDR word holds at least one {sum_bits}-bit partial sum)")

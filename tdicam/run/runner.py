@@ -40,8 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import files as outputs
-from tdicam.run import report as scenereport
+from tdicam.files import check_dir, staged_dir, writing_in
+from tdicam.run.report import configuration, markdown, summary
 
 __all__ = ["run_scene", "check_output", "SceneRun", "simulate_scene", "write_run", "memory_check",
            "main_tiff_shift", "strict_json"]
@@ -76,7 +76,7 @@ def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=Tru
 def check_output(out_dir) -> Path:
     """``out_dir`` as a Path once :func:`write_run` can write there (a folder one can write
     in, or a name one can create), else the one-line error; nothing is made."""
-    return outputs.check_dir(out_dir, create=False)
+    return check_dir(out_dir, create=False)
 
 
 @dataclass
@@ -160,7 +160,7 @@ def write_run(run: SceneRun, out_dir) -> dict:
     (:func:`tdicam.files.staged_dir`): a failure leaves ``out_dir`` as it was. Returns the
     report dict (also written as ``report.json``).
     """
-    with outputs.staged_dir(out_dir) as stage:
+    with staged_dir(out_dir) as stage:
         report = _write(run, Path(out_dir), stage)
     for name in report["stale_files"]["removed"]:
         (Path(out_dir) / name).unlink(missing_ok=True)
@@ -190,7 +190,7 @@ def _write(run, out_dir, stage):
     mem, t_all = run.memory, run.started
     final_dir, out_dir = out_dir, stage
     previous = _previous_files(final_dir)
-    with outputs.writing_in(out_dir):
+    with writing_in(out_dir):
         files = _write_images(out_dir, main)
         files += _figures(out_dir, scene, rows, main)
     rtl_report = None
@@ -205,8 +205,8 @@ def _write(run, out_dir, stage):
     requested = fidelity or scene.run.fidelity
     report = {
         "scene": scene.source,
-        "configuration": scenereport.configuration(scene, main, rows, requested,
-                                                   main_tiff_shift(main), memory=mem),
+        "configuration": configuration(scene, main, rows, requested,
+                                       main_tiff_shift(main), memory=mem),
         "scene_settings": scene.to_dict(),
         "fidelity_requested": requested,
         "effects": [e.to_dict() for e in main.effects],
@@ -230,12 +230,12 @@ def _write(run, out_dir, stage):
         "tiff_shift": main_tiff_shift(main),
         "stale_files": _stale(final_dir, previous, files),
     }
-    report["summary"] = scenereport.summary(scene, report)
+    report["summary"] = summary(scene, report)
     report = strict_json(report)
-    with outputs.writing_in(out_dir):
+    with writing_in(out_dir):
         (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
                                                         allow_nan=False))
-        (out_dir / "report.md").write_text(scenereport.markdown(scene, report))
+        (out_dir / "report.md").write_text(markdown(scene, report))
     return report
 
 

@@ -22,9 +22,9 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tdicam import blocks as _registry
+from tdicam import blocks
 from tdicam.blocks import KeyDoc
-from tdicam.scene import loader as _scene
+from tdicam.scene import loader
 from tdicam.model.physics import targets as _targets
 
 __all__ = ["KEYS", "SECTIONS", "KeyDoc", "KeyInfo", "schema", "render", "main"]
@@ -111,7 +111,7 @@ KEYS = {
                                  "part of the target (image value 1.0, bright bar, bright "
                                  "side of the edge; a flat target is uniform at this level)"),
         "image": KeyDoc("", "kind = \"image\": a picture bundled with scikit-image: "
-                            + ", ".join(_scene.BUNDLED_IMAGES)
+                            + ", ".join(loader.BUNDLED_IMAGES)
                             + "; exactly one of image and path",
                         type="string", default="-", range="a bundled name"),
         "path": KeyDoc("", "kind = \"image\": a PNG or TIFF file, relative to the scene "
@@ -272,7 +272,7 @@ def _with_blocks(table, value):
     for section, v in table.items():
         out[section] = v
         if section == "pipeline":
-            for b in _registry.scene_blocks():
+            for b in blocks.scene_blocks():
                 if b.pipeline.options is not None:
                     out[f"pipeline.{b.name}"] = value(b.pipeline.options)
     return out
@@ -290,7 +290,7 @@ def _probes():
     for bits, extra in ((12, {}), (14, {"full_well_e": 30000.0, "pixel_clock_mhz": 400.0})):
         # two gains where the hdr merge's output still fits TDI's pixels (<= 14 bits)
         sensor = {"bits": bits, "gains": [2.0, 1.0] if bits <= 12 else [1.0], **extra}
-        listed = _registry.scene_blocks()
+        listed = blocks.scene_blocks()
         full = {"blocks": [b.name for b in listed],
                 **{b.name: dict(b.pipeline.options.probe) for b in listed
                    if b.pipeline.options is not None}}
@@ -320,10 +320,10 @@ def _probes():
 def schema():
     """``({section: allowed keys}, {(section, key): KeyInfo})``, read off the validating
     reader by running it on the probe scenes (see the module docstring)."""
-    S = _scene._Section
+    S = loader._Section
     allowed: dict[str, tuple] = {}
     info: dict[tuple, KeyInfo] = {}
-    req = _scene._REQUIRED
+    req = loader._REQUIRED
 
     def rec(sec, key):
         return info.setdefault((sec.name, key), KeyInfo())
@@ -346,7 +346,7 @@ def schema():
             r.kind = kind
             if kw.get("value", req) is req:
                 r.defaults.add(default if default is not req else "required")
-            bound = _scene.BOUNDS.get(f"{self.name}.{key}")     # replaces lo/hi (the reader)
+            bound = loader.BOUNDS.get(f"{self.name}.{key}")     # replaces lo/hi (the reader)
             r.ranges.add(rng(*bound) if bound else
                          rng(kw.get("lo"), kw.get("hi"), kw.get("lo_open", False),
                              kw.get("hi_open", False)))
@@ -390,7 +390,7 @@ def schema():
             setattr(S, name, fn)
             stack.callback(setattr, S, name, orig[name])
         for data in _probes():
-            _scene.scene_from_dict(data)
+            loader.scene_from_dict(data)
     return allowed, info
 
 

@@ -20,10 +20,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-from tdicam import blocks as _registry
+from tdicam import blocks
 from tdicam.blocks import steps as _steps
 from tdicam.errors import TdicamError, api_arguments, check_range
-from tdicam.model import lvds as link, lvds_front as front
+from tdicam.model import lvds_front
+from tdicam.model.lvds import N_TAPS, PAPER_TAP_PS, default_train_word, rotations
 from tdicam.model.physics import plan as _plan, targets as _targets
 from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
                                  TARGET_KINDS, Ddr, Lvds, Motion, Optics, Orbit, Pipeline, RtlRun,
@@ -484,7 +485,7 @@ def _sensor(sec: _Section) -> Sensor:
 def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds:
     sec.check_keys(("lanes_per_gain", "word_bits", "bit_rate_mbps", "mapping", "train_word",
                     "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps"))
-    dflt = front.GMAX0504
+    dflt = lvds_front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
     if columns % lanes:
         given = "" if sec.has("lanes_per_gain") else " (the default, the GMAX0504's; give it)"
@@ -501,11 +502,11 @@ def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds
     rate = sec.number("bit_rate_mbps", dflt["bit_rate_mbps"], lo=1.0, hi=2000.0)
     ui = 1e6 / rate
     mapping = sec.choice("mapping", "interleaved", ("interleaved",))
-    tw = sec.integer("train_word", link.default_train_word(wb), lo=0, hi=(1 << wb) - 1)
-    if len(set(link.rotations(tw, wb))) != wb or tw == (1 << wb) - 1:
+    tw = sec.integer("train_word", default_train_word(wb), lo=0, hi=(1 << wb) - 1)
+    if len(set(rotations(tw, wb))) != wb or tw == (1 << wb) - 1:
         sec.fail("train_word", f"{tw:#x} repeats under rotation: word alignment would be "
                                f"ambiguous")
-    tap = sec.number("tap_ps", link.PAPER_TAP_PS, lo=1.0, hi=1000.0)
+    tap = sec.number("tap_ps", PAPER_TAP_PS, lo=1.0, hi=1000.0)
     n = lanes * gains
 
     def per_lane(key, default, lo, hi):
@@ -517,7 +518,7 @@ def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds
         return tuple(sec.number(key, value=x, lo=lo, hi=hi,
                                 what=f"(entry {i} of the list)" if isinstance(v, list) else None)
                      for i, x in enumerate(vals))
-    centre = per_lane("eye_centre_taps", 16.0, 0.0, float(link.N_TAPS - 1))
+    centre = per_lane("eye_centre_taps", 16.0, 0.0, float(N_TAPS - 1))
     width = per_lane("eye_width_taps", ui / tap, 0.0, ui / tap)
     jitter = sec.number("jitter_ps", 0.0, lo=0.0, hi=ui)
     return Lvds(lanes_per_gain=lanes, word_bits=wb, bit_rate_mbps=rate, mapping=mapping,
@@ -552,7 +553,7 @@ def _motion(sec: _Section) -> Motion:
 
 
 def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
-    listed = _registry.scene_blocks()
+    listed = blocks.scene_blocks()
     with_options = [b for b in listed if b.pipeline.options is not None]
     sec.check_keys(("blocks",) + tuple(b.name for b in with_options))
     line_block = next(b.name for b in listed if b.pipeline.lines)
@@ -695,14 +696,14 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
     :data:`tdicam.model.tdi.MAX_STAGES` stages, and, when the ADC feeds TDI directly (no hdr
     merge in between), ``[sensor].bits`` in :data:`tdicam.model.tdi.PIXEL_BITS`.
     """
-    from tdicam.model import tdi as _tdi_model
+    from tdicam.model import tdi
     if scene.tdi.domain != "digital":
         return None
-    if stages > _tdi_model.MAX_STAGES:
-        return (f"stages: must be <= {_tdi_model.MAX_STAGES} for digital TDI (the "
+    if stages > tdi.MAX_STAGES:
+        return (f"stages: must be <= {tdi.MAX_STAGES} for digital TDI (the "
                 f"accumulator's limit), got {stages}")
-    lo, hi = _tdi_model.PIXEL_BITS
-    hdr = len(scene.sensor.gains) == 2 and any(_registry.get(b).pipeline.merge
+    lo, hi = tdi.PIXEL_BITS
+    hdr = len(scene.sensor.gains) == 2 and any(blocks.get(b).pipeline.merge
                                                for b in scene.pipeline.blocks)
     if not hdr and not lo <= scene.sensor.bits <= hi:
         return (f"bits: digital TDI takes {lo}..{hi}-bit pixels (the accumulator's range), "
@@ -710,12 +711,12 @@ def digital_tdi_limits_error(scene: Scene, stages) -> str | None:
     if hdr:
         # the merge (before TDI: the order rules) widens the pixels by the gain ratio: TDI
         # must take what it gives; the merge block's step says how wide
-        merge = next(b for b in scene.pipeline.blocks if _registry.get(b).pipeline.merge)
+        merge = next(b for b in scene.pipeline.blocks if blocks.get(b).pipeline.merge)
         g = scene.sensor.gains
         ctx = _steps.StepContext(scene=scene, m=stages, width=scene.sensor.columns, lines=0,
-                             bits=scene.sensor.bits, block=merge)
+                                 bits=scene.sensor.bits, block=merge)
         try:
-            _, out = _registry.get(merge).pipeline.step(ctx)
+            _, out = blocks.get(merge).pipeline.step(ctx)
         except TdicamError as exc:
             return f"gains: {list(g)} for the {merge} merge: {exc}"
         if not lo <= out <= hi:

@@ -165,7 +165,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from tdicam import blocks as _registry
+from tdicam.blocks import scene_blocks
 from tdicam.model.physics import plan as _plan
 
 __all__ = ["BOUNDS", "BUNDLED_IMAGES", "TARGET_KINDS", "BLOCKS", "DDR_INTERFACES", "Orbit",
@@ -180,7 +180,7 @@ BUNDLED_IMAGES = ("astronaut", "brick", "camera", "chelsea", "clock", "coffee", 
 TARGET_KINDS = ("image", "bars", "edge", "siemens", "flat")
 #: Names allowed in ``[pipeline].blocks``: the registry's blocks with a scene rank
 #: (:func:`tdicam.blocks.scene_blocks`), in that order.
-BLOCKS = tuple(b.name for b in _registry.scene_blocks())
+BLOCKS = tuple(b.name for b in scene_blocks())
 
 #: Physical bounds ``"section.key": (lo, hi)``, inclusive, of the quantities whose schema
 #: would otherwise only ask for a positive or non-negative value, and of the sensor's
@@ -401,7 +401,7 @@ class Pipeline:
         it is not listed."""
         if block not in self.blocks:
             return None
-        line_block = next(b.name for b in _registry.scene_blocks() if b.pipeline.lines)
+        line_block = next(b.name for b in scene_blocks() if b.pipeline.lines)
         return self.blocks.index(block) > self.blocks.index(line_block)
 
 

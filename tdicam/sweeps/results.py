@@ -210,7 +210,7 @@ def write_results(sweep: Sweep, out_dir: Path, done: dict) -> list[str]:
     atomic("results.csv", lambda p: df.to_csv(p, index=False))
     ds = dataset(sweep, df)
     atomic("sweep.nc", lambda p: ds.to_netcdf(p, engine="h5netcdf"))
-    from tdicam.sweeps import plots as sweepplots
-    for name, fig in sweepplots.figures(sweep, df):
-        atomic(name, lambda p, fig=fig: sweepplots.save(fig, p))
+    from tdicam.sweeps import plots
+    for name, fig in plots.figures(sweep, df):
+        atomic(name, lambda p, fig=fig: plots.save(fig, p))
     return files

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tdicam import files as outputs
+from tdicam.files import check_dir, named, writing_in
 from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
 from tdicam.sweeps.file import (MAX_RUNS, STORE_FORMAT, Axis, SweepRun, Sweep, _show_point,
@@ -302,10 +302,10 @@ def run_sweep(sweep: Sweep, out_dir, *, workers=None, scheduler=None, serial=Fal
         check_range("--workers", workers, 1, 256)
     if limit is not None:
         check_range("--limit", limit, 0, None)
-    _not_foreign(outputs.named(out_dir))
+    _not_foreign(named(out_dir))
     made = [p for p in (Path(out_dir), Path(out_dir) / "points") if not p.exists()]
-    out_dir = outputs.check_dir(out_dir)
-    store = outputs.check_dir(out_dir / "points")
+    out_dir = check_dir(out_dir)
+    store = check_dir(out_dir / "points")
     try:
         return _run_sweep(sweep, out_dir, store, workers=workers, scheduler=scheduler,
                           serial=serial, limit=limit, progress=progress,
@@ -331,7 +331,7 @@ def _run_sweep(sweep, out_dir, store, *, workers, scheduler, serial, limit, prog
 
     def on_done(run, result):
         nonlocal computed
-        with outputs.writing_in(store):
+        with writing_in(store):
             done[run.hash] = _store_record(store, sweep, run, result)
         computed += 1
         if bar is not None:
@@ -387,7 +387,7 @@ def _compute(todo, sweep, on_done, *, workers, scheduler, serial, limit, connect
 
 def _finish(sweep, out_dir, done, *, computed, reused, where, t_exec, t0):
     """Write the result files and ``summary.json`` into ``out_dir``; the SweepResult."""
-    with outputs.writing_in(out_dir):
+    with writing_in(out_dir):
         files = write_results(sweep, out_dir, done)
     failed = [{"point": r.point, "repeat": r.repeat, "hash": r.hash,
                "axes": sweep.points[r.point], "error": done[r.hash]["error"]}
@@ -406,7 +406,7 @@ def _finish(sweep, out_dir, done, *, computed, reused, where, t_exec, t0):
                "compute_seconds": t_exec, "wall_seconds": result.wall_seconds,
                "files": files,
                "tdicam": __version__}
-    with outputs.writing_in(out_dir):
+    with writing_in(out_dir):
         _write_atomic(out_dir / "summary.json", json.dumps(summary, indent=1,
                                                            default=_jsonable))
     result.files = files + ["summary.json"]

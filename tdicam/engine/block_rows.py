@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from tdicam import blocks as _registry
+from tdicam import blocks
 from tdicam.blocks.steps import Frames, Sim
 
 __all__ = ["Row", "ROWS", "LINES", "STAGES", "need", "timed", "Frames", "prepare", "subtract_reset",
@@ -38,7 +38,7 @@ class Row:
 
 def _rows():
     out = [Row(b.name if s.where is None else f"{b.name}_{s.where}", b, s)
-           for b in _registry.scene_blocks() for s in b.pipeline.sim]
+           for b in blocks.scene_blocks() for s in b.pipeline.sim]
     return tuple(sorted(out, key=lambda r: STAGES.index(r.sim.stage)))   # rank order kept
 
 
@@ -54,7 +54,7 @@ def need(block, where=None):
     """The ``need`` of the engine step of registry block ``block``: listed in
     ``[pipeline].blocks`` (``where``: ``"pre"`` / ``"post"``, for a block that may run before
     or after the line-making block, the one of the two this step is)."""
-    use = _registry.get(block).pipeline
+    use = blocks.get(block).pipeline
 
     def need_block(c):
         pipe, m = c.scene.pipeline, c.m
@@ -100,7 +100,7 @@ def _reset_taker(scene):
     """The :class:`~tdicam.blocks.steps.Sim` of the first block of ``[pipeline].blocks`` that
     takes reset frames (None: no such block)."""
     for name in scene.pipeline.blocks:
-        for s in _registry.get(name).pipeline.sim:
+        for s in blocks.get(name).pipeline.sim:
             if s.subtract is not None:
                 return s
     return None
