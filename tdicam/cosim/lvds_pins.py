@@ -47,7 +47,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.hdl.lvds_phy import tap_ps
 from tdicam.hw.verilog import convert
-from tdicam.model import lvds as model
+from tdicam.model import lvds
 from tdicam.cosim import ecp5_io, tbgen, xilinx7_io
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
@@ -239,7 +239,7 @@ def _lane_files(link, phy, dcd, ui):
         if d < 0 or eye + d > ui or d > eye and eye > 0:
             raise TdicamError(f"lane {i}: dcd = {dcd[i]} ps must be in 0..eye_ps and "
                               f"eye_ps + dcd <= UI")
-        jkey, dkey = model._keys(lane)
+        jkey, dkey = lvds._keys(lane)
         lo, hi = (ui - eye) // 2, (ui - eye) // 2 + eye
         rows.append([int(round(lane.skew_ps * 1000)), lo, hi,
                      int(round(lane.jitter_ps * 1000)), d, jkey, dkey, 0])
@@ -322,8 +322,8 @@ def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settl
                              skew_ps=lane.skew_ps + shift,
                              jitter_ps=lane.jitter_ps if jitter else 0.0))
     eq = replace(link, lanes=tuple(lanes))
-    return [model.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
-                             pick=pick) for i in range(len(lanes))]
+    return [lvds.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
+                            pick=pick) for i in range(len(lanes))]
 
 
 def band_taps(lane):
