@@ -41,7 +41,10 @@ class AxisTop(wiring.Component):
         # has no s_axis ports
         self._in = (tdata_layout(_data_shape(csig.members["i_stream"]))
                     if "i_stream" in csig.members else None)
-        self._out = tdata_layout(_data_shape(csig.members["o_stream"]))
+        # a core without o_stream (the camera's output links: pins, no stream) has no
+        # m_axis ports
+        self._out = (tdata_layout(_data_shape(csig.members["o_stream"]))
+                     if "o_stream" in csig.members else None)
         members = {} if self._in is None else {
             "s_axis_tdata": In(self._in[3]),
             "s_axis_tvalid": In(1),
@@ -49,13 +52,14 @@ class AxisTop(wiring.Component):
             "s_axis_tuser": In(1),
             "s_axis_tlast": In(1),
         }
-        members |= {
-            "m_axis_tdata": Out(self._out[3]),
-            "m_axis_tvalid": Out(1),
-            "m_axis_tready": In(1),
-            "m_axis_tuser": Out(1),
-            "m_axis_tlast": Out(1),
-        }
+        if self._out is not None:
+            members |= {
+                "m_axis_tdata": Out(self._out[3]),
+                "m_axis_tvalid": Out(1),
+                "m_axis_tready": In(1),
+                "m_axis_tuser": Out(1),
+                "m_axis_tlast": Out(1),
+            }
         self._extra = []
         for name, member in csig.members.items():
             if name in ("i_stream", "o_stream"):
@@ -83,7 +87,6 @@ class AxisTop(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = self._core
-        o = core.o_stream
         if self._in is not None:
             i = core.i_stream
             bits, count, padded, _ = self._in
@@ -95,17 +98,19 @@ class AxisTop(wiring.Component):
                 Value.cast(i.payload.data).eq(
                     Cat(self.s_axis_tdata[k * padded:k * padded + bits] for k in range(count))),
             ]
-        bits, count, padded, _ = self._out
-        flat = Value.cast(o.payload.data)
-        m.d.comb += [
-            self.m_axis_tvalid.eq(o.valid),
-            o.ready.eq(self.m_axis_tready),
-            self.m_axis_tuser.eq(o.payload.first),
-            self.m_axis_tlast.eq(o.payload.last),
-            self.m_axis_tdata.eq(Cat(
-                Cat(flat[k * bits:(k + 1) * bits], Const(0, padded - bits))
-                for k in range(count))),
-        ]
+        if self._out is not None:
+            o = core.o_stream
+            bits, count, padded, _ = self._out
+            flat = Value.cast(o.payload.data)
+            m.d.comb += [
+                self.m_axis_tvalid.eq(o.valid),
+                o.ready.eq(self.m_axis_tready),
+                self.m_axis_tuser.eq(o.payload.first),
+                self.m_axis_tlast.eq(o.payload.last),
+                self.m_axis_tdata.eq(Cat(
+                    Cat(flat[k * bits:(k + 1) * bits], Const(0, padded - bits))
+                    for k in range(count))),
+            ]
         for name, flow in self._extra:
             if flow == wiring.In:
                 m.d.comb += getattr(core, name).eq(getattr(self, name))
