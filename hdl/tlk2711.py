@@ -9,9 +9,11 @@ Structure::
     processing clock ("sync")                    | link clock (LINK_DOMAIN, with crossing)
                                                  |
     i_stream: ppc pixels a beat                  |
-      -> Pairer (ppc 1, 2 links: two beats make  |
-         one entry, a pixel for each link)       |
-      -> AsyncFIFO write ===== crossing ======> AsyncFIFO read (``crossing``; else direct)
+      -> Widener (when a beat gives a link fewer |
+         than 16 bits: beats gathered into one   |
+         entry, closed early at a row's end)     |
+      -> AsyncFIFO write ===== crossing ======> AsyncFIFO read (``crossing``; in one
+                                                 |    clock a SyncFIFO, the same depth)
                                                  |  -> Tlk2711Framer: header, gearbox (each
                                                  |     link's pixels packed into 16-bit
                                                  |     words), CRC, trailer; one word a link
@@ -22,7 +24,7 @@ Structure::
 """
 
 from amaranth.hdl import Cat, Const, DomainRenamer, Module, Mux, Signal, Value
-from amaranth.lib import fifo, wiring
+from amaranth.lib import data, fifo, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
@@ -31,8 +33,8 @@ from tdicam.hdl.util import equals, quiet_reject
 from tdicam.model import tlk2711 as model
 from tdicam.model.tdi import PPC_CHOICES
 
-__all__ = ["Tlk2711", "Tlk2711Framer", "Pairer", "LINK_DOMAIN", "WORD_BITS", "pin_names",
-           "crc16_matrix"]
+__all__ = ["Tlk2711", "Tlk2711Framer", "Widener", "entry_pixels", "entry_layout",
+           "LINK_DOMAIN", "WORD_BITS", "pin_names", "crc16_matrix"]
 
 #: The clock domain of the links' reference clock (ports ``link_clk``/``link_rst`` of a top
 #: with ``crossing``).
@@ -71,36 +73,73 @@ def _unpack(payload_data, count):
     return [payload_data] if count == 1 else [payload_data[k] for k in range(count)]
 
 
-class Pairer(wiring.Component):
-    """Two beats of one pixel in, one beat of two pixels out (pixel 0 the first beat's):
-    at 1 pixel per clock with two links, each entry the framer takes holds a pixel for each
-    link. ``first`` from the first beat, ``last`` from the second: rows must have an even
-    number of pixels. The first beat waits in a register, the second passes through
-    (combinational ``valid``/``ready``); :attr:`latency` 0 from the second beat."""
+def entry_pixels(ppc, links, pixel_bits):
+    """Pixels of an entry the framer takes: the least ``ppc * 2**k`` that gives every link at
+    least one pixel and 16 bits (so the framer, one entry a clock, can send a word a link
+    a clock and catch up after a row's header and trailer)."""
+    p = ppc
+    while p < links or p // links * pixel_bits < 16:
+        p *= 2
+    return p
 
-    def __init__(self, bits):
-        self._bits = bits
-        super().__init__({"i_stream": In(pixel_signature(channels_shape(bits, 1))),
-                          "o_stream": Out(pixel_signature(channels_shape(bits, 2)))})
 
-    latency = property(lambda self: 0, doc="Cycles from the second beat to the pair.")
+def entry_layout(pixel_bits, pixels, links):
+    """An entry: ``data`` (``pixels`` pixels, element 0 the leftmost), ``first``, ``last``
+    and ``count``, the valid pixels a link (``pixels / links``, fewer in a row's last entry
+    when the row is not a whole number of entries; the pixels past them are 0)."""
+    return data.StructLayout({"data": channels_shape(pixel_bits, pixels), "first": 1,
+                              "last": 1, "count": range(pixels // links + 1)})
+
+
+class Widener(wiring.Component):
+    """``beats`` beats of ``ppc`` pixels in, one entry of ``beats * ppc`` pixels out
+    (:func:`entry_layout`; pixel 0 the first beat's), closed early by a row's last beat:
+    the entry then holds the row's remaining beats, zeros after them, and their count.
+
+    ``first`` from the entry's first beat, ``last`` from its last. The beats before the last
+    wait in registers, the last passes through (combinational ``valid``/``ready``):
+    :attr:`latency` 0 from the beat that closes the entry. With two links every row must
+    have an even number of pixels (an entry's pixels alternate between the links).
+    """
+
+    def __init__(self, *, pixel_bits, ppc, beats, links):
+        self._bits, self._ppc, self._n, self._links = pixel_bits, ppc, beats, links
+        super().__init__({
+            "i_stream": In(pixel_signature(channels_shape(pixel_bits, ppc))),
+            "o_stream": Out(stream.Signature(entry_layout(pixel_bits, beats * ppc, links)))})
+
+    latency = property(lambda self: 0, doc="Cycles from the beat that closes an entry to "
+                                           "the entry.")
 
     def elaborate(self, platform):
         m = Module()
         i, o = self.i_stream, self.o_stream
-        held = Signal()
-        px = Signal(self._bits)
+        n, w = self._n, self._bits * self._ppc
+        k = Signal(range(n), name="beats_held")
+        held = [Signal(w, name=f"held{j}") for j in range(n - 1)]
         first = Signal()
+        close = (k == n - 1) | i.payload.last
+        beat = Value.cast(i.payload.data)
+        slots = [Mux(k > j, held[j], Mux(equals(k, j), beat, 0)) for j in range(n - 1)]
+        slots.append(Mux(equals(k, n - 1), beat, 0))
         m.d.comb += [
-            o.valid.eq(held & i.valid),
-            o.payload.data[0].eq(px), o.payload.data[1].eq(i.payload.data),
-            o.payload.first.eq(first), o.payload.last.eq(i.payload.last),
-            i.ready.eq(~held | o.ready),
+            o.valid.eq(i.valid & close), i.ready.eq(~close | o.ready),
+            Value.cast(o.payload.data).eq(Cat(*slots)),
+            o.payload.first.eq(Mux(equals(k, 0), i.payload.first, first)),
+            o.payload.last.eq(i.payload.last),
+            # (k + 1) beats of ppc pixels, split over the links (powers of two: shifts)
+            o.payload.count.eq(((k + 1) * self._ppc) >> (self._links - 1)),
         ]
         with m.If(i.valid & i.ready):
-            m.d.sync += held.eq(~held)
-            with m.If(~held):
-                m.d.sync += [px.eq(i.payload.data), first.eq(i.payload.first)]
+            with m.If(close):
+                m.d.sync += k.eq(0)
+            with m.Else():
+                m.d.sync += k.eq(k + 1)
+                with m.If(equals(k, 0)):
+                    m.d.sync += first.eq(i.payload.first)
+                for j in range(n - 1):
+                    with m.If(equals(k, j)):
+                        m.d.sync += held[j].eq(beat)
         return m
 
 
@@ -119,9 +158,10 @@ class Tlk2711Framer(wiring.Component):
 
     Attributes
     ----------
-    i_stream : In(pixel stream of ``pixels`` x ``pixel_bits``)
+    i_stream : In(stream of :func:`entry_layout`)
         A row's entries in order; ``last`` on the row's last entry; ``first`` (read at a
-        row's first entry only) starts a frame.
+        row's first entry only) starts a frame; ``count`` valid pixels a link (the pixels
+        past them 0).
     o_stream : Out(pixel stream of ``links`` x 18 bits)
         Beat ``k`` holds word ``k`` of every link (``TXD | TKLSB << 16 | TKMSB << 17``):
         exactly :func:`tdicam.model.tlk2711.tlk2711`'s columns, without fill. ``first`` on a
@@ -130,11 +170,13 @@ class Tlk2711Framer(wiring.Component):
     Notes
     -----
     A row's header words (IDLE IDLE [SOF FNUM IDLE IDLE] SOL LNUM) come from a counter, its
-    payload from a gearbox per link: the link's ``C = pixels / links * pixel_bits`` bits of
-    an entry are appended to an accumulator of ``fill`` bits at bit ``fill`` (a shift by
-    0..15), a word leaves from its bottom 16 bits whenever ``fill >= 16``, and an entry is
-    taken while fewer than 16 bits remain after this cycle's word; the row's last entry
-    rounds ``fill`` up to a whole word (zero padding). The CRC register moves with each
+    payload from a gearbox per link: the link's ``count * pixel_bits`` bits of an entry (at
+    most ``C = pixels / links * pixel_bits``) are appended to an accumulator of ``fill``
+    bits at bit ``fill`` (a shift by 0..15), a word leaves from its bottom 16 bits whenever
+    ``fill >= 16``, and an entry is taken while fewer than 16 bits remain after this
+    cycle's word; the row's last entry rounds ``fill`` up to a whole word (zero padding).
+    With ``C >= 16`` (:func:`entry_pixels`) the framer takes entries as fast as the links
+    send their bits. The CRC register moves with each
     LNUM and payload word (16 bits a clock, :func:`crc16_matrix`), the trailer (EOL CRC)
     follows the last payload word directly. So a link sends a word on every clock as long as
     the input keeps up, and exactly :func:`~tdicam.model.tlk2711.frame_words` words a
@@ -155,7 +197,7 @@ class Tlk2711Framer(wiring.Component):
             raise TdicamError(f"pixels = {pixels} an entry is not a multiple of links = "
                               f"{links}")
         super().__init__({
-            "i_stream": In(pixel_signature(channels_shape(pixel_bits, pixels))),
+            "i_stream": In(stream.Signature(entry_layout(pixel_bits, pixels, links))),
             "o_stream": Out(pixel_signature(channels_shape(WORD_BITS, links))),
         })
 
@@ -167,14 +209,15 @@ class Tlk2711Framer(wiring.Component):
     acc_bits = property(lambda self: 16 * -(-(15 + self.chunk_bits) // 16),
                         doc="Bits of a link's accumulator: at most 15 left plus an entry, "
                             "rounded up to whole words.")
-    latency = property(lambda self: 1, doc="Cycles from a row's first entry taken (the "
-                                           "framer idle, the sink ready) to the row's first "
-                                           "word valid.")
+    #: Cycles from a row's first entry taken (the framer idle, the sink ready) to the row's
+    #: first word valid.
+    LATENCY = 1
+    latency = property(lambda self: self.LATENCY, doc="See :attr:`LATENCY`.")
 
     def elaborate(self, platform):
         m = Module()
         i, o = self.i_stream, self.o_stream
-        L, C, AW = self._links, self.chunk_bits, self.acc_bits
+        L, AW = self._links, self.acc_bits
         elems = _unpack(i.payload.data, self._pixels)
         chunks = [Cat(*elems[k::L]) for k in range(L)]
 
@@ -201,7 +244,7 @@ class Tlk2711Framer(wiring.Component):
         # leaving the same cycle lowers fill by 16 and keeps its low bits)
         fill_after = Mux(emit_pay, fill - 16, fill)
         with m.If(take):
-            grown = fill_after + C
+            grown = fill_after + i.payload.count * self._bits
             whole = Cat(Const(0, 4), (grown + 15)[4:])      # rounded up to a word
             m.d.sync += [fill.eq(Mux(i.payload.last, whole, grown)),
                          done.eq(i.payload.last)]
@@ -270,18 +313,21 @@ class Tlk2711(wiring.Component):
     crossing : bool
         With ``pins``: the framer and the pins in the link clock's domain
         (:data:`LINK_DOMAIN`; ports ``link_clk``/``link_rst``), the entries crossing from
-        the processing clock through an ``amaranth.lib.fifo.AsyncFIFO`` of ``fifo_depth``
-        entries, as the front end's lanes cross into it. False: one clock.
+        the processing clock through an ``amaranth.lib.fifo.AsyncFIFO``, as the front
+        end's lanes cross into it. False: one clock, a ``SyncFIFO``.
     fifo_depth : int
-        Entries of the crossing FIFO, a power of two >= 4.
+        Entries (of :func:`entry_pixels` pixels) of the input FIFO, a power of two >= 4.
+        Besides the crossing it holds the input while a row's header and trailer leave (6
+        word slots a row, 4 more a frame; the framer's gearbox takes one entry ahead), so
+        an input slower than the links keeps its rate.
 
     Attributes
     ----------
     i_stream : In(pixel stream of ``ppc`` x ``pixel_bits``), processing clock
         Raster order; ``first`` on a frame's first beat, ``last`` on each row's last beat;
-        rows of a multiple of ``max(ppc, links)`` pixels. ``ready`` is low while the links
-        are behind (a full crossing FIFO or gearbox): the links' rate limits the stream's,
-        never a pixel is lost.
+        rows of a multiple of ``max(ppc, links)`` pixels. ``ready`` (the input FIFO has
+        room: a register) is low while the links are behind: the links' rate limits the
+        stream's, never a pixel is lost.
     o_stream : Out(pixel stream of ``links`` x 18 bits)
         Without ``pins``: see :class:`Tlk2711Framer`.
     link{L}_txd, link{L}_tklsb, link{L}_tkmsb : Out(16), Out(1), Out(1)
@@ -291,9 +337,9 @@ class Tlk2711(wiring.Component):
     -----
     Reset: ``rst`` (and with ``crossing`` also ``link_rst``, both asserted together) clears
     everything; the next frame's number is 0. :attr:`latency`: cycles from a frame's first
-    entry (its first ``max(ppc, links)`` pixels) taken, the links idle, to its first word:
-    1 on ``o_stream``, 2 on the pins; None with ``crossing`` (it depends on the two clocks'
-    phases).
+    entry (its first :func:`entry_pixels` pixels) taken, the links idle, to its first word:
+    2 on ``o_stream`` (the FIFO, the framer), 3 on the pins; None with ``crossing`` (it
+    depends on the two clocks' phases).
     """
 
     @quiet_reject
@@ -324,16 +370,16 @@ class Tlk2711(wiring.Component):
     pins = property(lambda self: self._pins)
     crossing = property(lambda self: self._crossing)
     fifo_depth = property(lambda self: self._depth)
-    entry_pixels = property(lambda self: max(self._ppc, self._links),
-                            doc="Pixels an entry of the framer: a multiple of the links.")
+    entry_pixels = property(lambda self: entry_pixels(self._ppc, self._links, self._bits),
+                            doc="Pixels an entry of the framer (:func:`entry_pixels`).")
 
     @property
     def latency(self):
-        """Cycles from a frame's first entry taken (the links idle) to its first word: 1 on
-        ``o_stream``, 2 on the pins, None with ``crossing``."""
+        """Cycles from a frame's first entry taken (the links idle) to its first word: 2 on
+        ``o_stream``, 3 on the pins, None with ``crossing``."""
         if self._crossing:
             return None
-        return 2 if self._pins else 1
+        return Tlk2711Framer.LATENCY + 1 + self._pins
 
     @property
     def port_domains(self):
@@ -350,27 +396,30 @@ class Tlk2711(wiring.Component):
         framer = Tlk2711Framer(pixel_bits=bits, pixels=P, links=self._links)
         m.submodules.framer = DomainRenamer({"sync": link})(framer)
         src = self.i_stream
-        if P != self._ppc:                      # 1 pixel a beat, two links
-            m.submodules.pairer = pairer = Pairer(bits)
-            wiring.connect(m, wiring.flipped(self.i_stream), pairer.i_stream)
-            src = pairer.o_stream
+        count = P // self._links
+        if P != self._ppc:                      # a beat gives a link fewer than 16 bits
+            m.submodules.widener = wide = Widener(pixel_bits=bits, ppc=self._ppc,
+                                                  beats=P // self._ppc, links=self._links)
+            wiring.connect(m, wiring.flipped(self.i_stream), wide.i_stream)
+            src, count = wide.o_stream, wide.o_stream.payload.count
+        # the input FIFO: across the clocks with crossing; in one clock it holds the input
+        # while a row's header and trailer leave (the gearbox takes one entry ahead)
+        cw = len(framer.i_stream.payload.count)
+        width = P * bits + 2 + cw
         if self._crossing:
-            width = P * bits + 2
-            m.submodules.cdc = cdc = fifo.AsyncFIFO(width=width, depth=self._depth,
-                                                    w_domain="sync", r_domain=link)
-            m.d.comb += [cdc.w_en.eq(src.valid),
-                         cdc.w_data.eq(Cat(Value.cast(src.payload.data), src.payload.first,
-                                           src.payload.last)),
-                         src.ready.eq(cdc.w_rdy)]
-            fi = framer.i_stream
-            d = cdc.r_data
-            m.d.comb += [fi.valid.eq(cdc.r_rdy), cdc.r_en.eq(fi.ready & cdc.r_rdy),
-                         Value.cast(fi.payload.data).eq(d[:P * bits]),
-                         fi.payload.first.eq(d[P * bits]), fi.payload.last.eq(d[P * bits + 1])]
-        elif src is self.i_stream:
-            wiring.connect(m, wiring.flipped(self.i_stream), framer.i_stream)
+            q = fifo.AsyncFIFO(width=width, depth=self._depth, w_domain="sync", r_domain=link)
         else:
-            wiring.connect(m, src, framer.i_stream)
+            q = fifo.SyncFIFO(width=width, depth=self._depth)
+        m.submodules.fifo = q
+        m.d.comb += [q.w_en.eq(src.valid), src.ready.eq(q.w_rdy),
+                     q.w_data.eq(Cat(Value.cast(src.payload.data), src.payload.first,
+                                     src.payload.last, Const(count, cw) if isinstance(
+                                         count, int) else count))]
+        fi, d = framer.i_stream, q.r_data
+        m.d.comb += [fi.valid.eq(q.r_rdy), q.r_en.eq(fi.ready & q.r_rdy),
+                     Value.cast(fi.payload.data).eq(d[:P * bits]),
+                     fi.payload.first.eq(d[P * bits]), fi.payload.last.eq(d[P * bits + 1]),
+                     fi.payload.count.eq(d[P * bits + 2:])]
         fo = framer.o_stream
         if not self._pins:
             wiring.connect(m, fo, wiring.flipped(self.o_stream))
