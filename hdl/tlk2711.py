@@ -30,7 +30,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import equals, quiet_reject
-from tdicam.model import tlk2711 as model
+from tdicam.model import tlk2711
 from tdicam.model.tdi import PPC_CHOICES
 
 __all__ = ["Tlk2711", "Tlk2711Framer", "Widener", "entry_pixels", "entry_layout",
@@ -56,8 +56,8 @@ def crc16_matrix():
     bit ``o`` of the new register is the parity of ``crc & from_crc[o]`` and ``word &
     from_word[o]`` (the CRC is linear in both; evaluated on unit vectors with
     :func:`tdicam.model.tlk2711.crc16_update`)."""
-    cols_c = [model.crc16_update(1 << k, 0) for k in range(16)]
-    cols_w = [model.crc16_update(0, 1 << k) for k in range(16)]
+    cols_c = [tlk2711.crc16_update(1 << k, 0) for k in range(16)]
+    cols_w = [tlk2711.crc16_update(0, 1 << k) for k in range(16)]
     from_crc = [sum(1 << k for k in range(16) if cols_c[k] >> o & 1) for o in range(16)]
     from_word = [sum(1 << k for k in range(16) if cols_w[k] >> o & 1) for o in range(16)]
     return from_crc, from_word
@@ -190,8 +190,8 @@ class Tlk2711Framer(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, pixel_bits=16, pixels=1, links=1):
-        self._bits = check_range("pixel_bits", pixel_bits, *model.PIXEL_BITS)
-        self._links = model.check_links(links)
+        self._bits = check_range("pixel_bits", pixel_bits, *tlk2711.PIXEL_BITS)
+        self._links = tlk2711.check_links(links)
         self._pixels = check_range("pixels", pixels, links, None)
         if pixels % links:
             raise TdicamError(f"pixels = {pixels} an entry is not a multiple of links = "
@@ -256,16 +256,16 @@ class Tlk2711Framer(wiring.Component):
 
         # the word every link sends this cycle, by state
         def header(k):
-            seqw = [model.IDLE, model.IDLE, model.marker(model.K27_7, k), fnum,
-                    model.IDLE, model.IDLE, model.marker(model.K28_0, k), lnum]
-            v = Const(model.IDLE, WORD_BITS)
+            seqw = [tlk2711.IDLE, tlk2711.IDLE, tlk2711.marker(tlk2711.K27_7, k), fnum,
+                    tlk2711.IDLE, tlk2711.IDLE, tlk2711.marker(tlk2711.K28_0, k), lnum]
+            v = Const(tlk2711.IDLE, WORD_BITS)
             for s, x in enumerate(seqw):
                 v = Mux(equals(seq, s), x, v)
             return v
         outs = []
         for k in range(L):
-            trailer = Mux(seq[0], crcs[k], model.marker(model.K29_7, k))
-            outs.append(Mux(in_wait, model.IDLE,
+            trailer = Mux(seq[0], crcs[k], tlk2711.marker(tlk2711.K29_7, k))
+            outs.append(Mux(in_wait, tlk2711.IDLE,
                             Mux(in_hdr, header(k), Mux(in_pay, accs[k][:16], trailer))))
         with m.If(go):
             m.d.sync += [o.valid.eq(emit), o.payload.first.eq(in_wait & i.payload.first),
@@ -282,7 +282,7 @@ class Tlk2711Framer(wiring.Component):
                 m.d.sync += fnum.eq(fnum + 1)
             with m.If(equals(seq, 7)):
                 m.d.sync += state.eq(_PAY)
-                m.d.sync += [c.eq(_crc_step(Const(model.CRC_INIT, 16), lnum)) for c in crcs]
+                m.d.sync += [c.eq(_crc_step(Const(tlk2711.CRC_INIT, 16), lnum)) for c in crcs]
         with m.Elif(emit & in_pay):
             m.d.sync += [c.eq(_crc_step(c, a[:16])) for c, a in zip(crcs, accs)]
             with m.If(done & (fill == 16)):
@@ -345,9 +345,9 @@ class Tlk2711(wiring.Component):
     @quiet_reject
     def __init__(self, *, pixel_bits=16, ppc=1, links=1, pins=False, crossing=False,
                  fifo_depth=16):
-        self._bits = check_range("pixel_bits", pixel_bits, *model.PIXEL_BITS)
+        self._bits = check_range("pixel_bits", pixel_bits, *tlk2711.PIXEL_BITS)
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
-        self._links = model.check_links(links)
+        self._links = tlk2711.check_links(links)
         self._pins, self._crossing = bool(pins), bool(crossing)
         if self._crossing and not self._pins:
             raise TdicamError("crossing needs pins: the word stream (pins off) has one clock")
@@ -358,7 +358,7 @@ class Tlk2711(wiring.Component):
         if self._pins:
             for k in range(links):
                 txd, lsb, msb = pin_names(k)
-                ports.update({txd: Out(16, init=model.IDLE & 0xFFFF),
+                ports.update({txd: Out(16, init=tlk2711.IDLE & 0xFFFF),
                               lsb: Out(1, init=1), msb: Out(1, init=0)})
         else:
             ports["o_stream"] = Out(pixel_signature(channels_shape(WORD_BITS, links)))
@@ -428,6 +428,6 @@ class Tlk2711(wiring.Component):
         m.d.comb += fo.ready.eq(1)
         for k, w in enumerate(words):
             txd, lsb, msb = (getattr(self, n) for n in pin_names(k))
-            sent = Mux(fo.valid, w, model.IDLE)
+            sent = Mux(fo.valid, w, tlk2711.IDLE)
             m.d[link] += [txd.eq(sent[:16]), lsb.eq(sent[16]), msb.eq(sent[17])]
         return m

@@ -10,12 +10,12 @@ from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cli import main
 from tdicam.cosim import run_golden_case
-from tdicam.cosim import tlk2711 as pins
+from tdicam.cosim.tlk2711 import SCENARIOS, PinsCase, check, run_amaranth, scenario
 from tdicam.cosim.streamsim import run_stream_component
 from tdicam.errors import TdicamError
 from tdicam.hdl.tlk2711 import Tlk2711, Tlk2711Framer, Widener, crc16_matrix, entry_pixels
 from tdicam.blocks.tlk2711 import BUILDS, case_beats, stream_case
-from tdicam.model import tlk2711 as model
+from tdicam.model import tlk2711
 from tdicam.model.tdi import PPC_CHOICES
 
 BLOCK = blocks.get("tlk2711")
@@ -36,14 +36,14 @@ def _crc_bitwise(words):
 
 
 def test_character_values():
-    assert model.IDLE == IDLE
-    assert (model.K28_5, model.D5_6, model.K27_7, model.K28_0, model.K29_7) == \
+    assert tlk2711.IDLE == IDLE
+    assert (tlk2711.K28_5, tlk2711.D5_6, tlk2711.K27_7, tlk2711.K28_0, tlk2711.K29_7) == \
         (0xBC, 0xC5, 0xFB, 0x1C, 0xFD)
-    assert model.marker(model.K27_7, 1) == 0x101FB
+    assert tlk2711.marker(tlk2711.K27_7, 1) == 0x101FB
 
 
 def test_framing_of_one_row_by_hand():
-    w = model.tlk2711(np.array([[[0x1234, 0xABCD]]]), pixel_bits=16, links=1)
+    w = tlk2711.tlk2711(np.array([[[0x1234, 0xABCD]]]), pixel_bits=16, links=1)
     crc = _crc_bitwise([0, 0x1234, 0xABCD])
     assert w.dtype == np.uint32 and w.shape == (1, 12)
     assert w[0].tolist() == [IDLE, IDLE, 0x100FB, 0, IDLE, IDLE, 0x1001C, 0, 0x1234, 0xABCD,
@@ -55,8 +55,8 @@ def test_two_links_interleave_columns_and_name_their_link():
     ones, two pixels a word (the left one low), each link's index in its markers; the
     second frame is number 1 and restarts its rows at 0."""
     f = np.array([[[1, 2, 3, 4]], [[5, 6, 7, 8]]])
-    w = model.tlk2711(f, pixel_bits=8, links=2)
-    n = model.frame_words(1, 4, pixel_bits=8, links=2)
+    w = tlk2711.tlk2711(f, pixel_bits=8, links=2)
+    n = tlk2711.frame_words(1, 4, pixel_bits=8, links=2)
     assert n == 11 and w.shape == (2, 22)
     for link, (a, b) in enumerate([((0x0301,), (0x0705,)), ((0x0402,), (0x0806,))]):
         for frame, px in enumerate((a, b)):
@@ -67,12 +67,12 @@ def test_two_links_interleave_columns_and_name_their_link():
 
 
 def test_pack_by_hand():
-    assert model.pack([0xABC, 0x123, 0x456, 0x789], 12).tolist() == [0x3ABC, 0x5612, 0x7894]
-    assert model.pack([0x11, 0x22, 0x33], 8).tolist() == [0x2211, 0x0033]
-    assert model.pack([1] * 16, 1).tolist() == [0xFFFF]
-    assert model.pack([1] * 17, 1).tolist() == [0xFFFF, 0x0001]
-    assert model.pack(np.arange(8) + 1000, 10).shape == (5,)
-    assert model.pack([0xFFFF, 0], 16).tolist() == [0xFFFF, 0]
+    assert tlk2711.pack([0xABC, 0x123, 0x456, 0x789], 12).tolist() == [0x3ABC, 0x5612, 0x7894]
+    assert tlk2711.pack([0x11, 0x22, 0x33], 8).tolist() == [0x2211, 0x0033]
+    assert tlk2711.pack([1] * 16, 1).tolist() == [0xFFFF]
+    assert tlk2711.pack([1] * 17, 1).tolist() == [0xFFFF, 0x0001]
+    assert tlk2711.pack(np.arange(8) + 1000, 10).shape == (5,)
+    assert tlk2711.pack([0xFFFF, 0], 16).tolist() == [0xFFFF, 0]
 
 
 @pytest.mark.parametrize("bits", range(1, 17))
@@ -80,21 +80,21 @@ def test_pack_round_trip_and_word_count(bits):
     rng = np.random.default_rng(bits)
     px = rng.integers(0, 1 << bits, (5, 23))
     px[0] = (1 << bits) - 1
-    w = model.pack(px, bits)
+    w = tlk2711.pack(px, bits)
     assert w.shape == (5, -(-23 * bits // 16)) and w.dtype == np.uint16
-    np.testing.assert_array_equal(model.unpack(w, bits, 23), px)
+    np.testing.assert_array_equal(tlk2711.unpack(w, bits, 23), px)
 
 
 def test_crc_matches_its_definition_and_the_gateware_matrix():
     rng = np.random.default_rng(1)
     words = rng.integers(0, 1 << 16, 40)
-    assert model.crc16(words) == _crc_bitwise(words)
-    assert model.crc16([0x3132, 0x3334, 0x3536, 0x3738]) == 0xA12B
+    assert tlk2711.crc16(words) == _crc_bitwise(words)
+    assert tlk2711.crc16([0x3132, 0x3334, 0x3536, 0x3738]) == 0xA12B
     from_crc, from_word = crc16_matrix()
     for c, w in rng.integers(0, 1 << 16, (50, 2)).tolist():
         got = sum((bin(c & a).count("1") + bin(w & b).count("1")) % 2 << o
                   for o, (a, b) in enumerate(zip(from_crc, from_word)))
-        assert got == model.crc16_update(c, w)
+        assert got == tlk2711.crc16_update(c, w)
 
 
 def _fill(words, rng, p=0.3):
@@ -115,8 +115,8 @@ def test_decode_round_trip_with_fill(links, bits):
     rng = np.random.default_rng(bits * links)
     frames = [rng.integers(0, 1 << bits, (h, 6)) for h in (3, 1, 5)]
     frames[1][:] = (1 << bits) - 1
-    w = model.tlk2711(frames, pixel_bits=bits, links=links)
-    d = model.decode(_fill(w, rng), width=6, pixel_bits=bits, links=links)
+    w = tlk2711.tlk2711(frames, pixel_bits=bits, links=links)
+    d = tlk2711.decode(_fill(w, rng), width=6, pixel_bits=bits, links=links)
     assert d.numbers == [0, 1, 2]
     for a, b in zip(d.frames, frames):
         np.testing.assert_array_equal(a, b)
@@ -126,8 +126,8 @@ def test_decode_round_trip_with_fill(links, bits):
 def _broken(mutate, links=2):
     rng = np.random.default_rng(4)
     frames = rng.integers(0, 4096, (2, 3, 8))
-    w = model.tlk2711(frames, pixel_bits=12, links=links).astype(np.int64)
-    lw = model.line_words(8, pixel_bits=12, links=links)
+    w = tlk2711.tlk2711(frames, pixel_bits=12, links=links).astype(np.int64)
+    lw = tlk2711.line_words(8, pixel_bits=12, links=links)
     return mutate(w, lw)
 
 
@@ -169,7 +169,7 @@ def _cut(w, lw):
 
 
 def _tkmsb(w, lw):
-    w[0, _at(w, lw, 0, 0, 4)] |= model.TKMSB
+    w[0, _at(w, lw, 0, 0, 4)] |= tlk2711.TKMSB
     return w
 
 
@@ -196,7 +196,7 @@ def _no_sof(w, lw):
 ])
 def test_decoder_names_what_is_wrong(mutate, message):
     with pytest.raises(TdicamError) as info:
-        model.decode(_broken(mutate), width=8, pixel_bits=12, links=2)
+        tlk2711.decode(_broken(mutate), width=8, pixel_bits=12, links=2)
     assert message in str(info.value), str(info.value)
     assert "\n" not in str(info.value)
 
@@ -204,26 +204,26 @@ def test_decoder_names_what_is_wrong(mutate, message):
 def test_decoder_counts_fill_in_positions():
     """The position named is the word's in the link's stream as captured, IDLEs
     included."""
-    w = model.tlk2711(np.zeros((1, 2, 4), int), pixel_bits=16, links=1).astype(np.int64)
+    w = tlk2711.tlk2711(np.zeros((1, 2, 4), int), pixel_bits=16, links=1).astype(np.int64)
     w[0, -1] ^= 1                                   # the last CRC
     captured = [np.concatenate([[IDLE] * 7, w[0]])]
     with pytest.raises(TdicamError, match=f"link 0 word {7 + w.shape[1] - 1} "):
-        model.decode(captured, width=4, pixel_bits=16, links=1)
+        tlk2711.decode(captured, width=4, pixel_bits=16, links=1)
 
 
 @pytest.mark.parametrize("call,match", [
-    (lambda: model.tlk2711(np.zeros((2, 3)), pixel_bits=12), "integer array"),
-    (lambda: model.tlk2711(np.full((2, 3), 4096), pixel_bits=12), "outside 0..4095"),
-    (lambda: model.tlk2711(np.zeros((2, 3), int), links=2), "multiple of links = 2"),
-    (lambda: model.tlk2711(np.zeros((2, 4), int), links=3), "links = 3"),
-    (lambda: model.tlk2711(np.zeros((2, 4), int), pixel_bits=17), "pixel_bits = 17"),
-    (lambda: model.tlk2711([np.zeros((2, 4), int), np.zeros((2, 6), int)]),
+    (lambda: tlk2711.tlk2711(np.zeros((2, 3)), pixel_bits=12), "integer array"),
+    (lambda: tlk2711.tlk2711(np.full((2, 3), 4096), pixel_bits=12), "outside 0..4095"),
+    (lambda: tlk2711.tlk2711(np.zeros((2, 3), int), links=2), "multiple of links = 2"),
+    (lambda: tlk2711.tlk2711(np.zeros((2, 4), int), links=3), "links = 3"),
+    (lambda: tlk2711.tlk2711(np.zeros((2, 4), int), pixel_bits=17), "pixel_bits = 17"),
+    (lambda: tlk2711.tlk2711([np.zeros((2, 4), int), np.zeros((2, 6), int)]),
      "different widths"),
-    (lambda: model.tlk2711(np.zeros(4, int)), "rows, cols"),
-    (lambda: model.decode(np.zeros((1, 3), int), width=4, links=2), "1 link"),
-    (lambda: model.frame_rate_limit(10, 10, word_clock_hz=150e6), "word_clock_hz = 150000000"),
-    (lambda: model.frame_rate_limit(10, 11, links=2), "width = 11 is not a multiple"),
-    (lambda: model.link_payload_bps(links=0), "links = 0"),
+    (lambda: tlk2711.tlk2711(np.zeros(4, int)), "rows, cols"),
+    (lambda: tlk2711.decode(np.zeros((1, 3), int), width=4, links=2), "1 link"),
+    (lambda: tlk2711.frame_rate_limit(10, 10, word_clock_hz=150e6), "word_clock_hz = 150000000"),
+    (lambda: tlk2711.frame_rate_limit(10, 11, links=2), "width = 11 is not a multiple"),
+    (lambda: tlk2711.link_payload_bps(links=0), "links = 0"),
 ])
 def test_bad_input_is_one_line(call, match):
     with pytest.raises(TdicamError, match=match) as info:
@@ -235,20 +235,20 @@ def test_plan_figures():
     """The paper's links: 2 at 100 MHz carry 3.2 Gbit/s; its 5144 x 3800 frame at 16 bits
     goes 10.2 times a second, twice as one image a gain channel (its 5 frame/s); packed 12-bit
     pixels go 4/3 as often; the figures vectorize."""
-    assert model.link_payload_bps(links=2, word_clock_hz=100e6) == 3.2e9
-    assert model.line_words(5144, pixel_bits=16, links=2) == 6 + 2572
-    assert model.frame_words(3800, 5144, pixel_bits=16, links=2) == 4 + 3800 * 2578
-    one = model.frame_rate_limit(3800, 5144, pixel_bits=16, links=2, word_clock_hz=100e6)
+    assert tlk2711.link_payload_bps(links=2, word_clock_hz=100e6) == 3.2e9
+    assert tlk2711.line_words(5144, pixel_bits=16, links=2) == 6 + 2572
+    assert tlk2711.frame_words(3800, 5144, pixel_bits=16, links=2) == 4 + 3800 * 2578
+    one = tlk2711.frame_rate_limit(3800, 5144, pixel_bits=16, links=2, word_clock_hz=100e6)
     assert one == pytest.approx(1e8 / 9_796_404)
-    assert model.frame_rate_limit(3800, 5144, images=2) == pytest.approx(one / 2)
+    assert tlk2711.frame_rate_limit(3800, 5144, images=2) == pytest.approx(one / 2)
     assert 5.0 < one / 2 < 5.2
-    twelve = model.frame_rate_limit(3800, 5144, pixel_bits=12)
+    twelve = tlk2711.frame_rate_limit(3800, 5144, pixel_bits=12)
     assert twelve / one == pytest.approx(2578 / (6 + 1929))
-    f = model.frame_rate_limit(3800, 5144, word_clock_hz=np.array([80e6, 100e6, 135e6]))
+    f = tlk2711.frame_rate_limit(3800, 5144, word_clock_hz=np.array([80e6, 100e6, 135e6]))
     assert f.shape == (3,) and f[1] == pytest.approx(one)
     # the model's count is the words the block sends: the golden model agrees
-    w = model.tlk2711(np.zeros((2, 3, 10), int), pixel_bits=11, links=2)
-    assert w.shape[1] == 2 * model.frame_words(3, 10, pixel_bits=11, links=2)
+    w = tlk2711.tlk2711(np.zeros((2, 3, 10), int), pixel_bits=11, links=2)
+    assert w.shape[1] == 2 * tlk2711.frame_words(3, 10, pixel_bits=11, links=2)
 
 
 # ----------------------------------------------------------------------- gateware
@@ -423,42 +423,42 @@ def test_gateware_equals_golden_property(ppc, data):
 # ------------------------------------------------------------- the pins, two clocks
 
 
-@pytest.mark.parametrize("name", sorted(pins.SCENARIOS))
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
 def test_pins_amaranth(name):
     """The transmitter as a board has it, in Amaranth's simulator (two clock domains with
     --crossing): the links' words at the pins, IDLEs dropped, are the golden words (a cut
     segment: a prefix), every marker follows two IDLEs, the links idle together, and the
     decoder gives the frames back."""
-    case = pins.scenario(name)
-    pins.check(case, pins.run_amaranth(case))
+    case = scenario(name)
+    check(case, run_amaranth(case))
 
 
 def test_pins_check_catches_a_wrong_word_and_a_lone_idle():
-    case = pins.scenario("one_clock")
-    cap = pins.run_amaranth(case)
+    case = scenario("one_clock")
+    cap = run_amaranth(case)
     words = [list(w) for w in cap["words"]]
     k = next(i for i, w in enumerate(words) if w[1] < 0x10000 and w[1])
     words[k][1] ^= 1
     with pytest.raises(AssertionError, match="one_clock: segment 0 link 1: non-IDLE word"):
-        pins.check(case, {**cap, "words": words})
+        check(case, {**cap, "words": words})
     words = [list(w) for w in cap["words"]]
-    k = next(i for i, w in enumerate(words) if w[0] == model.marker(model.K28_0, 0))
+    k = next(i for i, w in enumerate(words) if w[0] == tlk2711.marker(tlk2711.K28_0, 0))
     words[k - 1] = [0x1234, words[k - 1][1]]
     with pytest.raises(AssertionError, match="lockstep"):
-        pins.check(case, {**cap, "words": words})
+        check(case, {**cap, "words": words})
 
 
 def test_pins_are_idle_in_reset_and_without_input():
-    case = pins.PinsCase("quiet", [np.zeros((1, 2), int)], {"pixel_bits": 8, "links": 2},
+    case = PinsCase("quiet", [np.zeros((1, 2), int)], {"pixel_bits": 8, "links": 2},
                          idle=0.0)
-    cap = pins.run_amaranth(case)
+    cap = run_amaranth(case)
     assert cap["words"][0] == [IDLE, IDLE]           # the first clock after reset
     assert all(w == [IDLE, IDLE] for w in cap["words"][-30:])
 
 
 def test_reset_scenario_really_cuts_a_frame_with_words_in_flight():
-    case = pins.scenario("reset_mid_frame")
-    cap = pins.run_amaranth(case)
+    case = scenario("reset_mid_frame")
+    cap = run_amaranth(case)
     words, seg = np.array(cap["words"]), np.array(cap["seg"])
     gold = case.segments()
     sent0 = int((words[seg == 0, 0] != IDLE).sum())

@@ -24,7 +24,7 @@ from tdicam.beats import Beats, mark_resets
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tlk2711 import Tlk2711
-from tdicam.model import tlk2711 as model
+from tdicam.model import tlk2711
 from tdicam.model.cds import pixel_dtype
 from tdicam.blocks import PPC_PARAM, Block, Case, Param, frame_stack
 
@@ -48,7 +48,7 @@ def _check_width(width, params):
 
 def _split(out, heights, params, width):
     """``out`` (words, links) cut into each frame's words."""
-    n = [model.frame_words(h, width, pixel_bits=params["pixel_bits"], links=params["links"])
+    n = [tlk2711.frame_words(h, width, pixel_bits=params["pixel_bits"], links=params["links"])
          for h in heights]
     return np.split(out, np.cumsum(n)[:-1]) if n else []
 
@@ -65,7 +65,7 @@ def stream_case(frames, params, *, keep=None, reset_after=None):
         np.asarray(reset_after, np.uint8)
     # the golden model per segment between resets: frame numbers restart at 0 after each
     cuts = [0] + [f + 1 for f in range(n - 1) if reset_after[f]] + [n]
-    words = [model.tlk2711(list(frames[a:z]), pixel_bits=b, links=links).T
+    words = [tlk2711.tlk2711(list(frames[a:z]), pixel_bits=b, links=links).T
              for a, z in zip(cuts, cuts[1:])]
     heights = np.array([f.shape[0] for f in frames], np.int64)
     keep = heights * w if keep is None else np.asarray(keep, np.int64)
@@ -77,9 +77,9 @@ def stream_case(frames, params, *, keep=None, reset_after=None):
 def frame_word_beats(words, rows, width, params):
     """Expected beats of one frame's words ``(n, links)``: ``first`` on the frame's first
     word, ``last`` on each row's CRC word."""
-    lw = model.line_words(width, pixel_bits=params["pixel_bits"], links=params["links"])
+    lw = tlk2711.line_words(width, pixel_bits=params["pixel_bits"], links=params["links"])
     idx = np.arange(len(words))
-    last = (idx >= model.FRAME_HEADER) & ((idx - model.FRAME_HEADER) % lw == lw - 1)
+    last = (idx >= tlk2711.FRAME_HEADER) & ((idx - tlk2711.FRAME_HEADER) % lw == lw - 1)
     return Beats(words, idx == 0, last)
 
 
@@ -116,7 +116,7 @@ def case_beats(arrays, params):
 
 
 def _golden(arrays, params):
-    return {"out": model.tlk2711(arrays["frames"], pixel_bits=params["pixel_bits"],
+    return {"out": tlk2711.tlk2711(arrays["frames"], pixel_bits=params["pixel_bits"],
                                  links=params["links"])}
 
 
@@ -225,10 +225,10 @@ BLOCK = Block(
             "(Ning et al. 2019 §3)",
     params=(
         Param("pixel_bits", 16, "pixel width, packed densely into the 16-bit words",
-              lo=model.PIXEL_BITS[0], hi=model.PIXEL_BITS[1]),
+              lo=tlk2711.PIXEL_BITS[0], hi=tlk2711.PIXEL_BITS[1]),
         PPC_PARAM,
         Param("links", 2, "links (TLK2711s); with 2, link L carries the columns L, L+2, ...",
-              choices=model.LINKS),
+              choices=tlk2711.LINKS),
         Param("pins", False, "each link's TXD/TKLSB/TKMSB pins (IDLE fill) instead of the "
               "word stream on m_axis", type=bool),
         Param("crossing", False, "with --pins: the links on their own clock (link_clk), the "

@@ -27,7 +27,7 @@ import numpy as np
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
-from tdicam.model import tlk2711 as model
+from tdicam.model import tlk2711
 
 __all__ = ["PinsCase", "PARAMS", "SCENARIOS", "scenario", "PinSink", "run_amaranth",
            "run_cocotb", "check", "RST_CYCLES"]
@@ -78,7 +78,7 @@ class PinsCase:
 
     def last_words(self):
         """Non-IDLE words a link sends in the last segment (the sink's stop count)."""
-        return int((self.segments()[-1][0] != model.IDLE).sum())
+        return int((self.segments()[-1][0] != tlk2711.IDLE).sum())
 
 
 def _frames(rng, bits, heights, width):
@@ -151,7 +151,7 @@ class PinSink:
         self.prev = bool(rst)
         self.words.append([int(w) for w in words])
         self.seg.append(self.segment)
-        if words[0] != model.IDLE:
+        if words[0] != tlk2711.IDLE:
             self.seen += self.segment == self.last_seg
             self.quiet = 0
         else:
@@ -164,7 +164,7 @@ class PinSink:
 
 
 def _idle(link, w):
-    return w[link] == model.IDLE
+    return w[link] == tlk2711.IDLE
 
 
 def check(case, capture):
@@ -173,7 +173,7 @@ def check(case, capture):
     the word."""
     words = np.array(capture["words"], np.int64).reshape(-1, case.links)
     seg = np.array(capture["seg"], np.int64)
-    idle = words == model.IDLE
+    idle = words == tlk2711.IDLE
     both = idle.all(axis=1) | (~idle).all(axis=1)
     if not both.all():
         k = int(np.argmin(both))
@@ -184,7 +184,7 @@ def check(case, capture):
     for s, g in enumerate(gold):
         for link in range(case.links):
             got = words[(seg == s) & ~idle[:, link], link]
-            want = g[link][g[link] != model.IDLE].astype(np.int64)
+            want = g[link][g[link] != tlk2711.IDLE].astype(np.int64)
             last = s == len(gold) - 1
             n = min(len(got), len(want))
             bad = np.flatnonzero(got[:n] != want[:n])
@@ -197,14 +197,14 @@ def check(case, capture):
                     f"words captured, {len(want)} golden)")
         for link in range(case.links):
             w = words[seg == s, link]
-            marks = np.flatnonzero(np.isin(w, [model.marker(model.K27_7, link),
-                                               model.marker(model.K28_0, link)]))
-            short = [int(k) for k in marks if k < 2 or not (w[k - 2:k] == model.IDLE).all()]
+            marks = np.flatnonzero(np.isin(w, [tlk2711.marker(tlk2711.K27_7, link),
+                                               tlk2711.marker(tlk2711.K28_0, link)]))
+            short = [int(k) for k in marks if k < 2 or not (w[k - 2:k] == tlk2711.IDLE).all()]
             if short:
                 raise AssertionError(f"{case.name}: segment {s} link {link}: the marker at "
                                      f"link clock {short[0]} follows fewer than 2 IDLEs")
     if len(gold) == 1:
-        got = model.decode(words.T, width=case.frames[0].shape[1],
+        got = tlk2711.decode(words.T, width=case.frames[0].shape[1],
                            pixel_bits=case.params["pixel_bits"], links=case.links)
         for f, (a, b) in enumerate(zip(got.frames, case.frames)):
             if a.shape != b.shape or (a != b).any():
