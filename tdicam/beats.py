@@ -16,7 +16,8 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Beats", "BeatStream", "frames_to_beats", "beats_to_frames", "mark_resets"]
+__all__ = ["Beats", "BeatStream", "frames_to_beats", "beats_to_frames", "mark_resets",
+           "cut_frames_beats"]
 
 
 @dataclass
@@ -145,3 +146,52 @@ def mark_resets(stim, exp, reset_before, exp_before=None):
         stim.rst[k] = True
         stim.seg[k:] += 1
         exp.seg[e:] += 1
+
+
+def cut_frames_beats(rows, heights, keep, reset_after, *, ppc, expected, unit=None,
+                     ctrl=None):
+    """Stimulus and expected Beats of a stream of frames of one width and any heights, some
+    cut short by a reset (the golden-case form of blocks whose cases hold such a stream).
+
+    Parameters
+    ----------
+    rows : ndarray, (total rows, width)
+        Every frame's rows, concatenated.
+    heights : sequence of int
+        Rows of each frame.
+    keep : sequence of int
+        Pixels of each frame sent (fewer than its own: cut), rounded up to whole ``unit``
+        pixels (default ``ppc``).
+    reset_after : sequence of int
+        1: a reset before the next frame (none after the last).
+    ppc : int
+        Pixels a beat (element 0 the leftmost).
+    expected : callable(frame, first row, height) -> Beats
+        The expected output of each frame, whole (a cut frame's output is a prefix of it).
+    ctrl : callable(frame, height) -> int, optional
+        The run-time setting that rides with every beat of a frame.
+    """
+    w = rows.shape[1]
+    unit = unit or ppc
+    stim_parts, exp_parts, resets, exp_resets = [], [], [], []
+    row = n_stim = n_exp = 0
+    for f, h in enumerate(list(heights)):
+        n = h * w // ppc
+        idx = np.arange(n)
+        k = -(-int(keep[f]) // unit) * unit // ppc
+        stim_parts.append(Beats(rows[row:row + h].reshape(n, ppc)[:k], idx[:k] == 0,
+                                idx[:k] % (w // ppc) == w // ppc - 1,
+                                ctrl=None if ctrl is None else np.full(k, ctrl(f, h),
+                                                                       np.uint64)))
+        exp = expected(f, row, h)
+        exp_parts.append(exp)
+        n_stim += k
+        n_exp += len(exp)
+        row += h
+        if reset_after[f] and f + 1 < len(heights):
+            resets.append(n_stim)
+            exp_resets.append(n_exp)
+    stim, exp = Beats.concat(stim_parts), Beats.concat(exp_parts)
+    if resets:
+        mark_resets(stim, exp, resets, exp_resets)
+    return stim, exp

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.beats import Beats, mark_resets
+from tdicam.beats import Beats, cut_frames_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.median3 import Median3, check_geometry
@@ -64,29 +64,15 @@ def case_beats(arrays, params):
     A beat carries ``ppc`` pixels of a row (element 0 the leftmost)."""
     w, ppc = params["width"], params.get("ppc", 1)
     check_geometry(w, ppc)
-    heights, keep, reset_after = arrays["heights"], arrays["keep"], arrays["reset_after"]
-    img, out = arrays["frames"], arrays["out"]
-    stim_parts, exp_parts, resets, exp_resets = [], [], [], []
-    row = n_stim = n_exp = 0
-    for f, h in enumerate(heights.tolist()):
-        n = h * w // ppc
-        idx = np.arange(n)
-        first, last = idx == 0, idx % (w // ppc) == w // ppc - 1
-        px = img[row:row + h].reshape(n, ppc)
-        k = -(-int(keep[f]) // ppc)
-        stim_parts.append(Beats(px[:k], first[:k], last[:k],
-                                ctrl=np.full(k, h, np.uint64)))
-        exp_parts.append(Beats(out[row:row + h].reshape(n, ppc), first, last))
-        n_stim += k
-        n_exp += n
-        row += h
-        if reset_after[f] and f + 1 < len(heights):
-            resets.append(n_stim)
-            exp_resets.append(n_exp)
-    stim, exp = Beats.concat(stim_parts), Beats.concat(exp_parts)
-    if resets:
-        mark_resets(stim, exp, resets, exp_resets)
-    return stim, exp
+    out, n_row = arrays["out"], w // ppc
+
+    def expected(f, row, h):
+        idx = np.arange(h * n_row)
+        return Beats(out[row:row + h].reshape(h * n_row, ppc), idx == 0,
+                     idx % n_row == n_row - 1)
+    return cut_frames_beats(arrays["frames"], arrays["heights"].tolist(), arrays["keep"],
+                            arrays["reset_after"], ppc=ppc, expected=expected,
+                            ctrl=lambda f, h: h)
 
 
 def _golden(arrays, params):

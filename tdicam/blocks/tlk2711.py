@@ -20,7 +20,7 @@ each reset).
 
 import numpy as np
 
-from tdicam.beats import Beats, mark_resets
+from tdicam.beats import Beats, cut_frames_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tlk2711 import Tlk2711
@@ -89,30 +89,13 @@ def case_beats(arrays, params):
     if params.get("pins"):
         raise TdicamError("tlk2711 --pins true has no output stream: its two-clock "
                           "co-simulation is cocotb_tests/test_tlk2711.py")
-    ppc = params.get("ppc", 1)
     img, heights = arrays["frames"], arrays["heights"].tolist()
     w = img.shape[1]
     _check_width(w, params)
-    e = _entry(params)
-    stim_parts, exp_parts, resets, exp_resets = [], [], [], []
-    row = n_stim = n_exp = 0
-    for f, (h, words) in enumerate(zip(heights, _split(arrays["out"], heights, params, w))):
-        n = h * w // ppc
-        idx = np.arange(n)
-        px = img[row:row + h].reshape(n, ppc)
-        k = -(-int(arrays["keep"][f]) // e) * e // ppc
-        stim_parts.append(Beats(px[:k], idx[:k] == 0, idx[:k] % (w // ppc) == w // ppc - 1))
-        exp_parts.append(frame_word_beats(words, h, w, params))
-        n_stim += k
-        n_exp += len(words)
-        row += h
-        if arrays["reset_after"][f] and f + 1 < len(heights):
-            resets.append(n_stim)
-            exp_resets.append(n_exp)
-    stim, exp = Beats.concat(stim_parts), Beats.concat(exp_parts)
-    if resets:
-        mark_resets(stim, exp, resets, exp_resets)
-    return stim, exp
+    words = _split(arrays["out"], heights, params, w)
+    return cut_frames_beats(img, heights, arrays["keep"], arrays["reset_after"],
+                            ppc=params.get("ppc", 1), unit=_entry(params),
+                            expected=lambda f, row, h: frame_word_beats(words[f], h, w, params))
 
 
 def _golden(arrays, params):

@@ -241,28 +241,22 @@ def run_amaranth(case, *, drain=40, max_link_cycles=None):
     limit = max_link_cycles or 50 * len(stim) + 2000
     i = dut.i_stream
 
+    async def reset(ctx):
+        """Both domains' resets for ``hold`` processing clocks."""
+        ctx.set(i.valid, 0)
+        for level in (1, 0):
+            for cd in {sync, link_cd}:
+                ctx.set(cd.rst, level)
+            for _ in range(hold * level):
+                await ctx.tick("sync")
+
     async def source(ctx):
         k = 0
-        ctx.set(sync.rst, 1)
-        if link_cd is not sync:
-            ctx.set(link_cd.rst, 1)
-        for _ in range(hold):
-            await ctx.tick("sync")
-        ctx.set(sync.rst, 0)
-        if link_cd is not sync:
-            ctx.set(link_cd.rst, 0)
+        await reset(ctx)
         while k < len(stim) and not state["done"]:
             if stim.rst[k] and state.get("served") != k:
                 state["served"] = k
-                ctx.set(i.valid, 0)
-                ctx.set(sync.rst, 1)
-                if link_cd is not sync:
-                    ctx.set(link_cd.rst, 1)
-                for _ in range(hold):
-                    await ctx.tick("sync")
-                ctx.set(sync.rst, 0)
-                if link_cd is not sync:
-                    ctx.set(link_cd.rst, 0)
+                await reset(ctx)
             offer = rng.random() >= case.idle
             ctx.set(i.valid, offer)
             if offer:
