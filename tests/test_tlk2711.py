@@ -439,7 +439,8 @@ def test_pins_check_catches_a_wrong_word_and_a_lone_idle():
     words = [list(w) for w in cap["words"]]
     k = next(i for i, w in enumerate(words) if w[1] < 0x10000 and w[1])
     words[k][1] ^= 1
-    with pytest.raises(AssertionError, match="one_clock: segment 0 link 1: non-IDLE word"):
+    with pytest.raises(AssertionError, match=r"one_clock: segment 0 link 1 frame \d line \d: "
+                       r"non-IDLE word \d+ at link clock \d+ "):
         check(case, {**cap, "words": words})
     words = [list(w) for w in cap["words"]]
     k = next(i for i, w in enumerate(words) if w[0] == tlk2711.marker(tlk2711.K28_0, 0))

@@ -216,7 +216,9 @@ BLOCK = Block(
               "word stream on m_axis", type=bool),
         Param("crossing", False, "with --pins: the links on their own clock (link_clk), the "
               "pixels crossing through an async FIFO", type=bool),
-        Param("fifo_depth", 16, "crossing FIFO entries", choices=(4, 8, 16, 32, 64, 128, 256)),
+        Param("fifo_depth", 16, "input FIFO entries (across the clocks with --crossing; it "
+              "holds the input while a row's header and trailer leave)",
+              choices=(4, 8, 16, 32, 64, 128, 256)),
     ),
     top=_top,
     cases=_cases,

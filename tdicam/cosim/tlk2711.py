@@ -167,6 +167,16 @@ def _idle(link, w):
     return w[link] == tlk2711.IDLE
 
 
+def _frame_line(want, k, link):
+    """`` frame F line L`` of golden non-IDLE word ``k`` (from the SOF and SOL markers
+    before it), or ``""`` before the first frame."""
+    sof = np.flatnonzero(want[:k + 1] == tlk2711.marker(tlk2711.K27_7, link))
+    if not len(sof):
+        return ""
+    rows = int((want[sof[-1]:k + 1] == tlk2711.marker(tlk2711.K28_0, link)).sum())
+    return f" frame {len(sof) - 1}" + (f" line {rows - 1}" if rows else "")
+
+
 def check(case, capture):
     """Judge a capture (``{"words": [[w per link] per link clock], "seg": [segment per
     link clock]}``) of ``case``; raises AssertionError naming the scenario, the link and
@@ -190,8 +200,11 @@ def check(case, capture):
             bad = np.flatnonzero(got[:n] != want[:n])
             if len(bad) or len(got) > len(want) or (last and len(got) != len(want)):
                 k = int(bad[0]) if len(bad) else n
+                clocks = np.flatnonzero((seg == s) & ~idle[:, link])
+                at = f" at link clock {int(clocks[k])}" if k < len(clocks) else ""
                 raise AssertionError(
-                    f"{case.name}: segment {s} link {link}: non-IDLE word {k} "
+                    f"{case.name}: segment {s} link {link}{_frame_line(want, k, link)}: "
+                    f"non-IDLE word {k}{at} "
                     f"{'0x%05x' % got[k] if k < len(got) else 'missing'}, expected "
                     f"{'0x%05x' % want[k] if k < len(want) else 'nothing'} ({len(got)} "
                     f"words captured, {len(want)} golden)")
