@@ -176,11 +176,10 @@ class Tlk2711Framer(wiring.Component):
     ``fill >= 16``, and an entry is taken while fewer than 16 bits remain after this
     cycle's word; the row's last entry rounds ``fill`` up to a whole word (zero padding).
     With ``C >= 16`` (:func:`entry_pixels`) the framer takes entries as fast as the links
-    send their bits. The CRC register moves with each
-    LNUM and payload word (16 bits a clock, :func:`crc16_matrix`), the trailer (EOL CRC)
-    follows the last payload word directly. So a link sends a word on every clock as long as
-    the input keeps up, and exactly :func:`~tdicam.model.tlk2711.frame_words` words a
-    frame.
+    send their bits. The CRC register moves with each LNUM and payload word (16 bits a
+    clock, :func:`crc16_matrix`), the trailer (EOL CRC) follows the last payload word
+    directly. So a link sends a word on every clock as long as the input keeps up, and
+    exactly :func:`~tdicam.model.tlk2711.frame_words` words a frame.
 
     Backpressure: ``o_stream`` is an output register; the framer moves when it is empty or
     taken. ``i_stream.ready`` (which does not depend on ``valid``) is high while the gearbox
@@ -325,9 +324,9 @@ class Tlk2711(wiring.Component):
     ----------
     i_stream : In(pixel stream of ``ppc`` x ``pixel_bits``), processing clock
         Raster order; ``first`` on a frame's first beat, ``last`` on each row's last beat;
-        rows of a multiple of ``max(ppc, links)`` pixels. ``ready`` (the input FIFO has
-        room: a register) is low while the links are behind: the links' rate limits the
-        stream's, never a pixel is lost.
+        rows of a multiple of ``max(ppc, links)`` pixels. ``ready`` (from registers: the
+        input FIFO's room, the Widener's beat count) is low while the links are behind: the
+        links' rate limits the stream's, never a pixel is lost.
     o_stream : Out(pixel stream of ``links`` x 18 bits)
         Without ``pins``: see :class:`Tlk2711Framer`.
     link{L}_txd, link{L}_tklsb, link{L}_tkmsb : Out(16), Out(1), Out(1)
