@@ -131,33 +131,56 @@ def crc16(words):
     return binascii.crc_hqx(data, CRC_INIT)
 
 
+#: Bit-array elements :func:`pack` and :func:`unpack` hold at a time (rows at a time).
+_CHUNK_BITS = 1 << 24
+
+
+def _row_chunks(rows, per_row):
+    """Slices of ``rows`` rows of ``per_row`` bits each, ~:data:`_CHUNK_BITS` at a time."""
+    step = max(1, _CHUNK_BITS // max(per_row, 1))
+    return [slice(k, k + step) for k in range(0, rows, step)]
+
+
 def pack(pixels, pixel_bits):
     """Pixels ``(..., n)`` of ``pixel_bits`` bits -> words ``(..., ceil(n b / 16))``, uint16:
     least significant bit first, pixel ``k`` at bits ``k b ..``, the last word zero-padded
     (see the module notes). Values must fit ``pixel_bits``."""
     b = check_range("pixel_bits", pixel_bits, *PIXEL_BITS)
     p = np.asarray(pixels)
-    n = p.shape[-1]
+    lead, n = p.shape[:-1], p.shape[-1]
     if b == 16:
         return p.astype(np.uint16)
     nw = -(-n * b // 16)
-    bits = (p[..., None].astype(np.uint32) >> np.arange(b, dtype=np.uint32)) & 1
-    flat = bits.astype(np.uint8).reshape(*p.shape[:-1], n * b)
-    pad = np.zeros((*p.shape[:-1], nw * 16 - n * b), np.uint8)
-    packed = np.packbits(np.concatenate([flat, pad], axis=-1), axis=-1, bitorder="little")
-    return np.ascontiguousarray(packed).view("<u2").astype(np.uint16)
+    flat = np.ascontiguousarray(p.reshape(-1, n), dtype="<u2")
+    out = np.empty((flat.shape[0], nw), np.uint16)
+    for sl in _row_chunks(flat.shape[0], n * 16):
+        part = flat[sl]
+        bits = np.unpackbits(part.view(np.uint8).reshape(len(part), n, 2), axis=-1,
+                             bitorder="little")[..., :b].reshape(len(part), n * b)
+        bits = np.concatenate([bits, np.zeros((len(part), nw * 16 - n * b), np.uint8)],
+                              axis=-1)
+        out[sl] = np.packbits(bits, axis=-1, bitorder="little").view("<u2")
+    return out.reshape(*lead, nw)
 
 
 def unpack(words, pixel_bits, n):
     """Inverse of :func:`pack`: the first ``n`` pixels of words ``(..., nw)``, as the
-    :func:`~tdicam.model.cds.pixel_dtype` of ``pixel_bits``."""
+    :func:`~tdicam.model.cds.pixel_dtype` of ``pixel_bits`` (a pixel of at most 16 bits
+    lies in two neighbouring words: each one a gather, a shift and a mask)."""
     b = check_range("pixel_bits", pixel_bits, *PIXEL_BITS)
-    w = np.ascontiguousarray(np.asarray(words, dtype="<u2"))
+    w = np.asarray(words)
+    lead, nw = w.shape[:-1], w.shape[-1]
     if b == 16:
         return w[..., :n].astype(np.uint16)
-    bits = np.unpackbits(w.view(np.uint8), axis=-1, bitorder="little")[..., :n * b]
-    bits = bits.reshape(*w.shape[:-1], n, b).astype(np.uint32)
-    return (bits << np.arange(b, dtype=np.uint32)).sum(axis=-1).astype(pixel_dtype(b))
+    flat = w.reshape(-1, nw)
+    start = np.arange(n, dtype=np.int64) * b
+    j, o = start >> 4, (start & 15).astype(np.uint32)
+    out = np.empty((flat.shape[0], n), pixel_dtype(b))
+    for sl in _row_chunks(flat.shape[0], n * 16):
+        w32 = np.zeros((len(flat[sl]), nw + 1), np.uint32)
+        w32[:, :nw] = flat[sl]
+        out[sl] = ((w32[:, j] | (w32[:, j + 1] << 16)) >> o) & ((1 << b) - 1)
+    return out.reshape(*lead, n)
 
 
 def _frames(frames, pixel_bits, links):

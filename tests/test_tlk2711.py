@@ -3,6 +3,7 @@
 
 import numpy as np
 import pytest
+from amaranth.hdl import Fragment
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -254,18 +255,21 @@ def test_plan_figures():
 # ----------------------------------------------------------------------- gateware
 
 
-@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
 def test_component_params_and_errors():
     t = Tlk2711(pixel_bits=12, ppc=4, links=2)
+    pins = Tlk2711(ppc=1, links=2, pins=True)
+    cross = Tlk2711(pins=True, crossing=True, links=2)
+    f = Tlk2711Framer(pixel_bits=11, pixels=8, links=2)
+    narrow = Tlk2711(pixel_bits=12, ppc=1, links=2)
+    for dut in (t, pins, cross, f, narrow):
+        Fragment.get(dut, None)             # elaborates
     assert (t.pixel_bits, t.ppc, t.links, t.entry_pixels, t.latency) == (12, 4, 2, 4, 2)
-    assert Tlk2711(ppc=1, links=2, pins=True).latency == 3
-    assert Tlk2711(pins=True, crossing=True).latency is None
-    assert Tlk2711(pins=True, crossing=True, links=2).port_domains == {
+    assert pins.latency == 3 and cross.latency is None
+    assert cross.port_domains == {
         "link0_txd": "link", "link0_tklsb": "link", "link0_tkmsb": "link",
         "link1_txd": "link", "link1_tklsb": "link", "link1_tkmsb": "link"}
-    f = Tlk2711Framer(pixel_bits=11, pixels=8, links=2)
     assert (f.chunk_bits, f.acc_bits, f.latency) == (44, 64, 1)
-    assert Tlk2711(pixel_bits=12, ppc=1, links=2).entry_pixels == 4
+    assert narrow.entry_pixels == 4
     for kw, match in [({"crossing": True}, "crossing needs pins"),
                       ({"fifo_depth": 6}, "fifo_depth = 6"), ({"links": 3}, "links = 3"),
                       ({"pixel_bits": 0}, "pixel_bits = 0"), ({"ppc": 3}, "ppc")]:
@@ -308,7 +312,7 @@ def test_golden_cases_amaranth_with_stalls(build):
 def _simulate(params, frames, *, idle=0.0, bp=0.0, seed=1, trace=None, latency_from=None):
     p = BLOCK.resolve(params)
     stim, exp = case_beats(stream_case(frames, p), p)
-    dut = Tlk2711(**{k: p[k] for k in ("pixel_bits", "ppc", "links")})
+    dut = Tlk2711(**{k: p[k] for k in ("pixel_bits", "ppc", "links", "fifo_depth")})
     out, lat, fin = run_stream_component(
         dut, stim, len(exp), seed=seed, p_valid=1 - idle, p_ready=1 - bp, timeout=1e-2,
         drain=30, latency_from=latency_from, trace=trace)
@@ -398,10 +402,11 @@ def test_widener_gathers_and_closes_at_a_row_end():
 @given(data=st.data())
 @pytest.mark.parametrize("ppc", PPC_CHOICES)
 def test_gateware_equals_golden_property(ppc, data):
-    """Legal parameter sets at every ppc (links, pixel width 1..16, a width of 1..5
-    entries, 1..4 frames of 1..4 rows of random, zero or full-scale pixels, stall rates):
-    the gateware's words equal the golden model's."""
+    """Legal parameter sets at every ppc (links, pixel width 1..16, input FIFO depth, a
+    width of 1..5 beats of max(ppc, links) pixels, 1..4 frames of 1..4 rows of random, zero
+    or full-scale pixels, stall rates): the gateware's words equal the golden model's."""
     links = data.draw(st.sampled_from([1, 2]), "links")
+    depth = data.draw(st.sampled_from([4, 16]), "fifo_depth")
     bits = data.draw(st.integers(1, 16), "bits")
     width = max(ppc, links) * data.draw(st.integers(1, 5), "entries")
     full = (1 << bits) - 1
@@ -415,8 +420,9 @@ def test_gateware_equals_golden_property(ppc, data):
                        "full": np.full((h, width), full)}[kind])
     idle = data.draw(st.sampled_from([0.0, 0.3, 0.7]), "idle")
     bp = data.draw(st.sampled_from([0.0, 0.3, 0.7]), "bp")
-    out, exp, _, _ = _simulate({"pixel_bits": bits, "ppc": ppc, "links": links}, frames,
-                               idle=idle, bp=bp, seed=seed + 1)
+    out, exp, _, _ = _simulate({"pixel_bits": bits, "ppc": ppc, "links": links,
+                                "fifo_depth": depth}, frames, idle=idle, bp=bp,
+                               seed=seed + 1)
     _assert_equal(out, exp)
 
 
