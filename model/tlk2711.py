@@ -1,6 +1,6 @@
 """Golden model of the camera's output links: the parallel side of one or two TI TLK2711
-transceivers (Ning et al. 2019 §3: the image leaves over 2 TLK2711 links, 3.2 Gbit/s in all,
-"a single channel typically about 100 MHz x 16 bit"; full frames reach 5 frame/s).
+transceivers (Ning et al. 2019: §3.2, the image leaves over 2 TLK2711 links, 3.2 Gbit/s in
+all; §5, "a single channel typically about 100 MHz x 16 bit", full frames reach 5 frame/s).
 
 The TLK2711's transmitter takes a 16-bit word ``TXD[15:0]`` on every rising edge of its
 reference clock ``TXCLK`` (the word clock; 1.6 to 2.7 Gbit/s on the line, 20 line bits a word

@@ -1,5 +1,5 @@
 """Block ``tlk2711``: the camera's output links, the parallel side of one or two TLK2711s
-(Ning et al. 2019 §3).
+(Ning et al. 2019 §3.2).
 
 The registry's top is the word stream (``--pins false``): the framed words of every link on
 ``m_axis`` (each link's word an element: ``TXD | TKLSB << 16 | TKMSB << 17``, zero-padded
@@ -205,7 +205,7 @@ BLOCK = Block(
     name="tlk2711",
     summary="Output links: 1-2 TLK2711 transmitters' parallel side (16-bit words at the "
             "link clock, K-character frame and row markers, a CRC a row), 1-8 pixels/clock "
-            "(Ning et al. 2019 §3)",
+            "(Ning et al. 2019 §3.2)",
     params=(
         Param("pixel_bits", 16, "pixel width, packed densely into the 16-bit words",
               lo=tlk2711.PIXEL_BITS[0], hi=tlk2711.PIXEL_BITS[1]),
