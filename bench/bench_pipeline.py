@@ -27,7 +27,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "orbit_chain.toml"))
     ap.add_argument("--sim", default="verilator", choices=("verilator", "icarus"))
-    from tdicam.chain.design import PPC_CHOICES
+    from tdicam.beats import PPC_CHOICES
     ap.add_argument("--ppc", type=int, choices=PPC_CHOICES,
                     help="pixels per clock (default: the scene's)")
     ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")

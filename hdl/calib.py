@@ -6,7 +6,8 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from tdicam.errors import TdicamError, check_range
+from tdicam.beats import PPC_CHOICES
+from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.calib import (DEFAULT_COUNT_BITS, HEADER_WORDS, MAX_SIDE, header_words,
                                 payload_words)
 from tdicam.model.nuc import NucFormat
@@ -92,8 +93,7 @@ class CalibReader(wiring.Component):
                  debug=False, ppc=1):
         self._rows = check_range("rows", rows, 1, MAX_SIDE)
         self._cols = check_range("cols", cols, 1, MAX_SIDE)
-        if ppc not in (1, 2, 4, 8):
-            raise TdicamError(f"ppc = {ppc} is not valid; valid: 1, 2, 4, 8")
+        check_choice("ppc", ppc, PPC_CHOICES)
         if cols % ppc:
             raise TdicamError(f"cols = {cols} is not a multiple of ppc = {ppc}")
         if debug and ppc > 1:
@@ -333,9 +333,10 @@ class CoeffBuffer(wiring.Component):
     def __init__(self, *, rows, cols, elem_bits, ppc=1):
         self._rows = check_range("rows", rows, 1, MAX_SIDE)
         self._cols = check_range("cols", cols, 1, MAX_SIDE)
-        if ppc not in (1, 2, 4, 8) or cols % ppc:
-            raise TdicamError(f"coefficient buffer: ppc = {ppc} must be 1, 2, 4 or 8 and "
-                              f"divide cols = {cols}")
+        if ppc not in PPC_CHOICES or cols % ppc:
+            raise TdicamError(f"coefficient buffer: ppc = {ppc} must be "
+                              f"{', '.join(map(str, PPC_CHOICES[:-1]))} or {PPC_CHOICES[-1]} "
+                              f"and divide cols = {cols}")
         self._ppc, self._ebits = ppc, elem_bits
         super().__init__({
             "i_stream": In(pixel_signature(channels_shape(elem_bits, 2))),

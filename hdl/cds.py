@@ -5,7 +5,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_choice, check_range
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 

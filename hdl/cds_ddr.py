@@ -10,7 +10,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports

@@ -7,7 +7,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_choice
 from tdicam.model.hdr import DEFAULT_GAINS, hdr_config
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 from tdicam.hdl.vendor import ecp5_dsp

@@ -40,6 +40,7 @@ from amaranth.lib import fifo, wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
+from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.lvds import lane_ports
@@ -289,7 +290,7 @@ class LvdsFront(wiring.Component):
         self._g = check_choice("gains", gains, (1, 2))
         self._w = check_choice("word_bits", word_bits, (10, 12))
         self._bits = check_range("bits", bits, 1, word_bits)
-        self._ppc = check_choice("ppc", ppc, (1, 2, 4, 8))
+        self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
         if columns % L:
             raise TdicamError(f"lanes_per_gain = {L} does not divide columns = {columns}")
         if L % ppc:

@@ -25,7 +25,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, default_enhance_shift
 from tdicam.hdl.interfaces.stream import AdvanceBuffer, channels_shape, pixel_signature
 from tdicam.hdl.util import equals, is_zero, pick

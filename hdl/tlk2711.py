@@ -31,7 +31,7 @@ from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import equals, quiet_reject
 from tdicam.model import tlk2711
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 
 __all__ = ["Tlk2711", "Tlk2711Framer", "Widener", "entry_pixels", "entry_layout",
            "LINK_DOMAIN", "WORD_BITS", "pin_names", "crc16_matrix"]

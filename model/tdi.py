@@ -48,12 +48,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_multiple, check_range
 from tdicam.threads import threads
 
 from tdicam.model.cds import check_pixels, pixel_dtype
 
-__all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", "out_width",
+__all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "full_bits", "out_width",
            "check_params", "settings_valid", "slots_needed", "BasicTdi", "OptimizedTdi",
            "tdi", "tdi_basic", "tdi_optimized", "tdi_frames", "tdi_stream", "StreamOut",
            "basic_line_buffers", "optimized_line_buffers"]
@@ -61,7 +62,6 @@ __all__ = ["MAX_STAGES", "MAX_WIDTH", "PIXEL_BITS", "PPC_CHOICES", "full_bits", 
 MAX_STAGES = 128
 MAX_WIDTH = 8192
 PIXEL_BITS = (8, 14)
-PPC_CHOICES = (1, 2, 4, 8)
 
 
 def _ceil_log2(n):

@@ -16,8 +16,12 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Beats", "BeatStream", "frames_to_beats", "beats_to_frames", "mark_resets",
-           "cut_frames_beats"]
+__all__ = ["PPC_CHOICES", "Beats", "BeatStream", "frames_to_beats", "beats_to_frames",
+           "mark_resets", "cut_frames_beats"]
+
+#: Pixels a beat carries (pixels per clock): the one legal set of every stream block, of a
+#: chain's top and of the scene key ``[run.rtl].pixels_per_clock``.
+PPC_CHOICES = (1, 2, 4, 8)
 
 
 @dataclass

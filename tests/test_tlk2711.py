@@ -17,7 +17,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.tlk2711 import Tlk2711, Tlk2711Framer, Widener, crc16_matrix, entry_pixels
 from tdicam.blocks.tlk2711 import BUILDS, case_beats, stream_case
 from tdicam.model import tlk2711
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 
 BLOCK = blocks.get("tlk2711")
 IDLE = 0x1C5BC                           # K28.5 (K) low byte, D5.6 high byte

@@ -36,6 +36,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
@@ -735,7 +736,7 @@ class Block:
 
 #: The pixels-per-clock parameter of the stream blocks that gained it after their golden
 #: vectors existed (``cds``, ``nuc``, ``hdr``): not recorded at its default.
-PPC_PARAM = Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8), implicit_default=True)
+PPC_PARAM = Param("ppc", 1, "pixels per clock", choices=PPC_CHOICES, implicit_default=True)
 
 
 def check_width(width, ppc):

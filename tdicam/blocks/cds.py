@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
@@ -96,7 +96,7 @@ def _ppc_cases():
     """The cases at ppc 2, 4 and 8: random, hard values (16-bit at ppc 8), a reset mid-row,
     the smallest width (one beat per row) and 8-bit pixels at ppc 8."""
     out = []
-    for k, ppc in enumerate((2, 4, 8)):
+    for k, ppc in enumerate(PPC_CHOICES[1:]):
         p = {"pixel_bits": 12, "ppc": ppc}
         bits = 16 if ppc == 8 else 12      # (one parameter set, one build, at ppc 2 and 4)
         out += [

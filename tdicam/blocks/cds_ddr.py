@@ -9,7 +9,7 @@ Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 
 import numpy as np
 
-from tdicam.beats import Beats, frames_to_beats, mark_resets
+from tdicam.beats import PPC_CHOICES, Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
@@ -142,7 +142,7 @@ def _ppc_cases():
     and at ppc 8 16-bit pixels, 10-bit Table 2 words (24 values: 3 beats a word) and the
     widest frame (65,536 columns)."""
     out = []
-    for k, ppc in enumerate((2, 4, 8)):
+    for k, ppc in enumerate(PPC_CHOICES[1:]):
         p = _p(24, 4, ppc=ppc)
         out += [
             Case(f"random_24x4_12b_p{ppc}", p, _random([1, 0, 0, 1, 0]), seed=30 + k),

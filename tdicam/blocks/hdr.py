@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.beats import frames_to_beats, mark_resets
+from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
@@ -178,7 +178,7 @@ def _ppc_cases():
     ppc 8 also the LG sweep, constant extremes, empty bands, gain changes and the coarse
     16-bit format."""
     out = []
-    for k, ppc in enumerate((2, 4, 8)):
+    for k, ppc in enumerate(PPC_CHOICES[1:]):
         p, pm = {"ppc": ppc}, {**MULTI, "ppc": ppc}
         out += [
             Case(f"scene_12b_p{ppc}", p, _scene(3, 16, 32), seed=20 + k),

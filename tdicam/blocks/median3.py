@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tdicam.beats import Beats, cut_frames_beats
+from tdicam.beats import PPC_CHOICES, Beats, cut_frames_beats
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.median3 import Median3, check_geometry
@@ -184,7 +184,7 @@ def _wide(params, rng):
 #: Parameter sets of the ppc 2, 4, 8 golden cases: the smallest width (3 beats) plain and
 #: with enhancement at every ppc; at ppc 8 also the widest line and a second enhancement
 #: setting (16-bit, gain 200, shift 30).
-for _p in (2, 4, 8):
+for _p in PPC_CHOICES[1:]:
     BUILDS[f"p{_p}_w{3 * _p}_12b"] = _top_params(width=3 * _p, ppc=_p)
     BUILDS[f"p{_p}_enh_w{4 * _p}_12b"] = _top_params(width=4 * _p, enhance=True, enhance_gain=9,
                                                      ppc=_p)
@@ -198,7 +198,7 @@ def _ppc_cases():
     constant frames, a reset mid-frame and mid-row, with and without enhancement, at the
     smallest width; the widest line and 16-bit enhancement at ppc 8."""
     b, out = BUILDS, []
-    for k, p in enumerate((2, 4, 8)):
+    for k, p in enumerate(PPC_CHOICES[1:]):
         plain, enh, s = b[f"p{p}_w{3 * p}_12b"], b[f"p{p}_enh_w{4 * p}_12b"], 100 + 10 * k
         out += [
             Case(f"p{p}_random_12b", plain, _random([4, 1, 2, 3, 7]), seed=s,

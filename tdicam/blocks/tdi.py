@@ -19,7 +19,7 @@ import numpy as np
 
 from collections import deque
 
-from tdicam.beats import Beats, BeatStream, mark_resets
+from tdicam.beats import PPC_CHOICES, Beats, BeatStream, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
@@ -443,7 +443,7 @@ PARAMS = (
     Param("out_bits", None, "saturate the output at 2^N-1 (pixel_bits..full width); "
                             "default: full width pixel_bits+ceil(log2(stages))",
           lo=8, hi=21),
-    Param("ppc", 1, "pixels per clock", choices=(1, 2, 4, 8)),
+    Param("ppc", 1, "pixels per clock", choices=PPC_CHOICES),
 )
 
 

@@ -22,12 +22,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from tdicam.beats import PPC_CHOICES
 from tdicam.blocks.steps import ChainPlan, SceneData, Step, StepContext
 from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
-           "check_options", "ECP5_85F", "PPC_CHOICES", "scene_ppc", "sourced", "rate_ppc",
+           "check_options", "ECP5_85F", "MEMORY", "scene_ppc", "sourced", "rate_ppc",
            "step_ppc", "out_ppc", "chain_text"]
 
 
@@ -82,9 +83,10 @@ def _use(name):
 # --------------------------------------------------------------------------------------
 
 
-#: Pixels per clock a pipeline top can be built at (every block up to TDI at the same; after
-#: it at :func:`rate_ppc`).
-PPC_CHOICES = (1, 2, 4, 8)
+#: ``--memory`` of ``tdicam verilog|synth|export pipeline``: a block's large memory (TDI's
+#: partial sums) on chip, in DDR, or ``auto`` by the device's block RAM, as the ``spill``
+#: argument of :func:`chain_plan` (no ``--memory``: None, the scene's own placement).
+MEMORY = {"auto": "auto", "chip": False, "ddr": True}
 
 
 def scene_ppc(scene):

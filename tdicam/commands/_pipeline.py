@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.blocks.steps import SceneData
-from tdicam.chain.design import (ECP5_85F, PipelineBlock, chain_plan, chain_text, check_options,
-                                 top, verilog_header)
+from tdicam.beats import PPC_CHOICES
+from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, chain_text,
+                                 check_options, top, verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
@@ -20,7 +21,28 @@ from tdicam.hw.verilog import convert
 from tdicam.model.calib import load_image
 from tdicam.scene.loader import load_scene
 
-__all__ = ["scene_design", "verilog_command", "synth_command"]
+__all__ = ["add_pipeline_options", "scene_design", "verilog_command", "synth_command"]
+
+
+def add_pipeline_options(ap, *, width=False):
+    """The options that pick a scene's chain, shared by ``tdicam verilog|synth|export
+    pipeline``: ``--scene --stages --lines [--width] --memory --device --ppc``.
+    ``--memory`` is one of :data:`tdicam.chain.design.MEMORY` (``auto``: by ``--device``'s
+    block RAM); without it, the scene places the memory (``[pipeline.tdi].memory``)."""
+    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
+                    "[tdi].stages)")
+    ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")
+    if width:
+        ap.add_argument("--width", type=int, help="only the first N columns (default: all)")
+    ap.add_argument("--memory", choices=tuple(MEMORY),
+                    help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
+                         "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
+                         "DDR needs the scene's [ddr] section)")
+    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
+    ap.add_argument("--ppc", type=int, help="pixels per clock of every block, "
+                    f"{', '.join(map(str, PPC_CHOICES))} (default: the scene's "
+                    "[run.rtl].pixels_per_clock, else 1)")
 
 
 def scene_design(prog, extra):
@@ -29,21 +51,10 @@ def scene_design(prog, extra):
     ap = ArgsParser(prog=prog, description="The whole pipeline of a scene "
                                  "([pipeline] blocks in order, NUC coefficients identity "
                                  "unless --calib).")
-    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
-    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
-                    "[tdi].stages)")
-    ap.add_argument("--lines", type=int, help="output lines per median image (default "
-                    "[run].lines)")
+    add_pipeline_options(ap)
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
-    ap.add_argument("--memory", choices=("auto", "chip", "ddr"),
-                    help="TDI partial sums on chip or in DDR (auto: DDR when they exceed "
-                         "--device's block RAM; default: the scene's [pipeline.tdi].memory; "
-                         "DDR needs the scene's [ddr] section)")
-    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
-    ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
-                    "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
     from tdicam.hdl.lvds_phy import PHYS
     ap.add_argument("--phy", choices=tuple(PHYS),
                     help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
@@ -54,7 +65,7 @@ def scene_design(prog, extra):
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
-                   spill={None: None, "auto": "auto", "chip": False, "ddr": True}[ns.memory],
+                   spill=MEMORY.get(ns.memory),
                    phy=ns.phy)
     data = None
     if ns.calib:

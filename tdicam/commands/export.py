@@ -38,7 +38,8 @@ def register(sub):
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] [--ppc N] -o DIR``."""
-    from tdicam.export.chain import MEMORY, export_pipeline
+    from tdicam.commands._pipeline import add_pipeline_options
+    from tdicam.export.chain import export_pipeline
     ap = ArgsParser(
         prog="tdicam export pipeline",
         description="A scene's whole [pipeline] as one exported design: the top as "
@@ -46,16 +47,7 @@ def _pipeline(args):
                     "testbench whose stimulus is the scene's raw frames and whose expected "
                     "output is the golden chain's.",
         epilog="-o DIR, --force and --seed as for a block (tdicam export --help).")
-    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
-    ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
-                    "[tdi].stages)")
-    ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")
-    ap.add_argument("--width", type=int, help="only the first N columns (default: all)")
-    ap.add_argument("--memory", choices=tuple(MEMORY), default="auto",
-                    help="TDI partial sums on chip or in DDR (auto: by --device's RAM)")
-    ap.add_argument("--device", default="ecp5-85f", help="device for --memory auto")
-    ap.add_argument("--ppc", type=int, help="pixels per clock of every block, 1, 2, 4 or 8 "
-                    "(default: the scene's [run.rtl].pixels_per_clock, else 1)")
+    add_pipeline_options(ap, width=True)
     if args.help:
         ap.print_help()
         return 0

@@ -22,30 +22,28 @@ from tdicam.beats import frames_to_beats
 from tdicam.errors import TdicamError, check_range
 from tdicam.export.block import MAX_BEATS, Export, stream_design, write_design
 
-__all__ = ["export_pipeline", "pipeline_design", "MEMORY"]
-
-#: ``--memory``: TDI partial sums on chip, in DDR, or by the device's block RAM.
-MEMORY = {"auto": None, "chip": False, "ddr": True}
+__all__ = ["export_pipeline", "pipeline_design"]
 
 
-def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="auto",
+def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=None,
                     device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None):
     """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
     (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
-    1)."""
+    1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it)."""
     from tdicam.chain.cosim import scene_data
     from tdicam.scene.loader import load_scene
     from tdicam.chain.design import SceneData
     from tdicam.hdl.chain_top import Board
-    if memory not in MEMORY:
-        raise TdicamError(f"--memory = {memory} is not valid; valid: {', '.join(MEMORY)}")
+    if memory is not None and memory not in design.MEMORY:
+        raise TdicamError(f"--memory = {memory} is not valid; valid: "
+                          f"{', '.join(design.MEMORY)}")
     sc = load_scene(scene_path)
     w = sc.sensor.columns if width is None else check_range("--width", width, 1,
                                                              sc.sensor.columns)
     design.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)
-    spill = MEMORY[memory]
+    spill = design.MEMORY.get(memory)
     p = design.chain_plan(sc, stages=stages, lines=lines, width=w, device=device, spill=spill,
                           ppc=ppc)
     if design.sourced(p):
@@ -66,12 +64,13 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory="
     exp = frames_to_beats(design.golden(p, data)[-1][2], ppc=design.out_ppc(p))
     name = Path(scene_path).name
     params = {"scene": name, "stages": p.stages, "lines": p.lines, "width": p.width,
-              "memory": memory, "blocks": " -> ".join(s.block for s in p.steps)}
+              "memory": memory or "scene", "blocks": " -> ".join(s.block for s in p.steps)}
     rows = [("scene", name, "scene file ([pipeline] blocks in order)"),
             ("stages", p.stages, "TDI stages (rows per exposure frame)"),
             ("lines", p.lines, "output lines"),
             ("width", p.width, "columns (the scene's first ones)"),
-            ("memory", memory, "TDI partial sums: chip, ddr, or auto by the device")]
+            ("memory", memory or "scene", "TDI partial sums: chip, ddr, auto by the device, "
+                                          "or as the scene places them")]
     if p.ppc != 1:
         params["ppc"] = p.ppc
         rows.append(("ppc", p.ppc, "pixels per clock of the input (of each block: its "

@@ -28,7 +28,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.hw import record
 from tdicam.model.physics import plan
-from tdicam.model import tdi as _tdi
+from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.planning.predict import mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
@@ -273,7 +273,7 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     ``rate = M W / T`` pixels per second. At ``ppc`` pixels per clock it needs a clock of
     ``rate / ppc``. ``ok`` says whether the reference Fmax (:data:`REFERENCE_TDI_FMAX_MHZ`, or
     ``fpga_clock_mhz`` for every ppc) reaches it at some ppc the block offers for this width
-    (:data:`tdicam.model.tdi.PPC_CHOICES`, ``W`` a multiple of ppc with >= 2 beats);
+    (:data:`tdicam.beats.PPC_CHOICES`, ``W`` a multiple of ppc with >= 2 beats);
     ``margin`` is ``best pixel rate / rate - 1`` (negative: short).
 
     ``chain``: the scene's whole processing chain as placed and routed, from the synthesis
@@ -285,9 +285,9 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     """
     rate = stages * width / line_period_s
     clocks = REFERENCE_TDI_FMAX_MHZ if fpga_clock_mhz is None else {
-        p: float(fpga_clock_mhz) for p in _tdi.PPC_CHOICES}
+        p: float(fpga_clock_mhz) for p in PPC_CHOICES}
     options = []
-    for ppc in _tdi.PPC_CHOICES:
+    for ppc in PPC_CHOICES:
         if width % ppc or width // ppc < 2:
             continue
         fmax = clocks.get(ppc)

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tdicam import blocks
+from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import KeyDoc
 from tdicam.scene import loader
 from tdicam.model.physics import targets as _targets
@@ -250,7 +251,7 @@ KEYS = {
                                                "behind a width converter; also the default "
                                                "--ppc of tdicam verilog|synth|export "
                                                "pipeline)",
-                                   range="1, 2, 4, 8; dividing the crop width"),
+                                   range=f"{', '.join(map(str, PPC_CHOICES))}; dividing the crop width"),
         "lane_dies": KeyDoc("", "[lane, frame]: a sensor lane dying in the middle of that "
                                 "frame of the co-simulation (frames as the sensor sends "
                                 "them, reset frames included); the controller retrains "

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from tdicam import blocks
+from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import steps as _steps
 from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.model import lvds_front
@@ -615,10 +616,6 @@ def _ddr(sec: _Section) -> Ddr:
                stalls=stalls)
 
 
-#: ``[run.rtl].pixels_per_clock``: the whole-chain top's pixels per beat.
-RTL_PPC = (1, 2, 4, 8)
-
-
 def _run(sec: _Section, sensor: Sensor, labels) -> Run:
     sec.check_keys(("lines", "seed", "fidelity", "tolerance", "rtl"))
     lines = sec.integer("lines", 256, lo=1)
@@ -639,8 +636,8 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                                f"([sensor].columns x {sec.label('lines')}), got {_show(crop)}")
             crop = tuple(crop)
         ppc = r.integer("pixels_per_clock", 1)
-        if ppc not in RTL_PPC:
-            r.fail("pixels_per_clock", f"must be one of {', '.join(map(str, RTL_PPC))}, "
+        if ppc not in PPC_CHOICES:
+            r.fail("pixels_per_clock", f"must be one of {', '.join(map(str, PPC_CHOICES))}, "
                                        f"got {ppc}")
         width, what = ((sensor.columns, "[sensor].columns") if crop is None
                        else (crop[2], f"{r.label('crop')} width"))
