@@ -125,7 +125,7 @@ def test_calib_rom_ecp5_dp16kd_icarus(tmp_path):
     import subprocess
     from amaranth.back import verilog
     from tdicam.cosim import dp16kd
-    from tdicam.hdl.chain_top import CalibRom
+    from tdicam.hdl.calib_rom import CalibRom
     from tdicam.hw.tools import tool_env
 
     if shutil.which("iverilog") is None:

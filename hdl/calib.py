@@ -326,7 +326,7 @@ class CoeffBuffer(wiring.Component):
     One memory of ``rows * cols / ppc`` words of ``2 * elem_bits * ppc`` bits; ``ppc``
     loaded pixels are gathered in a register before each write. The output goes through
     the memory's read port and an output register (two stages, as :class:`~tdicam.hdl.
-    chain_top.CalibRom`): one beat a clock while ``o_stream.ready`` is high.
+    calib_rom.CalibRom`): one beat a clock while ``o_stream.ready`` is high.
     """
 
     @quiet_reject

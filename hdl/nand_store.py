@@ -498,7 +498,7 @@ class NandCalibTop(wiring.Component):
 
 class NandPart(wiring.Component):
     """Simulation: a NAND part holding a given image, on the controller's bus pins (the
-    co-simulation's part outside the camera top, :class:`tdicam.hdl.chain_top.Board`):
+    co-simulation's part outside the camera top, :class:`tdicam.hdl.chain_board.Board`):
     :class:`NandDeviceSim` programmed at elaboration (``image``), ready at power-up.
 
     Attributes

@@ -190,7 +190,7 @@ def test_register_slice_passes_every_beat_once_at_full_rate(ppc):
     from amaranth.lib.wiring import In, Out
     from tdicam.cosim.codec import Beats
     from tdicam.cosim.streamsim import run_stream_component
-    from tdicam.hdl.chain_top import Link, register_slice
+    from tdicam.hdl.chain_links import Link, register_slice
     from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
     class Slice(wiring.Component):
@@ -349,7 +349,7 @@ def test_calibration_rom_streams_its_words_again_and_again_under_backpressure(n,
     after the last (several banks, a partly used last one, one bank, one beat); with a
     ready sink, one beat a clock after the pipeline fills."""
     from amaranth.sim import Simulator
-    from tdicam.hdl.chain_top import CalibRom
+    from tdicam.hdl.calib_rom import CalibRom
 
     rng = np.random.default_rng(n)
     words = rng.integers(0, 256, (2 * n, 9)).tolist()

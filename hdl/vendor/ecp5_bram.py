@@ -11,7 +11,7 @@ instead, the register being the DP16KD's own output register (``REGMODE_B = "OUT
 * :func:`pipe_bank` (:class:`tdicam.hdl.median3.Median3`'s line buffers, ``bram="ecp5"``):
   both read stages on one clock enable, the output register *is* the second stage of a
   generic read-plus-register, no stage added;
-* :func:`rom` (:class:`tdicam.hdl.chain_top.CalibRom`, ``bram="ecp5"``): the contents as
+* :func:`rom` (:class:`tdicam.hdl.calib_rom.CalibRom`, ``bram="ecp5"``): the contents as
   ``INITVAL``, both read stages on one clock enable.
 
 The Verilog this gives instantiates ``DP16KD`` cells: yosys/nextpnr (and Lattice's tools)

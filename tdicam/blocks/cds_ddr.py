@@ -192,7 +192,8 @@ def _pipeline_hw(step, data, *, ecp5=False):
     top's ports (``cds_ddr_app_*``, ``cds_ddr_app_*_1``: a DDR3 part per channel, as the
     paper's two) and, for co-simulation, the simulation MIG model (DRAM timing and the
     block's stall pattern) beside the top on them."""
-    from tdicam.hdl.chain_top import Device, LaneStage
+    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.chain_top import LaneStage
     from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
     from tdicam.hdl.simmodels.mig_model import MigModel
     p = BLOCK.resolve(step.params)

@@ -327,7 +327,8 @@ def _pipeline_side(step, data, ecp5=False):
     coefficient pairs a beat, the ROM ``ppc / 2`` flash words a beat); ``ecp5``: the ROM's
     banks as DP16KD primitives with their output register (the ECP5 synthesis top)."""
     from tdicam.hdl.calib import CalibReader
-    from tdicam.hdl.chain_top import CalibRom, Link
+    from tdicam.hdl.calib_rom import CalibRom
+    from tdicam.hdl.chain_links import Link
     from tdicam.model.calib import encode_image
     fmt = _fmt(step.params)
     ppc = step.params.get("ppc", 1)
@@ -443,7 +444,8 @@ def _pipeline_hw(step, data, *, ecp5=False):
         return lane_stage(side=lambda s, dt: _pipeline_side(s, dt, ecp5),
                           out_slice=cut)(step, data, ecp5=ecp5)
     from tdicam.hdl.calib import CoeffBuffer
-    from tdicam.hdl.chain_top import Device, Link
+    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.chain_links import Link
     from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore, NandPart
     from tdicam.model import calib as _calib
     d, fmt = step.device, _fmt(step.params)

@@ -105,7 +105,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     be a multiple of it. A block after TDI of ``m`` stages gets ``m`` times fewer pixels a
     second and is built at :func:`rate_ppc` (``ppc / m`` rounded up to a choice: 1 for the
     bundled chains at 8), a width converter with a one-row FIFO before it
-    (:func:`tdicam.hdl.chain_top.narrow`).
+    (:func:`tdicam.hdl.chain_links.narrow`).
 
     ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
     ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
@@ -303,10 +303,11 @@ def sourced(p):
 def top(p, data=None, *, taps=False, ecp5=False, board=False):
     """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
     each block's ECP5 synthesis top where it has one, for ``tdicam synth``; ``board``: for
-    co-simulation, the top inside a :class:`~tdicam.hdl.chain_top.Board` with the
+    co-simulation, the top inside a :class:`~tdicam.hdl.chain_board.Board` with the
     simulation models of its external parts on its pins, when it has any)."""
     from tdicam.hdl.interfaces.axis import AxisTop
-    from tdicam.hdl.chain_top import Board, Pipeline
+    from tdicam.hdl.chain_board import Board
+    from tdicam.hdl.chain_top import Pipeline
     data = identity_data(p) if data is None or data.coeffs is None else data
     stages = [_use(s.block).hw(s, data, ecp5=ecp5) for s in p.steps]
     try:

@@ -4,7 +4,7 @@ self-checking testbench (see :mod:`tdicam.export.block`).
 The export holds the pipeline top exactly as ``tdicam verilog pipeline --scene S.toml``
 writes it (identity NUC coefficients in its calibration ROM; a chain with external parts --
 the reset frame's DDR, the coefficients' NAND -- inside the co-simulation board with their
-simulation models on its pins, :class:`tdicam.hdl.chain_top.Board`), and the fast-mode stream
+simulation models on its pins, :class:`tdicam.hdl.chain_board.Board`), and the fast-mode stream
 testbench of :mod:`tdicam.cosim.tbgen` in its self-checking form. The stimulus is the
 scene's raw data (every exposure frame of every channel and the CDS reset frames, from an
 exact run of the scene simulator, :func:`tdicam.chain.cosim.scene_data`) made into the top's
@@ -35,7 +35,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     from tdicam.chain.cosim import scene_data
     from tdicam.scene.loader import load_scene
     from tdicam.chain.design import SceneData
-    from tdicam.hdl.chain_top import Board
+    from tdicam.hdl.chain_board import Board
     if memory is not None and memory not in design.MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: "
                           f"{', '.join(design.MEMORY)}")

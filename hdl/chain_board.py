@@ -1,0 +1,92 @@
+"""The co-simulation's device under test: a pipeline top (:class:`tdicam.hdl.chain_top.Pipeline`)
+with the simulation models of its external parts (:class:`Device`: the reset frame's DDR,
+the coefficients' NAND) wired to its pins."""
+
+from dataclasses import dataclass, field
+
+from amaranth.hdl import Module
+from amaranth.lib import wiring
+from amaranth.lib.wiring import Out
+
+from tdicam.hdl.chain_top import Pipeline, core_name
+
+__all__ = ["Device", "Board"]
+
+
+@dataclass
+class Device:
+    """The simulation model of an external part on a stage's pins (see :class:`Board`).
+
+    Attributes
+    ----------
+    model : wiring.Component
+        The part's model (e.g. the DDR3 controller and memory, the NAND part).
+    pins : dict of str -> str
+        The stage's pin (its top-level port name without stage and lane) -> the model's
+        port it connects to (the pin's direction decides which drives which).
+    status : dict of str -> str
+        The model's ``Out`` ports exposed on the board as ``<stage>_<name>[_<lane>]``
+        (the name is the key; the model's port the value).
+    """
+
+    model: object
+    pins: dict
+    status: dict = field(default_factory=dict)
+
+
+class Board(wiring.Component):
+    """A :class:`Pipeline` top with the simulation models of its external parts beside it:
+    the co-simulation's device under test. The top keeps its pins (the synthesized design's
+    ports); the board wires each stage's :class:`Device` to them and exposes every other
+    port of the top unchanged, plus the models' status outputs.
+
+    Parameters
+    ----------
+    top : :class:`Pipeline`
+    """
+
+    def __init__(self, top):
+        self._top = top
+        self._devices = top.devices()
+        used, extra = set(), {}
+        for st, k, dev in self._devices:
+            used.update(Pipeline._status(st, pin, k) for pin in dev.pins)
+            for name, port in dev.status.items():
+                extra[Pipeline._status(st, name, k)] = Out(
+                    dev.model.signature.members[port].shape)
+        members = {n: mem for n, mem in top.signature.members.items() if n not in used}
+        members.update(extra)
+        super().__init__(members)
+
+    core = property(lambda self: self._top, doc="The pipeline top.")
+    tap_shapes = property(lambda self: self._top.tap_shapes)
+    startup_bound = property(lambda self: self._top.startup_bound)
+    latency = property(lambda self: self._top.latency)
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.top = top = self._top
+        for st, k, dev in self._devices:
+            m.submodules[f"{core_name(st, k, 2)}_device"] = dev.model
+            for pin, port in dev.pins.items():
+                a = getattr(top, Pipeline._status(st, pin, k))
+                b = getattr(dev.model, port)
+                if top.signature.members[Pipeline._status(st, pin, k)].flow == wiring.Out:
+                    m.d.comb += b.eq(a)
+                else:
+                    m.d.comb += a.eq(b)
+            for name, port in dev.status.items():
+                m.d.comb += getattr(self, Pipeline._status(st, name, k)).eq(
+                    getattr(dev.model, port))
+        for name, mem in self.signature.members.items():
+            if name in ("i_stream", "o_stream") or not hasattr(top, name) \
+                    or name not in top.signature.members:
+                continue
+            if mem.flow == wiring.In:
+                m.d.comb += getattr(top, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(top, name))
+        if "i_stream" in self.signature.members:       # (none after a source stage)
+            wiring.connect(m, wiring.flipped(self.i_stream), top.i_stream)
+        wiring.connect(m, top.o_stream, wiring.flipped(self.o_stream))
+        return m
