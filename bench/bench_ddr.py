@@ -92,7 +92,7 @@ def speed(sims=cosim.SIMULATORS, quick=False):
         runs.append(("ddr", p, s, s, sim, f.size, f"round trip 1280x{lines}, 8 px/beat"))
         p = blocks.get("cds_ddr").resolve({"width": 512, "rows": 16, "pixel_bits": 10})
         arr = {"frames": rng.integers(0, 1024, (4, 16, 512)), "kinds": np.array([1, 0, 0, 0])}
-        from tdicam.model.ddr import cds_ddr_frames
+        from tdicam.model.cds_ddr import cds_ddr_frames
         arr["out"] = cds_ddr_frames(arr["frames"], arr["kinds"], pixel_bits=10)
         st, ex = blocks.get("cds_ddr").to_beats(arr, p)
         runs.append(("cds_ddr", p, st, ex, sim, arr["frames"].size, "CDS 512x16, reset in DDR"))

@@ -1,24 +1,20 @@
-"""Co-simulation of the DDR blocks (``ddr``, ``cds_ddr``, ``tdi_ddr``) on Icarus and Verilator.
+"""Co-simulation of the ``ddr`` block (the frame buffer behind the MIG user interface) on Icarus
+and Verilator; its users ``cds_ddr`` and ``tdi_ddr`` are co-simulated in test_cds_ddr.py and
+test_tdi_ddr.py.
 
 Two kinds of runs:
 
-* the stream blocks with the HDL controller model inside (fast mode: HDL stimulus, HDL
-  stalls on every MIG ready signal with the default pattern, plus random idle input and
-  output backpressure), against the golden models;
+* the block with the HDL controller model inside (fast mode: HDL stimulus, HDL stalls on
+  every MIG ready signal with the default pattern, plus random idle input and output
+  backpressure), against the golden model;
 * the bare frame buffer with its MIG ports driven by the Python controller model
   (:func:`tdicam.cosim.ddr.run_ui_cosim`): memory checked word for word against the
   Table 2 packing, interface efficiency measured per phase (>= 80 % required).
 
 Budget (every distinct parameter set is a simulator build; Verilator ~30-100 s each): all
-small golden cases on Icarus; on Verilator the paper-size cases only — the 1280 x 1024
-10-bit full frame round trip, CDS 512 x 16 and at ppc 2, 4 and 8 (at 8 the widest frame, 65,536
-columns), TDI 512 x 16 and the wide spill case
-(W = 4096, m = 32, ppc 4, which ``tdicam plan`` says must spill on an ECP5-25F). Icarus runs
-short forms of the big ones; the full forms (and the 72-channel full frame) with
-``TDICAM_FULL=1``.
+small golden cases on Icarus; on Verilator the paper-size cases only (the 1280 x 1024
+10-bit full frame round trip); the 72-channel full frame with ``TDICAM_FULL=1``.
 """
-
-import os
 
 import numpy as np
 import pytest
@@ -26,37 +22,22 @@ import pytest
 from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.cosim.ddr import run_ui_cosim
-from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
-from tdicam.cosim.testing import check_beats, check_case
-from tdicam.model.tdi import tdi_stream
-
-FULL = os.environ.get("TDICAM_FULL") == "1"
+from tdicam.cosim.testing import FULL, case_names, check_beats, check_case
 
 
-def _cases(block, big):
-    return [c.name for c in blocks.get(block).cases() if ("fast-only" in c.tags) == big]
-
-
-SMALL = [(b, c) for b in ("ddr", "cds_ddr", "tdi_ddr") for c in _cases(b, False)]
-PER_BEAT = [("ddr", "paper_72ch_4x6"), ("ddr", "mono_50x4_p1"),
-            ("cds_ddr", "random_24x4_12b"), ("cds_ddr", "reset_mid_frame_24x4_12b"),
-            ("cds_ddr", "random_24x4_12b_p2"), ("cds_ddr", "reset_mid_frame_24x4_12b_p8"),
-            ("tdi_ddr", "stages_256x4_p1")]
-
-
-@pytest.mark.parametrize("block,case", SMALL)
-def test_golden_fast_icarus(block, case):
+@pytest.mark.parametrize("case", case_names("ddr"))
+def test_golden_fast_icarus(case):
     """Every small golden case, HDL stalls + 20 % idle + 20 % backpressure."""
     if case == "paper_72ch_table2" and not FULL:
         pytest.skip("72-channel Table 2 case: ~80 s on Icarus (TDICAM_FULL=1; runs on "
                     "Verilator in the UI test)")
-    check_case(block, case, sim="icarus", mode="fast", idle=0.2, backpressure=0.2, seed=7)
+    check_case("ddr", case, sim="icarus", mode="fast", idle=0.2, backpressure=0.2, seed=7)
 
 
-@pytest.mark.parametrize("block,case", PER_BEAT)
-def test_golden_per_beat_icarus(block, case):
-    check_case(block, case, sim="icarus", mode="beat", idle=0.3, backpressure=0.4, seed=11)
+@pytest.mark.parametrize("case", ["paper_72ch_4x6", "mono_50x4_p1"])
+def test_golden_per_beat_icarus(case):
+    check_case("ddr", case, sim="icarus", mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
 # ---- paper-size cases, both simulators
@@ -102,93 +83,6 @@ def test_full_frame_72ch_verilator():
     stim = frames_to_beats(fr, ppc=1, channels=72)
     check_beats("ddr", params, stim, stim, sim="verilator", mode="fast", idle=0.05,
                 backpressure=0.05, seed=6)
-
-
-@pytest.mark.parametrize("sim", ["icarus", "verilator"])
-def test_cds_512x16(sim):
-    check_case("cds_ddr", "random_512x16_10b", sim=sim, mode="fast", idle=0.1,
-               backpressure=0.1, seed=3)
-
-
-@pytest.mark.parametrize("ppc", [2, 4, 8])
-def test_cds_ppc_verilator(ppc):
-    """ppc 2, 4, 8 on Verilator (Icarus runs every case above): random frames and a reset
-    mid-frame (one build for the two 24 x 4 cases), and at ppc 8 the widest frame (65,536
-    columns, 16-value words: 2 beats each)."""
-    cases = [f"random_24x4_12b_p{ppc}", f"reset_mid_frame_24x4_12b_p{ppc}"]
-    if ppc == 8:
-        cases.insert(0, "widest_65536x1_12b_p8")
-    for case in cases:
-        check_case("cds_ddr", case, sim="verilator", mode="fast", idle=0.1,
-                   backpressure=0.1, seed=5)
-
-
-def test_tdi_512x16_verilator():
-    for case in ("random_512x16_p1", "stages_512x16_p1"):
-        check_case("tdi_ddr", case, sim="verilator", mode="fast", idle=0.1,
-                   backpressure=0.1, seed=3)
-
-
-def test_tdi_512x16_icarus():
-    """The 512 x 16 golden case (147 k beats) on Icarus; the stage/direction case with FULL."""
-    check_case("tdi_ddr", "random_512x16_p1", sim="icarus", mode="fast", idle=0.1,
-               backpressure=0.1, seed=3)
-    if FULL:
-        check_case("tdi_ddr", "stages_512x16_p1", sim="icarus", mode="fast", idle=0.1,
-                   backpressure=0.1, seed=3)
-
-
-def test_tdi_medium_cases_icarus():
-    for case in _cases("tdi_ddr", True):
-        if blocks.get("tdi_ddr").resolve(
-                [c for c in blocks.get("tdi_ddr").cases() if c.name == case][0].params
-        )["width"] in (320, 1024):
-            check_case("tdi_ddr", case, sim="icarus", mode="fast", idle=0.1,
-                       backpressure=0.1, seed=4)
-
-
-WIDE = {"width": 4096, "stages": 32, "pixel_bits": 12, "ppc": 4}
-
-
-def _wide_stream(seq, seed):
-    params = blocks.get("tdi_ddr").resolve(WIDE)
-    rng = np.random.default_rng(seed)
-    settings = [(m, d) for m, d, n in seq for _ in range(n)]
-    frames = [rng.integers(0, 4096, (m, params["width"])) for m, _ in settings]
-    a = stream_arrays(frames, settings, params)
-    want = tdi_stream(a["pixels"], a["first"], a["last"], a["stages_active"], a["direction"],
-                      **{k: params[k] for k in ("width", "stages", "pixel_bits", "out_bits",
-                                                "ppc")})
-    stim = Beats(a["pixels"], a["first"], a["last"],
-                 ctrl=pack_ctrl(a["stages_active"], a["direction"]))
-    return params, stim, Beats(want.data, want.first, want.last), want
-
-
-def test_wide_spill_case_is_one_the_plan_spills():
-    from tdicam.model.physics.plan import tdi_memory
-    mem = tdi_memory(4096, 32, 12, 1e-3, device="ecp5-25f")
-    assert mem.must_spill and not tdi_memory(4096, 32, 12, 1e-3, device="ecp5-85f").must_spill
-
-
-def test_wide_spill_verilator():
-    """W = 4096, m = 32, 12-bit, 4 pixels/clock: 35 frames at m = 32 (4 output lines after
-    the fill) then a reverse run at m = 5; ~1.2 M cycles."""
-    seq = [(32, 0, 35), (5, 1, 8)] if not FULL else [(32, 0, 40), (5, 1, 8), (31, 1, 33)]
-    params, stim, exp, want = _wide_stream(seq, 9)
-    assert len(want.first) >= 4 * 1024
-    check_beats("tdi_ddr", params, stim, exp, sim="verilator", mode="fast", idle=0.05,
-                backpressure=0.05, seed=2)
-
-
-def test_wide_spill_icarus_short():
-    """Short form on Icarus: the same W = 4096, m_max = 32 design at m = 3 forward and m = 2
-    reverse (every partial sum still goes through DDR)."""
-    seq = [(3, 0, 5), (2, 1, 4)] if not FULL else [(32, 0, 34)]
-    params, stim, exp, want = _wide_stream(seq, 10)
-    if not FULL:
-        assert len(want.first) == (3 + 3) * 1024     # 3 lines at m = 3, 3 at m = 2
-    check_beats("tdi_ddr", params, stim, exp, sim="icarus", mode="fast", idle=0.05,
-                backpressure=0.05, seed=2)
 
 
 def test_out_of_range_access_stops_the_stream():
@@ -257,6 +151,5 @@ def test_ui_python_model_with_backpressure():
 
 
 def test_golden_files_cover_every_case():
-    for b in ("ddr", "cds_ddr", "tdi_ddr"):
-        for c in blocks.get(b).cases():
-            golden.load(b, c.name)
+    for c in blocks.get("ddr").cases():
+        golden.load("ddr", c.name)

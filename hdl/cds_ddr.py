@@ -23,7 +23,7 @@ __all__ = ["CdsDdr", "default_pixels_per_word"]
 class CdsDdr(wiring.Component):
     """Digital CDS with the reset frame stored in DDR (Ning et al. 2019, section 4.4.1).
 
-    Golden model: :func:`tdicam.model.ddr.cds_ddr_frames`.
+    Golden model: :func:`tdicam.model.cds_ddr.cds_ddr_frames`.
 
     Parameters
     ----------

@@ -25,7 +25,7 @@ class TdiDdr(wiring.Component):
     the frame control is that block's, :class:`~tdicam.hdl.tdi_control.TdiFrameControl`,
     with addresses counted in lines), plus the MIG
     user-interface ports. Refuses (one-line :class:`TdicamError`) configurations checked by
-    :func:`tdicam.model.ddr.tdi_ddr_check` (rows shorter than the read look-ahead; with
+    :func:`tdicam.model.tdi_ddr.tdi_ddr_check` (rows shorter than the read look-ahead; with
     ``line_period_s``, DDR bandwidth or clock short for ``stages``).
 
     Partial sums in DDR: :func:`tdicam.model.ddr.psums_per_word` sums of :attr:`psum_bits`
@@ -67,7 +67,8 @@ class TdiDdr(wiring.Component):
     @quiet_reject
     def __init__(self, *, width, stages, pixel_bits=12, out_bits=None, ppc=1, base=0,
                  line_period_s=None, clock_hz=100e6, capacity_bytes=CAPACITY_BYTES):
-        from tdicam.model.ddr import psums_per_word, tdi_ddr_check
+        from tdicam.model.ddr import psums_per_word
+        from tdicam.model.tdi_ddr import tdi_ddr_check
         from tdicam.model.tdi import check_params, full_bits, out_width
         check_params(width=width, stages=stages, pixel_bits=pixel_bits, out_bits=out_bits,
                      ppc=ppc)

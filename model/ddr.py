@@ -1,7 +1,9 @@
 """DDR line/frame buffers behind a MIG-style user interface (Ning et al. 2019 §4.2).
 
-Golden models and configuration checks for the DDR gateware (:mod:`tdicam.hdl.ddr`,
-:mod:`tdicam.hdl.cds_ddr`, :mod:`tdicam.hdl.tdi_ddr`, :mod:`tdicam.hdl.simmodels.mig_model`).
+The ``ddr`` block's golden model (the packing) and what every DDR user shares: the
+addresses and words, the controller model, the access patterns and their measured
+efficiency (:mod:`tdicam.hdl.ddr`, :mod:`tdicam.hdl.simmodels.mig_model`; the users' own golden
+models are :mod:`tdicam.model.cds_ddr` and :mod:`tdicam.model.tdi_ddr`).
 
 Interface and addresses
 -----------------------
@@ -64,7 +66,7 @@ the per-word read-then-write the TDI spill had, its line blocks now, two ports),
 :func:`tdi_spill_efficiency` is what ``tdicam plan`` counts on for the spill.
 
 This module holds the packing, the controller model and the access patterns together
-(~800 lines, with the planner's figure for the TDI spill) because the three share the
+(~900 lines, with the planner's figure for the TDI spill) because the three share the
 address and word definitions and are used together by every DDR user and by
 :mod:`tdicam.cosim.litedram`.
 """
@@ -82,7 +84,7 @@ __all__ = ["worst_stall", "WORD_BITS", "ADDR_PER_WORD", "ADDR_BITS", "CAPACITY_B
            "PIXELS_PER_WORD", "PAPER_CHANNELS", "PAPER_LINE_STRIDE", "DEFAULT_STALLS",
            "LineLayout", "pack_words", "unpack_words", "pack_lines", "unpack_lines",
            "words_to_ints", "ints_to_words", "psums_per_word", "check_capacity",
-           "xorshift32", "stall_pattern", "MigSim", "cds_ddr_frames", "tdi_ddr_check",
+           "xorshift32", "stall_pattern", "MigSim",
            "ROW_WORDS", "BANKS", "Trace", "PATTERNS", "pattern_trace", "replay_model",
            "pattern_efficiency", "DramTiming", "DRAM_STALLS", "merged_commands",
            "TraceDriver", "trace_dram", "PLAN_MARGIN", "MEASURED_EFFICIENCY", "BLOCK_TEXT",
@@ -910,72 +912,3 @@ def tdi_spill_efficiency(width, stages, pixel_bits, ppc=1):
     e = pattern_efficiency(TDI_SPILL_PATTERN, lines=-(-window_words() // (2 * wpl)) + 1,
                            words=wpl, stride=wpl)
     return TDI_SPILL_PATTERN, e - PLAN_MARGIN
-
-
-# ---------------------------------------------------------------------------------------
-# golden models of the users
-# ---------------------------------------------------------------------------------------
-
-def cds_ddr_frames(frames, kinds, *, pixel_bits=12):
-    """Golden CDS with the reset frame from DDR (see :class:`tdicam.hdl.cds_ddr.CdsDdr`).
-
-    ``frames`` (n, rows, width) with ``kinds[i]`` = 1 for a reset frame (stored, no output)
-    and 0 for a signal frame (output ``max(signal - reset, 0)`` against the last stored
-    reset frame; before any reset frame the reset level is 0). Returns (k, rows, width).
-    """
-    from tdicam.model.cds import cds, pixel_dtype
-    out, reset = [], None
-    for fr, k in zip(frames, kinds):
-        if int(k):
-            reset = np.asarray(fr)
-        else:
-            r = np.zeros_like(fr) if reset is None else reset
-            out.append(cds(fr, r, pixel_bits=pixel_bits))
-    if not out:
-        return np.zeros((0,) + np.asarray(frames).shape[1:], pixel_dtype(pixel_bits))
-    return np.stack(out)
-
-
-def tdi_ddr_check(*, width, stages, pixel_bits, ppc, line_period_s=None,
-                  clock_hz=100e6, efficiency=None, lookahead=128):
-    """Check a TDI configuration for partial sums in DDR; returns a dict of its figures.
-
-    Refuses (one-line :class:`TdicamError`) when a row is shorter than the read look-ahead
-    (``width / ppc`` beats must exceed ``lookahead`` + one word: a partial sum is read again
-    one row after it is written back), and, with ``line_period_s`` given, when the DDR
-    interface cannot move the ``2 (m_max - 1)`` partial-sum lines per line period at
-    ``clock_hz * efficiency`` words per second (default efficiency: the planner's figure
-    for TdiDdr's access pattern, :func:`tdi_spill_efficiency`), or the clock cannot take
-    the ``m_max * width / ppc`` input beats of a line period.
-    """
-    from tdicam.model.tdi import full_bits
-    ps = full_bits(pixel_bits, stages)
-    k = psums_per_word(ps, ppc)
-    wb = width // ppc
-    j = k // ppc
-    wpl = -(-wb // j)
-    if stages > 1 and wb <= lookahead + j:
-        raise TdicamError(f"width = {width} with ppc = {ppc} is {wb} beats per row: DDR "
-                          f"partial sums need more than {lookahead + j} (the read look-ahead "
-                          f"plus one word); use the on-chip accumulator")
-    words = 2 * (stages - 1) * wpl
-    info = {"psum_bits": ps, "psums_per_word": k, "words_per_line": wpl,
-            "words_per_line_period": words, "beats_per_line_period": stages * wb}
-    if line_period_s is not None:
-        if efficiency is None:
-            info["pattern"], efficiency = tdi_spill_efficiency(width, stages, pixel_bits, ppc)
-        info["efficiency"] = efficiency
-        avail = line_period_s * clock_hz * efficiency
-        if words > avail:
-            raise TdicamError(
-                f"DDR bandwidth short: {stages - 1} partial-sum lines read and written per "
-                f"line period = {words} words ({words * WORD_BITS * 1e-9 / line_period_s:.2f}"
-                f" Gbit/s), the interface moves {avail:.0f} words "
-                f"({WORD_BITS * clock_hz * efficiency * 1e-9:.2f} Gbit/s at "
-                f"{clock_hz / 1e6:g} MHz x {efficiency * 100:.1f} %)")
-        cyc = line_period_s * clock_hz
-        if stages * wb > cyc:
-            raise TdicamError(f"clock too slow: {stages * wb} input beats per line period, "
-                              f"{cyc:.0f} cycles at {clock_hz / 1e6:g} MHz")
-        info["ddr_load"] = words / avail
-    return info

@@ -19,9 +19,8 @@ OTHER_MEANINGS = {
     ("tdicam/scene/docs.py", "lvds"): "the [sensor.lvds] section of a scene (the sensor's "
                                       "lanes), in the page's probe scene",
     ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
-    ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
-    ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
-    ("tdicam/export/chain.py", "ddr"): "--memory ddr",
+    ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" and --memory ddr (where "
+                                       "partial sums live)",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
     ("model/ddr.py", "ddr"): "the recorded DDR traces' names (each DDR block's command "
                              "order), the keys of the measured-efficiency table",
@@ -94,3 +93,18 @@ def test_the_engine_names_no_block(tmp_path):
     (tmp_path / "tdicam" / "engine").mkdir(parents=True)
     (tmp_path / "tdicam" / "engine" / "probe.py").write_text("def f(c):\n    return c.ran('nuc')\n")
     assert _engine_constants(tmp_path, names) == [("probe.py", "nuc")]
+
+
+def test_every_block_follows_the_naming_rule():
+    """``hdl/<m>.py``, ``model/<m>.py`` and ``cocotb_tests/test_<m>.py`` exist for every block,
+    ``m`` its name or the :attr:`~tdicam.blocks.Block.module` it states, and its golden
+    vectors are ``golden/<name>/``; a block stating a module is one whose name is not it."""
+    missing = []
+    for b in blocks.all_blocks():
+        stem = b.module or b.name
+        assert b.module != b.name, f"{b.name}: module = its own name; leave it None"
+        for path in (f"hdl/{stem}.py", f"model/{stem}.py", f"cocotb_tests/test_{stem}.py",
+                     f"golden/{b.name}"):
+            if not (REPO / path).exists():
+                missing.append(f"{b.name}: {path}")
+    assert not missing, missing

@@ -11,10 +11,11 @@ from tdicam.hdl.cds_ddr import CdsDdr
 from tdicam.hdl.ddr import DdrFrameBuffer
 from tdicam.hdl.simmodels.mig_model import MigModel, SimTop
 from tdicam.hdl.tdi_ddr import TdiDdr
-from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, cds_ddr_frames,
-                              check_capacity, ints_to_words, pack_lines, pack_words,
-                              psums_per_word, stall_pattern, tdi_ddr_check, unpack_lines,
-                              unpack_words, words_to_ints)
+from tdicam.model.cds_ddr import cds_ddr_frames
+from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, check_capacity, ints_to_words,
+                              pack_lines, pack_words, psums_per_word, stall_pattern,
+                              unpack_lines, unpack_words, words_to_ints)
+from tdicam.model.tdi_ddr import tdi_ddr_check
 
 
 # ---- packing

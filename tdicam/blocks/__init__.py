@@ -397,7 +397,15 @@ class Block:
     Attributes
     ----------
     name : str
-        One name everywhere: ``hdl/<name>.py``, ``model/<name>.py``, ``golden/<name>/``.
+        One name everywhere: ``hdl/<name>.py``, ``model/<name>.py``,
+        ``cocotb_tests/test_<name>.py``, ``golden/<name>/`` (the modules' stem is
+        :attr:`module` where the block says so; tests/test_block_names.py checks it).
+    module : str or None
+        The stem of the block's gateware, golden-model and co-simulation modules
+        (``hdl/<module>.py``, ``model/<module>.py``, ``cocotb_tests/test_<module>.py``) when
+        it is not the block's name: the two halves of the 64/72 ECC, ``secded_enc`` and
+        ``secded_dec``, share ``ecc``. None: the block's name. Its golden vectors are
+        ``golden/<name>/`` always.
     summary : str
         One line for ``tdicam verilog`` and the docs.
     params : tuple of Param
@@ -499,6 +507,7 @@ class Block:
     order: int = 1000
     bench: Bench | None = None
     synth: tuple = ()
+    module: str | None = None
 
     def resolve(self, given=None):
         """Full, checked parameter dict from ``given`` (unknown names are errors)."""

@@ -3,7 +3,7 @@
 
 Reset frames (``kinds`` 1) are stored in DDR and give no output; each signal frame
 (``kinds`` 0) is output as signal - stored reset, clamped at 0 (golden
-:func:`~tdicam.model.ddr.cds_ddr_frames`). ``frame_kind`` rides with each beat. The
+:func:`~tdicam.model.cds_ddr.cds_ddr_frames`). ``frame_kind`` rides with each beat. The
 Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 """
 
@@ -11,7 +11,8 @@ import numpy as np
 
 from tdicam.beats import PPC_CHOICES, Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
-from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, cds_ddr_frames, check_capacity
+from tdicam.model.cds_ddr import cds_ddr_frames
+from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
                            check_width)
 from tdicam.blocks.steps import Step

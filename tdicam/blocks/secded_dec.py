@@ -113,6 +113,7 @@ def _example(rng, n, shape, params):
 
 BLOCK = Block(
     name="secded_dec",
+    module="ecc",
     summary="SECDED (72,64) Hsiao decoder: corrects 1 flipped bit, flags 2 (Ning et al. 2019 §4.3)",
     params=PARAMS[:1] + (Param("pipelined", False, "register the syndrome before the "
                                "correction (latency +1, for >= 200 MHz)", type=bool),)

@@ -56,6 +56,7 @@ def _example(rng, n, shape, params):
 
 BLOCK = Block(
     name="secded_enc",
+    module="ecc",
     summary="SECDED (72,64) Hsiao encoder: 64 data bits -> 72-bit code word (Ning et al. 2019 §4.3)",
     params=PARAMS,
     top=_top,

@@ -8,7 +8,8 @@ the Verilog top has the simulation MIG model behind it (:mod:`tdicam.blocks._ddr
 
 from dataclasses import replace
 
-from tdicam.model.ddr import ADDR_PER_WORD, tdi_ddr_check
+from tdicam.model.ddr import ADDR_PER_WORD
+from tdicam.model.tdi_ddr import tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
 from tdicam.blocks import Bench, StreamWork
 from tdicam.blocks._bench import TDI, TDI_QUICK

@@ -13,7 +13,7 @@ from tdicam import blocks
 from tdicam.cosim.build import WAVE_DIR
 from tdicam.cosim.run import run_beats, run_golden_case
 
-__all__ = ["check_beats", "check_case", "beat_cases", "FULL", "WIDE_PPC"]
+__all__ = ["check_beats", "check_case", "beat_cases", "case_names", "FULL", "WIDE_PPC"]
 
 #: ``TDICAM_FULL=1``: the long forms of the co-simulation sweeps.
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -38,6 +38,12 @@ def beat_cases(block, *, full=None):
         ppc = blk.resolve(case.params).get("ppc", 1)
         (short if ppc in (1, 8) or "reset" in case.tags else long).append(case.name)
     return short, long
+
+
+def case_names(block, *, fast_only=False):
+    """Names of ``block``'s golden cases tagged ``fast-only`` (``fast_only``: the large ones,
+    co-simulated in fast mode only) or not (the default: the small ones)."""
+    return [c.name for c in blocks.get(block).cases() if ("fast-only" in c.tags) == fast_only]
 
 
 def _check(run):
