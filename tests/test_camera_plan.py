@@ -84,6 +84,18 @@ def test_ddr_traffic_by_hand(plan):
         (coeff_line + 2 * 2 * reset_line) * ROWS * UI_BITS * FPS / 2)
 
 
+def test_reset_frame_on_chip_leaves_the_coefficients():
+    """cds keeping the reset frame on chip: the DDR moves the coefficients only (643 words
+    a line, one gain an interface); the sensor still sends the reset frames."""
+    b = _plan()
+    sc = load_scene(SCENE, overrides={"pipeline": {"cds": {"memory": "chip"}}})
+    chip = camera_plan(sc)["scene"]
+    assert chip["ddr_words_per_frame"] == {"coefficients": 2 * ROWS * 643, "reset write": 0,
+                                           "reset read": 0}
+    assert _rows(chip)["DDR interface"]["need"] == pytest.approx(ROWS * 643 * UI_BITS * FPS)
+    assert chip["samples_per_gain_s"] == b["scene"]["samples_per_gain_s"]
+
+
 def test_nand_and_links_by_hand(plan):
     # NAND: 2 pixels (4 coefficients) a 72-bit word, 227 words a 2048-byte page (9 bytes
     # each), 64 pages a block, t_R 25 us at the controller's 50 MHz = 1250 clocks
@@ -178,3 +190,16 @@ def test_crop_runs():
     sc = load_scene(SCENE, overrides={"sensor": {"columns": 48}, "run": {"lines": 16}})
     sim = api.simulate(sc, impact=False)
     assert sim.dataset["tdi"].shape == (16, 48)
+
+
+def test_lanes_from_the_scene_and_other_plans_unchanged():
+    """A [sensor.lvds] section gives the lane row its lanes (the 256-column window: 2 lanes
+    a gain, 128 columns each, no padding); a scene without [camera] has no camera entry."""
+    sc = load_scene("scenes/ning2019_gmax0504_system_lanes.toml",
+                    overrides={"camera": {"frame_rate_hz": 25.0}})
+    lanes = _rows(camera_plan(sc)["scene"])["lanes"]
+    assert lanes["available"] == 4 * LANE_BPS
+    assert lanes["need"] == pytest.approx(4 * (128 + 2) * WORD_BITS * ROWS * 2 * 25)
+    from tdicam.planning.sizing import plan_report
+    rep = plan_report([load_scene("scenes/ning2019_gmax0504_system_lanes.toml")])
+    assert "camera" not in rep

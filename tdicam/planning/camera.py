@@ -79,8 +79,10 @@ def camera_budget(scene, cam):
 
     nuc = "nuc" in blocks
     coeff_ch = (G if cam.nuc == "per_gain" else 1) if nuc else 0
+    # the reset frame goes through DDR only where cds keeps it there ([pipeline.cds].memory)
+    reset_ddr = reset and scene.pipeline.cds.memory == "ddr"
     traffic, reset_line, coeff_line = camera.ddr_words_per_frame(
-        C, R, pixel_bits=s.bits, gains=G, reset=reset, coeff_bits=cam.coeff_bits,
+        C, R, pixel_bits=s.bits, gains=G, reset=reset_ddr, coeff_bits=cam.coeff_bits,
         coeff_channels=coeff_ch)
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
@@ -104,7 +106,7 @@ def camera_budget(scene, cam):
     # capacity: a line at a power-of-two stride (Table 2: 4096 addresses for 512 words)
     def stride(w):
         return 1 << (max(w, 1) - 1).bit_length() if w else 0
-    lines = (coeff_ch * R * stride(coeff_line) + (G * R * stride(reset_line) if reset else 0))
+    lines = coeff_ch * R * stride(coeff_line) + (G * R * stride(reset_line) if reset_ddr else 0)
     used = lines * _ddr.WORD_BITS / 8 / n_if
     capacity = _ddr.CAPACITY_BYTES * cam.ddr_data_bits / 32
     rows.append(_row(
