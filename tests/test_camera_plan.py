@@ -162,6 +162,7 @@ def test_infeasible_says_no():
     ({"ddr_lanes": 2}, r"^\[camera\].*ddr_lanes"),
     ({"output_frame_rate_hz": 30.0}, r"^\[camera\]\.output_frame_rate_hz: 30 is above"),
     ({"clock_mhz": "fast"}, r"^\[camera\]\.clock_mhz: must be a number"),
+    ({"frame_rate_hz": 30.0}, r"^\[camera\]\.frame_rate_hz: 30 is above the sensor's 25"),
 ])
 def test_bad_keys(camera, msg):
     with pytest.raises(TdicamError, match=msg) as e:

@@ -612,6 +612,10 @@ def _camera(sec: _Section, sensor: Sensor) -> Camera:
     if fps is None:
         sec.fail("frame_rate_hz", "missing: give the frame rate the camera reads the sensor "
                                   "at, or [sensor].max_frame_rate_hz")
+    top = sensor.max_frame_rate_hz
+    if top is not None and fps > top * (1 + 1e-12):
+        sec.fail("frame_rate_hz", f"{fps:g} is above the sensor's {top:g} frame/s "
+                                  f"([sensor].max_frame_rate_hz)")
     out = sec.number("output_frame_rate_hz", fps, lo=lo, hi=hi)
     if out > fps * (1 + 1e-12):
         sec.fail("output_frame_rate_hz", f"{out:g} is above the {fps:g} frame/s read from "
