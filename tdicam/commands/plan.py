@@ -8,7 +8,10 @@ bandwidth the partial sums would need in external memory vs the interface, what 
 gateware must do (pixel rate, pixels per clock, clock) and whether the measured synthesis
 (the synthesis record: the TDI block per pixels-per-clock, and the scene's whole chain when it
 was placed and routed with ``tdicam synth pipeline --record``) does it, the expected SNR gain (digital and charge domain) and the MTF at Nyquist (the camera
-model the scene simulator renders, and the paper's model of Yuan et al. 2013 beside it). Parameters
+model the scene simulator renders, and the paper's model of Yuan et al. 2013 beside it); for a
+scene with a ``[camera]`` section, the whole camera's rate budget (lanes, processing clock,
+DDR traffic, NAND load, output links, the frame rate each carries and the part that limits
+it). Parameters
 come from a scene file (``--scene``), from options, or both (options override the file).
 ``--json`` prints the same numbers for scripts; ``--plot DIR`` writes three PNG figures.
 

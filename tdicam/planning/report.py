@@ -231,6 +231,9 @@ def report_text(rep) -> str:
         lines.append("")
         lines.append("System (the scene's pipeline as one design, at the design point):")
         lines.extend(f"  {r['text']}" for r in rep["system"])
+    if rep.get("camera"):                # the whole camera's budget (tdicam.planning.camera)
+        from tdicam.planning.camera import camera_lines
+        lines += [""] + camera_lines(rep["camera"])
     lines.append("")
     if rep["feasible"]:
         lines.append("feasible: yes (no check says NO)")

@@ -30,6 +30,7 @@ from tdicam.hw import record
 from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
+from tdicam.planning.camera import camera_plan
 from tdicam.planning.predict import mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
@@ -501,6 +502,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
     no = _verdict(points[design])
     system = system_plan(first, points[design], ddr_bits=ddr_bits, ddr_clock_hz=ddr_clock_hz)
     no += [r["name"] for r in system or () if r["ok"] is False]
+    camera = camera_plan(first)         # the whole camera's rate budget ([camera])
+    no += [f"camera {n}" for n in (camera["scene"]["infeasible"] if camera else ())]
     out = {
         "scene": None if first.source == "<command line>" else first.source,
         "run_memory": None if first.source == "<command line>" else run_memory(first.source),
@@ -517,6 +520,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
         "notes": list(notes),
         "system": system,
     }
+    if camera is not None:              # only a scene with [camera]: other plans as before
+        out["camera"] = camera
     if first.orbit is not None:
         out["orbit"] = {"altitude_km": first.orbit.altitude_km,
                         "ground_speed_m_s": first.orbit.ground_speed_m_s}

@@ -25,6 +25,7 @@ from pathlib import Path
 from tdicam import blocks
 from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import KeyDoc
+from tdicam.model.physics import camera
 from tdicam.scene import loader
 from tdicam.model.physics import targets as _targets
 
@@ -86,6 +87,10 @@ SECTIONS = {
     "ddr": "Optional: the DDR memory beside the FPGA that a pipeline may spill TDI's partial "
            "sums to. A pipeline whose partial sums must spill and no [ddr] section is an "
            "error.",
+    "camera": "Optional: the whole camera's rate budget that tdicam plan prints (lanes, "
+              "processing clock, DDR traffic of the coefficients and reset frames, NAND "
+              "load, output links; Ning et al. 2019), defaults the paper's camera. The "
+              "golden chain and the gateware do not read it.",
     "run": "How much to simulate and how exactly.",
     "run.rtl": "Optional: co-simulate the scene's blocks cycle-accurately on a crop of the "
                "output (generated Verilog on Icarus or Verilator) and compare every pixel. "
@@ -93,6 +98,14 @@ SECTIONS = {
 }
 
 _FRAC = "fraction"
+
+
+def _camera_unit(key):
+    """The unit of a ``[camera]`` key, read off its name's suffix."""
+    for suffix, unit in (("_mhz", "MHz"), ("_hz", "Hz"), ("_mts", "MT/s"), ("_bits", "bit")):
+        if key.endswith(suffix):
+            return unit
+    return {"ddr_interfaces": "interfaces", "nand_parts": "parts", "links": "links"}.get(key, "")
 #: Unit and meaning of every key, by section (see :class:`KeyDoc`); a block's
 #: ``[pipeline.<block>]`` keys are its registry entry's (:class:`tdicam.blocks.Options`).
 KEYS = {
@@ -210,6 +223,10 @@ KEYS = {
         "drop": KeyDoc("/256", "co-simulation: each ready of the model dropped with "
                                "probability drop/256 a cycle"),
     },
+    "camera": {k: KeyDoc(_camera_unit(k), doc, **(
+        {"default": "[sensor].max_frame_rate_hz" if k == "frame_rate_hz" else
+         "frame_rate_hz"} if d is None else {}))
+        for k, (d, _lo, _hi, doc) in camera.KEYS.items()},
     "run": {
         "lines": KeyDoc("lines", "output lines to simulate"),
         "seed": KeyDoc("", "seed of every random number of the run (noise, faults)"),
@@ -313,7 +330,9 @@ def _probes():
                     "eye_centre_taps": 16.0, "eye_width_taps": 12.0, "jitter_ps": 0.0}}
                     if bits <= 12 else {})},
              "pipeline": {"blocks": ["cds", "nuc", "tdi"]}},
-            {**orbit, "target": {"kind": "image", "image": "camera"}, "sensor": {"bits": bits}},
+            {**orbit, "target": {"kind": "image", "image": "camera"}, "sensor": {"bits": bits},
+             "camera": {k: d for k, (d, *_r) in camera.KEYS.items() if d is not None}
+             | {"frame_rate_hz": 25.0, "output_frame_rate_hz": 5.0}},
         ]
     return out
 

@@ -25,6 +25,8 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import steps as _steps
 from tdicam.errors import TdicamError, api_arguments, check_range
 from tdicam.model import lvds_front
+from tdicam.model.physics import camera
+from tdicam.model.physics.camera import Camera
 from tdicam.model.lvds import N_TAPS, PAPER_TAP_PS, default_train_word, rotations
 from tdicam.model.physics import plan as _plan, targets as _targets
 from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
@@ -54,7 +56,7 @@ __all__ = [
 ]
 
 _SECTIONS = ("orbit", "turntable", "target", "sensor", "optics", "tdi", "motion", "pipeline",
-             "ddr", "run")
+             "ddr", "run", "camera")
 _IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
 _KIND_KEYS = {
     "image": ("image", "path"),
@@ -81,6 +83,7 @@ class Scene:
     source: str = "<dict>"
     optics: Optics = Optics()
     ddr: Ddr | None = None
+    camera: Camera | None = None
 
     @property
     def line_period_s(self) -> float:
@@ -225,6 +228,8 @@ class Scene:
         rtl = d["run"]["rtl"]
         if rtl is not None and rtl["lane_dies"] is None:      # no fault: the dict of before
             del rtl["lane_dies"]
+        if d["camera"] is None:             # no camera budget: the dict of before
+            del d["camera"]
         if d.get("ddr") is not None:        # the model's stall pattern, as given
             stalls = d["ddr"].pop("stalls")
             d["ddr"].update({k: v for k, v in stalls})
@@ -590,6 +595,38 @@ def _pipeline(sec: _Section, sensor: Sensor, labels) -> Pipeline:
     return Pipeline(blocks=tuple(raw), options=tuple(options))
 
 
+def _camera(sec: _Section, sensor: Sensor) -> Camera:
+    """``[camera]``: the keys of :data:`tdicam.model.physics.camera.KEYS` (type, default,
+    bounds and meaning there); the frame rate defaults to the sensor's."""
+    keys = camera.KEYS
+    sec.check_keys(tuple(keys))
+    got = {}
+    for key, (default, lo, hi, _doc) in keys.items():
+        if key == "nuc":
+            got[key] = sec.choice(key, default, camera.NUC_PLACES)
+        elif isinstance(default, int):
+            got[key] = sec.integer(key, default, lo=lo, hi=hi)
+        elif default is not None:
+            got[key] = sec.number(key, default, lo=lo, hi=hi)
+    lo, hi = keys["frame_rate_hz"][1:3]
+    fps = sec.number("frame_rate_hz", sensor.max_frame_rate_hz, lo=lo, hi=hi)
+    if fps is None:
+        sec.fail("frame_rate_hz", "missing: give the frame rate the camera reads the sensor "
+                                  "at, or [sensor].max_frame_rate_hz")
+    top = sensor.max_frame_rate_hz
+    if top is not None and fps > top * (1 + 1e-12):
+        sec.fail("frame_rate_hz", f"{fps:g} is above the sensor's {top:g} frame/s "
+                                  f"([sensor].max_frame_rate_hz)")
+    out = sec.number("output_frame_rate_hz", fps, lo=lo, hi=hi)
+    if out > fps * (1 + 1e-12):
+        sec.fail("output_frame_rate_hz", f"{out:g} is above the {fps:g} frame/s read from "
+                                         f"the sensor (frame_rate_hz)")
+    if sensor.columns % got["links"]:
+        sec.fail("links", f"{got['links']} links do not divide [sensor].columns = "
+                          f"{sensor.columns} (each link sends a share of every row)")
+    return Camera(frame_rate_hz=fps, output_frame_rate_hz=out, **got)
+
+
 def _ddr(sec: _Section) -> Ddr:
     from tdicam.model.ddr import DEFAULT_STALLS
     keys = tuple(k for k in DEFAULT_STALLS if k != "seed")
@@ -792,9 +829,10 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     pipeline = _pipeline(section("pipeline"), sensor, labels)
     run = _run(section("run"), sensor, labels)
     ddr = _ddr(section("ddr")) if "ddr" in data else None
+    cam = _camera(section("camera"), sensor) if "camera" in data else None
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics,
-                  ddr=ddr)
+                  ddr=ddr, camera=cam)
     _check_stages(tdi_sec, scene, window)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_extent(section("target"), section("run"), scene)

@@ -131,6 +131,15 @@ The line period either gives must lie in 1e-8..100 s.
     longest stall, ``refresh_cycles + lat_hi``, also sizes the sensor front end's crossing
     FIFO (``[sensor.lvds]``).
 
+``[camera]`` (optional)
+    The whole camera's rate budget that ``tdicam plan`` prints (lanes, processing clock,
+    DDR interfaces, NAND load, output links; :mod:`tdicam.planning.camera`): the keys,
+    their defaults (the camera of Ning et al. 2019), bounds and meaning are
+    :data:`tdicam.model.physics.camera.KEYS`. ``frame_rate_hz`` defaults to
+    ``[sensor].max_frame_rate_hz`` (one of the two is needed), ``output_frame_rate_hz`` to
+    ``frame_rate_hz`` and not above it; ``links`` must divide ``[sensor].columns``. The
+    golden chain and the gateware do not read it.
+
 ``[run]``
     ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
     pixels (the simulator holds them in memory). ``seed`` [0] >= 0. ``fidelity`` ["auto"]:

@@ -1,0 +1,206 @@
+"""The camera budget of ``tdicam plan`` (tdicam.planning.camera) on the whole camera of Ning
+et al. 2019 (scenes/ning2019_gmax0504_full.toml): its arithmetic against figures worked out
+here by hand from the paper's numbers, the table in the command's output and its JSON, the
+limiting part, the paper's configuration's answer on per-pixel NUC of both gains at
+25 frame/s, bad ``[camera]`` keys refused with one line, and a crop of the scene through the
+golden chain."""
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from tdicam.errors import TdicamError
+from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN
+from tdicam.planning.camera import camera_plan
+from tdicam.scene.loader import load_scene
+
+SCENE = "scenes/ning2019_gmax0504_full.toml"
+
+# the paper's numbers (Ning et al. 2019 §3.1, §3.2, §4.2, §4.3, §5)
+COLS, ROWS, FPS, GAINS = 5144, 3800, 25, 2
+LANES_PER_GAIN, LANE_BPS, WORD_BITS = 40, 300e6, 12
+PIXEL_BITS, COEFF_BITS, UI_BITS = 10, 16, 256
+
+
+def _plan(**camera):
+    sc = load_scene(SCENE, overrides={"camera": camera} if camera else None)
+    return camera_plan(sc)
+
+
+def _rows(budget):
+    return {r["name"]: r for r in budget["rows"]}
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return _plan()
+
+
+def test_lanes_and_samples_by_hand(plan):
+    rows = _rows(plan["paper"])
+    # 80 lanes x 300 Mbit/s = 24 Gbit/s
+    assert rows["lanes"]["available"] == pytest.approx(80 * 300e6)
+    # a lane: 5144 / 40 = 128.6 -> 129 pixel words (24 lanes full, 16 padded) + sync + header
+    words_a_lane_line = 129 + 2
+    need = 80 * words_a_lane_line * WORD_BITS * ROWS * 2 * FPS   # reset + signal frames
+    assert rows["lanes"]["need"] == pytest.approx(need)
+    assert rows["lanes"]["frame_rate_limit"] == pytest.approx(
+        LANE_BPS / WORD_BITS / (2 * ROWS * words_a_lane_line))
+    # 5144 x 3800 x 25 x 2 frames = 977.36 M samples a gain a second
+    assert plan["paper"]["samples_per_gain_s"] == 5144 * 3800 * 25 * 2 == 977_360_000
+    # at the paper's 100 MHz even 8 pixels a clock fall short; the scene's 200 MHz needs 8
+    assert rows["processing"]["available"] == 800e6 and not rows["processing"]["ok"]
+    assert plan["scene"]["ppc"] == 8
+    assert _rows(plan["scene"])["processing"]["available"] == 1600e6
+
+
+def test_ddr_traffic_by_hand(plan):
+    eff = min(MEASURED_EFFICIENCY["cds_ddr_wide"]) / 100 - PLAN_MARGIN
+    # a coefficient line: gain + offset of 5144 pixels, 16 bits each, 16 a 256-bit word
+    coeff_line = math.ceil(COLS * 2 * COEFF_BITS / UI_BITS)
+    # a reset line: 24 10-bit pixels a 256-bit word (Table 2)
+    reset_line = math.ceil(COLS / 24)
+    assert (coeff_line, reset_line) == (643, 215)
+    # one gain an interface: its coefficients read, its reset frame written and read back
+    bits_a_s = (coeff_line + 2 * reset_line) * ROWS * UI_BITS * FPS
+    assert bits_a_s == pytest.approx(26.095e9, rel=1e-4)
+    paper = _rows(plan["paper"])["DDR interface"]
+    assert paper["need"] == pytest.approx(bits_a_s)
+    # the paper's MIG: 256 bit x 100 MHz (the 1600 MT/s x 32-bit pins would give twice it)
+    assert paper["available"] == pytest.approx(256 * 100e6 * eff)
+    assert not paper["ok"] and plan["paper_ddr_ok"] is False
+    scene = _rows(plan["scene"])["DDR interface"]
+    assert scene["available"] == pytest.approx(256 * 200e6 * eff) and scene["ok"]
+    opts = {o["option"]: o for o in plan["options"]}
+    assert all(o["ok"] for o in opts.values())
+    # 8-bit coefficients halve the coefficient words: 322 a line
+    assert opts["8-bit coefficients"]["need_bps"] == pytest.approx(
+        (math.ceil(COLS * 2 * 8 / UI_BITS) + 2 * reset_line) * ROWS * UI_BITS * FPS)
+    # after the HDR merge: one coefficient image over the 2 interfaces
+    assert opts["NUC after the HDR merge (one channel)"]["need_bps"] == pytest.approx(
+        (coeff_line + 2 * 2 * reset_line) * ROWS * UI_BITS * FPS / 2)
+
+
+def test_reset_frame_on_chip_leaves_the_coefficients():
+    """cds keeping the reset frame on chip: the DDR moves the coefficients only (643 words
+    a line, one gain an interface); the sensor still sends the reset frames."""
+    b = _plan()
+    sc = load_scene(SCENE, overrides={"pipeline": {"cds": {"memory": "chip"}}})
+    chip = camera_plan(sc)["scene"]
+    assert chip["ddr_words_per_frame"] == {"coefficients": 2 * ROWS * 643, "reset write": 0,
+                                           "reset read": 0}
+    assert _rows(chip)["DDR interface"]["need"] == pytest.approx(ROWS * 643 * UI_BITS * FPS)
+    assert chip["samples_per_gain_s"] == b["scene"]["samples_per_gain_s"]
+
+
+def test_nand_and_links_by_hand(plan):
+    # NAND: 2 pixels (4 coefficients) a 72-bit word, 227 words a 2048-byte page (9 bytes
+    # each), 64 pages a block, t_R 25 us at the controller's 50 MHz = 1250 clocks
+    words = math.ceil(COLS * ROWS / 2) + 4
+    pages = math.ceil(words / (2048 // 9))
+    blocks = math.ceil(pages / 64)
+    load = pages * (14 + 1250) + words * 18 + blocks * 2 + 1
+    scan = 3 + 1250 + 4096 * (14 + 1250 + 2)
+    nand = _rows(plan["paper"])["NAND load"]
+    assert nand["seconds"] == pytest.approx((scan + 2 * load) / 50e6)   # one part, 2 gains
+    assert nand["need"] == 2 * blocks
+    # links: 2 x 16 bit x 100 MHz = 3.2 Gbit/s; a link sends half a row: header 4, 2572
+    # 16-bit pixels, trailer 2, a frame header of 4
+    links = _rows(plan["paper"])["output links"]
+    per_frame = 4 + ROWS * (4 + COLS // 2 + 2)
+    assert links["available"] == pytest.approx(100e6 / per_frame)
+    assert links["available"] == pytest.approx(10.21, abs=0.005)
+
+
+def test_limiting_part(plan):
+    sb, pb = plan["scene"], plan["paper"]
+    assert sb["feasible"] and sb["limiter"] == "output links"
+    assert sb["sustained_hz"] == pytest.approx(_rows(sb)["output links"]["available"])
+    assert sb["read_limiter"] == "lanes" and sb["read_limit_hz"] >= FPS
+    assert pb["read_limiter"] == "DDR interface" and pb["read_limit_hz"] < FPS
+    assert set(pb["infeasible"]) == {"processing", "DDR interface"}
+    for r in pb["rows"]:
+        assert (r["fix"] is None) == r["ok"]
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "tdicam", *args], capture_output=True,
+                          text=True)
+
+
+def test_cli_table_and_json():
+    r = _cli("plan", "--scene", SCENE)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    for name in ("lanes", "processing", "DDR interface", "DDR capacity", "NAND load",
+                 "output links"):
+        assert f"\n  {name} " in out
+    assert "limited by the output links" in out
+    assert "per-pixel NUC of both gains at 25 frame/s in the paper's DDR: does NOT fit" in out
+    assert "feasible: yes" in out
+    j = _cli("plan", "--scene", SCENE, "--json")
+    rep = json.loads(j.stdout)
+    assert rep["camera"]["scene"]["limiter"] == "output links"
+    assert rep["camera"]["paper_ddr_ok"] is False and rep["feasible"] is True
+
+
+def test_infeasible_says_no():
+    """The paper's DDR in the scene: the verdict says NO and names the part."""
+    sc = load_scene(SCENE, overrides={"camera": {"ddr_user_clock_mhz": 100.0}})
+    from tdicam.planning.sizing import plan_report
+    rep = plan_report([sc])
+    assert not rep["feasible"] and "camera DDR interface" in rep["infeasible"]
+
+
+@pytest.mark.parametrize("camera, msg", [
+    ({"coeff_bits": 3}, r"^\[camera\]\.coeff_bits"),
+    ({"nuc": "after"}, r"^\[camera\]\.nuc"),
+    ({"links": 3}, r"^\[camera\]\.links"),
+    ({"ddr_lanes": 2}, r"^\[camera\].*ddr_lanes"),
+    ({"output_frame_rate_hz": 30.0}, r"^\[camera\]\.output_frame_rate_hz: 30 is above"),
+    ({"clock_mhz": "fast"}, r"^\[camera\]\.clock_mhz: must be a number"),
+    ({"frame_rate_hz": 30.0}, r"^\[camera\]\.frame_rate_hz: 30 is above the sensor's 25"),
+])
+def test_bad_keys(camera, msg):
+    with pytest.raises(TdicamError, match=msg) as e:
+        load_scene(SCENE, overrides={"camera": camera})
+    assert "\n" not in str(e.value)
+
+
+def test_frame_rate_needed():
+    with pytest.raises(TdicamError, match=r"^\[camera\]\.frame_rate_hz: missing"):
+        load_scene(SCENE, overrides={"sensor": {"max_frame_rate_hz": None}})
+
+
+def test_cli_bad_key_exit_2(tmp_path):
+    text = open(SCENE).read().replace("[camera]\n", "[camera]\ncoeff_bits = 40\n")
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    r = _cli("plan", "--scene", str(p))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "coeff_bits" in r.stderr
+
+
+def test_crop_runs():
+    """The whole frame is a benchmark's job; a 48-column, 16-line crop through the golden
+    chain (cds with reset frames, nuc from NAND, hdr, median3)."""
+    from tdicam import api
+    sc = load_scene(SCENE, overrides={"sensor": {"columns": 48}, "run": {"lines": 16}})
+    sim = api.simulate(sc, impact=False)
+    assert sim.dataset["tdi"].shape == (16, 48)
+
+
+def test_lanes_from_the_scene_and_other_plans_unchanged():
+    """A [sensor.lvds] section gives the lane row its lanes (the 256-column window: 2 lanes
+    a gain, 128 columns each, no padding); a scene without [camera] has no camera entry."""
+    sc = load_scene("scenes/ning2019_gmax0504_system_lanes.toml",
+                    overrides={"camera": {"frame_rate_hz": 25.0}})
+    lanes = _rows(camera_plan(sc)["scene"])["lanes"]
+    assert lanes["available"] == 4 * LANE_BPS
+    assert lanes["need"] == pytest.approx(4 * (128 + 2) * WORD_BITS * ROWS * 2 * 25)
+    from tdicam.planning.sizing import plan_report
+    rep = plan_report([load_scene("scenes/ning2019_gmax0504_system_lanes.toml")])
+    assert "camera" not in rep
