@@ -26,6 +26,11 @@ OTHER_MEANINGS = {
                              "order), the keys of the measured-efficiency table",
     ("model/ddr.py", "cds_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
     ("model/ddr.py", "tdi_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
+    ("tdicam/scene/loader.py", "nuc"): "the [camera].nuc key (where NUC's coefficients are "
+                                       "applied: per gain or after the merge)",
+    ("model/physics/camera.py", "nuc"): "the [camera].nuc key (its reference table)",
+    ("tdicam/planning/camera.py", "nuc"): "the [camera].nuc key (an option the plan shows)",
+    ("tdicam/planning/camera.py", "ddr"): "a block's placement in DDR (Use.placement)",
     ("tdicam/api.py", "tdi"): "the simulation dataset's `tdi` image (what tdicam run writes "
                               "as tdi.npy)",
 }

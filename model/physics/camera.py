@@ -23,7 +23,7 @@ Arithmetic (``C`` columns, ``R`` rows, ``G`` gain channels)
   the sync and header words; need ``k R F (ceil(C/L) + 2)`` words a second a lane against
   ``bit_rate / word_bits``.
 * samples: ``k C R F`` a gain channel a second; the processing clock ``f`` carries ``f ppc``
-  with the fewest ``ppc`` of :data:`tdicam.model.tdi.PPC_CHOICES` that suffice.
+  with the fewest ``ppc`` of :data:`tdicam.beats.PPC_CHOICES` that suffice.
 * DDR, in 256-bit words (Table 2): a reset line is ``ceil(C / floor(256 / bits))`` words
   (at most 24 pixels a word), written once and read once a frame for each gain; a
   coefficient line is ``ceil(2 C / floor(256 / coeff_bits))`` words (gain and offset a
@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 from tdicam.model import ddr as _ddr
 from tdicam.model import nand_store, tlk2711
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 
 __all__ = ["KEYS", "NUC_PLACES", "Camera", "lane_words_per_line", "lane_figures",
            "processing_figures", "ddr_words_per_frame", "ddr_peak_bps", "ddr_efficiency",

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import dataclasses
 
+from tdicam import blocks as _blocks
 from tdicam.model import ddr as _ddr
 from tdicam.model import lvds_front
 from tdicam.model.physics import camera
-from tdicam.model.tdi import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES
 
 __all__ = ["camera_budget", "camera_plan", "camera_lines"]
 
@@ -41,6 +42,24 @@ def _row(name, need, avail, unit, fix, text, *, limit=None, ok=None):
             "frame_rate_limit": limit, "text": text, "fix": None if ok else fix}
 
 
+def _chain_facts(scene):
+    """``(reset, reset_ddr, coefficients)`` of the scene's chain, from the blocks' registry
+    entries: a block takes the sensor's reset frames (its own ``reset_frames``, or that of
+    the DDR variant it spills to), the scene keeps them in DDR (the block's placement), a
+    block applies per-pixel calibration coefficients (it has identity coefficients,
+    :attr:`tdicam.blocks.Use.identity`)."""
+    reset = reset_ddr = coeffs = False
+    for name in scene.pipeline.blocks:
+        u = _blocks.get(name).pipeline
+        spill = _blocks.get(u.spill).pipeline if u.spill else None
+        if u.reset_frames or (spill is not None and spill.reset_frames):
+            reset = True
+            reset_ddr = reset_ddr or u.reset_frames or (
+                u.placement is not None and u.placement(scene) == "ddr")
+        coeffs = coeffs or u.identity is not None
+    return reset, reset_ddr, coeffs
+
+
 def camera_budget(scene, cam):
     """The budget of ``scene`` with the camera configuration ``cam``
     (:class:`tdicam.model.physics.camera.Camera`): ``rows`` (each ``name``, ``need``,
@@ -49,8 +68,7 @@ def camera_budget(scene, cam):
     figures."""
     s = scene.sensor
     C, R, G = s.columns, s.rows, len(s.gains)
-    blocks = scene.pipeline.blocks
-    reset = "cds" in blocks
+    reset, reset_ddr, nuc = _chain_facts(scene)
     k = 2 if reset else 1
     F, Fo = cam.frame_rate_hz, cam.output_frame_rate_hz
     rows = []
@@ -77,10 +95,7 @@ def camera_budget(scene, cam):
         f"{' (reset frames included)' if reset else ''}; {cam.clock_mhz:g} MHz x ppc {ppc} "
         f"= {pcap / 1e6:.0f} M/s", limit=F * pcap / samples, ok=pok))
 
-    nuc = "nuc" in blocks
     coeff_ch = (G if cam.nuc == "per_gain" else 1) if nuc else 0
-    # the reset frame goes through DDR only where cds keeps it there ([pipeline.cds].memory)
-    reset_ddr = reset and scene.pipeline.cds.memory == "ddr"
     traffic, reset_line, coeff_line = camera.ddr_words_per_frame(
         C, R, pixel_bits=s.bits, gains=G, reset=reset_ddr, coeff_bits=cam.coeff_bits,
         coeff_channels=coeff_ch)
