@@ -91,7 +91,7 @@ def test_stale_files_removed_foreign_files_listed_and_kept(tmp_path):
     assert "mtf.png" in rep["files"] and rep["stale_files"]["other"] == ["notes.txt"]
     rep, md = run(tmp_path, out, kind="flat", fidelity="fast")
     assert not (out / "mtf.png").exists()                  # written by tdicam, now stale
-    assert rep["stale_files"]["removed"] == ["mtf.png"] and "`mtf.png`" in md
+    assert rep["stale_files"]["removed"] == ["difference.png", "mtf.png"] and "`mtf.png`" in md
     assert (out / "notes.txt").read_text() == "mine"       # never touched
     assert "`notes.txt`" in md and (out / "snr_vs_stages.png").is_file()
 

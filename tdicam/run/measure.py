@@ -1,6 +1,7 @@
 """Image-quality measurements of a simulated run next to the planning model's predictions.
 
-``measure(scene, result)`` returns a dict for the report:
+``measure(scene, result)`` returns a dict for the report (with, for every target, the
+clipping, region SNR and PSNR / SSIM entries of :func:`tdicam.run.quality.quality`):
 
 * flat targets — SNR of the TDI output and of a single exposure, one definition for the
   measurement and the prediction: signal = the mean photo-electron charge (the light only,
@@ -42,6 +43,7 @@ import numpy as np
 
 from tdicam import blocks
 from tdicam.planning.predict import mtf_prediction, snr_prediction
+from tdicam.run.quality import quality
 
 __all__ = ["measure", "saturation_e", "fit_modulation", "mean_dark_e",
            "MIN_MODULATION_SNR", "SNR_DEFINITION"]
@@ -217,6 +219,7 @@ def measure(scene, res):
         notes = [n for n in (note, ctf_note, above) if n is not None]
         if notes:
             out["mtf"]["note"] = "; ".join(notes)
+    out.update(quality(scene, res, trim, mean_dark_e(scene)))
     return out
 
 

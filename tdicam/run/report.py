@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from tdicam.run.quality_report import markdown_lines, summary_lines
+
 __all__ = ["configuration", "config_lines", "summary", "markdown", "FILE_NOTES", "PAPERS"]
 
 #: The papers the model follows, as cited in the report (short name -> citation).
@@ -49,10 +51,13 @@ FILE_NOTES = {
                "(numpy.load); with fidelity exact these are the golden TDI accumulator's "
                "outputs bit for bit",
     "raw_exposure.npy": "the raw exposure as exact DN values (numpy.load)",
-    "crop.png": "a crop (up to 64 x 64, centred) of the raw exposure and the output side by side at full "
-                "resolution, axes in pixels, colour bars in DN",
-    "profile.png": "a line profile through the crop: raw exposure and output in DN, target "
-                   "beside them",
+    "crop.png": "a crop (up to 64 x 64, centred) of the raw exposure and the output side by "
+                "side at full resolution, axes in pixels, on one relative scale (each above "
+                "zero light over its mean, one colour range: the noise TDI removes shows)",
+    "profile.png": "a normalised line profile through the crop: raw exposure and output "
+                   "scaled to the target's mean, the target on the same axis",
+    "difference.png": "the TDI output on the target's scale (least-squares gain and offset) "
+                      "minus the ideal target, the whole image",
     "snr_vs_stages.png": "flat target: measured SNR gain against the stage count, with the "
                          "planning model and Tao et al. 2012 eq 28",
     "mtf.png": "bar target: measured MTF with the planning model, Yuan et al. 2013's model "
@@ -62,6 +67,7 @@ FILE_NOTES = {
     "report.json": "everything in this report, machine-readable (strict JSON: a value that "
                    "is not a finite number is null and listed under \"nulls\")",
     "report.md": "this report",
+    "report.html": "this report as one HTML page, every figure above inline",
 }
 
 
@@ -224,6 +230,7 @@ def summary(scene, rep):
                          f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
                          f"{_reversed(t)}, paper's model {_fmt(t['yuan2013_model'], '.3f')}"
                          f", footprint {t['footprint_model']:.3f})")
+    lines += summary_lines(rep["measurements"])
     if rep["rtl"]:
         for b in rep["rtl"]["blocks"]:
             if b.get("status") == "ran":
@@ -328,6 +335,7 @@ def markdown(scene, rep):
                "block map, 64/72 SECDED words (one flipped bit corrected), the default "
                "coefficients (gain 1, offset 0: that pixel uncorrected) for a word with two.",
                ""]
+    md += markdown_lines(rep["measurements"])
     md += ["## Speed", "",
            f"{sp['lines']} lines x {sp['width']} px, {sp['stages']} stages, {sp['fidelity']}: "
            f"{sp['seconds']:.3g} s, **{sp['lines_per_s']:.0f} lines/s** = "
@@ -353,7 +361,8 @@ def markdown(scene, rep):
             md += [f"* {r['text']}" for r in rep["rtl"]["system"]] + [""]
     md += ["## Files", ""]
     md += [f"* `{f}`: {FILE_NOTES.get(f, '')}".rstrip(": ") for f in rep["files"]]
-    md += ["* `report.json`: " + FILE_NOTES["report.json"], "* `report.md`: this report"]
+    md += ["* `report.json`: " + FILE_NOTES["report.json"], "* `report.md`: this report",
+           "* `report.html`: " + FILE_NOTES["report.html"]]
     if rep["tiff_shift"]:
         md.append(f"* tdi.tif holds the output shifted right by {rep['tiff_shift']} bits "
                   f"(divided by {2 ** rep['tiff_shift']}, rounded down); tdi.npy holds every bit")

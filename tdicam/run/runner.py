@@ -10,11 +10,14 @@ images are of the largest stage count of the sweep):
   ``raw_exposure.tif``, ``tdi.tif`` (16-bit TIFF of the DN values; wider outputs are shifted
   right to fit, the shift is in the report); ``raw_exposure.npy``, ``tdi.npy`` (the DN values
   with every bit, in their own integer dtype);
-* ``crop.png`` (a 64 x 64 crop of the raw exposure and the output, axes in pixels, colour
-  bars in DN) and ``profile.png`` (a line profile through it);
+* ``crop.png`` (a 64 x 64 crop of the raw exposure and the output, axes in pixels, on one
+  relative scale), ``profile.png`` (a normalised line profile through it, the target on the
+  same axis) and, for a target that is not constant, ``difference.png`` (the output on the
+  target's scale minus the target);
 * ``snr_vs_stages.png`` when the scene sweeps stages on a flat target, ``mtf.png`` on a bar
   target (model curves and measured points, vs M dV/V when the mismatch is swept);
-* ``report.json`` and ``report.md`` (:mod:`tdicam.run.report`): the configuration (ground
+* ``report.json``, ``report.md`` and ``report.html`` (report.md with every figure inline,
+  :mod:`tdicam.run.html`; :mod:`tdicam.run.report`): the configuration (ground
   speed, line period, required frame rate, window, stages, fidelity), the effects table
   (ran/skipped, why, fidelity and error bound, time, impact), measured SNR/MTF next to the
   planning model's prediction, speed and, with ``[run.rtl]``, the RTL co-simulation of the
@@ -41,7 +44,8 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.files import check_dir, staged_dir, writing_in
-from tdicam.run.report import configuration, markdown, summary
+from tdicam.run.html import html_report
+from tdicam.run.report import FILE_NOTES, configuration, markdown, summary
 
 __all__ = ["run_scene", "check_output", "SceneRun", "simulate_scene", "write_run", "memory_check",
            "main_tiff_shift", "strict_json"]
@@ -235,11 +239,13 @@ def _write(run, out_dir, stage):
     with writing_in(out_dir):
         (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_json,
                                                         allow_nan=False))
-        (out_dir / "report.md").write_text(markdown(scene, report))
+        md = markdown(scene, report)
+        (out_dir / "report.md").write_text(md)
+        (out_dir / "report.html").write_text(html_report(md, out_dir, files, FILE_NOTES))
     return report
 
 
-_REPORTS = ("report.json", "report.md")
+_REPORTS = ("report.json", "report.md", "report.html")
 
 
 def _previous_files(out_dir):
@@ -370,23 +376,33 @@ def crop_window(shape, size=CROP):
 
 
 def _crop_figures(out_dir, scene, res, plt):
-    """``crop.png``: raw exposure and output on the same crop, pixel axes, DN colour bars;
-    ``profile.png``: the middle line of the crop across the direction the target varies
-    most, raw exposure and output in DN and the target beside them."""
+    """``crop.png``: raw exposure and output on the same crop, pixel axes, on one relative
+    scale (:func:`~tdicam.run.quality.relative`: each above its zero-light pedestal over its
+    mean, one colour range for both, so the noise TDI removes shows); ``profile.png``: the
+    middle line of the crop across the direction the target varies most, raw exposure and
+    output on that relative scale times the target's mean, the target on the same axis;
+    ``difference.png`` (a target that is not constant): the output on the target's scale
+    (:func:`~tdicam.run.quality.to_target_scale`) minus the target."""
+    from tdicam.run.quality import relative, to_target_scale
     y0, x0, h, w = crop_window(res.output.shape)
     ys, xs = slice(y0, y0 + h), slice(x0, x0 + w)
     ext = (x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5)
     m = res.stages
+    raw, out = (relative(res.raw[ys, xs], res.pedestal_single),
+                relative(res.output[ys, xs], res.pedestal_output))
+    both = np.concatenate([raw.ravel(), out.ravel()])
+    lo, hi = float(np.percentile(both, 0.5)), float(np.percentile(both, 99.5))
     fig, axes = plt.subplots(1, 2, figsize=(9, 4.2))
-    for ax, arr, title in ((axes[0], res.raw, "raw exposure (1 read)"),
-                           (axes[1], res.output, f"TDI output (m = {m})")):
-        im = ax.imshow(np.asarray(arr[ys, xs], np.float64), cmap="gray", extent=ext,
-                       interpolation="nearest")
+    for ax, arr, title in ((axes[0], raw, "raw exposure (1 read)"),
+                           (axes[1], out, f"TDI output (m = {m})")):
+        im = ax.imshow(arr, cmap="gray", extent=ext, interpolation="nearest",
+                       vmin=lo, vmax=max(hi, lo + 1e-9))
         ax.set_title(title)
         ax.set_xlabel("column (px)")
         ax.set_ylabel("output line")
-        fig.colorbar(im, ax=ax, label="DN", shrink=0.85)
-    fig.suptitle(f"{Path(scene.source).stem}: {w} x {h} crop at column {x0}, line {y0}")
+        fig.colorbar(im, ax=ax, label="signal / crop mean (above zero light)", shrink=0.85)
+    fig.suptitle(f"{Path(scene.source).stem}: {w} x {h} crop at column {x0}, line {y0}, "
+                 "one relative scale")
     fig.tight_layout()
     fig.savefig(out_dir / "crop.png", dpi=110)
     plt.close(fig)
@@ -400,25 +416,40 @@ def _crop_figures(out_dir, scene, res, plt):
         r = y0 + h // 2
         pos, cut = np.arange(x0, x0 + w), (r, xs)
         what, xlabel = f"line {r}", "column (px, cross track)"
+    t_cut = np.asarray(res.target[cut], np.float64)
+    scale = float(t_cut.mean()) or 1.0
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(pos, np.asarray(res.output[cut], np.float64), "-", label=f"TDI output (m = {m})")
-    ax.plot(pos, np.asarray(res.raw[cut], np.float64), "-", label="raw exposure")
+    ax.plot(pos, relative(res.output[cut], res.pedestal_output) * scale, "-",
+            label=f"TDI output (m = {m})")
+    ax.plot(pos, relative(res.raw[cut], res.pedestal_single) * scale, "-",
+            label="raw exposure", alpha=0.8)
+    ax.plot(pos, t_cut, ":", color="0.2", label="target")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("DN")
-    ax2 = ax.twinx()
-    ax2.plot(pos, np.asarray(res.target[cut], np.float64), ":", color="0.4",
-             label="target (right axis)")
-    ax2.set_ylabel("target radiance (0..1)")
-    ax2.set_ylim(-0.05, 1.05)
-    h1, l1 = ax.get_legend_handles_labels()
-    h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="best")
+    ax.set_ylabel("relative radiance (scaled to the target's mean)")
+    ax.legend(fontsize=8, loc="best")
     ax.grid(True, alpha=0.3)
-    ax.set_title(f"{Path(scene.source).stem}: profile along {what}")
+    ax.set_title(f"{Path(scene.source).stem}: normalised profile along {what}")
     fig.tight_layout()
     fig.savefig(out_dir / "profile.png", dpi=110)
     plt.close(fig)
-    return ["crop.png", "profile.png"]
+    files = ["crop.png", "profile.png"]
+    scaled = to_target_scale(res.target, res.output, res.pedestal_output)
+    if scaled is not None:
+        d = scaled - np.asarray(res.target, np.float64)
+        lim = float(np.percentile(np.abs(d), 99.5)) or 1.0
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        im = ax.imshow(d, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest",
+                       aspect="auto")
+        ax.set_xlabel("column (px)")
+        ax.set_ylabel("output line")
+        fig.colorbar(im, ax=ax, label="output - target (relative radiance)")
+        ax.set_title(f"{Path(scene.source).stem}: TDI output (m = {m}, on the target's "
+                     f"scale) minus the ideal target; RMS {float(np.sqrt(np.mean(d * d))):.3g}")
+        fig.tight_layout()
+        fig.savefig(out_dir / "difference.png", dpi=110)
+        plt.close(fig)
+        files.append("difference.png")
+    return files
 
 
 def _figures(out_dir, scene, rows, main):
