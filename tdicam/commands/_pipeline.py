@@ -10,7 +10,7 @@ import numpy as np
 
 from tdicam.blocks.steps import SceneData
 from tdicam.chain.design import (ECP5_85F, PipelineBlock, chain_plan, chain_text, check_options,
-                                 top, verilog_header)
+                                 load_pipeline_scene, top, verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
@@ -18,7 +18,6 @@ from tdicam.hw.record import row_of
 from tdicam.hw.synth import synth, tool_versions
 from tdicam.hw.verilog import convert
 from tdicam.model.calib import load_image
-from tdicam.scene.loader import load_scene
 
 __all__ = ["scene_design", "verilog_command", "synth_command"]
 
@@ -50,7 +49,7 @@ def scene_design(prog, extra):
                          "PHY (default), the 7-series IDELAYE2/ISERDESE2 or the ECP5 "
                          "DELAYF/IDDRX2F primitives")
     ns = ap.parse_args(list(extra))
-    sc = load_scene(ns.scene)
+    sc = load_pipeline_scene(ns.scene, ns.stages)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
