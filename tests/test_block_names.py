@@ -19,6 +19,8 @@ OTHER_MEANINGS = {
     ("tdicam/scene/docs.py", "lvds"): "the [sensor.lvds] section of a scene (the sensor's "
                                       "lanes), in the page's probe scene",
     ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
+    ("tdicam/chain/design.py", "tdi"): "the [tdi] section of a scene (--stages overrides "
+                                       "its stages)",
     ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" (where partial sums live)",
     ("tdicam/commands/_pipeline.py", "ddr"): "--memory ddr",
     ("tdicam/export/chain.py", "ddr"): "--memory ddr",

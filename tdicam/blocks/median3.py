@@ -307,9 +307,12 @@ def _pipeline_step(ctx):
 MAX_PIXEL_BITS = 16
 
 
-def check_after_tdi(bits):
+def check_after_tdi(bits, after=None):
     """Refuse TDI output of ``bits`` bits into median3 (the scene loader, before any work,
-    and the scene simulator): a one-line :class:`TdicamError` naming ``[tdi].output``."""
+    and the scene simulator): a one-line :class:`TdicamError` naming ``[tdi].output``.
+    ``after``: the blocks after TDI (None: median3 is among them)."""
+    if after is not None and BLOCK.name not in after:
+        return
     if bits > MAX_PIXEL_BITS:
         raise TdicamError(f"[tdi].output: median3 after TDI takes at most {MAX_PIXEL_BITS}-bit "
                           f"pixels; the TDI output is {bits} bits: set output = 'saturate' "

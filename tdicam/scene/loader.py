@@ -768,8 +768,7 @@ def _check_chain(sec: _Section, scene: Scene, labels) -> None:
                           f"{lv.lanes_per_gain * n} lanes; the front end takes at most "
                           f"{MAX_LANES}: lanes_per_gain <= {MAX_LANES // n}")
     line = [b for b in names if blocks.get(b).pipeline.lines]
-    if scene.tdi.domain != "digital" or not line or "median3" not in names[
-            names.index(line[0]) + 1:]:
+    if scene.tdi.domain != "digital" or not line or line[0] == names[-1]:
         return
     for m in scene.tdi.stages:
         bits = scene.sensor.bits
@@ -783,7 +782,7 @@ def _check_chain(sec: _Section, scene: Scene, labels) -> None:
                 block=line[0]))
         except TdicamError:
             return      # a chain the gateware cannot build: its plan (or Verilog) says why
-        check_after_tdi(out)
+        check_after_tdi(out, names[names.index(line[0]) + 1:])
 
 
 # --------------------------------------------------------------------------------------
