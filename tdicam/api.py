@@ -92,8 +92,9 @@ class Simulation:
         TdicamError
             ``out_dir`` cannot be written (one line).
         """
+        from tdicam.files import named
         from tdicam.run.runner import write_run
-        self.report = write_run(self._run, out_dir)
+        self.report = write_run(self._run, named(out_dir, "out_dir"))
         return self.report
 
 
@@ -293,7 +294,7 @@ def _json_default(value):
 
 
 @api_arguments
-def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
+def plan(scene: Scene | str | Path | None = None, *, onchip_kbit: float | None = None,
          device: str | None = None, ddr_bits: int | None = None,
          ddr_clock_mhz: float | None = None, ddr_efficiency: float | None = None,
          fpga_clock_mhz: float | None = None, **options: Any) -> Plan:
@@ -301,8 +302,9 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
 
     Parameters
     ----------
-    scene : str or Path, optional
-        A scene file; ``options`` override it. Without a scene and orbit options: Qu et al. 2010's
+    scene : str, Path or Scene, optional
+        A scene file (or a :class:`Scene` loaded from one, unchanged); ``options``
+        override it. Without a scene and orbit options: Qu et al. 2010's
         example (600 km; GSD 5, 2, 1 m; 12/24/48/96 stages; 1280 x 1024 12-bit sensor).
     onchip_kbit : float, optional
         On-chip RAM for the partial sums, kbit (1 kbit = 1024 bit).
@@ -347,6 +349,17 @@ def plan(scene: str | Path | None = None, *, onchip_kbit: float | None = None,
     else:
         budget = None
     given = {k: v for k, v in options.items() if v is not None}
+    if isinstance(scene, Scene):
+        # the planner reads a file (options override it): a Scene is planned from its own
+        # file when it is what the file gives, never from a file it differs from
+        if scene.source.startswith("<") or Scene.load(scene.source) != scene:
+            raise TdicamError("plan: scene: this Scene is not its scene file's content (made "
+                              "in Python or loaded with overrides): write it to a file and "
+                              "plan that, or give the changes as plan's options")
+        scene = scene.source
+    elif scene is not None and not isinstance(scene, (str, Path)):
+        raise TdicamError(f"plan: scene: expected a scene file's name or a Scene, got "
+                          f"{type(scene).__name__}")
     scenes, labels = sizing.plan_scenes(None if scene is None else str(scene), given)
     ddr_bits = DDR_WORD_BITS if values["ddr_bits"] is None else values["ddr_bits"]
     ddr_hz = DDR_USER_CLOCK_HZ if ddr_clock_mhz is None else values["ddr_clock_mhz"] * 1e6
@@ -417,12 +430,13 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
         same call finishes the sweep.
     """
     import xarray as xr
+    from tdicam.files import named
     from tdicam.sweeps.runner import finished_in, read_sweep, run_sweep, validate_sweep
     check_range("--connect-timeout", connect_timeout, 0, 3600, integer=False, lo_open=True)
     if limit is not None:                   # before the points are expanded
         check_range("--limit", limit, 0, None)
     sw = read_sweep(source, force=force, impact=impact)
-    out = Path(out_dir) if out_dir is not None else Path("out") / "sweeps" / sw.name
+    out = named(out_dir, "out_dir") if out_dir is not None else Path("out") / "sweeps" / sw.name
     # with a limit, only the points its runs need are validated (and each axis value once)
     sw = validate_sweep(sw, progress=progress, limit=limit,
                         finished=finished_in(out) if limit is not None else None)

@@ -20,7 +20,7 @@ import sys
 
 from tdicam import commands
 from tdicam.commands._parsing import ArgsParser, Parser, plain_text
-from tdicam.errors import TdicamError
+from tdicam.errors import COMMAND_LINE, TdicamError
 from tdicam.version import __version__
 
 __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
@@ -104,7 +104,11 @@ def main(argv=None):
             failed = _flush_stdout()    # a full stdout found before a long run, not after it
             if failed is not None:
                 raise _StdoutError(failed)
-            code = args.func(args)
+            token = COMMAND_LINE.set(True)      # errors name the options, not arguments
+            try:
+                code = args.func(args)
+            finally:
+                COMMAND_LINE.reset(token)
         except SystemExit as exc:       # --help, argparse's own errors
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
             if code:

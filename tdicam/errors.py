@@ -8,7 +8,10 @@ it never shows a traceback for these.
 Layer: the bottom leaf; imports nothing of tdicam.
 """
 
-__all__ = ["TdicamError", "check_range", "valid_range", "check_choice", "check_multiple"]
+__all__ = ["TdicamError", "check_range", "valid_range", "check_choice", "check_multiple",
+           "api_arguments", "check_flag", "COMMAND_LINE", "python_names"]
+
+import contextvars
 
 
 class TdicamError(ValueError):
@@ -41,20 +44,66 @@ def valid_range(lo, hi, *, lo_open=False, hi_open=False):
 def api_arguments(fn):
     """Decorator of a public API function: a call with arguments ``fn`` does not take (an
     unknown keyword, one too many, a required one missing) raises a one-line
-    :class:`TdicamError` naming ``fn`` and the argument, not Python's TypeError. The
-    signature (``inspect.signature``) and docstring stay ``fn``'s."""
+    :class:`TdicamError` naming ``fn`` and the argument, not Python's TypeError; an
+    argument annotated ``bool`` takes True or False only (:func:`check_flag`: ``'no'`` is
+    not False). The signature (``inspect.signature``) and docstring stay ``fn``'s."""
     import functools
     import inspect
     sig = inspect.signature(fn)
+    flags = [n for n, p in sig.parameters.items() if p.annotation in (bool, "bool")]
+    names = set(sig.parameters)
+    rest = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
 
     @functools.wraps(fn)
     def call(*args, **kwargs):
         try:
-            sig.bind(*args, **kwargs)
+            bound = sig.bind(*args, **kwargs)
         except TypeError as exc:
             raise TdicamError(f"{fn.__qualname__}: {exc}") from None
-        return fn(*args, **kwargs)
+        for name in flags:
+            if name in bound.arguments:
+                check_flag(f"{fn.__qualname__}: {name}", bound.arguments[name])
+        if COMMAND_LINE.get():
+            return fn(*args, **kwargs)
+        try:
+            return fn(*args, **kwargs)
+        except TdicamError as exc:
+            text = python_names(str(exc), names, rest)
+            if text == str(exc):
+                raise
+            raise TdicamError(text) from None
     return call
+
+
+#: True while the command line runs (:func:`tdicam.cli.main`): errors name its options;
+#: from Python the API's errors name the arguments instead (:func:`python_names`).
+COMMAND_LINE = contextvars.ContextVar("tdicam_command_line", default=False)
+
+#: The command line's options whose argument has another name in the Python API.
+_RENAMED = {"-o": "out_dir", "--out": "out_dir", "--no-impact": "impact", "--no-rtl": "rtl"}
+
+
+def python_names(text, names, any_name=False):
+    """``text`` with the command-line options that are arguments of an API function
+    (``names``; ``any_name``: it takes ``**options`` named as the options) written as those
+    arguments: ``--stages = 0 is out of range`` -> ``stages = 0 is out of range``."""
+    import re
+
+    def repl(m):
+        flag = m.group(1)
+        arg = _RENAMED.get(flag, flag.lstrip("-").replace("-", "_"))
+        return arg if arg in names or (any_name and flag.startswith("--")) else flag
+    return re.sub(r"(?<![\w-])(--?[a-z][a-z0-9-]*)(?![\w-])", repl, text)
+
+
+def check_flag(name, value) -> bool:
+    """``value`` as a bool when it is one (Python's or numpy's), else a one-line
+    :class:`TdicamError` ``NAME must be True or False, got V`` (a string such as ``'no'``
+    is truthy: taken as a flag it would silently mean True)."""
+    if isinstance(value, bool) or (type(value).__module__ == "numpy"
+                                   and type(value).__name__ in ("bool_", "bool")):
+        return bool(value)
+    raise TdicamError(f"{name} must be True or False, got {value!r}")
 
 
 def check_range(name, value, lo, hi, *, integer=True, lo_open=False, hi_open=False):

@@ -40,18 +40,29 @@ def _fail(path, why):
 
 
 def named(path, option="-o") -> Path:
-    """``path`` as a Path, or ``OPTION: the output name is empty`` for "" or blanks."""
-    if path is None or not str(path).strip():
+    """``path`` as a Path, or ``OPTION: the output name is empty`` for "" or blanks (and
+    the errors of :func:`input_path` for what is no name)."""
+    if path is None or (isinstance(path, str) and not path.strip()):
         raise TdicamError(f"{option}: the output name is empty")
-    return Path(path)
+    p = input_path(path, option)
+    if not str(p).strip():
+        raise TdicamError(f"{option}: the output name is empty")
+    return p
 
 
 def input_path(path, what) -> Path:
     """``path`` (a str or os.PathLike) as a Path, else ``WHAT: expected a file name, got
-    TYPE`` (the Python API's callers pass anything)."""
+    TYPE`` (the Python API's callers pass anything); a name holding a NUL character (no
+    file system takes one) is ``WHAT: a file name cannot hold a NUL character``."""
     if not isinstance(path, (str, os.PathLike)):
         raise TdicamError(f"{what}: expected a file name, got {type(path).__name__}")
-    return Path(path)
+    try:
+        p = Path(path)
+    except TypeError:               # an os.PathLike giving bytes
+        raise TdicamError(f"{what}: expected a file name, got {path!r}") from None
+    if "\0" in str(p):
+        raise TdicamError(f"{what}: a file name cannot hold a NUL character, got {str(p)!r}")
+    return p
 
 
 def check_file(path, option="-o") -> Path:

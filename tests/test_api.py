@@ -98,7 +98,7 @@ def test_plan_is_tdicam_plan(capsys):
     assert p.text().splitlines()[0]
     with pytest.raises(tdicam.TdicamError, match="unknown option 'stage'"):
         tdicam.plan(stage=[12])
-    with pytest.raises(tdicam.TdicamError, match="--ddr-efficiency = 2"):
+    with pytest.raises(tdicam.TdicamError, match="^ddr_efficiency = 2"):
         tdicam.plan(ddr_efficiency=2)
 
 

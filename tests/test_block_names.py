@@ -19,6 +19,8 @@ OTHER_MEANINGS = {
     ("tdicam/scene/docs.py", "lvds"): "the [sensor.lvds] section of a scene (the sensor's "
                                       "lanes), in the page's probe scene",
     ("tdicam/scene/loader.py", "ddr"): "the [ddr] section of a scene",
+    ("tdicam/chain/design.py", "tdi"): "the [tdi] section of a scene (--stages overrides "
+                                       "its stages)",
     ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" and --memory ddr (where "
                                        "partial sums live)",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",

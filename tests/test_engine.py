@@ -198,7 +198,15 @@ def test_bad_inputs(tmp_path):
 
 
 def test_median_after_wide_tdi_is_a_clear_error(tmp_path):
-    sc = small(tmp_path, '[pipeline]\nblocks = ["tdi", "median3"]\n', stages=32)
+    # the scene loader refuses it before any work ...
+    with pytest.raises(TdicamError, match=r"^\[tdi\]\.output: median3 after TDI takes at most "
+                                          r"16-bit pixels; the TDI output is 17 bits"):
+        small(tmp_path, '[pipeline]\nblocks = ["tdi", "median3"]\n', stages=32)
+    # ... and the simulator of a scene made around the loader says the same
+    import dataclasses
+    sc = small(tmp_path, '[pipeline]\nblocks = ["tdi"]\n', stages=32)
+    sc = dataclasses.replace(sc, pipeline=dataclasses.replace(sc.pipeline,
+                                                              blocks=("tdi", "median3")))
     with pytest.raises(TdicamError, match=r"\[tdi\]\.output"):
         engine.simulate(sc, fidelity="exact", impact=False)
 

@@ -298,10 +298,10 @@ def test_a_spill_needs_a_ddr_section():
     assert "\n" not in str(exc.value)
     data["pipeline"]["tdi"] = {"memory": "chip"}              # on chip: no DDR needed
     assert [s.block for s in design.chain_plan(scene_from_dict(data)).steps] == ["tdi"]
-    with pytest.raises(TdicamError, match=r"^pipeline: hdr -> tdi: its partial sums "
-                       r"\(\d+ bits\) are placed in DDR by the scene: it spills to DDR "
-                       r"through tdi_ddr, but the scene has no \[ddr\] section"):
-        design.chain_plan(_small(pipeline={"tdi": {"memory": "ddr"}}))
+    # memory = 'ddr' without [ddr]: the scene loader refuses it, before any plan or run
+    with pytest.raises(TdicamError, match=r"^\[pipeline.tdi\].memory = 'ddr' keeps its "
+                       r"partial sums in DDR, but the scene has no \[ddr\] section"):
+        _small(pipeline={"tdi": {"memory": "ddr"}})
     sc = _small(pipeline={"tdi": {"memory": "ddr"}}, ddr={"base": 4096},
                 sensor={"columns": 160})            # tdi_ddr: more than 148 beats a row
     p = design.chain_plan(sc)

@@ -121,8 +121,9 @@ FLAGS = [
     (["--phy", "XILINX7"], True, "argument --phy: invalid choice: 'XILINX7'"),
     (["--phy", ""], True, "argument --phy: invalid choice: ''"),
     (["--phy", "xilinx7"], False, "pipeline: --phy = xilinx7 needs the sensor's lanes"),
-    (["--stages", "0"], True, "--stages = 0 is out of range; valid: 1..128"),
-    (["--stages", "99999999999999999999"], True, "--stages = 99999999999999999999 is out"),
+    (["--stages", "0"], True, "--stages = 0 is out of range; valid: 1.."),
+    (["--stages", "99999999999999999999"], True,
+     "--stages: must be <= 8 (the sensor rows, [sensor].rows), got 99999999999999999999"),
     (["--lines", "0"], True, "--lines = 0 is out of range"),
     (["--lines", "-1"], False, "--lines = -1 is out of range"),
     (["--lines", "1000000000"], True, "--lines = 1000000000 is out of range"),
@@ -314,11 +315,11 @@ API = [
     ("simulate(labels=5)", lambda: tdicam.simulate(_lanes_scene(), labels=5),
      "labels must be a mapping"),
     ("plan(onchip_kbit=1e308)", lambda: tdicam.plan(onchip_kbit=1e308),
-     "--onchip-kbit = 1e+308 is out of range"),
-    ("plan(ddr_bits=3)", lambda: tdicam.plan(ddr_bits=3), "--ddr-bits = 3 is out of range"),
-    ("plan(device=[])", lambda: tdicam.plan(device=[]), "--device = [] is not known"),
-    ("plan(stages=[])", lambda: tdicam.plan(stages=[]), "--stages: must not be an empty list"),
-    ("plan(gsd_m=[nan])", lambda: tdicam.plan(gsd_m=[NAN]), "--gsd-m: must be a finite number"),
+     "onchip_kbit = 1e+308 is out of range"),
+    ("plan(ddr_bits=3)", lambda: tdicam.plan(ddr_bits=3), "ddr_bits = 3 is out of range"),
+    ("plan(device=[])", lambda: tdicam.plan(device=[]), "device = [] is not known"),
+    ("plan(stages=[])", lambda: tdicam.plan(stages=[]), "stages: must not be an empty list"),
+    ("plan(gsd_m=[nan])", lambda: tdicam.plan(gsd_m=[NAN]), "gsd_m: must be a finite number"),
     ("sweep(None)", lambda: tdicam.sweep(None), "sweep file: expected a file name"),
     ("blocks.get([])", lambda: blocks.get([]), "unknown block []"),
     ("blocks.get({})", lambda: blocks.get({}), "unknown block {}"),
@@ -352,8 +353,249 @@ API = [
 ]
 
 
-@pytest.mark.parametrize("call,fragment", [r[1:] for r in API], ids=[r[0] for r in API])
-def test_api_probes(call, fragment):
+# ---------------------------------------------------------------- the plan never turns NO to yes
+LANES_SCENE = "scenes/ning2019_gmax0504_system_lanes.toml"
+RTL = '[run.rtl]\nsimulator = "verilator"\ncrop = [0, 0, 32, 4]'
+FIFO = "the front's crossing FIFO would need"
+# (edits of the lanes scene, exit of `tdicam plan --scene`, fragment): each was
+# "feasible: yes", exit 0 (the System section vanished when the chain could not be built)
+VERDICT = [
+    ((("lanes_per_gain = 2 ", "lanes_per_gain = 2\nbit_rate_mbps = 1 "),
+      ("base = 0", "base = 0\nlat_hi = 1000")), 2, FIFO + " 1024 entries"),
+    ((("base = 0", "base = 0\nlat_hi = 1000"),), 2,
+     "[run.rtl]: the co-simulated design (the 32-column crop, 8 stages) cannot be built: "
+     "pipeline: lvds (the chain's source): the DDR's longest stall, 1044 processing clocks "
+     "([ddr].refresh_cycles + [ddr].lat_hi)"),
+    ((("base = 0", "base = 0\nrefresh_cycles = 5000\nrefresh_period = 10000"),), 2,
+     FIFO + " 4096 entries (16 without the stall), more than its 256: lower "
+            "[ddr].refresh_cycles or [ddr].lat_hi"),
+    ((("lanes_per_gain = 2 ", "lanes_per_gain = 128 "), ("columns = 256", "columns = 1024")),
+     2, "[sensor.lvds].lanes_per_gain = 128 on 2 gains merged by the chain is 256 lanes; the "
+        "front end takes at most 128: lanes_per_gain <= 64"),
+    ((("base = 0", "base = 268435440"),), 2,
+     "[ddr].base = 268435440: the reset frame (8 lines x stride 16) needs 128 address units "
+     "above it and the memory has 268435456: give [ddr].base <= 268435328"),
+    ((('[ddr]\ninterface = "mig"\nbase = 0\n', ""),), 2,
+     "[pipeline.cds].memory = 'ddr' keeps its reset frames in DDR, but the scene has no "
+     "[ddr] section"),
+    ((("base = 0", "base = 0\nlat_hi = 1000"), (RTL, "")), 1,
+     "pipeline design at 8 stages: pipeline: lvds (the chain's source): the DDR's longest "
+     "stall, 1044 processing clocks"),
+]
+
+
+def _edited(path, edits, tmp_path):
+    text = open(path).read()
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new)
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    return f
+
+
+@pytest.mark.parametrize("edits,code,fragment", VERDICT,
+                         ids=[f"verdict{i}" for i in range(len(VERDICT))])
+def test_plan_verdict_never_flips(edits, code, fragment, tmp_path, capsys):
+    """The plan of a design the gateware cannot build is a refusal (exit 2, the run's and
+    --dry-run's) or a NO row naming it (exit 1), never 'feasible: yes'."""
+    f = _edited(LANES_SCENE, edits, tmp_path)
+    assert main(["plan", "--scene", str(f)]) == code
+    if code == 2:
+        assert fragment in _one_line(capsys)
+        # --dry-run (and so the run) refuses it alike, before any work
+        assert main(["run", "--dry-run", str(f), "-o", str(tmp_path / "o")]) == 2
+        assert fragment.split(": the co-simulated design")[-1] in _one_line(capsys)
+    else:
+        out = capsys.readouterr().out
+        assert fragment in out and "feasible: NO (pipeline design)" in out
+        assert "feasible: yes" not in out
+
+
+def test_plan_no_ddr_no_beside_feasible_yes(capsys):
+    """Qu et al. 2010's default plan printed 'DDR ...: NO' above 'feasible: yes' (the sums need
+    not spill): every NO is in the verdict."""
+    assert main(["plan"]) == 0
+    out = capsys.readouterr().out
+    assert "feasible: yes" in out and ": NO" not in out
+    assert "short, but the sums need not spill (no on-chip budget given" in out
+
+
+def test_plan_scene_stages_above_m0_is_no_with_the_fix(tmp_path, capsys):
+    """A scene file of 100 stages where M0 = 96 was refused (exit 2) by plan --scene: it is
+    the report's NO (exit 1), and the NO says which row time, frame rate or stages fix it."""
+    f = _edited("scenes/orbit_600km_1m_96.toml", (("stages = 96", "stages = 100"),), tmp_path)
+    assert main(["plan", "--scene", str(f)]) == 1
+    out = capsys.readouterr().out
+    assert ("NO (100 <= M0); to make it yes: T_row <= T_line / 100 = 1.448 us gives M0 >= "
+            "100: [sensor].max_frame_rate_hz >= 674.6 or stages <= 96") in out
+    assert "feasible: NO (frame rate, window (stages > M0))" in out
+    f.write_text(f.read_text().replace("max_frame_rate_hz = 650.0",
+                                       "pixel_clock_mhz = 500.0\nrow_blanking_us = 0.1"))
+    assert main(["plan", "--scene", str(f)]) == 1
+    assert ("[sensor].pixel_clock_mhz >= 949.8 (at row_blanking_us = 0.1) or stages <= 54"
+            ) in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- refusals before the work
+OWN = ('[orbit]\naltitude_km = 500.0\ngsd_m = 0.5\n[target]\nkind = "bars"\nperiod_px = 4.0\n'
+       '[sensor]\ncolumns = 2048\nrows = 64\nbits = 12\n[tdi]\nstages = 32\n'
+       '[pipeline]\nblocks = ["nuc", "tdi", "median3"]\n[run]\nlines = 16\nfidelity = "fast"\n')
+# (scene text, fragment): `tdicam run --dry-run`, `tdicam run` and `tdicam plan --scene`
+# refuse it at once and alike (the run computed the whole scene first, then exited 1)
+BEFORE = [
+    (OWN, "[tdi].output: median3 after TDI takes at most 16-bit pixels; the TDI output is 17 "
+          "bits: set output = 'saturate' with output_bits <= 16"),
+    (OWN.replace("stages = 32", "stages = 128\noutput = 'saturate'\noutput_bits = 19").replace(
+        "rows = 64", "rows = 256"), "the TDI output is 19 bits"),
+    (open("scenes/orbit_chain.toml").read().replace("crop = [512, 0, 256, 32]",
+                                                    "crop = [512, 0, 8, 32]"),
+     "[run.rtl]: the co-simulated design (the 8-column crop, 96 stages) cannot be built: "
+     "pipeline: nuc -> tdi: width = 8 with ppc = 8 gives 1 beat per row"),
+]
+
+
+@pytest.mark.parametrize("text,fragment", BEFORE, ids=[f"before{i}" for i in range(len(BEFORE))])
+def test_refused_before_the_work(text, fragment, tmp_path, capsys):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    out = tmp_path / "o"
+    for argv in (["run", "--dry-run", str(f), "-o", str(out)], ["run", str(f), "-o", str(out)],
+                 ["plan", "--scene", str(f)]):
+        assert main(argv) == 2
+        assert fragment in _one_line(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("cmd", ["verilog", "export"])
+def test_pipeline_stages_above_m0_refused_as_the_scene_refuses_them(cmd, tmp_path, capsys):
+    """export pipeline --stages 97 on the orbit chain (M0 = 96) was exported, verilog
+    pipeline wrote its Verilog; [tdi].stages = 97 in the scene is refused: so is the option."""
+    out = tmp_path / "o"
+    width = ["--width", "16"] if cmd == "export" else []      # under the export's limit
+    assert main([cmd, "pipeline", "--scene", "scenes/orbit_chain.toml", "--stages", "97",
+                 *width, "-o", str(out)]) == 2
+    assert "--stages: must be <= M0 = 96 (rows read in one line period" in _one_line(capsys)
+    assert not out.exists()
+
+
+def test_run_of_a_scene_the_plan_calls_infeasible_says_so(tmp_path, capsys):
+    """The lanes at 1 Mbit/s (the plan: NO) were simulated without a word: the console and
+    report.md state the plan's NO and its reason; the run still runs (exit 0)."""
+    f = tmp_path / "s.toml"
+    f.write_text(_text(LANES + "bit_rate_mbps = 1\n"))
+    assert main(["run", str(f), "-o", str(tmp_path / "o"), "--no-impact"]) == 0
+    line = ("plan: feasible: NO (sensor lanes: 8 lanes x 1 Mbit/s / 12 bit = 0.7 M words/s, "
+            "0.4 M pixels/s after each line's sync and header words; the window needs 0.88 M "
+            "pixels/s: NO): the camera as planned cannot run this scene; simulated all the same")
+    assert line in capsys.readouterr().out
+    assert line in (tmp_path / "o" / "report.md").read_text()
+    import json
+    assert json.loads((tmp_path / "o" / "report.json").read_text())["plan"]["feasible"] is False
+
+
+def test_plan_and_run_say_the_planned_mtf_leaves_median3_out(capsys):
+    """The orbit chain measures 0.05-0.07 after median3 on period-4 bars where the plan
+    predicted 0.73-0.81 for the camera without it: the plan says it leaves the median out;
+    the run's comparison says the two do not compare."""
+    assert main(["plan", "--scene", "scenes/orbit_chain.toml"]) in (0, 1)
+    assert ("MTF @ Nyquist  of the camera before median3 (the plan leaves it out: a median is "
+            "not linear and has no MTF)") in capsys.readouterr().out
+    from tdicam.run import report
+    t = {"planned_before": "median3"}
+    assert report._before(t) == " before median3: not comparable"
+    from tdicam.planning.predict import mtf_left_out
+    assert mtf_left_out(tdicam.Scene.load("scenes/orbit_chain.toml")) == ("median3",)
+    assert mtf_left_out(tdicam.Scene.load("scenes/orbit_600km_1m_96.toml")) == ()
+
+
+# ---------------------------------------------------------------- sweeps: one key, two spellings
+SWEEP_SCENE = "scenes/tao2012_ibis5_rolling_1_5_10.toml"
+TWICE = [
+    ({"axes": {"tdi.stages": [1, 4], "tdi": {"stages": [2]}}},
+     '[axes]\n"tdi.stages" = [1, 4]\n[axes.tdi]\nstages = [2]\n',
+     '[axes] tdi.stages: given twice, as [axes] "tdi.stages" and as [axes.tdi] stages'),
+    ({"set": {"sensor.columns": 128, "sensor": {"columns": 64}}, "axes": {"tdi.stages": [1]}},
+     '[set]\n"sensor.columns" = 128\n[set.sensor]\ncolumns = 64\n[axes]\n"tdi.stages" = [1]\n',
+     '[set] sensor.columns: given twice, as [set] "sensor.columns" and as [set.sensor] '
+     'columns'),
+]
+
+
+@pytest.mark.parametrize("doc,toml,fragment", TWICE, ids=["axes", "set"])
+def test_sweep_key_in_two_spellings_is_refused(doc, toml, fragment, tmp_path, capsys):
+    """The last spelling won silently (one point swept of three)."""
+    import os
+    doc = {"scene": os.path.abspath(SWEEP_SCENE), **doc}
+    with pytest.raises(tdicam.TdicamError) as e:
+        tdicam.sweep(doc, tmp_path / "o", serial=True)
+    assert fragment in str(e.value) and "\n" not in str(e.value)
+    # the file: the same line, exit 2
+    f = tmp_path / "sw.toml"
+    f.write_text(f'scene = "{doc["scene"]}"\n' + toml)
+    assert main(["sweep", str(f), "-o", str(tmp_path / "o"), "--serial"]) == 2
+    assert fragment in _one_line(capsys)
+    assert not (tmp_path / "o").exists()
+
+
+# ---------------------------------------------------------------- the API: types and names
+P = "scenes/orbit_600km_1m_96.toml"
+SWEEP = "scenes/sweeps/tao2012_snr_vs_stages.toml"
+API_47 = [
+    ("simulate(impact='no')", lambda: tdicam.simulate(_lanes_scene(), impact="no"),
+     "simulate: impact must be True or False, got 'no'"),
+    ("simulate(rtl='no')", lambda: tdicam.simulate(_lanes_scene(), rtl="no"),
+     "simulate: rtl must be True or False, got 'no'"),
+    ("sweep(serial='no')", lambda: tdicam.sweep(SWEEP, serial="no"),
+     "sweep: serial must be True or False, got 'no'"),
+    ("Scene.load(None)", lambda: tdicam.Scene.load(None),
+     "Scene.load: path: a scene file name is needed"),
+    ("plan({...})", lambda: tdicam.plan({"orbit": {}}),
+     "plan: scene: expected a scene file's name or a Scene, got dict"),
+    ("plan(changed Scene)", lambda: tdicam.plan(tdicam.Scene.load(P, overrides={
+        "tdi": {"stages": 4}})), "plan: scene: this Scene is not its scene file's content"),
+    ("columns=numpy.bool_", lambda: tdicam.Scene.from_dict({
+        "orbit": {"altitude_km": 600, "gsd_m": 1.0}, "sensor": {"columns": np.bool_(True)}}),
+     "[sensor].columns: must be an integer, got True"),
+    ("plan(stages=[0])", lambda: tdicam.plan(stages=[0]), "stages = 0 is out of range"),
+    ("plan(onchip_kbit=-1)", lambda: tdicam.plan(onchip_kbit=-1),
+     "onchip_kbit = -1 is out of range"),
+    ("sweep(workers=0)", lambda: tdicam.sweep(SWEEP, workers=0),
+     "workers = 0 is out of range; valid: 1..256"),
+    ("Scene.load(overrides=str)", lambda: tdicam.Scene.load(P, overrides="tdi.stages=4"),
+     "overrides: must be a mapping {section: {key: value}}, got 'tdi.stages=4'"),
+    ("Scene.from_dict({1: {}})", lambda: tdicam.Scene.from_dict({1: {}}),
+     "section names must be strings, got 1"),
+    ("from_dict(base_dir=5)", lambda: tdicam.Scene.from_dict({}, base_dir=5),
+     "Scene.from_dict: base_dir: expected a file name, got int"),
+    ("sweep(src, 5)", lambda: tdicam.sweep(SWEEP, 5), "out_dir: expected a file name, got int"),
+    ("Scene.load(NUL)", lambda: tdicam.Scene.load("a\0b.toml"),
+     "scene file: a file name cannot hold a NUL character"),
+]
+
+
+@pytest.mark.parametrize("call,fragment,named", [(*r[1:], r in API_47) for r in API + API_47],
+                         ids=[r[0] for r in API + API_47])
+def test_api_probes(call, fragment, named):
     with pytest.raises(tdicam.TdicamError) as e:
         call()
     assert fragment in str(e.value) and "\n" not in str(e.value)
+    if named:                   # the Python argument's name, not the command line's flag
+        assert "--" not in str(e.value).split(":")[0]
+
+
+def test_api_takes_numpy_integers_and_bools():
+    sc = tdicam.Scene.from_dict({"orbit": {"altitude_km": 600, "gsd_m": 1.0},
+                                 "sensor": {"columns": np.int64(16), "rows": np.int32(8)},
+                                 "run": {"lines": 8}})
+    assert sc.sensor.columns == 16 and type(sc.sensor.columns) is int
+    assert tdicam.plan(tdicam.Scene.load(P)).feasible in (True, False)
+
+
+def test_simulation_save_refuses_what_is_no_folder(tmp_path):
+    sim = tdicam.simulate(_lanes_scene(), impact=np.bool_(False))
+    for bad, fragment in ((5, "out_dir: expected a file name, got int"),
+                          (str(tmp_path / "a\0b"), "out_dir: a file name cannot hold a NUL")):
+        with pytest.raises(tdicam.TdicamError, match="^" + fragment):
+            sim.save(bad)
+    assert list(tmp_path.iterdir()) == []

@@ -46,10 +46,10 @@ def test_cds_memory_ddr_plans_cds_ddr_with_reset_frames_in_the_stream():
 
 
 def test_cds_in_ddr_needs_a_ddr_section():
-    with pytest.raises(TdicamError, match=r"^pipeline: input -> cds: its reset frames are "
-                       r"placed in DDR by the scene: it spills to DDR through cds_ddr, but "
-                       r"the scene has no \[ddr\] section") as exc:
-        design.chain_plan(_scene(ddr=False))
+    # the scene loader refuses it (before any run, plan or Verilog), naming the key
+    with pytest.raises(TdicamError, match=r"^\[pipeline.cds\].memory = 'ddr' keeps its reset "
+                       r"frames in DDR, but the scene has no \[ddr\] section") as exc:
+        _scene(ddr=False)
     assert "\n" not in str(exc.value)
     with pytest.raises(TdicamError, match=r"^\[pipeline.cds\].memory: must be one of"):
         _scene(pipeline={"cds": {"memory": "sram"}})

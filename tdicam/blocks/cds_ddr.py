@@ -11,8 +11,9 @@ import numpy as np
 
 from tdicam.beats import PPC_CHOICES, Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
+from tdicam.errors import TdicamError
 from tdicam.model.cds_ddr import cds_ddr_frames
-from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
+from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, WORD_BITS, LineLayout, check_capacity
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
                            check_width)
 from tdicam.blocks.steps import Step
@@ -183,9 +184,23 @@ def _cases():
 def _pipeline_step(ctx):
     """``[pipeline.cds].memory = "ddr"``: the frame's size, the reset frame at the scene's
     ``[ddr].base`` (the MIG model's stall settings the scene's ``[ddr]`` gives); ``frame_kind`` 1 on the reset frame, 0 on its signal frame, in turn."""
-    return Step("cds_ddr", {"width": ctx.width, "rows": ctx.m, "pixel_bits": ctx.bits,
-                            "base": ctx.scene.ddr.base, **dict(ctx.scene.ddr.stalls)},
-                ports={"frame_kind": (1, 0)}), ctx.bits
+    params = {"width": ctx.width, "rows": ctx.m, "pixel_bits": ctx.bits,
+              "base": ctx.scene.ddr.base, **dict(ctx.scene.ddr.stalls)}
+    _check_base(params)
+    return Step("cds_ddr", params, ports={"frame_kind": (1, 0)}), ctx.bits
+
+
+def _check_base(params):
+    """The scene's reset frame fits above ``[ddr].base``: a one-line :class:`TdicamError`
+    naming the key and the highest base that fits, before the block's own address check."""
+    p = BLOCK.resolve({**params, "base": 0})
+    need = _layout(p).end_addr(p["rows"])
+    top = min((p["capacity_mib"] << 20) * 8 // (WORD_BITS // ADDR_PER_WORD), 1 << ADDR_BITS)
+    base = params["base"]
+    if base + need > top:
+        raise TdicamError(f"[ddr].base = {base}: the reset frame ({p['rows']} lines x stride "
+                          f"{_layout(p).line_stride}) needs {need} address units above it and "
+                          f"the memory has {top}: give [ddr].base <= {(top - need) // 8 * 8}")
 
 
 def _pipeline_hw(step, data, *, ecp5=False):

@@ -25,6 +25,10 @@ from tdicam.blocks import Block, Case, Param
 from tdicam.blocks.steps import Step
 from tdicam.model import lvds_front
 
+#: Lanes the front end takes (both gains together) and the depths of its crossing FIFO.
+MAX_LANES = 128
+FIFO_DEPTHS = (4, 8, 16, 32, 64, 128, 256)
+
 __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
 
 
@@ -78,10 +82,21 @@ def _front_step(ctx):
     word_mhz = lv.bit_rate_mbps / w
     p = ctx.width // lpg
     slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)
+    if lpg * ctx.lanes > MAX_LANES:
+        raise TdicamError(f"[sensor.lvds].lanes_per_gain = {lpg} on {ctx.lanes} gains is "
+                          f"{lpg * ctx.lanes} lanes; the front end takes at most {MAX_LANES} "
+                          f"(lanes_per_gain <= {MAX_LANES // ctx.lanes})")
+    depth = lvds_front.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest,
+                                  stall_cycles=ctx.stall_cycles)
+    if depth > FIFO_DEPTHS[-1]:
+        bare = lvds_front.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest)
+        raise TdicamError(
+            f"the DDR's longest stall, {ctx.stall_cycles} processing clocks ([ddr]."
+            f"refresh_cycles + [ddr].lat_hi), piles up words the sensor keeps sending: the "
+            f"front's crossing FIFO would need {depth} entries ({bare} without the stall), "
+            f"more than its {FIFO_DEPTHS[-1]}: lower [ddr].refresh_cycles or [ddr].lat_hi")
     params = {"lanes": lpg * ctx.lanes, "word_bits": w, "lanes_per_gain": lpg,
-              "columns": ctx.width, "bits": ctx.bits,
-              "fifo_depth": lvds_front.fifo_depth(lpg, ctx.ppc, ctx.width, word_mhz, slowest,
-                                                  stall_cycles=ctx.stall_cycles)}
+              "columns": ctx.width, "bits": ctx.bits, "fifo_depth": depth}
     if ctx.reset_frames:                 # reset/signal pairs: release from a reset frame
         params["pairs"] = 1
     ports = {"lane_raw": 0, "train_word": lv.train_word,
@@ -394,7 +409,7 @@ BLOCK = Block(
     export_harness="tdicam.export.lvds:lvds_export",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
-        Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=128),
+        Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=MAX_LANES),
         Param("word_bits", 10, "bits per word", choices=(10, 12)),
         Param("settle", 8, "word clocks ignored after a tap load or bitslip", lo=4, hi=64),
         Param("min_run", 9, "shortest accepted run of passing taps", lo=1, hi=32),
@@ -410,7 +425,7 @@ BLOCK = Block(
               implicit_default=True),
         PPC_PARAM,
         Param("fifo_depth", 16, "front end: crossing FIFO entries (power of two)",
-              choices=(4, 8, 16, 32, 64, 128, 256), implicit_default=True),
+              choices=FIFO_DEPTHS, implicit_default=True),
         Param("pairs", 0, "front end: 1 = reset/signal frame pairs (released from a reset "
               "frame on)", choices=(0, 1), implicit_default=True),
     ),

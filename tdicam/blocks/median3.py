@@ -24,7 +24,8 @@ from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 
-__all__ = ["BLOCK", "Median3Options", "BUILDS", "stream_case", "case_beats"]
+__all__ = ["BLOCK", "Median3Options", "BUILDS", "stream_case", "case_beats", "MAX_PIXEL_BITS",
+           "check_after_tdi"]
 
 
 def _top(**params):
@@ -302,6 +303,22 @@ def _pipeline_step(ctx):
     return Step("median3", p, {"height": ctx.m}), pb
 
 
+#: The widest pixels median3 takes (its ``pixel_bits`` parameter's range).
+MAX_PIXEL_BITS = 16
+
+
+def check_after_tdi(bits, after=None):
+    """Refuse TDI output of ``bits`` bits into median3 (the scene loader, before any work,
+    and the scene simulator): a one-line :class:`TdicamError` naming ``[tdi].output``.
+    ``after``: the blocks after TDI (None: median3 is among them)."""
+    if after is not None and BLOCK.name not in after:
+        return
+    if bits > MAX_PIXEL_BITS:
+        raise TdicamError(f"[tdi].output: median3 after TDI takes at most {MAX_PIXEL_BITS}-bit "
+                          f"pixels; the TDI output is {bits} bits: set output = 'saturate' "
+                          f"with output_bits <= {MAX_PIXEL_BITS}")
+
+
 def _sim_pre(c, fr):
     """Golden 3x3 median on single exposures (before TDI)."""
     x = fr.channels[0]
@@ -317,10 +334,7 @@ def _sim_pre(c, fr):
 def _sim_post(c, fr):
     """Golden 3x3 median on the TDI output."""
     pb = max(1, int(fr.full_scale).bit_length())
-    if pb > 16:
-        raise TdicamError(f"[tdi].output: median3 after TDI takes at most 16-bit pixels; "
-                          f"the TDI output is {pb} bits: set output = 'saturate' with "
-                          f"output_bits <= 16")
+    check_after_tdi(pb)
     p = _sim.step(c, BLOCK, pb, fr.out.shape[-1], after_lines=True).params
     y = _sim.golden(BLOCK, {"frames": fr.out}, p).astype(np.int64)
     if fr.keep_out is not None:
@@ -343,7 +357,7 @@ BLOCK = Block(
     params=(
         Param("width", 1280, "pixels per line (sizes the line buffers; a multiple of ppc, "
               ">= 3*ppc)", lo=3, hi=MAX_WIDTH),
-        Param("pixel_bits", 12, "input and output pixel width", lo=8, hi=16),
+        Param("pixel_bits", 12, "input and output pixel width", lo=8, hi=MAX_PIXEL_BITS),
         Param("enhance", False, "add the Laplacian x smoothed-gradient detail", type=bool),
         Param("enhance_gain", 1, "mask gain (with --enhance)", lo=0, hi=MAX_GAIN),
         Param("enhance_shift", None, "mask right shift (with --enhance; default "

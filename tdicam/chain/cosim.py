@@ -26,7 +26,7 @@ import numpy as np
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
-__all__ = ["cosim_scene", "check_lane_death", "scene_data", "cosimulate", "run_top",
+__all__ = ["cosim_scene", "check_rtl_design", "check_lane_death", "scene_data", "cosimulate", "run_top",
            "beats_differ", "WAVE_WINDOW",
            "status_ports", "system_figures"]
 
@@ -119,6 +119,37 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     return out
 
 
+
+
+def check_rtl_design(scene, lines, *, stages=None, lines_key="[run].lines") -> int:
+    """Refuse a ``[run.rtl]`` co-simulation before any work when its design cannot be
+    built: the chain of ``lines`` output lines at ``stages`` (default the scene's largest)
+    over the crop (or the whole frame), planned as :func:`cosim_scene` plans it
+    (:func:`tdicam.chain.design.chain_plan`: the pixels per clock over the crop width, the
+    pixel widths, the front's FIFO, the DDR addresses), then ``lane_dies``
+    (:func:`check_lane_death`). Returns what :func:`check_lane_death` returns (0 without
+    ``[run.rtl]``).
+
+    Raises
+    ------
+    TdicamError
+        One line, ``[run.rtl]: the co-simulated design ...`` and the design's reason.
+    """
+    rt = scene.run.rtl
+    if rt is None:
+        return 0
+    from tdicam.chain import design
+    m = max(scene.tdi.stages) if stages is None else stages
+    where = "the whole frame" if rt.crop is None else f"the {rt.crop[2]}-column crop"
+    try:
+        if rt.crop is None:
+            design.chain_plan(scene, stages=m, lines=lines)
+        else:
+            design.chain_plan(scene, stages=m, lines=rt.crop[3], width=rt.crop[2])
+    except TdicamError as exc:
+        raise TdicamError(f"[run.rtl]: the co-simulated design ({where}, {m} stages) cannot "
+                          f"be built: {exc}") from None
+    return check_lane_death(scene, lines, stages=stages, lines_key=lines_key)
 
 
 def check_lane_death(scene, lines, *, stages=None, lines_key="[run].lines") -> int:

@@ -29,7 +29,7 @@ from tdicam.errors import TdicamError, check_range
 __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
            "check_options", "ECP5_85F", "MEMORY", "scene_ppc", "sourced", "rate_ppc",
-           "step_ppc", "out_ppc", "chain_text"]
+           "step_ppc", "out_ppc", "chain_text", "load_pipeline_scene"]
 
 
 # --------------------------------------------------------------------------------------
@@ -399,6 +399,18 @@ def output_shape(p):
 
 #: ECP5-85F (LFE5U-85F) resources: LUT4 slots, flip-flops, 18 kbit EBRs, 18x18 multipliers.
 ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
+
+
+def load_pipeline_scene(scene_path, stages=None):
+    """The scene of ``tdicam verilog|synth|export pipeline``: with ``--stages`` the scene
+    at that stage count, checked as ``[tdi].stages`` is (its range, ``M0``, the pixel
+    widths of the blocks after TDI) and named ``--stages``: a value the scene refuses is
+    refused as an option alike."""
+    from tdicam.scene.loader import load_scene
+    if stages is None:
+        return load_scene(scene_path)
+    return load_scene(scene_path, overrides={"tdi": {"stages": stages}},
+                      labels={"tdi.stages": "--stages"})
 
 
 def check_options(scene, *, lines=None, device=None, ppc=None, width=None):

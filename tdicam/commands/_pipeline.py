@@ -11,7 +11,7 @@ import numpy as np
 from tdicam.blocks.steps import SceneData
 from tdicam.beats import PPC_CHOICES
 from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, chain_text,
-                                 check_options, top, verilog_header)
+                                 check_options, load_pipeline_scene, top, verilog_header)
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
@@ -19,7 +19,6 @@ from tdicam.hw.record import row_of
 from tdicam.hw.synth import synth, tool_versions
 from tdicam.hw.verilog import convert
 from tdicam.model.calib import load_image
-from tdicam.scene.loader import load_scene
 
 __all__ = ["add_pipeline_options", "scene_design", "verilog_command", "synth_command"]
 
@@ -61,7 +60,7 @@ def scene_design(prog, extra):
                          "PHY (default), the 7-series IDELAYE2/ISERDESE2 or the ECP5 "
                          "DELAYF/IDDRX2F primitives")
     ns = ap.parse_args(list(extra))
-    sc = load_scene(ns.scene)
+    sc = load_pipeline_scene(ns.scene, ns.stages)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,

@@ -42,8 +42,8 @@ __all__ = ["register", "run"]
 
 _EPILOG = (f"exit status: 0 when the plan is feasible (or a check is unknown), "
            f"{sizing.EXIT_INFEASIBLE} when its feasibility report says NO (frame rate, "
-           f"window, DDR bandwidth of spilled partial sums, the sensor's LVDS lanes' bit rate "
-           f"or gateware pixel rate), 2 for bad "
+           f"window, DDR bandwidth of spilled partial sums, the sensor's LVDS lanes' bit rate, "
+           f"gateware pixel rate, or a scene pipeline the gateware cannot build), 2 for bad "
            f"input. Reference TDI Fmax (MHz by ppc): "
            + ", ".join(f"ppc {k}: {v:g}" for k, v in sizing.REFERENCE_TDI_FMAX_MHZ.items()))
 

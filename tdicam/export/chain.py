@@ -33,13 +33,12 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
     1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it)."""
     from tdicam.chain.cosim import scene_data
-    from tdicam.scene.loader import load_scene
     from tdicam.chain.design import SceneData
     from tdicam.hdl.chain_board import Board
     if memory is not None and memory not in design.MEMORY:
         raise TdicamError(f"--memory = {memory} is not valid; valid: "
                           f"{', '.join(design.MEMORY)}")
-    sc = load_scene(scene_path)
+    sc = design.load_pipeline_scene(scene_path, stages)
     w = sc.sensor.columns if width is None else check_range("--width", width, 1,
                                                              sc.sensor.columns)
     design.check_options(sc, lines=lines, device=device, ppc=ppc, width=w)

@@ -11,7 +11,19 @@ import math
 
 from tdicam.model.physics import mtf as _mtf, plan as _plan, sensor as _sensor
 
-__all__ = ["mtf_prediction", "snr_prediction"]
+__all__ = ["mtf_prediction", "snr_prediction", "MTF_LEAVES_OUT", "mtf_left_out"]
+
+
+#: Pipeline blocks the MTF model leaves out: a 3x3 median is not linear (it has no MTF; on
+#: a bar target near Nyquist it cancels the bars at some phases).
+MTF_LEAVES_OUT = ("median3",)
+
+
+def mtf_left_out(scene) -> tuple[str, ...]:
+    """The blocks of ``scene``'s pipeline the planned MTF leaves out
+    (:data:`MTF_LEAVES_OUT`): a planned MTF of such a scene is the camera's before them,
+    and does not compare with a measurement after them."""
+    return tuple(b for b in scene.pipeline.blocks if b in MTF_LEAVES_OUT)
 
 
 def mtf_prediction(scene, stages, dv_over_v, f=_mtf.NYQUIST) -> dict:

@@ -74,8 +74,13 @@ def _gateware_lines(g) -> list[str]:
 
 def _mtf_lines(d) -> list[str]:
     lines = []
+    left = d.get("mtf_left_out") or ()
     for i, mm in enumerate(d["mtf_nyquist"]):
         head = "  MTF @ Nyquist  " if i == 0 else "                 "
+        if i == 0 and left:
+            lines.append(f"{head}of the camera before {', '.join(left)} (the plan leaves "
+                         f"it out: a median is not linear and has no MTF)")
+            head = "                 "
         opt = "" if mm["optics"] == 1.0 else f" x optics {mm['optics']:.3f}"
         rev = ", contrast reversed" if mm["reversed"] else ""
         skew = (f"rolling skew {mm['skew_px']:.3g} px" if mm["no_skew_because"] is None
@@ -109,7 +114,9 @@ def report_text(rep) -> str:
     if rep["scene"]:
         lines.append(f"scene: {rep['scene']}")
     mem = rep.get("run_memory")
-    if mem:
+    if mem and "refused" in mem:
+        lines.append(f"run: 'tdicam run {rep['scene']}' refuses the scene: {mem['refused']}")
+    elif mem:
         fits = {True: "fits", False: "does NOT fit: see 'tdicam run --dry-run'",
                 None: "the machine's memory is unknown"}[mem["fits"]]
         lines.append(f"run memory: 'tdicam run {rep['scene']}' peaks at about "
@@ -159,7 +166,8 @@ def report_text(rep) -> str:
     else:
         lines.append(f"  frame rate     required {fr['required_hz']:.1f} frame/s, available "
                      f"{fr['available_hz']:.1f} frame/s: {_ok(fr['ok'])} "
-                     f"(margin {fr['margin'] * 100:+.1f} %)")
+                     f"(margin {fr['margin'] * 100:+.1f} %)"
+                     + ("" if fr.get("fix") is None else f"; to make it yes: {fr['fix']}"))
     w = d["window"]
     if w is None:
         lines.append("  window         row time unknown: M0 not computed")
@@ -167,7 +175,8 @@ def report_text(rep) -> str:
         cap = ", capped at the sensor rows" if w["capped"] else ""
         lines.append(f"  window         T_row {w['row_time_s'] * 1e6:.3f} us, n_lines "
                      f"{w['n_lines']}, M0 {w['m0']}, T_back {w['back_porch_s'] * 1e6:.3f} us"
-                     f"{cap}: {_ok(w['ok'])} ({d['stages']} <= M0)")
+                     f"{cap}: {_ok(w['ok'])} ({d['stages']} <= M0)"
+                     + ("" if w.get("fix") is None else f"; to make it yes: {w['fix']}"))
     extra = mem["sum_bits"] - s["bits"]
     lines.append(f"  partial sums   {mem['sum_bits']} bits ({s['bits']}-bit pixels + "
                  f"ceil(log2 {d['stages']}) = {extra})")
@@ -183,7 +192,11 @@ def report_text(rep) -> str:
                  f"(read + write {mem['optimized_lines']} lines per line period); "
                  f"{ddr['word_bits']}-bit @ {ddr['user_clock_hz'] / 1e6:g} MHz x "
                  f"{ddr['efficiency'] * 100:.1f} % = {_rate(ddr['available_bps'])}: "
-                 f"{_ok(ddr['ok'])}")
+                 + (_ok(ddr['ok']) if ddr['ok'] is not False or mem.get("must_spill") else
+                    "short, but the sums need not spill (" + (
+                        "they fit on chip" if mem["onchip_budget_bits"] is not None else
+                        "no on-chip budget given: --onchip-kbit or --device checks it")
+                    + "): not part of the verdict"))
     if ddr.get("pattern", "given") != "given":
         lines.append(f"                 efficiency of the access pattern '{ddr['pattern']}' "
                      f"({ddr['pattern_text']}) on the DRAM timing model, less "

@@ -15,7 +15,12 @@ synthesis does), the SNR (Tao et al. 2012) and the MTF at Nyquist: the camera mo
 
 Feasibility: :attr:`report["feasible"]` is False when any check of the design point says NO
 (frame rate, window, DDR bandwidth of spilled partial sums, gateware pixel rate) or a
-system row of the scene's blocks does (the sensor lanes' pixel rate); the command then exits with status 1 (:data:`EXIT_INFEASIBLE`).
+system row of the scene's blocks does (the sensor lanes' pixel rate; ``pipeline design``
+when the gateware cannot build the chain); the command then exits with status 1
+(:data:`EXIT_INFEASIBLE`). The verdict never turns a NO into yes, and every NO says what
+would make it yes (the window's and frame rate's: :func:`window_fix`). A scene with
+``[run.rtl]`` whose co-simulated design cannot be built is refused (exit 2), as ``tdicam
+run`` refuses it (:func:`tdicam.chain.cosim.check_rtl_design`).
 """
 
 from __future__ import annotations
@@ -31,13 +36,13 @@ from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
 from tdicam.planning.camera import camera_plan
-from tdicam.planning.predict import mtf_prediction, snr_prediction
+from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
 
 __all__ = ["DEFAULT_GSDS_M", "DEFAULT_STAGES", "DEFAULT_ALTITUDE_KM",
            "REFERENCE_TDI", "REFERENCE_TDI_FMAX_MHZ", "EXIT_INFEASIBLE", "PLAN_OPTIONS", "check_options",
-           "plan_scenes", "run_memory",
+           "plan_scenes", "run_memory", "verdict", "window_fix",
            "gateware_plan", "plan_report", "report_text", "figures"]
 
 #: Qu et al. 2010 Table 2 grid, used when neither a scene nor orbit options are given.
@@ -195,7 +200,11 @@ def plan_scenes(scene_path, given: dict):
         labels["sensor.pixel_clock_mhz"] = "--pixel-clock-mhz"
     base = None
     if scene_path is not None:
-        base = load_scene(scene_path)  # validates the file on its own first
+        # validates the file on its own first (stages above M0: the window's NO)
+        base = load_scene(scene_path, window=False)
+        # the co-simulated design refuses a run of the scene before its work: so does plan
+        from tdicam.chain.cosim import check_rtl_design
+        check_rtl_design(base, int(base.run.lines))
     mode = ("turntable" if table_opts else "orbit" if orbit_opts
             else "turntable" if base is not None and base.turntable is not None else "orbit")
     if mode == "turntable":
@@ -386,11 +395,15 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
             "available_hz": available,
             "ok": None if available is None else required <= available * (1 + 1e-12),
             "margin": None if available is None else available / required - 1.0,
+            # the frame rate holds m rows in a line period: the window's row time again
+            "fix": (None if available is None or required <= available * (1 + 1e-12)
+                    else window_fix(scene, stages)),
         },
         "window": None if timing is None else {
             "row_time_s": timing.row_time_s, "n_lines": timing.n_lines, "m0": timing.m0,
             "back_porch_s": timing.back_porch_s, "capped": timing.capped,
-            "ok": stages <= timing.m0},
+            "ok": stages <= timing.m0,
+            "fix": None if stages <= timing.m0 else window_fix(scene, stages)},
         "memory": {
             "sum_bits": mem.sum_bits, "basic_lines": mem.basic_lines,
             "optimized_lines": mem.optimized_lines, "saving_lines": mem.saving_lines,
@@ -407,7 +420,34 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
             scene_file=None if scene.source == "<command line>" else Path(scene.source).name),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
+        "mtf_left_out": list(mtf_left_out(scene)),
     }
+
+
+def window_fix(scene, stages) -> str:
+    """What gives ``M0 >= stages`` (Tao et al. 2012 eq 13: ``M0 = floor(T_line / T_row)``):
+    a row time ``T_row <= T_line / stages``, i.e. the pixel clock or the row blanking (or
+    the datasheet frame rate) that gives it, or fewer stages; the sensor's rows cap M0."""
+    s = scene.sensor
+    t_line = scene.line_period_s
+    if stages > s.rows:
+        return f"the sensor has {s.rows} rows: at most {s.rows} stages"
+    t_row = t_line / stages
+    ways = []
+    if s.pixel_clock_mhz is not None:
+        t_rb = s.row_blanking_us * 1e-6
+        if t_row > t_rb:
+            ways.append(f"[sensor].pixel_clock_mhz >= {s.columns / (t_row - t_rb) / 1e6:.4g} "
+                        f"(at row_blanking_us = {s.row_blanking_us:g})")
+        left = t_row - s.columns / (s.pixel_clock_mhz * 1e6)
+        if left >= 0:
+            ways.append(f"[sensor].row_blanking_us <= {left * 1e6:.4g}")
+    else:
+        ways.append(f"[sensor].max_frame_rate_hz >= {1 / (t_row * s.rows):.4g}")
+    m0 = scene.timing.m0
+    ways.append(f"stages <= {m0}" if m0 > 0 else "a longer line period (coarser GSD)")
+    return f"T_row <= T_line / {stages} = {t_row * 1e6:.4g} us gives M0 >= {stages}: " \
+           + " or ".join(ways)
 
 
 def _verdict(point) -> list[str]:
@@ -429,14 +469,19 @@ def _verdict(point) -> list[str]:
 def system_plan(scene, point, *, ddr_bits, ddr_clock_hz):
     """The system section: the figures of the scene's pipeline blocks at the design point
     (each block's :attr:`tdicam.blocks.Use.system`: the calibration load before the first
-    frame, the reset frame's DDR bandwidth), or None when no block of the chain has any."""
+    frame, the reset frame's DDR bandwidth), or None when no block of the chain has any; a
+    chain the gateware cannot build (:func:`tdicam.chain.design.chain_plan` refuses it: a
+    FIFO, lane count or DDR address range past the hardware's) is one NO row, ``pipeline
+    design``, with the design's reason."""
     from tdicam.chain import design
     if scene.pipeline is None or not scene.pipeline.blocks:
         return None
     try:
         p = design.chain_plan(scene, stages=point["stages"])
-    except TdicamError:
-        return None
+    except TdicamError as exc:
+        # a design the gateware cannot build is the plan's NO, never a missing section
+        return [{"name": "pipeline design", "ok": False, "value": None, "unit": None,
+                 "text": f"pipeline design at {point['stages']} stages: {exc}: NO"}]
     ctx = {"line_period_s": point["line_period_s"], "ddr_bits": ddr_bits,
            "ddr_clock_hz": ddr_clock_hz, "lanes": p.lanes, "rows": p.stages, "width": p.width,
            "scene": scene}
@@ -449,18 +494,46 @@ def system_plan(scene, point, *, ddr_bits, ddr_clock_hz):
 def run_memory(source):
     """What ``tdicam run SOURCE`` would need: its estimated peak memory
     (:func:`tdicam.engine.budget.estimate`, the ``"memory"`` entry of report.json) with the
-    memory available now and ``fits`` (True, False, or None when the machine says nothing)."""
+    memory available now and ``fits`` (True, False, or None when the machine says nothing);
+    ``{"refused": message}`` when ``tdicam run`` refuses the scene (stages above ``M0``)."""
     from tdicam.engine import budget
     from tdicam.scene.loader import load_scene
-    est = budget.estimate(load_scene(source))
+    try:
+        scene = load_scene(source)
+    except TdicamError as exc:      # stages above M0: the plan's NO, the run's refusal
+        return {"refused": str(exc)}
+    est = budget.estimate(scene)
     est.available_bytes = budget.available_bytes()
     return {**est.to_dict(), "fits": None if est.available_bytes is None
             else bool(est.peak_bytes <= est.available_bytes)}
 
 
+def verdict(scene) -> dict:
+    """The plan's verdict on one scene (what ``tdicam plan --scene`` says), for a run's
+    console and report: ``feasible`` (True, False; None when the scene cannot be planned)
+    and ``reasons``, one phrase per check that says NO (or why there is no plan)."""
+    try:
+        rep = plan_report([scene], memory=False)
+    except TdicamError as exc:
+        return {"feasible": None, "reasons": [f"not planned: {exc}"]}
+    d = rep["design"]
+    fr, w, g = d["frame_rate"], d["window"], d["gateware"]
+    why = {"frame rate": lambda: f"frame rate: {fr['required_hz']:.1f} frame/s needed, "
+                                 f"{fr['available_hz']:.1f} available",
+           "window (stages > M0)": lambda: f"window: {d['stages']} stages > M0 = {w['m0']}",
+           "DDR bandwidth": lambda: f"DDR bandwidth: {d['ddr']['needed_bps'] / 1e9:.3g} Gbit/s "
+                                    f"needed, {d['ddr']['available_bps'] / 1e9:.3g} available",
+           "gateware pixel rate": lambda: f"gateware pixel rate: {g['pixel_rate'] / 1e9:.3g} G "
+                                          f"pixel/s into TDI, the synthesised TDI reaches "
+                                          f"{g['best_pixel_rate'] / 1e9:.3g} G"}
+    rows = {r["name"]: r["text"] for r in rep["system"] or () if r["ok"] is False}
+    reasons = [why[n]() if n in why else rows.get(n, n) for n in rep["infeasible"]]
+    return {"feasible": rep["feasible"], "reasons": reasons}
+
+
 def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
                 ddr_clock_hz=plan.DDR_USER_CLOCK_HZ, ddr_efficiency=None,
-                fpga_clock_mhz=None, notes=()) -> dict:
+                fpga_clock_mhz=None, notes=(), memory=True) -> dict:
     """All planning numbers for the scenes (one per GSD) as a JSON-ready dict.
 
     Parameters
@@ -477,6 +550,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
         TDI block clock for every ppc instead of :data:`REFERENCE_TDI_FMAX_MHZ`.
     notes : sequence of str, optional
         Lines the report prints before the feasibility verdict (``plan_scenes``'s notes).
+    memory : bool, optional
+        Estimate the memory of ``tdicam run`` of the scene file (``run_memory``).
 
     Returns
     -------
@@ -506,7 +581,8 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
     no += [f"camera {n}" for n in (camera["scene"]["infeasible"] if camera else ())]
     out = {
         "scene": None if first.source == "<command line>" else first.source,
-        "run_memory": None if first.source == "<command line>" else run_memory(first.source),
+        "run_memory": (None if first.source == "<command line>" or not memory
+                       else run_memory(first.source)),
         "mode": "orbit" if first.orbit is not None else "turntable",
         "sensor": {"columns": s.columns, "rows": s.rows, "bits": s.bits,
                    "pitch_um": s.pitch_um, "fill_factor": s.fill_factor,

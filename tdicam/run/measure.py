@@ -42,7 +42,7 @@ import math
 import numpy as np
 
 from tdicam import blocks
-from tdicam.planning.predict import mtf_prediction, snr_prediction
+from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.run.quality import quality
 
 __all__ = ["measure", "saturation_e", "fit_modulation", "mean_dark_e",
@@ -216,7 +216,12 @@ def measure(scene, res):
             "m_dv_over_v": m * res.dv_over_v, "m_delta_effective": m * g.stage_lag,
             "saturated": saturated, "saturation_e": cap,
         }
-        notes = [n for n in (note, ctf_note, above) if n is not None]
+        left = mtf_left_out(scene)
+        out["mtf"]["planned_before"] = left[0] if left else None
+        left_note = None if not left else (
+            f"planned is the camera before {left[0]} (the planning model leaves it out: a "
+            f"median is not linear); measured is after it: the two do not compare")
+        notes = [n for n in (note, ctf_note, above, left_note) if n is not None]
         if notes:
             out["mtf"]["note"] = "; ".join(notes)
     out.update(quality(scene, res, trim, mean_dark_e(scene)))

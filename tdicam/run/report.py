@@ -214,6 +214,7 @@ def summary(scene, rep):
              f"{sp['stages']} stages, {sp['fidelity']}: {sp['lines_per_s']:.0f} lines/s "
              f"({sp['x_real_time']:.2f}x real time {sp['real_time_lines_per_s']:.0f} lines/s), "
              f"{sp['exposure_pixels_per_s'] / 1e6:.1f} M exposure-pixels/s"]
+    lines += plan_lines(rep.get("plan"))
     ran = [e["name"] for e in rep["effects"] if e["ran"]]
     lines.append(f"effects ran: {', '.join(ran)}")
     for r in rep["measurements"]:
@@ -228,7 +229,7 @@ def summary(scene, rep):
             t = r["mtf"]
             lines.append(f"  m={r['stages']} M dV/V={t['m_dv_over_v']:.3g}: MTF "
                          f"{_fmt(t['measured'], '.3f')} (planned {_fmt(t['planned'], '.3f')}"
-                         f"{_reversed(t)}, paper's model {_fmt(t['yuan2013_model'], '.3f')}"
+                         f"{_reversed(t)}{_before(t)}, paper's model {_fmt(t['yuan2013_model'], '.3f')}"
                          f", footprint {t['footprint_model']:.3f})")
     lines += summary_lines(rep["measurements"])
     if rep["rtl"]:
@@ -242,6 +243,22 @@ def summary(scene, rep):
     return "\n".join(lines)
 
 
+def plan_lines(verdict):
+    """What the plan says of a scene it calls infeasible (``tdicam plan``'s NO and its
+    reasons), for the console and report.md; [] when it is feasible."""
+    if not verdict or verdict["feasible"] is not False:
+        return []
+    return [f"plan: feasible: NO ({'; '.join(verdict['reasons'])}): the camera as planned "
+            f"cannot run this scene; simulated all the same ('tdicam plan --scene' says more)"]
+
+
+def _before(t):
+    """`` before median3: not comparable`` when the planned MTF leaves out a block the
+    measurement is taken after."""
+    return "" if not t.get("planned_before") else \
+        f" before {t['planned_before']}: not comparable"
+
+
 def _ratio(a, b):
     """``a / b`` for the report, or "-" (no temporal noise: no light, no read noise)."""
     return f"{a / b:.3g}" if b else "-"
@@ -251,7 +268,8 @@ def markdown(scene, rep):
     """The text of ``report.md``: configuration first, how to read it, then the tables."""
     sp = rep["speed"]
     md = [f"# tdicam run: {Path(scene.source).name}", ""]
-    md += config_lines(rep["configuration"]) + _GUIDE
+    md += config_lines(rep["configuration"])
+    md += [t for line in plan_lines(rep.get("plan")) for t in (f"**{line}**", "")] + _GUIDE
     md.append(f"Fidelity requested: **{rep['fidelity_requested']}**; effects table for "
               f"stages = {rep['effects_config']['stages']}, dV/V = "
               f"{rep['effects_config']['dv_over_v']:g} ({rep['effects_config']['fidelity']}).")
@@ -307,7 +325,7 @@ def markdown(scene, rep):
             t = r["mtf"]
             md.append(f"| {r['stages']} | {t['m_dv_over_v']:.3g} | {t['m_delta_effective']:.3g} "
                       f"| {_fmt(t['measured'], '.3f')} | {_fmt(t['measured_ctf'], '.3f')} | "
-                      f"{_fmt(t['planned'], '.3f')}{_reversed(t)} | "
+                      f"{_fmt(t['planned'], '.3f')}{_reversed(t)}{_before(t)} | "
                       f"{_fmt(t['yuan2013_model'], '.3f')} | {t['footprint_model']:.3f} |")
         md += ["", "All MTF values are moduli (contrast reversal is flagged). Planned: the "
                "planning model (tdicam.planning.predict.mtf_prediction, the same as `tdicam plan`): "

@@ -90,7 +90,9 @@ class SceneRun:
     ``main`` is the engine's result (:class:`tdicam.engine.SceneResult`) of the point whose
     images are kept (the largest stage count at the first ``dV/V``); ``rows`` the
     measurements of every point in sweep order (stages outer, ``dV/V`` inner); ``crop`` the
-    ``(y0, h, x0, w)`` window of the ``[run.rtl]`` co-simulation (None: none).
+    ``(y0, h, x0, w)`` window of the ``[run.rtl]`` co-simulation (None: none); ``plan`` the
+    plan's verdict on the scene (:func:`tdicam.planning.sizing.verdict`: a scene the
+    planned camera cannot run is simulated all the same, and its report says so).
     """
 
     scene: object
@@ -100,6 +102,7 @@ class SceneRun:
     memory: object
     crop: tuple | None
     started: float
+    plan: dict | None = None
 
 
 def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
@@ -115,6 +118,7 @@ def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, r
     by :func:`write_run`.
     """
     from tdicam import engine
+    from tdicam.planning.sizing import verdict
     from tdicam.run.measure import measure
     engine.threads()
     mem = memory_check(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
@@ -153,7 +157,7 @@ def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, r
     finally:
         if bar is not None:
             bar.close()
-    return SceneRun(scene, fidelity, main, rows, mem, crop, t_all)
+    return SceneRun(scene, fidelity, main, rows, mem, crop, t_all, verdict(scene))
 
 
 def write_run(run: SceneRun, out_dir) -> dict:
@@ -176,11 +180,12 @@ def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl
     """The run's :class:`~tdicam.engine.budget.MemoryEstimate`, with the memory available;
     a one-line :class:`~tdicam.errors.TdicamError` when it does not fit (what it needs,
     what there is, what to change) or, with ``rtl``, when ``[run.rtl].lane_dies`` cannot be
-    placed in the co-simulation (:func:`tdicam.chain.cosim.check_lane_death`)."""
-    from tdicam.chain.cosim import check_lane_death
+    placed in the co-simulation, or its design cannot be built
+    (:func:`tdicam.chain.cosim.check_rtl_design`)."""
+    from tdicam.chain.cosim import check_rtl_design
     from tdicam.engine import budget
     if rtl:
-        check_lane_death(scene, int(scene.run.lines if lines is None else lines),
+        check_rtl_design(scene, int(scene.run.lines if lines is None else lines),
                          lines_key=(labels or {}).get("run.lines", "[run].lines"))
     est = budget.estimate(scene, fidelity=fidelity, lines=lines, force=force, impact=impact,
                           rtl=rtl)
@@ -229,6 +234,7 @@ def _write(run, out_dir, stage):
                   "threads": engine.threads(), "cpus": os.cpu_count(),
                   "load_average_1min": _loadavg()},
         "rtl": rtl_report,
+        "plan": run.plan,
         "wall_seconds": time.perf_counter() - t_all,
         "files": files,
         "tiff_shift": main_tiff_shift(main),

@@ -208,8 +208,9 @@ KEYS = {
     },
     "ddr": {
         "interface": KeyDoc("", "the DDR controller's user interface"),
-        "base": KeyDoc("byte", "byte address of the first buffer", range="multiple of 8, "
-                                                                          "0..2**28 - 8"),
+        "base": KeyDoc("byte", "byte address of the first buffer; the buffer (cds_ddr's "
+                               "reset frame) must fit between it and the memory's end",
+                       range="multiple of 8, 0..2**28 - 8"),
         "refresh_period": KeyDoc("cycles", "co-simulation: the DDR controller model's cycles "
                                            "between refresh starts"),
         "refresh_cycles": KeyDoc("cycles", "co-simulation: cycles of each refresh (the "
@@ -218,7 +219,9 @@ KEYS = {
         "lat_lo": KeyDoc("cycles", "co-simulation: the model's shortest read latency"),
         "lat_hi": KeyDoc("cycles", "co-simulation: the model's longest read latency; "
                                    "refresh_cycles + lat_hi is the longest stall, which also "
-                                   "sizes the sensor front end's crossing FIFO",
+                                   "sizes the sensor front end's crossing FIFO (at most 256 "
+                                   "entries: a scene with [sensor.lvds] takes only the stalls "
+                                   "that fit it; the plan and the run say which)",
                          range="lat_lo..1000"),
         "drop": KeyDoc("/256", "co-simulation: each ready of the model dropped with "
                                "probability drop/256 a cycle"),
@@ -238,7 +241,9 @@ KEYS = {
     },
     "sensor.lvds": {
         "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel; must divide "
-                                          "[sensor].columns"),
+                                          "[sensor].columns; the front end takes at most 128 "
+                                          "lanes in all the gains it merges (64 a gain with "
+                                          "hdr)"),
         "word_bits": KeyDoc("bits", "bits per word (>= [sensor].bits)", range="10, 12"),
         "bit_rate_mbps": KeyDoc("Mbit/s", "bit rate of each lane"),
         "mapping": KeyDoc("", "lane-to-column mapping: lane k carries columns k, k+L, ..."),

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -123,6 +124,9 @@ class Scene:
         TdicamError
             The file is missing or not TOML, or a key is invalid (one line naming it).
         """
+        if path is None:
+            raise TdicamError("Scene.load: path: a scene file name is needed (Scene.example "
+                              "NAME gives a bundled scene, Scene.from_dict a dict)")
         return load_scene(path, overrides=overrides)
 
     @classmethod
@@ -149,6 +153,9 @@ class Scene:
         TdicamError
             A key is invalid (one line naming it).
         """
+        if base_dir is not None:
+            from tdicam.files import input_path
+            base_dir = input_path(base_dir, "Scene.from_dict: base_dir")
         return scene_from_dict(data, base_dir=base_dir)
 
     @classmethod
@@ -303,8 +310,10 @@ class _Section:
         if v is None:
             return None
         where = f" {what}" if what else ""
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
             self.fail(key, f"must be a number{where}, got {_show(v)}")
+        if not isinstance(v, (int, float)):         # numpy numbers
+            v = int(v) if isinstance(v, numbers.Integral) else float(v)
         raw, shown, v = v, _show(v), float(v)
         if not math.isfinite(v):
             self.fail(key, f"must be a finite number{where}, got {shown}")
@@ -320,8 +329,10 @@ class _Section:
         if v is None:
             return None
         where = f" {what}" if what else ""
-        if isinstance(v, bool) or not isinstance(v, int):
+        # numpy integers are integers (a Python caller's numpy.int64(16))
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
             self.fail(key, f"must be an integer{where}, got {_show(v)}")
+        v = int(v)
         lo, hi = BOUNDS.get(f"{self.name}.{key}", (lo, hi))
         return check_range(f"{self.label(key)}{where}", v, lo, hi)
 
@@ -768,6 +779,46 @@ def _check_digital_tdi(tdi_sec: _Section, sensor_sec: _Section, scene: Scene) ->
             (tdi_sec if key == "stages" else sensor_sec).fail(key, msg)
 
 
+def _check_chain(sec: _Section, scene: Scene, labels) -> None:
+    """What the scene simulator would refuse after its work, refused here: a memory the
+    scene places in DDR without a ``[ddr]`` section, TDI output too wide for median3 after
+    it, more front-end lanes than the front takes (both gains with a merging block)."""
+    from tdicam.blocks.lvds import MAX_LANES
+    from tdicam.blocks.median3 import check_after_tdi
+    names = list(scene.pipeline.blocks)
+    for b in names:
+        use = blocks.get(b).pipeline
+        if use.placement is not None and scene.ddr is None and use.placement(scene) == "ddr":
+            raise TdicamError(f"{labels.get(f'pipeline.{b}.memory', f'[pipeline.{b}].memory')} "
+                              f"= 'ddr' keeps its {use.memory} in DDR, but the scene has no "
+                              f"[ddr] section (the DDR interface it uses): add [ddr] "
+                              f"(interface = \"mig\") or set memory = 'chip'")
+    lv = scene.sensor.lvds
+    merge = any(blocks.get(b).pipeline.merge for b in names)
+    if lv is not None and merge and lv.lanes_per_gain * len(scene.sensor.gains) > MAX_LANES:
+        n = len(scene.sensor.gains)
+        raise TdicamError(f"{labels.get('sensor.lvds.lanes_per_gain', '[sensor.lvds].lanes_per_gain')}"
+                          f" = {lv.lanes_per_gain} on {n} gains merged by the chain is "
+                          f"{lv.lanes_per_gain * n} lanes; the front end takes at most "
+                          f"{MAX_LANES}: lanes_per_gain <= {MAX_LANES // n}")
+    line = [b for b in names if blocks.get(b).pipeline.lines]
+    if scene.tdi.domain != "digital" or not line or line[0] == names[-1]:
+        return
+    for m in scene.tdi.stages:
+        bits = scene.sensor.bits
+        try:
+            if merge:
+                mb = next(b for b in names if blocks.get(b).pipeline.merge)
+                _, bits = blocks.get(mb).pipeline.step(_steps.StepContext(
+                    scene=scene, m=m, width=scene.sensor.columns, lines=0, bits=bits, block=mb))
+            _, out = blocks.get(line[0]).pipeline.step(_steps.StepContext(
+                scene=scene, m=m, width=scene.sensor.columns, lines=0, bits=bits,
+                block=line[0]))
+        except TdicamError:
+            return      # a chain the gateware cannot build: its plan (or Verilog) says why
+        check_after_tdi(out, names[names.index(line[0]) + 1:])
+
+
 # --------------------------------------------------------------------------------------
 # public entry points
 # --------------------------------------------------------------------------------------
@@ -807,6 +858,8 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     if not isinstance(data, Mapping):
         raise TdicamError(f"{source}: a scene must be a table of sections")
     for name in data:
+        if not isinstance(name, str):
+            raise TdicamError(f"{source}: section names must be strings, got {name!r}")
         if name not in _SECTIONS:
             raise TdicamError(f"[{name}]: unknown section" + _hint(name, _SECTIONS))
     if ("orbit" in data) == ("turntable" in data):
@@ -835,6 +888,7 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
                   ddr=ddr, camera=cam)
     _check_stages(tdi_sec, scene, window)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
+    _check_chain(section("pipeline"), scene, labels)
     _check_extent(section("target"), section("run"), scene)
     _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
     if run.rtl is not None and tdi.domain != "digital":
@@ -952,6 +1006,9 @@ def load_scene(path: str | Path | None = None, *, overrides: Mapping[str, Any] |
         data = read_toml(p, "scene file")
         base_dir = p.resolve().parent
         source = str(p)
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise TdicamError(f"overrides: must be a mapping {{section: {{key: value}}}}, got "
+                          f"{overrides!r}")
     if overrides:
         data = _merge(data, overrides)
     return scene_from_dict(data, base_dir=base_dir, source=source, labels=labels,

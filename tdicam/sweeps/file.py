@@ -152,11 +152,20 @@ def _scene_key(scene) -> dict:
     return d
 
 
-def _flatten(table, where, prefix=""):
-    """``{"tdi": {"stages": [..]}}`` and ``{"tdi.stages": [..]}`` -> ``{"tdi.stages": [..]}``."""
+def _flatten(table, where, prefix="", path=(), spelled=None):
+    """``{"tdi": {"stages": [..]}}`` and ``{"tdi.stages": [..]}`` -> ``{"tdi.stages": [..]}``;
+    one key given in both spellings (``"tdi.stages" = ..`` and ``[axes.tdi] stages = ..``)
+    is a one-line :class:`TdicamError` naming both (else one would be lost)."""
     out = {}
+    spelled = {} if spelled is None else spelled
     for k, v in table.items():
         key = f"{prefix}{k}"
+        here = path + (k,)
+        if not (isinstance(v, dict) and not (v and set(v) <= _RANGE_KEYS)):
+            if key in spelled:
+                raise TdicamError(f"{where} {key}: given twice, as {_spelling(where, spelled[key])}"
+                                  f" and as {_spelling(where, here)}; give it once")
+            spelled[key] = here
         if isinstance(v, dict) and {"start", "stop"} & set(v) and not set(v) <= _RANGE_KEYS:
             extra = sorted(set(v) - _RANGE_KEYS)     # a range with a typo, not scene keys
             raise TdicamError(f"{where} {key}: range table: unknown key {extra[0]!r}; valid: "
@@ -164,10 +173,17 @@ def _flatten(table, where, prefix=""):
         if isinstance(v, dict) and not (v and set(v) <= _RANGE_KEYS):
             if not v:
                 raise TdicamError(f"{where} {key}: empty table")
-            out.update(_flatten(v, where, key + "."))
+            out.update(_flatten(v, where, key + ".", here, spelled))
         else:
             out[key] = v
     return out
+
+
+def _spelling(where, path):
+    """How a flattened key was written: ``[axes] "tdi.stages"``, ``[axes.tdi] stages``."""
+    table = where.rsplit("[", 1)[-1].rstrip("]") if where.endswith("]") else ""
+    name = path[-1] if "." not in path[-1] else f'"{path[-1]}"'
+    return f"[{'.'.join((table,) + path[:-1]) if table else '.'.join(path[:-1])}] {name}"
 
 
 def _tidy(v):
