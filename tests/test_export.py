@@ -249,6 +249,46 @@ def test_tdi_export_passes_at_every_small_stage_count(stages, ppc, tmp_path):
     assert ex.cases
 
 
+#: Stream blocks exported at the ends of their legal ranges (tdi's largest, 8192 x 128, is
+#: the streamed case of 136 M beats: test_largest_tdi_export_fits_8_gb_of_address_space).
+ENDS = [(n, e) for n in ("cds", "cds_ddr", "hdr", "median3", "nuc", "secded_dec", "secded_enc",
+                         "tdi", "tlk2711") for e in (("smallest", "largest") if FULL else
+                                                     ("smallest",))
+        if (n, e) != ("tdi", "largest")]
+
+
+def _ends(blk, largest):
+    """Every ranged parameter of ``blk`` at one end of its range (choices: the first or the
+    last) over its small example's (the secded blocks' stream form); those that the block's
+    cross checks refuse there dropped, last first."""
+    out = {**blk.small[1], **{p.name: (p.choices[-1] if largest else p.choices[0]) if p.choices is not None
+           else (p.hi if largest else p.lo) for p in blk.params
+           if p.choices is not None or (p.type is int and p.lo is not None
+                                        and p.hi is not None)}}
+    for name in list(out)[::-1]:
+        try:
+            return blk.resolve(out)
+        except TdicamError:
+            out.pop(name)
+    return blk.resolve(out)
+
+
+@pytest.mark.parametrize("name,end", ENDS)
+def test_export_at_the_ends_of_the_legal_ranges(name, end, tmp_path):
+    """The export at the smallest (and with TDICAM_FULL=1 the largest) legal parameters
+    passes on Icarus, or is refused in one line (over the export's beat limit)."""
+    blk = blocks.get(name)
+    params = _ends(blk, end == "largest")
+    try:
+        ex = export_block(name, params, tmp_path / name, max_beats=20_000)
+    except TdicamError as exc:
+        assert "\n" not in str(exc) and "export limit" in str(exc), str(exc)
+        return
+    r = icarus(tmp_path / name)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    passed(r.stdout, ex.n_out)
+
+
 def test_stimulus_settings_wider_than_the_ports_are_refused():
     """A run-time setting that does not fit the settings ports' bits would spill into the
     record's reset bit: refused in one line, not written."""
