@@ -159,9 +159,12 @@ class Nuc(wiring.Component):
                     acc = (acc + (1 << (frac - 1))) >> frac
                 y = Signal(unsigned(acc.shape().width), name="y")
                 m.d.comb += y.eq(acc)
-                sats.append(Mux(y < Const(bias, y.shape()), Const(0, y.shape()),
-                                Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()),
-                                    y - bias)))
+                # a narrow sum (top + bias beyond its range) never exceeds the top: no upper
+                # compare (a Const of top + bias in y's width would be truncated)
+                keep = y - bias
+                if top + bias < 1 << len(y):
+                    keep = Mux(y > Const(top + bias, y.shape()), Const(top, y.shape()), keep)
+                sats.append(Mux(y < Const(bias, y.shape()), Const(0, y.shape()), keep))
                 continue
             acc = (p2 << (frac - gf)) + (off2 << (frac - of))
             if frac:

@@ -57,7 +57,10 @@ def header_digits(ctrl_bits):
 
 
 def _stimulus_nibbles(beats, elem_padded_bits, ctrl_bits):
-    """(n, digits) uint8 nibbles of the stimulus words, most significant first."""
+    """(n, digits) uint8 nibbles of the stimulus words, most significant first; a
+    run-time setting wider than the ``ctrl_bits`` of the top's ports is refused (it would
+    spill into the reset bit of its record)."""
+    check_ctrl(beats.ctrl, ctrl_bits)
     hd = header_digits(ctrl_bits)
     header = (beats.rst.astype(np.uint64) << np.uint64(ctrl_bits + 2)) \
         | (beats.ctrl << np.uint64(2)) | (beats.first.astype(np.uint64) << np.uint64(1)) \
@@ -67,6 +70,16 @@ def _stimulus_nibbles(beats, elem_padded_bits, ctrl_bits):
     cols = [_nibbles(header, hd)]
     cols += [_nibbles(beats.data[:, k], ed) for k in range(count - 1, -1, -1)]
     return np.concatenate(cols, axis=1)
+
+
+def check_ctrl(ctrl, ctrl_bits):
+    """A one-line :class:`TdicamError` when a beat's run-time settings ``ctrl`` do not fit
+    the ``ctrl_bits`` of the top's settings ports (the port would see them truncated)."""
+    ctrl = np.asarray(ctrl, np.uint64)
+    bad = np.flatnonzero(ctrl >> np.uint64(ctrl_bits)) if ctrl.size else ()
+    if len(bad):
+        raise TdicamError(f"beat {bad[0]}: run-time settings {int(ctrl[bad[0]])} do not fit "
+                          f"the {ctrl_bits} bit(s) of the block's settings ports")
 
 
 def encode_stimulus(beats, *, elem_padded_bits, ctrl_bits):

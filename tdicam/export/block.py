@@ -98,7 +98,11 @@ def golden_case_arrays(blk, params, *, max_beats=None, errors=None):
                 continue
             arrays = dict(case.make(p, np.random.default_rng(case.seed)))
             if blk.to_beats is not None:
-                n = len(blk.to_beats(arrays, p)[0])
+                stim = blk.to_beats(arrays, p)[0]
+                # a case made for other parameters may set what these ports cannot carry
+                # (tdi's stages_active above a smaller --stages' port): left out
+                codec.check_ctrl(stim.ctrl, _ctrl_bits(blk.build(p)))
+                n = len(stim)
                 if max_beats is not None and n > max_beats:
                     arrays = n              # too large: only its size is kept
         except (TdicamError, ValueError, KeyError, IndexError, TypeError, MemoryError) as exc:
@@ -109,6 +113,12 @@ def golden_case_arrays(blk, params, *, max_beats=None, errors=None):
             continue
         out.append((case.name, arrays))
     return out
+
+
+def _ctrl_bits(top):
+    """Bits of the run-time settings ports of the stream top ``top`` (a stimulus record's
+    ``ctrl`` field; at least 1)."""
+    return max(1, sum(w for _, w in stream_ports(top)[2]))
 
 
 def golden_params(blk):
@@ -283,7 +293,8 @@ def _size(content):
 def _expected_text(exp, out_padded):
     """``expected.hex``: each expected output transfer in the stimulus word layout, its
     segment in the 8-bit ``ctrl`` field (what the self-checking testbench compares)."""
-    words = Beats(exp.data, exp.first, exp.last, ctrl=exp.seg.astype(np.uint64))
+    # (the testbench's segment counter is 8 bits: the low 8 bits of the segment)
+    words = Beats(exp.data, exp.first, exp.last, ctrl=exp.seg.astype(np.uint64) & 0xFF)
     return codec.encode_stimulus(words, elem_padded_bits=out_padded, ctrl_bits=8).decode()
 
 
@@ -524,7 +535,7 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     starts with ``rtl_header`` (default: :func:`tdicam.hw.verilog.header` of ``name`` and
     ``params``), so that it equals what ``tdicam verilog`` writes."""
     in_bits, out_bits, ctrl = stream_ports(top)
-    ctrl_bits = max(1, sum(w for _, w in ctrl))
+    cbits = _ctrl_bits(top)
     padded = top._in[2]
     streamed = isinstance(stim, BeatStream)
     n_in, n_out = (stim.n_in, stim.n_out) if streamed else (len(stim), len(exp))
@@ -539,12 +550,12 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     tb = tbgen.stream_testbench(name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
                                 depth=depth, selfcheck=sc)
     if streamed:                  # a streamed case has no resets
-        vectors = _Chunker(stim, padded=padded, ctrl_bits=ctrl_bits, out_padded=top._out[2],
+        vectors = _Chunker(stim, padded=padded, ctrl_bits=cbits, out_padded=top._out[2],
                            depth=depth).files(top._in[1], top._out[1])
         resets = 0
     else:
         vectors = dict(tbgen.stimulus_files(stim, elem_padded_bits=padded,
-                                            ctrl_bits=ctrl_bits, depth=depth))
+                                            ctrl_bits=cbits, depth=depth))
         vectors["expected.hex"] = _expected_text(exp, top._out[2])
         resets = int(stim.rst.sum())
     lat = getattr(getattr(top, "core", None), "latency", None)
