@@ -11,7 +11,6 @@ the golden model. Short form (CI): a few examples a block and ppc; ``TDICAM_FULL
 more. ``tlk2711``'s property is in tests/test_tlk2711.py (it needs its own framing checks).
 """
 
-import os
 
 import numpy as np
 import pytest
@@ -19,12 +18,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from tdicam import blocks
+from tdicam.beats import PPC_CHOICES
 from tdicam.cosim import run_scene
+from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
 from tdicam.model.hdr import _MAX_PAIRS, _MAX_RATIO
-from tdicam.model.tdi import PPC_CHOICES, settings_valid
+from tdicam.model.tdi import settings_valid
 
-FULL = os.environ.get("TDICAM_FULL") == "1"
 #: Examples a block and ppc in the short form (by the cost of one: the DDR model and
 #: median3's line buffers are slow in Amaranth's simulator); ``TDICAM_FULL=1``: this many
 #: times :data:`FULL_FACTOR`.
