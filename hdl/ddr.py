@@ -31,13 +31,25 @@ from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.util import equals, mux_select, quiet_reject, saturating_increment
 
-__all__ = ["LineWriter", "LineReader", "DdrFrameBuffer"]
+__all__ = ["MAX_WORDS_PER_BEAT", "LineWriter", "LineReader", "DdrFrameBuffer"]
+
+
+#: Most 256-bit words one beat may fill (``elements / pixels_per_word``): the writer selects
+#: a beat's words through a mux chain this long (a longer one is past what Amaranth
+#: elaborates: its expression nesting exceeds Python's recursion limit).
+MAX_WORDS_PER_BEAT = 256
 
 
 def _gear(elements, ppw):
+    """(beats a word, words a beat) of ``elements`` values a beat into ``ppw``-value words."""
     if ppw % elements == 0:
         return ppw // elements, 1
     if elements % ppw == 0:
+        if elements // ppw > MAX_WORDS_PER_BEAT:
+            raise TdicamError(f"elements = {elements} per beat and pixels_per_word = {ppw} "
+                              f"fill {elements // ppw} words a beat, more than "
+                              f"{MAX_WORDS_PER_BEAT}: fewer values a beat (ppc x channels) or "
+                              f"more a word")
         return 1, elements // ppw
     raise TdicamError(f"elements = {elements} per beat and pixels_per_word = {ppw}: one "
                       "must divide the other")

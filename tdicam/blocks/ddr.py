@@ -11,6 +11,7 @@ import numpy as np
 from tdicam.beats import frames_to_beats, mark_resets
 from tdicam.errors import TdicamError, check_multiple
 from tdicam.model.cds import pixel_dtype
+from tdicam.hdl.ddr import MAX_WORDS_PER_BEAT
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
 from tdicam.blocks import Bench, StreamWork
 from tdicam.blocks import Block, Case, Param
@@ -160,7 +161,8 @@ BLOCK = Block(
         Param("rows", 16, "lines in the buffer (a frame's height)", lo=1, hi=1 << 16),
         Param("channels", 1, "values per pixel (72 in Ning et al. 2019)", lo=1, hi=256),
         Param("ppc", 8, "pixels per beat (ppc x channels divides or is a multiple of "
-                        "pixels_per_word)", lo=1, hi=256),
+                        f"pixels_per_word, at most {MAX_WORDS_PER_BEAT} words a beat)",
+              lo=1, hi=256),
         Param("pixel_bits", 10, "bits per value", lo=1, hi=32),
         Param("pixels_per_word", 24, "values per 256-bit word", lo=1, hi=256),
     ) + address_params("address of line 0 (a multiple of 8)") + STALL_PARAMS,
