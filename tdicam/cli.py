@@ -28,8 +28,10 @@ __all__ = ["main", "build_parser", "plain_text", "ArgsParser"]
 
 #: What ``tdicam --help`` says first.
 DESCRIPTION = ("tdicam: the HDL-ready dataflow model of a digital-TDI push-broom camera and its "
-               "co-simulation harness. 'tdicam COMMAND --help' for each command; the docs "
-               "(docs/, README.md) explain every output.")
+               "co-simulation harness. 'tdicam COMMAND --help' for each command; 'tdicam "
+               "scenes' lists the bundled scenes and sweeps ('--show NAME' prints one, "
+               "'--reference' every scene key); every report.md explains its outputs; "
+               "'python -m pydoc tdicam' the Python API.")
 
 def build_parser():
     parser = Parser(prog="tdicam", description=DESCRIPTION)

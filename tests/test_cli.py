@@ -75,8 +75,8 @@ BAD_INPUT = [
     (["sim", "cds", "--seed", "99999999999999999999"], "--seed = 99999999999999999999 is out "
                                                        "of range", 2),
     (["export", "cds", "-o", "{d}/exp", "--seed", "0"], "--seed = 0 is out of range", 2),
-    (["synth", "pipeline"], "tdicam synth pipeline: the following arguments are required: "
-                            "--scene", 2),
+    (["synth", "pipeline"], "tdicam synth pipeline: one of the arguments --scene --example is "
+                            "required", 2),
     (["verilog", "pipeline", "--scene", "scenes/ning2019_chain.toml", "--stages", "x"],
      "tdicam verilog pipeline: argument --stages: invalid int value: 'x'", 2),
     (["synth", "cds", "--freq", "-1"], "--freq = -1.0 is out of range; valid: 1..2000", 2),

@@ -111,3 +111,89 @@ def test_readme_lists_the_papers():
     for cite in ("Qu, Zhang, Jin", "Yuan, Li, Xu, Nie", "Ning, Liu, Zhao, Guo",
                  "Tao, Jin, Qu, He, Yang", "Zhou, Liu, Xu, Li, Wang, Liu"):
         assert cite in text
+
+
+# -- the installed package stands on its own (issue 48 item 1) --------------------------------
+
+#: A path a wheel does not carry (the repository's docs/ or scenes/ folder).
+NOT_INSTALLED = re.compile(r"\bdocs/|\bscenes/")
+
+
+def test_help_texts_point_only_at_what_is_installed(helps):
+    """A help text that sends a wheel user to ``docs/scene-format.md`` or ``scenes/sweeps/``
+    is a dead end: they point at ``tdicam scenes`` (--show, --reference) instead."""
+    bad = {k: [ln for ln in v.splitlines() if NOT_INSTALLED.search(ln)] for k, v in helps.items()}
+    bad = {k: v for k, v in bad.items() if v}
+    assert not bad, bad
+
+
+def test_scenes_lists_scenes_and_sweeps(capsys):
+    from tdicam.scene.examples import examples, sweeps
+    assert cli.main(["scenes"]) == 0
+    out = capsys.readouterr().out
+    scenes_part, sweeps_part = out.split("sweeps:\n")
+    assert [ln.split()[0] for ln in scenes_part.splitlines()[1:]] == list(examples())
+    assert [ln.split()[0] for ln in sweeps_part.splitlines()[:-1]] == list(sweeps())
+    assert len(sweeps()) >= 2
+
+
+@pytest.mark.parametrize("name", ["orbit_600km_1m_96", "tao2012_snr_vs_stages"])
+def test_scenes_show_prints_the_bundled_file(name, capsys):
+    from tdicam.scene.examples import KINDS
+    assert cli.main(["scenes", "--show", name]) == 0
+    path = next(p for d in KINDS.values() if (p := d / f"{name}.toml").is_file())
+    assert capsys.readouterr().out == path.read_text()
+
+
+def test_scenes_show_unknown_is_one_line(capsys):
+    assert cli.main(["scenes", "--show", "nope"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "no bundled scene 'nope'" in err[0] and "tao2012" in err[0]
+
+
+def test_scenes_reference_is_the_scene_format_page(capsys):
+    from tdicam.scene.docs import render
+    assert cli.main(["scenes", "--reference"]) == 0
+    assert capsys.readouterr().out == render() + "\n"
+
+
+def test_a_shown_scene_runs_as_the_users_own(tmp_path, capsys):
+    assert cli.main(["scenes", "--show", "orbit_600km_1m_96"]) == 0
+    mine = tmp_path / "my.toml"
+    mine.write_text(capsys.readouterr().out)
+    assert cli.main(["run", str(mine), "--dry-run", "-o", str(tmp_path / "o")]) == 0
+
+
+def test_plan_takes_a_bundled_scene(capsys):
+    assert cli.main(["plan", "--example", "orbit_600km_1m_96", "--json"]) in (0, 1)
+    import json
+    assert json.loads(capsys.readouterr().out)["scene"]
+    assert cli.main(["plan", "--example", "nope"]) == 2
+    assert "no bundled scene 'nope'" in capsys.readouterr().err
+
+
+def test_plan_refuses_a_scene_and_an_example(tmp_path, capsys):
+    assert cli.main(["plan", "--scene", "x.toml", "--example", "orbit_chain"]) == 2
+    assert "not allowed with" in capsys.readouterr().err
+
+
+def test_sweep_takes_a_bundled_sweep(monkeypatch, tmp_path):
+    import tdicam.api
+    from tdicam.scene.examples import sweep_path
+    seen = {}
+
+    def fake(source, out, **kw):
+        seen["source"] = source
+        raise tdicam.api.TdicamError("stop here")
+    monkeypatch.setattr(tdicam.api, "sweep", fake)
+    assert cli.main(["sweep", "--example", "tao2012_snr_vs_stages"]) == 2
+    assert seen["source"] == sweep_path("tao2012_snr_vs_stages")
+
+
+def test_pipeline_commands_take_a_bundled_scene(tmp_path, capsys):
+    from tdicam.scene.examples import example_path
+    a, b = tmp_path / "a.v", tmp_path / "b.v"
+    assert cli.main(["verilog", "pipeline", "--example", "orbit_chain", "-o", str(a)]) == 0
+    assert cli.main(["verilog", "pipeline", "--scene", str(example_path("orbit_chain")),
+                     "-o", str(b)]) == 0
+    assert a.read_bytes() == b.read_bytes()

@@ -130,4 +130,26 @@ def test_wheel_outside_the_checkout(tmp_path):
     assert res.returncode == 2, res
     err = res.stderr.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("tdicam: error: golden/tdi/random_64x4_p1.npz:"), err
+    # the getting-started page's next commands, as written, from the empty folder (short
+    # form: the ones that take seconds; the full form every one)
+    for cmd in _next_commands():
+        if FULL or cmd.split()[1] in QUICK_COMMANDS:
+            res = subprocess.run(cmd, shell=True, cwd=work, env=env, capture_output=True,
+                                 text=True, timeout=3000)
+            assert res.returncode == 0, f"{cmd} -> {res.returncode}\n{res.stderr[-2000:]}"
+    assert "[orbit]" in (work / "my.toml").read_text()
     print(f"wheel test ({'full' if FULL else 'short'} form): {time.perf_counter() - t0:.1f} s")
+
+
+#: The getting-started commands the short form runs (each takes seconds).
+QUICK_COMMANDS = ("scenes", "plan", "verilog")
+
+
+def _next_commands():
+    """The shell lines of docs/getting-started.md's "Next commands" block, comments cut."""
+    text = (REPO / "docs" / "getting-started.md").read_text()
+    block = text.split("## Next commands", 1)[1].split("```sh", 1)[1].split("```", 1)[0]
+    cmds = [ln.split("#", 1)[0].strip() for ln in block.splitlines()]
+    cmds = [c for c in cmds if c]
+    assert cmds and all(c.startswith("tdicam ") for c in cmds), cmds
+    return cmds

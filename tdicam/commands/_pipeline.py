@@ -12,7 +12,7 @@ from tdicam.blocks.steps import SceneData
 from tdicam.beats import PPC_CHOICES
 from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, chain_text,
                                  check_options, load_pipeline_scene, top, verilog_header)
-from tdicam.commands._parsing import ArgsParser
+from tdicam.commands._parsing import ArgsParser, add_source, source_path
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
 from tdicam.hw.record import row_of
@@ -25,10 +25,10 @@ __all__ = ["add_pipeline_options", "scene_design", "verilog_command", "synth_com
 
 def add_pipeline_options(ap, *, width=False):
     """The options that pick a scene's chain, shared by ``tdicam verilog|synth|export
-    pipeline``: ``--scene --stages --lines [--width] --memory --device --ppc``.
+    pipeline``: ``--scene`` (or ``--example``) ``--stages --lines [--width] --memory --device --ppc``.
     ``--memory`` is one of :data:`tdicam.chain.design.MEMORY` (``auto``: by ``--device``'s
     block RAM); without it, the scene places the memory (``[pipeline.tdi].memory``)."""
-    ap.add_argument("--scene", required=True, help="scene file (its [pipeline] section)")
+    add_source(ap, flag="--scene", help="scene file (its [pipeline] section)")
     ap.add_argument("--stages", type=int, help="TDI stages (default: the first of "
                     "[tdi].stages)")
     ap.add_argument("--lines", type=int, help="output lines (default [run].lines)")
@@ -60,6 +60,7 @@ def scene_design(prog, extra):
                          "PHY (default), the 7-series IDELAYE2/ISERDESE2 or the ECP5 "
                          "DELAYF/IDDRX2F primitives")
     ns = ap.parse_args(list(extra))
+    ns.scene = source_path(ns)
     sc = load_pipeline_scene(ns.scene, ns.stages)
     check_options(sc, lines=ns.lines, device=ns.device, ppc=ns.ppc)
     images = [load_image(path) for path in ns.calib]     # a missing file is named first

@@ -38,6 +38,7 @@ def register(sub):
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
     [--memory auto|chip|ddr] [--device D] [--ppc N] -o DIR``."""
+    from tdicam.commands._parsing import source_path
     from tdicam.commands._pipeline import add_pipeline_options
     from tdicam.export.chain import export_pipeline
     ap = ArgsParser(
@@ -54,7 +55,7 @@ def _pipeline(args):
     ns = ap.parse_args(list(args.extra))
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
-    ex = export_pipeline(ns.scene, args.output, force=args.force, seed=args.seed,
+    ex = export_pipeline(source_path(ns), args.output, force=args.force, seed=args.seed,
                          stages=ns.stages, lines=ns.lines, width=ns.width, memory=ns.memory,
                          device=ns.device, ppc=ns.ppc)
     print(f"wrote {ex.path}: pipeline {ex.params['blocks']} ({ex.params['width']} columns, "

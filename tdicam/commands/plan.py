@@ -34,6 +34,7 @@ from pathlib import Path
 
 from tdicam.api import plan
 from tdicam.planning import sizing
+from tdicam.commands._parsing import add_source, source_path
 from tdicam.errors import valid_range
 from tdicam.files import check_dir, open_output
 from tdicam.model.physics.plan import DDR_USER_CLOCK_HZ, DDR_WORD_BITS, ONCHIP_RAM_BITS
@@ -62,7 +63,9 @@ def register(subparsers) -> None:
                      "SNR, MTF",
         description=" ".join(__doc__.split("\n\n")[:2]).replace("``", ""), epilog=_EPILOG)
     p._negative_number_matcher = _NEGATIVE_NUMBER
-    p.add_argument("--scene", metavar="FILE", help="scene TOML file (options override it)")
+    add_source(p, flag="--scene", required=False,
+               help="scene TOML file (options override it; every key: 'tdicam scenes "
+                    "--reference')")
     metavars = {int: "N", float: "X", str: "NAME"}
     for dest, sec, key, opt, typ, nargs, text in sizing.SCENE_OPTIONS:
         p.add_argument(opt, dest=dest, type=typ, nargs=nargs, default=None,
@@ -116,7 +119,7 @@ def run(args) -> int:
     """Run ``tdicam plan`` for parsed arguments; returns the exit code (see the epilog)."""
     given = {dest: getattr(args, dest) for dest, *_ in sizing.SCENE_OPTIONS
              if getattr(args, dest, None) is not None}
-    the_plan = plan(args.scene, onchip_kbit=args.onchip_kbit, device=args.device,
+    the_plan = plan(source_path(args), onchip_kbit=args.onchip_kbit, device=args.device,
                     ddr_bits=args.ddr_bits, ddr_clock_mhz=args.ddr_clock_mhz,
                     ddr_efficiency=args.ddr_efficiency, fpga_clock_mhz=args.fpga_clock_mhz,
                     **given)

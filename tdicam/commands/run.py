@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from tdicam.api import simulate
+from tdicam.commands._parsing import add_source, source_path
 from tdicam.files import named
 from tdicam.run.runner import check_output, run_scene
 
@@ -23,14 +24,10 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "run", help="simulate a scene: images, figures and a report (the main job)",
         description=__doc__.split("\n\n")[0].replace("``", "") + " report.md starts with the "
-        "configuration and explains every output (so does docs/guide/run.md, 'What "
-        "tdicam run writes'); every scene key is in docs/scene-format.md. Exit status 0; 1 when the "
+        "configuration and explains every output; every scene key: 'tdicam scenes "
+        "--reference'. Exit status 0; 1 when the "
         "[run.rtl] co-simulation could not run or found mismatches; 2 for bad input.")
-    which = p.add_mutually_exclusive_group(required=True)
-    which.add_argument("scene", metavar="SCENE", nargs="?",
-                       help="scene TOML file (every key in docs/scene-format.md)")
-    which.add_argument("--example", metavar="NAME",
-                       help="a bundled scene by name ('tdicam scenes' lists them)")
+    add_source(p)
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="output directory (default out/<scene name>)")
     p.add_argument("--fidelity", choices=("exact", "fast", "auto"), default=None,
@@ -49,9 +46,8 @@ def register(subparsers) -> None:
 
 
 def run(args):
-    from tdicam.scene.examples import example_path
     from tdicam.scene.loader import load_scene
-    path = example_path(args.example) if args.example is not None else args.scene
+    path = source_path(args)
     # --lines is validated as [run].lines is (range, memory, bar periods), named --lines
     over, labels = ({}, {}) if args.lines is None else \
         ({"run": {"lines": args.lines}}, {"run.lines": "--lines"})

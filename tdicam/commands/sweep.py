@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import sys
 
+from tdicam.commands._parsing import add_source, source_path
 from tdicam.files import named
 
 __all__ = ["register", "sweep"]
@@ -22,7 +23,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "sweep", help="trade study: simulate a scene over axes of scene keys on Dask",
         description=__doc__.split("\n\n")[0].replace("``", ""))
-    p.add_argument("sweep_file", metavar="SWEEP", help="sweep TOML file (see scenes/sweeps/)")
+    add_source(p, "sweep", help="sweep TOML file ('tdicam scenes' lists the bundled ones; "
+                                "--example NAME runs one)")
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="results directory (default out/sweeps/<sweep name>)")
     where = p.add_mutually_exclusive_group()
@@ -48,7 +50,7 @@ def sweep(args):
     from tdicam.api import sweep as run_study
     out = named(args.out) if args.out is not None else None
     try:
-        ds = run_study(args.sweep_file, out, workers=args.workers, scheduler=args.scheduler,
+        ds = run_study(source_path(args), out, workers=args.workers, scheduler=args.scheduler,
                        serial=args.serial, impact=args.impact, force=args.force,
                        limit=args.limit, connect_timeout=args.connect_timeout,
                        progress=not args.no_progress)
