@@ -123,7 +123,8 @@ def simulate(scene: Scene | str | Path, *, fidelity: str | None = None,
     rtl : bool
         Co-simulate the ``[run.rtl]`` crop when the results are saved.
     progress : bool
-        Show a progress bar on a terminal.
+        Show where the run is (:class:`tdicam.progress.Progress`: a bar on a terminal,
+        stage lines on stderr otherwise), here and in :meth:`Simulation.save`.
     labels : mapping, optional
         Names of overridden scene keys in error messages (``{"run.lines": "--lines"}``:
         the command line's option names).

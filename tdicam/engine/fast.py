@@ -187,7 +187,10 @@ def path(c, p):
 
     run_chunks(work, [(ci, lo, min(lines, lo + chunk))
                       for ci, lo in enumerate(range(0, lines, chunk))],
-               p.timer, p.progress, lambda ci, lo, hi: (hi - lo) * ncols * m)
+               p.timer, p.progress,
+               # in the exact engine's units ((lines + m - 1) x m x columns exposures in all):
+               # the last chunk also counts the m - 1 lines that fill the window
+               lambda ci, lo, hi: (hi - lo + (m - 1) * (hi == lines)) * ncols * m)
     fr = Frames([out], None, sen.bits, p.timer, out=out, full_scale=top)
     for step in c.steps("lines", fast=True) + c.steps("output", fast=True):
         step(c, fr)

@@ -27,8 +27,10 @@ Files of an earlier run in the same directory are never mixed with the new ones:
 previous ``report.json`` lists and this run does not write again is removed; any other file
 there (not written by tdicam) is left alone and listed in the report.
 
-A progress bar (tqdm) is shown on a terminal and stays quiet when stdout is not a TTY or
-``CI`` is set. The command line is :mod:`tdicam.commands.run`.
+With ``progress``, long work shows where it is (:class:`tdicam.progress.Progress`): on a
+terminal a bar over the exposures simulated, named by the stage (each sweep point, the
+measurements, the figures, the RTL co-simulation, the report); elsewhere one line per stage on
+stderr. The command line is :mod:`tdicam.commands.run`.
 """
 
 from __future__ import annotations
@@ -36,7 +38,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,22 +45,12 @@ from pathlib import Path
 import numpy as np
 
 from tdicam.files import check_dir, staged_dir, writing_in
+from tdicam.progress import Progress
 from tdicam.run.html import html_report
 from tdicam.run.report import FILE_NOTES, configuration, markdown, summary
 
 __all__ = ["run_scene", "check_output", "SceneRun", "simulate_scene", "write_run", "memory_check",
            "main_tiff_shift", "strict_json"]
-
-
-def _progress_bar(total, desc):
-    quiet = not sys.stdout.isatty() or bool(os.environ.get("CI"))
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return None
-    if quiet:
-        return None
-    return tqdm(total=total, desc=desc, unit="px", unit_scale=True, leave=False)
 
 
 def run_scene(scene, out_dir, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
@@ -92,7 +83,9 @@ class SceneRun:
     measurements of every point in sweep order (stages outer, ``dV/V`` inner); ``crop`` the
     ``(y0, h, x0, w)`` window of the ``[run.rtl]`` co-simulation (None: none); ``plan`` the
     plan's verdict on the scene (:func:`tdicam.planning.sizing.verdict`: a scene the
-    planned camera cannot run is simulated all the same, and its report says so).
+    planned camera cannot run is simulated all the same, and its report says so);
+    ``progress`` whether the run shows its progress (so does :func:`write_run` of it, by
+    default).
     """
 
     scene: object
@@ -103,6 +96,7 @@ class SceneRun:
     crop: tuple | None
     started: float
     plan: dict | None = None
+    progress: bool = False
 
 
 def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=True,
@@ -129,7 +123,8 @@ def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, r
     points = [(m, dv) for m in stages for dv in dvs]
     m_show = max(stages)
     total = sum((n_lines + m - 1) * m * scene.sensor.columns for m, _ in points)
-    bar = _progress_bar(total, Path(scene.source).stem) if progress else None
+    bar = Progress(Path(scene.source).stem, total, unit="px", enabled=bool(progress),
+                   stages=len(points) + 1)
     main, rows = None, []
     t_all = time.perf_counter()
     crop = None
@@ -140,10 +135,11 @@ def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, r
     try:
         for m, dv in points:
             show = (m == m_show and dv == dvs[0])
+            bar.stage(f"simulating m={m} dV/V={dv:g}" + (" and each effect's impact"
+                                                          if impact and show else ""))
             res = engine.simulate(scene, stages=m, dv_over_v=dv, fidelity=fidelity,
                                   force=force, lines=n_lines, impact=impact and show,
-                                  progress=(bar.update if bar is not None else None),
-                                  keep_crop=crop if show else None)
+                                  progress=bar.update, keep_crop=crop if show else None)
             meas = measure(scene, res)
             meas.update({"fidelity": res.fidelity, "seconds": res.seconds,
                          "lines_per_s": res.lines_per_s,
@@ -154,22 +150,28 @@ def simulate_scene(scene, *, fidelity=None, lines=None, force=(), impact=True, r
             if show:
                 main = res       # only the images of the main point are kept
             del res
+        bar.stage("done")
     finally:
-        if bar is not None:
-            bar.close()
-    return SceneRun(scene, fidelity, main, rows, mem, crop, t_all, verdict(scene))
+        bar.close()
+    return SceneRun(scene, fidelity, main, rows, mem, crop, t_all, verdict(scene),
+                    bool(progress))
 
 
-def write_run(run: SceneRun, out_dir) -> dict:
+def write_run(run: SceneRun, out_dir, *, progress=None) -> dict:
     """Write ``run``'s images, figures and reports into ``out_dir`` (the module docstring
     lists them); with a ``[run.rtl]`` crop, co-simulate it first.
 
     The files are written into a staging folder and moved to ``out_dir`` at the end
     (:func:`tdicam.files.staged_dir`): a failure leaves ``out_dir`` as it was. Returns the
-    report dict (also written as ``report.json``).
+    report dict (also written as ``report.json``). ``progress``: name each stage as it
+    starts (:class:`tdicam.progress.Progress`; default: as the run did).
     """
-    with staged_dir(out_dir) as stage:
-        report = _write(run, Path(out_dir), stage)
+    progress = run.progress if progress is None else progress
+    steps = 3 if run.crop is not None else 2      # the stages _write names
+    with staged_dir(out_dir) as stage, \
+            Progress(f"{Path(run.scene.source).stem}: writing", enabled=bool(progress),
+                     stages=steps) as bar:
+        report = _write(run, Path(out_dir), stage, bar)
     for name in report["stale_files"]["removed"]:
         (Path(out_dir) / name).unlink(missing_ok=True)
     return report
@@ -192,19 +194,21 @@ def memory_check(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl
     return budget.check_fits(scene, est, fidelity=fidelity, lines=lines, labels=labels)
 
 
-def _write(run, out_dir, stage):
-    """The files of :func:`write_run`, written into ``stage``."""
+def _write(run, out_dir, stage, bar):
+    """The files of :func:`write_run`, written into ``stage``; ``bar`` names the stages."""
     from tdicam import engine
     scene, main, rows, crop, fidelity = run.scene, run.main, run.rows, run.crop, run.fidelity
     mem, t_all = run.memory, run.started
     final_dir, out_dir = out_dir, stage
     previous = _previous_files(final_dir)
+    bar.stage("images and figures")
     with writing_in(out_dir):
         files = _write_images(out_dir, main)
         files += _figures(out_dir, scene, rows, main)
     rtl_report = None
     if crop is not None:
         from tdicam.chain.cosim import cosim_scene
+        bar.stage("co-simulating the RTL crop")
         rtl_report = cosim_scene(scene, main, crop, out_dir=out_dir)
         wave = (rtl_report or {}).get("waveform")
         if wave and Path(wave).parent.resolve() == out_dir.resolve():
@@ -212,6 +216,7 @@ def _write(run, out_dir, stage):
         rtl_report = _moved(rtl_report, str(out_dir), str(final_dir))
     real_time = 1.0 / scene.line_period_s
     requested = fidelity or scene.run.fidelity
+    bar.stage("the report")
     report = {
         "scene": scene.source,
         "configuration": configuration(scene, main, rows, requested,
