@@ -267,3 +267,26 @@ def test_pipeline_rows_have_their_own_legend(monkeypatch, capsys):
                         names=["cds", "pipeline"]).splitlines()
     assert len(both) == 2 and both[0].startswith("other rows: medians of 3 run(s)") \
         and both[1].startswith("pipeline rows: 8 output lines of ning2019_chain.toml")
+
+
+def test_bench_counts_k_of_n_and_keeps_what_finished_when_interrupted(monkeypatch, capsys,
+                                                                       tmp_path):
+    """Long work shows where it is: a stage line per benchmark, [k/n] with the time left;
+    ^C after the first keeps its row in the table and the JSON (exit 130)."""
+    def first(**kw):
+        return [suite.na_row("scene", "golden", "-", "stand-in")]
+
+    def interrupted(**kw):
+        raise KeyboardInterrupt
+    monkeypatch.setitem(suite.RUNNERS, "scene", first)
+    monkeypatch.setitem(suite.RUNNERS, "pipeline", interrupted)
+    out = tmp_path / "b.json"
+    assert main(["bench", "scene", "pipeline", "--png", "none", "--sims", "none",
+                 "--json", str(out)]) == 130
+    cap = capsys.readouterr()
+    err = cap.err.splitlines()
+    assert err[0].startswith("bench: [1/2] scene (") and err[1].startswith("bench: [2/2] pipeline (")
+    assert "about" in err[1] and "s left)" in err[1]
+    assert "interrupted after 1 of 2 benchmarks" in cap.err
+    assert any(ln.startswith("scene ") and "stand-in" in ln for ln in cap.out.splitlines())
+    assert [r["block"] for r in json.loads(out.read_text())["rows"]] == ["scene"]

@@ -84,3 +84,29 @@ def test_disabled_progress_says_nothing(capsys):
         p.stage("x")
         p.update(10)
     assert capsys.readouterr().err == ""
+
+
+def test_demo_names_each_step_with_k_of_n(monkeypatch, tmp_path, capsys):
+    """``tdicam demo``: a stage line per step ([k/n]) on stderr, the table row of each
+    co-simulation as it finishes (the simulators stood in for: the steps are what is
+    tested here; cocotb_tests run the real ones)."""
+    from tdicam import demo as demo_mod
+    calls = []
+
+    def fake_cases(block, *, sim, mode, report, **kw):
+        calls.append((sim, mode))
+        row = {"case": "c", "pixels": 10, "mismatches": 0, "timeout": 0, "wall_s": 1.0,
+               "build_s": 0.0, "cycles": 20}
+        report(row)
+        return [row]
+    monkeypatch.setattr(demo_mod, "run_cases", fake_cases)
+    monkeypatch.setattr(demo_mod, "lint", lambda path: [])
+    assert cli.main(["demo", "cds", "-o", str(tmp_path)]) == 0
+    cap = capsys.readouterr()
+    err = cap.err.splitlines()
+    assert [ln.split(" (")[0] for ln in err] == [
+        "demo cds: [1/6] Verilog and lint", "demo cds: [2/6] golden vectors",
+        "demo cds: [3/6] icarus beat", "demo cds: [4/6] icarus fast",
+        "demo cds: [5/6] verilator beat", "demo cds: [6/6] verilator fast"]
+    assert "s left)" in err[-1]
+    assert calls == list(demo_mod.RUNS) and cap.out.rstrip().endswith("result: PASS")

@@ -290,8 +290,14 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         Probability of an idle input cycle and of backpressure in every simulator row.
     build : {"fresh", "cached"}
         How ``build_s`` is measured (see the module docstring).
-    progress : callable(str) or None
-        Called with each benchmark's name before it runs.
+    progress : tdicam.progress.Progress or None
+        Its ``stage(name)`` is called before each benchmark runs and ``update(1)`` after
+        (``[k/n]`` and the time left on its stage lines).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        Interrupted: its ``rows`` attribute holds the rows of the benchmarks that finished.
     """
     if build not in ("fresh", "cached"):
         raise TdicamError(f"build = {build!r} is not valid; valid: fresh, cached")
@@ -302,15 +308,21 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
     rows = []
     for name in expand(names):
         if progress:
-            progress(name)
+            progress.stage(name)
         kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
               "build": build}
         try:
             rows += RUNNERS[name](**kw) if name in RUNNERS else \
                 _block_rows(name, works, **kw)
+        except KeyboardInterrupt as stop:   # what finished is kept: the caller reports it
+            _relative(rows)
+            stop.rows = rows
+            raise
         except Exception as exc:      # one failing benchmark must not lose the others' rows
             rows.append(na_row(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
             rows[-1]["accuracy"] = "error"
+        if progress:
+            progress.update(1)
     _relative(rows)
     return rows
 

@@ -9,6 +9,7 @@ from tdicam import cosim
 from tdicam.bench import suite
 from tdicam.errors import TdicamError, check_range
 from tdicam.files import check_dir, check_file, read_bytes, write_file
+from tdicam.progress import Progress
 
 
 def register(sub):
@@ -131,13 +132,23 @@ def _run(args):
         cosim.check_build_root()
     args.png_path = _outputs(args)
     t0 = time.perf_counter()
-    rows = suite.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
-                     stalls=args.stalls, build=build,
-                     progress=lambda n: print(f"bench: {n} ...", file=sys.stderr, flush=True))
-    wall = time.perf_counter() - t0
+    todo = suite.expand(args.names)
     settings = {"names": list(args.names) or list(suite.NAMES), "sims": list(sims),
                 "repeat": repeat, "quick": args.quick, "stalls": args.stalls,
                 "build_time": build}
+    with Progress("bench", len(todo), unit="benchmark", stages=len(todo)) as bar:
+        try:
+            rows = suite.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
+                             stalls=args.stalls, build=build, progress=bar)
+        except KeyboardInterrupt as stop:   # report (and write) what finished, then stop
+            bar.close()
+            rows = getattr(stop, "rows", [])
+            print(f"bench: interrupted after {bar.done:.0f} of {len(todo)} benchmarks; the "
+                  f"table, JSON and figure below hold the finished ones", file=sys.stderr)
+            _report(args, rows, suite.describe_machine(), settings,
+                    time.perf_counter() - t0)
+            return 130
+    wall = time.perf_counter() - t0
     return _report(args, rows, suite.describe_machine(), settings, wall)
 
 
