@@ -11,8 +11,8 @@ The Python API in five lines::
 Public
 ------
 The names in ``__all__`` are the public API, with the signatures and the return types their
-docstrings state: :class:`Scene` (``load``, ``from_dict``, ``example``, ``with_run``),
-:func:`simulate` and its :class:`Simulation` (``dataset``, ``save``), :func:`plan` and its
+docstrings state: :class:`Scene` (``load``, ``from_dict``, ``example``, ``replace``,
+``with_run``), :func:`simulate` and its :class:`Simulation` (``dataset``, ``figures``, ``save``), :func:`plan` and its
 :class:`Plan` (``to_dict``, ``text``, ``figures``), :func:`sweep`, :func:`examples`,
 :mod:`blocks` (``blocks.get(name)``, ``blocks.names()`` and a block's ``verilog``,
 ``golden_model``, ``cosim``), :class:`TdicamError`, and ``__version__``. Within a minor

@@ -68,6 +68,19 @@ class Simulation:
             self._dataset = _dataset(self.scene, self._run)
         return self._dataset
 
+    def figures(self) -> list:
+        """The run's figures as ``(file name, matplotlib Figure)`` pairs: what ``tdicam run``
+        and :meth:`save` write as PNG (:func:`tdicam.run.figures.figures`: the crop on one
+        relative scale, the normalised profile, the difference from the target, SNR vs
+        stages on a flat target, the MTF on bars).
+
+        Returns
+        -------
+        list of (str, matplotlib.figure.Figure)
+        """
+        from tdicam.run.figures import figures
+        return list(figures(self.scene, self._run.rows, self._run.main))
+
     def save(self, out_dir: str | Path) -> dict:
         """Write exactly what ``tdicam run`` writes into ``out_dir``: the images, figures,
         ``report.json`` and ``report.md`` (docs/guide/run.md, "What tdicam run writes").
@@ -188,8 +201,14 @@ def _dataset(scene: Scene, run) -> xarray.Dataset:
             if name in f:
                 grid[stages.index(r["stages"]), dvs.index(r["dv_over_v"])] = f[name]
         data[name] = (("stages", "dv_over_v"), grid, {"units": _units(name)})
-    coords = {"line": np.arange(shape[0]), "pixel": np.arange(shape[1]),
-              "stages": np.asarray(stages), "dv_over_v": np.asarray(dvs, np.float64)}
+    coords = {"line": ("line", np.arange(shape[0]),
+                       {"units": "line", "long_name": "output line (along track)"}),
+              "pixel": ("pixel", np.arange(shape[1]),
+                        {"units": "px", "long_name": "column (cross track)"}),
+              "stages": ("stages", np.asarray(stages),
+                         {"units": "1", "long_name": "TDI stages m"}),
+              "dv_over_v": ("dv_over_v", np.asarray(dvs, np.float64),
+                            {"units": "1", "long_name": "velocity mismatch dV/V"})}
     attrs = {"title": f"tdicam simulation of {Path(scene.source).stem}",
              "tdicam": __version__, "scene": str(scene.source),
              "scene_settings": json.dumps(scene.to_dict(), sort_keys=True),

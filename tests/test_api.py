@@ -138,3 +138,46 @@ def test_scenes_example_and_version_commands(capsys):
     assert len(err) == 1 and err[0].startswith("tdicam: error: no bundled scene 'nope'; valid: ")
     assert main(["run", "--example", "orbit_600km_1m_96", "--dry-run"]) == 0
     assert "out/orbit_600km_1m_96" in capsys.readouterr().out
+
+
+# -- a uniform API (issue 48 item 5) ----------------------------------------------------------
+
+def test_scene_replace_validates_as_the_file_would():
+    sc = tdicam.Scene.example("orbit_600km_1m_96")
+    new = sc.replace({"sensor.read_noise_e": 5, "tdi.stages": [4, 8]})
+    assert (new.sensor.read_noise_e, new.tdi.stages) == (5.0, (4, 8))
+    assert sc.sensor.read_noise_e != 5.0 and new.source == sc.source     # the original stays
+    assert new == tdicam.Scene.load(sc.source, overrides={"sensor": {"read_noise_e": 5},
+                                                          "tdi": {"stages": [4, 8]}})
+    # with_run and replace compose, in either order
+    a = sc.with_run(lines=16, fidelity="fast").replace({"sensor.read_noise_e": 5})
+    b = sc.replace({"sensor.read_noise_e": 5}).with_run(lines=16, fidelity="fast")
+    assert a == b and (a.run.lines, a.run.fidelity) == (16, "fast")
+    # None removes the key: its default applies, as a None override of the file does
+    assert sc.replace({"sensor.read_noise_e": None}) == tdicam.Scene.load(
+        sc.source, overrides={"sensor": {"read_noise_e": None}}) != sc
+    for bad, msg in [({"sensor.read_noise_e": -1}, r"\[sensor\].read_noise_e = -1 is out of"),
+                     ({"sensor.nope": 1}, r"\[sensor\].nope: unknown key"),
+                     ({"sensor": 1}, "scene keys are section.key paths"),
+                     ([("a.b", 1)], "expected a mapping of 'section.key'")]:
+        with pytest.raises(tdicam.TdicamError, match=msg):
+            sc.replace(bad)
+
+
+def test_with_run_takes_the_fidelity():
+    sc = tdicam.Scene.example("orbit_600km_1m_96")
+    assert sc.with_run(fidelity="exact").run.fidelity == "exact"
+    with pytest.raises(tdicam.TdicamError, match="fidelity = 'slow' is not valid; valid: exact"):
+        sc.with_run(fidelity="slow")
+
+
+def test_simulation_figures_and_coordinate_units(tmp_path):
+    sim = tdicam.simulate(tdicam.Scene.example("orbit_600km_1m_96"), lines=16, impact=False)
+    figs = sim.figures()
+    names = [n for n, _ in figs]
+    assert names[:2] == ["crop.png", "profile.png"] and "mtf.png" in names
+    assert all(hasattr(f, "savefig") for _, f in figs)
+    rep = sim.save(tmp_path / "o")
+    assert set(names) <= set(rep["files"])
+    units = {k: v.attrs.get("units") for k, v in sim.dataset.coords.items()}
+    assert units == {"line": "line", "pixel": "px", "stages": "1", "dv_over_v": "1"}

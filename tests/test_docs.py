@@ -97,3 +97,34 @@ def test_api_page_follows_all(monkeypatch):
     text = tdicam_docs.api_markdown()
     assert ".. autofunction:: tdicam.extra" in text
     assert "   extra\n" in text
+
+
+def _docs_ext():
+    sys.path.insert(0, str(DOCS / "_ext"))
+    try:
+        import tdicam_docs
+    finally:
+        sys.path.remove(str(DOCS / "_ext"))
+    return tdicam_docs
+
+
+def test_generated_regions_are_current():
+    """The Markdown pages hold their generated parts (blocks, scenes, effects, API) as plain
+    Markdown that reads without Sphinx; a change in the code that they do not follow fails
+    here (the fix: ``python docs/_ext/tdicam_docs.py``)."""
+    stale = _docs_ext().update(check=True)
+    assert not stale, f"stale generated docs {stale}: run python docs/_ext/tdicam_docs.py"
+
+
+def test_api_page_reads_without_sphinx():
+    """docs/api.md itself (not only the site) documents every public name and the Scene and
+    Simulation methods with their signatures and docstrings."""
+    text = (DOCS / "api.md").read_text()
+    for n in tdicam.__all__:
+        obj = getattr(tdicam, n)
+        head = f"## `tdicam.{n}`" if n == "blocks" else f"## `{n}"
+        assert head in text, n
+    for member in ("Scene.load(", "Scene.replace(changes", "Scene.with_run(", "Simulation.figures(",
+                   "Simulation.save(", "Plan.figures("):
+        assert f"### `{member}" in text, member
+    assert "```{" not in text.split("<!-- generated tdicam-api")[1], "a bare directive"

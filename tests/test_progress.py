@@ -90,7 +90,7 @@ def test_demo_names_each_step_with_k_of_n(monkeypatch, tmp_path, capsys):
     """``tdicam demo``: a stage line per step ([k/n]) on stderr, the table row of each
     co-simulation as it finishes (the simulators stood in for: the steps are what is
     tested here; cocotb_tests run the real ones)."""
-    from tdicam import demo as demo_mod
+    from tdicam import demo
     calls = []
 
     def fake_cases(block, *, sim, mode, report, **kw):
@@ -99,8 +99,8 @@ def test_demo_names_each_step_with_k_of_n(monkeypatch, tmp_path, capsys):
                "build_s": 0.0, "cycles": 20}
         report(row)
         return [row]
-    monkeypatch.setattr(demo_mod, "run_cases", fake_cases)
-    monkeypatch.setattr(demo_mod, "lint", lambda path: [])
+    monkeypatch.setattr(demo, "run_cases", fake_cases)
+    monkeypatch.setattr(demo, "lint", lambda path: [])
     assert cli.main(["demo", "cds", "-o", str(tmp_path)]) == 0
     cap = capsys.readouterr()
     err = cap.err.splitlines()
@@ -109,4 +109,4 @@ def test_demo_names_each_step_with_k_of_n(monkeypatch, tmp_path, capsys):
         "demo cds: [3/6] icarus beat", "demo cds: [4/6] icarus fast",
         "demo cds: [5/6] verilator beat", "demo cds: [6/6] verilator fast"]
     assert "s left)" in err[-1]
-    assert calls == list(demo_mod.RUNS) and cap.out.rstrip().endswith("result: PASS")
+    assert calls == list(demo.RUNS) and cap.out.rstrip().endswith("result: PASS")

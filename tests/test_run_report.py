@@ -137,9 +137,10 @@ def test_a_full_device_while_writing_the_images_is_one_line(tmp_path, monkeypatc
     scene = tmp_path / "s.toml"
     scene.write_text(textwrap.dedent(SCENE.format(kind="flat", bits=12, m=4, fidelity="fast")))
     assert main(["run", str(scene), "-o", str(tmp_path / "o"), "--no-impact"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err == f"tdicam: error: {tmp_path / 'o' / 'tdi.tif'}: cannot write (No space left on " \
-                  "device)"
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == f"tdicam: error: {tmp_path / 'o' / 'tdi.tif'}: cannot write (No space " \
+                      "left on device)"
+    assert all(ln.startswith("s: ") for ln in err[:-1]), err     # before it: the stage lines
 
 
 def test_an_rtl_cosimulation_that_cannot_run_gives_exit_status_1(tmp_path, capsys,

@@ -1,22 +1,24 @@
-"""Pages of the tdicam docs generated from the code when the site is built.
+"""Parts of the tdicam docs generated from the code, kept in the Markdown pages themselves.
 
-Two pages hold a placeholder that this extension replaces, when Sphinx reads the page, by
-Markdown generated from the package itself (so the page cannot fall behind the code):
+Four pages hold a generated region, between ``<!-- generated NAME: ... -->`` and
+``<!-- end NAME -->``, whose plain Markdown is made from the package (so the page reads on its
+own, without Sphinx, and cannot fall behind the code: ``python docs/_ext/tdicam_docs.py``
+rewrites the regions, ``--check`` says which are stale, and tests/test_docs.py fails on one):
 
-* ``{tdicam-blocks}`` (``guide/blocks.md``): the block registry (:mod:`tdicam.blocks`) — an
+* ``tdicam-blocks`` (``guide/blocks.md``): the block registry (:mod:`tdicam.blocks`) — an
   overview table, then per block its summary, parameters with ranges and defaults, the
   latency of its Verilog top at the default parameters, its inputs, its ``[pipeline.<block>]``
   scene section and its golden cases;
-* ``{tdicam-scenes}`` (``guide/scenes.md``): the bundled scene and sweep files, each with
+* ``tdicam-scenes`` (``guide/scenes.md``): the bundled scene and sweep files, each with
   the first paragraph of its leading comment;
-* ``{tdicam-effects}`` (``guide/run.md``): the scene simulator's effects table
+* ``tdicam-effects`` (``guide/run.md``): the scene simulator's effects table
   (:data:`tdicam.engine.effects.EFFECTS`), in the order they are applied;
-* ``{tdicam-api}`` (``api.md``): an autosummary table and the autodoc entry of every name in
-  ``tdicam.__all__`` (a class with its public members, a function, a module with its own
-  ``__all__``).
+* ``tdicam-api`` (``api.md``): every name in ``tdicam.__all__`` with its signature and
+  docstring (a class with its public members, a module with its own ``__all__``).
 
-The placeholder is a fenced block of its own (three backticks, the name in braces, nothing
-inside).
+When Sphinx builds the site, this extension replaces the API region by autodoc entries (an
+autosummary table and the cross-referenced entry of every public name); the other regions are
+read as they are.
 """
 
 from __future__ import annotations
@@ -26,7 +28,12 @@ import re
 import types
 from pathlib import Path
 
-PLACEHOLDER = re.compile(r"^```\{(tdicam-[a-z]+)\}\s*\n```\s*$", re.M)
+#: A generated region of a page: its opening marker, its Markdown, its closing marker.
+REGION = re.compile(r"(<!-- generated (tdicam-[a-z]+):[^\n]*-->\n)(.*?)(<!-- end \2 -->)", re.S)
+#: The page (under docs/) that holds each generated region.
+PAGES = {"tdicam-blocks": "guide/blocks.md", "tdicam-scenes": "guide/scenes.md",
+         "tdicam-effects": "guide/run.md", "tdicam-api": "api.md"}
+DOCS = Path(__file__).resolve().parents[1]
 #: The checkout's bundled scenes (the docs are built from a checkout).
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
@@ -200,7 +207,7 @@ def api_markdown() -> str:
     objs = {n: getattr(tdicam, n) for n in names}
     rst = [".. currentmodule:: tdicam", "", ".. autosummary::", "   :nosignatures:", ""]
     rst += [f"   {n}" for n in names if not isinstance(objs[n], types.ModuleType)]
-    out = ["```{eval-rst}", *rst, "```", ""]
+    out = ["", "```{eval-rst}", *rst, "```", ""]
     mods = [n for n in names if isinstance(objs[n], types.ModuleType)]
     if mods:
         out += ["Modules: " + ", ".join(f"[`tdicam.{n}`](#api-module-{n})" for n in mods) + ".",
@@ -213,15 +220,148 @@ def api_markdown() -> str:
     return "\n".join(out)
 
 
+class _Shown(str):
+    """An annotation as written (``from __future__ import annotations`` keeps it a string:
+    shown without quotes)."""
+
+    def __repr__(self):
+        return str(self)
+
+
+def _signature(obj) -> str:
+    try:
+        sig = inspect.signature(obj)
+    except (TypeError, ValueError):
+        return "(...)"
+
+    def shown(a):
+        return _Shown(a) if isinstance(a, str) else a
+    params = [p.replace(annotation=shown(p.annotation)) for p in sig.parameters.values()
+              if p.name != "self"]
+    return str(sig.replace(parameters=params, return_annotation=shown(sig.return_annotation)))
+
+
+def _doc_block(obj) -> list[str]:
+    doc = inspect.getdoc(obj) or ""
+    return ["```text", *doc.splitlines(), "```", ""] if doc else [""]
+
+
+def _members(cls):
+    """Public methods and properties defined on ``cls`` (definition order)."""
+    for name, value in vars(cls).items():
+        if name.startswith("_"):
+            continue
+        if isinstance(value, (classmethod, staticmethod)):
+            yield name, getattr(cls, name), "method"
+        elif isinstance(value, property):
+            yield name, value, "property"
+        elif inspect.isfunction(value):
+            yield name, value, "method"
+
+
+def _anchor(name, obj) -> str:
+    """A public name's anchor (by kind: ``Plan`` the class and ``plan`` the function differ
+    only in case, which anchors ignore)."""
+    kind = ("module" if isinstance(obj, types.ModuleType) else "class" if inspect.isclass(obj)
+            else "func")
+    return f"api-{kind}-{name.lower()}"
+
+
+def api_text_markdown() -> str:
+    """Every name of ``tdicam.__all__`` as plain Markdown: its signature and docstring (a
+    class with its public methods and properties, a module with the names of its own
+    ``__all__``), in ``__all__``'s order."""
+    import tdicam
+
+    out = ["| name | what it is |", "|---|---|"]
+    objs = {n: getattr(tdicam, n) for n in tdicam.__all__}
+    for n, obj in objs.items():
+        first = (inspect.getdoc(obj) or "").split("\n\n")[0]
+        shown = f"tdicam.{n}" if isinstance(obj, types.ModuleType) else n
+        out.append(f"| [`{shown}`](#{_anchor(n, obj)}) | {_cell(first)} |")
+    out.append("")
+    for n, obj in objs.items():
+        out.append(f"({_anchor(n, obj)})=")
+        if isinstance(obj, types.ModuleType):
+            out += [f"## `tdicam.{n}`", "", *_doc_block(obj)]
+            for m in getattr(obj, "__all__", ()):
+                f = getattr(obj, m)
+                if inspect.isclass(f):
+                    out += [f"### `tdicam.{n}.{m}`", "", *_doc_block(f)]
+                    for mn, mv, kind in _members(f):
+                        sig = "" if kind == "property" else _signature(mv)
+                        out += [f"#### `{m}.{mn}{sig}`", "", *_doc_block(mv)]
+                elif callable(f):
+                    out += [f"### `tdicam.{n}.{m}{_signature(f)}`", "", *_doc_block(f)]
+        elif inspect.isclass(obj):
+            kind = "exception" if issubclass(obj, BaseException) else "class"
+            out += [f"## `{n}` ({kind})", "", *_doc_block(obj)]
+            if kind == "class":
+                for mn, mv, what in _members(obj):
+                    sig = "" if what == "property" else _signature(mv)
+                    out += [f"### `{n}.{mn}{sig}`", "", *_doc_block(mv)]
+        else:
+            out += [f"## `{n}{_signature(obj)}`", "", *_doc_block(obj)]
+    return "\n".join(out).rstrip() + "\n"
+
+
+#: What each region holds (plain Markdown).
 _GENERATORS = {"tdicam-blocks": blocks_markdown, "tdicam-scenes": scenes_markdown,
-               "tdicam-effects": effects_markdown,
-               "tdicam-api": api_markdown}
+               "tdicam-effects": effects_markdown, "tdicam-api": api_text_markdown}
+#: What Sphinx shows instead, where it differs (autodoc).
+_SPHINX = {"tdicam-api": api_markdown}
+
+
+def regions(text):
+    """``{name: (start, end, body)}`` of the generated regions of a page's ``text``."""
+    return {m.group(2): (m.start(3), m.end(3), m.group(3)) for m in REGION.finditer(text)}
+
+
+def update(check=False, names=None) -> list[str]:
+    """Rewrite every generated region (or, with ``check``, only say which are stale);
+    returns the pages (relative to docs/) that were or would be changed."""
+    stale = []
+    for name, page in PAGES.items():
+        if names is not None and name not in names:
+            continue
+        path = DOCS / page
+        text = path.read_text()
+        found = regions(text)
+        if name not in found:
+            raise SystemExit(f"{page}: no generated region {name} (<!-- generated {name}: "
+                             f"... --> ... <!-- end {name} -->)")
+        start, end, body = found[name]
+        new = _GENERATORS[name]()
+        if new != body:
+            stale.append(page)
+            if not check:
+                path.write_text(text[:start] + new + text[end:])
+    return stale
 
 
 def _source_read(app, docname, source):
-    source[0] = PLACEHOLDER.sub(lambda m: _GENERATORS[m.group(1)](), source[0])
+    def sub(m):
+        name = m.group(2)
+        return m.group(1) + (_SPHINX[name]() if name in _SPHINX else m.group(3)) + m.group(4)
+    source[0] = REGION.sub(sub, source[0])
 
 
 def setup(app):
     app.connect("source-read", _source_read)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
+
+
+def main(argv=None) -> int:
+    """``python docs/_ext/tdicam_docs.py [--check]``: rewrite the generated regions (exit 0),
+    or with ``--check`` list the stale pages (exit 1 when there is one)."""
+    import sys
+    argv = sys.argv[1:] if argv is None else argv
+    check = "--check" in argv
+    stale = update(check=check)
+    for page in stale:
+        print(f"docs/{page}: {'stale' if check else 'rewritten'}")
+    return 1 if check and stale else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -207,6 +207,7 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     from tdicam.engine import simulate
     from tdicam.run.measure import _snr_db
     from tdicam.scene.loader import load_scene
+    from tdicam.scene.schema import FIDELITIES
     sc = load_scene(SCENE)
     real = 1.0 / sc.line_period_s
     n_fast, n_exact = (256, 16) if quick else (4096, 64)
@@ -218,7 +219,7 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
     flat = load_scene(FLAT)
     snr = {f: _snr_db((r := simulate(flat, fidelity=f, lines=n_exact, stages=96,
                                      impact=False)).output, r.pedestal_output, 0)
-           for f in ("exact", "fast", "auto")}
+           for f in FIDELITIES}
     rows = []
     for fid, n in (("fast", n_fast), ("auto", n_fast), ("exact", n_exact)):
         res = [simulate(sc, fidelity=fid, lines=n, impact=False) for _ in range(repeat)]

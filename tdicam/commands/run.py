@@ -14,6 +14,7 @@ from pathlib import Path
 from tdicam.api import simulate
 from tdicam.commands._parsing import add_source, source_path
 from tdicam.files import named
+from tdicam.scene.schema import FIDELITIES
 from tdicam.run.runner import check_output, run_scene
 
 __all__ = ["register", "run", "run_scene", "rtl_failed", "dry_run"]
@@ -30,7 +31,7 @@ def register(subparsers) -> None:
     add_source(p)
     p.add_argument("-o", "--out", metavar="DIR", default=None,
                    help="output directory (default out/<scene name>)")
-    p.add_argument("--fidelity", choices=("exact", "fast", "auto"), default=None,
+    p.add_argument("--fidelity", choices=FIDELITIES, default=None,
                    help="override [run].fidelity")
     p.add_argument("--lines", type=int, default=None, metavar="N",
                    help="override [run].lines")

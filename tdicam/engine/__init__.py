@@ -71,6 +71,7 @@ import numpy as np
 from tdicam.errors import TdicamError
 from tdicam.model.physics import optics as _optics, targets as _targets
 from tdicam.scene.loader import digital_tdi_limits_error
+from tdicam.scene.schema import FIDELITIES
 
 from tdicam.engine import exact as _exact, fast as _fast
 from tdicam.engine.block_rows import LINES, ROWS
@@ -205,8 +206,8 @@ def check_point(scene, m, dv, fid, force=(), disable=()):
     effect, more stages than sensor rows or than the digital TDI takes, a PSF wider than
     :data:`MAX_PSF_SIGMA_PX`, more cross-track motion than :data:`MAX_CROSS_MOTION_PX`. Cheap: :func:`tdicam.run.runner.run_scene` checks every point
     before any work."""
-    if fid not in ("exact", "fast", "auto"):
-        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: exact, fast, auto")
+    if fid not in FIDELITIES:
+        raise TdicamError(f"fidelity = {fid!r} is not valid; valid: {', '.join(FIDELITIES)}")
     for name in list(force) + list(disable):
         if name not in EFFECT_NAMES:
             raise TdicamError(f"unknown effect {name!r}; valid: {', '.join(EFFECT_NAMES)}")

@@ -12,6 +12,7 @@ checks (stages against the window limit, the line period, the output's extent).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import math
@@ -24,13 +25,14 @@ from typing import Any, Mapping
 from tdicam import blocks
 from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import steps as _steps
-from tdicam.errors import TdicamError, api_arguments, check_range
+from tdicam.errors import TdicamError, api_arguments, check_choice, check_range
 from tdicam.model import lvds_front
+from tdicam.scene.keys import check_key, set_key
 from tdicam.model.physics import camera
 from tdicam.model.physics.camera import Camera
 from tdicam.model.lvds import N_TAPS, PAPER_TAP_PS, default_train_word, rotations
 from tdicam.model.physics import plan as _plan, targets as _targets
-from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES,
+from tdicam.scene.schema import (BLOCKS, BOUNDS, BUNDLED_IMAGES, DDR_INTERFACES, FIDELITIES,
                                  TARGET_KINDS, Ddr, Lvds, Motion, Optics, Orbit, Pipeline, RtlRun,
                                  Run, Sensor, TargetSpec, Tdi, Turntable)
 
@@ -181,8 +183,51 @@ class Scene:
         return load_scene(example_path(name))
 
     @api_arguments
-    def with_run(self, *, lines: int | None = None, seed: int | None = None) -> Scene:
-        """This scene with ``[run].lines`` and/or ``[run].seed`` replaced.
+    def replace(self, changes: Mapping[str, Any]) -> Scene:
+        """This scene with some of its keys changed, validated again as a file with those
+        values would be (every check of the reader; the original is unchanged).
+
+        Parameters
+        ----------
+        changes : mapping of str to value
+            ``{"section.key": value}``, as a sweep names keys (``{"sensor.read_noise_e": 5,
+            "run.rtl.pixels_per_clock": 2}``); a value of None removes the key (its default
+            applies again).
+
+        Returns
+        -------
+        Scene
+
+        Raises
+        ------
+        TdicamError
+            A key that is not a ``section.key`` path, an unknown key or a bad value (one
+            line naming it), or a scene that was not read by tdicam (made with
+            :func:`dataclasses.replace`: it has no scene table to change).
+        """
+        if not isinstance(changes, Mapping):
+            raise TdicamError(f"Scene.replace: changes: expected a mapping of 'section.key' to "
+                              f"values, e.g. {{'sensor.read_noise_e': 5}}, got "
+                              f"{type(changes).__name__}")
+        data, base_dir, window = self._given("Scene.replace")
+        data = copy.deepcopy(data)
+        for key, value in changes.items():
+            set_key(data, check_key(key, "Scene.replace"), value)
+        return scene_from_dict(data, base_dir=base_dir, source=self.source, window=window)
+
+    def _given(self, what):
+        """(the scene table it was read from, its base folder, its window check)."""
+        given = getattr(self, "_input", None)
+        if given is None:
+            raise TdicamError(f"{what}: this Scene was not read by tdicam (Scene.load, "
+                              f"from_dict or example), so it has no scene table to change")
+        return given
+
+    @api_arguments
+    def with_run(self, *, lines: int | None = None, seed: int | None = None,
+                 fidelity: str | None = None) -> Scene:
+        """This scene with ``[run].lines``, ``[run].seed`` and/or ``[run].fidelity``
+        replaced.
 
         Parameters
         ----------
@@ -192,6 +237,8 @@ class Scene:
             ``[run.rtl]`` crop inside).
         seed : int, optional
             Seed of every random draw, >= 0.
+        fidelity : {"exact", "fast", "auto"}, optional
+            The scene simulator's fidelity (``[run].fidelity``).
 
         Returns
         -------
@@ -217,7 +264,18 @@ class Scene:
                 raise TdicamError(f"lines = {lines}: the [run.rtl] crop {list(crop)} does not "
                                   f"fit")
             run = dataclasses.replace(run, lines=lines)
-        return dataclasses.replace(self, run=run)
+        if fidelity is not None:
+            run = dataclasses.replace(run, fidelity=check_choice("fidelity", fidelity,
+                                                                 FIDELITIES))
+        new = dataclasses.replace(self, run=run)
+        given = getattr(self, "_input", None)
+        if given is not None:           # the scene table follows, so replace() keeps them
+            data = copy.deepcopy(given[0])
+            for key, value in (("lines", lines), ("seed", seed), ("fidelity", fidelity)):
+                if value is not None:
+                    set_key(data, f"run.{key}", getattr(run, key))
+            object.__setattr__(new, "_input", (data, *given[1:]))
+        return new
 
     def to_dict(self) -> dict:
         """Plain JSON-serialisable dict of the validated scene (paths as strings)."""
@@ -708,7 +766,7 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                                                    ("icarus", "verilator")),
                      pixels_per_clock=ppc, lane_dies=dies)
     return Run(lines=lines, seed=sec.integer("seed", 0, lo=0),
-               fidelity=sec.choice("fidelity", "auto", ("exact", "fast", "auto")),
+               fidelity=sec.choice("fidelity", "auto", FIDELITIES),
                tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,
                                     hi_open=True),
                rtl=rtl)
@@ -886,6 +944,8 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     scene = Scene(orbit=orbit, turntable=turntable, target=target, sensor=sensor, tdi=tdi,
                   motion=motion, pipeline=pipeline, run=run, source=source, optics=optics,
                   ddr=ddr, camera=cam)
+    # what it was read from, for Scene.replace (not a field: not compared, not in to_dict)
+    object.__setattr__(scene, "_input", (copy.deepcopy(dict(data)), base_dir, window))
     _check_stages(tdi_sec, scene, window)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_chain(section("pipeline"), scene, labels)

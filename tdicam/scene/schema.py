@@ -178,7 +178,7 @@ from pathlib import Path
 from tdicam.blocks import scene_blocks
 from tdicam.model.physics import plan as _plan
 
-__all__ = ["BOUNDS", "BUNDLED_IMAGES", "TARGET_KINDS", "BLOCKS", "DDR_INTERFACES", "Orbit",
+__all__ = ["BOUNDS", "BUNDLED_IMAGES", "TARGET_KINDS", "BLOCKS", "DDR_INTERFACES", "FIDELITIES", "Orbit",
            "Turntable", "TargetSpec", "Lvds", "Sensor", "Optics", "Tdi", "Motion", "Ddr", "Pipeline",
            "RtlRun", "Run"]
 
@@ -424,6 +424,11 @@ class RtlRun:
     simulator: str
     pixels_per_clock: int
     lane_dies: tuple[int, int] | None = None
+
+
+#: The scene simulator's fidelities (``[run].fidelity``, ``tdicam run --fidelity``): every
+#: effect exactly, the fast engine, or fast where it is exact enough (docs: fidelity).
+FIDELITIES = ("exact", "fast", "auto")
 
 
 @dataclass(frozen=True)

@@ -61,6 +61,7 @@ from tdicam.version import __version__
 from tdicam.errors import TdicamError, check_range
 from tdicam.files import input_path
 from tdicam.scene.loader import read_toml
+from tdicam.scene.keys import get_key, set_key
 
 __all__ = ["MAX_RUNS", "MAX_FORCED_RUNS", "STORE_FORMAT", "Axis", "SweepRun", "Sweep",
            "load_sweep", "read_sweep", "validate_sweep"]
@@ -260,27 +261,6 @@ def _axis(key, raw, label, zipped=False):
             raise TdicamError(f"{label}: value {v!r} is listed twice")
         seen.add(c)
     return Axis(key, tuple(values), zipped)
-
-
-def _set_key(data, key, value):
-    parts = key.split(".")
-    node = data
-    for p in parts[:-1]:
-        nxt = node.get(p)
-        if not isinstance(nxt, dict):
-            nxt = {}
-            node[p] = nxt
-        node = nxt
-    node[parts[-1]] = value
-
-
-def _get_key(data, key):
-    node = data
-    for p in key.split("."):
-        if not isinstance(node, dict) or p not in node:
-            return None
-        node = node[p]
-    return node
 
 
 def _deepcopy(data):
@@ -512,7 +492,7 @@ def _apply_set(base, tables, src):
                                   f"fixed ([set]) or swept ([{t}]), not both")
         if "." not in key:
             raise TdicamError(f"{src}: [set] {key}: keys are section.key paths of the scene")
-        _set_key(base, key, value)
+        set_key(base, key, value)
 
 
 def _axes(base, tables, scene_path, src):
@@ -530,7 +510,7 @@ def _axes(base, tables, scene_path, src):
     swept = set(tables["axes"]) | set(tables["zip"])
     promoted = []
     for key in _SCENE_LISTS:
-        v = _get_key(base, key)
+        v = get_key(base, key)
         if isinstance(v, list) and key not in swept:
             axes.append(_axis(key, v, f"{scene_path}: {key}"))
             promoted.append(key)
@@ -572,7 +552,7 @@ def _point_scene(base, combo, point, scene_path, src):
     from tdicam.scene.loader import scene_from_dict
     data = _deepcopy(base)
     for key, value in combo:
-        _set_key(data, key, value)
+        set_key(data, key, value)
     try:
         scene = scene_from_dict(data, base_dir=scene_path.parent, source=str(scene_path))
     except TdicamError as exc:
