@@ -14,9 +14,10 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import check_choice, check_multiple, check_range
-from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, check_capacity
+from tdicam.model.ddr import CAPACITY_BYTES, check_capacity
 from tdicam.model.nuc import NucFormat, check_nuc_params
 from tdicam.model.nuc_ddr import coeff_layout
+from tdicam.hdl.cds_ddr import frame_requests, port_wiring, track_kinds
 from tdicam.hdl.ddr import LineReader, LineWriter
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
@@ -132,30 +133,17 @@ class NucDdr(wiring.Component):
         connect_mig(m, port, self)
         wiring.connect(m, nuc.o_stream, wiring.flipped(self.o_stream))
         m.d.comb += [self.line_errors.eq(wr.line_errors), wr.line_ok.eq(1),
-                     port.wr_valid.eq(wr.wr_valid), wr.wr_ready.eq(port.wr_ready),
-                     port.wr_addr.eq(wr.wr_addr), port.wr_data.eq(wr.wr_data),
-                     port.rd_valid.eq(rd.rd_valid), rd.rd_ready.eq(port.rd_ready),
-                     port.rd_addr.eq(rd.rd_addr),
-                     rd.rdata_valid.eq(port.rdata_valid), port.rdata_ready.eq(rd.rdata_ready),
-                     rd.rdata.eq(port.rdata)]
+                     *port_wiring(port, wr, rd)]
         i = self.i_stream
         kind = Signal()
         cur_kind = Mux(i.payload.first, self.frame_kind, kind)
         have = Signal()             # a coefficient frame has been stored
         launched = Signal()
-        left = Signal(range(self._rows + 1))
-        req_addr = Signal(ADDR_BITS)
-        req_first = Signal()
-        m.d.comb += [rd.req_valid.eq(left.any()), rd.req_addr.eq(req_addr),
-                     rd.req_first.eq(req_first)]
-        with m.If(rd.req_valid & rd.req_ready):
-            m.d.sync += [left.eq(left - 1), req_addr.eq(req_addr + lay.line_stride),
-                         req_first.eq(0)]
+        left, start = frame_requests(m, rd, lay, self._rows)
         launch = i.valid & i.payload.first & ~self.frame_kind & have & ~launched \
             & ~left.any() & ~wr.busy
         with m.If(launch):
-            m.d.sync += [launched.eq(1), left.eq(self._rows), req_addr.eq(lay.base),
-                         req_first.eq(1)]
+            m.d.sync += [launched.eq(1), *start]
         # the coefficients through a register slice (the reader's word-to-value select off
         # the multiplier's input registers, the ready chain back into the MIG port cut)
         m.submodules.coeff_reg = reg = StreamRegister(rd.o_stream.payload.shape())
@@ -180,11 +168,5 @@ class NucDdr(wiring.Component):
             i.ready.eq(Mux(cur_kind, wr.i_stream.ready, pix_ok)),
             cs.ready.eq(i.valid & ~cur_kind & have & pix_ok),
         ]
-        fire = i.valid & i.ready
-        with m.If(fire):
-            m.d.sync += kind.eq(cur_kind)
-            with m.If(cur_kind & i.payload.first):
-                m.d.sync += have.eq(1)
-            with m.If(~cur_kind & i.payload.first):
-                m.d.sync += launched.eq(0)
+        track_kinds(m, i, kind, cur_kind, have, launched)
         return m

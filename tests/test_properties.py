@@ -201,25 +201,28 @@ _DDR_CAPS = {"lat_lo": 30, "lat_hi": 30, "refresh_period": 200, "refresh_cycles"
              "base": 1 << 16, "line_stride": 1 << 12}
 
 
-def _cds_ddr(draw, blk, ppc, rng):
+def _ddr_frames(draw, blk, ppc, first_kinds):
+    """A DDR block's parameters (small frames, the MIG model's stalls within
+    :data:`_DDR_CAPS`), its frame shape and count, full scale and the frames' kinds (the
+    first drawn from ``first_kinds``, then a stored frame in three)."""
     w = ppc * draw(st.integers(1, 3))
     rows = draw(st.integers(1, 3))
     p = _legal(draw, blk, {"ppc": ppc, "width": w, "rows": rows}, caps=_DDR_CAPS,
                skip=("seed",))
     n, full = draw(st.integers(2, 4)), (1 << p["pixel_bits"]) - 1
-    kinds = np.array([1] + [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
+    kinds = np.array([draw(st.sampled_from(first_kinds))] +
+                     [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
+    return p, (n, rows, w), full, kinds
+
+
+def _cds_ddr(draw, blk, ppc, rng):
+    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [1])
     return p, {"frames": _frames(draw, rng, n, (rows, w), full), "kinds": kinds}
 
 
 def _nuc_ddr(draw, blk, ppc, rng):
     from tdicam.blocks.nuc_ddr import _fmt
-    w = ppc * draw(st.integers(1, 3))
-    rows = draw(st.integers(1, 3))
-    p = _legal(draw, blk, {"ppc": ppc, "width": w, "rows": rows}, caps=_DDR_CAPS,
-               skip=("seed",))
-    n, full = draw(st.integers(2, 4)), (1 << p["pixel_bits"]) - 1
-    kinds = np.array([draw(st.sampled_from([0, 1, 1]))] +
-                     [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
+    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [0, 1, 1])
     gain, off = _coeffs(draw, rng, _fmt(p), (n, rows, w))
     return p, {"x": _frames(draw, rng, n, (rows, w), full), "gain": gain, "offset": off,
                "kinds": kinds}
