@@ -3,36 +3,26 @@ simulator, under random command streams, idle cycles and the model's random stal
 dropped readies, DRAM timing): every read returns, to the port that asked, the word that
 port last wrote there (data bit-exact, per-port order kept); the grant and take of every
 cycle equal the golden model's (:func:`tdicam.model.ddr_arbiter.grants`) on the recorded
-requests; the model's round-robin bound; one-line refusals."""
+requests; the model's round-robin bound; one-line refusals; the camera's shared order (nuc_ddr beside cds_ddr behind
+the arbiter) on the memory model within 3 points of LiteDRAM (tests/ddr_arbiter_litedram.json)."""
+
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
-from amaranth.hdl import Elaboratable, Module
 from amaranth.sim import Simulator
 
+from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
 from tdicam.model.ddr import DramTiming
 from tdicam.model.ddr_arbiter import grants
 
 
-class _Bench(Elaboratable):
-    def __init__(self, n, burst, stalls):
-        from tdicam.hdl.ddr_arbiter import DdrArbiter
-        from tdicam.hdl.interfaces.mig import MigPort
-        from tdicam.hdl.simmodels.mig_model import MigModel
-        self.users = [MigPort() for _ in range(n)]
-        self.arb = DdrArbiter(n_ports=n, burst=burst)
-        self.model = MigModel(depth_words=n * 64, dram=DramTiming(), **stalls)
-
-    def elaborate(self, platform):
-        from tdicam.hdl.interfaces.mig import connect_mig
-        m = Module()
-        m.submodules.arb, m.submodules.model = self.arb, self.model
-        for k, u in enumerate(self.users):
-            m.submodules[f"u{k}"] = u
-            connect_mig(m, u, self.arb.port(k))
-        connect_mig(m, self.arb, self.model)
-        return m
+def _bench(n, burst, stalls):
+    from tdicam.cosim.shared_ddr import SharedDdr
+    from tdicam.hdl.interfaces.mig import MigPort
+    return SharedDdr([MigPort() for _ in range(n)], burst=burst, depth_words=n * 64, **stalls)
 
 
 def _programs(n, cmds, rng):
@@ -53,7 +43,7 @@ def _programs(n, cmds, rng):
 
 def _run(n, burst, stalls, cmds, seed, idle):
     rng = np.random.default_rng(seed)
-    dut = _Bench(n, burst, stalls)
+    dut = _bench(n, burst, stalls)
     progs = _programs(n, cmds, rng)
     got = [[] for _ in range(n)]
     want = []
@@ -170,3 +160,53 @@ def test_bad_parameters_are_one_line(kw, words):
     with pytest.raises(TdicamError) as e:
         DdrArbiter(**kw)
     assert words in str(e.value) and "\n" not in str(e.value)
+
+
+#: LiteDRAM's figure on the camera's shared DDR order (nuc_ddr's coefficient reads beside
+#: cds_ddr's reset frame writes and reads behind one DdrArbiter), the order as runs;
+#: regenerate: ``python bench/bench_ddr.py --arbiter --fixture tests/ddr_arbiter_litedram.json``
+_FIXTURE = Path(__file__).with_name("ddr_arbiter_litedram.json")
+
+
+def _fixture():
+    return json.loads(_FIXTURE.read_text())
+
+
+def test_arbiter_order_on_the_model_within_3_points_of_litedram():
+    """The arbiter's real access order (recorded, tdicam.cosim.shared_ddr.camera_trace) on
+    the memory model with DRAM timing: the fixture's model figure, and within 3 points of
+    LiteDRAM's over a window of 4 refresh intervals (every read checked, no timing
+    violation)."""
+    from tdicam.cosim.litedram import trace_from_runs
+    from tdicam.model.ddr import WINDOW_REFRESHES, replay_model, window_cycles
+    fx = _fixture()
+    tr = trace_from_runs(fx["name"], fx["runs"])
+    words, cycles, eff = replay_model(tr, DramTiming(), steady=True)
+    assert cycles == fx["window"] == window_cycles() and WINDOW_REFRESHES >= 4
+    assert round(100 * eff, 2) == fx["model"]
+    assert abs(100 * eff - fx["efficiency"]) <= 3, (100 * eff, fx["efficiency"])
+    assert fx["mismatches"] == 0 and fx["violations"] == 0
+    # both users in the order: coefficient reads and the CDS reset frame's writes and reads
+    kinds = {(rd, a0 >= 512) for rd, a0, n in fx["runs"]}   # the coefficients from word 512
+    assert kinds == {(1, True), (0, False), (1, False)}
+
+
+def test_benchmarks_page_quotes_the_fixture():
+    """docs/guide/benchmarks.md's row of the shared order: the fixture's trace length,
+    window, model and LiteDRAM figures."""
+    import re
+    fx = _fixture()
+    text = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "benchmarks.md").read_text()
+    row = re.search(rf"^\| [^|]*\(`{fx['name']}`\) \| (\d+) words recorded \| (\d+) \| "
+                    rf"([\d.]+) \| ([\d.]+) \|$", text, re.M)
+    assert row, "no row of the shared DDR order on the benchmarks page"
+    words = sum(n for _, _, n in fx["runs"])
+    assert row.groups() == (str(words), str(fx["window"]), f"{fx['model']:.1f}",
+                            f"{fx['efficiency']:.1f}")
+
+
+@pytest.mark.skipif(not FULL, reason="records the camera's order (~2 min): TDICAM_FULL=1")
+def test_arbiter_order_recorded_now_is_the_fixtures():
+    from tdicam.cosim.litedram import trace_runs
+    from tdicam.cosim.shared_ddr import camera_trace
+    assert trace_runs(camera_trace()) == _fixture()["runs"]
