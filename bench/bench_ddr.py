@@ -9,6 +9,12 @@ co-simulation (HDL controller model inside the design) for the round trip, CDS w
 reset frame in DDR and TDI with partial sums in DDR, with the sustained rate in input
 beats per clock (TDI on chip: 1 beat/clock).
 
+Table 4 (``--arbiter``, needs the ``ddrref`` extra): the camera's shared DDR order, nuc_ddr's
+coefficient reads beside cds_ddr's reset frame writes and reads behind one
+:class:`~tdicam.hdl.ddr_arbiter.DdrArbiter` (:func:`tdicam.cosim.shared_ddr.camera_trace`,
+recorded now), on the memory model and LiteDRAM, as Table 3's rows (``--fixture FILE``
+writes tests/ddr_arbiter_litedram.json).
+
 Table 3 (``--litedram``, needs the ``ddrref`` extra): the efficiency of every access
 pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded command order
 (writer, reader, frame buffer, CDS reset frames at the line width and 4096 columns, TDI
@@ -23,6 +29,7 @@ machine): ``--patterns NAME,NAME`` replays only the patterns and blocks named (`
 lists them).
 
     python bench/bench_ddr.py [--quick] [--litedram [--patterns NAME,NAME] [--fixture FILE]]
+    python bench/bench_ddr.py --arbiter [--fixture FILE]
 """
 
 import argparse
@@ -139,24 +146,12 @@ def litedram(patterns=None, blocks=None):
     memory model with the plain stall pattern, with DRAM timing
     (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is cycle-equal with it) and on
     LiteDRAM, and what the planner counts on for the block."""
-    from tdicam.cosim.litedram import block_traces, replay
-    from tdicam.model.ddr import (DramTiming, pattern_lines, pattern_trace, replay_model,
-                                  window_cycles)
+    from tdicam.cosim.litedram import block_traces
+    from tdicam.model.ddr import pattern_lines, pattern_trace
     rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
-        kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
-        r = replay(trace, steady=True, **kw)
-        rows.append({"what": name, "kind": kind, "words": trace.words, "lines": lines_of[name],
-                     "window": window_cycles(), "trace": trace, "result": r,
-                     "stall_eff": 100 * replay_model(trace, steady=True)[2],
-                     "model_eff": 100 * replay_model(trace, DramTiming(), windows,
-                                                     steady=True)[2],
-                     "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
-                     "planned": None if trace.planned is None else 100 * trace.planned,
-                     "wall": r.wall})
-        print(f"  {kind} {name}: model {rows[-1]['model_eff']:.1f} %, LiteDRAM "
-              f"{rows[-1]['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
+        rows.append(_row(kind, name, trace, lines_of[name], windows))
 
     for name in PATTERNS if patterns is None else patterns:
         lines_of[name] = pattern_lines(name)
@@ -168,6 +163,54 @@ def litedram(patterns=None, blocks=None):
             lines_of[name] = None
             one("block", name, traces[name])
     return rows
+
+
+def _row(kind, name, trace, lines, windows=None):
+    """One row of :func:`litedram`: ``trace`` on the memory model (plain stalls, DRAM
+    timing) and on LiteDRAM over the steady-state window."""
+    from tdicam.cosim.litedram import replay
+    from tdicam.model.ddr import DramTiming, replay_model, window_cycles
+    kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
+    r = replay(trace, steady=True, **kw)
+    row = {"what": name, "kind": kind, "words": trace.words, "lines": lines,
+           "window": window_cycles(), "trace": trace, "result": r,
+           "stall_eff": 100 * replay_model(trace, steady=True)[2],
+           "model_eff": 100 * replay_model(trace, DramTiming(), windows, steady=True)[2],
+           "lite_eff": 100 * r.efficiency, "lite_ok": "yes" if r.ok else "NO",
+           "planned": None if trace.planned is None else 100 * trace.planned,
+           "wall": r.wall}
+    print(f"  {kind} {name}: model {row['model_eff']:.1f} %, LiteDRAM "
+          f"{row['lite_eff']:.1f} % ({r.wall:.0f} s)", flush=True)
+    return row
+
+
+def arbiter():
+    """Table 4's row: the camera's shared DDR order (:func:`tdicam.cosim.shared_ddr.
+    camera_trace`: nuc_ddr's coefficient reads beside cds_ddr's reset writes and reads,
+    512 x 16 frames at 8 pixels a clock, behind one DdrArbiter) recorded now, on the
+    memory model and LiteDRAM over the steady-state window."""
+    from tdicam.cosim.shared_ddr import CAMERA_TRACE, camera_trace
+    t = time.time()
+    tr = camera_trace()
+    print(f"  recorded {CAMERA_TRACE}: {tr.words} commands ({tr.note}) in "
+          f"{time.time() - t:.0f} s", flush=True)
+    return [_row("arbiter", CAMERA_TRACE, tr, None)]
+
+
+def write_arbiter_fixture(path, row, how):
+    """Write :func:`arbiter`'s row as tests/ddr_arbiter_litedram.json: the order (as runs,
+    :func:`tdicam.cosim.litedram.trace_runs`), LiteDRAM's and the model's figures."""
+    import json
+
+    from tdicam.cosim.litedram import trace_runs
+    r = row["result"]
+    fx = {"how": how, "name": row["what"], "window": row["window"],
+          "efficiency": round(row["lite_eff"], 2), "model": round(row["model_eff"], 2),
+          "words": r.words, "mismatches": r.mismatches, "violations": len(r.violations),
+          "runs": trace_runs(row["trace"])}
+    with open(path, "w") as f:
+        json.dump(fx, f, indent=1)
+        f.write("\n")
 
 
 def write_fixture(path, rows, how, merge=False):
@@ -213,6 +256,11 @@ def parse_args(argv=None):
     ap.add_argument("--quick", action="store_true", help="smaller runs")
     ap.add_argument("--litedram", action="store_true",
                     help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
+    ap.add_argument("--arbiter", action="store_true",
+                    help="only Table 4: the camera's shared DDR order (nuc_ddr and cds_ddr "
+                         "behind one DdrArbiter) on the memory model and LiteDRAM (slow; "
+                         "ddrref extra); with --fixture: write it as "
+                         "tests/ddr_arbiter_litedram.json")
     ap.add_argument("--fixture", metavar="FILE",
                     help="with --litedram: write LiteDRAM's figures and the blocks' traces "
                          "as the JSON fixture of tests/test_ddrref.py (tests/ddr_litedram.json); "
@@ -231,8 +279,8 @@ def parse_args(argv=None):
 
 def main(argv=None):
     a = parse_args(argv)
-    if a.litedram:
-        rows = litedram(patterns=a.patterns, blocks=a.blocks)
+    if a.litedram or a.arbiter:
+        rows = arbiter() if a.arbiter else litedram(patterns=a.patterns, blocks=a.blocks)
         print(machine())
         print_table(rows, [("kind", "kind", "s"), ("what", "pattern / block", "s"),
                            ("words", "trace words", "d"), ("window", "window cycles", "d"),
@@ -243,7 +291,11 @@ def main(argv=None):
                            ("wall", "wall s", ".0f")],
                     title="DDR efficiency over 4 refresh intervals of steady state, memory "
                           "model vs LiteDRAM")
-        if a.fixture:
+        if a.fixture and a.arbiter:
+            write_arbiter_fixture(a.fixture, rows[0],
+                                  f"python bench/bench_ddr.py --arbiter --fixture FILE; "
+                                  f"{time.strftime('%Y-%m-%d')}, {machine()}")
+        elif a.fixture:
             how = (f"python bench/bench_ddr.py --litedram --fixture FILE; "
                    f"{time.strftime('%Y-%m-%d')}, {machine()}")
             try:

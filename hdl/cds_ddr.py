@@ -17,7 +17,7 @@ from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
 from tdicam.hdl.util import quiet_reject
 
-__all__ = ["CdsDdr", "default_pixels_per_word"]
+__all__ = ["CdsDdr", "default_pixels_per_word", "port_wiring", "frame_requests", "track_kinds"]
 
 
 class CdsDdr(wiring.Component):
@@ -108,30 +108,17 @@ class CdsDdr(wiring.Component):
         connect_mig(m, port, self)
         wiring.connect(m, cds.o_stream, wiring.flipped(self.o_stream))
         m.d.comb += [self.line_errors.eq(wr.line_errors), wr.line_ok.eq(1),
-                     port.wr_valid.eq(wr.wr_valid), wr.wr_ready.eq(port.wr_ready),
-                     port.wr_addr.eq(wr.wr_addr), port.wr_data.eq(wr.wr_data),
-                     port.rd_valid.eq(rd.rd_valid), rd.rd_ready.eq(port.rd_ready),
-                     port.rd_addr.eq(rd.rd_addr),
-                     rd.rdata_valid.eq(port.rdata_valid), port.rdata_ready.eq(rd.rdata_ready),
-                     rd.rdata.eq(port.rdata)]
+                     *port_wiring(port, wr, rd)]
         i = self.i_stream
         kind = Signal()
         cur_kind = Mux(i.payload.first, self.frame_kind, kind)
         have_reset = Signal()
         launched = Signal()
-        left = Signal(range(self._rows + 1))
-        req_addr = Signal(ADDR_BITS)
-        req_first = Signal()
-        m.d.comb += [rd.req_valid.eq(left.any()), rd.req_addr.eq(req_addr),
-                     rd.req_first.eq(req_first)]
-        with m.If(rd.req_valid & rd.req_ready):
-            m.d.sync += [left.eq(left - 1), req_addr.eq(req_addr + lay.line_stride),
-                         req_first.eq(0)]
+        left, start = frame_requests(m, rd, lay, self._rows)
         launch = i.valid & i.payload.first & ~self.frame_kind & have_reset & ~launched \
             & ~left.any() & ~wr.busy
         with m.If(launch):
-            m.d.sync += [launched.eq(1), left.eq(self._rows), req_addr.eq(lay.base),
-                         req_first.eq(1)]
+            m.d.sync += [launched.eq(1), *start]
         # the reset pixels through a register slice: the reader's word-to-value select and
         # the subtraction in one cycle, and the ready chain back into the MIG port, held the
         # block near 100 MHz on the ECP5
@@ -153,14 +140,46 @@ class CdsDdr(wiring.Component):
             i.ready.eq(Mux(cur_kind, wr.i_stream.ready, sig_ok)),
             rs.ready.eq(i.valid & ~cur_kind & have_reset & sig_ok),
         ]
-        fire = i.valid & i.ready
-        with m.If(fire):
-            m.d.sync += kind.eq(cur_kind)
-            with m.If(cur_kind & i.payload.first):
-                m.d.sync += have_reset.eq(1)
-            with m.If(~cur_kind & i.payload.first):
-                m.d.sync += launched.eq(0)
+        track_kinds(m, i, kind, cur_kind, have_reset, launched)
         return m
+
+
+def port_wiring(port, wr, rd):
+    """A :class:`~tdicam.hdl.ddr.LineWriter` and a :class:`~tdicam.hdl.ddr.LineReader` on
+    one :class:`~tdicam.hdl.interfaces.mig.MigPort`, straight (the statements)."""
+    return [port.wr_valid.eq(wr.wr_valid), wr.wr_ready.eq(port.wr_ready),
+            port.wr_addr.eq(wr.wr_addr), port.wr_data.eq(wr.wr_data),
+            port.rd_valid.eq(rd.rd_valid), rd.rd_ready.eq(port.rd_ready),
+            port.rd_addr.eq(rd.rd_addr),
+            rd.rdata_valid.eq(port.rdata_valid), port.rdata_ready.eq(rd.rdata_ready),
+            rd.rdata.eq(port.rdata)]
+
+
+def frame_requests(m, rd, lay, rows):
+    """The reader's requests for a stored frame: ``rows`` lines of ``lay`` from its base, one
+    a request. Returns ``(left, start)``: the lines still to request and the statements
+    that start a frame's requests (``m.d.sync``, when ``left`` is 0)."""
+    left = Signal(range(rows + 1))
+    req_addr = Signal(ADDR_BITS)
+    req_first = Signal()
+    m.d.comb += [rd.req_valid.eq(left.any()), rd.req_addr.eq(req_addr),
+                 rd.req_first.eq(req_first)]
+    with m.If(rd.req_valid & rd.req_ready):
+        m.d.sync += [left.eq(left - 1), req_addr.eq(req_addr + lay.line_stride),
+                     req_first.eq(0)]
+    return left, [left.eq(rows), req_addr.eq(lay.base), req_first.eq(1)]
+
+
+def track_kinds(m, i, kind, cur_kind, have, launched):
+    """On each accepted beat of ``i``: ``kind`` holds the frame's kind (``cur_kind``, 1 a
+    stored frame), ``have`` goes high at a stored frame's first beat, ``launched`` low at
+    another frame's first beat (its reads to be started again)."""
+    with m.If(i.valid & i.ready):
+        m.d.sync += kind.eq(cur_kind)
+        with m.If(cur_kind & i.payload.first):
+            m.d.sync += have.eq(1)
+        with m.If(~cur_kind & i.payload.first):
+            m.d.sync += launched.eq(0)
 
 
 def _elem(data, k, ppc):

@@ -29,7 +29,7 @@ from tdicam.model.tdi import settings_valid
 #: median3's line buffers are slow in Amaranth's simulator); ``TDICAM_FULL=1``: this many
 #: times :data:`FULL_FACTOR`.
 EXAMPLES = {"nuc": 100, "cds": 10, "hdr": 10, "tdi": 8, "secded_enc": 10, "secded_dec": 10,
-            "median3": 3, "cds_ddr": 3}
+            "median3": 3, "cds_ddr": 3, "nuc_ddr": 3}
 FULL_FACTOR = 10
 
 #: Stream blocks whose property lives elsewhere or that this module cannot run, and why.
@@ -116,16 +116,21 @@ def _nuc(draw, blk, ppc, rng):
     shape = (n := draw(st.integers(1, 2)), draw(st.integers(1, 3)), ppc * draw(st.integers(1, 3)))
     full = (1 << p["pixel_bits"]) - 1
     x = _frames(draw, rng, n, shape[1:], full)
+    gain, off = _coeffs(draw, rng, fmt, shape)
+    return p, {"x": x, "gain": gain.astype(np.uint32), "offset": off.astype(np.int32)}
+
+
+def _coeffs(draw, rng, fmt, shape):
+    """(gain, offset) codes of ``shape``: random, extreme or unity, by a draw."""
     kind = draw(st.sampled_from(["random", "extreme", "unity"]))
     if kind == "unity":
-        gain, off = np.full(shape, fmt.gain_one), np.zeros(shape, np.int64)
-    else:
-        g = [0, 1, fmt.gain_one, fmt.gain_max] if kind == "extreme" else None
-        o = [fmt.offset_min, -1, 0, 1, fmt.offset_max] if kind == "extreme" else None
-        gain = rng.choice(g, shape) if g else rng.integers(0, fmt.gain_max + 1, shape)
-        off = rng.choice(o, shape) if o else rng.integers(fmt.offset_min,
-                                                          fmt.offset_max + 1, shape)
-    return p, {"x": x, "gain": gain.astype(np.uint32), "offset": off.astype(np.int32)}
+        return np.full(shape, fmt.gain_one), np.zeros(shape, np.int64)
+    g = [0, 1, fmt.gain_one, fmt.gain_max] if kind == "extreme" else None
+    o = [fmt.offset_min, -1, 0, 1, fmt.offset_max] if kind == "extreme" else None
+    gain = rng.choice(g, shape) if g else rng.integers(0, fmt.gain_max + 1, shape)
+    off = rng.choice(o, shape) if o else rng.integers(fmt.offset_min,
+                                                      fmt.offset_max + 1, shape)
+    return gain, off
 
 
 def _hdr(draw, blk, ppc, rng):
@@ -190,20 +195,42 @@ def _secded_dec(draw, blk, ppc, rng):
     return p, {"data_in": d, "check_in": c}
 
 
-def _cds_ddr(draw, blk, ppc, rng):
+#: the MIG model's stall settings a DDR block's property draws within (short latencies and
+#: refresh periods: stalls every few lines of a small frame)
+_DDR_CAPS = {"lat_lo": 30, "lat_hi": 30, "refresh_period": 200, "refresh_cycles": 30,
+             "base": 1 << 16, "line_stride": 1 << 12}
+
+
+def _ddr_frames(draw, blk, ppc, first_kinds):
+    """A DDR block's parameters (small frames, the MIG model's stalls within
+    :data:`_DDR_CAPS`), its frame shape and count, full scale and the frames' kinds (the
+    first drawn from ``first_kinds``, then a stored frame in three)."""
     w = ppc * draw(st.integers(1, 3))
     rows = draw(st.integers(1, 3))
-    p = _legal(draw, blk, {"ppc": ppc, "width": w, "rows": rows},
-               caps={"lat_lo": 30, "lat_hi": 30, "refresh_period": 200, "refresh_cycles": 30,
-                     "base": 1 << 16, "line_stride": 1 << 12},
+    p = _legal(draw, blk, {"ppc": ppc, "width": w, "rows": rows}, caps=_DDR_CAPS,
                skip=("seed",))
     n, full = draw(st.integers(2, 4)), (1 << p["pixel_bits"]) - 1
-    kinds = np.array([1] + [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
+    kinds = np.array([draw(st.sampled_from(first_kinds))] +
+                     [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
+    return p, (n, rows, w), full, kinds
+
+
+def _cds_ddr(draw, blk, ppc, rng):
+    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [1])
     return p, {"frames": _frames(draw, rng, n, (rows, w), full), "kinds": kinds}
 
 
+def _nuc_ddr(draw, blk, ppc, rng):
+    from tdicam.blocks.nuc_ddr import _fmt
+    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [0, 1, 1])
+    gain, off = _coeffs(draw, rng, _fmt(p), (n, rows, w))
+    return p, {"x": _frames(draw, rng, n, (rows, w), full), "gain": gain, "offset": off,
+               "kinds": kinds}
+
+
 STRATEGIES = {"cds": _cds, "nuc": _nuc, "hdr": _hdr, "median3": _median3, "tdi": _tdi,
-              "secded_enc": _secded_enc, "secded_dec": _secded_dec, "cds_ddr": _cds_ddr}
+              "secded_enc": _secded_enc, "secded_dec": _secded_dec, "cds_ddr": _cds_ddr,
+              "nuc_ddr": _nuc_ddr}
 #: Blocks without a ppc parameter run once (ppc 1 only).
 ONE_PPC = {"secded_enc", "secded_dec"}
 CASES = [(name, ppc) for name in sorted(STRATEGIES) for ppc in PPC_CHOICES

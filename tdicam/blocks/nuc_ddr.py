@@ -1,0 +1,209 @@
+"""Block ``nuc_ddr``: per-pixel NUC with its coefficients in DDR (Ning et al. 2019 §4.2-§4.4.4;
+:class:`~tdicam.hdl.nuc_ddr.NucDdr`).
+
+Coefficient frames (``kinds`` 1: the gain and offset codes of every pixel, what the
+calibration reader decodes from the NAND at power-up) are stored in DDR and give no output;
+each pixel frame (``kinds`` 0) is corrected with the stored coefficients read back (golden
+:func:`~tdicam.model.nuc_ddr.nuc_ddr_frames`: :func:`~tdicam.model.nuc.nuc` exactly, the
+DDR adds latency and stalls only). ``frame_kind`` rides with each beat. The Verilog top has
+the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
+"""
+
+import numpy as np
+
+from tdicam.beats import PPC_CHOICES, frames_to_beats
+from tdicam.model.cds import pixel_dtype
+from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
+from tdicam.model.nuc import NucFormat
+from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
+from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, check_width
+from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
+from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide
+from tdicam.hdl.nuc_ddr import NucDdr
+
+__all__ = ["BLOCK", "nuc_ddr_arrays"]
+
+_FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
+_MODEL_KEYS = ("pixel_bits", "out_bits", "line_stride", "base") + _FMT_KEYS
+
+
+def _nuc_params(p):
+    """The ``nuc`` block's parameters of ours (its case generators take them)."""
+    return {k: p[k] for k in ("pixel_bits", "out_bits", "ppc") + _FMT_KEYS}
+
+
+def _fmt(p):
+    return NucFormat(**{k: p[k] for k in _FMT_KEYS})
+
+
+def _check(p):
+    check_stalls(p)
+    check_width(p["width"], p["ppc"])
+    _fmt(p)._check_slots()
+    check_capacity(coeff_layout(p["width"], line_stride=p["line_stride"], base=p["base"]),
+                   p["rows"], p["capacity_mib"] << 20, "coefficient image")
+
+
+def _core(p):
+    return NucDdr(width=p["width"], rows=p["rows"], ppc=p["ppc"],
+                  capacity_bytes=p["capacity_mib"] << 20,
+                  **{k: p[k] for k in _MODEL_KEYS})
+
+
+def _top(**p):
+    core = _core(p)
+    return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
+
+
+def _synth_top(**p):
+    """What ``tdicam synth`` places: the core with its MIG user interface at the ports (the
+    memory model of :func:`_top` is simulation only)."""
+    from tdicam.hdl.interfaces.axis import AxisTop
+    return AxisTop(_core(p))
+
+
+def _golden(arrays, params):
+    return {"out": nuc_ddr_frames(arrays["x"], arrays["gain"], arrays["offset"],
+                                  arrays["kinds"], **{k: params[k] for k in _MODEL_KEYS})}
+
+
+def nuc_ddr_arrays(x, gain, offset, kinds, params):
+    """Case arrays (inputs as int64 and the golden ``out``) of frames ``x``, coefficients
+    ``gain``/``offset`` (n, rows, width) and ``kinds`` (n,)."""
+    a = {"x": np.asarray(x).astype(np.int64), "gain": np.asarray(gain).astype(np.int64),
+         "offset": np.asarray(offset).astype(np.int64),
+         "kinds": np.asarray(kinds, np.int64)}
+    return {**a, **_golden(a, params)}
+
+
+def _random(kinds):
+    """Random pixels; calibration-like coefficients with any code in every 7th pixel
+    (``nuc``'s random case) on the coefficient frames."""
+    def make(params, rng):
+        a = _nuc_random(len(kinds), params["rows"], params["width"])(_nuc_params(params),
+                                                                    rng)
+        return nuc_ddr_arrays(a["x"], a["gain"], a["offset"], kinds, params)
+    return make
+
+
+def _hard(params, rng):
+    """``nuc``'s 175 extreme (x, gain, offset) combinations on 8 x 24 frames (saturation at
+    both ends): the pixels before any coefficients (defaults: x out), the coefficients,
+    the pixels, full-scale and zero pixels, a second coefficient frame, the pixels again."""
+    a = _saturate_wide(_nuc_params(params), rng)
+    x, g, o = a["x"][0], a["gain"][0], a["offset"][0]
+    full = np.full_like(x, (1 << params["pixel_bits"]) - 1)
+    seq = [(x, g, o, 0), (x, g, o, 1), (x, g, o, 0), (full, g, o, 0), (0 * x, g, o, 0),
+           (x, g[::-1], o[:, ::-1], 1), (x, g, o, 0)]
+    return nuc_ddr_arrays(*(np.stack([s[k] for s in seq]) for k in range(3)),
+                          [s[3] for s in seq], params)
+
+
+def _to_beats(arrays, params):
+    """``ppc`` pixels a beat, two elements a pixel: (gain, offset as ``offset_bits``-bit two's
+    complement) on a coefficient frame, (x, 0) on a pixel frame; ``frame_kind`` with every
+    beat."""
+    ppc, fmt = params["ppc"], _fmt(params)
+    x, kinds = arrays["x"], np.asarray(arrays["kinds"], np.int64)
+    check_width(np.shape(x)[-1], ppc)
+    g, o = fmt.check_coeffs(arrays["gain"], arrays["offset"])
+    k = kinds[:, None, None].astype(bool)
+    elems = np.stack([np.where(k, g, x), np.where(k, o & ((1 << fmt.offset_bits) - 1), 0)],
+                     axis=-1)
+    stim = frames_to_beats(elems, ppc=ppc, channels=2)
+    stim.ctrl = np.repeat(kinds.astype(np.uint64), np.shape(x)[1] * np.shape(x)[2] // ppc)
+    return stim, frames_to_beats(arrays["out"], ppc=ppc)
+
+
+def _unstream(out, arrays, params):
+    rows, cols = np.shape(arrays["x"])[-2:]
+    ob = params["out_bits"] or params["pixel_bits"]
+    return {"out": out.data.reshape(-1, rows, cols).astype(pixel_dtype(ob))}
+
+
+def _example(rng, n, shape, params):
+    """Random frames of ``shape``, the first a coefficient frame (gain ~ N(1, 0.05), offset
+    +-300 codes), the rest pixel frames."""
+    fmt, b = _fmt(params), params["pixel_bits"]
+    return {"x": rng.integers(0, 1 << b, (n, *shape), dtype=pixel_dtype(b)),
+            "gain": fmt.gain_code(rng.normal(1.0, 0.05, (n, *shape))),
+            "offset": rng.integers(-300, 300, (n, *shape)),
+            "kinds": (np.arange(n) == 0).astype(np.int64)}
+
+
+def _p(width, rows, **kw):
+    return {"width": width, "rows": rows, **kw}
+
+
+_NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bits": 10,
+           "offset_frac_bits": 3, "out_bits": 8}
+_WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 14, "offset_bits": 16,
+         "offset_frac_bits": 8, "out_bits": 20}
+
+
+def _cases():
+    out = [
+        Case("random_24x4_12b", _p(24, 4), _random([1, 0, 0, 1, 0]), seed=1),
+        Case("no_coeffs_first_24x4_12b", _p(24, 4), _random([0, 1, 0, 0]), seed=2),
+        Case("hard_24x8_12b", _p(24, 8), _hard, seed=3, tags=("saturation", "fullscale",
+                                                             "zeros")),
+        Case("narrow_24x3", _p(24, 3, **_NARROW), _random([1, 0, 1, 0]), seed=4),
+        Case("wide_24x3", _p(24, 3, **_WIDE), _random([1, 0, 1, 0]), seed=5),
+        Case("layout_40x3_12b", _p(40, 3, line_stride=64, base=4096), _random([1, 0, 0]),
+             seed=6, tags=("layout",)),
+        Case("random_512x8_12b", _p(512, 8), _random([1, 0, 0]), seed=7, tags=("fast-only",)),
+    ]
+    for k, ppc in enumerate(PPC_CHOICES[1:]):
+        out += [
+            Case(f"random_24x4_12b_p{ppc}", _p(24, 4, ppc=ppc), _random([1, 0, 0, 1, 0]),
+                 seed=30 + k),
+            Case(f"hard_24x8_12b_p{ppc}", _p(24, 8, ppc=ppc), _hard, seed=40 + k,
+                 tags=("saturation", "fullscale", "zeros")),
+            Case(f"narrow_{ppc}x4_12b_p{ppc}", _p(ppc, 4, ppc=ppc), _random([1, 0, 1, 0]),
+                 seed=50 + k, tags=("narrow",)),
+        ]
+    out.append(Case("gmax0504_row_5144x2_10b_p8", _p(5144, 2, pixel_bits=10, ppc=8),
+                    _random([1, 0, 0]), seed=60, tags=("fast-only", "wide")))
+    return out
+
+
+BLOCK = Block(
+    name="nuc_ddr",
+    summary="per-pixel NUC with the coefficients in DDR (Ning et al. 2019 §4.2-§4.4.4)",
+    params=(
+        Param("width", 512, "pixels per line", lo=1, hi=1 << 16),
+        Param("rows", 16, "lines per frame", lo=1, hi=1 << 16),
+        Param("pixel_bits", 12, "input pixel width", lo=8, hi=16),
+        Param("gain_int_bits", 2, "integer bits of the unsigned gain", lo=1, hi=4),
+        Param("gain_frac_bits", 14, "fraction bits of the gain (1.0 = 2**frac; gain at most "
+                                    "16 bits: one DDR slot)", lo=4, hi=15),
+        Param("offset_bits", 16, "width of the signed two's-complement offset (one 16-bit "
+                                 "DDR slot)", lo=2, hi=16),
+        Param("offset_frac_bits", 0, "fraction bits of the offset", lo=0, hi=8),
+        Param("out_bits", None, "output width (default: pixel_bits)", lo=8, hi=20),
+        PPC_PARAM,
+    ) + address_params("address of the coefficient image's line 0") + STALL_PARAMS,
+    top=_top,
+    ecp5_top=_synth_top,
+    cases=_cases,
+    check=_check,
+    model_version="nuc_ddr-1",
+    to_beats=_to_beats,
+    frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
+    stream="x",
+    side_inputs=(
+        SideInput("gain", "pixel", "per-pixel unsigned gain code, read on coefficient frames "
+                                   "(element 2k of each beat for its pixel k), stored in DDR"),
+        SideInput("offset", "pixel", "per-pixel signed offset code, read on coefficient "
+                                     "frames (element 2k + 1), stored in DDR"),
+        SideInput("kinds", "frame", "1 = a coefficient frame (stored in DDR, no output), "
+                                    "0 = a pixel frame (corrected with the stored "
+                                    "coefficients); on the frame_kind port with every beat"),
+    ),
+    golden=_golden,
+    fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["x"])[-2:]))),
+    unstream=_unstream,
+    example=_example,
+    small=((3, 24), {"width": 24, "rows": 3}),
+    order=81,
+)
