@@ -587,7 +587,23 @@ def check_run(link, run, golden, *, cycles, retrains=()):
     return problems
 
 
-def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params):
+def _final_status(ctx, dut, n, w):
+    """Each lane's status ports of ``dut`` (:class:`~tdicam.hdl.lvds.LvdsRx`) now, as
+    :func:`tdicam.model.lvds.run`'s ``final`` lists them."""
+    def field(port, i, bits):
+        return (ctx.get(getattr(dut, port)) >> (i * bits)) & ((1 << bits) - 1)
+    out = []
+    for i in range(n):
+        f = {"tap": field("lane_tap", i, TAP_BITS), "slip": field("lane_slip", i, SLIP_BITS),
+             "locked": field("lane_locked", i, 1), "error": field("lane_error", i, 1),
+             "run": field("lane_run", i, RUN_BITS), "scan": field("lane_scan", i, lvds.N_TAPS)}
+        if dut.eye:
+            f.update(slip_pass=field("lane_slip_pass", i, w), walk=field("lane_walk", i, 2 * w))
+        out.append(f)
+    return out
+
+
+def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None, **rx_params):
     """Train ``link`` on :class:`~tdicam.hdl.lvds.LvdsRx` in Amaranth's Python simulator, the
     link's raw words evaluated by the golden model every cycle (the tap a load selects reaches
     the sampler 2 words later, as in the HDL testbench).
@@ -595,7 +611,10 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
     Returns ``(events, outs, seconds)``: status events as :func:`tdicam.model.lvds.run` lists
     them ``(cycle, lane, locked, error, tap, slip, run)``, the aligned output words
     ``(cycle, sync, data)``, and the simulator's wall time. ``rx_params`` go to ``LvdsRx``
-    (``min_run``, ``pick``, ...); ``retrains`` are the cycles ``retrain`` is high.
+    (``min_run``, ``pick``, ``eye``, ...); ``retrains`` are the cycles ``retrain`` is high.
+    ``final``: a list, filled with each lane's status at the end as
+    :func:`tdicam.model.lvds.run`'s ``final`` has it (with ``eye``: ``slip_pass`` and
+    ``walk`` too, from the eye-status ports).
     """
     from amaranth.sim import Simulator
 
@@ -630,6 +649,8 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
                 tap2[i] = tapq[i]
                 if (ld >> i) & 1:
                     tapq[i] = (tap >> TAP_BITS * i) & tmask
+        if final is not None:
+            final.extend(_final_status(ctx, dut, n, w))
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)
