@@ -33,9 +33,9 @@ __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_li
 
 
 def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_per_gain=0,
-         columns=0, bits=12, ppc=1, fifo_depth=16, pairs=0):
+         columns=0, bits=12, ppc=1, fifo_depth=16, pairs=0, eye=0):
     kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
-              deskew_depth=deskew_depth)
+              deskew_depth=deskew_depth, eye=bool(eye))
     if lanes_per_gain:
         from tdicam.hdl.lvds_front import LvdsFront
         return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
@@ -99,6 +99,8 @@ def _front_step(ctx):
               "columns": ctx.width, "bits": ctx.bits, "fifo_depth": depth}
     if ctx.reset_frames:                 # reset/signal pairs: release from a reset frame
         params["pairs"] = 1
+    if lv.eye_status:                    # [sensor.lvds].eye_status: the training published
+        params["eye"] = 1
     ports = {"lane_raw": 0, "train_word": lv.train_word,
              "sync_word": lvds.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
              "retrain": 0}
@@ -199,9 +201,13 @@ def _front_measured(step, status, info):
               f"error event(s); crossing FIFO "
               + ("OVERFLOWED (pixels lost)" if status["lvds_fifo_overflow"] else
                  f"no overflow (depth {step.params.get('fifo_depth', 16)})"))
+    eyes = [{"name": f"lane {e['lane']} eye", "value": e["eye_taps_found"], "unit": "taps",
+             "ok": bool(e["locked"] and e["walk_ok"]) if e["agree"] else False,
+             **{k: e[k] for k in ("lane", "mask", "tap", "slip", "walk_ok", "agree")},
+             "text": e["text"]} for e in lanes.get("eyes") or []]
     return [{"name": "sensor lanes", "value": len(locked), "unit": "lanes",
              "locked": locked, "error": err, "untrained": untrained, "died": died,
-             "text": text},
+             "text": text}, *eyes,
             {"name": "sensor frames", "value": status["lvds_frames_out"], "unit": "frames",
              "dropped": status["lvds_frames_dropped"],
              "affected": status["lvds_frames_affected"],
@@ -428,6 +434,9 @@ BLOCK = Block(
               choices=FIFO_DEPTHS, implicit_default=True),
         Param("pairs", 0, "front end: 1 = reset/signal frame pairs (released from a reset "
               "frame on)", choices=(0, 1), implicit_default=True),
+        Param("eye", 0, "1 = the eye status ports: chosen tap, slip mask, walking-1/0 "
+              "patterns received (and, as the front end, the tap pass masks, runs, slips)",
+              choices=(0, 1), implicit_default=True),
     ),
     top=_top,
     cases=lambda: [

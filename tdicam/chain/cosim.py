@@ -99,7 +99,7 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         lv = scene.sensor.lvds
         front = None if lv is None else {
             "lanes": lanes_of(lv, p.lanes), "word_ns": 1e3 * lv.word_bits / lv.bit_rate_mbps,
-            "dies": rt.lane_dies}
+            "dies": rt.lane_dies, "eye_taps": lv.eye_width_taps if lv.simulate else None}
         rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
                          wave_dir=out_dir, front=front)
     except TdicamError as exc:
@@ -112,6 +112,8 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     system = system_figures(p, rep)
     if system:
         out["system"] = system
+    if (rep.get("lanes") or {}).get("eyes"):
+        out["eyes"] = rep["lanes"]["eyes"]
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
@@ -465,7 +467,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     tw = lvds.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
     lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
     kw = dict(word_ns=word_ns, proc_ns=PROC_NS, n_check=step.ports["n_check"], lead=lead,
-              tail=40)
+              tail=40, walk=bool(prm["eye"]))
     died, segs = None, None
     if front.get("dies") is not None:
         lanes, segs, died = _death(p, data, front, lanes, kw)
@@ -529,7 +531,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                           [ln if ln.change_at is None else replace(ln, change_at=None,
                                                                    after=None)
                            for ln in lanes], prm["word_bits"], case.link.train_word,
-                          n_check=case.n_check, settle=case.settle)},
+                          n_check=case.n_check, settle=case.settle),
+                      "eyes_golden": case.golden_run().final if case.walk else None},
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
             "run_cpu_seconds": cpu, "rundir": str(rundir),
             "input_beats": 0, "build_dir": str(bdir)}
@@ -612,6 +615,10 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
         # it measured), the golden chain on them
         delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
+        if info["front"]["eyes_golden"] is not None:
+            lane_fault["eyes"] = _eyes(p, info, front)
+            lane_fault["problems"] += [e["text"] for e in lane_fault["eyes"]
+                                       if not e["agree"]]
         if dies is not None:
             gold = design.golden(p, delivered)
             if corrupt is not None:
@@ -673,6 +680,18 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     else:
         rep["message"] = "match"
     return rep
+
+
+def _eyes(p, info, front):
+    """The lanes' training as the front published it beside the golden link model's
+    (:func:`tdicam.cosim.lvds_front.lane_eyes`)."""
+    from tdicam import blocks
+    from tdicam.cosim.lvds_front import lane_eyes
+    prm = blocks.get("lvds").resolve(p.steps[0].params)
+    lanes = front.get("lanes") or ideal_lanes(prm["lanes"])
+    return lane_eyes(info["front"]["eyes_golden"], info["status"], prm["word_bits"],
+                     prefix="lvds_", tap_ps=lanes[0].tap_ps, eye_taps=front.get("eye_taps"),
+                     min_run=prm["min_run"])
 
 
 def _delivered(p, data, got, front, dies):

@@ -261,6 +261,10 @@ KEYS = {
                                  default="the whole bit (ideal)", range="[0, UI / tap_ps]"),
         "jitter_ps": KeyDoc("ps", "random capture band inside each eye edge; given: the "
                                   "lanes' training is simulated", range="[0, UI]"),
+        "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
+                                 "chosen tap and slip, eye width) and checks every bit with "
+                                 "walking-1/0 patterns after lock; tdicam run reports them "
+                                 "(eyes.png); adds ports to the pipeline top"),
     },
     "run.rtl": {
         "crop": KeyDoc("px", "[x0, y0, width, height] of the output to co-simulate",

@@ -75,6 +75,10 @@ The line period either gives must lie in 1e-8..100 s.
     per lane (``lanes_per_gain x`` gains); ``jitter_ps`` [0], 0..UI. The link (training of
     every lane) is simulated only when ``eye_width_taps`` or ``jitter_ps`` is given; a lane
     that cannot train (no run of 9 taps) has its columns invalid (0 and reported).
+    ``eye_status`` [false]: the receiver publishes its training (per lane the pass mask over
+    the 32 taps, the chosen tap and slip, the eye width found) and checks every bit with
+    walking-1/0 patterns the sensor sends after lock; ``tdicam run`` reports them
+    (``eyes.png``, report.json's ``rtl.eyes``). Opt-in: it adds ports to the pipeline top.
 
 ``[optics]`` (optional)
     ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
@@ -287,6 +291,7 @@ class Lvds:
     eye_width_taps: tuple
     jitter_ps: float
     simulate: bool
+    eye_status: bool = False
 
 
 @dataclass(frozen=True)
