@@ -194,3 +194,44 @@ def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
         md = (tmp_path / "report.md").read_text()
         assert "lane 0 died in frame 5" in md and "did not train" in md
         assert "cycles waited on the MIG model's stalls (refresh 200 of every 2000" in md
+
+
+def test_lanes_training_is_reported_with_its_picture_on_icarus(tmp_path, monkeypatch):
+    """[sensor.lvds].eye_status on the lanes cut (Icarus): the sensor's walking-1/0 round
+    after lock; every lane's published training (tap pass mask, eye width found, chosen tap,
+    slip, walking patterns) equals the golden link model's, the frames bit-exact; tdicam
+    run's report carries them: one row a lane in report.md, rtl.eyes in report.json, and
+    eyes.png beside them (the run's co-simulation is this one, the runner's own path)."""
+    from tdicam.chain import cosim
+    from tdicam.run.runner import run_scene
+    sc = load_scene(LANES, overrides={
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2, "eye_status": True,
+                                           "eye_width_taps": [14, 16, 12, 18],
+                                           "eye_centre_taps": [12, 16, 20, 10]}},
+        "tdi": {"stages": 3}, "run": {"lines": 2, "rtl": {"crop": None,
+                                                          "simulator": "icarus"}}})
+    p = design.chain_plan(sc)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    assert p.steps[0].params["eye"] == 1
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    lv = sc.sensor.lvds
+    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "eye_taps": lv.eye_width_taps,
+                                               "lanes": cosim.lanes_of(lv, p.lanes)})
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    eyes = rep["lanes"]["eyes"]
+    assert all(e["agree"] and e["locked"] and e["walk_ok"] for e in eyes)
+    assert [e["eye_taps_found"] for e in eyes] == [14, 16, 12, 18]
+    assert rep["status_outputs"]["lvds_lane_walk_ok"] == 0b1111
+    rows = system_figures(p, rep)
+    out = {"simulator": "icarus", "crop": None, "blocks": [], "system": rows, "eyes": eyes}
+    monkeypatch.setattr(cosim, "cosim_scene", lambda *a, **k: out)
+    report = run_scene(sc, tmp_path, progress=False)
+    assert "eyes.png" in report["files"]
+    assert (tmp_path / "eyes.png").read_bytes()[:4] == b"\x89PNG"
+    saved = json.loads((tmp_path / "report.json").read_text())["rtl"]["eyes"]
+    assert [(e["mask"], e["tap"], e["eye_taps_found"]) for e in saved] == \
+        [(e["golden"]["mask"], e["golden"]["tap"], e["golden"]["eye_taps_found"])
+         for e in eyes]
+    md = (tmp_path / "report.md").read_text()
+    assert "lane 3: eye 18 taps (scene: 18)" in md and "eyes.png" in md
