@@ -83,6 +83,10 @@ class LaneTrainer(wiring.Component):
         after lock and before the first sync word (bit ``j``: only bit ``j`` set, bit
         ``W + j``: only bit ``j`` clear; all ones = every bit seen as 1 and 0). With ``eye``
         the locked lane accepts those patterns before its first sync word.
+    up, down : In(1), with ``track=True`` only
+        While locked: step the tap up / down by one (a tracker's correction,
+        :class:`tdicam.hdl.lvds_track.LaneTracker`), with the load strobe; a lane error
+        takes precedence.
     tap, ld : Out(5), Out(1)
         Delay tap and its load strobe (high in the first cycle of every step).
     slip : Out(4)
@@ -105,10 +109,11 @@ class LaneTrainer(wiring.Component):
     """
 
     @quiet_reject
-    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False, eye=False):
+    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False, eye=False,
+                 track=False):
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
-        self._hold, self._eye = bool(hold), bool(eye)
+        self._hold, self._eye, self._track = bool(hold), bool(eye), bool(track)
         w = word_bits
         ports = {
             "raw": In(w), "train_word": In(w), "sync_word": In(w), "n_check": In(8),
@@ -121,6 +126,8 @@ class LaneTrainer(wiring.Component):
             ports["hold"] = In(1)
         if eye:
             ports.update({"slip_pass": Out(w), "walk": Out(2 * w)})
+        if track:
+            ports.update({"up": In(1), "down": In(1)})
         super().__init__(ports)
 
     @property
@@ -284,6 +291,11 @@ class LaneTrainer(wiring.Component):
         with m.Elif(state == _LOCKED):
             with m.If(go_error_mon):
                 m.d.sync += [state.eq(_ERROR), self.locked.eq(0), self.error.eq(1)]
+            if self._track:
+                with m.Elif(self.up):
+                    m.d.sync += [self.tap.eq(self.tap + 1), self.ld.eq(1)]
+                with m.Elif(self.down):
+                    m.d.sync += [self.tap.eq(self.tap - 1), self.ld.eq(1)]
 
         with m.If(self.restart):
             m.d.sync += [
@@ -489,6 +501,11 @@ class LvdsRx(wiring.Component):
     eye : bool
         Add the eye status (:func:`eye_ports`; opt-in: without it the Verilog is that of
         before).
+    track : int
+        > 0: track each locked lane's eye with a monitor sampler probing ``track`` taps
+        either side (:class:`tdicam.hdl.lvds_track.LaneTracker`; ports ``lane_mon_raw``
+        in, the monitor deserializers' words; ``lane_mon_tap``/``lane_mon_ld`` out, their
+        delay taps; ``lane_corrections`` out, 8 bits a lane). 0: none (the Verilog of before).
 
     Attributes
     ----------
@@ -517,8 +534,9 @@ class LvdsRx(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8, hold=False, eye=False):
+                 deskew_depth=8, hold=False, eye=False, track=0):
         _check_common(word_bits, settle, min_run, pick)
+        self._track = check_range("track", track, 0, 15)
         self._n = check_range("lanes", lanes, 1, 128)
         self._w = word_bits
         self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
@@ -530,7 +548,15 @@ class LvdsRx(wiring.Component):
         ports.update(rx_ports(lanes, word_bits))
         if eye:
             ports.update(eye_ports(lanes, word_bits))
+        if self._track:
+            ports.update({"lane_mon_raw": In(lanes * word_bits),
+                          "lane_mon_tap": Out(lanes * TAP_BITS), "lane_mon_ld": Out(lanes),
+                          "lane_corrections": Out(lanes * 8)})
         super().__init__(ports)
+
+    @property
+    def track(self):
+        return self._track
 
     @property
     def lanes(self):
@@ -561,8 +587,20 @@ class LvdsRx(wiring.Component):
         m.submodules.deskew = dsk = Deskew(lanes=n, word_bits=w, depth=self._depth)
         done = []
         for i in range(n):
-            t = LaneTrainer(**self._kw)
+            t = LaneTrainer(**self._kw, track=bool(self._track))
             m.submodules[f"lane{i}"] = t
+            if self._track:
+                from tdicam.hdl.lvds_track import LaneTracker
+                tr = LaneTracker(word_bits=w, settle=self._kw["settle"], margin=self._track)
+                m.submodules[f"track{i}"] = tr
+                m.d.comb += [
+                    tr.locked.eq(t.locked), tr.tap.eq(t.tap), tr.slip.eq(t.slip),
+                    tr.word.eq(t.word), tr.mon_raw.eq(self.lane_mon_raw[i * w:(i + 1) * w]),
+                    tr.n_check.eq(self.n_check), t.up.eq(tr.up), t.down.eq(tr.down),
+                    self.lane_mon_tap[i * TAP_BITS:(i + 1) * TAP_BITS].eq(tr.mon_tap),
+                    self.lane_mon_ld[i].eq(tr.mon_ld),
+                    self.lane_corrections[i * 8:(i + 1) * 8].eq(tr.count),
+                ]
             m.d.comb += [
                 t.raw.eq(self.lane_raw[i * w:(i + 1) * w]),
                 t.train_word.eq(self.train_word), t.sync_word.eq(self.sync_word),

@@ -32,8 +32,14 @@ the same values without sharing state: ``h = mix32(m ^ jkey)``; the sample is ra
 (``x ^= x>>16; x *= 0x7feb352d; x ^= x>>15; x *= 0x846ca68b; x ^= x>>16``, all mod 2**32);
 ``jkey = mix32(2*seed)``, ``dkey = mix32(2*seed + 1)`` (seed mod 2**32).
 
-A lane may change at raw word ``change_at`` (skew drift, a dying lane): samples ``m`` with
+A lane may change at raw word ``change_at`` (a skew jump, a dying lane): samples ``m`` with
 ``m // word_bits >= change_at`` use the tables of ``after`` (its seed is ignored).
+
+A lane may *drift* (temperature): its eye centre moves by ``drift_taps`` taps (signed; +:
+to higher delay taps) over the ``drift_words`` raw words from ``drift_from``, in steps of
+1/:data:`DRIFT_STEPS` tap: samples of raw word ``q`` use the tables of the skew
+``skew - tap * floor(DRIFT_STEPS * drift_taps * clip((q - drift_from) / drift_words, 0, 1))
+/ DRIFT_STEPS`` (towards zero for a negative drift), the same eye and jitter.
 
 Sensor (all lanes)
 ------------------
@@ -95,6 +101,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_choice, check_range
 
 __all__ = ["PAPER_TAP_PS", "XILINX_TAP_PS", "N_TAPS", "VERDICT_WORDS", "MONITOR_WORDS",
+           "DRIFT_STEPS",
            "LINK_LATENCY", "Lane", "Link", "mix32", "rotations", "default_train_word",
            "default_sync_word", "check_train_word", "lane_tables", "sent_words", "raw_words",
            "lane_words", "step_words", "decide", "train_lane", "run", "LaneResult",
@@ -106,6 +113,7 @@ N_TAPS = 32
 VERDICT_WORDS = 3   # pipeline words between the last checked word and the step's verdict
 MONITOR_WORDS = 3   # a bad word at cycle k shows as error from k + 3
 LINK_LATENCY = 2    # words from a tap load to the first raw word sampled with that tap
+DRIFT_STEPS = 8     # a drifting eye moves in steps of 1/8 tap
 _M32 = np.uint64(0xFFFFFFFF)
 _THRESH_ONE = 1 << 16
 
@@ -185,6 +193,9 @@ class Lane:
         Jitter and data keys.
     change_at, after : int, Lane
         From raw word ``change_at`` on, the lane behaves as ``after``.
+    drift_taps, drift_from, drift_words : float, int, int
+        The eye centre moves by ``drift_taps`` taps over raw words ``drift_from ..
+        drift_from + drift_words`` (see the module docstring; 0: no drift).
     """
 
     skew_ps: float
@@ -195,6 +206,9 @@ class Lane:
     seed: int = 0
     change_at: int | None = None
     after: "Lane | None" = None
+    drift_taps: float = 0.0
+    drift_from: int = 0
+    drift_words: int = 0
 
     def __post_init__(self):
         ui = self.ui_ps
@@ -207,6 +221,12 @@ class Lane:
             raise TdicamError("lane skew_ps and jitter_ps must be >= 0")
         if (self.change_at is None) != (self.after is None):
             raise TdicamError("lane change_at and after go together")
+        if self.drift_taps:
+            if self.change_at is not None:
+                raise TdicamError("a lane drifts (drift_taps) or changes (change_at), not both")
+            if self.drift_words < 1 or self.drift_from < 0:
+                raise TdicamError(f"lane drift_words = {self.drift_words} must be >= 1 and "
+                                  f"drift_from = {self.drift_from} >= 0 with drift_taps")
 
     @property
     def ui_ps(self):
@@ -281,6 +301,19 @@ def lane_tables(lane, n_taps=N_TAPS):
     return np.stack(d), np.stack(r)
 
 
+def _drift_tables(lane, q):
+    """(delay, thresh) of every drift step of ``lane`` (shape (steps + 1, N_TAPS)) and the
+    step of each raw word ``q``."""
+    top = int(np.floor(DRIFT_STEPS * abs(lane.drift_taps)))
+    frac = np.clip((np.asarray(q, np.float64) - lane.drift_from) / lane.drift_words, 0.0, 1.0)
+    ep = np.minimum(np.floor(DRIFT_STEPS * abs(lane.drift_taps) * frac).astype(np.int64), top)
+    sign = 1.0 if lane.drift_taps > 0 else -1.0
+    tabs = [_tables(float(lane.skew_ps) - sign * e * lane.tap_ps / DRIFT_STEPS,
+                    float(lane.eye_ps), float(lane.jitter_ps), float(lane.tap_ps),
+                    float(lane.bit_rate_mbps), N_TAPS) for e in range(top + 1)]
+    return np.stack([t[0] for t in tabs]), np.stack([t[1] for t in tabs]), ep
+
+
 def _keys(lane):
     s = int(lane.seed) & 0xFFFFFFFF
     return int(mix32(2 * s)), int(mix32((2 * s + 1) & 0xFFFFFFFF))
@@ -327,10 +360,13 @@ def _sample_bits(link, lane_index, taps, m):
     w = link.word_bits
     m = np.asarray(m, dtype=np.int64)
     taps = np.broadcast_to(np.asarray(taps, dtype=np.int64), m.shape)
-    delay, thresh = lane_tables(lane)
-    ep = np.zeros(m.shape, dtype=np.int64)
-    if lane.change_at is not None:
-        ep = (np.floor_divide(m, w) >= lane.change_at).astype(np.int64)
+    if lane.drift_taps:
+        delay, thresh, ep = _drift_tables(lane, np.floor_divide(m, w))
+    else:
+        delay, thresh = lane_tables(lane)
+        ep = np.zeros(m.shape, dtype=np.int64)
+        if lane.change_at is not None:
+            ep = (np.floor_divide(m, w) >= lane.change_at).astype(np.int64)
     d = delay[ep, taps]
     r = thresh[ep, taps]
     jkey, _ = _keys(lane)
@@ -427,17 +463,22 @@ class LaneResult:
     word_delay: int | None = None
     slip_pass: int = 0
     walk: int = 0
+    corrections: list = field(default_factory=list)
+    count: int = 0
 
 
 def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5, k_stop=None,
-               eye=False):
+               eye=False, track=0):
     """Golden training of one lane started at cycle ``k0``; the lane is judged until ``k_stop``
     (the next retrain's first cycle, or the end of the run; None: training only).
 
     Returns a :class:`LaneResult` whose ``events`` are ``(k, locked, error, tap, slip, run)``
     status changes (``k`` = first cycle showing the new status) before ``k_stop``. Training
     must end (lock or error) before ``k_stop``. ``eye``: the receiver with the eye status
-    (walking patterns accepted before the first sync word, ``walk`` recorded).
+    (walking patterns accepted before the first sync word, ``walk`` recorded). ``track`` > 0:
+    the receiver tracks the eye with that probe margin (:mod:`tdicam.model.lvds_track`):
+    ``corrections`` lists ``(decision cycle, new tap, effect word)``, ``count`` the
+    tracker's counter, ``tap`` the tap at the end.
     """
     w = link.word_bits
     nc = max(int(n_check), 1)
@@ -479,17 +520,31 @@ def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5,
     ep = int(lane.change_at is not None and k_lock - 1 >= lane.change_at)
     d_bits = int(lane_tables(lane)[0][ep, tap])
     res.word_delay = 1 - (s - d_bits) // w
-    k_bad, res.walk = _monitor(link, lane_index, tap, s, k_lock, k_stop, eye=eye) \
-        if judge else (None, 0)
+    words = None
+    if track and judge:
+        from tdicam.model import lvds_track
+        corr = lvds_track.track(link, lane_index, tap, s, k_lock, k_stop, n_check=nc,
+                                settle=settle, margin=track)
+        raw_tap = lvds_track.raw_tap_of(tap, corr)
+        words = lambda ks: lvds_track.tap_words(link, lane_index, raw_tap, s, ks)  # noqa: E731
+    k_bad, res.walk = _monitor(link, lane_index, tap, s, k_lock, k_stop, eye=eye,
+                               words=words) if judge else (None, 0)
+    if words is not None:
+        end = np.iinfo(np.int64).max if k_bad is None else k_bad
+        res.corrections = [(kc, t, kc + 1 + LINK_LATENCY) for kc, t in corr if kc < end + 2]
+        res.count = sum(1 for kc, _ in corr if kc < end + 3) % 256
+        if res.corrections:
+            res.tap = res.corrections[-1][1]
     if k_bad is not None:
         res.locked, res.error = False, True
-        res.events.append((k_bad + MONITOR_WORDS, 0, 1, tap, s, run_len))
+        res.events.append((k_bad + MONITOR_WORDS, 0, 1, res.tap, s, run_len))
     return res
 
 
-def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16, eye=False):
+def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16, eye=False, words=None):
     """(first cycle >= k_lock whose word breaks the locked-lane rules and whose error shows
-    before ``k_stop``, else None; the ``walk`` status, 0 without ``eye``)."""
+    before ``k_stop``, else None; the ``walk`` status, 0 without ``eye``). ``words``: the
+    lane's words at cycles ``ks`` (default: sampled at the steady ``tap``)."""
     last = k_stop - MONITOR_WORDS  # words k < last can raise an error that shows < k_stop
     sync, train, w = link.sync_word, link.train_word, link.word_bits
     phase_sync_k = None
@@ -497,7 +552,7 @@ def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16, eye=Fal
     k = k_lock
     while k < last:
         ks = np.arange(k, min(k + chunk, last), dtype=np.int64)
-        wds = lane_words(link, lane_index, tap, slip, ks)
+        wds = lane_words(link, lane_index, tap, slip, ks) if words is None else words(ks)
         is_sync = wds == sync
         if phase_sync_k is None:
             wbit = _walk_bit(wds, w) if eye else np.zeros(len(ks), np.int64)
@@ -535,12 +590,15 @@ class RunResult:
     starts: list
 
 
-def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5, eye=False):
+def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5, eye=False,
+        track=0):
     """Golden model of the whole receiver over ``cycles`` word clocks after reset.
 
     ``retrains`` are port cycles where the retrain request is high (each restarts training
     at the next cycle); every training must end before the next one starts. ``eye``: the
-    receiver with the eye status (``final`` gains ``slip_pass`` and ``walk``).
+    receiver with the eye status (``final`` gains ``slip_pass`` and ``walk``); ``track``: with
+    eye tracking of that margin (``final`` gains ``corrections``, the tracker's count, and
+    ``tap`` is the tap at the end).
     """
     check_range("settle", settle, LINK_LATENCY + 2, 64)
     check_range("n_check", n_check, 0, 255)
@@ -550,21 +608,24 @@ def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5, e
     stops = starts[1:] + [int(cycles)]
     events, trainings = [], []
     final = [{"tap": 0, "slip": 0, "locked": 0, "error": 0, "run": 0, "scan": 0,
-              **({"slip_pass": 0, "walk": 0} if eye else {})} for _ in link.lanes]
+              **({"slip_pass": 0, "walk": 0} if eye else {}),
+              **({"corrections": 0} if track else {})} for _ in link.lanes]
     for k0, k1 in zip(starts, stops):
         results = []
         for li in range(len(link.lanes)):
             if final[li]["locked"] or final[li]["error"]:
                 events.append((k0, li, 0, 0, 0, 0, 0))
             res = train_lane(link, li, k0, n_check=n_check, settle=settle, min_run=min_run,
-                             pick=pick, k_stop=k1, eye=eye)
+                             pick=pick, k_stop=k1, eye=eye, track=track)
             results.append(res)
-            locked, error, tap, slip, run_len = res.events[-1][1:]
+            locked, error, _, slip, run_len = res.events[-1][1:]
+            tap = res.tap
             for ev in res.events:
                 events.append((ev[0], li) + ev[1:])
             final[li] = {"tap": tap, "slip": slip, "locked": locked, "error": error,
                          "run": run_len, "scan": res.scan_mask,
-                         **({"slip_pass": res.slip_pass, "walk": res.walk} if eye else {})}
+                         **({"slip_pass": res.slip_pass, "walk": res.walk} if eye else {}),
+                         **({"corrections": res.count} if track else {})}
         trainings.append(results)
     events.sort(key=lambda ev: (ev[0], ev[1]))
     return RunResult(events, final, trainings, starts)

@@ -599,11 +599,14 @@ def _final_status(ctx, dut, n, w):
              "run": field("lane_run", i, RUN_BITS), "scan": field("lane_scan", i, lvds.N_TAPS)}
         if dut.eye:
             f.update(slip_pass=field("lane_slip_pass", i, w), walk=field("lane_walk", i, 2 * w))
+        if dut.track:
+            f["corrections"] = field("lane_corrections", i, 8)
         out.append(f)
     return out
 
 
-def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None, **rx_params):
+def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None,
+                 corrections=None, **rx_params):
     """Train ``link`` on :class:`~tdicam.hdl.lvds.LvdsRx` in Amaranth's Python simulator, the
     link's raw words evaluated by the golden model every cycle (the tap a load selects reaches
     the sampler 2 words later, as in the HDL testbench).
@@ -614,7 +617,10 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None, 
     (``min_run``, ``pick``, ``eye``, ...); ``retrains`` are the cycles ``retrain`` is high.
     ``final``: a list, filled with each lane's status at the end as
     :func:`tdicam.model.lvds.run`'s ``final`` has it (with ``eye``: ``slip_pass`` and
-    ``walk`` too, from the eye-status ports).
+    ``walk`` too, from the eye-status ports; with ``track``: ``corrections``, the counter).
+    ``corrections``: a list, filled with ``(effect word, lane, new tap)`` for every tap
+    change of a locked lane (the first raw word sampled with the new tap); with ``track`` the
+    monitor samplers' words come from the link model at their taps too.
     """
     from amaranth.sim import Simulator
 
@@ -629,15 +635,24 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None, 
                         ("n_check", n_check), ("line_words", link.line_words)):
             ctx.set(getattr(dut, port), v)
         tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
+        mq, m2, last_tap = [0] * n, [0] * n, [None] * n
         for k in range(cycles):
             ctx.set(dut.lane_raw, sum(int(lvds.raw_words(link, i, tap2[i], k)) << (i * w)
                                       for i in range(n)))
+            if dut.track:
+                ctx.set(dut.lane_mon_raw, sum(int(lvds.raw_words(link, i, m2[i], k))
+                                              << (i * w) for i in range(n)))
+                mld, mtap = ctx.get(dut.lane_mon_ld), ctx.get(dut.lane_mon_tap)
             ctx.set(dut.retrain, int(k in retrains))
             ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
             lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
             sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
             for i in range(n):
                 st = ((lk >> i) & 1, (er >> i) & 1)
+                cur = (tap >> TAP_BITS * i) & tmask
+                if st[0] and prev[i][0] and cur != last_tap[i] and corrections is not None:
+                    corrections.append((k + lvds.LINK_LATENCY, i, cur))
+                last_tap[i] = cur
                 if st != prev[i]:
                     events.append((k, i, *st, (tap >> TAP_BITS * i) & tmask,
                                    (sl >> SLIP_BITS * i) & smask, (rn >> RUN_BITS * i) & rmask))
@@ -649,6 +664,10 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None, 
                 tap2[i] = tapq[i]
                 if (ld >> i) & 1:
                     tapq[i] = (tap >> TAP_BITS * i) & tmask
+                if dut.track:
+                    m2[i] = mq[i]
+                    if (mld >> i) & 1:
+                        mq[i] = (mtap >> TAP_BITS * i) & tmask
         if final is not None:
             final.extend(_final_status(ctx, dut, n, w))
 

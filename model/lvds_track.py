@@ -1,0 +1,82 @@
+"""Golden model of the eye tracking of :mod:`tdicam.hdl.lvds_track` (issue 46 step 5).
+
+Per locked lane the tracker (:class:`tdicam.hdl.lvds_track.LaneTracker`) runs *probes* of
+``Q = settle + 3 + max(n_check, 1)`` word clocks back to back from the lock cycle
+``k_lock`` (the first cycle showing ``locked``): probe ``i`` starts at ``ks = k_lock + i Q``,
+loads the monitor tap ``tap - margin`` (even ``i``) or ``tap + margin`` (odd ``i``; both
+clamped to 0..31) at ``ks`` and compares, at the cycles ``k = ks + settle + 2 ..
+ks + settle + 1 + n_check``, the data word with the monitor's word, both the gearbox outputs
+of cycle ``k - 2`` with the lane's slip (data sampled at the data tap, monitor at the
+monitor tap; with ``settle >= 4`` both taps have reached every sample compared). A probe
+*fails* when any compared word differs. At the last cycle ``kc = ks + Q - 1`` of an odd
+probe: low failed and high passed -> *up* (the data tap + 1, unless 31); high failed and low
+passed -> *down* (- 1, unless 0). The trainer loads the new tap at ``kc + 1``: raw words from
+``kc + 1 + LINK_LATENCY`` on are sampled with it (the correction's *effect word*; the next
+probe, from ``kc + 1``, is taken around the new tap). A correction decided at a cycle where
+the lane's error already shows (``>= k_bad + 3``, :mod:`tdicam.model.lvds`) is not made; one
+decided at ``k_bad + 2`` is counted but not applied (the error takes precedence in the
+trainer). The lane's words and its locked-lane checks follow the tap as it moves.
+"""
+
+import numpy as np
+
+from tdicam.model import lvds
+
+__all__ = ["COUNT_BITS", "probe_words", "track", "tap_words"]
+
+#: Bits of each lane's correction counter (wraps).
+COUNT_BITS = 8
+
+
+def probe_words(settle, n_check):
+    """Word clocks of one probe."""
+    return settle + 3 + max(int(n_check), 1)
+
+
+def tap_words(link, lane_index, raw_taps, slip, ks):
+    """Gearbox outputs at cycles ``ks`` when raw word ``j`` was sampled with tap
+    ``raw_taps(j)`` (a function of an int64 array)."""
+    ks = np.asarray(ks, np.int64)
+    w = link.word_bits
+    m = ((ks - 1) * w + slip)[:, None] + np.arange(w, dtype=np.int64)
+    taps = raw_taps(np.floor_divide(m, w))
+    bits = lvds._sample_bits(link, lane_index, taps, m)
+    weights = np.int64(1) << np.arange(w - 1, -1, -1, dtype=np.int64)
+    return (bits * weights).sum(axis=-1)
+
+
+def track(link, lane_index, tap, slip, k_lock, k_stop, *, n_check, settle, margin):
+    """The corrections of a lane locked at ``k_lock`` with ``tap``/``slip`` up to ``k_stop``,
+    before any lane error is taken into account: a list of ``(kc, new tap)`` (decision
+    cycle; the tap the trainer loads at ``kc + 1``)."""
+    q = probe_words(settle, n_check)
+    nc = max(int(n_check), 1)
+    first = settle + 2
+    out, i, fail_lo = [], 0, False
+    while k_lock + (i + 1) * q - 1 < k_stop:
+        ks = k_lock + i * q
+        mt = min(max(tap - margin, 0), lvds.N_TAPS - 1) if i % 2 == 0 else \
+            min(tap + margin, lvds.N_TAPS - 1)
+        kk = ks + first + np.arange(nc) - 2
+        data = lvds.lane_words(link, lane_index, tap, slip, kk)
+        mon = lvds.lane_words(link, lane_index, mt, slip, kk)
+        fail = bool((data != mon).any())
+        if i % 2 == 0:
+            fail_lo = fail
+        else:
+            kc = ks + q - 1
+            if fail_lo and not fail and tap != lvds.N_TAPS - 1:
+                tap += 1
+                out.append((kc, tap))
+            elif fail and not fail_lo and tap != 0:
+                tap -= 1
+                out.append((kc, tap))
+        i += 1
+    return out
+
+
+def raw_tap_of(tap0, corrections):
+    """The tap of each raw word: ``tap0``, then each correction's from its effect word."""
+    eff = np.array([kc + 1 + lvds.LINK_LATENCY for kc, _ in corrections], np.int64)
+    taps = np.array([tap0] + [t for _, t in corrections], np.int64)
+    return lambda j: taps[np.searchsorted(eff, j, side="right")]
