@@ -235,3 +235,50 @@ def test_lanes_training_is_reported_with_its_picture_on_icarus(tmp_path, monkeyp
          for e in eyes]
     md = (tmp_path / "report.md").read_text()
     assert "lane 3: eye 18 taps (scene: 18)" in md and "eyes.png" in md
+
+
+DRIFT = ROOT / "scenes" / "ning2019_gmax0504_system_lanes_drift.toml"
+
+
+@pytest.mark.parametrize("tracking", [True, False], ids=["tracking", "no_tracking"])
+def test_drifting_eyes_with_and_without_tracking_on_icarus(tracking):
+    """The drift scene (eyes moving 6 taps over 20 frames, lanes 0 and 3 up, 1 down) on a
+    16-column, 3-stage cut of 18 lines: 20 frames sent (10 reset/signal pairs), on Icarus.
+    With tracking: every lane locked throughout, 0 mismatches, every correction the
+    testbench saw (one tap at a time) at the word the golden model states, listed in the
+    report's rows. Without it the same drift puts the drifting lanes in error (reported by
+    number) and the frames are not delivered whole."""
+    sc = load_scene(DRIFT, overrides={
+        "sensor": {"columns": 16}, "tdi": {"stages": 3},
+        "run": {"lines": 18, "rtl": {"crop": None, "simulator": "icarus"}}})
+    sc = replace(sc, sensor=replace(sc.sensor, lvds=replace(sc.sensor.lvds,
+                                                            tracking=tracking)))
+    from tdicam.chain.cosim import lanes_of
+    p = design.chain_plan(sc)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    assert p.frames == 20 and p.steps[0].params.get("track", 0) == (4 if tracking else 0)
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=18)
+    lv = sc.sensor.lvds
+    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "lanes": lanes_of(lv, p.lanes),
+                                               "drift": (lv.drift_taps, lv.drift_frames)})
+    st = rep["status_outputs"]
+    rows = {r["name"]: r for r in system_figures(p, rep)}
+    if tracking:
+        assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+        assert st["lvds_lane_error"] == 0 and st["lvds_lane_locked"] == 0b1111
+        corr = rep["lanes"]["corrections"]
+        assert corr["problems"] == []
+        per = corr["per_lane"]
+        assert len(per[0]) == len(per[3]) == 6 and len(per[1]) == 5 and per[2] == []
+        for lane, sign in ((0, 1), (1, -1), (3, 1)):
+            taps = [t for _, t in per[lane]]
+            assert taps == [taps[0] + sign * j for j in range(len(taps))]
+        counts = [(st["lvds_lane_corrections"] >> 8 * i) & 0xFF for i in range(4)]
+        assert counts == [len(per[i]) for i in range(4)]
+        assert "lane 0: eye tracking: 6 correction(s): tap " in rows["lane 0 tracking"]["text"]
+        assert all(rows[f"lane {i} eye"]["agree"] for i in range(4))
+    else:
+        assert st["lvds_lane_error"] == 0b1011
+        assert rep["mismatches"] > 0
+        assert "lane(s) 0, 1, 3 in error" in rows["sensor lanes"]["text"]

@@ -26,6 +26,7 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
+from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
@@ -428,13 +429,18 @@ class Deskew(wiring.Component):
         return m
 
 
-def lane_ports(phy, n, w):
+def lane_ports(phy, n, w, track=False):
     """The lane-side ports of a receiver top with PHY ``phy`` ({name: member}): the
-    deserializers' words and the delay taps (``none``: :class:`LvdsRx`), or the pins and
-    clocks (``xilinx7``: :class:`LvdsXilinx`; ``ecp5``: :class:`tdicam.hdl.lvds_phy.LvdsEcp5`).
+    deserializers' words and the delay taps (``none``: :class:`LvdsRx`; with ``track`` the
+    monitor samplers' too), or the pins and clocks (``xilinx7``: :class:`LvdsXilinx`;
+    ``ecp5``: :class:`tdicam.hdl.lvds_phy.LvdsEcp5`).
     """
     if phy == "none":
-        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+        ports = {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+        if track:
+            ports.update({"lane_mon_raw": In(n * w), "lane_mon_tap": Out(n * TAP_BITS),
+                          "lane_mon_ld": Out(n)})
+        return ports
     if phy == "ecp5":
         return {"lane_p": In(n), "clk_eclk": In(1)}
     ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
@@ -542,16 +548,14 @@ class LvdsRx(wiring.Component):
         self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
                         hold=bool(hold), eye=bool(eye))
         self._depth = check_choice("deskew_depth", deskew_depth, (8, 16, 32))
-        ports = lane_ports("none", lanes, word_bits)
+        ports = lane_ports("none", lanes, word_bits, bool(self._track))
         if hold:
             ports["lane_hold"] = In(lanes)
         ports.update(rx_ports(lanes, word_bits))
         if eye:
             ports.update(eye_ports(lanes, word_bits))
         if self._track:
-            ports.update({"lane_mon_raw": In(lanes * word_bits),
-                          "lane_mon_tap": Out(lanes * TAP_BITS), "lane_mon_ld": Out(lanes),
-                          "lane_corrections": Out(lanes * 8)})
+            ports["lane_corrections"] = Out(lanes * COUNT_BITS)
         super().__init__(ports)
 
     @property
@@ -599,7 +603,7 @@ class LvdsRx(wiring.Component):
                     tr.n_check.eq(self.n_check), t.up.eq(tr.up), t.down.eq(tr.down),
                     self.lane_mon_tap[i * TAP_BITS:(i + 1) * TAP_BITS].eq(tr.mon_tap),
                     self.lane_mon_ld[i].eq(tr.mon_ld),
-                    self.lane_corrections[i * 8:(i + 1) * 8].eq(tr.count),
+                    self.lane_corrections[i * COUNT_BITS:(i + 1) * COUNT_BITS].eq(tr.count),
                 ]
             m.d.comb += [
                 t.raw.eq(self.lane_raw[i * w:(i + 1) * w]),

@@ -42,7 +42,8 @@ class FrontCase:
     starts the sensor later); ``walk``: the receiver has the eye status
     (:func:`tdicam.hdl.lvds.eye_ports`) and the sensor sends one round of the walking-1/0
     patterns (:func:`tdicam.model.lvds.walk_words`, ``2 W`` words) just before each data
-    segment, after the lanes have locked.
+    segment, after the lanes have locked; ``track``: the receiver tracks the eyes with that
+    margin (:mod:`tdicam.model.lvds_track`).
     """
 
     frames: list
@@ -62,6 +63,7 @@ class FrontCase:
     kinds: tuple | None = None
     lead: int = 40
     walk: bool = False
+    track: int = 0
     retrains: tuple = field(default=(), init=False)
     link: object = field(default=None, init=False)
     cycles: int = field(default=0, init=False)
@@ -102,7 +104,8 @@ class FrontCase:
 
     def golden_run(self):
         return lvds.run(self.link, cycles=self.cycles, retrains=self.retrains,
-                        n_check=self.n_check, settle=self.settle, eye=self.walk)
+                        n_check=self.n_check, settle=self.settle, eye=self.walk,
+                        track=self.track)
 
 
 def raw_table(link, cycles):
@@ -157,14 +160,37 @@ class WordDriver:
         self.raw, self.w, self.retrains, self.res = raw, word_bits, set(retrains), res
         self.n = raw.shape[0]
         self.tapq, self.tap2 = [0] * self.n, [0] * self.n
+        self.mq, self.m2 = [0] * self.n, [0] * self.n
         self.prev, self.out_seen = [(0, 0)] * self.n, 0
+        self.last_tap = [None] * self.n
 
     def inputs(self, k):
         raw = sum(int(self.raw[i, self.tap2[i], k]) << (i * self.w) for i in range(self.n))
         return raw, int(k in self.retrains)
 
+    def mon_inputs(self, k):
+        """The monitor samplers' words (a receiver with tracking: ``lane_mon_raw``)."""
+        return sum(int(self.raw[i, self.m2[i], k]) << (i * self.w) for i in range(self.n))
+
+    def mon_observe(self, ld, tap):
+        """The monitor samplers' tap loads (``lane_mon_ld``, ``lane_mon_tap``) of the cycle
+        (call before :meth:`observe`)."""
+        for i in range(self.n):
+            self.m2[i] = self.mq[i]
+            if (ld >> i) & 1:
+                self.mq[i] = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
+
     def observe(self, k, ld, tap, locked, error, frames_out, frame_invalid):
-        """``frame_invalid``: a callable reading the port (read only when a frame ends)."""
+        """``frame_invalid``: a callable reading the port (read only when a frame ends).
+        With ``res["corrections"]`` a list, every tap change of a locked lane is logged
+        there as ``(effect word, lane, new tap)`` (the first raw word sampled with it)."""
+        log = self.res.get("corrections")
+        for i in range(self.n):
+            cur = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
+            if log is not None and (locked >> i) & 1 and self.prev[i][0] \
+                    and cur != self.last_tap[i]:
+                log.append((k + lvds.LINK_LATENCY, i, cur))
+            self.last_tap[i] = cur
         for i in range(self.n):
             st = ((locked >> i) & 1, (error >> i) & 1)
             if st != self.prev[i]:
@@ -201,7 +227,7 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     if dut is None:
         dut = LvdsFront(lanes_per_gain=L, gains=g, word_bits=w, bits=bits,
                         columns=case.p * L, ppc=ppc, fifo_depth=case.fifo_depth,
-                        settle=case.settle, eye=case.walk)
+                        settle=case.settle, eye=case.walk, track=case.track)
     n_out = ppc * g if elems is None else elems
 
     def port(name):
@@ -209,6 +235,8 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     kind_port = getattr(dut, "frame_kind", None)
     raw = raw_table(case.link, case.cycles)
     res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
+    if case.track:
+        res["corrections"] = []
     done = [False]
 
     async def word_side(ctx):
@@ -223,6 +251,9 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
             lane_raw, retrain = drv.inputs(k)
             ctx.set(port("lane_raw"), lane_raw)
             ctx.set(port("retrain"), retrain)
+            if case.track:
+                ctx.set(port("lane_mon_raw"), drv.mon_inputs(k))
+                drv.mon_observe(ctx.get(port("lane_mon_ld")), ctx.get(port("lane_mon_tap")))
             if hook is not None:
                 hook(ctx, dut, k)
             drv.observe(k, *(ctx.get(port(x)) for x in ("lane_ld", "lane_tap", "lane_locked",
