@@ -99,6 +99,7 @@ from functools import lru_cache
 import numpy as np
 
 from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.model import lvds_track
 
 __all__ = ["PAPER_TAP_PS", "XILINX_TAP_PS", "N_TAPS", "VERDICT_WORDS", "MONITOR_WORDS",
            "DRIFT_STEPS",
@@ -402,6 +403,15 @@ def lane_words(link, lane_index, taps, slips, k):
     return _pack(_sample_bits(link, lane_index, np.asarray(taps)[..., None], m))
 
 
+def _tap_words(link, lane_index, raw_taps, slip, ks):
+    """Gearbox outputs at cycles ``ks`` when raw word ``j`` was sampled with tap
+    ``raw_taps(j)`` (a function of an int64 array): the words of a lane whose tap moves."""
+    ks = np.asarray(ks, np.int64)
+    w = link.word_bits
+    m = ((ks - 1) * w + slip)[:, None] + np.arange(w, dtype=np.int64)
+    return _pack(_sample_bits(link, lane_index, raw_taps(np.floor_divide(m, w)), m))
+
+
 def step_words(n_check, settle):
     """Word clocks of one training step."""
     return settle + max(int(n_check), 1) + VERDICT_WORDS
@@ -522,11 +532,11 @@ def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5,
     res.word_delay = 1 - (s - d_bits) // w
     words = None
     if track and judge:
-        from tdicam.model import lvds_track
-        corr = lvds_track.track(link, lane_index, tap, s, k_lock, k_stop, n_check=nc,
-                                settle=settle, margin=track)
-        raw_tap = lvds_track.raw_tap_of(tap, corr)
-        words = lambda ks: lvds_track.tap_words(link, lane_index, raw_tap, s, ks)  # noqa: E731
+        corr = lvds_track.track(lambda t, ks: lane_words(link, lane_index, t, s, ks), tap,
+                                k_lock, k_stop, n_check=nc, settle=settle, margin=track,
+                                n_taps=N_TAPS)
+        raw_tap = lvds_track.raw_tap_of(tap, corr, LINK_LATENCY)
+        words = lambda ks: _tap_words(link, lane_index, raw_tap, s, ks)  # noqa: E731
     k_bad, res.walk = _monitor(link, lane_index, tap, s, k_lock, k_stop, eye=eye,
                                words=words) if judge else (None, 0)
     if words is not None:

@@ -20,9 +20,7 @@ trainer). The lane's words and its locked-lane checks follow the tap as it moves
 
 import numpy as np
 
-from tdicam.model import lvds
-
-__all__ = ["COUNT_BITS", "probe_words", "track", "tap_words"]
+__all__ = ["COUNT_BITS", "probe_words", "track", "raw_tap_of"]
 
 #: Bits of each lane's correction counter (wraps).
 COUNT_BITS = 8
@@ -33,39 +31,27 @@ def probe_words(settle, n_check):
     return settle + 3 + max(int(n_check), 1)
 
 
-def tap_words(link, lane_index, raw_taps, slip, ks):
-    """Gearbox outputs at cycles ``ks`` when raw word ``j`` was sampled with tap
-    ``raw_taps(j)`` (a function of an int64 array)."""
-    ks = np.asarray(ks, np.int64)
-    w = link.word_bits
-    m = ((ks - 1) * w + slip)[:, None] + np.arange(w, dtype=np.int64)
-    taps = raw_taps(np.floor_divide(m, w))
-    bits = lvds._sample_bits(link, lane_index, taps, m)
-    weights = np.int64(1) << np.arange(w - 1, -1, -1, dtype=np.int64)
-    return (bits * weights).sum(axis=-1)
-
-
-def track(link, lane_index, tap, slip, k_lock, k_stop, *, n_check, settle, margin):
-    """The corrections of a lane locked at ``k_lock`` with ``tap``/``slip`` up to ``k_stop``,
-    before any lane error is taken into account: a list of ``(kc, new tap)`` (decision
-    cycle; the tap the trainer loads at ``kc + 1``)."""
+def track(words, tap, k_lock, k_stop, *, n_check, settle, margin, n_taps):
+    """The corrections of a lane locked at ``k_lock`` with ``tap`` up to ``k_stop``, before
+    any lane error is taken into account: a list of ``(kc, new tap)`` (decision cycle; the
+    tap the trainer loads at ``kc + 1``). ``words(tap, ks)``: the lane's gearbox outputs at
+    cycles ``ks`` sampled with a steady ``tap`` (its slip;
+    :func:`tdicam.model.lvds.lane_words`)."""
     q = probe_words(settle, n_check)
     nc = max(int(n_check), 1)
     first = settle + 2
     out, i, fail_lo = [], 0, False
     while k_lock + (i + 1) * q - 1 < k_stop:
         ks = k_lock + i * q
-        mt = min(max(tap - margin, 0), lvds.N_TAPS - 1) if i % 2 == 0 else \
-            min(tap + margin, lvds.N_TAPS - 1)
+        mt = max(tap - margin, 0) if i % 2 == 0 else min(tap + margin, n_taps - 1)
         kk = ks + first + np.arange(nc) - 2
-        data = lvds.lane_words(link, lane_index, tap, slip, kk)
-        mon = lvds.lane_words(link, lane_index, mt, slip, kk)
+        data, mon = words(tap, kk), words(mt, kk)
         fail = bool((data != mon).any())
         if i % 2 == 0:
             fail_lo = fail
         else:
             kc = ks + q - 1
-            if fail_lo and not fail and tap != lvds.N_TAPS - 1:
+            if fail_lo and not fail and tap != n_taps - 1:
                 tap += 1
                 out.append((kc, tap))
             elif fail and not fail_lo and tap != 0:
@@ -75,8 +61,9 @@ def track(link, lane_index, tap, slip, k_lock, k_stop, *, n_check, settle, margi
     return out
 
 
-def raw_tap_of(tap0, corrections):
-    """The tap of each raw word: ``tap0``, then each correction's from its effect word."""
-    eff = np.array([kc + 1 + lvds.LINK_LATENCY for kc, _ in corrections], np.int64)
+def raw_tap_of(tap0, corrections, latency):
+    """The tap of each raw word (a function of an int64 array): ``tap0``, then each
+    correction's from its effect word ``kc + 1 + latency``."""
+    eff = np.array([kc + 1 + latency for kc, _ in corrections], np.int64)
     taps = np.array([tap0] + [t for _, t in corrections], np.int64)
     return lambda j: taps[np.searchsorted(eff, j, side="right")]
