@@ -54,6 +54,9 @@ pixel lines :mod:`tdicam.model.lvds_front` makes of frames) the data segments ca
 instead: data word ``q`` (counted over every data segment in order, sync positions included)
 is ``payload[lane][q]`` while ``q`` is inside it; past its end the rule above continues.
 
+One module (past 600 lines) on purpose: the link (skew, eye, jitter, drift), the training
+and the locked-lane checks are one bit-exact timing contract, checked together.
+
 Receiver timing (the contract of :class:`tdicam.hdl.lvds.LvdsRx`)
 -----------------------------------------------------------------
 Port cycle ``k`` = word clocks since reset was released. ``raw(k)`` = samples

@@ -379,7 +379,7 @@ def test_block_registry_params():
     # the front-end parameters (issue 30) hold their defaults: golden cases do not record them
     assert {k: p[k] for k in set(p) - set(blk.recorded(p))} == {
         "lanes_per_gain": 0, "columns": 0, "bits": 12, "ppc": 1, "fifo_depth": 16, "pairs": 0,
-        "eye": 0}
+        "eye": 0, "track": 0}
     from tdicam.hdl.lvds_phy import LvdsEcp5
     for phy, cls in (("none", LvdsRx), ("xilinx7", LvdsXilinx), ("ecp5", LvdsEcp5)):
         top = blk.build({"lanes": 2, "phy": phy})

@@ -77,3 +77,28 @@ def test_drift_errors_are_one_line():
                   after=lvds.Lane(skew_ps=0, eye_ps=0))
     with pytest.raises(TdicamError, match="drift_words = 0 must be >= 1"):
         lvds.Lane(skew_ps=0, eye_ps=2000, drift_taps=2)
+
+
+def test_scene_keys_and_refusals_are_one_line():
+    """[sensor.lvds] drift_taps / drift_frames / tracking: read next to the other keys,
+    bad values refused in one line naming the key; tracking needs the generic PHY."""
+    from tdicam import blocks
+    from tdicam.scene.loader import scene_from_dict
+    base = {"orbit": {"altitude_km": 600.0, "gsd_m": 5.0},
+            "sensor": {"columns": 16, "rows": 100, "bits": 10, "gains": [4.9, 0.8],
+                       "lvds": {"lanes_per_gain": 2, "drift_taps": [6, -6, 0, 6],
+                                "drift_frames": 20, "tracking": True}}}
+    lv = scene_from_dict(base).sensor.lvds
+    assert (lv.drift_taps, lv.drift_frames, lv.tracking, lv.simulate) == \
+        ((6.0, -6.0, 0.0, 6.0), 20, True, True)
+    for key, value, match in (("drift_taps", [1, 2], "drift_taps: must be one number or one "
+                                                     "per lane \\(4"),
+                              ("drift_frames", 0, "drift_frames"),
+                              ("tracking", "yes", "tracking: must be true or false")):
+        bad = {**base, "sensor": {**base["sensor"],
+                                  "lvds": {**base["sensor"]["lvds"], key: value}}}
+        with pytest.raises(TdicamError, match=match) as e:
+            scene_from_dict(bad)
+        assert "\n" not in str(e.value)
+    with pytest.raises(TdicamError, match="--track = 4 needs --phy none"):
+        blocks.get("lvds").build({"lanes": 2, "phy": "xilinx7", "track": 4})
