@@ -102,3 +102,41 @@ def test_scene_keys_and_refusals_are_one_line():
         assert "\n" not in str(e.value)
     with pytest.raises(TdicamError, match="--track = 4 needs --phy none"):
         blocks.get("lvds").build({"lanes": 2, "phy": "xilinx7", "track": 4})
+
+
+# ---------------------------------------------------------------- property
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from tdicam.cosim.testing import FULL  # noqa: E402
+
+
+@settings(max_examples=30 if FULL else 3, deadline=None, derandomize=not FULL,
+          database=None)
+@given(seed=st.integers(0, 1 << 30), word_bits=st.sampled_from([10, 12]),
+       margin=st.integers(1, 8), drift=st.lists(st.integers(-8, 8), min_size=3, max_size=3),
+       nc=st.integers(1, 6), eye=st.booleans())
+def test_tracking_and_eye_status_equal_golden_property(seed, word_bits, margin, drift, nc,
+                                                       eye):
+    """Random lanes (skew up to a word, eyes 3-20 taps, jitter on or off, either tap size),
+    drifting -8..8 taps, a random probe margin and n_check, the eye status and the walking
+    round on or off: the gateware's status events, final status (masks, taps, corrections)
+    and every correction's effect word equal the golden model's."""
+    import numpy as np
+    rng = np.random.default_rng(seed)
+    tw = lvds.training_words(word_bits, nc, ST)
+    d0 = tw + 10 + 2 * word_bits
+    words = 400
+    lanes = [replace(lvds.random_lane(rng, max_word_delay=1, word_bits=word_bits),
+                     drift_taps=float(d), drift_from=d0, drift_words=words) if d else
+             lvds.random_lane(rng, max_word_delay=1, word_bits=word_bits) for d in drift]
+    sched = ((tw + 10, "walk"), (d0, "data")) if eye else ((d0, "data"),)
+    link = lvds.Link(lanes, word_bits=word_bits, line_words=12, schedule=sched)
+    cycles = d0 + words + 40
+    gold = lvds.run(link, cycles=cycles, n_check=nc, settle=ST, eye=eye, track=margin)
+    final, corr = [], []
+    events, _, _ = run_amaranth(link, cycles, n_check=nc, settle=ST, eye=eye, track=margin,
+                                final=final, corrections=corr)
+    assert events == gold.events and final == gold.final
+    assert sorted(corr) == sorted((e, i, t) for i, r in enumerate(gold.trainings[0])
+                                  for _, t, e in r.corrections)
