@@ -278,6 +278,8 @@ def test_drifting_eyes_with_and_without_tracking_on_icarus(tracking):
         assert counts == [len(per[i]) for i in range(4)]
         assert "lane 0: eye tracking: 6 correction(s): tap " in rows["lane 0 tracking"]["text"]
         assert all(rows[f"lane {i} eye"]["agree"] for i in range(4))
+        e0 = rep["lanes"]["eyes"][0]                 # trained, then tracked 6 taps up
+        assert e0["tap"] == e0["trained_tap"] + 6 and "at the end, tracked" in e0["text"]
     else:
         assert st["lvds_lane_error"] == 0b1011
         assert rep["mismatches"] > 0

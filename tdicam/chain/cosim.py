@@ -539,6 +539,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                            for ln in lanes], prm["word_bits"], case.link.train_word,
                           n_check=case.n_check, settle=case.settle),
                       "eyes_golden": case.golden_run().final if case.walk else None,
+                      "trained_taps": [next((ev[3] for ev in r.events if ev[1]), None)
+                                       for r in case.golden_run().trainings[-1]],
                       "corrections": res.get("corrections"),
                       "corrections_golden": _corrections(case) if case.track else None},
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
@@ -732,7 +734,7 @@ def _eyes(p, info, front):
     lanes = front.get("lanes") or ideal_lanes(prm["lanes"])
     return lane_eyes(info["front"]["eyes_golden"], info["status"], prm["word_bits"],
                      prefix="lvds_", tap_ps=lanes[0].tap_ps, eye_taps=front.get("eye_taps"),
-                     min_run=prm["min_run"])
+                     min_run=prm["min_run"], trained=info["front"]["trained_taps"])
 
 
 def _delivered(p, data, got, front, dies):

@@ -493,7 +493,8 @@ def plan_case(p, data, lanes, **kw):
                      bits=prm["bits"], ppc=p.ppc, settle=prm["settle"], kinds=kinds, **kw)
 
 
-def lane_eyes(golden, status, word_bits, *, prefix="", tap_ps=None, eye_taps=None, min_run=9):
+def lane_eyes(golden, status, word_bits, *, prefix="", tap_ps=None, eye_taps=None, min_run=9,
+              trained=None):
     """Each lane's training as the receiver published it (its eye-status ports in
     ``status``, ``{prefix + port: value}``, :func:`tdicam.hdl.lvds.eye_ports` and the
     front's ``lane_scan``/``lane_run``/``lane_slip``) beside the golden model's prediction
@@ -504,7 +505,9 @@ def lane_eyes(golden, status, word_bits, *, prefix="", tap_ps=None, eye_taps=Non
     ``slip_mask``, ``eye_taps_found`` (the widest run) and ``eye_ps_found`` (x ``tap_ps``),
     ``eye_taps_given`` (the scene's, when known), ``walk`` (the walking-1/0 patterns
     received), ``walk_ok``, ``locked``, ``error``, ``golden`` (the same fields predicted),
-    ``agree`` (every field equal) and ``text`` (one line; a lane with no eye says so).
+    ``agree`` (every field equal) and ``text`` (one line; a lane with no eye says so);
+    ``trained``: each lane's tap as training chose it (None: ``tap``), ``trained_tap`` (the
+    receiver's ``tap`` is the one at the end: with tracking it has moved).
     """
     w = word_bits
     fields = {"mask": ("lane_scan", lvds.N_TAPS), "eye_taps_found": ("lane_run", RUN_BITS),
@@ -525,12 +528,16 @@ def lane_eyes(golden, status, word_bits, *, prefix="", tap_ps=None, eye_taps=Non
         e["walk_ok"] = e["walk"] == full
         e["eye_ps_found"] = None if tap_ps is None else e["eye_taps_found"] * tap_ps
         e["eye_taps_given"] = None if eye_taps is None else float(eye_taps[i])
+        tt = None if trained is None else trained[i]
+        e["trained_tap"] = e["tap"] if tt is None else int(tt)
+        at = f"tap {e['trained_tap']}" + ("" if e["trained_tap"] == e["tap"] else
+                                         f" ({e['tap']} at the end, tracked)")
         given = "" if eye_taps is None else f" (scene: {float(eye_taps[i]):g})"
         same = "as the golden model predicts" if e["agree"] else \
             f"the golden model predicts {e['golden']}"
         if e["locked"]:
-            e["text"] = (f"lane {i}: eye {e['eye_taps_found']} taps{given}, tap "
-                         f"{e['tap']}, slip {e['slip']}; walking 1/0: "
+            e["text"] = (f"lane {i}: eye {e['eye_taps_found']} taps{given}, {at}, slip "
+                         f"{e['slip']}; walking 1/0: "
                          + ("every bit seen as 1 and 0" if e["walk_ok"] else
                             f"patterns {e['walk']:#x} of {full:#x}")
                          + f"; {same}")
