@@ -16,11 +16,16 @@ probe, from ``kc + 1``, is taken around the new tap). A correction decided at a 
 the lane's error already shows (``>= k_bad + 3``, :mod:`tdicam.model.lvds`) is not made; one
 decided at ``k_bad + 2`` is counted but not applied (the error takes precedence in the
 trainer). The lane's words and its locked-lane checks follow the tap as it moves.
+
+The probes must fit in the eye: with an eye narrower than ``2 margin + 1`` taps one probe
+always fails and the tap dithers by one tap every probe pair (no word is lost: both taps are
+inside the eye; the counter grows). A scene's margin is ``pick - 1 = 4``
+(:data:`tdicam.blocks.lvds.TRACK_MARGIN`), within every eye that trains (``min_run = 9``).
 """
 
 import numpy as np
 
-__all__ = ["COUNT_BITS", "probe_words", "track", "raw_tap_of"]
+__all__ = ["COUNT_BITS", "probe_words", "track", "raw_tap_of", "shown"]
 
 #: Bits of each lane's correction counter (wraps).
 COUNT_BITS = 8
@@ -59,6 +64,13 @@ def track(words, tap, k_lock, k_stop, *, n_check, settle, margin, n_taps):
                 out.append((kc, tap))
         i += 1
     return out
+
+
+def shown(corrections, cycles, latency):
+    """The ``(effect word, ...)`` corrections whose new tap shows at a port cycle before
+    ``cycles`` (the end of a run): decided at ``kc <= cycles - 2``, the effect word
+    ``kc + 1 + latency``."""
+    return [c for c in corrections if c[0] - latency < cycles]
 
 
 def raw_tap_of(tap0, corrections, latency):

@@ -8,7 +8,7 @@ import pytest
 
 from tdicam.cosim.lvds import run_amaranth
 from tdicam.errors import TdicamError
-from tdicam.model import lvds, lvds_front
+from tdicam.model import lvds, lvds_front, lvds_track
 
 NC, ST, W = 4, 4, 10
 LINE, ROWS, FRAMES = 12, 4, 20
@@ -41,7 +41,7 @@ def test_drift_of_6_taps_over_20_frames(track):
     assert events == gold.events and final == gold.final
     want = sorted((eff, i, t) for i, r in enumerate(gold.trainings[0])
                   for _, t, eff in r.corrections)
-    assert sorted(corr) == want
+    assert sorted(corr) == want == lvds_track.shown(want, cycles, lvds.LINK_LATENCY)
     if track:
         assert [f["error"] for f in final] == [0, 0, 0]
         # lane 0's tap sits 4 taps above its eye's low edge: it follows all 6 taps; lane
@@ -138,5 +138,6 @@ def test_tracking_and_eye_status_equal_golden_property(seed, word_bits, margin, 
     events, _, _ = run_amaranth(link, cycles, n_check=nc, settle=ST, eye=eye, track=margin,
                                 final=final, corrections=corr)
     assert events == gold.events and final == gold.final
-    assert sorted(corr) == sorted((e, i, t) for i, r in enumerate(gold.trainings[0])
-                                  for _, t, e in r.corrections)
+    want = sorted((e, i, t) for i, r in enumerate(gold.trainings[0])
+                  for _, t, e in r.corrections)
+    assert sorted(corr) == lvds_track.shown(want, cycles, lvds.LINK_LATENCY)

@@ -720,9 +720,11 @@ def _drift(probe, lanes, taps, frames):
 
 def _corrections(case):
     """The golden model's corrections of the run: ``(effect word, lane, new tap)``."""
+    from tdicam.model import lvds, lvds_track
     g = case.golden_run()
-    return sorted((eff, i, t) for tr in g.trainings for i, r in enumerate(tr)
-                  for _, t, eff in r.corrections)
+    return lvds_track.shown(sorted((eff, i, t) for tr in g.trainings for i, r in enumerate(tr)
+                                   for _, t, eff in r.corrections), case.cycles,
+                            lvds.LINK_LATENCY)
 
 
 def _eyes(p, info, front):
