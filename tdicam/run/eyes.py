@@ -38,7 +38,7 @@ def eye_figure(eyes, path):
     ax.set_yticks(range(n))
     ax.set_yticklabels([f"lane {e['lane']}" for e in eyes])
     ax.set_xlabel("delay tap (green: the training word passed; x: the chosen tap"
-                  + ("; o: the tap at the end, tracking the drifting eye)" if moved else ")"))
+                  + (";\no: the tap at the end, tracking the drifting eye)" if moved else ")"))
     ax.set_title("Lane training: pass mask over the delay taps")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
