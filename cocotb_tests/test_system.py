@@ -194,3 +194,93 @@ def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
         md = (tmp_path / "report.md").read_text()
         assert "lane 0 died in frame 5" in md and "did not train" in md
         assert "cycles waited on the MIG model's stalls (refresh 200 of every 2000" in md
+
+
+def test_lanes_training_is_reported_with_its_picture_on_icarus(tmp_path, monkeypatch):
+    """[sensor.lvds].eye_status on the lanes cut (Icarus): the sensor's walking-1/0 round
+    after lock; every lane's published training (tap pass mask, eye width found, chosen tap,
+    slip, walking patterns) equals the golden link model's, the frames bit-exact; tdicam
+    run's report carries them: one row a lane in report.md, rtl.eyes in report.json, and
+    eyes.png beside them (the run's co-simulation is this one, the runner's own path)."""
+    from tdicam.chain import cosim
+    from tdicam.run.runner import run_scene
+    sc = load_scene(LANES, overrides={
+        "sensor": {"columns": 16, "lvds": {"lanes_per_gain": 2, "eye_status": True,
+                                           "eye_width_taps": [14, 16, 12, 18],
+                                           "eye_centre_taps": [12, 16, 20, 10]}},
+        "tdi": {"stages": 3}, "run": {"lines": 2, "rtl": {"crop": None,
+                                                          "simulator": "icarus"}}})
+    p = design.chain_plan(sc)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    assert p.steps[0].params["eye"] == 1
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=2)
+    lv = sc.sensor.lvds
+    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "eye_taps": lv.eye_width_taps,
+                                               "lanes": cosim.lanes_of(lv, p.lanes)})
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    eyes = rep["lanes"]["eyes"]
+    assert all(e["agree"] and e["locked"] and e["walk_ok"] for e in eyes)
+    assert [e["eye_taps_found"] for e in eyes] == [14, 16, 12, 18]
+    assert rep["status_outputs"]["lvds_lane_walk_ok"] == 0b1111
+    rows = system_figures(p, rep)
+    out = {"simulator": "icarus", "crop": None, "blocks": [], "system": rows, "eyes": eyes}
+    monkeypatch.setattr(cosim, "cosim_scene", lambda *a, **k: out)
+    report = run_scene(sc, tmp_path, progress=False)
+    assert "eyes.png" in report["files"]
+    assert (tmp_path / "eyes.png").read_bytes()[:4] == b"\x89PNG"
+    saved = json.loads((tmp_path / "report.json").read_text())["rtl"]["eyes"]
+    assert [(e["mask"], e["tap"], e["eye_taps_found"]) for e in saved] == \
+        [(e["golden"]["mask"], e["golden"]["tap"], e["golden"]["eye_taps_found"])
+         for e in eyes]
+    md = (tmp_path / "report.md").read_text()
+    assert "lane 3: eye 18 taps (scene: 18)" in md and "eyes.png" in md
+
+
+DRIFT = ROOT / "scenes" / "ning2019_gmax0504_system_lanes_drift.toml"
+
+
+@pytest.mark.parametrize("tracking", [True, False], ids=["tracking", "no_tracking"])
+def test_drifting_eyes_with_and_without_tracking_on_icarus(tracking):
+    """The drift scene (eyes moving 6 taps over 20 frames, lanes 0 and 3 up, 1 down) on a
+    16-column, 3-stage cut of 18 lines: 20 frames sent (10 reset/signal pairs), on Icarus.
+    With tracking: every lane locked throughout, 0 mismatches, every correction the
+    testbench saw (one tap at a time) at the word the golden model states, listed in the
+    report's rows. Without it the same drift puts the drifting lanes in error (reported by
+    number) and the frames are not delivered whole."""
+    sc = load_scene(DRIFT, overrides={
+        "sensor": {"columns": 16}, "tdi": {"stages": 3},
+        "run": {"lines": 18, "rtl": {"crop": None, "simulator": "icarus"}}})
+    sc = replace(sc, sensor=replace(sc.sensor, lvds=replace(sc.sensor.lvds,
+                                                            tracking=tracking)))
+    from tdicam.chain.cosim import lanes_of
+    p = design.chain_plan(sc)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    assert p.frames == 20 and p.steps[0].params.get("track", 0) == (4 if tracking else 0)
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=18)
+    lv = sc.sensor.lvds
+    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "lanes": lanes_of(lv, p.lanes),
+                                               "drift": (lv.drift_taps, lv.drift_frames)})
+    st = rep["status_outputs"]
+    rows = {r["name"]: r for r in system_figures(p, rep)}
+    if tracking:
+        assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+        assert st["lvds_lane_error"] == 0 and st["lvds_lane_locked"] == 0b1111
+        corr = rep["lanes"]["corrections"]
+        assert corr["problems"] == []
+        per = corr["per_lane"]
+        assert len(per[0]) == len(per[3]) == 6 and len(per[1]) == 5 and per[2] == []
+        for lane, sign in ((0, 1), (1, -1), (3, 1)):
+            taps = [t for _, t in per[lane]]
+            assert taps == [taps[0] + sign * j for j in range(len(taps))]
+        counts = [(st["lvds_lane_corrections"] >> 8 * i) & 0xFF for i in range(4)]
+        assert counts == [len(per[i]) for i in range(4)]
+        assert "lane 0: eye tracking: 6 correction(s): tap " in rows["lane 0 tracking"]["text"]
+        assert all(rows[f"lane {i} eye"]["agree"] for i in range(4))
+        e0 = rep["lanes"]["eyes"][0]                 # trained, then tracked 6 taps up
+        assert e0["tap"] == e0["trained_tap"] + 6 and "at the end, tracked" in e0["text"]
+    else:
+        assert st["lvds_lane_error"] == 0b1011
+        assert rep["mismatches"] > 0
+        assert "lane(s) 0, 1, 3 in error" in rows["sensor lanes"]["text"]

@@ -26,10 +26,11 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.lvds import LINK_LATENCY, N_TAPS, VERDICT_WORDS
+from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
-           "RUN_BITS", "forward_core", "rx_ports", "lane_ports"]
+           "RUN_BITS", "forward_core", "rx_ports", "lane_ports", "eye_ports", "EYE_STATUS"]
 
 TAP_BITS = 5
 SLIP_BITS = 4
@@ -77,6 +78,16 @@ class LaneTrainer(wiring.Component):
         time, the ECP5 DELAYF): the step's word counter stays at 0 while it is high, so the
         ``settle`` words start once the delay has arrived. Without it every step has the
         fixed length of :meth:`step_words`.
+    slip_pass, walk : Out(word_bits), Out(2*word_bits), with ``eye=True`` only
+        The eye status (:mod:`tdicam.model.lvds`): bit ``s`` of ``slip_pass`` = slip ``s``
+        locked (the slips before it failed); ``walk``: the walking-1/0 patterns received
+        after lock and before the first sync word (bit ``j``: only bit ``j`` set, bit
+        ``W + j``: only bit ``j`` clear; all ones = every bit seen as 1 and 0). With ``eye``
+        the locked lane accepts those patterns before its first sync word.
+    up, down : In(1), with ``track=True`` only
+        While locked: step the tap up / down by one (a tracker's correction,
+        :class:`tdicam.hdl.lvds_track.LaneTracker`), with the load strobe; a lane error
+        takes precedence.
     tap, ld : Out(5), Out(1)
         Delay tap and its load strobe (high in the first cycle of every step).
     slip : Out(4)
@@ -99,10 +110,11 @@ class LaneTrainer(wiring.Component):
     """
 
     @quiet_reject
-    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False):
+    def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False, eye=False,
+                 track=False):
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
-        self._hold = bool(hold)
+        self._hold, self._eye, self._track = bool(hold), bool(eye), bool(track)
         w = word_bits
         ports = {
             "raw": In(w), "train_word": In(w), "sync_word": In(w), "n_check": In(8),
@@ -113,6 +125,10 @@ class LaneTrainer(wiring.Component):
         }
         if hold:
             ports["hold"] = In(1)
+        if eye:
+            ports.update({"slip_pass": Out(w), "walk": Out(2 * w)})
+        if track:
+            ports.update({"up": In(1), "down": In(1)})
         super().__init__(ports)
 
     @property
@@ -174,6 +190,11 @@ class LaneTrainer(wiring.Component):
         w_b, chk_b, first_b, mon_b, scan_b = (Signal(w), Signal(), Signal(), Signal(),
                                               Signal())
         eq_rot, eq_train, eq_sync = Signal(w), Signal(), Signal()
+        if self._eye:
+            eq_walk = Signal(2 * w)
+            full = (1 << w) - 1
+            m.d.sync += eq_walk.eq(Cat(*(w_a == (1 << j) for j in range(w)),
+                                       *(w_a == (full ^ (1 << j)) for j in range(w))))
         m.d.sync += [
             w_b.eq(w_a), chk_b.eq(chk_a), first_b.eq(first_a), mon_b.eq(mon_a),
             scan_b.eq(scan_a),
@@ -218,8 +239,10 @@ class LaneTrainer(wiring.Component):
                 with m.If(eq_sync):
                     m.d.sync += [mphase.eq(1), lpos.eq(Mux(lpos_next >= line_words,
                                                            0, lpos_next))]
-                with m.Elif(~eq_train):
+                with m.Elif(~eq_train & ~eq_walk.any() if self._eye else ~eq_train):
                     m.d.comb += go_error_mon.eq(1)
+                if self._eye:
+                    m.d.sync += self.walk.eq(self.walk | eq_walk)
             with m.Else():
                 with m.If(eq_sync == lpos.any()):
                     m.d.comb += go_error_mon.eq(1)
@@ -256,6 +279,8 @@ class LaneTrainer(wiring.Component):
                 m.d.sync += cnt.eq(0)
                 with m.If(ok):
                     m.d.sync += [state.eq(_LOCKED), self.locked.eq(1)]
+                    if self._eye:
+                        m.d.sync += self.slip_pass.eq(1 << self.slip)
                 with m.Elif(self.slip == w - 1):
                     m.d.sync += [state.eq(_ERROR), self.error.eq(1), self.tap.eq(0),
                                  self.slip.eq(0), self.ld.eq(1)]
@@ -267,6 +292,11 @@ class LaneTrainer(wiring.Component):
         with m.Elif(state == _LOCKED):
             with m.If(go_error_mon):
                 m.d.sync += [state.eq(_ERROR), self.locked.eq(0), self.error.eq(1)]
+            if self._track:
+                with m.Elif(self.up):
+                    m.d.sync += [self.tap.eq(self.tap + 1), self.ld.eq(1)]
+                with m.Elif(self.down):
+                    m.d.sync += [self.tap.eq(self.tap - 1), self.ld.eq(1)]
 
         with m.If(self.restart):
             m.d.sync += [
@@ -276,6 +306,8 @@ class LaneTrainer(wiring.Component):
                 best_start.eq(0), mphase.eq(0), lpos.eq(0),
                 chk_a.eq(0), mon_a.eq(0), chk_b.eq(0), mon_b.eq(0),
             ]
+            if self._eye:
+                m.d.sync += [self.slip_pass.eq(0), self.walk.eq(0)]
         return m
 
 
@@ -397,13 +429,18 @@ class Deskew(wiring.Component):
         return m
 
 
-def lane_ports(phy, n, w):
+def lane_ports(phy, n, w, track=False):
     """The lane-side ports of a receiver top with PHY ``phy`` ({name: member}): the
-    deserializers' words and the delay taps (``none``: :class:`LvdsRx`), or the pins and
-    clocks (``xilinx7``: :class:`LvdsXilinx`; ``ecp5``: :class:`tdicam.hdl.lvds_phy.LvdsEcp5`).
+    deserializers' words and the delay taps (``none``: :class:`LvdsRx`; with ``track`` the
+    monitor samplers' too), or the pins and clocks (``xilinx7``: :class:`LvdsXilinx`;
+    ``ecp5``: :class:`tdicam.hdl.lvds_phy.LvdsEcp5`).
     """
     if phy == "none":
-        return {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+        ports = {"lane_raw": In(n * w), "lane_tap": Out(n * TAP_BITS), "lane_ld": Out(n)}
+        if track:
+            ports.update({"lane_mon_raw": In(n * w), "lane_mon_tap": Out(n * TAP_BITS),
+                          "lane_mon_ld": Out(n)})
+        return ports
     if phy == "ecp5":
         return {"lane_p": In(n), "clk_eclk": In(1)}
     ports = {"lane_p": In(n), "lane_n": In(n), "clk_bit": In(1), "clk_ref": In(1),
@@ -413,10 +450,27 @@ def lane_ports(phy, n, w):
     return ports
 
 
+#: The eye status of a receiver with ``eye=True`` besides :func:`rx_ports`' (per lane).
+EYE_STATUS = ("lane_chosen_tap", "lane_slip_pass", "lane_walk", "lane_walk_ok")
+
+
+def eye_ports(lanes, w):
+    """The eye-status ports of a receiver with ``eye=True`` ({name: member}, per lane, lane 0
+    in the LSBs): the trainer's tap (the chosen one once locked: ``lane_tap`` of the core,
+    inside a PHY), the slip that locked as a mask, the walking-1/0 patterns received and
+    whether all were (:class:`LaneTrainer` ``slip_pass``, ``walk``)."""
+    return {"lane_chosen_tap": Out(lanes * TAP_BITS), "lane_slip_pass": Out(lanes * w),
+            "lane_walk": Out(lanes * 2 * w), "lane_walk_ok": Out(lanes)}
+
+
 def forward_core(m, outer, core):
     """Connect the register and status ports of a PHY wrapper ``outer`` to its
-    :class:`LvdsRx` ``core`` (settings in, status out)."""
-    for name in rx_ports(core.lanes, core.word_bits):
+    :class:`LvdsRx` ``core`` (settings in, status out; the eye status when the core has
+    it)."""
+    names = list(rx_ports(core.lanes, core.word_bits))
+    if core.eye:
+        names += list(eye_ports(core.lanes, core.word_bits))
+    for name in names:
         port, inner = getattr(outer, name), getattr(core, name)
         if name in ("train_word", "sync_word", "n_check", "line_words", "retrain"):
             m.d.comb += inner.eq(port)
@@ -450,6 +504,14 @@ class LvdsRx(wiring.Component):
     deskew_depth : 8, 16 or 32
     hold : bool
         Add ``lane_hold`` (:class:`LaneTrainer`'s ``hold`` of every lane).
+    eye : bool
+        Add the eye status (:func:`eye_ports`; opt-in: without it the Verilog is that of
+        before).
+    track : int
+        > 0: track each locked lane's eye with a monitor sampler probing ``track`` taps
+        either side (:class:`tdicam.hdl.lvds_track.LaneTracker`; ports ``lane_mon_raw``
+        in, the monitor deserializers' words; ``lane_mon_tap``/``lane_mon_ld`` out, their
+        delay taps; ``lane_corrections`` out, 8 bits a lane). 0: none (the Verilog of before).
 
     Attributes
     ----------
@@ -478,22 +540,35 @@ class LvdsRx(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8, hold=False):
+                 deskew_depth=8, hold=False, eye=False, track=0):
         _check_common(word_bits, settle, min_run, pick)
+        self._track = check_range("track", track, 0, 15)
         self._n = check_range("lanes", lanes, 1, 128)
         self._w = word_bits
         self._kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
-                        hold=bool(hold))
+                        hold=bool(hold), eye=bool(eye))
         self._depth = check_choice("deskew_depth", deskew_depth, (8, 16, 32))
-        ports = lane_ports("none", lanes, word_bits)
+        ports = lane_ports("none", lanes, word_bits, bool(self._track))
         if hold:
             ports["lane_hold"] = In(lanes)
         ports.update(rx_ports(lanes, word_bits))
+        if eye:
+            ports.update(eye_ports(lanes, word_bits))
+        if self._track:
+            ports["lane_corrections"] = Out(lanes * COUNT_BITS)
         super().__init__(ports)
+
+    @property
+    def track(self):
+        return self._track
 
     @property
     def lanes(self):
         return self._n
+
+    @property
+    def eye(self):
+        return self._kw["eye"]
 
     @property
     def word_bits(self):
@@ -516,8 +591,20 @@ class LvdsRx(wiring.Component):
         m.submodules.deskew = dsk = Deskew(lanes=n, word_bits=w, depth=self._depth)
         done = []
         for i in range(n):
-            t = LaneTrainer(**self._kw)
+            t = LaneTrainer(**self._kw, track=bool(self._track))
             m.submodules[f"lane{i}"] = t
+            if self._track:
+                from tdicam.hdl.lvds_track import LaneTracker
+                tr = LaneTracker(word_bits=w, settle=self._kw["settle"], margin=self._track)
+                m.submodules[f"track{i}"] = tr
+                m.d.comb += [
+                    tr.locked.eq(t.locked), tr.tap.eq(t.tap), tr.slip.eq(t.slip),
+                    tr.word.eq(t.word), tr.mon_raw.eq(self.lane_mon_raw[i * w:(i + 1) * w]),
+                    tr.n_check.eq(self.n_check), t.up.eq(tr.up), t.down.eq(tr.down),
+                    self.lane_mon_tap[i * TAP_BITS:(i + 1) * TAP_BITS].eq(tr.mon_tap),
+                    self.lane_mon_ld[i].eq(tr.mon_ld),
+                    self.lane_corrections[i * COUNT_BITS:(i + 1) * COUNT_BITS].eq(tr.count),
+                ]
             m.d.comb += [
                 t.raw.eq(self.lane_raw[i * w:(i + 1) * w]),
                 t.train_word.eq(self.train_word), t.sync_word.eq(self.sync_word),
@@ -533,6 +620,13 @@ class LvdsRx(wiring.Component):
             ]
             if self._kw["hold"]:
                 m.d.comb += t.hold.eq(self.lane_hold[i])
+            if self._kw["eye"]:
+                m.d.comb += [
+                    self.lane_chosen_tap[i * TAP_BITS:(i + 1) * TAP_BITS].eq(t.tap),
+                    self.lane_slip_pass[i * w:(i + 1) * w].eq(t.slip_pass),
+                    self.lane_walk[2 * i * w:2 * (i + 1) * w].eq(t.walk),
+                    self.lane_walk_ok[i].eq(t.walk.all()),
+                ]
             done.append(t.locked | t.error)
         m.d.comb += self.lane_mask.eq(self.lane_locked)
         m.d.sync += [self.all_locked.eq(self.lane_locked.all() & ~self.retrain),
@@ -565,11 +659,13 @@ class LvdsXilinx(wiring.Component):
     """
 
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8):
+                 deskew_depth=8, eye=False):
         self._core = LvdsRx(lanes=lanes, word_bits=word_bits, settle=settle, min_run=min_run,
-                            pick=pick, deskew_depth=deskew_depth)
+                            pick=pick, deskew_depth=deskew_depth, eye=eye)
         ports = lane_ports("xilinx7", lanes, word_bits)
         ports.update(rx_ports(lanes, word_bits))
+        if eye:
+            ports.update(eye_ports(lanes, word_bits))
         super().__init__(ports)
 
     @property

@@ -43,7 +43,8 @@ from amaranth.lib.wiring import In, Out
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
-from tdicam.hdl.lvds import lane_ports
+from tdicam.hdl.lvds import eye_ports, lane_ports, rx_ports
+from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LvdsFront", "WORD_DOMAIN"]
@@ -54,8 +55,19 @@ WORD_DOMAIN = "word"
 _HOLD, _RUN, _FILL = 1, 2, 3
 
 
-def _status_ports(n, w):
-    return {
+#: The receiver's training status a front with ``eye`` publishes besides the eye ports
+#: (:func:`tdicam.hdl.lvds.eye_ports`).
+_EYE_RX = ("lane_scan", "lane_run", "lane_slip")
+
+
+def _status_ports(n, w, eye=False, track=0):
+    extra = {}
+    if eye:
+        extra = {name: mem for name, mem in rx_ports(n, w).items() if name in _EYE_RX}
+        extra.update(eye_ports(n, w))
+    if track:
+        extra["lane_corrections"] = Out(n * COUNT_BITS)
+    return {**extra,
         "train_word": In(w), "sync_word": In(w), "n_check": In(8), "frame_rows": In(16),
         "retrain": In(1),
         "lane_locked": Out(n), "lane_error": Out(n), "lanes_bad": Out(n),
@@ -69,14 +81,15 @@ class _WordSide(wiring.Component):
     """Receiver and framer, written in ``sync`` (renamed to the word domain by
     :class:`LvdsFront`); ``w_*`` drive the crossing FIFO's write port."""
 
-    def __init__(self, *, n, w, bits, p, rx, phy, pairs=False):
+    def __init__(self, *, n, w, bits, p, rx, phy, pairs=False, eye=False, track=0):
         self._n, self._w, self._bits, self._p, self._rx = n, w, bits, p, rx
         self._pairs = pairs
-        self._lane_ports = lane_ports(phy, n, w)
+        self._lane_ports = lane_ports(phy, n, w, bool(track))
         ports = {**self._lane_ports,
                  "w_data": Out(n * bits + 3), "w_en": Out(1), "w_rdy": In(1),
                  "released": In(1)}
-        ports.update(_status_ports(n, w))
+        ports.update(_status_ports(n, w, eye, track))
+        self._eye, self._track = eye, track
         super().__init__(ports)
 
     def elaborate(self, platform):
@@ -95,6 +108,11 @@ class _WordSide(wiring.Component):
             self.lane_locked.eq(rx.lane_locked), self.lane_error.eq(rx.lane_error),
             self.trained.eq(rx.trained),
         ]
+        if self._eye:
+            m.d.comb += [getattr(self, name).eq(getattr(rx, name))
+                         for name in (*_EYE_RX, *eye_ports(n, w))]
+        if self._track:
+            m.d.comb += self.lane_corrections.eq(rx.lane_corrections)
         locked = rx.lane_locked
         bad_now = ~locked
         m.d.comb += self.lanes_bad.eq(bad_now)
@@ -240,6 +258,17 @@ class LvdsFront(wiring.Component):
         The sensor sends each reset frame before its signal frame (off-chip CDS): after any
         hold (start-up, ``release`` low, a retrain) frames are released from a reset frame
         on, so the CDS stage never pairs a signal frame with a reset frame it did not get.
+    track : int
+        > 0: track every locked lane's eye with that probe margin (taps;
+        :class:`tdicam.hdl.lvds_track.LaneTracker`; the generic PHY only): ports
+        ``lane_mon_raw`` in, ``lane_mon_tap``/``lane_mon_ld`` out (the monitor samplers),
+        ``lane_corrections`` out (8 bits a lane).
+    eye : bool
+        Publish the lanes' training (word domain, opt-in): ``lane_scan`` (pass mask over
+        the 32 taps), ``lane_run`` (the widest run: the eye width found, taps), ``lane_slip``
+        and the eye status of :func:`tdicam.hdl.lvds.eye_ports` (chosen tap, slip mask,
+        the walking-1/0 patterns received after lock: the sensor sends them before its
+        first frame; :mod:`tdicam.model.lvds`).
 
     Attributes
     ----------
@@ -285,7 +314,7 @@ class LvdsFront(wiring.Component):
     @quiet_reject
     def __init__(self, *, lanes_per_gain=4, gains=2, word_bits=12, bits=12, columns=32,
                  ppc=1, fifo_depth=16, settle=8, min_run=9, pick=5, deskew_depth=8,
-                 phy="none", pairs=False):
+                 phy="none", pairs=False, eye=False, track=0):
         L = check_range("lanes_per_gain", lanes_per_gain, 1, 64)
         self._g = check_choice("gains", gains, (1, 2))
         self._w = check_choice("word_bits", word_bits, (10, 12))
@@ -302,13 +331,18 @@ class LvdsFront(wiring.Component):
         self._phy = check_choice("phy", phy, tuple(PHYS))
         self._pairs = bool(pairs)
         rx_cls = PHYS[phy]
-        self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle,
-                          min_run=min_run, pick=pick, deskew_depth=deskew_depth)
+        self._eye, self._track = bool(eye), int(track)
+        if track and phy != "none":
+            raise TdicamError(f"eye tracking (track = {track}) needs the generic PHY's monitor "
+                              f"samplers (phy = 'none'), not phy = {phy!r}")
+        trk = {"track": self._track} if track else {}
+        self._rx = rx_cls(lanes=L * gains, word_bits=word_bits, settle=settle, eye=self._eye,
+                          min_run=min_run, pick=pick, deskew_depth=deskew_depth, **trk)
         n = L * gains
-        ports = {**lane_ports(phy, n, word_bits),
+        ports = {**lane_ports(phy, n, word_bits, bool(track)),
                  "o_stream": Out(pixel_signature(channels_shape(bits, ppc * gains))),
                  "frame_kind": Out(1), "release": In(1, init=1)}
-        ports.update(_status_ports(n, word_bits))
+        ports.update(_status_ports(n, word_bits, self._eye, self._track))
         super().__init__(ports)
 
     lanes = property(lambda self: self._L * self._g)
@@ -322,14 +356,15 @@ class LvdsFront(wiring.Component):
         """{port: clock domain} of the ports not in the processing clock (``sync``): the
         lanes' and the status and settings ports, in the word domain."""
         n = self._L * self._g
-        return {name: WORD_DOMAIN for name in {**lane_ports(self._phy, n, self._w),
-                                                **_status_ports(n, self._w)}}
+        return {name: WORD_DOMAIN for name in {
+            **lane_ports(self._phy, n, self._w, bool(self._track)),
+            **_status_ports(n, self._w, self._eye, self._track)}}
 
     def elaborate(self, platform):
         m = Module()
         L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
         ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy,
-                       pairs=self._pairs)
+                       pairs=self._pairs, eye=self._eye, track=self._track)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
         # registered before the crossing (the top's gate is an AND of its stages' status)
         release_q = Signal()
@@ -338,7 +373,8 @@ class LvdsFront(wiring.Component):
                                                    o_domain=WORD_DOMAIN, init=0)
         m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
                                                 r_domain="sync", w_domain=WORD_DOMAIN)
-        outer = {**lane_ports(self._phy, n, self._w), **_status_ports(n, self._w)}
+        outer = {**lane_ports(self._phy, n, self._w, bool(self._track)),
+                 **_status_ports(n, self._w, self._eye, self._track)}
         for name, member in outer.items():
             if member.flow == wiring.In:
                 m.d.comb += getattr(ws, name).eq(getattr(self, name))

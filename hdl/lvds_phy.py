@@ -16,7 +16,8 @@ from amaranth.lib.cdc import ResetSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
-from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx, forward_core, lane_ports, rx_ports
+from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx, eye_ports, forward_core, lane_ports, \
+    rx_ports
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LvdsEcp5", "PHYS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps"]
@@ -54,6 +55,8 @@ class LvdsEcp5(wiring.Component):
     ----------
     lanes, word_bits, settle, min_run, pick, deskew_depth
         :class:`~tdicam.hdl.lvds.LvdsRx`'s.
+    eye : bool
+        The eye status (:func:`~tdicam.hdl.lvds.eye_ports`).
     steps : 1..4
         DELAYF counts per training tap (the tap is ``steps x 25`` ps; 31 taps must stay
         within the 127 counts).
@@ -69,12 +72,14 @@ class LvdsEcp5(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8, steps=ECP5_STEPS):
+                 deskew_depth=8, steps=ECP5_STEPS, eye=False):
         self._steps = check_range("steps", steps, 1, (_DELAYF_COUNTS - 1) // 31)
         self._core = LvdsRx(lanes=lanes, word_bits=word_bits, settle=settle, min_run=min_run,
-                            pick=pick, deskew_depth=deskew_depth, hold=True)
+                            pick=pick, deskew_depth=deskew_depth, hold=True, eye=eye)
         ports = lane_ports("ecp5", lanes, word_bits)
         ports.update(rx_ports(lanes, word_bits))
+        if eye:
+            ports.update(eye_ports(lanes, word_bits))
         super().__init__(ports)
 
     @property

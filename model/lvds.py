@@ -32,19 +32,30 @@ the same values without sharing state: ``h = mix32(m ^ jkey)``; the sample is ra
 (``x ^= x>>16; x *= 0x7feb352d; x ^= x>>15; x *= 0x846ca68b; x ^= x>>16``, all mod 2**32);
 ``jkey = mix32(2*seed)``, ``dkey = mix32(2*seed + 1)`` (seed mod 2**32).
 
-A lane may change at raw word ``change_at`` (skew drift, a dying lane): samples ``m`` with
+A lane may change at raw word ``change_at`` (a skew jump, a dying lane): samples ``m`` with
 ``m // word_bits >= change_at`` use the tables of ``after`` (its seed is ignored).
+
+A lane may *drift* (temperature): its eye centre moves by ``drift_taps`` taps (signed; +:
+to higher delay taps) over the ``drift_words`` raw words from ``drift_from``, in steps of
+1/:data:`DRIFT_STEPS` tap: samples of raw word ``q`` use the tables of the skew
+``skew - tap * floor(DRIFT_STEPS * drift_taps * clip((q - drift_from) / drift_words, 0, 1))
+/ DRIFT_STEPS`` (towards zero for a negative drift), the same eye and jitter.
 
 Sensor (all lanes)
 ------------------
 ``schedule`` lists ``(n, mode)`` pairs, sender word ``n`` from which the sensor sends
-``"train"`` (the training word, every word) or ``"data"``; before the first entry (including
-negative ``n``) it trains. In a data segment starting at ``n0``, word ``n`` is the sync word
+``"train"`` (the training word, every word), ``"walk"`` (the walking-1/0 patterns of
+:func:`walk_words`, word ``n`` of a walk segment starting at ``n0`` being pattern
+``(n - n0) % (2 W)``) or ``"data"``; before the first entry (including negative ``n``) it
+trains. In a data segment starting at ``n0``, word ``n`` is the sync word
 when ``(n - n0) % line_words == 0``, else ``mix32(n ^ dkey) & mask`` with the sync code
 avoided (``^ 1`` when equal to it). With a ``payload`` (one int64 array per lane, e.g. the
 pixel lines :mod:`tdicam.model.lvds_front` makes of frames) the data segments carry it
 instead: data word ``q`` (counted over every data segment in order, sync positions included)
 is ``payload[lane][q]`` while ``q`` is inside it; past its end the rule above continues.
+
+One module (past 600 lines) on purpose: the link (skew, eye, jitter, drift), the training
+and the locked-lane checks are one bit-exact timing contract, checked together.
 
 Receiver timing (the contract of :class:`tdicam.hdl.lvds.LvdsRx`)
 -----------------------------------------------------------------
@@ -73,6 +84,14 @@ then slip steps 0..W-1 from ``kd + 1``.
   word or the sync word; from then on the sync word exactly every ``line_words`` words and
   never elsewhere. A violation in the word of cycle ``k`` reports error from ``k + 3`` (tap and
   slip kept): a lane that dies after lock is reported, never silently kept.
+* With the eye status (``eye=True``, :class:`tdicam.hdl.lvds.LvdsRx` ``eye``) a locked lane
+  also accepts the walking-1/0 patterns (:func:`walk_words`) before its first sync word and
+  records which it received: bit ``j`` of ``walk`` = the pattern with only bit ``j`` set
+  was received, bit ``W + j`` = the pattern with only bit ``j`` clear (words of cycles
+  ``k < k_stop - 3`` count, as for the errors). Every bit of the word has then been seen
+  as 1 and as 0 at its own position: ``walk`` all ones (``2**(2W) - 1``) is the check
+  passed. ``slip_pass`` has bit ``s`` set for the slip that locked (the slips before it
+  failed; 0 when none passed).
 * A retrain request at cycle ``k_r`` clears every lane's status at ``k_r + 1`` and restarts
   training; words of cycles ``>= k_r - 2`` are no longer judged by the old training.
 """
@@ -83,12 +102,14 @@ from functools import lru_cache
 import numpy as np
 
 from tdicam.errors import TdicamError, check_choice, check_range
+from tdicam.model import lvds_track
 
 __all__ = ["PAPER_TAP_PS", "XILINX_TAP_PS", "N_TAPS", "VERDICT_WORDS", "MONITOR_WORDS",
+           "DRIFT_STEPS",
            "LINK_LATENCY", "Lane", "Link", "mix32", "rotations", "default_train_word",
            "default_sync_word", "check_train_word", "lane_tables", "sent_words", "raw_words",
            "lane_words", "step_words", "decide", "train_lane", "run", "LaneResult",
-           "RunResult", "training_words", "random_lane"]
+           "RunResult", "training_words", "random_lane", "walk_words", "eye_status"]
 
 PAPER_TAP_PS = 5000.0 / 32
 XILINX_TAP_PS = 1e6 / (32 * 2 * 200.0)  # 78.125 ps: IDELAYE2 with a 200 MHz reference
@@ -96,6 +117,7 @@ N_TAPS = 32
 VERDICT_WORDS = 3   # pipeline words between the last checked word and the step's verdict
 MONITOR_WORDS = 3   # a bad word at cycle k shows as error from k + 3
 LINK_LATENCY = 2    # words from a tap load to the first raw word sampled with that tap
+DRIFT_STEPS = 8     # a drifting eye moves in steps of 1/8 tap
 _M32 = np.uint64(0xFFFFFFFF)
 _THRESH_ONE = 1 << 16
 
@@ -128,6 +150,25 @@ def default_sync_word(word_bits):
     return (1 << check_choice("word_bits", word_bits, (10, 12))) - 1
 
 
+def walk_words(word_bits):
+    """The ``2 W`` walking-1/0 patterns in the order the sensor sends them: the walking one
+    from the MSB (``1 << (W-1)``, ..., ``1``), then the walking zero the same way."""
+    mask = (1 << word_bits) - 1
+    ones = [1 << (word_bits - 1 - j) for j in range(word_bits)]
+    return ones + [mask ^ x for x in ones]
+
+
+def _walk_bit(words, word_bits):
+    """Per word, its bit in the ``walk`` status (see the module docstring), 0 for a word
+    that is no walking pattern."""
+    mask = (1 << word_bits) - 1
+    out = np.zeros(np.shape(words), np.int64)
+    for j in range(word_bits):
+        out = np.where(words == (1 << j), 1 << j, out)
+        out = np.where(words == (mask ^ (1 << j)), 1 << (word_bits + j), out)
+    return out
+
+
 def check_train_word(word, word_bits):
     """Raise unless ``word`` fits and its W rotations are all different (bitslip unique)."""
     check_range("train_word", word, 0, (1 << word_bits) - 1)
@@ -156,6 +197,9 @@ class Lane:
         Jitter and data keys.
     change_at, after : int, Lane
         From raw word ``change_at`` on, the lane behaves as ``after``.
+    drift_taps, drift_from, drift_words : float, int, int
+        The eye centre moves by ``drift_taps`` taps over raw words ``drift_from ..
+        drift_from + drift_words`` (see the module docstring; 0: no drift).
     """
 
     skew_ps: float
@@ -166,6 +210,9 @@ class Lane:
     seed: int = 0
     change_at: int | None = None
     after: "Lane | None" = None
+    drift_taps: float = 0.0
+    drift_from: int = 0
+    drift_words: int = 0
 
     def __post_init__(self):
         ui = self.ui_ps
@@ -178,6 +225,12 @@ class Lane:
             raise TdicamError("lane skew_ps and jitter_ps must be >= 0")
         if (self.change_at is None) != (self.after is None):
             raise TdicamError("lane change_at and after go together")
+        if self.drift_taps:
+            if self.change_at is not None:
+                raise TdicamError("a lane drifts (drift_taps) or changes (change_at), not both")
+            if self.drift_words < 1 or self.drift_from < 0:
+                raise TdicamError(f"lane drift_words = {self.drift_words} must be >= 1 and "
+                                  f"drift_from = {self.drift_from} >= 0 with drift_taps")
 
     @property
     def ui_ps(self):
@@ -210,7 +263,7 @@ class Link:
         check_range("line_words", self.line_words, 2, 65535)
         sched = tuple((int(n), str(mode)) for n, mode in self.schedule)
         for n, mode in sched:
-            check_choice("schedule mode", mode, ("train", "data"))
+            check_choice("schedule mode", mode, ("train", "data", "walk"))
             check_range("schedule word", n, 0, (1 << 31) - 1)
         if list(sched) != sorted(sched, key=lambda e: e[0]) or \
                 len({n for n, _ in sched}) != len(sched):
@@ -252,6 +305,19 @@ def lane_tables(lane, n_taps=N_TAPS):
     return np.stack(d), np.stack(r)
 
 
+def _drift_tables(lane, q):
+    """(delay, thresh) of every drift step of ``lane`` (shape (steps + 1, N_TAPS)) and the
+    step of each raw word ``q``."""
+    top = int(np.floor(DRIFT_STEPS * abs(lane.drift_taps)))
+    frac = np.clip((np.asarray(q, np.float64) - lane.drift_from) / lane.drift_words, 0.0, 1.0)
+    ep = np.minimum(np.floor(DRIFT_STEPS * abs(lane.drift_taps) * frac).astype(np.int64), top)
+    sign = 1.0 if lane.drift_taps > 0 else -1.0
+    tabs = [_tables(float(lane.skew_ps) - sign * e * lane.tap_ps / DRIFT_STEPS,
+                    float(lane.eye_ps), float(lane.jitter_ps), float(lane.tap_ps),
+                    float(lane.bit_rate_mbps), N_TAPS) for e in range(top + 1)]
+    return np.stack([t[0] for t in tabs]), np.stack([t[1] for t in tabs]), ep
+
+
 def _keys(lane):
     s = int(lane.seed) & 0xFFFFFFFF
     return int(mix32(2 * s)), int(mix32((2 * s + 1) & 0xFFFFFFFF))
@@ -270,6 +336,11 @@ def sent_words(link, lane_index, n):
     is_data = np.array([m == "data" for _, m in link.schedule])
     idx = np.searchsorted(starts, n, side="right") - 1
     seg_data = (idx >= 0) & is_data[np.maximum(idx, 0)]
+    is_walk = np.array([m == "walk" for _, m in link.schedule])
+    seg_walk = (idx >= 0) & is_walk[np.maximum(idx, 0)]
+    if seg_walk.any():
+        pats = np.array(walk_words(w), np.int64)
+        out[seg_walk] = pats[(n[seg_walk] - starts[idx[seg_walk]]) % (2 * w)]
     if seg_data.any():
         nn = n[seg_data]
         p = nn - starts[idx[seg_data]]
@@ -293,10 +364,13 @@ def _sample_bits(link, lane_index, taps, m):
     w = link.word_bits
     m = np.asarray(m, dtype=np.int64)
     taps = np.broadcast_to(np.asarray(taps, dtype=np.int64), m.shape)
-    delay, thresh = lane_tables(lane)
-    ep = np.zeros(m.shape, dtype=np.int64)
-    if lane.change_at is not None:
-        ep = (np.floor_divide(m, w) >= lane.change_at).astype(np.int64)
+    if lane.drift_taps:
+        delay, thresh, ep = _drift_tables(lane, np.floor_divide(m, w))
+    else:
+        delay, thresh = lane_tables(lane)
+        ep = np.zeros(m.shape, dtype=np.int64)
+        if lane.change_at is not None:
+            ep = (np.floor_divide(m, w) >= lane.change_at).astype(np.int64)
     d = delay[ep, taps]
     r = thresh[ep, taps]
     jkey, _ = _keys(lane)
@@ -330,6 +404,15 @@ def lane_words(link, lane_index, taps, slips, k):
     base = (k - 1) * w + np.asarray(slips, dtype=np.int64)
     m = base[..., None] + np.arange(w, dtype=np.int64)
     return _pack(_sample_bits(link, lane_index, np.asarray(taps)[..., None], m))
+
+
+def _tap_words(link, lane_index, raw_taps, slip, ks):
+    """Gearbox outputs at cycles ``ks`` when raw word ``j`` was sampled with tap
+    ``raw_taps(j)`` (a function of an int64 array): the words of a lane whose tap moves."""
+    ks = np.asarray(ks, np.int64)
+    w = link.word_bits
+    m = ((ks - 1) * w + slip)[:, None] + np.arange(w, dtype=np.int64)
+    return _pack(_sample_bits(link, lane_index, raw_taps(np.floor_divide(m, w)), m))
 
 
 def step_words(n_check, settle):
@@ -391,15 +474,24 @@ class LaneResult:
     scan_mask: int = 0
     lock_k: int | None = None
     word_delay: int | None = None
+    slip_pass: int = 0
+    walk: int = 0
+    corrections: list = field(default_factory=list)
+    count: int = 0
 
 
-def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5, k_stop=None):
+def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5, k_stop=None,
+               eye=False, track=0):
     """Golden training of one lane started at cycle ``k0``; the lane is judged until ``k_stop``
     (the next retrain's first cycle, or the end of the run; None: training only).
 
     Returns a :class:`LaneResult` whose ``events`` are ``(k, locked, error, tap, slip, run)``
     status changes (``k`` = first cycle showing the new status) before ``k_stop``. Training
-    must end (lock or error) before ``k_stop``.
+    must end (lock or error) before ``k_stop``. ``eye``: the receiver with the eye status
+    (walking patterns accepted before the first sync word, ``walk`` recorded). ``track`` > 0:
+    the receiver tracks the eye with that probe margin (:mod:`tdicam.model.lvds_track`):
+    ``corrections`` lists ``(decision cycle, new tap, effect word)``, ``count`` the
+    tracker's counter, ``tap`` the tap at the end.
     """
     w = link.word_bits
     nc = max(int(n_check), 1)
@@ -434,36 +526,55 @@ def train_lane(link, lane_index, k0, *, n_check=16, settle=8, min_run=9, pick=5,
     k_lock = kd + 1 + (s + 1) * p
     res.tap, res.slip = tap, s
     res.locked, res.lock_k = True, k_lock
+    res.slip_pass = 1 << s
     res.events.append((k_lock, 1, 0, tap, s, run_len))
     # integer word delay: the port word of cycle k carries sender word k - word_delay
     lane = link.lanes[lane_index]
     ep = int(lane.change_at is not None and k_lock - 1 >= lane.change_at)
     d_bits = int(lane_tables(lane)[0][ep, tap])
     res.word_delay = 1 - (s - d_bits) // w
-    k_bad = _monitor(link, lane_index, tap, s, k_lock, k_stop) if judge else None
+    words = None
+    if track and judge:
+        corr = lvds_track.track(lambda t, ks: lane_words(link, lane_index, t, s, ks), tap,
+                                k_lock, k_stop, n_check=nc, settle=settle, margin=track,
+                                n_taps=N_TAPS)
+        raw_tap = lvds_track.raw_tap_of(tap, corr, LINK_LATENCY)
+        words = lambda ks: _tap_words(link, lane_index, raw_tap, s, ks)  # noqa: E731
+    k_bad, res.walk = _monitor(link, lane_index, tap, s, k_lock, k_stop, eye=eye,
+                               words=words) if judge else (None, 0)
+    if words is not None:
+        end = np.iinfo(np.int64).max if k_bad is None else k_bad
+        res.corrections = [(kc, t, kc + 1 + LINK_LATENCY) for kc, t in corr if kc < end + 2]
+        res.count = sum(1 for kc, _ in corr if kc < end + 3) % 256
+        if res.corrections:
+            res.tap = res.corrections[-1][1]
     if k_bad is not None:
         res.locked, res.error = False, True
-        res.events.append((k_bad + MONITOR_WORDS, 0, 1, tap, s, run_len))
+        res.events.append((k_bad + MONITOR_WORDS, 0, 1, res.tap, s, run_len))
     return res
 
 
-def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16):
-    """First cycle >= k_lock whose word breaks the locked-lane rules and whose error shows
-    before ``k_stop``, else None."""
+def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16, eye=False, words=None):
+    """(first cycle >= k_lock whose word breaks the locked-lane rules and whose error shows
+    before ``k_stop``, else None; the ``walk`` status, 0 without ``eye``). ``words``: the
+    lane's words at cycles ``ks`` (default: sampled at the steady ``tap``)."""
     last = k_stop - MONITOR_WORDS  # words k < last can raise an error that shows < k_stop
-    sync, train = link.sync_word, link.train_word
+    sync, train, w = link.sync_word, link.train_word, link.word_bits
     phase_sync_k = None
+    walk = 0
     k = k_lock
     while k < last:
         ks = np.arange(k, min(k + chunk, last), dtype=np.int64)
-        wds = lane_words(link, lane_index, tap, slip, ks)
+        wds = lane_words(link, lane_index, tap, slip, ks) if words is None else words(ks)
         is_sync = wds == sync
         if phase_sync_k is None:
-            bad_a = ~(is_sync | (wds == train))
+            wbit = _walk_bit(wds, w) if eye else np.zeros(len(ks), np.int64)
+            bad_a = ~(is_sync | (wds == train) | (wbit != 0))
             first_sync = int(np.argmax(is_sync)) if is_sync.any() else len(ks)
             first_bad = int(np.argmax(bad_a)) if bad_a.any() else len(ks)
+            walk |= int(np.bitwise_or.reduce(wbit[:min(first_sync, first_bad)], initial=0))
             if first_bad < first_sync:
-                return int(ks[first_bad])
+                return int(ks[first_bad]), walk
             if first_sync == len(ks):
                 k += len(ks)
                 continue
@@ -471,9 +582,9 @@ def _monitor(link, lane_index, tap, slip, k_lock, k_stop, chunk=1 << 16):
         pos = (ks - phase_sync_k) % link.line_words
         bad = (is_sync != (pos == 0)) & (ks >= phase_sync_k)
         if bad.any():
-            return int(ks[int(np.argmax(bad))])
+            return int(ks[int(np.argmax(bad))]), walk
         k += len(ks)
-    return None
+    return None, walk
 
 
 @dataclass
@@ -492,11 +603,15 @@ class RunResult:
     starts: list
 
 
-def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5):
+def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5, eye=False,
+        track=0):
     """Golden model of the whole receiver over ``cycles`` word clocks after reset.
 
     ``retrains`` are port cycles where the retrain request is high (each restarts training
-    at the next cycle); every training must end before the next one starts.
+    at the next cycle); every training must end before the next one starts. ``eye``: the
+    receiver with the eye status (``final`` gains ``slip_pass`` and ``walk``); ``track``: with
+    eye tracking of that margin (``final`` gains ``corrections``, the tracker's count, and
+    ``tap`` is the tap at the end).
     """
     check_range("settle", settle, LINK_LATENCY + 2, 64)
     check_range("n_check", n_check, 0, 255)
@@ -505,21 +620,25 @@ def run(link, *, cycles, retrains=(), n_check=16, settle=8, min_run=9, pick=5):
     starts = [0] + [int(k) + 1 for k in sorted(retrains)]
     stops = starts[1:] + [int(cycles)]
     events, trainings = [], []
-    final = [{"tap": 0, "slip": 0, "locked": 0, "error": 0, "run": 0, "scan": 0}
-             for _ in link.lanes]
+    final = [{"tap": 0, "slip": 0, "locked": 0, "error": 0, "run": 0, "scan": 0,
+              **({"slip_pass": 0, "walk": 0} if eye else {}),
+              **({"corrections": 0} if track else {})} for _ in link.lanes]
     for k0, k1 in zip(starts, stops):
         results = []
         for li in range(len(link.lanes)):
             if final[li]["locked"] or final[li]["error"]:
                 events.append((k0, li, 0, 0, 0, 0, 0))
             res = train_lane(link, li, k0, n_check=n_check, settle=settle, min_run=min_run,
-                             pick=pick, k_stop=k1)
+                             pick=pick, k_stop=k1, eye=eye, track=track)
             results.append(res)
-            locked, error, tap, slip, run_len = res.events[-1][1:]
+            locked, error, _, slip, run_len = res.events[-1][1:]
+            tap = res.tap
             for ev in res.events:
                 events.append((ev[0], li) + ev[1:])
             final[li] = {"tap": tap, "slip": slip, "locked": locked, "error": error,
-                         "run": run_len, "scan": res.scan_mask}
+                         "run": run_len, "scan": res.scan_mask,
+                         **({"slip_pass": res.slip_pass, "walk": res.walk} if eye else {}),
+                         **({"corrections": res.count} if track else {})}
         trainings.append(results)
     events.sort(key=lambda ev: (ev[0], ev[1]))
     return RunResult(events, final, trainings, starts)

@@ -378,7 +378,8 @@ def test_block_registry_params():
                                "pick": 5, "deskew_depth": 8, "phy": "none"}
     # the front-end parameters (issue 30) hold their defaults: golden cases do not record them
     assert {k: p[k] for k in set(p) - set(blk.recorded(p))} == {
-        "lanes_per_gain": 0, "columns": 0, "bits": 12, "ppc": 1, "fifo_depth": 16, "pairs": 0}
+        "lanes_per_gain": 0, "columns": 0, "bits": 12, "ppc": 1, "fifo_depth": 16, "pairs": 0,
+        "eye": 0, "track": 0}
     from tdicam.hdl.lvds_phy import LvdsEcp5
     for phy, cls in (("none", LvdsRx), ("xilinx7", LvdsXilinx), ("ecp5", LvdsEcp5)):
         top = blk.build({"lanes": 2, "phy": phy})
@@ -399,3 +400,58 @@ def test_generated_verilog_is_deterministic():
     a = convert(LvdsRx(lanes=2), "lvds")
     b = convert(LvdsRx(lanes=2), "lvds")
     assert a == b
+
+
+# ---------------------------------------------------------------- eye status (issue 46 step 4)
+def _eye_link(word_bits=10):
+    nc, st = 4, 4
+    tw = lvds.training_words(word_bits, nc, st)
+    walk_at, data_at = tw + 10, tw + 10 + 4 * word_bits
+    lanes = [
+        lvds.Lane(skew_ps=800, eye_ps=2500, seed=5),                       # wide open
+        lvds.Lane(skew_ps=300, eye_ps=700, seed=6),                        # no eye: 4 taps
+        lvds.Lane(skew_ps=3300 * 2 + 400, eye_ps=2000, jitter_ps=250, seed=7),
+        lvds.Lane(skew_ps=1200, eye_ps=2400, seed=8, change_at=walk_at + 2 * word_bits,
+                  after=lvds.Lane(skew_ps=1200, eye_ps=0)),              # dies in the walk
+    ]
+    link = lvds.Link(lanes, word_bits=word_bits, line_words=16,
+                     schedule=((walk_at, "walk"), (data_at, "data")))
+    return link, data_at + 100, nc, st
+
+
+@pytest.mark.parametrize("word_bits", [10, 12])
+def test_eye_status_matches_golden(word_bits):
+    """LvdsRx(eye=True) in Amaranth's simulator: per lane the pass mask over the 32 taps,
+    the widest run (the eye width found), the chosen tap, the slip mask and the walking-1/0
+    patterns received after lock equal the golden model's (lvds.run(eye=True)): the open
+    lanes see all 2W patterns, the lane with no eye reports error with its mask, the lane
+    dying inside the walk stops short and errs."""
+    link, cycles, nc, st = _eye_link(word_bits)
+    gold = lvds.run(link, cycles=cycles, n_check=nc, settle=st, eye=True)
+    final = []
+    events, _, _ = run_amaranth(link, cycles, n_check=nc, settle=st, eye=True, final=final)
+    assert events == gold.events
+    assert final == gold.final
+    full = (1 << 2 * word_bits) - 1
+    assert [f["walk"] == full for f in final] == [True, False, True, False]
+    assert [f["error"] for f in final] == [0, 1, 0, 1]
+    assert final[1]["run"] < 9 and final[1]["slip_pass"] == 0 and final[1]["scan"] != 0
+    assert 0 < final[3]["walk"] < full           # patterns before the death were counted
+    assert final[0]["slip_pass"] == 1 << final[0]["slip"]
+
+
+def test_walking_patterns_fail_a_receiver_without_the_eye_status():
+    """The receiver of before (eye off) takes a walking pattern before the first sync word
+    for a broken lane (the golden model says the same): the patterns need ``eye``."""
+    link, cycles, nc, st = _eye_link(10)
+    gold = lvds.run(link, cycles=cycles, n_check=nc, settle=st)
+    events, _, _ = run_amaranth(link, cycles, n_check=nc, settle=st)
+    assert events == gold.events
+    assert gold.final[0]["error"] == 1 and gold.final[2]["error"] == 1
+
+
+def test_walk_words_order():
+    assert lvds.walk_words(10)[:2] == [0x200, 0x100] and lvds.walk_words(10)[10] == 0x1FF
+    link = lvds.Link([lvds.Lane(skew_ps=0, eye_ps=3000)], schedule=((5, "walk"), (45, "data")))
+    assert lvds.sent_words(link, 0, np.arange(5, 26)).tolist() == \
+        lvds.walk_words(10) + [0x200]

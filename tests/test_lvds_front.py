@@ -343,3 +343,31 @@ def test_lvds_testbench_refuses_a_payload_link():
     with pytest.raises(TdicamError, match="not a payload; a link carrying frames runs in"):
         lvds.run_link(scenario("cdc_fast").link, params={"lanes": 8, "word_bits": 12},
                       cycles=10)
+
+
+# ---------------------------------------------------------------- eye status (issue 46 step 4)
+def test_front_publishes_the_eyes_the_golden_model_predicts(tmp_path):
+    """LvdsFront(eye=True) with the sensor's walking-1/0 round before the frames: per lane
+    the tap pass mask, the widest run, chosen tap, slip and slip mask and the walking
+    patterns equal the golden link model's; the narrow lane (6 taps) reports its error in
+    one line; the frames still arrive bit-exact; the picture is written."""
+    from tdicam.cosim.lvds_front import GOOD_LANES, lane_eyes
+    from tdicam.run.eyes import eye_figure
+    spec = list(GOOD_LANES)
+    spec[5] = (12, 6, 0)
+    case = FrontCase(_frames(2, 3), _lanes(spec), L, ppc=2, word_ns=40.0, proc_ns=10.0,
+                     walk=True)
+    res = run_amaranth(case)
+    assert check("narrow_eye", case, res) == []
+    eyes = lane_eyes(case.golden_run().final, res["status"], 12, tap_ps=156.25,
+                     eye_taps=[w for _, w, _ in spec])
+    assert all(e["agree"] for e in eyes), [e["text"] for e in eyes if not e["agree"]]
+    assert [e["walk_ok"] for e in eyes] == [i != 5 for i in range(8)]
+    assert [e["error"] for e in eyes] == [int(i == 5) for i in range(8)]
+    assert eyes[5]["text"].startswith("lane 5: error: no eye (widest run ")
+    assert "\n" not in eyes[5]["text"] and "(scene: 6)" in eyes[5]["text"]
+    for e, (c, w, _) in zip(eyes[:5], spec):
+        assert e["locked"] and abs(e["eye_taps_found"] - w) <= 1
+        assert e["tap"] == e["golden"]["tap"] and sum(e["taps"]) >= e["eye_taps_found"]
+    eye_figure(eyes, tmp_path / "eyes.png")
+    assert (tmp_path / "eyes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -25,6 +25,10 @@ from tdicam.blocks import Block, Case, Param
 from tdicam.blocks.steps import Step
 from tdicam.model import lvds_front
 
+#: The tracker's probe margin (taps) of a scene with [sensor.lvds].tracking: the trained tap
+#: sits pick - 1 = 4 taps above its run's start.
+TRACK_MARGIN = 4
+
 #: Lanes the front end takes (both gains together) and the depths of its crossing FIFO.
 MAX_LANES = 128
 FIFO_DEPTHS = (4, 8, 16, 32, 64, 128, 256)
@@ -33,14 +37,19 @@ __all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_li
 
 
 def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_per_gain=0,
-         columns=0, bits=12, ppc=1, fifo_depth=16, pairs=0):
+         columns=0, bits=12, ppc=1, fifo_depth=16, pairs=0, eye=0, track=0):
     kw = dict(word_bits=word_bits, settle=settle, min_run=min_run, pick=pick,
-              deskew_depth=deskew_depth)
+              deskew_depth=deskew_depth, eye=bool(eye))
     if lanes_per_gain:
         from tdicam.hdl.lvds_front import LvdsFront
         return LvdsFront(lanes_per_gain=lanes_per_gain, gains=lanes // lanes_per_gain,
                          bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
-                         pairs=bool(pairs), **kw)
+                         pairs=bool(pairs), track=track, **kw)
+    if track:
+        if phy != "none":
+            raise TdicamError(f"--track = {track} needs --phy none (the generic PHY's monitor "
+                              f"samplers)")
+        kw["track"] = track
     return PHYS[phy](lanes=lanes, **kw)
 
 
@@ -99,6 +108,10 @@ def _front_step(ctx):
               "columns": ctx.width, "bits": ctx.bits, "fifo_depth": depth}
     if ctx.reset_frames:                 # reset/signal pairs: release from a reset frame
         params["pairs"] = 1
+    if lv.eye_status:                    # [sensor.lvds].eye_status: the training published
+        params["eye"] = 1
+    if lv.tracking:                      # [sensor.lvds].tracking: the eyes followed
+        params["track"] = TRACK_MARGIN
     ports = {"lane_raw": 0, "train_word": lv.train_word,
              "sync_word": lvds.default_sync_word(w), "n_check": 16, "frame_rows": ctx.m,
              "retrain": 0}
@@ -199,9 +212,21 @@ def _front_measured(step, status, info):
               f"error event(s); crossing FIFO "
               + ("OVERFLOWED (pixels lost)" if status["lvds_fifo_overflow"] else
                  f"no overflow (depth {step.params.get('fifo_depth', 16)})"))
+    eyes = [{"name": f"lane {e['lane']} eye", "value": e["eye_taps_found"], "unit": "taps",
+             "ok": bool(e["locked"] and e["walk_ok"]) if e["agree"] else False,
+             **{k: e[k] for k in ("lane", "mask", "tap", "slip", "walk_ok", "agree")},
+             "text": e["text"]} for e in lanes.get("eyes") or []]
+    corr = lanes.get("corrections")
+    track = [] if corr is None else [{
+        "name": f"lane {i} tracking", "value": len(c), "unit": "corrections",
+        "corrections": [list(x) for x in c], "ok": not corr["problems"],
+        "text": f"lane {i}: eye tracking: {len(c)} correction(s)"
+                + (": " + ", ".join(f"tap {t} from word {e}" for e, t in c) if c else "")
+                + ("" if corr["problems"] else " (as the golden model states)")}
+        for i, c in corr["per_lane"].items()]
     return [{"name": "sensor lanes", "value": len(locked), "unit": "lanes",
              "locked": locked, "error": err, "untrained": untrained, "died": died,
-             "text": text},
+             "text": text}, *eyes, *track,
             {"name": "sensor frames", "value": status["lvds_frames_out"], "unit": "frames",
              "dropped": status["lvds_frames_dropped"],
              "affected": status["lvds_frames_affected"],
@@ -428,6 +453,11 @@ BLOCK = Block(
               choices=FIFO_DEPTHS, implicit_default=True),
         Param("pairs", 0, "front end: 1 = reset/signal frame pairs (released from a reset "
               "frame on)", choices=(0, 1), implicit_default=True),
+        Param("track", 0, "> 0: track each locked lane's eye with a monitor sampler this many "
+              "taps either side (generic PHY)", lo=0, hi=15, implicit_default=True),
+        Param("eye", 0, "1 = the eye status ports: chosen tap, slip mask, walking-1/0 "
+              "patterns received (and, as the front end, the tap pass masks, runs, slips)",
+              choices=(0, 1), implicit_default=True),
     ),
     top=_top,
     cases=lambda: [

@@ -99,7 +99,8 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         lv = scene.sensor.lvds
         front = None if lv is None else {
             "lanes": lanes_of(lv, p.lanes), "word_ns": 1e3 * lv.word_bits / lv.bit_rate_mbps,
-            "dies": rt.lane_dies}
+            "dies": rt.lane_dies, "eye_taps": lv.eye_width_taps if lv.simulate else None,
+            "drift": (lv.drift_taps, lv.drift_frames) if lv.drift_taps else None}
         rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
                          wave_dir=out_dir, front=front)
     except TdicamError as exc:
@@ -112,6 +113,10 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     system = system_figures(p, rep)
     if system:
         out["system"] = system
+    if (rep.get("lanes") or {}).get("eyes"):
+        out["eyes"] = rep["lanes"]["eyes"]
+    if (rep.get("lanes") or {}).get("corrections"):
+        out["corrections"] = rep["lanes"]["corrections"]
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
@@ -465,15 +470,18 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     tw = lvds.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
     lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
     kw = dict(word_ns=word_ns, proc_ns=PROC_NS, n_check=step.ports["n_check"], lead=lead,
-              tail=40)
+              tail=40, walk=bool(prm["eye"]), track=prm["track"])
     died, segs = None, None
     if front.get("dies") is not None:
         lanes, segs, died = _death(p, data, front, lanes, kw)
+    if front.get("drift") is not None:
+        lanes = _drift(plan_case(p, data, lanes, segments=segs, **kw), lanes, *front["drift"])
     case = plan_case(p, data, lanes, segments=segs, **kw)
     tap_shapes = ax.core.tap_shapes if taps else []
     values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
     settings = {name: int(values[name]) for name, mem in ax.signature.members.items()
-                if mem.flow.name == "In" and name not in ("lvds_lane_raw", "lvds_retrain")
+                if mem.flow.name == "In" and name not in ("lvds_lane_raw", "lvds_retrain",
+                                                          "lvds_lane_mon_raw")
                 and not name.startswith("m_axis_")}
     ready = [f"{st.name}_{st.ready}" + (f"_{k}" if k else "")
              for st, nl in ax.core.core._holds() for k in range(nl)] \
@@ -494,7 +502,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
            "ready": ready, "status": [name for name, _ in status_ports(ax)],
-           "retrains": list(case.retrains)}
+           "retrains": list(case.retrains), "track": case.track}
     (rundir / "job.json").write_text(json.dumps(job))
     res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
                              "the pipeline from the lanes", top="pipeline")
@@ -529,7 +537,12 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                           [ln if ln.change_at is None else replace(ln, change_at=None,
                                                                    after=None)
                            for ln in lanes], prm["word_bits"], case.link.train_word,
-                          n_check=case.n_check, settle=case.settle)},
+                          n_check=case.n_check, settle=case.settle),
+                      "eyes_golden": case.golden_run().final if case.walk else None,
+                      "trained_taps": [next((ev[3] for ev in r.events if ev[1]), None)
+                                       for r in case.golden_run().trainings[-1]],
+                      "corrections": res.get("corrections"),
+                      "corrections_golden": _corrections(case) if case.track else None},
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
             "run_cpu_seconds": cpu, "rundir": str(rundir),
             "input_beats": 0, "build_dir": str(bdir)}
@@ -612,6 +625,13 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
         # it measured), the golden chain on them
         delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
+        if info["front"]["corrections_golden"] is not None:
+            lane_fault["corrections"] = _tracking(info["front"], lane_fault["lanes"])
+            lane_fault["problems"] += lane_fault["corrections"]["problems"]
+        if info["front"]["eyes_golden"] is not None:
+            lane_fault["eyes"] = _eyes(p, info, front)
+            lane_fault["problems"] += [e["text"] for e in lane_fault["eyes"]
+                                       if not e["agree"]]
         if dies is not None:
             gold = design.golden(p, delivered)
             if corrupt is not None:
@@ -673,6 +693,50 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     else:
         rep["message"] = "match"
     return rep
+
+
+def _tracking(front, n):
+    """The tracker's corrections the testbench saw beside the golden model's: per lane the
+    list of ``(effect word, new tap)``, and ``problems`` when they differ."""
+    got = sorted(tuple(c) for c in front["corrections"] or [])
+    want = front["corrections_golden"]
+    per = {i: [(e, t) for e, lane, t in got if lane == i] for i in range(n)}
+    probs = [] if got == want else [
+        f"eye tracking: corrections {got[:4]} differ from the golden model's {want[:4]}"]
+    return {"per_lane": per, "count": len(got), "problems": probs}
+
+
+def _drift(probe, lanes, taps, frames):
+    """``lanes`` with the scene's drift (``taps`` a lane over ``frames`` frames as the
+    sensor sends them, from the first data word of ``probe``, the case without it)."""
+    from dataclasses import replace
+    if not taps or not any(taps):
+        return lanes
+    nr = np.asarray(probe.frames[0]).shape[1]
+    words = frames * nr * (probe.p + 2)
+    return [replace(ln, drift_taps=float(t), drift_from=probe.segment_starts[0],
+                    drift_words=words) if t else ln for ln, t in zip(lanes, taps)]
+
+
+def _corrections(case):
+    """The golden model's corrections of the run: ``(effect word, lane, new tap)``."""
+    from tdicam.model import lvds, lvds_track
+    g = case.golden_run()
+    return lvds_track.shown(sorted((eff, i, t) for tr in g.trainings for i, r in enumerate(tr)
+                                   for _, t, eff in r.corrections), case.cycles,
+                            lvds.LINK_LATENCY)
+
+
+def _eyes(p, info, front):
+    """The lanes' training as the front published it beside the golden link model's
+    (:func:`tdicam.cosim.lvds_front.lane_eyes`)."""
+    from tdicam import blocks
+    from tdicam.cosim.lvds_front import lane_eyes
+    prm = blocks.get("lvds").resolve(p.steps[0].params)
+    lanes = front.get("lanes") or ideal_lanes(prm["lanes"])
+    return lane_eyes(info["front"]["eyes_golden"], info["status"], prm["word_bits"],
+                     prefix="lvds_", tap_ps=lanes[0].tap_ps, eye_taps=front.get("eye_taps"),
+                     min_run=prm["min_run"], trained=info["front"]["trained_taps"])
 
 
 def _delivered(p, data, got, front, dies):

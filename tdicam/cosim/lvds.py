@@ -587,7 +587,26 @@ def check_run(link, run, golden, *, cycles, retrains=()):
     return problems
 
 
-def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params):
+def _final_status(ctx, dut, n, w):
+    """Each lane's status ports of ``dut`` (:class:`~tdicam.hdl.lvds.LvdsRx`) now, as
+    :func:`tdicam.model.lvds.run`'s ``final`` lists them."""
+    def field(port, i, bits):
+        return (ctx.get(getattr(dut, port)) >> (i * bits)) & ((1 << bits) - 1)
+    out = []
+    for i in range(n):
+        f = {"tap": field("lane_tap", i, TAP_BITS), "slip": field("lane_slip", i, SLIP_BITS),
+             "locked": field("lane_locked", i, 1), "error": field("lane_error", i, 1),
+             "run": field("lane_run", i, RUN_BITS), "scan": field("lane_scan", i, lvds.N_TAPS)}
+        if dut.eye:
+            f.update(slip_pass=field("lane_slip_pass", i, w), walk=field("lane_walk", i, 2 * w))
+        if dut.track:
+            f["corrections"] = field("lane_corrections", i, 8)
+        out.append(f)
+    return out
+
+
+def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, final=None,
+                 corrections=None, **rx_params):
     """Train ``link`` on :class:`~tdicam.hdl.lvds.LvdsRx` in Amaranth's Python simulator, the
     link's raw words evaluated by the golden model every cycle (the tap a load selects reaches
     the sampler 2 words later, as in the HDL testbench).
@@ -595,7 +614,13 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
     Returns ``(events, outs, seconds)``: status events as :func:`tdicam.model.lvds.run` lists
     them ``(cycle, lane, locked, error, tap, slip, run)``, the aligned output words
     ``(cycle, sync, data)``, and the simulator's wall time. ``rx_params`` go to ``LvdsRx``
-    (``min_run``, ``pick``, ...); ``retrains`` are the cycles ``retrain`` is high.
+    (``min_run``, ``pick``, ``eye``, ...); ``retrains`` are the cycles ``retrain`` is high.
+    ``final``: a list, filled with each lane's status at the end as
+    :func:`tdicam.model.lvds.run`'s ``final`` has it (with ``eye``: ``slip_pass`` and
+    ``walk`` too, from the eye-status ports; with ``track``: ``corrections``, the counter).
+    ``corrections``: a list, filled with ``(effect word, lane, new tap)`` for every tap
+    change of a locked lane (the first raw word sampled with the new tap); with ``track`` the
+    monitor samplers' words come from the link model at their taps too.
     """
     from amaranth.sim import Simulator
 
@@ -610,15 +635,24 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
                         ("n_check", n_check), ("line_words", link.line_words)):
             ctx.set(getattr(dut, port), v)
         tapq, tap2, prev = [0] * n, [0] * n, [(0, 0)] * n
+        mq, m2, last_tap = [0] * n, [0] * n, [None] * n
         for k in range(cycles):
             ctx.set(dut.lane_raw, sum(int(lvds.raw_words(link, i, tap2[i], k)) << (i * w)
                                       for i in range(n)))
+            if dut.track:
+                ctx.set(dut.lane_mon_raw, sum(int(lvds.raw_words(link, i, m2[i], k))
+                                              << (i * w) for i in range(n)))
+                mld, mtap = ctx.get(dut.lane_mon_ld), ctx.get(dut.lane_mon_tap)
             ctx.set(dut.retrain, int(k in retrains))
             ld, tap = ctx.get(dut.lane_ld), ctx.get(dut.lane_tap)
             lk, er = ctx.get(dut.lane_locked), ctx.get(dut.lane_error)
             sl, rn = ctx.get(dut.lane_slip), ctx.get(dut.lane_run)
             for i in range(n):
                 st = ((lk >> i) & 1, (er >> i) & 1)
+                cur = (tap >> TAP_BITS * i) & tmask
+                if st[0] and prev[i][0] and cur != last_tap[i] and corrections is not None:
+                    corrections.append((k + lvds.LINK_LATENCY, i, cur))
+                last_tap[i] = cur
                 if st != prev[i]:
                     events.append((k, i, *st, (tap >> TAP_BITS * i) & tmask,
                                    (sl >> SLIP_BITS * i) & smask, (rn >> RUN_BITS * i) & rmask))
@@ -630,6 +664,12 @@ def run_amaranth(link, cycles, *, retrains=(), n_check=4, settle=4, **rx_params)
                 tap2[i] = tapq[i]
                 if (ld >> i) & 1:
                     tapq[i] = (tap >> TAP_BITS * i) & tmask
+                if dut.track:
+                    m2[i] = mq[i]
+                    if (mld >> i) & 1:
+                        mq[i] = (mtap >> TAP_BITS * i) & tmask
+        if final is not None:
+            final.extend(_final_status(ctx, dut, n, w))
 
     sim = Simulator(dut)
     sim.add_clock(1e-8)

@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tdicam.hdl.lvds import TAP_BITS
+from tdicam.hdl.lvds import EYE_STATUS, RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.model import lvds
 from tdicam.model import lvds_front
 
-__all__ = ["FrontCase", "raw_table", "STATUS", "WordDriver", "run_amaranth", "frames_of",
+__all__ = ["FrontCase", "raw_table", "STATUS", "EYE_PORTS", "WordDriver", "run_amaranth", "frames_of",
            "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
-           "scenario_lanes", "scenario", "check", "run_cocotb", "plan_case"]
+           "scenario_lanes", "scenario", "check", "run_cocotb", "plan_case", "lane_eyes"]
 
 
 @dataclass
@@ -39,7 +39,11 @@ class FrontCase:
     frame's kind (1 a reset frame, 0 a signal frame; None: signal frames), sent in its row
     headers; ``lead``: word clocks of training past the receiver's training time before the
     first frame (a camera whose start-up holds frames longer, e.g. the calibration load,
-    starts the sensor later).
+    starts the sensor later); ``walk``: the receiver has the eye status
+    (:func:`tdicam.hdl.lvds.eye_ports`) and the sensor sends one round of the walking-1/0
+    patterns (:func:`tdicam.model.lvds.walk_words`, ``2 W`` words) just before each data
+    segment, after the lanes have locked; ``track``: the receiver tracks the eyes with that
+    margin (:mod:`tdicam.model.lvds_track`).
     """
 
     frames: list
@@ -58,6 +62,8 @@ class FrontCase:
     tail: int = 200
     kinds: tuple | None = None
     lead: int = 40
+    walk: bool = False
+    track: int = 0
     retrains: tuple = field(default=(), init=False)
     link: object = field(default=None, init=False)
     cycles: int = field(default=0, init=False)
@@ -71,12 +77,16 @@ class FrontCase:
         segs = self.segments or (nf,)
         if sum(segs) != nf:
             raise ValueError("segments must add up to the frames")
+        if self.walk and self.lead < 2 * w + 4:
+            raise ValueError(f"lead = {self.lead}: the walking patterns need >= {2 * w + 4}")
         sched, k, retrains, parts, f0 = [], tw + self.lead, [], [], 0
         for i, f in enumerate(segs):
             if i:
                 retrains.append(k)
                 sched.append((k, "train"))
                 k += 1 + tw + 40
+            if self.walk:
+                sched.append((k - 2 * w, "walk"))
             sched.append((k, "data"))
             k += (f * nr + 1) * lw
             parts.append([np.asarray(a)[f0:f0 + f] for a in self.frames])
@@ -94,7 +104,8 @@ class FrontCase:
 
     def golden_run(self):
         return lvds.run(self.link, cycles=self.cycles, retrains=self.retrains,
-                        n_check=self.n_check, settle=self.settle)
+                        n_check=self.n_check, settle=self.settle, eye=self.walk,
+                        track=self.track)
 
 
 def raw_table(link, cycles):
@@ -131,6 +142,8 @@ def frames_of(beats, rows, columns, ppc, gains):
 STATUS = ("lane_locked", "lane_error", "frame_invalid", "trained", "releasing",
           "need_retrain", "frames_out", "frames_dropped", "frames_affected", "lane_errors",
           "fifo_overflow")
+#: The status ports of a front with the eye status a run reports too.
+EYE_PORTS = ("lane_scan", "lane_run", "lane_slip") + EYE_STATUS
 
 
 class WordDriver:
@@ -147,14 +160,37 @@ class WordDriver:
         self.raw, self.w, self.retrains, self.res = raw, word_bits, set(retrains), res
         self.n = raw.shape[0]
         self.tapq, self.tap2 = [0] * self.n, [0] * self.n
+        self.mq, self.m2 = [0] * self.n, [0] * self.n
         self.prev, self.out_seen = [(0, 0)] * self.n, 0
+        self.last_tap = [None] * self.n
 
     def inputs(self, k):
         raw = sum(int(self.raw[i, self.tap2[i], k]) << (i * self.w) for i in range(self.n))
         return raw, int(k in self.retrains)
 
+    def mon_inputs(self, k):
+        """The monitor samplers' words (a receiver with tracking: ``lane_mon_raw``)."""
+        return sum(int(self.raw[i, self.m2[i], k]) << (i * self.w) for i in range(self.n))
+
+    def mon_observe(self, ld, tap):
+        """The monitor samplers' tap loads (``lane_mon_ld``, ``lane_mon_tap``) of the cycle
+        (call before :meth:`observe`)."""
+        for i in range(self.n):
+            self.m2[i] = self.mq[i]
+            if (ld >> i) & 1:
+                self.mq[i] = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
+
     def observe(self, k, ld, tap, locked, error, frames_out, frame_invalid):
-        """``frame_invalid``: a callable reading the port (read only when a frame ends)."""
+        """``frame_invalid``: a callable reading the port (read only when a frame ends).
+        With ``res["corrections"]`` a list, every tap change of a locked lane is logged
+        there as ``(effect word, lane, new tap)`` (the first raw word sampled with it)."""
+        log = self.res.get("corrections")
+        for i in range(self.n):
+            cur = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
+            if log is not None and (locked >> i) & 1 and self.prev[i][0] \
+                    and cur != self.last_tap[i]:
+                log.append((k + lvds.LINK_LATENCY, i, cur))
+            self.last_tap[i] = cur
         for i in range(self.n):
             st = ((locked >> i) & 1, (error >> i) & 1)
             if st != self.prev[i]:
@@ -191,7 +227,7 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     if dut is None:
         dut = LvdsFront(lanes_per_gain=L, gains=g, word_bits=w, bits=bits,
                         columns=case.p * L, ppc=ppc, fifo_depth=case.fifo_depth,
-                        settle=case.settle)
+                        settle=case.settle, eye=case.walk, track=case.track)
     n_out = ppc * g if elems is None else elems
 
     def port(name):
@@ -199,6 +235,8 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     kind_port = getattr(dut, "frame_kind", None)
     raw = raw_table(case.link, case.cycles)
     res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
+    if case.track:
+        res["corrections"] = []
     done = [False]
 
     async def word_side(ctx):
@@ -213,13 +251,17 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
             lane_raw, retrain = drv.inputs(k)
             ctx.set(port("lane_raw"), lane_raw)
             ctx.set(port("retrain"), retrain)
+            if case.track:
+                ctx.set(port("lane_mon_raw"), drv.mon_inputs(k))
+                drv.mon_observe(ctx.get(port("lane_mon_ld")), ctx.get(port("lane_mon_tap")))
             if hook is not None:
                 hook(ctx, dut, k)
             drv.observe(k, *(ctx.get(port(x)) for x in ("lane_ld", "lane_tap", "lane_locked",
                                                         "lane_error", "frames_out")),
                         lambda: ctx.get(port("frame_invalid")))
             await ctx.tick(WORD_DOMAIN)
-        for name in STATUS:
+        eye = EYE_PORTS if hasattr(dut, prefix + "lane_walk") else ()
+        for name in STATUS + eye:
             res["status"][name] = ctx.get(port(name))
         done[0] = True
 
@@ -449,3 +491,62 @@ def plan_case(p, data, lanes, **kw):
     kinds = cds_kinds(len(frames[0])) if p.reset_frames else None
     return FrontCase(frames, lanes, prm["lanes_per_gain"], word_bits=prm["word_bits"],
                      bits=prm["bits"], ppc=p.ppc, settle=prm["settle"], kinds=kinds, **kw)
+
+
+def lane_eyes(golden, status, word_bits, *, prefix="", tap_ps=None, eye_taps=None, min_run=9,
+              trained=None):
+    """Each lane's training as the receiver published it (its eye-status ports in
+    ``status``, ``{prefix + port: value}``, :func:`tdicam.hdl.lvds.eye_ports` and the
+    front's ``lane_scan``/``lane_run``/``lane_slip``) beside the golden model's prediction
+    (``golden``: :func:`tdicam.model.lvds.run` ``final`` with ``eye``).
+
+    Returns one dict a lane: ``lane``, ``mask`` (pass mask over the 32 taps, bit ``t`` =
+    tap ``t``), ``taps`` (the mask as a list of 0/1, tap 0 first), ``tap`` (chosen), ``slip``,
+    ``slip_mask``, ``eye_taps_found`` (the widest run) and ``eye_ps_found`` (x ``tap_ps``),
+    ``eye_taps_given`` (the scene's, when known), ``walk`` (the walking-1/0 patterns
+    received), ``walk_ok``, ``locked``, ``error``, ``golden`` (the same fields predicted),
+    ``agree`` (every field equal) and ``text`` (one line; a lane with no eye says so);
+    ``trained``: each lane's tap as training chose it (None: ``tap``), ``trained_tap`` (the
+    receiver's ``tap`` is the one at the end: with tracking it has moved).
+    """
+    w = word_bits
+    fields = {"mask": ("lane_scan", lvds.N_TAPS), "eye_taps_found": ("lane_run", RUN_BITS),
+              "tap": ("lane_chosen_tap", TAP_BITS), "slip": ("lane_slip", SLIP_BITS),
+              "slip_mask": ("lane_slip_pass", w), "walk": ("lane_walk", 2 * w),
+              "locked": ("lane_locked", 1), "error": ("lane_error", 1)}
+    gkeys = {"mask": "scan", "eye_taps_found": "run", "tap": "tap", "slip": "slip",
+             "slip_mask": "slip_pass", "walk": "walk", "locked": "locked", "error": "error"}
+    full = (1 << 2 * w) - 1
+    out = []
+    for i, g in enumerate(golden):
+        e = {"lane": i}
+        for key, (port, bits) in fields.items():
+            e[key] = (int(status[prefix + port]) >> (i * bits)) & ((1 << bits) - 1)
+        e["golden"] = {key: int(g[gkeys[key]]) for key in fields}
+        e["agree"] = all(e[k] == e["golden"][k] for k in fields)
+        e["taps"] = [(e["mask"] >> t) & 1 for t in range(lvds.N_TAPS)]
+        e["walk_ok"] = e["walk"] == full
+        e["eye_ps_found"] = None if tap_ps is None else e["eye_taps_found"] * tap_ps
+        e["eye_taps_given"] = None if eye_taps is None else float(eye_taps[i])
+        tt = None if trained is None else trained[i]
+        e["trained_tap"] = e["tap"] if tt is None else int(tt)
+        at = f"tap {e['trained_tap']}" + ("" if e["trained_tap"] == e["tap"] else
+                                         f" ({e['tap']} at the end, tracked)")
+        given = "" if eye_taps is None else f" (scene: {float(eye_taps[i]):g})"
+        same = "as the golden model predicts" if e["agree"] else \
+            f"the golden model predicts {e['golden']}"
+        if e["locked"]:
+            e["text"] = (f"lane {i}: eye {e['eye_taps_found']} taps{given}, {at}, slip "
+                         f"{e['slip']}; walking 1/0: "
+                         + ("every bit seen as 1 and 0" if e["walk_ok"] else
+                            f"patterns {e['walk']:#x} of {full:#x}")
+                         + f"; {same}")
+        elif e["eye_taps_found"] < min_run:
+            e["text"] = (f"lane {i}: error: no eye (widest run {e['eye_taps_found']} taps"
+                         f"{given}, {min_run} needed); {same}")
+        else:
+            e["text"] = (f"lane {i}: error after training (eye {e['eye_taps_found']} taps"
+                         f"{given}, slips {e['slip_mask']:#x}, walking 1/0 {e['walk']:#x}); "
+                         f"{same}")
+        out.append(e)
+    return out

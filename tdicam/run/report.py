@@ -60,6 +60,9 @@ FILE_NOTES = {
                       "minus the ideal target, the whole image",
     "snr_vs_stages.png": "flat target: measured SNR gain against the stage count, with the "
                          "planning model and Tao et al. 2012 eq 28",
+    "eyes.png": "the sensor lanes' training: lanes x delay taps, the taps where the training "
+                "word passed (green), the chosen tap (x), with tracking the tap at the end "
+                "(o), lanes in error labelled; the numbers are report.json's rtl.eyes",
     "mtf.png": "bar target: measured MTF with the planning model, Yuan et al. 2013's model "
                "and the footprint model",
     "pipeline_mismatch.fst": "RTL co-simulation: waveform around the first mismatch "

@@ -16,7 +16,10 @@ images are of the largest stage count of the sweep):
   target's scale minus the target);
 * ``snr_vs_stages.png`` when the scene sweeps stages on a flat target, ``mtf.png`` on a bar
   target (model curves and measured points, vs M dV/V when the mismatch is swept);
-* ``report.json``, ``report.md`` and ``report.html`` (report.md with every figure inline,
+* ``eyes.png`` with ``[run.rtl]`` of a scene whose lanes publish their training
+  (``[sensor.lvds].eye_status``): lanes x delay taps, pass/fail, the chosen tap marked
+  (:mod:`tdicam.run.eyes`; its numbers in report.json's ``rtl.eyes``);
+* ``report.json``, ``report.md`` and ``report.html``  (report.md with every figure inline,
   :mod:`tdicam.run.html`; :mod:`tdicam.run.report`): the configuration (ground
   speed, line period, required frame rate, window, stages, fidelity), the effects table
   (ran/skipped, why, fidelity and error bound, time, impact), measured SNR/MTF next to the
@@ -215,6 +218,11 @@ def _write(run, out_dir, stage, bar):
         if wave and Path(wave).parent.resolve() == out_dir.resolve():
             files.append(Path(wave).name)
         rtl_report = _moved(rtl_report, str(out_dir), str(final_dir))
+        if (rtl_report or {}).get("eyes"):
+            from tdicam.run.eyes import EYES_PNG, eye_figure
+            with writing_in(out_dir):
+                eye_figure(rtl_report["eyes"], out_dir / EYES_PNG)
+            files.append(EYES_PNG)
     real_time = 1.0 / scene.line_period_s
     requested = fidelity or scene.run.fidelity
     bar.stage("the report")

@@ -261,6 +261,19 @@ KEYS = {
                                  default="the whole bit (ideal)", range="[0, UI / tap_ps]"),
         "jitter_ps": KeyDoc("ps", "random capture band inside each eye edge; given: the "
                                   "lanes' training is simulated", range="[0, UI]"),
+        "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
+                                 "chosen tap and slip, eye width) and checks every bit with "
+                                 "walking-1/0 patterns after lock; tdicam run reports them "
+                                 "(eyes.png); adds ports to the pipeline top"),
+        "drift_taps": KeyDoc("taps", "slow drift of each eye's centre over drift_frames "
+                                     "(+: to higher taps), as temperature moves it",
+                             type="number or list (one per lane)", default="0",
+                             range="[-31, 31]"),
+        "drift_frames": KeyDoc("frames", "frames (as the sensor sends them, from its first) "
+                                         "over which the eyes drift by drift_taps"),
+        "tracking": KeyDoc("", "the receiver follows each locked lane's eye with a monitor "
+                               "sampler 4 taps either side and reports every correction "
+                               "(generic PHY); adds ports to the pipeline top"),
     },
     "run.rtl": {
         "crop": KeyDoc("px", "[x0, y0, width, height] of the output to co-simulate",

@@ -290,6 +290,12 @@ class Scene:
         d = conv(dataclasses.asdict(self))
         if d["sensor"]["lvds"] is None:     # ideal lanes: the dict of before
             del d["sensor"]["lvds"]
+        else:                               # eye status, drift, tracking off: as before
+            lv = d["sensor"]["lvds"]
+            for key, off in (("eye_status", False), ("drift_taps", []), ("drift_frames", 20),
+                             ("tracking", False)):
+                if lv[key] == off:
+                    del lv[key]
         rtl = d["run"]["rtl"]
         if rtl is not None and rtl["lane_dies"] is None:      # no fault: the dict of before
             del rtl["lane_dies"]
@@ -559,7 +565,8 @@ def _sensor(sec: _Section) -> Sensor:
 
 def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds:
     sec.check_keys(("lanes_per_gain", "word_bits", "bit_rate_mbps", "mapping", "train_word",
-                    "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps"))
+                    "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps", "eye_status",
+                    "drift_taps", "drift_frames", "tracking"))
     dflt = lvds_front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
     if columns % lanes:
@@ -598,7 +605,13 @@ def _lvds(sec: _Section, columns: int, bits: int, gains: int, rows: int) -> Lvds
     jitter = sec.number("jitter_ps", 0.0, lo=0.0, hi=ui)
     return Lvds(lanes_per_gain=lanes, word_bits=wb, bit_rate_mbps=rate, mapping=mapping,
                 train_word=tw, tap_ps=tap, eye_centre_taps=centre, eye_width_taps=width,
-                jitter_ps=jitter, simulate=sec.has("eye_width_taps") or sec.has("jitter_ps"))
+                jitter_ps=jitter, simulate=sec.has("eye_width_taps") or sec.has("jitter_ps")
+                or sec.has("drift_taps"),
+                eye_status=sec.boolean("eye_status", False),
+                drift_taps=per_lane("drift_taps", 0.0, -float(N_TAPS - 1), float(N_TAPS - 1))
+                if sec.has("drift_taps") else (),
+                drift_frames=sec.integer("drift_frames", 20, lo=1, hi=1 << 20),
+                tracking=sec.boolean("tracking", False))
 
 
 def _optics(sec: _Section) -> Optics:

@@ -75,6 +75,17 @@ The line period either gives must lie in 1e-8..100 s.
     per lane (``lanes_per_gain x`` gains); ``jitter_ps`` [0], 0..UI. The link (training of
     every lane) is simulated only when ``eye_width_taps`` or ``jitter_ps`` is given; a lane
     that cannot train (no run of 9 taps) has its columns invalid (0 and reported).
+    ``eye_status`` [false]: the receiver publishes its training (per lane the pass mask over
+    the 32 taps, the chosen tap and slip, the eye width found) and checks every bit with
+    walking-1/0 patterns the sensor sends after lock; ``tdicam run`` reports them
+    (``eyes.png``, report.json's ``rtl.eyes``). Opt-in: it adds ports to the pipeline top.
+    ``drift_taps`` [0], -31..31, a number or one per lane: each eye's centre moves by that
+    many taps (+: to higher taps) over ``drift_frames`` [20], >= 1, frames as the sensor
+    sends them (from its first frame on; :class:`tdicam.model.lvds.Lane` drift), as
+    temperature moves it over an orbit; ``tracking`` [false]: the receiver follows each
+    locked lane's eye with a monitor sampler (:mod:`tdicam.hdl.lvds_track`, the generic PHY)
+    and reports every correction. Without tracking a drift past the sampling tap's margin
+    puts the lane in error.
 
 ``[optics]`` (optional)
     ``psf_sigma_px`` [0], >= 0: standard deviation of a Gaussian optics PSF in pixels (0: a
@@ -287,6 +298,10 @@ class Lvds:
     eye_width_taps: tuple
     jitter_ps: float
     simulate: bool
+    eye_status: bool = False
+    drift_taps: tuple = ()
+    drift_frames: int = 20
+    tracking: bool = False
 
 
 @dataclass(frozen=True)

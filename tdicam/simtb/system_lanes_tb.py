@@ -34,6 +34,9 @@ async def run_job(dut):
     raw = np.load("raw.npy")
     res = {"beats": [], "taps": [[] for _ in job["taps"]], "frame_status": [],
            "events": [], "status": {}, "startup": {}}
+    track = bool(job.get("track"))
+    if track:                       # the receiver tracks the eyes: log its corrections
+        res["corrections"] = []
     wclk, pclk = await start(dut, job["word_ps"], job["proc_ps"], job["settings"],
                              (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready))
     done = [False]
@@ -68,6 +71,9 @@ async def run_job(dut):
         watch[f"{name}_done"] = name
     for kk in range(job["word_cycles"]):
         dut.lvds_lane_raw.value, dut.lvds_retrain.value = drv.inputs(kk)
+        if track:
+            dut.lvds_lane_mon_raw.value = drv.mon_inputs(kk)
+            drv.mon_observe(_get(dut.lvds_lane_mon_ld), _get(dut.lvds_lane_mon_tap))
         drv.observe(kk, *(_get(getattr(dut, "lvds_" + x)) for x in (
             "lane_ld", "lane_tap", "lane_locked", "lane_error", "frames_out")),
             lambda: _get(dut.lvds_frame_invalid))
