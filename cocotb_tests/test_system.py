@@ -240,7 +240,10 @@ def test_lanes_training_is_reported_with_its_picture_on_icarus(tmp_path, monkeyp
 DRIFT = ROOT / "scenes" / "ning2019_gmax0504_system_lanes_drift.toml"
 
 
-@pytest.mark.parametrize("tracking", [True, False], ids=["tracking", "no_tracking"])
+@pytest.mark.parametrize("tracking", [True, pytest.param(False, marks=pytest.mark.skipif(
+    not FULL, reason="TDICAM_FULL=1 (~130 s: the lanes die and the testbench runs to its cycle "
+                     "limit); tests/test_lvds_track.py shows the lanes in error without "
+                     "tracking in CI's short form"))], ids=["tracking", "no_tracking"])
 def test_drifting_eyes_with_and_without_tracking_on_icarus(tracking):
     """The drift scene (eyes moving 6 taps over 20 frames, lanes 0 and 3 up, 1 down) on a
     16-column, 3-stage cut of 18 lines: 20 frames sent (10 reset/signal pairs), on Icarus.

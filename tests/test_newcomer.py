@@ -190,10 +190,23 @@ def test_sweep_takes_a_bundled_sweep(monkeypatch, tmp_path):
     assert seen["source"] == sweep_path("tao2012_snr_vs_stages")
 
 
-def test_pipeline_commands_take_a_bundled_scene(tmp_path, capsys):
+@pytest.mark.parametrize("argv", [["verilog", "pipeline"], ["synth", "pipeline"],
+                                  ["export", "pipeline", "-o", "x"]])
+def test_pipeline_commands_take_a_bundled_scene(argv, monkeypatch, capsys):
+    """``--example NAME`` reaches the pipeline commands' scene reader as the bundled file
+    (the reader stood in for: what it does with the file, test_pipeline and test_export
+    show)."""
+    from tdicam.chain import design
+    from tdicam.commands import _pipeline
+    from tdicam.errors import TdicamError
     from tdicam.scene.examples import example_path
-    a, b = tmp_path / "a.v", tmp_path / "b.v"
-    assert cli.main(["verilog", "pipeline", "--example", "orbit_chain", "-o", str(a)]) == 0
-    assert cli.main(["verilog", "pipeline", "--scene", str(example_path("orbit_chain")),
-                     "-o", str(b)]) == 0
-    assert a.read_bytes() == b.read_bytes()
+    seen = []
+
+    def reader(path, *a, **kw):
+        seen.append(path)
+        raise TdicamError("stop here")
+    monkeypatch.setattr(_pipeline, "load_pipeline_scene", reader)
+    monkeypatch.setattr(design, "load_pipeline_scene", reader)
+    assert cli.main([*argv, "--example", "orbit_chain"]) == 2
+    assert "stop here" in capsys.readouterr().err
+    assert [str(p) for p in seen] == [str(example_path("orbit_chain"))]
