@@ -59,12 +59,15 @@ import numpy as np
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.model.cds import check_pixels, pixel_dtype
 
-__all__ = ["HdrConfig", "hdr_config", "hdr", "parse_gain_pairs", "ANCHORS", "DEFAULT_GAINS"]
+__all__ = ["HdrConfig", "hdr_config", "hdr", "parse_gain_pairs", "ANCHORS", "DEFAULT_GAINS",
+           "MAX_PAIRS", "MAX_RATIO"]
 
 ANCHORS = ("band", "threshold")
 DEFAULT_GAINS = "4.9:0.8"
-_MAX_PAIRS = 16
-_MAX_RATIO = 64
+#: Most (high gain, low gain) pairs ``gain_pairs`` may list.
+MAX_PAIRS = 16
+#: Each pair's high gain over its low gain lies in [1, MAX_RATIO).
+MAX_RATIO = 64
 
 
 def parse_gain_pairs(gain_pairs):
@@ -88,12 +91,12 @@ def parse_gain_pairs(gain_pairs):
     except (TypeError, ValueError, ZeroDivisionError):
         raise TdicamError(f"gain_pairs = {gain_pairs!r} is not valid; expected "
                           f"'hg:lg[,hg:lg...]', e.g. '4.9:0.8'") from None
-    if not 1 <= len(out) <= _MAX_PAIRS:
-        raise TdicamError(f"gain_pairs has {len(out)} pairs; valid: 1..{_MAX_PAIRS}")
+    if not 1 <= len(out) <= MAX_PAIRS:
+        raise TdicamError(f"gain_pairs has {len(out)} pairs; valid: 1..{MAX_PAIRS}")
     for hg, lg in out:
-        if lg <= 0 or hg <= 0 or not 1 <= hg / lg < _MAX_RATIO:
+        if lg <= 0 or hg <= 0 or not 1 <= hg / lg < MAX_RATIO:
             raise TdicamError(f"gain pair {float(hg):g}:{float(lg):g} is not valid; the high "
-                              f"gain over the low gain must lie in [1, {_MAX_RATIO})")
+                              f"gain over the low gain must lie in [1, {MAX_RATIO})")
     return tuple(out)
 
 

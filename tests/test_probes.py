@@ -599,3 +599,22 @@ def test_simulation_save_refuses_what_is_no_folder(tmp_path):
         with pytest.raises(tdicam.TdicamError, match="^" + fragment):
             sim.save(bad)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [["run", "--dry-run", "-o", "{d}/o"], ["verilog", "pipeline",
+                                                                        "-o", "{d}/x.v"]])
+def test_tdi_spill_above_the_ddr_base_is_refused_naming_the_key(argv, tmp_path, capsys):
+    """The TDI partial sums in DDR (orbit_4096_ddr_spill) with ``[ddr].base`` near the top:
+    --dry-run refused the same as ``verilog pipeline``, naming [ddr].base and the highest
+    base that fits (it used to pass --dry-run, and ``verilog pipeline`` said 'address space
+    too small' without the key)."""
+    from tdicam.scene.examples import example_path
+    f = _edited(example_path("orbit_4096_ddr_spill"), (("base = 0", "base = 268435000"),),
+                tmp_path)
+    args = [a.format(d=tmp_path) for a in argv]
+    cmd = args[:2] + ["--scene", str(f)] + args[2:] if args[0] == "verilog" else \
+        [args[0], str(f)] + args[1:]
+    assert main(cmd) == 2
+    assert ("[ddr].base = 268435000: the partial-sum buffer (95 lines x stride 2528) needs "
+            "240160 address units above it and the memory has 268435456: give [ddr].base <= "
+            "268195296") in _one_line(capsys)

@@ -22,7 +22,7 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.cosim import run_scene
 from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
-from tdicam.model.hdr import _MAX_PAIRS, _MAX_RATIO
+from tdicam.model.hdr import MAX_PAIRS, MAX_RATIO
 from tdicam.model.tdi import settings_valid
 
 #: Examples a block and ppc in the short form (by the cost of one: the DDR model and
@@ -135,8 +135,8 @@ def _coeffs(draw, rng, fmt, shape):
 
 def _hdr(draw, blk, ppc, rng):
     pairs = draw(st.lists(st.tuples(st.integers(1, 64), st.integers(1, 64)),
-                          min_size=1, max_size=_MAX_PAIRS), "gain pairs")
-    pairs = [(max(a, b), min(a, b)) for a, b in pairs if max(a, b) / min(a, b) < _MAX_RATIO]
+                          min_size=1, max_size=MAX_PAIRS), "gain pairs")
+    pairs = [(max(a, b), min(a, b)) for a, b in pairs if max(a, b) / min(a, b) < MAX_RATIO]
     assume(pairs)
     fixed = {"ppc": ppc, "gain_pairs": ",".join(f"{a}:{b}" for a, b in pairs),
              "anchor": draw(st.sampled_from(_param_of(blk, "anchor").choices), "anchor")}

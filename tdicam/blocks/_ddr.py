@@ -12,10 +12,13 @@ the block's order of accesses costs on DDR3. ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 """
 
-from tdicam.model.ddr import DEFAULT_STALLS, _check_stalls
+from tdicam.errors import TdicamError
+from tdicam.model.ddr import (ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, DEFAULT_STALLS,
+                              WORD_BITS, _check_stalls)
 from tdicam.blocks import Param
 
-__all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top"]
+__all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top",
+           "check_base"]
 
 STALL_PARAMS = (
     Param("lat_lo", DEFAULT_STALLS["lat_lo"], "model: shortest read latency, cycles", lo=2,
@@ -61,3 +64,15 @@ def sim_top(core, words, stalls):
     from tdicam.hdl.interfaces.axis import AxisTop
     from tdicam.hdl.simmodels.mig_model import SimTop
     return AxisTop(SimTop(core, depth_words=max(1, words), **stalls))
+
+
+def check_base(base, need, what, capacity_bytes=CAPACITY_BYTES):
+    """A scene's DDR buffer of ``need`` address units fits above ``[ddr].base``: else a
+    one-line :class:`~tdicam.errors.TdicamError` naming the key, what the buffer is and the
+    highest base that fits (before the block's own address check, which knows no scene
+    key)."""
+    top = min(capacity_bytes * 8 // (WORD_BITS // ADDR_PER_WORD), 1 << ADDR_BITS)
+    if base + need > top:
+        raise TdicamError(f"[ddr].base = {base}: the {what} needs {need} address units "
+                          f"above it and the memory has {top}: give [ddr].base <= "
+                          f"{max(top - need, 0) // 8 * 8}")

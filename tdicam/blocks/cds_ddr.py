@@ -13,12 +13,13 @@ from tdicam.beats import PPC_CHOICES, Beats, frames_to_beats, mark_resets
 from tdicam.model.cds import pixel_dtype
 from tdicam.errors import TdicamError
 from tdicam.model.cds_ddr import cds_ddr_frames
-from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, WORD_BITS, LineLayout, check_capacity
+from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
                            check_width)
 from tdicam.blocks.steps import Step
 from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
-from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
+from tdicam.blocks._ddr import (STALL_PARAMS, address_params, check_base, check_stalls, sim_top,
+                                stalls_of)
 
 __all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
 
@@ -191,16 +192,11 @@ def _pipeline_step(ctx):
 
 
 def _check_base(params):
-    """The scene's reset frame fits above ``[ddr].base``: a one-line :class:`TdicamError`
-    naming the key and the highest base that fits, before the block's own address check."""
+    """The scene's reset frame fits above ``[ddr].base`` (:func:`tdicam.blocks._ddr.check_base`)."""
     p = BLOCK.resolve({**params, "base": 0})
-    need = _layout(p).end_addr(p["rows"])
-    top = min((p["capacity_mib"] << 20) * 8 // (WORD_BITS // ADDR_PER_WORD), 1 << ADDR_BITS)
-    base = params["base"]
-    if base + need > top:
-        raise TdicamError(f"[ddr].base = {base}: the reset frame ({p['rows']} lines x stride "
-                          f"{_layout(p).line_stride}) needs {need} address units above it and "
-                          f"the memory has {top}: give [ddr].base <= {(top - need) // 8 * 8}")
+    check_base(params["base"], _layout(p).end_addr(p["rows"]),
+               f"reset frame ({p['rows']} lines x stride {_layout(p).line_stride})",
+               p["capacity_mib"] << 20)
 
 
 def _pipeline_hw(step, data, *, ecp5=False):

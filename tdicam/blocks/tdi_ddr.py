@@ -14,7 +14,7 @@ from tdicam.model.tdi import check_params as tdi_check_params
 from tdicam.blocks import Bench, StreamWork
 from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
-from tdicam.blocks._ddr import STALL_PARAMS, check_stalls, sim_top, stalls_of
+from tdicam.blocks._ddr import STALL_PARAMS, check_base, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK"]
 
@@ -83,9 +83,17 @@ def _cases():
 
 
 def _pipeline_step(ctx):
-    """``tdi``'s step, its partial sums at the scene's ``[ddr].base``."""
+    """``tdi``'s step, its partial sums at the scene's ``[ddr].base`` (refused in one line
+    naming the key when they do not fit above it)."""
     from dataclasses import replace
+    from tdicam.hdl.tdi_ddr import TdiDdr
     step, out_bits = _tdi.PIPELINE["step"](ctx)
+    p = BLOCK.resolve({**step.params, "base": 0})
+    at0 = TdiDdr(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
+                 out_bits=p["out_bits"], ppc=p["ppc"]).layout
+    lines = max(p["stages"] - 1, 0)
+    check_base(ctx.scene.ddr.base, at0.end_addr(lines),
+               f"partial-sum buffer ({lines} lines x stride {at0.line_stride})")
     return replace(step, params={**step.params, "base": ctx.scene.ddr.base,
                                  **dict(ctx.scene.ddr.stalls)}), out_bits
 
