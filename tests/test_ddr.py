@@ -386,12 +386,12 @@ def test_a_beat_of_too_many_words_is_refused_in_one_line():
     """ppc x channels values a beat filling more than MAX_WORDS_PER_BEAT words: one line
     naming the limit and the fix, not Amaranth's RecursionError (4030 words a beat was
     accepted and ended in a traceback); the limit itself is accepted."""
-    from tdicam import blocks
+    from tdicam.hw.verilog import generate
     from tdicam.hdl.ddr import MAX_WORDS_PER_BEAT, DdrFrameBuffer
     with pytest.raises(TdicamError, match=r"^elements = 4030 per beat and pixels_per_word = "
                                           r"1 fill 4030 words a beat, more than 256: "):
-        blocks.get("ddr").verilog(width=65, rows=34, channels=62, ppc=65, pixel_bits=23,
-                                  pixels_per_word=1)
+        generate("ddr", dict(width=65, rows=34, channels=62, ppc=65, pixel_bits=23,
+                             pixels_per_word=1))
     with pytest.raises(TdicamError, match=r"fill 512 words a beat"):
         DdrFrameBuffer(width=1024, rows=2, channels=8, elements=512, pixel_bits=8,
                        pixels_per_word=1)

@@ -406,7 +406,6 @@ def case_link(arrays):
 
 BLOCK = Block(
     name="lvds",
-    export_harness="tdicam.export.lvds:lvds_export",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
         Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=MAX_LANES),
@@ -446,7 +445,8 @@ BLOCK = Block(
     check=_check,
     model_version="lvds-1",
     order=70,
-    bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
+    bench=Bench("lvds"),
+    harness="link",                 # not a video stream: the link testbench verifies it
     synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
     pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden,
                  system=_front_system, measured=_front_measured),
