@@ -41,8 +41,8 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
 __all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
-           "SynthRef", "Block", "get", "names", "all_blocks", "in_order", "frame_stack",
-           "scene_blocks", "PPC_PARAM", "check_width"]
+           "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
+           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
 
 
 def _flag(name):
@@ -389,6 +389,68 @@ class SynthRef:
 
 
 @dataclass(frozen=True)
+class Stalls:
+    """The extreme-stall runs of a stream block's co-simulation suite (:class:`Suite`).
+
+    Golden ``case`` in fast mode at each ``(idle, backpressure)`` of ``pairs`` (seed
+    ``seed``); at ``(0, 0)``, and on every case of ``full_rate`` (no idle cycle, no
+    backpressure), the run must take at most one cycle a beat: the input or output beats,
+    whichever are more, plus the top's latency, the 2000-cycle drain window and two, plus
+    ``extra_cycles(case arrays, params)`` where the block stalls its input on purpose
+    (``hdr``'s frame-start divisions).
+    """
+
+    case: str
+    pairs: tuple = ((0.0, 0.0), (0.0, 0.9), (0.9, 0.0))
+    seed: int = 3
+    full_rate: tuple = ()
+    extra_cycles: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A stream block's place in the standard co-simulation suite
+    (``cocotb_tests/test_streams.py``, for every block with :attr:`Block.to_beats`): its
+    golden cases per beat (cocotb drives each cycle, 30 % idle, 40 % backpressure, seed 11)
+    and in fast mode (HDL-side stimulus and stalls, seed 7) on each simulator, and its
+    extreme stalls. What is particular to a block stays in its own
+    ``cocotb_tests/test_<module>.py``.
+
+    Attributes
+    ----------
+    sims : tuple of str
+        The simulators of the suite's runs (the DDR blocks: Icarus; their Verilator runs are
+        particular to them).
+    per_beat : "ppc", "all" or tuple of str
+        ``"ppc"``: the cases at ppc 1 and 8 and the reset cases in every run, the other
+        ppc 2 and 4 cases with ``TDICAM_FULL=1`` (fast mode runs them in every run;
+        :func:`tdicam.cosim.testing.beat_cases`); ``"all"``: every case in every run; a
+        tuple: those cases. Never a case tagged ``fast-only``, nor one in ``not_per_beat``.
+    not_per_beat : tuple of str
+        Cases left out of the per-beat runs (fast mode runs them).
+    fast : bool
+        Every case not tagged ``fast-only`` in fast mode, one run each. False: the block's
+        own file streams its cases its own way (``median3``, ``tlk2711``: every case of a
+        parameter set as one stream).
+    fast_stalls : float
+        Idle and backpressure probability of the fast-mode runs.
+    full_only : callable(Case, sim, mode) -> bool, or None
+        The runs that take another simulator build or minutes, co-simulated only with
+        ``TDICAM_FULL=1`` (skipped otherwise, saying so).
+    stalls : Stalls or None
+        The extreme-stall and full-rate runs (None: none, or the block's own file has them).
+    """
+
+    sims: tuple = ("icarus", "verilator")
+    per_beat: Any = "ppc"
+    not_per_beat: tuple = ()
+    fast: bool = True
+    fast_stalls: float = 0.25
+    full_only: Callable | None = None
+    stalls: Stalls | None = None
+
+
+@dataclass(frozen=True)
 class Block:
     """A registered gateware block: the contract the tools and the pipeline build on.
 
@@ -477,6 +539,9 @@ class Block:
         Place in the tools' tables (benchmarks, synthesis reference); ties by name.
     bench : Bench or None
         How ``tdicam bench`` measures the block (None: not benchmarked).
+    suite : Suite
+        A stream block's runs in the standard co-simulation suite (the defaults unless its
+        entry says otherwise).
     synth : tuple of SynthRef
         The block's rows of the synthesis reference table.
     """
@@ -505,6 +570,7 @@ class Block:
     small: tuple | None = None
     order: int = 1000
     bench: Bench | None = None
+    suite: Suite = Suite()
     synth: tuple = ()
     module: str | None = None
 

@@ -9,7 +9,7 @@ from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            frame_stack, check_width as _check_width)
@@ -22,6 +22,12 @@ __all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
 
 _top, _ecp5_top = tops(Hdr)
+
+
+def _frame_start_stalls(arrays, params):
+    """Cycles ``hdr`` holds its input at the frame starts after a measured band (the
+    junction's divisions, :attr:`tdicam.hdl.hdr.Hdr.frame_start_cycles` each)."""
+    return (len(arrays["hg"]) - 1) * Hdr(**params).frame_start_cycles
 
 
 def _ratio(cfg, sel):
@@ -377,4 +383,6 @@ BLOCK = Block(
                                   "frames of 1280 x 4, 12-bit HG/LG light ramp", (4, 1280), PX,
                                   PX_QUICK)),
     synth=(SynthRef("hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),),
+    suite=Suite(stalls=Stalls("scene_12b", extra_cycles=_frame_start_stalls,
+                              full_rate=("scene_12b_p2", "scene_12b_p4", "scene_12b_p8"))),
 )

@@ -7,7 +7,7 @@ import numpy as np
 from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
@@ -630,4 +630,6 @@ BLOCK = Block(
                                   "frames of 1280 x 4, 12-bit, gain Q2.14", (4, 1280), PX,
                                   PX_QUICK)),
     synth=(SynthRef("nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),),
+    suite=Suite(stalls=Stalls("random_12b", full_rate=("random_12b_p2", "random_12b_p4",
+                                                      "random_12b_p8"))),
 )
