@@ -214,7 +214,7 @@ def _fifo_row(step, prm, lv, ctx):
     """The plan's line on the crossing FIFO: its depth and why (the line burst at the
     slowest processing clock the lanes allow, the DDR model's worst stall behind it, the
     synchronizer slack: :func:`tdicam.model.lvds_front.fifo_depth`)."""
-    from tdicam.model.ddr import worst_stall
+    from tdicam.model.dram import worst_stall
     lpg, w, ppc = prm["lanes_per_gain"], prm["word_bits"], prm["ppc"]
     word_mhz = lv.bit_rate_mbps / w
     p = prm["columns"] // lpg
