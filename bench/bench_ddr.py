@@ -16,14 +16,14 @@ recorded now), on the memory model and LiteDRAM, as Table 3's rows (``--fixture 
 writes tests/ddr_arbiter_litedram.json).
 
 Table 3 (``--litedram``, needs the ``ddrref`` extra): the efficiency of every access
-pattern of :data:`tdicam.model.ddr.PATTERNS` and of every DDR block's recorded command order
+pattern of :data:`tdicam.model.ddr_traces.PATTERNS` and of every DDR block's recorded command order
 (writer, reader, frame buffer, CDS reset frames at the line width and 4096 columns, TDI
 spill at 1280 and 4096 columns) on the project's memory model
 beside LiteDRAM's (:mod:`tdicam.cosim.litedram`: DDR3-800 MT41K256M16 x2, 100 MHz, row-bank-column,
 timing checker on). Every figure is words moved over a steady-state window of 4 refresh
 intervals (4 x 782 = 3128 cycles after a 100-cycle start-up,
-:func:`tdicam.model.ddr.window_efficiency`); each trace is as long as that window needs
-(:func:`tdicam.model.ddr.pattern_lines`, :func:`tdicam.cosim.litedram.block_traces`).
+:func:`tdicam.model.dram.window_efficiency`); each trace is as long as that window needs
+(:func:`tdicam.model.ddr_traces.pattern_lines`, :func:`tdicam.cosim.litedram.block_traces`).
 LiteDRAM's simulation runs some cycles per second (about 10 minutes per row on a loaded
 machine): ``--patterns NAME,NAME`` replays only the patterns and blocks named (``--help``
 lists them).
@@ -44,7 +44,8 @@ from tdicam.blocks.tdi import pack_ctrl, stream_arrays
 from tdicam.cosim.codec import Beats, frames_to_beats
 from tdicam.cosim.litedram import BLOCKS as DDR_BLOCKS
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import PATTERNS, LineLayout, pack_lines
+from tdicam.model.ddr import LineLayout, pack_lines
+from tdicam.model.ddr_traces import PATTERNS
 from tdicam.model.tdi import tdi_stream
 
 
@@ -124,7 +125,7 @@ def speed(sims=cosim.SIMULATORS, quick=False):
 
 def select(text):
     """(patterns, blocks) named in ``text``, comma-separated names of
-    :data:`tdicam.model.ddr.PATTERNS` and :data:`tdicam.cosim.litedram.BLOCKS` in the order given;
+    :data:`tdicam.model.ddr_traces.PATTERNS` and :data:`tdicam.cosim.litedram.BLOCKS` in the order given;
     (None, None), every one, for None. An unknown name is a one-line
     :class:`~tdicam.errors.TdicamError` naming the valid ones."""
     if text is None:
@@ -144,10 +145,10 @@ def litedram(patterns=None, blocks=None):
     intervals) of each access pattern (every one of :data:`PATTERNS` by default) and each
     DDR block's command order (:data:`tdicam.cosim.litedram.BLOCKS` by default) on the
     memory model with the plain stall pattern, with DRAM timing
-    (:class:`~tdicam.model.ddr.DramTiming`; the HDL model is cycle-equal with it) and on
+    (:class:`~tdicam.model.dram.DramTiming`; the HDL model is cycle-equal with it) and on
     LiteDRAM, and what the planner counts on for the block."""
     from tdicam.cosim.litedram import block_traces
-    from tdicam.model.ddr import pattern_lines, pattern_trace
+    from tdicam.model.ddr_traces import pattern_lines, pattern_trace
     rows, lines_of = [], {}
 
     def one(kind, name, trace, windows=None):
@@ -169,7 +170,8 @@ def _row(kind, name, trace, lines, windows=None):
     """One row of :func:`litedram`: ``trace`` on the memory model (plain stalls, DRAM
     timing) and on LiteDRAM over the steady-state window."""
     from tdicam.cosim.litedram import replay
-    from tdicam.model.ddr import DramTiming, replay_model, window_cycles
+    from tdicam.model.ddr_traces import replay_model
+    from tdicam.model.dram import DramTiming, window_cycles
     kw = {} if windows is None else {"read_time": windows[0], "write_time": windows[1]}
     r = replay(trace, steady=True, **kw)
     row = {"what": name, "kind": kind, "words": trace.words, "lines": lines,

@@ -25,7 +25,8 @@ from pathlib import Path
 from tdicam import blocks
 from tdicam.bench.util import machine
 from tdicam.cosim import compare, run_stream, tool_env
-from tdicam.export.block import VERILATOR_BINARY_ARGS, export_block, golden_params, select_vectors
+from tdicam.export.block import VERILATOR_BINARY_ARGS, golden_params, select_vectors
+from tdicam.export.harness import export_block
 
 DEFAULT = ["cds", "nuc", "hdr", "median3", "tdi:width=1280,stages=96,ppc=1"]
 

@@ -5,6 +5,10 @@ image format, bits flipped in the image, the image streamed through the reader -
 against the original maps (not only against the model): single flips are invisible, double
 flips give exactly the default coefficients for the two pixels (four coefficients) of the
 word, and the counters (carried on every pixel by the ``debug`` build) are right.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import numpy as np
@@ -13,21 +17,9 @@ import pytest
 from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.blocks.calib import reader_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import check_beats
 from tdicam.model import calib
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
-
-CASES = [c.name for c in blocks.get("calib").cases()]
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_per_beat(case, sim):
-    check_case("calib", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_fast(case, sim):
-    check_case("calib", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
 
 
 def test_bad_header_case_really_is_bad():

@@ -5,24 +5,17 @@ per beat.
 
 Budget: every small golden case on Icarus; CDS 512 x 16 on both simulators; ppc 2, 4 and 8
 on Verilator (at 8 the widest frame, 65,536 columns).
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import pytest
 
 from tdicam import blocks
 from tdicam.cosim import golden
-from tdicam.cosim.testing import case_names, check_case
-
-
-@pytest.mark.parametrize("case", case_names("cds_ddr"))
-def test_golden_fast_icarus(case):
-    """Every small golden case, HDL stalls + 20 % idle + 20 % backpressure."""
-    check_case("cds_ddr", case, sim="icarus", mode="fast", idle=0.2, backpressure=0.2, seed=7)
-
-
-@pytest.mark.parametrize("case", ['random_24x4_12b', 'reset_mid_frame_24x4_12b', 'random_24x4_12b_p2', 'reset_mid_frame_24x4_12b_p8'])
-def test_golden_per_beat_icarus(case):
-    check_case("cds_ddr", case, sim="icarus", mode="beat", idle=0.3, backpressure=0.4, seed=11)
+from tdicam.cosim.testing import check_case
 
 
 @pytest.mark.parametrize("sim", ["icarus", "verilator"])

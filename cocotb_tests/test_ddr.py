@@ -14,6 +14,10 @@ Two kinds of runs:
 Budget (every distinct parameter set is a simulator build; Verilator ~30-100 s each): all
 small golden cases on Icarus; on Verilator the paper-size cases only (the 1280 x 1024
 10-bit full frame round trip); the 72-channel full frame with ``TDICAM_FULL=1``.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import numpy as np
@@ -23,21 +27,7 @@ from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.cosim.ddr import run_ui_cosim
 from tdicam.cosim.codec import Beats, frames_to_beats
-from tdicam.cosim.testing import FULL, case_names, check_beats, check_case
-
-
-@pytest.mark.parametrize("case", case_names("ddr"))
-def test_golden_fast_icarus(case):
-    """Every small golden case, HDL stalls + 20 % idle + 20 % backpressure."""
-    if case == "paper_72ch_table2" and not FULL:
-        pytest.skip("72-channel Table 2 case: ~80 s on Icarus (TDICAM_FULL=1; runs on "
-                    "Verilator in the UI test)")
-    check_case("ddr", case, sim="icarus", mode="fast", idle=0.2, backpressure=0.2, seed=7)
-
-
-@pytest.mark.parametrize("case", ["paper_72ch_4x6", "mono_50x4_p1"])
-def test_golden_per_beat_icarus(case):
-    check_case("ddr", case, sim="icarus", mode="beat", idle=0.3, backpressure=0.4, seed=11)
+from tdicam.cosim.testing import FULL, check_beats
 
 
 # ---- paper-size cases, both simulators

@@ -3,6 +3,10 @@
 The exhaustive sweep runs through the decoder's stream wrapper (``--stream 1``) in fast
 mode: every sweep word error-free, with each of its 72 single flips and each of its 2,556
 double flips (64 words = 168,256 code words; 256 with ``TDICAM_FULL=1``).
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import os
@@ -13,21 +17,10 @@ import pytest
 from tdicam import blocks
 from tdicam.blocks.secded_dec import dec_beats, sweep_codes
 from tdicam.blocks.secded_enc import enc_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import check_beats
 from tdicam.model import ecc
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
-CASES = [(b, c.name) for b in ("secded_enc", "secded_dec") for c in blocks.get(b).cases()]
-
-
-@pytest.mark.parametrize("block,case", CASES)
-def test_golden_per_beat(block, case, sim):
-    check_case(block, case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.parametrize("block,case", CASES)
-def test_golden_fast(block, case, sim):
-    check_case(block, case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
 
 
 def _params(block, registered, pipelined=False):

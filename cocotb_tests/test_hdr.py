@@ -1,54 +1,19 @@
-"""Co-simulation of the generated ``hdr`` Verilog against its golden model."""
+"""Co-simulation of the generated ``hdr`` Verilog against its golden model.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
+"""
 
 import numpy as np
 import pytest
 
 from tdicam import blocks
-from tdicam.cosim import golden
 from tdicam.blocks.hdr import scene_frames
 from tdicam.beats import mark_resets
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import beat_cases, check_beats, check_case, FULL, WIDE_PPC
+from tdicam.cosim.testing import check_beats, check_case, WIDE_PPC
 from tdicam.model.hdr import hdr, hdr_config
-
-CASES = [c.name for c in blocks.get("hdr").cases()]
-
-
-BEAT_SHORT, BEAT_LONG = beat_cases("hdr")
-
-
-@pytest.mark.parametrize("case", BEAT_SHORT)
-def test_golden_per_beat(case, sim):
-    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
-    idle and backpressure."""
-    check_case("hdr", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
-                                     "TDICAM_FULL=1")
-@pytest.mark.parametrize("case", BEAT_LONG)
-def test_golden_per_beat_ppc_long(case, sim):
-    check_case("hdr", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_fast(case, sim):
-    check_case("hdr", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
-
-
-@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
-def test_extreme_stalls(sim, idle, bp):
-    """Full throughput, nearly always stalled sink, nearly always idle source."""
-    res = check_case("hdr", "scene_12b", sim=sim, mode="fast", idle=idle, backpressure=bp,
-                     seed=3)
-    if idle == bp == 0.0:
-        arrays, params = golden.load("hdr", "scene_12b")
-        n = arrays["hg"].size
-        starts = len(arrays["hg"]) - 1  # frame starts after a measured band
-        stall = 12 + 4 + 3
-        # 1 pixel/clock apart from the frame-start divisions; latency 4; drain 2000
-        assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 
 
 def test_long_frames_1280_wide():
@@ -65,19 +30,6 @@ def test_long_frames_1280_wide():
 
 
 # ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
-
-
-@pytest.mark.parametrize("ppc", [2, 4, 8])
-def test_full_rate_ppc(sim, ppc):
-    """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock apart from the
-    frame-start divisions (three cycles longer than at ppc 1)."""
-    res = check_case("hdr", f"scene_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
-                     backpressure=0.0, seed=3)
-    arrays, params = golden.load("hdr", f"scene_12b_p{ppc}")
-    n = arrays["hg"].size // ppc
-    starts = len(arrays["hg"]) - 1
-    stall = 12 + 4 + 3 + 4       # frame_start_cycles at ppc > 1
-    assert res.cycles <= n + starts * stall + 4 + 2000 + 2
 
 
 @pytest.mark.parametrize("ppc", WIDE_PPC)

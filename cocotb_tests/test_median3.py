@@ -10,6 +10,10 @@ The 1280 x 64 stream is marked slow: set TDICAM_FULL=1 to run it (the benchmark
 ``bench/bench_median3.py`` runs it too, and asserts equality). The ECP5 synthesis top (line
 buffers as DP16KD, with the DP16KD model) runs on Icarus, two parameter sets in CI, four with
 TDICAM_FULL=1.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import numpy as np
@@ -17,9 +21,9 @@ import pytest
 
 from tdicam import blocks
 from tdicam.cosim import golden
-from tdicam.blocks.median3 import BUILDS, case_beats, stream_case
+from tdicam.blocks.median3 import BUILDS, FULL_ONLY_BUILDS, case_beats, stream_case
 from tdicam.cosim.codec import Beats
-from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
+from tdicam.cosim.testing import FULL, check_beats
 from tdicam.hdl.median3 import Median3
 
 BLOCK = blocks.get("median3")
@@ -27,10 +31,7 @@ BLOCK = blocks.get("median3")
 #: own): enhancement at ppc 2 and 4 and the 16-bit enhanced frames at ppc 8. CI keeps at every
 #: ppc the smallest width, full scale and zeros, a reset mid-frame, and enhancement at ppc 1
 #: and 8.
-FULL_ONLY = () if FULL else ("p2_enh_w8_12b", "p4_enh_w16_12b", "p8_enh_w40_16b")
-_SKIPPED = {c.name for c in BLOCK.cases() for b in FULL_ONLY if c.params == BUILDS[b]}
-BEAT_SHORT, BEAT_LONG = beat_cases(BLOCK)
-BEAT_SHORT = [c for c in BEAT_SHORT if getattr(c, "values", (c,))[0] not in _SKIPPED]
+FULL_ONLY = () if FULL else FULL_ONLY_BUILDS
 
 
 def _build_stream(build):
@@ -51,21 +52,6 @@ def _build_stream(build):
         stims.append(stim)
         exps.append(exp)
     return params, Beats.concat(stims), Beats.concat(exps), resets, single
-
-
-@pytest.mark.parametrize("case", BEAT_SHORT)
-def test_golden_per_beat(case, sim):
-    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
-    idle and backpressure."""
-    check_case("median3", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
-                                     "TDICAM_FULL=1")
-@pytest.mark.parametrize("case", BEAT_LONG)
-def test_golden_per_beat_ppc_long(case, sim):
-    check_case("median3", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
 @pytest.mark.parametrize("build", sorted(set(BUILDS) - set(FULL_ONLY)))

@@ -10,45 +10,30 @@ double-flip and 100-bad-block cases on Verilator, clean and double on Icarus; ev
 both with ``TDICAM_FULL=1``. Besides the
 golden cases, a round trip checks the outputs against the original maps, not only the
 model.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import os
 
 import numpy as np
-import pytest
 
 from tdicam import blocks
 from tdicam.cosim import golden
 from tdicam.blocks.nand_store import load_beats, store_beats
-from tdicam.cosim.testing import check_beats, check_case
+from tdicam.cosim.testing import check_beats
 from tdicam.model import calib, nand_store
 from tdicam.model.nuc import DEFAULT_FORMAT as FMT
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
-CASES = [c.name for c in blocks.get("nand_store").cases()]
-ICARUS_FAST = ("clean", "bad100", "grown", "double", "out_of_blocks")
-PER_BEAT = {"icarus": ("clean", "double"), "verilator": ("clean", "double", "bad100")}
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_fast(case, sim):
-    if sim == "icarus" and case not in ICARUS_FAST and not FULL:
-        pytest.skip(f"icarus fast short form: {', '.join(ICARUS_FAST)} (TDICAM_FULL=1 for all)")
-    check_case("nand_store", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_per_beat(case, sim):
-    if case not in PER_BEAT[sim] and not FULL:
-        pytest.skip(f"{sim} per-beat short form: {', '.join(PER_BEAT[sim])} (TDICAM_FULL=1 "
-                    f"for all)")
-    check_case("nand_store", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
 def test_cases_exercise_what_they_claim():
     """The golden cases really hold what their names say (a case that cannot fail is a
     defect): bad-block counts, the grown block, every word corrected, doubles defaulted."""
-    arr = {c: golden.load("nand_store", c)[0] for c in CASES}
+    arr = {c.name: golden.load("nand_store", c.name)[0] for c in blocks.get("nand_store").cases()}
     assert [int(arr[c]["bad_blocks"]) for c in ("clean", "bad1", "bad10", "bad100")] == \
         [0, 1, 10, 100]
     assert arr["bad1"]["l2p"][0] != 1 or arr["bad1"]["l2p"][1] != 2  # skipped a data block

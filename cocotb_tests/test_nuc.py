@@ -1,4 +1,9 @@
-"""Co-simulation of the generated ``nuc`` Verilog against its golden model."""
+"""Co-simulation of the generated ``nuc`` Verilog against its golden model.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
+"""
 
 import numpy as np
 import pytest
@@ -7,44 +12,8 @@ from tdicam import blocks
 from tdicam.beats import mark_resets
 from tdicam.cosim import golden
 from tdicam.cosim.codec import frames_to_beats
-from tdicam.cosim.testing import beat_cases, check_beats, check_case, FULL, WIDE_PPC
+from tdicam.cosim.testing import check_beats, check_case, WIDE_PPC
 from tdicam.model.nuc import DEFAULT_FORMAT, nuc
-
-CASES = [c.name for c in blocks.get("nuc").cases()]
-
-
-BEAT_SHORT, BEAT_LONG = beat_cases("nuc")
-
-
-@pytest.mark.parametrize("case", BEAT_SHORT)
-def test_golden_per_beat(case, sim):
-    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
-    idle and backpressure."""
-    check_case("nuc", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
-                                     "TDICAM_FULL=1")
-@pytest.mark.parametrize("case", BEAT_LONG)
-def test_golden_per_beat_ppc_long(case, sim):
-    check_case("nuc", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_golden_fast(case, sim):
-    check_case("nuc", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
-
-
-@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
-def test_extreme_stalls(sim, idle, bp):
-    """Full throughput, nearly always stalled sink, nearly always idle source."""
-    res = check_case("nuc", "random_12b", sim=sim, mode="fast", idle=idle, backpressure=bp,
-                     seed=3)
-    if idle == bp == 0.0:
-        n = 3 * 16 * 24
-        # 1 pixel/clock: n transfers + latency (3) + the drain window (2000 quiet cycles)
-        assert res.cycles <= n + 3 + 2000 + 2
 
 
 def test_long_stream_1280_wide():
@@ -69,15 +38,6 @@ def test_identity_case_is_identity():
 
 
 # ---- pixels per clock (ppc 2, 4, 8; the golden cases above cover every ppc)
-
-
-@pytest.mark.parametrize("ppc", [2, 4, 8])
-def test_full_rate_ppc(sim, ppc):
-    """No idle cycle, no backpressure: one beat of ``ppc`` pixels per clock."""
-    res = check_case("nuc", f"random_12b_p{ppc}", sim=sim, mode="fast", idle=0.0,
-                     backpressure=0.0, seed=3)
-    n = 3 * 16 * 24 // ppc
-    assert res.cycles <= n + 3 + 2000 + 2
 
 
 @pytest.mark.parametrize("ppc", WIDE_PPC)

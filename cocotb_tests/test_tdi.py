@@ -13,6 +13,10 @@ What runs by default (CI budget: every distinct Verilator parameter set is a ~30
 * the paper's 1280 x 96 cases (98 frames, 12 M / 3 M beats): fast on Verilator; on Icarus a
   short form (the same 1280 x 96 design run at small stage counts, both directions), the
   full ppc 4 case with TDICAM_FULL=1 (ppc 1 is 12 M beats: several minutes).
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import os
@@ -35,29 +39,11 @@ LATENCY = TdiAccumulator(width=64, stages=4).latency   # the same at every param
 CASES = {c.name: c for c in blocks.get("tdi").cases()}
 SMALL = [n for n, c in CASES.items() if "fast-only" not in c.tags]
 MEDIUM = [n for n, c in CASES.items() if "fast-only" in c.tags and "big" not in c.tags]
-VERILATOR_DEFAULT = {n for n, c in CASES.items()
-                     if (c.params["width"], c.params["stages"]) in ((64, 4), (1280, 96))}
 
 
 def _budget(case, sim):
-    if sim == "verilator" and case not in VERILATOR_DEFAULT and not FULL:
+    if not FULL and blocks.get("tdi").suite.full_only(CASES[case], sim, "fast"):
         pytest.skip("another Verilator build (~30 s): runs with TDICAM_FULL=1")
-
-
-PER_BEAT = [n for n in SMALL if n not in ("fullscale_64x3_p8_8b_sat", "mixed_48x5_p2_14b")]
-
-
-@pytest.mark.parametrize("case", PER_BEAT)
-def test_golden_per_beat(case, sim):
-    """cocotb drives each beat, 30 % idle and 40 % backpressure."""
-    _budget(case, sim)
-    check_case("tdi", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.parametrize("case", SMALL)
-def test_golden_fast(case, sim):
-    _budget(case, sim)
-    check_case("tdi", case, sim=sim, mode="fast", idle=0.25, backpressure=0.25, seed=7)
 
 
 @pytest.mark.parametrize("case", MEDIUM)
@@ -147,19 +133,6 @@ def test_golden_ecp5_banks_icarus(case):
         pytest.skip("another Icarus build of the ECP5 variant: runs with TDICAM_FULL=1")
     check_case("tdi", case, sim="icarus", mode="fast", idle=0.25, backpressure=0.25, seed=7,
                ecp5=True)
-
-
-@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0), (0.6, 0.6)])
-def test_extreme_stalls(sim, idle, bp):
-    """Full throughput, nearly always stalled sink, nearly always idle source, both."""
-    res = check_case("tdi", "stages_64x4_p1", sim=sim, mode="fast", idle=idle,
-                     backpressure=bp, seed=5)
-    if idle == bp == 0.0:
-        arrays, _ = golden.load("tdi", "stages_64x4_p1")
-        n = len(arrays["first"])
-        # 1 beat per clock: n transfers + latency + the drain window (2000 quiet cycles);
-        # the stage and direction changes cost no cycle
-        assert res.cycles <= n + LATENCY + 2000 + 2
 
 
 def test_random_malformed_stream(sim):

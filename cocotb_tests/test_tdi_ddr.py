@@ -6,10 +6,13 @@ per beat.
 Budget: every small golden case on Icarus; on Verilator TDI 512 x 16 and the wide spill case
 (W = 4096, m = 32, ppc 4, which ``tdicam plan`` says must spill on an ECP5-25F); Icarus runs
 short forms of the big ones, the full forms with ``TDICAM_FULL=1``.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import numpy as np
-import pytest
 
 from tdicam import blocks
 from tdicam.blocks.tdi import pack_ctrl, stream_arrays
@@ -17,17 +20,6 @@ from tdicam.cosim import golden
 from tdicam.cosim.codec import Beats
 from tdicam.cosim.testing import FULL, case_names, check_beats, check_case
 from tdicam.model.tdi import tdi_stream
-
-
-@pytest.mark.parametrize("case", case_names("tdi_ddr"))
-def test_golden_fast_icarus(case):
-    """Every small golden case, HDL stalls + 20 % idle + 20 % backpressure."""
-    check_case("tdi_ddr", case, sim="icarus", mode="fast", idle=0.2, backpressure=0.2, seed=7)
-
-
-@pytest.mark.parametrize("case", ['stages_256x4_p1'])
-def test_golden_per_beat_icarus(case):
-    check_case("tdi_ddr", case, sim="icarus", mode="beat", idle=0.3, backpressure=0.4, seed=11)
 
 
 def test_tdi_512x16_verilator():

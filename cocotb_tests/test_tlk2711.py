@@ -11,28 +11,28 @@ The pins (``--pins``, ``--crossing``: two clocks): the scenarios of
 :mod:`tdicam.cosim.tlk2711` (one clock; the link clock faster and slower than the processing
 clock; a reset of both domains mid-frame; 8 pixels a clock into 2 links) on both simulators,
 the last one on Verilator with TDICAM_FULL=1.
+
+The standard runs of the golden cases (per beat, fast mode, extreme stalls, on the
+simulators and with the short forms the block's registry entry states in ``Block.suite``)
+are cocotb_tests/test_streams.py's; this file holds what is particular to the block.
 """
 
 import pytest
 
 from tdicam import blocks
 from tdicam.beats import Beats
-from tdicam.blocks.tlk2711 import BUILDS
+from tdicam.blocks.tlk2711 import BUILDS, VERILATOR_BUILDS
 from tdicam.cosim import golden
-from tdicam.cosim.testing import FULL, beat_cases, check_beats, check_case
+from tdicam.cosim.testing import FULL, check_beats
 from tdicam.cosim.tlk2711 import PARAMS, SCENARIOS, check, run_cocotb
-from tdicam.hdl.tlk2711 import Tlk2711
 
 BLOCK = blocks.get("tlk2711")
 #: Parameter sets Verilator runs in every run (each a build): the two-link ones at every ppc
 #: and 12-bit pixels into one link at 8 pixels a clock; all with TDICAM_FULL=1.
-VERILATOR = ("p1_l2_12b", "p2_l2_16b", "p4_l2_10b", "p8_l2_16b", "p8_l2_11b", "p8_l1_12b")
-_BUILD_OF = {c.name: next(b for b, p in BUILDS.items() if p == c.params) for c in BLOCK.cases()}
-BEAT_SHORT, BEAT_LONG = beat_cases(BLOCK)
 
 
 def _skip(sim, build):
-    if sim == "verilator" and build not in VERILATOR and not FULL:
+    if sim == "verilator" and build not in VERILATOR_BUILDS and not FULL:
         pytest.skip(f"{build}: another Verilator build; runs with TDICAM_FULL=1")
 
 
@@ -57,22 +57,6 @@ def _build_stream(build):
     return params, stim, Beats.concat(exps), int(stim.rst.sum())
 
 
-@pytest.mark.parametrize("case", BEAT_SHORT)
-def test_golden_per_beat(case, sim):
-    """Golden cases (ppc 1 and 8, resets at every ppc), cocotb driving each beat with random
-    idle and backpressure."""
-    _skip(sim, _BUILD_OF[case])
-    check_case("tlk2711", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="per-beat ppc 2/4 cases (fast mode runs them): set "
-                                     "TDICAM_FULL=1")
-@pytest.mark.parametrize("case", BEAT_LONG)
-def test_golden_per_beat_ppc_long(case, sim):
-    check_case("tlk2711", case, sim=sim, mode="beat", idle=0.3, backpressure=0.4, seed=11)
-
-
 @pytest.mark.parametrize("build", sorted(BUILDS))
 def test_golden_fast(build, sim):
     """Every case of the parameter set as one stream, a reset before each case."""
@@ -81,21 +65,6 @@ def test_golden_fast(build, sim):
     assert resets >= 4                    # 3 between the 4 cases, 2 inside the reset case
     check_beats("tlk2711", params, stim, exp, sim=sim, mode="fast", idle=0.25,
                 backpressure=0.25, seed=7)
-
-
-@pytest.mark.filterwarnings("ignore::amaranth.hdl._ir.UnusedElaboratable")
-@pytest.mark.parametrize("idle,bp", [(0.0, 0.0), (0.0, 0.9), (0.9, 0.0)])
-def test_extreme_stalls(sim, idle, bp):
-    """Full rate, a nearly always stalled sink, a nearly always idle source. At full rate
-    with 8 pixels of 16 bits a clock into 2 links the links limit: a word every clock from
-    the first (the latency, then one a clock, then the 2000-cycle drain window)."""
-    res = check_case("tlk2711", "p8_l2_16b_random", sim=sim, mode="fast", idle=idle,
-                     backpressure=bp, seed=3)
-    if idle == bp == 0.0:
-        arrays, params = golden.load(BLOCK, "p8_l2_16b_random")
-        n_out = len(arrays["out"])
-        lat = Tlk2711(**{k: params[k] for k in ("pixel_bits", "ppc", "links")}).latency
-        assert res.cycles <= n_out + lat + 2000 + 2, (res.cycles, n_out)
 
 
 #: The pin-level scenarios by parameter set (one build each).

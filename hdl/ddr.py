@@ -1,9 +1,9 @@
 """DDR line/frame buffers behind a MIG-style user interface (SPEC 3.8, seed 002 §4.2).
 
-Golden models, packing, addresses and the Python controller model: :mod:`tdicam.model.ddr`
-(read its module docstring first: ``app_addr`` counts 32-bit columns, a 256-bit word is 8
-address steps; values packed 24 x 10 bit per word as seed 002 Table 2, first value in the
-most significant used bits).
+Golden model, packing and addresses: :mod:`tdicam.model.ddr` (read its module docstring
+first: ``app_addr`` counts 32-bit columns, a 256-bit word is 8 address steps; values packed
+24 x 10 bit per word as seed 002 Table 2, first value in the most significant used bits);
+the Python controller model: :mod:`tdicam.model.dram`.
 
 Components
 ----------

@@ -9,8 +9,8 @@ from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.utils import bits_for
 
-from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout, \
-    check_capacity
+from tdicam.model.ddr import (ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS, LineLayout,
+                              check_capacity)
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
 from tdicam.hdl.tdi_control import TdiFrameControl, tdi_ports
 from tdicam.hdl.util import equals, mux_select, quiet_reject
@@ -32,7 +32,7 @@ class TdiDdr(wiring.Component):
     per 256-bit word (sum j of a word at bits ``[j*psum_bits +: psum_bits]``), line ``s`` at
     ``base + s * words_per_line * 8``.
 
-    DRAM order (:data:`tdicam.model.ddr.TDI_SPILL_PATTERN`): reads and writes go to DDR in
+    DRAM order (:data:`tdicam.model.ddr_efficiency.TDI_SPILL_PATTERN`): reads and writes go to DDR in
     blocks of a line, not interleaved word by word (a read/write turnaround costs a DDR3
     controller 6-13 cycles). A row that adds stored sums has its whole line read as one
     block of :attr:`words_per_line` reads once the add stage has started the row before it
@@ -41,7 +41,7 @@ class TdiDdr(wiring.Component):
     about the DDR read latency per row); no write is queued during a block. The new sums
     wait meanwhile in a write-behind FIFO and are written back, in order, between the
     blocks. Efficiency of the interface on the recorded order, over a steady-state window of
-    4 refresh intervals (3128 cycles; :data:`tdicam.model.ddr.MEASURED_EFFICIENCY`, the
+    4 refresh intervals (3128 cycles; :data:`tdicam.model.ddr_efficiency.MEASURED_EFFICIENCY`, the
     memory model): 83.3 % at W = 1280 (m = 16, 12-bit), 86.9 % at W = 4096 (m = 32,
     ppc 4), against 12.5 % for a read and a write per word; LiteDRAM over the same window:
     82.1 % and 86.3 % (the DDR table of docs/guide/benchmarks.md; ``bench/bench_ddr.py

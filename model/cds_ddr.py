@@ -1,6 +1,6 @@
 """Golden model of ``cds_ddr``: digital CDS with the reset frame kept in DDR (Ning et al. 2019
-§4.4.1 and §4.2; the gateware is :class:`tdicam.hdl.cds_ddr.CdsDdr`, its packing and memory
-model :mod:`tdicam.model.ddr`)."""
+§4.4.1 and §4.2; the gateware is :class:`tdicam.hdl.cds_ddr.CdsDdr`, its packing
+:mod:`tdicam.model.ddr`, the memory model :mod:`tdicam.model.dram`)."""
 
 import numpy as np
 

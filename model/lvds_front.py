@@ -230,7 +230,7 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
 
     The front has no backpressure (the sensor sets the pace): a block behind it that
     holds the stream -- ``stall_cycles`` processing clocks at once, the DDR model's worst
-    stall (:func:`tdicam.model.ddr.worst_stall`: refresh cycles + the longest read latency,
+    stall (:func:`tdicam.model.dram.worst_stall`: refresh cycles + the longest read latency,
     104 by default; cds_ddr waits for each signal frame's first reset line) -- lets
     ``stall_cycles f_w / f_p`` more entries pile up. So::
 

@@ -4,7 +4,8 @@
 is its own is whether a configuration can keep its partial sums in DDR."""
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import WORD_BITS, psums_per_word, tdi_spill_efficiency
+from tdicam.model.ddr import WORD_BITS, psums_per_word
+from tdicam.model.ddr_efficiency import tdi_spill_efficiency
 from tdicam.model.tdi import full_bits
 
 __all__ = ["tdi_ddr_check"]

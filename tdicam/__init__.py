@@ -14,8 +14,9 @@ The names in ``__all__`` are the public API, with the signatures and the return 
 docstrings state: :class:`Scene` (``load``, ``from_dict``, ``example``, ``replace``,
 ``with_run``), :func:`simulate` and its :class:`Simulation` (``dataset``, ``figures``, ``save``), :func:`plan` and its
 :class:`Plan` (``to_dict``, ``text``, ``figures``), :func:`sweep`, :func:`examples`,
-:mod:`blocks` (``blocks.get(name)``, ``blocks.names()`` and a block's ``verilog``,
-``golden_model``, ``cosim``), :class:`TdicamError`, and ``__version__``. Within a minor
+:mod:`blocks` (``blocks.get(name)``, ``blocks.names()`` and a block's ``golden_model``),
+:func:`verilog` and :func:`cosimulate` (a block's Verilog and its co-simulation against the golden
+model, by block name), :class:`TdicamError`, and ``__version__``. Within a minor
 version (0.x) they change only compatibly: new optional parameters, new dataset variables or
 attributes, new report keys. The files ``tdicam run``, ``tdicam sweep`` and the exports
 write follow docs/guide/. Everything else (the subpackages' modules, their functions and
@@ -35,11 +36,12 @@ from tdicam.errors import TdicamError
 from tdicam.version import __version__
 
 __all__ = ["Scene", "Simulation", "simulate", "Plan", "plan", "sweep", "examples", "blocks",
-           "TdicamError"]
+           "verilog", "cosimulate", "TdicamError"]
 
 #: Public names loaded on first use, and the module each comes from.
 _LAZY = {name: "tdicam.api" for name in
-         ("Scene", "Simulation", "simulate", "Plan", "plan", "sweep", "examples")}
+         ("Scene", "Simulation", "simulate", "Plan", "plan", "sweep", "examples", "verilog",
+          "cosimulate")}
 
 
 def __getattr__(name: str) -> Any:

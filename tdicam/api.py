@@ -2,8 +2,9 @@
 
 The functions here are what the command line calls: ``tdicam run`` is
 ``simulate(scene, ...).save(dir)``, ``tdicam plan`` is :func:`plan`, ``tdicam sweep`` is
-:func:`sweep`. Each is a thin layer over a service (:mod:`tdicam.run`,
-:mod:`tdicam.planning`, :mod:`tdicam.sweeps`); errors in the input are one-line
+:func:`sweep`, ``tdicam verilog`` is :func:`verilog`, ``tdicam sim`` is :func:`cosimulate`. Each is
+a thin layer over a service (:mod:`tdicam.run`, :mod:`tdicam.planning`, :mod:`tdicam.sweeps`,
+:mod:`tdicam.hw`, :mod:`tdicam.cosim`); errors in the input are one-line
 :class:`~tdicam.errors.TdicamError` exceptions, as on the command line.
 
 Layer: a service above the run, planning and sweep services; only the commands (and the
@@ -25,7 +26,8 @@ from tdicam.version import __version__
 if TYPE_CHECKING:                       # pragma: no cover - annotations only
     import xarray
 
-__all__ = ["Scene", "Simulation", "simulate", "Plan", "plan", "sweep", "examples"]
+__all__ = ["Scene", "Simulation", "simulate", "Plan", "plan", "sweep", "examples", "verilog",
+           "cosimulate"]
 
 
 # --------------------------------------------------------------------------------------
@@ -471,3 +473,101 @@ def sweep(source: str | Path | Mapping[str, Any], out_dir: str | Path | None = N
     data.attrs["failed"] = len(res.failed)
     data.attrs["summary"] = res.summary()
     return data
+
+
+# --------------------------------------------------------------------------------------
+# a block's Verilog and co-simulation (the registry, tdicam.blocks, is below these tools)
+# --------------------------------------------------------------------------------------
+
+
+@api_arguments
+def verilog(block: str, **params: Any) -> str:
+    """A block's Verilog, as ``tdicam verilog NAME --PARAM V ...`` writes it.
+
+    Parameters
+    ----------
+    block : str or tdicam.blocks.Block
+        The block's name (:func:`tdicam.blocks.names`) or its registry entry.
+    **params
+        Block parameters by name (``tdicam.blocks.get(NAME).describe()`` lists them); the
+        others at their defaults.
+
+    Returns
+    -------
+    str
+        Deterministic Verilog text: a header naming the tdicam version, the block and its
+        parameters, then the top module, named after the block.
+
+    Raises
+    ------
+    TdicamError
+        An unknown block or parameter, or a value out of its range (one line).
+    """
+    from tdicam.hw.verilog import generate
+    return generate(block, params)
+
+
+@api_arguments
+def cosimulate(block: str, arrays: dict | None = None, *, sim: str = "icarus", mode: str = "fast",
+          idle: float = 0.2, backpressure: float = 0.2, seed: int = 1,
+          cases: list[str] | None = None, wave_dir: str | None = None,
+          on_case: Any = None, **params: Any) -> list[dict]:
+    """Co-simulate a block's Verilog against its golden model (cocotb).
+
+    Parameters
+    ----------
+    block : str or tdicam.blocks.Block
+        The block's name or its registry entry.
+    arrays : dict of str to ndarray, optional
+        Scene arrays as the block's ``golden_model`` takes them. None: every stored golden
+        case (what ``tdicam sim NAME`` runs; ``mode="beat"`` skips the ``fast-only`` ones).
+    sim : {"icarus", "verilator"}
+        The simulator.
+    mode : {"fast", "beat"}
+        HDL-side stimulus and stalls, or per-beat cocotb.
+    idle, backpressure : float
+        Probabilities of an idle input cycle and of ``tready`` low, in [0, 1).
+    seed : int
+        Seed of the idle and backpressure pattern.
+    cases : list of str, optional
+        Only these golden cases (without ``arrays``; ``tdicam sim --case``).
+    wave_dir : str, optional
+        Where the waveform (FST) around a case's first mismatch is written (default: the
+        build folder's ``waves``); the row's ``waveform`` and ``message`` name it.
+    on_case : callable(dict), optional
+        Called with each row as soon as its case has run (``tdicam sim`` prints it).
+    **params
+        Block parameters (with ``arrays`` only; a golden case has its own).
+
+    Returns
+    -------
+    list of dict
+        One row per case (``case``, ``pixels``, ``mismatches``, ``cycles``, ``wall_s``,
+        ...); with ``arrays``, one row whose ``out`` is the simulated output as the block's
+        ``golden_model`` gives it (None on a mismatch).
+
+    Raises
+    ------
+    TdicamError
+        An unknown block, a block without a stream co-simulation, a bad parameter, a
+        simulator missing.
+    """
+    from tdicam import blocks
+    from tdicam.cosim.cases import run_cases
+    from tdicam.cosim.run import run_scene
+    blk = blocks.get(block) if isinstance(block, str) else block
+    kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed,
+              wave_dir=wave_dir)
+    if arrays is None:
+        if params:
+            raise TdicamError(f"block {blk.name}: parameters go with arrays (each golden "
+                              f"case has its own)")
+        return run_cases(blk.name, cases=cases, report=on_case or (lambda row: None), **kw)
+    if cases:
+        raise TdicamError(f"block {blk.name}: cases= selects golden cases; it does not go "
+                          f"with arrays")
+    run, out = run_scene(blk, arrays, params, **kw)
+    row = {"case": "arrays", **run.row(), "out": out}
+    if on_case is not None:
+        on_case(row)
+    return [row]

@@ -24,10 +24,13 @@ OTHER_MEANINGS = {
     ("tdicam/chain/design.py", "ddr"): "[pipeline.tdi] memory = \"ddr\" and --memory ddr (where "
                                        "partial sums live)",
     ("tdicam/planning/sizing.py", "ddr"): "the plan report's DDR bandwidth section",
-    ("model/ddr.py", "ddr"): "the recorded DDR traces' names (each DDR block's command "
-                             "order), the keys of the measured-efficiency table",
-    ("model/ddr.py", "cds_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
-    ("model/ddr.py", "tdi_ddr"): "a recorded DDR trace's name (the efficiency table's key)",
+    ("model/ddr_efficiency.py", "ddr"): "the recorded DDR traces' names (each DDR block's "
+                                        "command order), the keys of the measured-efficiency "
+                                        "table",
+    ("model/ddr_efficiency.py", "cds_ddr"): "a recorded DDR trace's name (the efficiency "
+                                            "table's key)",
+    ("model/ddr_efficiency.py", "tdi_ddr"): "a recorded DDR trace's name (the efficiency "
+                                            "table's key)",
     ("tdicam/scene/loader.py", "nuc"): "the [camera].nuc key (where NUC's coefficients are "
                                        "applied: per gain or after the merge)",
     ("model/physics/camera.py", "nuc"): "the [camera].nuc key (its reference table)",

@@ -13,7 +13,7 @@ import sys
 import pytest
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN
+from tdicam.model.ddr_efficiency import MEASURED_EFFICIENCY, PLAN_MARGIN
 from tdicam.planning.camera import camera_plan
 from tdicam.scene.loader import load_scene
 

@@ -509,7 +509,7 @@ API_BAD = [
     ("plan(gsd_m=0)", lambda t: t.plan(gsd_m=0), "gsd_m = 0 is out of range"),
     ("golden_model(None)", lambda t: t.blocks.get("cds").golden_model(None),
      "block cds: arrays must be a dict of arrays (its stream input 'signal'), got NoneType"),
-    ("cosim(seed=-1)", lambda t: t.blocks.get("cds").cosim(seed=-1),
+    ("cosimulate(seed=-1)", lambda t: t.cosimulate("cds", seed=-1),
      "seed = -1 is out of range; valid: 1..2147483647"),
     ("simulate(nope=1)", lambda t: t.simulate(t.examples_path, nope=1),
      "simulate: got an unexpected keyword argument 'nope'"),

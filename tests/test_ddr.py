@@ -12,9 +12,9 @@ from tdicam.hdl.ddr import DdrFrameBuffer
 from tdicam.hdl.simmodels.mig_model import MigModel, SimTop
 from tdicam.hdl.tdi_ddr import TdiDdr
 from tdicam.model.cds_ddr import cds_ddr_frames
-from tdicam.model.ddr import (DEFAULT_STALLS, LineLayout, MigSim, check_capacity, ints_to_words,
-                              pack_lines, pack_words, psums_per_word, stall_pattern,
-                              unpack_lines, unpack_words, words_to_ints)
+from tdicam.model.ddr import (LineLayout, check_capacity, ints_to_words, pack_lines, pack_words,
+                              psums_per_word, unpack_lines, unpack_words, words_to_ints)
+from tdicam.model.dram import DEFAULT_STALLS, MigSim, stall_pattern
 from tdicam.model.tdi_ddr import tdi_ddr_check
 
 
@@ -196,8 +196,8 @@ def test_hdl_model_dram_timing_is_cycle_equal(name, lines, stalls):
     with the same DramTiming: the same ready/valid every cycle on the same trace, so the
     same efficiency (with the DRAM stall pattern, and with the default random stalls)."""
     from tdicam.cosim.litedram import replay_hdl
-    from tdicam.model.ddr import DRAM_STALLS, DramTiming, PATTERNS, pattern_trace, \
-        replay_model
+    from tdicam.model.dram import DRAM_STALLS, DramTiming
+    from tdicam.model.ddr_traces import PATTERNS, pattern_trace, replay_model
     st = DRAM_STALLS if stalls == "dram" else DEFAULT_STALLS
     tr = pattern_trace(name, lines=lines)
     win = PATTERNS[name][2]
@@ -315,7 +315,9 @@ def test_tdi_ddr_reads_a_line_as_one_block():
     better."""
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.cosim.litedram import record
-    from tdicam.model.ddr import DramTiming, replay_model, tdi_spill_efficiency
+    from tdicam.model.dram import DramTiming
+    from tdicam.model.ddr_traces import replay_model
+    from tdicam.model.ddr_efficiency import tdi_spill_efficiency
     core = TdiDdr(width=256, stages=8, pixel_bits=12)
     wpl = core.words_per_line
     fr = np.random.default_rng(3).integers(0, 4096, (4, 3, 256))
@@ -364,7 +366,7 @@ def test_plan_says_the_wide_case_must_spill(capsys):
     d = json.loads(cap.out)["design"]
     assert d["memory"]["must_spill"] is True and d["ddr"]["ok"] is True
     # the efficiency of the spill's access pattern on the DRAM model, not a flat 80 %
-    from tdicam.model.ddr import tdi_spill_efficiency
+    from tdicam.model.ddr_efficiency import tdi_spill_efficiency
     assert (d["ddr"]["pattern"], d["ddr"]["efficiency"]) == tdi_spill_efficiency(4096, 32, 12)
     assert 0.8 < d["ddr"]["efficiency"] < 0.9
     code, cap = _plan(capsys, "--columns", "4096", "--stages", "32", "--device", "ecp5-25f",
@@ -386,12 +388,12 @@ def test_a_beat_of_too_many_words_is_refused_in_one_line():
     """ppc x channels values a beat filling more than MAX_WORDS_PER_BEAT words: one line
     naming the limit and the fix, not Amaranth's RecursionError (4030 words a beat was
     accepted and ended in a traceback); the limit itself is accepted."""
-    from tdicam import blocks
+    from tdicam.hw.verilog import generate
     from tdicam.hdl.ddr import MAX_WORDS_PER_BEAT, DdrFrameBuffer
     with pytest.raises(TdicamError, match=r"^elements = 4030 per beat and pixels_per_word = "
                                           r"1 fill 4030 words a beat, more than 256: "):
-        blocks.get("ddr").verilog(width=65, rows=34, channels=62, ppc=65, pixel_bits=23,
-                                  pixels_per_word=1)
+        generate("ddr", dict(width=65, rows=34, channels=62, ppc=65, pixel_bits=23,
+                             pixels_per_word=1))
     with pytest.raises(TdicamError, match=r"fill 512 words a beat"):
         DdrFrameBuffer(width=1024, rows=2, channels=8, elements=512, pixel_bits=8,
                        pixels_per_word=1)

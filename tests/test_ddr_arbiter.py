@@ -15,7 +15,7 @@ from amaranth.sim import Simulator
 
 from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import DramTiming
+from tdicam.model.dram import DramTiming
 from tdicam.model.ddr_arbiter import grants
 
 
@@ -178,7 +178,8 @@ def test_arbiter_order_on_the_model_within_3_points_of_litedram():
     LiteDRAM's over a window of 4 refresh intervals (every read checked, no timing
     violation)."""
     from tdicam.cosim.litedram import trace_from_runs
-    from tdicam.model.ddr import WINDOW_REFRESHES, replay_model, window_cycles
+    from tdicam.model.ddr_traces import replay_model
+    from tdicam.model.dram import WINDOW_REFRESHES, window_cycles
     fx = _fixture()
     tr = trace_from_runs(fx["name"], fx["runs"])
     words, cycles, eff = replay_model(tr, DramTiming(), steady=True)

@@ -18,7 +18,7 @@ from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim import codec, tool_env
 from tdicam.errors import TdicamError
-from tdicam.export.block import export_block
+from tdicam.export.harness import export_block
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
 ROOT = Path(__file__).resolve().parents[1]

@@ -53,6 +53,12 @@ def test_layers_kept(tmp_path):
     # a block's registry entry may not use the camera built from it
     ("blocks/cds.py", "from tdicam.chain import design",
      "tdicam.blocks is not allowed to import tdicam.chain"),
+    # the registry may not reach the tools that generate and co-simulate its blocks (the
+    # public API's tdicam.verilog / tdicam.cosimulate do): no ignore_imports hides it
+    ("blocks/__init__.py", "def _later():\n    from tdicam.hw.verilog import generate",
+     "tdicam.blocks is not allowed to import tdicam.hw"),
+    ("blocks/lvds.py", "def _later():\n    from tdicam.cosim.cases import run_cases",
+     "tdicam.blocks is not allowed to import tdicam.cosim"),
     # a function-level import counts too
     ("hdl/cds.py", "def _later():\n    from tdicam.cosim import golden",
      "tdicam.hdl is not allowed to import tdicam.cosim"),

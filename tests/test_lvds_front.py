@@ -136,7 +136,7 @@ def test_golden_front_of_a_lane_death():
 def test_fifo_depth_has_a_ddr_stall_margin():
     """A block behind the front that holds the stream (cds_ddr on the DDR model's worst
     stall: refresh cycles + the longest read latency) adds its entries to the depth."""
-    from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
+    from tdicam.model.dram import DEFAULT_STALLS, worst_stall
     assert worst_stall({}) == worst_stall(DEFAULT_STALLS) == 44 + 60
     # r = 1 at 4 lanes x 25 M words/s, 100 MHz: 104 clocks are 26 entries
     assert lvds_front.fifo_depth(4, 1, 16, 25.0, 100.0, stall_cycles=104) == 64    # 26 + 8

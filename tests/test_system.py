@@ -189,7 +189,7 @@ def test_plan_states_the_calibration_load_and_the_cds_ddr_bandwidth():
     reset frame's DDR bandwidth against the interface at cds_ddr's measured efficiency."""
     from tdicam.api import plan
     from tdicam.model import nand_store
-    from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN
+    from tdicam.model.ddr_efficiency import MEASURED_EFFICIENCY, PLAN_MARGIN
     rep = plan(ROOT / "scenes" / "ning2019_gmax0504_system.toml").to_dict()
     rows = {r["name"]: r for r in rep["system"]}
     t = nand_store.timing(8, 256)
@@ -318,7 +318,7 @@ def test_system_from_serial_lanes_to_output_in_amaranth():
 
 
 #: A MIG model stall pattern with long refreshes (200 of every 2000 cycles, reads up to 90
-#: cycles late): the worst stall 290 processing clocks (tdicam.model.ddr.worst_stall)
+#: cycles late): the worst stall 290 processing clocks (tdicam.model.dram.worst_stall)
 LONG_STALLS = {"refresh_period": 2000, "refresh_cycles": 200, "lat_hi": 90}
 
 
@@ -331,7 +331,7 @@ def test_front_fifo_takes_the_ddr_stalls_at_r_1():
     before the margin (16, the line burst only) the FIFO overflows and pixels are lost."""
     from tdicam.cosim.lvds_front import frames_of
     from tdicam.model import lvds_front
-    from tdicam.model.ddr import worst_stall
+    from tdicam.model.dram import worst_stall
     p, exp, res, _, _ = _lanes_in_amaranth(lanes_per_gain=4, stages=8, ddr=LONG_STALLS)
     assert worst_stall(p.steps[1].params) == 290
     slowest = 25.0 * 4 * 4 / 6                     # P = 4 words a line + sync + header

@@ -2,7 +2,7 @@
 puts a DDR user and the model together as one stream component for the fast co-simulation.
 
 * :class:`MigModel` — same behaviour and the same per-cycle stall pattern as
-  :class:`tdicam.model.ddr.MigSim`.
+  :class:`tdicam.model.dram.MigSim`.
 * :class:`SimTop` — a user component with a :class:`MigModel` behind its MIG ports (DRAM
   timing on by default).
 """
@@ -13,7 +13,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import check_range
-from tdicam.model.ddr import ADDR_BITS, BANKS, WORD_BITS, DramTiming, _check_stalls
+from tdicam.model.ddr import ADDR_BITS, WORD_BITS
+from tdicam.model.dram import BANKS, DramTiming, _check_stalls
 from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_model_ports
 from tdicam.hdl.util import equals, quiet_reject
 
@@ -31,7 +32,7 @@ class MigModel(wiring.Component):
     into anything useful: the memory is an array of ``depth_words`` 256-bit words).
 
     Same behaviour and the same per-cycle stall pattern as
-    :class:`tdicam.model.ddr.MigSim` (xorshift32 state seeded with ``seed``, 1..2**32-1, stepping
+    :class:`tdicam.model.dram.MigSim` (xorshift32 state seeded with ``seed``, 1..2**32-1, stepping
     every cycle): ``app_rdy`` low in the first ``refresh_cycles`` of every
     ``refresh_period`` after the first, when ``state[7:0] < drop`` or when the return
     queue is nearly full;
@@ -39,14 +40,14 @@ class MigModel(wiring.Component):
     reads return in order ``lat_lo + (state[31:16] * (lat_hi - lat_lo + 1) >> 16)`` cycles
     after the command (at least one cycle after the previous read's data).
 
-    With ``dram`` (a :class:`tdicam.model.ddr.DramTiming`) it also charges, as
-    :class:`~tdicam.model.ddr.MigSim` with the same ``dram`` does and cycle for cycle with it,
+    With ``dram`` (a :class:`tdicam.model.dram.DramTiming`) it also charges, as
+    :class:`~tdicam.model.dram.MigSim` with the same ``dram`` does and cycle for cycle with it,
     what the order of accesses costs on DDR3: after each accepted command ``app_rdy`` stays
-    low for :meth:`DramTiming.cost <tdicam.model.ddr.DramTiming.cost>` cycles (the queue
+    low for :meth:`DramTiming.cost <tdicam.model.dram.DramTiming.cost>` cycles (the queue
     drain on a bank change, the read/write turnaround, opening a row in the command's bank:
     row-bank-column mapping, word address bits [7:10] the bank, the bits above the row; 8
     open-row registers, cleared by a refresh). Use it with
-    :data:`~tdicam.model.ddr.DRAM_STALLS` (44-cycle refresh).
+    :data:`~tdicam.model.dram.DRAM_STALLS` (44-cycle refresh).
 
     ``error`` is sticky: an address outside ``depth_words * 8`` or not a multiple of 8, a
     write command with no write data accepted before it, ``app_wdf_end`` low on a data
@@ -194,7 +195,7 @@ class MigModel(wiring.Component):
 
     def _dram_timing(self, m, refresh):
         """The DRAM cost of each accepted command (:meth:`DramTiming.cost
-        <tdicam.model.ddr.DramTiming.cost>`); returns the signal that holds ``app_rdy``
+        <tdicam.model.dram.DramTiming.cost>`); returns the signal that holds ``app_rdy``
         low."""
         d = self._dram
         word = self.app_addr[3:]
@@ -249,7 +250,7 @@ class SimTop(wiring.Component):
     the stream testbench would drive from stale stimulus after the last beat.
 
     The model charges DRAM timing by default (``dram``: a
-    :class:`~tdicam.model.ddr.DramTiming`; None for the plain stall pattern), on top of the
+    :class:`~tdicam.model.dram.DramTiming`; None for the plain stall pattern), on top of the
     stall pattern ``stalls``, so a co-simulation is not optimistic about the order in which
     the user accesses DDR (with the default random stalls it is pessimistic).
     """

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from tdicam.model import ddr as _ddr
+from tdicam.model import ddr as _ddr, ddr_efficiency as _ddr_efficiency
 from tdicam.model import nand_store, tlk2711
 from tdicam.beats import PPC_CHOICES
 
@@ -149,13 +149,13 @@ def ddr_efficiency():
     """``(efficiency, source text)`` counted on for an interface's mixed traffic (a line
     written, lines read): the DDR block whose measured order is closest, CDS with its reset
     frame in DDR at 4096 columns, the lower of the memory model's and LiteDRAM's figures
-    less :data:`tdicam.model.ddr.PLAN_MARGIN`."""
-    model, lite = _ddr.MEASURED_EFFICIENCY["cds_ddr_wide"]
+    less :data:`tdicam.model.ddr_efficiency.PLAN_MARGIN`."""
+    model, lite = _ddr_efficiency.MEASURED_EFFICIENCY["cds_ddr_wide"]
     low = min(model, lite if lite is not None else model)
     src = "LiteDRAM" if lite is not None and lite < model else "memory model"
-    return low / 100 - _ddr.PLAN_MARGIN, (
+    return low / 100 - _ddr_efficiency.PLAN_MARGIN, (
         f"cds_ddr_wide's measured {low:g} % ({src}, 4 refresh intervals) less the "
-        f"{_ddr.PLAN_MARGIN:.0%} plan margin")
+        f"{_ddr_efficiency.PLAN_MARGIN:.0%} plan margin")
 
 
 def nand_figures(rows, columns, images, parts, geometry=nand_store.MT29F4G08):

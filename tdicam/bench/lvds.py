@@ -1,10 +1,10 @@
 """The ``lvds`` benchmark: LVDS bit training is not a video stream, so the block entry names
-this runner (``Bench(runner="tdicam.bench.lvds:rows")``) instead of a stream workload."""
+this runner (:data:`tdicam.bench.suite.HARNESS_RUNNERS`) instead of a stream workload."""
 
 import numpy as np
 
 from tdicam import blocks
-from tdicam.bench.suite import build_seconds
+from tdicam.bench.build import build_seconds
 from tdicam.bench.util import median_time, na_row, row
 from tdicam.cosim.lvds import check_run, run_amaranth, run_link, testbench
 from tdicam.hw.verilog import convert

@@ -36,27 +36,25 @@ re-exported here as :func:`plot`.
 """
 
 import dataclasses
-import importlib
 import json
 import math
 import os
 import platform
-import shutil
 import subprocess
-import time
 import numpy as np
 
 from tdicam import blocks, cosim
 from tdicam.blocks import StreamWork
-from tdicam.bench import chain
+from tdicam.bench import chain, lvds
+from tdicam.bench.build import build_seconds
 from tdicam.bench.plot import plot, tradeoff_points
 from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, na_row, row
 from tdicam.errors import TdicamError, check_range
 from tdicam.paths import SCENES
 
 __all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "work_inputs", "run",
-           "describe_machine", "format_table", "plot", "tradeoff_points", "to_json", "fresh_build",
-           "stream_sources", "expand", "row", "build_seconds", "RUNNERS", "LEGENDS",
+           "describe_machine", "format_table", "plot", "tradeoff_points", "to_json",
+           "stream_sources", "expand", "row", "RUNNERS", "HARNESS_RUNNERS", "LEGENDS",
            "legend", "MAX_REPEAT"]
 
 #: Most runs per level ``--repeat`` takes: times are medians; more runs only take longer.
@@ -115,23 +113,6 @@ def stream_sources(blk, params):
     return {f"{blk.name}.v": convert(top, blk.name),
             "tb.v": tbgen.stream_testbench(blk.name, in_bits=in_bits, out_bits=out_bits,
                                            ctrl_ports=ctrl)}
-
-
-def fresh_build(name, params, sim, sources):
-    """Seconds to build ``sources`` from scratch, in a folder of its own (not the cache)."""
-    bdir = cosim.build_dir_for(f"{name}.bench", params, sim)
-    shutil.rmtree(bdir / "sim", ignore_errors=True)
-    (bdir / "stamp").unlink(missing_ok=True)
-    t0 = time.perf_counter()
-    cosim.build_sources(f"{name}.bench", params, sim, sources)
-    return time.perf_counter() - t0
-
-
-def build_seconds(first_build, build, name, params, sim, sources):
-    """Build seconds to report: the first run's own build, else a fresh timed build."""
-    if first_build > 0 or build != "fresh":
-        return first_build
-    return fresh_build(name, params, sim, sources())
 
 
 # ------------------------------------------------------------------------------ stream blocks
@@ -243,6 +224,10 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
 
 #: The benchmarks that are not a block's: the scene simulator and the whole camera.
 RUNNERS = {"scene": _scene_rows, "pipeline": chain.pipeline_rows}
+#: How a block that is not a video stream is measured, by its :attr:`Block.harness`
+#: (:class:`tdicam.blocks.Block`): a function of the stream rows' keyword arguments
+#: (``"link"``: the LVDS link, :mod:`tdicam.bench.lvds`).
+HARNESS_RUNNERS = {"link": lvds.rows}
 #: Benchmarks whose rows are measured their own way, with their own legend
 #: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
 LEGENDS = {"pipeline": chain.legend}
@@ -266,13 +251,13 @@ def expand(names):
 
 
 def _block_rows(name, works, **kw):
-    """One block's rows: its stream workload, its own runner, or a row saying it has none."""
-    bench = blocks.get(name).bench
+    """One block's rows: its stream workload, its harness's runner, or a row saying it has
+    none."""
     if name in works:
         return _stream_rows(works[name], **kw)
-    if bench.runner is not None:
-        module, func = bench.runner.split(":")
-        return getattr(importlib.import_module(module), func)(**kw)
+    harness = blocks.get(name).harness
+    if harness is not None:
+        return HARNESS_RUNNERS[harness](**kw)
     return [na_row(name, "golden", "-", "no benchmark workload (its block entry's bench.work)")]
 
 

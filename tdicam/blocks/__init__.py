@@ -41,8 +41,8 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
 __all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
-           "SynthRef", "Block", "get", "names", "all_blocks", "in_order", "frame_stack",
-           "scene_blocks", "PPC_PARAM", "check_width"]
+           "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
+           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
 
 
 def _flag(name):
@@ -364,15 +364,13 @@ class Bench:
 
     ``group`` is the benchmark name that runs the block (several blocks may share one:
     ``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer); the block's own
-    name runs it alone. ``work`` is its stream workload; ``runner`` (``"module:function"``,
-    named, not imported, so the registry stays below the benchmark service) measures a block
-    that is not a video stream its own way, with the keyword arguments of the stream rows.
-    A block with neither is listed with a "no benchmark workload" row.
+    name runs it alone. ``work`` is its stream workload; a block that is not a video stream
+    has none and is measured through its :attr:`Block.harness`, or listed with a "no
+    benchmark workload" row.
     """
 
     group: str
     work: StreamWork | None = None
-    runner: str | None = None
 
 
 @dataclass(frozen=True)
@@ -388,6 +386,68 @@ class SynthRef:
     note: str = ""
     sum_with: str | None = None
     sum_label: str | None = None
+
+
+@dataclass(frozen=True)
+class Stalls:
+    """The extreme-stall runs of a stream block's co-simulation suite (:class:`Suite`).
+
+    Golden ``case`` in fast mode at each ``(idle, backpressure)`` of ``pairs`` (seed
+    ``seed``); at ``(0, 0)``, and on every case of ``full_rate`` (no idle cycle, no
+    backpressure), the run must take at most one cycle a beat: the input or output beats,
+    whichever are more, plus the top's latency, the 2000-cycle drain window and two, plus
+    ``extra_cycles(case arrays, params)`` where the block stalls its input on purpose
+    (``hdr``'s frame-start divisions).
+    """
+
+    case: str
+    pairs: tuple = ((0.0, 0.0), (0.0, 0.9), (0.9, 0.0))
+    seed: int = 3
+    full_rate: tuple = ()
+    extra_cycles: Callable | None = None
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A stream block's place in the standard co-simulation suite
+    (``cocotb_tests/test_streams.py``, for every block with :attr:`Block.to_beats`): its
+    golden cases per beat (cocotb drives each cycle, 30 % idle, 40 % backpressure, seed 11)
+    and in fast mode (HDL-side stimulus and stalls, seed 7) on each simulator, and its
+    extreme stalls. What is particular to a block stays in its own
+    ``cocotb_tests/test_<module>.py``.
+
+    Attributes
+    ----------
+    sims : tuple of str
+        The simulators of the suite's runs (the DDR blocks: Icarus; their Verilator runs are
+        particular to them).
+    per_beat : "ppc", "all" or tuple of str
+        ``"ppc"``: the cases at ppc 1 and 8 and the reset cases in every run, the other
+        ppc 2 and 4 cases with ``TDICAM_FULL=1`` (fast mode runs them in every run;
+        :func:`tdicam.cosim.testing.beat_cases`); ``"all"``: every case in every run; a
+        tuple: those cases. Never a case tagged ``fast-only``, nor one in ``not_per_beat``.
+    not_per_beat : tuple of str
+        Cases left out of the per-beat runs (fast mode runs them).
+    fast : bool
+        Every case not tagged ``fast-only`` in fast mode, one run each. False: the block's
+        own file streams its cases its own way (``median3``, ``tlk2711``: every case of a
+        parameter set as one stream).
+    fast_stalls : float
+        Idle and backpressure probability of the fast-mode runs.
+    full_only : callable(Case, sim, mode) -> bool, or None
+        The runs that take another simulator build or minutes, co-simulated only with
+        ``TDICAM_FULL=1`` (skipped otherwise, saying so).
+    stalls : Stalls or None
+        The extreme-stall and full-rate runs (None: none, or the block's own file has them).
+    """
+
+    sims: tuple = ("icarus", "verilator")
+    per_beat: Any = "ppc"
+    not_per_beat: tuple = ()
+    fast: bool = True
+    fast_stalls: float = 0.25
+    full_only: Callable | None = None
+    stalls: Stalls | None = None
 
 
 @dataclass(frozen=True)
@@ -461,11 +521,12 @@ class Block:
         The case ``tdicam export`` writes, piece by piece, when no golden case at
         ``params`` fits its beat limit (one frame over it, say: the cases would not fit in
         memory); None: such parameters are refused.
-    export_harness : str or None
-        ``"module:function"`` that exports the block with a self-checking harness of its own
-        instead of the stream testbench (``lvds``'s link testbench), returning (Design, case
-        names, stimulus count, expected count); named, not imported, so the registry stays
-        below the export service.
+    harness : str or None
+        A block that is not a video stream (:attr:`to_beats` None) names the self-checking
+        harness that verifies it, a name the tools above the registry know it by: ``"link"``,
+        the LVDS link testbench (``lvds``), is how ``tdicam export`` writes the block and
+        ``tdicam bench`` measures it (:data:`tdicam.export.harness.HARNESSES`,
+        :data:`tdicam.bench.suite.HARNESS_RUNNERS`). None: the stream testbench.
     reset_clears_state : bool
         A testbench reset returns the whole design to its power-up state, so golden cases
         can run back to back in one simulation with a reset between them (``tdicam
@@ -478,6 +539,9 @@ class Block:
         Place in the tools' tables (benchmarks, synthesis reference); ties by name.
     bench : Bench or None
         How ``tdicam bench`` measures the block (None: not benchmarked).
+    suite : Suite
+        A stream block's runs in the standard co-simulation suite (the defaults unless its
+        entry says otherwise).
     synth : tuple of SynthRef
         The block's rows of the synthesis reference table.
     """
@@ -497,15 +561,16 @@ class Block:
     fit: Callable | None = None
     unstream: Callable | None = None
     example: Callable | None = None
+    harness: str | None = None
     reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
     frame_beats: Callable | None = None
     streamed_case: Callable | None = None
-    export_harness: str | None = None
     small: tuple | None = None
     order: int = 1000
     bench: Bench | None = None
+    suite: Suite = Suite()
     synth: tuple = ()
     module: str | None = None
 
@@ -624,33 +689,6 @@ class Block:
         return {"out": out.data.reshape(np.shape(arrays[self.stream])).astype(
             pixel_dtype(bits))}
 
-    # The block's tools for a Python session (the public API, :mod:`tdicam`). They call
-    # the layers above the registry at call time: pyproject.toml's import contracts list
-    # these three imports as the registry's only upward ones.
-
-    def verilog(self, **params) -> str:
-        """The block's Verilog, as ``tdicam verilog NAME --PARAM V ...`` writes it.
-
-        Parameters
-        ----------
-        **params
-            Block parameters by name (:meth:`describe` lists them); the others at their
-            defaults.
-
-        Returns
-        -------
-        str
-            Deterministic Verilog text: a header naming the tdicam version, the block and
-            its parameters, then the top module, named after the block.
-
-        Raises
-        ------
-        TdicamError
-            An unknown parameter or a value out of its range (one line).
-        """
-        from tdicam.hw.verilog import generate
-        return generate(self, params)
-
     def golden_model(self, arrays: dict, **params) -> dict:
         """The block's bit-exact golden model (``model/<name>.py``) on scene arrays, with
         its parameters fitted (:attr:`golden` is the raw function it calls).
@@ -675,66 +713,6 @@ class Block:
             A missing input, a bad shape or parameter (one line).
         """
         return self.run_golden(arrays, self.scene_params(arrays, params))
-
-    def cosim(self, arrays: dict | None = None, *, sim: str = "icarus", mode: str = "fast",
-              idle: float = 0.2, backpressure: float = 0.2, seed: int = 1,
-              cases: list[str] | None = None, wave_dir: str | None = None,
-              on_case: Callable[[dict], None] | None = None, **params) -> list[dict]:
-        """Co-simulate the block's Verilog against its golden model (cocotb).
-
-        Parameters
-        ----------
-        arrays : dict of str to ndarray, optional
-            Scene arrays as :meth:`golden_model` takes them. None: every stored golden case
-            (what ``tdicam sim NAME`` runs; ``mode="beat"`` skips the ``fast-only`` ones).
-        sim : {"icarus", "verilator"}
-            The simulator.
-        mode : {"fast", "beat"}
-            HDL-side stimulus and stalls, or per-beat cocotb.
-        idle, backpressure : float
-            Probabilities of an idle input cycle and of ``tready`` low, in [0, 1).
-        seed : int
-            Seed of the idle and backpressure pattern.
-        cases : list of str, optional
-            Only these golden cases (without ``arrays``; ``tdicam sim --case``).
-        wave_dir : str, optional
-            Where the waveform (FST) around a case's first mismatch is written (default:
-            the build folder's ``waves``); the row's ``waveform`` and ``message`` name it.
-        on_case : callable, optional
-            Called with each row as soon as its case has run (``tdicam sim`` prints it).
-        **params
-            Block parameters (with ``arrays`` only; a golden case has its own).
-
-        Returns
-        -------
-        list of dict
-            One row per case (``case``, ``pixels``, ``mismatches``, ``cycles``, ``wall_s``,
-            ...); with ``arrays``, one row whose ``out`` is the simulated output as
-            :meth:`golden_model` gives it (None on a mismatch).
-
-        Raises
-        ------
-        TdicamError
-            A block without a stream co-simulation, a bad parameter, a simulator missing.
-        """
-        from tdicam import cosim
-        from tdicam.cosim.cases import run_cases
-        kw = dict(sim=sim, mode=mode, idle=idle, backpressure=backpressure, seed=seed,
-                  wave_dir=wave_dir)
-        if arrays is None:
-            if params:
-                raise TdicamError(f"block {self.name}: parameters go with arrays (each golden "
-                                  f"case has its own)")
-            return run_cases(self.name, cases=cases, report=on_case or (lambda row: None),
-                             **kw)
-        if cases:
-            raise TdicamError(f"block {self.name}: cases= selects golden cases; it does not go "
-                              f"with arrays")
-        run, out = cosim.run_scene(self, arrays, params, **kw)
-        row = {"case": "arrays", **run.row(), "out": out}
-        if on_case is not None:
-            on_case(row)
-        return [row]
 
     def _per(self, key):
         return next((s.per for s in self.side_inputs if s.name == key), None)

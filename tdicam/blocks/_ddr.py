@@ -4,17 +4,17 @@ controller's stall-pattern parameters and the simulation top around a DDR user c
 Each DDR block's Verilog top is its user logic with the simulation-only controller model
 :class:`~tdicam.hdl.simmodels.mig_model.MigModel` behind it (:class:`~tdicam.hdl.simmodels.mig_model.SimTop`), so the fast
 co-simulation runs the whole round trip in the simulator; the stall pattern is a parameter
-set (default :data:`tdicam.model.ddr.DEFAULT_STALLS`: latency 20..60, refresh 44 of every 780
+set (default :data:`tdicam.model.dram.DEFAULT_STALLS`: latency 20..60, refresh 44 of every 780
 cycles, each ready dropped with probability 16/256), on top of the DRAM timing
-(:class:`tdicam.model.ddr.DramTiming`: turnarounds, row activates, cycle-equal with
-:class:`tdicam.model.ddr.MigSim` with ``dram=``), so the everyday co-simulation charges what
+(:class:`tdicam.model.dram.DramTiming`: turnarounds, row activates, cycle-equal with
+:class:`tdicam.model.dram.MigSim` with ``dram=``), so the everyday co-simulation charges what
 the block's order of accesses costs on DDR3. ``ddr_error`` (the model's sticky
 error) blocks the input, so a bad access shows as a stalled run.
 """
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import (ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, DEFAULT_STALLS,
-                              WORD_BITS, _check_stalls)
+from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES, WORD_BITS
+from tdicam.model.dram import DEFAULT_STALLS, _check_stalls
 from tdicam.blocks import Param
 
 __all__ = ["STALL_PARAMS", "address_params", "stalls_of", "check_stalls", "sim_top",

@@ -8,7 +8,7 @@ from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
@@ -205,4 +205,6 @@ BLOCK = Block(
     bench=Bench("cds", StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel",
                                   "frames of 1280 x 4, 12-bit", (4, 1280), PX, PX_QUICK)),
     synth=(SynthRef("cds", {"pixel_bits": 12}),),
+    suite=Suite(stalls=Stalls("random_12b", full_rate=("random_12b_p2", "random_12b_p4",
+                                                      "random_12b_p8"))),
 )

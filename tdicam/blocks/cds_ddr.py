@@ -14,8 +14,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.errors import TdicamError
 from tdicam.model.cds_ddr import cds_ddr_frames
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
-from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Use,
-                           check_width)
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Suite,
+                           Use, check_width)
 from tdicam.blocks.steps import Step
 from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
 from tdicam.blocks._ddr import (STALL_PARAMS, address_params, check_base, check_stalls, sim_top,
@@ -229,7 +229,8 @@ def _system(step, ctx):
     """The plan: each channel's reset frame written and read back once a line period, on
     its own DDR part, against the interface at the efficiency measured on cds_ddr's
     command order (the lower of the memory model's and LiteDRAM's, less the plan margin)."""
-    from tdicam.model.ddr import MEASURED_EFFICIENCY, PLAN_MARGIN, WORD_BITS
+    from tdicam.model.ddr import WORD_BITS
+    from tdicam.model.ddr_efficiency import MEASURED_EFFICIENCY, PLAN_MARGIN
     words = _frame_words(step.params)
     t = ctx["line_period_s"]
     need = 2 * words * WORD_BITS / 8 / t
@@ -315,4 +316,7 @@ BLOCK = Block(
                                   "CDS with the reset frame in DDR, frames of 512 x 8, 10-bit", (8, 512),
                                   {"pysim": 2, "beat": 4, "fast": 64, "icarus fast": 16},
                                   {"pysim": 2, "beat": 2, "fast": 4})),
+    suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
+                per_beat=("random_24x4_12b", "reset_mid_frame_24x4_12b", "random_24x4_12b_p2",
+                          "reset_mid_frame_24x4_12b_p8")),
 )

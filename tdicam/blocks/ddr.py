@@ -13,7 +13,7 @@ from tdicam.errors import TdicamError, check_multiple
 from tdicam.model.cds import pixel_dtype
 from tdicam.hdl.ddr import MAX_WORDS_PER_BEAT
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
-from tdicam.blocks import Bench, StreamWork
+from tdicam.blocks import Bench, StreamWork, Suite
 from tdicam.blocks import Block, Case, Param
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
@@ -152,6 +152,11 @@ def _cases():
     ]
 
 
+def _full_only(case, sim, mode):
+    """The 72-channel Table 2 case takes ~80 s on Icarus (the UI test runs it on Verilator)."""
+    return case.name == "paper_72ch_table2"
+
+
 BLOCK = Block(
     name="ddr",
     summary="DDR frame buffer round trip: line writer -> MIG UI -> line reader "
@@ -185,4 +190,7 @@ BLOCK = Block(
                               "frame buffer round trip, frames of 1280 x 4, 10-bit, 8 px/beat", (4, 1280),
                               {"pysim": 1, "beat": 1, "fast": 16, "icarus beat": 1, "icarus fast": 2},
                               {"pysim": 1, "beat": 1, "fast": 2})),
+    suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
+                per_beat=("paper_72ch_4x6", "mono_50x4_p1"),
+                full_only=_full_only),
 )

@@ -5,37 +5,29 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
-from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.hdr import Hdr
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            frame_stack, check_width as _check_width)
 from tdicam.blocks import _sim
+from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 
 __all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
 
-def _top(**params):
-    return AxisTop(Hdr(**params))
+_top, _ecp5_top = tops(Hdr)
 
 
-def _ecp5_top(**params):
-    """The ECP5 synthesis top: each lane's multiplier a signed MULT18X18D with its own input
-    registers, the product register in the fabric (``dsp="ecp5"``; the same latency and
-    cycles as :func:`_top`)."""
-    return AxisTop(Hdr(**params, dsp="ecp5"))
-
-
-def _model(params):
-    """The golden model's parameters: the block's without ``ppc`` (the model does not know
-    how many pixels a beat carries)."""
-    return {k: v for k, v in params.items() if k != "ppc"}
+def _frame_start_stalls(arrays, params):
+    """Cycles ``hdr`` holds its input at the frame starts after a measured band (the
+    junction's divisions, :attr:`tdicam.hdl.hdr.Hdr.frame_start_cycles` each)."""
+    return (len(arrays["hg"]) - 1) * Hdr(**params).frame_start_cycles
 
 
 def _ratio(cfg, sel):
@@ -78,11 +70,11 @@ def _pack(params, hg, lg, sels, reset_frame=None, cut=None):
     lg = np.asarray(lg, np.uint16)
     sels = np.asarray(sels, np.int64)
     if reset_frame is None:
-        out = hdr(hg, lg, gain_sel=sels, **_model(params))
+        out = hdr(hg, lg, gain_sel=sels, **model_params(params))
     else:
         r = reset_frame
-        out = np.concatenate([hdr(hg[:r + 1], lg[:r + 1], gain_sel=sels[:r + 1], **_model(params)),
-                              hdr(hg[r + 1:], lg[r + 1:], gain_sel=sels[r + 1:], **_model(params))])
+        out = np.concatenate([hdr(hg[:r + 1], lg[:r + 1], gain_sel=sels[:r + 1], **model_params(params)),
+                              hdr(hg[r + 1:], lg[r + 1:], gain_sel=sels[r + 1:], **model_params(params))])
     arrays = {"hg": hg, "lg": lg, "gain_sel": sels, "out": out}
     if reset_frame is not None:
         arrays["reset_frame"] = np.array([reset_frame], np.int64)
@@ -94,7 +86,7 @@ def _ramp(params, rng):
     """The full LG sweep twice (reset junction, then the one measured on the sweep), then a
     frame starting with threshold edges: HG at T-band-1, T-band, T-1, T, T+1 with LG below,
     at and above the junction (the rest of that frame is the sweep again)."""
-    cfg = hdr_config(**_model(params))
+    cfg = hdr_config(**model_params(params))
     hg, lg = ramp_frame(cfg)
     t, b, full = cfg.threshold, cfg.band, (1 << cfg.pixel_bits) - 1
     hgs = np.clip([t - b - 1, t - b, t - 1, t, t + 1], 0, full)
@@ -108,7 +100,7 @@ def _ramp(params, rng):
 
 def _scene(frames, rows, cols, sels=None, span=None):
     def make(params, rng):
-        cfg = hdr_config(**_model(params))
+        cfg = hdr_config(**model_params(params))
         s = np.zeros(frames, np.int64) if sels is None else np.asarray(sels)
         hg, lg = scene_frames(cfg, rng, frames, rows, cols, s, span=span)
         return _pack(params, hg, lg, s)
@@ -119,7 +111,7 @@ def _empty_band(cols):
     """Four 12 x ``cols`` frames: frame 0 fills the band; frames 1 and 2 have none (L_T kept,
     no division by zero); frame 3 has band pixels again."""
     def make(params, rng):
-        cfg = hdr_config(**_model(params))
+        cfg = hdr_config(**model_params(params))
         hg, lg = scene_frames(cfg, rng, 4, 12, cols)
         t, b = cfg.threshold, cfg.band
         for k in (1, 2):
@@ -143,7 +135,7 @@ def _reset_mid_frame(sels):
     """Frames 0-1 build up a measured junction (and gain pair), a reset cuts frame 1, then
     frames 2-3 start clean from the reset state."""
     def make(params, rng):
-        cfg = hdr_config(**_model(params))
+        cfg = hdr_config(**model_params(params))
         s = np.asarray(sels, np.int64)
         hg, lg = scene_frames(cfg, rng, 4, 10, 16, s)
         return _pack(params, hg, lg, s, reset_frame=1, cut=93)
@@ -164,7 +156,7 @@ def _reset_beats(sels):
     """:func:`_reset_mid_frame` with the reset in the middle of row 5 of frame 1, after
     ``5 * 16 / ppc + 16 / ppc / 2`` beats (rounded up)."""
     def make(params, rng):
-        cfg = hdr_config(**_model(params))
+        cfg = hdr_config(**model_params(params))
         s = np.asarray(sels, np.int64)
         hg, lg = scene_frames(cfg, rng, 4, 10, 16, s)
         wb = 16 // params["ppc"]
@@ -209,7 +201,7 @@ def _golden(arrays, params):
     """hdr on (..., rows, cols) stacks; ``gain_sel`` one value per frame."""
     hg = np.asarray(arrays["hg"])
     sels = np.asarray(arrays["gain_sel"], np.int64).ravel()
-    out = hdr(frame_stack(hg), frame_stack(arrays["lg"]), gain_sel=sels, **_model(params))
+    out = hdr(frame_stack(hg), frame_stack(arrays["lg"]), gain_sel=sels, **model_params(params))
     return {"out": out.reshape(hg.shape[:-2] + out.shape[-2:])}
 
 
@@ -218,13 +210,13 @@ def _zeros_per_frame(hg):
 
 
 def _unstream(out, arrays, params):
-    bits = hdr_config(**_model(params)).out_bits
+    bits = hdr_config(**model_params(params)).out_bits
     return {"out": out.data.reshape(np.shape(arrays["hg"])).astype(pixel_dtype(bits))}
 
 
 def _example(rng, n, shape, params):
     """A light ramp across each frame, HG/LG with noise (:func:`scene_frames`)."""
-    hg, lg = scene_frames(hdr_config(**_model(params)), rng, n, *shape)
+    hg, lg = scene_frames(hdr_config(**model_params(params)), rng, n, *shape)
     dt = pixel_dtype(params["pixel_bits"])
     return {"hg": hg.astype(dt), "lg": lg.astype(dt)}
 
@@ -233,7 +225,7 @@ def _to_beats(arrays, params):
     """``ppc`` pixels per beat, pixel-major (HG, LG) pairs; ``gain_sel`` on the ctrl of a
     frame's first beat; ``reset_before`` counts beats of frame ``reset_frame``. The frame
     width must be a multiple of ``ppc``."""
-    cfg = hdr_config(**_model(params))
+    cfg = hdr_config(**model_params(params))
     ppc = params["ppc"]
     hg, lg, sels = arrays["hg"], arrays["lg"], arrays["gain_sel"]
     _check_width(np.shape(hg)[-1], ppc)
@@ -256,7 +248,7 @@ def _to_beats(arrays, params):
 
 
 def _check(params):
-    hdr_config(**_model(params))
+    hdr_config(**model_params(params))
 
 
 MULTI = {"gain_pairs": "4.9:0.8,4.9:1.6,2.45:0.8", "count_bits": 4}
@@ -391,4 +383,6 @@ BLOCK = Block(
                                   "frames of 1280 x 4, 12-bit HG/LG light ramp", (4, 1280), PX,
                                   PX_QUICK)),
     synth=(SynthRef("hdr", {"pixel_bits": 12}, note="12-bit HG + LG"),),
+    suite=Suite(stalls=Stalls("scene_12b", extra_cycles=_frame_start_stalls,
+                              full_rate=("scene_12b_p2", "scene_12b_p4", "scene_12b_p8"))),
 )

@@ -239,7 +239,7 @@ def _fifo_row(step, prm, lv, ctx):
     """The plan's line on the crossing FIFO: its depth and why (the line burst at the
     slowest processing clock the lanes allow, the DDR model's worst stall behind it, the
     synchronizer slack: :func:`tdicam.model.lvds_front.fifo_depth`)."""
-    from tdicam.model.ddr import worst_stall
+    from tdicam.model.dram import worst_stall
     lpg, w, ppc = prm["lanes_per_gain"], prm["word_bits"], prm["ppc"]
     word_mhz = lv.bit_rate_mbps / w
     p = prm["columns"] // lpg
@@ -431,7 +431,6 @@ def case_link(arrays):
 
 BLOCK = Block(
     name="lvds",
-    export_harness="tdicam.export.lvds:lvds_export",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",
     params=(
         Param("lanes", 8, "lanes (80 = GMAX0504: 40 HG + 40 LG)", lo=1, hi=MAX_LANES),
@@ -476,7 +475,8 @@ BLOCK = Block(
     check=_check,
     model_version="lvds-1",
     order=70,
-    bench=Bench("lvds", runner="tdicam.bench.lvds:rows"),
+    bench=Bench("lvds"),
+    harness="link",                 # not a video stream: the link testbench verifies it
     synth=(SynthRef("lvds", {"lanes": 8}, note="8 lanes x 10 bit, core (no PHY)"),),
     pipeline=Use(_front_step, _front_hw, source=_front_source, chain_golden=_front_golden,
                  system=_front_system, measured=_front_measured),

@@ -19,13 +19,13 @@ from tdicam.hdl.median3 import Median3, check_geometry
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param,
-                           StreamWork, SynthRef, Use, frame_stack)
+                           StreamWork, Suite, SynthRef, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 
-__all__ = ["BLOCK", "Median3Options", "BUILDS", "stream_case", "case_beats", "MAX_PIXEL_BITS",
-           "check_after_tdi"]
+__all__ = ["BLOCK", "Median3Options", "BUILDS", "FULL_ONLY_BUILDS", "stream_case", "case_beats",
+           "MAX_PIXEL_BITS", "check_after_tdi"]
 
 
 def _top(**params):
@@ -350,6 +350,17 @@ SIM = (Sim("block median3 before TDI (golden)", _sim_pre, where="pre", per_expos
        Sim("block median3 after TDI (golden)", _sim_post, stage="output", where="post"))
 
 
+#: Parameter sets co-simulated only with TDICAM_FULL=1 (each is a Verilator build of its
+#: own): enhancement at ppc 2 and 4 and the 16-bit enhanced frames at ppc 8. Every run keeps
+#: at every ppc the smallest width, full scale and zeros, a reset mid-frame, and enhancement
+#: at ppc 1 and 8.
+FULL_ONLY_BUILDS = ("p2_enh_w8_12b", "p4_enh_w16_12b", "p8_enh_w40_16b")
+
+
+def _full_only(case, sim, mode):
+    return any(case.params == BUILDS[b] for b in FULL_ONLY_BUILDS)
+
+
 BLOCK = Block(
     name="median3",
     summary="3x3 median, replicated borders, 1-8 pixels/clock, optional edge enhancement "
@@ -387,4 +398,5 @@ BLOCK = Block(
                                       {"pysim": 1, "beat": 1, "fast": 2})),
     synth=(SynthRef("median3", {"width": 1280, "pixel_bits": 12},
                     note="1280 wide, 12 bit, 1 pixel/clock"),),
+    suite=Suite(fast=False, full_only=_full_only),  # fast mode: a build's cases as one stream
 )

@@ -21,7 +21,7 @@ from tdicam.model import calib, nand_store
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
 from tdicam.blocks import SynthRef
-from tdicam.blocks import Block, Case, Param
+from tdicam.blocks import Block, Case, Param, Suite
 from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
@@ -198,6 +198,18 @@ def _cases():
     ]
 
 
+#: The short form of the standard co-simulation suite (every case with TDICAM_FULL=1):
+#: the cases Icarus runs in fast mode, and each simulator's per-beat cases.
+ICARUS_FAST = ("clean", "bad100", "grown", "double", "out_of_blocks")
+PER_BEAT = {"icarus": ("clean", "double"), "verilator": ("clean", "double", "bad100")}
+
+
+def _full_only(case, sim, mode):
+    if mode == "beat":
+        return case.name not in PER_BEAT[sim]
+    return sim == "icarus" and case.name not in ICARUS_FAST
+
+
 BLOCK = Block(
     name="nand_store",
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "
@@ -231,4 +243,5 @@ BLOCK = Block(
                   "pages_per_block": 2, "blocks": 16}),
     order=91,
     synth=(SynthRef("nand_store", note="3800 x 5144 from 4 Gb NAND, bus as ports"),),
+    suite=Suite(full_only=_full_only),
 )

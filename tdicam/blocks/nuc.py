@@ -5,14 +5,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from tdicam.beats import PPC_CHOICES, frames_to_beats, mark_resets
-from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
 from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
                            check_width as _check_width)
 from tdicam.blocks import _sim
+from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Sim, Step
 from tdicam.errors import TdicamError
@@ -23,21 +23,7 @@ __all__ = ["BLOCK", "NucOptions", "cut_frame0"]
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
 
-def _top(**params):
-    return AxisTop(Nuc(**params))
-
-
-def _ecp5_top(**params):
-    """The ECP5 synthesis top: each lane's multiplier a MULT18X18D with its own input
-    registers, the product register in the fabric (``dsp="ecp5"``; the same latency and
-    cycles as :func:`_top`)."""
-    return AxisTop(Nuc(**params, dsp="ecp5"))
-
-
-def _model(params):
-    """The golden model's parameters: the block's without ``ppc`` (the model does not know
-    how many pixels a beat carries)."""
-    return {k: v for k, v in params.items() if k != "ppc"}
+_top, _ecp5_top = tops(Nuc)
 
 
 def _fmt(params):
@@ -56,7 +42,7 @@ def _arrays(params, x, gain, offset):
     x = np.asarray(x).astype(np.uint16 if params["pixel_bits"] <= 16 else np.uint32)
     gain, offset = np.asarray(gain).astype(gdt), np.asarray(offset).astype(odt)
     return {"x": x, "gain": gain, "offset": offset,
-            "out": nuc(x, gain, offset, **_model(params))}
+            "out": nuc(x, gain, offset, **model_params(params))}
 
 
 def _random(frames, rows, cols):
@@ -125,7 +111,7 @@ def _reset_mid_frame(params, rng):
 
 
 def _golden(arrays, params):
-    return {"out": nuc(arrays["x"], arrays["gain"], arrays["offset"], **_model(params))}
+    return {"out": nuc(arrays["x"], arrays["gain"], arrays["offset"], **model_params(params))}
 
 
 def _example(rng, n, shape, params):
@@ -202,7 +188,7 @@ def _ppc_cases():
 
 
 def _check(params):
-    check_nuc_params(**_model(params))
+    check_nuc_params(**model_params(params))
 
 
 _WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 16, "offset_bits": 18,
@@ -644,4 +630,6 @@ BLOCK = Block(
                                   "frames of 1280 x 4, 12-bit, gain Q2.14", (4, 1280), PX,
                                   PX_QUICK)),
     synth=(SynthRef("nuc", {"pixel_bits": 12}, note="12 bit, gain u2.14, offset s16"),),
+    suite=Suite(stalls=Stalls("random_12b", full_rate=("random_12b_p2", "random_12b_p4",
+                                                      "random_12b_p8"))),
 )

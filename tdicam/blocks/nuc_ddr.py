@@ -16,7 +16,7 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
 from tdicam.model.nuc import NucFormat
 from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, check_width
+from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, check_width
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide
 from tdicam.hdl.nuc_ddr import NucDdr
@@ -206,4 +206,6 @@ BLOCK = Block(
     example=_example,
     small=((3, 24), {"width": 24, "rows": 3}),
     order=81,
+    suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
+                per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
 )

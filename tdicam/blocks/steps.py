@@ -116,7 +116,7 @@ class StepContext:
     each step's parameters) and the chain's channel lanes (``lanes``: 2 with a merging
     block, known when a source block is planned); ``stall_cycles``: the longest the blocks
     after a source block may hold the stream at once (the DDR model's worst stall,
-    :func:`tdicam.model.ddr.worst_stall`, of a DDR block in the chain; 0 without one);
+    :func:`tdicam.model.dram.worst_stall`, of a DDR block in the chain; 0 without one);
     ``reset_frames``: the chain after a source block takes reset frames in the stream,
     each before its signal frame."""
 

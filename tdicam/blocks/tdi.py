@@ -24,7 +24,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tdi import TdiAccumulator
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.tdi import PIXEL_BITS, check_params, full_bits, out_width, tdi, tdi_stream
-from tdicam.blocks import Bench, StreamWork, SynthRef
+from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
 from tdicam.blocks import _sim
@@ -488,6 +488,16 @@ def _sim_fast(c, fr):
 SIM = (Sim("TDI accumulation", _sim_step, stage="lines", fast=_sim_fast, aggregated=True),)
 
 
+#: (width, stages) of the cases Verilator co-simulates in every run (each other pair is a
+#: ~30 s build of its own: with TDICAM_FULL=1).
+VERILATOR_SIZES = ((64, 4), (1280, 96))
+
+
+def _full_only(case, sim, mode):
+    return sim == "verilator" and (case.params["width"], case.params["stages"]) not in \
+        VERILATOR_SIZES
+
+
 BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "
@@ -520,4 +530,8 @@ BLOCK = Block(
                     note="1280 x 96 stages x 12 bit, 4 pixels/clock"),
            SynthRef("tdi ppc=8", {"width": 1280, "stages": 96, "pixel_bits": 12, "ppc": 8},
                     note="1280 x 96 stages x 12 bit, 8 pixels/clock")),
+    suite=Suite(per_beat="all", not_per_beat=("fullscale_64x3_p8_8b_sat", "mixed_48x5_p2_14b"),
+                full_only=_full_only,
+                stalls=Stalls("stages_64x4_p1", seed=5,
+                              pairs=((0.0, 0.0), (0.0, 0.9), (0.9, 0.0), (0.6, 0.6)))),
 )

@@ -11,7 +11,7 @@ from dataclasses import replace
 from tdicam.model.ddr import ADDR_PER_WORD
 from tdicam.model.tdi_ddr import tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
-from tdicam.blocks import Bench, StreamWork
+from tdicam.blocks import Bench, StreamWork, Suite
 from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
 from tdicam.blocks._ddr import STALL_PARAMS, check_base, check_stalls, sim_top, stalls_of
@@ -125,4 +125,6 @@ BLOCK = Block(
     bench=Bench("ddr", StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
                                   "TDI partial sums in DDR, the tdi row's input", (4, 256), TDI,
                                   TDI_QUICK)),
+    suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
+                per_beat=("stages_256x4_p1",)),
 )

@@ -26,9 +26,10 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tlk2711 import Tlk2711
 from tdicam.model import tlk2711
 from tdicam.model.cds import pixel_dtype
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, frame_stack
+from tdicam.blocks import PPC_PARAM, Block, Case, Param, Stalls, Suite, frame_stack
 
-__all__ = ["BLOCK", "BUILDS", "stream_case", "case_beats", "frame_word_beats"]
+__all__ = ["BLOCK", "BUILDS", "VERILATOR_BUILDS", "stream_case", "case_beats",
+           "frame_word_beats"]
 
 
 def _top(**params):
@@ -201,6 +202,15 @@ def _cases():
     return out
 
 
+#: Parameter sets Verilator runs in every run (each a build): the two-link ones at every ppc
+#: and 12-bit pixels into one link at 8 pixels a clock; all with TDICAM_FULL=1.
+VERILATOR_BUILDS = ("p1_l2_12b", "p2_l2_16b", "p4_l2_10b", "p8_l2_16b", "p8_l2_11b", "p8_l1_12b")
+
+
+def _full_only(case, sim, mode):
+    return sim == "verilator" and not any(case.params == BUILDS[b] for b in VERILATOR_BUILDS)
+
+
 BLOCK = Block(
     name="tlk2711",
     summary="Output links: 1-2 TLK2711 transmitters' parallel side (16-bit words at the "
@@ -232,4 +242,7 @@ BLOCK = Block(
     example=_example,
     small=((4, 8), {"pixel_bits": 12, "links": 2}),
     order=95,
+    # fast mode: a build's cases as one stream (cocotb_tests/test_tlk2711.py); at full rate
+    # with 8 pixels of 16 bits a clock into 2 links the links limit (a word a clock)
+    suite=Suite(fast=False, full_only=_full_only, stalls=Stalls("p8_l2_16b_random")),
 )

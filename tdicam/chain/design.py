@@ -180,7 +180,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                           f"{' -> '.join(names)} keeps its memory in DDR")
     # a block that makes the pixel stream itself (the sensor's front end) goes first; it
     # is sized for the longest hold of a DDR block after it (the MIG model's worst stall)
-    from tdicam.model.ddr import DEFAULT_STALLS, worst_stall
+    from tdicam.model.dram import DEFAULT_STALLS, worst_stall
     held = [tdicam.blocks.get(s.block).resolve(s.params) for s in steps]
     stall = max([worst_stall(q) for q in held if set(DEFAULT_STALLS) <= set(q)] or [0])
     sourced = False

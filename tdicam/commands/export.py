@@ -6,7 +6,7 @@ import sys
 from tdicam import blocks
 from tdicam.commands._parsing import ArgsParser
 from tdicam.errors import TdicamError
-from tdicam.export.block import export_block
+from tdicam.export.harness import export_block
 from tdicam.cosim.pauses import SEED_MAX, check_seed
 from tdicam.commands.verilog import parse_block_params, pick_block
 

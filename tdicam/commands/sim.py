@@ -1,9 +1,10 @@
 """``tdicam sim BLOCK --sim icarus|verilator [--fast]``: the block's golden cases
-co-simulated (:meth:`tdicam.blocks.Block.cosim`), one printed row per case."""
+co-simulated (:func:`tdicam.cosimulate`), one printed row per case."""
 
 import time
 
 from tdicam import blocks, cosim
+from tdicam.api import cosimulate
 from tdicam.errors import check_range
 from tdicam.files import check_dir
 from tdicam.cosim.pauses import SEED_MAX, check_seed
@@ -49,10 +50,9 @@ def _run(args):
                                                      f"  {r['message']}"))
 
     t0 = time.perf_counter()
-    rows = blocks.get(args.block).cosim(sim=args.sim, mode=mode, idle=args.idle,
-                                        backpressure=args.backpressure, seed=args.seed,
-                                        cases=args.case, wave_dir=args.wave_dir,
-                                        on_case=report)
+    rows = cosimulate(args.block, sim=args.sim, mode=mode, idle=args.idle,
+                      backpressure=args.backpressure, seed=args.seed, cases=args.case,
+                      wave_dir=args.wave_dir, on_case=report)
     pixels = sum(r["pixels"] for r in rows)
     bad = sum(r["mismatches"] for r in rows)
     wall = sum(r["wall_s"] for r in rows)

@@ -1,11 +1,12 @@
 """``tdicam verilog BLOCK [--PARAM VALUE ...] -o FILE.v``: the block's deterministic Verilog
-(:meth:`tdicam.blocks.Block.verilog`)."""
+(:func:`tdicam.verilog`)."""
 
 import sys
 
 from tdicam import blocks
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
+from tdicam.hw.verilog import generate
 
 
 def register(sub):
@@ -75,7 +76,7 @@ def _run(args):
     params = parse_block_params(blk, args.extra)
     if args.output is not None:
         check_file(args.output)
-    text = blk.verilog(**params)
+    text = generate(blk, params)
     if args.output is not None:
         write_file(args.output, text)
         print(f"wrote {args.output}: module {blk.name}, "

@@ -1,7 +1,7 @@
 """Co-simulation of the bare DDR user interface against the Python controller model.
 
 :func:`run_ui_cosim` drives :class:`~tdicam.hdl.ddr.DdrFrameBuffer`'s MIG ports from
-:class:`~tdicam.model.ddr.MigSim` in cocotb (testbench :mod:`tdicam.simtb.ddr_tb`), to
+:class:`~tdicam.model.dram.MigSim` in cocotb (testbench :mod:`tdicam.simtb.ddr_tb`), to
 check the packed memory word for word and measure the interface's efficiency.
 """
 
@@ -14,7 +14,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.axis import AxisTop
-from tdicam.model.ddr import DEFAULT_STALLS
+from tdicam.model.dram import DEFAULT_STALLS
 from tdicam.hw.verilog import convert
 from tdicam.cosim.build import build_sources, run_cocotb
 
@@ -25,7 +25,7 @@ def run_ui_cosim(*, width, rows, channels=1, ppc=1, pixel_bits=10, pixels_per_wo
                  line_stride=None, base=0, capacity_mib=1024, sim="verilator", seed=1,
                  backpressure=0.0, frame=None, stalls=None, max_cycles=None):
     """Run one frame through :class:`~tdicam.hdl.ddr.DdrFrameBuffer` with its MIG ports
-    driven by :class:`~tdicam.model.ddr.MigSim` in cocotb (:mod:`tdicam.simtb.ddr_tb`).
+    driven by :class:`~tdicam.model.dram.MigSim` in cocotb (:mod:`tdicam.simtb.ddr_tb`).
 
     Writes alone, then reads (``hold_reads``). Returns the tb's result dict: ``data_ok``,
     ``flags_ok`` (output = input), ``mem_mismatches`` (memory vs

@@ -1,6 +1,6 @@
 """Replay DDR command orders into LiteDRAM, an independent DDR3 controller model.
 
-The project's memory model (:class:`tdicam.model.ddr.MigSim`) is our own; this harness
+The project's memory model (:class:`tdicam.model.dram.MigSim`) is our own; this harness
 checks its efficiency figures against LiteDRAM (Kermarrec et al., ``litedram`` 2024.12 on
 PyPI, with ``litex`` and ``migen``; install the ``ddrref`` extra: ``pip install
 'tdicam[ddrref]'``): ``LiteDRAMController`` + ``LiteDRAMCrossbar`` + ``SDRAMPHYModel``
@@ -17,13 +17,13 @@ back to back (data always available, read data always taken), writes a word deri
 the address and the write's index, checks that every read returns the last word written
 to its address before it (0 when none), and reports the efficiency: words moved / cycles
 from the first command to the last data beat, or (``steady=True``, every figure the project
-quotes) words moved in a steady-state window of :data:`tdicam.model.ddr.WINDOW_REFRESHES`
-refresh intervals (:func:`tdicam.model.ddr.window_efficiency`: 4 x 782 cycles after a
+quotes) words moved in a steady-state window of :data:`tdicam.model.dram.WINDOW_REFRESHES`
+refresh intervals (:func:`tdicam.model.dram.window_efficiency`: 4 x 782 cycles after a
 100-cycle start-up), the replay stopped when the window closes. With two ports, a read waits until every
 write to its address that precedes it in :attr:`Trace.order` has moved its data (the
 dependency the user's logic enforces).
 
-Traces of the access patterns come from :func:`tdicam.model.ddr.pattern_trace`; a DDR
+Traces of the access patterns come from :func:`tdicam.model.ddr_traces.pattern_trace`; a DDR
 block's own order from :func:`record` / :func:`block_traces` (the block in Amaranth's
 simulator with its controller model, :class:`tdicam.hdl.simmodels.mig_model.MigModel`).
 :func:`replay_hdl` runs a trace on that HDL model and on the Python model side by side and
@@ -39,8 +39,8 @@ import time
 from dataclasses import dataclass, field
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import (PATTERNS, STARTUP, Trace, pattern_trace, window_cycles,
-                              window_efficiency, window_words)
+from tdicam.model.dram import STARTUP, window_cycles, window_efficiency, window_words
+from tdicam.model.ddr_traces import PATTERNS, Trace, pattern_trace
 
 __all__ = ["Trace", "ReplayResult", "replay", "record", "pattern_trace", "PATTERNS",
            "SIM_ROWS", "MEM_ROWS", "ROW_WORDS", "BANKS", "available", "block_traces",
@@ -50,7 +50,7 @@ __all__ = ["Trace", "ReplayResult", "replay", "record", "pattern_trace", "PATTER
 SIM_ROWS = 2048
 #: rows per bank the simulated memory stores at most
 MEM_ROWS = 32
-from tdicam.model.ddr import BANKS, ROW_WORDS  # noqa: E402  (the module's geometry)
+from tdicam.model.dram import BANKS, ROW_WORDS  # noqa: E402  (the module's geometry)
 CLOCK_HZ = 100e6
 
 
@@ -147,7 +147,7 @@ def replay(trace, *, read_time=32, write_time=16, max_cycles=None, steady=False)
 
     ``read_time``/``write_time``: the controller's read and write windows (cycles;
     LiteDRAM's defaults 32/16). ``steady``: measure over the steady-state window
-    (:func:`tdicam.model.ddr.window_efficiency`) and stop when it closes. Raises
+    (:func:`tdicam.model.dram.window_efficiency`) and stop when it closes. Raises
     :class:`TdicamError` when LiteDRAM is missing, a run does not finish in
     ``max_cycles`` or (``steady``) the trace ends before the window closes."""
     why = available()
@@ -302,15 +302,15 @@ def _simulate(top, gens):
 def replay_hdl(trace, dram=None, windows=None, **stalls):
     """Replay ``trace`` through the HDL controller model
     (:class:`tdicam.hdl.simmodels.mig_model.MigModel`, Amaranth's simulator) and the Python one
-    (:class:`tdicam.model.ddr.MigSim`) side by side, each driven by a
-    :class:`~tdicam.model.ddr.TraceDriver` as :func:`tdicam.model.ddr.replay_model` does.
+    (:class:`tdicam.model.dram.MigSim`) side by side, each driven by a
+    :class:`~tdicam.model.ddr_traces.TraceDriver` as :func:`tdicam.model.ddr_traces.replay_model` does.
     Raises :class:`TdicamError` at the first cycle where their ``app_rdy``,
     ``app_wdf_rdy`` or ``app_rd_data_valid`` differ; returns the efficiency of the run."""
     from amaranth.sim import Simulator
 
     from tdicam.hdl.simmodels.mig_model import MigModel
-    from tdicam.model.ddr import (DEFAULT_STALLS, DRAM_STALLS, MigSim, TraceDriver,
-                                  merged_commands, trace_dram)
+    from tdicam.model.dram import DEFAULT_STALLS, DRAM_STALLS, MigSim
+    from tdicam.model.ddr_traces import TraceDriver, merged_commands, trace_dram
     cmds = merged_commands(trace, dram, windows)
     dram = trace_dram(trace, dram)
     st = {**(DEFAULT_STALLS if dram is None else DRAM_STALLS), **stalls}
@@ -353,7 +353,7 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
 
     ``core`` runs in Amaranth's simulator behind :class:`tdicam.hdl.simmodels.mig_model.MigModel`
     (DRAM timing on; stall pattern ``stalls``, default
-    :data:`tdicam.model.ddr.DEFAULT_STALLS`), its input always valid (data always
+    :data:`tdicam.model.dram.DEFAULT_STALLS`), its input always valid (data always
     available) and its output always ready; ``side`` maps the names of level inputs
     presented with each beat (``frame_kind``, ``stages_active``, ...) to per-beat arrays.
     Every command the model accepts is recorded in order. Returns a one-port
@@ -364,7 +364,8 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
     from amaranth.sim import Simulator
 
     from tdicam.hdl.simmodels.mig_model import SimTop
-    from tdicam.model.ddr import ADDR_PER_WORD, DEFAULT_STALLS
+    from tdicam.model.ddr import ADDR_PER_WORD
+    from tdicam.model.dram import DEFAULT_STALLS
 
     top = SimTop(core, depth_words=1 << 20, **(stalls or DEFAULT_STALLS))
     mdl = top.model
@@ -422,7 +423,7 @@ def record(core, stim, *, side=None, stalls=None, name=None, max_cycles=None):
 
 def _units(words_per_unit):
     """Units (lines, rows) of ``words_per_unit`` commands a trace needs to cover the
-    start-up and the steady-state window (:func:`tdicam.model.ddr.window_words`)."""
+    start-up and the steady-state window (:func:`tdicam.model.dram.window_words`)."""
     return -(-window_words() // int(words_per_unit)) + 1
 
 
@@ -434,7 +435,7 @@ def _tdi_trace(name, *, width, stages, ppc, active, rng):
 
     from tdicam.cosim.codec import frames_to_beats
     from tdicam.hdl.tdi_ddr import TdiDdr
-    from tdicam.model.ddr import tdi_spill_efficiency
+    from tdicam.model.ddr_efficiency import tdi_spill_efficiency
     tdi = TdiDdr(width=width, stages=stages, pixel_bits=12, ppc=ppc)
     rows = _units(2 * tdi.words_per_line)
     fr = rng.integers(0, 1 << 12, (-(-rows // active) + 2, active, width))
@@ -448,10 +449,10 @@ def _tdi_trace(name, *, width, stages, ppc, active, rng):
 
 def block_traces(*, width=1280, seed=1, wide=4096):
     """Recorded command orders of the DDR blocks (``name -> Trace``, ``planned`` set to what
-    the planner counts on: :func:`tdicam.model.ddr.tdi_spill_efficiency` for the TDI spill,
+    the planner counts on: :func:`tdicam.model.ddr_efficiency.tdi_spill_efficiency` for the TDI spill,
     :data:`tdicam.model.physics.memory.DDR_EFFICIENCY` for the others), each long enough to
     cover the start-up and the steady-state window of
-    :data:`tdicam.model.ddr.WINDOW_REFRESHES` refresh intervals, on frames of ``width``
+    :data:`tdicam.model.dram.WINDOW_REFRESHES` refresh intervals, on frames of ``width``
     10-bit pixels: ``ddr`` (frame buffer, 8 pixels per beat, one frame written and read
     back), ``cds_ddr`` (a reset frame then a signal frame; ``cds_ddr_wide``: the same,
     ``wide`` pixels), ``tdi_ddr`` (``width`` columns, 16 stages, 12-bit pixels;

@@ -20,7 +20,7 @@ states ``v_c``, ``r_c``:
 """
 
 from tdicam.errors import check_range
-from tdicam.model.ddr import xorshift32
+from tdicam.model.dram import xorshift32
 
 __all__ = ["Pauses", "PatternPauses", "thresholds", "xorshift32", "XOR_R", "ZERO_SEED_STATE", "start_state",
            "check_seed", "SEED_MAX"]

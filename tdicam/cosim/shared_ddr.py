@@ -6,8 +6,8 @@ DDR part. :func:`record_shared` runs DDR users (:class:`~tdicam.hdl.nuc_ddr.NucD
 port of one :class:`~tdicam.hdl.ddr_arbiter.DdrArbiter` onto one
 :class:`~tdicam.hdl.simmodels.mig_model.MigModel` (DRAM timing on), every input always valid
 (data always available) and every output always ready, and records each command the model
-accepts: a one-port :class:`~tdicam.model.ddr.Trace` (word addresses), the arbiter's real
-access order, which :func:`tdicam.model.ddr.replay_model` and
+accepts: a one-port :class:`~tdicam.model.ddr_traces.Trace` (word addresses), the arbiter's real
+access order, which :func:`tdicam.model.ddr_traces.replay_model` and
 :func:`tdicam.cosim.litedram.replay` replay back to back. :func:`camera_trace` is the
 camera's: the NUC coefficient read beside the CDS reset frame's write and read.
 """
@@ -15,7 +15,9 @@ camera's: the NUC coefficient read beside the CDS reset frame's write and read.
 from amaranth.hdl import Elaboratable, Module
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import ADDR_PER_WORD, DEFAULT_STALLS, DramTiming, Trace, window_words
+from tdicam.model.ddr import ADDR_PER_WORD
+from tdicam.model.ddr_traces import Trace
+from tdicam.model.dram import DEFAULT_STALLS, DramTiming, window_words
 
 __all__ = ["SharedDdr", "record_shared", "camera_trace", "CAMERA_TRACE"]
 
@@ -54,7 +56,7 @@ def record_shared(users, stims, *, sides=None, burst=64, stalls=None, name="shar
 
     ``stims[k]``: user ``k``'s input :class:`~tdicam.beats.Beats`, presented back to back;
     ``sides[k]``: its level inputs per beat (``{"frame_kind": array}``). Returns a one-port
-    :class:`~tdicam.model.ddr.Trace`, ``note`` giving the cycles and each user's commands
+    :class:`~tdicam.model.ddr_traces.Trace`, ``note`` giving the cycles and each user's commands
     taken; raises :class:`TdicamError` on a controller-model error or when the inputs are
     not all taken in ``max_cycles``."""
     import numpy as np
@@ -128,7 +130,7 @@ def camera_trace(*, width=512, rows=16, ppc=8, seed=1):
     on frames of ``rows`` x ``width``, the CDS reset frame at address 0, the coefficients
     above it; the arbiter's burst a coefficient line. The commands from the end of the
     coefficient load on (the steady state), as many as cover the steady-state window
-    (:func:`tdicam.model.ddr.window_words`)."""
+    (:func:`tdicam.model.dram.window_words`)."""
     import numpy as np
 
     from tdicam.beats import frames_to_beats

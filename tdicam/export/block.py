@@ -30,7 +30,6 @@ byte-identical folder, with no absolute paths and no time stamps.
 from __future__ import annotations
 
 import hashlib
-import importlib
 import json
 import os
 import shutil
@@ -52,7 +51,8 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.cosim.pauses import thresholds
 from tdicam.hw.verilog import convert, header
 
-__all__ = ["Export", "Design", "export_block", "export_files", "design_files",
+__all__ = ["Export", "Design", "stream_export", "check_target", "content_size",
+           "export_files", "design_files",
            "write_design", "stream_design", "stream_ports_rows", "run_binary",
            "select_vectors", "golden_params", "golden_case_arrays", "block_rows",
            "MAX_BEATS", "VERILATOR_BINARY_ARGS"]
@@ -65,7 +65,7 @@ _MARK = ".tdicam-export.json"
 
 @dataclass
 class Export:
-    """What :func:`export_block` wrote."""
+    """What :func:`tdicam.export.harness.export_block` wrote."""
 
     path: Path
     block: str
@@ -286,7 +286,8 @@ class _Chunker:
                                  self.out_padded).encode()
 
 
-def _size(content):
+def content_size(content):
+    """Bytes of one file's ``content`` (text, bytes, or a :class:`Deferred` one)."""
     return content.size if isinstance(content, Deferred) else len(content)
 
 
@@ -437,10 +438,10 @@ def design_files(d):
 
 
 def write_design(d, out_dir, *, force=False):
-    """Write :class:`Design` ``d`` into ``out_dir`` (see :func:`export_block` for the
+    """Write :class:`Design` ``d`` into ``out_dir`` (see :func:`tdicam.export.harness.export_block` for the
     folder checks)."""
     out = Path(out_dir)
-    _check_target(out, d.name, d.params, force)
+    check_target(out, d.name, d.params, force)
     files = design_files(d)
     _write(out, files)
     return sorted(files)
@@ -463,42 +464,10 @@ def stream_ports_rows(top):
 """
 
 
-def export_block(block, params, out_dir, *, force=False, seed=1, idle=0.1, backpressure=0.1,
-                 max_beats=MAX_BEATS, say=None):
-    """Write the export folder of ``block`` at ``params`` (raw values, checked here; none:
-    :func:`golden_params`).
-
-    Stream blocks get the fast-mode testbench of :mod:`tdicam.cosim.tbgen`; a block with
-    its own harness (:attr:`tdicam.blocks.Block.export_harness`) gets that harness's self-checking form.
-
-    ``say(text)``, when given, is told the export's size (beats, files, bytes) before
-    anything is written.
-
-    Raises :class:`TdicamError` for an unknown block or parameter, parameters without
-    golden vectors, an output folder that cannot be written, or one that already holds a
-    different export (unless ``force``).
-    """
-    blk = blocks.get(block) if isinstance(block, str) else block
-    params = blk.resolve(params) if params else golden_params(blk)
-    out = Path(out_dir)
-    _check_target(out, blk.name, params, force)
-    if blk.export_harness is not None:
-        module, func = blk.export_harness.split(":")
-        make = getattr(importlib.import_module(module), func)
-    else:
-        make = _stream_export
-    extra = {"say": say} if make is _stream_export else {}
-    d, cases, n_in, n_out = make(blk, params, seed=seed, idle=idle, backpressure=backpressure,
-                                 max_beats=max_beats, **extra)
-    if say is not None:
-        size = sum(_size(t) for t in design_files(d).values())
-        say(f"export: {n_in:,} input beats, {n_out:,} expected beats, "
-            f"{len(d.vectors)} vector file(s), {size / 1e6:.1f} MB in all")
-    files = write_design(d, out, force=force)
-    return Export(out, blk.name, params, cases, n_in, n_out, files)
-
-
-def _stream_export(blk, params, *, seed, idle, backpressure, max_beats, say=None):
+def stream_export(blk, params, *, seed, idle, backpressure, max_beats, say=None):
+    """The export of stream block ``blk`` at ``params`` with the stream testbench: (Design,
+    case names, stimulus count, expected count); ``say`` as in
+    :func:`tdicam.export.harness.export_block`."""
     top = _stream_top(blk, params)
     try:
         stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
@@ -637,7 +606,9 @@ def run_binary(blk, params, stim, exp, folder, *, seed=1, idle=0.1, backpressure
     return build_s, run_s, passed, last
 
 
-def _check_target(out, block, params, force):
+def check_target(out, block, params, force):
+    """Refuse ``out`` (one line) unless the export of ``block`` at ``params`` can be written
+    there: a folder that can be made, empty or holding the same export, or ``force``."""
     if out.exists() and not out.is_dir():
         raise TdicamError(f"-o {str(out)!r}: exists and is not a folder")
     # before any work (an 8192 x 128 export takes minutes): a folder can be made where the

@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from tdicam.model.physics import plan
-from tdicam.model.ddr import (BLOCK_TEXT, PLAN_MARGIN, WINDOW_REFRESHES, closest_block,
-                              window_cycles)
+from tdicam.model.dram import WINDOW_REFRESHES, window_cycles
+from tdicam.model.ddr_efficiency import BLOCK_TEXT, PLAN_MARGIN, closest_block
 from tdicam.model.physics.memory import DDR_EFFICIENCY
 
 __all__ = ["report_text", "figures"]

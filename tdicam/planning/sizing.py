@@ -34,7 +34,8 @@ from tdicam.errors import TdicamError, check_range
 from tdicam.hw import record
 from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
-from tdicam.model.ddr import PATTERNS, tdi_spill_efficiency
+from tdicam.model.ddr_traces import PATTERNS
+from tdicam.model.ddr_efficiency import tdi_spill_efficiency
 from tdicam.planning.camera import camera_plan
 from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
@@ -545,7 +546,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
     ddr_bits, ddr_clock_hz, ddr_efficiency
         DDR user interface (defaults: Ning et al. 2019's 256 bit, 100 MHz; efficiency: the
         TDI spill's access pattern on the memory model with DRAM timing,
-        :func:`tdicam.model.ddr.tdi_spill_efficiency`, per design point).
+        :func:`tdicam.model.ddr_efficiency.tdi_spill_efficiency`, per design point).
     fpga_clock_mhz : float, optional
         TDI block clock for every ppc instead of :data:`REFERENCE_TDI_FMAX_MHZ`.
     notes : sequence of str, optional

@@ -710,7 +710,7 @@ def _camera(sec: _Section, sensor: Sensor) -> Camera:
 
 
 def _ddr(sec: _Section) -> Ddr:
-    from tdicam.model.ddr import DEFAULT_STALLS
+    from tdicam.model.dram import DEFAULT_STALLS
     keys = tuple(k for k in DEFAULT_STALLS if k != "seed")
     sec.check_keys(("interface", "base") + keys)
     base = sec.integer("base", 0, lo=0, hi=(1 << 28) - 8)

@@ -2,7 +2,7 @@
 
 :func:`tdicam.cosim.run_cocotb` names them by their dotted path (``tdicam.simtb.<name>``):
 ``stream_tb`` (every stream block, per-beat and fast mode), ``ddr_tb`` (the bare DDR user
-interface against :class:`~tdicam.model.ddr.MigSim`), ``lvds_tb`` (the LVDS link testbench).
+interface against :class:`~tdicam.model.dram.MigSim`), ``lvds_tb`` (the LVDS link testbench).
 A package of its own, outside :mod:`tdicam.cosim`, so that the simulator's Python imports
 only what a test module needs (fast mode: cocotb alone, no numpy or Amaranth).
 

@@ -2,7 +2,7 @@
 
 The DUT is :class:`tdicam.hdl.ddr.DdrFrameBuffer` with its MIG user-interface ports exposed
 (no HDL memory model); this module plays the controller with the Python model
-:class:`tdicam.model.ddr.MigSim` every cycle, drives the pixel stream, and runs one frame in
+:class:`tdicam.model.dram.MigSim` every cycle, drives the pixel stream, and runs one frame in
 two phases: writes alone (``hold_reads`` high) until every word of the frame is in the
 model's memory, then reads. It checks the memory word for word against
 :func:`tdicam.model.ddr.pack_lines` and the output beats against the input, and measures
@@ -19,7 +19,8 @@ from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly
 
 from tdicam.errors import TdicamError
-from tdicam.model.ddr import LineLayout, MigSim, pack_lines, words_to_ints
+from tdicam.model.ddr import LineLayout, pack_lines, words_to_ints
+from tdicam.model.dram import MigSim
 
 
 @cocotb.test()
