@@ -210,3 +210,43 @@ def test_pipeline_commands_take_a_bundled_scene(argv, monkeypatch, capsys):
     assert cli.main([*argv, "--example", "orbit_chain"]) == 2
     assert "stop here" in capsys.readouterr().err
     assert [str(p) for p in seen] == [str(example_path("orbit_chain"))]
+
+
+# -- tdicam sim picks the simulator and names what it leaves out (issue 48 item 4) ----------
+
+def test_sim_auto_gives_small_cases_to_icarus_and_large_ones_to_verilator():
+    from tdicam.cosim.cases import AUTO_ICARUS_VALUES, case_values, pick_simulators
+    plan = pick_simulators("tdi", "fast")
+    assert set(plan) == {"icarus", "verilator"}
+    assert all(case_values("tdi", c) <= AUTO_ICARUS_VALUES for c in plan["icarus"])
+    assert all(case_values("tdi", c) > AUTO_ICARUS_VALUES for c in plan["verilator"])
+    assert "texture_1280x96_p1" in plan["verilator"] and "random_64x4_p1" in plan["icarus"]
+    assert pick_simulators("cds", "beat") == {"icarus": [c.name for c in
+                                                         blocks.get("cds").cases()]}
+
+
+def test_sim_runs_each_case_on_its_simulator_and_names_the_skipped(monkeypatch, capsys):
+    """``tdicam sim tdi`` per beat: every case that runs per beat on the simulator auto
+    picks for it, and the fast-only cases it leaves out named with --fast (the simulators
+    stood in for: tests/test_cli and cocotb_tests run them)."""
+    from tdicam.commands import sim
+    from tdicam.cosim.cases import pick_simulators, skipped
+    calls = []
+
+    def fake(block, *, sim, cases, on_case, **kw):
+        calls.append((sim, cases))
+        rows = [{"case": c, "pixels": 1, "mismatches": 0, "cycles": 1, "wall_s": 1.0,
+                 "timeout": False} for c in cases or ["all"]]
+        for r in rows:
+            on_case(r)
+        return rows
+    monkeypatch.setattr(sim, "cosimulate", fake)
+    assert cli.main(["sim", "tdi"]) == 0
+    out = capsys.readouterr().out
+    assert calls == list(pick_simulators("tdi", "beat").items())
+    left = skipped("tdi", "beat")
+    assert len(left) == 4
+    assert f"not run per beat: 4 fast-only case(s) ({', '.join(left)})" in out
+    assert "run them with --fast" in out and "tdi (auto: " in out
+    assert cli.main(["sim", "tdi", "--sim", "icarus", "--fast"]) == 0
+    assert calls[-1] == ("icarus", None) and "not run per beat" not in capsys.readouterr().out

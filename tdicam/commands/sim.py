@@ -1,5 +1,8 @@
-"""``tdicam sim BLOCK --sim icarus|verilator [--fast]``: the block's golden cases
-co-simulated (:func:`tdicam.cosimulate`), one printed row per case."""
+"""``tdicam sim BLOCK [--sim auto|icarus|verilator] [--fast]``: the block's golden cases
+co-simulated (:func:`tdicam.cosimulate`), one printed row per case; ``auto`` (the default)
+runs each case on the simulator that suits its size (:func:`tdicam.cosim.cases.
+pick_simulators`), and the cases a per-beat run leaves out are named with how to run
+them."""
 
 import time
 
@@ -7,6 +10,7 @@ from tdicam import blocks, cosim
 from tdicam.api import cosimulate
 from tdicam.errors import check_range
 from tdicam.files import check_dir
+from tdicam.cosim.cases import AUTO_ICARUS_VALUES, pick_simulators, skipped
 from tdicam.cosim.pauses import SEED_MAX, check_seed
 
 
@@ -15,8 +19,11 @@ def register(sub):
                        description="Run the block's cocotb co-simulation on every golden case "
                                    "and compare bit for bit.")
     p.add_argument("block", help=f"one of: {', '.join(blocks.names())}")
-    p.add_argument("--sim", default="verilator", choices=cosim.SIMULATORS,
-                   help="the simulator that runs the Verilog (verilator)")
+    p.add_argument("--sim", default="auto", choices=(*cosim.SIMULATORS, "auto"),
+                   help="the simulator that runs the Verilog; auto (the default): Icarus for "
+                        f"a case of at most {AUTO_ICARUS_VALUES} input values (no build to "
+                        "wait for), Verilator for larger ones (a build of about a minute, then "
+                        "much faster)")
     p.add_argument("--fast", action="store_true",
                    help="HDL-side stimulus, clock and random stalls (default: per-beat cocotb)")
     p.add_argument("--idle", type=float, default=0.2, help="idle-cycle probability (0.2)")
@@ -50,14 +57,35 @@ def _run(args):
                                                      f"  {r['message']}"))
 
     t0 = time.perf_counter()
-    rows = cosimulate(args.block, sim=args.sim, mode=mode, idle=args.idle,
-                      backpressure=args.backpressure, seed=args.seed, cases=args.case,
-                      wave_dir=args.wave_dir, on_case=report)
+    if args.sim == "auto":
+        blocks.get(args.block)          # an unknown block: its one line, before the plan
+        plan = pick_simulators(args.block, mode, args.case) if _streams(args.block) else \
+            {"icarus": None}
+    else:
+        plan = {args.sim: args.case}
+    rows, used = [], []
+    for sim, cases in plan.items():
+        got = cosimulate(args.block, sim=sim, mode=mode, idle=args.idle,
+                         backpressure=args.backpressure, seed=args.seed, cases=cases,
+                         wave_dir=args.wave_dir, on_case=report)
+        rows += got
+        used.append(f"{len(got)} on {sim}")
     pixels = sum(r["pixels"] for r in rows)
     bad = sum(r["mismatches"] for r in rows)
     wall = sum(r["wall_s"] for r in rows)
-    print(f"{args.block} on {args.sim} ({mode}): {len(rows)} cases, {pixels} pixels checked, "
+    where = (f"on {args.sim}" if args.sim != "auto" else
+             f"(auto: {', '.join(used)}; --sim to choose)")
+    print(f"{args.block} {where} ({mode}): {len(rows)} cases, {pixels} pixels checked, "
           f"{bad} mismatches, {sum(r['cycles'] for r in rows)} cycles, "
           f"{wall:.2f} s simulated wall, {pixels / wall if wall else 0:.0f} pixels/s "
           f"({time.perf_counter() - t0:.1f} s total)")
+    left = skipped(args.block, mode, args.case) if _streams(args.block) else []
+    if left:
+        print(f"not run per beat: {len(left)} fast-only case(s) ({', '.join(left)}): per beat "
+              f"they take minutes; run them with --fast")
     return 1 if bad or any(r["timeout"] for r in rows) else 0
+
+
+def _streams(block):
+    """Whether the block co-simulates as a stream (its golden cases run here)."""
+    return blocks.get(block).to_beats is not None
