@@ -118,7 +118,9 @@ class StepContext:
     after a source block may hold the stream at once (the DDR model's worst stall,
     :func:`tdicam.model.ddr.worst_stall`, of a DDR block in the chain; 0 without one);
     ``reset_frames``: the chain after a source block takes reset frames in the stream,
-    each before its signal frame."""
+    each before its signal frame; ``ddr_base``: the first DDR address unit above the regions
+    of the DDR blocks planned before (``[ddr].base`` before any; see
+    :attr:`tdicam.blocks.Use.ddr_end`), where a DDR block sharing the interface puts its own."""
 
     scene: object
     m: int
@@ -131,6 +133,7 @@ class StepContext:
     lanes: int = 1
     stall_cycles: int = 0
     reset_frames: bool = False
+    ddr_base: int = 0
 
 
 @dataclass

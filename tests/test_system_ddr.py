@@ -1,0 +1,122 @@
+"""``[pipeline.nuc] memory = "ddr"``: the chain's NUC keeps its coefficients in DDR (block
+nuc_ddr, loaded at power-up from NAND or the calibration ROM), and the top puts every DDR
+user of a gain channel behind one DdrArbiter on one MIG interface (``ddr_app_*``). The
+co-simulation against the golden chain is ``cocotb_tests/test_system_ddr.py``."""
+
+from pathlib import Path
+
+import pytest
+
+from tdicam.chain import design
+from tdicam.errors import TdicamError
+from tdicam.model.nuc_ddr import coeff_layout
+from tdicam.scene.loader import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+CHAIN = ROOT / "scenes" / "ning2019_chain.toml"
+SCENE = ROOT / "scenes" / "ning2019_gmax0504_system_ddr.toml"
+BOTH = {"cds": {"memory": "ddr"}, "nuc": {"flash": "nand", "memory": "ddr"}}
+
+
+def _scene(pipeline=BOTH, ddr=True, **over):
+    o = {"sensor": {"columns": 24}, "tdi": {"stages": 4}, "run": {"lines": 3},
+         "pipeline": pipeline, **over}
+    if ddr:
+        o["ddr"] = {"base": 4096}
+    return load_scene(CHAIN, overrides=o)
+
+
+def _members(ax):
+    return {n: m.flow.name for n, m in ax.signature.members.items()}
+
+
+def test_nuc_memory_ddr_plans_nuc_ddr_above_the_reset_frame():
+    p = design.chain_plan(_scene())
+    steps = {s.block: s for s in p.steps}
+    assert [s.block for s in p.steps][:2] == ["cds_ddr", "nuc_ddr"]
+    cds, nuc = steps["cds_ddr"], steps["nuc_ddr"]
+    assert cds.params["base"] == 4096
+    # the coefficient image starts where the reset frame ends (one word a 24-pixel line)
+    assert nuc.params["base"] == design.uses()["cds_ddr"].ddr_end(cds) == 4096 + 3 * 8 + 8
+    assert nuc.params["width"] == 24 and nuc.params["rows"] == 4
+    assert nuc.device and nuc.device["blocks"] == 4096       # the NAND part, as nuc's
+    end = coeff_layout(24, base=nuc.params["base"]).end_addr(4)
+    assert design.uses()["nuc_ddr"].ddr_end(nuc) == end
+    # without it, the chain is nuc as before
+    plain = design.chain_plan(_scene({"cds": {"memory": "ddr"}, "nuc": {"flash": "nand"}}))
+    assert [s.block for s in plain.steps][:2] == ["cds_ddr", "nuc"]
+
+
+def test_one_mig_interface_a_channel_behind_an_arbiter():
+    """Synthesis form: a channel's two DDR users (cds_ddr, nuc_ddr) share one MIG user
+    interface at the top's ports (ddr_app_*, ddr_app_*_1) through a DdrArbiter each; the
+    board puts one MIG model on each and shows its counters (ddr_writes ...)."""
+    p = design.chain_plan(_scene())
+    ax = design.top(p)
+    top = _members(ax)
+    for lane in ("", "_1"):
+        for port, flow in (("app_addr", "Out"), ("app_en", "Out"), ("app_rdy", "In"),
+                           ("app_rd_data", "In"), ("app_wdf_data", "Out")):
+            assert top[f"ddr_{port}{lane}"] == flow
+        assert top[f"nuc_ddr_calib_loaded{lane}"] == "Out"
+        assert top[f"nuc_ddr_nand_cle{lane}"] == "Out"
+    assert not any(n.startswith(("cds_ddr_app_", "nuc_ddr_app_")) for n in top)
+    assert "nuc_ddr_frame_kind" not in top            # driven by the load, not a port
+    from amaranth.hdl import Fragment
+    frag = Fragment.get(ax, None)
+    names = set()
+
+    def walk(f, path=""):
+        for sub, name, *_ in f.subfragments:
+            names.add(f"{path}{name}")
+            walk(sub, f"{path}{name}.")
+    walk(frag)
+    assert {"core.ddr_0_arbiter", "core.ddr_1_arbiter"} <= names
+    board = design.top(p, board=True)
+    bm = _members(board)
+    assert not any("app_" in n or "nand_" in n for n in bm)
+    for name in ("ddr_writes", "ddr_reads_1", "ddr_error", "nuc_ddr_calib_loaded_1"):
+        assert bm[name] == "Out"
+    devs = board.core.core.devices()
+    assert sorted((st.name, k) for st, k, _ in devs) == [
+        ("ddr", 0), ("ddr", 1), ("nuc_ddr", 0), ("nuc_ddr", 1)]
+
+
+def test_nuc_ddr_alone_on_its_ddr_keeps_its_own_interface():
+    """With the reset frame on chip nuc_ddr is the channel's only DDR user: its own
+    nuc_ddr_app_* pins, no arbiter; the ROM load when there is no NAND part."""
+    p = design.chain_plan(_scene({"nuc": {"memory": "ddr"}}))
+    assert [s.block for s in p.steps][:2] == ["cds", "nuc_ddr"]
+    assert p.steps[1].params["base"] == 4096 and not p.steps[1].device
+    from amaranth.hdl import Fragment
+    ax = design.top(p)
+    Fragment.get(ax, None)                       # the ROM load elaborates
+    top = _members(ax)
+    assert top["nuc_ddr_app_en"] == "Out" and top["nuc_ddr_app_rdy_1"] == "In"
+    assert top["nuc_ddr_calib_loaded"] == "Out"
+    assert not any(n.startswith("ddr_") for n in top)
+
+
+def test_nuc_memory_ddr_refusals():
+    with pytest.raises(TdicamError, match=r"\[pipeline.nuc\].memory = 'ddr'.*no \[ddr\] "
+                                          r"section"):
+        _scene({"nuc": {"memory": "ddr"}}, ddr=False)
+    with pytest.raises(TdicamError, match=r"gain_frac_bits.*<= 14 with memory"):
+        _scene({"nuc": {"memory": "ddr", "gain_frac_bits": 15}})
+    with pytest.raises(TdicamError, match=r"memory.*chip.*ddr"):
+        _scene({"nuc": {"memory": "sram"}})
+    sc = _scene(run={"lines": 3, "rtl": {"pixels_per_clock": 2}})
+    with pytest.raises(TdicamError, match=r"flash = 'nand' takes one pixel per clock.*"
+                                          r"the chain 2") as e:
+        design.chain_plan(sc)
+    assert "\n" not in str(e.value)
+
+
+def test_the_bundled_scene_is_the_system_scene_with_nuc_in_ddr():
+    sc = load_scene(SCENE)
+    assert sc.pipeline.nuc.memory == "ddr" and sc.pipeline.cds.memory == "ddr"
+    p = design.chain_plan(sc)
+    assert [s.block for s in p.steps] == ["cds_ddr", "nuc_ddr", "hdr", "tdi", "median3"]
+    base = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml")
+    assert sc.pipeline.nuc.memory == "ddr" and base.pipeline.nuc.memory == "chip"
+    assert sc.sensor == base.sensor and sc.tdi == base.tdi
