@@ -256,6 +256,11 @@ class Pipeline(wiring.Component):
         out = {k: [i for i in users if k < len(self._cores[i])] for k in range(lanes)}
         return {k: v for k, v in out.items() if len(v) > 1}
 
+    @property
+    def shared_ddr(self):
+        """{lane: [stage name, ...]} of the lanes whose DDR interface stages share."""
+        return {k: [self._stages[i].name for i in v] for k, v in self._shared.items()}
+
     def _shares(self, st, pname, k):
         """Whether stage ``st``'s pin ``pname`` of lane ``k`` goes to the lane's shared DDR."""
         return pname in MIG_PORT_NAMES and any(self._stages[i] is st

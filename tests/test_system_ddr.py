@@ -120,3 +120,16 @@ def test_the_bundled_scene_is_the_system_scene_with_nuc_in_ddr():
     base = load_scene(ROOT / "scenes" / "ning2019_gmax0504_system.toml")
     assert sc.pipeline.nuc.memory == "ddr" and base.pipeline.nuc.memory == "chip"
     assert sc.sensor == base.sensor and sc.tdi == base.tdi
+
+
+def test_the_top_has_one_ddr_interface_a_gain_channel():
+    """[camera].ddr_interfaces (the plan's budget) must be the top's count, one a gain
+    channel, when its DDR users share them: another count is refused in one line."""
+    sc = _scene(camera={"ddr_interfaces": 4, "frame_rate_hz": 25.0})
+    p = design.chain_plan(sc)
+    assert p.ddr_interfaces == 4
+    with pytest.raises(TdicamError, match=r"\[camera\].ddr_interfaces = 4: the generated top "
+                                          r"has one DDR interface a gain channel \(2\)"):
+        design.top(p)
+    assert design.chain_plan(_scene(camera={"ddr_interfaces": 2,
+                                            "frame_rate_hz": 25.0})).ddr_interfaces == 2

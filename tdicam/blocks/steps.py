@@ -48,7 +48,10 @@ class ChainPlan:
     ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it);
     ``reset_frames``: each lane's reset frames travel in the stream as frames of their own,
     each before its signal frame (the first block stores them,
-    :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel."""
+    :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel;
+    ``ddr_interfaces``: the scene's ``[camera].ddr_interfaces`` (None without ``[camera]``):
+    the top has one DDR interface a channel lane, and refuses another count when its DDR
+    users share them."""
 
     steps: tuple
     lanes: int
@@ -61,6 +64,7 @@ class ChainPlan:
     source: str = ""
     ppc: int = 1
     reset_frames: bool = False
+    ddr_interfaces: int | None = None
 
     @property
     def input_pixels(self):

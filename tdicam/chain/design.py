@@ -216,7 +216,9 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                      lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
                      stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                      source=str(scene.source), ppc=ppc,
-                     reset_frames=bool(first and first.reset_frames))
+                     reset_frames=bool(first and first.reset_frames),
+                     ddr_interfaces=None if getattr(scene, "camera", None) is None
+                     else scene.camera.ddr_interfaces)
 
 
 def rate_ppc(ppc, slower):
@@ -319,6 +321,12 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False):
                         bram="ecp5" if ecp5 else "generic")
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
+    shared = core.shared_ddr
+    if shared and p.ddr_interfaces not in (None, p.lanes):
+        raise TdicamError(f"pipeline: [camera].ddr_interfaces = {p.ddr_interfaces}: the "
+                          f"generated top has one DDR interface a gain channel ({p.lanes}), "
+                          f"its DDR users sharing it; give ddr_interfaces = {p.lanes} or "
+                          f"leave it out")
     if board and core.has_devices():
         core = Board(core)
     return AxisTop(core)
