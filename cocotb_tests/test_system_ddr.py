@@ -55,3 +55,4 @@ def test_coefficients_in_ddr_match_the_golden_chain_through_the_shared_ddr(sim):
         assert st[f"ddr_reads{sfx}"] == frames * 4 * 3 + frames * 4
         assert st[f"ddr_error{sfx}"] == 0
     assert not any(n.startswith(("cds_ddr_ddr_", "nuc_ddr_ddr_")) for n in st)
+

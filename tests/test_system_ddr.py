@@ -133,3 +133,22 @@ def test_the_top_has_one_ddr_interface_a_gain_channel():
         design.top(p)
     assert design.chain_plan(_scene(camera={"ddr_interfaces": 2,
                                             "frame_rate_hz": 25.0})).ddr_interfaces == 2
+
+
+def test_the_report_states_the_load_and_the_shared_ddr():
+    """tdicam run's rtl section (system_figures) from a co-simulation's status outputs."""
+    from tdicam.chain.cosim import system_figures
+    p = design.chain_plan(_scene())
+    st = {"nuc_ddr_calib_loaded": 1, "nuc_ddr_calib_loaded_1": 1, "startup_cycles": 1505,
+          "ddr_writes": 36, "ddr_reads": 96, "ddr_stalls": 64, "ddr_error": 0,
+          "ddr_writes_1": 36, "ddr_reads_1": 96, "ddr_stalls_1": 64, "ddr_error_1": 1}
+    for k in ("bad_blocks", "corrected_words", "uncorrectable_words", "calib_error"):
+        st.update({f"nuc_ddr_{k}": 0, f"nuc_ddr_{k}_1": 0})
+    lines = {r["name"]: r for r in system_figures(p, {"status_outputs": st, "cycles": 9000})}
+    assert lines["shared DDR traffic, channel 0"]["value"] == 132
+    assert "12 of them the coefficient frame" in lines["shared DDR traffic, channel 1"]["text"]
+    assert "MIG model ERROR" in lines["shared DDR traffic, channel 1"]["text"]
+    assert "ERROR" not in lines["shared DDR traffic, channel 0"]["text"]
+    assert lines["calibration load, channel 1"]["text"].startswith(
+        "NUC calibration channel 1: loaded")
+    assert lines["start-up cycles"]["value"] == 1505

@@ -392,25 +392,26 @@ def _system(step, ctx):
                      f"{ctx['lanes']} part(s), one a channel, in parallel"}]
 
 
-def _measured(step, status, info):
+def measured_load(step, status, info, stage="nuc"):
     """The co-simulation's calibration load: per channel the bad blocks the scan found, the
     corrected and uncorrectable words, the load's state; the cycles the top held the frames
     (``startup_cycles``: the scan and the read at the simulation's t_R of ``busy_cycles``
-    clocks) beside the model's cycles (``info``: ``rows`` and ``width`` of the image)."""
+    clocks) beside the model's cycles (``info``: ``rows`` and ``width`` of the image);
+    ``stage``: the stage whose status ports they are (``nuc_ddr``'s load, the same)."""
     if not step.device:
         return []
     out = []
     k = 0
-    while f"nuc_calib_loaded{'_%d' % k if k else ''}" in status:
+    while f"{stage}_calib_loaded{'_%d' % k if k else ''}" in status:
         sfx = f"_{k}" if k else ""
         out.append({"name": f"calibration load, channel {k}",
-                    "value": status[f"nuc_bad_blocks{sfx}"], "unit": "bad blocks",
+                    "value": status[f"{stage}_bad_blocks{sfx}"], "unit": "bad blocks",
                     "text": f"NUC calibration channel {k}: "
-                            f"{'loaded' if status[f'nuc_calib_loaded{sfx}'] else 'NOT loaded'}"
-                            f"{', store ERROR' if status[f'nuc_calib_error{sfx}'] else ''}; "
-                            f"{status[f'nuc_bad_blocks{sfx}']} bad blocks, "
-                            f"{status[f'nuc_corrected_words{sfx}']} corrected and "
-                            f"{status[f'nuc_uncorrectable_words{sfx}']} uncorrectable words"})
+                            f"{'loaded' if status[f'{stage}_calib_loaded{sfx}'] else 'NOT loaded'}"
+                            f"{', store ERROR' if status[f'{stage}_calib_error{sfx}'] else ''}; "
+                            f"{status[f'{stage}_bad_blocks{sfx}']} bad blocks, "
+                            f"{status[f'{stage}_corrected_words{sfx}']} corrected and "
+                            f"{status[f'{stage}_uncorrectable_words{sfx}']} uncorrectable words"})
         k += 1
     if "startup_cycles" in status:
         busy = step.device["busy_cycles"]
@@ -424,6 +425,10 @@ def _measured(step, status, info):
                             f"simulation's t_R of {busy} clocks; tdicam plan gives the time at "
                             f"the part's real t_R)"})
     return out
+
+
+def _measured(step, status, info):
+    return measured_load(step, status, info)
 
 
 #: The NAND bus pins at the top (the controller's side, :data:`tdicam.hdl.nand_store.BUS_PORTS`)

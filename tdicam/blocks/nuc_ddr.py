@@ -266,6 +266,33 @@ def _pipeline_hw(step, data, *, ecp5=False):
                      startup=t.scan_cycles + t.load_cycles + rows * cols + 10_000, **common)
 
 
+def _measured(step, status, info):
+    """The co-simulation's NAND load (``nuc``'s figures, of this stage's ports) and each
+    channel's shared DDR (its users behind one DdrArbiter: the board's ``ddr_*``
+    counters): words written and read, the coefficient frame's share, the stalls."""
+    from tdicam.blocks import nuc as _nuc
+    out = _nuc.measured_load(step, status, info, "nuc_ddr")
+    p = BLOCK.resolve(step.params)
+    words = coeff_layout(p["width"]).words_per_line * p["rows"]
+    k = 0
+    while f"ddr_writes{'_%d' % k if k else ''}" in status:
+        sfx = f"_{k}" if k else ""
+        w, r = status[f"ddr_writes{sfx}"], status[f"ddr_reads{sfx}"]
+        stalls = status.get(f"ddr_stalls{sfx}")
+        out.append({"name": f"shared DDR traffic, channel {k}", "value": w + r,
+                    "unit": "words", "stall_cycles": stalls,
+                    "text": f"DDR channel {k}, its users behind one arbiter: {w} words "
+                            f"written ({words} of them the coefficient frame), {r} read "
+                            f"({words} a pixel frame's coefficients) in {info['cycles']} "
+                            f"cycles = {(w + r) / max(info['cycles'], 1):.1%} of the "
+                            f"interface's cycles"
+                            + (f"; {stalls} cycles waited on the MIG model's stalls"
+                               if stalls is not None else "")
+                            + (", MIG model ERROR" if status[f"ddr_error{sfx}"] else "")})
+        k += 1
+    return out
+
+
 def _pipeline_identity(step, shape):
     """Gain 1, offset 0 for every pixel of every lane (``nuc``'s)."""
     from tdicam.blocks import nuc as _nuc
@@ -312,5 +339,6 @@ BLOCK = Block(
     small=((3, 24), {"width": 24, "rows": 3}),
     order=81,
     pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
-                 chain_golden=_pipeline_golden, ddr_end=_pipeline_end),
+                 chain_golden=_pipeline_golden, ddr_end=_pipeline_end,
+                 measured=_measured),
 )
