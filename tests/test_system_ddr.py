@@ -152,3 +152,21 @@ def test_the_report_states_the_load_and_the_shared_ddr():
     assert lines["calibration load, channel 1"]["text"].startswith(
         "NUC calibration channel 1: loaded")
     assert lines["start-up cycles"]["value"] == 1505
+
+
+def test_the_full_camera_plans_its_coefficients_in_ddr():
+    """scenes/ning2019_gmax0504_full.toml (all 5144 columns; an area camera: one-row
+    frames) with memory = "ddr": the top's two DDR interfaces carry both users, the
+    coefficient row above the reset row; at the 8 pixels a clock its plan asks the NAND
+    load is refused in one line (it gives one pixel's coefficients a beat)."""
+    full = ROOT / "scenes" / "ning2019_gmax0504_full.toml"
+    sc = load_scene(full, overrides={"pipeline": {"nuc": {"flash": "nand", "memory": "ddr"}}})
+    p = design.chain_plan(sc)
+    assert [s.block for s in p.steps][:2] == ["cds_ddr", "nuc_ddr"] and p.width == 5144
+    assert p.steps[1].device                       # the NAND part, as the scene's
+    cds, nuc = p.steps[:2]
+    assert nuc.params["base"] == design.uses()["cds_ddr"].ddr_end(cds) > 0
+    top = _members(design.top(p))
+    assert top["ddr_app_en_1"] == "Out" and "cds_ddr_app_en" not in top
+    with pytest.raises(TdicamError, match=r"takes one pixel per clock.*the chain 8"):
+        design.chain_plan(sc, ppc=8)
