@@ -9,7 +9,7 @@ them (fork, join, re-framing, register slices, width converters) are
 the top with its external parts' simulation models, :mod:`tdicam.hdl.chain_board`.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 from typing import Callable
 
@@ -297,7 +297,6 @@ class Pipeline(wiring.Component):
         """[(stage, lane, :class:`Device`)] of the stages' external parts (simulation; made
         once, for the :class:`Board` around this top)."""
         if not hasattr(self, "_devices"):
-            from tdicam.hdl.chain_board import Device
             out, shared = [], {k: [] for k in self._shared}
             for st, cs in zip(self._stages, self._cores):
                 for k in range(len(cs) if st.device is not None else 0):
@@ -310,9 +309,9 @@ class Pipeline(wiring.Component):
                             out.append((st, k, dev))
             for k, devs in shared.items():
                 deep = max(devs, key=lambda d: d.model.depth_words)
-                out.append((SHARED_DDR, k, Device(
-                    deep.model, {n: n for n in MIG_PORT_NAMES},
-                    {n.removeprefix("ddr_"): port for n, port in deep.status.items()})))
+                out.append((SHARED_DDR, k, replace(
+                    deep, pins={n: n for n in MIG_PORT_NAMES},
+                    status={n.removeprefix("ddr_"): port for n, port in deep.status.items()})))
             self._devices = out
         return self._devices
 
