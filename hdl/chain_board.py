@@ -66,8 +66,12 @@ class Board(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.submodules.top = top = self._top
+        names = set()
         for st, k, dev in self._devices:
-            m.submodules[f"{core_name(st, k, 2)}_device"] = dev.model
+            name = f"{core_name(st, k, 2)}_device"
+            name += f"{sum(n.startswith(name) for n in names)}" if name in names else ""
+            names.add(name)
+            m.submodules[name] = dev.model
             for pin, port in dev.pins.items():
                 a = getattr(top, Pipeline._status(st, pin, k))
                 b = getattr(dev.model, port)

@@ -6,12 +6,13 @@ gain channels), the re-framing of TDI's one-line frames into images for a 2-D bl
 register slice, and the width converter before a block at fewer pixels per clock.
 """
 
-from amaranth.hdl import Cat, Const, Signal, Value
+from amaranth.hdl import Cat, Const, Mux, Signal, Value
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import AdvanceBuffer, Narrower, StreamRegister, element_bits
 
-__all__ = ["Link", "fork", "eager_fork", "join", "frame_group", "register_slice", "narrow"]
+__all__ = ["Link", "fork", "eager_fork", "join", "frame_group", "register_slice", "narrow",
+           "prepend"]
 
 
 class Link:
@@ -194,3 +195,31 @@ def narrow(m, link, ppc_in, ppc_out, depth, name, bram="generic"):
     m.submodules[name] = nar = Narrower(link.bits, len(link.elems), n * ppc_out, depth, bram)
     link.feed(m, nar.i_stream, who=name)
     return register_slice(m, Link.of_output(nar.o_stream), f"{name}_slice", ppc_out)
+
+
+def prepend(m, load, link, rows, port, name, ppc=1):
+    """One frame of ``load`` (``rows`` lines: a block's power-up load, NUC's coefficient
+    frame) before every frame of ``link``: ``(stream, loaded)``. The stream's beats are
+    ``load``'s as they are until its ``rows``-th line end is taken, then ``link``'s with
+    each of the ``ppc`` pixels' elements followed by a 0 (where ``load`` has its second
+    element a pixel); the user value ``port`` is 1 on the load's beats, 0 after (the
+    block's ``frame_kind``). ``loaded`` (a register) is high from the cycle after the
+    load's last beat is taken; ``link`` is not taken before. No latency."""
+    loaded = Signal(name=f"{name}_loaded")
+    row = Signal(range(max(rows, 2)), name=f"{name}_row")
+    ready = Signal(name=f"{name}_ready")
+    m.d.comb += [load.ready.eq(ready & ~loaded), link.ready.eq(ready & loaded)]
+    with m.If(load.valid & ready & ~loaded & load.last):
+        with m.If(row == rows - 1):
+            m.d.sync += loaded.eq(1)
+        with m.Else():
+            m.d.sync += row.eq(row + 1)
+    n = len(link.elems) // ppc
+    px = [e for p in range(ppc) for e in link.elems[p * n:(p + 1) * n] + [Const(0, 1)]]
+    if len(px) != len(load.elems):
+        raise TdicamError(f"pipeline: {name}: the load gives {len(load.elems)} elements a "
+                          f"beat, the stream {len(px)}")
+    elems = [Mux(loaded, a, b) for a, b in zip(px, load.elems)]
+    return Link(Mux(loaded, link.valid, load.valid), ready,
+                Mux(loaded, link.first, load.first), Mux(loaded, link.last, load.last),
+                elems, max(link.bits, load.bits), {**link.user, port: ~loaded}), loaded

@@ -9,7 +9,8 @@ them (fork, join, re-framing, register slices, width converters) are
 the top with its external parts' simulation models, :mod:`tdicam.hdl.chain_board`.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 from typing import Callable
 
 from amaranth.hdl import Cat, Module, Signal
@@ -18,10 +19,11 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.chain_links import (Link, eager_fork, fork, frame_group, join, narrow,
-                                    register_slice)
+                                    prepend, register_slice)
+from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import Narrower, channels_shape, element_bits, pixel_signature
 
-__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name"]
+__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR"]
 
 
 @dataclass
@@ -67,6 +69,20 @@ class LaneStage:
     waits : bool
         The block's input ``ready`` waits for ``valid`` (a DDR block starts its reads on a
         presented frame start): the lanes are forked to it by :func:`eager_fork`.
+    load : str or None
+        ``side`` is not joined beat by beat but sent before the lane's frames as one frame
+        of ``load_rows`` lines (:func:`~tdicam.hdl.chain_links.prepend`: NUC's coefficient
+        frame, stored in DDR); the component's ``In`` port ``load`` is 1 on it, 0 on the
+        lane's frames, and the ``ready`` port (of ``io``) says the frame was taken.
+    load_rows : int
+        Lines of the ``load`` frame.
+
+    A stage whose ``pins`` are a MIG user interface (:data:`MIG_PORT_NAMES`) shares the
+    lane's DDR interface with every other such stage of the lane: the top puts them behind
+    one :class:`~tdicam.hdl.ddr_arbiter.DdrArbiter` whose controller side is the lane's
+    ``ddr_app_*`` ports (``ddr_app_*_<lane>``), and :meth:`Pipeline.devices` gives one MIG
+    model there (the deepest of the stages' own, named ``ddr``). A stage alone on its lane's
+    DDR keeps its own ``<stage>_app_*`` pins.
     """
 
     name: str
@@ -82,6 +98,8 @@ class LaneStage:
     device: Callable | None = None
     startup: int = 0
     waits: bool = False
+    load: str | None = None
+    load_rows: int = 0
     merge: bool = field(default=False, init=False)
     source: bool = field(default=False, init=False)
 
@@ -115,6 +133,11 @@ class SourceStage(LaneStage):
     carries: tuple = ()
     gate: str | None = None
     source: bool = field(default=True, init=False)
+
+
+#: The name (``.name``) that prefixes a lane's shared DDR interface at the top (``ddr_app_*``)
+#: and its MIG model's status in a :class:`~tdicam.hdl.chain_board.Board` (``ddr_writes``).
+SHARED_DDR = SimpleNamespace(name="ddr")
 
 
 class Pipeline(wiring.Component):
@@ -184,6 +207,7 @@ class Pipeline(wiring.Component):
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
         self._taps, self._ppc, self._width, self._bram = taps, ppc, width, bram
         self._cores = self._plan()
+        self._shared = self._shared_ddr()
         self._source = bool(self._stages) and self._stages[0].source
         carried = set(self._stages[0].carries) if self._source else set()
         if self._source and self._stages[0].gate is not None:
@@ -193,11 +217,12 @@ class Pipeline(wiring.Component):
         members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
-                if pname in ("i_stream", "o_stream") or pname in carried:
+                if pname in ("i_stream", "o_stream") or pname in carried or pname == st.load:
                     continue
                 if pname in st.pins:
                     for k in range(len(cores)):
-                        members[self._status(st, pname, k)] = member.flow(member.shape)
+                        if not self._shares(st, pname, k):
+                            members[self._status(st, pname, k)] = member.flow(member.shape)
                 elif member.flow == wiring.In:
                     if pname not in st.ports:
                         raise TdicamError(f"pipeline: block {st.name}'s input port {pname} "
@@ -211,6 +236,9 @@ class Pipeline(wiring.Component):
                     members[self._status(st, pname, k)] = member
             if st.group is not None and f"{st.name}_{st.group}" not in members:
                 members[f"{st.name}_{st.group}"] = In(16)
+        for k in self._shared:
+            members.update({self._status(SHARED_DDR, n, k): v
+                            for n, v in mig_user_ports().items()})
         if self._holds():
             members["startup_cycles"] = Out(32)
         if taps:
@@ -219,6 +247,24 @@ class Pipeline(wiring.Component):
                     members[f"tap{k}_{name}_{s}"] = Out(1)
                 members[f"tap{k}_{name}_data"] = Out(bits * count)
         super().__init__(members)
+
+    def _shared_ddr(self):
+        """{lane: [stage index, ...]} of the lanes whose DDR interface two or more stages
+        share (the stages with a MIG user interface on their pins, in stream order)."""
+        users = [i for i, st in enumerate(self._stages) if set(MIG_PORT_NAMES) <= set(st.pins)]
+        lanes = max([len(self._cores[i]) for i in users] or [0])
+        out = {k: [i for i in users if k < len(self._cores[i])] for k in range(lanes)}
+        return {k: v for k, v in out.items() if len(v) > 1}
+
+    @property
+    def shared_ddr(self):
+        """{lane: [stage name, ...]} of the lanes whose DDR interface stages share."""
+        return {k: [self._stages[i].name for i in v] for k, v in self._shared.items()}
+
+    def _shares(self, st, pname, k):
+        """Whether stage ``st``'s pin ``pname`` of lane ``k`` goes to the lane's shared DDR."""
+        return pname in MIG_PORT_NAMES and any(self._stages[i] is st
+                                               for i in self._shared.get(k, ()))
 
     def _holds(self):
         """(stage, lanes) of the stages whose ``ready`` port holds the input."""
@@ -251,8 +297,22 @@ class Pipeline(wiring.Component):
         """[(stage, lane, :class:`Device`)] of the stages' external parts (simulation; made
         once, for the :class:`Board` around this top)."""
         if not hasattr(self, "_devices"):
-            self._devices = [(st, k, st.device(k)) for st, cs in zip(self._stages, self._cores)
-                             if st.device is not None for k in range(len(cs))]
+            out, shared = [], {k: [] for k in self._shared}
+            for st, cs in zip(self._stages, self._cores):
+                for k in range(len(cs) if st.device is not None else 0):
+                    devs = st.device(k)
+                    for dev in devs if isinstance(devs, (list, tuple)) else [devs]:
+                        if self._shares(st, next(iter(dev.pins)), k):
+                            dev.model._MustUse__silence = True    # one of them is used
+                            shared[k].append(dev)
+                        else:
+                            out.append((st, k, dev))
+            for k, devs in shared.items():
+                deep = max(devs, key=lambda d: d.model.depth_words)
+                out.append((SHARED_DDR, k, replace(
+                    deep, pins={n: n for n in MIG_PORT_NAMES},
+                    status={n.removeprefix("ddr_"): port for n, port in deep.status.items()})))
+            self._devices = out
         return self._devices
 
     @staticmethod
@@ -322,6 +382,14 @@ class Pipeline(wiring.Component):
         m = Module()
         ppc = self._ppc         # pixels a beat of the streams reaching the next stage
         tap = 0
+        self._arbiters = {}
+        for k, users in self._shared.items():
+            from tdicam.hdl.ddr_arbiter import DdrArbiter
+            m.submodules[core_name(SHARED_DDR, k, 2) + "_arbiter"] = arb = DdrArbiter(
+                n_ports=len(users))
+            connect_mig(m, arb, SimpleNamespace(**{
+                n: getattr(self, self._status(SHARED_DDR, n, k)) for n in MIG_PORT_NAMES}))
+            self._arbiters[k] = arb
         if self._source:
             # the source's output stands where the top's input would
             st, core = self._stages[0], self._cores[0][0]
@@ -391,13 +459,18 @@ class Pipeline(wiring.Component):
                     args = (m, k) if not st.io else (m, k, {
                         p: getattr(self, self._status(st, p, k)) for p in st.io})
                     side = st.side(*args)
-                    if sp > 1:
+                    if st.load is not None:
+                        link, loaded = prepend(m, side, link, st.load_rows, st.load,
+                                               f"{st.name}_load{k}", sp)
+                        m.d.comb += getattr(self, self._status(st, st.ready, k)).eq(loaded)
+                    elif sp > 1:
                         # the join's ready (the block's input ready and the pixels' valid)
                         # stops at the slice, not in the side stream's source (at ppc 8 the
                         # orbit chain's slowest path ran on into NUC's coefficient reader
                         # and calibration ROM, 7.58 ns)
                         side = register_slice(m, side, f"{st.name}_side{k}_slice", sp)
-                    link = join(m, link, side, f"{st.name}_side{k}", sp)
+                    if st.load is None:
+                        link = join(m, link, side, f"{st.name}_side{k}", sp)
                 link.feed(m, core.i_stream, who=st.name)
                 self._wire_ports(m, st, core, k, link.user)
                 out = Link.of_output(core.o_stream)
@@ -428,6 +501,16 @@ class Pipeline(wiring.Component):
                 continue
             if user and pname in user and member.flow == wiring.In:
                 m.d.comb += getattr(core, pname).eq(user[pname])
+                continue
+            if self._shares(st, pname, k):
+                # the lane's shared DDR: this stage's port of the lane's arbiter
+                users = self._shared[k]
+                j = next(n for n, i in enumerate(users) if self._stages[i] is st)
+                arb = getattr(self._arbiters[k], f"p{j}_{pname}")
+                if member.flow == wiring.In:
+                    m.d.comb += getattr(core, pname).eq(arb)
+                else:
+                    m.d.comb += arb.eq(getattr(core, pname))
                 continue
             if pname in st.pins and member.flow == wiring.In:
                 m.d.comb += getattr(core, pname).eq(getattr(self, self._status(st, pname, k)))

@@ -117,7 +117,12 @@ def blocks_markdown() -> str:
             facts.append(f"**Scene section**: `[pipeline.{b.name}]` "
                          f"([scene reference](../scene-format.md)).")
         elif b.pipeline is not None:
-            facts.append("**Pipeline**: can be named in a scene's `[pipeline].blocks`.")
+            from tdicam.scene.schema import BLOCKS
+            facts.append("**Pipeline**: can be named in a scene's `[pipeline].blocks`."
+                         if b.name in BLOCKS else
+                         "**Pipeline**: the chain builds it in another block's place (a "
+                         "`[pipeline.<block>]` memory setting, or the sensor's lanes); "
+                         "not named in `[pipeline].blocks`.")
         cases = [c.name for c in b.cases()]
         facts.append(f"**Golden cases** (`golden/{b.name}/`, {len(cases)}): "
                      + ", ".join(f"`{c}`" for c in cases) + ".")

@@ -301,9 +301,13 @@ class Use:
         fed by the top's own ports (the sensor's lanes) instead of pixels, its ``hw`` a
         :class:`~tdicam.hdl.chain_top.SourceStage` (the ``lvds`` front end with a
         ``[sensor.lvds]`` section). Its ``step`` sees ``ctx.lanes``, the chain's channels.
-    chain_golden : callable(step) -> callable(arrays, lane) -> ndarray, or None
+    chain_golden : callable(step, data) -> callable(arrays, lane) -> ndarray, or None
         Its golden stage in the chain when it is not the registry's golden model on scene
-        arrays (a source: what the front delivers of the sensor's frames).
+        arrays (a source: what the front delivers of the sensor's frames; ``nuc_ddr``: the
+        coefficient frame its load writes before the lane's frames).
+    ddr_end : callable(step) -> int, or None
+        A DDR block: the address unit above its region (the next DDR block of the chain
+        puts its region there, ``StepContext.ddr_base``).
     """
 
     step: Callable
@@ -331,6 +335,7 @@ class Use:
     measured: Callable | None = None
     source: Callable | None = None
     chain_golden: Callable | None = None
+    ddr_end: Callable | None = None
 
 
 @dataclass(frozen=True)

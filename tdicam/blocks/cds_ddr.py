@@ -308,7 +308,9 @@ BLOCK = Block(
     unstream=_unstream,
     example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_kinds, per_frame=True,
-                 reset_frames=True, system=_system, measured=_measured),
+                 reset_frames=True, system=_system, measured=_measured,
+                 ddr_end=lambda step: _layout(BLOCK.resolve(step.params)).end_addr(
+                     step.params["rows"])),
     small=((3, 24), {"width": 24, "rows": 3}),
     order=80,
     bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",

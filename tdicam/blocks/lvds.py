@@ -261,7 +261,7 @@ def _fifo_row(step, prm, lv, ctx):
             "text": why}
 
 
-def _front_golden(step):
+def _front_golden(step, data=None):
     """What the front delivers of the sensor's frames with every lane trained: the wire
     codes (the all-ones sync code sent as one less)."""
     w = step.params["word_bits"]

@@ -199,8 +199,9 @@ _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bi
 
 @dataclass(frozen=True)
 class NucOptions:
-    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, the 64/72 ECC path, and
-    where the coefficients are stored (``flash``: ``none`` or ``nand``, with its faults)."""
+    """``[pipeline.nuc]``: fractional bits of the fixed-point gain, the 64/72 ECC path,
+    where the coefficients are stored (``flash``: ``none`` or ``nand``, with its faults) and
+    where the gateware keeps them while it runs (``memory``: :data:`NUC_MEMORY`)."""
 
     gain_frac_bits: int = 12
     ecc: bool = True
@@ -209,7 +210,11 @@ class NucOptions:
     flip_single: float = 0.0
     flip_double: float = 0.0
     seed: int = 1
+    memory: str = "chip"
 
+
+#: ``[pipeline.nuc].memory``: where the gateware keeps the coefficients while it runs.
+NUC_MEMORY = ("chip", "ddr")
 
 #: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
 _NAND_KEYS = ("bad_blocks", "flip_single", "flip_double", "seed")
@@ -219,11 +224,15 @@ def _read_options(sec, sensor):
     frac = sec.integer("gain_frac_bits", 12, lo=4, hi=16)
     ecc = sec.boolean("ecc", True)
     flash = sec.choice("flash", "none", ("none", "nand"))
+    memory = sec.choice("memory", "chip", NUC_MEMORY)
+    if memory == "ddr" and frac > 14:
+        sec.fail("gain_frac_bits", f"must be <= 14 with memory = \"ddr\" (2 + {frac} bits "
+                                   "do not fit a 16-bit DDR slot)")
     if flash == "none":
         for k in _NAND_KEYS:
             if sec.has(k):
                 sec.fail(k, "is a NAND flash fault: set flash = \"nand\" to use it")
-        return NucOptions(gain_frac_bits=frac, ecc=ecc)
+        return NucOptions(gain_frac_bits=frac, ecc=ecc, memory=memory)
     if not ecc:
         sec.fail("ecc", "must be true with flash = \"nand\" (the flash words are 64/72 ECC)")
     if frac > 14:
@@ -237,7 +246,7 @@ def _read_options(sec, sensor):
     return NucOptions(gain_frac_bits=frac, ecc=ecc, flash=flash,
                       bad_blocks=sec.integer("bad_blocks", 0, lo=0, hi=4095),
                       flip_single=single, flip_double=double,
-                      seed=sec.integer("seed", 1, lo=0))
+                      seed=sec.integer("seed", 1, lo=0), memory=memory)
 
 
 OPTIONS = Options(
@@ -258,7 +267,14 @@ OPTIONS = Options(
                                           "bits (uncorrectable); flip_single + "
                                           "flip_double <= 1"),
      "seed": KeyDoc("", "nand: seed of the faults' random numbers (channel k of a "
-                        "dual-gain sensor uses seed + k)")},
+                        "dual-gain sensor uses seed + k)"),
+     "memory": KeyDoc("", "chip: the gateware keeps the coefficients on chip (a ROM, or "
+                          "with flash = nand the buffer the power-up load fills); ddr: the "
+                          "power-up load writes them to the DDR of [ddr] as one coefficient "
+                          "frame and every pixel frame reads them back line by line (block "
+                          "nuc_ddr, Ning et al. 2019 §4.2-§4.4.4: a full frame's "
+                          "coefficients do not fit on chip); gain_frac_bits <= 14 (a 16-bit "
+                          "slot)")},
     probe={"flash": "nand"})
 
 
@@ -362,25 +378,26 @@ def _system(step, ctx):
                      f"{ctx['lanes']} part(s), one a channel, in parallel"}]
 
 
-def _measured(step, status, info):
+def measured_load(step, status, info, stage="nuc"):
     """The co-simulation's calibration load: per channel the bad blocks the scan found, the
     corrected and uncorrectable words, the load's state; the cycles the top held the frames
     (``startup_cycles``: the scan and the read at the simulation's t_R of ``busy_cycles``
-    clocks) beside the model's cycles (``info``: ``rows`` and ``width`` of the image)."""
+    clocks) beside the model's cycles (``info``: ``rows`` and ``width`` of the image);
+    ``stage``: the stage whose status ports they are (``nuc_ddr``'s load, the same)."""
     if not step.device:
         return []
     out = []
     k = 0
-    while f"nuc_calib_loaded{'_%d' % k if k else ''}" in status:
+    while f"{stage}_calib_loaded{'_%d' % k if k else ''}" in status:
         sfx = f"_{k}" if k else ""
         out.append({"name": f"calibration load, channel {k}",
-                    "value": status[f"nuc_bad_blocks{sfx}"], "unit": "bad blocks",
+                    "value": status[f"{stage}_bad_blocks{sfx}"], "unit": "bad blocks",
                     "text": f"NUC calibration channel {k}: "
-                            f"{'loaded' if status[f'nuc_calib_loaded{sfx}'] else 'NOT loaded'}"
-                            f"{', store ERROR' if status[f'nuc_calib_error{sfx}'] else ''}; "
-                            f"{status[f'nuc_bad_blocks{sfx}']} bad blocks, "
-                            f"{status[f'nuc_corrected_words{sfx}']} corrected and "
-                            f"{status[f'nuc_uncorrectable_words{sfx}']} uncorrectable words"})
+                            f"{'loaded' if status[f'{stage}_calib_loaded{sfx}'] else 'NOT loaded'}"
+                            f"{', store ERROR' if status[f'{stage}_calib_error{sfx}'] else ''}; "
+                            f"{status[f'{stage}_bad_blocks{sfx}']} bad blocks, "
+                            f"{status[f'{stage}_corrected_words{sfx}']} corrected and "
+                            f"{status[f'{stage}_uncorrectable_words{sfx}']} uncorrectable words"})
         k += 1
     if "startup_cycles" in status:
         busy = step.device["busy_cycles"]
@@ -396,10 +413,16 @@ def _measured(step, status, info):
     return out
 
 
+def _measured(step, status, info):
+    return measured_load(step, status, info)
+
+
 #: The NAND bus pins at the top (the controller's side, :data:`tdicam.hdl.nand_store.BUS_PORTS`)
 #: and the calibration status outputs, per lane.
-def _nand_io(count_bits):
+def nand_io(count_bits=None):
     from amaranth.lib.wiring import In, Out
+    from tdicam.model import calib as _calib
+    count_bits = _calib.DEFAULT_COUNT_BITS if count_bits is None else count_bits
     from tdicam.hdl.nand_store import BUS_PORTS
     io = {name: (Out(w) if d == "out" else In(w)) for name, w, d in BUS_PORTS}
     io.update({"calib_loaded": Out(1), "bad_blocks": Out(16),
@@ -430,47 +453,63 @@ def _pipeline_hw(step, data, *, ecp5=False):
         return lane_stage(side=lambda s, dt: _pipeline_side(s, dt, ecp5),
                           out_slice=cut)(step, data, ecp5=ecp5)
     from tdicam.hdl.calib import CoeffBuffer
-    from tdicam.hdl.chain_board import Device
     from tdicam.hdl.chain_links import Link
-    from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore, NandPart
-    from tdicam.model import calib as _calib
-    d, fmt = step.device, _fmt(step.params)
+    d = step.device
     ppc = step.params.get("ppc", 1)
     rows, cols = np.shape(data.coeffs[0][0])
     geo = dict(page_bytes=d["page_bytes"], pages_per_block=d["pages_per_block"],
                blocks=d["blocks"])
 
     def side(m, lane, io):
-        st = NandCalibStore(rows=rows, cols=cols, **fmt.params(), **geo)
+        st, status, bus = nand_calib_store(m, f"nuc_nand{lane}", step, rows, cols, io)
         buf = CoeffBuffer(rows=rows, cols=cols, elem_bits=st.reader.elem_bits, ppc=ppc)
-        m.submodules[f"nuc_nand{lane}"] = st
         m.submodules[f"nuc_coeffs{lane}"] = buf
         m.d.comb += [st.start.eq(1), buf.i_stream.valid.eq(st.o_stream.valid),
                      st.o_stream.ready.eq(buf.i_stream.ready),
                      buf.i_stream.payload.eq(st.o_stream.payload),
-                     io["calib_loaded"].eq(buf.loaded), io["bad_blocks"].eq(st.bad_blocks),
-                     io["corrected_words"].eq(st.corrected_count),
-                     io["uncorrectable_words"].eq(st.uncorrectable_count),
-                     io["calib_error"].eq(st.error | st.header_error)]
-        for name, _, dr in BUS_PORTS:
-            if dr == "out":
-                m.d.comb += io[name].eq(getattr(st, name))
-            else:
-                m.d.comb += getattr(st, name).eq(io[name])
+                     io["calib_loaded"].eq(buf.loaded), *status]
+        m.d.comb += bus
         return Link.of_output(buf.o_stream)
-
-    def device(lane):
-        part, _ = nand_part(step, *data.coeffs[lane], lane)
-        model = NandPart(part, busy_cycles=d["busy_cycles"], **geo)
-        pins = {"nand_cle": "cle", "nand_ale": "ale", "nand_we_n": "we_n", "nand_re_n": "re_n",
-                "nand_dq_o": "dq_in", "nand_dq_i": "dq_out", "nand_rb_n": "rb_n"}
-        return Device(model, pins)
 
     t = nand_store.timing(rows, cols, nand_store.Geometry(**geo), busy_cycles=d["busy_cycles"])
     bound = t.scan_cycles + t.load_cycles + 10_000
     stage = lane_stage(side=lambda s, dt: side, out_slice=cut)(step, data, ecp5=ecp5)
-    return replace(stage, io=_nand_io(_calib.DEFAULT_COUNT_BITS), ready="calib_loaded",
-                   device=device, startup=bound)
+    return replace(stage, io=nand_io(), ready="calib_loaded",
+                   device=lambda lane: nand_device(step, data, lane), startup=bound)
+
+
+def nand_calib_store(m, name, step, rows, cols, io):
+    """A :class:`~tdicam.hdl.nand_store.NandCalibStore` (submodule ``name``) of the step's
+    part and format for a ``rows`` x ``cols`` image, and the statements that wire it to a
+    lane's load status ports and NAND bus ``io`` (:func:`nand_io`, all but
+    ``calib_loaded``): ``(store, status, bus)``; the caller starts it."""
+    from tdicam.hdl.nand_store import BUS_PORTS, NandCalibStore
+    d = step.device
+    st = NandCalibStore(rows=rows, cols=cols, **_fmt(step.params).params(),
+                        page_bytes=d["page_bytes"], pages_per_block=d["pages_per_block"],
+                        blocks=d["blocks"])
+    m.submodules[name] = st
+    status = [io["bad_blocks"].eq(st.bad_blocks),
+              io["corrected_words"].eq(st.corrected_count),
+              io["uncorrectable_words"].eq(st.uncorrectable_count),
+              io["calib_error"].eq(st.error | st.header_error)]
+    bus = [io[pin].eq(getattr(st, pin)) if dr == "out" else getattr(st, pin).eq(io[pin])
+           for pin, _, dr in BUS_PORTS]
+    return st, status, bus
+
+
+def nand_device(step, data, lane):
+    """The co-simulation's NAND part of lane ``lane`` (its image with the step's faults) on
+    the stage's NAND bus pins (``nand_*``, :func:`nand_io`)."""
+    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.nand_store import NandPart
+    d = step.device
+    part, _ = nand_part(step, *data.coeffs[lane], lane)
+    model = NandPart(part, busy_cycles=d["busy_cycles"], page_bytes=d["page_bytes"],
+                     pages_per_block=d["pages_per_block"], blocks=d["blocks"])
+    pins = {"nand_cle": "cle", "nand_ale": "ale", "nand_we_n": "we_n", "nand_re_n": "re_n",
+            "nand_dq_o": "dq_in", "nand_dq_i": "dq_out", "nand_rb_n": "rb_n"}
+    return Device(model, pins)
 
 
 def _pipeline_identity(step, shape):
@@ -622,6 +661,8 @@ BLOCK = Block(
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=_system,
                  measured=_measured,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
+                 placement=lambda scene: scene.pipeline.nuc.memory, spill="nuc_ddr",
+                 caller_places=False, memory="coefficients",
                  scratch_bytes=38.0,
                  sim=SIM),
     small=((4, 40), {}),

@@ -11,12 +11,15 @@ the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 
 import numpy as np
 
+from tdicam.blocks.steps import Step
+from tdicam.errors import TdicamError
+
 from tdicam.beats import PPC_CHOICES, frames_to_beats
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
 from tdicam.model.nuc import NucFormat
 from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, check_width
+from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, Use, check_width
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide
 from tdicam.hdl.nuc_ddr import NucDdr
@@ -167,6 +170,135 @@ def _cases():
     return out
 
 
+# --------------------------------------------------------------------------------------
+# in a scene's chain: [pipeline.nuc].memory = "ddr"
+# --------------------------------------------------------------------------------------
+
+
+def _pipeline_step(ctx):
+    """``[pipeline.nuc].memory = "ddr"``: ``nuc``'s coefficient format and NAND part
+    (its step's ``device``), the frame's size, the coefficient image at ``ctx.ddr_base``
+    (above the reset frame when cds keeps it in the same DDR) with the scene's ``[ddr]``
+    stall settings."""
+    from tdicam.blocks import nuc as _nuc
+    step, bits = _nuc._pipeline_step(ctx)
+    if step.device and ctx.ppc > 1:
+        raise TdicamError(f"[pipeline.nuc] memory = 'ddr' with flash = 'nand' takes one "
+                          f"pixel per clock (the NAND store gives one pixel's coefficients "
+                          f"a beat), the chain {ctx.ppc}: set [run.rtl].pixels_per_clock = 1 "
+                          f"or flash = 'none'")
+    params = {**step.params, "width": ctx.width, "rows": ctx.m, "base": ctx.ddr_base,
+              **dict(ctx.scene.ddr.stalls)}
+    return Step("nuc_ddr", params, device=step.device), bits
+
+
+def _pipeline_end(step):
+    p = BLOCK.resolve(step.params)
+    return coeff_layout(p["width"], line_stride=p["line_stride"],
+                        base=p["base"]).end_addr(p["rows"])
+
+
+def _pipeline_golden(step, data):
+    """Lane ``lane``'s frames corrected as the top does: its coefficients (as loaded from
+    the NAND part when there is one) written as one coefficient frame before the lane's
+    frames, through the block's golden model."""
+    from tdicam.blocks import nuc as _nuc
+    p = BLOCK.resolve(step.params)
+
+    def fn(arrays, lane):
+        x = np.asarray(arrays[0])
+        c = _nuc._pipeline_arrays(step, data, lane)
+        shape = (len(x) + 1,) + x.shape[1:]
+        xs = np.concatenate([np.zeros((1,) + x.shape[1:], x.dtype), x])
+        g = np.broadcast_to(c["gain"], shape)
+        o = np.broadcast_to(c["offset"], shape)
+        return nuc_ddr_frames(xs, g, o, [1] + [0] * len(x), **{k: p[k] for k in _MODEL_KEYS})
+    return fn
+
+
+def _pipeline_hw(step, data, *, ecp5=False):
+    """Every lane's :class:`~tdicam.hdl.nuc_ddr.NucDdr` with its MIG user interface as the
+    stage's pins and the coefficient load before its frames (the stage's ``load``): with a
+    NAND part (``flash = "nand"``) the lane's :class:`~tdicam.hdl.nand_store.NandCalibStore`
+    on the NAND bus at the top's ports (``nuc_ddr_nand_*``, as ``nuc``'s), else the
+    calibration ROM through :class:`~tdicam.hdl.calib.CalibReader`; the coefficient frame
+    goes to DDR once, then every pixel frame reads it. ``nuc_ddr_calib_loaded`` (each lane):
+    the frame was handed to the block (the top holds its input until then). For
+    co-simulation the stage's devices are the MIG model (and the NAND part)."""
+    from amaranth.lib.wiring import Out
+    from tdicam.blocks import nuc as _nuc
+    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.chain_top import LaneStage
+    from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
+    from tdicam.hdl.simmodels.mig_model import MigModel
+    from tdicam.model import nand_store
+    p = BLOCK.resolve(step.params)
+    rows, cols, ppc = p["rows"], p["width"], p["ppc"]
+
+    def mig(lane):
+        return Device(MigModel(depth_words=max(1, _pipeline_end(step) // ADDR_PER_WORD),
+                               count_stalls=True, **stalls_of(p)),
+                      {n: n for n in MIG_PORT_NAMES},
+                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
+                       "ddr_stalls": "stalls"})
+    loaded = {"calib_loaded": Out(1)}
+    common = dict(pins=MIG_PORT_NAMES, ready="calib_loaded", load="frame_kind",
+                  load_rows=rows, waits=True)
+    if not step.device:
+        side = _nuc._pipeline_side(step, data, ecp5)
+        return LaneStage(step.block, lambda lane: _core(p), side=lambda m, lane, io: side(m, lane),
+                         io=loaded, device=mig, startup=rows * cols // ppc + 10_000,
+                         **common)
+    from tdicam.hdl.chain_links import Link
+    geo = dict(page_bytes=step.device["page_bytes"],
+               pages_per_block=step.device["pages_per_block"], blocks=step.device["blocks"])
+
+    def side(m, lane, io):
+        st, status, bus = _nuc.nand_calib_store(m, f"nuc_ddr_nand{lane}", step, rows, cols,
+                                                io)
+        m.d.comb += [st.start.eq(1), *status, *bus]
+        return Link.of_output(st.o_stream)
+
+    t = nand_store.timing(rows, cols, nand_store.Geometry(**geo),
+                          busy_cycles=step.device["busy_cycles"])
+    return LaneStage(step.block, lambda lane: _core(p), side=side, io=_nuc.nand_io(),
+                     device=lambda lane: [_nuc.nand_device(step, data, lane), mig(lane)],
+                     startup=t.scan_cycles + t.load_cycles + rows * cols + 10_000, **common)
+
+
+def _measured(step, status, info):
+    """The co-simulation's NAND load (``nuc``'s figures, of this stage's ports) and each
+    channel's shared DDR (its users behind one DdrArbiter: the board's ``ddr_*``
+    counters): words written and read, the coefficient frame's share, the stalls."""
+    from tdicam.blocks import nuc as _nuc
+    out = _nuc.measured_load(step, status, info, "nuc_ddr")
+    p = BLOCK.resolve(step.params)
+    words = coeff_layout(p["width"]).words_per_line * p["rows"]
+    k = 0
+    while f"ddr_writes{'_%d' % k if k else ''}" in status:
+        sfx = f"_{k}" if k else ""
+        w, r = status[f"ddr_writes{sfx}"], status[f"ddr_reads{sfx}"]
+        stalls = status.get(f"ddr_stalls{sfx}")
+        out.append({"name": f"shared DDR traffic, channel {k}", "value": w + r,
+                    "unit": "words", "stall_cycles": stalls,
+                    "text": f"DDR channel {k}, its users behind one arbiter: {w} words "
+                            f"written ({words} of them the coefficient frame), {r} read "
+                            f"({words} a pixel frame's coefficients) in {info['cycles']} "
+                            f"cycles = {(w + r) / max(info['cycles'], 1):.1%} of the "
+                            f"interface's cycles"
+                            + (f"; {stalls} cycles waited on the MIG model's stalls"
+                               if stalls is not None else "")
+                            + (", MIG model ERROR" if status[f"ddr_error{sfx}"] else "")})
+        k += 1
+    return out
+
+
+def _pipeline_identity(step, shape):
+    """Gain 1, offset 0 for every pixel of every lane (``nuc``'s)."""
+    from tdicam.blocks import nuc as _nuc
+    return _nuc._pipeline_identity(step, shape)
+
+
 BLOCK = Block(
     name="nuc_ddr",
     summary="per-pixel NUC with the coefficients in DDR (Ning et al. 2019 §4.2-§4.4.4)",
@@ -208,4 +340,7 @@ BLOCK = Block(
     order=81,
     suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
                 per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
+    pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
+                 chain_golden=_pipeline_golden, ddr_end=_pipeline_end,
+                 measured=_measured),
 )

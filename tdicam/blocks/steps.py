@@ -48,7 +48,10 @@ class ChainPlan:
     ``ppc`` pixels per beat of every block's stream (``width`` a multiple of it);
     ``reset_frames``: each lane's reset frames travel in the stream as frames of their own,
     each before its signal frame (the first block stores them,
-    :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel."""
+    :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel;
+    ``ddr_interfaces``: the scene's ``[camera].ddr_interfaces`` (None without ``[camera]``):
+    the top has one DDR interface a channel lane, and refuses another count when its DDR
+    users share them."""
 
     steps: tuple
     lanes: int
@@ -61,6 +64,7 @@ class ChainPlan:
     source: str = ""
     ppc: int = 1
     reset_frames: bool = False
+    ddr_interfaces: int | None = None
 
     @property
     def input_pixels(self):
@@ -118,7 +122,9 @@ class StepContext:
     after a source block may hold the stream at once (the DDR model's worst stall,
     :func:`tdicam.model.dram.worst_stall`, of a DDR block in the chain; 0 without one);
     ``reset_frames``: the chain after a source block takes reset frames in the stream,
-    each before its signal frame."""
+    each before its signal frame; ``ddr_base``: the first DDR address unit above the regions
+    of the DDR blocks planned before (``[ddr].base`` before any; see
+    :attr:`tdicam.blocks.Use.ddr_end`), where a DDR block sharing the interface puts its own."""
 
     scene: object
     m: int
@@ -131,6 +137,7 @@ class StepContext:
     lanes: int = 1
     stall_cycles: int = 0
     reset_frames: bool = False
+    ddr_base: int = 0
 
 
 @dataclass

@@ -51,7 +51,7 @@ def _golden_stage(step, data):
     blk = blocks.get(step.block)
     use = blk.pipeline
     if use.chain_golden is not None:
-        return GoldenStage(step.block, use.chain_golden(step), merge=use.merge,
+        return GoldenStage(step.block, use.chain_golden(step, data), merge=use.merge,
                            group=step.group)
     params = blk.resolve(step.params)
     lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
@@ -146,7 +146,8 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
             raise TdicamError(f"pipeline: block {n!r} has no gateware stage to list: it is "
                               f"the chain's source, placed by the scene")
     merge = any(u.merge for u in uses)
-    ctx = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc)
+    ctx = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc,
+                      ddr_base=0 if scene.ddr is None else scene.ddr.base)
     steps, prev, spilled, slower = [], "input", False, 1
     for name, u in zip(names, uses):
         if u.per_frame and ctx.after_lines:
@@ -171,6 +172,8 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
+        if _use(step.block).ddr_end is not None:
+            ctx.ddr_base = max(ctx.ddr_base, _use(step.block).ddr_end(step))
         ctx.bits = out_bits
         ctx.after_lines = ctx.after_lines or u.lines
         slower *= m if u.lines else 1
@@ -213,7 +216,9 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                      lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
                      stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                      source=str(scene.source), ppc=ppc,
-                     reset_frames=bool(first and first.reset_frames))
+                     reset_frames=bool(first and first.reset_frames),
+                     ddr_interfaces=None if getattr(scene, "camera", None) is None
+                     else scene.camera.ddr_interfaces)
 
 
 def rate_ppc(ppc, slower):
@@ -316,6 +321,12 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False):
                         bram="ecp5" if ecp5 else "generic")
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
+    shared = core.shared_ddr
+    if shared and p.ddr_interfaces not in (None, p.lanes):
+        raise TdicamError(f"pipeline: [camera].ddr_interfaces = {p.ddr_interfaces}: the "
+                          f"generated top has one DDR interface a gain channel ({p.lanes}), "
+                          f"its DDR users sharing it; give ddr_interfaces = {p.lanes} or "
+                          f"leave it out")
     if board and core.has_devices():
         core = Board(core)
     return AxisTop(core)
