@@ -189,3 +189,23 @@ def test_no_negative_mtf_in_report(shutter, mdv):
     got = simulated(sc, 96, mdv / 96)
     for key in ("yuan2013_model", "footprint_model"):
         assert got[key] >= 0, key
+
+
+@pytest.mark.parametrize("name, rolling", [("tao2012_ibis5_rolling_1_5_10", True),
+                                           ("ning2019_gmax0504_hdr", False)])
+def test_mtf_mismatch_figure_says_what_its_curves_leave_out_and_marks_the_design(name,
+                                                                                rolling):
+    """plan --plot's mtf_mismatch.png said "global shutter" for a rolling-shutter scene and
+    did not mark the design point: the curves are without the skew; the star is the
+    design, with its skew."""
+    import tdicam
+    p = tdicam.plan(tdicam.Scene.example(name))
+    fig = dict(p.figures())["mtf_mismatch.png"]
+    ax = fig.axes[1]
+    title = ax.get_title()
+    assert ("rolling shutter's skew" in title) == rolling
+    assert ("global shutter" in title and "star" not in title) == (not rolling)
+    star = [ln for ln in ax.get_lines() if ln.get_label().startswith("design: M = ")]
+    assert len(star) == 1
+    design = p.to_dict()["design"]
+    assert star[0].get_ydata()[0] == pytest.approx(design["mtf_nyquist"][0]["system"])

@@ -208,3 +208,17 @@ def test_crop_panels_share_one_relative_scale_and_a_difference_image_is_written(
     assert "difference.png" in rep["files"] and "`difference.png`: " in md
     diff = shown[2][0]
     assert diff.shape == (24, 48) and abs(diff.mean()) < 0.05 and shown[2][1] == -shown[2][2]
+
+
+def test_the_scene_places_the_figures_crop():
+    """``[run].figure_crop``: crop.png and profile.png show the crop the scene places (an
+    image scene's sky need not be the centre), moved in to fit; centred without it."""
+    import tdicam
+    sc = tdicam.Scene.example("orbit_600km_1m_96").with_run(lines=96)
+    centred = dict(tdicam.simulate(sc, impact=False).figures())["crop.png"]
+    assert "crop at column 608, line 16" in centred._suptitle.get_text()
+    placed = sc.replace({"run.figure_crop": [1250, 10]})
+    fig = dict(tdicam.simulate(placed, impact=False).figures())["crop.png"]
+    assert "crop at column 1216, line 10" in fig._suptitle.get_text()      # moved in to fit
+    with pytest.raises(tdicam.TdicamError, match=r"\[run\].figure_crop: must lie inside"):
+        sc.replace({"run.figure_crop": [0, 96]})

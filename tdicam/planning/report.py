@@ -315,9 +315,18 @@ def figures(rep, scenes) -> list:
     ax2.plot(x, plan.mtf_velocity_mismatch(plan.NYQUIST, 128, x / 128), "k:",
              label="paper's mismatch factor alone")
     ax2.axvline(2.0, color="grey", lw=0.8)
+    design = [r for r in d.get("mtf_nyquist") or [] if r.get("f_cyc_per_px") == plan.NYQUIST]
+    for r in design:                    # the design point, with the scene's own skew
+        ax2.plot([r["m_dv_over_v"]], [r["system"]], "k*", ms=11,
+                 label=f"design: M = {d['stages']}, dV/V = {r['dv_over_v']:g} "
+                       f"(MTF {r['system']:.3f})")
     ax2.set_xlabel("M dV/V")
     ax2.set_ylabel("system MTF at Nyquist (modulus)")
-    ax2.set_title("global shutter; past the zeros the contrast is reversed", fontsize=9)
+    rolling = rep["sensor"].get("shutter") == "rolling"
+    skew = design[0]["skew_px"] if design and rolling else None
+    ax2.set_title("curves: without the rolling shutter's skew (as a global shutter)\n"
+                  f"star: the design, with its skew of {skew:.3g} px" if skew else
+                  "global shutter; past the zeros the contrast is reversed", fontsize=9)
     for ax in (ax1, ax2):
         ax.set_ylim(bottom=0.0)
         ax.grid(True, alpha=0.3)

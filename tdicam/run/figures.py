@@ -22,11 +22,14 @@ DPI = 110
 CROP = 64
 
 
-def crop_window(shape, size=CROP):
-    """``(y0, x0, h, w)`` of the centred ``size`` x ``size`` crop of an image (smaller
-    when the image is)."""
+def crop_window(shape, size=CROP, at=None):
+    """``(y0, x0, h, w)`` of the ``size`` x ``size`` crop of an image (smaller when the
+    image is): centred, or with its top-left at ``at = (column, line)`` (``[run].figure_crop``)
+    moved in as far as the crop must to fit."""
     h, w = min(size, shape[0]), min(size, shape[1])
-    return (shape[0] - h) // 2, (shape[1] - w) // 2, h, w
+    if at is None:
+        return (shape[0] - h) // 2, (shape[1] - w) // 2, h, w
+    return min(int(at[1]), shape[0] - h), min(int(at[0]), shape[1] - w), h, w
 
 
 def _crop_figures(scene, res, plt):
@@ -38,7 +41,7 @@ def _crop_figures(scene, res, plt):
     ``difference.png`` (a target that is not constant): the output on the target's scale
     (:func:`~tdicam.run.quality.to_target_scale`) minus the target."""
     from tdicam.run.quality import relative, to_target_scale
-    y0, x0, h, w = crop_window(res.output.shape)
+    y0, x0, h, w = crop_window(res.output.shape, at=scene.run.figure_crop)
     ys, xs = slice(y0, y0 + h), slice(x0, x0 + w)
     ext = (x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5)
     m = res.stages

@@ -238,6 +238,10 @@ KEYS = {
                                "added statistically; auto: fast where its stated error bound "
                                "is below tolerance, else exact"),
         "tolerance": KeyDoc(_FRAC, "largest relative RMS error auto accepts from fast"),
+        "figure_crop": KeyDoc("px", "top-left [column, line] of the 64 x 64 crop that "
+                                    "crop.png and profile.png show (moved in to fit)",
+                              type="[integer, integer]", default="centred",
+                              range="inside the output"),
     },
     "sensor.lvds": {
         "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel; must divide "

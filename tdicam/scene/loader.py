@@ -301,6 +301,8 @@ class Scene:
             del rtl["lane_dies"]
         if d["camera"] is None:             # no camera budget: the dict of before
             del d["camera"]
+        if d["run"]["figure_crop"] is None:     # a centred crop: the dict of before
+            del d["run"]["figure_crop"]
         if d.get("ddr") is not None:        # the model's stall pattern, as given
             stalls = d["ddr"].pop("stalls")
             d["ddr"].update({k: v for k, v in stalls})
@@ -736,8 +738,18 @@ def _ddr(sec: _Section) -> Ddr:
 
 
 def _run(sec: _Section, sensor: Sensor, labels) -> Run:
-    sec.check_keys(("lines", "seed", "fidelity", "tolerance", "rtl"))
+    sec.check_keys(("lines", "seed", "fidelity", "tolerance", "figure_crop", "rtl"))
     lines = sec.integer("lines", 256, lo=1)
+    at = sec.raw("figure_crop", None)
+    if at is not None:
+        if (not isinstance(at, list) or len(at) != 2
+                or not all(isinstance(c, int) and not isinstance(c, bool) for c in at)):
+            sec.fail("figure_crop", f"must be two integers [column, line], got {_show(at)}")
+        if not (0 <= at[0] < sensor.columns and 0 <= at[1] < lines):
+            sec.fail("figure_crop", f"must lie inside the {sensor.columns} x {lines} output "
+                                    f"([sensor].columns x {sec.label('lines')}), got "
+                                    f"{_show(at)}")
+        at = tuple(at)
     rtl = None
     if sec.has("rtl"):
         r = _Section(f"{sec.name}.rtl", sec.data["rtl"], labels)
@@ -782,7 +794,7 @@ def _run(sec: _Section, sensor: Sensor, labels) -> Run:
                fidelity=sec.choice("fidelity", "auto", FIDELITIES),
                tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,
                                     hi_open=True),
-               rtl=rtl)
+               rtl=rtl, figure_crop=at)
 
 
 def _check_stages(sec: _Section, scene: Scene, window: bool = True) -> None:

@@ -448,12 +448,15 @@ FIDELITIES = ("exact", "fast", "auto")
 
 @dataclass(frozen=True)
 class Run:
-    """``[run]``: how much to simulate and how exactly."""
+    """``[run]``: how much to simulate and how exactly; ``figure_crop`` the top-left
+    ``(column, line)`` of the crop ``tdicam run``'s crop and profile figures show (None:
+    centred)."""
 
     lines: int
     seed: int
     fidelity: str
     tolerance: float
     rtl: RtlRun | None
+    figure_crop: tuple | None = None
 
 
