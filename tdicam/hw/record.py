@@ -245,8 +245,9 @@ README_CHAINS = (
     ("ning2019_gmax0504_system_lanes.toml", 1, "none", "Ning et al. 2019 camera from the "
      "sensor's lanes: lvds -> cds_ddr -> nuc (NAND) -> hdr -> tdi -> median3, 256 columns"),
     ("ning2019_gmax0504_system_lanes.toml", 1, "ecp5", "the same camera behind the ECP5 "
-     "PHY (`--phy ecp5`: LVDS pins, DELAYF, IDDRX2F, ECLKSYNCB, CLKDIVF; lvds_clk_eclk the "
-     "150 MHz edge clock, its SCLK at 75 MHz)"),
+     "PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
+     "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
+     "ECLK / 2 through CLKDIVF, 75 MHz)"),
 )
 
 
