@@ -45,6 +45,14 @@ lanes' word clock at 25 MHz for 300 Mbit/s of 12-bit words), written as LPF
 ``FREQUENCY NET`` constraints. The timing harness registers each port in its own domain (the
 top's ``port_domains``: {port: domain}; ``sync`` otherwise), so no port path is cut by a
 crossing the design does not have.
+
+Device pins: a top's ``pin_ports`` ({port: I/O attributes}; the ECP5 PHY's LVDS lanes and edge
+clock, :data:`tdicam.hdl.lvds_phy.LvdsEcp5.PINS`) are not registered by the harness but buffered
+(an ``IB`` per bit with the attributes, e.g. ``IO_TYPE=LVDS``: nextpnr places DELAYF/IDDRX2F only
+behind a pin-constrained PIO) and placed (:data:`ECP5_CLOCK_SITE`, :data:`ECP5_DDR_SITES`); a
+clock pin (one named in ``clocks``) is constrained on its buffer's output net, and nextpnr derives
+the clocks behind it (``CLKDIVF``'s SCLK). A clock that reaches no fabric register (the ECP5
+PHY's ECLK, which clocks only the IDDRX2F) gets no Fmax in nextpnr's report.
 * ``xilinx``: ``synth_xilinx -family xc7`` cells grouped: LUT (LUT1..LUT6), FF, CARRY4,
   RAMB18 / RAMB36, DSP48, LUTRAM, SRL.
 * ``critical``: the slowest seed's critical path: [type, from cell.port, to cell.port,
