@@ -275,13 +275,23 @@ class Pipeline(wiring.Component):
     def port_domains(self):
         """{top port: clock domain} of the ports its components have outside the processing
         clock (their ``port_domains``; e.g. the sensor front end's word-clock ports)."""
+        return self._top_names("port_domains")
+
+    @property
+    def pin_ports(self):
+        """{top port: I/O attributes} of its components' ports that are device pins (their
+        ``pin_ports``; e.g. the ECP5 PHY's LVDS lanes)."""
+        return self._top_names("pin_ports")
+
+    def _top_names(self, what):
+        """The components' ``what`` ({port: value}) under the top's port names."""
         out = {}
         for st, cores in zip(self._stages, self._cores):
             for k, core in enumerate(cores):
-                for pname, dom in (getattr(core, "port_domains", None) or {}).items():
+                for pname, val in (getattr(core, what, None) or {}).items():
                     flow = core.signature.members[pname].flow
                     out[f"{st.name}_{pname}" if flow == wiring.In and pname not in st.pins
-                        else self._status(st, pname, k)] = dom
+                        else self._status(st, pname, k)] = val
         return out
 
     @property

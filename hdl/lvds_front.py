@@ -360,6 +360,13 @@ class LvdsFront(wiring.Component):
             **lane_ports(self._phy, n, self._w, bool(self._track)),
             **_status_ports(n, self._w, self._eye, self._track)}}
 
+    @property
+    def pin_ports(self):
+        """{port: I/O attributes} of the ports that are device pins (the ECP5 PHY's LVDS
+        lanes and edge clock; :func:`tdicam.hdl.lvds_phy.pin_ports`)."""
+        from tdicam.hdl.lvds_phy import pin_ports
+        return pin_ports(self._phy)
+
     def elaborate(self, platform):
         m = Module()
         L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g

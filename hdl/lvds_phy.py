@@ -20,7 +20,8 @@ from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx, eye_ports, forward_cor
     rx_ports
 from tdicam.hdl.util import quiet_reject
 
-__all__ = ["LvdsEcp5", "PHYS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps"]
+__all__ = ["LvdsEcp5", "PHYS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps", "pin_ports",
+           "pin_clocks"]
 
 #: DELAYF's delay step (ps) and the number of its counts (0..127).
 DELAYF_STEP_PS = 25.0
@@ -28,6 +29,10 @@ _DELAYF_COUNTS = 128
 #: DELAYF steps per training tap of the ECP5 PHY (default): 4 x 25 ps = 100 ps, 32 taps = 3.2
 #: ns, one bit at 300 Mb/s.
 ECP5_STEPS = 4
+
+
+#: The I/O standard of the ECP5 PHY's pins (each an LVDS pair: the port is its P pin).
+LVDS_INPUT = {"IO_TYPE": "LVDS"}
 
 
 class LvdsEcp5(wiring.Component):
@@ -81,6 +86,10 @@ class LvdsEcp5(wiring.Component):
         if eye:
             ports.update(eye_ports(lanes, word_bits))
         super().__init__(ports)
+
+    #: The device pins among the ports ({port: I/O attributes}): the lanes and the edge
+    #: clock's source, LVDS inputs.
+    PINS = {"lane_p": LVDS_INPUT, "clk_eclk": LVDS_INPUT}
 
     @property
     def core(self):
@@ -172,3 +181,17 @@ def tap_ps(phy):
     model's own tap)."""
     from tdicam.model.lvds import XILINX_TAP_PS
     return {"none": None, "xilinx7": XILINX_TAP_PS, "ecp5": ECP5_STEPS * DELAYF_STEP_PS}[phy]
+
+
+def pin_ports(phy):
+    """The device pins among the lane-side ports of ``phy`` ({port: I/O attributes}, e.g.
+    ``IO_TYPE``); empty for a PHY whose ports are not pins of one device."""
+    return dict(getattr(PHYS[phy], "PINS", None) or {})
+
+
+def pin_clocks(phy, word_mhz, word_bits):
+    """The clocks among ``phy``'s pins ({port: MHz}) at ``word_mhz`` words of ``word_bits``
+    bits a lane: the ECP5 PHY's edge clock ``clk_eclk`` at half the bit rate (DDR)."""
+    if phy == "ecp5":
+        return {"clk_eclk": word_mhz * word_bits / 2}
+    return {}

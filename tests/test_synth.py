@@ -189,6 +189,66 @@ def test_system_lanes_top_has_the_word_clock_constrained():
     doms = design.top(p).port_domains
     assert doms["lvds_lane_raw"] == doms["lvds_frames_out"] == doms["lvds_retrain"] == "word"
     assert "m_axis_tdata" not in doms and "nuc_calib_loaded" not in doms
+    assert design.top(p).pin_ports == {}        # the generic PHY: words in, no pins
+
+
+def test_system_lanes_ecp5_phy_pins_placed_and_clocked():
+    """With the ECP5 PHY the lanes and the edge clock are device pins: LVDS inputs, placed
+    on the left bank's x2-gearing sites, the edge clock constrained at half the bit rate
+    (300 Mbit/s DDR: 150 MHz) on its input buffer's output (nextpnr derives SCLK behind
+    CLKDIVF); the harness gives them input buffers, not registers."""
+    from pathlib import Path
+    from tdicam.chain import design
+    from tdicam.hw.synth import ECP5_CLOCK_SITE, ECP5_DDR_SITES, clock_constraints
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(Path(__file__).resolve().parents[1] / "scenes" /
+                    "ning2019_gmax0504_system_lanes.toml")
+    p = design.chain_plan(sc, phy="ecp5")
+    assert design.PipelineBlock(p, None).clocks() == {"word_clk": 25.0,
+                                                       "lvds_clk_eclk": 150.0}
+    pins = design.top(p).pin_ports
+    assert pins == {"lvds_lane_p": {"IO_TYPE": "LVDS"}, "lvds_clk_eclk": {"IO_TYPE": "LVDS"}}
+    lpf = clock_constraints({"word_clk": 25.0, "lvds_clk_eclk": 150.0},
+                            {"lvds_lane_p": 4, "lvds_clk_eclk": 1},
+                            {"lvds_clk_eclk": "lvds_clk_eclk$7"}).splitlines()
+    assert 'FREQUENCY NET "lvds_clk_eclk$7" 150 MHZ;' in lpf
+    assert 'FREQUENCY NET "word_clk" 25 MHZ;' in lpf
+    assert f'LOCATE COMP "lvds_clk_eclk" SITE "{ECP5_CLOCK_SITE}";' in lpf
+    assert [ln for ln in lpf if "lvds_lane_p[" in ln] == [
+        f'LOCATE COMP "lvds_lane_p[{b}]" SITE "{ECP5_DDR_SITES[b]}";' for b in range(4)]
+
+
+def test_harness_buffers_device_pins():
+    """A top's ``pin_ports`` go through an ``IB`` with their I/O attributes (nextpnr places
+    DELAYF/IDDRX2F only behind a pin), every other port through a register."""
+    from amaranth.hdl import Cat, Module
+    from amaranth.lib import wiring
+    from amaranth.lib.wiring import In, Out
+    from tdicam.hw.verilog import rtlil
+
+    class Pins(wiring.Component):
+        a: In(2)
+        b: In(1)
+        y: Out(3)
+        pin_ports = {"a": {"IO_TYPE": "LVDS"}}
+
+        def elaborate(self, platform):
+            m = Module()
+            m.d.sync += self.y.eq(Cat(self.a, self.b))
+            return m
+
+    text = rtlil(timing_harness(Pins()), "t")
+    assert text.count("cell \\IB ") == 2 and text.count('attribute \\IO_TYPE "LVDS"') == 2
+    assert "\\ib_a_0" in text and "\\ib_a_1" in text and "ib_b" not in text
+
+
+def test_pins_beyond_the_placed_sites_are_one_line():
+    from tdicam.errors import TdicamError
+    from tdicam.hw.synth import ECP5_DDR_SITES, clock_constraints
+    with pytest.raises(TdicamError, match="exceed the"):
+        clock_constraints({}, {"lane_p": len(ECP5_DDR_SITES) + 1})
+    with pytest.raises(TdicamError, match="no input buffer's net"):
+        clock_constraints({"clk_eclk": 150.0}, {"clk_eclk": 1})
 
 
 @needs_tools

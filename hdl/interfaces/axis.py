@@ -84,6 +84,12 @@ class AxisTop(wiring.Component):
         of the ports outside the processing clock."""
         return dict(getattr(self._core, "port_domains", None) or {})
 
+    @property
+    def pin_ports(self):
+        """The core's ``pin_ports``: {port: I/O attributes} of the ports that are device
+        pins."""
+        return dict(getattr(self._core, "pin_ports", None) or {})
+
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = self._core

