@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 import time
 
 import numpy as np
@@ -281,13 +282,33 @@ def test_bench_counts_k_of_n_and_keeps_what_finished_when_interrupted(monkeypatc
         raise KeyboardInterrupt
     monkeypatch.setitem(suite.RUNNERS, "scene", first)
     monkeypatch.setitem(suite.RUNNERS, "pipeline", interrupted)
+    monkeypatch.setattr(suite, "TIMES_FILE", tmp_path / "times.json")
     out = tmp_path / "b.json"
     assert main(["bench", "scene", "pipeline", "--png", "none", "--sims", "none",
                  "--json", str(out)]) == 130
     cap = capsys.readouterr()
     err = cap.err.splitlines()
-    assert err[0].startswith("bench: [1/2] scene (") and err[1].startswith("bench: [2/2] pipeline (")
-    assert "about" in err[1] and "s left)" in err[1]
+    assert err[0] == ("bench: 2 benchmark(s), no estimate yet (the first run of these here; "
+                      "the next one will say)")
+    assert err[1].startswith("bench: [1/2] scene (") and err[2].startswith("bench: [2/2] pipeline (")
+    assert "about" in err[2] and "s left)" in err[2]
     assert "interrupted after 1 of 2 benchmarks" in cap.err
     assert any(ln.startswith("scene ") and "stand-in" in ln for ln in cap.out.splitlines())
     assert [r["block"] for r in json.loads(out.read_text())["rows"]] == ["scene"]
+
+
+
+def test_bench_states_its_time_up_front_from_the_last_run_here(monkeypatch, capsys, tmp_path):
+    """The second run of the same benchmarks says how long they took here last time."""
+    def quick(**kw):
+        return [suite.na_row("scene", "golden", "-", "stand-in")]
+    monkeypatch.setitem(suite.RUNNERS, "scene", quick)
+    monkeypatch.setattr(suite, "TIMES_FILE", tmp_path / "times.json")
+    argv = ["bench", "scene", "--png", "none", "--sims", "none", "--quick"]
+    assert main(argv) == 0
+    assert "no estimate yet" in capsys.readouterr().err
+    assert main(argv) == 0
+    assert re.search(r"^bench: 1 benchmark\(s\), about \d+\.\d min \(their last run on this "
+                     r"machine\)$", capsys.readouterr().err, re.M)
+    assert suite.estimate(["scene", "pipeline"], quick=True, sims=(), repeat=1,
+                          build="cached") is None           # one of them never ran here

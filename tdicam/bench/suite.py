@@ -41,6 +41,9 @@ import math
 import os
 import platform
 import subprocess
+import time
+from pathlib import Path
+
 import numpy as np
 
 from tdicam import blocks, cosim
@@ -55,7 +58,7 @@ from tdicam.paths import SCENES
 __all__ = ["NAMES", "EXTRA", "StreamWork", "STREAM_WORKS", "work_inputs", "run",
            "describe_machine", "format_table", "plot", "tradeoff_points", "to_json",
            "stream_sources", "expand", "row", "RUNNERS", "HARNESS_RUNNERS", "LEGENDS",
-           "legend", "MAX_REPEAT"]
+           "legend", "MAX_REPEAT", "TIMES_FILE", "remember", "estimate"]
 
 #: Most runs per level ``--repeat`` takes: times are medians; more runs only take longer.
 MAX_REPEAT = 100
@@ -262,7 +265,7 @@ def _block_rows(name, works, **kw):
 
 
 def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
-        build="fresh", progress=None):
+        build="fresh", progress=None, timings=None):
     """Benchmark rows (dicts) for ``names`` (default: all of :data:`NAMES`).
 
     Parameters
@@ -279,6 +282,9 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
     progress : tdicam.progress.Progress or None
         Its ``stage(name)`` is called before each benchmark runs and ``update(1)`` after
         (``[k/n]`` and the time left on its stage lines).
+    timings : dict or None
+        Filled with ``{name: seconds}`` of each benchmark that finished
+        (:func:`estimate` reads them back for the next run).
 
     Raises
     ------
@@ -295,6 +301,7 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
     for name in expand(names):
         if progress:
             progress.stage(name)
+        t0 = time.perf_counter()
         kw = {"sims": tuple(sims), "repeat": repeat, "quick": quick, "stalls": stalls,
               "build": build}
         try:
@@ -307,10 +314,51 @@ def run(names=(), *, sims=cosim.SIMULATORS, repeat=3, quick=False, stalls=0.1,
         except Exception as exc:      # one failing benchmark must not lose the others' rows
             rows.append(na_row(name, "error", "-", f"{type(exc).__name__}: {exc}"[:200]))
             rows[-1]["accuracy"] = "error"
+        if timings is not None:
+            timings[name] = time.perf_counter() - t0
         if progress:
             progress.update(1)
     _relative(rows)
     return rows
+
+
+#: This machine's last time of each benchmark (:func:`remember`, :func:`estimate`), in the
+#: co-simulation build folder.
+TIMES_FILE = cosim.BUILD_ROOT / "bench_times.json"
+
+
+def _times_key(quick, sims, repeat, build):
+    return f"quick={bool(quick)} sims={','.join(sims) or 'none'} repeat={repeat} build={build}"
+
+
+def remember(timings, *, quick, sims, repeat, build, path=None):
+    """Keep ``timings`` (``{name: seconds}``) as this machine's last run of those benchmarks
+    at these settings (best effort: a folder that cannot be written keeps nothing)."""
+    path = TIMES_FILE if path is None else Path(path)
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else {}
+    except (OSError, ValueError):
+        data = {}
+    data.setdefault(_times_key(quick, sims, repeat, build), {}).update(
+        {k: round(v, 1) for k, v in timings.items()})
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    except OSError:
+        pass
+
+
+def estimate(names, *, quick, sims, repeat, build, path=None):
+    """Seconds the benchmarks ``names`` took at these settings when they last ran on this
+    machine (None when one of them has not run here yet)."""
+    path = TIMES_FILE if path is None else Path(path)
+    try:
+        got = json.loads(path.read_text()).get(_times_key(quick, sims, repeat, build), {})
+    except (OSError, ValueError):
+        return None
+    if not all(n in got for n in names):
+        return None
+    return float(sum(got[n] for n in names))
 
 
 def _relative(rows):

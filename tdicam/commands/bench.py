@@ -136,12 +136,20 @@ def _run(args):
     settings = {"names": list(args.names) or list(suite.NAMES), "sims": list(sims),
                 "repeat": repeat, "quick": args.quick, "stalls": args.stalls,
                 "build_time": build}
+    how = {"quick": args.quick, "sims": sims, "repeat": repeat, "build": build}
+    est = suite.estimate(todo, **how)
+    print(f"bench: {len(todo)} benchmark(s), " + (
+        f"about {est / 60:.1f} min (their last run on this machine)" if est is not None else
+        "no estimate yet (the first run of these here; the next one will say)"),
+        file=sys.stderr, flush=True)
+    timings = {}
     with Progress("bench", len(todo), unit="benchmark", stages=len(todo)) as bar:
         try:
             rows = suite.run(args.names, sims=sims, repeat=repeat, quick=args.quick,
-                             stalls=args.stalls, build=build, progress=bar)
+                             stalls=args.stalls, build=build, progress=bar, timings=timings)
         except KeyboardInterrupt as stop:   # report (and write) what finished, then stop
             bar.close()
+            suite.remember(timings, **how)
             rows = getattr(stop, "rows", [])
             print(f"bench: interrupted after {bar.done:.0f} of {len(todo)} benchmarks; the "
                   f"table, JSON and figure below hold the finished ones", file=sys.stderr)
@@ -149,6 +157,7 @@ def _run(args):
                     time.perf_counter() - t0)
             return 130
     wall = time.perf_counter() - t0
+    suite.remember(timings, **how)
     return _report(args, rows, suite.describe_machine(), settings, wall)
 
 
