@@ -18,6 +18,7 @@ from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim import codec, tool_env
 from tdicam.errors import TdicamError
+from tdicam.export.chain import STAGES
 from tdicam.export.harness import export_block
 
 FULL = os.environ.get("TDICAM_FULL") == "1"
@@ -356,7 +357,8 @@ def test_largest_tdi_export_fits_8_gb_of_address_space(tmp_path):
     (["export", "cds", "--pixel-bits", "99", "-o", "X"], "--pixel-bits = 99 is out of range"),
     (["export", "cds"], "export needs -o DIR"),
     (["export", "lvds", "--phy", "xilinx7", "-o", "X"], "lvds --phy xilinx7 instantiates"),
-    (["export", "pipeline", "-o", "X"], "tdicam export pipeline: the following arguments are required: --scene"),
+    (["export", "pipeline", "-o", "X"], "tdicam export pipeline: one of the arguments --scene "
+                                        "--example is required"),
     (["export", "pipeline", "--scene", "X/none.toml", "-o", "X"], "none.toml"),
     (["export", "pipeline", "--scene", CHAIN, "--width", "0", "-o", "X"],
      "--width = 0 is out of range"),
@@ -463,6 +465,9 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
             "-o", str(again))
     assert r.returncode == 0, r.stderr
+    # long work shows where it is: a stage line per stage off a terminal
+    assert [ln.split(" (")[0] for ln in r.stderr.splitlines()[:4]] == [
+        f"export pipeline: [{k}/4] {s}" for k, s in enumerate(STAGES, 1)]
     a = tree(chain_export)
     assert a == tree(again)
     assert {"README.md", "tdicam_pipeline.core", "rtl/pipeline.v", "tb/tdicam_tb.v",

@@ -55,9 +55,12 @@ def _pipeline(args):
     ns = ap.parse_args(list(args.extra))
     if not args.output:
         raise TdicamError("export needs -o DIR (the export folder)")
-    ex = export_pipeline(source_path(ns), args.output, force=args.force, seed=args.seed,
-                         stages=ns.stages, lines=ns.lines, width=ns.width, memory=ns.memory,
-                         device=ns.device, ppc=ns.ppc)
+    from tdicam.export.chain import STAGES
+    from tdicam.progress import Progress
+    with Progress("export pipeline", stages=len(STAGES)) as bar:
+        ex = export_pipeline(source_path(ns), args.output, force=args.force, seed=args.seed,
+                             stages=ns.stages, lines=ns.lines, width=ns.width,
+                             memory=ns.memory, device=ns.device, ppc=ns.ppc, progress=bar)
     print(f"wrote {ex.path}: pipeline {ex.params['blocks']} ({ex.params['width']} columns, "
           f"{ex.params['lines']} lines), {ex.n_in} stimulus beats, {ex.n_out} expected beats",
           file=sys.stderr)

@@ -22,16 +22,23 @@ from tdicam.beats import frames_to_beats
 from tdicam.errors import TdicamError, check_range
 from tdicam.export.block import MAX_BEATS, Export, stream_design, write_design
 
-__all__ = ["export_pipeline", "pipeline_design"]
+__all__ = ["export_pipeline", "pipeline_design", "STAGES"]
+
+#: The stages of an export of a pipeline, in order (what its progress names).
+STAGES = ("the scene's raw frames", "the top and its stimulus", "the golden chain's output",
+          "writing the export (Verilog, vectors, testbench)")
 
 
 def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=None,
-                    device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None):
+                    device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None,
+                    progress=None):
     """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
     (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
-    1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it)."""
+    1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it);
+    ``progress`` a :class:`tdicam.progress.Progress` told each stage (:data:`STAGES`)."""
+    stage = progress.stage if progress is not None else (lambda text: None)
     from tdicam.chain.cosim import scene_data
     from tdicam.chain.design import SceneData
     from tdicam.hdl.chain_board import Board
@@ -54,12 +61,15 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
         raise TdicamError(f"the pipeline of {Path(scene_path).name} takes {beats} input beats "
                           f"({p.frames} frames of {p.stages} x {p.width}), over the export limit "
                           f"of {MAX_BEATS}; cut it with --width / --lines")
+    stage(STAGES[0])
     raw, _ = scene_data(sc, stages=p.stages, dv_over_v=None, lines=p.lines)
     raw = raw.crop(0, p.width, 0, p.frames)
     # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
     data = SceneData(raw.signal, raw.reset, design.identity_data(p).coeffs)
+    stage(STAGES[1])
     top = design.top(p, data, board=True)      # with the external parts' models, if any
     stim = design.stimulus(p, data, top)
+    stage(STAGES[2])
     exp = frames_to_beats(design.golden(p, data)[-1][2], ppc=design.out_ppc(p))
     name = Path(scene_path).name
     params = {"scene": name, "stages": p.stages, "lines": p.lines, "width": p.width,
@@ -91,10 +101,13 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     return d, p, stim, exp
 
 
-def export_pipeline(scene_path, out_dir, *, force=False, **kw):
+def export_pipeline(scene_path, out_dir, *, force=False, progress=None, **kw):
     """Write the export folder of the scene's pipeline (see :func:`pipeline_design` for
-    ``kw``). Raises a one-line :class:`TdicamError` for a bad scene, option or folder."""
-    d, p, stim, exp = pipeline_design(scene_path, **kw)
+    ``kw`` and ``progress``). Raises a one-line :class:`TdicamError` for a bad scene, option
+    or folder."""
+    d, p, stim, exp = pipeline_design(scene_path, progress=progress, **kw)
+    if progress is not None:
+        progress.stage(STAGES[3])
     files = write_design(d, out_dir, force=force)
     return Export(Path(out_dir), "pipeline", d.params, [f"scene {d.params['scene']}"],
                   len(stim), len(exp), files)
