@@ -3,7 +3,8 @@
 front end adds), and what the top does with links: the fork of an input beat into channel
 lanes, the join of two streams into one beat (a lane and its coefficient stream, or the HDR
 gain channels), the re-framing of TDI's one-line frames into images for a 2-D block, a
-register slice, and the width converter before a block at fewer pixels per clock.
+register slice, the width converter before a block at fewer pixels per clock, and the one
+that gathers a one-pixel-a-beat stream (the NAND store's coefficients) into the chain's.
 """
 
 from amaranth.hdl import Cat, Const, Mux, Signal, Value
@@ -12,7 +13,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.interfaces.stream import AdvanceBuffer, Narrower, StreamRegister, element_bits
 
 __all__ = ["Link", "fork", "eager_fork", "join", "frame_group", "register_slice", "narrow",
-           "prepend"]
+           "widen", "prepend"]
 
 
 class Link:
@@ -195,6 +196,39 @@ def narrow(m, link, ppc_in, ppc_out, depth, name, bram="generic"):
     m.submodules[name] = nar = Narrower(link.bits, len(link.elems), n * ppc_out, depth, bram)
     link.feed(m, nar.i_stream, who=name)
     return register_slice(m, Link.of_output(nar.o_stream), f"{name}_slice", ppc_out)
+
+
+def widen(m, link, ppc, name):
+    """``link`` (one pixel a beat, its elements ``link.elems``) as beats of ``ppc`` pixels,
+    pixel-major (every element of the leftmost pixel first, as :func:`join` and
+    :func:`prepend` put them): ``ppc`` beats gathered by a
+    :class:`~tdicam.hdl.tlk2711.Widener` (submodule ``name``; each pixel's elements one
+    wide pixel of it), then a :func:`register_slice` (``{name}_slice``: the consumer's
+    ready reaches registers, not the held beats' enables). ``first`` from a beat's first
+    pixel, ``last`` from its last: rows (a multiple of ``ppc`` pixels, the chain's width)
+    and frames unchanged. For the NAND store's coefficients (:class:`~tdicam.hdl.
+    nand_store.NandCalibStore`, one pixel's a beat) before ``nuc_ddr`` at the chain's
+    pixels per clock. ``ppc`` 1: ``link`` itself. Latency 1 cycle from the beat that
+    completes an output beat (the Widener's 0 and the slice's 1)."""
+    if ppc == 1:
+        return link
+    if link.user:
+        raise TdicamError(f"pipeline: {name}: a stream carrying {', '.join(link.user)} "
+                          f"cannot change its pixels per clock")
+    from tdicam.hdl.tlk2711 import Widener
+    n, eb = len(link.elems), link.bits
+    m.submodules[name] = wid = Widener(pixel_bits=n * eb, ppc=1, beats=ppc, links=1)
+    i, o = wid.i_stream, wid.o_stream
+    m.d.comb += [
+        i.valid.eq(link.valid), link.ready.eq(i.ready),
+        i.payload.first.eq(link.first), i.payload.last.eq(link.last),
+        i.payload.data.eq(Cat(*(Cat(e, Const(0, eb - len(Value.cast(e))))
+                                for e in link.elems))),
+    ]
+    d = Value.cast(o.payload.data)
+    elems = [d[(p * n + k) * eb:(p * n + k + 1) * eb] for p in range(ppc) for k in range(n)]
+    return register_slice(m, Link(o.valid, o.ready, o.payload.first, o.payload.last, elems,
+                                  eb), f"{name}_slice", ppc)
 
 
 def prepend(m, load, link, rows, port, name, ppc=1):

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from tdicam.beats import PPC_CHOICES
 from tdicam.chain import design
 from tdicam.errors import TdicamError
 from tdicam.model.nuc_ddr import coeff_layout
@@ -105,11 +106,6 @@ def test_nuc_memory_ddr_refusals():
         _scene({"nuc": {"memory": "ddr", "gain_frac_bits": 15}})
     with pytest.raises(TdicamError, match=r"memory.*chip.*ddr"):
         _scene({"nuc": {"memory": "sram"}})
-    sc = _scene(run={"lines": 3, "rtl": {"pixels_per_clock": 2}})
-    with pytest.raises(TdicamError, match=r"flash = 'nand' takes one pixel per clock.*"
-                                          r"the chain 2") as e:
-        design.chain_plan(sc)
-    assert "\n" not in str(e.value)
 
 
 def test_the_bundled_scene_is_the_system_scene_with_nuc_in_ddr():
@@ -158,7 +154,8 @@ def test_the_full_camera_plans_its_coefficients_in_ddr():
     """scenes/ning2019_gmax0504_full.toml (all 5144 columns; an area camera: one-row
     frames) with memory = "ddr": the top's two DDR interfaces carry both users, the
     coefficient row above the reset row; at the 8 pixels a clock its plan asks the NAND
-    load is refused in one line (it gives one pixel's coefficients a beat)."""
+    load's one pixel's coefficients a beat are widened to the chain's 8 (the plan and the
+    top at ppc 8; its Verilog: test_the_system_scene_at_8_pixels_a_clock_elaborates)."""
     full = ROOT / "scenes" / "ning2019_gmax0504_full.toml"
     sc = load_scene(full, overrides={"pipeline": {"nuc": {"flash": "nand", "memory": "ddr"}}})
     p = design.chain_plan(sc)
@@ -168,5 +165,45 @@ def test_the_full_camera_plans_its_coefficients_in_ddr():
     assert nuc.params["base"] == design.uses()["cds_ddr"].ddr_end(cds) > 0
     top = _members(design.top(p))
     assert top["ddr_app_en_1"] == "Out" and "cds_ddr_app_en" not in top
-    with pytest.raises(TdicamError, match=r"takes one pixel per clock.*the chain 8"):
-        design.chain_plan(sc, ppc=8)
+    p8 = design.chain_plan(sc, ppc=8)
+    assert p8.ppc == 8 and p8.steps[1].block == "nuc_ddr" and p8.steps[1].device
+    assert p8.steps[1].params["ppc"] == 8
+
+
+@pytest.mark.parametrize("ppc", PPC_CHOICES[1:])
+def test_the_nand_load_widens_to_the_chain_s_pixels_per_clock(ppc):
+    """At ppc 2, 4 and 8 the NAND store (one pixel's (gain, offset) a beat) feeds nuc_ddr's
+    coefficient frame through the chain's widen (a Widener and its register slice, per
+    lane); the top elaborates (co-simulation at ppc 8: cocotb_tests/test_system_ddr.py).
+    At ppc 1 there is none (the top as before)."""
+    from amaranth.hdl import Fragment
+    p = design.chain_plan(_scene(run={"lines": 3, "rtl": {"pixels_per_clock": ppc}}))
+    assert p.ppc == ppc and p.steps[1].block == "nuc_ddr" and p.steps[1].device
+    names = _subfragments(Fragment.get(design.top(p), None))
+    for lane in (0, 1):
+        assert {f"nuc_ddr_widen{lane}", f"nuc_ddr_widen{lane}_slice"} <= names
+    one = _subfragments(Fragment.get(design.top(design.chain_plan(_scene())), None))
+    assert not any(n.startswith("nuc_ddr_widen") for n in one)
+
+
+def _subfragments(frag):
+    """The last names of every subfragment of ``frag``, at any depth."""
+    names = set()
+
+    def walk(f):
+        for sub, name, *_ in f.subfragments:
+            names.add(name)
+            walk(sub)
+    walk(frag)
+    return names
+
+
+def test_the_system_scene_at_8_pixels_a_clock_elaborates(tmp_path):
+    """``tdicam verilog pipeline --scene scenes/ning2019_gmax0504_system_ddr.toml --ppc 8``
+    (its NAND load at 8 pixels a clock) writes the top, with each lane's widener."""
+    from tdicam.cli import main
+    out = tmp_path / "system_ddr_p8.v"
+    assert main(["verilog", "pipeline", "--scene", str(SCENE), "--ppc", "8",
+                 "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "module pipeline" in text and "nuc_ddr_widen1_slice" in text

@@ -12,7 +12,6 @@ the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 import numpy as np
 
 from tdicam.blocks.steps import Step
-from tdicam.errors import TdicamError
 
 from tdicam.beats import PPC_CHOICES, frames_to_beats
 from tdicam.model.cds import pixel_dtype
@@ -182,11 +181,6 @@ def _pipeline_step(ctx):
     stall settings."""
     from tdicam.blocks import nuc as _nuc
     step, bits = _nuc._pipeline_step(ctx)
-    if step.device and ctx.ppc > 1:
-        raise TdicamError(f"[pipeline.nuc] memory = 'ddr' with flash = 'nand' takes one "
-                          f"pixel per clock (the NAND store gives one pixel's coefficients "
-                          f"a beat), the chain {ctx.ppc}: set [run.rtl].pixels_per_clock = 1 "
-                          f"or flash = 'none'")
     params = {**step.params, "width": ctx.width, "rows": ctx.m, "base": ctx.ddr_base,
               **dict(ctx.scene.ddr.stalls)}
     return Step("nuc_ddr", params, device=step.device), bits
@@ -220,7 +214,9 @@ def _pipeline_hw(step, data, *, ecp5=False):
     """Every lane's :class:`~tdicam.hdl.nuc_ddr.NucDdr` with its MIG user interface as the
     stage's pins and the coefficient load before its frames (the stage's ``load``): with a
     NAND part (``flash = "nand"``) the lane's :class:`~tdicam.hdl.nand_store.NandCalibStore`
-    on the NAND bus at the top's ports (``nuc_ddr_nand_*``, as ``nuc``'s), else the
+    on the NAND bus at the top's ports (``nuc_ddr_nand_*``, as ``nuc``'s; its one pixel's
+    coefficients a beat gathered into ``ppc`` pixels' by :func:`~tdicam.hdl.chain_links.
+    widen` at ``ppc`` >= 2), else the
     calibration ROM through :class:`~tdicam.hdl.calib.CalibReader`; the coefficient frame
     goes to DDR once, then every pixel frame reads it. ``nuc_ddr_calib_loaded`` (each lane):
     the frame was handed to the block (the top holds its input until then). For
@@ -249,7 +245,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
         return LaneStage(step.block, lambda lane: _core(p), side=lambda m, lane, io: side(m, lane),
                          io=loaded, device=mig, startup=rows * cols // ppc + 10_000,
                          **common)
-    from tdicam.hdl.chain_links import Link
+    from tdicam.hdl.chain_links import Link, widen
     geo = dict(page_bytes=step.device["page_bytes"],
                pages_per_block=step.device["pages_per_block"], blocks=step.device["blocks"])
 
@@ -257,7 +253,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
         st, status, bus = _nuc.nand_calib_store(m, f"nuc_ddr_nand{lane}", step, rows, cols,
                                                 io)
         m.d.comb += [st.start.eq(1), *status, *bus]
-        return Link.of_output(st.o_stream)
+        return widen(m, Link.of_output(st.o_stream), ppc, f"nuc_ddr_widen{lane}")
 
     t = nand_store.timing(rows, cols, nand_store.Geometry(**geo),
                           busy_cycles=step.device["busy_cycles"])
