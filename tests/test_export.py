@@ -466,7 +466,7 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
             "-o", str(again))
     assert r.returncode == 0, r.stderr
     # long work shows where it is: a stage line per stage off a terminal
-    assert [ln.split(" (")[0] for ln in r.stderr.splitlines()[:4]] == [
+    assert [ln.rsplit(" (", 1)[0] for ln in r.stderr.splitlines()[:4]] == [
         f"export pipeline: [{k}/4] {s}" for k, s in enumerate(STAGES, 1)]
     a = tree(chain_export)
     assert a == tree(again)
