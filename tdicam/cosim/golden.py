@@ -26,7 +26,7 @@ from tdicam.files import check_dir, check_file, read_bytes, write_file
 from tdicam.paths import GOLDEN
 
 __all__ = ["golden_dir", "array_sha256", "generate", "regen", "check", "load", "case_names",
-           "write_npz", "PARAMS_KEY"]
+           "case_shapes", "write_npz", "PARAMS_KEY"]
 
 MANIFEST = "manifest.json"
 #: Largest golden file read (the bundled ones are a few KiB).
@@ -125,6 +125,19 @@ def _write_manifest(man):
 
 def case_names(block):
     return [c.name for c in _blocks.get(block).cases()]
+
+
+def case_shapes(block, case):
+    """``{array: shape}`` of a stored case as the manifest records it (nothing is read but
+    the manifest; the parameters' entry left out)."""
+    name = _blocks.get(block).name if isinstance(block, str) else block.name
+    man = _read_manifest()
+    key = f"{name}/{case}"
+    if key not in man["cases"]:
+        raise TdicamError(f"{_rel(golden_dir() / name / f'{case}.npz')}: case is not in "
+                          f"golden/manifest.json (run 'tdicam golden regen {name}')")
+    return {k: tuple(a["shape"]) for k, a in man["cases"][key]["arrays"].items()
+            if k != PARAMS_KEY}
 
 
 def _find_case(block, name):
