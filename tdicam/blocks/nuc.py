@@ -18,7 +18,7 @@ from tdicam.blocks.steps import Sim, Step
 from tdicam.errors import TdicamError
 from tdicam.model import ecc as _ecc, nand_store
 
-__all__ = ["BLOCK", "NucOptions", "cut_frame0"]
+__all__ = ["BLOCK", "NucOptions", "cut_frame0", "nand_load_rows"]
 
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
@@ -360,7 +360,7 @@ def _pipeline_arrays(step, data, lane):
     return {"gain": gain, "offset": offset}
 
 
-def _system(step, ctx):
+def nand_load_rows(step, ctx):
     """The plan: the calibration load before the first frame, each channel's part loaded
     in parallel (:func:`tdicam.model.nand_store.timing` at the part's t_R and the
     controller's clock: the bad-block scan of every block, then the image's pages)."""
@@ -658,7 +658,7 @@ BLOCK = Block(
     ),
     golden=_golden,
     example=_example,
-    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=_system,
+    pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=nand_load_rows,
                  measured=_measured,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
                  placement=lambda scene: scene.pipeline.nuc.memory, spill="nuc_ddr",

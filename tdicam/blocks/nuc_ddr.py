@@ -20,7 +20,7 @@ from tdicam.model.nuc import NucFormat
 from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
 from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, Use, check_width
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
-from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide, _system as _nuc_system
+from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide, nand_load_rows
 from tdicam.hdl.nuc_ddr import NucDdr
 
 __all__ = ["BLOCK", "nuc_ddr_arrays"]
@@ -338,5 +338,5 @@ BLOCK = Block(
                 per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
     pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
                  chain_golden=_pipeline_golden, ddr_end=_pipeline_end,
-                 measured=_measured, system=_nuc_system),   # the NAND load, as nuc's
+                 measured=_measured, system=nand_load_rows),   # the NAND load, as nuc's
 )

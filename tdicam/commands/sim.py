@@ -57,10 +57,11 @@ def _run(args):
                                                      f"  {r['message']}"))
 
     t0 = time.perf_counter()
+    # an unknown block: its one line, before the plan; a block that is not a stream has no
+    # golden cases to plan or skip (cosimulate says how it is tested)
+    streams = blocks.get(args.block).to_beats is not None
     if args.sim == "auto":
-        blocks.get(args.block)          # an unknown block: its one line, before the plan
-        plan = pick_simulators(args.block, mode, args.case) if _streams(args.block) else \
-            {"icarus": None}
+        plan = pick_simulators(args.block, mode, args.case) if streams else {"icarus": None}
     else:
         plan = {args.sim: args.case}
     rows, used = [], []
@@ -79,13 +80,8 @@ def _run(args):
           f"{bad} mismatches, {sum(r['cycles'] for r in rows)} cycles, "
           f"{wall:.2f} s simulated wall, {pixels / wall if wall else 0:.0f} pixels/s "
           f"({time.perf_counter() - t0:.1f} s total)")
-    left = skipped(args.block, mode, args.case) if _streams(args.block) else []
+    left = skipped(args.block, mode, args.case) if streams else []
     if left:
         print(f"not run per beat: {len(left)} fast-only case(s) ({', '.join(left)}): per beat "
               f"they take minutes; run them with --fast")
     return 1 if bad or any(r["timeout"] for r in rows) else 0
-
-
-def _streams(block):
-    """Whether the block co-simulates as a stream (its golden cases run here)."""
-    return blocks.get(block).to_beats is not None
