@@ -21,7 +21,7 @@ from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx, eye_ports, forward_cor
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LvdsEcp5", "PHYS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps", "pin_ports",
-           "pin_clocks"]
+           "pin_clocks", "derived_clocks", "SCLK_DIV"]
 
 #: DELAYF's delay step (ps) and the number of its counts (0..127).
 DELAYF_STEP_PS = 25.0
@@ -30,6 +30,9 @@ _DELAYF_COUNTS = 128
 #: ns, one bit at 300 Mb/s.
 ECP5_STEPS = 4
 
+
+#: CLKDIVF's division of the edge clock: ``SCLK = ECLK / SCLK_DIV`` (x2 gearing).
+SCLK_DIV = 2
 
 #: The I/O standard of the ECP5 PHY's pins (each an LVDS pair: the port is its P pin).
 LVDS_INPUT = {"IO_TYPE": "LVDS"}
@@ -114,8 +117,8 @@ class LvdsEcp5(wiring.Component):
         eclk, sclk = Signal(), Signal()
         m.submodules.eclksync = Instance("ECLKSYNCB", i_ECLKI=self.clk_eclk, i_STOP=Const(0),
                                          o_ECLKO=eclk)
-        m.submodules.clkdiv = Instance("CLKDIVF", p_DIV="2.0", i_CLKI=eclk, i_RST=Const(0),
-                                       i_ALIGNWD=Const(0), o_CDIVX=sclk)
+        m.submodules.clkdiv = Instance("CLKDIVF", p_DIV=f"{SCLK_DIV:.1f}", i_CLKI=eclk,
+                                       i_RST=Const(0), i_ALIGNWD=Const(0), o_CDIVX=sclk)
         m.domains.sclk = ClockDomain("sclk", local=True)
         m.d.comb += ClockSignal("sclk").eq(sclk)
         m.submodules.sclk_reset = ResetSynchronizer(rst, domain="sclk")
@@ -194,4 +197,13 @@ def pin_clocks(phy, word_mhz, word_bits):
     bits a lane: the ECP5 PHY's edge clock ``clk_eclk`` at half the bit rate (DDR)."""
     if phy == "ecp5":
         return {"clk_eclk": word_mhz * word_bits / 2}
+    return {}
+
+
+def derived_clocks(phy, word_mhz, word_bits):
+    """The clocks ``phy`` derives inside the device from its pin clocks ({domain: MHz}; the
+    place-and-route tool constrains them itself): the ECP5 PHY's ``sclk``, ``ECLK /
+    SCLK_DIV`` through CLKDIVF (75 MHz for 300 Mb/s)."""
+    if phy == "ecp5":
+        return {"sclk": pin_clocks(phy, word_mhz, word_bits)["clk_eclk"] / SCLK_DIV}
     return {}

@@ -206,6 +206,7 @@ def test_system_lanes_ecp5_phy_pins_placed_and_clocked():
     p = design.chain_plan(sc, phy="ecp5")
     assert design.PipelineBlock(p, None).clocks() == {"word_clk": 25.0,
                                                        "lvds_clk_eclk": 150.0}
+    assert design.PipelineBlock(p, None).derived_clocks() == {"sclk": 75.0}
     pins = design.top(p).pin_ports
     assert pins == {"lvds_lane_p": {"IO_TYPE": "LVDS"}, "lvds_clk_eclk": {"IO_TYPE": "LVDS"}}
     lpf = clock_constraints({"word_clk": 25.0, "lvds_clk_eclk": 150.0},
@@ -216,6 +217,19 @@ def test_system_lanes_ecp5_phy_pins_placed_and_clocked():
     assert f'LOCATE COMP "lvds_clk_eclk" SITE "{ECP5_CLOCK_SITE}";' in lpf
     assert [ln for ln in lpf if "lvds_lane_p[" in ln] == [
         f'LOCATE COMP "lvds_lane_p[{b}]" SITE "{ECP5_DDR_SITES[b]}";' for b in range(4)]
+
+
+def test_clock_target_names_the_derived_sclk():
+    """``tdicam synth pipeline`` states each nextpnr clock's target: a constrained clock by
+    name, the ECP5 PHY's SCLK (``ECLK / 2``: 75 MHz at 300 Mbit/s) by its net's domain, not
+    the processing clock's ``--freq``; a clock it knows nothing of says so."""
+    from tdicam.commands._pipeline import clock_target
+    given, derived = {"clk": 150.0, "word_clk": 25.0}, {"sclk": 75.0}
+    assert clock_target("clk", given, derived) == "target 150"
+    assert clock_target("dut.core.lvds.word_side.rx.sclk_clk", given, derived) == \
+        "target 75, derived"
+    assert clock_target("sclk", given, derived) == "target 75, derived"
+    assert clock_target("other", given, derived) == "no target given"
 
 
 def test_harness_buffers_device_pins():
@@ -290,3 +304,13 @@ def test_ecp5_rom_initval_layout_is_yosys_own(tmp_path, depth, bits):
     want = rom_initvals(words, depth)
     got = {k: int(v, 2) for k, v in prims[0].items() if k.startswith("INITVAL_")}
     assert got == want
+
+
+def test_xc7_share_counts_ramb18_as_half_a_ramb36():
+    """The xc7 counts against the XC7K325T: a RAMB18 is half a RAMB36, each resource with its
+    share in percent of the part's."""
+    from tdicam.chain.design import XC7K325T, xc7_share
+    s = xc7_share({"LUT": 20380, "FF": 12986, "RAMB36": 18, "RAMB18": 22, "DSP48": 7})
+    assert s["LUT"] == (20380, XC7K325T["LUT"], 10.0)
+    assert s["RAMB36"] == (29.0, 445, 6.5)
+    assert s["DSP48"] == (7, 840, 0.8) and s["FF"][2] == 3.2

@@ -28,8 +28,8 @@ from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
-           "check_options", "ECP5_85F", "MEMORY", "scene_ppc", "sourced", "rate_ppc",
-           "step_ppc", "out_ppc", "chain_text", "load_pipeline_scene"]
+           "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "MEMORY", "scene_ppc",
+           "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text", "load_pipeline_scene"]
 
 
 # --------------------------------------------------------------------------------------
@@ -411,6 +411,21 @@ def output_shape(p):
 #: ECP5-85F (LFE5U-85F) resources: LUT4 slots, flip-flops, 18 kbit EBRs, 18x18 multipliers.
 ECP5_85F = {"comb": 83640, "ff": 83640, "dp16kd": 208, "mult18": 156}
 
+#: XC7K325T (Kintex-7) resources as yosys ``synth_xilinx`` counts them: 6-input LUTs,
+#: flip-flops, 36 kbit block RAMs (two RAMB18 a RAMB36), DSP48E1 slices.
+XC7K325T = {"LUT": 203800, "FF": 407600, "RAMB36": 445, "DSP48": 840}
+
+
+def xc7_share(counts, part=None):
+    """{resource: (used, the part's, percent)} of yosys ``synth_xilinx`` ``counts`` ({cell
+    class: n}, :func:`tdicam.hw.synth.parse_xilinx`) against ``part`` (default
+    :data:`XC7K325T`); block RAM in RAMB36 (a RAMB18 is half of one)."""
+    part = XC7K325T if part is None else part
+    used = {"LUT": counts.get("LUT", 0), "FF": counts.get("FF", 0),
+            "RAMB36": counts.get("RAMB36", 0) + counts.get("RAMB18", 0) / 2,
+            "DSP48": counts.get("DSP48", 0)}
+    return {k: (used[k], part[k], round(100 * used[k] / part[k], 1)) for k in part}
+
 
 def load_pipeline_scene(scene_path, stages=None):
     """The scene of ``tdicam verilog|synth|export pipeline``: with ``--stages`` the scene
@@ -468,6 +483,18 @@ class PipelineBlock:
                 out.update({f"{s.block}_{name}": mhz for name, mhz in pin_clocks(
                     s.params.get("phy", "none"), s.clocks[WORD_DOMAIN],
                     s.params["word_bits"]).items()})
+        return out
+
+    def derived_clocks(self, params=None):
+        """The clocks the top derives from its clock pins ({domain: MHz}; nextpnr constrains
+        them itself, e.g. the ECP5 PHY's ``sclk`` = ``ECLK / 2``)."""
+        from tdicam.hdl.lvds_front import WORD_DOMAIN
+        from tdicam.hdl.lvds_phy import derived_clocks
+        out = {}
+        for s in self._p.steps:
+            if WORD_DOMAIN in s.clocks and "word_bits" in s.params:
+                out.update(derived_clocks(s.params.get("phy", "none"), s.clocks[WORD_DOMAIN],
+                                          s.params["word_bits"]))
         return out
 
     def build(self, params=None, *, ecp5=False):

@@ -11,7 +11,8 @@ import numpy as np
 from tdicam.blocks.steps import SceneData
 from tdicam.beats import PPC_CHOICES
 from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, chain_text,
-                                 check_options, load_pipeline_scene, top, verilog_header)
+                                 check_options, load_pipeline_scene, top, verilog_header,
+                                 xc7_share)
 from tdicam.commands._parsing import ArgsParser, add_source, source_path
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
@@ -20,7 +21,8 @@ from tdicam.hw.synth import synth, tool_versions
 from tdicam.hw.verilog import convert
 from tdicam.model.calib import load_image
 
-__all__ = ["add_pipeline_options", "scene_design", "verilog_command", "synth_command"]
+__all__ = ["add_pipeline_options", "scene_design", "verilog_command", "synth_command",
+           "clock_target"]
 
 
 def add_pipeline_options(ap, *, width=False):
@@ -101,6 +103,19 @@ def verilog_command(extra, output, *, show_help=False):
     return 0
 
 
+def clock_target(name, given, derived):
+    """The target of nextpnr's clock ``name`` as text: ``given`` ({clock: MHz}, the
+    constraints written) by name, else ``derived`` ({domain: MHz}, e.g. the ECP5 PHY's
+    ``sclk``) by the domain its net is named after (``...rx.sclk_clk``)."""
+    if name in given:
+        return f"target {given[name]:g}"
+    leaf = name.split(".")[-1]
+    for dom, mhz in derived.items():
+        if leaf in (dom, f"{dom}_clk"):
+            return f"target {mhz:g}, derived"
+    return "no target given"
+
+
 def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
                   xilinx=True):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
@@ -122,7 +137,9 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
                        target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
     if as_json:
-        print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits}, indent=1))
+        print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits,
+                          "xc7k325t": xc7_share(res.xilinx) if res.xilinx else None},
+                         indent=1))
         return 0
     print(f"pipeline {chain_text(p)} ({p.width} x {p.stages}, "
           f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
@@ -130,10 +147,15 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
           f"{res.xilinx}")
     if len(res.fmax_clocks) > 1:
-        want = {"clk": freq_mhz, **PipelineBlock(p, data).clocks()}
+        blk = PipelineBlock(p, data)
+        want = {"clk": freq_mhz, **blk.clocks()}
+        derived = blk.derived_clocks()
         print("Fmax per clock domain: " + ", ".join(
-            f"{name} {mhz:.1f} MHz (target {want.get(name, freq_mhz):g})"
+            f"{name} {mhz:.1f} MHz ({clock_target(name, want, derived)})"
             for name, mhz in res.fmax_clocks.items()))
     print("ECP5-85F: " + ("fits" if all(fits.values()) else "does not fit: " + ", ".join(
         f"{k} {getattr(res, k)} > {ECP5_85F[k]}" for k, ok in fits.items() if not ok)))
+    if res.xilinx:
+        print("xc7 against the XC7K325T: " + ", ".join(
+            f"{k} {u:g} of {n} ({pct:g} %)" for k, (u, n, pct) in xc7_share(res.xilinx).items()))
     return 0
