@@ -419,7 +419,9 @@ XC7K325T = {"LUT": 203800, "FF": 407600, "RAMB36": 445, "DSP48": 840}
 def xc7_share(counts, part=None):
     """{resource: (used, the part's, percent)} of yosys ``synth_xilinx`` ``counts`` ({cell
     class: n}, :func:`tdicam.hw.synth.parse_xilinx`) against ``part`` (default
-    :data:`XC7K325T`); block RAM in RAMB36 (a RAMB18 is half of one)."""
+    :data:`XC7K325T`); block RAM in RAMB36 (a RAMB18 is half of one); LUT the logic LUTs
+    (distributed RAM and shift registers, ``LUTRAM`` and ``SRL``, take LUT sites too: not
+    counted here)."""
     part = XC7K325T if part is None else part
     used = {"LUT": counts.get("LUT", 0), "FF": counts.get("FF", 0),
             "RAMB36": counts.get("RAMB36", 0) + counts.get("RAMB18", 0) / 2,

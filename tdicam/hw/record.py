@@ -248,6 +248,9 @@ README_CHAINS = (
      "PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
      "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
      "ECLK / 2 through CLKDIVF, 75 MHz)"),
+    ("ning2019_gmax0504_full.toml", 8, "none", "the whole Ning et al. 2019 camera, 5144 x "
+     "3800, 2 gains: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> median3, reset "
+     "frames and per-pixel NUC coefficients in DDR through a DdrArbiter an interface"),
 )
 
 
