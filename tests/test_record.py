@@ -177,3 +177,22 @@ def test_readme_blocks_table_is_the_record():
     t = record.readme_blocks_table([one, eight, enh])
     assert "| nuc | 95 (9.5x) |" in t and "140.0 (139.0-141.5, 3) | 150: **not met** |" in t
     assert "| median3 with edge enhancement | 95 (-) |" in t and "| median3 |" not in t
+
+
+def test_whole_camera_row_is_at_the_plans_design_point(capsys):
+    """scenes/ning2019_gmax0504_full.toml: the whole camera is recorded at the pixels per clock
+    and the clock the camera budget asks (`tdicam plan`: 977 M samples/s a gain on 200 MHz at
+    8 pixels a clock), with its xc7 counts, and the README's fit column is the record's."""
+    from tdicam.chain.design import ECP5_85F
+    assert main(["plan", "--scene", str(SCENES / "ning2019_gmax0504_full.toml"),
+                 "--json"]) in (0, 1)
+    cam = json.loads(capsys.readouterr().out)["camera"]["scene"]
+    rows = [r for r in record.find("pipeline", scene="ning2019_gmax0504_full.toml")
+            if int(r.params["ppc"]) == cam["ppc"]]
+    assert rows, "the whole camera at the plan's ppc is not in the record"
+    r = max(rows, key=lambda r: r.date)
+    assert r.target_mhz == cam["config"]["clock_mhz"] and r.xc7
+    fits = all(getattr(r, k) <= v for k, v in ECP5_85F.items())
+    line = next(ln for ln in record.readme_table(limits=ECP5_85F).splitlines()
+                if "ning2019_gmax0504_full.toml" in ln)
+    assert line.endswith("| yes |") == fits
