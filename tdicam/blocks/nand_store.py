@@ -26,6 +26,7 @@ from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
 
+# ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 _OUT_FIELDS = ("gain", "offset", "corrected", "uncorrectable", "defaulted", "header_error",
                "first", "last")
@@ -50,6 +51,7 @@ def _top(**params):
     return AxisTop(NandCalibTop(**params))
 
 
+# ---- cases
 def load_beats(device, slots):
     """Loader words (uint64 array) putting ``device``'s contents into the simulation model:
     one slot per page with data, the data bytes that are not ``0xFF``, the markers that are
@@ -210,6 +212,7 @@ def _full_only(case, sim, mode):
     return sim == "icarus" and case.name not in ICARUS_FAST
 
 
+# ---- entry
 BLOCK = Block(
     name="nand_store",
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "
