@@ -259,6 +259,7 @@ def _check(name, ppc, data):
 def test_gateware_equals_golden(name, ppc):
     n = EXAMPLES[name] * (FULL_FACTOR if FULL else 1)
     run = settings(max_examples=n, deadline=None, derandomize=not FULL, database=None,
+                   print_blob=True,              # a FULL run's failure replays from its blob
                    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])(
         given(data=st.data())(lambda data: _check(name, ppc, data)))
     run()
