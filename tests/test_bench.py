@@ -168,7 +168,7 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
 
 @pytest.mark.parametrize("args, msg", [
     (["nope"], "unknown benchmark 'nope'; valid: cds, tdi, nuc, hdr, median3, secded, lvds, "
-               "ddr, scene, pipeline"),
+               "ddr, scene, pipeline, camera"),
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
     (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
