@@ -367,15 +367,17 @@ def verilog(p, data=None, *, taps=False):
     return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
 
 
-def verilog_header(p, *, taps=False):
+def verilog_header(p, *, taps=False, csr=False):
     """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
-    (no path), the blocks in order with their parameters, channels, frame and lines."""
+    (no path), the blocks in order with their parameters, channels, frame and lines (and
+    ``csr`` when the control bus is on)."""
     import os
     from tdicam.hw.verilog import header
     return header("pipeline", {
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
         "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
-        "taps": taps} | {s.block: s.params for s in p.steps})
+        "taps": taps} | ({"csr": "axi4-lite"} if csr else {})
+        | {s.block: s.params for s in p.steps})
 
 
 def golden(p, data):
@@ -477,12 +479,13 @@ def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
 class PipelineBlock:
     """The registry face of a plan for :func:`tdicam.hw.synth.synth` (name, resolve, build)."""
 
-    def __init__(self, p, data):
-        self.name, self._p, self._data = "pipeline", p, data
+    def __init__(self, p, data, *, csr=False):
+        self.name, self._p, self._data, self._csr = "pipeline", p, data, csr
 
     def resolve(self, params=None):
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
-                                                   for s in self._p.steps]}
+                                                   for s in self._p.steps]} | (
+            {"csr": "axi4-lite"} if self._csr else {})
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
@@ -501,4 +504,4 @@ class PipelineBlock:
     def build(self, params=None, *, ecp5=False):
         """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one
         (:attr:`tdicam.blocks.Block.ecp5_top`, e.g. the TDI accumulator's DP16KD banks)."""
-        return top(self._p, self._data, ecp5=ecp5)
+        return top(self._p, self._data, ecp5=ecp5, csr=self._csr)
