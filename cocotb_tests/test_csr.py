@@ -4,7 +4,8 @@ pixels per clock -> median3, 32 columns, 4 TDI stages; Icarus, one build).
 
 Every register read at reset (the map's reset values), every setting written and read back,
 the output bit-exact against the golden chain, every status read after the run (no fault;
-frame_count the output frames). A second pass writes TDI's ``stages_active`` = 0 (an invalid
+frame_count the output frames); the words at the C header's offsets (a C program built
+with the peakrdl-cheader header prints them) are the registers the driver reads. A second pass writes TDI's ``stages_active`` = 0 (an invalid
 setting) in the middle of frame 2: TDI samples it with the next frame's first beat, so
 exactly the frames from 3 on are counted in ``tdi.frame_errors``, its fault bit is set and
 ``irq`` is high; writing 1s clears the counter, the interrupt status and ``irq``.
@@ -12,6 +13,8 @@ exactly the frames from 3 on are counted in ``tdi.frame_errors``, its fault bit 
 
 import json
 import os
+import shutil
+import subprocess
 import time
 from pathlib import Path
 
@@ -29,6 +32,21 @@ from tdicam.scene.loader import load_scene
 pytest.importorskip("cocotbext.axi")
 ROOT = Path(__file__).resolve().parents[1]
 STAGES, COLS, LINES, CHANGE_FRAME = 4, 32, 8, 2
+
+
+def _header_offsets(rm, header, tmp):
+    """{"block.register": offset} as the C header states them (a C program built with it
+    prints ``offsetof`` of every register)."""
+    prog = ["#include <stddef.h>", "#include <stdio.h>", f'#include "{Path(header).name}"',
+            "int main(void) {"]
+    for r in rm.registers:
+        path = r.name if r.block == "camera" else f"{r.block}.{r.name}"
+        prog.append(f'    printf("{r.block}.{r.name} %zu\\n", offsetof({rm.name}_t, {path}));')
+    (tmp / "offsets.c").write_text("\n".join(prog + ["    return 0;", "}"]) + "\n")
+    subprocess.run(["cc", "-std=c11", "-I", str(Path(header).parent), "-o",
+                    str(tmp / "offsets"), str(tmp / "offsets.c")], check=True)
+    out = subprocess.run([str(tmp / "offsets")], check=True, capture_output=True, text=True)
+    return {name: int(off) for name, off in (line.split() for line in out.stdout.splitlines())}
 
 
 def _pack(data, padded):
@@ -58,7 +76,9 @@ def run():
     per_frame = int(np.flatnonzero(stim.first)[1])
     settings = {f"{r.block}.{r.name}": r.reset for r in regmap.registers
                 if r.access == "rw" and r.block != "camera"}
+    probe = _header_offsets(regmap, files["header"], rundir)
     job = {"beats": beats, "settings": settings, "driver": files["driver"], "drain": 400,
+           "probe": probe,
            "change": {"register": "tdi.stages_active", "value": 0,
                       "beat": CHANGE_FRAME * per_frame + per_frame // 2}}
     (rundir / "job.json").write_text(json.dumps(job))
@@ -66,6 +86,17 @@ def run():
     assert ok, (rundir / "sim.log").read_text()[-3000:]
     res = json.loads((rundir / "result.json").read_text())
     return p, data, ax, regmap, stim, res
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+def test_gateware_answers_at_the_c_headers_offsets(run):
+    """The words the bus returns at the C header's offsets are the registers the driver
+    (the map's offsets) reads, in two states."""
+    _, _, _, regmap, _, res = run
+    assert set(res["probe_inverted"]) == {f"{r.block}.{r.name}" for r in regmap.registers}
+    assert res["probe_inverted"] == res["inverted"]
+    assert res["probe_changed"] == res["changed"]
+    assert len(set(res["inverted"].values()) | set(res["changed"].values())) >= 8
 
 
 def test_registers_at_reset_and_written(run):

@@ -7,7 +7,8 @@ Through cocotbext-axi's ``AxiLiteMaster`` and the generated Python driver the te
 every register at reset, writes every setting (its bits inverted, then the job's value), streams the input (the output taken every
 cycle), reads every register again; then streams the input a second time with a setting
 written in the middle of frame ``change.frame`` (the stream held while the write runs),
-and reads the fault state before and after clearing it.
+and reads the fault state before and after clearing it. Twice (settings inverted; after the
+change) it also reads the words at ``job["probe"]``'s addresses (the C header's offsets).
 """
 
 import importlib.util
@@ -28,6 +29,11 @@ def _driver(path):
 
 async def _read_all(regs):
     return {f"{r.block}.{r.name}": await r.read() for r in regs.registers()}
+
+
+async def _probe(bus, addresses):
+    """Whole words read at ``addresses`` ({name: byte address}, the C header's offsets)."""
+    return {name: await bus.read(a) for name, a in addresses.items()}
 
 
 async def _stream(dut, beats, hold_at=None, during=None):
@@ -75,13 +81,15 @@ async def run_job(dut):
     await ClockCycles(dut.clk, 5)
     dut.rst.value = 0
     await ClockCycles(dut.clk, 2)
-    regs = drv.Camera(drv.AxiLite(master))
+    bus = drv.AxiLite(master)
+    regs = drv.Camera(bus)
     res = {"reset": await _read_all(regs)}
     settings = {name: (getattr(getattr(regs, name.split(".")[0]), name.split(".")[1]), value)
                 for name, value in job["settings"].items()}
     for reg, value in settings.values():          # every bit flipped, then the scene's
         await reg.write(value ^ reg.mask)
     res["inverted"] = await _read_all(regs)
+    res["probe_inverted"] = await _probe(bus, job["probe"])
     for reg, value in settings.values():
         await reg.write(value)
     res["written"] = await _read_all(regs)
@@ -105,6 +113,7 @@ async def run_job(dut):
     await ClockCycles(dut.clk, job["drain"])
     res["changed"] = await _read_all(regs)
     res["irq_changed"] = int(dut.irq.value)
+    res["probe_changed"] = await _probe(bus, job["probe"])
     for r in regs.registers():
         if r.access == "w1c":
             await r.clear()
