@@ -1,6 +1,7 @@
 """The camera top's control bus (``--csr``) co-simulated through cocotbext-axi's AXI4-Lite
 master and the generated Python driver, on a cut of the orbit chain scene (nuc -> tdi at 8
-pixels per clock -> median3, 32 columns, 4 TDI stages; Icarus, one build).
+pixels per clock -> median3, 32 columns, 4 TDI stages) and on one of the NAND calibration
+scene (nuc loading its coefficients from a worn NAND part -> tdi); Icarus, a build each.
 
 Every register read at reset (the map's reset values), every setting written and read back,
 the output bit-exact against the golden chain, every status read after the run (no fault;
@@ -8,7 +9,9 @@ frame_count the output frames); the words at the C header's offsets (a C program
 with the peakrdl-cheader header prints them) are the registers the driver reads. A second pass writes TDI's ``stages_active`` = 0 (an invalid
 setting) in the middle of frame 2: TDI samples it with the next frame's first beat, so
 exactly the frames from 3 on are counted in ``tdi.frame_errors``, its fault bit is set and
-``irq`` is high; writing 1s clears the counter, the interrupt status and ``irq``.
+``irq`` is high; writing 1s clears the counter, the interrupt status and ``irq``. On the
+NAND scene the load's bad blocks and ECC counts are read over the bus, equal to the part
+model's, and raise their fault and interrupt bits.
 """
 
 import json
@@ -16,6 +19,7 @@ import os
 import shutil
 import subprocess
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +34,8 @@ from tdicam.hw.verilog import convert
 from tdicam.scene.loader import load_scene
 
 pytest.importorskip("cocotbext.axi")
+# the loose-port tops and part models built for the stimulus only (never elaborated)
+pytestmark = pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 ROOT = Path(__file__).resolve().parents[1]
 STAGES, COLS, LINES, CHANGE_FRAME = 4, 32, 8, 2
 
@@ -53,21 +59,17 @@ def _pack(data, padded):
     return [hex(sum(int(v) << (padded * k) for k, v in enumerate(row))) for row in data]
 
 
-@pytest.fixture(scope="module")
-def run():
-    sc = load_scene(ROOT / "scenes" / "orbit_chain.toml", overrides={
-        "sensor": {"columns": COLS},
-        "run": {"lines": LINES, "rtl": {"crop": [0, 0, COLS, LINES]}}})
-    p = design.chain_plan(sc, stages=STAGES)
-    data, _ = scene_data(sc, stages=STAGES, dv_over_v=0.0, lines=LINES)
-    ax = design.top(p, data, csr=True)
+def _cosim(p, data, tag):
+    """The --csr top of plan ``p`` (with its external parts' models) run by
+    :mod:`tdicam.simtb.csr_tb` on Icarus: (top, register map, stimulus, result)."""
+    ax = design.top(p, data, board=True, csr=True)
     regmap = ax.core.regmap
-    bdir, _ = build_sources("pipeline_csr", {"scene": "orbit_chain", "cols": COLS,
-                                             "stages": STAGES}, "icarus",
+    bdir, _ = build_sources("pipeline_csr", {"scene": tag, "cols": p.width,
+                                             "stages": p.stages}, "icarus",
                             {"pipeline.v": convert(ax, "pipeline")}, top="pipeline")
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     files = registers.write_files(regmap, rundir)
-    plain = design.top(p, data)             # the loose-port top: its stimulus' beats
+    plain = design.top(p, data, board=True)         # the loose-port top: its beats
     plain._MustUse__silence = plain.core._MustUse__silence = True
     stim = design.stimulus(p, data, plain)
     _, _, in_padded, _ = ax._in
@@ -84,8 +86,17 @@ def run():
     (rundir / "job.json").write_text(json.dumps(job))
     ok, _ = run_cocotb(bdir, "icarus", "csr_tb", rundir, [], top="pipeline")
     assert ok, (rundir / "sim.log").read_text()[-3000:]
-    res = json.loads((rundir / "result.json").read_text())
-    return p, data, ax, regmap, stim, res
+    return ax, regmap, stim, json.loads((rundir / "result.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def run():
+    sc = load_scene(ROOT / "scenes" / "orbit_chain.toml", overrides={
+        "sensor": {"columns": COLS},
+        "run": {"lines": LINES, "rtl": {"crop": [0, 0, COLS, LINES]}}})
+    p = design.chain_plan(sc, stages=STAGES)
+    data, _ = scene_data(sc, stages=STAGES, dv_over_v=0.0, lines=LINES)
+    return (p, data, *_cosim(p, data, "orbit_chain"))
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
@@ -143,3 +154,46 @@ def test_setting_written_mid_frame_takes_effect_at_the_next_frame(run):
     cl = res["cleared"]
     assert cl["tdi.frame_errors"] == 0 and cl["camera.irq_status"] == 0
     assert cl["camera.fault_summary"] == 0 and res["irq_cleared"] == 0
+
+
+@pytest.fixture(scope="module")
+def nand():
+    """A 24-column, 4-stage cut of the NAND calibration scene (nuc from a worn NAND part:
+    200 bad blocks, corrected and uncorrectable words; 512 blocks, the faults' seed 23, as
+    cocotb_tests/test_system.py's cut)."""
+    sc = load_scene(ROOT / "scenes" / "ning2019_nand_calib_faults.toml", overrides={
+        "sensor": {"columns": 24}, "tdi": {"stages": STAGES}, "run": {"lines": LINES}})
+    p = design.chain_plan(sc)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 512, "seed": 23})
+                               if s.device else s for s in p.steps))
+    data, _ = scene_data(sc, stages=STAGES, dv_over_v=0.0, lines=LINES)
+    return (p, data, *_cosim(p, data, "nand_calib_faults"))
+
+
+def test_nand_load_faults_in_the_status_registers_and_the_interrupt(nand):
+    """The NAND load's bad blocks and ECC counts read over the bus equal the part model's;
+    they are faults: their summary and interrupt bits set by the load, ``irq`` high once
+    enabled; the output bit-exact; cleared by writing 1s."""
+    from tdicam.blocks.nuc import nand_part
+    p, data, ax, regmap, _, res = nand
+    after = res["after"]
+    _, model = nand_part(p.steps[0], *data.coeffs[0], 0)
+    assert after["nuc.bad_blocks"] == model.scan.bad_count == 200
+    assert after["nuc.corrected_words"] == model.image.corrected > 0
+    assert after["nuc.uncorrectable_words"] == model.image.uncorrectable > 0
+    assert after["nuc.calib_loaded"] == 1 and after["nuc.calib_error"] == 0
+    assert after["camera.startup"] == 1 and after["camera.startup_cycles"] > 0
+    faults = [f"{r.block}.{r.name}" for r in regmap.faults]
+    bits = sum(1 << faults.index(n) for n in ("nuc.bad_blocks", "nuc.corrected_words",
+                                             "nuc.uncorrectable_words"))
+    assert after["camera.fault_summary"] == bits and after["camera.irq_status"] == bits
+    assert res["irq_after"] == 0                  # not enabled yet
+    assert res["irq_changed"] == 1
+    gold = design.golden(p, data)[-1][2]
+    bits_, count, padded, _ = ax._out
+    got = np.array([[(int(d, 16) >> (padded * k)) & ((1 << bits_) - 1) for k in range(count)]
+                    for d, _, _ in res["out"]], np.int64).ravel()
+    np.testing.assert_array_equal(got, gold.ravel())
+    cl = res["cleared"]
+    assert cl["nuc.bad_blocks"] == cl["nuc.corrected_words"] == 0
+    assert cl["camera.irq_status"] == 0 and res["irq_cleared"] == 0

@@ -137,7 +137,7 @@ def register_map(pipeline, resets, *, name="pipeline"):
             for k in range(len(cores)):
                 devs = st.device(k)
                 for dev in devs if isinstance(devs, (list, tuple)) else [devs]:
-                    dev.model._MustUse__silence = True      # asked for its pins only
+                    _quiet(dev.model)                       # asked for its pins only
                     pins.update(pipeline._status(st, p, k) for p in dev.pins)
     regs = []
     for k, st in enumerate(pipeline.stages):
@@ -179,6 +179,16 @@ def register_map(pipeline, resets, *, name="pipeline"):
     own = [Register("camera", n, 4 * j, widths[n], acc, values.get(n, 0), None, False, d)
            for j, (n, acc, d) in enumerate(CAMERA_REGISTERS)]
     return RegisterMap(name, tuple(sorted(own + regs, key=lambda r: r.offset)))
+
+
+def _quiet(model, depth=2):
+    """Mark a model made only for its pins, and the parts it made, as not to be used."""
+    from amaranth.hdl import Elaboratable
+    model._MustUse__silence = True
+    if depth:
+        for part in vars(model).values():
+            if isinstance(part, Elaboratable):
+                _quiet(part, depth - 1)
 
 
 def _owned(pipeline, st, port):
