@@ -55,6 +55,17 @@ def _header_offsets(rm, header, tmp):
     return {name: int(off) for name, off in (line.split() for line in out.stdout.splitlines())}
 
 
+def _unused(obj, depth=4):
+    """Mark a top built only for its ports, its parts and their models as not to be used
+    (no UnusedElaboratable warnings)."""
+    from amaranth.hdl import Elaboratable
+    obj._MustUse__silence = True
+    parts = list(vars(obj).values()) + [d.model for _, _, d in getattr(obj, "_devices", ())]
+    for part in parts if depth else ():
+        if isinstance(part, Elaboratable):
+            _unused(part, depth - 1)
+
+
 def _pack(data, padded):
     return [hex(sum(int(v) << (padded * k) for k, v in enumerate(row))) for row in data]
 
@@ -70,7 +81,7 @@ def _cosim(p, data, tag):
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     files = registers.write_files(regmap, rundir)
     plain = design.top(p, data, board=True)         # the loose-port top: its beats
-    plain._MustUse__silence = plain.core._MustUse__silence = True
+    _unused(plain)
     stim = design.stimulus(p, data, plain)
     _, _, in_padded, _ = ax._in
     beats = [[d, int(f), int(l)] for d, f, l in zip(_pack(stim.data, in_padded), stim.first,
