@@ -195,5 +195,5 @@ def _rw(reg, wdata, wmask):
 def core_holds(core):
     """(stage, lanes) of the Pipeline's stages that hold its input at start-up."""
     pl = getattr(core, "core", core)        # a Board's pipeline
-    pl = pl if hasattr(pl, "_holds") else core
-    return pl._holds()
+    holds = getattr(pl, "_holds", None) or getattr(core, "_holds", None)
+    return holds() if holds is not None else []

@@ -6,7 +6,8 @@ word-clock ports left as ports); the SystemRDL compiled by systemrdl-compiler; t
 from peakrdl-cheader compiled with ``cc -fsyntax-only`` with every register's offset and reset
 asserted equal to the map's (the cocotb test, cocotb_tests/test_csr.py, reads the gateware at
 the header's offsets); ``tdicam verilog pipeline --csr -o DIR`` writes the four files beside
-the Verilog; the top without ``--csr`` keeps its loose ports.
+the Verilog; the top without ``--csr`` keeps its loose ports; the AXI4-Lite slave's
+handshakes, byte strobes, write-1-to-clear and interrupt in Amaranth's simulator.
 """
 
 import importlib.util
@@ -15,12 +16,17 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from amaranth.hdl import Shape
+from amaranth.hdl import Module, Shape
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+from amaranth.sim import Simulator
 
 from tdicam import cli
 from tdicam.chain import design, registers
 from tdicam.errors import TdicamError
-from tdicam.hdl.csr_map import BLOCK_STRIDE, CAMERA_REGISTERS
+from tdicam.hdl.csr import CsrTop
+from tdicam.hdl.csr_map import BLOCK_STRIDE, CAMERA_REGISTERS, Register, RegisterMap
+from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
 pytest.importorskip("systemrdl")
 # tops built only to read their ports and maps (never elaborated)
@@ -140,3 +146,110 @@ def test_verilog_csr_writes_the_maps_files_beside_the_verilog(tmp_path, capsys):
     assert mod.OFFSETS == {f"{r.block}.{r.name}": r.offset for r in rm.registers}
     assert mod.FAULTS == ("tdi.frame_errors", "median3.marker_error")
     assert "wrote" in capsys.readouterr().err
+
+
+class _Core(wiring.Component):
+    """A stand-in top: an idle output stream, a 12-bit setting, an 8-bit fault counter and a
+    fault flag (the status driven by the testbench)."""
+
+    def __init__(self):
+        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 1))),
+                          "blk_level": In(12), "blk_errors": Out(8), "blk_error": Out(1)})
+
+    def elaborate(self, platform):
+        return Module()
+
+
+def _slave():
+    core = _Core()
+    regs = [Register("camera", n, 4 * k, 32 if n in ("id", "version", "frame_count") else
+                     1 if n == "startup" else 2, acc, {"id": 7}.get(n, 0), None, False, "")
+            for k, (n, acc, _) in enumerate(CAMERA_REGISTERS)]
+    regs += [Register("blk", "level", 0x100, 12, "rw", 0x5A5, "blk_level", False, ""),
+             Register("blk", "errors", 0x104, 8, "w1c", 0, "blk_errors", True, ""),
+             Register("blk", "error", 0x108, 1, "ro", 0, "blk_error", True, "")]
+    return core, CsrTop(core, RegisterMap("t", tuple(regs)))
+
+
+def test_axi_lite_slave_protocol_strobes_and_write_1_to_clear():
+    """The slave on its own (Amaranth simulator): a write waits for both address and data
+    and holds its response until bready; a read holds its data until rready; byte strobes;
+    an unmapped address reads 0; a fault counter read since its clear, 1s clear those bits;
+    a change of a fault source sets its interrupt bit, irq when enabled; 1s clear it."""
+    core, dut = _slave()
+    seen = {}
+
+    async def write(ctx, addr, data, strb=0xF, bready_after=0, w_after=0):
+        ctx.set(dut.s_axil_awaddr, addr)
+        ctx.set(dut.s_axil_awvalid, 1)
+        for _ in range(w_after):                      # the address alone is not taken
+            assert not ctx.get(dut.s_axil_awready)
+            await ctx.tick()
+        ctx.set(dut.s_axil_wdata, data)
+        ctx.set(dut.s_axil_wstrb, strb)
+        ctx.set(dut.s_axil_wvalid, 1)
+        assert ctx.get(dut.s_axil_awready) and ctx.get(dut.s_axil_wready)
+        await ctx.tick()
+        ctx.set(dut.s_axil_awvalid, 0)
+        ctx.set(dut.s_axil_wvalid, 0)
+        for _ in range(bready_after):                 # the response waits for bready
+            assert ctx.get(dut.s_axil_bvalid)
+            await ctx.tick()
+        ctx.set(dut.s_axil_bready, 1)
+        assert ctx.get(dut.s_axil_bvalid) and ctx.get(dut.s_axil_bresp) == 0
+        await ctx.tick()
+        ctx.set(dut.s_axil_bready, 0)
+
+    async def read(ctx, addr, rready_after=0):
+        ctx.set(dut.s_axil_araddr, addr)
+        ctx.set(dut.s_axil_arvalid, 1)
+        assert ctx.get(dut.s_axil_arready)
+        await ctx.tick()
+        ctx.set(dut.s_axil_arvalid, 0)
+        value = ctx.get(dut.s_axil_rdata)
+        for _ in range(rready_after):                 # held until rready
+            assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rdata) == value
+            await ctx.tick()
+        ctx.set(dut.s_axil_rready, 1)
+        assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rresp) == 0
+        await ctx.tick()
+        ctx.set(dut.s_axil_rready, 0)
+        return value
+
+    async def tb(ctx):
+        seen["id"] = await read(ctx, 0x000, rready_after=3)
+        seen["level0"] = (await read(ctx, 0x100), ctx.get(core.blk_level))
+        await write(ctx, 0x100, 0xFFFF_F0C3, strb=0b0001, w_after=2, bready_after=2)
+        seen["level1"] = (await read(ctx, 0x100), ctx.get(core.blk_level))
+        seen["unmapped"] = await read(ctx, 0x10C)
+        await write(ctx, 0x014, 0b11)                 # irq_enable
+        ctx.set(core.blk_errors, 5)
+        await ctx.tick()
+        seen["irq_on_count"] = (ctx.get(dut.irq), await read(ctx, 0x018))
+        seen["errors"] = await read(ctx, 0x104)
+        await write(ctx, 0x104, 0b100)
+        seen["errors_cleared_bit2"] = await read(ctx, 0x104)
+        ctx.set(core.blk_errors, 7)
+        await ctx.tick()
+        seen["errors_after_two_more"] = await read(ctx, 0x104)
+        await write(ctx, 0x104, 0xFF)
+        await write(ctx, 0x018, 0b01)
+        seen["cleared"] = (await read(ctx, 0x104), await read(ctx, 0x018), ctx.get(dut.irq),
+                           await read(ctx, 0x010))
+        ctx.set(core.blk_error, 1)
+        await ctx.tick()
+        seen["flag"] = (await read(ctx, 0x018), await read(ctx, 0x010), ctx.get(dut.irq))
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(tb)
+    sim.run()
+    assert seen["id"] == 7
+    assert seen["level0"] == (0x5A5, 0x5A5)
+    assert seen["level1"] == (0x5C3, 0x5C3)           # only the low byte written
+    assert seen["unmapped"] == 0
+    assert seen["irq_on_count"] == (1, 0b01)
+    assert seen["errors"] == 5 and seen["errors_cleared_bit2"] == 1
+    assert seen["errors_after_two_more"] == 3
+    assert seen["cleared"] == (0, 0, 0, 0)
+    assert seen["flag"] == (0b10, 0b10, 1)
