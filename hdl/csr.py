@@ -12,6 +12,7 @@ from amaranth.hdl import Cat, Const, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from tdicam.errors import TdicamError
 from tdicam.hdl.csr_map import ADDR_BITS, DATA_BITS
 
 __all__ = ["CsrTop", "AXIL_PORTS"]
@@ -58,6 +59,10 @@ class CsrTop(wiring.Component):
     def __init__(self, core, regmap):
         self._core, self._map = core, regmap
         covered = regmap.ports
+        missing = sorted(covered - set(core.signature.members))
+        if missing:
+            raise TdicamError(f"csr: the register map names port(s) {', '.join(missing)} "
+                              f"the top does not have; make the map from this top")
         members = {n: m for n, m in core.signature.members.items() if n not in covered}
         for name, width, d in AXIL_PORTS:
             members[f"s_axil_{name}"] = (In if d == "in" else Out)(width)
@@ -75,7 +80,6 @@ class CsrTop(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.submodules.core = core = self._core
-        covered = self._map.ports
         for name, mem in self.signature.members.items():
             if name in ("i_stream", "o_stream") or name not in core.signature.members:
                 continue
@@ -86,7 +90,6 @@ class CsrTop(wiring.Component):
         if "i_stream" in self.signature.members:
             wiring.connect(m, wiring.flipped(self.i_stream), core.i_stream)
         wiring.connect(m, core.o_stream, wiring.flipped(self.o_stream))
-        assert covered <= set(core.signature.members)
 
         faults = self._map.faults
         nf = len(faults)
@@ -133,17 +136,11 @@ class CsrTop(wiring.Component):
                "fault_summary": Cat(*summary) if summary else Const(0, 1),
                "irq_enable": irq_enable, "irq_status": irq_status}
         for r in self._map.registers:
-            if r.block != "camera" or r.port is not None:
-                continue
-            value = own[r.name]
-            if value is None:
-                regs[r.offset] = (Const(r.reset, 32), None)
-            elif r.name == "irq_enable":
-                regs[r.offset] = (value, _rw(value, wdata, wmask))
-            elif r.name == "irq_status":
-                regs[r.offset] = (value, None)      # below: events win over the clear
-            else:
-                regs[r.offset] = (value, None)
+            if r.block == "camera" and r.port is None:
+                value = own[r.name]
+                # irq_status's clear is below (a new fault wins over it)
+                regs[r.offset] = (Const(r.reset, 32), None) if value is None else \
+                    (value, _rw(value, wdata, wmask) if r.name == "irq_enable" else None)
         status_off = self._map.get("camera", "irq_status").offset
 
         # the write channel: address and data together, then the response

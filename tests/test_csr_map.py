@@ -253,3 +253,11 @@ def test_axi_lite_slave_protocol_strobes_and_write_1_to_clear():
     assert seen["errors_after_two_more"] == 3
     assert seen["cleared"] == (0, 0, 0, 0)
     assert seen["flag"] == (0b10, 0b10, 1)
+
+
+def test_a_map_of_another_top_is_refused():
+    core = _Core()
+    bad = RegisterMap("t", (Register("blk", "gain", 0x100, 8, "rw", 0, "blk_gain", False, ""),))
+    with pytest.raises(TdicamError, match="port\\(s\\) blk_gain the top does not have"):
+        CsrTop(core, bad)
+    core._MustUse__silence = True
