@@ -29,7 +29,6 @@ from tdicam.chain import design, registers
 from tdicam.chain.cosim import scene_data
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.hdl.csr_map import CAMERA_ID, version_word
-from tdicam.hdl.interfaces.axis import tdata_layout
 from tdicam.hw.verilog import convert
 from tdicam.scene.loader import load_scene
 
