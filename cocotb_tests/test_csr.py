@@ -1,7 +1,8 @@
 """The camera top's control bus (``--csr``) co-simulated through cocotbext-axi's AXI4-Lite
 master and the generated Python driver, on a cut of the orbit chain scene (nuc -> tdi at 8
 pixels per clock -> median3, 32 columns, 4 TDI stages) and on one of the NAND calibration
-scene (nuc loading its coefficients from a worn NAND part -> tdi); Icarus, a build each.
+scene (nuc loading its coefficients from a worn NAND part -> tdi); Icarus, a build each
+(with ``TDICAM_FULL=1`` the orbit cut on Verilator too).
 
 Every register read at reset (the map's reset values), every setting written and read back,
 the output bit-exact against the golden chain, every status read after the run (no fault;
@@ -69,13 +70,13 @@ def _pack(data, padded):
     return [hex(sum(int(v) << (padded * k) for k, v in enumerate(row))) for row in data]
 
 
-def _cosim(p, data, tag):
+def _cosim(p, data, tag, sim="icarus"):
     """The --csr top of plan ``p`` (with its external parts' models) run by
-    :mod:`tdicam.simtb.csr_tb` on Icarus: (top, register map, stimulus, result)."""
+    :mod:`tdicam.simtb.csr_tb` on ``sim``: (top, register map, stimulus, result)."""
     ax = design.top(p, data, board=True, csr=True)
     regmap = ax.core.regmap
     bdir, _ = build_sources("pipeline_csr", {"scene": tag, "cols": p.width,
-                                             "stages": p.stages}, "icarus",
+                                             "stages": p.stages}, sim,
                             {"pipeline.v": convert(ax, "pipeline")}, top="pipeline")
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     files = registers.write_files(regmap, rundir)
@@ -94,19 +95,23 @@ def _cosim(p, data, tag):
            "change": {"register": "tdi.stages_active", "value": 0,
                       "beat": CHANGE_FRAME * per_frame + per_frame // 2}}
     (rundir / "job.json").write_text(json.dumps(job))
-    ok, _ = run_cocotb(bdir, "icarus", "csr_tb", rundir, [], top="pipeline")
+    ok, _ = run_cocotb(bdir, sim, "csr_tb", rundir, [], top="pipeline")
     assert ok, (rundir / "sim.log").read_text()[-3000:]
     return ax, regmap, stim, json.loads((rundir / "result.json").read_text())
 
 
-@pytest.fixture(scope="module")
-def run():
+def _orbit(sim="icarus"):
     sc = load_scene(ROOT / "scenes" / "orbit_chain.toml", overrides={
         "sensor": {"columns": COLS},
         "run": {"lines": LINES, "rtl": {"crop": [0, 0, COLS, LINES]}}})
     p = design.chain_plan(sc, stages=STAGES)
     data, _ = scene_data(sc, stages=STAGES, dv_over_v=0.0, lines=LINES)
-    return (p, data, *_cosim(p, data, "orbit_chain"))
+    return (p, data, *_cosim(p, data, "orbit_chain", sim))
+
+
+@pytest.fixture(scope="module")
+def run():
+    return _orbit()
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
@@ -207,3 +212,16 @@ def test_nand_load_faults_in_the_status_registers_and_the_interrupt(nand):
     cl = res["cleared"]
     assert cl["nuc.bad_blocks"] == cl["nuc.corrected_words"] == 0
     assert cl["camera.irq_status"] == 0 and res["irq_cleared"] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(os.environ.get("TDICAM_FULL") != "1",
+                    reason="the orbit cut on Verilator too: TDICAM_FULL=1")
+def test_orbit_chain_cut_on_verilator():
+    """The orbit cut's checks on Verilator (its own build)."""
+    run = _orbit("verilator")
+    test_registers_at_reset_and_written(run)
+    test_output_bit_exact_and_status_read(run)
+    test_setting_written_mid_frame_takes_effect_at_the_next_frame(run)
+    if shutil.which("cc"):
+        test_gateware_answers_at_the_c_headers_offsets(run)
