@@ -44,7 +44,14 @@ def geometry_of(params):
 
 def _check(params):
     _fmt(params)._check_slots()
-    geometry_of(params)
+    g = geometry_of(params)
+    if params["device"]:       # the simulation model holds the image's programmed pages
+        need = nand_store.programmed_pages(
+            calib.HEADER_WORDS + calib.payload_words(params["rows"], params["cols"]), g)
+        if need > params["slots"]:
+            raise TdicamError(f"slots = {params['slots']}: the {params['rows']} x "
+                              f"{params['cols']} image and its block map program {need} pages "
+                              f"of {params['page_bytes']} bytes; give slots >= {need}")
 
 
 def _top(**params):
