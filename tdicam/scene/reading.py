@@ -74,12 +74,17 @@ class Section:
             self.fail(key, "missing (required)")
         return default
 
+    def _given(self, key, default, value, what):
+        """The value to check (``value`` when given, else the table's, else ``default``) and
+        the words naming it in a message (``what``: e.g. an entry of a list)."""
+        return (self.raw(key, default) if value is REQUIRED else value,
+                f" {what}" if what else "")
+
     def number(self, key, default=REQUIRED, *, lo=None, hi=None, lo_open=False,
                hi_open=False, value=REQUIRED, what=None):
-        v = self.raw(key, default) if value is REQUIRED else value
+        v, where = self._given(key, default, value, what)
         if v is None:
             return None
-        where = f" {what}" if what else ""
         if isinstance(v, bool) or not isinstance(v, numbers.Real):
             self.fail(key, f"must be a number{where}, got {show(v)}")
         if not isinstance(v, (int, float)):         # numpy numbers
@@ -95,10 +100,9 @@ class Section:
         return v
 
     def integer(self, key, default=REQUIRED, *, lo=None, hi=None, value=REQUIRED, what=None):
-        v = self.raw(key, default) if value is REQUIRED else value
+        v, where = self._given(key, default, value, what)
         if v is None:
             return None
-        where = f" {what}" if what else ""
         # numpy integers are integers (a Python caller's numpy.int64(16))
         if isinstance(v, bool) or not isinstance(v, numbers.Integral):
             self.fail(key, f"must be an integer{where}, got {show(v)}")
