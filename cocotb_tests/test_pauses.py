@@ -25,7 +25,7 @@ def test_same_seed_same_stalls_in_every_driver(sim, seed):
     params = blocks.get("cds").resolve({"pixel_bits": 12})
     kw = {"idle": 0.4, "backpressure": 0.3, "seed": seed}
     ref = []
-    out, _, _ = run_pysim("cds", params, stim, trace=ref, **kw)
+    out, _, _, _ = run_pysim("cds", params, stim, trace=ref, **kw)
     assert cosim.compare(out, exp).ok
     takes = [c for k, c in ref if k == "i"]
     assert len(takes) == len(stim) and len([k for k, _ in ref if k == "o"]) == len(out)

@@ -10,7 +10,7 @@ from tdicam.model.ddr import psums_per_word
 from tdicam.model.dram import window_words
 from tdicam.model.ddr_traces import pattern_efficiency
 
-__all__ = ["PLAN_MARGIN", "MEASURED_EFFICIENCY", "BLOCK_TEXT", "closest_block",
+__all__ = ["PLAN_MARGIN", "MEASURED_EFFICIENCY", "SHARED_EFFICIENCY", "BLOCK_TEXT", "closest_block",
            "TDI_SPILL_PATTERN", "tdi_spill_efficiency"]
 
 #: share the planner takes off the memory model's figure for the TDI spill: the band the
@@ -32,6 +32,14 @@ MEASURED_EFFICIENCY = {'writer': (87.2, 86.2),
                        'cds_ddr_wide': (84.9, 84.8),
                        'tdi_ddr': (83.3, 82.1),
                        'tdi_ddr_wide': (86.9, 86.3)}
+#: ``(memory model %, LiteDRAM %)`` on the camera's shared DDR order: nuc_ddr's coefficient
+#: reads beside cds_ddr's reset frame writes and reads behind one DdrArbiter
+#: (:data:`tdicam.cosim.shared_ddr.CAMERA_TRACE`, recorded behind the HDL), over the same
+#: window; tests/ddr_arbiter_litedram.json's figures, which ``python bench/bench_ddr.py
+#: --arbiter --fixture`` writes and tests/test_ddr_arbiter.py holds this to. The camera
+#: plan counts on it for an interface that carries both users
+#: (:func:`tdicam.model.physics.camera.ddr_efficiency`).
+SHARED_EFFICIENCY = (76.2, 77.4)
 #: what the blocks of :data:`MEASURED_EFFICIENCY` are
 BLOCK_TEXT = {"writer": "the frame buffer's line writer", "reader": "its line reader",
               "ddr": "the frame buffer", "cds_ddr": "CDS with its reset frame in DDR",

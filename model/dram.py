@@ -33,7 +33,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES
 
-__all__ = ["ROW_WORDS", "BANKS", "DEFAULT_STALLS", "xorshift32", "worst_stall",
+__all__ = ["slowdown", "ROW_WORDS", "BANKS", "DEFAULT_STALLS", "xorshift32", "worst_stall",
            "stall_pattern", "MigSim", "DramTiming", "DRAM_STALLS", "TREFI", "STARTUP",
            "WINDOW_REFRESHES", "window_cycles", "window_efficiency", "window_words"]
 
@@ -76,6 +76,21 @@ def worst_stall(params):
     frame's first reset line when the frame is presented) holds the stream that long."""
     p = {**DEFAULT_STALLS, **{k: v for k, v in params.items() if k in DEFAULT_STALLS}}
     return int(p["refresh_cycles"]) + int(p["lat_hi"])
+
+
+def slowdown(params):
+    """How much slower than one grant a cycle the simulation MIG model serves a DDR user with
+    stall parameters ``params`` (a DDR block's; keys it lacks take :data:`DEFAULT_STALLS`'
+    values, a block without DDR keys is 1.0): ``256 / (256 - drop)`` cycles per granted
+    ready (each ready dropped with probability ``drop / 256``, independently) times
+    ``refresh_period / (refresh_period - refresh_cycles)`` (the refreshes' share), plus the
+    read latency ``lat_hi`` spread over a 32-word burst. An upper bound on the mean, for
+    sizing a simulation's cycle budget (:func:`tdicam.cosim.stream.cycle_budget`)."""
+    if not any(k in params for k in DEFAULT_STALLS):
+        return 1.0
+    p = {**DEFAULT_STALLS, **{k: v for k, v in params.items() if k in DEFAULT_STALLS}}
+    period, busy = int(p["refresh_period"]), int(p["refresh_cycles"])
+    return (256 / (256 - int(p["drop"]))) * (period / (period - busy)) + int(p["lat_hi"]) / 32
 
 
 def _refreshing(t, period, cycles):

@@ -99,6 +99,7 @@ __all__ = ["Geometry", "MT29F4G08", "NandDevice", "STATUS_PASS", "STATUS_FAIL", 
            "stream_words", "store_stream", "read_store", "StoreResult", "relayout",
            "save_image", "load_image", "read_image_bytes", "Timing", "timing",
            "load_coefficients", "store_roundtrip", "store_device", "blocks_needed",
+           "programmed_pages",
            "CONTROLLER_CLOCK_HZ"]
 
 MARKER_GOOD = 0xFF
@@ -264,6 +265,16 @@ class NandDevice:
 def blocks_needed(n_words, geometry):
     """Logical blocks a stream of ``n_words`` flash words occupies."""
     return -(-int(n_words) // geometry.words_per_block)
+
+
+def programmed_pages(n_words, geometry):
+    """Pages :func:`write_store` programs with data for a stream of ``n_words`` flash words on
+    a part without faults: the words' pages (``words_per_page`` a page, the last one
+    partial) and the block map's in block 0 (3 header words and a 16-bit entry per logical
+    block, four a word)."""
+    wpp = geometry.words_per_page
+    map_words = 3 + -(-blocks_needed(n_words, geometry) // 4)
+    return -(-int(n_words) // wpp) + -(-map_words // wpp)
 
 
 def _page_bytes(words, geometry):

@@ -168,7 +168,7 @@ def test_a_failing_benchmark_is_a_row_and_an_exit_code(monkeypatch, capsys):
 
 @pytest.mark.parametrize("args, msg", [
     (["nope"], "unknown benchmark 'nope'; valid: cds, tdi, nuc, hdr, median3, secded, lvds, "
-               "ddr, scene, pipeline"),
+               "ddr, scene, pipeline, camera"),
     (["cds", "--sims", "modelsim"], "--sims: unknown simulator 'modelsim'; valid: icarus, "
                                     "verilator, none"),
     (["cds", "--stalls", "1.5"], "--stalls = 1.5 is out of range; valid: [0, 1)"),
@@ -312,3 +312,31 @@ def test_bench_states_its_time_up_front_from_the_last_run_here(monkeypatch, caps
                      r"machine\)$", capsys.readouterr().err, re.M)
     assert suite.estimate(["scene", "pipeline"], quick=True, sims=(), repeat=1,
                           build="cached") is None           # one of them never ran here
+
+
+def test_camera_is_named_not_default_and_extrapolates_the_whole_frame(monkeypatch):
+    """``tdicam bench camera``: only when named; a row for each cut of
+    tdicam.bench.camera.CUT_LINES (every tap counted in its accuracy), then the whole
+    5144 x 3800 frame pair extrapolated from them; Icarus: a row saying why not."""
+    from tdicam.bench import camera
+    assert "camera" not in suite.expand([]) and suite.expand(["camera"]) == ["camera"]
+    seen = []
+
+    class P:
+        ppc, width, lanes = 8, 5144, 2
+
+    def fake(lines, sim="verilator", **kw):
+        seen.append((lines, sim))
+        return {"plan": P, "lines": lines, "input_pixels": 4 * 5144 * lines,
+                "cycles": 1000 + 100 * lines, "run_seconds": 1.0 + 0.01 * lines,
+                "build_seconds": 9.0 if lines == 8 else 0.0, "startup_cycles": 1000,
+                "mismatches": 0, "tap_mismatches": 0 if lines == 8 else 2, "load": 1.0}
+    monkeypatch.setattr(camera, "camera_run", fake)
+    rows = suite.run(["camera"], sims=("icarus", "verilator"), repeat=1, quick=False)
+    assert seen == [(n, "verilator") for n in camera.CUT_LINES]
+    assert [r["accuracy"] for r in rows] == ["n/a", "bit-exact", "2 mismatching", "n/a"]
+    whole = rows[-1]
+    assert whole["input"] == "5144 x 3800 lines x 2 gains" and whole["units"] == \
+        2 * 3800 * 5144 * 2
+    assert whole["seconds"] == pytest.approx(1.0 + 0.01 * 3800)
+    assert f"{1000 + 100 * 3800:,} cycles" in whole["note"]

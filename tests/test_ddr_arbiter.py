@@ -192,6 +192,14 @@ def test_arbiter_order_on_the_model_within_3_points_of_litedram():
     assert kinds == {(1, True), (0, False), (1, False)}
 
 
+def test_the_plan_s_shared_figure_is_the_fixture_s():
+    """tdicam.model.ddr_efficiency.SHARED_EFFICIENCY (what the camera plan counts on for an
+    interface both users share) is the fixture's model and LiteDRAM figures."""
+    from tdicam.model.ddr_efficiency import SHARED_EFFICIENCY
+    fx = _fixture()
+    assert SHARED_EFFICIENCY == (round(fx["model"], 1), round(fx["efficiency"], 1))
+
+
 def test_benchmarks_page_quotes_the_fixture():
     """docs/guide/benchmarks.md's row of the shared order: the fixture's trace length,
     window, model and LiteDRAM figures."""

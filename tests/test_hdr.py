@@ -289,9 +289,9 @@ def test_amaranth_pysim_of_verilog_top_matches_golden(case):
     blk = blocks.get("hdr")
     arrays, params = golden.load(blk, case)
     stim, exp = blk.to_beats(arrays, params)
-    got, _, _ = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
+    got, _, _, timeout = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
-    assert cmp.ok, cmp.message
+    assert cmp.ok and not timeout, cmp.message
 
 
 def _load(case):
@@ -411,9 +411,9 @@ def test_amaranth_pysim_of_verilog_top_matches_golden_ppc(case):
     blk = blocks.get("hdr")
     arrays, params = golden.load(blk, case)
     stim, exp = blk.to_beats(arrays, params)
-    got, _, _ = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
+    got, _, _, timeout = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
-    assert cmp.ok, cmp.message
+    assert cmp.ok and not timeout, cmp.message
 
 
 def test_ramp_multi_p8_saturates_the_count_inside_a_beat():

@@ -389,3 +389,21 @@ def test_cli_nand_one_line_errors(tmp_path, args, match):
     err = proc.stderr.strip()
     assert "Traceback" not in proc.stderr and len(err.splitlines()) == 1
     assert match.format(d=tmp_path) in err
+
+
+@pytest.mark.parametrize("rows, cols, page_bytes, ppb", [(1, 1, 512, 1), (30, 40, 2048, 2),
+                                                        (7, 300, 512, 4), (64, 64, 512, 1)])
+def test_programmed_pages_counts_what_write_store_programs(rows, cols, page_bytes, ppb):
+    g = nand_store.Geometry(page_bytes=page_bytes, pages_per_block=ppb, blocks=256)
+    n = calib.HEADER_WORDS + calib.payload_words(rows, cols)
+    z = np.zeros((rows, cols), np.int64)
+    dev = nand_store.store_device(z + 1, z, geometry=g)
+    written = [r for r, p in dev.pages.items() if (p[:g.page_bytes] != 0xFF).any()]
+    assert nand_store.programmed_pages(n, g) == len(written)
+
+
+def test_too_few_model_slots_are_refused_before_the_work():
+    from tdicam import blocks
+    with pytest.raises(TdicamError, match=r"slots = 1: .* program 2 pages .*give slots >= 2"):
+        blocks.get("nand_store").resolve({"rows": 1, "cols": 1, "slots": 1, "page_bytes": 512,
+                                          "pages_per_block": 1, "blocks": 2, "device": True})

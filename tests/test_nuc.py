@@ -229,9 +229,9 @@ def test_amaranth_pysim_of_verilog_top_matches_golden(case):
     blk = blocks.get("nuc")
     arrays, params = golden.load(blk, case)
     stim, exp = blk.to_beats(arrays, params)
-    got, cycles, _ = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
+    got, cycles, _, timeout = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
-    assert cmp.ok, cmp.message
+    assert cmp.ok and not timeout, cmp.message
 
 
 def test_golden_cases_cover_the_hard_cases():
@@ -306,9 +306,9 @@ def test_amaranth_pysim_of_verilog_top_matches_golden_ppc(case):
     arrays, params = golden.load(blk, case)
     stim, exp = blk.to_beats(arrays, params)
     assert stim.data.shape[1] == 3 * params["ppc"]
-    got, _, _ = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
+    got, _, _, timeout = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
-    assert cmp.ok, cmp.message
+    assert cmp.ok and not timeout, cmp.message
 
 
 def test_ppc_errors_are_one_line():

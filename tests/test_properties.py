@@ -259,6 +259,7 @@ def _check(name, ppc, data):
 def test_gateware_equals_golden(name, ppc):
     n = EXAMPLES[name] * (FULL_FACTOR if FULL else 1)
     run = settings(max_examples=n, deadline=None, derandomize=not FULL, database=None,
+                   print_blob=True,              # a FULL run's failure replays from its blob
                    suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])(
         given(data=st.data())(lambda data: _check(name, ppc, data)))
     run()
@@ -283,3 +284,28 @@ def test_nuc_narrow_sum_wide_output(params):
                          backpressure=0.2)
     assert run.ok, run.message()
     assert (out["out"] == 15).all()
+
+
+#: The slowest legal memory model (each ready granted with probability 1/256) with one
+#: reset value a DDR word at ppc 8: eight words a beat (found by the TDICAM_FULL property).
+SLOWEST_DDR = {"width": 8, "rows": 3, "pixel_bits": 8, "pixels_per_word": 1, "ppc": 8,
+               "base": 0, "capacity_mib": 1, "lat_lo": 2, "lat_hi": 2, "refresh_period": 200,
+               "refresh_cycles": 0, "drop": 255, "seed": 1}
+
+
+def test_ddr_block_at_the_slowest_memory_finishes():
+    """The run's cycle budget grows with the memory model's stalls (it used to stop at
+    n_in * 20 + 10,000 cycles and report the missing output as mismatches)."""
+    frames = np.random.default_rng(0).integers(0, 256, (2, 3, 8)).astype(np.uint16)
+    arrays = {"frames": frames, "kinds": np.array([1, 0])}
+    run, _ = run_scene(blocks.get("cds_ddr"), arrays, SLOWEST_DDR, sim="amaranth")
+    assert run.ok, run.message()
+    assert run.result.cycles > 10_120
+
+
+def test_an_amaranth_run_out_of_cycles_says_timed_out():
+    frames = np.random.default_rng(0).integers(0, 256, (2, 3, 8)).astype(np.uint16)
+    run, _ = run_scene(blocks.get("cds_ddr"), {"frames": frames, "kinds": np.array([1, 0])},
+                       SLOWEST_DDR, sim="amaranth", max_cycles=2000)
+    assert not run.ok and run.result.timeout
+    assert "timed out after 200" in run.message()

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from tdicam.scene import loader, docs
+from tdicam.scene import docs, reading
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scene-format.md"
 
@@ -29,9 +29,9 @@ def test_every_key_the_reader_accepts_is_documented_with_its_range():
 
 
 def test_schema_probe_leaves_the_reader_untouched():
-    before = {n: getattr(loader._Section, n) for n in ("number", "integer", "raw")}
+    before = {n: getattr(reading.Section, n) for n in ("number", "integer", "raw")}
     docs.schema()
-    assert {n: getattr(loader._Section, n) for n in before} == before
+    assert {n: getattr(reading.Section, n) for n in before} == before
 
 
 def test_an_undocumented_key_is_refused(monkeypatch):

@@ -1,6 +1,6 @@
 """Parts of the tdicam docs generated from the code, kept in the Markdown pages themselves.
 
-Four pages hold a generated region, between ``<!-- generated NAME: ... -->`` and
+Five pages hold a generated region, between ``<!-- generated NAME: ... -->`` and
 ``<!-- end NAME -->``, whose plain Markdown is made from the package (so the page reads on its
 own, without Sphinx, and cannot fall behind the code: ``python docs/_ext/tdicam_docs.py``
 rewrites the regions, ``--check`` says which are stale, and tests/test_docs.py fails on one):
@@ -13,6 +13,9 @@ rewrites the regions, ``--check`` says which are stale, and tests/test_docs.py f
   the first paragraph of its leading comment;
 * ``tdicam-effects`` (``guide/run.md``): the scene simulator's effects table
   (:data:`tdicam.engine.effects.EFFECTS`), in the order they are applied;
+* ``tdicam-registers`` (``guide/registers.md``): the orbit chain's register reference, as
+  ``tdicam verilog pipeline --csr`` writes it (``peakrdl-markdown``), its headings one level
+  down;
 * ``tdicam-api`` (``api.md``): every name in ``tdicam.__all__`` with its signature and
   docstring (a class with its public members, a module with its own ``__all__``).
 
@@ -32,7 +35,8 @@ from pathlib import Path
 REGION = re.compile(r"(<!-- generated (tdicam-[a-z]+):[^\n]*-->\n)(.*?)(<!-- end \2 -->)", re.S)
 #: The page (under docs/) that holds each generated region.
 PAGES = {"tdicam-blocks": "guide/blocks.md", "tdicam-scenes": "guide/scenes.md",
-         "tdicam-effects": "guide/run.md", "tdicam-api": "api.md"}
+         "tdicam-effects": "guide/run.md", "tdicam-api": "api.md",
+         "tdicam-registers": "guide/registers.md"}
 DOCS = Path(__file__).resolve().parents[1]
 #: The checkout's bundled scenes (the docs are built from a checkout).
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
@@ -311,8 +315,23 @@ def api_text_markdown() -> str:
 
 
 #: What each region holds (plain Markdown).
+def registers_markdown() -> str:
+    """The orbit chain's register reference (:func:`tdicam.chain.registers.markdown`), its
+    headings one level down (under the page's own)."""
+    import warnings
+    from tdicam.chain import design, registers
+    p = design.chain_plan(design.load_pipeline_scene(SCENES / "orbit_chain.toml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        text = registers.markdown(registers.compile_rdl(registers.rdl_text(
+            design.register_map(p))))
+    text = re.sub(r"^(#+) ", r"#\1 ", text.split("-->", 1)[1].strip(), flags=re.M)
+    return text + "\n"
+
+
 _GENERATORS = {"tdicam-blocks": blocks_markdown, "tdicam-scenes": scenes_markdown,
-               "tdicam-effects": effects_markdown, "tdicam-api": api_text_markdown}
+               "tdicam-effects": effects_markdown, "tdicam-api": api_text_markdown,
+               "tdicam-registers": registers_markdown}
 #: What Sphinx shows instead, where it differs (autodoc).
 _SPHINX = {"tdicam-api": api_markdown}
 

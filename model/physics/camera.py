@@ -145,16 +145,24 @@ def ddr_peak_bps(data_bits, data_rate_mts, user_clock_mhz):
     return min(pins, user), pins, user
 
 
-def ddr_efficiency():
-    """``(efficiency, source text)`` counted on for an interface's mixed traffic (a line
-    written, lines read): the DDR block whose measured order is closest, CDS with its reset
-    frame in DDR at 4096 columns, the lower of the memory model's and LiteDRAM's figures
-    less :data:`tdicam.model.ddr_efficiency.PLAN_MARGIN`."""
-    model, lite = _ddr_efficiency.MEASURED_EFFICIENCY["cds_ddr_wide"]
+def ddr_efficiency(shared=False):
+    """``(efficiency, source text)`` counted on for an interface's mixed traffic, the
+    lower of the memory model's and LiteDRAM's figures less
+    :data:`tdicam.model.ddr_efficiency.PLAN_MARGIN`: with ``shared`` (the coefficient reads
+    and the reset frames on one interface, behind the top's DdrArbiter) the arbiter's
+    measured order (:data:`~tdicam.model.ddr_efficiency.SHARED_EFFICIENCY`); else the DDR
+    block whose measured order is closest to a line written and lines read, CDS with its
+    reset frame in DDR at 4096 columns."""
+    if shared:
+        (model, lite), what = _ddr_efficiency.SHARED_EFFICIENCY, \
+            "the DdrArbiter's shared order (coefficient reads beside the reset frames)"
+    else:
+        (model, lite), what = _ddr_efficiency.MEASURED_EFFICIENCY["cds_ddr_wide"], \
+            "cds_ddr_wide's"
     low = min(model, lite if lite is not None else model)
     src = "LiteDRAM" if lite is not None and lite < model else "memory model"
     return low / 100 - _ddr_efficiency.PLAN_MARGIN, (
-        f"cds_ddr_wide's measured {low:g} % ({src}, 4 refresh intervals) less the "
+        f"{what} measured {low:g} % ({src}, 4 refresh intervals) less the "
         f"{_ddr_efficiency.PLAN_MARGIN:.0%} plan margin")
 
 

@@ -14,7 +14,11 @@
     the scene simulator (:func:`tdicam.engine.simulate`) on the bundled orbit scene;
 ``pipeline`` (only when named, :data:`EXTRA`)
     the orbit scene's whole chain through its generated top (:mod:`tdicam.bench.chain`): one
-    run per row, its build timed apart, with its own legend (:data:`LEGENDS`).
+    run per row, its build timed apart, with its own legend (:data:`LEGENDS`);
+``camera`` (only when named)
+    the whole camera of Ning et al. 2019 at full width (:mod:`tdicam.bench.camera`): two
+    cuts of 5144 columns through its top on Verilator, every tap compared, and the whole
+    frame pair extrapolated.
 
 Every level of a block runs on the same generated input: the slow levels (Python simulator,
 per-beat, Icarus fast) on its first frames or words (a prefix), the golden model and the fast
@@ -48,7 +52,7 @@ import numpy as np
 
 from tdicam import blocks, cosim
 from tdicam.blocks import StreamWork
-from tdicam.bench import chain, lvds
+from tdicam.bench import camera, chain, lvds
 from tdicam.bench.build import build_seconds
 from tdicam.bench.plot import plot, tradeoff_points
 from tdicam.bench.util import SCENE, UNIT_ABBR, machine, median_time, na_row, row
@@ -97,8 +101,9 @@ def _units(blk, inputs):
 #: (``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer), then the scene.
 NAMES = tuple(dict.fromkeys(b.bench.group for b in _benched())) + ("scene",)
 #: Benchmarks run only when named (minutes each): ``pipeline``, the orbit scene's whole
-#: chain through its generated top (:mod:`tdicam.bench.chain`).
-EXTRA = ("pipeline",)
+#: chain through its generated top (:mod:`tdicam.bench.chain`); ``camera``, the full-width
+#: camera of Ning et al. 2019 through its top (:mod:`tdicam.bench.camera`).
+EXTRA = ("pipeline", "camera")
 
 
 # ------------------------------------------------------------------------------ helpers
@@ -226,14 +231,15 @@ def _scene_rows(*, sims, repeat, quick, stalls, build):
 
 
 #: The benchmarks that are not a block's: the scene simulator and the whole camera.
-RUNNERS = {"scene": _scene_rows, "pipeline": chain.pipeline_rows}
+RUNNERS = {"scene": _scene_rows, "pipeline": chain.pipeline_rows,
+           "camera": camera.camera_rows}
 #: How a block that is not a video stream is measured, by its :attr:`Block.harness`
 #: (:class:`tdicam.blocks.Block`): a function of the stream rows' keyword arguments
 #: (``"link"``: the LVDS link, :mod:`tdicam.bench.lvds`).
 HARNESS_RUNNERS = {"link": lvds.rows}
 #: Benchmarks whose rows are measured their own way, with their own legend
 #: (``legend(stalls=, quick=)``); the other rows share the first line of :func:`legend`.
-LEGENDS = {"pipeline": chain.legend}
+LEGENDS = {"pipeline": chain.legend, "camera": camera.legend}
 
 
 def expand(names):

@@ -42,7 +42,19 @@ from tdicam.model.cds import pixel_dtype
 
 __all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
            "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
-           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width"]
+           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width", "ENTRY_SECTIONS"]
+
+#: The sections of every block entry file (``tdicam/blocks/<b>.py``), in their order, each
+#: opened by a ``# ---- <name>`` line; an entry leaves out those it has no part for
+#: (``tests/test_block_entries.py`` checks the order and what each holds).
+ENTRY_SECTIONS = {
+    "top": "the Verilog top (the component inside AxisTop) and the parameters' check",
+    "cases": "the golden cases and the stream adapters they use (golden, beats, example)",
+    "scene": "the block's scene options ([pipeline.<b>] keys, their KeyDocs)",
+    "chain": "its place in a chain (the step, its hardware, its system rows)",
+    "simulator": "its steps in the scene simulator (Sim rows)",
+    "entry": "BLOCK = Block(...)",
+}
 
 
 def _flag(name):

@@ -2,7 +2,7 @@
 block's parameters in the engine's run context and its golden model on scene arrays, both
 through the block's own entry."""
 
-from tdicam.blocks.steps import StepContext
+from tdicam.blocks.steps import RunView, StepContext
 from tdicam.errors import TdicamError
 
 
@@ -12,7 +12,7 @@ def golden(block, arrays, params):
     return block.run_golden(arrays, block.resolve(params))["out"]
 
 
-def step(c, block, bits, width, *, after_lines=False):
+def step(c: RunView, block, bits, width, *, after_lines=False):
     """``block``'s :class:`~tdicam.blocks.steps.Step` in the engine's run context ``c`` for
     ``bits``-bit input pixels, ``width`` wide: its entry's scene-to-parameters function
     (:attr:`tdicam.blocks.Use.step`)."""

@@ -18,6 +18,7 @@ from tdicam.blocks import Block, Case, Param
 
 __all__ = ["BLOCK", "reader_beats", "random_codes", "code_maps"]
 
+# ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
 
@@ -33,6 +34,7 @@ def _top(**params):
     return AxisTop(CalibReader(**params))
 
 
+# ---- cases
 def random_codes(rng, rows, cols, fmt):
     """Random gain and offset codes over the format's whole range (int64 maps)."""
     g = rng.integers(0, fmt.gain_max + 1, (rows, cols))
@@ -205,6 +207,7 @@ def _cases():
     ]
 
 
+# ---- entry
 BLOCK = Block(
     name="calib",
     summary="calibration store reader: SECDED-protected flash words -> nuc coefficients "

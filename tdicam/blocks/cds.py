@@ -14,15 +14,17 @@ from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideI
                            check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Sim, Step
+from tdicam.blocks.steps import Frames, RunView, Sim, Step
 
 __all__ = ["BLOCK", "CdsOptions"]
 
 
+# ---- top
 def _top(*, pixel_bits, ppc):
     return AxisTop(Cds(pixel_bits=pixel_bits, ppc=ppc))
 
 
+# ---- cases
 def _random(frames, rows, cols):
     def make(params, rng):
         b = params["pixel_bits"]
@@ -114,6 +116,7 @@ def _ppc_cases():
 
 
 
+# ---- scene
 #: ``[pipeline.cds].memory``: where the reset frame is kept.
 CDS_MEMORY = ("chip", "ddr")
 
@@ -145,11 +148,13 @@ OPTIONS = Options(
                           "line (block cds_ddr, Ning et al. 2019 §4.4.1, §4.2)")})
 
 
+# ---- chain
 def _pipeline_step(ctx):
     return Step("cds", {"pixel_bits": ctx.bits}), ctx.bits
 
 
-def _sim_step(c, fr):
+# ---- simulator
+def _sim_step(c: RunView, fr: Frames):
     """Digital CDS of every channel: signal minus reset frame."""
     bits = c.sensor.bits
     for ch, x in enumerate(fr.channels):
@@ -171,6 +176,7 @@ SIM = (Sim("block cds (golden model)", _sim_step, aggregated=True, subtract=_sub
            pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),)
 
 
+# ---- entry
 BLOCK = Block(
     name="cds",
     summary="digital CDS: signal - reset per pixel, clamped at 0 (Ning et al. 2019 §4.4.1)",

@@ -24,6 +24,7 @@ from tdicam.blocks._ddr import (STALL_PARAMS, address_params, check_base, check_
 __all__ = ["BLOCK", "cds_arrays", "cds_to_beats"]
 
 
+# ---- top
 def _layout(p):
     ppw = default_pixels_per_word(p["pixel_bits"], p["ppc"], p["pixels_per_word"])
     return LineLayout(width=p["width"], pixel_bits=p["pixel_bits"], pixels_per_word=ppw,
@@ -54,6 +55,7 @@ def _synth_top(**p):
     return AxisTop(_core(p))
 
 
+# ---- cases
 def cds_arrays(frames, kinds, params):
     frames = np.asarray(frames)
     kinds = np.asarray(kinds, np.int64)
@@ -182,6 +184,7 @@ def _cases():
     ] + _ppc_cases()
 
 
+# ---- chain
 def _pipeline_step(ctx):
     """``[pipeline.cds].memory = "ddr"``: the frame's size, the reset frame at the scene's
     ``[ddr].base`` (the MIG model's stall settings the scene's ``[ddr]`` gives); ``frame_kind`` 1 on the reset frame, 0 on its signal frame, in turn."""
@@ -280,6 +283,7 @@ def _pipeline_kinds(step, data, lane):
     return {"kinds": np.tile(np.array([1, 0], np.int64), n)}
 
 
+# ---- entry
 BLOCK = Block(
     name="cds_ddr",
     summary="digital CDS with the reset frame in DDR (Ning et al. 2019 §4.4.1, §4.2)",

@@ -20,6 +20,7 @@ from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_t
 __all__ = ["BLOCK", "ddr_frames", "ddr_to_beats"]
 
 
+# ---- top
 def _layout(p):
     return LineLayout(width=p["width"], channels=p["channels"], pixel_bits=p["pixel_bits"],
                       pixels_per_word=p["pixels_per_word"], line_stride=p["line_stride"],
@@ -51,6 +52,7 @@ def _top(**p):
     return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
 
 
+# ---- cases
 def ddr_frames(rng, params, n, kind="random"):
     """(n, rows, width, channels) frames for the ``ddr`` block."""
     b = params["pixel_bits"]
@@ -157,6 +159,7 @@ def _full_only(case, sim, mode):
     return case.name == "paper_72ch_table2"
 
 
+# ---- entry
 BLOCK = Block(
     name="ddr",
     summary="DDR frame buffer round trip: line writer -> MIG UI -> line reader "

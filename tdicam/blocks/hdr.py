@@ -16,14 +16,20 @@ from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideI
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Sim, Step
+from tdicam.blocks.steps import Frames, RunView, Sim, Step
 
 __all__ = ["BLOCK", "HdrOptions", "ramp_frame", "scene_frames"]
 
 
+# ---- top
 _top, _ecp5_top = tops(Hdr)
 
 
+def _check(params):
+    hdr_config(**model_params(params))
+
+
+# ---- cases
 def _frame_start_stalls(arrays, params):
     """Cycles ``hdr`` holds its input at the frame starts after a measured band (the
     junction's divisions, :attr:`tdicam.hdl.hdr.Hdr.frame_start_cycles` each)."""
@@ -164,39 +170,6 @@ def _reset_beats(sels):
     return make
 
 
-def _ppc_cases():
-    """At ppc 2, 4 and 8: a scene, a reset mid-row, the count saturating inside a beat
-    (``ramp_multi``: 15 band pixels at most) and the smallest width (one beat per row); at
-    ppc 8 also the LG sweep, constant extremes, empty bands, gain changes and the coarse
-    16-bit format."""
-    out = []
-    for k, ppc in enumerate(PPC_CHOICES[1:]):
-        p, pm = {"ppc": ppc}, {**MULTI, "ppc": ppc}
-        out += [
-            Case(f"scene_12b_p{ppc}", p, _scene(3, 16, 32), seed=20 + k),
-            Case(f"reset_mid_frame_multi_p{ppc}", pm, _reset_beats([2, 2, 1, 0]),
-                 seed=30 + k, tags=("reset", "runtime")),
-            Case(f"ramp_multi_p{ppc}", pm, _ramp, seed=40 + k,
-                 tags=("monotonic", "count-saturation")),
-            Case(f"narrow_12b_p{ppc}", p, _scene(3, 8, ppc, span=(0.8, 1.2)), seed=50 + k,
-                 tags=("narrow",)),
-        ]
-    p8 = {"ppc": 8}
-    out += [
-        Case("ramp_12b_p8", p8, _ramp, seed=60, tags=("monotonic", "threshold", "fullscale")),
-        Case("extremes_12b_p8", p8, _extremes_wide, seed=61, tags=("fullscale", "zeros")),
-        Case("empty_band_12b_p8", p8, _empty_band(24), seed=62, tags=("empty-band",)),
-        Case("gain_change_multi_p8", {**MULTI, "ppc": 8},
-             _scene(8, 8, 24, [0, 0, 1, 1, 2, 3, 3, 0], span=(0.8, 1.2)), seed=63,
-             tags=("runtime", "count-saturation")),
-        Case("scene_coarse_16b_p8", {**COARSE, "ppc": 8}, _scene(3, 12, 24), seed=64,
-             tags=("clamp",)),
-        Case("extremes_coarse_16b_p8", {**COARSE, "ppc": 8}, _extremes_wide, seed=65,
-             tags=("fullscale", "zeros")),
-    ]
-    return out
-
-
 def _golden(arrays, params):
     """hdr on (..., rows, cols) stacks; ``gain_sel`` one value per frame."""
     hg = np.asarray(arrays["hg"])
@@ -247,10 +220,40 @@ def _to_beats(arrays, params):
     return stim, exp
 
 
-def _check(params):
-    hdr_config(**model_params(params))
+def _ppc_cases():
+    """At ppc 2, 4 and 8: a scene, a reset mid-row, the count saturating inside a beat
+    (``ramp_multi``: 15 band pixels at most) and the smallest width (one beat per row); at
+    ppc 8 also the LG sweep, constant extremes, empty bands, gain changes and the coarse
+    16-bit format."""
+    out = []
+    for k, ppc in enumerate(PPC_CHOICES[1:]):
+        p, pm = {"ppc": ppc}, {**MULTI, "ppc": ppc}
+        out += [
+            Case(f"scene_12b_p{ppc}", p, _scene(3, 16, 32), seed=20 + k),
+            Case(f"reset_mid_frame_multi_p{ppc}", pm, _reset_beats([2, 2, 1, 0]),
+                 seed=30 + k, tags=("reset", "runtime")),
+            Case(f"ramp_multi_p{ppc}", pm, _ramp, seed=40 + k,
+                 tags=("monotonic", "count-saturation")),
+            Case(f"narrow_12b_p{ppc}", p, _scene(3, 8, ppc, span=(0.8, 1.2)), seed=50 + k,
+                 tags=("narrow",)),
+        ]
+    p8 = {"ppc": 8}
+    out += [
+        Case("ramp_12b_p8", p8, _ramp, seed=60, tags=("monotonic", "threshold", "fullscale")),
+        Case("extremes_12b_p8", p8, _extremes_wide, seed=61, tags=("fullscale", "zeros")),
+        Case("empty_band_12b_p8", p8, _empty_band(24), seed=62, tags=("empty-band",)),
+        Case("gain_change_multi_p8", {**MULTI, "ppc": 8},
+             _scene(8, 8, 24, [0, 0, 1, 1, 2, 3, 3, 0], span=(0.8, 1.2)), seed=63,
+             tags=("runtime", "count-saturation")),
+        Case("scene_coarse_16b_p8", {**COARSE, "ppc": 8}, _scene(3, 12, 24), seed=64,
+             tags=("clamp",)),
+        Case("extremes_coarse_16b_p8", {**COARSE, "ppc": 8}, _extremes_wide, seed=65,
+             tags=("fullscale", "zeros")),
+    ]
+    return out
 
 
+# ---- scene
 MULTI = {"gain_pairs": "4.9:0.8,4.9:1.6,2.45:0.8", "count_bits": 4}
 COARSE = {"pixel_bits": 16, "anchor": "threshold", "slope_frac_bits": 0, "lgt_frac_bits": 0,
           "out_bits": 16, "band": 64}
@@ -285,6 +288,7 @@ OPTIONS = Options(
      "slope_frac_bits": KeyDoc("bit", "fractional bits of the measured gain ratio")})
 
 
+# ---- chain
 def _pipeline_hw(step, data, *, ecp5=False):
     """The merge stage; at ``ppc`` >= 2 a register slice follows it (``out_slice``):
     without it TDI's input ready reached hdr's clock enables in one cycle (the Ning et al.
@@ -303,7 +307,8 @@ def _pipeline_step(ctx):
     return Step("hdr", p), hdr_config(**p).out_bits
 
 
-def _sim_step(c, fr):
+# ---- simulator
+def _sim_step(c: RunView, fr: Frames):
     """Golden HDR merge of the HG and LG channels into one."""
     if len(fr.channels) != 2:
         return
@@ -320,6 +325,7 @@ def _sim_step(c, fr):
 SIM = (Sim("block hdr (golden model)", _sim_step, per_exposure=True),)
 
 
+# ---- entry
 BLOCK = Block(
     name="hdr",
     summary="HG/LG dual-gain merge, junction measured on the previous frame (Ning et al. 2019 §4.4.2)",

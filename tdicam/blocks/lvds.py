@@ -25,6 +25,7 @@ from tdicam.blocks import Block, Case, Param
 from tdicam.blocks.steps import Step
 from tdicam.model import lvds_front
 
+# ---- top
 #: The tracker's probe margin (taps) of a scene with [sensor.lvds].tracking: the trained tap
 #: sits pick - 1 = 4 taps above its run's start.
 TRACK_MARGIN = 4
@@ -70,7 +71,169 @@ def _check(p):
             raise TdicamError(f"--bits = {p['bits']} exceeds --word-bits = {p['word_bits']}")
 
 
-# ---------------------------------------------------------------- the chain's front end
+# ---- cases
+def link_arrays(link, *, cycles, retrains=(), n_check=16):
+    """Arrays describing a link run (what a golden case stores as input)."""
+    lanes = link.lanes
+    after = [ln.after if ln.after is not None else ln for ln in lanes]
+    f = lambda xs, a: np.array([getattr(x, a) for x in xs], np.float64)  # noqa: E731
+    return {
+        "skew_ps": f(lanes, "skew_ps"), "eye_ps": f(lanes, "eye_ps"),
+        "jitter_ps": f(lanes, "jitter_ps"), "tap_ps": f(lanes, "tap_ps"),
+        "seed": np.array([ln.seed for ln in lanes], np.int64),
+        "change_at": np.array([-1 if ln.change_at is None else ln.change_at for ln in lanes],
+                              np.int64),
+        "after_skew_ps": f(after, "skew_ps"), "after_eye_ps": f(after, "eye_ps"),
+        "after_jitter_ps": f(after, "jitter_ps"), "after_tap_ps": f(after, "tap_ps"),
+        "link": np.array([link.word_bits, link.train_word, link.sync_word, link.line_words,
+                          cycles, n_check], np.int64),
+        "schedule": np.array([(n, int(m == "data")) for n, m in link.schedule],
+                             np.int64).reshape(-1, 2),
+        "retrains": np.array(sorted(retrains), np.int64),
+    }
+
+
+def link_from_arrays(a):
+    """(link, cycles, retrains, n_check) from :func:`link_arrays` output."""
+    w, train, sync, line, cycles, n_check = (int(x) for x in a["link"])
+    lanes = []
+    for i in range(len(a["skew_ps"])):
+        after = None
+        if a["change_at"][i] >= 0:
+            after = lvds.Lane(skew_ps=float(a["after_skew_ps"][i]),
+                              eye_ps=float(a["after_eye_ps"][i]),
+                              jitter_ps=float(a["after_jitter_ps"][i]),
+                              tap_ps=float(a["after_tap_ps"][i]))
+        lanes.append(lvds.Lane(
+            skew_ps=float(a["skew_ps"][i]), eye_ps=float(a["eye_ps"][i]),
+            jitter_ps=float(a["jitter_ps"][i]), tap_ps=float(a["tap_ps"][i]),
+            seed=int(a["seed"][i]),
+            change_at=None if after is None else int(a["change_at"][i]), after=after))
+    sched = tuple((int(n), "data" if m else "train") for n, m in a["schedule"])
+    link = lvds.Link(lanes, word_bits=w, train_word=train, sync_word=sync, line_words=line,
+                     schedule=sched)
+    return link, cycles, tuple(int(k) for k in a["retrains"]), n_check
+
+
+def golden_arrays(link, params, *, cycles, retrains=(), n_check=16):
+    """Golden run of ``link`` with block ``params``: events and final status as arrays."""
+    g = lvds.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
+                 settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
+    fin = g.final
+    col = lambda key, dt: np.array([f[key] for f in fin], dt)  # noqa: E731
+    return {
+        "events": np.array(g.events, np.int64).reshape(-1, 7),
+        "tap": col("tap", np.uint8), "slip": col("slip", np.uint8),
+        "locked": col("locked", np.uint8), "error": col("error", np.uint8),
+        "run": col("run", np.uint8), "scan": col("scan", np.uint32),
+    }
+
+
+def _data_start(w, n_check, settle):
+    return lvds.training_words(w, n_check, settle) + 16
+
+
+def _case(build):
+    def make(params, rng):
+        link, cycles, retrains, n_check = build(params, rng)
+        out = link_arrays(link, cycles=cycles, retrains=retrains, n_check=n_check)
+        out.update(golden_arrays(link, params, cycles=cycles, retrains=retrains,
+                                 n_check=n_check))
+        return out
+    return make
+
+
+def _random(n, *, n_check=16, words=400, max_word_delay=1):
+    def build(params, rng):
+        w = params["word_bits"]
+        lanes = [lvds.random_lane(rng, max_word_delay=max_word_delay, word_bits=w)
+                 for _ in range(n)]
+        nd = _data_start(w, n_check, params["settle"])
+        link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
+        return link, nd + words, (), n_check
+    return build
+
+
+def _windows(params, rng):
+    """Hand-made eyes: clipped windows, two windows, a tie, too narrow, dead, flickering."""
+    w = params["word_bits"]
+    tap = lvds.PAPER_TAP_PS
+    ui = 1e6 / 300
+    lane = lvds.Lane
+
+    def at(first_tap, eye_taps, **kw):
+        # eye starting just after tap `first_tap - 1`: phase u of tap t decreases with t
+        eye = eye_taps * tap
+        hi = (ui + eye) / 2
+        skew = (-(hi - 1.0) - (first_tap - 1) * tap) % ui
+        return lane(skew_ps=skew, eye_ps=eye, **kw)
+
+    xt = lvds.XILINX_TAP_PS
+    lanes = [
+        lane(skew_ps=1515.0, eye_ps=20 * xt, tap_ps=xt, seed=1),  # clipped at tap 0 (12 taps)
+        lane(skew_ps=2660.0, eye_ps=20 * xt, tap_ps=xt, seed=2),  # clipped at tap 31
+        lane(skew_ps=910.0, eye_ps=9.6 * tap, seed=3),   # two 9-tap windows: tie, first wins
+        lane(skew_ps=630.0, eye_ps=7.95 * tap, seed=4),  # 8-tap windows: error, no silent lock
+        at(-3, 14.2, seed=5),                            # 11 + 14 taps: the widest wins
+        lane(skew_ps=900.0, eye_ps=0.0, seed=6),                    # dead lane
+        at(4, 15.0, jitter_ps=6 * tap, seed=7),                     # strong flicker: error
+        at(6, 12.0, jitter_ps=2 * tap, seed=8),                     # mild flicker
+        at(10, 20.0, seed=9),                                       # widest eye
+    ]
+    nd = _data_start(w, 8, params["settle"])
+    link = lvds.Link(lanes, word_bits=w, line_words=16, schedule=((nd, "data"),))
+    return link, nd + 300, (), 8
+
+
+def _deskew(params, rng):
+    """8 lanes, word delays 0..3 words on top of the bit skew: output must leave aligned."""
+    w = params["word_bits"]
+    ui = 1e6 / 300
+    lanes = []
+    for i in range(8):
+        base = lvds.random_lane(rng, jitter=False, word_bits=w)
+        eye = float(rng.uniform(14, 20)) * base.tap_ps
+        lanes.append(lvds.Lane(skew_ps=base.skew_ps % ui + (i % 4) * w * ui, eye_ps=min(eye, ui),
+                               tap_ps=base.tap_ps, seed=100 + i))
+    nd = _data_start(w, 8, params["settle"])
+    link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
+    return link, nd + 600, (), 8
+
+
+def _retrain(params, rng):
+    """Skew change after lock (error, then retrain recovers), a lane dying after lock, a lane
+    dying during the bitslip search, a lane coming back to life at the retrain."""
+    w = params["word_bits"]
+    n_check, settle = 4, params["settle"]
+    tw = lvds.training_words(w, n_check, settle)
+    nd = tw + 16
+    kr = nd + 300
+    nd2 = kr + 1 + tw + 16
+    p = lvds.step_words(n_check, settle)
+    in_slip = lvds.N_TAPS * p + 1 + p // 2     # inside slip step 0
+    lane = lvds.Lane
+    lanes = [
+        lane(skew_ps=700.0, eye_ps=2600.0, seed=11, change_at=nd + 120,
+             after=lane(skew_ps=2400.0, eye_ps=2600.0)),              # skew jumps
+        lane(skew_ps=1500.0, eye_ps=2500.0, jitter_ps=300.0, seed=12, change_at=nd + 77,
+             after=lane(skew_ps=1500.0, eye_ps=0.0)),                 # dies after lock
+        lane(skew_ps=300.0, eye_ps=2500.0, seed=13, change_at=in_slip,
+             after=lane(skew_ps=300.0, eye_ps=0.0)),                  # dies in slip search
+        lane(skew_ps=200.0, eye_ps=0.0, seed=14, change_at=kr - 40,
+             after=lane(skew_ps=200.0, eye_ps=2800.0)),               # comes to life
+        lane(skew_ps=4000.0, eye_ps=2900.0, jitter_ps=200.0, seed=15),  # steady
+        lane(skew_ps=2500.0, eye_ps=2000.0, seed=16),                 # steady
+    ]
+    link = lvds.Link(lanes, word_bits=w, line_words=24,
+                     schedule=((nd, "data"), (kr, "train"), (nd2, "data")))
+    return link, nd2 + 200, (kr,), n_check
+
+
+def case_link(arrays):
+    return link_from_arrays(arrays)
+
+
+# ---- chain
 def _front_source(scene):
     return scene.sensor.lvds is not None
 
@@ -268,167 +431,7 @@ def _front_golden(step, data=None):
     return lambda arrays, lane: lvds_front.wire_code(arrays[0], w)
 
 
-def link_arrays(link, *, cycles, retrains=(), n_check=16):
-    """Arrays describing a link run (what a golden case stores as input)."""
-    lanes = link.lanes
-    after = [ln.after if ln.after is not None else ln for ln in lanes]
-    f = lambda xs, a: np.array([getattr(x, a) for x in xs], np.float64)  # noqa: E731
-    return {
-        "skew_ps": f(lanes, "skew_ps"), "eye_ps": f(lanes, "eye_ps"),
-        "jitter_ps": f(lanes, "jitter_ps"), "tap_ps": f(lanes, "tap_ps"),
-        "seed": np.array([ln.seed for ln in lanes], np.int64),
-        "change_at": np.array([-1 if ln.change_at is None else ln.change_at for ln in lanes],
-                              np.int64),
-        "after_skew_ps": f(after, "skew_ps"), "after_eye_ps": f(after, "eye_ps"),
-        "after_jitter_ps": f(after, "jitter_ps"), "after_tap_ps": f(after, "tap_ps"),
-        "link": np.array([link.word_bits, link.train_word, link.sync_word, link.line_words,
-                          cycles, n_check], np.int64),
-        "schedule": np.array([(n, int(m == "data")) for n, m in link.schedule],
-                             np.int64).reshape(-1, 2),
-        "retrains": np.array(sorted(retrains), np.int64),
-    }
-
-
-def link_from_arrays(a):
-    """(link, cycles, retrains, n_check) from :func:`link_arrays` output."""
-    w, train, sync, line, cycles, n_check = (int(x) for x in a["link"])
-    lanes = []
-    for i in range(len(a["skew_ps"])):
-        after = None
-        if a["change_at"][i] >= 0:
-            after = lvds.Lane(skew_ps=float(a["after_skew_ps"][i]),
-                              eye_ps=float(a["after_eye_ps"][i]),
-                              jitter_ps=float(a["after_jitter_ps"][i]),
-                              tap_ps=float(a["after_tap_ps"][i]))
-        lanes.append(lvds.Lane(
-            skew_ps=float(a["skew_ps"][i]), eye_ps=float(a["eye_ps"][i]),
-            jitter_ps=float(a["jitter_ps"][i]), tap_ps=float(a["tap_ps"][i]),
-            seed=int(a["seed"][i]),
-            change_at=None if after is None else int(a["change_at"][i]), after=after))
-    sched = tuple((int(n), "data" if m else "train") for n, m in a["schedule"])
-    link = lvds.Link(lanes, word_bits=w, train_word=train, sync_word=sync, line_words=line,
-                     schedule=sched)
-    return link, cycles, tuple(int(k) for k in a["retrains"]), n_check
-
-
-def golden_arrays(link, params, *, cycles, retrains=(), n_check=16):
-    """Golden run of ``link`` with block ``params``: events and final status as arrays."""
-    g = lvds.run(link, cycles=cycles, retrains=retrains, n_check=n_check,
-                 settle=params["settle"], min_run=params["min_run"], pick=params["pick"])
-    fin = g.final
-    col = lambda key, dt: np.array([f[key] for f in fin], dt)  # noqa: E731
-    return {
-        "events": np.array(g.events, np.int64).reshape(-1, 7),
-        "tap": col("tap", np.uint8), "slip": col("slip", np.uint8),
-        "locked": col("locked", np.uint8), "error": col("error", np.uint8),
-        "run": col("run", np.uint8), "scan": col("scan", np.uint32),
-    }
-
-
-def _data_start(w, n_check, settle):
-    return lvds.training_words(w, n_check, settle) + 16
-
-
-def _case(build):
-    def make(params, rng):
-        link, cycles, retrains, n_check = build(params, rng)
-        out = link_arrays(link, cycles=cycles, retrains=retrains, n_check=n_check)
-        out.update(golden_arrays(link, params, cycles=cycles, retrains=retrains,
-                                 n_check=n_check))
-        return out
-    return make
-
-
-def _random(n, *, n_check=16, words=400, max_word_delay=1):
-    def build(params, rng):
-        w = params["word_bits"]
-        lanes = [lvds.random_lane(rng, max_word_delay=max_word_delay, word_bits=w)
-                 for _ in range(n)]
-        nd = _data_start(w, n_check, params["settle"])
-        link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
-        return link, nd + words, (), n_check
-    return build
-
-
-def _windows(params, rng):
-    """Hand-made eyes: clipped windows, two windows, a tie, too narrow, dead, flickering."""
-    w = params["word_bits"]
-    tap = lvds.PAPER_TAP_PS
-    ui = 1e6 / 300
-    lane = lvds.Lane
-
-    def at(first_tap, eye_taps, **kw):
-        # eye starting just after tap `first_tap - 1`: phase u of tap t decreases with t
-        eye = eye_taps * tap
-        hi = (ui + eye) / 2
-        skew = (-(hi - 1.0) - (first_tap - 1) * tap) % ui
-        return lane(skew_ps=skew, eye_ps=eye, **kw)
-
-    xt = lvds.XILINX_TAP_PS
-    lanes = [
-        lane(skew_ps=1515.0, eye_ps=20 * xt, tap_ps=xt, seed=1),  # clipped at tap 0 (12 taps)
-        lane(skew_ps=2660.0, eye_ps=20 * xt, tap_ps=xt, seed=2),  # clipped at tap 31
-        lane(skew_ps=910.0, eye_ps=9.6 * tap, seed=3),   # two 9-tap windows: tie, first wins
-        lane(skew_ps=630.0, eye_ps=7.95 * tap, seed=4),  # 8-tap windows: error, no silent lock
-        at(-3, 14.2, seed=5),                            # 11 + 14 taps: the widest wins
-        lane(skew_ps=900.0, eye_ps=0.0, seed=6),                    # dead lane
-        at(4, 15.0, jitter_ps=6 * tap, seed=7),                     # strong flicker: error
-        at(6, 12.0, jitter_ps=2 * tap, seed=8),                     # mild flicker
-        at(10, 20.0, seed=9),                                       # widest eye
-    ]
-    nd = _data_start(w, 8, params["settle"])
-    link = lvds.Link(lanes, word_bits=w, line_words=16, schedule=((nd, "data"),))
-    return link, nd + 300, (), 8
-
-
-def _deskew(params, rng):
-    """8 lanes, word delays 0..3 words on top of the bit skew: output must leave aligned."""
-    w = params["word_bits"]
-    ui = 1e6 / 300
-    lanes = []
-    for i in range(8):
-        base = lvds.random_lane(rng, jitter=False, word_bits=w)
-        eye = float(rng.uniform(14, 20)) * base.tap_ps
-        lanes.append(lvds.Lane(skew_ps=base.skew_ps % ui + (i % 4) * w * ui, eye_ps=min(eye, ui),
-                               tap_ps=base.tap_ps, seed=100 + i))
-    nd = _data_start(w, 8, params["settle"])
-    link = lvds.Link(lanes, word_bits=w, line_words=32, schedule=((nd, "data"),))
-    return link, nd + 600, (), 8
-
-
-def _retrain(params, rng):
-    """Skew change after lock (error, then retrain recovers), a lane dying after lock, a lane
-    dying during the bitslip search, a lane coming back to life at the retrain."""
-    w = params["word_bits"]
-    n_check, settle = 4, params["settle"]
-    tw = lvds.training_words(w, n_check, settle)
-    nd = tw + 16
-    kr = nd + 300
-    nd2 = kr + 1 + tw + 16
-    p = lvds.step_words(n_check, settle)
-    in_slip = lvds.N_TAPS * p + 1 + p // 2     # inside slip step 0
-    lane = lvds.Lane
-    lanes = [
-        lane(skew_ps=700.0, eye_ps=2600.0, seed=11, change_at=nd + 120,
-             after=lane(skew_ps=2400.0, eye_ps=2600.0)),              # skew jumps
-        lane(skew_ps=1500.0, eye_ps=2500.0, jitter_ps=300.0, seed=12, change_at=nd + 77,
-             after=lane(skew_ps=1500.0, eye_ps=0.0)),                 # dies after lock
-        lane(skew_ps=300.0, eye_ps=2500.0, seed=13, change_at=in_slip,
-             after=lane(skew_ps=300.0, eye_ps=0.0)),                  # dies in slip search
-        lane(skew_ps=200.0, eye_ps=0.0, seed=14, change_at=kr - 40,
-             after=lane(skew_ps=200.0, eye_ps=2800.0)),               # comes to life
-        lane(skew_ps=4000.0, eye_ps=2900.0, jitter_ps=200.0, seed=15),  # steady
-        lane(skew_ps=2500.0, eye_ps=2000.0, seed=16),                 # steady
-    ]
-    link = lvds.Link(lanes, word_bits=w, line_words=24,
-                     schedule=((nd, "data"), (kr, "train"), (nd2, "data")))
-    return link, nd2 + 200, (kr,), n_check
-
-
-def case_link(arrays):
-    return link_from_arrays(arrays)
-
-
+# ---- entry
 BLOCK = Block(
     name="lvds",
     summary="LVDS receiver: IDELAY bit training, bitslip, lane deskew (Ning et al. 2019 §4.1)",

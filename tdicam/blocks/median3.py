@@ -22,10 +22,19 @@ from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param
                            StreamWork, Suite, SynthRef, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Sim, Step
+from tdicam.blocks.steps import Frames, RunView, Sim, Step
 
 __all__ = ["BLOCK", "Median3Options", "BUILDS", "FULL_ONLY_BUILDS", "stream_case", "case_beats",
            "MAX_PIXEL_BITS", "check_after_tdi"]
+
+
+# ---- top
+def _check(params):
+    check_geometry(params["width"], params["ppc"])
+    if not params["enhance"] and (params["enhance_gain"] != 1
+                                  or params["enhance_shift"] is not None):
+        raise TdicamError("--enhance-gain and --enhance-shift need --enhance true")
+
 
 
 def _top(**params):
@@ -39,6 +48,7 @@ def _ecp5_top(**params):
     return AxisTop(Median3(**params, bram="ecp5", dsp="ecp5"))
 
 
+# ---- cases
 def _model_kw(params):
     return {k: params[k] for k in ("pixel_bits", "enhance", "enhance_gain", "enhance_shift")}
 
@@ -255,14 +265,18 @@ def _cases():
     ]
 
 
-def _check(params):
-    check_geometry(params["width"], params["ppc"])
-    if not params["enhance"] and (params["enhance_gain"] != 1
-                                  or params["enhance_shift"] is not None):
-        raise TdicamError("--enhance-gain and --enhance-shift need --enhance true")
+#: Parameter sets co-simulated only with TDICAM_FULL=1 (each is a Verilator build of its
+#: own): enhancement at ppc 2 and 4 and the 16-bit enhanced frames at ppc 8. Every run keeps
+#: at every ppc the smallest width, full scale and zeros, a reset mid-frame, and enhancement
+#: at ppc 1 and 8.
+FULL_ONLY_BUILDS = ("p2_enh_w8_12b", "p4_enh_w16_12b", "p8_enh_w40_16b")
 
 
+def _full_only(case, sim, mode):
+    return any(case.params == BUILDS[b] for b in FULL_ONLY_BUILDS)
 
+
+# ---- scene
 @dataclass(frozen=True)
 class Median3Options:
     """``[pipeline.median3]``: add Ning et al. 2019's edge enhancement to the median output,
@@ -291,6 +305,7 @@ OPTIONS = Options(
     probe={"edge_enhance": True})
 
 
+# ---- chain
 def _pipeline_step(ctx):
     """After a line-making block the frames are ``lines`` output lines (one median image);
     before it, each exposure frame of ``stages`` rows."""
@@ -303,6 +318,7 @@ def _pipeline_step(ctx):
     return Step("median3", p, {"height": ctx.m}), pb
 
 
+# ---- simulator
 #: The widest pixels median3 takes (its ``pixel_bits`` parameter's range).
 MAX_PIXEL_BITS = 16
 
@@ -319,7 +335,7 @@ def check_after_tdi(bits, after=None):
                           f"with output_bits <= {MAX_PIXEL_BITS}")
 
 
-def _sim_pre(c, fr):
+def _sim_pre(c: RunView, fr: Frames):
     """Golden 3x3 median on single exposures (before TDI)."""
     x = fr.channels[0]
     _sim.check_bits(BLOCK, fr.bits, 8, 16, "[sensor].bits")
@@ -331,7 +347,7 @@ def _sim_pre(c, fr):
     fr.channels = [y]
 
 
-def _sim_post(c, fr):
+def _sim_post(c: RunView, fr: Frames):
     """Golden 3x3 median on the TDI output."""
     pb = max(1, int(fr.full_scale).bit_length())
     check_after_tdi(pb)
@@ -350,17 +366,7 @@ SIM = (Sim("block median3 before TDI (golden)", _sim_pre, where="pre", per_expos
        Sim("block median3 after TDI (golden)", _sim_post, stage="output", where="post"))
 
 
-#: Parameter sets co-simulated only with TDICAM_FULL=1 (each is a Verilator build of its
-#: own): enhancement at ppc 2 and 4 and the 16-bit enhanced frames at ppc 8. Every run keeps
-#: at every ppc the smallest width, full scale and zeros, a reset mid-frame, and enhancement
-#: at ppc 1 and 8.
-FULL_ONLY_BUILDS = ("p2_enh_w8_12b", "p4_enh_w16_12b", "p8_enh_w40_16b")
-
-
-def _full_only(case, sim, mode):
-    return any(case.params == BUILDS[b] for b in FULL_ONLY_BUILDS)
-
-
+# ---- entry
 BLOCK = Block(
     name="median3",
     summary="3x3 median, replicated borders, 1-8 pixels/clock, optional edge enhancement "

@@ -26,6 +26,7 @@ from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
 
+# ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 _OUT_FIELDS = ("gain", "offset", "corrected", "uncorrectable", "defaulted", "header_error",
                "first", "last")
@@ -43,13 +44,21 @@ def geometry_of(params):
 
 def _check(params):
     _fmt(params)._check_slots()
-    geometry_of(params)
+    g = geometry_of(params)
+    if params["device"]:       # the simulation model holds the image's programmed pages
+        need = nand_store.programmed_pages(
+            calib.HEADER_WORDS + calib.payload_words(params["rows"], params["cols"]), g)
+        if need > params["slots"]:
+            raise TdicamError(f"slots = {params['slots']}: the {params['rows']} x "
+                              f"{params['cols']} image and its block map program {need} pages "
+                              f"of {params['page_bytes']} bytes; give slots >= {need}")
 
 
 def _top(**params):
     return AxisTop(NandCalibTop(**params))
 
 
+# ---- cases
 def load_beats(device, slots):
     """Loader words (uint64 array) putting ``device``'s contents into the simulation model:
     one slot per page with data, the data bytes that are not ``0xFF``, the markers that are
@@ -210,6 +219,7 @@ def _full_only(case, sim, mode):
     return sim == "icarus" and case.name not in ICARUS_FAST
 
 
+# ---- entry
 BLOCK = Block(
     name="nand_store",
     summary="calibration store in NAND flash: power-up bad-block scan, block map, pages "

@@ -14,18 +14,24 @@ from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideI
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Sim, Step
+from tdicam.blocks.steps import Frames, RunView, Sim, Step
 from tdicam.errors import TdicamError
 from tdicam.model import ecc as _ecc, nand_store
 
 __all__ = ["BLOCK", "NucOptions", "cut_frame0", "nand_load_rows"]
 
+# ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 
 
 _top, _ecp5_top = tops(Nuc)
 
 
+def _check(params):
+    check_nuc_params(**model_params(params))
+
+
+# ---- cases
 def _fmt(params):
     return NucFormat(**{k: params[k] for k in _FMT_KEYS})
 
@@ -187,10 +193,7 @@ def _ppc_cases():
     return out
 
 
-def _check(params):
-    check_nuc_params(**model_params(params))
-
-
+# ---- scene
 _WIDE = {"pixel_bits": 16, "gain_int_bits": 2, "gain_frac_bits": 16, "offset_bits": 18,
          "offset_frac_bits": 8, "out_bits": 20}
 _NARROW = {"pixel_bits": 10, "gain_int_bits": 1, "gain_frac_bits": 7, "offset_bits": 10,
@@ -278,6 +281,7 @@ OPTIONS = Options(
     probe={"flash": "nand"})
 
 
+# ---- chain
 #: The NAND part's R/B# busy time after a page read in co-simulation, clocks (the
 #: ``nand_store`` block's simulation default; the real t_R, 25 us, is 2,500 clocks at
 #: 100 MHz: :func:`tdicam.model.nand_store.timing` gives the load time at it).
@@ -517,12 +521,13 @@ def _pipeline_identity(step, shape):
     return {"coeffs": identity_coeffs(shape, _fmt(step.params))}
 
 
-def _sim_format(c):
+# ---- simulator
+def _sim_format(c: RunView):
     """The coefficients' :class:`~tdicam.model.nuc.NucFormat` in run context ``c``."""
     return _fmt(_sim.step(c, BLOCK, c.sensor.bits, c.sensor.columns).params)
 
 
-def _sim_step(c, fr):
+def _sim_step(c: RunView, fr: Frames):
     """Golden nuc of every channel with the ideal coefficients (``c.prepared["coeffs"]``),
     through the ECC round trip or the NAND store when ``[pipeline.nuc]`` says so."""
     fmt = _sim_format(c)
@@ -584,7 +589,7 @@ def _nand_roundtrip(c, ch, fmt, gain, offset):
     return g.reshape(shape), off.reshape(shape)
 
 
-def _sim_coeffs(c, gain_map, dark_map):
+def _sim_coeffs(c: RunView, gain_map, dark_map):
     """Per-channel (gain, offset) codes that map each pixel onto the mean response, as the
     scene data's ``coeffs``.
 
@@ -603,7 +608,7 @@ def _sim_coeffs(c, gain_map, dark_map):
     return {"coeffs": out}
 
 
-def _sim_notes(c):
+def _sim_notes(c: RunView):
     """The run's notes on the coefficients loaded from NAND flash (``c.flash``)."""
     return [f"nuc coefficients of channel {f['channel']} loaded from NAND flash: "
             f"{f['bad_blocks']} bad blocks, {f['corrected_words']} corrected and "
@@ -617,6 +622,7 @@ SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_si
            notes=_sim_notes),)
 
 
+# ---- entry
 BLOCK = Block(
     name="nuc",
     summary="per-pixel correction y = gain*x + offset, round half up, saturated (Ning et al. 2019 §4.4.4)",

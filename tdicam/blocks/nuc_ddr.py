@@ -25,6 +25,7 @@ from tdicam.hdl.nuc_ddr import NucDdr
 
 __all__ = ["BLOCK", "nuc_ddr_arrays"]
 
+# ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
 _MODEL_KEYS = ("pixel_bits", "out_bits", "line_stride", "base") + _FMT_KEYS
 
@@ -64,6 +65,7 @@ def _synth_top(**p):
     return AxisTop(_core(p))
 
 
+# ---- cases
 def _golden(arrays, params):
     return {"out": nuc_ddr_frames(arrays["x"], arrays["gain"], arrays["offset"],
                                   arrays["kinds"], **{k: params[k] for k in _MODEL_KEYS})}
@@ -169,11 +171,8 @@ def _cases():
     return out
 
 
-# --------------------------------------------------------------------------------------
+# ---- chain
 # in a scene's chain: [pipeline.nuc].memory = "ddr"
-# --------------------------------------------------------------------------------------
-
-
 def _pipeline_step(ctx):
     """``[pipeline.nuc].memory = "ddr"``: ``nuc``'s coefficient format and NAND part
     (its step's ``device``), the frame's size, the coefficient image at ``ctx.ddr_base``
@@ -295,6 +294,7 @@ def _pipeline_identity(step, shape):
     return _nuc._pipeline_identity(step, shape)
 
 
+# ---- entry
 BLOCK = Block(
     name="nuc_ddr",
     summary="per-pixel NUC with the coefficients in DDR (Ning et al. 2019 §4.2-§4.4.4)",

@@ -18,12 +18,14 @@ from tdicam.blocks._secded import PARAMS, markers, word_bytes
 __all__ = ["BLOCK", "dec_beats", "sweep_codes"]
 
 
+# ---- top
 def _top(*, registered, pipelined, stream):
     if stream:
         return AxisTop(SecdedDecoderStream(registered=registered, pipelined=pipelined))
     return SecdedDecoder(registered=registered, pipelined=pipelined)
 
 
+# ---- cases
 def dec_beats(data, check):
     """(stimulus, expected) beats of the decoder stream for received words ``(data, check)``:
     9 code bytes in; out 8 data bytes, the syndrome, flags (bit 0 corrected, bit 1
@@ -111,6 +113,7 @@ def _example(rng, n, shape, params):
     return {"data_in": d, "check_in": c}
 
 
+# ---- entry
 BLOCK = Block(
     name="secded_dec",
     module="ecc",

@@ -17,12 +17,14 @@ from tdicam.blocks._secded import PARAMS, markers, word_bytes
 __all__ = ["BLOCK", "enc_beats"]
 
 
+# ---- top
 def _top(*, registered, stream):
     if stream:
         return AxisTop(SecdedEncoderStream(registered=registered))
     return SecdedEncoder(registered=registered)
 
 
+# ---- cases
 def enc_beats(data):
     """(stimulus, expected) beats of the encoder stream: 8 data bytes in, 9 code bytes out."""
     data = np.asarray(data, np.uint64)
@@ -54,6 +56,7 @@ def _example(rng, n, shape, params):
     return {"data": rng.integers(0, 1 << 64, n, dtype=np.uint64)}
 
 
+# ---- entry
 BLOCK = Block(
     name="secded_enc",
     module="ecc",

@@ -12,13 +12,13 @@ the :class:`StepContext` a block's :attr:`tdicam.blocks.Use.step` plans from, an
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Protocol, runtime_checkable
 
 import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "Frames", "Sim"]
+__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "Frames", "Sim", "RunView"]
 
 
 @dataclass(frozen=True)
@@ -163,22 +163,66 @@ class Frames:
     keep_out: tuple | None = None        # (y0, h, x0, w) of the output crop
 
 
+@runtime_checkable
+class RunView(Protocol):
+    """What a block's scene-simulator step (:class:`Sim`) may read of the engine's run: the
+    whole of it. The engine's :class:`tdicam.engine.context.RunContext` is one
+    (``tests/test_block_entries.py`` checks that it has every member and that no block step
+    reads another attribute of its run argument ``c``).
+
+    Attributes
+    ----------
+    scene : tdicam.scene.Scene
+        The scene being run.
+    m : int
+        TDI stages (rows a ground line sums).
+    sensor : tdicam.scene.schema.Sensor
+        ``scene.sensor``.
+    gains : tuple of float
+        Channel gains converted in this pass (both with dual gain, else the high gain).
+    zero_dn : float
+        DN of zero light after the exposure blocks (0 with CDS, else the ADC pedestal).
+    digital : bool
+        The TDI sum is digital (``[tdi].domain``).
+    prepared : dict
+        Side inputs the blocks' ``prepare`` made for this pass (NUC's ideal coefficients
+        under ``"coeffs"``); a step reads it, ``prepare`` writes it.
+    flash : dict
+        Per channel, the NAND store's counters of this run; NUC's step writes them once.
+    """
+
+    scene: object
+    m: int
+    prepared: dict
+    flash: dict
+
+    @property
+    def sensor(self): ...
+
+    @property
+    def gains(self) -> tuple: ...
+
+    @property
+    def zero_dn(self) -> float: ...
+
+    @property
+    def digital(self) -> bool: ...
+
+
 @dataclass(frozen=True)
 class Sim:
     """One step of a block in the scene simulator (:mod:`tdicam.engine`): a row of its
     effects table, named after the block (``<name>_<where>`` with ``where``).
 
-    The functions take the engine's run context ``c``
-    (:class:`tdicam.engine.context.RunContext`: ``c.scene``, ``c.m``, ``c.sensor``, ``c.gains``,
-    ``c.zero_dn``, ``c.prepared``, ``c.flash``, ``c.ran(row)``) and a :class:`Frames` ``fr``,
-    which they update in place (the block's golden model on its scene arrays, through the
-    entry).
+    The functions take the engine's run ``c``, a :class:`RunView` (what they may read of it),
+    and a :class:`Frames` ``fr``, which they update in place (the block's golden model on its
+    scene arrays, through the entry).
 
     Attributes
     ----------
     label : str
         The report's label of the row.
-    exact : callable(c, fr)
+    exact : callable(RunView, Frames)
         The step on the frame stacks (exact fidelity; also fast when ``fast`` is None and
         ``stage`` is ``output``).
     stage : {"blocks", "lines", "output"}
@@ -187,14 +231,14 @@ class Sim:
     where : {"pre", "post"} or None
         For a block that may run on either side of the line-making block, the side this
         row is (``[pipeline].blocks`` order decides which runs).
-    fast : callable(c, fr) or None
+    fast : callable(RunView, Frames) or None
         The step on the fast aggregate (None: no step of its own there; an ``output`` row
         runs ``exact``).
     aggregated : bool
         Fast fidelity changes how it is computed (the record shows the fidelity).
     per_exposure : bool
         Not linear on single exposures: fast fidelity cannot aggregate it (runs exact).
-    prepare : callable(c, gain_map, dark_map) -> dict, or None
+    prepare : callable(RunView, gain_map, dark_map) -> dict, or None
         Side inputs the block takes from the fixed pattern (``gain_map`` and ``dark_map`` of
         the rows each output pixel sums), as :class:`SceneData` fields (NUC's ideal
         coefficients); the engine keeps them in ``c.prepared``.
@@ -203,16 +247,16 @@ class Sim:
         fast path's raw single exposure).
     pedestal : callable(scene) -> float, or None
         DN its reset frames add to the ADC pedestal (the mean reset level).
-    notes : callable(c) -> list of str, or None
+    notes : callable(RunView) -> list of str, or None
         What the run's notes say of the step once the run is over (NUC: the coefficients'
         NAND store, from ``c.flash``).
     """
 
     label: str
-    exact: Callable
+    exact: Callable[[RunView, Frames], None]
     stage: str = "blocks"
     where: str | None = None
-    fast: Callable | None = None
+    fast: Callable[[RunView, Frames], None] | None = None
     aggregated: bool = False
     per_exposure: bool = False
     prepare: Callable | None = None

@@ -29,12 +29,13 @@ from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
-from tdicam.blocks.steps import Sim, Step
+from tdicam.blocks.steps import Frames, RunView, Sim, Step
 from tdicam.errors import TdicamError
 
 __all__ = ["BLOCK", "PARAMS", "TdiOptions", "TDI_MEMORY", "pack_ctrl", "stream_arrays", "to_beats", "streamed_case", "SCENE",
            "case_makers"]
 
+# ---- top
 CTRL_PORTS = ("stages_active", "direction")   # Beats.ctrl order: first port in the MSBs
 
 
@@ -53,6 +54,7 @@ def _check(p):
                  out_bits=p["out_bits"], ppc=p["ppc"])
 
 
+# ---- cases
 def pack_ctrl(stages_active, direction):
     """``Beats.ctrl`` of the block's run-time ports: ``{stages_active, direction}``."""
     return (np.asarray(stages_active, np.uint64) << np.uint64(1)) \
@@ -388,6 +390,36 @@ def _cases():
 
 
 
+#: (width, stages) of the cases Verilator co-simulates in every run (each other pair is a
+#: ~30 s build of its own: with TDICAM_FULL=1).
+VERILATOR_SIZES = ((64, 4), (1280, 96))
+
+
+def _full_only(case, sim, mode):
+    return sim == "verilator" and (case.params["width"], case.params["stages"]) not in \
+        VERILATOR_SIZES
+
+
+# ---- scene
+#: ``[pipeline.tdi].memory``: where the partial sums live.
+TDI_MEMORY = ("auto", "chip", "ddr")
+
+
+@dataclass(frozen=True)
+class TdiOptions:
+    """``[pipeline.tdi]``: where the gateware keeps the partial sums (:data:`TDI_MEMORY`)."""
+
+    memory: str = "auto"
+
+
+OPTIONS = Options(
+    TdiOptions, lambda sec, sensor: TdiOptions(memory=sec.choice("memory", "auto", TDI_MEMORY)),
+    "Where the gateware keeps TDI's partial sums (the golden model is the same either way).",
+    {"memory": KeyDoc("", "chip: block RAM; ddr: the DDR of [ddr] (through tdi_ddr); auto: "
+                          "DDR when the partial sums exceed the device's block RAM")})
+
+
+# ---- chain
 def _pipeline_step(ctx):
     """Stages and direction from ``[tdi]`` (run-time ports at their scene values), the
     output saturated per ``[tdi].output``; ``ctx.block`` is ``tdi`` or its DDR variant."""
@@ -408,29 +440,12 @@ def _pipeline_step(ctx):
     return step, out_width(pb, m_max, out_bits)
 
 
+# ---- simulator
 def _memory_bits(step):
     """The (stages - 1) partial-sum lines at full width."""
     from tdicam.model.tdi import full_bits
     p = step.params
     return (p["stages"] - 1) * p["width"] * full_bits(p["pixel_bits"], p["stages"])
-
-
-#: ``[pipeline.tdi].memory``: where the partial sums live.
-TDI_MEMORY = ("auto", "chip", "ddr")
-
-
-@dataclass(frozen=True)
-class TdiOptions:
-    """``[pipeline.tdi]``: where the gateware keeps the partial sums (:data:`TDI_MEMORY`)."""
-
-    memory: str = "auto"
-
-
-OPTIONS = Options(
-    TdiOptions, lambda sec, sensor: TdiOptions(memory=sec.choice("memory", "auto", TDI_MEMORY)),
-    "Where the gateware keeps TDI's partial sums (the golden model is the same either way).",
-    {"memory": KeyDoc("", "chip: block RAM; ddr: the DDR of [ddr] (through tdi_ddr); auto: "
-                          "DDR when the partial sums exceed the device's block RAM")})
 
 
 #: ``tdi``'s parameters; ``tdi_ddr`` inherits them (with its own defaults) and adds its DDR's.
@@ -454,7 +469,7 @@ PARAMS = (
 PIPELINE = dict(step=_pipeline_step, hw=lane_stage(out_slice=True), lines=True)
 
 
-def _sim_step(c, fr):
+def _sim_step(c: RunView, fr: Frames):
     """Golden digital TDI of the frame stack (saturating when ``[tdi].output`` says so)."""
     m, pb, x = c.m, fr.bits, fr.channels[0]
     _sim.check_bits(BLOCK, pb, *PIXEL_BITS,
@@ -477,7 +492,7 @@ def _sim_step(c, fr):
     fr.full_scale = (1 << (out_bits if out_bits is not None else full)) - 1
 
 
-def _sim_fast(c, fr):
+def _sim_fast(c: RunView, fr: Frames):
     """The fast aggregate is the TDI sum; saturate it where ``[tdi].output`` says so."""
     if c.digital and c.scene.tdi.output == "saturate":
         np.minimum(fr.out, (1 << c.scene.tdi.output_bits) - 1, out=fr.out)
@@ -488,16 +503,7 @@ def _sim_fast(c, fr):
 SIM = (Sim("TDI accumulation", _sim_step, stage="lines", fast=_sim_fast, aggregated=True),)
 
 
-#: (width, stages) of the cases Verilator co-simulates in every run (each other pair is a
-#: ~30 s build of its own: with TDICAM_FULL=1).
-VERILATOR_SIZES = ((64, 4), (1280, 96))
-
-
-def _full_only(case, sim, mode):
-    return sim == "verilator" and (case.params["width"], case.params["stages"]) not in \
-        VERILATOR_SIZES
-
-
+# ---- entry
 BLOCK = Block(
     name="tdi",
     summary="optimized digital TDI accumulator: m-1 partial-sum lines, run-time stages and "

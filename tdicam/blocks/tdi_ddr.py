@@ -19,6 +19,7 @@ from tdicam.blocks._ddr import STALL_PARAMS, check_base, check_stalls, sim_top, 
 __all__ = ["BLOCK"]
 
 
+# ---- top
 def _check(p):
     tdi_check_params(width=p["width"], stages=p["stages"], pixel_bits=p["pixel_bits"],
                      out_bits=p["out_bits"], ppc=p["ppc"])
@@ -40,6 +41,7 @@ def _top(**p):
     return sim_top(core, p["base"] // ADDR_PER_WORD + core.ddr_words, stalls_of(p))
 
 
+# ---- cases
 def _gen(name, *args):
     """One of the ``tdi`` block's case generators (:func:`tdicam.blocks.tdi.case_makers`),
     looked up when the case is made."""
@@ -82,6 +84,7 @@ def _cases():
     ]
 
 
+# ---- chain
 def _pipeline_step(ctx):
     """``tdi``'s step, its partial sums at the scene's ``[ddr].base`` (refused in one line
     naming the key when they do not fit above it)."""
@@ -98,6 +101,7 @@ def _pipeline_step(ctx):
                                  **dict(ctx.scene.ddr.stalls)}), out_bits
 
 
+# ---- entry
 BLOCK = Block(
     name="tdi_ddr",
     summary="TDI accumulator with its m_max-1 partial-sum lines in DDR (Qu et al. 2010; Tao et al. 2012; Ning et al. 2019 §4.2)",

@@ -32,10 +32,17 @@ __all__ = ["BLOCK", "BUILDS", "VERILATOR_BUILDS", "stream_case", "case_beats",
            "frame_word_beats"]
 
 
+# ---- top
+def _check(params):
+    if params["crossing"] and not params["pins"]:
+        raise TdicamError("--crossing true needs --pins true (the word stream has one clock)")
+
+
 def _top(**params):
     return AxisTop(Tlk2711(**params))
 
 
+# ---- cases
 def _entry(params):
     return max(params.get("ppc", 1), params["links"])
 
@@ -115,14 +122,6 @@ def _unstream(out, arrays, params):
 def _example(rng, n, shape, params):
     b = params["pixel_bits"]
     return {"frames": rng.integers(0, 1 << b, (n, *shape), dtype=pixel_dtype(b))}
-
-
-def _check(params):
-    if params["crossing"] and not params["pins"]:
-        raise TdicamError("--crossing true needs --pins true (the word stream has one clock)")
-
-
-# ---------------------------------------------------------------------- golden cases
 
 
 def _width(params, per_entry=5):
@@ -211,6 +210,7 @@ def _full_only(case, sim, mode):
     return sim == "verilator" and not any(case.params == BUILDS[b] for b in VERILATOR_BUILDS)
 
 
+# ---- entry
 BLOCK = Block(
     name="tlk2711",
     summary="Output links: 1-2 TLK2711 transmitters' parallel side (16-bit words at the "

@@ -28,8 +28,9 @@ from tdicam.errors import TdicamError, check_range
 
 __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
-           "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "MEMORY", "scene_ppc",
-           "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text", "load_pipeline_scene"]
+           "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "run_values", "register_map",
+           "MEMORY", "scene_ppc", "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text",
+           "load_pipeline_scene"]
 
 
 # --------------------------------------------------------------------------------------
@@ -305,11 +306,13 @@ def sourced(p):
     return bool(p.steps) and _use(p.steps[0].block).source is not None
 
 
-def top(p, data=None, *, taps=False, ecp5=False, board=False):
+def top(p, data=None, *, taps=False, ecp5=False, board=False, csr=False):
     """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
     each block's ECP5 synthesis top where it has one, for ``tdicam synth``; ``board``: for
     co-simulation, the top inside a :class:`~tdicam.hdl.chain_board.Board` with the
-    simulation models of its external parts on its pins, when it has any)."""
+    simulation models of its external parts on its pins, when it has any; ``csr``: the
+    settings and status behind the AXI4-Lite slave :class:`~tdicam.hdl.csr.CsrTop` on
+    :func:`register_map`'s map)."""
     from tdicam.hdl.interfaces.axis import AxisTop
     from tdicam.hdl.chain_board import Board
     from tdicam.hdl.chain_top import Pipeline
@@ -327,9 +330,35 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False):
                           f"generated top has one DDR interface a gain channel ({p.lanes}), "
                           f"its DDR users sharing it; give ddr_interfaces = {p.lanes} or "
                           f"leave it out")
+    pipeline = core
     if board and core.has_devices():
         core = Board(core)
+    if csr:
+        from tdicam.hdl.csr import CsrTop
+        core = CsrTop(core, register_map(p, pipeline))
     return AxisTop(core)
+
+
+def run_values(p):
+    """{top port: value} of plan ``p``'s run-time settings (the scene's; a tuple: a
+    per-frame pattern)."""
+    return {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+
+
+def register_map(p, pipeline=None):
+    """The :class:`~tdicam.hdl.csr_map.RegisterMap` of plan ``p``'s top (``pipeline``: its
+    :class:`~tdicam.hdl.chain_top.Pipeline`, made when not given), its settings' reset
+    values the scene's."""
+    import os
+    from tdicam.hdl.csr_map import register_map as _map
+    import re
+    if pipeline is None:
+        made = top(p)
+        pipeline = made.core
+        made._MustUse__silence = pipeline._MustUse__silence = True    # for its ports only
+    name = re.sub(r"\W", "_", os.path.splitext(os.path.basename(p.source))[0]) or "pipeline"
+    name = "t_" + name if name[0].isdigit() else name
+    return _map(pipeline, run_values(p), name=name)
 
 
 def verilog(p, data=None, *, taps=False):
@@ -339,15 +368,17 @@ def verilog(p, data=None, *, taps=False):
     return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
 
 
-def verilog_header(p, *, taps=False):
+def verilog_header(p, *, taps=False, csr=False):
     """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
-    (no path), the blocks in order with their parameters, channels, frame and lines."""
+    (no path), the blocks in order with their parameters, channels, frame and lines (and
+    ``csr`` when the control bus is on)."""
     import os
     from tdicam.hw.verilog import header
     return header("pipeline", {
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
         "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
-        "taps": taps} | {s.block: s.params for s in p.steps})
+        "taps": taps} | ({"csr": "axi4-lite"} if csr else {})
+        | {s.block: s.params for s in p.steps})
 
 
 def golden(p, data):
@@ -369,7 +400,7 @@ def _ctrl(axis_top, p):
     from math import lcm
     from tdicam.cosim import stream_ports
     _, _, ctrl = stream_ports(axis_top)
-    values = {f"{s.block}_{k}": v for s in p.steps for k, v in s.ports.items()}
+    values = run_values(p)
     period = lcm(1, *(len(v) for v in values.values() if isinstance(v, tuple)))
     words = []
     for f in range(period):
@@ -466,12 +497,13 @@ def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
 class PipelineBlock:
     """The registry face of a plan for :func:`tdicam.hw.synth.synth` (name, resolve, build)."""
 
-    def __init__(self, p, data):
-        self.name, self._p, self._data = "pipeline", p, data
+    def __init__(self, p, data, *, csr=False):
+        self.name, self._p, self._data, self._csr = "pipeline", p, data, csr
 
     def resolve(self, params=None):
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
-                                                   for s in self._p.steps]}
+                                                   for s in self._p.steps]} | (
+            {"csr": "axi4-lite"} if self._csr else {})
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
@@ -502,4 +534,4 @@ class PipelineBlock:
     def build(self, params=None, *, ecp5=False):
         """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one
         (:attr:`tdicam.blocks.Block.ecp5_top`, e.g. the TDI accumulator's DP16KD banks)."""
-        return top(self._p, self._data, ecp5=ecp5)
+        return top(self._p, self._data, ecp5=ecp5, csr=self._csr)

@@ -56,6 +56,11 @@ def scene_design(prog, extra):
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
+    ap.add_argument("--csr", action="store_true",
+                    help="the run-time settings and status behind an AXI4-Lite slave "
+                         "(s_axil_*, irq) on the top's register map; with -o the map's "
+                         "SystemRDL, C header, Markdown reference and Python driver are "
+                         "written beside the Verilog")
     from tdicam.hdl.lvds_phy import PHYS
     ap.add_argument("--phy", choices=tuple(PHYS),
                     help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
@@ -85,19 +90,31 @@ def scene_design(prog, extra):
 
 
 def verilog_command(extra, output, *, show_help=False):
-    """``tdicam verilog pipeline --scene S.toml [-o FILE]``; returns the exit status."""
+    """``tdicam verilog pipeline --scene S.toml [--csr] [-o FILE]``; returns the exit
+    status. With ``--csr``, ``-o`` may name a folder (the Verilog is then its
+    ``pipeline.v``); the register map's files (:func:`tdicam.chain.registers.write_files`)
+    go beside the Verilog."""
     if show_help:
         extra = ["--help"]
+    csr = "--csr" in extra
+    if csr and output is not None and (Path(output).is_dir() or not Path(output).suffix):
+        Path(output).mkdir(parents=True, exist_ok=True)        # -o DIR: a folder
+        output = str(Path(output) / "pipeline.v")
     if output is not None and not show_help:
         check_file(output)
     ns, p, data = scene_design("tdicam verilog pipeline", extra)
-    ax = top(p, data, taps=ns.taps)
+    ax = top(p, data, taps=ns.taps, csr=ns.csr)
     ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
-    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps))
+    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps, csr=ns.csr))
     if output is not None:
         write_file(output, text)
         print(f"wrote {output}: module pipeline, {chain_text(p)}, {p.lanes} channel(s), "
               f"{p.width} x {p.stages} frames, latency {ax_lat}", file=sys.stderr)
+        if ns.csr:
+            from tdicam.chain.registers import write_files
+            files = write_files(ax.core.regmap, str(Path(output).parent))
+            print(f"wrote {', '.join(files.values())}: {len(ax.core.regmap.registers)} "
+                  f"registers", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0
@@ -125,7 +142,8 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
     ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
     synth_xilinx cell counts (``--no-xilinx``: not)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
-    res = synth(PipelineBlock(p, data), seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
+    blk = PipelineBlock(p, data, csr=ns.csr)
+    res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
         ppc = p.ppc
@@ -147,7 +165,6 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
           f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
           f"{res.xilinx}")
     if len(res.fmax_clocks) > 1:
-        blk = PipelineBlock(p, data)
         want = {"clk": freq_mhz, **blk.clocks()}
         derived = blk.derived_clocks()
         print("Fmax per clock domain: " + ", ".join(

@@ -17,7 +17,7 @@ from amaranth.sim import Simulator
 from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim.pauses import StreamDriver
-from tdicam.cosim.stream import stream_ports
+from tdicam.cosim.stream import cycle_budget, stream_ports
 from tdicam.cosim.streamsim import StreamEnds, drive, set_ports
 from tdicam.cosim.tbgen import RST_CYCLES
 
@@ -32,8 +32,11 @@ def _pack(values, padded):
 
 
 def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=200,
-              max_cycles=None, trace=None):
-    """Simulate ``stim`` through ``block``; returns (output Beats, cycles, wall seconds).
+              max_cycles=None, trace=None, n_out=None):
+    """Simulate ``stim`` through ``block``; returns (output Beats, cycles, wall seconds,
+    timed out). The run stops ``drain`` quiet cycles after the last transfer, or at
+    ``max_cycles`` (default :func:`tdicam.cosim.stream.cycle_budget` for ``n_out`` expected
+    outputs, ``len(stim)`` when not given): then it timed out.
 
     ``trace``, a list, receives ``("i" | "o", cycle)`` of every transfer (as
     :func:`tdicam.cosim.run_stream` with ``trace=True``).
@@ -52,7 +55,8 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     ctrl_vals = stim.ctrl.tolist()
     drv = StreamDriver(stim.rst, seed=seed, idle=idle, backpressure=backpressure,
                        rst_cycles=RST_CYCLES, drain=drain,
-                       max_cycles=max_cycles or (n_in * 20 + 10000))
+                       max_cycles=max_cycles or cycle_budget(
+                           params, n_in, n_in if n_out is None else n_out, idle, backpressure))
     out = {"data": [], "first": [], "last": [], "seg": []}
     port_sigs = [(getattr(top, name), w) for name, w in ctrl]
 
@@ -91,4 +95,4 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     n = len(out["first"])
     beats = Beats(np.array(out["data"], np.uint64).reshape(n, ocount), out["first"],
                   out["last"], np.array(out["seg"], np.uint8))
-    return beats, drv.cycle, wall
+    return beats, drv.cycle, wall, drv.timeout

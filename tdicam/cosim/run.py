@@ -121,9 +121,10 @@ def run_beats(block, params, stim, exp, *, sim, mode="fast", idle=0.0, backpress
     blk = blocks.get(block) if isinstance(block, str) else block
     params = blk.resolve(params)
     if sim == AMARANTH:
-        out, cycles, wall = run_pysim(blk.name, params, stim, idle=idle,
-                                      backpressure=backpressure, seed=seed, **kw)
-        res = SimResult(out, cycles, wall, 0.0, False, len(stim))
+        out, cycles, wall, timeout = run_pysim(blk.name, params, stim, idle=idle,
+                                               backpressure=backpressure, seed=seed,
+                                               n_out=len(exp), **kw)
+        res = SimResult(out, cycles, wall, 0.0, timeout, len(stim))
         mode = "beat"
     else:
         res = run_stream(blk.name, params, stim, n_out=len(exp), sim=sim, mode=mode,

@@ -16,13 +16,14 @@ from amaranth.hdl import Shape
 from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.errors import TdicamError
+from tdicam.model import dram
 from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hw.verilog import convert
 from tdicam.cosim import codec, dp16kd, mult18x18d, tbgen
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.pauses import check_seed, thresholds
 
-__all__ = ["MODES", "SimResult", "stream_ports", "run_stream"]
+__all__ = ["MODES", "SimResult", "stream_ports", "run_stream", "cycle_budget"]
 
 MODES = ("beat", "fast")
 
@@ -70,6 +71,19 @@ class SimResult:
     wave: str | None = None
 
 
+def cycle_budget(params, n_in, n_out, idle=0.0, backpressure=0.0):
+    """Cycles a co-simulation of ``n_in`` input and ``n_out`` output beats may run before it
+    counts as timed out (the one budget of the Verilog and the Amaranth runs): 4 cycles a
+    beat at the source's and sink's pause rates, times, for a block with DDR stall
+    parameters, the memory model's slowdown (:func:`tdicam.model.dram.slowdown`) and its
+    pixels a beat (a DDR block may move a word a pixel), plus 100,000 (start-up: a NAND
+    scan, a stored line's reads). A run that ends sooner costs nothing more."""
+    slow = 1.0 / ((1 - idle) * (1 - backpressure))
+    ddr = dram.slowdown(params)
+    words = int(params.get("ppc", 1)) if ddr != 1.0 else 1
+    return int((n_in + n_out) * 4 * slow * ddr * words) + 100_000
+
+
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
                seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None,
                ecp5=False):
@@ -111,8 +125,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     bits, count, padded, _ = top._in
     n_in = len(stim)
     if max_cycles is None:
-        slow = 1.0 / ((1 - idle) * (1 - backpressure))
-        max_cycles = int((n_in + n_out) * 4 * slow) + 100_000
+        max_cycles = cycle_budget(params, n_in, n_out, idle, backpressure)
     if wave is not None:
         max_cycles = min(max_cycles, int(wave[1]) + 2)
     if drain is None:

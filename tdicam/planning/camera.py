@@ -102,7 +102,7 @@ def camera_budget(scene, cam):
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
                                          cam.ddr_user_clock_mhz)
-    eff, eff_src = camera.ddr_efficiency()
+    eff, eff_src = camera.ddr_efficiency(shared=bool(coeff_ch) and reset_ddr)
     avail = peak * eff
     words = sum(traffic.values()) / n_if
     dneed = words * _ddr.WORD_BITS * F

@@ -7,7 +7,7 @@ its key readers instrumented, and records for every key the type, default and ra
 reader applies, and the keys each section accepts. What the reader cannot say — the meaning
 and the unit of a key, and the rule behind a default or bound computed from other keys
 (``[sensor].conversion_gain_e_per_dn`` defaults to ``full_well_e / 2**bits``) — is in
-:data:`KEYS`, next to nothing else. :func:`render` fails when the two disagree: a key the
+:data:`tdicam.scene.sections.KEYS`, each section's beside its reader. :func:`render` fails when the two disagree: a key the
 reader accepts without an entry in :data:`KEYS`, an entry for a key it does not accept, or a
 default or range that changes between probes without a written rule.
 
@@ -23,11 +23,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tdicam import blocks
-from tdicam.beats import PPC_CHOICES
 from tdicam.blocks import KeyDoc
 from tdicam.model.physics import camera
-from tdicam.scene import loader
-from tdicam.model.physics import targets as _targets
+from tdicam.scene import loader, reading, sections
 
 __all__ = ["KEYS", "SECTIONS", "KeyDoc", "KeyInfo", "schema", "render", "main"]
 
@@ -97,209 +95,7 @@ SECTIONS = {
                "Needs [tdi].domain = \"digital\" (charge-domain TDI has no gateware chain).",
 }
 
-_FRAC = "fraction"
-
-
-def _camera_unit(key):
-    """The unit of a ``[camera]`` key, read off its name's suffix."""
-    for suffix, unit in (("_mhz", "MHz"), ("_hz", "Hz"), ("_mts", "MT/s"), ("_bits", "bit")):
-        if key.endswith(suffix):
-            return unit
-    return {"ddr_interfaces": "interfaces", "nand_parts": "parts", "links": "links"}.get(key, "")
-#: Unit and meaning of every key, by section (see :class:`KeyDoc`); a block's
-#: ``[pipeline.<block>]`` keys are its registry entry's (:class:`tdicam.blocks.Options`).
-KEYS = {
-    "orbit": {
-        "altitude_km": KeyDoc("km", "orbit altitude above a spherical Earth (R = 6378.137 km)"),
-        "gsd_m": KeyDoc("m", "ground sample distance: the ground size of one pixel"),
-    },
-    "turntable": {
-        "angular_speed_rad_s": KeyDoc("rad/s", "angular speed of the turntable"),
-        "distance_m": KeyDoc("m", "distance from the sensor to the rotation axis"),
-    },
-    "target": {
-        "kind": KeyDoc("", "the target: a picture (image), bar chart (bars), slanted edge "
-                           "(edge), Siemens star (siemens) or a uniform field (flat)"),
-        "signal_e": KeyDoc("e-", "light level: the electrons one pixel collects in one "
-                                 "exposure (one line period, one stage) from the brightest "
-                                 "part of the target (image value 1.0, bright bar, bright "
-                                 "side of the edge; a flat target is uniform at this level)"),
-        "image": KeyDoc("", "kind = \"image\": a picture bundled with scikit-image: "
-                            + ", ".join(loader.BUNDLED_IMAGES)
-                            + "; exactly one of image and path",
-                        type="string", default="-", range="a bundled name"),
-        "path": KeyDoc("", "kind = \"image\": a PNG or TIFF file, relative to the scene "
-                           "file; exactly one of image and path. Read when the scene is: "
-                           "one picture, channels last: grey, grey + alpha, RGB or RGBA "
-                           "(palette PNGs expanded); RGB to grey with the Rec. 601 weights "
-                           "0.299 R + 0.587 G + 0.114 B; alpha must be opaque everywhere "
-                           "(then dropped); integer codes over their type's full scale "
-                           "(255, 65535), floats as they are if at most 1.0, else over "
-                           "their largest value; negative, NaN and complex values refused",
-                       type="string", default="-",
-                       range=".png, .tif, .tiff; >= "
-                             f"{_targets.MIN_IMAGE_SIDE} x {_targets.MIN_IMAGE_SIDE} px"),
-        "contrast": KeyDoc(_FRAC, "bars, edge, siemens: Michelson contrast; the dark level "
-                                  "is signal_e (1 - c) / (1 + c)"),
-        "period_px": KeyDoc("output px", "bars: bar period"),
-        "direction": KeyDoc("", "bars: the axis the bar pattern varies along"),
-        "profile": KeyDoc("", "bars: square bars, or a sine grating (one spatial "
-                              "frequency, to measure the MTF at exactly 1/period_px)"),
-        "angle_deg": KeyDoc("deg", "edge: slant of the edge from the cross-track axis"),
-        "spokes": KeyDoc("", "siemens: number of spoke pairs"),
-    },
-    "sensor": {
-        "columns": KeyDoc("px", "pixels per row (cross track)"),
-        "rows": KeyDoc("px", "rows of the area sensor (the TDI window is at most this)"),
-        "pitch_um": KeyDoc("um", "pixel pitch"),
-        "fill_factor": KeyDoc(_FRAC, "area fill factor; the aperture MTF uses "
-                                     "q/p = sqrt(fill_factor) (square active area)"),
-        "bits": KeyDoc("bit", "ADC resolution"),
-        "full_well_e": KeyDoc("e-", "full-well capacity"),
-        "conversion_gain_e_per_dn": KeyDoc(
-            "e-/DN", "electrons per ADC code at channel gain 1 (a channel of gain g has "
-                     "conversion / g e-/DN)", default="full_well_e / 2**bits"),
-        "read_noise_e": KeyDoc("e- RMS", "temporal read noise of one exposure"),
-        "dark_current_e_per_s": KeyDoc("e-/s", "dark current"),
-        "prnu": KeyDoc(_FRAC, "photo-response non-uniformity, RMS (0.015 = 1.5 %)"),
-        "dsnu_e": KeyDoc("e- RMS", "dark-signal non-uniformity"),
-        "shutter": KeyDoc("", "rolling (rows start one row time apart: skew) or global "
-                              "(assumed pipelined)"),
-        "row_blanking_us": KeyDoc("us", "row blanking time t_rb (3.5 us: Tao et al. 2012's "
-                                        "typical value); used with pixel_clock_mhz"),
-        "pixel_clock_mhz": KeyDoc("MHz", "pixels per second over all output channels; "
-                                         "gives the row time with row_blanking_us"),
-        "max_frame_rate_hz": KeyDoc("Hz", "the datasheet full-frame rate; gives the row time "
-                                          "instead of pixel_clock_mhz"),
-        "gains": KeyDoc("", "channel gains: one, or two as [high, low] with high > low "
-                            "(Ning et al. 2019: [4.9, 0.8])",
-                        type="list of 1 or 2 numbers", range="each in (0, 1e6]"),
-        "black_level_dn": KeyDoc("DN", "ADC offset (pedestal) added to every sample, so that "
-                                       "read noise around a dark level is not clipped at "
-                                       "code 0", range="[0, 2**bits)"),
-    },
-    "optics": {
-        "psf_sigma_px": KeyDoc("px", "standard deviation of a Gaussian optics PSF (0: a "
-                                     "perfect lens, the optics effect is skipped)"),
-    },
-    "tdi": {
-        "stages": KeyDoc("", "TDI stages m: the exposures added per output line; a list "
-                             "sweeps them (one run each)",
-                         range=">= 1, <= [sensor].rows and M0; digital: <= 128"),
-        "domain": KeyDoc("", "digital (m reads added in the FPGA, Qu et al. 2010) or charge "
-                             "(charge summed before one read, as an interline CCD does)"),
-        "direction": KeyDoc("", "scan direction: which end of the window a ground line "
-                                "enters"),
-        "output": KeyDoc("", "full: bits + ceil(log2 m) output bits, no overflow; saturate: "
-                             "clip at output_bits"),
-        "output_bits": KeyDoc("bit", "output width with output = \"saturate\"",
-                              default="[sensor].bits"),
-    },
-    "motion": {
-        "dv_over_v": KeyDoc(_FRAC, "relative velocity mismatch dV/V between the image and "
-                                   "the TDI line clock; a list sweeps it"),
-        "drift_deg": KeyDoc("deg", "drift (crab) angle between the flight direction and the "
-                                   "sensor columns"),
-    },
-    "pipeline": {
-        "blocks": KeyDoc("", "the ordered processing chain, from cds, nuc, hdr, tdi, median3; "
-                             "tdi exactly once, no repeats",
-                         type="list of strings", range="order rules above"),
-    },
-    "ddr": {
-        "interface": KeyDoc("", "the DDR controller's user interface"),
-        "base": KeyDoc("byte", "byte address of the first buffer; the buffer (cds_ddr's "
-                               "reset frame) must fit between it and the memory's end",
-                       range="multiple of 8, 0..2**28 - 8"),
-        "refresh_period": KeyDoc("cycles", "co-simulation: the DDR controller model's cycles "
-                                           "between refresh starts"),
-        "refresh_cycles": KeyDoc("cycles", "co-simulation: cycles of each refresh (the "
-                                           "controller not ready)",
-                                 range="0..refresh_period - 1"),
-        "lat_lo": KeyDoc("cycles", "co-simulation: the model's shortest read latency"),
-        "lat_hi": KeyDoc("cycles", "co-simulation: the model's longest read latency; "
-                                   "refresh_cycles + lat_hi is the longest stall, which also "
-                                   "sizes the sensor front end's crossing FIFO (at most 256 "
-                                   "entries: a scene with [sensor.lvds] takes only the stalls "
-                                   "that fit it; the plan and the run say which)",
-                         range="lat_lo..1000"),
-        "drop": KeyDoc("/256", "co-simulation: each ready of the model dropped with "
-                               "probability drop/256 a cycle"),
-    },
-    "camera": {k: KeyDoc(_camera_unit(k), doc, **(
-        {"default": "[sensor].max_frame_rate_hz" if k == "frame_rate_hz" else
-         "frame_rate_hz"} if d is None else {}))
-        for k, (d, _lo, _hi, doc) in camera.KEYS.items()},
-    "run": {
-        "lines": KeyDoc("lines", "output lines to simulate"),
-        "seed": KeyDoc("", "seed of every random number of the run (noise, faults)"),
-        "fidelity": KeyDoc("", "exact: quantize every exposure as the camera does; fast: "
-                               "one aggregate of the m exposures with the rounding moments "
-                               "added statistically; auto: fast where its stated error bound "
-                               "is below tolerance, else exact"),
-        "tolerance": KeyDoc(_FRAC, "largest relative RMS error auto accepts from fast"),
-        "figure_crop": KeyDoc("px", "top-left [column, line] of the 64 x 64 crop that "
-                                    "crop.png and profile.png show (moved in to fit)",
-                              type="[integer, integer]", default="centred",
-                              range="inside the output"),
-    },
-    "sensor.lvds": {
-        "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel; must divide "
-                                          "[sensor].columns; the front end takes at most 128 "
-                                          "lanes in all the gains it merges (64 a gain with "
-                                          "hdr)"),
-        "word_bits": KeyDoc("bits", "bits per word (>= [sensor].bits)", range="10, 12"),
-        "bit_rate_mbps": KeyDoc("Mbit/s", "bit rate of each lane"),
-        "mapping": KeyDoc("", "lane-to-column mapping: lane k carries columns k, k+L, ..."),
-        "train_word": KeyDoc("", "training word the sensor sends before the first frame",
-                             default="0xB92 (12 bits), 0x2E4 (10 bits)",
-                             range="0..2**word_bits-2, its rotations all different"),
-        "tap_ps": KeyDoc("ps", "IDELAY tap (paper 5 ns / 32; a 7-series IDELAYE2 at 200 MHz "
-                               "78.125 ps)"),
-        "eye_centre_taps": KeyDoc("taps", "delay tap at the centre of each lane's eye",
-                                  type="number or list (one per lane)", default="16",
-                                  range="[0, 31]"),
-        "eye_width_taps": KeyDoc("taps", "width of each lane's eye; given: the lanes' "
-                                         "training is simulated",
-                                 type="number or list (one per lane)",
-                                 default="the whole bit (ideal)", range="[0, UI / tap_ps]"),
-        "jitter_ps": KeyDoc("ps", "random capture band inside each eye edge; given: the "
-                                  "lanes' training is simulated", range="[0, UI]"),
-        "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
-                                 "chosen tap and slip, eye width) and checks every bit with "
-                                 "walking-1/0 patterns after lock; tdicam run reports them "
-                                 "(eyes.png); adds ports to the pipeline top"),
-        "drift_taps": KeyDoc("taps", "slow drift of each eye's centre over drift_frames "
-                                     "(+: to higher taps), as temperature moves it",
-                             type="number or list (one per lane)", default="0",
-                             range="[-31, 31]"),
-        "drift_frames": KeyDoc("frames", "frames (as the sensor sends them, from its first) "
-                                         "over which the eyes drift by drift_taps"),
-        "tracking": KeyDoc("", "the receiver follows each locked lane's eye with a monitor "
-                               "sampler 4 taps either side and reports every correction "
-                               "(generic PHY); adds ports to the pipeline top"),
-    },
-    "run.rtl": {
-        "crop": KeyDoc("px", "[x0, y0, width, height] of the output to co-simulate",
-                       type="list of 4 integers", default="whole frame",
-                       range="inside columns x lines"),
-        "simulator": KeyDoc("", "the HDL simulator"),
-        "pixels_per_clock": KeyDoc("px/clock", "pixels per clock of the whole-chain top's "
-                                               "input and of every block up to TDI (a block "
-                                               "after TDI's m stages at ppc / m, at least 1, "
-                                               "behind a width converter; also the default "
-                                               "--ppc of tdicam verilog|synth|export "
-                                               "pipeline)",
-                                   range=f"{', '.join(map(str, PPC_CHOICES))}; dividing the crop width"),
-        "lane_dies": KeyDoc("", "[lane, frame]: a sensor lane dying in the middle of that "
-                                "frame of the co-simulation (frames as the sensor sends "
-                                "them, reset frames included); the controller retrains "
-                                "after the next two frames",
-                            type="list of 2 integers", default="none",
-                            range="lane 0..lanes - 1; with reset frames a signal frame "
-                                  "(odd); needs [sensor.lvds]"),
-    },
-}
+KEYS = sections.KEYS
 
 _TYPES = {"number": "number", "integer": "integer", "choice": "string", "boolean": "boolean",
           "string": "string"}
@@ -362,10 +158,10 @@ def _probes():
 def schema():
     """``({section: allowed keys}, {(section, key): KeyInfo})``, read off the validating
     reader by running it on the probe scenes (see the module docstring)."""
-    S = loader._Section
+    S = reading.Section
     allowed: dict[str, tuple] = {}
     info: dict[tuple, KeyInfo] = {}
-    req = loader._REQUIRED
+    req = reading.REQUIRED
 
     def rec(sec, key):
         return info.setdefault((sec.name, key), KeyInfo())
@@ -523,7 +319,7 @@ def render():
                          f"{sorted(SECTIONS)}")
     md = ["# Scene file format", "",
           "<!-- generated by `python -m tdicam.scene.docs docs/scene-format.md` from the scene "
-          "reader (tdicam/scene/loader.py); tests/test_scenedoc.py checks it is up to date -->", "",
+          "readers (tdicam/scene/sections.py); tests/test_scenedoc.py checks it is up to date -->", "",
           "A scene is a TOML file: the platform motion, the target and its light level, the "
           "sensor, TDI, motion errors, the processing pipeline and how to run the "
           "simulation. `tdicam run SCENE` simulates it; `tdicam plan --scene SCENE` sizes "

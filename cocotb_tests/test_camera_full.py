@@ -1,0 +1,78 @@
+"""The whole camera of Ning et al. 2019 (``scenes/ning2019_gmax0504_full.toml``) through its
+generated top against the golden chain (:mod:`tdicam.bench.camera`): both gains, each line a
+reset frame (written to the channel's DDR model and read back) and a signal frame, the NAND
+model's coefficient image loaded into DDR at power-up and read back every line, both DDR
+users of a channel behind its DdrArbiter, at the camera plan's 8 pixels a clock; the top's
+pixel input fed directly (ideal lanes: the scene has no ``[sensor.lvds]``). Every block's
+output (tap) is compared; a mismatch names its block, frame, line and column.
+
+Default run: a 40-column, 8-line cut of the camera (16-block NAND parts: a short scan) on
+Icarus, and the same cut with one golden pixel changed (the check fails, naming it). With
+``TDICAM_FULL=1``: all 5144 columns, 8 lines, the scene's 4096-block NAND parts, on
+Verilator (~2 min with the build, seconds cached).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from tdicam.bench.camera import camera_run, extrapolate
+from tdicam.cosim.testing import FULL
+
+_CUT = {"lines": 8, "columns": 40, "nand_blocks": 16}
+
+
+def _check(rep, columns, lines):
+    assert not rep["timeout"], rep["message"]
+    assert rep["mismatches"] == 0 and rep["tap_mismatches"] == 0, rep["message"]
+    p = rep["plan"]
+    assert [s.block for s in p.steps] == ["cds_ddr", "nuc_ddr", "hdr", "tdi", "median3"]
+    assert p.ppc == 8 and p.width == columns and p.lanes == 2 and p.stages == 1
+    assert rep["pixels_compared"] == lines * columns
+    for t in rep["taps"]:
+        assert t["mismatches"] == 0 and t["received"] == t["beats"], t
+        assert t["pixels"] == lines * columns
+    # each channel's DDR: the coefficient line (gain and offset, 16 a word) written once
+    # and read every line; the reset line (24 pixels a word) written and read every line
+    coeff, reset = math.ceil(2 * columns / 16), math.ceil(columns / 24)
+    st = rep["status_outputs"]
+    for sfx in ("", "_1"):
+        assert st[f"nuc_ddr_calib_loaded{sfx}"] == 1 and st[f"nuc_ddr_calib_error{sfx}"] == 0
+        assert st[f"ddr_writes{sfx}"] == coeff + lines * reset
+        assert st[f"ddr_reads{sfx}"] == lines * (coeff + reset)
+        assert st[f"ddr_error{sfx}"] == 0
+
+
+def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus():
+    rep = camera_run(sim="icarus", **_CUT)
+    _check(rep, _CUT["columns"], _CUT["lines"])
+
+
+def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column():
+    def corrupt(gold):
+        name, block, a = gold[4]                  # hdr
+        a = a.copy()
+        a[5, 0, 17] ^= 1
+        gold[4] = (name, block, a)
+    rep = camera_run(sim="icarus", corrupt=corrupt, **_CUT)
+    assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 0     # the output is right
+    first = rep["first_mismatch"]
+    assert (first["block"], first["frame"], first["line"], first["column"]) == ("hdr", 5, 0, 17)
+    assert "block hdr" in rep["message"] and "frame 5, line 0, column 17" in rep["message"]
+
+
+def test_the_whole_frame_is_extrapolated_linearly_in_the_lines():
+    a = {"lines": 8, "cycles": 1000, "run_seconds": 1.0}
+    b = {"lines": 32, "cycles": 3400, "run_seconds": 2.2}
+    cyc, secs = extrapolate(a, b, 3800)
+    assert cyc == pytest.approx(1000 + 100 * 3792) and secs == pytest.approx(1.0 + 0.05 * 3792)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not FULL, reason="full-width Verilator build (~2 min): TDICAM_FULL=1")
+def test_the_full_width_camera_matches_the_golden_chain_on_verilator():
+    rep = camera_run(8, "verilator")
+    _check(rep, 5144, 8)
+    assert rep["startup_cycles"] > 0
+    assert np.isfinite(rep["cycles"] / rep["run_seconds"])

@@ -1,0 +1,196 @@
+"""The camera top's control bus: an AXI4-Lite slave on the register map of
+:mod:`tdicam.hdl.csr_map`, around a :class:`~tdicam.hdl.chain_top.Pipeline` (or the
+:class:`~tdicam.hdl.chain_board.Board` around one).
+
+The signature is the contract: ``s_axil_*`` (AXI4-Lite, AMBA AXI4 names, 32-bit data,
+:data:`~tdicam.hdl.csr_map.ADDR_BITS`-bit byte address, responses always OKAY, an
+unmapped address reads 0 and ignores writes) and ``irq`` replace the ports the map stands
+for; every other port of the wrapped top keeps its name.
+"""
+
+from amaranth.hdl import Cat, Const, Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from tdicam.errors import TdicamError
+from tdicam.hdl.csr_map import ADDR_BITS, DATA_BITS
+
+__all__ = ["CsrTop", "AXIL_PORTS"]
+
+#: The AXI4-Lite slave's ports: (name without ``s_axil_``, width, direction from the slave).
+AXIL_PORTS = (
+    ("awaddr", ADDR_BITS, "in"), ("awprot", 3, "in"), ("awvalid", 1, "in"),
+    ("awready", 1, "out"),
+    ("wdata", DATA_BITS, "in"), ("wstrb", DATA_BITS // 8, "in"), ("wvalid", 1, "in"),
+    ("wready", 1, "out"),
+    ("bresp", 2, "out"), ("bvalid", 1, "out"), ("bready", 1, "in"),
+    ("araddr", ADDR_BITS, "in"), ("arprot", 3, "in"), ("arvalid", 1, "in"),
+    ("arready", 1, "out"),
+    ("rdata", DATA_BITS, "out"), ("rresp", 2, "out"), ("rvalid", 1, "out"), ("rready", 1, "in"),
+)
+
+
+class CsrTop(wiring.Component):
+    """``core`` with its settings and status behind an AXI4-Lite slave.
+
+    Parameters
+    ----------
+    core : wiring.Component
+        A Pipeline (or a Board around one) with the ports ``regmap`` stands for.
+    regmap : :class:`~tdicam.hdl.csr_map.RegisterMap`
+
+    Attributes
+    ----------
+    s_axil_* : AXI4-Lite slave (see :data:`AXIL_PORTS`).
+        One write (address and data taken in the same cycle) and one read outstanding;
+        a read returns the value of the cycle its address was taken.
+    irq : Out(1)
+        High while a bit of ``irq_status & irq_enable`` is set.
+
+    Notes
+    -----
+    Settings are registers driving the block's inputs (reset: the map's value); a block
+    samples them where its contract says (TDI's ``stages_active`` with a frame's first
+    beat). A fault counter reads as the block's count less the count at its last clear:
+    writing 1s clears those bits of the value read (write all ones to clear it). A fault
+    source's interrupt bit is set on the cycle its counter changes (or its flag rises).
+    """
+
+    def __init__(self, core, regmap):
+        self._core, self._map = core, regmap
+        covered = regmap.ports
+        missing = sorted(covered - set(core.signature.members))
+        if missing:
+            raise TdicamError(f"csr: the register map names port(s) {', '.join(missing)} "
+                              f"the top does not have; make the map from this top")
+        members = {n: m for n, m in core.signature.members.items() if n not in covered}
+        for name, width, d in AXIL_PORTS:
+            members[f"s_axil_{name}"] = (In if d == "in" else Out)(width)
+        members["irq"] = Out(1)
+        super().__init__(members)
+
+    core = property(lambda self: self._core, doc="The wrapped top.")
+    regmap = property(lambda self: self._map, doc="The register map.")
+    latency = property(lambda self: self._core.latency)
+    tap_shapes = property(lambda self: self._core.tap_shapes)
+    startup_bound = property(lambda self: self._core.startup_bound)
+    port_domains = property(lambda self: dict(getattr(self._core, "port_domains", {}) or {}))
+    pin_ports = property(lambda self: dict(getattr(self._core, "pin_ports", {}) or {}))
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.core = core = self._core
+        for name, mem in self.signature.members.items():
+            if name in ("i_stream", "o_stream") or name not in core.signature.members:
+                continue
+            if mem.flow == wiring.In:
+                m.d.comb += getattr(core, name).eq(getattr(self, name))
+            else:
+                m.d.comb += getattr(self, name).eq(getattr(core, name))
+        if "i_stream" in self.signature.members:
+            wiring.connect(m, wiring.flipped(self.i_stream), core.i_stream)
+        wiring.connect(m, core.o_stream, wiring.flipped(self.o_stream))
+
+        faults = self._map.faults
+        nf = len(faults)
+        frames = Signal(32, name="csr_frame_count")
+        o = core.o_stream
+        with m.If(o.valid & o.ready & o.payload.first):
+            m.d.sync += frames.eq(frames + 1)
+        released = Cat(*(getattr(core, f"{st.name}_{st.ready}" + (f"_{k}" if k else ""))
+                         for st, n in core_holds(core) for k in range(n))).all() \
+            if core_holds(core) else Const(1, 1)
+        irq_enable = Signal(max(nf, 1), name="csr_irq_enable")
+        irq_status = Signal(max(nf, 1), name="csr_irq_status")
+        m.d.comb += self.irq.eq((irq_enable & irq_status).any())
+
+        # a register's value read, and what a write does: {offset: (read value, write fn)}
+        regs = {}
+        wmask = Signal(DATA_BITS, name="csr_wmask")     # the write's data bits under wstrb
+        m.d.comb += wmask.eq(Cat(*(self.s_axil_wstrb[b].replicate(8)
+                                   for b in range(DATA_BITS // 8))))
+        wdata = self.s_axil_wdata
+        events, summary = [], []
+        for r in self._map.registers:
+            if r.port is None and r.block == "camera":
+                continue
+            live = getattr(core, r.port)
+            if r.access == "rw":
+                reg = Signal(r.width, init=r.reset, name=f"csr_{r.port}")
+                m.d.comb += getattr(core, r.port).eq(reg)
+                regs[r.offset] = (reg, _rw(reg, wdata, wmask))
+            elif r.access == "w1c":
+                base = Signal(r.width, name=f"csr_{r.port}_base")
+                shown = Signal(r.width, name=f"csr_{r.port}_shown")
+                m.d.comb += shown.eq(live - base)
+                regs[r.offset] = (shown, lambda base=base, shown=shown, live=live: [
+                    base.eq(live - (shown & ~(wdata & wmask)[:len(shown)]))])
+            else:
+                regs[r.offset] = (live, None)
+            if r.fault:
+                prev = Signal(r.width, name=f"csr_{r.port}_prev")
+                m.d.sync += prev.eq(live)
+                events.append(live != prev if r.width > 1 else live & ~prev)
+                summary.append(regs[r.offset][0].any())
+        own = {"id": None, "version": None, "frame_count": frames, "startup": released,
+               "fault_summary": Cat(*summary) if summary else Const(0, 1),
+               "irq_enable": irq_enable, "irq_status": irq_status}
+        for r in self._map.registers:
+            if r.block == "camera" and r.port is None:
+                value = own[r.name]
+                # irq_status's clear is below (a new fault wins over it)
+                regs[r.offset] = (Const(r.reset, 32), None) if value is None else \
+                    (value, _rw(value, wdata, wmask) if r.name == "irq_enable" else None)
+        status_off = self._map.get("camera", "irq_status").offset
+
+        # the write channel: address and data together, then the response
+        bvalid = Signal(name="csr_bvalid")
+        take_w = Signal(name="csr_take_w")
+        m.d.comb += [take_w.eq(self.s_axil_awvalid & self.s_axil_wvalid & ~bvalid),
+                     self.s_axil_awready.eq(take_w), self.s_axil_wready.eq(take_w),
+                     self.s_axil_bvalid.eq(bvalid), self.s_axil_bresp.eq(0)]
+        with m.If(take_w):
+            m.d.sync += bvalid.eq(1)
+        with m.Elif(bvalid & self.s_axil_bready):
+            m.d.sync += bvalid.eq(0)
+        waddr = self.s_axil_awaddr[2:]
+        with m.If(take_w):
+            with m.Switch(waddr):
+                for off, (_, write) in regs.items():
+                    if write is not None:
+                        with m.Case(off >> 2):
+                            m.d.sync += write()
+        cleared = Signal(len(irq_status), name="csr_irq_cleared")
+        with m.If(take_w & (waddr == status_off >> 2)):
+            m.d.comb += cleared.eq((wdata & wmask)[:len(irq_status)])
+        m.d.sync += irq_status.eq((irq_status & ~cleared) | (Cat(*events) if events else 0))
+
+        # the read channel: the value of the cycle the address is taken
+        rvalid = Signal(name="csr_rvalid")
+        rdata = Signal(DATA_BITS, name="csr_rdata")
+        m.d.comb += [self.s_axil_arready.eq(~rvalid), self.s_axil_rvalid.eq(rvalid),
+                     self.s_axil_rdata.eq(rdata), self.s_axil_rresp.eq(0)]
+        with m.If(self.s_axil_arvalid & ~rvalid):
+            m.d.sync += rvalid.eq(1)
+            with m.Switch(self.s_axil_araddr[2:]):
+                for off, (value, _) in regs.items():
+                    with m.Case(off >> 2):
+                        m.d.sync += rdata.eq(value)
+                with m.Default():
+                    m.d.sync += rdata.eq(0)
+        with m.Elif(rvalid & self.s_axil_rready):
+            m.d.sync += rvalid.eq(0)
+        return m
+
+
+def _rw(reg, wdata, wmask):
+    """The write of a read-write register: the strobed bytes of the data."""
+    n = len(reg)
+    return lambda: [reg.eq((reg & ~wmask[:n]) | (wdata & wmask)[:n])]
+
+
+def core_holds(core):
+    """(stage, lanes) of the Pipeline's stages that hold its input at start-up."""
+    pl = getattr(core, "core", core)        # a Board's pipeline
+    holds = getattr(pl, "_holds", None) or getattr(core, "_holds", None)
+    return holds() if holds is not None else []

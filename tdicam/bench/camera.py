@@ -1,0 +1,145 @@
+"""The whole camera of Ning et al. 2019 at full width, co-simulated and timed.
+
+A cut of ``scenes/ning2019_gmax0504_full.toml`` (all 5144 columns, both gains, the scene's
+chain cds_ddr -> nuc_ddr -> hdr -> tdi -> median3 at the camera plan's pixels per clock)
+runs through the generated top on Verilator's standalone binary (:func:`camera_cut`,
+:func:`camera_run`): at power-up each gain channel's NAND model is scanned and its
+coefficient image written to the channel's DDR model, then every line the reset line is
+written to DDR, the signal line read beside the reset line and the coefficients read back,
+both users behind the channel's DdrArbiter; every block's output (tap) is compared bit for
+bit with the golden chain. The scene is an area camera (one stage): tdicam's frame is one
+line, so a cut of ``lines`` lines is ``lines`` reset frames and ``lines`` signal frames of a
+line each a gain (the frame pair's first ``lines`` rows), the coefficient frame one line.
+The top's pixel input is fed directly (ideal lanes): the scene has no ``[sensor.lvds]``
+(its 129-slot padded lane convention is the plan's, not the lane model's).
+
+:func:`camera_rows` makes the ``tdicam bench camera`` rows: two cuts measured, the whole
+5144 x 3800 frame pair extrapolated from them (start-up, then cycles and seconds a line).
+"""
+
+import os
+from dataclasses import replace
+
+from tdicam.bench.util import na_row, row
+from tdicam.paths import SCENES
+
+__all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_run", "camera_rows",
+           "extrapolate", "legend"]
+
+#: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
+CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
+#: Lines of the two cuts ``tdicam bench camera`` measures (the second gives the cost a line).
+CUT_LINES = (8, 32)
+
+
+def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
+    """``(plan, data)`` of the first ``lines`` lines of :data:`CAMERA_SCENE`.
+
+    Parameters
+    ----------
+    lines : int
+        Lines of the cut (reset and signal frames of one line each, a gain).
+    columns : int or None
+        A narrower sensor (the short form of the test); None: the scene's 5144.
+    nand_blocks : int or None
+        Blocks of each NAND model (a shorter power-up scan); None: the scene's part.
+
+    The pixels per clock are the whole camera's plan's, whatever ``columns``
+    (:func:`tdicam.planning.camera.camera_plan`: the fewest that carry the scene's samples
+    at its ``[camera].clock_mhz``; 8).
+    """
+    from tdicam.chain import design
+    from tdicam.chain.cosim import scene_data
+    from tdicam.planning.camera import camera_plan
+    from tdicam.scene.loader import load_scene
+    over = {"run": {"lines": int(lines)}}
+    ppc = camera_plan(load_scene(CAMERA_SCENE, overrides=over))["scene"]["ppc"]
+    if columns is not None:
+        over["sensor"] = {"columns": int(columns)}
+    sc = load_scene(CAMERA_SCENE, overrides=over)
+    m = int(sc.tdi.stages[0])
+    p = design.chain_plan(sc, stages=m, lines=int(lines), ppc=ppc)
+    if nand_blocks is not None:
+        p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": int(nand_blocks)})
+                                   if s.device else s for s in p.steps))
+    data, _ = scene_data(sc, stages=m, dv_over_v=0.0, lines=int(lines))
+    return p, data
+
+
+def camera_run(lines=CUT_LINES[0], sim="verilator", *, columns=None, nand_blocks=None,
+               corrupt=None):
+    """One cut (:func:`camera_cut`) through the top, every tap compared with the golden
+    chain (:func:`tdicam.chain.cosim.cosimulate`). Returns its report plus ``plan``,
+    ``lines``, ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the
+    output's), ``startup_cycles`` (the NAND scan and load before the first line),
+    ``load`` (the 1-minute load average after the run)."""
+    from tdicam.chain.cosim import cosimulate
+    p, data = camera_cut(lines, columns=columns, nand_blocks=nand_blocks)
+    rep = cosimulate(p, data, sim, corrupt=corrupt)
+    rep.update({"plan": p, "lines": int(lines), "load": os.getloadavg()[0],
+                "tap_mismatches": sum(t["mismatches"] for t in rep["taps"]),
+                "startup_cycles": int(rep.get("status_outputs", {}).get("startup_cycles", 0))})
+    return rep
+
+
+def extrapolate(a, b, lines):
+    """``(cycles, run seconds)`` of ``lines`` lines, linear in the lines from two
+    :func:`camera_run` reports ``a`` and ``b`` of fewer lines (the start-up is in both)."""
+    n = b["lines"] - a["lines"]
+    per_c = (b["cycles"] - a["cycles"]) / n
+    per_s = (b["run_seconds"] - a["run_seconds"]) / n
+    k = lines - a["lines"]
+    return a["cycles"] + per_c * k, a["run_seconds"] + per_s * k
+
+
+def camera_rows(*, sims, repeat, quick, stalls, build):
+    """``tdicam bench camera``: the cuts of :data:`CUT_LINES` lines at full width on
+    Verilator (one run each; ``repeat``, ``quick`` and ``stalls`` not used: the DDR and
+    NAND models' own stalls only), then the whole frame pair extrapolated; Icarus: a row
+    saying why not."""
+    rows = []
+    if "icarus" in sims:
+        rows.append(na_row("camera", "icarus fast", "pixel",
+                           "the full-width camera on Icarus: too slow (Verilator only)"))
+    if "verilator" not in sims:
+        return rows
+    runs = [camera_run(n) for n in CUT_LINES]
+    for r in runs:
+        p, n = r["plan"], r["input_pixels"]
+        bad = r["mismatches"] + r["tap_mismatches"]
+        rows.append(row(
+            "camera", f"verilator fast ppc {p.ppc}", "pixel", n, r["run_seconds"],
+            input=f"{p.width} x {r['lines']} lines x {p.lanes} gains", build_s=r["build_seconds"],
+            mismatches=bad, accuracy="bit-exact" if bad == 0 else f"{bad} mismatching",
+            note=f"{r['cycles']:,} cycles ({r['startup_cycles']:,} the NAND scan and load), "
+                 f"{r['cycles'] / r['run_seconds']:,.0f} cycles/s; every tap compared; "
+                 f"load {r['load']:.1f}"))
+    rows_full = int(_full_rows())
+    cyc, secs = extrapolate(runs[0], runs[1], rows_full)
+    p = runs[0]["plan"]
+    n = 2 * rows_full * p.width * p.lanes            # reset and signal frames, both gains
+    rows.append(row(
+        "camera", f"verilator fast ppc {p.ppc} (extrapolated)", "pixel", n, secs,
+        input=f"{p.width} x {rows_full} lines x {p.lanes} gains", accuracy="n/a",
+        note=f"the whole frame pair, linear from the {CUT_LINES[0]}- and {CUT_LINES[1]}-line "
+             f"cuts: {cyc:,.0f} cycles; not run"))
+    return rows
+
+
+def _full_rows():
+    from tdicam.scene.loader import load_scene
+    return load_scene(CAMERA_SCENE).sensor.rows
+
+
+def legend(*, stalls, quick):
+    """What the ``camera`` rows of :func:`camera_rows` mean (lines under the table)."""
+    return (f"camera rows: the first {' and '.join(map(str, CUT_LINES))} lines of "
+            f"{CAMERA_SCENE.name} (all its columns, both gains: each line a reset frame and a "
+            f"signal frame; the NAND scan and coefficient load into DDR at power-up, the "
+            f"reset lines and coefficients through each channel's DdrArbiter and MIG model) "
+            f"through the generated top on Verilator's standalone binary, the top's pixel "
+            f"input fed directly (ideal lanes; the scene has no [sensor.lvds]), no idle or "
+            f"backpressure (--stalls not used), every block's output compared bit for bit "
+            f"with the golden chain; median s = the simulator run's wall time (one run); "
+            f"build s: that run's own build (0.0: cached). The extrapolated row: the whole "
+            f"frame pair's cycles and seconds, linear in the lines from the two cuts.")
