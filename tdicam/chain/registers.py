@@ -21,7 +21,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.csr_map import DATA_BITS
 
 __all__ = ["rdl_text", "compile_rdl", "c_header", "markdown", "ipxact", "html", "driver_text",
-           "write_files", "require", "FILES", "TOOLS"]
+           "write_files", "file_texts", "require", "FILES", "TOOLS"]
 
 #: The files :func:`write_files` writes, by kind: name pattern (``{name}``: the map's name;
 #: ``html`` a folder, its ``index.html`` the page, written when asked: ~8 MB with its fonts).
@@ -244,16 +244,27 @@ class AxiLite:
 '''
 
 
+def file_texts(regmap):
+    """{file name (:data:`FILES`): text} of ``regmap``'s files but the HTML reference."""
+    require()
+    texts, _ = _texts(regmap)
+    return {FILES[kind].format(name=regmap.name): text for kind, text in texts.items()}
+
+
+def _texts(regmap):
+    rdl = rdl_text(regmap)
+    root = compile_rdl(rdl)
+    return {"rdl": rdl, "header": c_header(root), "markdown": markdown(root),
+            "ipxact": ipxact(root), "driver": driver_text(regmap)}, root
+
+
 def write_files(regmap, out_dir, *, html_ref=False):
     """Write ``regmap``'s SystemRDL source, C header, Markdown reference, IP-XACT
     component, Python driver and, with ``html_ref``, the HTML reference (a folder) into
     ``out_dir`` (:data:`FILES`); returns {kind: path}."""
     from tdicam.files import write_file
     require(html_ref)
-    rdl = rdl_text(regmap)
-    root = compile_rdl(rdl)
-    texts = {"rdl": rdl, "header": c_header(root), "markdown": markdown(root),
-             "ipxact": ipxact(root), "driver": driver_text(regmap)}
+    texts, root = _texts(regmap)
     os.makedirs(out_dir, exist_ok=True)
     out = {}
     for kind, pattern in FILES.items():
