@@ -235,19 +235,9 @@ def lanes_fault():
     """The lanes cut of cocotb_tests/test_system.py (16 columns, 3 stages, 16-block NAND
     parts; lane 3's eye 6 taps wide, lane 0 dying in the middle of frame 3) with the bus:
     the front's status read through it, only ``lvds.lane_error``'s interrupt enabled."""
-    from tdicam.chain.cosim import cosimulate
-    from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
-    sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
-                                      "run": {"lines": 3, "rtl": {"crop": None}}})
-    p = design.chain_plan(sc, lines=2)
-    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
-                               else s for s in p.steps))
-    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)
-    data = data.crop(0, 16, 0, p.frames + 1)          # one pair more: held for the retrain
-    spec = list(GOOD_LANES[:4])
-    spec[3] = (12, 6, 0)                              # 6 taps: no run of 9, cannot train
-    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "dies": (0, 3),
-                                               "lanes": scenario_lanes(spec)}, csr=True)
+    from tdicam.chain.cosim import cosimulate, lane_fault_cut
+    p, data, front = lane_fault_cut(LANES)
+    rep = cosimulate(p, data, "icarus", front=front, csr=True)
     return p, rep
 
 

@@ -101,6 +101,21 @@ def test_system_lanes_map_has_the_nand_load_status_not_its_bus():
     registers.compile_rdl(registers.rdl_text(rm))
 
 
+def test_the_fronts_eye_status_in_the_map_where_it_fits():
+    """With ``[sensor.lvds].eye_status`` the front's training status is in the map where it
+    fits in a register (the chosen taps, the slips, the eye widths found; the walking-1/0
+    flags a lane mask), the 32-tap pass masks of every lane (128 bits) left as ports."""
+    sc = design.load_pipeline_scene(ROOT / "scenes" / "ning2019_gmax0504_system_lanes.toml")
+    from dataclasses import replace
+    sc = replace(sc, sensor=replace(sc.sensor, lvds=replace(sc.sensor.lvds, eye_status=True)))
+    rm = design.register_map(design.chain_plan(sc))
+    lv = {r.name: r for r in rm.registers if r.block == "lvds"}
+    assert {"lane_chosen_tap", "lane_slip", "lane_run", "lane_walk_ok"} <= set(lv)
+    assert lv["lane_walk_ok"].mask and lv["lane_chosen_tap"].width == 20
+    assert "lane_scan" not in lv and "lane_walk" not in lv          # 128 and 96 bits
+    registers.compile_rdl(registers.rdl_text(rm))
+
+
 def test_invalid_rdl_is_one_line():
     with pytest.raises(TdicamError, match="not valid SystemRDL"):
         registers.compile_rdl("addrmap x { reg { field {} f[40:0]; } r @ 0; };")

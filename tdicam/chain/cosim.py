@@ -423,6 +423,27 @@ PROC_NS = 10.0
 HELD = 2
 
 
+def lane_fault_cut(scene_path):
+    """(plan, data, ``front``) of the lanes' fault cut the co-simulation tests run: a lanes
+    scene on 16 columns, 3 stages, 2 output lines, 16-block NAND parts, one frame pair more
+    (held for the retrain); lane 3's eye 6 taps wide (no run of 9: cannot train) and lane 0
+    dying in the middle of frame 3 (``front`` for :func:`cosimulate`, 25 MHz words)."""
+    from dataclasses import replace
+    from tdicam.chain import design
+    from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(scene_path, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
+                                           "run": {"lines": 3, "rtl": {"crop": None}}})
+    p = design.chain_plan(sc, lines=2)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)
+    data = data.crop(0, 16, 0, p.frames + 1)
+    spec = list(GOOD_LANES[:4])
+    spec[3] = (12, 6, 0)
+    return p, data, {"word_ns": 40.0, "dies": (0, 3), "lanes": scenario_lanes(spec)}
+
+
 def _death(p, data, front, lanes, kw):
     """The lanes and sensor schedule of ``front["dies"] = (lane, frame)``: the lane dies in
     the middle of that frame (its middle line's middle word); the sensor sends :data:`HELD`
