@@ -1,7 +1,8 @@
 """The camera top's control bus (``--csr``) co-simulated through cocotbext-axi's AXI4-Lite
 master and the generated Python driver, on a cut of the orbit chain scene (nuc -> tdi at 8
 pixels per clock -> median3, 32 columns, 4 TDI stages) and on one of the NAND calibration
-scene (nuc loading its coefficients from a worn NAND part -> tdi); Icarus, a build each
+scene (nuc loading its coefficients from a worn NAND part -> tdi) and on the lanes' fault
+cut of cocotb_tests/test_system.py; Icarus, a build each
 (with ``TDICAM_FULL=1`` the orbit cut on Verilator too).
 
 Every register read at reset (the map's reset values), every setting written and read back,
@@ -12,7 +13,10 @@ setting) in the middle of frame 2: TDI samples it with the next frame's first be
 exactly the frames from 3 on are counted in ``tdi.frame_errors``, its fault bit is set and
 ``irq`` is high; writing 1s clears the counter, the interrupt status and ``irq``. On the
 NAND scene the load's bad blocks and ECC counts are read over the bus, equal to the part
-model's, and raise their fault and interrupt bits.
+model's, and raise their fault and interrupt bits. On the lanes' fault cut (the sensor
+front end in its word clock, its registers crossed into the bus's clock; lane 3 cannot
+train, lane 0 dies mid-run) every frame's invalid lanes are read over the bus and equal
+the golden front's, and a lane in error raises the interrupt.
 """
 
 import json
