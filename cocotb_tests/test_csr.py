@@ -1,7 +1,8 @@
 """The camera top's control bus (``--csr``) co-simulated through cocotbext-axi's AXI4-Lite
 master and the generated Python driver, on a cut of the orbit chain scene (nuc -> tdi at 8
 pixels per clock -> median3, 32 columns, 4 TDI stages) and on one of the NAND calibration
-scene (nuc loading its coefficients from a worn NAND part -> tdi); Icarus, a build each
+scene (nuc loading its coefficients from a worn NAND part -> tdi) and on the lanes' fault
+cut of cocotb_tests/test_system.py; Icarus, a build each
 (with ``TDICAM_FULL=1`` the orbit cut on Verilator too).
 
 Every register read at reset (the map's reset values), every setting written and read back,
@@ -12,7 +13,10 @@ setting) in the middle of frame 2: TDI samples it with the next frame's first be
 exactly the frames from 3 on are counted in ``tdi.frame_errors``, its fault bit is set and
 ``irq`` is high; writing 1s clears the counter, the interrupt status and ``irq``. On the
 NAND scene the load's bad blocks and ECC counts are read over the bus, equal to the part
-model's, and raise their fault and interrupt bits.
+model's, and raise their fault and interrupt bits. On the lanes' fault cut (the sensor
+front end in its word clock, its registers crossed into the bus's clock; lane 3 cannot
+train, lane 0 dies mid-run) every frame's invalid lanes are read over the bus and equal
+the golden front's, and a lane in error raises the interrupt.
 """
 
 import json
@@ -225,3 +229,49 @@ def test_orbit_chain_cut_on_verilator():
     test_setting_written_mid_frame_takes_effect_at_the_next_frame(run)
     if shutil.which("cc"):
         test_gateware_answers_at_the_c_headers_offsets(run)
+
+
+LANES = ROOT / "scenes" / "ning2019_gmax0504_system_lanes.toml"
+
+
+@pytest.fixture(scope="module")
+def lanes_fault():
+    """The lanes cut of cocotb_tests/test_system.py (16 columns, 3 stages, 16-block NAND
+    parts; lane 3's eye 6 taps wide, lane 0 dying in the middle of frame 3) with the bus:
+    the front's status read through it, only ``lvds.lane_error``'s interrupt enabled."""
+    from tdicam.chain.cosim import cosimulate, lane_fault_cut
+    p, data, front = lane_fault_cut(LANES)
+    rep = cosimulate(p, data, "icarus", front=front, csr=True)
+    return p, rep
+
+
+def test_lane_fault_in_the_status_registers_and_the_interrupt(lanes_fault):
+    """Through the bus (the front's word-clock status crossed into the processing clock):
+    every frame's status read as ``lvds.frame_invalid`` is the golden front's (lane 3 in
+    every frame, the cut frame all lanes, lane 0 and 3 after it), the pixels bit-exact;
+    ``lvds.lane_error`` reads 0b1001 at the end of the words and raised the interrupt (only
+    its bit enabled; the handler reads the status and the mask, and clears): at training
+    with lane 3 alone in error, after the frames are released with lane 0 in error."""
+    from tdicam.model import lvds_front
+    p, rep = lanes_fault
+    assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
+    assert all(t["mismatches"] == 0 and t["received"] == t["beats"] > 0 for t in rep["taps"])
+    lanes, st, regs = rep["lanes"], rep["status_outputs"], rep["registers"]
+    narrow, both = lvds_front.lane_mask([3]), lvds_front.lane_mask([0, 3])
+    assert lanes["frame_status"] == [narrow] * 3 + [0b1111] + [both] * 4
+    # the front's registers as read at the end of the sensor's words (past them the lanes
+    # stand still and lose their lock: ``registers``, read at the very end, all in error)
+    assert (st["lvds_lane_error"], st["lvds_lane_locked"]) == (0b1001, 0b0110)
+    assert (st["lvds_frames_out"], st["lvds_frames_affected"]) == (8, 8)
+    assert st["lvds_frames_dropped"] >= 2 and st["lvds_lane_errors"] >= 2
+    assert st["lvds_fifo_overflow"] == 0 and regs["lvds.lane_error"] == 0b1111
+    assert regs["lvds.train_word"] == p.steps[0].ports["train_word"]
+    faults = [f"{r.block}.{r.name}" for r in design.register_map(p).faults]
+    bit = 1 << faults.index("lvds.lane_error")
+    assert regs["camera.fault_summary"] & bit and regs["camera.irq_enable"] == bit
+    irq = rep["irq"]
+    assert len(irq) >= 2 and all(s & bit for _, s, _ in irq), irq
+    up = rep["startup"]
+    assert irq[0][0] < up["frames_released"] and irq[0][2] == 0b1000    # lane 3: training
+    late = [e for e in irq if e[0] > up["frames_released"]]
+    assert late and all(e[2] & 1 for e in late), irq                     # lane 0: its death

@@ -136,19 +136,10 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
     lane), the 2 frames held until the retrain are dropped and counted, lane 0's columns
     are invalid after it; every block's output equals the golden chain on what the golden
     front delivers (the other lanes' pixels bit-exact)."""
-    from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
+    from tdicam.chain.cosim import lane_fault_cut
     from tdicam.model import lvds_front
-    sc = load_scene(LANES, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
-                                      "run": {"lines": 3, "rtl": {"crop": None}}})
-    p = design.chain_plan(sc, lines=2)
-    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
-                               else s for s in p.steps))
-    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)
-    data = data.crop(0, 16, 0, p.frames + 1)          # one pair more: held for the retrain
-    spec = list(GOOD_LANES[:4])
-    spec[3] = (12, 6, 0)                              # 6 taps: no run of 9, cannot train
-    rep = cosimulate(p, data, "icarus", front={"word_ns": 40.0, "dies": (0, 3),
-                                               "lanes": scenario_lanes(spec)})
+    p, data, front = lane_fault_cut(LANES)
+    rep = cosimulate(p, data, "icarus", front=front)
     assert rep["mismatches"] == 0 and not rep["timeout"], rep["message"]
     assert all(t["mismatches"] == 0 and t["received"] == t["beats"] > 0 for t in rep["taps"])
     lanes, st = rep["lanes"], rep["status_outputs"]

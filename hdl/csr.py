@@ -10,12 +10,13 @@ for; every other port of the wrapped top keeps its name.
 
 from amaranth.hdl import Cat, Const, Module, Signal
 from amaranth.lib import wiring
+from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.csr_map import ADDR_BITS, DATA_BITS
 
-__all__ = ["CsrTop", "AXIL_PORTS"]
+__all__ = ["CsrTop", "AXIL_PORTS", "cross"]
 
 #: The AXI4-Lite slave's ports: (name without ``s_axil_``, width, direction from the slave).
 AXIL_PORTS = (
@@ -54,6 +55,13 @@ class CsrTop(wiring.Component):
     beat). A fault counter reads as the block's count less the count at its last clear:
     writing 1s clears those bits of the value read (write all ones to clear it). A fault
     source's interrupt bit is set on the cycle its counter changes (or its flag rises).
+
+    A register of another clock domain (:attr:`Register.domain`, the sensor front end's word
+    clock) crosses: a one-bit status through a 2-FF synchronizer, the multi-bit ones of a
+    domain together through :func:`cross` (held in their domain, taken on the bus's side
+    when the acknowledgement arrives: a coherent snapshot every few clocks); the settings
+    of a domain the other way through :func:`cross`, applied while the block's
+    :attr:`Register.hold` status is low.
     """
 
     def __init__(self, core, regmap):
@@ -111,13 +119,18 @@ class CsrTop(wiring.Component):
                                    for b in range(DATA_BITS // 8))))
         wdata = self.s_axil_wdata
         events, summary = [], []
+        crossed = self._cross_status(m, core)
+        settings = {}
         for r in self._map.registers:
             if r.port is None and r.block == "camera":
                 continue
-            live = getattr(core, r.port)
+            live = crossed.get(r.port, getattr(core, r.port))
             if r.access == "rw":
                 reg = Signal(r.width, init=r.reset, name=f"csr_{r.port}")
-                m.d.comb += getattr(core, r.port).eq(reg)
+                if r.domain is None:
+                    m.d.comb += getattr(core, r.port).eq(reg)
+                else:
+                    settings.setdefault((r.domain, r.hold), []).append((r, reg))
                 regs[r.offset] = (reg, _rw(reg, wdata, wmask))
             elif r.access == "w1c":
                 base = Signal(r.width, name=f"csr_{r.port}_base")
@@ -130,8 +143,15 @@ class CsrTop(wiring.Component):
             if r.fault:
                 prev = Signal(r.width, name=f"csr_{r.port}_prev")
                 m.d.sync += prev.eq(live)
-                events.append(live != prev if r.width > 1 else live & ~prev)
+                events.append((live & ~prev).any() if r.mask else
+                              live != prev if r.width > 1 else live & ~prev)
                 summary.append(regs[r.offset][0].any())
+        for (domain, hold), rs in settings.items():
+            gate = getattr(core, hold) if hold is not None else None
+            out = cross(m, Cat(*(reg for _, reg in rs)), "sync", domain,
+                        f"csr_{domain}_settings", init=_packed(rs),
+                        hold=gate)
+            m.d.comb += Cat(*(getattr(core, r.port) for r, _ in rs)).eq(out)
         own = {"id": None, "version": None, "frame_count": frames, "startup": released,
                "fault_summary": Cat(*summary) if summary else Const(0, 1),
                "irq_enable": irq_enable, "irq_status": irq_status}
@@ -181,6 +201,62 @@ class CsrTop(wiring.Component):
         with m.Elif(rvalid & self.s_axil_rready):
             m.d.sync += rvalid.eq(0)
         return m
+
+
+    def _cross_status(self, m, core):
+        """{port: its value in the bus's clock} of the map's status registers of another
+        domain: a bit through a 2-FF synchronizer, the wider ones of a domain through
+        :func:`cross` together."""
+        out, wide = {}, {}
+        for r in self._map.registers:
+            if r.domain is None or r.access == "rw":
+                continue
+            if r.width == 1:
+                out[r.port] = Signal(name=f"csr_{r.port}_sync")
+                m.submodules[f"csr_{r.port}_sync"] = FFSynchronizer(
+                    getattr(core, r.port), out[r.port], o_domain="sync")
+            else:
+                wide.setdefault(r.domain, []).append(r)
+        for domain, rs in wide.items():
+            got = cross(m, Cat(*(getattr(core, r.port) for r in rs)), domain, "sync",
+                        f"csr_{domain}_status")
+            at = 0
+            for r in rs:
+                out[r.port] = got[at:at + r.width]
+                at += r.width
+        return out
+
+
+def cross(m, value, src, dst, name, *, init=0, hold=None):
+    """``value`` (a ``src``-domain signal) as a ``dst``-domain register, coherent across
+    its bits: a request/acknowledge toggle handshake through 2-FF synchronizers. ``dst``
+    toggles its request; ``src``, seeing it, holds ``value`` and toggles its acknowledge;
+    ``dst``, seeing that, takes the held word (stable since the acknowledge) and requests
+    again: a new snapshot every ~3 clocks of each side. ``hold`` (a ``dst`` signal): while
+    high the held word is not taken (nor a new one requested). ``init``: the register's
+    and the held word's reset value."""
+    n = len(value)
+    req, req_s = Signal(name=f"{name}_req"), Signal(name=f"{name}_req_s")   # dst, src
+    ack, ack_d = Signal(name=f"{name}_ack"), Signal(name=f"{name}_ack_d")   # src, dst
+    held = Signal(n, init=init, name=f"{name}_held")                        # src
+    out = Signal(n, init=init, name=f"{name}_out")                          # dst
+    m.submodules[f"{name}_req_sync"] = FFSynchronizer(req, req_s, o_domain=src)
+    m.submodules[f"{name}_ack_sync"] = FFSynchronizer(ack, ack_d, o_domain=dst)
+    with m.If(req_s != ack):
+        m.d[src] += [held.eq(value), ack.eq(req_s)]
+    take = (ack_d == req) if hold is None else (ack_d == req) & ~hold
+    with m.If(take):
+        m.d[dst] += [out.eq(held), req.eq(~req)]
+    return out
+
+
+def _packed(rs):
+    """The reset values of ``rs`` ([(register, signal)]) packed as :func:`Cat` packs them."""
+    out, at = 0, 0
+    for r, _ in rs:
+        out |= r.reset << at
+        at += r.width
+    return out
 
 
 def _rw(reg, wdata, wmask):

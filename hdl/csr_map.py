@@ -10,9 +10,12 @@ fault summary, interrupt enable and status) come first. :class:`~tdicam.hdl.csr.
 the AXI4-Lite slave built from the map; :mod:`tdicam.chain.registers` writes it as
 SystemRDL 2.0 and the C header, Markdown reference and Python driver made from that.
 
-Ports left out of the map stay top-level ports: those of another clock domain (the sensor
-front end's word-clock status and settings: a bus crossing is not built), settings with a
-per-frame pattern (a tuple value), and ports wider than :data:`DATA_BITS`.
+A block whose settings and status are in another clock domain (the sensor front end's, in
+the word clock) states which of them are registers in its ``csr_ports`` ({port: kind}, kind
+one of :data:`PORT_KINDS`); those registers carry the domain (:attr:`Register.domain`) and
+:class:`~tdicam.hdl.csr.CsrTop` crosses them. Its other ports of that domain (the lanes'
+pins, a strobe timed with the sensor such as ``retrain``) stay top-level ports, as do
+settings with a per-frame pattern (a tuple value) and ports wider than :data:`DATA_BITS`.
 """
 
 from dataclasses import dataclass
@@ -23,7 +26,7 @@ from amaranth.lib import wiring
 from tdicam.version import __version__
 
 __all__ = ["Register", "RegisterMap", "register_map", "DATA_BITS", "ADDR_BITS", "CAMERA_ID",
-           "BLOCK_STRIDE", "FAULT_WORDS", "CAMERA_REGISTERS", "version_word"]
+           "BLOCK_STRIDE", "FAULT_WORDS", "CAMERA_REGISTERS", "PORT_KINDS", "version_word"]
 
 #: Bus data width (bits) and byte-address width of the control bus.
 DATA_BITS, ADDR_BITS = 32, 12
@@ -36,6 +39,11 @@ CAMERA_ID = 0x54444943
 #: than one bit) is write-1-to-clear, and each such port is one bit of the fault summary and
 #: of the interrupt registers.
 FAULT_WORDS = ("error", "uncorrectable", "corrected", "bad", "dropped", "overflow", "invalid")
+#: The kinds a block's ``csr_ports`` gives its other-domain ports: ``setting`` (read-write),
+#: ``status`` (the :data:`FAULT_WORDS` rule), ``mask`` (a per-lane level mask, read-only,
+#: not a fault) and ``fault_mask`` (read-only; a fault while any bit is set, a new fault
+#: when a bit rises).
+PORT_KINDS = ("setting", "status", "mask", "fault_mask")
 
 
 def version_word(version=__version__):
@@ -67,6 +75,15 @@ class Register:
     fault : bool
         A fault source (one bit of FAULT_SUMMARY, IRQ_ENABLE and IRQ_STATUS).
     desc : str
+    domain : str or None
+        The clock domain of the block's port when it is not the bus's (``"word"``: the
+        sensor front end's); the bus reads and writes it through a crossing.
+    mask : bool
+        A per-lane level mask (a fault source: any bit set; a new fault: a bit rising).
+    hold : str or None
+        For a setting of another domain: the block's status port (a top port, that
+        domain's) that must be low for the setting to be applied (the front's
+        ``releasing``: applied while it holds its frames), from its ``csr_hold``.
     """
 
     block: str
@@ -78,6 +95,9 @@ class Register:
     port: str | None
     fault: bool
     desc: str
+    domain: str | None = None
+    mask: bool = False
+    hold: str | None = None
 
 
 @dataclass(frozen=True)
@@ -144,25 +164,39 @@ def register_map(pipeline, resets, *, name="pipeline"):
         base, own = (k + 1) * BLOCK_STRIDE, []
         settings = [f"{st.name}_{p}" for p in st.ports] + (
             [f"{st.name}_{st.group}"] if st.group is not None else [])
+        front = pipeline.cores[k][0]
+        kinds = getattr(front, "csr_ports", None) or {}
+        hold = getattr(front, "csr_hold", None)
         for port, mem in members.items():
-            if not port.startswith(st.name + "_") or port in domains or port in pins \
+            if not port.startswith(st.name + "_") or port in pins \
                     or port.startswith("tap") or not mem.is_port:
+                continue
+            pname = port.removeprefix(st.name + "_")
+            kind = kinds.get(pname) if port in domains else None
+            if port in domains and kind is None:
                 continue
             width = Shape.cast(mem.shape).width
             if width > DATA_BITS or not _owned(pipeline, st, port):
                 continue
+            dom = domains.get(port)
             if mem.flow == wiring.In:
                 value = resets.get(port)
                 if port not in settings or value is None or isinstance(value, tuple):
                     continue
-                own.append((port, width, "rw", int(value) & ((1 << width) - 1), False))
+                own.append((port, width, "rw", int(value) & ((1 << width) - 1), False, dom,
+                            False))
+            elif kind in ("mask", "fault_mask"):
+                own.append((port, width, "ro", 0, kind == "fault_mask", dom, True))
             else:
-                fault = _is_fault(port.removeprefix(st.name + "_"))
-                own.append((port, width, "w1c" if fault and width > 1 else "ro", 0, fault))
-        for j, (port, width, access, reset, fault) in enumerate(own):
+                fault = _is_fault(pname)
+                own.append((port, width, "w1c" if fault and width > 1 else "ro", 0, fault, dom,
+                            False))
+        for j, (port, width, access, reset, fault, dom, mask) in enumerate(own):
             regs.append(Register(st.name, port.removeprefix(st.name + "_"), base + 4 * j,
                                  width, access, reset, port, fault,
-                                 _desc(st.name, port, access)))
+                                 _desc(st.name, port, access, dom, mask), dom, mask,
+                                 f"{st.name}_{hold}" if dom and hold and access == "rw"
+                                 else None))
     if "startup_cycles" in members:
         regs.append(Register("camera", "startup_cycles", 4 * len(CAMERA_REGISTERS), 32, "ro", 0,
                              "startup_cycles", False, "Cycles the top held its input at "
@@ -199,10 +233,17 @@ def _owned(pipeline, st, port):
     return not any(port.startswith(n + "_") for n in longer)
 
 
-def _desc(stage, port, access):
+def _desc(stage, port, access, domain=None, mask=False):
     name = port.removeprefix(stage + "_")
     if access == "rw":
+        if domain is not None:
+            return (f"{stage}'s run-time setting {name} (its {domain}-clock {name} input, "
+                    f"through a handshake crossing; applied while the block holds its "
+                    f"frames: at start-up, a retrain).")
         return (f"{stage}'s run-time setting {name} (the block's {name} input; it takes "
                 f"effect where the block samples it, e.g. with a frame's first beat).")
-    what = "fault counter; write 1s to clear" if access == "w1c" else "status"
+    what = "fault counter; write 1s to clear" if access == "w1c" else \
+        "per-lane mask, lane 0 in bit 0" if mask else "status"
+    if domain is not None:
+        what += f"; from the {domain} clock through a crossing, a few clocks late"
     return f"{stage}'s {name} ({what})."

@@ -361,6 +361,29 @@ class LvdsFront(wiring.Component):
             **_status_ports(n, self._w, self._eye, self._track)}}
 
     @property
+    def csr_ports(self):
+        """{port: kind} (:data:`tdicam.hdl.csr_map.PORT_KINDS`) of the word-clock settings and
+        status a control bus crosses into its register map: every status output, and the
+        settings but ``retrain`` (a strobe timed with the sensor's own training: the
+        controller that commands the sensor drives it). The lanes' per-lane masks are
+        levels; ``lane_error`` is the fault (a lane failed to train or was lost)."""
+        n = self._L * self._g
+        kinds = {name: "status" for name, mem in
+                 _status_ports(n, self._w, self._eye, self._track).items()
+                 if mem.flow == wiring.Out}
+        kinds.update({name: "mask" for name in ("lane_locked", "lanes_bad", "frame_invalid",
+                                                 "lane_walk_ok") if name in kinds})
+        kinds["lane_error"] = "fault_mask"
+        kinds.update({name: "setting" for name in ("train_word", "sync_word", "n_check",
+                                                    "frame_rows")})
+        return kinds
+
+    #: The status that must be low for the bus's word-clock settings to be applied
+    #: (:attr:`csr_ports`): they reach the front while it holds its frames (start-up, a
+    #: lane loss until the retrain), never in the middle of a released frame.
+    csr_hold = "releasing"
+
+    @property
     def pin_ports(self):
         """{port: I/O attributes} of the ports that are device pins (the ECP5 PHY's LVDS
         lanes and edge clock; :func:`tdicam.hdl.lvds_phy.pin_ports`)."""

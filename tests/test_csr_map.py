@@ -2,12 +2,15 @@
 
 The orbit chain's map from its ports (widths, access, reset values the scene's); the system
 lanes scene's (the NAND load's status per lane, not the NAND bus; the sensor front end's
-word-clock ports left as ports); the SystemRDL compiled by systemrdl-compiler; the C header
+word-clock settings and status with their domain, its lane pins and retrain strobe left as
+ports); the SystemRDL compiled by systemrdl-compiler; the C header
 from peakrdl-cheader compiled with ``cc -fsyntax-only`` with every register's offset and reset
 asserted equal to the map's (the cocotb test, cocotb_tests/test_csr.py, reads the gateware at
-the header's offsets); ``tdicam verilog pipeline --csr -o DIR`` writes the four files beside
-the Verilog; the top without ``--csr`` keeps its loose ports; the AXI4-Lite slave's
-handshakes, byte strobes, write-1-to-clear and interrupt in Amaranth's simulator.
+the header's offsets); the IP-XACT component's offsets the map's; ``tdicam verilog pipeline
+--csr -o DIR`` writes the files beside the Verilog (``--html`` the HTML reference too), a
+missing tool one line naming the extra; the top without ``--csr`` keeps its loose ports; the
+AXI4-Lite slave's handshakes, byte strobes, write-1-to-clear and interrupt, and the
+clock-domain crossing of another domain's settings and status, in Amaranth's simulator.
 """
 
 import importlib.util
@@ -83,9 +86,33 @@ def test_system_lanes_map_has_the_nand_load_status_not_its_bus():
     assert nuc["bad_blocks_1"].access == "w1c" and nuc["bad_blocks_1"].fault
     assert nuc["calib_loaded"].access == "ro" and not nuc["calib_loaded"].fault
     assert rm.get("camera", "startup_cycles").access == "ro"
-    assert not any(r.block == "lvds" for r in rm.registers)       # the word clock's ports
+    lv = {r.name: r for r in rm.registers if r.block == "lvds"}   # the word clock's, crossed
+    assert {r.domain for r in lv.values()} == {"word"}
+    assert [n for n, r in lv.items() if r.access == "rw"] == [
+        "train_word", "sync_word", "n_check", "frame_rows"]
+    assert lv["train_word"].reset == design.run_values(p)["lvds_train_word"]
+    assert {r.hold for r in lv.values() if r.access == "rw"} == {"lvds_releasing"}
+    assert "retrain" not in lv and "lane_raw" not in lv and "lane_tap" not in lv
+    assert lv["lane_error"].fault and lv["lane_error"].mask and lv["lane_error"].access == "ro"
+    assert lv["lanes_bad"].mask and not lv["lanes_bad"].fault
+    assert lv["lane_errors"].access == "w1c" and lv["fifo_overflow"].fault
     assert rm.get("cds_ddr", "line_errors_1").access == "w1c"
     assert not any("nand_" in r.name or "app_" in r.name for r in rm.registers)
+    registers.compile_rdl(registers.rdl_text(rm))
+
+
+def test_the_fronts_eye_status_in_the_map_where_it_fits():
+    """With ``[sensor.lvds].eye_status`` the front's training status is in the map where it
+    fits in a register (the chosen taps, the slips, the eye widths found; the walking-1/0
+    flags a lane mask), the 32-tap pass masks of every lane (128 bits) left as ports."""
+    sc = design.load_pipeline_scene(ROOT / "scenes" / "ning2019_gmax0504_system_lanes.toml")
+    from dataclasses import replace
+    sc = replace(sc, sensor=replace(sc.sensor, lvds=replace(sc.sensor.lvds, eye_status=True)))
+    rm = design.register_map(design.chain_plan(sc))
+    lv = {r.name: r for r in rm.registers if r.block == "lvds"}
+    assert {"lane_chosen_tap", "lane_slip", "lane_run", "lane_walk_ok"} <= set(lv)
+    assert lv["lane_walk_ok"].mask and lv["lane_chosen_tap"].width == 20
+    assert "lane_scan" not in lv and "lane_walk" not in lv          # 128 and 96 bits
     registers.compile_rdl(registers.rdl_text(rm))
 
 
@@ -132,8 +159,8 @@ def test_verilog_csr_writes_the_maps_files_beside_the_verilog(tmp_path, capsys):
     assert cli.main(["verilog", "pipeline", "--scene", str(ROOT / "scenes" / "orbit_chain.toml"),
                      "--stages", "4", "--csr", "-o", str(out)]) == 0
     names = sorted(f.name for f in out.iterdir())
-    assert names == ["orbit_chain.h", "orbit_chain.rdl", "orbit_chain_registers.md",
-                     "orbit_chain_regs.py", "pipeline.v"]
+    assert names == ["orbit_chain.h", "orbit_chain.rdl", "orbit_chain.xml",
+                     "orbit_chain_registers.md", "orbit_chain_regs.py", "pipeline.v"]
     v = (out / "pipeline.v").read_text()
     assert "csr=axi4-lite" in v and "s_axil_awaddr" in v and "tdi_stages_active" not in \
         v.split(");")[0]
@@ -146,6 +173,63 @@ def test_verilog_csr_writes_the_maps_files_beside_the_verilog(tmp_path, capsys):
     assert mod.OFFSETS == {f"{r.block}.{r.name}": r.offset for r in rm.registers}
     assert mod.FAULTS == ("tdi.frame_errors", "median3.marker_error")
     assert "wrote" in capsys.readouterr().err
+
+
+def test_ipxact_component_has_the_maps_offsets():
+    """The IP-XACT (IEEE 1685-2014) component from peakrdl-ipxact: every register at the
+    map's absolute offset, with its width and reset."""
+    import xml.etree.ElementTree as ET
+    pytest.importorskip("peakrdl_ipxact")
+    rm = design.register_map(_plan("ning2019_gmax0504_system_lanes"))
+    ns = {"ipxact": "http://www.accellera.org/XMLSchema/IPXACT/1685-2014"}
+    root = ET.fromstring(registers.ipxact(registers.compile_rdl(registers.rdl_text(rm))))
+
+    def num(text):
+        return int(text.replace("'h", "0x"), 0)
+    got = {}
+    block = root.find(".//ipxact:addressBlock", ns)
+    for node in block:
+        tag = node.tag.split("}")[1]
+        if tag == "register":
+            got[("camera", node.find("ipxact:name", ns).text)] = num(
+                node.find("ipxact:addressOffset", ns).text)
+        elif tag == "registerFile":
+            base = num(node.find("ipxact:addressOffset", ns).text)
+            for reg in node.findall("ipxact:register", ns):
+                got[(node.find("ipxact:name", ns).text, reg.find("ipxact:name", ns).text)] = \
+                    base + num(reg.find("ipxact:addressOffset", ns).text)
+    assert got == {(r.block, r.name): r.offset for r in rm.registers}
+
+
+@pytest.mark.parametrize("module", ["systemrdl", "peakrdl_ipxact"])
+def test_verilog_csr_without_the_tools_is_one_line(module, tmp_path, capsys, monkeypatch):
+    """A machine without the csr extra (its module's import fails): one line naming the
+    extra, before any file is written."""
+    import sys
+    monkeypatch.setitem(sys.modules, module, None)       # import raises ImportError
+    out = tmp_path / "top"
+    assert cli.main(["verilog", "pipeline", "--scene", str(ROOT / "scenes" / "orbit_chain.toml"),
+                     "--stages", "4", "--csr", "-o", str(out)]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pip install 'tdicam[csr]'" in err[0], err
+    assert registers.TOOLS[module] in err[0] and "Traceback" not in err[0]
+    assert not (out / "pipeline.v").exists()
+
+
+@pytest.mark.skipif(importlib.util.find_spec("peakrdl_html") is None, reason="peakrdl-html")
+def test_html_reference_on_request_deterministic(tmp_path):
+    """``html_ref``: the HTML reference (peakrdl-html) beside the others, the same bytes
+    twice (no time stamp, no path of the machine)."""
+    rm = design.register_map(_plan("orbit_chain", stages=4))
+
+    def texts(d):
+        files = registers.write_files(rm, d, html_ref=True)
+        top = Path(files["html"])
+        return {str(f.relative_to(top)): f.read_bytes() for f in top.rglob("*.html")}
+    a, b = texts(tmp_path / "a"), texts(tmp_path / "b")
+    assert a == b and "index.html" in a and len(a) > len(rm.registers)
+    assert not any(str(tmp_path).encode() in v for v in a.values())
+    assert b"stages_active" in b"".join(a.values())
 
 
 class _Core(wiring.Component):
@@ -171,6 +255,44 @@ def _slave():
     return core, CsrTop(core, RegisterMap("t", tuple(regs)))
 
 
+async def _write(ctx, dut, addr, data, strb=0xF, bready_after=0, w_after=0):
+    ctx.set(dut.s_axil_awaddr, addr)
+    ctx.set(dut.s_axil_awvalid, 1)
+    for _ in range(w_after):                      # the address alone is not taken
+        assert not ctx.get(dut.s_axil_awready)
+        await ctx.tick()
+    ctx.set(dut.s_axil_wdata, data)
+    ctx.set(dut.s_axil_wstrb, strb)
+    ctx.set(dut.s_axil_wvalid, 1)
+    assert ctx.get(dut.s_axil_awready) and ctx.get(dut.s_axil_wready)
+    await ctx.tick()
+    ctx.set(dut.s_axil_awvalid, 0)
+    ctx.set(dut.s_axil_wvalid, 0)
+    for _ in range(bready_after):                 # the response waits for bready
+        assert ctx.get(dut.s_axil_bvalid)
+        await ctx.tick()
+    ctx.set(dut.s_axil_bready, 1)
+    assert ctx.get(dut.s_axil_bvalid) and ctx.get(dut.s_axil_bresp) == 0
+    await ctx.tick()
+    ctx.set(dut.s_axil_bready, 0)
+
+async def _read(ctx, dut, addr, rready_after=0):
+    ctx.set(dut.s_axil_araddr, addr)
+    ctx.set(dut.s_axil_arvalid, 1)
+    assert ctx.get(dut.s_axil_arready)
+    await ctx.tick()
+    ctx.set(dut.s_axil_arvalid, 0)
+    value = ctx.get(dut.s_axil_rdata)
+    for _ in range(rready_after):                 # held until rready
+        assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rdata) == value
+        await ctx.tick()
+    ctx.set(dut.s_axil_rready, 1)
+    assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rresp) == 0
+    await ctx.tick()
+    ctx.set(dut.s_axil_rready, 0)
+    return value
+
+
 def test_axi_lite_slave_protocol_strobes_and_write_1_to_clear():
     """The slave on its own (Amaranth simulator): a write waits for both address and data
     and holds its response until bready; a read holds its data until rready; byte strobes;
@@ -179,42 +301,11 @@ def test_axi_lite_slave_protocol_strobes_and_write_1_to_clear():
     core, dut = _slave()
     seen = {}
 
-    async def write(ctx, addr, data, strb=0xF, bready_after=0, w_after=0):
-        ctx.set(dut.s_axil_awaddr, addr)
-        ctx.set(dut.s_axil_awvalid, 1)
-        for _ in range(w_after):                      # the address alone is not taken
-            assert not ctx.get(dut.s_axil_awready)
-            await ctx.tick()
-        ctx.set(dut.s_axil_wdata, data)
-        ctx.set(dut.s_axil_wstrb, strb)
-        ctx.set(dut.s_axil_wvalid, 1)
-        assert ctx.get(dut.s_axil_awready) and ctx.get(dut.s_axil_wready)
-        await ctx.tick()
-        ctx.set(dut.s_axil_awvalid, 0)
-        ctx.set(dut.s_axil_wvalid, 0)
-        for _ in range(bready_after):                 # the response waits for bready
-            assert ctx.get(dut.s_axil_bvalid)
-            await ctx.tick()
-        ctx.set(dut.s_axil_bready, 1)
-        assert ctx.get(dut.s_axil_bvalid) and ctx.get(dut.s_axil_bresp) == 0
-        await ctx.tick()
-        ctx.set(dut.s_axil_bready, 0)
+    def write(ctx, *args, **kw):
+        return _write(ctx, dut, *args, **kw)
 
-    async def read(ctx, addr, rready_after=0):
-        ctx.set(dut.s_axil_araddr, addr)
-        ctx.set(dut.s_axil_arvalid, 1)
-        assert ctx.get(dut.s_axil_arready)
-        await ctx.tick()
-        ctx.set(dut.s_axil_arvalid, 0)
-        value = ctx.get(dut.s_axil_rdata)
-        for _ in range(rready_after):                 # held until rready
-            assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rdata) == value
-            await ctx.tick()
-        ctx.set(dut.s_axil_rready, 1)
-        assert ctx.get(dut.s_axil_rvalid) and ctx.get(dut.s_axil_rresp) == 0
-        await ctx.tick()
-        ctx.set(dut.s_axil_rready, 0)
-        return value
+    def read(ctx, *args, **kw):
+        return _read(ctx, dut, *args, **kw)
 
     async def tb(ctx):
         seen["id"] = await read(ctx, 0x000, rready_after=3)
@@ -253,6 +344,95 @@ def test_axi_lite_slave_protocol_strobes_and_write_1_to_clear():
     assert seen["errors_after_two_more"] == 3
     assert seen["cleared"] == (0, 0, 0, 0)
     assert seen["flag"] == (0b10, 0b10, 1)
+
+
+class _WordCore(wiring.Component):
+    """A stand-in top whose block is in another clock domain (``word``): a 12-bit setting,
+    a 16-bit status, a fault flag, a 4-lane fault mask and the status that holds the
+    setting (``blk_run``)."""
+
+    def __init__(self):
+        super().__init__({"o_stream": Out(pixel_signature(channels_shape(8, 1))),
+                          "blk_level": In(12), "blk_count": Out(16), "blk_error": Out(1),
+                          "blk_lane_error": Out(4), "blk_run": Out(1)})
+
+    port_domains = {n: "word" for n in ("blk_level", "blk_count", "blk_error",
+                                        "blk_lane_error", "blk_run")}
+
+    def elaborate(self, platform):
+        return Module()
+
+
+def test_another_domains_registers_cross_coherently():
+    """Word-domain registers (a word clock 37 ns, the bus's 10 ns) through the crossing: a
+    16-bit status changing every word clock (its two bytes always equal) is never read
+    torn and is read within a few clocks; a setting written reaches the word side only
+    while ``blk_run`` (its hold) is low; a flag through its synchronizer raises the
+    interrupt; a lane of the fault mask rising raises it again after a clear."""
+    core = _WordCore()
+    regs = [Register("camera", n, 4 * k, 32 if n in ("id", "version", "frame_count") else
+                     1 if n == "startup" else 2, acc, 0, None, False, "")
+            for k, (n, acc, _) in enumerate(CAMERA_REGISTERS)]
+    regs += [Register("blk", "level", 0x100, 12, "rw", 0x5A5, "blk_level", False, "",
+                      "word", hold="blk_run"),
+             Register("blk", "count", 0x104, 16, "ro", 0, "blk_count", False, "", "word"),
+             Register("blk", "error", 0x108, 1, "ro", 0, "blk_error", True, "", "word"),
+             Register("blk", "lane_error", 0x10C, 4, "ro", 0, "blk_lane_error", True, "",
+                      "word", mask=True)]
+    dut = CsrTop(core, RegisterMap("t", tuple(regs)))
+    seen = {"torn": 0, "reads": 0, "levels": []}
+    done = []
+
+    async def word_side(ctx):
+        k = 0
+        ctx.set(core.blk_run, 1)
+        async for _ in ctx.tick("word"):
+            k = (k + 1) & 0xFF
+            ctx.set(core.blk_count, k << 8 | k)
+            seen["levels"].append(ctx.get(core.blk_level))
+            if done:
+                return
+
+    async def tb(ctx):
+        await ctx.tick().repeat(20)
+        for _ in range(40):
+            v = await _read(ctx, dut, 0x104)
+            seen["torn"] += (v >> 8) != (v & 0xFF)
+            seen["reads"] += 1
+        seen["fresh"] = (await _read(ctx, dut, 0x104)) & 0xFF, ctx.get(core.blk_count) & 0xFF
+        await _write(ctx, dut, 0x100, 0x123)
+        await ctx.tick().repeat(40)
+        seen["held"] = ctx.get(core.blk_level), await _read(ctx, dut, 0x100)
+        ctx.set(core.blk_run, 0)
+        await ctx.tick().repeat(40)
+        seen["applied"] = ctx.get(core.blk_level)
+        await _write(ctx, dut, 0x014, 0b11)           # irq_enable
+        ctx.set(core.blk_error, 1)
+        await ctx.tick().repeat(12)
+        seen["flag"] = ctx.get(dut.irq), await _read(ctx, dut, 0x018), \
+            await _read(ctx, dut, 0x108)
+        await _write(ctx, dut, 0x018, 0b11)
+        seen["cleared"] = ctx.get(dut.irq)
+        ctx.set(core.blk_lane_error, 0b0100)
+        await ctx.tick().repeat(30)
+        seen["mask"] = ctx.get(dut.irq), await _read(ctx, dut, 0x018), \
+            await _read(ctx, dut, 0x10C), await _read(ctx, dut, 0x010)
+        done.append(1)
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_clock(3.7e-8, domain="word")
+    sim.add_testbench(tb)
+    sim.add_testbench(word_side)
+    sim.run()
+    assert seen["reads"] == 40 and seen["torn"] == 0
+    got, now = seen["fresh"]
+    assert 0 < (now - got) & 0xFF <= 4                 # a few word clocks late
+    assert seen["levels"][0] == 0x5A5                  # the reset value, before any transfer
+    assert seen["held"] == (0x5A5, 0x123)              # held while blk_run is high
+    assert seen["applied"] == 0x123
+    assert seen["flag"] == (1, 0b01, 1) and seen["cleared"] == 0
+    assert seen["mask"] == (1, 0b10, 0b0100, 0b11)
 
 
 def test_a_map_of_another_top_is_refused():

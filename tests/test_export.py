@@ -487,6 +487,41 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     assert r.returncode != 0 and "FAIL beat 77 " in r.stdout, r.stdout
 
 
+def test_pipeline_export_with_the_bus_configures_the_top_over_it(tmp_path):
+    """``--csr``: the top with its AXI4-Lite control bus, the register map's files under
+    ``regs/`` (the C header's and the driver's offsets the map's), and a testbench that
+    writes every setting over the bus and reads back the identity and each setting before
+    it passes; a wrong value read back (the identity expected off by one) fails it."""
+    pytest.importorskip("peakrdl_ipxact")
+    from tdicam.chain import design
+    out = tmp_path / "csr"
+    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6", "--csr",
+            "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    a = tree(out)
+    assert {f"regs/ning2019_chain{x}" for x in (".rdl", ".h", ".xml", "_registers.md",
+                                                "_regs.py")} <= set(a)
+    for name, data in a.items():
+        assert not re.search(rb"(/work|/tmp|/home|/root)", data), name
+    rtl, tb = a["rtl/pipeline.v"].decode(), a["tb/tdicam_tb.v"].decode()
+    assert "csr=axi4-lite" in rtl and ".s_axil_awaddr(axil_awaddr)" in tb
+    rm = design.register_map(design.chain_plan(design.load_pipeline_scene(CHAIN), width=24,
+                                               lines=6))
+    rw = [r for r in rm.registers if r.access == "rw" and r.block != "camera"]
+    assert rw and all(f"axil_write(12'h{r.offset:03x}, 32'h{r.reset:08x});" in tb
+                      for r in rw)
+    assert "axil_read(12'h000, 32'h54444943" in tb
+    res = icarus(out)
+    assert res.returncode == 0 and passed(res.stdout, 144) == 144, res.stdout[-2000:]
+    bad = tmp_path / "bad"
+    shutil.copytree(out, bad)
+    path = bad / "tb" / "tdicam_tb.v"
+    path.write_text(path.read_text().replace("32'h54444943", "32'h54444944"))
+    res = icarus(bad)
+    assert res.returncode != 0 and "FAIL control bus: camera.id" in res.stdout, res.stdout
+    assert "PASS" not in res.stdout
+
+
 def test_pipeline_export_bad_scenes_are_one_line(tmp_path):
     text = Path(CHAIN).read_text()
     scenes = {"garbage.toml": ("garbage = [\n", "invalid TOML"),

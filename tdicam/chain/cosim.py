@@ -307,7 +307,7 @@ def _hexcol(raw, digits):
 
 
 def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressure=0.0,
-              keep=False, front=None, ecp5=False):
+              keep=False, front=None, ecp5=False, csr=False):
     """Build (cached) and run the top on the scene data in fast mode.
 
     Returns ``(got, info)``: ``got["out"]`` the output beats and, with ``taps``, ``got[k]``
@@ -323,7 +323,9 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
 
     A top whose input is the sensor's lanes (a ``[sensor.lvds]`` scene) runs from the lanes
     (:func:`_run_lanes`; ``front``: its ``lanes`` and ``word_ns``); ``idle`` and
-    ``backpressure`` do not apply (the sensor sets the pace).
+    ``backpressure`` do not apply (the sensor sets the pace). ``csr`` (a top from the lanes
+    only): the top with the control bus, the front's status read through it
+    (:mod:`tdicam.simtb.lanes_bus`; ``info["registers"]``, ``info["irq"]``).
     """
     from tdicam import cosim
     from tdicam.chain import design
@@ -333,7 +335,10 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     if design.sourced(p) and wave is not None:
         raise TdicamError("the chain's input is the sensor's lanes ([sensor.lvds]): no "
                           "waveform re-run of a lane co-simulation")
-    ax = design.top(p, data, taps=taps, board=True, ecp5=ecp5)
+    if csr and not design.sourced(p):
+        raise TdicamError("run_top(csr=True): the bus co-simulation from here is the lanes' "
+                          "(a [sensor.lvds] scene); cocotb_tests/test_csr.py runs the others")
+    ax = design.top(p, data, taps=taps, board=True, ecp5=ecp5, csr=csr)
     if design.sourced(p):
         return _run_lanes(p, data, sim, ax, taps, front or {}, keep, t0)
     tap_shapes = ax.core.tap_shapes if taps else []
@@ -418,6 +423,27 @@ PROC_NS = 10.0
 HELD = 2
 
 
+def lane_fault_cut(scene_path):
+    """(plan, data, ``front``) of the lanes' fault cut the co-simulation tests run: a lanes
+    scene on 16 columns, 3 stages, 2 output lines, 16-block NAND parts, one frame pair more
+    (held for the retrain); lane 3's eye 6 taps wide (no run of 9: cannot train) and lane 0
+    dying in the middle of frame 3 (``front`` for :func:`cosimulate`, 25 MHz words)."""
+    from dataclasses import replace
+    from tdicam.chain import design
+    from tdicam.cosim.lvds_front import GOOD_LANES, scenario_lanes
+    from tdicam.scene.loader import load_scene
+    sc = load_scene(scene_path, overrides={"sensor": {"columns": 16}, "tdi": {"stages": 3},
+                                           "run": {"lines": 3, "rtl": {"crop": None}}})
+    p = design.chain_plan(sc, lines=2)
+    p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
+                               else s for s in p.steps))
+    data, _ = scene_data(sc, stages=3, dv_over_v=0.0, lines=3)
+    data = data.crop(0, 16, 0, p.frames + 1)
+    spec = list(GOOD_LANES[:4])
+    spec[3] = (12, 6, 0)
+    return p, data, {"word_ns": 40.0, "dies": (0, 3), "lanes": scenario_lanes(spec)}
+
+
 def _death(p, data, front, lanes, kw):
     """The lanes and sensor schedule of ``front["dies"] = (lane, frame)``: the lane dies in
     the middle of that frame (its middle line's middle word); the sensor sends :data:`HELD`
@@ -482,14 +508,16 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     settings = {name: int(values[name]) for name, mem in ax.signature.members.items()
                 if mem.flow.name == "In" and name not in ("lvds_lane_raw", "lvds_retrain",
                                                           "lvds_lane_mon_raw")
-                and not name.startswith("m_axis_")}
+                and not name.startswith(("m_axis_", "s_axil_"))}
+    regmap = getattr(ax.core, "regmap", None)
+    pipe = ax.core.core if regmap is not None else ax.core
     ready = [f"{st.name}_{st.ready}" + (f"_{k}" if k else "")
-             for st, nl in ax.core.core._holds() for k in range(nl)] \
-        if hasattr(ax.core, "core") else []
+             for st, nl in pipe.core._holds() for k in range(nl)] \
+        if hasattr(pipe, "core") else []
     dut = convert(ax, "pipeline")
     elab = time.perf_counter() - t0
     key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps], "taps": taps,
-           "lanes": True}
+           "lanes": True} | ({"csr": "axi4-lite"} if regmap is not None else {})
     bdir, build_s = cosim.build_sources("pipeline-lanes", key, sim, {"pipeline.v": dut},
                                         top="pipeline")
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -501,8 +529,11 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "n_out": n_out, "drain": 2000,
            "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
-           "ready": ready, "status": [name for name, _ in status_ports(ax)],
+           "ready": ready, "status": [name for name, _ in status_ports(ax)
+                                      if not name.startswith("s_axil_")],
            "retrains": list(case.retrains), "track": case.track}
+    if regmap is not None:
+        job.update(_bus_job(regmap, ready, rundir))
     (rundir / "job.json").write_text(json.dumps(job))
     res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
                              "the pipeline from the lanes", top="pipeline")
@@ -543,12 +574,32 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                                        for r in case.golden_run().trainings[-1]],
                       "corrections": res.get("corrections"),
                       "corrections_golden": _corrections(case) if case.track else None},
+            **({"registers": res["registers"], "irq": res["irq"]} if regmap is not None
+               else {}),
             "build_seconds": build_s, "elaborate_seconds": elab, "run_seconds": wall,
             "run_cpu_seconds": cpu, "rundir": str(rundir),
             "input_beats": 0, "build_dir": str(bdir)}
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
     return got, info
+
+
+def _bus_job(regmap, ready, rundir):
+    """The ``job.json`` keys of a lane co-simulation through the control bus
+    (:mod:`tdicam.simtb.lanes_bus`): the driver (written into ``rundir``), the interrupt
+    enabled for the lanes' fault (``lvds.lane_error``), the start-up registers watched, the
+    ports the registers stand for (every status port of the loose-port top) and ``status``,
+    the top's status ports and those."""
+    from tdicam.chain import registers
+    files = registers.write_files(regmap, rundir)
+    faults = [f"{r.block}.{r.name}" for r in regmap.faults]
+    by_port = {r.port: f"{r.block}.{r.name}" for r in regmap.registers if r.port}
+    watch = {"lanes_trained": "lvds.trained", "frames_released": "lvds.releasing"}
+    watch.update({f"{name}_done": by_port[name] for name in ready})
+    return {"csr": {"driver": files["driver"], "watch": watch,
+                    "irq_enable": 1 << faults.index("lvds.lane_error"),
+                    "ports": {v: k for k, v in by_port.items() if not
+                              regmap.get(*v.split(".")).access == "rw"}}}
 
 
 def beats_differ(got, exp):
@@ -584,7 +635,7 @@ def _first_diff(got, exp):
 
 
 def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=None, seed=1,
-               idle=0.0, backpressure=0.0, front=None, ecp5=False):
+               idle=0.0, backpressure=0.0, front=None, ecp5=False, csr=False):
     """Run ``data`` through the generated top and compare every tap with the golden chain.
 
     Parameters
@@ -598,6 +649,10 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         None: no waveform.
     ecp5 : bool
         Run the chain's ECP5 synthesis top (:func:`run_top`).
+    csr : bool
+        A top from the lanes with the control bus, the front's status read through it
+        (:func:`run_top`): ``registers`` (every register at the end) and ``irq`` ([word
+        clock, ``irq_status``, ``lvds.lane_error``] of each interrupt served) in the result.
 
     Returns
     -------
@@ -619,7 +674,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         if corrupt is not None:
             corrupt(gold)
     got, info = run_top(p, data, sim, seed=seed, idle=idle, backpressure=backpressure,
-                        front=front, ecp5=ecp5)
+                        front=front, ecp5=ecp5, csr=csr)
     lane_fault = None
     if "front" in info:
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
@@ -647,6 +702,7 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         rep["startup"] = info["startup"]
     if lane_fault is not None:
         rep["lanes"] = lane_fault
+    rep.update({k: info[k] for k in ("registers", "irq") if k in info})
     rep["input_pixels_per_s"] = rep["input_pixels"] / max(info["run_seconds"], 1e-9)
     first = None
     ppcs = {s.block: design.step_ppc(s) for s in p.steps}

@@ -1,6 +1,7 @@
 """A camera top's register map (:mod:`tdicam.hdl.csr_map`) as files: SystemRDL 2.0 source,
 and what is made from it: the C header (``peakrdl-cheader``), the Markdown register
-reference (``peakrdl-markdown``) and a Python driver.
+reference (``peakrdl-markdown``), the IP-XACT component (IEEE 1685-2014, ``peakrdl-ipxact``),
+the HTML register reference (``peakrdl-html``) and a Python driver.
 
 :func:`rdl_text` writes the map as SystemRDL (Accellera SystemRDL 2.0, 2018);
 :func:`compile_rdl` compiles it with ``systemrdl-compiler`` (the map is real SystemRDL);
@@ -8,8 +9,8 @@ the header and the reference are the PeakRDL exporters' output from the compiled
 :func:`driver_text` is a Python module whose attributes are the registers (their offsets
 from the map), on any bus with ``async read(address)`` and ``async write(address, value)``
 (:class:`AxiLite` in the module wraps cocotbext-axi's ``AxiLiteMaster``).
-:func:`write_files` writes the four beside a top's Verilog (``tdicam verilog pipeline
---csr -o DIR``).
+:func:`write_files` writes them beside a top's Verilog (``tdicam verilog pipeline
+--csr -o DIR``); :func:`require` checks the tools (the ``csr`` extra) are installed.
 """
 
 import os
@@ -19,12 +20,35 @@ from pathlib import Path
 from tdicam.errors import TdicamError
 from tdicam.hdl.csr_map import DATA_BITS
 
-__all__ = ["rdl_text", "compile_rdl", "c_header", "markdown", "driver_text", "write_files",
-           "FILES"]
+__all__ = ["rdl_text", "compile_rdl", "c_header", "markdown", "ipxact", "html", "driver_text",
+           "write_files", "file_texts", "require", "FILES", "TOOLS"]
 
-#: The files :func:`write_files` writes, by kind: name pattern (``{name}``: the map's name).
+#: The files :func:`write_files` writes, by kind: name pattern (``{name}``: the map's name;
+#: ``html`` a folder, its ``index.html`` the page, written when asked: ~8 MB with its fonts).
 FILES = {"rdl": "{name}.rdl", "header": "{name}.h", "markdown": "{name}_registers.md",
-         "driver": "{name}_regs.py"}
+         "ipxact": "{name}.xml", "html": "{name}_html", "driver": "{name}_regs.py"}
+#: The Python modules the files are made with (the ``csr`` extra): {module: package}.
+TOOLS = {"systemrdl": "systemrdl-compiler", "peakrdl_cheader": "peakrdl-cheader",
+         "peakrdl_markdown": "peakrdl-markdown", "peakrdl_ipxact": "peakrdl-ipxact",
+         "peakrdl_html": "peakrdl-html"}
+
+
+def require(html=False):
+    """Raise a one-line :class:`TdicamError` naming the extra to install when a tool of
+    :data:`TOOLS` cannot be imported (checked before any work; ``peakrdl-html`` only with
+    ``html``)."""
+    import importlib
+    missing = []
+    for module, package in TOOLS.items():
+        if module == "peakrdl_html" and not html:
+            continue
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            missing.append(package)
+    if missing:
+        raise TdicamError(f"--csr: the register map's files need {', '.join(missing)} (not "
+                          f"installed); pip install 'tdicam[csr]'")
 
 #: SystemRDL field properties of each access kind of the map.
 _ACCESS = {"rw": "sw = rw; hw = r;", "ro": "sw = r; hw = w;",
@@ -112,6 +136,22 @@ def markdown(root):
     """The Markdown register reference of a compiled map (``peakrdl-markdown``)."""
     from peakrdl_markdown import MarkdownExporter
     return _export(MarkdownExporter(), root, ".md")
+
+
+def ipxact(root):
+    """The IP-XACT component of a compiled map (IEEE 1685-2014, ``peakrdl-ipxact``): its
+    memory map, registers and fields, for the integrator's tools (e.g. Vivado's IP
+    packager)."""
+    from peakrdl_ipxact import IPXACTExporter
+    return _export(IPXACTExporter(), root, ".xml")
+
+
+def html(root, out_dir):
+    """Write the HTML register reference of a compiled map into folder ``out_dir``
+    (``peakrdl-html``; deterministic: no build time stamp, no link to the source file)."""
+    from peakrdl_html import HTMLExporter
+    HTMLExporter(generate_source_links=False, user_context={"build_ts": 0}).export(
+        root.top, str(out_dir))
 
 
 def driver_text(regmap):
@@ -204,18 +244,36 @@ class AxiLite:
 '''
 
 
-def write_files(regmap, out_dir):
-    """Write ``regmap``'s SystemRDL source, C header, Markdown reference and Python
-    driver into ``out_dir`` (:data:`FILES`); returns {kind: path}."""
-    from tdicam.files import write_file
+def file_texts(regmap):
+    """{file name (:data:`FILES`): text} of ``regmap``'s files but the HTML reference."""
+    require()
+    texts, _ = _texts(regmap)
+    return {FILES[kind].format(name=regmap.name): text for kind, text in texts.items()}
+
+
+def _texts(regmap):
     rdl = rdl_text(regmap)
     root = compile_rdl(rdl)
-    texts = {"rdl": rdl, "header": c_header(root), "markdown": markdown(root),
-             "driver": driver_text(regmap)}
+    return {"rdl": rdl, "header": c_header(root), "markdown": markdown(root),
+            "ipxact": ipxact(root), "driver": driver_text(regmap)}, root
+
+
+def write_files(regmap, out_dir, *, html_ref=False):
+    """Write ``regmap``'s SystemRDL source, C header, Markdown reference, IP-XACT
+    component, Python driver and, with ``html_ref``, the HTML reference (a folder) into
+    ``out_dir`` (:data:`FILES`); returns {kind: path}."""
+    from tdicam.files import write_file
+    require(html_ref)
+    texts, root = _texts(regmap)
     os.makedirs(out_dir, exist_ok=True)
     out = {}
     for kind, pattern in FILES.items():
         path = os.path.join(out_dir, pattern.format(name=regmap.name))
-        write_file(path, texts[kind])
+        if kind == "html":
+            if not html_ref:
+                continue
+            html(root, path)
+        else:
+            write_file(path, texts[kind])
         out[kind] = path
     return out

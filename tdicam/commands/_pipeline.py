@@ -61,6 +61,9 @@ def scene_design(prog, extra):
                          "(s_axil_*, irq) on the top's register map; with -o the map's "
                          "SystemRDL, C header, Markdown reference and Python driver are "
                          "written beside the Verilog")
+    ap.add_argument("--html", action="store_true",
+                    help="with --csr -o: also the HTML register reference (peakrdl-html; "
+                         "a folder, ~8 MB with its fonts)")
     from tdicam.hdl.lvds_phy import PHYS
     ap.add_argument("--phy", choices=tuple(PHYS),
                     help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
@@ -103,6 +106,11 @@ def verilog_command(extra, output, *, show_help=False):
     if output is not None and not show_help:
         check_file(output)
     ns, p, data = scene_design("tdicam verilog pipeline", extra)
+    if ns.html and not (csr and output is not None):
+        raise TdicamError("--html: the HTML register reference is written with --csr -o DIR")
+    if csr and output is not None:
+        from tdicam.chain.registers import require
+        require(html=ns.html)                      # the tools, before the work
     ax = top(p, data, taps=ns.taps, csr=ns.csr)
     ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
     text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps, csr=ns.csr))
@@ -112,7 +120,7 @@ def verilog_command(extra, output, *, show_help=False):
               f"{p.width} x {p.stages} frames, latency {ax_lat}", file=sys.stderr)
         if ns.csr:
             from tdicam.chain.registers import write_files
-            files = write_files(ax.core.regmap, str(Path(output).parent))
+            files = write_files(ax.core.regmap, str(Path(output).parent), html_ref=ns.html)
             print(f"wrote {', '.join(files.values())}: {len(ax.core.regmap.registers)} "
                   f"registers", file=sys.stderr)
     else:

@@ -29,10 +29,11 @@ MODES = ("beat", "fast")
 
 
 def stream_ports(top):
-    """(in tdata bits, out tdata bits, ctrl ports [(name, width)]) of an :class:`AxisTop`."""
+    """(in tdata bits, out tdata bits, ctrl ports [(name, width)]) of an :class:`AxisTop`
+    (the control bus's ``s_axil_*`` inputs are not ctrl ports: :mod:`tdicam.cosim.tbbus`)."""
     ctrl = []
     for name, member in top.signature.members.items():
-        if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_")):
+        if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_", "s_axil_")):
             ctrl.append((name, Shape.cast(member.shape).width))
     return top._in[3], top._out[3], ctrl
 

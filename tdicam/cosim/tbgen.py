@@ -70,7 +70,7 @@ class SelfCheck:
     seed: int = 1
 
 
-def _selfcheck_text(sc):
+def _selfcheck_text(sc, bus=False):
     return f"""
   // ---- self-check: compare each output transfer with expected.hex
   localparam N_EXP = {sc.n_out};
@@ -117,7 +117,7 @@ def _selfcheck_text(sc):
         $display("FAIL beat %0d: %0d output transfers, expected %0d", checked, checked, N_EXP);
         $fatal(1);
       end
-      if (checked < N_EXP)
+{_BUS_DONE if bus else ""}      if (checked < N_EXP)
         $display("PASS %0d beats (%0d of %0d expected beats dropped by mid-stream resets; %0d input beats, %0d cycles)",
                  checked, N_EXP - checked, N_EXP, in_idx, cycles);
       else
@@ -127,6 +127,13 @@ def _selfcheck_text(sc):
   end
 """
 
+
+_BUS_DONE = """\
+      if (!bus_done) begin
+        $display("FAIL control bus: its configuration did not finish");
+        $fatal(1);
+      end
+"""
 
 _HDL_CLOCK = """\
   reg clk = 1'b0;
@@ -238,7 +245,7 @@ _WAVE_TEXT = """\
 
 
 def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, selfcheck=None,
-                     wave=False, per_beat=True, standalone=False):
+                     wave=False, per_beat=True, standalone=False, bus=None):
     """Verilog text of the testbench around module ``dut_name``.
 
     Parameters
@@ -268,6 +275,10 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         :mod:`tdicam.simtb.stream_tb` writes) and ends with ``$finish``. Needs
         ``per_beat=False`` and no ``selfcheck``; the same stimulus, engine and output
         files.
+    bus : :class:`tdicam.cosim.tbbus.BusConfig` or None
+        A top with the control bus (``--csr``): the testbench configures it through its
+        AXI4-Lite slave once the reset is released (:mod:`tdicam.cosim.tbbus`); with
+        ``selfcheck`` it passes only once the configuration finished.
     """
     sc = selfcheck
     d = (dict(n_in=0, n_out=0, max_cycles=1000000, drain=1000, idle=0, bp=0, seed=1)
@@ -283,6 +294,9 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         lo -= w
         ctrl_conn.append(f"    .{name}(ctrl[{lo + w - 1}:{lo}]),")
     ctrl_conn = "\n".join(ctrl_conn)
+    from tdicam.cosim import tbbus
+    bus_conn = "" if bus is None else tbbus.bus_connections()
+    bus_body = "" if bus is None else tbbus.bus_text(bus)
     if standalone and (per_beat or sc is not None):
         raise ValueError("a standalone testbench is fast mode only (per_beat=False, no "
                          "selfcheck)")
@@ -372,7 +386,7 @@ module {TB_TOP}{"(input clk)" if standalone else ""};
     .clk(clk),
     .rst(rst),
 {ctrl_conn}
-    .s_axis_tdata(s_tdata),
+{bus_conn}    .s_axis_tdata(s_tdata),
     .s_axis_tvalid(s_tvalid),
     .s_axis_tready(s_tready),
     .s_axis_tuser(s_tuser),
@@ -439,5 +453,5 @@ module {TB_TOP}{"(input clk)" if standalone else ""};
       end
     end
   end
-{_WAVE_TEXT.format(top=TB_TOP) if wave else ""}{_STANDALONE_TEXT if standalone else ""}{"" if sc is None else _selfcheck_text(sc)}endmodule
+{_WAVE_TEXT.format(top=TB_TOP) if wave else ""}{_STANDALONE_TEXT if standalone else ""}{bus_body}{"" if sc is None else _selfcheck_text(sc, bus is not None)}endmodule
 """

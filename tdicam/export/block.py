@@ -36,7 +36,7 @@ import shutil
 import tempfile
 import textwrap
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -316,7 +316,8 @@ class Design:
     ``param_rows``: (name, value, meaning) for the README; ``rtl`` and ``tb``: Verilog
     text; ``vectors``: {file name: text, or bytes for binary files} under ``vectors/``;
     ``ports``: README port table rows; ``latency``, ``checks`` (what the testbench compares) and ``plusargs`` (its run
-    settings): README text.
+    settings): README text; ``extra``: {relative path: text} of further files (a top with
+    the control bus: its register map's, under ``regs/``).
     """
 
     name: str
@@ -331,6 +332,7 @@ class Design:
     latency: str
     checks: str
     plusargs: str
+    extra: dict = field(default_factory=dict)
 
 
 def _core_text(d, version):
@@ -430,6 +432,7 @@ def design_files(d):
     version = _version(d.params)
     files = {f"rtl/{d.name}.v": d.rtl, "tb/tdicam_tb.v": d.tb}
     files.update({f"vectors/{n}": t for n, t in d.vectors.items()})
+    files.update(d.extra)
     files[f"tdicam_{d.name}.core"] = _core_text(d, version)
     files["README.md"] = _readme_text(d, version)
     mark = {"tdicam": __version__, "block": d.name, "params": d.params}
@@ -496,13 +499,14 @@ def _stream_top(blk, params):
 
 
 def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, seed=1,
-                  idle=0.1, backpressure=0.1, core=None, rtl_header=None):
+                  idle=0.1, backpressure=0.1, core=None, rtl_header=None, bus=None):
     """:class:`Design` of the AXI4-Stream top ``top`` (module ``name``) checked against
     stimulus ``stim`` and expected output ``exp`` (:class:`~tdicam.beats.Beats`), or a
     :class:`~tdicam.beats.BeatStream` ``stim`` (``exp`` None: its vector files are
     :class:`Deferred`, made as they are written, in order); its Verilog
     starts with ``rtl_header`` (default: :func:`tdicam.hw.verilog.header` of ``name`` and
-    ``params``), so that it equals what ``tdicam verilog`` writes."""
+    ``params``), so that it equals what ``tdicam verilog`` writes. ``bus``: a
+    :class:`tdicam.cosim.tbbus.BusConfig` the testbench runs on the top's control bus."""
     in_bits, out_bits, ctrl = stream_ports(top)
     cbits = _ctrl_bits(top)
     padded = top._in[2]
@@ -517,7 +521,7 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
     # one chunk as deep as the stimulus, or full chunks and a short last one
     depth = min(tbgen.DEPTH, max(n_in, 1))
     tb = tbgen.stream_testbench(name, in_bits=in_bits, out_bits=out_bits, ctrl_ports=ctrl,
-                                depth=depth, selfcheck=sc)
+                                depth=depth, selfcheck=sc, bus=bus)
     if streamed:                  # a streamed case has no resets
         vectors = _Chunker(stim, padded=padded, ctrl_bits=cbits, out_padded=top._out[2],
                            depth=depth).files(top._in[1], top._out[1])
@@ -546,6 +550,13 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
                  f"`PASS n beats (k of {n_out} expected beats dropped by mid-stream "
                  f"resets; ...)`." if resets else
                  f"It passes with n = {n_out} (the stimulus has no reset)."))
+    if bus is not None:
+        checks += (f" Once the reset is released it configures the top over its AXI4-Lite "
+                   f"control bus (`s_axil_*`, tasks `axil_write` and `axil_read`): "
+                   f"{len(bus.writes)} writes (every setting, its value the scene's) and "
+                   f"{len(bus.reads)} reads compared with the values expected (the identity, "
+                   f"every setting), and passes only when that finished; the register map "
+                   f"is in `regs/` (SystemRDL, C header, Markdown, IP-XACT, Python driver).")
     plusargs = (f"Plusargs: `+seed=N` (default {sc.seed}), `+idle=N` and `+bp=N` (probability "
                 f"x 256 of an idle input cycle / of `m_axis_tready` low; default {sc.idle} "
                 f"and {sc.bp}), `+max_cycles=N` (default {sc.max_cycles}), `+drain=N`.")

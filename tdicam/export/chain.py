@@ -10,6 +10,11 @@ scene's raw data (every exposure frame of every channel and the CDS reset frames
 exact run of the scene simulator, :func:`tdicam.chain.cosim.scene_data`) made into the top's
 input beats by :func:`tdicam.chain.design.stimulus`; the expected output is the last stage of
 the golden chain (:func:`tdicam.chain.design.golden`) on the same data.
+
+With ``csr`` the top is ``tdicam verilog pipeline --csr``'s (its settings and status
+behind the AXI4-Lite slave, :mod:`tdicam.hdl.csr`): the export carries the register map's
+files under ``regs/`` (:func:`tdicam.chain.registers.file_texts`) and its testbench
+configures the top over the bus (:func:`bus_config`, :mod:`tdicam.cosim.tbbus`).
 """
 
 from __future__ import annotations
@@ -22,22 +27,37 @@ from tdicam.beats import frames_to_beats
 from tdicam.errors import TdicamError, check_range
 from tdicam.export.block import MAX_BEATS, Export, stream_design, write_design
 
-__all__ = ["export_pipeline", "pipeline_design", "STAGES"]
+__all__ = ["export_pipeline", "pipeline_design", "bus_config", "STAGES"]
 
 #: The stages of an export of a pipeline, in order (what its progress names).
 STAGES = ("the scene's raw frames", "the top and its stimulus", "the golden chain's output",
           "writing the export (Verilog, vectors, testbench)")
 
 
+def bus_config(regmap):
+    """The testbench's configuration of a top with the bus (:class:`BusConfig`): every
+    setting written its reset value (the scene's) and the interrupt enable all ones; then
+    the identity, the version and those read back."""
+    from tdicam.cosim.tbbus import BusConfig
+    en = regmap.get("camera", "irq_enable")
+    rw = [r for r in regmap.registers if r.access == "rw" and r.block != "camera"]
+    writes = [(r.offset, r.reset, f"{r.block}.{r.name}") for r in rw]
+    writes.append((en.offset, (1 << en.width) - 1, "camera.irq_enable"))
+    reads = [(regmap.get("camera", n).offset, regmap.get("camera", n).reset, f"camera.{n}")
+             for n in ("id", "version")] + writes
+    return BusConfig(tuple(writes), tuple(reads))
+
+
 def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=None,
                     device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None,
-                    progress=None):
+                    progress=None, csr=False):
     """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
     (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
     1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it);
-    ``progress`` a :class:`tdicam.progress.Progress` told each stage (:data:`STAGES`)."""
+    ``progress`` a :class:`tdicam.progress.Progress` told each stage (:data:`STAGES`);
+    ``csr``: the top with its control bus (the module docstring)."""
     stage = progress.stage if progress is not None else (lambda text: None)
     from tdicam.chain.cosim import scene_data
     from tdicam.chain.design import SceneData
@@ -67,13 +87,16 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     # the calibration ROM of `tdicam verilog pipeline --scene` holds identity coefficients
     data = SceneData(raw.signal, raw.reset, design.identity_data(p).coeffs)
     stage(STAGES[1])
-    top = design.top(p, data, board=True)      # with the external parts' models, if any
+    # with the external parts' models, if any
+    top = design.top(p, data, board=True, csr=csr)
     stim = design.stimulus(p, data, top)
     stage(STAGES[2])
     exp = frames_to_beats(design.golden(p, data)[-1][2], ppc=design.out_ppc(p))
     name = Path(scene_path).name
     params = {"scene": name, "stages": p.stages, "lines": p.lines, "width": p.width,
               "memory": memory or "scene", "blocks": " -> ".join(s.block for s in p.steps)}
+    if csr:
+        params["csr"] = "axi4-lite"
     rows = [("scene", name, "scene file ([pipeline] blocks in order)"),
             ("stages", p.stages, "TDI stages (rows per exposure frame)"),
             ("lines", p.lines, "output lines"),
@@ -92,12 +115,19 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
                f"channel(s), frames of {p.stages} x {p.width} pixels, {p.frames} exposure "
                f"frames in, {p.lines} lines out; NUC calibration "
                + ("ROM or NAND part with identity coefficients; the top with its external parts' "
-                  "simulation models beside it" if isinstance(top.core, Board)
+                  "simulation models beside it" if isinstance(top.core.core if csr else top.core,
+                                                             Board)
                   else "ROM with identity coefficients"))
     d = stream_design("pipeline", summary, rows, params, top, stim, exp,
                       cases=[f"scene {name}"], seed=seed, idle=idle,
                       backpressure=backpressure, core=f"tdicam:pipeline:{stem}",
-                      rtl_header=design.verilog_header(p))
+                      rtl_header=design.verilog_header(p, csr=csr),
+                      bus=bus_config(top.core.regmap) if csr else None)
+    if csr:
+        from dataclasses import replace
+        from tdicam.chain.registers import file_texts
+        d = replace(d, extra={f"regs/{n}": t for n, t in
+                              file_texts(top.core.regmap).items()})
     return d, p, stim, exp
 
 

@@ -11,6 +11,10 @@ the processing side takes every output beat and every tap's beats with the proce
 cycle. It stops ``drain`` processing clocks after the last expected output beat (or at
 ``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the
 end of the sensor's words, the other status outputs at the end).
+
+With ``job["csr"]`` the top has the control bus (``--csr``): the front's status is read
+through it (:class:`tdicam.simtb.lanes_bus.LaneBus`: the frame status, the start-up, the
+interrupts served), and the registers standing for status ports give those ports' values.
 """
 
 import json
@@ -37,8 +41,12 @@ async def run_job(dut):
     track = bool(job.get("track"))
     if track:                       # the receiver tracks the eyes: log its corrections
         res["corrections"] = []
+    bus_idle = [getattr(dut, f"s_axil_{x}") for x in ("awvalid", "wvalid", "bready",
+                                                       "arvalid", "rready")] \
+        if job.get("csr") else []
     wclk, pclk = await start(dut, job["word_ps"], job["proc_ps"], job["settings"],
-                             (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready))
+                             (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready,
+                              *bus_idle))
     done = [False]
     taps = [[getattr(dut, f"{base}_{s}") for s in ("valid", "ready", "first", "last", "data")]
             for base in job["taps"]]
@@ -67,16 +75,26 @@ async def run_job(dut):
     proc = cocotb.start_soon(proc_side())
     drv = WordDriver(raw, job["word_bits"], job.get("retrains", ()), res)
     watch = {"lanes_trained": "lvds_trained", "frames_released": "lvds_releasing"}
-    for name in job["ready"]:
+    now = [0]
+    bus = None
+    if job.get("csr"):                 # the front's status is on the bus: polled there
+        from tdicam.simtb.lanes_bus import LaneBus
+        bus = LaneBus(dut, job, res, lambda: now[0])
+        poll = cocotb.start_soon(bus.poll())
+        watch = {}
+    for name in job["ready"] if bus is None else ():
         watch[f"{name}_done"] = name
+    front = (lambda x: _get(getattr(dut, "lvds_" + x))) if bus is None else \
+        (lambda x: _get(getattr(dut, "lvds_" + x)) if x in ("lane_ld", "lane_tap") else 0)
     for kk in range(job["word_cycles"]):
+        now[0] = kk
         dut.lvds_lane_raw.value, dut.lvds_retrain.value = drv.inputs(kk)
         if track:
             dut.lvds_lane_mon_raw.value = drv.mon_inputs(kk)
             drv.mon_observe(_get(dut.lvds_lane_mon_ld), _get(dut.lvds_lane_mon_tap))
-        drv.observe(kk, *(_get(getattr(dut, "lvds_" + x)) for x in (
+        drv.observe(kk, *(front(x) for x in (
             "lane_ld", "lane_tap", "lane_locked", "lane_error", "frames_out")),
-            lambda: _get(dut.lvds_frame_invalid))
+            lambda: front("frame_invalid"))
         for key, port in watch.items():
             if key not in res["startup"] and _get(getattr(dut, port)):
                 res["startup"][key] = kk
@@ -85,9 +103,17 @@ async def run_job(dut):
     # and lose their lock); the others once the output has drained
     lanes = {name: _get(getattr(dut, name)) for name in job["status"]
              if name.startswith("lvds_")}
+    if bus is not None:
+        bus.running = False
+        await poll
+        lanes.update(await bus.read("lvds"))
     await proc
     for name in job["status"]:
         res["status"][name] = lanes.get(name, _get(getattr(dut, name)))
+    if bus is not None:
+        res["status"].update({k: v for k, v in (await bus.read()).items() if k not in lanes})
+        res["status"].update(lanes)
+        res["registers"] = await bus.read_all()
     wclk.stop()
     pclk.stop()
     await Timer(1, unit="ns")

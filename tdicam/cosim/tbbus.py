@@ -1,0 +1,84 @@
+"""The control bus in a generated Verilog testbench (:func:`tdicam.cosim.tbgen.stream_testbench`
+``bus``): an AXI4-Lite master as two Verilog-2005 tasks, ``axil_write`` and ``axil_read``,
+on the top's ``s_axil_*`` slave (:mod:`tdicam.hdl.csr`), and the configuration they run.
+
+Once the testbench's engine has released the reset, the configuration writes every
+setting (:class:`BusConfig` ``writes``: the scene's values, the registers' reset values, so
+the frames in flight see no change) and reads back every register of ``reads`` (the
+identity, the settings written), ``$fatal`` on a value other than the one expected; the
+self-check passes only when the configuration finished.
+"""
+
+from dataclasses import dataclass
+
+from tdicam.hdl.csr import AXIL_PORTS
+
+__all__ = ["BusConfig", "bus_text", "bus_connections"]
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    """``writes``: ((byte address, value, name), ...) in order; ``reads``: ((byte
+    address, expected value, name), ...) after them."""
+
+    writes: tuple
+    reads: tuple
+
+
+def bus_connections():
+    """The DUT instance's ``s_axil_*`` and ``irq`` connections (Verilog lines)."""
+    return "".join(f"    .s_axil_{n}(axil_{n}),\n" for n, _, _ in AXIL_PORTS) + \
+        "    .irq(axil_irq),\n"
+
+
+def bus_text(cfg):
+    """The master's signals, tasks and the configuration of ``cfg`` (Verilog text, inside
+    the testbench module; the module's ``clk``, ``rst`` and ``running``)."""
+    decl = []
+    for n, w, d in AXIL_PORTS:
+        rng = f"[{w - 1}:0] " if w > 1 else ""
+        decl.append(f"  reg {rng}axil_{n} = 0;" if d == "in" else f"  wire {rng}axil_{n};")
+    ops = [f'      axil_write(12\'h{a:03x}, 32\'h{v:08x});  // {name}' for a, v, name in cfg.writes]
+    ops += [f'      axil_read(12\'h{a:03x}, 32\'h{v:08x}, "{name}");' for a, v, name in cfg.reads]
+    return "\n".join(decl) + f"""
+  wire axil_irq;
+  reg bus_done = 1'b0;
+  reg [31:0] axil_got;
+  // ---- the control bus: an AXI4-Lite master (signals set after a falling edge)
+  task axil_write(input [11:0] a, input [31:0] d);
+    begin
+      @(negedge clk);
+      axil_awaddr = a; axil_wdata = d; axil_wstrb = 4'hf; axil_awvalid = 1; axil_wvalid = 1;
+      #1;
+      while (!(axil_awready && axil_wready)) begin @(negedge clk); #1; end
+      @(posedge clk); #1;
+      axil_awvalid = 0; axil_wvalid = 0; axil_bready = 1;
+      while (!axil_bvalid) begin @(posedge clk); #1; end
+      @(posedge clk); #1;
+      axil_bready = 0;
+    end
+  endtask
+  task axil_read(input [11:0] a, input [31:0] want, input [8*32-1:0] name);
+    begin
+      @(negedge clk);
+      axil_araddr = a; axil_arvalid = 1;
+      #1;
+      while (!axil_arready) begin @(negedge clk); #1; end
+      @(posedge clk); #1;
+      axil_arvalid = 0; axil_rready = 1;
+      while (!axil_rvalid) begin @(posedge clk); #1; end
+      axil_got = axil_rdata;
+      @(posedge clk); #1;
+      axil_rready = 0;
+      if (axil_got !== want) begin
+        $display("FAIL control bus: %0s at 0x%h reads %h, expected %h", name, a, axil_got, want);
+        $fatal(1);
+      end
+    end
+  endtask
+  initial begin
+    wait (running && !rst);
+{chr(10).join(ops)}
+    bus_done = 1'b1;
+  end
+"""
