@@ -60,6 +60,13 @@ def _chain_facts(scene):
     return reset, reset_ddr, coeffs
 
 
+def samples_per_s(scene, cam):
+    """Samples a gain channel a second the camera ``cam`` reads: ``k C R F`` (``k`` = 2 with
+    the sensor's reset frames, 1 without): the rate the whole chain's input must take."""
+    s = scene.sensor
+    return (2 if _chain_facts(scene)[0] else 1) * s.columns * s.rows * cam.frame_rate_hz
+
+
 def camera_budget(scene, cam):
     """The budget of ``scene`` with the camera configuration ``cam``
     (:class:`tdicam.model.physics.camera.Camera`): ``rows`` (each ``name``, ``need``,
@@ -84,7 +91,7 @@ def camera_budget(scene, cam):
         f"pixel words, {L * (per_lane - 2) - C} padded slots a gain, sync and header) at "
         f"{F:g} frame/s need {need / 1e9:.2f} Gbit/s", limit=lim / k))
 
-    samples = k * C * R * F
+    samples = samples_per_s(scene, cam)
     clock = cam.clock_mhz * 1e6
     ppc, pcap, pok = camera.processing_figures(samples, clock)
     rows.append(_row(

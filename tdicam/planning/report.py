@@ -67,8 +67,9 @@ def _gateware_lines(g) -> list[str]:
     for c in g.get("chain") or ():
         lines.append(f"  whole chain    {c['label']} (synthesis record {c['date']}, "
                      f"{c['width']} columns, {c['seeds']} seed(s)): ppc {c['ppc']} at "
-                     f"{c['fmax_mhz']:g} MHz = {_px(c['pixel_rate'])}; keeps up with the "
-                     f"sensor: {_yes(c['meets'])}")
+                     f"{c['fmax_mhz']:g} MHz = {_px(c['pixel_rate'])}, needs "
+                     f"{_px(c['need'])} ({c['need_what']}); keeps up with the sensor: "
+                     f"{_yes(c['meets'])}")
     return lines
 
 

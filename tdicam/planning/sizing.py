@@ -36,7 +36,7 @@ from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr_traces import PATTERNS
 from tdicam.model.ddr_efficiency import tdi_spill_efficiency
-from tdicam.planning.camera import camera_plan
+from tdicam.planning.camera import camera_plan, samples_per_s
 from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
@@ -276,8 +276,8 @@ def plan_scenes(scene_path, given: dict):
 # --------------------------------------------------------------------------------------
 
 
-def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_file=None
-                  ) -> dict:
+def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_file=None,
+                  chain_rate=None) -> dict:
     """What the TDI gateware must do for the camera, and whether the measured synthesis does.
 
     The TDI block receives the M-row window, ``M x W`` pixels, every line period:
@@ -290,8 +290,9 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     ``chain``: the scene's whole processing chain as placed and routed, from the synthesis
     record's ``pipeline`` rows of ``scene_file`` (a file name; :mod:`tdicam.hw.record`):
     per recorded ppc its Fmax, pixel rate ``Fmax x ppc`` and whether that reaches ``rate``
-    (every block before TDI takes the M-row window at the same rate); the best row decides
-    ``chain_ok``. None without a record of the scene (``tdicam synth pipeline --scene S
+    (every block before TDI takes the M-row window at the same rate), or ``chain_rate`` when
+    given (an area camera's ``[camera]``: the samples a gain channel a second its frames
+    bring, :func:`tdicam.planning.camera.samples_per_s`); the best row decides ``chain_ok``. None without a record of the scene (``tdicam synth pipeline --scene S
     --record`` makes one) or with ``fpga_clock_mhz``.
     """
     rate = stages * width / line_period_s
@@ -315,7 +316,9 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
         {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": r.fmax_mhz,
          "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
          "pixel_rate": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)),
-         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= rate}
+         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= (chain_rate or rate),
+         "need": chain_rate or rate, "need_what": "a gain channel's samples at [camera].frame_rate_hz"
+         if chain_rate else "the sensor's window every line period"}
         for r in record.find("pipeline", scene=scene_file)] or None
     return {
         "pixel_rate": rate, "stages": stages, "width": width,
@@ -418,7 +421,8 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
                 "--ddr-efficiency"},
         "gateware": gateware_plan(
             stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz,
-            scene_file=None if scene.source == "<command line>" else Path(scene.source).name),
+            scene_file=None if scene.source == "<command line>" else Path(scene.source).name,
+            chain_rate=None if scene.camera is None else samples_per_s(scene, scene.camera)),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
         "mtf_left_out": list(mtf_left_out(scene)),
