@@ -17,7 +17,7 @@ from tdicam.cosim import ecp5_io, xilinx7_io
 FULL = os.environ.get("TDICAM_FULL") == "1"
 
 TESTS = {
-    "xilinx7": ["test_ibufds", "test_idelayctrl_rdy", "test_idelay_tap_delay",
+    "xilinx7": ["test_ibufds", "test_ibufds_diff_out", "test_idelayctrl_rdy", "test_idelay_tap_delay",
                 "test_idelay_var_load", "test_iserdes_bit_order", "test_iserdes_latency",
                 "test_iserdes_bitslip", "test_iserdes_reset"],
     "ecp5": ["test_delayf_step", "test_delayf_limits", "test_delayg", "test_iddrx1f",
@@ -35,6 +35,8 @@ MUTANTS = [
      "tap <= INC ? (tap == 5'd31 ? tap : tap + 5'd1) : tap - 5'd1;", "test_idelay_var_load"),
     ("ibufds_inverted", "xilinx7", "(I === 1'b1 && IB === 1'b0) ? 1'b1",
      "(I === 1'b1 && IB === 1'b0) ? 1'b0", "test_ibufds"),
+    ("diff_out_same", "xilinx7", "assign OB = ~O;", "assign OB = O;",
+     "test_ibufds_diff_out"),
     ("rdy_early", "xilinx7", "n + 1 >= RDY_CYCLES", "n + 2 >= RDY_CYCLES",
      "test_idelayctrl_rdy"),
     ("bit_order_reversed", "xilinx7", "word[i - 1] = hh[o + i - BASE];",

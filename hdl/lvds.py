@@ -11,7 +11,7 @@ Ning et al. 2019 §4.1. The golden model and the exact timing contract are in
   and read in lockstep once every trained lane has seen its sync word.
 * :class:`LvdsRx` — N lanes + deskew + status (the simulated and generated top ``lvds``).
 * :class:`LvdsXilinx` — the same core behind 7-series IBUFDS/IDELAYE2/ISERDESE2 instances
-  (generated to Verilog, not simulated).
+  (simulated from serial bits with the primitive models: :mod:`tdicam.cosim.lvds_pins`).
 
 Everything runs in one clock domain, the *word clock*: one word per lane per cycle.
 
@@ -470,6 +470,8 @@ def forward_core(m, outer, core):
     names = list(rx_ports(core.lanes, core.word_bits))
     if core.eye:
         names += list(eye_ports(core.lanes, core.word_bits))
+    if core.track:
+        names.append("lane_corrections")
     for name in names:
         port, inner = getattr(outer, name), getattr(core, name)
         if name in ("train_word", "sync_word", "n_check", "line_words", "retrain"):
@@ -641,7 +643,7 @@ class LvdsRx(wiring.Component):
 
 
 class LvdsXilinx(wiring.Component):
-    """:class:`LvdsRx` behind 7-series input primitives (generated to Verilog, not simulated).
+    """:class:`LvdsRx` behind 7-series input primitives (:mod:`tdicam.cosim.lvds_pins`).
 
     Per lane: ``IBUFDS`` -> ``IDELAYE2`` (``VAR_LOAD``, 32 taps, 78 ps at a 200 MHz
     ``IDELAYCTRL`` reference; ``CNTVALUEIN``/``LD`` from the trainer, clocked by the word
@@ -656,16 +658,32 @@ class LvdsXilinx(wiring.Component):
     Ports: ``lane_p``/``lane_n`` (pins), ``clk_bit`` (ISERDESE2 ``CLK``, half the bit rate:
     150 MHz for 300 Mb/s; ``CLKB`` is its inverse), ``clk_ref`` (200 MHz), ``clk_div`` (12-bit
     words only), ``idelay_rdy``, and every register/status port of :class:`LvdsRx`.
+
+    ``track`` > 0 (12-bit words only): the core tracks each lane's eye
+    (:class:`tdicam.hdl.lvds_track.LaneTracker`, ``lane_corrections`` out) with a monitor
+    sampler in the pair's N pin: ``IBUFDS_DIFF_OUT`` (instead of ``IBUFDS``) whose ``OB``
+    feeds a second ``IDELAYE2`` (the monitor's tap and load) and a second ``ISERDESE2``
+    (``DATA_WIDTH = 6``) with the data's 2:1 gearbox, its words inverted back (litevideo's
+    ``S7DataCapture`` and AMD XAPP860 use the pair so). 10-bit words cannot: their
+    master/slave ``ISERDESE2`` pair takes both IOLOGIC sites of the pin pair, and the
+    N pin's input path is the only second sampler a lane has.
     """
 
+    @quiet_reject
     def __init__(self, *, lanes=8, word_bits=10, settle=8, min_run=9, pick=5,
-                 deskew_depth=8, eye=False):
+                 deskew_depth=8, eye=False, track=0):
+        if track and word_bits != 12:
+            raise TdicamError(f"--track = {track} with --phy xilinx7 needs --word-bits 12 "
+                              f"(10-bit words take both ISERDESE2 of the pin pair; the "
+                              f"monitor sampler needs the N pin's)")
         self._core = LvdsRx(lanes=lanes, word_bits=word_bits, settle=settle, min_run=min_run,
-                            pick=pick, deskew_depth=deskew_depth, eye=eye)
+                            pick=pick, deskew_depth=deskew_depth, eye=eye, track=track)
         ports = lane_ports("xilinx7", lanes, word_bits)
         ports.update(rx_ports(lanes, word_bits))
         if eye:
             ports.update(eye_ports(lanes, word_bits))
+        if track:
+            ports["lane_corrections"] = Out(lanes * COUNT_BITS)
         super().__init__(ports)
 
     @property
@@ -686,21 +704,29 @@ class LvdsXilinx(wiring.Component):
             m.domains.div = ClockDomain("div", reset_less=True, local=True)
             m.d.comb += ClockSignal("div").eq(self.clk_div)
         clk_div = ClockSignal("sync") if w == 10 else ClockSignal("div")
+        track = core.track
         for i in range(n):
             pad, dly = Signal(name=f"pad{i}"), Signal(name=f"dly{i}")
-            m.submodules[f"ibufds{i}"] = Instance(
-                "IBUFDS", p_DIFF_TERM="TRUE", p_IBUF_LOW_PWR="FALSE", p_IOSTANDARD="LVDS_25",
-                i_I=self.lane_p[i], i_IB=self.lane_n[i], o_O=pad)
-            m.submodules[f"idelay{i}"] = Instance(
-                "IDELAYE2", a_IODELAY_GROUP="tdicam_lvds",
-                p_IDELAY_TYPE="VAR_LOAD", p_DELAY_SRC="IDATAIN", p_IDELAY_VALUE=0,
-                p_HIGH_PERFORMANCE_MODE="TRUE", p_SIGNAL_PATTERN="DATA",
-                p_REFCLK_FREQUENCY=200.0, p_CINVCTRL_SEL="FALSE", p_PIPE_SEL="FALSE",
-                i_C=ClockSignal("sync"), i_REGRST=Const(0), i_LD=core.lane_ld[i],
-                i_CE=Const(0), i_INC=Const(0), i_CINVCTRL=Const(0),
-                i_CNTVALUEIN=core.lane_tap[i * TAP_BITS:(i + 1) * TAP_BITS],
-                i_IDATAIN=pad, i_DATAIN=Const(0), i_LDPIPEEN=Const(0),
-                o_DATAOUT=dly, o_CNTVALUEOUT=Signal(TAP_BITS, name=f"cntvalueout{i}"))
+            buf = dict(p_DIFF_TERM="TRUE", p_IBUF_LOW_PWR="FALSE", p_IOSTANDARD="LVDS_25",
+                       i_I=self.lane_p[i], i_IB=self.lane_n[i], o_O=pad)
+            if track:
+                padb = Signal(name=f"padb{i}")
+                m.submodules[f"ibufds{i}"] = Instance("IBUFDS_DIFF_OUT", o_OB=padb, **buf)
+            else:
+                m.submodules[f"ibufds{i}"] = Instance("IBUFDS", **buf)
+
+            def idelay(name, src, out, ld, tap, cnt):
+                m.submodules[name] = Instance(
+                    "IDELAYE2", a_IODELAY_GROUP="tdicam_lvds",
+                    p_IDELAY_TYPE="VAR_LOAD", p_DELAY_SRC="IDATAIN", p_IDELAY_VALUE=0,
+                    p_HIGH_PERFORMANCE_MODE="TRUE", p_SIGNAL_PATTERN="DATA",
+                    p_REFCLK_FREQUENCY=200.0, p_CINVCTRL_SEL="FALSE", p_PIPE_SEL="FALSE",
+                    i_C=ClockSignal("sync"), i_REGRST=Const(0), i_LD=ld,
+                    i_CE=Const(0), i_INC=Const(0), i_CINVCTRL=Const(0),
+                    i_CNTVALUEIN=tap, i_IDATAIN=src, i_DATAIN=Const(0), i_LDPIPEEN=Const(0),
+                    o_DATAOUT=out, o_CNTVALUEOUT=Signal(TAP_BITS, name=cnt))
+            sl = slice(i * TAP_BITS, (i + 1) * TAP_BITS)
+            idelay(f"idelay{i}", pad, dly, core.lane_ld[i], core.lane_tap[sl], f"cntvalueout{i}")
             q = [Signal(name=f"q{i}_{j}") for j in range(1, 9)]
             common = dict(
                 p_DATA_RATE="DDR", p_INTERFACE_TYPE="NETWORKING", p_NUM_CE=2,
@@ -734,14 +760,40 @@ class LvdsXilinx(wiring.Component):
                     "ISERDESE2", p_DATA_WIDTH=6, p_SERDES_MODE="MASTER", p_IOBDELAY="IFD",
                     i_DDLY=dly, i_SHIFTIN1=Const(0), i_SHIFTIN2=Const(0), **unused,
                     **{f"o_Q{j}": q[j - 1] for j in range(1, 9)}, **common)
-                half, hold, pair, phase = (Signal(6, name=f"half{i}"), Signal(6, name=f"hold{i}"),
-                                           Signal(12, name=f"pair{i}"),
-                                           Signal(name=f"phase{i}"))
-                m.d.comb += half.eq(Cat(*q[:6]))
-                m.d.div += [hold.eq(half), phase.eq(~phase)]
-                with m.If(phase):
-                    m.d.div += pair.eq(Cat(half, hold))
-                raw = Signal(12, name=f"raw{i}")
-                m.d.sync += raw.eq(pair)
+                raw, phase = self._gearbox(m, q, f"{i}")
+                if track:
+                    # the monitor: the N pin's delay line and deserializer, inverted back
+                    mdly, mq = Signal(name=f"mdly{i}"), [Signal(name=f"mq{i}_{j}")
+                                                         for j in range(1, 9)]
+                    idelay(f"idelay{i}_mon", padb, mdly, core.lane_mon_ld[i],
+                           core.lane_mon_tap[sl], f"cntvalueout{i}_mon")
+                    m.submodules[f"iserdes{i}_mon"] = Instance(
+                        "ISERDESE2", p_DATA_WIDTH=6, p_SERDES_MODE="MASTER",
+                        p_IOBDELAY="IFD", i_DDLY=mdly, i_SHIFTIN1=Const(0),
+                        i_SHIFTIN2=Const(0),
+                        **{f"o_{pin}": Signal(name=f"nc{i}_mon_{pin.lower()}")
+                           for pin in ("O", "SHIFTOUT1", "SHIFTOUT2")},
+                        **{f"o_Q{j}": mq[j - 1] for j in range(1, 9)}, **common)
+                    m.d.comb += core.lane_mon_raw[i * w:(i + 1) * w].eq(
+                        ~self._gearbox(m, mq, f"{i}_mon", phase)[0])
             m.d.comb += core.lane_raw[i * w:(i + 1) * w].eq(raw)
         return m
+
+    @staticmethod
+    def _gearbox(m, q, tag, phase=None):
+        """The 2:1 gearbox of a ``DATA_WIDTH = 6`` ISERDESE2's ``q`` into 12-bit words of
+        the word clock, pairing every other ``clk_div`` word at ``phase`` (None: a new
+        free-running toggle). Returns (the words, the phase)."""
+        half, hold, pair = (Signal(6, name=f"half{tag}"), Signal(6, name=f"hold{tag}"),
+                            Signal(12, name=f"pair{tag}"))
+        m.d.comb += half.eq(Cat(*q[:6]))
+        if phase is None:
+            phase = Signal(name=f"phase{tag}")
+            m.d.div += [hold.eq(half), phase.eq(~phase)]
+        else:
+            m.d.div += hold.eq(half)
+        with m.If(phase):
+            m.d.div += pair.eq(Cat(half, hold))
+        raw = Signal(12, name=f"raw{tag}")
+        m.d.sync += raw.eq(pair)
+        return raw, phase

@@ -59,6 +59,15 @@ class LvdsEcp5(wiring.Component):
     moves (up to 2 x 31 x ``steps`` word clocks for the jump to the chosen tap). ``LOADN``
     follows the reset (the delay restarts at count 0 with the controller).
 
+    No eye tracking (``track``): :class:`~tdicam.hdl.lvds_track.LaneTracker` needs a second
+    sampler of each lane at a delay of its own (the monitor), and this PHY has one input
+    path a lane (the pair's receiver -> DELAYF -> IDDRX2F). The delay line is not what
+    blocks it: a tracker's one-tap step is ``steps`` DELAYF moves, two word clocks each, made
+    while data flows, as the controller already moves it. A monitor needs a second DELAYF
+    and IDDRX2F fed from the same pair's receiver, which this PHY does not build (whether
+    the device routes a pair's receiver to its complementary pin's input logic is not
+    established here; the 7-series PHY has it: ``IBUFDS_DIFF_OUT``).
+
     Parameters
     ----------
     lanes, word_bits, settle, min_run, pick, deskew_depth

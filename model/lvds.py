@@ -109,7 +109,7 @@ __all__ = ["PAPER_TAP_PS", "XILINX_TAP_PS", "N_TAPS", "VERDICT_WORDS", "MONITOR_
            "LINK_LATENCY", "Lane", "Link", "mix32", "rotations", "default_train_word",
            "default_sync_word", "check_train_word", "lane_tables", "sent_words", "raw_words",
            "lane_words", "step_words", "decide", "train_lane", "run", "LaneResult",
-           "RunResult", "training_words", "random_lane", "walk_words", "eye_status"]
+           "RunResult", "training_words", "random_lane", "walk_words"]
 
 PAPER_TAP_PS = 5000.0 / 32
 XILINX_TAP_PS = 1e6 / (32 * 2 * 200.0)  # 78.125 ps: IDELAYE2 with a 200 MHz reference

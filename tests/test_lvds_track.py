@@ -100,7 +100,9 @@ def test_scene_keys_and_refusals_are_one_line():
         with pytest.raises(TdicamError, match=match) as e:
             scene_from_dict(bad)
         assert "\n" not in str(e.value)
-    with pytest.raises(TdicamError, match="--track = 4 needs --phy none"):
+    with pytest.raises(TdicamError, match="--track = 4 needs --phy none or xilinx7"):
+        blocks.get("lvds").build({"lanes": 2, "phy": "ecp5", "track": 4})
+    with pytest.raises(TdicamError, match="--track = 4 with --phy xilinx7 needs --word-bits 12"):
         blocks.get("lvds").build({"lanes": 2, "phy": "xilinx7", "track": 4})
 
 

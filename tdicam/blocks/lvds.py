@@ -47,9 +47,9 @@ def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_pe
                          bits=bits, columns=columns, ppc=ppc, fifo_depth=fifo_depth, phy=phy,
                          pairs=bool(pairs), track=track, **kw)
     if track:
-        if phy != "none":
-            raise TdicamError(f"--track = {track} needs --phy none (the generic PHY's monitor "
-                              f"samplers)")
+        if phy == "ecp5":
+            raise TdicamError(f"--track = {track} needs --phy none or xilinx7 (12-bit words): "
+                              f"the ecp5 PHY has no monitor sampler")
         kw["track"] = track
     return PHYS[phy](lanes=lanes, **kw)
 
@@ -456,7 +456,8 @@ BLOCK = Block(
         Param("pairs", 0, "front end: 1 = reset/signal frame pairs (released from a reset "
               "frame on)", choices=(0, 1), implicit_default=True),
         Param("track", 0, "> 0: track each locked lane's eye with a monitor sampler this many "
-              "taps either side (generic PHY)", lo=0, hi=15, implicit_default=True),
+              "taps either side (generic PHY; xilinx7 with 12-bit words)", lo=0, hi=15,
+              implicit_default=True),
         Param("eye", 0, "1 = the eye status ports: chosen tap, slip mask, walking-1/0 "
               "patterns received (and, as the front end, the tap pass masks, runs, slips)",
               choices=(0, 1), implicit_default=True),

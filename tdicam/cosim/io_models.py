@@ -81,6 +81,9 @@ module tdicam_tb;
   wire pad, dly, dlyf, rdy;
   wire [4:0] cntout, cntoutf;
   IBUFDS #(.DIFF_TERM("TRUE"), .IOSTANDARD("LVDS_25")) ib (.I(p), .IB(n), .O(pad));
+  wire pad_o, pad_ob;
+  IBUFDS_DIFF_OUT #(.DIFF_TERM("TRUE"), .IOSTANDARD("LVDS_25")) ibd (.I(p), .IB(n),
+    .O(pad_o), .OB(pad_ob));
   IDELAYCTRL ctl (.REFCLK(refclk), .RST(ctl_rst), .RDY(rdy));
   IDELAYE2 #(.IDELAY_TYPE("VAR_LOAD"), .DELAY_SRC("IDATAIN"), .IDELAY_VALUE(0),
              .REFCLK_FREQUENCY(200.0)) dl (

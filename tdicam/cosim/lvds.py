@@ -39,7 +39,7 @@ from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.codec import _digits, _undigits
 
 __all__ = ["LinkRun", "run_link", "run_amaranth", "check_run", "expected_outputs", "testbench", "LMAX",
-           "linkcheck_tap", "link_files", "dead_lane"]
+           "linkcheck_tap", "link_files", "dead_lane", "sched_words"]
 
 LMAX = 1024          # lanes the testbench tables hold (all groups of one run)
 _NSCHED = 8
@@ -60,11 +60,24 @@ def _settings_args(indent):
     return "".join(f"{indent}{line}\n" for line in lines)
 
 
-def _link_functions(nsched):
+def _link_functions(nsched, walk=False):
     """Verilog of the testbench functions ``mix`` (the link model's hash) and ``sent`` (the
     word the sensor sends, from the schedule registers ``sched``/``n_sched`` and the run-time
-    words), shared by the word-level and the pin-level testbenches."""
-    return _LINK_FUNCTIONS.replace("%NSCHED%", str(nsched))
+    words), shared by the word-level and the pin-level testbenches. ``walk``: the schedule
+    entries are 34 bits (:func:`sched_words`) and a
+    walk segment sends the walking-1/0 patterns (:func:`tdicam.model.lvds.walk_words`)."""
+    text = _LINK_FUNCTIONS.replace("%NSCHED%", str(nsched))
+    for old, new in _WALK if walk else ():
+        assert old in text
+        text = text.replace(old, new)
+    return text
+
+
+def sched_words(schedule):
+    """The schedule entries of a walk-capable testbench (:func:`_link_functions` with
+    ``walk``) for a link's ``schedule``: ``{walk, data, first sender word}`` (uint64)."""
+    return np.array([(int(m == "walk") << 33) | (int(m == "data") << 32) | s
+                     for s, m in schedule], np.uint64)
 
 
 _LINK_FUNCTIONS = """  function [31:0] mix(input [31:0] x);
@@ -104,6 +117,20 @@ _LINK_FUNCTIONS = """  function [31:0] mix(input [31:0] x);
   endfunction
 
 """
+
+#: (text, with walk segments) pairs turning ``sent`` into its walk-capable form.
+_WALK = (
+    ("    reg isd;\n", "    reg isd, iswk;\n"),
+    ("      isd = 1'b0;\n", "      isd = 1'b0;\n      iswk = 1'b0;\n"),
+    ("          isd = sched[q][32];\n",
+     "          isd = sched[q][32];\n          iswk = sched[q][33];\n"),
+    ("      if (!isd)\n        sent = train_word;\n",
+     "      if (iswk) begin\n"
+     "        q = (nb - st) % (2 * W);\n"
+     "        sent = (q < W) ? ({{(W-1){1'b0}}, 1'b1} << (W - 1 - q))\n"
+     "                       : ~({{(W-1){1'b0}}, 1'b1} << (2 * W - 1 - q));\n"
+     "      end else if (!isd)\n        sent = train_word;\n"),
+)
 
 
 def linkcheck_tap(k, lane):

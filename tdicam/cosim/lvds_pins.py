@@ -18,7 +18,15 @@ d' = +dcd/2`` for a 1, the opposite for a 0). The P pin carries the level, N its
 complement (the ECP5 PHY has the P pin only). The clocks are exact: tick ``j`` at ``j UI``;
 the bit clock (``CLK`` / ``ECLK``, half the bit rate) rises at even ticks, the word clock
 ``clk`` at ticks ``j % W == 0`` (7-series 12-bit: ``clk_div`` at ``j % 6 == 0``), so sample
-``m`` is taken at ``T0 + m UI`` as in :mod:`tdicam.model.lvds`.
+``m`` is taken at ``T0 + m UI`` as in :mod:`tdicam.model.lvds`. A drifting lane
+(``drift_taps``, ``drift_from``, ``drift_words`` of :class:`tdicam.model.lvds.Lane`) has
+the skew of the link model's drift for its bits of sender word ``n`` (the link model's
+raw word ``n``: the two differ by the lane's word delay, a few words of a drift over
+hundreds): ``skew - tap x floor(steps x clip((n - from) / words)) / 8`` (``steps`` = 8 x
+``drift_taps`` rounded towards zero, the quotient too).
+
+The sensor sends the link's schedule, walking-1/0 segments included (``"walk"``: the eye
+status' check after lock).
 
 What it must give (:func:`predict`)
 -----------------------------------
@@ -27,10 +35,15 @@ With ``dcd`` and jitter 0 a lane's capture at tap ``t`` is the link model's with
 every lane locks or fails as :func:`tdicam.model.lvds.train_lane` says, at its tap, with
 its bitslip once the PHY's word phase (``c``: the raw words are samples ``(k - L) W + c``
 ..; the PHY's pipeline) is accounted for; a jittered lane's run may lose taps at the edges
-of its eye (their captures are random), so its tap may be below the prediction by at most
+of its eye (their captures are random), so its tap may be above the prediction by at most
 the taps of the random band. Every locked lane delivers, from the data start, exactly the
 words sent (the deskewed output: no word lost, repeated or changed); a lane with no eye
-reports ``lane_error``.
+reports ``lane_error``. With the eye status (``eye``) every lane's published training is
+the prediction's, the rule of :func:`eye_problems` (a jittered lane's pass mask free only
+inside the random band). With tracking (``track``, ``xilinx7`` with 12-bit words) the
+corrections are the golden tracker's (:mod:`tdicam.model.lvds_track`) for the drifting
+lanes of the tests: count, final tap and each one's effect word (the pin drift's indexing
+above may move a decision by one probe pair in other cases).
 """
 
 import json
@@ -38,7 +51,7 @@ import math
 import os
 import shutil
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -48,17 +61,27 @@ from tdicam.hdl.lvds import RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.hdl.lvds_phy import tap_ps
 from tdicam.hw.verilog import convert
 from tdicam.model import lvds
+from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.cosim import ecp5_io, tbgen, xilinx7_io
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
-                               _settings_args)
+                               _settings_args, sched_words)
 
-__all__ = ["PinRun", "run_pins", "predict", "band_taps", "ui_fs", "rate_for_ui", "PIN_PHYS"]
+__all__ = ["PinRun", "run_pins", "predict", "run_phase", "band_taps", "eye_problems", "ui_fs",
+           "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
 
 #: The PHYs simulated from pins: {phy: primitive model module}.
 PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
+#: The word phases of each PHY's deserializer (bits), {(phy, word_bits): phases}: the
+#: PHY's raw words are samples ``(k - L) W + phase ..`` of the link model's sample
+#: numbering, the same phase on every lane. The 7-series 12-bit path has two: its 2:1
+#: fabric gearbox pairs the ``clk_div`` words at a free-running toggle whose phase against
+#: the word clock is not set by anything (a board's start-up; Icarus gives 6, Verilator 0):
+#: training's bitslip takes either.
+WORD_PHASE = {("xilinx7", 10): (0,), ("xilinx7", 12): (6, 0), ("ecp5", 10): (1,),
+              ("ecp5", 12): (1,)}
 _RST = 4             # word clocks in reset at the start
-_PRM = 8             # 64-bit parameters per lane
+_PRM = 12            # 64-bit parameters per lane
 
 
 def ui_fs(rate_mbps):
@@ -80,17 +103,34 @@ def rate_for_ui(ui):
 class PinRun:
     """What the pin-level testbench reported: ``final`` per lane dict (tap, slip, locked,
     error, run, scan); ``outputs`` (k, sync, data[lanes]) of every deskewed output cycle;
-    ``wall``, ``build_time`` (s); ``cycles`` (word clocks simulated)."""
+    ``wall``, ``build_time`` (s); ``cycles`` (word clocks simulated); ``corrections``:
+    ``(effect word, lane, new tap)`` of every tap change of a locked lane (the first raw
+    word sampled with it: the cycle the tap shows + :data:`tdicam.model.lvds.LINK_LATENCY`,
+    as :func:`tdicam.model.lvds.train_lane` lists a tracker's corrections)."""
 
     final: list
     outputs: tuple
     wall: float
     build_time: float
     cycles: int
+    corrections: list = field(default_factory=list)
+
+
+def _padded(expr, bits, digits):
+    """Verilog of ``expr`` (``bits`` wide) zero-extended to ``digits`` hex digits."""
+    pad = 4 * digits - bits
+    return f"{{{pad}'b0, {expr}}}" if pad else expr
+
+
+#: Hex digits of each lane's eye status in the testbench's status line (``eye``):
+#: chosen tap, slip mask, walking-1/0 patterns, walk ok.
+_EYE_DIGITS = [2, 3, 6, 1]
 
 
 def _testbench(top, phy, w):
     n = top.lanes if phy == "none" else top.core.lanes
+    core = top if phy == "none" else top.core
+    eye, track = core.eye, core.track
     ins = {"lane_p", "lane_n", "clk_bit", "clk_ref", "clk_div", "clk_eclk", "retrain",
            "train_word", "sync_word", "n_check", "line_words"}
     ports = _ports(top)
@@ -98,12 +138,29 @@ def _testbench(top, phy, w):
     conns = ",\n".join(f"    .{p}({p if p in ins else 'd_' + p})" for p, _, _ in ports)
     out_fields = " ".join(["%h"] * n)
     out_args = ", ".join(f"d_o_data[{i * w} +: {w}]" for i in range(n))
-    st_lines = "\n".join(
-        f'        $fwrite(fd_st, "%h %h %h %h %h %h %h\\n", 8\'d{i}, '
-        f'{{{8 - TAP_BITS}\'b0, d_lane_tap_q[{i * TAP_BITS} +: {TAP_BITS}]}}, '
-        f'{{{8 - SLIP_BITS}\'b0, d_lane_slip[{i * SLIP_BITS} +: {SLIP_BITS}]}}, '
-        f'{{3\'b0, d_lane_locked[{i}]}}, {{3\'b0, d_lane_error[{i}]}}, '
-        f'{{2\'b0, d_lane_run[{i * RUN_BITS} +: {RUN_BITS}]}}, d_lane_scan[{i * 32} +: 32]);'
+    st_lines = []
+    for i in range(n):
+        fields = [f"8'd{i}", _padded(f"d_lane_tap_q[{i * TAP_BITS} +: {TAP_BITS}]", TAP_BITS, 2),
+                  _padded(f"d_lane_slip[{i * SLIP_BITS} +: {SLIP_BITS}]", SLIP_BITS, 2),
+                  _padded(f"d_lane_locked[{i}]", 1, 1), _padded(f"d_lane_error[{i}]", 1, 1),
+                  _padded(f"d_lane_run[{i * RUN_BITS} +: {RUN_BITS}]", RUN_BITS, 2),
+                  f"d_lane_scan[{i * 32} +: 32]"]
+        if eye:
+            fields += [_padded(f"d_lane_chosen_tap[{i * TAP_BITS} +: {TAP_BITS}]", TAP_BITS, 2),
+                       _padded(f"d_lane_slip_pass[{i * w} +: {w}]", w, 3),
+                       _padded(f"d_lane_walk[{2 * i * w} +: {2 * w}]", 2 * w, 6),
+                       f"d_lane_walk_ok[{i}]"]
+        if track:
+            fields.append(f"d_lane_corrections[{i * COUNT_BITS} +: {COUNT_BITS}]")
+        fmt = " ".join(["%h"] * len(fields))
+        st_lines.append(f'        $fwrite(fd_st, "{fmt}\\n", {", ".join(fields)});')
+    st_lines = "\n".join(st_lines)
+    # every tap change of a locked lane (tracking): the first cycle showing the new tap
+    tap_lines = "".join(
+        f'      if (d_lane_locked[{i}] && lk_q[{i}] && '
+        f'd_lane_tap_q[{i * TAP_BITS} +: {TAP_BITS}] != tap_q[{i * TAP_BITS} +: {TAP_BITS}])\n'
+        f'        $fwrite(fd_tap, "%h %h %h\\n", k, 8\'d{i}, '
+        f'{_padded(f"d_lane_tap_q[{i * TAP_BITS} +: {TAP_BITS}]", TAP_BITS, 2)});\n'
         for i in range(n))
     return f"""\
 // Generated by tdicam: LVDS receiver pin-level testbench ({phy}). Not synthesizable.
@@ -113,8 +170,9 @@ module {tbgen.TB_TOP};
   localparam W = {w};
   localparam BIASW = {_BIASW};
   reg signed [63:0] ui = 0, t0 = 0;
-  reg [63:0] prm [0:N*{_PRM}-1];    // lane: skew, lo, hi, jitter, dcd, jkey, dkey, 0 (fs)
-  reg [32:0] sched [0:{_NSCHED - 1}];
+  // lane: skew, lo, hi, jitter, dcd (fs), jkey, dkey, 0, drift: from, words, steps, tap (fs)
+  reg [63:0] prm [0:N*{_PRM}-1];
+  reg [33:0] sched [0:{_NSCHED - 1}];    // {{walk, data, first sender word}}
   reg [31:0] n_sched = 0, cycles = 0, v_train = 0, v_sync = 0, v_ncheck = 0, v_line = 0;
   reg [W-1:0] train_word = 0, sync_word = 0;
   reg [7:0] n_check = 0;
@@ -125,10 +183,10 @@ module {tbgen.TB_TOP};
   reg clk = 1'b1, clk_bit = 1'b1, clk_div = 1'b1, clk_ref = 1'b0, clk_eclk = 1'b1;
   reg rst = 1'b1;
   reg [N-1:0] lane_p = 0, lane_n = {{N{{1'b1}}}};
-  integer fd_st, fd_out;
+  integer fd_st, fd_out, fd_tap;
   reg [31:0] k = 0;
   reg [63:0] j = 0;
-{_link_functions(_NSCHED)}
+{_link_functions(_NSCHED, walk=True)}
   initial begin
     if (!$value$plusargs("ui=%d", ui)) ui = 3333333;
     if (!$value$plusargs("cycles=%d", cycles)) cycles = 1000;
@@ -136,6 +194,7 @@ module {tbgen.TB_TOP};
 {_settings_args('    ')}    $readmemh("pins.hex", prm);
     if (n_sched != 0) $readmemh("sched.hex", sched);
     fd_st = $fopen("status.hex", "w");
+    fd_tap = $fopen("taps.hex", "w");
     fd_out = $fopen("out.hex", "w");
     t0 = ({_RST} + 1) * W * ui;     // word clock edges at ticks W, 2W, ..: reset for {_RST}
     ready = 1'b1;
@@ -155,6 +214,7 @@ module {tbgen.TB_TOP};
   generate
     for (gi = 0; gi < N; gi = gi + 1) begin : ln
       reg signed [63:0] sk, lo, hi, jt, dc, base, ts, te, now, jl, jr, hd;
+      reg signed [63:0] df, dw, d8, tf, qd, dsh;
       reg [31:0] jk, dk, h, hz;
       reg [63:0] nbb;
       reg [W-1:0] wd;
@@ -164,6 +224,8 @@ module {tbgen.TB_TOP};
         sk = prm[gi*{_PRM}]; lo = prm[gi*{_PRM}+1]; hi = prm[gi*{_PRM}+2];
         jt = prm[gi*{_PRM}+3]; dc = prm[gi*{_PRM}+4];
         jk = prm[gi*{_PRM}+5]; dk = prm[gi*{_PRM}+6];
+        df = prm[gi*{_PRM}+8]; dw = prm[gi*{_PRM}+9]; d8 = prm[gi*{_PRM}+10];
+        tf = prm[gi*{_PRM}+11];
         // first bit: the one whose eye is open at time 0 or later
         nbb = BIASW * W - (t0 + sk) / ui - 2;
         forever begin
@@ -171,7 +233,12 @@ module {tbgen.TB_TOP};
           b = wd[W - 1 - nbb % W];
           h = mix(nbb[31:0] ^ jk);
           hz = mix(nbb[31:0] ^ ~jk);
-          base = t0 + sk + ($signed(nbb) - BIASW * W) * ui;
+          // drift: the skew less steps x clip((word - from) / words) drift steps
+          qd = $signed(nbb / W) - BIASW - df;
+          if (qd < 0) qd = 0;
+          if (qd > dw) qd = dw;
+          dsh = (dw > 0) ? ((d8 * qd) / dw) * tf / {lvds.DRIFT_STEPS} : 0;
+          base = t0 + sk - dsh + ($signed(nbb) - BIASW * W) * ui;
           // (every term a signed 64-bit register: no unsigned division of a negative)
           jl = (jt * $signed({{1'b0, h[31:16]}})) >>> 16;
           jr = (jt * $signed({{1'b0, h[15:0]}})) >>> 16;
@@ -205,17 +272,22 @@ module {tbgen.TB_TOP};
   assign d_lane_tap_q = dut.{"" if phy == "none" else "core."}lane_tap;
 
   reg [7:0] rcnt = {_RST};
+  reg [N*{TAP_BITS}-1:0] tap_q = 0;
+  reg [N-1:0] lk_q = 0;
   always @(posedge clk) begin
     if (rcnt != 0) begin
       rcnt <= rcnt - 1;
       if (rcnt == 1) rst <= 1'b0;
     end else if (!done) begin
-      if (d_o_valid)
+      tap_q <= d_lane_tap_q;
+      lk_q <= d_lane_locked;
+{tap_lines}      if (d_o_valid)
         $fwrite(fd_out, "%h %h {out_fields}\\n", k, {{3'b0, d_o_sync}}, {out_args});
       if (k + 1 == cycles) begin
 {st_lines}
         $fclose(fd_st);
         $fclose(fd_out);
+        $fclose(fd_tap);
         done <= 1'b1;
       end
       k <= k + 1;
@@ -241,26 +313,33 @@ def _lane_files(link, phy, dcd, ui):
                               f"eye_ps + dcd <= UI")
         jkey, dkey = lvds._keys(lane)
         lo, hi = (ui - eye) // 2, (ui - eye) // 2 + eye
+        steps = int(math.copysign(math.floor(lvds.DRIFT_STEPS * abs(lane.drift_taps)),
+                                  lane.drift_taps))
+        drift = [lane.drift_from, lane.drift_words, steps, int(round(tap * 1000))]
         rows.append([int(round(lane.skew_ps * 1000)), lo, hi,
-                     int(round(lane.jitter_ps * 1000)), d, jkey, dkey, 0])
+                     int(round(lane.jitter_ps * 1000)), d, jkey, dkey, 0] + drift)
         if lane.change_at is not None:
             raise TdicamError(f"lane {i}: a lane that changes (change_at) is not simulated "
                               f"from pins")
-    prm = np.array(rows, dtype=np.uint64).reshape(-1)
+    prm = np.array(rows, dtype=np.int64).reshape(-1).astype(np.uint64)
     files = {"pins.hex": _hex_lines([prm], [16])}
     if link.schedule:
-        sched = np.array([(int(m == "data") << 32) | s for s, m in link.schedule], np.uint64)
-        files["sched.hex"] = _hex_lines([sched], [9])
+        files["sched.hex"] = _hex_lines([sched_words(link.schedule)], [9])
     return files
 
 
 def run_pins(link, phy, *, dcd=None, params=None, cycles, n_check=16, sim="icarus",
-             keep=False):
+             eye=False, track=0, keep=False):
     """Simulate ``link`` (one lane per receiver lane) through the generated ``lvds``
     receiver with ``phy`` from its pins (see the module docstring).
 
-    ``dcd``: per-lane duty-cycle distortion (ps), default 0; ``params``: block parameters.
-    Returns a :class:`PinRun`.
+    ``dcd``: per-lane duty-cycle distortion (ps), default 0; ``params``: block parameters;
+    ``eye``: the receiver with the eye-status ports (:func:`tdicam.hdl.lvds.eye_ports`):
+    each lane's ``final`` gains ``chosen_tap``, ``slip_pass``, ``walk`` and ``walk_ok``
+    (the link's schedule may send the walking-1/0 patterns: a ``"walk"`` segment);
+    ``track`` > 0: the receiver tracks the eyes with that probe margin (``xilinx7`` with
+    12-bit words: its monitor sampler in the N pin), each lane's ``final`` gains
+    ``corrections`` (the tracker's counter). Returns a :class:`PinRun`.
     """
     if phy not in PIN_PHYS:
         raise TdicamError(f"phy = {phy} is not simulated from pins; valid: "
@@ -270,7 +349,8 @@ def run_pins(link, phy, *, dcd=None, params=None, cycles, n_check=16, sim="icaru
                           f"{_NSCHED} schedule entries")
     blk = blocks.get("lvds")
     params = blk.resolve(dict(params or {}, phy=phy, lanes=len(link.lanes),
-                              word_bits=link.word_bits))
+                              word_bits=link.word_bits, **({"eye": 1} if eye else {}),
+                              **({"track": int(track)} if track else {})))
     dcd = tuple(dcd) if dcd is not None else (0.0,) * len(link.lanes)
     ui = ui_fs(link.lanes[0].bit_rate_mbps)
     files = _lane_files(link, phy, dcd, ui)
@@ -293,26 +373,40 @@ def run_pins(link, phy, *, dcd=None, params=None, cycles, n_check=16, sim="icaru
         raise TdicamError(f"{sim} pin-level simulation of lvds --phy {phy} failed; see "
                           f"{rundir / 'sim.log'}")
     n, wd = len(link.lanes), -(-link.word_bits // 4)
-    st = _parse((rundir / "status.hex").read_bytes(), [2, 2, 2, 1, 1, 2, 8])
+    names = ["tap", "slip", "locked", "error", "run", "scan"]
+    digits = [2, 2, 2, 1, 1, 2, 8]
+    if eye:
+        names += ["chosen_tap", "slip_pass", "walk", "walk_ok"]
+        digits += _EYE_DIGITS
+    if track:
+        names.append("corrections")
+        digits.append(-(-COUNT_BITS // 4))
+    st = _parse((rundir / "status.hex").read_bytes(), digits)
     final = [None] * n
-    for lane, tap, slip, lk, er, rn, scan in zip(*(a.astype(np.int64).tolist() for a in st)):
-        final[lane] = {"tap": tap, "slip": slip, "locked": lk, "error": er, "run": rn,
-                       "scan": scan}
+    for lane, *vals in zip(*(a.astype(np.int64).tolist() for a in st)):
+        final[lane] = dict(zip(names, vals))
     out = _parse((rundir / "out.hex").read_bytes(), [8, 1] + [wd] * n)
     outputs = (out[0].astype(np.int64), out[1].astype(bool),
                np.stack(out[2:], axis=1).astype(np.int64) if n else np.zeros((0, 0)))
+    taps = _parse((rundir / "taps.hex").read_bytes(), [8, 2, 2])
+    corrections = [(k + lvds.LINK_LATENCY, lane, t)
+                   for k, lane, t in zip(*(a.astype(np.int64).tolist() for a in taps))]
     if not keep:
         shutil.rmtree(rundir, ignore_errors=True)
-    return PinRun(final, outputs, wall, build_time, int(cycles))
+    return PinRun(final, outputs, wall, build_time, int(cycles), corrections)
 
 
 def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settle=8,
-            min_run=9, pick=5):
+            min_run=9, pick=5, eye=False, k_stop=None, track=0):
     """The golden outcome of each lane of a pin-level run: a list of
     :class:`tdicam.model.lvds.LaneResult` of :func:`tdicam.model.lvds.train_lane` on the
     lane seen through the PHY: its eye less ``dcd``, its samples shifted by the PHY's word
-    phase ``word_phase`` (bits; the PHY's words are samples ``(k - L) W + word_phase`` ..);
-    ``jitter=False``: as if the lanes had none."""
+    phase ``word_phase`` (bits; the PHY's words are samples ``(k - L) W + word_phase`` ..;
+    :data:`WORD_PHASE`); ``jitter=False``: as if the lanes had none. ``eye``, ``k_stop``:
+    the receiver with the eye status, judged until cycle ``k_stop`` (the run's cycles: the
+    ``walk`` it records; the ECP5 PHY trains later than the golden step count, which
+    changes no status as long as the lanes lock before the walking patterns come);
+    ``track``: with eye tracking of that margin (:mod:`tdicam.model.lvds_track`)."""
     dcd = tuple(dcd) if dcd is not None else (0.0,) * len(link.lanes)
     w = link.word_bits
     lanes = []
@@ -323,10 +417,88 @@ def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settl
                              jitter_ps=lane.jitter_ps if jitter else 0.0))
     eq = replace(link, lanes=tuple(lanes))
     return [lvds.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
-                            pick=pick) for i in range(len(lanes))]
+                            pick=pick, eye=eye, k_stop=k_stop, track=track)
+            for i in range(len(lanes))]
+
+
+def run_phase(link, phy, run, *, dcd=None, n_check=16):
+    """The word phase (:data:`WORD_PHASE`) of ``phy`` under which every locked lane of
+    ``run`` has the predicted bitslip (the first such), or None."""
+    for phase in WORD_PHASE[phy, link.word_bits]:
+        pred = predict(link, phy, dcd=dcd, word_phase=phase, jitter=False, n_check=n_check)
+        if all(p.slip == f["slip"] for p, f in zip(pred, run.final) if f["locked"]):
+            return phase
+    return None
 
 
 def band_taps(lane):
     """Taps of the random band at each edge of ``lane``'s eye (its jitter in taps, rounded
     up): how far below the jitter-free prediction a jittered lane's tap may be."""
     return math.ceil(lane.jitter_ps / lane.tap_ps) if lane.jitter_ps else 0
+
+
+def _band_mask(scan, band):
+    """The taps of ``scan`` (a pass mask) within ``band`` taps of either end of one of its
+    runs of consecutive passing taps."""
+    out, t = 0, 0
+    while t < lvds.N_TAPS:
+        if not scan >> t & 1:
+            t += 1
+            continue
+        end = t
+        while end < lvds.N_TAPS and scan >> end & 1:
+            end += 1
+        for u in range(t, end):
+            if u < t + band or u >= end - band:
+                out |= 1 << u
+        t = end
+    return out
+
+
+def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, pick=5):
+    """What differs between a pin-level run with the eye status (:func:`run_pins` ``eye``)
+    and the golden link model (empty: every lane as predicted).
+
+    The prediction is :func:`predict` for ``phy`` (its tap size, its word phase in the run:
+    :func:`run_phase`, the eye less ``dcd``) without jitter, judged over the run's cycles.
+    The rule, lane by lane (``b`` = :func:`band_taps`, 0 without jitter):
+
+    * pass mask (``scan``): equal to the predicted one except, on a jittered lane, at the
+      taps within ``b`` taps of either end of a predicted run (inside it: the random band,
+      where the lane's random eye edges make a tap fail or pass); outside a predicted run
+      no tap passes, since jitter only narrows the pin-level eye;
+    * eye width (``run``) and chosen tap (``tap`` and ``chosen_tap``): what the golden
+      decision (:func:`tdicam.model.lvds.decide`) makes of the mask the lane reported (with
+      ``b = 0``: the predicted ones; 0 for a lane in error);
+    * ``locked``, ``error``, ``slip``, ``slip_pass``, ``walk`` equal to the prediction;
+      ``walk_ok`` = ``walk`` has all ``2 W`` patterns. A lane with no eye must report
+      ``error`` (its eye width below ``min_run``, tap, slip and masks 0).
+    """
+    w = link.word_bits
+    phase = run_phase(link, phy, run, dcd=dcd, n_check=n_check)
+    if phase is None:
+        phase = WORD_PHASE[phy, w][0]
+    pred = predict(link, phy, dcd=dcd, word_phase=phase, jitter=False,
+                   n_check=n_check, settle=settle, min_run=min_run, pick=pick, eye=True,
+                   k_stop=run.cycles)
+    full = (1 << 2 * w) - 1
+    problems = []
+    for i, (lane, p, f) in enumerate(zip(link.lanes, pred, run.final)):
+        b = band_taps(lane)
+        free = _band_mask(p.scan_mask, b)
+        if (f["scan"] ^ p.scan_mask) & ~free:
+            problems.append(f"lane {i}: pass mask {f['scan']:#010x}, predicted "
+                            f"{p.scan_mask:#010x} (random band {free:#010x})")
+        mask = [f["scan"] >> t & 1 for t in range(lvds.N_TAPS)]
+        _, run_len, tap = lvds.decide(mask, p.words, min_run=min_run, pick=pick)
+        exp = {"locked": int(p.locked), "error": int(p.error), "run": run_len,
+               "tap": tap if p.locked else 0, "chosen_tap": tap if p.locked else 0,
+               "slip": p.slip, "slip_pass": p.slip_pass, "walk": p.walk,
+               "walk_ok": int(p.walk == full)}
+        bad = {k: (f[k], v) for k, v in exp.items() if f[k] != v}
+        if bad:
+            problems.append(f"lane {i}: " + ", ".join(f"{k} {got} (predicted {v})"
+                                                     for k, (got, v) in bad.items()))
+        if lane.eye_ps == 0 and not (f["error"] and not f["locked"]):
+            problems.append(f"lane {i}: no eye, and no error reported")
+    return problems

@@ -1,8 +1,8 @@
 """Verilog simulation models of the 7-series input primitives of the ``xilinx7`` LVDS PHY.
 
-No open simulator ships IBUFDS, IDELAYCTRL, IDELAYE2 or ISERDESE2 (yosys knows them as
-black boxes), so co-simulating :class:`tdicam.hdl.lvds.LvdsXilinx` from serial bits needs
-models: :data:`MODEL`, written from AMD's "7 Series FPGAs SelectIO Resources" user guide
+No open simulator ships IBUFDS, IBUFDS_DIFF_OUT, IDELAYCTRL, IDELAYE2 or ISERDESE2 (yosys
+knows them as black boxes), so co-simulating :class:`tdicam.hdl.lvds.LvdsXilinx` from serial
+bits needs models: :data:`MODEL`, written from AMD's "7 Series FPGAs SelectIO Resources" user guide
 (UG471, chapters 2-3) and the libraries guide (UG953) port tables. Timed: the file sets
 ``timescale 1ps/1fs`` (delays in ps, exact to 1 fs: a 78.125 ps tap is 78125 fs) and
 restores the project's ``1ns/1ps`` at its end. Modelled:
@@ -10,6 +10,10 @@ restores the project's ``1ns/1ps`` at its end. Modelled:
 ``IBUFDS``
     ``O = 1`` for ``I = 1, IB = 0``, ``O = 0`` for ``I = 0, IB = 1``, x otherwise (equal or
     unknown inputs). Zero delay; ``DIFF_TERM``, ``IOSTANDARD`` ... accepted, not modelled.
+``IBUFDS_DIFF_OUT``
+    ``O`` as ``IBUFDS``'s, ``OB`` its complement (x when ``O`` is x): the pair's two
+    outputs, ``O`` to the P (master) pin's IOLOGIC, ``OB`` to the N (slave) pin's (UG471
+    "IBUFDS_DIFF_OUT"; the second input path of a pair, e.g. a monitor sampler's).
 ``IDELAYCTRL``
     ``RDY`` low while ``RST`` is high and until the ``RDY_CYCLES``-th (model parameter,
     32) ``REFCLK`` rising edge after it falls (the data sheet gives a time, not modelled).
@@ -106,7 +110,8 @@ def _q_assign(name):
     return ", ".join(f"{name}{i}" for i in range(8, 0, -1))
 
 
-#: The model's Verilog text (modules IBUFDS, IDELAYCTRL, IDELAYE2, ISERDESE2).
+#: The model's Verilog text (modules IBUFDS, IBUFDS_DIFF_OUT, IDELAYCTRL, IDELAYE2,
+#: ISERDESE2).
 MODEL = f"""// 7-series input primitive models (tdicam.cosim.xilinx7_io): the subset tdicam uses
 `timescale 1ps/1fs
 module IBUFDS (input I, input IB, output O);
@@ -118,6 +123,15 @@ module IBUFDS (input I, input IB, output O);
   parameter IBUF_DELAY_VALUE = "0";
   parameter IFD_DELAY_VALUE = "AUTO";
   assign O = (I === 1'b1 && IB === 1'b0) ? 1'b1 : (I === 1'b0 && IB === 1'b1) ? 1'b0 : 1'bx;
+endmodule
+
+module IBUFDS_DIFF_OUT (input I, input IB, output O, output OB);
+  parameter DIFF_TERM = "FALSE";
+  parameter IBUF_LOW_PWR = "TRUE";
+  parameter IOSTANDARD = "DEFAULT";
+  parameter DQS_BIAS = "FALSE";
+  assign O = (I === 1'b1 && IB === 1'b0) ? 1'b1 : (I === 1'b0 && IB === 1'b1) ? 1'b0 : 1'bx;
+  assign OB = ~O;
 endmodule
 
 module IDELAYCTRL (input REFCLK, input RST, output reg RDY);

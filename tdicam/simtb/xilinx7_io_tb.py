@@ -59,6 +59,16 @@ async def test_ibufds(dut):
 
 
 @cocotb.test()
+async def test_ibufds_diff_out(dut):
+    """IBUFDS_DIFF_OUT: O as IBUFDS's, OB its complement."""
+    for p, n, o in ((1, 0, 1), (0, 1, 0), (1, 0, 1)):
+        dut.p.value, dut.n.value = p, n
+        await Timer(1, unit="ps")
+        got = (int(dut.pad_o.value), int(dut.pad_ob.value))
+        assert got == (o, 1 - o), f"I={p} IB={n}: O, OB = {got}"
+
+
+@cocotb.test()
 async def test_idelayctrl_rdy(dut):
     """IDELAYCTRL: RDY low in reset, high from the 32nd REFCLK rising edge after it."""
     cocotb.start_soon(Clock(dut.refclk, 5000, unit="ps").start())
