@@ -31,8 +31,12 @@ OTHER_MEANINGS = {
                                             "table's key)",
     ("model/ddr_efficiency.py", "tdi_ddr"): "a recorded DDR trace's name (the efficiency "
                                             "table's key)",
-    ("tdicam/scene/loader.py", "nuc"): "the [camera].nuc key (where NUC's coefficients are "
-                                       "applied: per gain or after the merge)",
+    ("tdicam/scene/sections.py", "nuc"): "the [camera].nuc key (where NUC's coefficients "
+                                         "are applied: per gain or after the merge)",
+    ("tdicam/scene/sections.py", "tdi"): "the [tdi] section of a scene (its keys' table)",
+    ("tdicam/scene/sections.py", "ddr"): "the [ddr] section of a scene (its keys' table)",
+    ("tdicam/chain/cosim.py", "tdi"): "the [tdi] section of a scene's overrides (the lanes' "
+                                      "fault cut: its stages)",
     ("model/physics/camera.py", "nuc"): "the [camera].nuc key (its reference table)",
     ("tdicam/planning/camera.py", "nuc"): "the [camera].nuc key (an option the plan shows)",
     ("tdicam/planning/camera.py", "ddr"): "a block's placement in DDR (Use.placement)",
