@@ -21,8 +21,9 @@ and scenes alike; :meth:`Block.unstream` turns the output beats back into scene 
 
 In a scene's pipeline (:class:`Use`) an entry also says how a scene sets the block (its one
 scene-to-parameters function, its ``[pipeline.<name>]`` options), how the gateware chain builds
-it, and what it does in the scene simulator (:attr:`Use.sim`: which frame stacks are its scene
-arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
+it, where its memory lives (:attr:`Use.memory`, a :class:`Memory`), and what it does in the
+scene simulator (:attr:`Use.sim`, a :class:`SceneSim`: its steps, which frame stacks are its
+scene arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
 engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.block_rows`).
 
 Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
@@ -40,8 +41,8 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
-           "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Memory", "SceneSim", "Use",
+           "StreamWork", "Bench", "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
            "frame_stack", "scene_blocks", "PPC_PARAM", "check_width", "ENTRY_SECTIONS"]
 
 #: The sections of every block entry file (``tdicam/blocks/<b>.py``), in their order, each
@@ -225,13 +226,87 @@ class Options:
 
 
 @dataclass(frozen=True)
+class Memory:
+    """Where a block's memory lives in a scene's chain (:attr:`Use.memory`): how much it
+    needs, who places it on chip or in DDR, the block that keeps it in DDR instead, and a DDR
+    block's region. Read by the chain's planner (:mod:`tdicam.chain.design`), the camera plan
+    (:mod:`tdicam.planning.camera`) and the scene reader's check of a DDR placement
+    (:mod:`tdicam.scene.loader`).
+
+    Attributes
+    ----------
+    bits : callable(step) -> int, or None
+        On-chip memory the block needs (``holds`` says what it holds); None: placed by the
+        scene only, never by size.
+    holds : str
+        What that memory holds, for messages ("partial sums").
+    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
+        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
+        RAM; None: always ``auto``).
+    spill : str or None
+        The registered block that keeps that memory in DDR instead (same stream, ports and
+        golden model), used when the plan says it must spill; its ``step`` takes the DDR
+        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    caller_places : bool
+        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
+        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
+        ``--memory`` flag is about TDI's partial sums).
+    ddr_end : callable(step) -> int, or None
+        A DDR block: the address unit above its region (the next DDR block of the chain
+        puts its region there, ``StepContext.ddr_base``).
+    """
+
+    bits: Callable | None = None
+    holds: str = "memory"
+    placement: Callable | None = None
+    spill: str | None = None
+    caller_places: bool = True
+    ddr_end: Callable | None = None
+
+
+@dataclass(frozen=True)
+class SceneSim:
+    """What a block does in the scene simulator (:attr:`Use.sim`, :mod:`tdicam.engine`):
+    its steps, the memory its golden model holds there, and what the run's measurements
+    (:mod:`tdicam.run.measure`) must know of its effect on the image.
+
+    Attributes
+    ----------
+    steps : tuple of tdicam.blocks.steps.Sim
+        Its steps, each a row of the simulator's effects table (two for a block that may
+        run on either side of the line-making block; :mod:`tdicam.engine.block_rows`);
+        empty for a block a scene does not list.
+    scratch_bytes : float
+        Bytes per frame-stack element the block's golden model holds at its peak beyond its
+        input and output, on single exposures (the scene engine's memory estimate,
+        :mod:`tdicam.engine.budget`).
+    post_bytes : float
+        Bytes per output pixel at its peak when it runs on the TDI output.
+    trim : int
+        Pixels at each image edge whose statistics the block changes (its replicated
+        borders), left out of flat-field measurements.
+    sharpens : callable(options) -> bool, or None
+        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
+        edge enhancement), said when a measured MTF exceeds 1.
+    """
+
+    steps: tuple = ()
+    scratch_bytes: float = 0.0
+    post_bytes: float = 0.0
+    trim: int = 0
+    sharpens: Callable | None = None
+
+
+@dataclass(frozen=True)
 class Use:
     """How a block takes part in a scene's pipeline (:mod:`tdicam.chain.design`).
 
     The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
     arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
     registry order, ``run`` side inputs are the step's ``inputs``); this says how a scene
-    sets the block and where the gateware's side inputs come from.
+    sets the block and where the gateware's side inputs come from. Two facets hold the rest:
+    :attr:`memory` (a :class:`Memory`: where the block's memory lives) and :attr:`sim` (a
+    :class:`SceneSim`: its steps in the scene simulator).
 
     Attributes
     ----------
@@ -258,46 +333,16 @@ class Use:
         ``params["stages"] - 1`` frames).
     per_frame : bool
         Acts on each exposure frame (must come before a ``lines`` block).
-    memory_bits : callable(step) -> int, or None
-        On-chip memory the block needs (``memory`` says what it holds).
-    memory : str
-        What that memory holds, for messages ("partial sums").
-    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
-        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
-        RAM; None: always ``auto``).
-    spill : str or None
-        The registered block that keeps that memory in DDR instead (same stream, ports and
-        golden model), used when the plan says it must spill; its ``step`` takes the DDR
-        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
-    caller_places : bool
-        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
-        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
-        ``--memory`` flag is about TDI's partial sums).
     reset_frames : bool
         The block takes each reset frame as a frame of its own in its stream, before its
         signal frame (and stores it), with its ``ports`` saying which is which; the chain's
         input then carries the reset frames so (:attr:`tdicam.blocks.steps.ChainPlan.reset_frames`).
-    trim : int
-        Pixels at each image edge whose statistics the block changes (its replicated
-        borders), left out of flat-field measurements.
-    sharpens : callable(options) -> bool, or None
-        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
-        edge enhancement), said when a measured MTF exceeds 1.
-    scratch_bytes : float
-        Bytes per frame-stack element the block's golden model holds at its peak beyond its
-        input and output, on single exposures (the scene engine's memory estimate).
-    post_bytes : float
-        Bytes per output pixel at its peak when it runs on the TDI output.
     rank : int or None
         Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
         blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
         spill variant, chosen by the plan).
     options : Options or None
         The block's ``[pipeline.<name>]`` section, when it has one.
-    sim : tuple of tdicam.blocks.steps.Sim
-        Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
-        simulator's effects table (two for a block that may run on either side of the
-        line-making block); empty for a block a scene does not list.
     system : callable(step, ctx) -> list of dict, or None
         The block's figures in ``tdicam plan``'s system section (an external part's load
         before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
@@ -317,9 +362,12 @@ class Use:
         Its golden stage in the chain when it is not the registry's golden model on scene
         arrays (a source: what the front delivers of the sensor's frames; ``nuc_ddr``: the
         coefficient frame its load writes before the lane's frames).
-    ddr_end : callable(step) -> int, or None
-        A DDR block: the address unit above its region (the next DDR block of the chain
-        puts its region there, ``StepContext.ddr_base``).
+    memory : Memory
+        Where its memory lives: its size, its placement, its DDR spill variant, a DDR
+        block's region (see :class:`Memory`).
+    sim : SceneSim
+        Its steps in the scene simulator and their memory and measurement figures (see
+        :class:`SceneSim`).
     """
 
     step: Callable
@@ -330,24 +378,15 @@ class Use:
     elems: int = 1
     lines: bool = False
     per_frame: bool = False
-    memory_bits: Callable | None = None
-    memory: str = "memory"
-    placement: Callable | None = None
-    spill: str | None = None
-    caller_places: bool = True
     reset_frames: bool = False
-    trim: int = 0
-    sharpens: Callable | None = None
-    scratch_bytes: float = 0.0
-    post_bytes: float = 0.0
     rank: int | None = None
     options: Options | None = None
-    sim: tuple = ()
     system: Callable | None = None
     measured: Callable | None = None
     source: Callable | None = None
     chain_golden: Callable | None = None
-    ddr_end: Callable | None = None
+    memory: Memory = Memory()
+    sim: SceneSim = SceneSim()
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,8 @@ from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Memory, Options, Param, SceneSim,
+                           SideInput, Use,
                            check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
@@ -172,8 +173,10 @@ def _subtract_reset(signal, reset, bits):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block cds (golden model)", _sim_step, aggregated=True, subtract=_subtract_reset,
-           pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),)
+SIM = SceneSim((Sim("block cds (golden model)", _sim_step, aggregated=True,
+                    subtract=_subtract_reset,
+                    pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),),
+               scratch_bytes=14.0)
 
 
 # ---- entry
@@ -201,9 +204,9 @@ BLOCK = Block(
     golden=_golden,
     example=_example,
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
-                 placement=lambda scene: scene.pipeline.cds.memory, spill="cds_ddr",
-                 caller_places=False, memory="reset frames",
-                 scratch_bytes=14.0,
+                 memory=Memory(holds="reset frames",
+                               placement=lambda scene: scene.pipeline.cds.memory,
+                               spill="cds_ddr", caller_places=False),
                  options=OPTIONS,
                  sim=SIM),
     small=((4, 40), {}),

@@ -14,8 +14,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.errors import TdicamError
 from tdicam.model.cds_ddr import cds_ddr_frames
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
-from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Suite,
-                           Use, check_width)
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Memory, Param, SideInput, StreamWork,
+                           Suite, Use, check_width)
 from tdicam.blocks.steps import Step
 from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
 from tdicam.blocks._ddr import (STALL_PARAMS, address_params, check_base, check_stalls, sim_top,
@@ -313,8 +313,8 @@ BLOCK = Block(
     example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_kinds, per_frame=True,
                  reset_frames=True, system=_system, measured=_measured,
-                 ddr_end=lambda step: _layout(BLOCK.resolve(step.params)).end_addr(
-                     step.params["rows"])),
+                 memory=Memory(ddr_end=lambda step: _layout(BLOCK.resolve(
+                     step.params)).end_addr(step.params["rows"]))),
     small=((3, 24), {"width": 24, "rows": 3}),
     order=80,
     bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",

@@ -11,7 +11,8 @@ from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SceneSim,
+                           SideInput, Use,
                            frame_stack, check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
@@ -322,7 +323,8 @@ def _sim_step(c: RunView, fr: Frames):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block hdr (golden model)", _sim_step, per_exposure=True),)
+SIM = SceneSim((Sim("block hdr (golden model)", _sim_step, per_exposure=True),),
+               scratch_bytes=22.0)
 
 
 # ---- entry
@@ -380,7 +382,6 @@ BLOCK = Block(
     unstream=_unstream,
     example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, merge=True, per_frame=True, rank=3,
-                 scratch_bytes=22.0,
                  options=OPTIONS,
                  sim=SIM),
     small=((4, 64), {}),

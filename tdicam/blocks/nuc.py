@@ -9,7 +9,8 @@ from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Memory, Options, Param, SceneSim,
+                           SideInput, Use,
                            check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
@@ -618,8 +619,9 @@ def _sim_notes(c: RunView):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_sim_coeffs,
-           notes=_sim_notes),)
+SIM = SceneSim((Sim("block nuc (golden model)", _sim_step, per_exposure=True,
+                    prepare=_sim_coeffs, notes=_sim_notes),),
+               scratch_bytes=38.0)
 
 
 # ---- entry
@@ -667,9 +669,9 @@ BLOCK = Block(
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=nand_load_rows,
                  measured=_measured,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
-                 placement=lambda scene: scene.pipeline.nuc.memory, spill="nuc_ddr",
-                 caller_places=False, memory="coefficients",
-                 scratch_bytes=38.0,
+                 memory=Memory(holds="coefficients",
+                               placement=lambda scene: scene.pipeline.nuc.memory,
+                               spill="nuc_ddr", caller_places=False),
                  sim=SIM),
     small=((4, 40), {}),
     order=30,

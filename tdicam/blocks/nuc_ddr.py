@@ -18,7 +18,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
 from tdicam.model.nuc import NucFormat
 from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, Use, check_width
+from tdicam.blocks import (PPC_PARAM, Block, Case, Memory, Param, SideInput, Suite, Use,
+                           check_width)
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide, nand_load_rows
 from tdicam.hdl.nuc_ddr import NucDdr
@@ -337,6 +338,6 @@ BLOCK = Block(
     suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
                 per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
     pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
-                 chain_golden=_pipeline_golden, ddr_end=_pipeline_end,
+                 chain_golden=_pipeline_golden, memory=Memory(ddr_end=_pipeline_end),
                  measured=_measured, system=nand_load_rows),   # the NAND load, as nuc's
 )
