@@ -19,7 +19,7 @@ from tdicam.hdl.median3 import Median3, check_geometry
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
 from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param, SceneSim,
-                           StreamWork, Suite, SynthRef, Use, frame_stack)
+                           StreamWork, Streams, Suite, SynthRef, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Frames, RunView, Sim, Step
@@ -389,14 +389,16 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="median3-1",
-    to_beats=case_beats,
-    stream="frames",
-    golden=_golden,
-    to_case=_to_case,
-    fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
-    example=_example,
+    streams=Streams(
+        to_beats=case_beats,
+        stream="frames",
+        golden=_golden,
+        to_case=_to_case,
+        fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
+        example=_example,
+        small=((6, 0), {"width": 24}),
+    ),
     pipeline=Use(_pipeline_step, lane_stage(), rank=5, options=OPTIONS, sim=SIM),
-    small=((6, 0), {"width": 24}),
     order=50,
     bench=Bench("median3", StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12},
                                       "pixel", 

@@ -27,7 +27,7 @@ from tdicam.model.tdi import PIXEL_BITS, check_params, full_bits, out_width, tdi
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import TDI, TDI_QUICK
 from tdicam.blocks import (Block, Case, KeyDoc, Memory, Options, Param, SceneSim, SideInput,
-                           Use, frame_stack)
+                           Streams, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Frames, RunView, Sim, Step
@@ -517,17 +517,19 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="tdi-1",
-    to_beats=_to_beats,
-    frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
-    streamed_case=streamed_case,
-    **SCENE,
+    streams=Streams(
+        **SCENE,
+        to_beats=_to_beats,
+        frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
+        streamed_case=streamed_case,
+        small=((), {"width": 64, "stages": 4}),
+    ),
     pipeline=Use(**PIPELINE, rank=4,
                  memory=Memory(bits=_memory_bits, holds="partial sums",
                                placement=lambda scene: scene.pipeline.tdi.memory,
                                spill="tdi_ddr"),
                  options=OPTIONS,
                  sim=SIM),
-    small=((), {"width": 64, "stages": 4}),
     order=20,
     bench=Bench("tdi", StreamWork("tdi", "tdi",
                                   {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},

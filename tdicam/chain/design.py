@@ -55,7 +55,8 @@ def _golden_stage(step, data):
         return GoldenStage(step.block, use.chain_golden(step, data), merge=use.merge,
                            group=step.group)
     params = blk.resolve(step.params)
-    lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
+    lane_keys = [blk.streams.stream] + [s.name for s in blk.streams.side_inputs
+                                        if s.per == "pixel"]
 
     def fn(arrays, lane):
         scene = dict(step.inputs)
