@@ -10,20 +10,35 @@ Two array forms
 ---------------
 *Scene arrays* are what a camera model hands a block: named numpy arrays, frames as
 ``(..., rows, cols)`` stacks (any leading axes are frames), side inputs beside them
-(:attr:`Block.side_inputs`). :attr:`Block.golden` runs the golden model on them.
+(:attr:`Streams.side_inputs`). :attr:`Streams.golden` runs the golden model on them.
 
 *Case arrays* are what a golden case stores (``golden/<name>/<case>.npz``): the inputs in
 whatever form the block's stream needs (e.g. ``tdi`` stores beat arrays), the expected
-outputs, and optional reset marks. :attr:`Block.to_beats` turns them into the stimulus and
+outputs, and optional reset marks. :attr:`Streams.to_beats` turns them into the stimulus and
 expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arrays from
 scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
-and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
+and scenes alike; :meth:`Block.from_beats` turns the output beats back into scene arrays.
 
 In a scene's pipeline (:class:`Use`) an entry also says how a scene sets the block (its one
 scene-to-parameters function, its ``[pipeline.<name>]`` options), how the gateware chain builds
-it, and what it does in the scene simulator (:attr:`Use.sim`: which frame stacks are its scene
-arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
+it, where its memory lives (:attr:`Use.memory`, a :class:`Memory`), and what it does in the
+scene simulator (:attr:`Use.sim`, a :class:`SceneSim`: its steps, which frame stacks are its
+scene arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
 engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.block_rows`).
+
+The record in facets
+--------------------
+A :class:`Block` is read in facets, each a frozen dataclass documented where it is defined:
+the block's core on :class:`Block` itself (name, summary, parameters (:class:`Param`), top,
+cases (:class:`Case`), check, model version, the tables' order); :class:`Streams`
+(:attr:`Block.streams`: the stream adapters between the two array forms, the golden model on
+scene arrays, the main input and the side inputs (:class:`SideInput`), a small example, what
+``tdicam export`` may assume); :class:`Use` (:attr:`Block.pipeline`: its place in a scene's
+chain, with its :class:`Options`, its :class:`Memory` and its :class:`SceneSim`);
+:class:`Bench` (``tdicam bench``), :class:`Suite` (the standard co-simulation suite) and
+:class:`SynthRef` (``tdicam synth --reference``).
+An entry file (``tdicam/blocks/<b>.py``) keeps its parts in the sections of
+:data:`ENTRY_SECTIONS`, in that order.
 
 Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
 and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
@@ -40,20 +55,23 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
-           "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
-           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width", "ENTRY_SECTIONS"]
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Memory", "SceneSim", "Use",
+           "StreamWork", "Bench", "SynthRef", "Stalls", "Suite", "Streams", "Block", "get",
+           "names", "all_blocks", "in_order", "frame_stack", "scene_blocks", "PPC_PARAM",
+           "check_width", "ENTRY_SECTIONS"]
 
 #: The sections of every block entry file (``tdicam/blocks/<b>.py``), in their order, each
 #: opened by a ``# ---- <name>`` line; an entry leaves out those it has no part for
 #: (``tests/test_block_entries.py`` checks the order and what each holds).
 ENTRY_SECTIONS = {
     "top": "the Verilog top (the component inside AxisTop) and the parameters' check",
-    "cases": "the golden cases and the stream adapters they use (golden, beats, example)",
+    "cases": "the golden cases and the stream adapters they use (golden, beats, example: "
+             "the Streams facet's functions)",
     "scene": "the block's scene options ([pipeline.<b>] keys, their KeyDocs)",
     "chain": "its place in a chain (the step, its hardware, its system rows)",
-    "simulator": "its steps in the scene simulator (Sim rows)",
-    "entry": "BLOCK = Block(...)",
+    "simulator": "its steps in the scene simulator (SIM = SceneSim((Sim(...),), ...))",
+    "entry": "BLOCK = Block(...), the record in facets (Streams, Use with Memory and SceneSim, "
+             "Bench, Suite, SynthRef)",
 }
 
 
@@ -225,13 +243,87 @@ class Options:
 
 
 @dataclass(frozen=True)
+class Memory:
+    """Where a block's memory lives in a scene's chain (:attr:`Use.memory`): how much it
+    needs, who places it on chip or in DDR, the block that keeps it in DDR instead, and a DDR
+    block's region. Read by the chain's planner (:mod:`tdicam.chain.design`), the camera plan
+    (:mod:`tdicam.planning.camera`) and the scene reader's check of a DDR placement
+    (:mod:`tdicam.scene.loader`).
+
+    Attributes
+    ----------
+    bits : callable(step) -> int, or None
+        On-chip memory the block needs (``holds`` says what it holds); None: placed by the
+        scene only, never by size.
+    holds : str
+        What that memory holds, for messages ("partial sums").
+    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
+        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
+        RAM; None: always ``auto``).
+    spill : str or None
+        The registered block that keeps that memory in DDR instead (same stream, ports and
+        golden model), used when the plan says it must spill; its ``step`` takes the DDR
+        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
+    caller_places : bool
+        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
+        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
+        ``--memory`` flag is about TDI's partial sums).
+    ddr_end : callable(step) -> int, or None
+        A DDR block: the address unit above its region (the next DDR block of the chain
+        puts its region there, ``StepContext.ddr_base``).
+    """
+
+    bits: Callable | None = None
+    holds: str = "memory"
+    placement: Callable | None = None
+    spill: str | None = None
+    caller_places: bool = True
+    ddr_end: Callable | None = None
+
+
+@dataclass(frozen=True)
+class SceneSim:
+    """What a block does in the scene simulator (:attr:`Use.sim`, :mod:`tdicam.engine`):
+    its steps, the memory its golden model holds there, and what the run's measurements
+    (:mod:`tdicam.run.measure`) must know of its effect on the image.
+
+    Attributes
+    ----------
+    steps : tuple of tdicam.blocks.steps.Sim
+        Its steps, each a row of the simulator's effects table (two for a block that may
+        run on either side of the line-making block; :mod:`tdicam.engine.block_rows`);
+        empty for a block a scene does not list.
+    scratch_bytes : float
+        Bytes per frame-stack element the block's golden model holds at its peak beyond its
+        input and output, on single exposures (the scene engine's memory estimate,
+        :mod:`tdicam.engine.budget`).
+    post_bytes : float
+        Bytes per output pixel at its peak when it runs on the TDI output.
+    trim : int
+        Pixels at each image edge whose statistics the block changes (its replicated
+        borders), left out of flat-field measurements.
+    sharpens : callable(options) -> bool, or None
+        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
+        edge enhancement), said when a measured MTF exceeds 1.
+    """
+
+    steps: tuple = ()
+    scratch_bytes: float = 0.0
+    post_bytes: float = 0.0
+    trim: int = 0
+    sharpens: Callable | None = None
+
+
+@dataclass(frozen=True)
 class Use:
     """How a block takes part in a scene's pipeline (:mod:`tdicam.chain.design`).
 
-    The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
+    The golden side comes from the rest of the block's entry (:attr:`Streams.golden` on scene
     arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
     registry order, ``run`` side inputs are the step's ``inputs``); this says how a scene
-    sets the block and where the gateware's side inputs come from.
+    sets the block and where the gateware's side inputs come from. Two facets hold the rest:
+    :attr:`memory` (a :class:`Memory`: where the block's memory lives) and :attr:`sim` (a
+    :class:`SceneSim`: its steps in the scene simulator).
 
     Attributes
     ----------
@@ -258,46 +350,16 @@ class Use:
         ``params["stages"] - 1`` frames).
     per_frame : bool
         Acts on each exposure frame (must come before a ``lines`` block).
-    memory_bits : callable(step) -> int, or None
-        On-chip memory the block needs (``memory`` says what it holds).
-    memory : str
-        What that memory holds, for messages ("partial sums").
-    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
-        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
-        RAM; None: always ``auto``).
-    spill : str or None
-        The registered block that keeps that memory in DDR instead (same stream, ports and
-        golden model), used when the plan says it must spill; its ``step`` takes the DDR
-        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
-    caller_places : bool
-        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
-        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
-        ``--memory`` flag is about TDI's partial sums).
     reset_frames : bool
         The block takes each reset frame as a frame of its own in its stream, before its
         signal frame (and stores it), with its ``ports`` saying which is which; the chain's
         input then carries the reset frames so (:attr:`tdicam.blocks.steps.ChainPlan.reset_frames`).
-    trim : int
-        Pixels at each image edge whose statistics the block changes (its replicated
-        borders), left out of flat-field measurements.
-    sharpens : callable(options) -> bool, or None
-        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
-        edge enhancement), said when a measured MTF exceeds 1.
-    scratch_bytes : float
-        Bytes per frame-stack element the block's golden model holds at its peak beyond its
-        input and output, on single exposures (the scene engine's memory estimate).
-    post_bytes : float
-        Bytes per output pixel at its peak when it runs on the TDI output.
     rank : int or None
         Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
         blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
         spill variant, chosen by the plan).
     options : Options or None
         The block's ``[pipeline.<name>]`` section, when it has one.
-    sim : tuple of tdicam.blocks.steps.Sim
-        Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
-        simulator's effects table (two for a block that may run on either side of the
-        line-making block); empty for a block a scene does not list.
     system : callable(step, ctx) -> list of dict, or None
         The block's figures in ``tdicam plan``'s system section (an external part's load
         before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
@@ -317,9 +379,12 @@ class Use:
         Its golden stage in the chain when it is not the registry's golden model on scene
         arrays (a source: what the front delivers of the sensor's frames; ``nuc_ddr``: the
         coefficient frame its load writes before the lane's frames).
-    ddr_end : callable(step) -> int, or None
-        A DDR block: the address unit above its region (the next DDR block of the chain
-        puts its region there, ``StepContext.ddr_base``).
+    memory : Memory
+        Where its memory lives: its size, its placement, its DDR spill variant, a DDR
+        block's region (see :class:`Memory`).
+    sim : SceneSim
+        Its steps in the scene simulator and their memory and measurement figures (see
+        :class:`SceneSim`).
     """
 
     step: Callable
@@ -330,31 +395,22 @@ class Use:
     elems: int = 1
     lines: bool = False
     per_frame: bool = False
-    memory_bits: Callable | None = None
-    memory: str = "memory"
-    placement: Callable | None = None
-    spill: str | None = None
-    caller_places: bool = True
     reset_frames: bool = False
-    trim: int = 0
-    sharpens: Callable | None = None
-    scratch_bytes: float = 0.0
-    post_bytes: float = 0.0
     rank: int | None = None
     options: Options | None = None
-    sim: tuple = ()
     system: Callable | None = None
     measured: Callable | None = None
     source: Callable | None = None
     chain_golden: Callable | None = None
-    ddr_end: Callable | None = None
+    memory: Memory = Memory()
+    sim: SceneSim = SceneSim()
 
 
 @dataclass(frozen=True)
 class StreamWork:
     """A stream block's benchmark input (``tdicam bench``); the registry does the rest.
 
-    The input is ``n`` items (frames or words) of the block's :attr:`Block.example` for frame
+    The input is ``n`` items (frames or words) of the block's :attr:`Streams.example` for frame
     ``shape``; the golden row times :meth:`Block.case_arrays` (the golden model plus the case
     form) and every simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the
     elements of the block's main stream input. ``sizes`` / ``quick`` give the items per level
@@ -427,7 +483,7 @@ class Stalls:
 @dataclass(frozen=True)
 class Suite:
     """A stream block's place in the standard co-simulation suite
-    (``cocotb_tests/test_streams.py``, for every block with :attr:`Block.to_beats`): its
+    (``cocotb_tests/test_streams.py``, for every block with :attr:`Streams.to_beats`): its
     golden cases per beat (cocotb drives each cycle, 30 % idle, 40 % backpressure, seed 11)
     and in fast mode (HDL-side stimulus and stalls, seed 7) on each simulator, and its
     extreme stalls. What is particular to a block stays in its own
@@ -468,6 +524,77 @@ class Suite:
 
 
 @dataclass(frozen=True)
+class Streams:
+    """How a block's arrays become its stream and back (:attr:`Block.streams`): the stream
+    adapters between scene arrays, case arrays and :class:`~tdicam.beats.Beats`, the golden
+    model on scene arrays, a typical input, and what ``tdicam export`` and the testbenches
+    may assume of the stream. Read by the co-simulation (:func:`tdicam.cosim.run_case`,
+    ``cocotb_tests/test_streams.py``), ``tdicam export``, ``tdicam bench`` and the chain's
+    golden model (:func:`tdicam.chain.design.golden`). The defaults: not a video stream
+    (:attr:`Block.harness` names what verifies it).
+
+    Attributes
+    ----------
+    to_beats : callable(case arrays, params) -> (stim Beats, expected Beats) or None
+        Stream blocks: the stimulus (pixels, run-time settings in ``ctrl``, resets) and the
+        expected output of case arrays. ``None``: not a video stream (co-simulated by its
+        own cocotb test).
+    stream : str or None
+        Key of the main stream input in the scene arrays (e.g. ``"signal"``, ``"x"``).
+    side_inputs : tuple of SideInput
+        The block's other inputs, by scene-array key (see :class:`SideInput`).
+    golden : callable(scene arrays, params) -> dict or None
+        The golden model on scene arrays (frames ``(..., rows, cols)``, side inputs per
+        :attr:`side_inputs`): ``{"out": ndarray}`` with the output frames, leading axes
+        kept (``tdi``: one output line per frame).
+    to_case : callable(scene arrays, params) -> case arrays, or None
+        Scene arrays -> the case form :attr:`to_beats` reads, expected outputs included.
+        ``None``: the case form is the scene arrays with the frames flattened to
+        ``(n, rows, cols)`` plus :attr:`golden`'s output (see :meth:`Block.case_arrays`).
+    fit : callable(scene arrays) -> dict, or None
+        Parameters a scene's arrays fix (e.g. ``width`` from the frames' last axis);
+        :meth:`Block.scene_params` lays them under the given ones.
+    unstream : callable(out Beats, scene arrays, params) -> dict, or None
+        Output beats -> ``{"out": ndarray}`` shaped like :attr:`golden`'s output. ``None``:
+        one output element per input pixel, reshaped like the main stream (see
+        :meth:`Block.from_beats`).
+    example : callable(rng, n, shape, params) -> scene arrays, or None
+        ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
+        frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
+        ignore it).
+    frame_beats : callable, optional
+        ``frame_beats(params)``: input beats of one frame, the least a golden case streams
+        (``tdicam export`` refuses parameters whose one frame is over its beat limit before
+        generating any case, or exports :attr:`streamed_case`; None: unknown).
+    streamed_case : callable(params) -> tdicam.beats.BeatStream, or None
+        The case ``tdicam export`` writes, piece by piece, when no golden case at
+        ``params`` fits its beat limit (one frame over it, say: the cases would not fit in
+        memory); None: such parameters are refused.
+    small : tuple or None
+        ``(frame shape, parameters)`` of a small :attr:`example` input (a few frames run in
+        milliseconds) for quick checks of the block's adapters; every stream block has one.
+    reset_clears_state : bool
+        A testbench reset returns the whole design to its power-up state, so golden cases
+        can run back to back in one simulation with a reset between them (``tdicam
+        export``). False when a simulation model keeps contents across reset (nand_store's
+        part).
+    """
+
+    to_beats: Callable | None = None
+    stream: str | None = None
+    side_inputs: tuple = ()
+    golden: Callable | None = None
+    to_case: Callable | None = None
+    fit: Callable | None = None
+    unstream: Callable | None = None
+    example: Callable | None = None
+    frame_beats: Callable | None = None
+    streamed_case: Callable | None = None
+    small: tuple | None = None
+    reset_clears_state: bool = True
+
+
+@dataclass(frozen=True)
 class Block:
     """A registered gateware block: the contract the tools and the pipeline build on.
 
@@ -497,61 +624,24 @@ class Block:
         elaboration.
     model_version : str
         Bump when the golden model's definition changes (recorded in the manifest).
-    to_beats : callable(case arrays, params) -> (stim Beats, expected Beats) or None
-        Stream blocks: the stimulus (pixels, run-time settings in ``ctrl``, resets) and the
-        expected output of case arrays. ``None``: not a video stream (co-simulated by its
-        own cocotb test).
-    stream : str or None
-        Key of the main stream input in the scene arrays (e.g. ``"signal"``, ``"x"``).
-    side_inputs : tuple of SideInput
-        The block's other inputs, by scene-array key (see :class:`SideInput`).
-    golden : callable(scene arrays, params) -> dict or None
-        The golden model on scene arrays (frames ``(..., rows, cols)``, side inputs per
-        :attr:`side_inputs`): ``{"out": ndarray}`` with the output frames, leading axes
-        kept (``tdi``: one output line per frame).
-    to_case : callable(scene arrays, params) -> case arrays, or None
-        Scene arrays -> the case form :attr:`to_beats` reads, expected outputs included.
-        ``None``: the case form is the scene arrays with the frames flattened to
-        ``(n, rows, cols)`` plus :attr:`golden`'s output (see :meth:`case_arrays`).
-    fit : callable(scene arrays) -> dict, or None
-        Parameters a scene's arrays fix (e.g. ``width`` from the frames' last axis);
-        :meth:`scene_params` lays them under the given ones.
-    unstream : callable(out Beats, scene arrays, params) -> dict, or None
-        Output beats -> ``{"out": ndarray}`` shaped like :attr:`golden`'s output. ``None``:
-        one output element per input pixel, reshaped like the main stream (see
-        :meth:`from_beats`).
-    example : callable(rng, n, shape, params) -> scene arrays, or None
-        ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
-        frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
-        ignore it).
+    streams : Streams
+        How case and scene arrays become the block's stream and back, and what a
+        testbench may assume of it (see :class:`Streams`; the defaults: not a video
+        stream).
     ecp5_top : callable(params as keywords) -> wiring.Component, or None
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour — except for a DDR block, whose
         :attr:`top` holds the simulation MIG model and whose synthesis top is the core with
         the MIG user interface at its ports (``cds_ddr``). ``None``: :attr:`top`.
-    frame_beats : callable, optional
-        ``frame_beats(params)``: input beats of one frame, the least a golden case streams
-        (``tdicam export`` refuses parameters whose one frame is over its beat limit before
-        generating any case, or exports :attr:`streamed_case`; None: unknown).
-    streamed_case : callable(params) -> tdicam.beats.BeatStream, or None
-        The case ``tdicam export`` writes, piece by piece, when no golden case at
-        ``params`` fits its beat limit (one frame over it, say: the cases would not fit in
-        memory); None: such parameters are refused.
     harness : str or None
-        A block that is not a video stream (:attr:`to_beats` None) names the self-checking
+        A block that is not a video stream (:attr:`Streams.to_beats` None) names the self-checking
         harness that verifies it, a name the tools above the registry know it by: ``"link"``,
         the LVDS link testbench (``lvds``), is how ``tdicam export`` writes the block and
         ``tdicam bench`` measures it (:data:`tdicam.export.harness.HARNESSES`,
         :data:`tdicam.bench.suite.HARNESS_RUNNERS`). None: the stream testbench.
-    reset_clears_state : bool
-        A testbench reset returns the whole design to its power-up state, so golden cases
-        can run back to back in one simulation with a reset between them (``tdicam
-        export``). False when a simulation model keeps contents across reset (nand_store's
-        part).
-    small : tuple or None
-        ``(frame shape, parameters)`` of a small :attr:`example` input (a few frames run in
-        milliseconds) for quick checks of the block's adapters; every stream block has one.
+    pipeline : Use or None
+        Its place in a scene's pipeline (see :class:`Use`); None: a scene never lists it.
     order : int
         Place in the tools' tables (benchmarks, synthesis reference); ties by name.
     bench : Bench or None
@@ -570,21 +660,10 @@ class Block:
     cases: Callable
     check: Callable | None = None
     model_version: str = "1"
-    to_beats: Callable | None = None
-    stream: str | None = None
-    side_inputs: tuple = ()
-    golden: Callable | None = None
-    to_case: Callable | None = None
-    fit: Callable | None = None
-    unstream: Callable | None = None
-    example: Callable | None = None
+    streams: Streams = Streams()
     harness: str | None = None
-    reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
-    frame_beats: Callable | None = None
-    streamed_case: Callable | None = None
-    small: tuple | None = None
     order: int = 1000
     bench: Bench | None = None
     suite: Suite = Suite()
@@ -633,27 +712,28 @@ class Block:
         return top(**self.resolve(params))
 
     def scene_params(self, arrays, params=None):
-        """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`fit`
+        """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`Streams.fit`
         derives from the arrays' shapes."""
-        fitted = self.fit(self.inputs(arrays)) if self.fit is not None else {}
+        fitted = self.streams.fit(self.inputs(arrays)) if self.streams.fit is not None else {}
         return self.resolve({**fitted, **dict(params or {})})
 
     def inputs(self, arrays):
         """Scene arrays with every side input present (defaults filled in) and ``pixel``
         side inputs broadcast to the stream's shape, or a :class:`TdicamError` naming the
         missing one."""
+        st = self.streams
         if not isinstance(arrays, Mapping):
             raise TdicamError(f"block {self.name}: arrays must be a dict of arrays (its "
-                              f"stream input {self.stream!r}), got {type(arrays).__name__}")
-        if self.stream not in arrays:
-            raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
+                              f"stream input {st.stream!r}), got {type(arrays).__name__}")
+        if st.stream not in arrays:
+            raise TdicamError(f"block {self.name} needs its stream input {st.stream!r}")
         out = dict(arrays)
-        main = np.asarray(out[self.stream])
-        shaped = self.fit is not None or any(callable(s.default) for s in self.side_inputs)
+        main = np.asarray(out[st.stream])
+        shaped = st.fit is not None or any(callable(s.default) for s in st.side_inputs)
         if shaped and main.ndim < 2:        # what fits the parameters reads rows and cols
-            raise TdicamError(f"block {self.name}: input {self.stream!r} must be frames "
+            raise TdicamError(f"block {self.name}: input {st.stream!r} must be frames "
                               f"(..., rows, cols), got shape {main.shape}")
-        for side in self.side_inputs:
+        for side in st.side_inputs:
             if side.name not in out:
                 if side.default is None:
                     raise TdicamError(f"block {self.name} needs input {side.name!r} "
@@ -666,55 +746,55 @@ class Block:
                 except ValueError:
                     raise TdicamError(
                         f"block {self.name}: input {side.name!r} has shape "
-                        f"{np.shape(out[side.name])}, the stream {self.stream!r} "
+                        f"{np.shape(out[side.name])}, the stream {st.stream!r} "
                         f"{main.shape}") from None
         return out
 
     def run_golden(self, arrays, params):
-        """:attr:`golden` on scene arrays (side-input defaults filled in)."""
-        if self.golden is None:
+        """:attr:`Streams.golden` on scene arrays (side-input defaults filled in)."""
+        if self.streams.golden is None:
             raise TdicamError(f"block {self.name} has no golden function on scene arrays")
-        return self.golden(self.inputs(arrays), params)
+        return self.streams.golden(self.inputs(arrays), params)
 
     def case_arrays(self, arrays, params):
-        """Case arrays (inputs + expected outputs, what :attr:`to_beats` reads) of scene
+        """Case arrays (inputs + expected outputs, what :attr:`Streams.to_beats` reads) of scene
         ``arrays`` for resolved ``params``: a one-line error for a block without a golden
         function, an empty stream or one that is not integer codes."""
-        if self.to_case is None and self.golden is None:
+        if self.streams.to_case is None and self.streams.golden is None:
             raise TdicamError(f"block {self.name} has no golden function on scene arrays")
         arrays = self.inputs(arrays)
-        main = np.asarray(arrays[self.stream])
+        main = np.asarray(arrays[self.streams.stream])
         if main.size == 0 or not np.issubdtype(main.dtype, np.integer):
-            raise TdicamError(f"block {self.name}: {self.stream} must be a non-empty integer "
-                              f"array of pixel codes, got shape {main.shape}, dtype "
+            raise TdicamError(f"block {self.name}: {self.streams.stream} must be a non-empty "
+                              f"integer array of pixel codes, got shape {main.shape}, dtype "
                               f"{main.dtype}")
-        if self.to_case is not None:
-            return self.to_case(arrays, params)
+        if self.streams.to_case is not None:
+            return self.streams.to_case(arrays, params)
         flat = {}
         for key in self._keys():
             a = np.asarray(arrays[key])
-            per = "pixel" if key == self.stream else self._per(key)
+            per = "pixel" if key == self.streams.stream else self._per(key)
             flat[key] = _flat_frames(a) if per == "pixel" and a.ndim >= 2 else \
                 (a.ravel() if per == "frame" else a)
-        return {**flat, **self.golden(flat, params)}
+        return {**flat, **self.streams.golden(flat, params)}
 
     def from_beats(self, out, arrays, params):
         """Output beats of a run on scene ``arrays`` -> ``{"out": ndarray}``."""
-        if self.unstream is not None:
-            return self.unstream(out, arrays, params)
+        if self.streams.unstream is not None:
+            return self.streams.unstream(out, arrays, params)
         bits = params.get("out_bits") or params["pixel_bits"]
-        return {"out": out.data.reshape(np.shape(arrays[self.stream])).astype(
+        return {"out": out.data.reshape(np.shape(arrays[self.streams.stream])).astype(
             pixel_dtype(bits))}
 
     def golden_model(self, arrays: dict, **params) -> dict:
         """The block's bit-exact golden model (``model/<name>.py``) on scene arrays, with
-        its parameters fitted (:attr:`golden` is the raw function it calls).
+        its parameters fitted (:attr:`Streams.golden` is the raw function it calls).
 
         Parameters
         ----------
         arrays : dict of str to ndarray
-            The stream input (key :attr:`stream`, frames ``(..., rows, cols)``) and any
-            side inputs (:attr:`side_inputs`; defaults filled in).
+            The stream input (key :attr:`Streams.stream`, frames ``(..., rows, cols)``) and any
+            side inputs (:attr:`Streams.side_inputs`; defaults filled in).
         **params
             Block parameters; the ones the arrays fix (e.g. ``width``) are fitted.
 
@@ -732,10 +812,10 @@ class Block:
         return self.run_golden(arrays, self.scene_params(arrays, params))
 
     def _per(self, key):
-        return next((s.per for s in self.side_inputs if s.name == key), None)
+        return next((s.per for s in self.streams.side_inputs if s.name == key), None)
 
     def _keys(self):
-        return (self.stream, *(s.name for s in self.side_inputs))
+        return (self.streams.stream, *(s.name for s in self.streams.side_inputs))
 
 
 #: The pixels-per-clock parameter of the stream blocks that gained it after their golden

@@ -51,11 +51,11 @@ def _chain_facts(scene):
     reset = reset_ddr = coeffs = False
     for name in scene.pipeline.blocks:
         u = _blocks.get(name).pipeline
-        spill = _blocks.get(u.spill).pipeline if u.spill else None
+        spill = _blocks.get(u.memory.spill).pipeline if u.memory.spill else None
         if u.reset_frames or (spill is not None and spill.reset_frames):
             reset = True
             reset_ddr = reset_ddr or u.reset_frames or (
-                u.placement is not None and u.placement(scene) == "ddr")
+                u.memory.placement is not None and u.memory.placement(scene) == "ddr")
         coeffs = coeffs or u.identity is not None
     return reset, reset_ddr, coeffs
 
