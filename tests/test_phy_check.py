@@ -6,10 +6,11 @@ traceback; the report's row. One PHY on Icarus in CI, the other with TDICAM_FULL
 import os
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from tdicam.chain.cosim import lanes_of
-from tdicam.chain.phy_check import phy_check
+from tdicam.chain.phy_check import judge, phy_check
 from tdicam.errors import TdicamError
 from tdicam.run.report import phy_lines
 from tdicam.scene.loader import load_scene
@@ -57,6 +58,36 @@ def test_phy_check(tmp_path, phy):
         (0, True, [1]), bad
     md = "\n".join(phy_lines([row, bad]))
     assert f"| {phy} | icarus | 4 |" in md and "| 1 |" in md
+
+
+def test_judge_fails():
+    """The judgement names a lane trained 3 taps off the prediction and a changed word."""
+    import dataclasses
+    from tdicam.cosim import lvds_pins
+    from tdicam.hdl.lvds_phy import tap_ps
+    from tdicam.model import lvds
+    phy, rate = "xilinx7", lvds_pins.rate_for_ui(3333333)
+    lv = load_scene(SCENE).sensor.lvds
+    lanes = [dataclasses.replace(ln, tap_ps=tap_ps(phy), bit_rate_mbps=rate)
+             for ln in lanes_of(lv, 2)]
+    nd = lvds.training_words(lv.word_bits, 16, 8) + 100
+    link = lvds.Link(lanes, word_bits=lv.word_bits, train_word=lv.train_word, line_words=32,
+                     schedule=((nd, "data"),))
+    pred = lvds_pins.predict(link, phy, word_phase=lvds_pins.WORD_PHASE[phy, lv.word_bits][0],
+                             jitter=False)
+    ks = 1000 + np.arange(50)
+    data = np.stack([lvds.sent_words(link, i, nd + np.arange(50)) for i in range(4)], axis=1)
+    final = [{"tap": p.tap, "slip": p.slip, "locked": 1, "error": 0, "scan": p.scan_mask}
+             for p in pred]
+    good = lvds_pins.PinRun(final, (ks, np.ones(50, bool), data), 0.0, 0.0, 1)
+    assert judge(link, phy, good, nd)["problems"] == []
+    final[2] = dict(final[2], tap=pred[2].tap + 3)
+    data = data.copy()
+    data[7, 1] ^= 1
+    bad = judge(link, phy, dataclasses.replace(good, final=final, outputs=(ks, np.ones(50, bool),
+                                                                             data)), nd)
+    assert not bad["taps_as_predicted"] and bad["mismatches"] == 1
+    assert any(t.startswith("lane 2: tap") for t in bad["problems"])
 
 
 def test_phy_check_error_row():

@@ -22,7 +22,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["phy_check", "DATA_WORDS", "EDGE_PS"]
+__all__ = ["phy_check", "judge", "DATA_WORDS", "EDGE_PS"]
 
 #: Words of data the pin-level run delivers after the training.
 DATA_WORDS = 300
@@ -38,7 +38,9 @@ def phy_check(lv, lanes, phy, sim):
     ``lanes``: the chain's, :func:`tdicam.chain.cosim.lanes_of`) from serial
     bits through ``phy``'s receiver on ``sim``. ``lanes``, ``words_compared``,
     ``mismatches``, ``taps_as_predicted``, ``lane_errors`` (lanes in error, as predicted or
-    not), ``problems`` and ``wall_seconds``; a failed run is ``status`` "error: ..."."""
+    not), ``taps``, ``scans`` (pass masks) and the ``predicted_taps`` / ``predicted_scans``
+    they were judged against (the tie's when an eye edge met a sample), ``problems`` and
+    ``wall_seconds``; a failed run is ``status`` "error: ..."."""
     from tdicam.cosim import lvds_pins
     from tdicam.hdl.lvds_phy import tap_ps
     from tdicam.model import lvds
@@ -59,6 +61,16 @@ def phy_check(lv, lanes, phy, sim):
     except TdicamError as exc:
         row.update(status=f"error: {exc}", wall_seconds=time.perf_counter() - t0)
         return row
+    row.update(judge(link, phy, res, nd), wall_seconds=time.perf_counter() - t0)
+    return row
+
+
+def judge(link, phy, res, nd):
+    """The row's figures of the pin-level run ``res`` of ``link`` (data from word ``nd``)
+    through ``phy`` (see :func:`phy_check`)."""
+    from tdicam.cosim import lvds_pins
+    from tdicam.model import lvds
+    w = link.word_bits
     phase = lvds_pins.run_phase(link, phy, res)
     phase = lvds_pins.WORD_PHASE[phy, w][0] if phase is None else phase
     pred = lvds_pins.predict(link, phy, word_phase=phase, jitter=False)
@@ -67,12 +79,13 @@ def phy_check(lv, lanes, phy, sim):
         replace(ln, eye_ps=max(ln.eye_ps + d, 0.0)) if ln.eye_ps else ln
         for ln in link.lanes)), phy, word_phase=phase, jitter=False) for d in (-EDGE_PS,
                                                                                EDGE_PS)]
-    problems, errors, taps_ok = [], [], True
+    problems, errors, taps_ok, used = [], [], True, []
     ks, syncs, data = res.outputs
     for i, (lane, p, f) in enumerate(zip(link.lanes, pred, res.final)):
         band = lvds_pins.band_taps(lane)
         p = next((q for q in (p, ties[0][i], ties[1][i]) if q.locked and
                   q.tap <= f["tap"] <= q.tap + band and f["slip"] == q.slip), p)
+        used.append(p)
         if f["error"]:
             errors.append(i)
         if (f["locked"], f["error"]) != (int(p.locked), int(p.error)):
@@ -96,10 +109,9 @@ def phy_check(lv, lanes, phy, sim):
         if bad:
             problems.append(f"lane {i}: {bad} words differ from those sent")
         mism += bad
-    row.update(lanes=len(lanes), words_compared=int(len(ks) * len(lanes)), mismatches=mism,
-               taps_as_predicted=taps_ok, lane_errors=errors,
-               taps=[f["tap"] for f in res.final], scans=[f["scan"] for f in res.final],
-               predicted_scans=[p.scan_mask for p in pred],
-               predicted_taps=[p.tap if p.locked else None for p in pred],
-               problems=problems, wall_seconds=time.perf_counter() - t0)
-    return row
+    return dict(lanes=len(link.lanes), words_compared=int(len(ks) * len(link.lanes)),
+                mismatches=mism, taps_as_predicted=taps_ok, lane_errors=errors,
+                taps=[f["tap"] for f in res.final], scans=[f["scan"] for f in res.final],
+                predicted_scans=[p.scan_mask for p in used],
+                predicted_taps=[p.tap if p.locked else None for p in used],
+                problems=problems)
