@@ -70,9 +70,7 @@ def judge(link, phy, res, nd):
     through ``phy`` (see :func:`phy_check`)."""
     from tdicam.cosim import lvds_pins
     from tdicam.model import lvds
-    w = link.word_bits
-    phase = lvds_pins.run_phase(link, phy, res)
-    phase = lvds_pins.WORD_PHASE[phy, w][0] if phase is None else phase
+    phase = lvds_pins.judged_phase(link, phy, res)
     pred = lvds_pins.predict(link, phy, word_phase=phase, jitter=False)
     # an eye edge on a tap's sample to within the pins' fs rounding: either side is right
     ties = [lvds_pins.predict(replace(link, lanes=tuple(
