@@ -22,7 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from tdicam.beats import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES, check_ppc
 from tdicam.blocks.steps import ChainPlan, SceneData, Step, StepContext
 from tdicam.errors import TdicamError, check_range
 
@@ -137,11 +137,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     n_lines = int(scene.run.lines if lines is None else lines)
     w = int(scene.sensor.columns if width is None else width)
     ppc = scene_ppc(scene) if ppc is None else int(ppc)
-    if ppc not in PPC_CHOICES:
-        raise TdicamError(f"pipeline: pixels per clock {ppc} is not valid; valid: "
-                          f"{', '.join(map(str, PPC_CHOICES))}")
-    if w % ppc:
-        raise TdicamError(f"pipeline: width {w} is not a multiple of pixels per clock {ppc}")
+    check_ppc(ppc, w, "pipeline: pixels per clock")
     uses = [_use(n) for n in names]
     for n, u in zip(names, uses):
         if u.source is not None:
@@ -484,12 +480,7 @@ def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
     from tdicam.model.physics.plan import ONCHIP_RAM_BITS
     from tdicam.scene.loader import MAX_OUTPUT_PIXELS
     if ppc is not None:
-        if ppc not in PPC_CHOICES:
-            raise TdicamError(f"--ppc = {ppc} is not valid; valid: "
-                              f"{', '.join(map(str, PPC_CHOICES))}")
-        w = scene.sensor.columns if width is None else width
-        if w % ppc:
-            raise TdicamError(f"--ppc = {ppc}: the width {w} is not a multiple of it")
+        check_ppc(ppc, scene.sensor.columns if width is None else width, "--ppc")
     if device is not None and str(device).lower() not in ONCHIP_RAM_BITS:
         raise TdicamError(f"--device = {device!r} is not known; valid: "
                           f"{', '.join(ONCHIP_RAM_BITS)}")
