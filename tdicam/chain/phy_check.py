@@ -18,7 +18,6 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-import numpy as np
 
 from tdicam.errors import TdicamError
 
@@ -69,7 +68,6 @@ def judge(link, phy, res, nd):
     """The row's figures of the pin-level run ``res`` of ``link`` (data from word ``nd``)
     through ``phy`` (see :func:`phy_check`)."""
     from tdicam.cosim import lvds_pins
-    from tdicam.model import lvds
     phase = lvds_pins.judged_phase(link, phy, res)
     pred = lvds_pins.predict(link, phy, word_phase=phase, jitter=False)
     # an eye edge on a tap's sample to within the pins' fs rounding: either side is right
@@ -78,7 +76,7 @@ def judge(link, phy, res, nd):
         for ln in link.lanes)), phy, word_phase=phase, jitter=False) for d in (-EDGE_PS,
                                                                                EDGE_PS)]
     problems, errors, taps_ok, used = [], [], True, []
-    ks, syncs, data = res.outputs
+    ks = res.outputs[0]
     for i, (lane, p, f) in enumerate(zip(link.lanes, pred, res.final)):
         band = lvds_pins.band_taps(lane)
         p = next((q for q in (p, ties[0][i], ties[1][i]) if q.locked and
@@ -96,17 +94,8 @@ def judge(link, phy, res, nd):
                             f"{p.tap}..{p.tap + band} slip {p.slip}")
         if lane.eye_ps == 0 and not f["error"]:
             problems.append(f"lane {i}: no eye, and no error reported")
-    mism = 0
-    if len(ks) == 0 or not syncs[0] or not np.array_equal(ks, ks[0] + np.arange(len(ks))):
-        problems.append("the receiver delivered no run of consecutive words from the data "
-                        "start")
-        mism += 1
-    for i, f in enumerate(res.final):
-        exp = lvds.sent_words(link, i, nd + np.arange(len(ks))) if f["locked"] else 0
-        bad = int(np.count_nonzero(data[:, i] != exp)) if len(ks) else 0
-        if bad:
-            problems.append(f"lane {i}: {bad} words differ from those sent")
-        mism += bad
+    mism, more = lvds_pins.word_problems(link, res, nd)
+    problems += more
     return dict(lanes=len(link.lanes), words_compared=int(len(ks) * len(link.lanes)),
                 mismatches=mism, taps_as_predicted=taps_ok, lane_errors=errors,
                 taps=[f["tap"] for f in res.final], scans=[f["scan"] for f in res.final],

@@ -68,7 +68,7 @@ from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _pa
                                _settings_args, sched_words)
 
 __all__ = ["PinRun", "run_pins", "predict", "run_phase", "judged_phase", "band_taps",
-           "eye_problems", "ui_fs", "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
+           "eye_problems", "word_problems", "ui_fs", "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
 
 #: The PHYs simulated from pins: {phy: primitive model module}.
 PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
@@ -507,3 +507,24 @@ def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, p
         if lane.eye_ps == 0 and not (f["error"] and not f["locked"]):
             problems.append(f"lane {i}: no eye, and no error reported")
     return problems
+
+
+def word_problems(link, run, nd):
+    """``(mismatches, problems)`` of a pin-level run's delivered words (``run.outputs``),
+    data from link word ``nd``: the receiver must deliver one run of consecutive words
+    from the data start (else one mismatch and its problem line), and every locked lane
+    the words :func:`tdicam.model.lvds.sent_words` sent (an unlocked lane 0s); each lane
+    that differs a problem line with its count. ``(0, [])`` when all is as sent."""
+    ks, syncs, data = run.outputs
+    problems, mism = [], 0
+    if len(ks) == 0 or not syncs[0] or not np.array_equal(ks, ks[0] + np.arange(len(ks))):
+        problems.append("the receiver delivered no run of consecutive words from the data "
+                        "start")
+        mism += 1
+    for i, f in enumerate(run.final):
+        exp = lvds.sent_words(link, i, nd + np.arange(len(ks))) if f["locked"] else 0
+        bad = int(np.count_nonzero(data[:, i] != exp)) if len(ks) else 0
+        if bad:
+            problems.append(f"lane {i}: {bad} words differ from those sent")
+        mism += bad
+    return mism, problems
