@@ -18,7 +18,6 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-
 from tdicam.errors import TdicamError
 
 __all__ = ["phy_check", "judge", "DATA_WORDS", "EDGE_PS"]
