@@ -257,13 +257,14 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
 
 def eye_lane(centre_taps, width_taps, *, tap_ps=lvds.PAPER_TAP_PS, jitter_ps=0.0,
              bit_rate_mbps=300.0, word_delay=0, word_bits=12, seed=0, change_at=None,
-             after=None):
+             after=None, bit_delay=0):
     """A :class:`tdicam.model.lvds.Lane` whose eye is ``width_taps`` taps wide and centred
     on delay tap ``centre_taps`` (the phase ``u = UI/2`` falls on that tap), delayed by a
-    further ``word_delay`` whole words."""
+    further ``word_delay`` whole words and ``bit_delay`` whole bits."""
     ui = 1e6 / bit_rate_mbps
     eye = min(width_taps * tap_ps, ui)
-    skew = (-ui / 2 - centre_taps * tap_ps) % ui + word_delay * word_bits * ui
+    skew = ((-ui / 2 - centre_taps * tap_ps) % ui + word_delay * word_bits * ui
+            + bit_delay * ui)
     return lvds.Lane(skew_ps=skew, eye_ps=eye, jitter_ps=jitter_ps, tap_ps=tap_ps,
                      bit_rate_mbps=bit_rate_mbps, seed=seed, change_at=change_at,
                      after=after)
@@ -271,11 +272,14 @@ def eye_lane(centre_taps, width_taps, *, tap_ps=lvds.PAPER_TAP_PS, jitter_ps=0.0
 
 def scene_lanes(spec, gains, seed=0):
     """The :class:`tdicam.model.lvds.Lane` of every lane of a scene's ``[sensor.lvds]``
-    (:class:`tdicam.scene.schema.Lvds`): eye centre and width per lane, its jitter."""
+    (:class:`tdicam.scene.schema.Lvds`): eye centre, width and whole-bit skew per lane, its
+    jitter."""
     n = spec.lanes_per_gain * gains
+    skew = spec.skew_bits or (0,) * n
     return [eye_lane(spec.eye_centre_taps[i], spec.eye_width_taps[i], tap_ps=spec.tap_ps,
                      jitter_ps=spec.jitter_ps, bit_rate_mbps=spec.bit_rate_mbps,
-                     word_bits=spec.word_bits, seed=seed * 65536 + i) for i in range(n)]
+                     word_bits=spec.word_bits, seed=seed * 65536 + i, bit_delay=skew[i])
+            for i in range(n)]
 
 
 def scene_untrained_lanes(spec, gains, seed=0, *, n_check=16, settle=8):

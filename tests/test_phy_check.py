@@ -99,3 +99,56 @@ def test_phy_check_error_row():
     row = phy_check(lv, lanes_of(lv, 1), "generic-not-a-phy", "icarus")
     assert row["status"].startswith("error: ")
     assert "| generic-not-a-phy | icarus | error" in "\n".join(phy_lines([row]))
+
+
+PINS = "scenes/ning2019_gmax0504_system_lanes_pins.toml"
+
+
+@pytest.mark.parametrize("phy", ["xilinx7", "ecp5"])
+def test_bundled_pins_scene(phy):
+    """The bundled board-like lanes (skew up to a whole word, eyes down to 11 taps, 60 ps of
+    jitter) from serial bits through each PHY: 0 mismatches, every lane at its predicted
+    tap, none in error; the skews span a word (lane 3 one word behind lane 0)."""
+    from tdicam.model import lvds
+    sc = load_scene(PINS).replace({"run.rtl.phy": phy})
+    lv = sc.sensor.lvds
+    assert (sc.run.rtl.phy, lv.skew_bits, min(lv.eye_width_taps), lv.jitter_ps) == \
+        (phy, (0, 5, 11, 12), 11.0, 60.0)
+    lanes = lanes_of(lv, 2)
+    ui = 1e6 / lv.bit_rate_mbps
+    assert lanes[3].skew_ps - lanes[0].skew_ps > (lv.word_bits - 1) * ui
+    row = phy_check(lv, lanes, phy, "icarus")
+    assert row["status"] == "ran", row
+    assert (row["mismatches"], row["taps_as_predicted"], row["lane_errors"],
+            row["problems"]) == (0, True, [], []), row
+    # the skew is felt: without it the same eyes train to other slips / deliver other words
+    link = lvds.Link(lanes, word_bits=lv.word_bits, train_word=lv.train_word)
+    delays = [lvds.train_lane(link, i, 0).word_delay for i in range(4)]
+    assert delays[3] != delays[0], delays
+
+
+@pytest.mark.parametrize("value, msg", [
+    (13, r"skew_bits.*13"),
+    ([0, 1, 2], r"skew_bits: must be one number or one per lane \(4"),
+    (1.5, r"skew_bits.*integer"),
+    (-1, r"skew_bits.*-1"),
+])
+def test_skew_bits_refused(value, msg):
+    """skew_bits: whole bits, 0 .. a word, one or one per lane; else one line naming it."""
+    with pytest.raises(TdicamError, match=msg) as e:
+        load_scene(PINS).replace({"sensor.lvds.skew_bits": value})
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: tdicam run of the bundled pins scene")
+def test_run_pins_scene(tmp_path):
+    """``tdicam run`` of the bundled pins scene: every tap of the chain's co-simulation
+    (generic PHY) and the lanes from serial bits (xilinx7) with 0 mismatches."""
+    from tdicam.run.runner import run_scene
+    rep = run_scene(load_scene(PINS), tmp_path, impact=False, progress=False)
+    rtl = rep["rtl"]
+    (row,) = rtl["phy_checks"]
+    assert (row["phy"], row["mismatches"], row["taps_as_predicted"], row["lane_errors"]) == \
+        ("xilinx7", 0, True, []), row
+    assert len(rtl["blocks"]) == 10 and all((b["status"], b["mismatches"]) == ("ran", 0)
+                                            for b in rtl["blocks"]), rtl["blocks"]

@@ -284,8 +284,8 @@ class TargetSpec:
 
 @dataclass(frozen=True)
 class Lvds:
-    """``[sensor.lvds]``: the sensor's serial lanes (see the module docstring). ``eye_*`` are
-    one value per lane; ``simulate`` is whether the link is simulated (an eye or jitter
+    """``[sensor.lvds]``: the sensor's serial lanes (see the module docstring). ``eye_*`` and
+    ``skew_bits`` are one value per lane (``skew_bits`` empty: 0 on every lane); ``simulate`` is whether the link is simulated (an eye or jitter
     given)."""
 
     lanes_per_gain: int
@@ -298,6 +298,7 @@ class Lvds:
     eye_width_taps: tuple
     jitter_ps: float
     simulate: bool
+    skew_bits: tuple = ()
     eye_status: bool = False
     drift_taps: tuple = ()
     drift_frames: int = 20

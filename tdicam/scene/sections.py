@@ -282,6 +282,12 @@ SENSOR_LVDS_KEYS = {
                              default="the whole bit (ideal)", range="[0, UI / tap_ps]"),
     "jitter_ps": KeyDoc("ps", "random capture band inside each eye edge; given: the "
                               "lanes' training is simulated", range="[0, UI]"),
+    "skew_bits": KeyDoc("bits", "whole bits each lane's data arrives after the eye centre's "
+                                "bit (board and sensor skew between lanes; up to a whole word: "
+                                "the receiver's bitslip and word deskew take it); given: the "
+                                "lanes' training is simulated",
+                        type="integer or list (one per lane)", default="0",
+                        range="0..word_bits"),
     "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
                              "chosen tap and slip, eye width) and checks every bit with "
                              "walking-1/0 patterns after lock; tdicam run reports them "
@@ -300,7 +306,8 @@ SENSOR_LVDS_KEYS = {
 
 def read_lvds(sec: Section, columns: int, bits: int, gains: int, rows: int) -> Lvds:
     sec.check_keys(("lanes_per_gain", "word_bits", "bit_rate_mbps", "mapping", "train_word",
-                    "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps", "eye_status",
+                    "tap_ps", "eye_centre_taps", "eye_width_taps", "jitter_ps", "skew_bits",
+                    "eye_status",
                     "drift_taps", "drift_frames", "tracking"))
     dflt = lvds_front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
@@ -326,22 +333,23 @@ def read_lvds(sec: Section, columns: int, bits: int, gains: int, rows: int) -> L
     tap = sec.number("tap_ps", PAPER_TAP_PS, lo=1.0, hi=1000.0)
     n = lanes * gains
 
-    def per_lane(key, default, lo, hi):
+    def per_lane(key, default, lo, hi, read=sec.number):
         v = sec.raw(key, default)
         vals = v if isinstance(v, list) else [v] * n
         if len(vals) != n:
             sec.fail(key, f"must be one number or one per lane ({n} = lanes_per_gain x "
                           f"{gains} gain(s)), got {len(vals)} values")
-        return tuple(sec.number(key, value=x, lo=lo, hi=hi,
-                                what=f"(entry {i} of the list)" if isinstance(v, list) else None)
+        return tuple(read(key, value=x, lo=lo, hi=hi,
+                          what=f"(entry {i} of the list)" if isinstance(v, list) else None)
                      for i, x in enumerate(vals))
     centre = per_lane("eye_centre_taps", 16.0, 0.0, float(N_TAPS - 1))
     width = per_lane("eye_width_taps", ui / tap, 0.0, ui / tap)
     jitter = sec.number("jitter_ps", 0.0, lo=0.0, hi=ui)
     return Lvds(lanes_per_gain=lanes, word_bits=wb, bit_rate_mbps=rate, mapping=mapping,
                 train_word=tw, tap_ps=tap, eye_centre_taps=centre, eye_width_taps=width,
-                jitter_ps=jitter, simulate=sec.has("eye_width_taps") or sec.has("jitter_ps")
-                or sec.has("drift_taps"),
+                jitter_ps=jitter, skew_bits=per_lane("skew_bits", 0, 0, wb, sec.integer),
+                simulate=sec.has("eye_width_taps") or sec.has("jitter_ps")
+                or sec.has("drift_taps") or sec.has("skew_bits"),
                 eye_status=sec.boolean("eye_status", False),
                 drift_taps=per_lane("drift_taps", 0.0, -float(N_TAPS - 1), float(N_TAPS - 1))
                 if sec.has("drift_taps") else (),
