@@ -238,9 +238,11 @@ class LvdsFront(wiring.Component):
     bits : int
         Pixel bits (<= ``word_bits``; the low bits of each word).
     columns : int
-        Frame width, a multiple of ``L`` (``P = columns / L`` pixel words a line).
+        Frame width, >= ``L``: ``P = ceil(columns / L)`` pixel words a line; the last word
+        clock of a line carries ``R = columns - (P - 1) L`` columns (lanes ``0 .. R - 1``;
+        the lanes above send padded slots, dropped: that entry gives ``R / ppc`` beats).
     ppc : int
-        Pixels per output beat; must divide ``L``.
+        Pixels per output beat; must divide ``L`` and ``R``.
     fifo_depth : int
         Entries of the crossing FIFO (power of two), from the two clock rates:
         :func:`tdicam.model.lvds_front.fifo_depth`,
@@ -320,13 +322,19 @@ class LvdsFront(wiring.Component):
         self._w = check_choice("word_bits", word_bits, (10, 12))
         self._bits = check_range("bits", bits, 1, word_bits)
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
-        if columns % L:
-            raise TdicamError(f"lanes_per_gain = {L} does not divide columns = {columns}")
+        from tdicam.model.lvds_front import last_word_columns, line_words
+        if columns < L:
+            raise TdicamError(f"lanes_per_gain = {L} is more lanes than columns = {columns}")
+        p = line_words(columns, L) - 2
+        self._rem = last_word_columns(columns, L)
         if L % ppc:
             raise TdicamError(f"ppc = {ppc} does not divide lanes_per_gain = {L}")
+        if self._rem % ppc:
+            raise TdicamError(f"ppc = {ppc} does not divide the {self._rem} columns of a "
+                              f"line's last word clock (columns = {columns} on {L} lanes)")
         if fifo_depth < 4 or fifo_depth & (fifo_depth - 1):
             raise TdicamError(f"fifo_depth = {fifo_depth} must be a power of two >= 4")
-        self._L, self._p, self._depth = L, columns // L, fifo_depth
+        self._L, self._p, self._depth = L, p, fifo_depth
         from tdicam.hdl.lvds_phy import PHYS
         self._phy = check_choice("phy", phy, tuple(PHYS))
         self._pairs = bool(pairs)
@@ -412,7 +420,8 @@ class LvdsFront(wiring.Component):
                 m.d.comb += getattr(self, name).eq(getattr(ws, name))
         m.d.comb += [cdc.w_data.eq(ws.w_data), cdc.w_en.eq(ws.w_en), ws.w_rdy.eq(cdc.w_rdy)]
 
-        # read side: one entry = L columns a channel -> L/ppc beats
+        # read side: one entry = L columns a channel -> L/ppc beats (a line's last entry
+        # with padded slots: rem/ppc)
         k = L // ppc
         beat = Signal(range(max(k, 2)))
         d = cdc.r_data
@@ -421,14 +430,19 @@ class LvdsFront(wiring.Component):
         beats = [Cat(*(pix[c * L + b * ppc + q] for q in range(ppc) for c in range(g)))
                  for b in range(k)]
         o = self.o_stream
+        if self._rem == L:
+            end = beat == k - 1
+        else:
+            end = Signal()
+            m.d.comb += end.eq(beat == Mux(last, self._rem // ppc - 1, k - 1))
         m.d.comb += [
             o.valid.eq(cdc.r_rdy),
             o.payload.data.eq(Array(beats)[beat] if k > 1 else beats[0]),
             o.payload.first.eq(first & (beat == 0)),
-            o.payload.last.eq(last & (beat == k - 1)),
+            o.payload.last.eq(last & end),
             self.frame_kind.eq(kind),
-            cdc.r_en.eq(o.ready & (beat == k - 1)),
+            cdc.r_en.eq(o.ready & end),
         ]
         with m.If(o.valid & o.ready):
-            m.d.sync += beat.eq(Mux(beat == k - 1, 0, beat + 1))
+            m.d.sync += beat.eq(Mux(end, 0, beat + 1))
         return m

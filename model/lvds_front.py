@@ -11,12 +11,17 @@ Lane-to-column convention (interleaved)
 ``L = lanes_per_gain`` lanes per gain channel; lane ``g*L + k`` (``g`` = 0 high gain, 1 low
 gain; ``k`` = 0..L-1) carries the columns ``k, k+L, k+2L, ...`` of channel ``g``: word ``j``
 of a line on lane ``k`` is column ``j*L + k``. One word clock therefore brings ``L``
-adjacent columns per channel (``columns`` must be a multiple of ``L``), which the front
-splits into beats of ``ppc`` pixels without a line buffer.
+adjacent columns per channel, which the front splits into beats of ``ppc`` pixels without a
+line buffer. Every lane sends ``P = ceil(columns / L)`` pixel words a line: when ``L`` does
+not divide ``columns`` (the GMAX0504's 5144 columns on 40 lanes: 128 words and 24
+columns over) the last word clock of a line carries ``columns - (P - 1) L`` columns, on
+lanes ``0 ..``, and the lanes above send a *padded slot* (the value 0, never a column):
+:func:`padded_slots`. The front drops the padded slots (its last entry of a line gives
+fewer beats).
 
 Line format (every lane, in the link model's data segments)
 -----------------------------------------------------------
-``[sync, header, pixel word 0, ..., pixel word P-1]`` with ``P = columns / L``:
+``[sync, header, pixel word 0, ..., pixel word P-1]`` with ``P = ceil(columns / L)``:
 ``line_words = P + 2``. ``sync`` is the link's sync word (all ones); ``header`` is the row
 index inside the frame (0 = the frame's first line) in its low ``word_bits - 1`` bits and the
 frame's *kind* in its top bit (1: a reset frame, the sensor's reset level read for off-chip
@@ -37,10 +42,10 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds
 
-__all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "check_geometry", "header_word", "wire_code",
+__all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "padded_slots", "last_word_columns", "check_geometry", "header_word", "wire_code",
            "lane_payload",
            "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
-           "data_words", "frames_from_lanes", "fifo_depth", "eye_lane", "scene_lanes",
+           "data_words", "frames_from_lanes", "min_proc_mhz", "fifo_depth", "eye_lane", "scene_lanes",
            "untrained_lanes", "lane_mask", "cut_frame", "lane_death"]
 
 #: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.
@@ -48,17 +53,37 @@ GMAX0504 = {"lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0}
 
 
 def line_words(columns, lanes_per_gain):
-    """Words of one line on every lane: sync, header, ``columns / lanes_per_gain`` pixels."""
-    return columns // lanes_per_gain + 2
+    """Words of one line on every lane: sync, header, ``ceil(columns / lanes_per_gain)``
+    pixel words (a lane with a column fewer pads its last slot)."""
+    return -(-int(columns) // int(lanes_per_gain)) + 2
+
+
+def padded_slots(columns, lanes_per_gain):
+    """Padded slots a line of a gain channel: ``P L - columns`` (``P`` pixel words a lane:
+    :func:`line_words` - 2), on lanes ``L - slots .. L - 1`` in their last word."""
+    return (line_words(columns, lanes_per_gain) - 2) * lanes_per_gain - int(columns)
+
+
+def last_word_columns(columns, lanes_per_gain):
+    """Columns the last word clock of a line carries (of a gain channel): ``columns - (P -
+    1) L``, 1..L (``L`` when ``L`` divides ``columns``: no padded slot)."""
+    return int(columns) - (line_words(columns, lanes_per_gain) - 3) * int(lanes_per_gain)
+
+
+def _padded(a, lanes_per_gain):
+    """``a`` (``(..., C)``) with :func:`padded_slots` zero columns on the right."""
+    a = np.asarray(a)
+    pad = padded_slots(a.shape[-1], lanes_per_gain)
+    return np.pad(a, [(0, 0)] * (a.ndim - 1) + [(0, pad)]) if pad else a
 
 
 def check_geometry(columns, rows, lanes_per_gain, word_bits, bits, *, key="lanes_per_gain"):
     """One-line :class:`TdicamError` unless the frame fits the line format (``key`` names
     the lane count as the caller's user wrote it)."""
     check_range(key, lanes_per_gain, 1, 128)
-    if columns % lanes_per_gain:
-        raise TdicamError(f"{key} = {lanes_per_gain} does not divide the {columns} columns "
-                          f"(lane k carries columns k, k+L, ...: every lane the same count)")
+    if columns < lanes_per_gain:
+        raise TdicamError(f"{key} = {lanes_per_gain} is more lanes than the {columns} columns "
+                          f"(lane k carries columns k, k+L, ...: every lane at least one)")
     if bits > word_bits:
         raise TdicamError(f"word_bits = {word_bits} is narrower than the {bits}-bit pixels")
     if rows >= (1 << (word_bits - 1)) - 2:
@@ -92,7 +117,8 @@ def lane_payload(frames, lanes_per_gain, word_bits, kinds=None):
         nf, nr, nc = a.shape
         check_geometry(nc, nr, L, word_bits, word_bits)
         kind = np.zeros(nf, np.int64) if kinds is None else np.asarray(kinds, np.int64)
-        p = nc // L
+        a = _padded(a, L)
+        p = line_words(nc, L) - 2
         words = np.empty((L, nf, nr, p + 2), np.int64)
         words[:, :, :, 0] = (1 << word_bits) - 1
         words[:, :, :, 1] = header_word(np.arange(nr)[None, :], kind[:, None],
@@ -104,7 +130,7 @@ def lane_payload(frames, lanes_per_gain, word_bits, kinds=None):
 
 def blank_line(columns, lanes_per_gain, word_bits):
     """The words of a blank line (the same on every lane): sync, header ``2**W - 2``, 0s."""
-    words = np.zeros(columns // lanes_per_gain + 2, np.int64)
+    words = np.zeros(line_words(columns, lanes_per_gain), np.int64)
     words[:2] = (1 << word_bits) - 1, (1 << word_bits) - 2
     return words
 
@@ -164,12 +190,13 @@ def data_words(link, lane_index):
     return np.concatenate(out) if out else np.zeros(0, np.int64)
 
 
-def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
+def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=(), columns=None):
     """The golden front on the lanes' words: ``words`` one int64 array per lane (high-gain
     lanes first; each its data-segment words, e.g. :func:`data_words`), cut into lines
     ``[sync, header, P pixels]``; a frame is ``rows`` lines from a header-0 line (blank
     lines and lines outside a frame are skipped); the pixels of lane ``g L + k`` go to
-    columns ``k, k+L, ...`` of channel ``g``. Lanes ``bad_lanes`` (not trained) read 0.
+    columns ``k, k+L, ...`` of channel ``g``, the first ``columns`` kept (None: ``P L``;
+    the rest are padded slots). Lanes ``bad_lanes`` (not trained) read 0.
 
     Returns ``(pixels (G, F, R, C) int64, invalid (G, C) bool)``; a line format violation
     (no sync where a line starts, lanes disagreeing on a header) is a :class:`TdicamError`.
@@ -213,8 +240,22 @@ def frames_from_lanes(words, lanes_per_gain, rows, word_bits, bad_lanes=()):
             k += rows
         else:
             k += 1
-    px = np.stack(frames, axis=1) if frames else np.zeros((g, 0, rows, p * L), np.int64)
-    return px, invalid_columns(bad_lanes, p * L, L, g), np.asarray(kinds, np.int64)
+    c = p * L if columns is None else int(columns)
+    if not (p - 1) * L < c <= p * L:
+        raise TdicamError(f"lines of {p} pixel words on {L} lanes carry {(p - 1) * L + 1} to "
+                          f"{p * L} columns, not {c}")
+    px = np.stack(frames, axis=1)[..., :c] if frames else np.zeros((g, 0, rows, c), np.int64)
+    return px, invalid_columns(bad_lanes, c, L, g), np.asarray(kinds, np.int64)
+
+
+def min_proc_mhz(lanes_per_gain, ppc, columns, word_mhz):
+    """The slowest processing clock (MHz) that takes a line of ``columns`` at ``ppc`` from
+    the lanes' ``word_mhz`` word clock: its ``columns / ppc`` beats in the line's ``P + 2``
+    word clocks (:func:`line_words`), ``word_mhz columns / ((P + 2) ppc)``."""
+    L, p = lanes_per_gain, line_words(columns, lanes_per_gain) - 2
+    if L * p == columns:        # written as ever: the FIFO depths of lanes that divide
+        return word_mhz * L * p / ((p + 2) * ppc)
+    return word_mhz * columns / ((p + 2) * ppc)
 
 
 def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
@@ -222,11 +263,13 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
     """Words of the front's clock-domain-crossing FIFO (a power of two, >= 8).
 
     A FIFO entry is one word clock's words of every lane (``L`` columns per channel); the
-    processing clock takes ``L / ppc`` clocks to send an entry on. Entries arrive in bursts
-    of ``P = columns / L`` words a line (then 2 words of sync and header), at the word rate
-    ``f_w``; they leave at ``r = f_p ppc / L`` entries a second. The front keeps up when
-    ``r >= f_w P / (P + 2)`` (else a one-line :class:`TdicamError`); during a line's burst
-    the FIFO grows by at most ``P (1 - r / f_w)`` entries.
+    processing clock takes ``L / ppc`` clocks to send an entry on (a line's last entry with
+    padded slots fewer). Entries arrive in bursts of ``P = ceil(columns / L)`` words a line
+    (then 2 words of sync and header), at the word rate ``f_w``; they leave at ``r = f_p ppc
+    / L`` entries a second. The front keeps up when its ``columns / ppc`` clocks a line take
+    no longer than the line's ``P + 2`` word clocks, ``f_p ppc (P + 2) >= f_w columns``
+    (else a one-line :class:`TdicamError`); during a line's burst the FIFO grows by at most
+    ``P (1 - r / f_w)`` entries.
 
     The front has no backpressure (the sensor sets the pace): a block behind it that
     holds the stream -- ``stall_cycles`` processing clocks at once, the DDR model's worst
@@ -244,12 +287,12 @@ def fifo_depth(lanes_per_gain, ppc, columns, word_mhz, proc_mhz, *, slack=8,
     reset/signal pair spare the stall's entries (e.g. ``r = f_w``: 2 entries a line, a
     104-clock stall at ``f_p = 4 f_w`` is 26 entries: ``R >= 7`` rows).
     """
-    L, p = lanes_per_gain, columns // lanes_per_gain
+    L, p = lanes_per_gain, line_words(columns, lanes_per_gain) - 2
     ratio = proc_mhz * ppc / (L * word_mhz)
-    if ratio * (p + 2) < p * (1 - 1e-9):
+    slowest = min_proc_mhz(L, ppc, columns, word_mhz)
+    if proc_mhz < slowest * (1 - 1e-9):
         raise TdicamError(f"the processing clock ({proc_mhz:g} MHz x {ppc} pixels) cannot take "
-                          f"{L} lanes at {word_mhz:g} M words/s: needs >= "
-                          f"{word_mhz * L * p / ((p + 2) * ppc):.4g} MHz")
+                          f"{L} lanes at {word_mhz:g} M words/s: needs >= {slowest:.4g} MHz")
     need = int(np.ceil(p * max(0.0, 1.0 - ratio))) + slack \
         + int(np.ceil(stall_cycles * word_mhz / proc_mhz - 1e-9))
     return max(8, 1 << (need - 1).bit_length())
@@ -309,7 +352,7 @@ def cut_frame(healthy, observed, lanes_per_gain, lane, died):
 
     ``healthy``: the frame as the front would deliver it with the lane alive (wire codes,
     untrained lanes 0); ``observed``: what it delivered; ``lane`` died at pixel word
-    ``died`` (``r P + j``: row ``r``, word ``j`` of the ``P = C / L`` a line). Up to the
+    ``died`` (``r P + j``: row ``r``, word ``j`` of the ``P = ceil(C / L)`` a line). Up to the
     death every word is the healthy one; from the death until the front sees the loss (its
     lane monitor, at a line's sync word) the dead lane's words are what its deserializer
     made of a dead line (taken from ``observed``: invalid, and the frame is flagged); from
@@ -318,18 +361,19 @@ def cut_frame(healthy, observed, lanes_per_gain, lane, died):
     """
     L = lanes_per_gain
     g_n, r_n, c_n = np.shape(healthy)
-    p = c_n // L
+    p = line_words(c_n, L) - 2
 
     def words(a):           # (R P, G, L): word r P + j of every lane of every gain
-        return np.asarray(a, np.int64).reshape(g_n, r_n, p, L).transpose(1, 2, 0, 3) \
-            .reshape(r_n * p, g_n, L)
+        return _padded(np.asarray(a, np.int64), L).reshape(g_n, r_n, p, L) \
+            .transpose(1, 2, 0, 3).reshape(r_n * p, g_n, L)
     obs, exp = words(observed), words(healthy).copy()
     nz = np.flatnonzero(obs.reshape(r_n * p, -1).any(axis=1))
     fill = max(int(nz[-1]) + 1 if len(nz) else 0, int(died))
     g, k = divmod(int(lane), L)
     exp[died:fill, g, k] = obs[died:fill, g, k]
     exp[fill:] = 0
-    return exp.reshape(r_n, p, g_n, L).transpose(2, 0, 1, 3).reshape(g_n, r_n, c_n), fill
+    return exp.reshape(r_n, p, g_n, L).transpose(2, 0, 1, 3).reshape(g_n, r_n, p * L)[
+        ..., :c_n], fill
 
 
 def lane_death(frames, lanes_per_gain, word_bits, *, bad_lanes, lane, frame, cut, kinds=None,

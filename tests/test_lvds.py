@@ -389,7 +389,10 @@ def test_block_registry_params():
     assert isinstance(_quiet(front), LvdsFront)
     front._rx._MustUse__silence = True
     for bad, match in (({"lanes_per_gain": 3}, "--lanes = 8 must be --lanes-per-gain = 3"),
-                       ({"lanes_per_gain": 4, "columns": 18}, "--columns = 18 must be a"),
+                       ({"lanes_per_gain": 4, "columns": 3}, "--columns = 3 must be at least "
+                                                              "--lanes-per-gain = 4"),
+                       ({"lanes_per_gain": 4, "columns": 17, "ppc": 2},
+                        "--ppc = 2 does not divide the 1 columns of a line's last word clock"),
                        ({"lanes_per_gain": 4, "columns": 16, "ppc": 8},
                         "--ppc = 8 does not divide --lanes-per-gain = 4")):
         with pytest.raises(TdicamError, match=match):

@@ -85,11 +85,72 @@ def test_fifo_depth_from_the_rates():
         lvds_front.fifo_depth(40, 8, 5120, 25.0, 120.0)                # below P / (P + 2)
     with pytest.raises(TdicamError, match="needs >= 33.33 MHz"):
         lvds_front.fifo_depth(4, 2, 16, 25.0, 33.0)
-    with pytest.raises(TdicamError, match="does not divide the 18 columns"):
-        lvds_front.check_geometry(18, 4, 4, 12, 12)
+    with pytest.raises(TdicamError, match="is more lanes than the 3 columns"):
+        lvds_front.check_geometry(3, 4, 4, 12, 12)
+    lvds_front.check_geometry(18, 4, 4, 12, 12)         # padded: 5 words a lane, 2 slots
     with pytest.raises(TdicamError, match="its top bit the frame kind\\) counts to 2045"):
         lvds_front.check_geometry(16, 2046, 4, 12, 12)
     lvds_front.check_geometry(16, 2045, 4, 12, 12)
+
+
+def test_padded_last_word_clock():
+    """Lanes that do not divide the columns: every lane sends P = ceil(C / L) words a line,
+    the lanes above the last word clock's R = C - (P - 1) L columns a padded slot (0); the
+    golden front drops them. The GMAX0504's 5144 columns on 40 lanes: 129 words, 24
+    columns in the last word clock, 16 padded slots a gain, 131 words a line."""
+    assert (lvds_front.line_words(5144, 40), lvds_front.last_word_columns(5144, 40),
+            lvds_front.padded_slots(5144, 40)) == (131, 24, 16)
+    assert (lvds_front.line_words(16, 4), lvds_front.last_word_columns(16, 4),
+            lvds_front.padded_slots(16, 4)) == (6, 4, 0)
+    frames = _frames(2, 5)
+    fr = [f[..., :14] for f in frames]                  # 14 columns on 4 lanes: 4 words, R 2
+    pay = lvds_front.lane_payload(fr, L, 12)
+    lw = lvds_front.line_words(14, L)
+    assert lw == 6 and all(len(w) == 2 * R * lw for w in pay)
+    for i, w in enumerate(pay):
+        line = w[:lw]
+        g, k = divmod(i, L)
+        want = lvds_front.wire_code(fr[g][0, 0, k::L], 12)
+        assert np.array_equal(line[2:2 + len(want)], want)
+        assert (len(want), line[-1] if len(want) < lw - 2 else None) == \
+            ((4, None) if k < 2 else (3, 0))            # lanes 2, 3 pad their last slot
+    link = Link(_lanes(), word_bits=12, schedule=((0, "data"),), payload=pay, line_words=lw)
+    words = [lvds_front.data_words(link, i) for i in range(G * L)]
+    px, inv, _ = lvds_front.frames_from_lanes(words, L, R, 12, (), columns=14)
+    assert px.shape == (G, 2, R, 14) and inv.shape == (G, 14)
+    assert np.array_equal(px, np.stack([lvds_front.wire_code(f, 12) for f in fr]))
+    with pytest.raises(TdicamError, match="carry 13 to 16 columns, not 12"):
+        lvds_front.frames_from_lanes(words, L, R, 12, (), columns=12)
+    # the processing side needs C / ppc clocks a line in its P + 2 word clocks
+    assert lvds_front.min_proc_mhz(40, 8, 5144, 25.0) == pytest.approx(25 * 5144 / 131 / 8)
+    assert lvds_front.min_proc_mhz(4, 2, 16, 25.0) == 25.0 * 16 / 6 / 2
+
+
+@pytest.mark.parametrize("columns, ppc", [(14, 2), (13, 1), (10, 2)])
+def test_padded_front_in_amaranth(columns, ppc):
+    """The gateware front with a padded last word clock: every frame whole and exact (the
+    golden front's, i.e. the sent wire codes), ``last`` on each line's last real column,
+    no padded slot in the stream; at ppc 2 with backpressure."""
+    from tdicam.hdl.lvds_front import LvdsFront
+    fr = [f[..., :columns] for f in _frames(3, 9)]
+    case = FrontCase(fr, _lanes(), L, ppc=ppc, word_ns=40.0, proc_ns=10.0, ready=0.7)
+    dut = LvdsFront(lanes_per_gain=L, gains=G, word_bits=12, bits=12, columns=columns,
+                    ppc=ppc, fifo_depth=case.fifo_depth, settle=case.settle)
+    res = run_amaranth(case, dut=dut)
+    got = frames_of(res["beats"], R, columns, ppc, G)
+    assert np.array_equal(got, np.stack([lvds_front.wire_code(f, 12) for f in fr])), got.shape
+    lasts = [i for i, (_f, last, _e) in enumerate(res["beats"]) if last]
+    assert np.array_equal(np.diff([-1] + lasts), [columns // ppc] * (3 * R))
+
+
+def test_padded_front_refuses_a_last_word_clock_ppc_does_not_divide():
+    """ppc must divide the last word clock's columns too: one line naming both."""
+    from tdicam.hdl.lvds_front import LvdsFront
+    with pytest.raises(TdicamError, match=r"ppc = 2 does not divide the 1 columns of a line's "
+                                          r"last word clock \(columns = 13 on 4 lanes\)"):
+        LvdsFront(lanes_per_gain=4, gains=2, columns=13, ppc=2)
+    with pytest.raises(TdicamError, match="more lanes than columns = 3"):
+        LvdsFront(lanes_per_gain=4, gains=2, columns=3, ppc=1)
 
 
 # ---------------------------------------------------------------- gateware, two clocks
@@ -195,7 +256,7 @@ def _scene(lvds=None, **sensor):
 
 
 @pytest.mark.parametrize("lvds,match", [
-    ({"lanes_per_gain": 3}, r"\[sensor.lvds\].lanes_per_gain: 3 does not divide"),
+    ({"lanes_per_gain": 17}, r"\[sensor.lvds\].lanes_per_gain: 17 is more lanes than \[sensor\].columns = 16"),
     ({"word_bits": 10}, r"\[sensor.lvds\].word_bits: 10 is narrower than the 12-bit"),
     ({"train_word": 0x555}, r"\[sensor.lvds\].train_word: 0x555 repeats under rotation"),
     ({"eye_width_taps": [10, 12]}, r"eye_width_taps: must be one number or one per lane \(8"),
@@ -281,10 +342,12 @@ def test_plan_puts_the_front_first_and_the_top_takes_lanes():
     plain = design.chain_plan(_chain_scene(lvds=False))
     assert [s.block for s in plain.steps] == ["hdr", "tdi"]
     assert "s_axis_tdata" in _inspected(design.top(plain)).signature.members
+    padded = design.chain_plan(_chain_scene(), width=18, ppc=2)   # 5 words a lane, 2 padded
+    assert padded.steps[0].params["columns"] == 18
     with pytest.raises(TdicamError, match=r"lvds \(the chain's source\): \[sensor.lvds\]"
-                                          r".lanes_per_gain = 4 does not divide"):
-        sc = _chain_scene()
-        design.chain_plan(sc, width=18, ppc=2)
+                                          r".lanes_per_gain = 4 is more lanes than the 3 "
+                                          r"columns"):
+        design.chain_plan(_chain_scene(), width=3, ppc=1)
 
 
 def test_pipeline_from_lanes_to_tdi_output_is_bit_exact():
@@ -371,3 +434,52 @@ def test_front_publishes_the_eyes_the_golden_model_predicts(tmp_path):
         assert e["tap"] == e["golden"]["tap"] and sum(e["taps"]) >= e["eye_taps_found"]
     eye_figure(eyes, tmp_path / "eyes.png")
     assert (tmp_path / "eyes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# ---------------------------------------------------------------- property: every geometry
+FULL = __import__("os").environ.get("TDICAM_FULL") == "1"
+
+
+def _front_geometry(data):
+    """A legal front geometry: lanes a gain, gains, ppc dividing the lanes, a width >= the
+    lanes and a multiple of ppc (so the last, maybe padded, word clock is one too)."""
+    from hypothesis import strategies as st
+    lpg = data.draw(st.sampled_from([1, 2, 4, 8]), "lanes_per_gain")
+    ppc = data.draw(st.sampled_from([p for p in (1, 2, 4, 8) if lpg % p == 0]), "ppc")
+    cols = data.draw(st.sampled_from([c for c in range(lpg, 3 * lpg + 1) if c % ppc == 0
+                                      and c >= 2 * ppc]), "columns")
+    gains = data.draw(st.sampled_from([1, 2]), "gains")
+    rows = data.draw(st.integers(1, 3), "rows")
+    return lpg, ppc, cols, gains, rows
+
+
+def test_front_equals_golden_over_its_geometries():
+    """Hypothesis: any legal geometry (padded or not, 1 or 2 gains, ppc 1..8), random
+    frames, lanes with whole-word delays, backpressure: the Amaranth front delivers the
+    golden front's frames (:func:`tdicam.model.lvds_front.frames_from_lanes`) exactly."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from tdicam.hdl.lvds_front import LvdsFront
+
+    def check_one(data):
+        lpg, ppc, cols, gains, rows = _front_geometry(data)
+        seed = data.draw(st.integers(0, 2**16), "seed")
+        rng = np.random.default_rng(seed)
+        fr = [rng.integers(0, 1 << 12, (2, rows, cols)) for _ in range(gains)]
+        lanes = [lvds_front.eye_lane(float(rng.uniform(9, 22)), float(rng.uniform(12, 20)),
+                                     word_delay=int(rng.integers(0, 2)), seed=i)
+                 for i in range(lpg * gains)]
+        case = FrontCase(fr, lanes, lpg, ppc=ppc, word_ns=40.0 * ppc / 2, proc_ns=10.0,
+                         ready=data.draw(st.sampled_from([1.0, 0.6]), "ready"))
+        dut = LvdsFront(lanes_per_gain=lpg, gains=gains, word_bits=12, bits=12, columns=cols,
+                        ppc=ppc, fifo_depth=case.fifo_depth, settle=case.settle)
+        res = run_amaranth(case, dut=dut)
+        words = [lvds_front.data_words(case.link, i) for i in range(lpg * gains)]
+        exp = lvds_front.frames_from_lanes(words, lpg, rows, 12, (), cols)[0]
+        got = frames_of(res["beats"], rows, cols, ppc, gains)
+        assert np.array_equal(got, exp), (lpg, ppc, cols, gains, rows)
+        assert np.array_equal(exp, np.stack([lvds_front.wire_code(f, 12) for f in fr]))
+    settings(max_examples=40 if FULL else 6, deadline=None, derandomize=not FULL,
+             database=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow])(
+        given(data=st.data())(check_one))()

@@ -39,8 +39,8 @@ SCENES = [
     (_text("lanes_per_gain = true\n"), LV + "lanes_per_gain: must be an integer, got true"),
     (_text("lanes_per_gain = nan\n"), LV + "lanes_per_gain: must be an integer, got nan"),
     (_text("lanes_per_gain = [4]\n"), LV + "lanes_per_gain: must be an integer, got [4]"),
-    (_text(""), LV + "lanes_per_gain: 40 (the default, the GMAX0504's; give it) does not "
-                     "divide [sensor].columns = 16"),
+    (_text(""), LV + "lanes_per_gain: 40 (the default, the GMAX0504's; give it) is more "
+                     "lanes than [sensor].columns = 16"),
     (_text(LANES + "word_bits = 11\n"), LV + "word_bits: must be 10 or 12, got 11"),
     (_text(LANES + "word_bits = 12.0\n"), LV + "word_bits: must be an integer, got 12.0"),
     (_text(LANES + "word_bits = 10\n"), LV + "word_bits: 10 is narrower than the 12-bit"),

@@ -41,7 +41,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from tdicam.model import ddr as _ddr, ddr_efficiency as _ddr_efficiency
-from tdicam.model import nand_store, tlk2711
+from tdicam.model import lvds_front, nand_store, tlk2711
 from tdicam.beats import PPC_CHOICES
 
 __all__ = ["KEYS", "NUC_PLACES", "Camera", "lane_words_per_line", "lane_figures",
@@ -101,8 +101,9 @@ class Camera:
 
 def lane_words_per_line(columns, lanes_per_gain):
     """Words a lane sends a line: ``ceil(columns / lanes_per_gain)`` pixel words (a lane
-    with one column fewer pads its last slot) plus the sync and header words."""
-    return -(-int(columns) // int(lanes_per_gain)) + 2
+    with one column fewer pads its last slot) plus the sync and header words
+    (:func:`tdicam.model.lvds_front.line_words`)."""
+    return lvds_front.line_words(columns, lanes_per_gain)
 
 
 def lane_figures(columns, rows, frames_per_s, lanes_per_gain, gains, word_bits, bit_rate_bps):

@@ -62,11 +62,16 @@ def _check(p):
         if p["lanes"] not in (lpg, 2 * lpg):
             raise TdicamError(f"--lanes = {p['lanes']} must be --lanes-per-gain = {lpg} or "
                               f"twice it (one or two gain channels)")
-        if not p["columns"] or p["columns"] % lpg:
-            raise TdicamError(f"--columns = {p['columns']} must be a positive multiple of "
-                              f"--lanes-per-gain = {lpg}")
+        if p["columns"] < lpg:
+            raise TdicamError(f"--columns = {p['columns']} must be at least --lanes-per-gain "
+                              f"= {lpg} (every lane carries a column)")
         if lpg % p["ppc"]:
             raise TdicamError(f"--ppc = {p['ppc']} does not divide --lanes-per-gain = {lpg}")
+        rem = lvds_front.last_word_columns(p["columns"], lpg)
+        if rem % p["ppc"]:
+            raise TdicamError(f"--ppc = {p['ppc']} does not divide the {rem} columns of a "
+                              f"line's last word clock (--columns = {p['columns']} on "
+                              f"--lanes-per-gain = {lpg}; the lanes above pad that slot)")
         if p["bits"] > p["word_bits"]:
             raise TdicamError(f"--bits = {p['bits']} exceeds --word-bits = {p['word_bits']}")
 
@@ -248,12 +253,13 @@ def _front_step(ctx):
     lpg, w = lv.lanes_per_gain, lv.word_bits
     lvds_front.check_geometry(ctx.width, ctx.m, lpg, w, ctx.bits,
                               key="[sensor.lvds].lanes_per_gain")
-    if lpg % ctx.ppc:                   # a word clock brings lpg columns of each channel
+    # a word clock brings lpg columns of each channel (the width a multiple of ppc too, so
+    # a line's last, padded word clock brings a multiple of ppc: lvds_front.last_word_columns)
+    if lpg % ctx.ppc:
         raise TdicamError(f"pixels per clock (--ppc or [run.rtl].pixels_per_clock) = "
                           f"{ctx.ppc} does not divide [sensor.lvds].lanes_per_gain = {lpg}")
     word_mhz = lv.bit_rate_mbps / w
-    p = ctx.width // lpg
-    slowest = word_mhz * lpg * p / ((p + 2) * ctx.ppc)
+    slowest = lvds_front.min_proc_mhz(lpg, ctx.ppc, ctx.width, word_mhz)
     if lpg * ctx.lanes > MAX_LANES:
         raise TdicamError(f"[sensor.lvds].lanes_per_gain = {lpg} on {ctx.lanes} gains is "
                           f"{lpg * ctx.lanes} lanes; the front end takes at most {MAX_LANES} "
@@ -405,8 +411,7 @@ def _fifo_row(step, prm, lv, ctx):
     from tdicam.model.dram import worst_stall
     lpg, w, ppc = prm["lanes_per_gain"], prm["word_bits"], prm["ppc"]
     word_mhz = lv.bit_rate_mbps / w
-    p = prm["columns"] // lpg
-    slowest = word_mhz * lpg * p / ((p + 2) * ppc)
+    slowest = lvds_front.min_proc_mhz(lpg, ppc, prm["columns"], word_mhz)
     bare = lvds_front.fifo_depth(lpg, ppc, prm["columns"], word_mhz, slowest)
     depth = prm["fifo_depth"]
     scene = ctx["scene"]
@@ -446,7 +451,8 @@ BLOCK = Block(
               "wrapper; ecp5: DELAYF/IDDRX2F wrapper", choices=tuple(PHYS), type=str),
         Param("lanes_per_gain", 0, "> 0: the camera's front end (lanes -> pixel stream), "
               "lanes per gain channel", lo=0, hi=64, implicit_default=True),
-        Param("columns", 0, "front end: frame width (a multiple of lanes_per_gain)", lo=0,
+        Param("columns", 0, "front end: frame width (>= lanes_per_gain; a last partial word "
+              "clock padded)", lo=0,
               hi=65536, implicit_default=True),
         Param("bits", 12, "front end: pixel bits (<= word_bits)", lo=1, hi=12,
               implicit_default=True),

@@ -840,7 +840,7 @@ def _delivered(p, data, got, front, dies):
         else:
             observed = np.stack([a[f] for a in seen]).astype(np.int64)
         cut, fill = lvds_front.cut_frame(healthy, observed, L, lane, front["died_word"])
-        if fill > front["died_word"] + 2 * (p.width // L + 2):
+        if fill > front["died_word"] + 2 * lvds_front.line_words(p.width, L):
             rep["problems"].append(f"frame {f}: filled from word {fill}, more than two "
                                    f"lines after lane {lane} died (word "
                                    f"{front['died_word']})")

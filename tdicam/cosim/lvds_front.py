@@ -71,8 +71,9 @@ class FrontCase:
     def __post_init__(self):
         L, w = self.lanes_per_gain, self.word_bits
         nf, nr, nc = np.asarray(self.frames[0]).shape
-        self.p = nc // L
-        lw = self.p + 2
+        self.columns = nc
+        lw = lvds_front.line_words(nc, L)
+        self.p = lw - 2
         tw = lvds.training_words(w, self.n_check, self.settle)
         segs = self.segments or (nf,)
         if sum(segs) != nf:
@@ -99,7 +100,7 @@ class FrontCase:
 
     @property
     def fifo_depth(self):
-        return lvds_front.fifo_depth(self.lanes_per_gain, self.ppc, self.p * self.lanes_per_gain,
+        return lvds_front.fifo_depth(self.lanes_per_gain, self.ppc, self.columns,
                                      1e3 / self.word_ns, 1e3 / self.proc_ns)
 
     def golden_run(self):
@@ -226,7 +227,7 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     nr = np.asarray(case.frames[0]).shape[1]
     if dut is None:
         dut = LvdsFront(lanes_per_gain=L, gains=g, word_bits=w, bits=bits,
-                        columns=case.p * L, ppc=ppc, fifo_depth=case.fifo_depth,
+                        columns=case.columns, ppc=ppc, fifo_depth=case.fifo_depth,
                         settle=case.settle, eye=case.walk, track=case.track)
     n_out = ppc * g if elems is None else elems
 
@@ -304,11 +305,13 @@ SCENARIOS = tuple(CLOCKS)
 NARROW_LANE, DYING_LANE = 5, 2
 
 
-def scenario_frames(nf, seed, bits=12):
-    """``nf`` random frames per gain; the first pixel at full scale (sent as one less)."""
+def scenario_frames(nf, seed, bits=12, columns=None):
+    """``nf`` random frames per gain (``columns`` wide, None: :data:`GEOMETRY`'s); the first
+    pixel at full scale (sent as one less)."""
     rng = np.random.default_rng(seed)
     g = GEOMETRY
-    fr = [rng.integers(0, 1 << bits, (nf, g["rows"], g["columns"])) for _ in range(g["gains"])]
+    c = g["columns"] if columns is None else int(columns)
+    fr = [rng.integers(0, 1 << bits, (nf, g["rows"], c)) for _ in range(g["gains"])]
     fr[0][0, 0, 0] = (1 << bits) - 1
     return fr
 
@@ -326,23 +329,25 @@ def cds_kinds(nf):
     return tuple(int(f % 2 == 0) for f in range(nf))
 
 
-def scenario(name, *, ppc=2):
+def scenario(name, *, ppc=2, columns=None):
     """The :class:`FrontCase` of scenario ``name`` (:data:`SCENARIOS`); at ``ppc`` other
     than 2 the word clock period scales by ``2 / ppc`` (the same rate ratio ``r``). The
-    sensor sends reset and signal frames in turn (:func:`cds_kinds`)."""
+    sensor sends reset and signal frames in turn (:func:`cds_kinds`). ``columns``: the
+    frames' width (None: :data:`GEOMETRY`'s; one the lanes do not divide pads the last word
+    clock of each line)."""
     word_ns, proc_ns, ready = CLOCKS[name]
     kw = dict(ppc=ppc, word_ns=word_ns * 2 / ppc, proc_ns=proc_ns, ready=ready)
     kw["kinds"] = cds_kinds(8 if name == "lane_dies" else 5 if name.startswith("cdc") else 4)
     L = GEOMETRY["lanes_per_gain"]
     if name.startswith("cdc"):
-        return FrontCase(scenario_frames(5, 3), scenario_lanes(), L, **kw)
+        return FrontCase(scenario_frames(5, 3, columns=columns), scenario_lanes(), L, **kw)
     if name == "narrow_eye":
         spec = list(GOOD_LANES)
         spec[NARROW_LANE] = (12, 6, 0)            # 6 taps: no run of 9, cannot train
-        return FrontCase(scenario_frames(4, 4), scenario_lanes(spec), L, **kw)
+        return FrontCase(scenario_frames(4, 4, columns=columns), scenario_lanes(spec), L, **kw)
     # lane_dies: the lane dies in the middle of frame 2 of a first segment of 5 frames; the
     # sensor controller retrains after it, 3 frames follow
-    frames = scenario_frames(8, 5)
+    frames = scenario_frames(8, 5, columns=columns)
     probe = FrontCase(frames, scenario_lanes(), L, segments=(5, 3))
     lw = probe.p + 2
     die_at = probe.segment_starts[0] + int(2.5 * GEOMETRY["rows"] * lw)
@@ -373,7 +378,7 @@ def check(name, case, res):
       found dead) frames 5..7 exact with lane 2 invalid; two lane errors counted.
     """
     g = GEOMETRY
-    G, L, C, R = g["gains"], g["lanes_per_gain"], g["columns"], g["rows"]
+    G, L, C, R = g["gains"], g["lanes_per_gain"], case.columns, g["rows"]
     n = G * L
     st, out = res["status"], []
     try:
@@ -396,7 +401,7 @@ def check(name, case, res):
     lane_words = [lvds_front.data_words(case.link, i) for i in range(n)]
 
     def expected(bad):      # the golden front on the lanes' words
-        return lvds_front.frames_from_lanes(lane_words, L, R, case.word_bits, bad)[0]
+        return lvds_front.frames_from_lanes(lane_words, L, R, case.word_bits, bad, C)[0]
     kinds = lvds_front.frames_from_lanes(lane_words, L, R, case.word_bits)[2]
     if name.startswith("cdc"):
         same("frames", got, expected([]))
@@ -430,11 +435,12 @@ def check(name, case, res):
     return out
 
 
-def run_cocotb(names, sim, *, ppc=2, keep=False):
+def run_cocotb(names, sim, *, ppc=2, columns=None, keep=False):
     """Co-simulate scenarios ``names`` on the generated front (module ``lvds_front``, one
-    build per simulator and ``ppc``, every scenario in one simulator run) with cocotb
-    (:mod:`tdicam.simtb.lvds_front_tb`). Returns ``(cases, results, wall seconds, build
-    seconds)``, the results shaped like :func:`run_amaranth`'s."""
+    build per simulator, ``ppc`` and ``columns``, every scenario in one simulator run) with
+    cocotb (:mod:`tdicam.simtb.lvds_front_tb`); ``columns``: the frames' width
+    (:func:`scenario`). Returns ``(cases, results, wall seconds, build seconds)``, the
+    results shaped like :func:`run_amaranth`'s."""
     import json
     import os
     import shutil
@@ -446,7 +452,8 @@ def run_cocotb(names, sim, *, ppc=2, keep=False):
     from tdicam.hw.verilog import convert
     g = GEOMETRY
     params = dict(lanes_per_gain=g["lanes_per_gain"], gains=g["gains"], word_bits=12,
-                  bits=12, columns=g["columns"], ppc=ppc, fifo_depth=16, settle=4)
+                  bits=12, columns=g["columns"] if columns is None else int(columns), ppc=ppc,
+                  fifo_depth=16, settle=4)
     dut = convert(LvdsFront(**params), "lvds_front")
     bdir, build_s = build_sources("lvds_front", params, sim, {"lvds_front.v": dut},
                                   top="lvds_front")
@@ -454,7 +461,7 @@ def run_cocotb(names, sim, *, ppc=2, keep=False):
     rundir.mkdir(parents=True)
     cases, job = [], {"scenarios": []}
     for k, name in enumerate(names):
-        case = scenario(name, ppc=ppc)
+        case = scenario(name, ppc=ppc, columns=columns)
         cases.append(case)
         np.save(rundir / f"raw_{k}.npy", raw_table(case.link, case.cycles).astype(np.int32))
         job["scenarios"].append({

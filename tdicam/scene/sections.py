@@ -261,10 +261,11 @@ def read_sensor(sec: Section) -> Sensor:
 
 #: ``[sensor.lvds]``: unit and meaning of every key (:class:`tdicam.blocks.KeyDoc`).
 SENSOR_LVDS_KEYS = {
-    "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel; must divide "
-                                      "[sensor].columns; the front end takes at most 128 "
-                                      "lanes in all the gains it merges (64 a gain with "
-                                      "hdr)"),
+    "lanes_per_gain": KeyDoc("lanes", "lanes per gain channel (<= [sensor].columns); "
+                                      "each lane sends ceil(columns / lanes) words a line, "
+                                      "a lane with a column fewer a padded last slot; the "
+                                      "front end takes at most 128 lanes in all the gains "
+                                      "it merges (64 a gain with hdr)"),
     "word_bits": KeyDoc("bits", "bits per word (>= [sensor].bits)", range="10, 12"),
     "bit_rate_mbps": KeyDoc("Mbit/s", "bit rate of each lane"),
     "mapping": KeyDoc("", "lane-to-column mapping: lane k carries columns k, k+L, ..."),
@@ -311,9 +312,9 @@ def read_lvds(sec: Section, columns: int, bits: int, gains: int, rows: int) -> L
                     "drift_taps", "drift_frames", "tracking"))
     dflt = lvds_front.GMAX0504
     lanes = sec.integer("lanes_per_gain", dflt["lanes_per_gain"], lo=1, hi=128)
-    if columns % lanes:
+    if columns < lanes:
         given = "" if sec.has("lanes_per_gain") else " (the default, the GMAX0504's; give it)"
-        sec.fail("lanes_per_gain", f"{lanes}{given} does not divide [sensor].columns = "
+        sec.fail("lanes_per_gain", f"{lanes}{given} is more lanes than [sensor].columns = "
                                    f"{columns} (lane k carries columns k, k+L, ...)")
     wb = sec.integer("word_bits", dflt["word_bits"])
     if wb not in (10, 12):
