@@ -1,11 +1,12 @@
-"""The camera top's control bus: an AXI4-Lite slave on the register map of
-:mod:`tdicam.hdl.csr_map`, around a :class:`~tdicam.hdl.chain_top.Pipeline` (or the
-:class:`~tdicam.hdl.chain_board.Board` around one).
+"""The camera top's control bus: an AXI4-Lite (or a Wishbone B4) slave on the register
+map of :mod:`tdicam.hdl.csr_map`, around a :class:`~tdicam.hdl.chain_top.Pipeline` (or
+the :class:`~tdicam.hdl.chain_board.Board` around one).
 
 The signature is the contract: ``s_axil_*`` (AXI4-Lite, AMBA AXI4 names, 32-bit data,
-:data:`~tdicam.hdl.csr_map.ADDR_BITS`-bit byte address, responses always OKAY, an
-unmapped address reads 0 and ignores writes) and ``irq`` replace the ports the map stands
-for; every other port of the wrapped top keeps its name.
+:data:`~tdicam.hdl.csr_map.ADDR_BITS`-bit byte address, responses always OKAY) or
+``wb_*`` (Wishbone B4, classic or pipelined: :data:`WB_PORTS`) and ``irq`` replace the
+ports the map stands for; every other port of the wrapped top keeps its name. An unmapped
+address reads 0 and ignores writes.
 """
 
 from amaranth.hdl import Cat, Const, Module, Signal
@@ -16,7 +17,11 @@ from amaranth.lib.wiring import In, Out
 from tdicam.errors import TdicamError
 from tdicam.hdl.csr_map import ADDR_BITS, DATA_BITS
 
-__all__ = ["CsrTop", "AXIL_PORTS", "cross"]
+__all__ = ["CsrTop", "BUSES", "AXIL_PORTS", "WB_PORTS", "BUS_PREFIXES", "bus_names",
+           "cross"]
+
+#: The control buses a top can carry, the default first (``--bus``).
+BUSES = ("axi4-lite", "wishbone")
 
 #: The AXI4-Lite slave's ports: (name without ``s_axil_``, width, direction from the slave).
 AXIL_PORTS = (
@@ -30,21 +35,49 @@ AXIL_PORTS = (
     ("rdata", DATA_BITS, "out"), ("rresp", 2, "out"), ("rvalid", 1, "out"), ("rready", 1, "in"),
 )
 
+#: The Wishbone B4 slave's ports (name without ``wb_``, width, direction from the slave):
+#: a word address (the byte address over 4), 32-bit data, a byte select. One access at a
+#: time, acknowledged the cycle after it is taken; ``stall`` is high that cycle, so a
+#: classic master (strobe held until ``ack``) and a pipelined one (a strobe taken while
+#: ``stall`` is low) both work.
+WB_PORTS = (
+    ("adr", ADDR_BITS - 2, "in"), ("dat_w", DATA_BITS, "in"), ("dat_r", DATA_BITS, "out"),
+    ("sel", DATA_BITS // 8, "in"), ("cyc", 1, "in"), ("stb", 1, "in"), ("we", 1, "in"),
+    ("ack", 1, "out"), ("stall", 1, "out"),
+)
+
+#: Each bus's ports and their prefix.
+_PORTS = {"axi4-lite": ("s_axil_", AXIL_PORTS), "wishbone": ("wb_", WB_PORTS)}
+
+#: The prefixes of every bus's ports (a top's bus ports are neither settings nor status).
+BUS_PREFIXES = tuple(prefix for prefix, _ in _PORTS.values())
+
+
+def bus_names(bus):
+    """(the bus's name, the slave's port prefix, the write task, the read task) of ``bus``
+    and its testbench master (:mod:`tdicam.cosim.tbbus`), for the text that names them."""
+    return {"axi4-lite": ("AXI4-Lite", "s_axil_", "axil_write", "axil_read"),
+            "wishbone": ("Wishbone", "wb_", "wb_write", "wb_read")}[bus]
+
 
 class CsrTop(wiring.Component):
-    """``core`` with its settings and status behind an AXI4-Lite slave.
+    """``core`` with its settings and status behind an AXI4-Lite (or Wishbone) slave.
 
     Parameters
     ----------
     core : wiring.Component
         A Pipeline (or a Board around one) with the ports ``regmap`` stands for.
     regmap : :class:`~tdicam.hdl.csr_map.RegisterMap`
+    bus : str
+        One of :data:`BUSES`.
 
     Attributes
     ----------
-    s_axil_* : AXI4-Lite slave (see :data:`AXIL_PORTS`).
+    s_axil_* : AXI4-Lite slave (see :data:`AXIL_PORTS`), with ``bus="axi4-lite"``.
         One write (address and data taken in the same cycle) and one read outstanding;
         a read returns the value of the cycle its address was taken.
+    wb_* : Wishbone B4 slave (see :data:`WB_PORTS`), with ``bus="wishbone"``.
+        A read returns the value of the cycle its strobe was taken.
     irq : Out(1)
         High while a bit of ``irq_status & irq_enable`` is set.
 
@@ -64,21 +97,25 @@ class CsrTop(wiring.Component):
     :attr:`Register.hold` status is low.
     """
 
-    def __init__(self, core, regmap):
-        self._core, self._map = core, regmap
+    def __init__(self, core, regmap, bus="axi4-lite"):
+        if bus not in BUSES:
+            raise TdicamError(f"csr: bus {bus!r}; give one of {', '.join(BUSES)}")
+        self._core, self._map, self._bus = core, regmap, bus
         covered = regmap.ports
         missing = sorted(covered - set(core.signature.members))
         if missing:
             raise TdicamError(f"csr: the register map names port(s) {', '.join(missing)} "
                               f"the top does not have; make the map from this top")
         members = {n: m for n, m in core.signature.members.items() if n not in covered}
-        for name, width, d in AXIL_PORTS:
-            members[f"s_axil_{name}"] = (In if d == "in" else Out)(width)
+        prefix, ports = _PORTS[bus]
+        for name, width, d in ports:
+            members[f"{prefix}{name}"] = (In if d == "in" else Out)(width)
         members["irq"] = Out(1)
         super().__init__(members)
 
     core = property(lambda self: self._core, doc="The wrapped top.")
     regmap = property(lambda self: self._map, doc="The register map.")
+    bus = property(lambda self: self._bus, doc="The control bus, one of :data:`BUSES`.")
     latency = property(lambda self: self._core.latency)
     tap_shapes = property(lambda self: self._core.tap_shapes)
     startup_bound = property(lambda self: self._core.startup_bound)
@@ -114,10 +151,11 @@ class CsrTop(wiring.Component):
 
         # a register's value read, and what a write does: {offset: (read value, write fn)}
         regs = {}
+        axil = self._bus == "axi4-lite"
         wmask = Signal(DATA_BITS, name="csr_wmask")     # the write's data bits under wstrb
-        m.d.comb += wmask.eq(Cat(*(self.s_axil_wstrb[b].replicate(8)
-                                   for b in range(DATA_BITS // 8))))
-        wdata = self.s_axil_wdata
+        strobe = self.s_axil_wstrb if axil else self.wb_sel
+        m.d.comb += wmask.eq(Cat(*(strobe[b].replicate(8) for b in range(DATA_BITS // 8))))
+        wdata = self.s_axil_wdata if axil else self.wb_dat_w
         events, summary = [], []
         crossed = self._cross_status(m, core)
         settings = {}
@@ -163,17 +201,7 @@ class CsrTop(wiring.Component):
                     (value, _rw(value, wdata, wmask) if r.name == "irq_enable" else None)
         status_off = self._map.get("camera", "irq_status").offset
 
-        # the write channel: address and data together, then the response
-        bvalid = Signal(name="csr_bvalid")
-        take_w = Signal(name="csr_take_w")
-        m.d.comb += [take_w.eq(self.s_axil_awvalid & self.s_axil_wvalid & ~bvalid),
-                     self.s_axil_awready.eq(take_w), self.s_axil_wready.eq(take_w),
-                     self.s_axil_bvalid.eq(bvalid), self.s_axil_bresp.eq(0)]
-        with m.If(take_w):
-            m.d.sync += bvalid.eq(1)
-        with m.Elif(bvalid & self.s_axil_bready):
-            m.d.sync += bvalid.eq(0)
-        waddr = self.s_axil_awaddr[2:]
+        take_w, waddr = self._axil_write(m) if axil else self._wishbone(m, regs)
         with m.If(take_w):
             with m.Switch(waddr):
                 for off, (_, write) in regs.items():
@@ -184,24 +212,52 @@ class CsrTop(wiring.Component):
         with m.If(take_w & (waddr == status_off >> 2)):
             m.d.comb += cleared.eq((wdata & wmask)[:len(irq_status)])
         m.d.sync += irq_status.eq((irq_status & ~cleared) | (Cat(*events) if events else 0))
+        if axil:
+            self._axil_read(m, regs)
+        return m
 
-        # the read channel: the value of the cycle the address is taken
+    def _axil_write(self, m):
+        """The AXI4-Lite write channels: (the write's take, its word address). A write
+        takes address and data together, then responds."""
+        bvalid = Signal(name="csr_bvalid")
+        take_w = Signal(name="csr_take_w")
+        m.d.comb += [take_w.eq(self.s_axil_awvalid & self.s_axil_wvalid & ~bvalid),
+                     self.s_axil_awready.eq(take_w), self.s_axil_wready.eq(take_w),
+                     self.s_axil_bvalid.eq(bvalid), self.s_axil_bresp.eq(0)]
+        with m.If(take_w):
+            m.d.sync += bvalid.eq(1)
+        with m.Elif(bvalid & self.s_axil_bready):
+            m.d.sync += bvalid.eq(0)
+        return take_w, self.s_axil_awaddr[2:]
+
+    def _axil_read(self, m, regs):
+        """The AXI4-Lite read channels on ``regs`` ({offset: (value read, write)}): a read
+        returns the value of the cycle its address is taken."""
         rvalid = Signal(name="csr_rvalid")
         rdata = Signal(DATA_BITS, name="csr_rdata")
         m.d.comb += [self.s_axil_arready.eq(~rvalid), self.s_axil_rvalid.eq(rvalid),
                      self.s_axil_rdata.eq(rdata), self.s_axil_rresp.eq(0)]
         with m.If(self.s_axil_arvalid & ~rvalid):
             m.d.sync += rvalid.eq(1)
-            with m.Switch(self.s_axil_araddr[2:]):
-                for off, (value, _) in regs.items():
-                    with m.Case(off >> 2):
-                        m.d.sync += rdata.eq(value)
-                with m.Default():
-                    m.d.sync += rdata.eq(0)
+            _read(m, regs, self.s_axil_araddr[2:], rdata)
         with m.Elif(rvalid & self.s_axil_rready):
             m.d.sync += rvalid.eq(0)
-        return m
 
+    def _wishbone(self, m, regs):
+        """The Wishbone B4 slave on ``regs``: (the write's take, its word address). An
+        access (``cyc & stb``) is taken when no acknowledgement is out and acknowledged the
+        next cycle (``stall`` high then)."""
+        ack = Signal(name="csr_wb_ack")
+        take = Signal(name="csr_wb_take")
+        rdata = Signal(DATA_BITS, name="csr_rdata")
+        m.d.comb += [take.eq(self.wb_cyc & self.wb_stb & ~ack), self.wb_ack.eq(ack),
+                     self.wb_stall.eq(ack), self.wb_dat_r.eq(rdata)]
+        m.d.sync += ack.eq(take)
+        with m.If(take & ~self.wb_we):
+            _read(m, regs, self.wb_adr, rdata)
+        take_w = Signal(name="csr_take_w")
+        m.d.comb += take_w.eq(take & self.wb_we)
+        return take_w, self.wb_adr
 
     def _cross_status(self, m, core):
         """{port: its value in the bus's clock} of the map's status registers of another
@@ -248,6 +304,16 @@ def cross(m, value, src, dst, name, *, init=0, hold=None):
     with m.If(take):
         m.d[dst] += [out.eq(held), req.eq(~req)]
     return out
+
+
+def _read(m, regs, word, rdata):
+    """``rdata`` takes the value of the register at word address ``word`` (0 unmapped)."""
+    with m.Switch(word):
+        for off, (value, _) in regs.items():
+            with m.Case(off >> 2):
+                m.d.sync += rdata.eq(value)
+        with m.Default():
+            m.d.sync += rdata.eq(0)
 
 
 def _packed(rs):

@@ -7,10 +7,12 @@ ports); the SystemRDL compiled by systemrdl-compiler; the C header
 from peakrdl-cheader compiled with ``cc -fsyntax-only`` with every register's offset and reset
 asserted equal to the map's (the cocotb test, cocotb_tests/test_csr.py, reads the gateware at
 the header's offsets); the IP-XACT component's offsets the map's; ``tdicam verilog pipeline
---csr -o DIR`` writes the files beside the Verilog (``--html`` the HTML reference too), a
-missing tool one line naming the extra; the top without ``--csr`` keeps its loose ports; the
-AXI4-Lite slave's handshakes, byte strobes, write-1-to-clear and interrupt, and the
-clock-domain crossing of another domain's settings and status, in Amaranth's simulator.
+-o DIR`` (the bus on by default) writes the files beside the Verilog (``--html`` the HTML
+reference too), a missing tool one line naming the extra; the top with ``--no-csr`` keeps
+its loose ports, its Verilog that of before (sha256 pinned); the AXI4-Lite slave's
+handshakes, byte strobes, write-1-to-clear and interrupt, the Wishbone slave's (classic and
+pipelined) the same register file, and the clock-domain crossing of another domain's
+settings and status, in Amaranth's simulator.
 """
 
 import importlib.util
@@ -27,7 +29,7 @@ from amaranth.sim import Simulator
 from tdicam import cli
 from tdicam.chain import design, registers
 from tdicam.errors import TdicamError
-from tdicam.hdl.csr import CsrTop
+from tdicam.hdl.csr import BUSES, CsrTop
 from tdicam.hdl.csr_map import BLOCK_STRIDE, CAMERA_REGISTERS, Register, RegisterMap
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
@@ -154,10 +156,33 @@ def test_c_header_compiles_with_the_maps_offsets(scene, tmp_path):
     assert res.returncode != 0 and r.name in res.stderr
 
 
-def test_verilog_csr_writes_the_maps_files_beside_the_verilog(tmp_path, capsys):
+#: sha256 of ``tdicam verilog pipeline --no-csr --stages 4`` of the orbit chain (the tdicam
+#: version in its header as ``VERSION``): the top of before the control bus was the default
+#: (at its 96 stages, 6b64da0c...: checked by hand, 20 s of elaboration).
+NO_CSR_ORBIT_SHA256 = "6fd807618fae4bec3a5be3ce3ea9cb112caa1f0c5e00b7be1ca23215d473f568"
+
+
+def test_no_csr_is_the_loose_port_top_of_before(tmp_path):
+    """``--no-csr``: the orbit chain's Verilog byte for byte that of before the bus was the
+    default (the system lanes scene's: tests/test_system.py); ``--csr`` is still accepted,
+    the default's meaning."""
+    import hashlib
+    import tdicam
+    out = tmp_path / "o.v"
+    assert cli.main(["verilog", "pipeline", "--no-csr", "--scene",
+                     str(ROOT / "scenes" / "orbit_chain.toml"), "--stages", "4", "-o",
+                     str(out)]) == 0
+    text = out.read_text()
+    assert "tdi_stages_active" in text.split(");")[0] and "s_axil_" not in text
+    assert hashlib.sha256(text.replace(tdicam.__version__, "VERSION").encode()
+                          ).hexdigest() == NO_CSR_ORBIT_SHA256
+
+
+@pytest.mark.parametrize("flags", [[], ["--csr"]])
+def test_verilog_csr_writes_the_maps_files_beside_the_verilog(flags, tmp_path, capsys):
     out = tmp_path / "top"
     assert cli.main(["verilog", "pipeline", "--scene", str(ROOT / "scenes" / "orbit_chain.toml"),
-                     "--stages", "4", "--csr", "-o", str(out)]) == 0
+                     "--stages", "4", *flags, "-o", str(out)]) == 0
     names = sorted(f.name for f in out.iterdir())
     assert names == ["orbit_chain.h", "orbit_chain.rdl", "orbit_chain.xml",
                      "orbit_chain_registers.md", "orbit_chain_regs.py", "pipeline.v"]
@@ -244,7 +269,7 @@ class _Core(wiring.Component):
         return Module()
 
 
-def _slave():
+def _slave(bus="axi4-lite"):
     core = _Core()
     regs = [Register("camera", n, 4 * k, 32 if n in ("id", "version", "frame_count") else
                      1 if n == "startup" else 2, acc, {"id": 7}.get(n, 0), None, False, "")
@@ -252,7 +277,7 @@ def _slave():
     regs += [Register("blk", "level", 0x100, 12, "rw", 0x5A5, "blk_level", False, ""),
              Register("blk", "errors", 0x104, 8, "w1c", 0, "blk_errors", True, ""),
              Register("blk", "error", 0x108, 1, "ro", 0, "blk_error", True, "")]
-    return core, CsrTop(core, RegisterMap("t", tuple(regs)))
+    return core, CsrTop(core, RegisterMap("t", tuple(regs)), bus)
 
 
 async def _write(ctx, dut, addr, data, strb=0xF, bready_after=0, w_after=0):
@@ -433,6 +458,79 @@ def test_another_domains_registers_cross_coherently():
     assert seen["applied"] == 0x123
     assert seen["flag"] == (1, 0b01, 1) and seen["cleared"] == 0
     assert seen["mask"] == (1, 0b10, 0b0100, 0b11)
+
+
+async def _wb(ctx, dut, addr, data=None, sel=0xF):
+    """One Wishbone classic access (strobe held until ack): the value read, or None."""
+    ctx.set(dut.wb_adr, addr >> 2)
+    ctx.set(dut.wb_we, data is not None)
+    ctx.set(dut.wb_dat_w, data or 0)
+    ctx.set(dut.wb_sel, sel)
+    ctx.set(dut.wb_cyc, 1)
+    ctx.set(dut.wb_stb, 1)
+    await ctx.tick()
+    while not ctx.get(dut.wb_ack):
+        await ctx.tick()
+    value = ctx.get(dut.wb_dat_r)
+    ctx.set(dut.wb_cyc, 0)
+    ctx.set(dut.wb_stb, 0)
+    ctx.set(dut.wb_we, 0)
+    return None if data is not None else value
+
+
+def test_wishbone_slave_same_register_file():
+    """The Wishbone B4 slave (``bus="wishbone"``) on the AXI4-Lite test's register file:
+    classic accesses read the identity, write a setting under a byte select, read 0 at an
+    unmapped address, clear a fault counter by 1s and its interrupt; pipelined reads (a
+    strobe each cycle, taken while ``stall`` is low) each get their own ack and value."""
+    assert BUSES[0] == "axi4-lite"
+    core, dut = _slave("wishbone")
+    assert not any(n.startswith("s_axil_") for n in dut.signature.members)
+    seen = {}
+
+    async def tb(ctx):
+        seen["id"] = await _wb(ctx, dut, 0x000)
+        await _wb(ctx, dut, 0x100, 0xFFFF_F0C3, sel=0b0001)
+        seen["level"] = (await _wb(ctx, dut, 0x100), ctx.get(core.blk_level))
+        seen["unmapped"] = await _wb(ctx, dut, 0x10C)
+        await _wb(ctx, dut, 0x014, 0b11)              # irq_enable
+        ctx.set(core.blk_errors, 5)
+        await ctx.tick()
+        seen["irq"] = (ctx.get(dut.irq), await _wb(ctx, dut, 0x018),
+                       await _wb(ctx, dut, 0x104))
+        await _wb(ctx, dut, 0x104, 0xFF)
+        await _wb(ctx, dut, 0x018, 0b01)
+        seen["cleared"] = (await _wb(ctx, dut, 0x104), await _wb(ctx, dut, 0x018),
+                           ctx.get(dut.irq))
+        # pipelined: two reads back to back, the second held while stall is high
+        got, addrs, cycles = [], [0x000, 0x100], 0
+        ctx.set(dut.wb_cyc, 1)
+        ctx.set(dut.wb_we, 0)
+        while len(got) < 2 and cycles < 10:
+            ctx.set(dut.wb_stb, bool(addrs))
+            if addrs:
+                ctx.set(dut.wb_adr, addrs[0] >> 2)
+            taken = addrs and not ctx.get(dut.wb_stall)
+            await ctx.tick()
+            cycles += 1
+            if taken:
+                addrs.pop(0)
+            if ctx.get(dut.wb_ack):
+                got.append(ctx.get(dut.wb_dat_r))
+        ctx.set(dut.wb_cyc, 0)
+        ctx.set(dut.wb_stb, 0)
+        seen["pipelined"] = (got, cycles)
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(tb)
+    sim.run()
+    assert seen["id"] == 7
+    assert seen["level"] == (0x5C3, 0x5C3)            # only the low byte written
+    assert seen["unmapped"] == 0
+    assert seen["irq"] == (1, 0b01, 5)
+    assert seen["cleared"] == (0, 0, 0)
+    assert seen["pipelined"] == ([7, 0x5C3], 4)
 
 
 def test_a_map_of_another_top_is_refused():

@@ -456,16 +456,16 @@ def test_lvds_export_fails_on_one_changed_expected_word(lvds_export, tmp_path, f
 def chain_export(tmp_path_factory):
     """ning2019_chain on its first 24 columns, 6 output lines (the full scene: slow test)."""
     out = tmp_path_factory.mktemp("export") / "chain"
-    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
-            "-o", str(out))
+    r = cli("export", "pipeline", "--no-csr", "--scene", CHAIN, "--width", "24", "--lines",
+            "6", "-o", str(out))
     assert r.returncode == 0, r.stderr
     return out
 
 
 def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     again = tmp_path / "again"
-    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
-            "-o", str(again))
+    r = cli("export", "pipeline", "--no-csr", "--scene", CHAIN, "--width", "24", "--lines",
+            "6", "-o", str(again))
     assert r.returncode == 0, r.stderr
     # long work shows where it is: a stage line per stage off a terminal
     assert [ln.rsplit(" (", 1)[0] for ln in r.stderr.splitlines()[:4]] == [
@@ -487,16 +487,20 @@ def test_pipeline_export_passes_and_is_deterministic(chain_export, tmp_path):
     assert r.returncode != 0 and "FAIL beat 77 " in r.stdout, r.stdout
 
 
-def test_pipeline_export_with_the_bus_configures_the_top_over_it(tmp_path):
-    """``--csr``: the top with its AXI4-Lite control bus, the register map's files under
-    ``regs/`` (the C header's and the driver's offsets the map's), and a testbench that
-    writes every setting over the bus and reads back the identity and each setting before
-    it passes; a wrong value read back (the identity expected off by one) fails it."""
+@pytest.mark.parametrize("bus", [
+    "axi4-lite", pytest.param("wishbone", marks=pytest.mark.skipif(
+        not FULL, reason="a second Icarus run of the export (~10 s): TDICAM_FULL=1"))])
+def test_pipeline_export_with_the_bus_configures_the_top_over_it(bus, tmp_path):
+    """The default (the bus on; ``--bus wishbone`` the other): the top with its control
+    bus, the register map's files under ``regs/`` (the C header's and the driver's offsets
+    the map's), and a testbench that writes every setting over the bus and reads back the
+    identity and each setting before it passes; a wrong value read back (the identity
+    expected off by one) fails it."""
     pytest.importorskip("peakrdl_ipxact")
     from tdicam.chain import design
     out = tmp_path / "csr"
-    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6", "--csr",
-            "-o", str(out))
+    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
+            "--bus", bus, "-o", str(out))
     assert r.returncode == 0, r.stderr
     a = tree(out)
     assert {f"regs/ning2019_chain{x}" for x in (".rdl", ".h", ".xml", "_registers.md",
@@ -504,13 +508,16 @@ def test_pipeline_export_with_the_bus_configures_the_top_over_it(tmp_path):
     for name, data in a.items():
         assert not re.search(rb"(/work|/tmp|/home|/root)", data), name
     rtl, tb = a["rtl/pipeline.v"].decode(), a["tb/tdicam_tb.v"].decode()
-    assert "csr=axi4-lite" in rtl and ".s_axil_awaddr(axil_awaddr)" in tb
+    write, read = {"axi4-lite": ("axil_write", "axil_read"),
+                   "wishbone": ("wb_write", "wb_read")}[bus]
+    assert f"csr={bus}" in rtl
+    assert (".s_axil_awaddr(axil_awaddr)" if bus == "axi4-lite" else ".wb_adr(wbm_adr)") in tb
     rm = design.register_map(design.chain_plan(design.load_pipeline_scene(CHAIN), width=24,
                                                lines=6))
     rw = [r for r in rm.registers if r.access == "rw" and r.block != "camera"]
-    assert rw and all(f"axil_write(12'h{r.offset:03x}, 32'h{r.reset:08x});" in tb
+    assert rw and all(f"{write}(12'h{r.offset:03x}, 32'h{r.reset:08x});" in tb
                       for r in rw)
-    assert "axil_read(12'h000, 32'h54444943" in tb
+    assert f"{read}(12'h000, 32'h54444943" in tb
     res = icarus(out)
     assert res.returncode == 0 and passed(res.stdout, 144) == 144, res.stdout[-2000:]
     bad = tmp_path / "bad"
@@ -538,9 +545,9 @@ def test_pipeline_export_bad_scenes_are_one_line(tmp_path):
 
 def test_pipeline_export_rtl_is_what_tdicam_verilog_writes(tmp_path):
     out = tmp_path / "chain"
-    r = cli("export", "pipeline", "--scene", CHAIN, "--lines", "2", "-o", str(out))
+    r = cli("export", "pipeline", "--no-csr", "--scene", CHAIN, "--lines", "2", "-o", str(out))
     assert r.returncode == 0, r.stderr
-    v = cli("verilog", "pipeline", "--scene", CHAIN, "--lines", "2")
+    v = cli("verilog", "pipeline", "--no-csr", "--scene", CHAIN, "--lines", "2")
     assert v.returncode == 0, v.stderr
     assert (out / "rtl" / "pipeline.v").read_text() == v.stdout
 
@@ -551,8 +558,8 @@ def test_pipeline_export_at_ppc_8_passes_on_icarus(tmp_path):
     of 8 pixels, the expected output in beats of 1 (144 for 24 x 6 output pixels); a width
     the ppc does not divide is a one-line error naming both."""
     out = tmp_path / "chain8"
-    r = cli("export", "pipeline", "--scene", CHAIN, "--width", "24", "--lines", "6",
-            "--ppc", "8", "-o", str(out))
+    r = cli("export", "pipeline", "--no-csr", "--scene", CHAIN, "--width", "24", "--lines",
+            "6", "--ppc", "8", "-o", str(out))
     assert r.returncode == 0, r.stderr
     assert "ppc=8" in (out / "rtl" / "pipeline.v").read_text().splitlines()[2]
     r = icarus(out)

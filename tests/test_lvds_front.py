@@ -380,7 +380,8 @@ def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
     outs = {}
     for phy in ("none", "xilinx7", "none"):
         out = tmp_path / f"{phy}.v"
-        assert main(["verilog", "pipeline", "--scene", str(f), "--phy", phy, "-o", str(out)]) == 0
+        assert main(["verilog", "pipeline", "--no-csr", "--scene", str(f), "--phy", phy,
+                     "-o", str(out)]) == 0
         outs.setdefault(phy, []).append(out.read_text())
     generic, xil = outs["none"][0], outs["xilinx7"][0]
     assert outs["none"][0] == outs["none"][1]
@@ -393,7 +394,7 @@ def test_verilog_pipeline_command_takes_lanes_and_phy(tmp_path, capsys):
     plain = tmp_path / "plain.toml"
     plain.write_text(text)
     capsys.readouterr()
-    assert main(["verilog", "pipeline", "--scene", str(plain), "--phy", "xilinx7"]) != 0
+    assert main(["verilog", "pipeline", "--no-csr", "--scene", str(plain), "--phy", "xilinx7"]) != 0
     err = capsys.readouterr().err.strip()
     assert err == ("tdicam: error: pipeline: --phy = xilinx7 needs the sensor's lanes in the "
                    "chain (a [sensor.lvds] section in the scene)")

@@ -81,7 +81,7 @@ def test_verilog_is_deterministic_and_lint_clean(tmp_path):
 def test_verilog_command(tmp_path, capsys):
     from tdicam.cli import main
     out = tmp_path / "camera.v"
-    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "-o", str(out)]) == 0
+    assert main(["verilog", "pipeline", "--no-csr", "--scene", str(CHAIN), "-o", str(out)]) == 0
     assert "cds -> nuc -> hdr -> tdi -> median3" in capsys.readouterr().err
     assert "s_axis_tdata" in out.read_text() and "tap0_cds" not in out.read_text()
     assert main(["verilog", "pipeline"]) != 0            # no --scene: one-line error
@@ -165,7 +165,7 @@ def test_ppc_options_of_the_pipeline_commands(tmp_path, capsys):
     that does not divide the width is a one-line error naming the flag and both values."""
     from tdicam.cli import main
     out = tmp_path / "camera.v"
-    assert main(["verilog", "pipeline", "--scene", str(CHAIN), "--ppc", "8", "-o",
+    assert main(["verilog", "pipeline", "--no-csr", "--scene", str(CHAIN), "--ppc", "8", "-o",
                  str(out)]) == 0
     assert ("tdi (8 pixels per clock) -> 8:1 width converter -> median3 (1 pixel per "
             "clock)") in capsys.readouterr().err

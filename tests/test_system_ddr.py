@@ -203,7 +203,7 @@ def test_the_system_scene_at_8_pixels_a_clock_elaborates(tmp_path):
     (its NAND load at 8 pixels a clock) writes the top, with each lane's widener."""
     from tdicam.cli import main
     out = tmp_path / "system_ddr_p8.v"
-    assert main(["verilog", "pipeline", "--scene", str(SCENE), "--ppc", "8",
+    assert main(["verilog", "pipeline", "--no-csr", "--scene", str(SCENE), "--ppc", "8",
                  "-o", str(out)]) == 0
     text = out.read_text()
     assert "module pipeline" in text and "nuc_ddr_widen1_slice" in text

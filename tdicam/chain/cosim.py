@@ -102,7 +102,7 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
             "dies": rt.lane_dies, "eye_taps": lv.eye_width_taps if lv.simulate else None,
             "drift": (lv.drift_taps, lv.drift_frames) if lv.drift_taps else None}
         rep = cosimulate(p, data, rt.simulator, gold=gold, corrupt=corrupt,
-                         wave_dir=out_dir, front=front)
+                         wave_dir=out_dir, front=front, csr=rt.csr)
     except TdicamError as exc:
         out["blocks"].append({"block": "pipeline", "status": f"error: {exc}"})
         return out
@@ -486,6 +486,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     import math
     from dataclasses import replace
     from tdicam import blocks, cosim
+    from tdicam.hdl.csr import BUS_PREFIXES
     from tdicam.chain import design
     from tdicam.cosim import codec
     from tdicam.cosim.lvds_front import plan_case, raw_table
@@ -511,7 +512,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     settings = {name: int(values[name]) for name, mem in ax.signature.members.items()
                 if mem.flow.name == "In" and name not in ("lvds_lane_raw", "lvds_retrain",
                                                           "lvds_lane_mon_raw")
-                and not name.startswith(("m_axis_", "s_axil_"))}
+                and not name.startswith(("m_axis_", *BUS_PREFIXES))}
     regmap = getattr(ax.core, "regmap", None)
     pipe = ax.core.core if regmap is not None else ax.core
     ready = [f"{st.name}_{st.ready}" + (f"_{k}" if k else "")
@@ -533,7 +534,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
            "ready": ready, "status": [name for name, _ in status_ports(ax)
-                                      if not name.startswith("s_axil_")],
+                                      if not name.startswith(BUS_PREFIXES)],
            "retrains": list(case.retrains), "track": case.track}
     if regmap is not None:
         job.update(_bus_job(regmap, ready, rundir))

@@ -305,13 +305,13 @@ def sourced(p):
     return bool(p.steps) and _use(p.steps[0].block).source is not None
 
 
-def top(p, data=None, *, taps=False, ecp5=False, board=False, csr=False):
+def top(p, data=None, *, taps=False, ecp5=False, board=False, csr=False, bus="axi4-lite"):
     """The AXI4-Stream top of plan ``p`` (NUC calibration images from ``data``; ``ecp5``:
     each block's ECP5 synthesis top where it has one, for ``tdicam synth``; ``board``: for
     co-simulation, the top inside a :class:`~tdicam.hdl.chain_board.Board` with the
     simulation models of its external parts on its pins, when it has any; ``csr``: the
-    settings and status behind the AXI4-Lite slave :class:`~tdicam.hdl.csr.CsrTop` on
-    :func:`register_map`'s map)."""
+    settings and status behind the slave :class:`~tdicam.hdl.csr.CsrTop` on
+    :func:`register_map`'s map, ``bus`` one of :data:`tdicam.hdl.csr.BUSES`)."""
     from tdicam.hdl.interfaces.axis import AxisTop
     from tdicam.hdl.chain_board import Board
     from tdicam.hdl.chain_top import Pipeline
@@ -334,7 +334,7 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False, csr=False):
         core = Board(core)
     if csr:
         from tdicam.hdl.csr import CsrTop
-        core = CsrTop(core, register_map(p, pipeline))
+        core = CsrTop(core, register_map(p, pipeline), bus)
     return AxisTop(core)
 
 
@@ -367,16 +367,16 @@ def verilog(p, data=None, *, taps=False):
     return convert(top(p, data, taps=taps), "pipeline", header=verilog_header(p, taps=taps))
 
 
-def verilog_header(p, *, taps=False, csr=False):
+def verilog_header(p, *, taps=False, csr=False, bus="axi4-lite"):
     """The comment header of the pipeline's Verilog: tdicam version, the scene file's name
     (no path), the blocks in order with their parameters, channels, frame and lines (and
-    ``csr`` when the control bus is on)."""
+    ``csr``, the bus, when the control bus is on)."""
     import os
     from tdicam.hw.verilog import header
     return header("pipeline", {
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
         "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
-        "taps": taps} | ({"csr": "axi4-lite"} if csr else {})
+        "taps": taps} | ({"csr": bus} if csr else {})
         | {s.block: s.params for s in p.steps})
 
 
@@ -491,13 +491,13 @@ def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
 class PipelineBlock:
     """The registry face of a plan for :func:`tdicam.hw.synth.synth` (name, resolve, build)."""
 
-    def __init__(self, p, data, *, csr=False):
-        self.name, self._p, self._data, self._csr = "pipeline", p, data, csr
+    def __init__(self, p, data, *, csr=False, bus="axi4-lite"):
+        self.name, self._p, self._data, self._csr, self._bus = "pipeline", p, data, csr, bus
 
     def resolve(self, params=None):
         return {"scene": self._p.source, "steps": [[s.block, s.params, s.ports]
                                                    for s in self._p.steps]} | (
-            {"csr": "axi4-lite"} if self._csr else {})
+            {"csr": self._bus} if self._csr else {})
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
@@ -528,4 +528,4 @@ class PipelineBlock:
     def build(self, params=None, *, ecp5=False):
         """The chain's top; ``ecp5``: each block's ECP5 synthesis top where it has one
         (:attr:`tdicam.blocks.Block.ecp5_top`, e.g. the TDI accumulator's DP16KD banks)."""
-        return top(self._p, self._data, ecp5=ecp5, csr=self._csr)
+        return top(self._p, self._data, ecp5=ecp5, csr=self._csr, bus=self._bus)

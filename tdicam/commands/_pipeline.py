@@ -2,6 +2,7 @@
 scene's chain (:func:`scene_design`), then the chain's Verilog or its synthesis
 (:mod:`tdicam.chain.design`, :func:`tdicam.hw.synth.synth`)."""
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -16,6 +17,7 @@ from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, ch
 from tdicam.commands._parsing import ArgsParser, add_source, source_path
 from tdicam.errors import TdicamError
 from tdicam.files import check_file, write_file
+from tdicam.hdl.csr import BUSES
 from tdicam.hw.record import row_of
 from tdicam.hw.synth import synth, tool_versions
 from tdicam.hw.verilog import convert
@@ -44,6 +46,15 @@ def add_pipeline_options(ap, *, width=False):
     ap.add_argument("--ppc", type=int, help="pixels per clock of every block, "
                     f"{', '.join(map(str, PPC_CHOICES))} (default: the scene's "
                     "[run.rtl].pixels_per_clock, else 1)")
+    ap.add_argument("--csr", action=argparse.BooleanOptionalAction, default=True,
+                    help="the run-time settings and status behind the control bus "
+                         "(--bus) and irq on the top's register map (the default; "
+                         "--no-csr: the loose run-time ports); verilog and export write "
+                         "the map's SystemRDL, C header, Markdown reference and Python "
+                         "driver beside the Verilog")
+    ap.add_argument("--bus", choices=BUSES, default=BUSES[0],
+                    help="the control bus: AXI4-Lite (s_axil_*) or Wishbone B4 "
+                         "classic/pipelined (wb_*)")
 
 
 def scene_design(prog, extra):
@@ -56,13 +67,8 @@ def scene_design(prog, extra):
     ap.add_argument("--calib", action="append", default=[],
                     help="calibration image file (tdicam calib write), one per channel")
     ap.add_argument("--taps", action="store_true", help="expose every block's output")
-    ap.add_argument("--csr", action="store_true",
-                    help="the run-time settings and status behind an AXI4-Lite slave "
-                         "(s_axil_*, irq) on the top's register map; with -o the map's "
-                         "SystemRDL, C header, Markdown reference and Python driver are "
-                         "written beside the Verilog")
     ap.add_argument("--html", action="store_true",
-                    help="with --csr -o: also the HTML register reference (peakrdl-html; "
+                    help="with -o (and the bus): also the HTML register reference (peakrdl-html; "
                          "a folder, ~8 MB with its fonts)")
     from tdicam.hdl.lvds_phy import PHYS
     ap.add_argument("--phy", choices=tuple(PHYS),
@@ -93,13 +99,13 @@ def scene_design(prog, extra):
 
 
 def verilog_command(extra, output, *, show_help=False):
-    """``tdicam verilog pipeline --scene S.toml [--csr] [-o FILE]``; returns the exit
-    status. With ``--csr``, ``-o`` may name a folder (the Verilog is then its
+    """``tdicam verilog pipeline --scene S.toml [--no-csr] [--bus B] [-o FILE]``; returns
+    the exit status. With the bus, ``-o`` may name a folder (the Verilog is then its
     ``pipeline.v``); the register map's files (:func:`tdicam.chain.registers.write_files`)
     go beside the Verilog."""
     if show_help:
         extra = ["--help"]
-    csr = "--csr" in extra
+    csr = "--no-csr" not in extra
     if csr and output is not None and (Path(output).is_dir() or not Path(output).suffix):
         Path(output).mkdir(parents=True, exist_ok=True)        # -o DIR: a folder
         output = str(Path(output) / "pipeline.v")
@@ -107,13 +113,15 @@ def verilog_command(extra, output, *, show_help=False):
         check_file(output)
     ns, p, data = scene_design("tdicam verilog pipeline", extra)
     if ns.html and not (csr and output is not None):
-        raise TdicamError("--html: the HTML register reference is written with --csr -o DIR")
+        raise TdicamError("--html: the HTML register reference is written with -o DIR (and "
+                          "without --no-csr)")
     if csr and output is not None:
         from tdicam.chain.registers import require
         require(html=ns.html)                      # the tools, before the work
-    ax = top(p, data, taps=ns.taps, csr=ns.csr)
+    ax = top(p, data, taps=ns.taps, csr=ns.csr, bus=ns.bus)
     ax_lat = "variable" if ax.latency is None else f"{ax.latency} cycles"
-    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps, csr=ns.csr))
+    text = convert(ax, "pipeline", header=verilog_header(p, taps=ns.taps, csr=ns.csr,
+                                                         bus=ns.bus))
     if output is not None:
         write_file(output, text)
         print(f"wrote {output}: module pipeline, {chain_text(p)}, {p.lanes} channel(s), "
@@ -150,7 +158,7 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
     ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
     synth_xilinx cell counts (``--no-xilinx``: not)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
-    blk = PipelineBlock(p, data, csr=ns.csr)
+    blk = PipelineBlock(p, data, csr=ns.csr, bus=ns.bus)
     res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
@@ -159,7 +167,11 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
                   "stages": p.stages, "ppc": ppc}
         if ns.phy not in (None, "none"):       # the lanes behind a device's primitives
             params["phy"] = ns.phy
-        record([row_of(f"{Path(ns.scene).stem} chain ppc={ppc}", "pipeline", params, res,
+        label = f"{Path(ns.scene).stem} chain ppc={ppc}"
+        if ns.csr:                             # the control bus on the top
+            params["bus"] = ns.bus
+            label += f" bus={ns.bus}"
+        record([row_of(label, "pipeline", params, res,
                        target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
     if as_json:

@@ -37,7 +37,7 @@ def register(sub):
 
 def _pipeline(args):
     """``tdicam export pipeline --scene S.toml [--stages N] [--lines N] [--width N]
-    [--memory auto|chip|ddr] [--device D] [--ppc N] [--csr] -o DIR``."""
+    [--memory auto|chip|ddr] [--device D] [--ppc N] [--no-csr] [--bus B] -o DIR``."""
     from tdicam.commands._parsing import source_path
     from tdicam.commands._pipeline import add_pipeline_options
     from tdicam.export.chain import export_pipeline
@@ -49,10 +49,6 @@ def _pipeline(args):
                     "output is the golden chain's.",
         epilog="-o DIR, --force and --seed as for a block (tdicam export --help).")
     add_pipeline_options(ap, width=True)
-    ap.add_argument("--csr", action="store_true",
-                    help="the top with its control bus (AXI4-Lite, as tdicam verilog "
-                         "pipeline --csr): the register map's files in regs/, the testbench "
-                         "configures the top over the bus")
     if args.help:
         ap.print_help()
         return 0
@@ -68,6 +64,7 @@ def _pipeline(args):
         ex = export_pipeline(source_path(ns), args.output, force=args.force, seed=args.seed,
                              stages=ns.stages, lines=ns.lines, width=ns.width,
                              memory=ns.memory, device=ns.device, ppc=ns.ppc, csr=ns.csr,
+                             bus=ns.bus,
                              progress=bar)
     print(f"wrote {ex.path}: pipeline {ex.params['blocks']} ({ex.params['width']} columns, "
           f"{ex.params['lines']} lines), {ex.n_in} stimulus beats, {ex.n_out} expected beats",

@@ -30,10 +30,12 @@ MODES = ("beat", "fast")
 
 def stream_ports(top):
     """(in tdata bits, out tdata bits, ctrl ports [(name, width)]) of an :class:`AxisTop`
-    (the control bus's ``s_axil_*`` inputs are not ctrl ports: :mod:`tdicam.cosim.tbbus`)."""
+    (the control bus's inputs, ``s_axil_*`` or ``wb_*``, are not ctrl ports:
+    :mod:`tdicam.cosim.tbbus`)."""
+    from tdicam.hdl.csr import BUS_PREFIXES
     ctrl = []
     for name, member in top.signature.members.items():
-        if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_", "s_axil_")):
+        if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_", *BUS_PREFIXES)):
             ctrl.append((name, Shape.cast(member.shape).width))
     return top._in[3], top._out[3], ctrl
 

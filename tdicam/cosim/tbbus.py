@@ -1,6 +1,7 @@
 """The control bus in a generated Verilog testbench (:func:`tdicam.cosim.tbgen.stream_testbench`
 ``bus``): an AXI4-Lite master as two Verilog-2005 tasks, ``axil_write`` and ``axil_read``,
-on the top's ``s_axil_*`` slave (:mod:`tdicam.hdl.csr`), and the configuration they run.
+on the top's ``s_axil_*`` slave (:mod:`tdicam.hdl.csr`), or a Wishbone B4 classic master
+(``wb_write``, ``wb_read`` on ``wb_*``), and the configuration they run.
 
 Once the testbench's engine has released the reset, the configuration writes every
 setting (:class:`BusConfig` ``writes``: the scene's values, the registers' reset values, so
@@ -11,7 +12,7 @@ self-check passes only when the configuration finished.
 
 from dataclasses import dataclass
 
-from tdicam.hdl.csr import AXIL_PORTS
+from tdicam.hdl.csr import AXIL_PORTS, WB_PORTS, bus_names
 
 __all__ = ["BusConfig", "bus_text", "bus_connections"]
 
@@ -19,31 +20,49 @@ __all__ = ["BusConfig", "bus_text", "bus_connections"]
 @dataclass(frozen=True)
 class BusConfig:
     """``writes``: ((byte address, value, name), ...) in order; ``reads``: ((byte
-    address, expected value, name), ...) after them."""
+    address, expected value, name), ...) after them; ``bus``: the top's, one of
+    :data:`tdicam.hdl.csr.BUSES`."""
 
     writes: tuple
     reads: tuple
+    bus: str = "axi4-lite"
 
 
-def bus_connections():
-    """The DUT instance's ``s_axil_*`` and ``irq`` connections (Verilog lines)."""
-    return "".join(f"    .s_axil_{n}(axil_{n}),\n" for n, _, _ in AXIL_PORTS) + \
-        "    .irq(axil_irq),\n"
+#: Each bus's (DUT port prefix, ports, testbench signal prefix, write task, read task).
+_MASTERS = {bus: (bus_names(bus)[1], ports, tb) + bus_names(bus)[2:] for bus, ports, tb in
+            (("axi4-lite", AXIL_PORTS, "axil_"), ("wishbone", WB_PORTS, "wbm_"))}
+
+
+def bus_connections(cfg=None):
+    """The DUT instance's bus and ``irq`` connections (Verilog lines) for ``cfg``'s bus."""
+    dut, ports, tb, _, _ = _MASTERS["axi4-lite" if cfg is None else cfg.bus]
+    return "".join(f"    .{dut}{n}({tb}{n}),\n" for n, _, _ in ports) + \
+        f"    .irq({tb}irq),\n"
 
 
 def bus_text(cfg):
     """The master's signals, tasks and the configuration of ``cfg`` (Verilog text, inside
     the testbench module; the module's ``clk``, ``rst`` and ``running``)."""
+    _, ports, tb, write, read = _MASTERS[cfg.bus]
     decl = []
-    for n, w, d in AXIL_PORTS:
+    for n, w, d in ports:
         rng = f"[{w - 1}:0] " if w > 1 else ""
-        decl.append(f"  reg {rng}axil_{n} = 0;" if d == "in" else f"  wire {rng}axil_{n};")
-    ops = [f'      axil_write(12\'h{a:03x}, 32\'h{v:08x});  // {name}' for a, v, name in cfg.writes]
-    ops += [f'      axil_read(12\'h{a:03x}, 32\'h{v:08x}, "{name}");' for a, v, name in cfg.reads]
+        decl.append(f"  reg {rng}{tb}{n} = 0;" if d == "in" else f"  wire {rng}{tb}{n};")
+    ops = [f'      {write}(12\'h{a:03x}, 32\'h{v:08x});  // {name}' for a, v, name in cfg.writes]
+    ops += [f'      {read}(12\'h{a:03x}, 32\'h{v:08x}, "{name}");' for a, v, name in cfg.reads]
+    tasks = _AXIL_TASKS if cfg.bus == "axi4-lite" else _WB_TASKS
     return "\n".join(decl) + f"""
-  wire axil_irq;
+  wire {tb}irq;
   reg bus_done = 1'b0;
-  reg [31:0] axil_got;
+{tasks}  initial begin
+    wait (running && !rst);
+{chr(10).join(ops)}
+    bus_done = 1'b1;
+  end
+"""
+
+
+_AXIL_TASKS = """  reg [31:0] axil_got;
   // ---- the control bus: an AXI4-Lite master (signals set after a falling edge)
   task axil_write(input [11:0] a, input [31:0] d);
     begin
@@ -76,9 +95,31 @@ def bus_text(cfg):
       end
     end
   endtask
-  initial begin
-    wait (running && !rst);
-{chr(10).join(ops)}
-    bus_done = 1'b1;
-  end
+"""
+
+_WB_TASKS = """  reg [31:0] wbm_got;
+  // ---- the control bus: a Wishbone B4 classic master (strobe held until ack)
+  task wb_write(input [11:0] a, input [31:0] d);
+    begin
+      @(negedge clk);
+      wbm_adr = a[11:2]; wbm_dat_w = d; wbm_sel = 4'hf; wbm_we = 1; wbm_cyc = 1; wbm_stb = 1;
+      @(posedge clk); #1;
+      while (!wbm_ack) begin @(posedge clk); #1; end
+      wbm_cyc = 0; wbm_stb = 0; wbm_we = 0;
+    end
+  endtask
+  task wb_read(input [11:0] a, input [31:0] want, input [8*32-1:0] name);
+    begin
+      @(negedge clk);
+      wbm_adr = a[11:2]; wbm_we = 0; wbm_cyc = 1; wbm_stb = 1;
+      @(posedge clk); #1;
+      while (!wbm_ack) begin @(posedge clk); #1; end
+      wbm_got = wbm_dat_r;
+      wbm_cyc = 0; wbm_stb = 0;
+      if (wbm_got !== want) begin
+        $display("FAIL control bus: %0s at 0x%h reads %h, expected %h", name, a, wbm_got, want);
+        $fatal(1);
+      end
+    end
+  endtask
 """

@@ -277,7 +277,7 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         files.
     bus : :class:`tdicam.cosim.tbbus.BusConfig` or None
         A top with the control bus (``--csr``): the testbench configures it through its
-        AXI4-Lite slave once the reset is released (:mod:`tdicam.cosim.tbbus`); with
+        AXI4-Lite (or Wishbone) slave once the reset is released (:mod:`tdicam.cosim.tbbus`); with
         ``selfcheck`` it passes only once the configuration finished.
     """
     sc = selfcheck
@@ -295,7 +295,7 @@ def stream_testbench(dut_name, *, in_bits, out_bits, ctrl_ports, depth=DEPTH, se
         ctrl_conn.append(f"    .{name}(ctrl[{lo + w - 1}:{lo}]),")
     ctrl_conn = "\n".join(ctrl_conn)
     from tdicam.cosim import tbbus
-    bus_conn = "" if bus is None else tbbus.bus_connections()
+    bus_conn = "" if bus is None else tbbus.bus_connections(bus)
     bus_body = "" if bus is None else tbbus.bus_text(bus)
     if standalone and (per_beat or sc is not None):
         raise ValueError("a standalone testbench is fast mode only (per_beat=False, no "

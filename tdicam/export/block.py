@@ -551,8 +551,10 @@ def stream_design(name, summary, param_rows, params, top, stim, exp, *, cases, s
                  f"resets; ...)`." if resets else
                  f"It passes with n = {n_out} (the stimulus has no reset)."))
     if bus is not None:
-        checks += (f" Once the reset is released it configures the top over its AXI4-Lite "
-                   f"control bus (`s_axil_*`, tasks `axil_write` and `axil_read`): "
+        from tdicam.hdl.csr import bus_names
+        title, prefix, write, read = bus_names(bus.bus)
+        checks += (f" Once the reset is released it configures the top over its {title} "
+                   f"control bus (`{prefix}*`, tasks `{write}` and `{read}`): "
                    f"{len(bus.writes)} writes (every setting, its value the scene's) and "
                    f"{len(bus.reads)} reads compared with the values expected (the identity, "
                    f"every setting), and passes only when that finished; the register map "

@@ -11,8 +11,9 @@ exact run of the scene simulator, :func:`tdicam.chain.cosim.scene_data`) made in
 input beats by :func:`tdicam.chain.design.stimulus`; the expected output is the last stage of
 the golden chain (:func:`tdicam.chain.design.golden`) on the same data.
 
-With ``csr`` the top is ``tdicam verilog pipeline --csr``'s (its settings and status
-behind the AXI4-Lite slave, :mod:`tdicam.hdl.csr`): the export carries the register map's
+With ``csr`` (``tdicam export pipeline``'s default; ``--no-csr``: not) the top is
+``tdicam verilog pipeline``'s with its control bus (its settings and status behind the
+AXI4-Lite or Wishbone slave, :mod:`tdicam.hdl.csr`): the export carries the register map's
 files under ``regs/`` (:func:`tdicam.chain.registers.file_texts`) and its testbench
 configures the top over the bus (:func:`bus_config`, :mod:`tdicam.cosim.tbbus`).
 """
@@ -34,7 +35,7 @@ STAGES = ("the scene's raw frames", "the top and its stimulus", "the golden chai
           "writing the export (Verilog, vectors, testbench)")
 
 
-def bus_config(regmap):
+def bus_config(regmap, bus="axi4-lite"):
     """The testbench's configuration of a top with the bus (:class:`BusConfig`): every
     setting written its reset value (the scene's) and the interrupt enable all ones; then
     the identity, the version and those read back."""
@@ -45,19 +46,19 @@ def bus_config(regmap):
     writes.append((en.offset, (1 << en.width) - 1, "camera.irq_enable"))
     reads = [(regmap.get("camera", n).offset, regmap.get("camera", n).reset, f"camera.{n}")
              for n in ("id", "version")] + writes
-    return BusConfig(tuple(writes), tuple(reads))
+    return BusConfig(tuple(writes), tuple(reads), bus)
 
 
 def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=None,
                     device="ecp5-85f", seed=1, idle=0.1, backpressure=0.1, ppc=None,
-                    progress=None, csr=False):
+                    progress=None, csr=False, bus="axi4-lite"):
     """(:class:`~tdicam.export.block.Design`, plan, input beats, expected beats) of the scene's
     pipeline on its first ``width`` columns (default: all) and ``lines`` output lines
     (default ``[run].lines``), at ``ppc`` pixels per clock (default the scene's
     ``[run.rtl].pixels_per_clock``, else 1; stated in the export's parameters when not
     1); ``memory`` one of :data:`tdicam.chain.design.MEMORY` (None: as the scene places it);
     ``progress`` a :class:`tdicam.progress.Progress` told each stage (:data:`STAGES`);
-    ``csr``: the top with its control bus (the module docstring)."""
+    ``csr``: the top with its control bus ``bus`` (the module docstring)."""
     stage = progress.stage if progress is not None else (lambda text: None)
     from tdicam.chain.cosim import scene_data
     from tdicam.chain.design import SceneData
@@ -88,7 +89,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     data = SceneData(raw.signal, raw.reset, design.identity_data(p).coeffs)
     stage(STAGES[1])
     # with the external parts' models, if any
-    top = design.top(p, data, board=True, csr=csr)
+    top = design.top(p, data, board=True, csr=csr, bus=bus)
     stim = design.stimulus(p, data, top)
     stage(STAGES[2])
     exp = frames_to_beats(design.golden(p, data)[-1][2], ppc=design.out_ppc(p))
@@ -96,7 +97,7 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     params = {"scene": name, "stages": p.stages, "lines": p.lines, "width": p.width,
               "memory": memory or "scene", "blocks": " -> ".join(s.block for s in p.steps)}
     if csr:
-        params["csr"] = "axi4-lite"
+        params["csr"] = bus
     rows = [("scene", name, "scene file ([pipeline] blocks in order)"),
             ("stages", p.stages, "TDI stages (rows per exposure frame)"),
             ("lines", p.lines, "output lines"),
@@ -121,8 +122,8 @@ def pipeline_design(scene_path, *, stages=None, lines=None, width=None, memory=N
     d = stream_design("pipeline", summary, rows, params, top, stim, exp,
                       cases=[f"scene {name}"], seed=seed, idle=idle,
                       backpressure=backpressure, core=f"tdicam:pipeline:{stem}",
-                      rtl_header=design.verilog_header(p, csr=csr),
-                      bus=bus_config(top.core.regmap) if csr else None)
+                      rtl_header=design.verilog_header(p, csr=csr, bus=bus),
+                      bus=bus_config(top.core.regmap, bus) if csr else None)
     if csr:
         from dataclasses import replace
         from tdicam.chain.registers import file_texts

@@ -234,21 +234,26 @@ def _newest(rows):
     return max(rows, key=lambda r: r.date, default=None)
 
 
-#: The README's silicon table: (scene file, pixels per clock, the lanes' PHY, what it is) of
-#: each row, the newest recorded ``pipeline`` row of that scene, ppc and PHY (a row without
-#: ``phy``: the generic one, ``none``) (:func:`readme_table`).
+#: The README's silicon table: (scene file, pixels per clock, its variant, what it is) of
+#: each row, the newest recorded ``pipeline`` row of that scene, ppc and variant (``phy``,
+#: the lanes' PHY, and ``bus``, the control bus; a row without one: ``none``)
+#: (:func:`readme_table`).
 README_CHAINS = (
-    ("orbit_chain.toml", 8, "none", "orbit chain (Qu et al. 2010 design point): nuc -> tdi "
-     "-> median3 (at 1 after an 8:1 width converter), 1280 columns x 96 stages"),
-    ("ning2019_chain.toml", 8, "none", "Ning et al. 2019 chain: cds -> nuc -> hdr -> tdi -> "
+    ("orbit_chain.toml", 8, {}, "orbit chain (Qu et al. 2010 design point): nuc -> tdi "
+     "-> median3 (at 1 after an 8:1 width converter), 1280 columns x 96 stages, "
+     "`--no-csr`"),
+    ("orbit_chain.toml", 8, {"bus": "axi4-lite"}, "the same chain with its control bus "
+     "(the default: AXI4-Lite slave, register file, irq)"),
+    ("orbit_chain.toml", 8, {"bus": "wishbone"}, "the same chain with `--bus wishbone`"),
+    ("ning2019_chain.toml", 8, {}, "Ning et al. 2019 chain: cds -> nuc -> hdr -> tdi -> "
      "median3 (at 1 after an 8:1 width converter), 256 columns"),
-    ("ning2019_gmax0504_system_lanes.toml", 1, "none", "Ning et al. 2019 camera from the "
+    ("ning2019_gmax0504_system_lanes.toml", 1, {}, "Ning et al. 2019 camera from the "
      "sensor's lanes: lvds -> cds_ddr -> nuc (NAND) -> hdr -> tdi -> median3, 256 columns"),
-    ("ning2019_gmax0504_system_lanes.toml", 1, "ecp5", "the same camera behind the ECP5 "
-     "PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
+    ("ning2019_gmax0504_system_lanes.toml", 1, {"phy": "ecp5"}, "the same camera behind "
+     "the ECP5 PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
      "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
      "ECLK / 2 through CLKDIVF, 75 MHz)"),
-    ("ning2019_gmax0504_full.toml", 8, "none", "the whole Ning et al. 2019 camera, 5144 x "
+    ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera, 5144 x "
      "3800, 2 gains: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> median3, reset "
      "frames and per-pixel NUC coefficients in DDR through a DdrArbiter an interface"),
 )
@@ -263,9 +268,10 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
     rows = load() if rows is None else rows
     out = ["| design | ppc | LUT4 | COMB | FF | DP16KD | MULT18 | Fmax per clock domain, MHz "
            "(clk target) | fits |", "|---|---|---|---|---|---|---|---|---|"]
-    for scene, ppc, phy, what in README_CHAINS:
+    for scene, ppc, variant, what in README_CHAINS:
         found = [r for r in find("pipeline", rows, scene=scene)
-                 if int(r.params.get("ppc", 1)) == ppc and r.params.get("phy", "none") == phy]
+                 if int(r.params.get("ppc", 1)) == ppc and all(
+                     r.params.get(k, "none") == variant.get(k, "none") for k in ("phy", "bus"))]
         if not found:
             continue
         r = _newest(found)

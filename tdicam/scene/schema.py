@@ -435,13 +435,15 @@ class Pipeline:
 class RtlRun:
     """``[run.rtl]``: cycle-accurate crop ``(x0, y0, width, height)`` (None = whole frame);
     ``lane_dies``: ``(lane, frame)`` a sensor lane that dies in the co-simulation, or None;
-    ``phy``: the device PHY checked from serial bits beside the chain ("generic": none)."""
+    ``phy``: the device PHY checked from serial bits beside the chain ("generic": none);
+    ``csr``: the top with its control bus, its status read through it."""
 
     crop: tuple[int, int, int, int] | None
     simulator: str
     pixels_per_clock: int
     lane_dies: tuple[int, int] | None = None
     phy: str = "generic"
+    csr: bool = False
 
 
 #: The scene simulator's fidelities (``[run].fidelity``, ``tdicam run --fidelity``): every

@@ -593,6 +593,13 @@ RUN_RTL_KEYS = {
                       "PHY's receiver, its words against the golden link model's, every "
                       "lane's tap and slip against the prediction for the PHY",
                   default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]"),
+    "csr": KeyDoc("", "the co-simulated top with its control bus (AXI4-Lite, as tdicam "
+                      "verilog pipeline writes it by default): the sensor front end's "
+                      "status read through the bus while the lanes run, every register "
+                      "at the end and each interrupt served in the report (registers, "
+                      "irq); false: the top's loose run-time ports",
+                  range="true needs [sensor.lvds] (the other tops' bus co-simulation is "
+                        "cocotb_tests/test_csr.py)"),
 }
 
 
@@ -612,7 +619,7 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
     rtl = None
     if sec.has("rtl"):
         r = Section(f"{sec.name}.rtl", sec.data["rtl"], labels)
-        r.check_keys(("crop", "simulator", "pixels_per_clock", "lane_dies", "phy"))
+        r.check_keys(("crop", "simulator", "pixels_per_clock", "lane_dies", "phy", "csr"))
         crop = r.raw("crop", None)
         if crop is not None:
             if (not isinstance(crop, list) or len(crop) != 4
@@ -649,9 +656,14 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
         phy = r.choice("phy", "generic", RTL_PHYS)
         if phy != "generic" and sensor.lvds is None:
             r.fail("phy", f"{phy} needs the sensor's lanes ([sensor.lvds])")
+        csr = r.boolean("csr", False)
+        if csr and sensor.lvds is None:
+            r.fail("csr", "true needs the sensor's lanes ([sensor.lvds]): tdicam run's bus "
+                          "co-simulation is the lanes' top's (give false, or run "
+                          "cocotb_tests/test_csr.py for this chain)")
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
-                     pixels_per_clock=ppc, lane_dies=dies, phy=phy)
+                     pixels_per_clock=ppc, lane_dies=dies, phy=phy, csr=csr)
     return Run(lines=lines, seed=sec.integer("seed", 0, lo=0),
                fidelity=sec.choice("fidelity", "auto", FIDELITIES),
                tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,
