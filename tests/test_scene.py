@@ -502,6 +502,21 @@ def test_rtl_pixels_per_clock(tmp_path):
                    "a beat carries 8 pixels of a line")
 
 
+def test_rtl_csr_key(tmp_path):
+    """``[run.rtl].csr``: false by default (the loose-port top); true for a scene with the
+    sensor's lanes (the lanes' top co-simulated through its bus); true without lanes, or
+    not a boolean, one line naming the key."""
+    assert load_text(tmp_path, ORBIT + "[run.rtl]\n").run.rtl.csr is False
+    lanes = ROOT / "scenes" / "ning2019_gmax0504_system_lanes.toml"
+    text = lanes.read_text().replace("[run.rtl]\n", "[run.rtl]\ncsr = true\n", 1)
+    assert load_text(tmp_path, text).run.rtl.csr is True
+    msg = error_of(tmp_path, ORBIT + "[run.rtl]\ncsr = true\n")
+    assert msg.startswith("[run.rtl].csr: true needs the sensor's lanes ([sensor.lvds])")
+    assert "\n" not in msg
+    assert error_of(tmp_path, ORBIT + "[run.rtl]\ncsr = 1\n").startswith(
+        "[run.rtl].csr: must be true or false")
+
+
 def test_rtl_needs_digital_tdi(tmp_path):
     msg = error_of(tmp_path, ORBIT + "[tdi]\ndomain = \"charge\"\n[run.rtl]\n")
     assert msg == ("[run.rtl]: needs [tdi].domain = 'digital' (charge-domain TDI sums in the "

@@ -106,12 +106,15 @@ def verilog_command(extra, output, *, show_help=False):
     if show_help:
         extra = ["--help"]
     csr = "--no-csr" not in extra
+    folder = None
     if csr and output is not None and (Path(output).is_dir() or not Path(output).suffix):
-        Path(output).mkdir(parents=True, exist_ok=True)        # -o DIR: a folder
-        output = str(Path(output) / "pipeline.v")
-    if output is not None and not show_help:
+        folder, output = Path(output), str(Path(output) / "pipeline.v")    # -o DIR
+    if output is not None and not show_help and folder is None:
         check_file(output)
     ns, p, data = scene_design("tdicam verilog pipeline", extra)
+    if folder is not None:                     # made once the arguments and scene are good
+        folder.mkdir(parents=True, exist_ok=True)
+        check_file(output)
     if ns.html and not (csr and output is not None):
         raise TdicamError("--html: the HTML register reference is written with -o DIR (and "
                           "without --no-csr)")

@@ -321,7 +321,8 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
          "pixel_rate": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)),
          "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= need,
          "need": need, "need_what": need_what}
-        for r in record.find("pipeline", scene=scene_file)] or None
+        for r in record.find("pipeline", scene=scene_file)
+        if "bus" not in r.params] or None     # a bus row is the control bus's cost
     return {
         "pixel_rate": rate, "stages": stages, "width": width,
         "source": ("synthesis record (ECP5-85F speed 8)" if fpga_clock_mhz is None
