@@ -14,7 +14,7 @@ rewrites the regions, ``--check`` says which are stale, and tests/test_docs.py f
 * ``tdicam-effects`` (``guide/run.md``): the scene simulator's effects table
   (:data:`tdicam.engine.effects.EFFECTS`), in the order they are applied;
 * ``tdicam-registers`` (``guide/registers.md``): the orbit chain's register reference, as
-  ``tdicam verilog pipeline --csr`` writes it (``peakrdl-markdown``), its headings one level
+  ``tdicam verilog pipeline -o DIR`` writes it (``peakrdl-markdown``), its headings one level
   down;
 * ``tdicam-api`` (``api.md``): every name in ``tdicam.__all__`` with its signature and
   docstring (a class with its public members, a module with its own ``__all__``).
