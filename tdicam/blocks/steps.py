@@ -189,6 +189,9 @@ class RunView(Protocol):
         under ``"coeffs"``); a step reads it, ``prepare`` writes it.
     flash : dict
         Per channel, the NAND store's counters of this run; NUC's step writes them once.
+    frame_rows : bool
+        An area camera (``[pipeline.nuc].coefficients = "frame"``): frame ``r`` is sensor
+        row ``r``, the fixed pattern and NUC's coefficients a row per frame.
     """
 
     scene: object
@@ -207,6 +210,9 @@ class RunView(Protocol):
 
     @property
     def digital(self) -> bool: ...
+
+    @property
+    def frame_rows(self) -> bool: ...
 
 
 @dataclass(frozen=True)
