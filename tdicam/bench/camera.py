@@ -9,7 +9,11 @@ written to DDR, the signal line read beside the reset line and the coefficients 
 both users behind the channel's DdrArbiter; every block's output (tap) is compared bit for
 bit with the golden chain. The scene is an area camera (one stage): tdicam's frame is one
 line, so a cut of ``lines`` lines is ``lines`` reset frames and ``lines`` signal frames of a
-line each a gain (the frame pair's first ``lines`` rows), the coefficient frame one line.
+line each a gain (the frame pair's first ``lines`` rows). Its NUC is per pixel
+(``[pipeline.nuc].coefficients = "frame"``): the coefficient image has a line per row of the
+cut (``lines`` x columns, each row its own gain and offset), loaded from the NAND model into
+DDR, and row ``r`` is read against coefficient line ``r`` (nuc_ddr's ``image_rows``), in
+the gateware and in the golden chain.
 The top's pixel input is fed directly (ideal lanes): the scene has no ``[sensor.lvds]``
 (its 129-slot padded lane convention is the plan's, not the lane model's).
 
