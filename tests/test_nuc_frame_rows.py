@@ -68,3 +68,18 @@ def test_the_whole_frame_pair_runs_with_per_pixel_coefficients(tmp_path):
     from tdicam.run.runner import run_scene
     rep = run_scene(load_scene(_FULL), tmp_path, impact=False, progress=False)
     assert (tmp_path / "report.md").exists() and rep
+
+
+def test_a_crop_keeps_its_rows_coefficients():
+    """[run.rtl].crop of an area camera: rows y0.. of the coefficients go with frames y0..
+    (nuc_ddr's output, pointwise, is the whole run's cropped)."""
+    design, p, (data, _) = _data(_NARROW)
+    sc = load_scene(_FULL, overrides=_NARROW)
+    y0, h, x0, w = 3, 5, 8, 16
+    pc = design.chain_plan(sc, stages=1, lines=h, width=w)
+    cut = data.crop(x0, w, y0, h, coeff_rows=True)
+    assert cut.coeffs[0][0].shape == (h, w)
+
+    def nuc_tap(plan, d):
+        return next(a for _, block, a in design.golden(plan, d) if block == "nuc_ddr")
+    assert np.array_equal(nuc_tap(pc, cut), nuc_tap(p, data)[y0:y0 + h, :, x0:x0 + w])

@@ -101,14 +101,17 @@ class SceneData:
             out.append(arrs)
         return out
 
-    def crop(self, x0, w, f0, nf):
-        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``."""
+    def crop(self, x0, w, f0, nf, *, coeff_rows=False):
+        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``; ``coeff_rows``: the
+        coefficients have a row a frame (an area camera's, ``[pipeline.nuc].coefficients =
+        "frame"``), rows ``f0:f0+nf`` of them kept too."""
         cut = (lambda a: np.ascontiguousarray(np.asarray(a)[f0:f0 + nf, :, x0:x0 + w]))
+        rows = slice(f0, f0 + nf) if coeff_rows else slice(None)
         return SceneData([cut(s) for s in self.signal],
                          None if self.reset is None else [cut(r) for r in self.reset],
                          None if self.coeffs is None else
-                         [(np.ascontiguousarray(g[:, x0:x0 + w]),
-                           np.ascontiguousarray(o[:, x0:x0 + w])) for g, o in self.coeffs])
+                         [(np.ascontiguousarray(g[rows, x0:x0 + w]),
+                           np.ascontiguousarray(o[rows, x0:x0 + w])) for g, o in self.coeffs])
 
 
 @dataclass
