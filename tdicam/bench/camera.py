@@ -33,7 +33,10 @@ __all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_run", "camera_rows
 #: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
 CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
 #: Lines of the two cuts ``tdicam bench camera`` measures (the second gives the cost a line).
-CUT_LINES = (8, 32)
+#: The coefficient image is a line a row of the cut, and the NAND simulation model
+#: (:class:`~tdicam.hdl.nand_store.NandDeviceSim`) holds at most 255 programmed pages: 22
+#: rows of 5144 columns (227 words of 2 pixels a page), so the second cut is 16 lines.
+CUT_LINES = (8, 16)
 
 
 def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
