@@ -2,7 +2,7 @@
 
     python bench/bench_camera.py [--lines 8] [--columns N] [--sim verilator]
 
-(``tdicam bench camera`` gives the 8- and 32-line cuts and the whole frame pair extrapolated
+(``tdicam bench camera`` gives the 8- and 16-line cuts and the whole frame pair extrapolated
 as rows of the benchmark table.)
 
 The first ``--lines`` lines of scenes/ning2019_gmax0504_full.toml (all 5144 columns unless

@@ -1,7 +1,8 @@
 """The whole camera of Ning et al. 2019 (``scenes/ning2019_gmax0504_full.toml``) through its
 generated top against the golden chain (:mod:`tdicam.bench.camera`): both gains, each line a
 reset frame (written to the channel's DDR model and read back) and a signal frame, the NAND
-model's coefficient image loaded into DDR at power-up and read back every line, both DDR
+model's coefficient image (a line a sensor row of the cut: every pixel its own gain and
+offset) loaded into DDR at power-up and row r's line read back with row r, both DDR
 users of a channel behind its DdrArbiter, at the camera plan's 8 pixels a clock; the top's
 pixel input fed directly (ideal lanes: the scene has no ``[sensor.lvds]``). Every block's
 output (tap) is compared; a mismatch names its block, frame, line and column.
@@ -9,7 +10,7 @@ output (tap) is compared; a mismatch names its block, frame, line and column.
 Default run: a 40-column, 8-line cut of the camera (16-block NAND parts: a short scan) on
 Icarus, and the same cut with one golden pixel changed (the check fails, naming it). With
 ``TDICAM_FULL=1``: all 5144 columns, 8 lines, the scene's 4096-block NAND parts, on
-Verilator (~2 min with the build, seconds cached).
+Verilator (6 min 51 s with the build at load 4.4, 2026-12-02; seconds cached).
 """
 
 import math
@@ -17,7 +18,7 @@ import math
 import numpy as np
 import pytest
 
-from tdicam.bench.camera import camera_run, extrapolate
+from tdicam.bench.camera import camera_cut, camera_run, extrapolate
 from tdicam.cosim.testing import FULL
 
 _CUT = {"lines": 8, "columns": 40, "nand_blocks": 16}
@@ -33,13 +34,14 @@ def _check(rep, columns, lines):
     for t in rep["taps"]:
         assert t["mismatches"] == 0 and t["received"] == t["beats"], t
         assert t["pixels"] == lines * columns
-    # each channel's DDR: the coefficient line (gain and offset, 16 a word) written once
-    # and read every line; the reset line (24 pixels a word) written and read every line
+    # each channel's DDR: the coefficient image (a line a sensor row: gain and offset, 16 a
+    # word) written once, row r's line read with row r; the reset line (24 pixels a word)
+    # written and read every line
     coeff, reset = math.ceil(2 * columns / 16), math.ceil(columns / 24)
     st = rep["status_outputs"]
     for sfx in ("", "_1"):
         assert st[f"nuc_ddr_calib_loaded{sfx}"] == 1 and st[f"nuc_ddr_calib_error{sfx}"] == 0
-        assert st[f"ddr_writes{sfx}"] == coeff + lines * reset
+        assert st[f"ddr_writes{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_reads{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_error{sfx}"] == 0
 
@@ -47,6 +49,33 @@ def _check(rep, columns, lines):
 def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus():
     rep = camera_run(sim="icarus", **_CUT)
     _check(rep, _CUT["columns"], _CUT["lines"])
+
+
+def test_every_row_is_corrected_with_its_own_coefficients():
+    """The cut's coefficient image has a distinct line a sensor row (per-pixel NUC, Ning et
+    al. 2019), and the golden chain with row 0's coefficients for every row differs from
+    the real one at nuc_ddr's tap in every later row: the gateware, bit-exact with the real
+    golden chain at that tap (the test above), reads row r's line for row r, and a golden
+    chain that reused row 0 would fail it."""
+    from dataclasses import replace
+    from tdicam.chain import design
+    p, data = camera_cut(_CUT["lines"], columns=_CUT["columns"],
+                         nand_blocks=_CUT["nand_blocks"])
+    lines = _CUT["lines"]
+    step = next(s for s in p.steps if s.block == "nuc_ddr")
+    assert step.params["image_rows"] == lines
+    for gain, offset in data.coeffs:
+        assert gain.shape == (lines, _CUT["columns"]) == offset.shape
+        assert len({g.tobytes() for g in gain}) == lines     # no two rows alike
+    row0 = replace(data, coeffs=[tuple(np.repeat(a[:1], lines, 0) for a in c)
+                                 for c in data.coeffs])
+
+    def nuc_tap(d):
+        return next(a for _, block, a in design.golden(p, d) if block == "nuc_ddr")
+    real, mutant = nuc_tap(data), nuc_tap(row0)
+    assert (real[0] == mutant[0]).all()                          # row 0 is row 0
+    assert all((real[r] != mutant[r]).any() for r in range(1, lines)), \
+        "a row corrected with row 0's coefficients went unnoticed"
 
 
 def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column():

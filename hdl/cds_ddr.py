@@ -155,10 +155,11 @@ def port_wiring(port, wr, rd):
             rd.rdata.eq(port.rdata)]
 
 
-def frame_requests(m, rd, lay, rows):
-    """The reader's requests for a stored frame: ``rows`` lines of ``lay`` from its base, one
-    a request. Returns ``(left, start)``: the lines still to request and the statements
-    that start a frame's requests (``m.d.sync``, when ``left`` is 0)."""
+def frame_requests(m, rd, lay, rows, base=None):
+    """The reader's requests for a stored frame: ``rows`` lines of ``lay`` from its base
+    (``base``: a signal holding the first line's address instead), one a request. Returns
+    ``(left, start)``: the lines still to request and the statements that start a frame's
+    requests (``m.d.sync``, when ``left`` is 0)."""
     left = Signal(range(rows + 1))
     req_addr = Signal(ADDR_BITS)
     req_first = Signal()
@@ -167,7 +168,8 @@ def frame_requests(m, rd, lay, rows):
     with m.If(rd.req_valid & rd.req_ready):
         m.d.sync += [left.eq(left - 1), req_addr.eq(req_addr + lay.line_stride),
                      req_first.eq(0)]
-    return left, [left.eq(rows), req_addr.eq(lay.base), req_first.eq(1)]
+    return left, [left.eq(rows), req_addr.eq(lay.base if base is None else base),
+                  req_first.eq(1)]
 
 
 def track_kinds(m, i, kind, cur_kind, have, launched):

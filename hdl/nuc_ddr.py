@@ -14,9 +14,9 @@ from amaranth.lib.wiring import In, Out
 
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import check_choice, check_multiple, check_range
-from tdicam.model.ddr import CAPACITY_BYTES, check_capacity
+from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, check_capacity
 from tdicam.model.nuc import NucFormat, check_nuc_params
-from tdicam.model.nuc_ddr import coeff_layout
+from tdicam.model.nuc_ddr import check_image_rows, coeff_layout
 from tdicam.hdl.cds_ddr import frame_requests, port_wiring, track_kinds
 from tdicam.hdl.ddr import LineReader, LineWriter
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
@@ -42,13 +42,21 @@ class NucDdr(wiring.Component):
         (one stored slot, as the flash words').
     line_stride, base, capacity_bytes
         Where the coefficient image lives (:func:`tdicam.model.nuc_ddr.coeff_layout`).
+    image_rows : int or None
+        Lines of the coefficient image (a coefficient frame), a multiple of ``rows``: the
+        ``j``-th pixel frame after a coefficient frame reads ``rows`` lines from line
+        ``(j mod (image_rows / rows)) * rows``
+        (:func:`tdicam.model.nuc_ddr.image_segment`: an area camera's sensor row ``r``, a
+        frame of one line, against coefficient line ``r``); None: ``rows`` (every pixel
+        frame reads the whole image; the gateware as it was).
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8; ``width`` a multiple of it.
 
     Attributes
     ----------
     i_stream : In(pixel stream of ``2 * ppc`` x :attr:`elem_bits`)
-        Frames of ``width / ppc`` beats a row; ``frame_kind`` presented with a frame's first
+        Frames of ``width / ppc`` beats a row (``image_rows`` rows a coefficient frame,
+        ``rows`` a pixel frame); ``frame_kind`` presented with a frame's first
         beat says what it is. A coefficient frame's beat carries ``ppc`` pixels' (gain,
         offset) codes, pixel-major (:class:`~tdicam.hdl.calib.CalibReader`'s ``o_stream`` at
         ``ppc``: ``data[2k]`` gain, ``data[2k + 1]`` offset in two's complement in the low
@@ -83,7 +91,7 @@ class NucDdr(wiring.Component):
     @quiet_reject
     def __init__(self, *, width, rows, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14,
                  offset_bits=16, offset_frac_bits=0, out_bits=None, line_stride=None, base=0,
-                 capacity_bytes=CAPACITY_BYTES, ppc=1):
+                 capacity_bytes=CAPACITY_BYTES, ppc=1, image_rows=None):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
         self._out_bits = check_nuc_params(
             pixel_bits=pixel_bits, gain_int_bits=gain_int_bits, gain_frac_bits=gain_frac_bits,
@@ -93,7 +101,8 @@ class NucDdr(wiring.Component):
         check_multiple(width, ppc)
         check_range("rows", rows, 1, 1 << 16)
         self.layout = coeff_layout(width, line_stride=line_stride, base=base)
-        check_capacity(self.layout, rows, capacity_bytes, "coefficient image")
+        self._image_rows = check_image_rows(rows, image_rows)
+        check_capacity(self.layout, self._image_rows, capacity_bytes, "coefficient image")
         self._rows, self._pixel_bits = rows, pixel_bits
         self._elem_bits = max(pixel_bits, self._fmt.gain_bits, offset_bits)
         super().__init__({
@@ -102,6 +111,8 @@ class NucDdr(wiring.Component):
             "frame_kind": In(1), "line_errors": Out(16), **mig_user_ports()})
 
     rows = property(lambda self: self._rows)
+    image_rows = property(lambda self: self._image_rows,
+                          doc="Lines of the coefficient image (a multiple of rows).")
     pixel_bits = property(lambda self: self._pixel_bits)
     out_bits = property(lambda self: self._out_bits)
     fmt = property(lambda self: self._fmt, doc="The coefficient format (NucFormat).")
@@ -126,7 +137,8 @@ class NucDdr(wiring.Component):
         m = Module()
         lay, ppc = self.layout, self._ppc
         m.submodules.port = port = MigPort()
-        m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc, rows=self._rows)
+        m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc,
+                                              rows=self._image_rows)
         m.submodules.reader = rd = LineReader(
             layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
         m.submodules.nuc = nuc = self._core()
@@ -139,11 +151,23 @@ class NucDdr(wiring.Component):
         cur_kind = Mux(i.payload.first, self.frame_kind, kind)
         have = Signal()             # a coefficient frame has been stored
         launched = Signal()
-        left, start = frame_requests(m, rd, lay, self._rows)
+        segs = self._image_rows // self._rows
+        seg_base = None if segs == 1 else Signal(ADDR_BITS, init=lay.base)
+        left, start = frame_requests(m, rd, lay, self._rows, seg_base)
         launch = i.valid & i.payload.first & ~self.frame_kind & have & ~launched \
             & ~left.any() & ~wr.busy
         with m.If(launch):
             m.d.sync += [launched.eq(1), *start]
+        if seg_base is not None:
+            # the next pixel frame's lines of the image; line 0 again after the last
+            # segment and at every coefficient frame
+            seg = Signal(range(segs))
+            step = self._rows * lay.line_stride
+            with m.If(launch):
+                m.d.sync += [seg.eq(Mux(seg == segs - 1, 0, seg + 1)),
+                             seg_base.eq(Mux(seg == segs - 1, lay.base, seg_base + step))]
+            with m.If(i.valid & i.ready & cur_kind & i.payload.first):
+                m.d.sync += [seg.eq(0), seg_base.eq(lay.base)]
         # the coefficients through a register slice (the reader's word-to-value select off
         # the multiplier's input registers, the ready chain back into the MIG port cut)
         m.submodules.coeff_reg = reg = StreamRegister(rd.o_stream.payload.shape())

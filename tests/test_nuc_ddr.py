@@ -82,6 +82,9 @@ def test_latency_is_the_nuc_cores(ppc):
     ({"width": 12, "ppc": 8}, "not a multiple"),
     ({"width": 5144, "rows": 3800, "capacity_bytes": 64 << 20}, "address space too small"),
     ({"ppc": 3}, "ppc"),
+    ({"image_rows": 3}, "image_rows = 3 is not a multiple of the frame's rows = 2"),
+    ({"width": 5144, "rows": 1, "image_rows": 3800, "capacity_bytes": 64 << 20},
+     "address space too small"),
 ])
 def test_bad_parameters_are_one_line(kw, words):
     from tdicam.hdl.nuc_ddr import NucDdr
@@ -96,3 +99,22 @@ def test_gmax0504_image_fits_and_its_size():
     lay = coeff_layout(5144)
     assert lay.words_per_line == 643 and lay.line_stride == 8192
     assert lay.end_addr(3800) * 4 == 3799 * 8192 * 4 + 643 * 32
+
+
+def test_an_image_of_more_lines_gives_each_frame_its_own():
+    """image_rows = 3 x rows: pixel frame j after the coefficient frame is corrected with
+    image lines (j mod 3) * rows .., and a new coefficient frame starts again at line 0."""
+    rng = np.random.default_rng(3)
+    fmt = NucFormat()
+    rows, w = 2, 8
+    g = rng.integers(0, fmt.gain_max + 1, (9, 3 * rows, w))
+    o = rng.integers(fmt.offset_min, fmt.offset_max + 1, (9, 3 * rows, w))
+    x = rng.integers(0, 4096, (9, rows, w))
+    kinds = [1, 0, 0, 0, 0, 1, 0, 0, 0]
+    got = nuc_ddr_frames(x, g, o, kinds, image_rows=3 * rows)
+    seg = [(0, 0), (0, 1), (0, 2), (0, 0), (5, 0), (5, 1), (5, 2)]      # (image, segment)
+    pix = [i for i, k in enumerate(kinds) if not k]
+    want = [nuc(x[i], g[c][2 * s:2 * s + 2], o[c][2 * s:2 * s + 2]) for i, (c, s) in zip(pix, seg)]
+    assert (got == np.stack(want)).all()
+    with pytest.raises(TdicamError, match="give image_rows = 6"):
+        nuc_ddr_frames(x, g, o, kinds)

@@ -201,14 +201,14 @@ _DDR_CAPS = {"lat_lo": 30, "lat_hi": 30, "refresh_period": 200, "refresh_cycles"
              "base": 1 << 16, "line_stride": 1 << 12}
 
 
-def _ddr_frames(draw, blk, ppc, first_kinds):
+def _ddr_frames(draw, blk, ppc, first_kinds, skip=()):
     """A DDR block's parameters (small frames, the MIG model's stalls within
-    :data:`_DDR_CAPS`), its frame shape and count, full scale and the frames' kinds (the
-    first drawn from ``first_kinds``, then a stored frame in three)."""
+    :data:`_DDR_CAPS`; ``skip``: not drawn), its frame shape and count, full scale and the
+    frames' kinds (the first drawn from ``first_kinds``, then a stored frame in three)."""
     w = ppc * draw(st.integers(1, 3))
     rows = draw(st.integers(1, 3))
     p = _legal(draw, blk, {"ppc": ppc, "width": w, "rows": rows}, caps=_DDR_CAPS,
-               skip=("seed",))
+               skip=("seed",) + tuple(skip))
     n, full = draw(st.integers(2, 4)), (1 << p["pixel_bits"]) - 1
     kinds = np.array([draw(st.sampled_from(first_kinds))] +
                      [draw(st.sampled_from([0, 0, 1])) for _ in range(n - 1)], np.int64)
@@ -222,8 +222,15 @@ def _cds_ddr(draw, blk, ppc, rng):
 
 def _nuc_ddr(draw, blk, ppc, rng):
     from tdicam.blocks.nuc_ddr import _fmt
-    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [0, 1, 1])
-    gain, off = _coeffs(draw, rng, _fmt(p), (n, rows, w))
+    p, (n, rows, w), full, kinds = _ddr_frames(draw, blk, ppc, [0, 1, 1],
+                                               skip=("image_rows",))
+    # the coefficient image: a frame's rows, or 1..4 frames' (an area camera's: each pixel
+    # frame against its own lines, wrapping after the last)
+    segs = draw(st.sampled_from([None, 1, 2, 4]), "image_rows / rows")
+    p["image_rows"] = None if segs is None else rows * segs
+    n = n + (segs or 1)
+    kinds = np.concatenate([kinds, np.zeros(n - len(kinds), np.int64)])
+    gain, off = _coeffs(draw, rng, _fmt(p), (n, rows * (segs or 1), w))
     return p, {"x": _frames(draw, rng, n, (rows, w), full), "gain": gain, "offset": off,
                "kinds": kinds}
 

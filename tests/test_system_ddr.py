@@ -153,14 +153,17 @@ def test_the_report_states_the_load_and_the_shared_ddr():
 def test_the_full_camera_plans_its_coefficients_in_ddr():
     """scenes/ning2019_gmax0504_full.toml (all 5144 columns; an area camera: one-row
     frames) with memory = "ddr": the top's two DDR interfaces carry both users, the
-    coefficient row above the reset row; at the 8 pixels a clock its plan asks the NAND
-    load's one pixel's coefficients a beat are widened to the chain's 8 (the plan and the
-    top at ppc 8; its Verilog: test_the_system_scene_at_8_pixels_a_clock_elaborates)."""
+    coefficient image (3800 lines: coefficients = "frame") above the reset row; at the 8
+    pixels a clock its plan asks the NAND load's one pixel's coefficients a beat are widened
+    to the chain's 8 (the plan and the top at ppc 8; its Verilog:
+    test_the_system_scene_at_8_pixels_a_clock_elaborates)."""
     full = ROOT / "scenes" / "ning2019_gmax0504_full.toml"
-    sc = load_scene(full, overrides={"pipeline": {"nuc": {"flash": "nand", "memory": "ddr"}}})
+    sc = load_scene(full)
     p = design.chain_plan(sc)
     assert [s.block for s in p.steps][:2] == ["cds_ddr", "nuc_ddr"] and p.width == 5144
     assert p.steps[1].device                       # the NAND part, as the scene's
+    # per pixel: a coefficient line a sensor row of the whole frame (the frames one row)
+    assert (p.steps[1].params["rows"], p.steps[1].params["image_rows"]) == (1, 3800)
     cds, nuc = p.steps[:2]
     assert nuc.params["base"] == design.uses()["cds_ddr"].memory.ddr_end(cds) > 0
     top = _members(design.top(p))

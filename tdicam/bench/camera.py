@@ -9,7 +9,11 @@ written to DDR, the signal line read beside the reset line and the coefficients 
 both users behind the channel's DdrArbiter; every block's output (tap) is compared bit for
 bit with the golden chain. The scene is an area camera (one stage): tdicam's frame is one
 line, so a cut of ``lines`` lines is ``lines`` reset frames and ``lines`` signal frames of a
-line each a gain (the frame pair's first ``lines`` rows), the coefficient frame one line.
+line each a gain (the frame pair's first ``lines`` rows). Its NUC is per pixel
+(``[pipeline.nuc].coefficients = "frame"``): the coefficient image has a line per row of the
+cut (``lines`` x columns, each row its own gain and offset), loaded from the NAND model into
+DDR, and row ``r`` is read against coefficient line ``r`` (nuc_ddr's ``image_rows``), in
+the gateware and in the golden chain.
 The top's pixel input is fed directly (ideal lanes): the scene has no ``[sensor.lvds]``
 (its 129-slot padded lane convention is the plan's, not the lane model's).
 
@@ -29,7 +33,10 @@ __all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_run", "camera_rows
 #: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
 CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
 #: Lines of the two cuts ``tdicam bench camera`` measures (the second gives the cost a line).
-CUT_LINES = (8, 32)
+#: The coefficient image is a line a row of the cut, and the NAND simulation model
+#: (:class:`~tdicam.hdl.nand_store.NandDeviceSim`) holds at most 255 programmed pages: 22
+#: rows of 5144 columns (227 words of 2 pixels a page), so the second cut is 16 lines.
+CUT_LINES = (8, 16)
 
 
 def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):

@@ -233,6 +233,12 @@ class Block:
                         f"block {self.name}: input {side.name!r} has shape "
                         f"{np.shape(out[side.name])}, the stream {st.stream!r} "
                         f"{main.shape}") from None
+            if side.per == "image" and (np.ndim(out[side.name]) != main.ndim or np.shape(
+                    out[side.name])[:-2] + np.shape(out[side.name])[-1:]
+                    != main.shape[:-2] + main.shape[-1:]):
+                raise TdicamError(f"block {self.name}: input {side.name!r} has shape "
+                                  f"{np.shape(out[side.name])}, the stream {st.stream!r} "
+                                  f"{main.shape}: the same frames and columns needed")
         return out
 
     def run_golden(self, arrays, params):
@@ -259,7 +265,7 @@ class Block:
         for key in self._keys():
             a = np.asarray(arrays[key])
             per = "pixel" if key == self.streams.stream else self._per(key)
-            flat[key] = _flat_frames(a) if per == "pixel" and a.ndim >= 2 else \
+            flat[key] = _flat_frames(a) if per in ("pixel", "image") and a.ndim >= 2 else \
                 (a.ravel() if per == "frame" else a)
         return {**flat, **self.streams.golden(flat, params)}
 

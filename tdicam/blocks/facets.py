@@ -127,10 +127,12 @@ class SideInput:
     ----------
     name : str
         Key of the array in the block's scene arrays.
-    per : {"pixel", "frame", "run"}
+    per : {"pixel", "image", "frame", "run"}
         ``pixel``: same shape as the main stream's frames (e.g. the CDS reset frame, the NUC
-        coefficients, HDR's low-gain channel); ``frame``: one value per frame (HDR's
-        ``gain_sel``); ``run``: one scalar for the whole run (TDI's ``stages``).
+        coefficients, HDR's low-gain channel); ``image``: a pixel of a stored image, as many
+        frames and columns as the stream, its own rows (nuc_ddr's coefficients:
+        ``image_rows``); ``frame``: one value per frame (HDR's ``gain_sel``); ``run``: one
+        scalar for the whole run (TDI's ``stages``).
     what : str
         What it is and how the gateware receives it (stream channel, run-time port, DDR).
     default : object

@@ -214,10 +214,13 @@ class NucOptions:
     flip_double: float = 0.0
     seed: int = 1
     memory: str = "chip"
+    coefficients: str = "window"
 
 
 #: ``[pipeline.nuc].memory``: where the gateware keeps the coefficients while it runs.
 NUC_MEMORY = ("chip", "ddr")
+#: ``[pipeline.nuc].coefficients``: which sensor rows the coefficient image covers.
+NUC_COEFFICIENTS = ("window", "frame")
 
 #: ``[pipeline.nuc]`` keys of the NAND flash store (only with ``flash = "nand"``).
 _NAND_KEYS = ("bad_blocks", "flip_single", "flip_double", "seed")
@@ -228,6 +231,10 @@ def _read_options(sec, sensor):
     ecc = sec.boolean("ecc", True)
     flash = sec.choice("flash", "none", ("none", "nand"))
     memory = sec.choice("memory", "chip", NUC_MEMORY)
+    rows = sec.choice("coefficients", "window", NUC_COEFFICIENTS)
+    if rows == "frame" and memory != "ddr":
+        sec.fail("coefficients", "= \"frame\" needs memory = \"ddr\" (a frame's "
+                                 "coefficients do not fit on chip)")
     if memory == "ddr" and frac > 14:
         sec.fail("gain_frac_bits", f"must be <= 14 with memory = \"ddr\" (2 + {frac} bits "
                                    "do not fit a 16-bit DDR slot)")
@@ -235,7 +242,7 @@ def _read_options(sec, sensor):
         for k in _NAND_KEYS:
             if sec.has(k):
                 sec.fail(k, "is a NAND flash fault: set flash = \"nand\" to use it")
-        return NucOptions(gain_frac_bits=frac, ecc=ecc, memory=memory)
+        return NucOptions(gain_frac_bits=frac, ecc=ecc, memory=memory, coefficients=rows)
     if not ecc:
         sec.fail("ecc", "must be true with flash = \"nand\" (the flash words are 64/72 ECC)")
     if frac > 14:
@@ -249,7 +256,7 @@ def _read_options(sec, sensor):
     return NucOptions(gain_frac_bits=frac, ecc=ecc, flash=flash,
                       bad_blocks=sec.integer("bad_blocks", 0, lo=0, hi=4095),
                       flip_single=single, flip_double=double,
-                      seed=sec.integer("seed", 1, lo=0), memory=memory)
+                      seed=sec.integer("seed", 1, lo=0), memory=memory, coefficients=rows)
 
 
 OPTIONS = Options(
@@ -277,7 +284,14 @@ OPTIONS = Options(
                           "frame and every pixel frame reads them back line by line (block "
                           "nuc_ddr, Ning et al. 2019 §4.2-§4.4.4: a full frame's "
                           "coefficients do not fit on chip); gain_frac_bits <= 14 (a 16-bit "
-                          "slot)")},
+                          "slot)"),
+     "coefficients": KeyDoc("", "window: one coefficient line per row of the TDI window "
+                                "(a line scanner: every output line made by the same "
+                                "sensor rows, so per column of them); frame: an area "
+                                "camera ([tdi].stages = 1) with a coefficient line per "
+                                "sensor row of the frame, output line r made by sensor row "
+                                "r and corrected with its own gain and offset (Ning et al. "
+                                "2019: per pixel); needs memory = ddr")},
     probe={"flash": "nand"})
 
 
@@ -538,6 +552,8 @@ def _sim_step(c: RunView, fr: Frames):
             gain_c, off_c = _nand_roundtrip(c, ch, fmt, gain_c, off_c)
         elif c.scene.pipeline.nuc.ecc:
             gain_c, off_c = _ecc_roundtrip(fmt, gain_c, off_c)
+        if c.frame_rows:            # frame tau (one row) against coefficient row tau
+            gain_c, off_c = gain_c[:, None], off_c[:, None]
         g = np.broadcast_to(gain_c, x.shape)
         o = np.broadcast_to(off_c, x.shape)
         p = _sim.step(c, BLOCK, bits, x.shape[-1]).params

@@ -11,24 +11,25 @@ the simulation MIG model behind it (:mod:`tdicam.blocks._ddr`).
 
 import numpy as np
 
+from tdicam.errors import TdicamError
 from tdicam.blocks.steps import Step
 
-from tdicam.beats import PPC_CHOICES, frames_to_beats
+from tdicam.beats import PPC_CHOICES, Beats, frames_to_beats
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
 from tdicam.model.nuc import NucFormat
-from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
+from tdicam.model.nuc_ddr import check_image_rows, coeff_layout, nuc_ddr_frames
 from tdicam.blocks import (PPC_PARAM, Block, Case, Memory, Param, SideInput, Streams, Suite, Use,
                            check_width)
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
-from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide, nand_load_rows
+from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide
 from tdicam.hdl.nuc_ddr import NucDdr
 
 __all__ = ["BLOCK", "nuc_ddr_arrays"]
 
 # ---- top
 _FMT_KEYS = ("gain_int_bits", "gain_frac_bits", "offset_bits", "offset_frac_bits")
-_MODEL_KEYS = ("pixel_bits", "out_bits", "line_stride", "base") + _FMT_KEYS
+_MODEL_KEYS = ("pixel_bits", "out_bits", "line_stride", "base", "image_rows") + _FMT_KEYS
 
 
 def _nuc_params(p):
@@ -45,7 +46,12 @@ def _check(p):
     check_width(p["width"], p["ppc"])
     _fmt(p)._check_slots()
     check_capacity(coeff_layout(p["width"], line_stride=p["line_stride"], base=p["base"]),
-                   p["rows"], p["capacity_mib"] << 20, "coefficient image")
+                   _image_rows(p), p["capacity_mib"] << 20, "coefficient image")
+
+
+def _image_rows(p):
+    """Lines of the coefficient image (``image_rows``, default ``rows``), checked."""
+    return check_image_rows(p["rows"], p["image_rows"])
 
 
 def _core(p):
@@ -56,7 +62,7 @@ def _core(p):
 
 def _top(**p):
     core = _core(p)
-    return sim_top(core, core.layout.end_addr(p["rows"]) // ADDR_PER_WORD, stalls_of(p))
+    return sim_top(core, core.layout.end_addr(core.image_rows) // ADDR_PER_WORD, stalls_of(p))
 
 
 def _synth_top(**p):
@@ -83,11 +89,14 @@ def nuc_ddr_arrays(x, gain, offset, kinds, params):
 
 def _random(kinds):
     """Random pixels; calibration-like coefficients with any code in every 7th pixel
-    (``nuc``'s random case) on the coefficient frames."""
+    (``nuc``'s random case) on the coefficient frames (``image_rows`` lines)."""
     def make(params, rng):
-        a = _nuc_random(len(kinds), params["rows"], params["width"])(_nuc_params(params),
-                                                                    rng)
-        return nuc_ddr_arrays(a["x"], a["gain"], a["offset"], kinds, params)
+        rows, w = params["rows"], params["width"]
+        img = check_image_rows(rows, params.get("image_rows"))
+        a = _nuc_random(len(kinds), img, w)(_nuc_params(params), rng)
+        x = a["x"][:, :rows] if img == rows else \
+            _nuc_random(len(kinds), rows, w)(_nuc_params(params), rng)["x"]
+        return nuc_ddr_arrays(x, a["gain"], a["offset"], kinds, params)
     return make
 
 
@@ -112,12 +121,29 @@ def _to_beats(arrays, params):
     x, kinds = arrays["x"], np.asarray(arrays["kinds"], np.int64)
     check_width(np.shape(x)[-1], ppc)
     g, o = fmt.check_coeffs(arrays["gain"], arrays["offset"])
+    if np.shape(g)[1] != np.shape(x)[1]:          # an image of more lines than a frame
+        return _to_beats_image(x, g, o, kinds, ppc, fmt), frames_to_beats(arrays["out"],
+                                                                          ppc=ppc)
     k = kinds[:, None, None].astype(bool)
     elems = np.stack([np.where(k, g, x), np.where(k, o & ((1 << fmt.offset_bits) - 1), 0)],
                      axis=-1)
     stim = frames_to_beats(elems, ppc=ppc, channels=2)
     stim.ctrl = np.repeat(kinds.astype(np.uint64), np.shape(x)[1] * np.shape(x)[2] // ppc)
     return stim, frames_to_beats(arrays["out"], ppc=ppc)
+
+
+def _to_beats_image(x, g, o, kinds, ppc, fmt):
+    """:func:`_to_beats`' stimulus when a coefficient frame (``image_rows`` lines) is
+    taller than a pixel frame: each frame's beats in turn."""
+    parts = []
+    for i, k in enumerate(kinds):
+        f = (np.stack([g[i], o[i] & ((1 << fmt.offset_bits) - 1)], axis=-1) if k else
+             np.stack([x[i], np.zeros_like(x[i])], axis=-1))
+        b = frames_to_beats(f[None], ppc=ppc, channels=2)
+        b.ctrl = np.full(len(b), k, np.uint64)
+        parts.append(b)
+    return Beats(*(np.concatenate([getattr(b, n) for b in parts])
+                   for n in ("data", "first", "last", "seg", "ctrl", "rst")))
 
 
 def _unstream(out, arrays, params):
@@ -167,6 +193,11 @@ def _cases():
             Case(f"narrow_{ppc}x4_12b_p{ppc}", _p(ppc, 4, ppc=ppc), _random([1, 0, 1, 0]),
                  seed=50 + k, tags=("narrow",)),
         ]
+    # an area camera: frames of one sensor row, each against its own coefficient line
+    out += [Case("image_rows_24x1_of_4", _p(24, 1, image_rows=4), _random([1] + [0] * 9),
+                 seed=70, tags=("image_rows",)),
+            Case("image_rows_16x2_of_6_p4", _p(16, 2, image_rows=6, ppc=4),
+                 _random([0, 1, 0, 0, 0, 0, 1, 0, 0]), seed=71, tags=("image_rows",))]
     out.append(Case("gmax0504_row_5144x2_10b_p8", _p(5144, 2, pixel_bits=10, ppc=8),
                     _random([1, 0, 0]), seed=60, tags=("fast-only", "wide")))
     return out
@@ -178,31 +209,38 @@ def _pipeline_step(ctx):
     """``[pipeline.nuc].memory = "ddr"``: ``nuc``'s coefficient format and NAND part
     (its step's ``device``), the frame's size, the coefficient image at ``ctx.ddr_base``
     (above the reset frame when cds keeps it in the same DDR) with the scene's ``[ddr]``
-    stall settings."""
+    stall settings; with ``[pipeline.nuc].coefficients = "frame"`` (an area camera) the
+    image has a line per sensor row of the run (``image_rows`` = the chain's lines, each a
+    frame of one row)."""
     from tdicam.blocks import nuc as _nuc
     step, bits = _nuc._pipeline_step(ctx)
     params = {**step.params, "width": ctx.width, "rows": ctx.m, "base": ctx.ddr_base,
               **dict(ctx.scene.ddr.stalls)}
+    if ctx.scene.pipeline.nuc.coefficients == "frame":
+        if ctx.m != 1:
+            raise TdicamError(f"[pipeline.nuc].coefficients = \"frame\" is an area camera's: "
+                              f"[tdi].stages must be 1, got {ctx.m}")
+        params["image_rows"] = ctx.lines
     return Step("nuc_ddr", params, device=step.device), bits
 
 
 def _pipeline_end(step):
     p = BLOCK.resolve(step.params)
     return coeff_layout(p["width"], line_stride=p["line_stride"],
-                        base=p["base"]).end_addr(p["rows"])
+                        base=p["base"]).end_addr(_image_rows(p))
 
 
 def _pipeline_golden(step, data):
     """Lane ``lane``'s frames corrected as the top does: its coefficients (as loaded from
-    the NAND part when there is one) written as one coefficient frame before the lane's
-    frames, through the block's golden model."""
+    the NAND part when there is one: ``image_rows`` lines) written as one coefficient
+    frame before the lane's frames, through the block's golden model."""
     from tdicam.blocks import nuc as _nuc
     p = BLOCK.resolve(step.params)
 
     def fn(arrays, lane):
         x = np.asarray(arrays[0])
         c = _nuc._pipeline_arrays(step, data, lane)
-        shape = (len(x) + 1,) + x.shape[1:]
+        shape = (len(x) + 1,) + np.shape(c["gain"])
         xs = np.concatenate([np.zeros((1,) + x.shape[1:], x.dtype), x])
         g = np.broadcast_to(c["gain"], shape)
         o = np.broadcast_to(c["offset"], shape)
@@ -229,7 +267,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
     from tdicam.hdl.simmodels.mig_model import MigModel
     from tdicam.model import nand_store
     p = BLOCK.resolve(step.params)
-    rows, cols, ppc = p["rows"], p["width"], p["ppc"]
+    rows, cols, ppc = _image_rows(p), p["width"], p["ppc"]
 
     def mig(lane):
         return Device(MigModel(depth_words=max(1, _pipeline_end(step) // ADDR_PER_WORD),
@@ -267,9 +305,10 @@ def _measured(step, status, info):
     channel's shared DDR (its users behind one DdrArbiter: the board's ``ddr_*``
     counters): words written and read, the coefficient frame's share, the stalls."""
     from tdicam.blocks import nuc as _nuc
-    out = _nuc.measured_load(step, status, info, "nuc_ddr")
     p = BLOCK.resolve(step.params)
-    words = coeff_layout(p["width"]).words_per_line * p["rows"]
+    out = _nuc.measured_load(step, status, {**info, "rows": _image_rows(p)}, "nuc_ddr")
+    words = coeff_layout(p["width"]).words_per_line * _image_rows(p)
+    read = coeff_layout(p["width"]).words_per_line * p["rows"]
     k = 0
     while f"ddr_writes{'_%d' % k if k else ''}" in status:
         sfx = f"_{k}" if k else ""
@@ -279,7 +318,7 @@ def _measured(step, status, info):
                     "unit": "words", "stall_cycles": stalls,
                     "text": f"DDR channel {k}, its users behind one arbiter: {w} words "
                             f"written ({words} of them the coefficient frame), {r} read "
-                            f"({words} a pixel frame's coefficients) in {info['cycles']} "
+                            f"({read} a pixel frame's coefficients) in {info['cycles']} "
                             f"cycles = {(w + r) / max(info['cycles'], 1):.1%} of the "
                             f"interface's cycles"
                             + (f"; {stalls} cycles waited on the MIG model's stalls"
@@ -289,10 +328,19 @@ def _measured(step, status, info):
     return out
 
 
-def _pipeline_identity(step, shape):
-    """Gain 1, offset 0 for every pixel of every lane (``nuc``'s)."""
+def _system(step, ctx):
+    """The plan's NAND load (``nuc``'s :func:`~tdicam.blocks.nuc.nand_load_rows`) of the
+    whole coefficient image (``image_rows`` lines)."""
     from tdicam.blocks import nuc as _nuc
-    return _nuc._pipeline_identity(step, shape)
+    return _nuc.nand_load_rows(step, {**ctx, "rows": _image_rows(BLOCK.resolve(step.params))})
+
+
+def _pipeline_identity(step, shape):
+    """Gain 1, offset 0 for every pixel of every lane (``nuc``'s), the image's
+    ``image_rows`` lines."""
+    from tdicam.blocks import nuc as _nuc
+    p = BLOCK.resolve(step.params)
+    return _nuc._pipeline_identity(step, (_image_rows(p),) + tuple(shape[1:]))
 
 
 # ---- entry
@@ -302,6 +350,11 @@ BLOCK = Block(
     params=(
         Param("width", 512, "pixels per line", lo=1, hi=1 << 16),
         Param("rows", 16, "lines per frame", lo=1, hi=1 << 16),
+        Param("image_rows", None, "lines of the coefficient image, a multiple of rows: pixel "
+                                  "frame j after a coefficient frame reads rows lines from "
+                                  "line (j mod (image_rows / rows)) * rows (an area camera's "
+                                  "sensor row r against coefficient line r); default rows",
+              lo=1, hi=1 << 16, implicit_default=True),
         Param("pixel_bits", 12, "input pixel width", lo=8, hi=16),
         Param("gain_int_bits", 2, "integer bits of the unsigned gain", lo=1, hi=4),
         Param("gain_frac_bits", 14, "fraction bits of the gain (1.0 = 2**frac; gain at most "
@@ -321,9 +374,10 @@ BLOCK = Block(
         to_beats=_to_beats,
         stream="x",
         side_inputs=(
-            SideInput("gain", "pixel", "per-pixel unsigned gain code, read on coefficient frames "
-                                       "(element 2k of each beat for its pixel k), stored in DDR"),
-            SideInput("offset", "pixel", "per-pixel signed offset code, read on coefficient "
+            SideInput("gain", "image", "per-pixel unsigned gain code, read on coefficient frames "
+                                       "(element 2k of each beat for its pixel k; image_rows "
+                                       "rows), stored in DDR"),
+            SideInput("offset", "image", "per-pixel signed offset code, read on coefficient "
                                          "frames (element 2k + 1), stored in DDR"),
             SideInput("kinds", "frame", "1 = a coefficient frame (stored in DDR, no output), "
                                         "0 = a pixel frame (corrected with the stored "
@@ -341,5 +395,5 @@ BLOCK = Block(
                 per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
     pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
                  chain_golden=_pipeline_golden, memory=Memory(ddr_end=_pipeline_end),
-                 measured=_measured, system=nand_load_rows),   # the NAND load, as nuc's
+                 measured=_measured, system=_system),   # the NAND load, as nuc's
 )

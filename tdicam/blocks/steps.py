@@ -101,14 +101,17 @@ class SceneData:
             out.append(arrs)
         return out
 
-    def crop(self, x0, w, f0, nf):
-        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``."""
+    def crop(self, x0, w, f0, nf, *, coeff_rows=False):
+        """The data of columns ``x0:x0+w`` and frames ``f0:f0+nf``; ``coeff_rows``: the
+        coefficients have a row a frame (an area camera's, ``[pipeline.nuc].coefficients =
+        "frame"``), rows ``f0:f0+nf`` of them kept too."""
         cut = (lambda a: np.ascontiguousarray(np.asarray(a)[f0:f0 + nf, :, x0:x0 + w]))
+        rows = slice(f0, f0 + nf) if coeff_rows else slice(None)
         return SceneData([cut(s) for s in self.signal],
                          None if self.reset is None else [cut(r) for r in self.reset],
                          None if self.coeffs is None else
-                         [(np.ascontiguousarray(g[:, x0:x0 + w]),
-                           np.ascontiguousarray(o[:, x0:x0 + w])) for g, o in self.coeffs])
+                         [(np.ascontiguousarray(g[rows, x0:x0 + w]),
+                           np.ascontiguousarray(o[rows, x0:x0 + w])) for g, o in self.coeffs])
 
 
 @dataclass
@@ -189,6 +192,9 @@ class RunView(Protocol):
         under ``"coeffs"``); a step reads it, ``prepare`` writes it.
     flash : dict
         Per channel, the NAND store's counters of this run; NUC's step writes them once.
+    frame_rows : bool
+        An area camera (``[pipeline.nuc].coefficients = "frame"``): frame ``r`` is sensor
+        row ``r``, the fixed pattern and NUC's coefficients a row per frame.
     """
 
     scene: object
@@ -207,6 +213,9 @@ class RunView(Protocol):
 
     @property
     def digital(self) -> bool: ...
+
+    @property
+    def frame_rows(self) -> bool: ...
 
 
 @dataclass(frozen=True)

@@ -88,7 +88,8 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         if rt.crop is not None:
             y0, h, x0, w = crop
             p = design.chain_plan(scene, stages=m, lines=h, width=w)
-            data = data.crop(x0, w, y0, h + m - 1 + extra)
+            data = data.crop(x0, w, y0, h + m - 1 + extra,
+                             coeff_rows=scene.pipeline.nuc.coefficients == "frame")
         else:
             gold = design.golden(p, data)
             last = gold[-1][2]

@@ -160,12 +160,14 @@ class Pass:
         # drawn for the largest window of the sweep (or of this run) so that every stage
         # count of a sweep sees the same pattern
         t0 = time.perf_counter()
-        rows_fp = max(max(sc.tdi.stages), c.m)
+        # (an area camera's, c.frame_rows: the frame's first `lines` rows, one an output line)
+        rows_fp = lines if c.frame_rows else max(max(sc.tdi.stages), c.m)
         fp = FixedPattern(np.ones((rows_fp, sen.columns)), np.zeros((rows_fp, sen.columns)))
         for step in c.steps("pattern"):
             step(c, fp)
-        fp.gain = fp.gain[:c.m, col0:col0 + ncols]
-        fp.dark = fp.dark[:c.m, col0:col0 + ncols]
+        keep = lines if c.frame_rows else c.m
+        fp.gain = fp.gain[:keep, col0:col0 + ncols]
+        fp.dark = fp.dark[:keep, col0:col0 + ncols]
         self.pattern = fp
         timer.add("prnu", time.perf_counter() - t0)
         t0 = time.perf_counter()

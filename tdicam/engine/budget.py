@@ -166,7 +166,9 @@ def estimate(scene, *, fidelity=None, lines=None, force=(), impact=True, rtl=Tru
         sim = max(sim, _pass_bytes(c, n_lines, cols, axes, k) + (held if after_main else 0))
         if (m, dv) == (m_show, dvs[0]):
             main_c = c
-    pattern = 2 * 16.0 * m_show * cols
+    # the fixed pattern's rows: the window's, or an area camera's every line (frame_rows)
+    fp_rows = n_lines if main_c is not None and main_c.frame_rows else m_show
+    pattern = 2 * 16.0 * fp_rows * cols
     output = held + 25.0 * n + (8.0 * n if "x" in axes else 0.0)
     imp = 0.0
     if impact and main_c is not None:

@@ -127,6 +127,14 @@ class RunContext:
         """DN of zero light after the exposure blocks: 0 with CDS, else the pedestal."""
         return 0.0 if takes_resets(self) else self.offset_dn
 
+    @property
+    def frame_rows(self):
+        """An area camera whose output line ``r`` is sensor row ``r``
+        (``[pipeline.nuc].coefficients = "frame"``): its fixed pattern and NUC coefficients
+        have a row per output line; otherwise every line is made by the window's rows."""
+        pl = self.scene.pipeline
+        return pl is not None and pl.nuc.coefficients == "frame"
+
     def stage_row(self, s):
         """0-based window row that makes stage s (first exposure s = 0) of a ground line."""
         return self.m - 1 - s if self.scene.tdi.direction == "forward" else s

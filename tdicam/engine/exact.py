@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from tdicam.errors import TdicamError
 from tdicam.engine.block_rows import LINES, Frames, prepare
 from tdicam.engine.streams import CHUNK_PIXELS, chunk_rng, run_chunks, stream
 
@@ -124,13 +125,15 @@ def digital(c, p):
     moving = p.geometry.moving
     S, gain_map, dark_map = c.signal_e, p.pattern.gain, p.pattern.dark
 
+    per_line = c.frame_rows         # an area camera: frame tau is sensor row tau
+
     def task(s, j, a, b):
         r = c.stage_row(s)
         t = time.perf_counter()
         # frame tau, stage s sees ground line tau - s
         rel = rend.sample(grid, np.arange(a, b) - s, s if moving else None)
-        lam = np.multiply(S * rel, gain_map[r])
-        lam += dark_map[r]
+        lam = np.multiply(S * rel, gain_map[a:b] if per_line else gain_map[r])
+        lam += dark_map[a:b] if per_line else dark_map[r]
         lam = np.broadcast_to(lam, (b - a, ncols))
         x = Exposure(c, lam, [f[a:b, r, :] for f in frames],
                      None if resets is None else [f[a:b, r, :] for f in resets],
@@ -162,6 +165,9 @@ def digital(c, p):
 
 def charge(c, p):
     """Charge-domain TDI: the charge of m exposures summed, one readout, one conversion."""
+    if c.frame_rows:
+        raise TdicamError("[pipeline.nuc].coefficients = \"frame\" is an area camera's: "
+                          "[tdi].mode must be digital (one stage), not charge")
     m, lines, ncols = c.m, p.lines, p.ncols
     moving = p.geometry.moving
     rend, grid = p.render_grid(0, lines - 1)

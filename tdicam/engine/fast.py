@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tdicam.errors import TdicamError
+
 from tdicam.model.physics import sensor as _sensor
 
 from tdicam.engine.block_rows import Frames, subtract_reset
@@ -92,6 +94,9 @@ def quantization(c, a):
 
 def path(c, p):
     """Fast fidelity over pass ``p``."""
+    if c.frame_rows:
+        raise TdicamError("[pipeline.nuc].coefficients = \"frame\" (a fixed pattern row per "
+                          "line) runs at exact fidelity only: set [run].fidelity = \"exact\"")
     m, lines, ncols = c.m, p.lines, p.ncols
     sen = c.sensor
     moving = p.geometry.moving

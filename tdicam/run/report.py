@@ -378,7 +378,10 @@ def markdown(scene, rep):
                f"{f['bad_blocks']} | {f['words']} | {f['corrected_words']} | "
                f"{f['uncorrectable_words']} | {f['defaulted_pixels']} of {f['pixels']} |"
                for r, f in nand]
-        md += ["", "The coefficients of the window rows are stored in a 4 Gb NAND flash "
+        rows = ("of every row of the frame (an area camera: [pipeline.nuc].coefficients = "
+                "\"frame\", each pixel its own gain and offset)"
+                if scene.pipeline.nuc.coefficients == "frame" else "of the window rows")
+        md += ["", f"The coefficients {rows} are stored in a 4 Gb NAND flash "
                "(2,048 + 64-byte pages, 64 pages per block, 4,096 blocks) with the scene's "
                "faults and loaded back as the camera does at power-up: bad-block scan, "
                "block map, 64/72 SECDED words (one flipped bit corrected), the default "
