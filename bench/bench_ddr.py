@@ -102,7 +102,7 @@ def speed(sims=cosim.SIMULATORS, quick=False):
         arr = {"frames": rng.integers(0, 1024, (4, 16, 512)), "kinds": np.array([1, 0, 0, 0])}
         from tdicam.model.cds_ddr import cds_ddr_frames
         arr["out"] = cds_ddr_frames(arr["frames"], arr["kinds"], pixel_bits=10)
-        st, ex = blocks.get("cds_ddr").to_beats(arr, p)
+        st, ex = blocks.get("cds_ddr").streams.to_beats(arr, p)
         runs.append(("cds_ddr", p, st, ex, sim, arr["frames"].size, "CDS 512x16, reset in DDR"))
         p = blocks.get("tdi_ddr").resolve({"width": 512, "stages": 16})
         nfr = 18 if (quick or sim == "icarus") else 40

@@ -33,8 +33,10 @@ MUTANTS = [
      "test_idelay_var_load"),
     ("no_wrap", "xilinx7", "tap <= INC ? tap + 5'd1 : tap - 5'd1;",
      "tap <= INC ? (tap == 5'd31 ? tap : tap + 5'd1) : tap - 5'd1;", "test_idelay_var_load"),
-    ("ibufds_inverted", "xilinx7", "(I === 1'b1 && IB === 1'b0) ? 1'b1",
-     "(I === 1'b1 && IB === 1'b0) ? 1'b0", "test_ibufds"),
+    ("ibufds_inverted", "xilinx7",             # IBUFDS's own (IBUFDS_DIFF_OUT has one too)
+     "IFD_DELAY_VALUE = \"AUTO\";\n  assign O = (I === 1'b1 && IB === 1'b0) ? 1'b1",
+     "IFD_DELAY_VALUE = \"AUTO\";\n  assign O = (I === 1'b1 && IB === 1'b0) ? 1'b0",
+     "test_ibufds"),
     ("diff_out_same", "xilinx7", "assign OB = ~O;", "assign OB = O;",
      "test_ibufds_diff_out"),
     ("rdy_early", "xilinx7", "n + 1 >= RDY_CYCLES", "n + 2 >= RDY_CYCLES",

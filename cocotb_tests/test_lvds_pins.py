@@ -91,11 +91,9 @@ def _check(phy, w, sim, eye=False):
             assert (f["tap"], f["run"], f["scan"]) == (p.tap, p.run_len, p.scan_mask), i
         assert f["slip"] == p.slip, f"lane {i}: slip {f['slip']} vs {p.slip}"
         locked.append(i)
-    ks, syncs, data = res.outputs
-    assert len(ks) > 500 and syncs[0] and np.array_equal(ks, ks[0] + np.arange(len(ks)))
-    for i in range(len(link.lanes)):
-        exp = lvds.sent_words(link, i, nd + np.arange(len(ks))) if i in locked else 0
-        np.testing.assert_array_equal(data[:, i], exp, err_msg=f"{phy} lane {i}")
+    assert len(res.outputs[0]) > 500, f"{phy}: {len(res.outputs[0])} words delivered"
+    assert [f["locked"] for f in res.final] == [int(i in locked) for i in range(len(link.lanes))]
+    assert lvds_pins.word_problems(link, res, nd) == (0, []), phy
     if eye:
         assert lvds_pins.eye_problems(link, phy, res, dcd=dcd) == []
     return res

@@ -1,6 +1,6 @@
 """The standard co-simulation suite of every block that streams, from the registry.
 
-For every registered block with a stream form (:attr:`tdicam.blocks.Block.to_beats`) and
+For every registered block with a stream form (:attr:`tdicam.blocks.Streams.to_beats`) and
 each simulator of its :class:`~tdicam.blocks.Suite`: its golden cases per beat (cocotb
 drives each cycle, 30 % idle and 40 % backpressure; the ppc 2 and 4 ones of the ``"ppc"``
 rule with ``TDICAM_FULL=1``), in fast mode (HDL-side stimulus and stalls), and its extreme
@@ -17,7 +17,7 @@ from tdicam.cosim import golden
 from tdicam.cosim.testing import FULL, beat_cases, check_case
 
 #: Every block that streams, in name order.
-STREAMING = [b for b in blocks.all_blocks() if b.to_beats is not None]
+STREAMING = [b for b in blocks.all_blocks() if b.streams.to_beats is not None]
 #: Quiet cycles the fast testbench waits after the last output (its drain window).
 DRAIN = 2000
 
@@ -95,7 +95,7 @@ def test_extreme_stalls(block, case, sim, idle, bp):
     if idle == bp == 0.0:
         arrays, params = golden.load(blk, case)
         params = blk.resolve(params)
-        stim, exp = blk.to_beats(arrays, params)
+        stim, exp = blk.streams.to_beats(arrays, params)
         top = blk.build(params)
         extra = st.extra_cycles(arrays, params) if st.extra_cycles is not None else 0
         bound = max(len(stim), len(exp)) + top.latency + DRAIN + 2 + extra

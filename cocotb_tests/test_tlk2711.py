@@ -45,7 +45,7 @@ def _build_stream(build):
         if case.params != BUILDS[build]:
             continue
         arrays, _ = golden.load(BLOCK, case.name)
-        stim, exp = BLOCK.to_beats(arrays, params)
+        stim, exp = BLOCK.streams.to_beats(arrays, params)
         if stims:
             stim.rst[0] = True
         stim.seg += seg

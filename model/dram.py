@@ -33,7 +33,7 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model.ddr import ADDR_BITS, ADDR_PER_WORD, CAPACITY_BYTES
 
-__all__ = ["slowdown", "ROW_WORDS", "BANKS", "DEFAULT_STALLS", "xorshift32", "worst_stall",
+__all__ = ["has_stalls", "slowdown", "ROW_WORDS", "BANKS", "DEFAULT_STALLS", "xorshift32", "worst_stall",
            "stall_pattern", "MigSim", "DramTiming", "DRAM_STALLS", "TREFI", "STARTUP",
            "WINDOW_REFRESHES", "window_cycles", "window_efficiency", "window_words"]
 
@@ -78,6 +78,11 @@ def worst_stall(params):
     return int(p["refresh_cycles"]) + int(p["lat_hi"])
 
 
+def has_stalls(params):
+    """``params`` (a block's) carry the simulation MIG model's stall parameters: a DDR block."""
+    return any(k in params for k in DEFAULT_STALLS)
+
+
 def slowdown(params):
     """How much slower than one grant a cycle the simulation MIG model serves a DDR user with
     stall parameters ``params`` (a DDR block's; keys it lacks take :data:`DEFAULT_STALLS`'
@@ -86,7 +91,7 @@ def slowdown(params):
     ``refresh_period / (refresh_period - refresh_cycles)`` (the refreshes' share), plus the
     read latency ``lat_hi`` spread over a 32-word burst. An upper bound on the mean, for
     sizing a simulation's cycle budget (:func:`tdicam.cosim.stream.cycle_budget`)."""
-    if not any(k in params for k in DEFAULT_STALLS):
+    if not has_stalls(params):
         return 1.0
     p = {**DEFAULT_STALLS, **{k: v for k, v in params.items() if k in DEFAULT_STALLS}}
     period, busy = int(p["refresh_period"]), int(p["refresh_cycles"])

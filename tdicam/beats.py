@@ -16,12 +16,25 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["PPC_CHOICES", "Beats", "BeatStream", "frames_to_beats", "beats_to_frames",
+__all__ = ["PPC_CHOICES", "check_ppc", "Beats", "BeatStream", "frames_to_beats", "beats_to_frames",
            "mark_resets", "cut_frames_beats"]
 
 #: Pixels a beat carries (pixels per clock): the one legal set of every stream block, of a
 #: chain's top and of the scene key ``[run.rtl].pixels_per_clock``.
 PPC_CHOICES = (1, 2, 4, 8)
+
+
+def check_ppc(ppc, width, label):
+    """``ppc`` if it is one of :data:`PPC_CHOICES` dividing ``width`` (None: not checked),
+    else the one-line :class:`TdicamError` ``"<label> = P is not valid; valid: 1, 2, 4, 8"``
+    or ``"<label> = P: the width W is not a multiple of it"`` (``label`` names the value as
+    the user gave it: ``--ppc``, ``pipeline: pixels per clock``)."""
+    if ppc not in PPC_CHOICES:
+        raise TdicamError(f"{label} = {ppc} is not valid; valid: "
+                          f"{', '.join(map(str, PPC_CHOICES))}")
+    if width is not None and width % ppc:
+        raise TdicamError(f"{label} = {ppc}: the width {width} is not a multiple of it")
+    return ppc
 
 
 @dataclass

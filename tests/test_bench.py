@@ -144,7 +144,7 @@ def test_ddr_works_feed_their_blocks():
         if w.block not in suite.expand(["ddr"]):
             continue
         blk, params, inp = suite.work_inputs(w)
-        stim, exp = blk.to_beats(blk.case_arrays(inp, params), params)
+        stim, exp = blk.streams.to_beats(blk.case_arrays(inp, params), params)
         px = inp["frames"].size
         assert stim.data.size == px, w.name
         if w.name == "ddr":

@@ -39,7 +39,7 @@ OTHER_MEANINGS = {
                                       "fault cut: its stages)",
     ("model/physics/camera.py", "nuc"): "the [camera].nuc key (its reference table)",
     ("tdicam/planning/camera.py", "nuc"): "the [camera].nuc key (an option the plan shows)",
-    ("tdicam/planning/camera.py", "ddr"): "a block's placement in DDR (Use.placement)",
+    ("tdicam/planning/camera.py", "ddr"): "a block's placement in DDR (Memory.placement)",
     ("tdicam/api.py", "tdi"): "the simulation dataset's `tdi` image (what tdicam run writes "
                               "as tdi.npy)",
 }
@@ -99,7 +99,7 @@ def _engine_constants(root, names):
 
 
 def test_the_engine_names_no_block(tmp_path):
-    """The scene simulator knows the blocks only through their entries' ``Use.sim`` rows: no
+    """The scene simulator knows the blocks only through their entries' ``Use.sim`` steps: no
     string constant in ``tdicam/engine/`` equals a block name (in any use), and the scan
     finds one when there is."""
     names = set(blocks.names())

@@ -10,7 +10,7 @@ from tdicam import blocks
 from tdicam.errors import TdicamError
 
 #: (frame shape, parameters) of a small scene-array run per stream block (the entries')
-SMALL = {b.name: b.small for b in blocks.all_blocks() if b.to_beats is not None}
+SMALL = {b.name: b.streams.small for b in blocks.all_blocks() if b.streams.to_beats is not None}
 
 
 def test_one_block_per_module():
@@ -22,7 +22,8 @@ def test_one_block_per_module():
 def test_every_stream_block_states_its_scene_contract():
     for name in SMALL:
         b = blocks.get(name)
-        assert b.stream and b.golden and b.example and b.small, name
+        st = b.streams
+        assert st.stream and st.golden and st.example and st.small, name
 
 
 @pytest.mark.parametrize("name", sorted(SMALL))
@@ -31,10 +32,10 @@ def test_scene_arrays_round_trip(name):
     whole arrays with dtypes."""
     b = blocks.get(name)
     shape, given = SMALL[name]
-    a = b.example(np.random.default_rng(3), 3, shape, b.resolve(given))
+    a = b.streams.example(np.random.default_rng(3), 3, shape, b.resolve(given))
     p = b.scene_params(a, given)
     want = b.run_golden(a, p)
-    stim, exp = b.to_beats(b.case_arrays(a, p), p)
+    stim, exp = b.streams.to_beats(b.case_arrays(a, p), p)
     got = b.from_beats(exp, a, p)
     assert len(stim) > 0 and set(got) == set(want)
     for k in want:
@@ -44,7 +45,7 @@ def test_scene_arrays_round_trip(name):
 
 def test_side_inputs_defaults_and_errors():
     hdr = blocks.get("hdr")
-    a = hdr.example(np.random.default_rng(1), 2, (4, 64), hdr.resolve())
+    a = hdr.streams.example(np.random.default_rng(1), 2, (4, 64), hdr.resolve())
     assert hdr.inputs(a)["gain_sel"].tolist() == [0, 0]
     with pytest.raises(TdicamError, match="needs input 'lg'"):
         hdr.inputs({"hg": a["hg"]})

@@ -88,7 +88,7 @@ def test_amaranth_pysim_of_verilog_top_matches_golden_cases():
     blk = blocks.get("cds")
     for case in ("hard_12b", "reset_mid_frame_12b"):
         arrays, params = golden.load(blk, case)
-        stim, exp = blk.to_beats(arrays, params)
+        stim, exp = blk.streams.to_beats(arrays, params)
         got, cycles, _, timeout = run_pysim("cds", params, stim, idle=0.3, backpressure=0.3, seed=2)
         cmp = compare(got, exp)
         assert cmp.ok and not timeout, cmp.message
@@ -136,7 +136,7 @@ def test_ppc_errors_are_one_line():
     p = blk.resolve({"ppc": 8})
     a = {"signal": np.zeros((1, 2, 20), np.uint16), "reset": np.zeros((1, 2, 20), np.uint16)}
     with pytest.raises(TdicamError, match=r"^--width 20 is not a multiple of --ppc 8$"):
-        blk.to_beats({**a, "out": a["signal"]}, p)
+        blk.streams.to_beats({**a, "out": a["signal"]}, p)
 
 
 @pytest.mark.parametrize("ppc", [1, 4, 8])
@@ -148,7 +148,7 @@ def test_scene_arrays_round_trip_at_ppc(ppc):
     arrays = {"signal": rng.integers(0, 4096, (2, 3, 16), dtype=np.uint16),
               "reset": rng.integers(0, 4096, (2, 3, 16), dtype=np.uint16)}
     p = blk.scene_params(arrays, {"ppc": ppc})
-    stim, exp = blk.to_beats(blk.case_arrays(arrays, p), p)
+    stim, exp = blk.streams.to_beats(blk.case_arrays(arrays, p), p)
     assert stim.data.shape == (2 * 3 * 16 // ppc, 2 * ppc)
     np.testing.assert_array_equal(stim.data[0, :2], [arrays["signal"][0, 0, 0],
                                                      arrays["reset"][0, 0, 0]])

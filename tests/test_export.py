@@ -218,7 +218,7 @@ def test_streamed_case_is_the_beat_level_model(given):
     from tdicam.blocks.tdi import _finish, _to_beats
     blk = blocks.get("tdi")
     params = blk.resolve(given)
-    bs = blk.streamed_case(params)
+    bs = blk.streams.streamed_case(params)
     parts = list(bs.pieces())
     stim = Beats.concat([a for a, _ in parts])
     exp = Beats.concat([b for _, b in parts])
@@ -255,7 +255,7 @@ def test_tdi_export_passes_at_every_small_stage_count(stages, ppc, tmp_path):
 #: Every block the export streams (the registry's, so a new block is in), at the smallest
 #: legal parameters (and the largest with TDICAM_FULL=1; tdi's largest is
 #: test_largest_tdi_export_fits_8_gb_of_address_space).
-ENDS = [(b.name, e) for b in blocks.all_blocks() if b.to_beats is not None
+ENDS = [(b.name, e) for b in blocks.all_blocks() if b.streams.to_beats is not None
         for e in (("smallest", "largest") if FULL else ("smallest",))
         if (b.name, e) != ("tdi", "largest")]
 
@@ -264,7 +264,7 @@ def _ends(blk, largest):
     """Every ranged parameter of ``blk`` at one end of its range (choices: the first or the
     last) over its small example's (the secded blocks' stream form); those that the block's
     cross checks refuse there dropped, last first."""
-    out = {**blk.small[1], **{p.name: (p.choices[-1] if largest else p.choices[0]) if p.choices is not None
+    out = {**blk.streams.small[1], **{p.name: (p.choices[-1] if largest else p.choices[0]) if p.choices is not None
            else (p.hi if largest else p.lo) for p in blk.params
            if p.choices is not None or (p.type is int and p.lo is not None
                                         and p.hi is not None)}}
@@ -321,7 +321,7 @@ def test_export_over_the_beat_limit_is_streamed_in_chunks(tmp_path, monkeypatch)
     assert f"{size / 1e6:.1f} MB in all" in said[1] and "1,536 input beats" in said[1]
     blk = blocks.get("tdi")
     params = blk.resolve({"width": 64, "stages": 4})
-    parts = list(blk.streamed_case(params).pieces())
+    parts = list(blk.streams.streamed_case(params).pieces())
     whole = export_files(blk, params, _stream_top(blk, params),
                          Beats.concat([a for a, _ in parts]), Beats.concat([b for _, b in parts]),
                          cases=ex.cases)

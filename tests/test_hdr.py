@@ -288,7 +288,7 @@ def test_latency_is_four_cycles():
 def test_amaranth_pysim_of_verilog_top_matches_golden(case):
     blk = blocks.get("hdr")
     arrays, params = golden.load(blk, case)
-    stim, exp = blk.to_beats(arrays, params)
+    stim, exp = blk.streams.to_beats(arrays, params)
     got, _, _, timeout = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
     assert cmp.ok and not timeout, cmp.message
@@ -410,7 +410,7 @@ def test_amaranth_pysim_of_verilog_top_matches_golden_ppc(case):
     inside a beat (checked below), so only the first band pixels of that beat count."""
     blk = blocks.get("hdr")
     arrays, params = golden.load(blk, case)
-    stim, exp = blk.to_beats(arrays, params)
+    stim, exp = blk.streams.to_beats(arrays, params)
     got, _, _, timeout = run_pysim("hdr", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
     assert cmp.ok and not timeout, cmp.message
@@ -432,7 +432,7 @@ def test_ppc_errors_are_one_line():
     p = blk.resolve({"ppc": 8})
     z = np.zeros((1, 2, 12), np.uint16)
     with pytest.raises(TdicamError, match=r"^--width 12 is not a multiple of --ppc 8$"):
-        blk.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)
+        blk.streams.to_beats({"hg": z, "lg": z, "gain_sel": np.zeros(1, np.int64), "out": z}, p)
 
 
 def test_ecp5_top_multipliers_are_signed_dsp_blocks_with_their_input_registers():

@@ -228,7 +228,7 @@ def test_latency_is_three_cycles_at_full_rate():
 def test_amaranth_pysim_of_verilog_top_matches_golden(case):
     blk = blocks.get("nuc")
     arrays, params = golden.load(blk, case)
-    stim, exp = blk.to_beats(arrays, params)
+    stim, exp = blk.streams.to_beats(arrays, params)
     got, cycles, _, timeout = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
     assert cmp.ok and not timeout, cmp.message
@@ -304,7 +304,7 @@ def test_amaranth_sim_ppc_with_stalls_and_padding_garbage(p, ppc):
 def test_amaranth_pysim_of_verilog_top_matches_golden_ppc(case):
     blk = blocks.get("nuc")
     arrays, params = golden.load(blk, case)
-    stim, exp = blk.to_beats(arrays, params)
+    stim, exp = blk.streams.to_beats(arrays, params)
     assert stim.data.shape[1] == 3 * params["ppc"]
     got, _, _, timeout = run_pysim("nuc", params, stim, idle=0.3, backpressure=0.3, seed=2)
     cmp = compare(got, exp)
@@ -319,7 +319,7 @@ def test_ppc_errors_are_one_line():
     x = np.zeros((1, 2, 6), np.int64)
     g, o = identity_coeffs(x.shape)
     with pytest.raises(TdicamError, match=r"^--width 6 is not a multiple of --ppc 4$"):
-        blk.to_beats({"x": x, "gain": g, "offset": o, "out": x}, p)
+        blk.streams.to_beats({"x": x, "gain": g, "offset": o, "out": x}, p)
 
 
 def test_ecp5_top_multipliers_are_dsp_blocks_with_their_input_registers():

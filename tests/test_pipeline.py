@@ -134,8 +134,8 @@ def test_orbit_chain_scene_plans_at_8_pixels_per_clock():
 
 
 @pytest.mark.parametrize("ppc, width, stages, msg", [
-    (3, 24, None, r"^pipeline: pixels per clock 3 is not valid; valid: 1, 2, 4, 8$"),
-    (8, 20, None, r"^pipeline: width 20 is not a multiple of pixels per clock 8$"),
+    (3, 24, None, r"^pipeline: pixels per clock = 3 is not valid; valid: 1, 2, 4, 8$"),
+    (8, 20, None, r"^pipeline: pixels per clock = 8: the width 20 is not a multiple of it$"),
     (8, 16, 1, r"^pipeline: tdi -> median3: width \(ppc = 8\) = 16 is out of range; "
                r"valid: 24"),
 ])

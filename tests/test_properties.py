@@ -240,7 +240,7 @@ CASES = [(name, ppc) for name in sorted(STRATEGIES) for ppc in PPC_CHOICES
 def test_every_stream_block_has_a_property():
     """A block added to the registry with a stream co-simulation gets a property here (or
     a line in :data:`ELSEWHERE` saying where it has one)."""
-    stream = {b.name for b in blocks.all_blocks() if b.to_beats is not None}
+    stream = {b.name for b in blocks.all_blocks() if b.streams.to_beats is not None}
     assert stream == set(STRATEGIES) | set(ELSEWHERE), stream ^ (set(STRATEGIES) | set(ELSEWHERE))
 
 

@@ -38,11 +38,11 @@ def test_nuc_memory_ddr_plans_nuc_ddr_above_the_reset_frame():
     cds, nuc = steps["cds_ddr"], steps["nuc_ddr"]
     assert cds.params["base"] == 4096
     # the coefficient image starts where the reset frame ends (one word a 24-pixel line)
-    assert nuc.params["base"] == design.uses()["cds_ddr"].ddr_end(cds) == 4096 + 3 * 8 + 8
+    assert nuc.params["base"] == design.uses()["cds_ddr"].memory.ddr_end(cds) == 4096 + 3 * 8 + 8
     assert nuc.params["width"] == 24 and nuc.params["rows"] == 4
     assert nuc.device and nuc.device["blocks"] == 4096       # the NAND part, as nuc's
     end = coeff_layout(24, base=nuc.params["base"]).end_addr(4)
-    assert design.uses()["nuc_ddr"].ddr_end(nuc) == end
+    assert design.uses()["nuc_ddr"].memory.ddr_end(nuc) == end
     # without it, the chain is nuc as before
     plain = design.chain_plan(_scene({"cds": {"memory": "ddr"}, "nuc": {"flash": "nand"}}))
     assert [s.block for s in plain.steps][:2] == ["cds_ddr", "nuc"]
@@ -162,7 +162,7 @@ def test_the_full_camera_plans_its_coefficients_in_ddr():
     assert [s.block for s in p.steps][:2] == ["cds_ddr", "nuc_ddr"] and p.width == 5144
     assert p.steps[1].device                       # the NAND part, as the scene's
     cds, nuc = p.steps[:2]
-    assert nuc.params["base"] == design.uses()["cds_ddr"].ddr_end(cds) > 0
+    assert nuc.params["base"] == design.uses()["cds_ddr"].memory.ddr_end(cds) > 0
     top = _members(design.top(p))
     assert top["ddr_app_en_1"] == "Out" and "cds_ddr_app_en" not in top
     p8 = design.chain_plan(sc, ppc=8)

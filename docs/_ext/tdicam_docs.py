@@ -109,13 +109,13 @@ def blocks_markdown() -> str:
         if lat[b.name] is not None:
             facts.append(f"**Latency**: {lat[b.name]} clock cycles from an accepted input "
                          f"beat to its output at the default parameters (no stalls).")
-        if b.to_beats is not None:
+        if b.streams.to_beats is not None:
             facts.append(f"**Co-simulation**: as a stream against its golden model "
-                         f"(`tdicam sim {b.name}`); main input `{b.stream}`.")
+                         f"(`tdicam sim {b.name}`); main input `{b.streams.stream}`.")
         else:
             facts.append("**Co-simulation**: not a video stream; its own cocotb test "
                          f"(`cocotb_tests/test_{b.name}.py`).")
-        for s in b.side_inputs:
+        for s in b.streams.side_inputs:
             facts.append(f"**Side input** `{s.name}` (per {s.per}): {_cell(s.what)}")
         if b.pipeline is not None and b.pipeline.options is not None:
             facts.append(f"**Scene section**: `[pipeline.{b.name}]` "

@@ -89,12 +89,12 @@ def work_inputs(w, n=None, *, quick=False):
     blk = blocks.get(w.block)
     params = blk.resolve(w.params)
     n = (w.quick if quick else w.sizes)["fast"] if n is None else n
-    inputs = blk.example(np.random.default_rng(1), n, w.shape, params)
+    inputs = blk.streams.example(np.random.default_rng(1), n, w.shape, params)
     return blk, blk.scene_params(inputs, w.params), inputs
 
 
 def _units(blk, inputs):
-    return int(np.size(inputs[blk.stream]))
+    return int(np.size(inputs[blk.streams.stream]))
 
 
 #: Benchmark names ``tdicam bench`` accepts: the block entries' groups in table order
@@ -138,7 +138,7 @@ def _stream_rows(w, *, sims, repeat, quick, stalls, build):
         if w.corrupt is not None:
             a = {k: np.array(v, copy=True) for k, v in a.items()}
             w.corrupt(a)
-        stim, exp = blk.to_beats(a, params)
+        stim, exp = blk.streams.to_beats(a, params)
         return stim, exp, _units(blk, part)
 
     def level(name, n, runs):

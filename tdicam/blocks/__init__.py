@@ -10,20 +10,35 @@ Two array forms
 ---------------
 *Scene arrays* are what a camera model hands a block: named numpy arrays, frames as
 ``(..., rows, cols)`` stacks (any leading axes are frames), side inputs beside them
-(:attr:`Block.side_inputs`). :attr:`Block.golden` runs the golden model on them.
+(:attr:`Streams.side_inputs`). :attr:`Streams.golden` runs the golden model on them.
 
 *Case arrays* are what a golden case stores (``golden/<name>/<case>.npz``): the inputs in
 whatever form the block's stream needs (e.g. ``tdi`` stores beat arrays), the expected
-outputs, and optional reset marks. :attr:`Block.to_beats` turns them into the stimulus and
+outputs, and optional reset marks. :attr:`Streams.to_beats` turns them into the stimulus and
 expected :class:`~tdicam.beats.Beats`. :meth:`Block.case_arrays` makes case arrays from
 scene arrays, so one co-simulation path (:func:`tdicam.cosim.run_case`) serves golden cases
-and scenes alike; :meth:`Block.unstream` turns the output beats back into scene arrays.
+and scenes alike; :meth:`Block.from_beats` turns the output beats back into scene arrays.
 
 In a scene's pipeline (:class:`Use`) an entry also says how a scene sets the block (its one
 scene-to-parameters function, its ``[pipeline.<name>]`` options), how the gateware chain builds
-it, and what it does in the scene simulator (:attr:`Use.sim`: which frame stacks are its scene
-arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
+it, where its memory lives (:attr:`Use.memory`, a :class:`Memory`), and what it does in the
+scene simulator (:attr:`Use.sim`, a :class:`SceneSim`: its steps, which frame stacks are its
+scene arrays, its channels, resets and side inputs, the crops kept for RTL co-simulation; the
 engine's effect rows for the blocks are generated from them, :mod:`tdicam.engine.block_rows`).
+
+The record in facets
+--------------------
+A :class:`Block` is read in facets (:mod:`tdicam.blocks.facets`), each a frozen dataclass
+documented where it is defined: the block's core on :class:`Block` itself (name, summary,
+parameters (:class:`Param`), top, cases (:class:`Case`), check, model version, the tables'
+order); :class:`Streams` (:attr:`Block.streams`: the stream adapters between the two array
+forms, the golden model on scene arrays, the main input and the side inputs
+(:class:`SideInput`), a small example, what ``tdicam export`` may assume); :class:`Use`
+(:attr:`Block.pipeline`: its place in a scene's chain, with its :class:`Options`, its
+:class:`Memory` and its :class:`SceneSim`); :class:`Bench` (``tdicam bench``), :class:`Suite`
+(the standard co-simulation suite) and :class:`SynthRef` (``tdicam synth --reference``).
+An entry file (``tdicam/blocks/<b>.py``) keeps its parts in the sections of
+:data:`ENTRY_SECTIONS`, in that order.
 
 Layer: above :mod:`tdicam.hdl` and :mod:`tdicam.model`. May import them, :mod:`tdicam.beats`
 and the leaves; never a simulator driver, a hardware tool, the camera, a service or a command.
@@ -31,440 +46,37 @@ and the leaves; never a simulator driver, a hardware tool, the camera, a service
 
 import importlib
 import pkgutil
-from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from dataclasses import dataclass
+from typing import Callable, Mapping
 
 import numpy as np
 
 from tdicam.beats import PPC_CHOICES
-from tdicam.errors import TdicamError, check_range
+from tdicam.blocks.facets import (Bench, Case, KeyDoc, Memory, Options, Param, SceneSim,
+                                   SideInput, Stalls, StreamWork, Streams, Suite, SynthRef, Use,
+                                   _flag)
+from tdicam.errors import TdicamError
 from tdicam.model.cds import pixel_dtype
 
-__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Use", "StreamWork", "Bench",
-           "SynthRef", "Stalls", "Suite", "Block", "get", "names", "all_blocks", "in_order",
-           "frame_stack", "scene_blocks", "PPC_PARAM", "check_width", "ENTRY_SECTIONS"]
+__all__ = ["Param", "Case", "SideInput", "KeyDoc", "Options", "Memory", "SceneSim", "Use",
+           "StreamWork", "Bench", "SynthRef", "Stalls", "Suite", "Streams", "Block", "get",
+           "names", "all_blocks", "in_order", "frame_stack", "scene_blocks", "PPC_PARAM",
+           "check_width", "ENTRY_SECTIONS"]
 
 #: The sections of every block entry file (``tdicam/blocks/<b>.py``), in their order, each
 #: opened by a ``# ---- <name>`` line; an entry leaves out those it has no part for
 #: (``tests/test_block_entries.py`` checks the order and what each holds).
 ENTRY_SECTIONS = {
     "top": "the Verilog top (the component inside AxisTop) and the parameters' check",
-    "cases": "the golden cases and the stream adapters they use (golden, beats, example)",
+    "cases": "the golden cases and the stream adapters they use (golden, beats, example: "
+             "the Streams facet's functions)",
     "scene": "the block's scene options ([pipeline.<b>] keys, their KeyDocs)",
     "chain": "its place in a chain (the step, its hardware, its system rows)",
-    "simulator": "its steps in the scene simulator (Sim rows)",
-    "entry": "BLOCK = Block(...)",
+    "simulator": "its steps in the scene simulator (SIM = SceneSim((Sim(...),), ...))",
+    "entry": "BLOCK = Block(...), the record in facets (Streams, Use with Memory and SceneSim, "
+             "Bench, Suite, SynthRef)",
 }
 
-
-def _flag(name):
-    return "--" + name.replace("_", "-")
-
-
-@dataclass(frozen=True)
-class Param:
-    """One elaboration parameter of a block.
-
-    Attributes
-    ----------
-    name : str
-        Python name (``--name-with-dashes`` on the command line).
-    default : object
-        Value when not given; ``None`` means optional (the block derives it).
-    help : str
-        One line for ``tdicam verilog BLOCK --help``.
-    lo, hi : int or None
-        Inclusive bounds of an integer (``None``: open end).
-    choices : tuple or None
-        The valid values instead of a range.
-    type : type
-        ``int``, ``bool`` or ``str``; command-line strings are converted to it.
-    implicit_default : bool
-        A golden case at the default value does not record it (its ``__params__`` and
-        manifest entry leave it out; :func:`tdicam.golden.load` fills the default back in):
-        for a parameter added after golden vectors existed, which stay byte-identical (e.g.
-        ``ppc`` of ``cds``, ``nuc``, ``hdr``).
-    """
-
-    name: str
-    default: Any
-    help: str
-    lo: int | None = None
-    hi: int | None = None
-    choices: tuple | None = None
-    type: type = int
-    implicit_default: bool = False
-
-    def describe(self):
-        """``--name (range, default D): help`` for the block's help text."""
-        if self.choices is not None:
-            rng = "{" + ", ".join(str(c) for c in self.choices) + "}"
-        elif self.lo is not None or self.hi is not None:
-            rng = f"{self.lo if self.lo is not None else ''}..{self.hi if self.hi is not None else ''}"
-        else:
-            rng = self.type.__name__
-        dflt = "derived" if self.default is None else self.default
-        return f"--{self.name.replace('_', '-')} ({rng}, default {dflt}): {self.help}"
-
-    def check(self, value):
-        """``value`` converted to :attr:`type` and checked, or a :class:`TdicamError`
-        naming ``--name`` (ranges through :func:`tdicam.errors.check_range`)."""
-        if value is None and self.default is None:
-            return None
-        flag = _flag(self.name)
-        if self.type is int:
-            if isinstance(value, str):
-                try:
-                    value = int(value, 0)
-                except ValueError:
-                    raise TdicamError(f"{flag} must be an integer, got {value!r}") from None
-            value = check_range(flag, value, self.lo, self.hi)
-        elif self.type is bool:
-            if isinstance(value, str):
-                if value.lower() not in ("0", "1", "true", "false", "yes", "no"):
-                    raise TdicamError(f"{flag} must be true or false, got {value!r}")
-                value = value.lower() in ("1", "true", "yes")
-            value = bool(value)
-        else:
-            value = self.type(value)
-        if self.choices is not None and value not in self.choices:
-            raise TdicamError(f"{flag} = {value} is not valid; "
-                              f"valid: {', '.join(str(c) for c in self.choices)}")
-        return value
-
-
-@dataclass(frozen=True)
-class Case:
-    """A golden case: parameters + a deterministic generator of its arrays.
-
-    Attributes
-    ----------
-    name : str
-        File name under ``golden/<block>/`` (without ``.npz``).
-    params : dict
-        Block parameters (resolved against the block's defaults).
-    make : callable(params, rng) -> dict of ndarray
-        The case arrays: inputs and the expected outputs computed by the golden model.
-    seed : int
-        Seed of the ``numpy.random.default_rng`` passed to ``make``.
-    tags : tuple of str
-        What the case exercises (e.g. ``"reset"``, ``"fullscale"``); ``"fast-only"`` marks
-        cases too long for per-beat co-simulation.
-    """
-
-    name: str
-    params: dict
-    make: Callable
-    seed: int = 1
-    tags: tuple = ()
-
-
-@dataclass(frozen=True)
-class SideInput:
-    """An input of a block besides its main pixel stream.
-
-    Attributes
-    ----------
-    name : str
-        Key of the array in the block's scene arrays.
-    per : {"pixel", "frame", "run"}
-        ``pixel``: same shape as the main stream's frames (e.g. the CDS reset frame, the NUC
-        coefficients, HDR's low-gain channel); ``frame``: one value per frame (HDR's
-        ``gain_sel``); ``run``: one scalar for the whole run (TDI's ``stages``).
-    what : str
-        What it is and how the gateware receives it (stream channel, run-time port, DDR).
-    default : object
-        Value used when the scene arrays leave it out (``None``: required).
-    """
-
-    name: str
-    per: str
-    what: str
-    default: Any = None
-
-
-@dataclass(frozen=True)
-class KeyDoc:
-    """What a scene reader cannot say about a key (``docs/scene-format.md``): its unit and
-    meaning, and — only where the reader computes them from other keys or checks them by
-    hand — the written ``type``, ``default`` or ``range``."""
-
-    unit: str
-    meaning: str
-    type: str | None = None
-    default: str | None = None
-    range: str | None = None
-
-
-@dataclass(frozen=True)
-class Options:
-    """A block's ``[pipeline.<name>]`` section of a scene file.
-
-    Attributes
-    ----------
-    type : type
-        The frozen dataclass a scene holds as ``scene.pipeline.<name>``.
-    read : callable(section, sensor) -> ``type``
-        Reads the section: ``section`` is the scene reader's section (its ``number``,
-        ``integer``, ``boolean``, ``choice``, ``has`` and ``fail`` check each key's type and
-        range and name it as the user wrote it; unknown keys are refused before ``read`` is
-        called), ``sensor`` the scene's ``[sensor]``. An absent section reads as its defaults.
-    doc : str
-        What the section is for (``docs/scene-format.md``).
-    keys : dict of str -> KeyDoc
-        The section's keys, in page order.
-    probe : dict
-        A section that reaches every key reader (the scene docs run the reader on it).
-    """
-
-    type: type
-    read: Callable
-    doc: str
-    keys: dict
-    probe: dict = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Use:
-    """How a block takes part in a scene's pipeline (:mod:`tdicam.chain.design`).
-
-    The golden side comes from the rest of the block's entry (:attr:`Block.golden` on scene
-    arrays: a lane's elements are the block's stream and its ``pixel`` side inputs in
-    registry order, ``run`` side inputs are the step's ``inputs``); this says how a scene
-    sets the block and where the gateware's side inputs come from.
-
-    Attributes
-    ----------
-    step : callable(ctx) -> (tdicam.blocks.steps.Step, out_bits)
-        The block's parameters from the :class:`tdicam.blocks.steps.StepContext` ``ctx`` of
-        the chain being planned (scene, stages, width, lines, the chain's pixel width so far
-        in ``ctx.bits``).
-    hw : callable(step, data) -> stage
-        Its :mod:`tdicam.hdl.chain_top` stage (``data``: :class:`tdicam.blocks.steps.SceneData`,
-        for side inputs built into the top such as NUC's calibration image).
-    side : callable(step, data, lane) -> dict, or None
-        Scene arrays of ``pixel`` side inputs that do not ride in the lane (NUC's
-        coefficients).
-    identity : callable(step, shape) -> dict, or None
-        One lane's :class:`tdicam.blocks.steps.SceneData` fields that make the block a no-op
-        when no scene data is given (NUC's identity coefficients), ``shape`` = (rows,
-        width).
-    merge : bool
-        Takes every lane (channel) and makes one.
-    elems : int
-        Input elements per lane (CDS: signal and reset).
-    lines : bool
-        Its output frames are single lines (one per input frame, after a fill of
-        ``params["stages"] - 1`` frames).
-    per_frame : bool
-        Acts on each exposure frame (must come before a ``lines`` block).
-    memory_bits : callable(step) -> int, or None
-        On-chip memory the block needs (``memory`` says what it holds).
-    memory : str
-        What that memory holds, for messages ("partial sums").
-    placement : callable(scene) -> {"auto", "chip", "ddr"}, or None
-        Where the scene puts that memory (``auto``: DDR when it exceeds the device's block
-        RAM; None: always ``auto``).
-    spill : str or None
-        The registered block that keeps that memory in DDR instead (same stream, ports and
-        golden model), used when the plan says it must spill; its ``step`` takes the DDR
-        interface from the scene's ``[ddr]`` section (the plan refuses a spill without one).
-    caller_places : bool
-        The caller's placement (``--memory``, the plan's ``spill``) applies to this block's
-        memory; False: only the scene's :attr:`placement` does (CDS's reset frame: the
-        ``--memory`` flag is about TDI's partial sums).
-    reset_frames : bool
-        The block takes each reset frame as a frame of its own in its stream, before its
-        signal frame (and stores it), with its ``ports`` saying which is which; the chain's
-        input then carries the reset frames so (:attr:`tdicam.blocks.steps.ChainPlan.reset_frames`).
-    trim : int
-        Pixels at each image edge whose statistics the block changes (its replicated
-        borders), left out of flat-field measurements.
-    sharpens : callable(options) -> bool, or None
-        Whether the block, set by its scene ``options``, can lift a modulation above 1 (an
-        edge enhancement), said when a measured MTF exceeds 1.
-    scratch_bytes : float
-        Bytes per frame-stack element the block's golden model holds at its peak beyond its
-        input and output, on single exposures (the scene engine's memory estimate).
-    post_bytes : float
-        Bytes per output pixel at its peak when it runs on the TDI output.
-    rank : int or None
-        Where the block stands in ``[pipeline].blocks`` order rules and listings (per-exposure
-        blocks in rising rank before the ``lines`` block); None: not listed in a scene (a
-        spill variant, chosen by the plan).
-    options : Options or None
-        The block's ``[pipeline.<name>]`` section, when it has one.
-    sim : tuple of tdicam.blocks.steps.Sim
-        Its steps in the scene simulator (:mod:`tdicam.engine`), each a row of the
-        simulator's effects table (two for a block that may run on either side of the
-        line-making block); empty for a block a scene does not list.
-    system : callable(step, ctx) -> list of dict, or None
-        The block's figures in ``tdicam plan``'s system section (an external part's load
-        before the first frame, its memory bandwidth): ``ctx`` = {``line_period_s``,
-        ``ddr_bits``, ``ddr_clock_hz``, ``lanes``, ``rows``, ``width``, ``scene``}; each dict has
-        ``name``, ``value``, ``unit``, ``text`` (one line) and ``ok`` (True/False, or None:
-        no verdict).
-    measured : callable(step, status, info) -> list of dict, or None
-        The same figures as a co-simulation measured them, from the top's status outputs
-        ``status`` ({port: value}) and ``info`` ({``cycles``, ``rows``, ``width``}), each
-        dict with ``name``, ``value``, ``unit``, ``text`` (the run report's system section).
-    source : callable(scene) -> bool, or None
-        The block is the chain's *source* when this says so for a scene: the first stage,
-        fed by the top's own ports (the sensor's lanes) instead of pixels, its ``hw`` a
-        :class:`~tdicam.hdl.chain_top.SourceStage` (the ``lvds`` front end with a
-        ``[sensor.lvds]`` section). Its ``step`` sees ``ctx.lanes``, the chain's channels.
-    chain_golden : callable(step, data) -> callable(arrays, lane) -> ndarray, or None
-        Its golden stage in the chain when it is not the registry's golden model on scene
-        arrays (a source: what the front delivers of the sensor's frames; ``nuc_ddr``: the
-        coefficient frame its load writes before the lane's frames).
-    ddr_end : callable(step) -> int, or None
-        A DDR block: the address unit above its region (the next DDR block of the chain
-        puts its region there, ``StepContext.ddr_base``).
-    """
-
-    step: Callable
-    hw: Callable
-    side: Callable | None = None
-    identity: Callable | None = None
-    merge: bool = False
-    elems: int = 1
-    lines: bool = False
-    per_frame: bool = False
-    memory_bits: Callable | None = None
-    memory: str = "memory"
-    placement: Callable | None = None
-    spill: str | None = None
-    caller_places: bool = True
-    reset_frames: bool = False
-    trim: int = 0
-    sharpens: Callable | None = None
-    scratch_bytes: float = 0.0
-    post_bytes: float = 0.0
-    rank: int | None = None
-    options: Options | None = None
-    sim: tuple = ()
-    system: Callable | None = None
-    measured: Callable | None = None
-    source: Callable | None = None
-    chain_golden: Callable | None = None
-    ddr_end: Callable | None = None
-
-
-@dataclass(frozen=True)
-class StreamWork:
-    """A stream block's benchmark input (``tdicam bench``); the registry does the rest.
-
-    The input is ``n`` items (frames or words) of the block's :attr:`Block.example` for frame
-    ``shape``; the golden row times :meth:`Block.case_arrays` (the golden model plus the case
-    form) and every simulator row runs through :func:`tdicam.cosim.run_beats`. Units are the
-    elements of the block's main stream input. ``sizes`` / ``quick`` give the items per level
-    kind (``fast`` = the whole input, also the golden model's; ``beat`` and ``pysim`` = the
-    prefix those levels run; a key ``"<sim> <mode>"`` overrides the size for one simulator,
-    e.g. ``"icarus fast"``). ``corrupt(case arrays)``, when set, alters the expected arrays
-    before the comparison (to show that a wrong golden model is counted).
-    """
-
-    name: str
-    block: str
-    params: dict
-    unit: str
-    what: str
-    shape: tuple
-    sizes: dict
-    quick: dict
-    corrupt: Callable | None = None
-
-
-@dataclass(frozen=True)
-class Bench:
-    """A block's place in ``tdicam bench``.
-
-    ``group`` is the benchmark name that runs the block (several blocks may share one:
-    ``secded`` runs the encoder and the decoder, ``ddr`` every DDR buffer); the block's own
-    name runs it alone. ``work`` is its stream workload; a block that is not a video stream
-    has none and is measured through its :attr:`Block.harness`, or listed with a "no
-    benchmark workload" row.
-    """
-
-    group: str
-    work: StreamWork | None = None
-
-
-@dataclass(frozen=True)
-class SynthRef:
-    """One row of the synthesis reference table (``tdicam synth --reference``): the block
-    at ``params``, with ``target_mhz`` the Fmax it must reach (also nextpnr's ``--freq``).
-    ``sum_with``: the label of another row whose resources this one's add to in a summed row
-    called ``sum_label`` (a decoder is deployed with its encoder)."""
-
-    label: str
-    params: dict = field(default_factory=dict)
-    target_mhz: float = 150.0
-    note: str = ""
-    sum_with: str | None = None
-    sum_label: str | None = None
-
-
-@dataclass(frozen=True)
-class Stalls:
-    """The extreme-stall runs of a stream block's co-simulation suite (:class:`Suite`).
-
-    Golden ``case`` in fast mode at each ``(idle, backpressure)`` of ``pairs`` (seed
-    ``seed``); at ``(0, 0)``, and on every case of ``full_rate`` (no idle cycle, no
-    backpressure), the run must take at most one cycle a beat: the input or output beats,
-    whichever are more, plus the top's latency, the 2000-cycle drain window and two, plus
-    ``extra_cycles(case arrays, params)`` where the block stalls its input on purpose
-    (``hdr``'s frame-start divisions).
-    """
-
-    case: str
-    pairs: tuple = ((0.0, 0.0), (0.0, 0.9), (0.9, 0.0))
-    seed: int = 3
-    full_rate: tuple = ()
-    extra_cycles: Callable | None = None
-
-
-@dataclass(frozen=True)
-class Suite:
-    """A stream block's place in the standard co-simulation suite
-    (``cocotb_tests/test_streams.py``, for every block with :attr:`Block.to_beats`): its
-    golden cases per beat (cocotb drives each cycle, 30 % idle, 40 % backpressure, seed 11)
-    and in fast mode (HDL-side stimulus and stalls, seed 7) on each simulator, and its
-    extreme stalls. What is particular to a block stays in its own
-    ``cocotb_tests/test_<module>.py``.
-
-    Attributes
-    ----------
-    sims : tuple of str
-        The simulators of the suite's runs (the DDR blocks: Icarus; their Verilator runs are
-        particular to them).
-    per_beat : "ppc", "all" or tuple of str
-        ``"ppc"``: the cases at ppc 1 and 8 and the reset cases in every run, the other
-        ppc 2 and 4 cases with ``TDICAM_FULL=1`` (fast mode runs them in every run;
-        :func:`tdicam.cosim.testing.beat_cases`); ``"all"``: every case in every run; a
-        tuple: those cases. Never a case tagged ``fast-only``, nor one in ``not_per_beat``.
-    not_per_beat : tuple of str
-        Cases left out of the per-beat runs (fast mode runs them).
-    fast : bool
-        Every case not tagged ``fast-only`` in fast mode, one run each. False: the block's
-        own file streams its cases its own way (``median3``, ``tlk2711``: every case of a
-        parameter set as one stream).
-    fast_stalls : float
-        Idle and backpressure probability of the fast-mode runs.
-    full_only : callable(Case, sim, mode) -> bool, or None
-        The runs that take another simulator build or minutes, co-simulated only with
-        ``TDICAM_FULL=1`` (skipped otherwise, saying so).
-    stalls : Stalls or None
-        The extreme-stall and full-rate runs (None: none, or the block's own file has them).
-    """
-
-    sims: tuple = ("icarus", "verilator")
-    per_beat: Any = "ppc"
-    not_per_beat: tuple = ()
-    fast: bool = True
-    fast_stalls: float = 0.25
-    full_only: Callable | None = None
-    stalls: Stalls | None = None
 
 
 @dataclass(frozen=True)
@@ -497,61 +109,24 @@ class Block:
         elaboration.
     model_version : str
         Bump when the golden model's definition changes (recorded in the manifest).
-    to_beats : callable(case arrays, params) -> (stim Beats, expected Beats) or None
-        Stream blocks: the stimulus (pixels, run-time settings in ``ctrl``, resets) and the
-        expected output of case arrays. ``None``: not a video stream (co-simulated by its
-        own cocotb test).
-    stream : str or None
-        Key of the main stream input in the scene arrays (e.g. ``"signal"``, ``"x"``).
-    side_inputs : tuple of SideInput
-        The block's other inputs, by scene-array key (see :class:`SideInput`).
-    golden : callable(scene arrays, params) -> dict or None
-        The golden model on scene arrays (frames ``(..., rows, cols)``, side inputs per
-        :attr:`side_inputs`): ``{"out": ndarray}`` with the output frames, leading axes
-        kept (``tdi``: one output line per frame).
-    to_case : callable(scene arrays, params) -> case arrays, or None
-        Scene arrays -> the case form :attr:`to_beats` reads, expected outputs included.
-        ``None``: the case form is the scene arrays with the frames flattened to
-        ``(n, rows, cols)`` plus :attr:`golden`'s output (see :meth:`case_arrays`).
-    fit : callable(scene arrays) -> dict, or None
-        Parameters a scene's arrays fix (e.g. ``width`` from the frames' last axis);
-        :meth:`scene_params` lays them under the given ones.
-    unstream : callable(out Beats, scene arrays, params) -> dict, or None
-        Output beats -> ``{"out": ndarray}`` shaped like :attr:`golden`'s output. ``None``:
-        one output element per input pixel, reshaped like the main stream (see
-        :meth:`from_beats`).
-    example : callable(rng, n, shape, params) -> scene arrays, or None
-        ``n`` frames (or words) of typical random input for benchmarks: ``shape`` is the
-        frame shape ``(rows, cols)`` the caller wants (blocks whose parameters fix it
-        ignore it).
+    streams : Streams
+        How case and scene arrays become the block's stream and back, and what a
+        testbench may assume of it (see :class:`Streams`; the defaults: not a video
+        stream).
     ecp5_top : callable(params as keywords) -> wiring.Component, or None
         The top ``tdicam synth`` places on the ECP5 when it differs from :attr:`top`
         (vendor primitives the generic description cannot reach: ``tdi``'s DP16KD banks with
         their output register); same ports and behaviour — except for a DDR block, whose
         :attr:`top` holds the simulation MIG model and whose synthesis top is the core with
         the MIG user interface at its ports (``cds_ddr``). ``None``: :attr:`top`.
-    frame_beats : callable, optional
-        ``frame_beats(params)``: input beats of one frame, the least a golden case streams
-        (``tdicam export`` refuses parameters whose one frame is over its beat limit before
-        generating any case, or exports :attr:`streamed_case`; None: unknown).
-    streamed_case : callable(params) -> tdicam.beats.BeatStream, or None
-        The case ``tdicam export`` writes, piece by piece, when no golden case at
-        ``params`` fits its beat limit (one frame over it, say: the cases would not fit in
-        memory); None: such parameters are refused.
     harness : str or None
-        A block that is not a video stream (:attr:`to_beats` None) names the self-checking
+        A block that is not a video stream (:attr:`Streams.to_beats` None) names the self-checking
         harness that verifies it, a name the tools above the registry know it by: ``"link"``,
         the LVDS link testbench (``lvds``), is how ``tdicam export`` writes the block and
         ``tdicam bench`` measures it (:data:`tdicam.export.harness.HARNESSES`,
         :data:`tdicam.bench.suite.HARNESS_RUNNERS`). None: the stream testbench.
-    reset_clears_state : bool
-        A testbench reset returns the whole design to its power-up state, so golden cases
-        can run back to back in one simulation with a reset between them (``tdicam
-        export``). False when a simulation model keeps contents across reset (nand_store's
-        part).
-    small : tuple or None
-        ``(frame shape, parameters)`` of a small :attr:`example` input (a few frames run in
-        milliseconds) for quick checks of the block's adapters; every stream block has one.
+    pipeline : Use or None
+        Its place in a scene's pipeline (see :class:`Use`); None: a scene never lists it.
     order : int
         Place in the tools' tables (benchmarks, synthesis reference); ties by name.
     bench : Bench or None
@@ -570,21 +145,10 @@ class Block:
     cases: Callable
     check: Callable | None = None
     model_version: str = "1"
-    to_beats: Callable | None = None
-    stream: str | None = None
-    side_inputs: tuple = ()
-    golden: Callable | None = None
-    to_case: Callable | None = None
-    fit: Callable | None = None
-    unstream: Callable | None = None
-    example: Callable | None = None
+    streams: Streams = Streams()
     harness: str | None = None
-    reset_clears_state: bool = True
     pipeline: Use | None = None
     ecp5_top: Callable | None = None
-    frame_beats: Callable | None = None
-    streamed_case: Callable | None = None
-    small: tuple | None = None
     order: int = 1000
     bench: Bench | None = None
     suite: Suite = Suite()
@@ -633,27 +197,28 @@ class Block:
         return top(**self.resolve(params))
 
     def scene_params(self, arrays, params=None):
-        """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`fit`
+        """Resolved parameters for scene ``arrays``: ``params`` over what :attr:`Streams.fit`
         derives from the arrays' shapes."""
-        fitted = self.fit(self.inputs(arrays)) if self.fit is not None else {}
+        fitted = self.streams.fit(self.inputs(arrays)) if self.streams.fit is not None else {}
         return self.resolve({**fitted, **dict(params or {})})
 
     def inputs(self, arrays):
         """Scene arrays with every side input present (defaults filled in) and ``pixel``
         side inputs broadcast to the stream's shape, or a :class:`TdicamError` naming the
         missing one."""
+        st = self.streams
         if not isinstance(arrays, Mapping):
             raise TdicamError(f"block {self.name}: arrays must be a dict of arrays (its "
-                              f"stream input {self.stream!r}), got {type(arrays).__name__}")
-        if self.stream not in arrays:
-            raise TdicamError(f"block {self.name} needs its stream input {self.stream!r}")
+                              f"stream input {st.stream!r}), got {type(arrays).__name__}")
+        if st.stream not in arrays:
+            raise TdicamError(f"block {self.name} needs its stream input {st.stream!r}")
         out = dict(arrays)
-        main = np.asarray(out[self.stream])
-        shaped = self.fit is not None or any(callable(s.default) for s in self.side_inputs)
+        main = np.asarray(out[st.stream])
+        shaped = st.fit is not None or any(callable(s.default) for s in st.side_inputs)
         if shaped and main.ndim < 2:        # what fits the parameters reads rows and cols
-            raise TdicamError(f"block {self.name}: input {self.stream!r} must be frames "
+            raise TdicamError(f"block {self.name}: input {st.stream!r} must be frames "
                               f"(..., rows, cols), got shape {main.shape}")
-        for side in self.side_inputs:
+        for side in st.side_inputs:
             if side.name not in out:
                 if side.default is None:
                     raise TdicamError(f"block {self.name} needs input {side.name!r} "
@@ -666,55 +231,55 @@ class Block:
                 except ValueError:
                     raise TdicamError(
                         f"block {self.name}: input {side.name!r} has shape "
-                        f"{np.shape(out[side.name])}, the stream {self.stream!r} "
+                        f"{np.shape(out[side.name])}, the stream {st.stream!r} "
                         f"{main.shape}") from None
         return out
 
     def run_golden(self, arrays, params):
-        """:attr:`golden` on scene arrays (side-input defaults filled in)."""
-        if self.golden is None:
+        """:attr:`Streams.golden` on scene arrays (side-input defaults filled in)."""
+        if self.streams.golden is None:
             raise TdicamError(f"block {self.name} has no golden function on scene arrays")
-        return self.golden(self.inputs(arrays), params)
+        return self.streams.golden(self.inputs(arrays), params)
 
     def case_arrays(self, arrays, params):
-        """Case arrays (inputs + expected outputs, what :attr:`to_beats` reads) of scene
+        """Case arrays (inputs + expected outputs, what :attr:`Streams.to_beats` reads) of scene
         ``arrays`` for resolved ``params``: a one-line error for a block without a golden
         function, an empty stream or one that is not integer codes."""
-        if self.to_case is None and self.golden is None:
+        if self.streams.to_case is None and self.streams.golden is None:
             raise TdicamError(f"block {self.name} has no golden function on scene arrays")
         arrays = self.inputs(arrays)
-        main = np.asarray(arrays[self.stream])
+        main = np.asarray(arrays[self.streams.stream])
         if main.size == 0 or not np.issubdtype(main.dtype, np.integer):
-            raise TdicamError(f"block {self.name}: {self.stream} must be a non-empty integer "
-                              f"array of pixel codes, got shape {main.shape}, dtype "
+            raise TdicamError(f"block {self.name}: {self.streams.stream} must be a non-empty "
+                              f"integer array of pixel codes, got shape {main.shape}, dtype "
                               f"{main.dtype}")
-        if self.to_case is not None:
-            return self.to_case(arrays, params)
+        if self.streams.to_case is not None:
+            return self.streams.to_case(arrays, params)
         flat = {}
         for key in self._keys():
             a = np.asarray(arrays[key])
-            per = "pixel" if key == self.stream else self._per(key)
+            per = "pixel" if key == self.streams.stream else self._per(key)
             flat[key] = _flat_frames(a) if per == "pixel" and a.ndim >= 2 else \
                 (a.ravel() if per == "frame" else a)
-        return {**flat, **self.golden(flat, params)}
+        return {**flat, **self.streams.golden(flat, params)}
 
     def from_beats(self, out, arrays, params):
         """Output beats of a run on scene ``arrays`` -> ``{"out": ndarray}``."""
-        if self.unstream is not None:
-            return self.unstream(out, arrays, params)
+        if self.streams.unstream is not None:
+            return self.streams.unstream(out, arrays, params)
         bits = params.get("out_bits") or params["pixel_bits"]
-        return {"out": out.data.reshape(np.shape(arrays[self.stream])).astype(
+        return {"out": out.data.reshape(np.shape(arrays[self.streams.stream])).astype(
             pixel_dtype(bits))}
 
     def golden_model(self, arrays: dict, **params) -> dict:
         """The block's bit-exact golden model (``model/<name>.py``) on scene arrays, with
-        its parameters fitted (:attr:`golden` is the raw function it calls).
+        its parameters fitted (:attr:`Streams.golden` is the raw function it calls).
 
         Parameters
         ----------
         arrays : dict of str to ndarray
-            The stream input (key :attr:`stream`, frames ``(..., rows, cols)``) and any
-            side inputs (:attr:`side_inputs`; defaults filled in).
+            The stream input (key :attr:`Streams.stream`, frames ``(..., rows, cols)``) and any
+            side inputs (:attr:`Streams.side_inputs`; defaults filled in).
         **params
             Block parameters; the ones the arrays fix (e.g. ``width``) are fitted.
 
@@ -732,10 +297,10 @@ class Block:
         return self.run_golden(arrays, self.scene_params(arrays, params))
 
     def _per(self, key):
-        return next((s.per for s in self.side_inputs if s.name == key), None)
+        return next((s.per for s in self.streams.side_inputs if s.name == key), None)
 
     def _keys(self):
-        return (self.stream, *(s.name for s in self.side_inputs))
+        return (self.streams.stream, *(s.name for s in self.streams.side_inputs))
 
 
 #: The pixels-per-clock parameter of the stream blocks that gained it after their golden

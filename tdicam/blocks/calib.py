@@ -14,7 +14,7 @@ from tdicam.hdl.calib import CalibReader
 from tdicam.model import calib, ecc
 from tdicam.model.nuc import NucFormat
 from tdicam.blocks import SynthRef
-from tdicam.blocks import Block, Case, Param
+from tdicam.blocks import Block, Case, Param, Streams
 
 __all__ = ["BLOCK", "reader_beats", "random_codes", "code_maps"]
 
@@ -228,14 +228,16 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="calib-1",
-    to_beats=reader_beats,
-    frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
-    stream="words",
-    golden=_golden,
-    to_case=_to_case,
-    unstream=_unstream,
-    example=_example,
-    small=((), {"rows": 3, "cols": 5}),
+    streams=Streams(
+        to_beats=reader_beats,
+        stream="words",
+        golden=_golden,
+        to_case=_to_case,
+        unstream=_unstream,
+        example=_example,
+        frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
+        small=((), {"rows": 3, "cols": 5}),
+    ),
     order=90,
     synth=(SynthRef("calib", note="defaults (not among the reference targets): 3800 x 5144, "
                                        "SECDED decoder inside"),),

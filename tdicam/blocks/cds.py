@@ -10,8 +10,8 @@ from tdicam.hdl.cds import Cds
 from tdicam.model.cds import cds, pixel_dtype
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
-                           check_width as _check_width)
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Memory, Options, Param, SceneSim,
+                           SideInput, Streams, Use, check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Frames, RunView, Sim, Step
@@ -172,8 +172,10 @@ def _subtract_reset(signal, reset, bits):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block cds (golden model)", _sim_step, aggregated=True, subtract=_subtract_reset,
-           pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),)
+SIM = SceneSim((Sim("block cds (golden model)", _sim_step, aggregated=True,
+                    subtract=_subtract_reset,
+                    pedestal=lambda scene: scene.pipeline.cds.reset_level_dn),),
+               scratch_bytes=14.0)
 
 
 # ---- entry
@@ -194,19 +196,21 @@ BLOCK = Block(
         *_ppc_cases(),
     ],
     model_version="cds-1",
-    to_beats=_to_beats,
-    stream="signal",
-    side_inputs=(SideInput("reset", "pixel", "the pixel's reset sample (CDS reset frame), "
-                           "element 2k + 1 of each input beat (pixel k's signal: 2k)"),),
-    golden=_golden,
-    example=_example,
+    streams=Streams(
+        to_beats=_to_beats,
+        stream="signal",
+        side_inputs=(SideInput("reset", "pixel", "the pixel's reset sample (CDS reset frame), "
+                               "element 2k + 1 of each input beat (pixel k's signal: 2k)"),),
+        golden=_golden,
+        example=_example,
+        small=((4, 40), {}),
+    ),
     pipeline=Use(_pipeline_step, lane_stage(elems=2), elems=2, per_frame=True, rank=1,
-                 placement=lambda scene: scene.pipeline.cds.memory, spill="cds_ddr",
-                 caller_places=False, memory="reset frames",
-                 scratch_bytes=14.0,
+                 memory=Memory(holds="reset frames",
+                               placement=lambda scene: scene.pipeline.cds.memory,
+                               spill="cds_ddr", caller_places=False),
                  options=OPTIONS,
                  sim=SIM),
-    small=((4, 40), {}),
     order=10,
     bench=Bench("cds", StreamWork("cds", "cds", {"pixel_bits": 12}, "pixel",
                                   "frames of 1280 x 4, 12-bit", (4, 1280), PX, PX_QUICK)),

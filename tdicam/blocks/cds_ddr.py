@@ -14,8 +14,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.errors import TdicamError
 from tdicam.model.cds_ddr import cds_ddr_frames
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity
-from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Param, SideInput, StreamWork, Suite,
-                           Use, check_width)
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, Memory, Param, SideInput, StreamWork,
+                           Streams, Suite, Use, check_width)
 from tdicam.blocks.steps import Step
 from tdicam.hdl.cds_ddr import CdsDdr, default_pixels_per_word
 from tdicam.blocks._ddr import (STALL_PARAMS, address_params, check_base, check_stalls, sim_top,
@@ -306,21 +306,23 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="cds_ddr-1",
-    to_beats=cds_to_beats,
-    frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
-    stream="frames",
-    side_inputs=(SideInput("kinds", "frame", "1 = a reset frame (stored in DDR, no output), "
-                           "0 = a signal frame (output minus the stored reset); on the "
-                           "frame_kind port with every beat"),),
-    golden=_golden,
-    fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["frames"])[-2:]))),
-    unstream=_unstream,
-    example=_example,
+    streams=Streams(
+        to_beats=cds_to_beats,
+        stream="frames",
+        side_inputs=(SideInput("kinds", "frame", "1 = a reset frame (stored in DDR, no output), "
+                               "0 = a signal frame (output minus the stored reset); on the "
+                               "frame_kind port with every beat"),),
+        golden=_golden,
+        fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["frames"])[-2:]))),
+        unstream=_unstream,
+        example=_example,
+        frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
+        small=((3, 24), {"width": 24, "rows": 3}),
+    ),
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_kinds, per_frame=True,
                  reset_frames=True, system=_system, measured=_measured,
-                 ddr_end=lambda step: _layout(BLOCK.resolve(step.params)).end_addr(
-                     step.params["rows"])),
-    small=((3, 24), {"width": 24, "rows": 3}),
+                 memory=Memory(ddr_end=lambda step: _layout(BLOCK.resolve(
+                     step.params)).end_addr(step.params["rows"]))),
     order=80,
     bench=Bench("ddr", StreamWork("cds_ddr", "cds_ddr",
                                   {"width": 512, "rows": 8, "pixel_bits": 10}, "pixel", 

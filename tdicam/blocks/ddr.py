@@ -14,7 +14,7 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.hdl.ddr import MAX_WORDS_PER_BEAT
 from tdicam.model.ddr import ADDR_PER_WORD, LineLayout, check_capacity, pack_lines, unpack_lines
 from tdicam.blocks import Bench, StreamWork, Suite
-from tdicam.blocks import Block, Case, Param
+from tdicam.blocks import Block, Case, Param, Streams
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK", "ddr_frames", "ddr_to_beats"]
@@ -178,14 +178,16 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="ddr-1",
-    to_beats=ddr_to_beats,
-    stream="frames",
-    golden=_golden,
-    to_case=_to_case,
-    fit=_fit,
-    unstream=_unstream,
-    example=_example,
-    small=((), {"width": 48, "rows": 4, "ppc": 8}),
+    streams=Streams(
+        to_beats=ddr_to_beats,
+        stream="frames",
+        golden=_golden,
+        to_case=_to_case,
+        fit=_fit,
+        unstream=_unstream,
+        example=_example,
+        small=((), {"width": 48, "rows": 4, "ppc": 8}),
+    ),
     order=80,
     bench=Bench("ddr", StreamWork("ddr", "ddr",
                                   {"width": 1280, "rows": 4, "ppc": 8, "pixel_bits": 10},

@@ -11,8 +11,8 @@ from tdicam.model.hdr import ANCHORS, DEFAULT_GAINS, hdr, hdr_config
 from tdicam.errors import TdicamError
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
-                           frame_stack, check_width as _check_width)
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SceneSim, SideInput,
+                           Streams, Use, check_width as _check_width, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
@@ -322,7 +322,8 @@ def _sim_step(c: RunView, fr: Frames):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block hdr (golden model)", _sim_step, per_exposure=True),)
+SIM = SceneSim((Sim("block hdr (golden model)", _sim_step, per_exposure=True),),
+               scratch_bytes=22.0)
 
 
 # ---- entry
@@ -367,23 +368,24 @@ BLOCK = Block(
     ],
     check=_check,
     model_version="hdr-1",
-    to_beats=_to_beats,
-    stream="hg",
-    side_inputs=(
-        SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 2k + 1 "
-                  "of each input beat for its pixel k (the high-gain channel, the stream: 2k)"),
-        SideInput("gain_sel", "frame", "index of the frame's programmed gain pair "
-                  "(--gain-pairs), on the gain_sel port with the frame's first pixel",
-                  default=_zeros_per_frame),
+    streams=Streams(
+        to_beats=_to_beats,
+        stream="hg",
+        side_inputs=(
+            SideInput("lg", "pixel", "the low-gain channel of the same pixel, element 2k + 1 "
+                      "of each input beat for its pixel k (the high-gain channel, the stream: 2k)"),
+            SideInput("gain_sel", "frame", "index of the frame's programmed gain pair "
+                      "(--gain-pairs), on the gain_sel port with the frame's first pixel",
+                      default=_zeros_per_frame),
+        ),
+        golden=_golden,
+        unstream=_unstream,
+        example=_example,
+        small=((4, 64), {}),
     ),
-    golden=_golden,
-    unstream=_unstream,
-    example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, merge=True, per_frame=True, rank=3,
-                 scratch_bytes=22.0,
                  options=OPTIONS,
                  sim=SIM),
-    small=((4, 64), {}),
     order=40,
     bench=Bench("hdr", StreamWork("hdr", "hdr", {}, "pixel",
                                   "frames of 1280 x 4, 12-bit HG/LG light ramp", (4, 1280), PX,

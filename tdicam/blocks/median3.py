@@ -18,8 +18,8 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.median3 import Median3, check_geometry
 from tdicam.model.cds import pixel_dtype
 from tdicam.model.median3 import MAX_GAIN, MAX_SHIFT, MAX_WIDTH, median3
-from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param,
-                           StreamWork, Suite, SynthRef, Use, frame_stack)
+from tdicam.blocks import (PPC_PARAM, Bench, Block, Case, KeyDoc, Options, Param, SceneSim,
+                           StreamWork, Streams, Suite, SynthRef, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Frames, RunView, Sim, Step
@@ -362,8 +362,11 @@ def _sim_post(c: RunView, fr: Frames):
 
 #: The block in the scene simulator: on single exposures or on the TDI output, where
 #: ``[pipeline].blocks`` puts it.
-SIM = (Sim("block median3 before TDI (golden)", _sim_pre, where="pre", per_exposure=True),
-       Sim("block median3 after TDI (golden)", _sim_post, stage="output", where="post"))
+SIM = SceneSim((Sim("block median3 before TDI (golden)", _sim_pre, where="pre",
+                    per_exposure=True),
+                Sim("block median3 after TDI (golden)", _sim_post, stage="output",
+                    where="post")),
+               post_bytes=190.0, trim=2, sharpens=lambda opts: opts.edge_enhance)
 
 
 # ---- entry
@@ -386,16 +389,16 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="median3-1",
-    to_beats=case_beats,
-    stream="frames",
-    golden=_golden,
-    to_case=_to_case,
-    fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
-    example=_example,
-    pipeline=Use(_pipeline_step, lane_stage(), trim=2, rank=5, options=OPTIONS,
-                 sharpens=lambda opts: opts.edge_enhance, post_bytes=190.0,
-                 sim=SIM),
-    small=((6, 0), {"width": 24}),
+    streams=Streams(
+        to_beats=case_beats,
+        stream="frames",
+        golden=_golden,
+        to_case=_to_case,
+        fit=lambda arrays: {"width": int(np.shape(arrays["frames"])[-1])},
+        example=_example,
+        small=((6, 0), {"width": 24}),
+    ),
+    pipeline=Use(_pipeline_step, lane_stage(), rank=5, options=OPTIONS, sim=SIM),
     order=50,
     bench=Bench("median3", StreamWork("median3", "median3", {"width": 1280, "pixel_bits": 12},
                                       "pixel", 

@@ -21,7 +21,7 @@ from tdicam.model import calib, nand_store
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
 from tdicam.blocks import SynthRef
-from tdicam.blocks import Block, Case, Param, Suite
+from tdicam.blocks import Block, Case, Param, Streams, Suite
 from tdicam.blocks.calib import BLOCK as CALIB, code_maps, random_codes
 
 __all__ = ["BLOCK", "load_beats", "store_beats", "geometry_of", "TEST_PART"]
@@ -239,18 +239,20 @@ BLOCK = Block(
     ),
     top=_top,
     cases=_cases,
-    to_beats=_beats,
-    frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
+    streams=Streams(
+        to_beats=_beats,
+        stream="words",
+        golden=_golden,
+        to_case=_to_case,
+        unstream=CALIB.streams.unstream,
+        example=_example,
+        frame_beats=lambda p: calib.HEADER_WORDS + calib.payload_words(p["rows"], p["cols"]),
+        small=((), {"rows": 3, "cols": 5, "device": True, "page_bytes": 2048,
+                      "pages_per_block": 2, "blocks": 16}),
+        reset_clears_state=False,  # the part's simulation model keeps its pages across reset,
+    ),
     check=_check,
     model_version="nand-1",
-    stream="words",
-    golden=_golden,
-    to_case=_to_case,
-    unstream=CALIB.unstream,
-    example=_example,
-    reset_clears_state=False,   # the part's simulation model keeps its pages across reset,
-    small=((), {"rows": 3, "cols": 5, "device": True, "page_bytes": 2048,
-                  "pages_per_block": 2, "blocks": 16}),
     order=91,
     synth=(SynthRef("nand_store", note="3800 x 5144 from 4 Gb NAND, bus as ports"),),
     suite=Suite(full_only=_full_only),

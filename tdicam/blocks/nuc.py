@@ -9,8 +9,8 @@ from tdicam.hdl.nuc import Nuc
 from tdicam.model.nuc import NucFormat, check_nuc_params, identity_coeffs, nuc
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import PX, PX_QUICK
-from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Options, Param, SideInput, Use,
-                           check_width as _check_width)
+from tdicam.blocks import (PPC_PARAM, Block, Case, KeyDoc, Memory, Options, Param, SceneSim,
+                           SideInput, Streams, Use, check_width as _check_width)
 from tdicam.blocks import _sim
 from tdicam.blocks._dsp import model_params, tops
 from tdicam.blocks._pipeline import lane_stage
@@ -618,8 +618,9 @@ def _sim_notes(c: RunView):
 
 
 #: The block in the scene simulator.
-SIM = (Sim("block nuc (golden model)", _sim_step, per_exposure=True, prepare=_sim_coeffs,
-           notes=_sim_notes),)
+SIM = SceneSim((Sim("block nuc (golden model)", _sim_step, per_exposure=True,
+                    prepare=_sim_coeffs, notes=_sim_notes),),
+               scratch_bytes=38.0)
 
 
 # ---- entry
@@ -652,26 +653,28 @@ BLOCK = Block(
     ],
     check=_check,
     model_version="nuc-1",
-    to_beats=_to_beats,
-    stream="x",
-    side_inputs=(
-        SideInput("gain", "pixel", "per-pixel unsigned gain code (gain_int_bits."
-                  "gain_frac_bits), element 3k + 1 of each input beat for its pixel k (x: 3k); "
-                  "in the camera read from "
-                  "the ECC-protected calibration image (block calib)"),
-        SideInput("offset", "pixel", "per-pixel signed offset code (offset_bits, "
-                  "offset_frac_bits), element 3k + 2 of each input beat"),
+    streams=Streams(
+        to_beats=_to_beats,
+        stream="x",
+        side_inputs=(
+            SideInput("gain", "pixel", "per-pixel unsigned gain code (gain_int_bits."
+                      "gain_frac_bits), element 3k + 1 of each input beat for its pixel k (x: 3k); "
+                      "in the camera read from "
+                      "the ECC-protected calibration image (block calib)"),
+            SideInput("offset", "pixel", "per-pixel signed offset code (offset_bits, "
+                      "offset_frac_bits), element 3k + 2 of each input beat"),
+        ),
+        golden=_golden,
+        example=_example,
+        small=((4, 40), {}),
     ),
-    golden=_golden,
-    example=_example,
     pipeline=Use(_pipeline_step, _pipeline_hw, side=_pipeline_arrays, system=nand_load_rows,
                  measured=_measured,
                  identity=_pipeline_identity, per_frame=True, rank=2, options=OPTIONS,
-                 placement=lambda scene: scene.pipeline.nuc.memory, spill="nuc_ddr",
-                 caller_places=False, memory="coefficients",
-                 scratch_bytes=38.0,
+                 memory=Memory(holds="coefficients",
+                               placement=lambda scene: scene.pipeline.nuc.memory,
+                               spill="nuc_ddr", caller_places=False),
                  sim=SIM),
-    small=((4, 40), {}),
     order=30,
     bench=Bench("nuc", StreamWork("nuc", "nuc", {}, "pixel",
                                   "frames of 1280 x 4, 12-bit, gain Q2.14", (4, 1280), PX,

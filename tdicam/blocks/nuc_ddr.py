@@ -18,7 +18,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.model.ddr import ADDR_PER_WORD, check_capacity
 from tdicam.model.nuc import NucFormat
 from tdicam.model.nuc_ddr import coeff_layout, nuc_ddr_frames
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, SideInput, Suite, Use, check_width
+from tdicam.blocks import (PPC_PARAM, Block, Case, Memory, Param, SideInput, Streams, Suite, Use,
+                           check_width)
 from tdicam.blocks._ddr import STALL_PARAMS, address_params, check_stalls, sim_top, stalls_of
 from tdicam.blocks.nuc import _random as _nuc_random, _saturate_wide, nand_load_rows
 from tdicam.hdl.nuc_ddr import NucDdr
@@ -320,27 +321,29 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="nuc_ddr-1",
-    to_beats=_to_beats,
-    frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
-    stream="x",
-    side_inputs=(
-        SideInput("gain", "pixel", "per-pixel unsigned gain code, read on coefficient frames "
-                                   "(element 2k of each beat for its pixel k), stored in DDR"),
-        SideInput("offset", "pixel", "per-pixel signed offset code, read on coefficient "
-                                     "frames (element 2k + 1), stored in DDR"),
-        SideInput("kinds", "frame", "1 = a coefficient frame (stored in DDR, no output), "
-                                    "0 = a pixel frame (corrected with the stored "
-                                    "coefficients); on the frame_kind port with every beat"),
+    streams=Streams(
+        to_beats=_to_beats,
+        stream="x",
+        side_inputs=(
+            SideInput("gain", "pixel", "per-pixel unsigned gain code, read on coefficient frames "
+                                       "(element 2k of each beat for its pixel k), stored in DDR"),
+            SideInput("offset", "pixel", "per-pixel signed offset code, read on coefficient "
+                                         "frames (element 2k + 1), stored in DDR"),
+            SideInput("kinds", "frame", "1 = a coefficient frame (stored in DDR, no output), "
+                                        "0 = a pixel frame (corrected with the stored "
+                                        "coefficients); on the frame_kind port with every beat"),
+        ),
+        golden=_golden,
+        fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["x"])[-2:]))),
+        unstream=_unstream,
+        example=_example,
+        frame_beats=lambda p: p["width"] * p["rows"] // p["ppc"],
+        small=((3, 24), {"width": 24, "rows": 3}),
     ),
-    golden=_golden,
-    fit=lambda arrays: dict(zip(("rows", "width"), map(int, np.shape(arrays["x"])[-2:]))),
-    unstream=_unstream,
-    example=_example,
-    small=((3, 24), {"width": 24, "rows": 3}),
     order=81,
     suite=Suite(sims=("icarus",), fast_stalls=0.2,   # Verilator: the block's own tests
                 per_beat=("no_coeffs_first_24x4_12b", "random_24x4_12b_p2")),
     pipeline=Use(_pipeline_step, _pipeline_hw, identity=_pipeline_identity, per_frame=True,
-                 chain_golden=_pipeline_golden, ddr_end=_pipeline_end,
+                 chain_golden=_pipeline_golden, memory=Memory(ddr_end=_pipeline_end),
                  measured=_measured, system=nand_load_rows),   # the NAND load, as nuc's
 )

@@ -12,7 +12,7 @@ from tdicam.hdl.ecc import SecdedDecoder, SecdedDecoderStream
 from tdicam.model import ecc
 from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import WORDS, WORDS_QUICK
-from tdicam.blocks import Block, Case, Param, SideInput
+from tdicam.blocks import Block, Case, Param, SideInput, Streams
 from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
 __all__ = ["BLOCK", "dec_beats", "sweep_codes"]
@@ -130,17 +130,19 @@ BLOCK = Block(
         Case("multi_flips", {"stream": True}, _multi, seed=5, tags=("multi",)),
     ],
     model_version="secded-1",
-    to_beats=lambda arrays, params: dec_beats(arrays["data_in"], arrays["check_in"]),
-    stream="data_in",
-    side_inputs=(SideInput("check_in", "pixel", "the received word's 8 check bits (byte 8 "
-                           "of each input beat)"),),
-    golden=_golden,
-    to_case=lambda arrays, params: {"data_in": np.asarray(arrays["data_in"], np.uint64),
-                                    "check_in": np.asarray(arrays["check_in"], np.uint8),
-                                    **_golden(arrays, params)},
-    unstream=_unstream,
-    example=_example,
-    small=((), {"stream": True}),
+    streams=Streams(
+        to_beats=lambda arrays, params: dec_beats(arrays["data_in"], arrays["check_in"]),
+        stream="data_in",
+        side_inputs=(SideInput("check_in", "pixel", "the received word's 8 check bits (byte 8 "
+                               "of each input beat)"),),
+        golden=_golden,
+        to_case=lambda arrays, params: {"data_in": np.asarray(arrays["data_in"], np.uint64),
+                                        "check_in": np.asarray(arrays["check_in"], np.uint8),
+                                        **_golden(arrays, params)},
+        unstream=_unstream,
+        example=_example,
+        small=((), {"stream": True}),
+    ),
     order=61,
     bench=Bench("secded", StreamWork("secded_dec", "secded_dec", {"stream": True}, "word",
                                      "72-bit code words with 0/1/2 flips", (), WORDS,

@@ -11,7 +11,7 @@ from tdicam.hdl.ecc import SecdedEncoder, SecdedEncoderStream
 from tdicam.model import ecc
 from tdicam.blocks import Bench, StreamWork, SynthRef
 from tdicam.blocks._bench import WORDS, WORDS_QUICK
-from tdicam.blocks import Block, Case
+from tdicam.blocks import Block, Case, Streams
 from tdicam.blocks._secded import PARAMS, markers, word_bytes
 
 __all__ = ["BLOCK", "enc_beats"]
@@ -69,13 +69,15 @@ BLOCK = Block(
              seed=2),
     ],
     model_version="secded-1",
-    to_beats=lambda arrays, params: enc_beats(arrays["data"]),
-    stream="data",
-    golden=_golden,
-    to_case=_golden,
-    unstream=_unstream,
-    example=_example,
-    small=((), {"stream": True}),
+    streams=Streams(
+        to_beats=lambda arrays, params: enc_beats(arrays["data"]),
+        stream="data",
+        golden=_golden,
+        to_case=_golden,
+        unstream=_unstream,
+        example=_example,
+        small=((), {"stream": True}),
+    ),
     order=60,
     bench=Bench("secded", StreamWork("secded_enc", "secded_enc", {"stream": True}, "word",
                                      "random 64-bit words", (), WORDS, WORDS_QUICK)),

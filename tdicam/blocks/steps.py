@@ -5,7 +5,7 @@ the :class:`StepContext` a block's :attr:`tdicam.blocks.Use.step` plans from, an
 
 :mod:`tdicam.chain.design` makes plans from scenes; each block's registry entry
 (:mod:`tdicam.blocks`) turns a :class:`StepContext` into its :class:`Step`, and its
-:attr:`tdicam.blocks.Use.sim` rows say what the block does to the simulator's frame stacks
+:attr:`tdicam.blocks.Use.sim` steps (:attr:`tdicam.blocks.SceneSim.steps`) say what the block does to the simulator's frame stacks
 (the engine generates its effect rows for the blocks from them).
 """
 
@@ -124,7 +124,7 @@ class StepContext:
     ``reset_frames``: the chain after a source block takes reset frames in the stream,
     each before its signal frame; ``ddr_base``: the first DDR address unit above the regions
     of the DDR blocks planned before (``[ddr].base`` before any; see
-    :attr:`tdicam.blocks.Use.ddr_end`), where a DDR block sharing the interface puts its own."""
+    :attr:`tdicam.blocks.Memory.ddr_end`), where a DDR block sharing the interface puts its own."""
 
     scene: object
     m: int

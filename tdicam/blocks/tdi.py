@@ -26,7 +26,8 @@ from tdicam.model.cds import pixel_dtype
 from tdicam.model.tdi import PIXEL_BITS, check_params, full_bits, out_width, tdi, tdi_stream
 from tdicam.blocks import Bench, Stalls, StreamWork, Suite, SynthRef
 from tdicam.blocks._bench import TDI, TDI_QUICK
-from tdicam.blocks import Block, Case, KeyDoc, Options, Param, SideInput, Use, frame_stack
+from tdicam.blocks import (Block, Case, KeyDoc, Memory, Options, Param, SceneSim, SideInput,
+                           Streams, Use, frame_stack)
 from tdicam.blocks import _sim
 from tdicam.blocks._pipeline import lane_stage
 from tdicam.blocks.steps import Frames, RunView, Sim, Step
@@ -500,7 +501,9 @@ def _sim_fast(c: RunView, fr: Frames):
 
 
 #: The block in the scene simulator (its spill variant computes the same).
-SIM = (Sim("TDI accumulation", _sim_step, stage="lines", fast=_sim_fast, aggregated=True),)
+SIM = SceneSim((Sim("TDI accumulation", _sim_step, stage="lines", fast=_sim_fast,
+                    aggregated=True),),
+               scratch_bytes=0.5)
 
 
 # ---- entry
@@ -514,16 +517,19 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="tdi-1",
-    to_beats=_to_beats,
-    frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
-    streamed_case=streamed_case,
-    **SCENE,
-    pipeline=Use(**PIPELINE, memory_bits=_memory_bits, memory="partial sums",
-                 placement=lambda scene: scene.pipeline.tdi.memory, spill="tdi_ddr", rank=4,
-                 scratch_bytes=0.5,
+    streams=Streams(
+        **SCENE,
+        to_beats=_to_beats,
+        frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
+        streamed_case=streamed_case,
+        small=((), {"width": 64, "stages": 4}),
+    ),
+    pipeline=Use(**PIPELINE, rank=4,
+                 memory=Memory(bits=_memory_bits, holds="partial sums",
+                               placement=lambda scene: scene.pipeline.tdi.memory,
+                               spill="tdi_ddr"),
                  options=OPTIONS,
                  sim=SIM),
-    small=((), {"width": 64, "stages": 4}),
     order=20,
     bench=Bench("tdi", StreamWork("tdi", "tdi",
                                   {"width": 256, "stages": 4, "pixel_bits": 12, "ppc": 1},

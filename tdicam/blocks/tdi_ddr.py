@@ -13,7 +13,7 @@ from tdicam.model.tdi_ddr import tdi_ddr_check
 from tdicam.model.tdi import check_params as tdi_check_params
 from tdicam.blocks import Bench, StreamWork, Suite
 from tdicam.blocks._bench import TDI, TDI_QUICK
-from tdicam.blocks import Block, Case, Param, Use, tdi as _tdi
+from tdicam.blocks import Block, Case, Param, Streams, Use, tdi as _tdi
 from tdicam.blocks._ddr import STALL_PARAMS, check_base, check_stalls, sim_top, stalls_of
 
 __all__ = ["BLOCK"]
@@ -119,12 +119,14 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="tdi_ddr-1",
-    to_beats=_tdi.to_beats,
-    streamed_case=_tdi.streamed_case,
-    frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
-    **_tdi.SCENE,
+    streams=Streams(
+        **_tdi.SCENE,
+        to_beats=_tdi.to_beats,
+        frame_beats=lambda p: p["stages"] * p["width"] // p["ppc"],
+        streamed_case=_tdi.streamed_case,
+        small=((), {"width": 256, "stages": 4}),
+    ),
     pipeline=Use(**{**_tdi.PIPELINE, "step": _pipeline_step}),
-    small=((), {"width": 256, "stages": 4}),
     order=80,
     bench=Bench("ddr", StreamWork("tdi_ddr", "tdi_ddr", {"width": 256, "stages": 4}, "pixel",
                                   "TDI partial sums in DDR, the tdi row's input", (4, 256), TDI,

@@ -26,7 +26,7 @@ from tdicam.hdl.interfaces.axis import AxisTop
 from tdicam.hdl.tlk2711 import Tlk2711
 from tdicam.model import tlk2711
 from tdicam.model.cds import pixel_dtype
-from tdicam.blocks import PPC_PARAM, Block, Case, Param, Stalls, Suite, frame_stack
+from tdicam.blocks import PPC_PARAM, Block, Case, Param, Stalls, Streams, Suite, frame_stack
 
 __all__ = ["BLOCK", "BUILDS", "VERILATOR_BUILDS", "stream_case", "case_beats",
            "frame_word_beats"]
@@ -234,13 +234,15 @@ BLOCK = Block(
     cases=_cases,
     check=_check,
     model_version="tlk2711-1",
-    to_beats=case_beats,
-    stream="frames",
-    golden=_golden,
-    to_case=_to_case,
-    unstream=_unstream,
-    example=_example,
-    small=((4, 8), {"pixel_bits": 12, "links": 2}),
+    streams=Streams(
+        to_beats=case_beats,
+        stream="frames",
+        golden=_golden,
+        to_case=_to_case,
+        unstream=_unstream,
+        example=_example,
+        small=((4, 8), {"pixel_bits": 12, "links": 2}),
+    ),
     order=95,
     # fast mode: a build's cases as one stream (cocotb_tests/test_tlk2711.py); at full rate
     # with 8 pixels of 16 bits a clock into 2 links the links limit (a word a clock)

@@ -117,6 +117,9 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         out["eyes"] = rep["lanes"]["eyes"]
     if (rep.get("lanes") or {}).get("corrections"):
         out["corrections"] = rep["lanes"]["corrections"]
+    if rt.phy != "generic":
+        from tdicam.chain.phy_check import phy_check
+        out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator)]
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})

@@ -22,7 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from tdicam.beats import PPC_CHOICES
+from tdicam.beats import PPC_CHOICES, check_ppc
 from tdicam.blocks.steps import ChainPlan, SceneData, Step, StepContext
 from tdicam.errors import TdicamError, check_range
 
@@ -55,7 +55,8 @@ def _golden_stage(step, data):
         return GoldenStage(step.block, use.chain_golden(step, data), merge=use.merge,
                            group=step.group)
     params = blk.resolve(step.params)
-    lane_keys = [blk.stream] + [s.name for s in blk.side_inputs if s.per == "pixel"]
+    lane_keys = [blk.streams.stream] + [s.name for s in blk.streams.side_inputs
+                                        if s.per == "pixel"]
 
     def fn(arrays, lane):
         scene = dict(step.inputs)
@@ -111,7 +112,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     ``spill``: True keeps a block's large memory (TDI's partial sums) in DDR through its
     ``spill`` variant (``tdi_ddr`` with the simulation MIG model), False on chip, ``"auto"``
     as below whatever the scene says; ``None``:
-    as the scene places it (:attr:`tdicam.blocks.Use.placement`, ``[pipeline.tdi].memory``),
+    as the scene places it (:attr:`tdicam.blocks.Memory.placement`, ``[pipeline.tdi].memory``),
     ``auto`` meaning DDR when it exceeds ``device``'s on-chip RAM
     (:data:`tdicam.model.physics.plan.ONCHIP_RAM_BITS`). A spill uses the DDR interface of the
     scene's ``[ddr]`` section.
@@ -136,11 +137,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     n_lines = int(scene.run.lines if lines is None else lines)
     w = int(scene.sensor.columns if width is None else width)
     ppc = scene_ppc(scene) if ppc is None else int(ppc)
-    if ppc not in PPC_CHOICES:
-        raise TdicamError(f"pipeline: pixels per clock {ppc} is not valid; valid: "
-                          f"{', '.join(map(str, PPC_CHOICES))}")
-    if w % ppc:
-        raise TdicamError(f"pipeline: width {w} is not a multiple of pixels per clock {ppc}")
+    check_ppc(ppc, w, "pipeline: pixels per clock")
     uses = [_use(n) for n in names]
     for n, u in zip(names, uses):
         if u.source is not None:
@@ -160,21 +157,22 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
             step, out_bits = _at_ppc(*u.step(ctx), ctx.ppc)
             tdicam.blocks.get(name).resolve(step.params)
             go, why = _spills(u, step, scene, spill, device)
-            if go and u.spill is None:
+            if go and u.memory.spill is None:
                 raise TdicamError(f"{why} and it has no DDR variant")
             if go and scene.ddr is None:
-                raise TdicamError(f"{why}: it spills to DDR through {u.spill}, but the scene "
-                                  f"has no [ddr] section (the DDR interface a spill uses)")
+                raise TdicamError(f"{why}: it spills to DDR through {u.memory.spill}, but the "
+                                  f"scene has no [ddr] section (the DDR interface a spill uses)")
             if go:
                 spilled = True
-                ctx.block = name = u.spill
+                ctx.block = name = u.memory.spill
                 step, out_bits = _at_ppc(*_use(name).step(ctx), ctx.ppc)
                 tdicam.blocks.get(name).resolve(step.params)
         except TdicamError as exc:
             raise TdicamError(f"pipeline: {prev} -> {name}: {exc}") from None
         steps.append(step)
-        if _use(step.block).ddr_end is not None:
-            ctx.ddr_base = max(ctx.ddr_base, _use(step.block).ddr_end(step))
+        ddr_end = _use(step.block).memory.ddr_end
+        if ddr_end is not None:
+            ctx.ddr_base = max(ctx.ddr_base, ddr_end(step))
         ctx.bits = out_bits
         ctx.after_lines = ctx.after_lines or u.lines
         slower *= m if u.lines else 1
@@ -274,19 +272,20 @@ def _at_ppc(step, out_bits, ppc):
 def _spills(u, step, scene, spill, device):
     """Whether block use ``u`` keeps its memory in DDR, and why (a phrase for errors)."""
     from tdicam.model.physics.plan import onchip_budget
-    if u.memory_bits is None and u.placement is None:
+    mem = u.memory
+    if mem.bits is None and mem.placement is None:
         return False, ""
-    if spill is not None and u.caller_places:
+    if spill is not None and mem.caller_places:
         asked, how = {True: "ddr", False: "chip", "auto": "auto"}[spill], "the caller"
     else:
-        asked, how = (u.placement(scene) if u.placement else "auto"), "the scene"
-    if u.memory_bits is None:           # placed by the scene only, never by size
-        return asked == "ddr", f"its {u.memory} are placed in DDR by {how}"
-    need, budget = u.memory_bits(step), onchip_budget(device)
+        asked, how = (mem.placement(scene) if mem.placement else "auto"), "the scene"
+    if mem.bits is None:                # placed by the scene only, never by size
+        return asked == "ddr", f"its {mem.holds} are placed in DDR by {how}"
+    need, budget = mem.bits(step), onchip_budget(device)
     if asked == "auto":
-        return need > budget, (f"its {u.memory} ({need} bits) exceed the {device}'s on-chip "
+        return need > budget, (f"its {mem.holds} ({need} bits) exceed the {device}'s on-chip "
                                f"RAM ({budget} bits)")
-    return asked == "ddr", f"its {u.memory} ({need} bits) are placed in DDR by {how}"
+    return asked == "ddr", f"its {mem.holds} ({need} bits) are placed in DDR by {how}"
 
 
 def identity_data(p):
@@ -481,12 +480,7 @@ def check_options(scene, *, lines=None, device=None, ppc=None, width=None):
     from tdicam.model.physics.plan import ONCHIP_RAM_BITS
     from tdicam.scene.loader import MAX_OUTPUT_PIXELS
     if ppc is not None:
-        if ppc not in PPC_CHOICES:
-            raise TdicamError(f"--ppc = {ppc} is not valid; valid: "
-                              f"{', '.join(map(str, PPC_CHOICES))}")
-        w = scene.sensor.columns if width is None else width
-        if w % ppc:
-            raise TdicamError(f"--ppc = {ppc}: the width {w} is not a multiple of it")
+        check_ppc(ppc, scene.sensor.columns if width is None else width, "--ppc")
     if device is not None and str(device).lower() not in ONCHIP_RAM_BITS:
         raise TdicamError(f"--device = {device!r} is not known; valid: "
                           f"{', '.join(ONCHIP_RAM_BITS)}")

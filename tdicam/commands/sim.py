@@ -59,7 +59,7 @@ def _run(args):
     t0 = time.perf_counter()
     # an unknown block: its one line, before the plan; a block that is not a stream has no
     # golden cases to plan or skip (cosimulate says how it is tested)
-    streams = blocks.get(args.block).to_beats is not None
+    streams = blocks.get(args.block).streams.to_beats is not None
     if args.sim == "auto":
         plan = pick_simulators(args.block, mode, args.case) if streams else {"icarus": None}
     else:

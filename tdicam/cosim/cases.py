@@ -70,7 +70,7 @@ def run_cases(block, *, sim, mode, idle, backpressure, seed, cases=None, report=
     to ``report``. ``wave_dir``: where a mismatching case's waveform goes (its row's
     ``waveform`` and ``message`` give the path)."""
     blk = blocks.get(block)
-    if blk.to_beats is None:
+    if blk.streams.to_beats is None:
         raise TdicamError(f"block {block} has no stream co-simulation; run its cocotb tests "
                           f"(pytest cocotb_tests/test_{block}.py)")
     check_cases(blk, cases)

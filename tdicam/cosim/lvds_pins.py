@@ -67,8 +67,8 @@ from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
                                _settings_args, sched_words)
 
-__all__ = ["PinRun", "run_pins", "predict", "run_phase", "band_taps", "eye_problems", "ui_fs",
-           "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
+__all__ = ["PinRun", "run_pins", "predict", "run_phase", "judged_phase", "band_taps",
+           "eye_problems", "word_problems", "ui_fs", "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
 
 #: The PHYs simulated from pins: {phy: primitive model module}.
 PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
@@ -431,6 +431,13 @@ def run_phase(link, phy, run, *, dcd=None, n_check=16):
     return None
 
 
+def judged_phase(link, phy, run, *, dcd=None, n_check=16):
+    """The word phase ``run`` is judged at: :func:`run_phase`'s, else the PHY's first (the
+    slips then show as the run's problems)."""
+    phase = run_phase(link, phy, run, dcd=dcd, n_check=n_check)
+    return WORD_PHASE[phy, link.word_bits][0] if phase is None else phase
+
+
 def band_taps(lane):
     """Taps of the random band at each edge of ``lane``'s eye (its jitter in taps, rounded
     up): how far below the jitter-free prediction a jittered lane's tap may be."""
@@ -475,9 +482,7 @@ def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, p
       ``error`` (its eye width below ``min_run``, tap, slip and masks 0).
     """
     w = link.word_bits
-    phase = run_phase(link, phy, run, dcd=dcd, n_check=n_check)
-    if phase is None:
-        phase = WORD_PHASE[phy, w][0]
+    phase = judged_phase(link, phy, run, dcd=dcd, n_check=n_check)
     pred = predict(link, phy, dcd=dcd, word_phase=phase, jitter=False,
                    n_check=n_check, settle=settle, min_run=min_run, pick=pick, eye=True,
                    k_stop=run.cycles)
@@ -502,3 +507,24 @@ def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, p
         if lane.eye_ps == 0 and not (f["error"] and not f["locked"]):
             problems.append(f"lane {i}: no eye, and no error reported")
     return problems
+
+
+def word_problems(link, run, nd):
+    """``(mismatches, problems)`` of a pin-level run's delivered words (``run.outputs``),
+    data from link word ``nd``: the receiver must deliver one run of consecutive words
+    from the data start (else one mismatch and its problem line), and every locked lane
+    the words :func:`tdicam.model.lvds.sent_words` sent (an unlocked lane 0s); each lane
+    that differs a problem line with its count. ``(0, [])`` when all is as sent."""
+    ks, syncs, data = run.outputs
+    problems, mism = [], 0
+    if len(ks) == 0 or not syncs[0] or not np.array_equal(ks, ks[0] + np.arange(len(ks))):
+        problems.append("the receiver delivered no run of consecutive words from the data "
+                        "start")
+        mism += 1
+    for i, f in enumerate(run.final):
+        exp = lvds.sent_words(link, i, nd + np.arange(len(ks))) if f["locked"] else 0
+        bad = int(np.count_nonzero(data[:, i] != exp)) if len(ks) else 0
+        if bad:
+            problems.append(f"lane {i}: {bad} words differ from those sent")
+        mism += bad
+    return mism, problems

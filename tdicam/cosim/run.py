@@ -195,14 +195,14 @@ def run_case(block, params, arrays, *, corrupt=None, **kw):
     scene arrays): the block's ``to_beats`` makes stimulus and expected beats.
     ``corrupt(arrays)`` may alter a copy of the arrays first (to show a check can fail)."""
     blk = blocks.get(block) if isinstance(block, str) else block
-    if blk.to_beats is None:
+    if blk.streams.to_beats is None:
         raise TdicamError(f"block {blk.name} has no stream co-simulation; run its cocotb "
                           f"tests (pytest cocotb_tests/test_{blk.name}.py)")
     params = blk.resolve(params)
     if corrupt is not None:
         arrays = {k: np.array(v, copy=True) for k, v in arrays.items()}
         corrupt(arrays)
-    stim, exp = blk.to_beats(arrays, params)
+    stim, exp = blk.streams.to_beats(arrays, params)
     return run_beats(blk, params, stim, exp, **kw)
 
 

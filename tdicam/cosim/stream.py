@@ -80,9 +80,9 @@ def cycle_budget(params, n_in, n_out, idle=0.0, backpressure=0.0):
     pixels a beat (a DDR block may move a word a pixel), plus 100,000 (start-up: a NAND
     scan, a stored line's reads). A run that ends sooner costs nothing more."""
     slow = 1.0 / ((1 - idle) * (1 - backpressure))
-    ddr = dram.slowdown(params)
-    words = int(params.get("ppc", 1)) if ddr != 1.0 else 1
-    return int((n_in + n_out) * 4 * slow * ddr * words) + 100_000
+    if dram.has_stalls(params):
+        slow *= dram.slowdown(params) * int(params.get("ppc", 1))
+    return int((n_in + n_out) * 4 * slow) + 100_000
 
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,

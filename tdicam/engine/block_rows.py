@@ -5,8 +5,8 @@ each runs (:func:`need`), the side inputs they take from the fixed pattern
 (:func:`subtract_reset`).
 
 What a block does to the frame stacks (its scene arrays, channels, resets, side inputs, the
-crops kept for RTL co-simulation) is in its registry entry (:attr:`tdicam.blocks.Use.sim`,
-:mod:`tdicam.blocks`); its parameters come from the entry's one scene-to-parameters function
+crops kept for RTL co-simulation) is in its registry entry (:attr:`tdicam.blocks.Use.sim`, a
+:class:`tdicam.blocks.SceneSim`); its parameters come from the entry's one scene-to-parameters function
 (:attr:`tdicam.blocks.Use.step`, the same the scene's gateware chain uses). This module names
 no block.
 """
@@ -38,7 +38,7 @@ class Row:
 
 def _rows():
     out = [Row(b.name if s.where is None else f"{b.name}_{s.where}", b, s)
-           for b in blocks.scene_blocks() for s in b.pipeline.sim]
+           for b in blocks.scene_blocks() for s in b.pipeline.sim.steps]
     return tuple(sorted(out, key=lambda r: STAGES.index(r.sim.stage)))   # rank order kept
 
 
@@ -100,7 +100,7 @@ def _reset_taker(scene):
     """The :class:`~tdicam.blocks.steps.Sim` of the first block of ``[pipeline].blocks`` that
     takes reset frames (None: no such block)."""
     for name in scene.pipeline.blocks:
-        for s in blocks.get(name).pipeline.sim:
+        for s in blocks.get(name).pipeline.sim.steps:
             if s.subtract is not None:
                 return s
     return None

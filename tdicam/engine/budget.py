@@ -106,12 +106,12 @@ def _pass_bytes(c, lines, ncols, axes, k):
         cols = kx * (ncols + abs(geo.line_shear) * n_f + 8)
         grid = 8.0 * rows * cols
     work = threads() * CHUNK_PIXELS * 8.0 * 6
-    # each block's figures are in its registry entry (Use.scratch_bytes, Use.post_bytes:
+    # each block's figures are in its registry entry (SceneSim.scratch_bytes, SceneSim.post_bytes:
     # measured with tracemalloc on the bundled chains); its engine steps are its rows of the
     # effects table (ROWS), the "post" one on the output of the line-making block
-    coeff = max([r.block.pipeline.scratch_bytes for r in ROWS
+    coeff = max([r.block.pipeline.sim.scratch_bytes for r in ROWS
                  if r.sim.where != "post" and c.ran(r.name)] or [0.0])
-    post_bytes = sum(r.block.pipeline.post_bytes for r in ROWS
+    post_bytes = sum(r.block.pipeline.sim.post_bytes for r in ROWS
                      if r.sim.where == "post" and c.ran(r.name))
     render = stacks + 3 * grid + work
     blocks = stacks + grid + 8.0 * n + elems * coeff

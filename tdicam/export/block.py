@@ -15,7 +15,7 @@ with no tdicam, cocotb or Python:
   (:class:`~tdicam.cosim.tbgen.SelfCheck`);
 * ``vectors/`` — those memory files, made from the block's golden vectors (cases in registry
   order up to :data:`MAX_BEATS` input beats); when no golden case fits (``tdi`` at 8192 x 128:
-  one frame is 1,048,576 beats) a block's :attr:`~tdicam.blocks.Block.streamed_case` is
+  one frame is 1,048,576 beats) a block's :attr:`~tdicam.blocks.Streams.streamed_case` is
   exported instead, made and written a piece at a time (bounded memory), its size stated
   before anything is written;
 * ``tdicam_<block>.core`` — a FuseSoC CAPI2 core ``tdicam:blocks:<block>:<version>`` with
@@ -97,8 +97,8 @@ def golden_case_arrays(blk, params, *, max_beats=None, errors=None):
             if p != params:
                 continue
             arrays = dict(case.make(p, np.random.default_rng(case.seed)))
-            if blk.to_beats is not None:
-                stim = blk.to_beats(arrays, p)[0]
+            if blk.streams.to_beats is not None:
+                stim = blk.streams.to_beats(arrays, p)[0]
                 # a case made for other parameters may set what these ports cannot carry
                 # (tdi's stages_active above a smaller --stages' port): left out
                 codec.check_ctrl(stim.ctrl, _ctrl_bits(blk.build(p)))
@@ -144,7 +144,7 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
 
     Cases are taken in registry order while the stimulus stays within ``max_beats`` input
     beats (only the first that fits for a block whose state survives a reset, see
-    ``Block.reset_clears_state``). Returns (stim, exp, case names).
+    ``Streams.reset_clears_state``). Returns (stim, exp, case names).
     """
     per_frame = _frame_over(blk, params, max_beats)
     if per_frame is not None:
@@ -166,11 +166,11 @@ def select_vectors(blk, params, *, max_beats=MAX_BEATS):
         if isinstance(arrays, int):     # a generated case over the limit (its beats)
             smallest = arrays if smallest is None else min(smallest, arrays)
             continue
-        stim, exp = blk.to_beats(arrays, params)
+        stim, exp = blk.streams.to_beats(arrays, params)
         smallest = len(stim) if smallest is None else min(smallest, len(stim))
         if max_beats is not None and total + len(stim) > max_beats:
             continue
-        if names and not blk.reset_clears_state:
+        if names and not blk.streams.reset_clears_state:
             break                       # one case per simulation run for this block
         if names:
             stim.rst[0] = True
@@ -200,7 +200,7 @@ class _OverLimit(TdicamError):
 def _frame_over(blk, params, max_beats):
     """Input beats of one frame of ``blk`` at ``params`` when that is over ``max_beats``
     (else None)."""
-    per_frame = None if blk.frame_beats is None else blk.frame_beats(params)
+    per_frame = None if blk.streams.frame_beats is None else blk.streams.frame_beats(params)
     if max_beats is not None and per_frame is not None and per_frame > max_beats:
         return per_frame
     return None
@@ -475,9 +475,9 @@ def stream_export(blk, params, *, seed, idle, backpressure, max_beats, say=None)
     try:
         stim, exp, cases = select_vectors(blk, params, max_beats=max_beats)
     except _OverLimit as over:
-        if blk.streamed_case is None:
+        if blk.streams.streamed_case is None:
             raise
-        stim, exp = blk.streamed_case(params), None
+        stim, exp = blk.streams.streamed_case(params), None
         cases = [stim.name]
         if say is not None:
             say(f"export: {blk.name}: {over.why}: exporting the case {stim.name} instead, "
@@ -492,7 +492,7 @@ def stream_export(blk, params, *, seed, idle, backpressure, max_beats, say=None)
 
 def _stream_top(blk, params):
     top = blk.build(params)
-    if not isinstance(top, AxisTop) or blk.to_beats is None:
+    if not isinstance(top, AxisTop) or blk.streams.to_beats is None:
         raise TdicamError(f"block {blk.name} has no stream testbench to export (it is "
                           f"verified with its own harness); export a stream block")
     return top

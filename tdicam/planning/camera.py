@@ -51,20 +51,22 @@ def _chain_facts(scene):
     reset = reset_ddr = coeffs = False
     for name in scene.pipeline.blocks:
         u = _blocks.get(name).pipeline
-        spill = _blocks.get(u.spill).pipeline if u.spill else None
+        spill = _blocks.get(u.memory.spill).pipeline if u.memory.spill else None
         if u.reset_frames or (spill is not None and spill.reset_frames):
             reset = True
             reset_ddr = reset_ddr or u.reset_frames or (
-                u.placement is not None and u.placement(scene) == "ddr")
+                u.memory.placement is not None and u.memory.placement(scene) == "ddr")
         coeffs = coeffs or u.identity is not None
     return reset, reset_ddr, coeffs
 
 
-def samples_per_s(scene, cam):
+def samples_per_s(scene, cam, reset=None):
     """Samples a gain channel a second the camera ``cam`` reads: ``k C R F`` (``k`` = 2 with
-    the sensor's reset frames, 1 without): the rate the whole chain's input must take."""
+    the sensor's reset frames, 1 without; ``reset``: whether the chain takes them, None:
+    from the scene's chain): the rate the whole chain's input must take."""
     s = scene.sensor
-    return (2 if _chain_facts(scene)[0] else 1) * s.columns * s.rows * cam.frame_rate_hz
+    reset = _chain_facts(scene)[0] if reset is None else reset
+    return (2 if reset else 1) * s.columns * s.rows * cam.frame_rate_hz
 
 
 def camera_budget(scene, cam):
@@ -91,7 +93,7 @@ def camera_budget(scene, cam):
         f"pixel words, {L * (per_lane - 2) - C} padded slots a gain, sync and header) at "
         f"{F:g} frame/s need {need / 1e9:.2f} Gbit/s", limit=lim / k))
 
-    samples = samples_per_s(scene, cam)
+    samples = samples_per_s(scene, cam, reset)
     clock = cam.clock_mhz * 1e6
     ppc, pcap, pok = camera.processing_figures(samples, clock)
     rows.append(_row(

@@ -312,13 +312,15 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     meeting = [o for o in known if o["meets"]]
     best = max(known, key=lambda o: o["pixel_rate"]) if known else None
     chosen = meeting[0] if meeting else None
+    need = chain_rate or rate
+    need_what = ("a gain channel's samples at [camera].frame_rate_hz" if chain_rate
+                 else "the sensor's window every line period")
     chain = None if scene_file is None or fpga_clock_mhz is not None else [
         {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": r.fmax_mhz,
          "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
          "pixel_rate": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)),
-         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= (chain_rate or rate),
-         "need": chain_rate or rate, "need_what": "a gain channel's samples at [camera].frame_rate_hz"
-         if chain_rate else "the sensor's window every line period"}
+         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= need,
+         "need": need, "need_what": need_what}
         for r in record.find("pipeline", scene=scene_file)] or None
     return {
         "pixel_rate": rate, "stages": stages, "width": width,

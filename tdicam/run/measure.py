@@ -128,7 +128,7 @@ def measure(scene, res):
     out = {"stages": res.stages, "dv_over_v": res.dv_over_v}
     tgt = scene.target
     m = res.stages
-    trim = max((blocks.get(b).pipeline.trim for b in scene.pipeline.blocks), default=0)
+    trim = max((blocks.get(b).pipeline.sim.trim for b in scene.pipeline.blocks), default=0)
     cds = any(e.name == "reset_frames" and e.ran for e in res.effects)
     if tgt.kind == "flat":
         S, dark = tgt.signal_e, mean_dark_e(scene)
@@ -234,8 +234,8 @@ def _above_one(scene, mtf_fit, mtf_sd, ctf):
     filter); the (pi/4) CTF equals the MTF only for a square-wave response whose harmonics
     the system passes in the ratio of the fundamental."""
     why = []
-    sharp = [b for b in scene.pipeline.blocks if blocks.get(b).pipeline.sharpens
-             and blocks.get(b).pipeline.sharpens(getattr(scene.pipeline, b))]
+    sharp = [b for b in scene.pipeline.blocks if blocks.get(b).pipeline.sim.sharpens
+             and blocks.get(b).pipeline.sim.sharpens(getattr(scene.pipeline, b))]
     if mtf_fit is not None and mtf_fit > 1.0:
         if mtf_fit - 1.0 <= MIN_MODULATION_SNR * mtf_sd:
             why.append(f"measured MTF {mtf_fit:.3f} > 1 is within the noise of the fit "

@@ -15,7 +15,8 @@ from pathlib import Path
 
 from tdicam.run.quality_report import markdown_lines, summary_lines
 
-__all__ = ["configuration", "config_lines", "summary", "markdown", "FILE_NOTES", "PAPERS"]
+__all__ = ["configuration", "config_lines", "summary", "markdown", "FILE_NOTES", "PAPERS",
+           "phy_lines"]
 
 #: The papers the model follows, as cited in the report (short name -> citation).
 PAPERS = {
@@ -243,7 +244,34 @@ def summary(scene, rep):
                              f"mismatches")
             else:
                 lines.append(f"  RTL {b['block']}: {b.get('status')}")
+        for r in rep["rtl"].get("phy_checks") or []:
+            lines.append(f"  RTL lanes from serial bits, {r['phy']} PHY: " + (
+                f"{r['words_compared']} words compared, {r['mismatches']} mismatches, taps "
+                f"{'as' if r['taps_as_predicted'] else 'NOT as'} predicted"
+                if r["status"] == "ran" else r["status"]))
     return "\n".join(lines)
+
+
+def phy_lines(rows):
+    """report.md's rows of the ``[run.rtl] phy`` checks (:mod:`tdicam.chain.phy_check`)."""
+    md = ["The sensor's lanes from serial bits through the device PHY's receiver "
+          "([run.rtl].phy), beside the chain's co-simulation above (which the generic PHY, "
+          "words in, feeds): each lane's words against the golden link model's, its tap "
+          "and slip against the prediction for the PHY.", "",
+          "| PHY | simulator | lanes | words compared | mismatches | taps as predicted | "
+          "lanes in error | wall (s) |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r["status"] != "ran":
+            md.append(f"| {r['phy']} | {r['simulator']} | {r['status']} | - | - | - | - | "
+                      f"{r['wall_seconds']:.1f} |")
+            continue
+        md.append(f"| {r['phy']} | {r['simulator']} | {r['lanes']} | {r['words_compared']} "
+                  f"| {r['mismatches']} | {'yes' if r['taps_as_predicted'] else 'no'} | "
+                  f"{', '.join(map(str, r['lane_errors'])) or 'none'} | "
+                  f"{r['wall_seconds']:.1f} |")
+    md.append("")
+    md += [f"* {r['phy']}: {t}" for r in rows for t in r.get("problems", [])]
+    return md + ([""] if any(r.get("problems") for r in rows) else [])
 
 
 def plan_lines(verdict):
@@ -377,6 +405,8 @@ def markdown(scene, rep):
             md.append(f"| {b['block']} | {b.get('status')} | {b.get('pixels_compared', '-')} | "
                       f"{b.get('mismatches', '-')} |")
         md.append("")
+        if rep["rtl"].get("phy_checks"):
+            md += phy_lines(rep["rtl"]["phy_checks"])
         if rep["rtl"].get("system"):
             md += ["What the co-simulated camera saw (its status outputs):", ""]
             md += [f"* {r['text']}" for r in rep["rtl"]["system"]] + [""]

@@ -372,10 +372,10 @@ def _check_chain(sec: Section, scene: Scene, labels) -> None:
     from tdicam.blocks.median3 import check_after_tdi
     names = list(scene.pipeline.blocks)
     for b in names:
-        use = blocks.get(b).pipeline
-        if use.placement is not None and scene.ddr is None and use.placement(scene) == "ddr":
+        mem = blocks.get(b).pipeline.memory
+        if mem.placement is not None and scene.ddr is None and mem.placement(scene) == "ddr":
             raise TdicamError(f"{labels.get(f'pipeline.{b}.memory', f'[pipeline.{b}].memory')} "
-                              f"= 'ddr' keeps its {use.memory} in DDR, but the scene has no "
+                              f"= 'ddr' keeps its {mem.holds} in DDR, but the scene has no "
                               f"[ddr] section (the DDR interface it uses): add [ddr] "
                               f"(interface = \"mig\") or set memory = 'chip'")
     lv = scene.sensor.lvds

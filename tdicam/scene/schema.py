@@ -433,12 +433,14 @@ class Pipeline:
 @dataclass(frozen=True)
 class RtlRun:
     """``[run.rtl]``: cycle-accurate crop ``(x0, y0, width, height)`` (None = whole frame);
-    ``lane_dies``: ``(lane, frame)`` a sensor lane that dies in the co-simulation, or None."""
+    ``lane_dies``: ``(lane, frame)`` a sensor lane that dies in the co-simulation, or None;
+    ``phy``: the device PHY checked from serial bits beside the chain ("generic": none)."""
 
     crop: tuple[int, int, int, int] | None
     simulator: str
     pixels_per_clock: int
     lane_dies: tuple[int, int] | None = None
+    phy: str = "generic"
 
 
 #: The scene simulator's fidelities (``[run].fidelity``, ``tdicam run --fidelity``): every

@@ -14,6 +14,7 @@ from typing import Any
 from tdicam import blocks
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError
+from tdicam.hdl.lvds_phy import PHYS
 from tdicam.model import lvds_front
 from tdicam.model.physics import camera
 from tdicam.model.physics.camera import Camera
@@ -555,6 +556,9 @@ RUN_KEYS = {
 }
 
 
+#: ``[run.rtl].phy``: the generic PHY (words in) or a device PHY simulated from serial bits.
+RTL_PHYS = ("generic",) + tuple(p for p in PHYS if p != "none")
+
 #: ``[run.rtl]``: unit and meaning of every key (:class:`tdicam.blocks.KeyDoc`).
 RUN_RTL_KEYS = {
     "crop": KeyDoc("px", "[x0, y0, width, height] of the output to co-simulate",
@@ -575,6 +579,11 @@ RUN_RTL_KEYS = {
                         type="list of 2 integers", default="none",
                         range="lane 0..lanes - 1; with reset frames a signal frame "
                               "(odd); needs [sensor.lvds]"),
+    "phy": KeyDoc("", "the LVDS receiver's PHY checked from serial bits beside the chain "
+                      "(which the generic PHY feeds): the scene's lanes through that "
+                      "PHY's receiver, its words against the golden link model's, every "
+                      "lane's tap and slip against the prediction for the PHY",
+                  default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]"),
 }
 
 
@@ -594,7 +603,7 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
     rtl = None
     if sec.has("rtl"):
         r = Section(f"{sec.name}.rtl", sec.data["rtl"], labels)
-        r.check_keys(("crop", "simulator", "pixels_per_clock", "lane_dies"))
+        r.check_keys(("crop", "simulator", "pixels_per_clock", "lane_dies", "phy"))
         crop = r.raw("crop", None)
         if crop is not None:
             if (not isinstance(crop, list) or len(crop) != 4
@@ -628,9 +637,12 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
                 r.fail("lane_dies", f"needs a lane 0..{n - 1} and a frame >= 0, got "
                                     f"{show(dies)}")
             dies = tuple(dies)
+        phy = r.choice("phy", "generic", RTL_PHYS)
+        if phy != "generic" and sensor.lvds is None:
+            r.fail("phy", f"{phy} needs the sensor's lanes ([sensor.lvds])")
         rtl = RtlRun(crop=crop, simulator=r.choice("simulator", "verilator",
                                                    ("icarus", "verilator")),
-                     pixels_per_clock=ppc, lane_dies=dies)
+                     pixels_per_clock=ppc, lane_dies=dies, phy=phy)
     return Run(lines=lines, seed=sec.integer("seed", 0, lo=0),
                fidelity=sec.choice("fidelity", "auto", FIDELITIES),
                tolerance=sec.number("tolerance", 0.01, lo=0.0, hi=1.0, lo_open=True,
