@@ -126,7 +126,8 @@ class NucDdr(wiring.Component):
         m = Module()
         lay, ppc = self.layout, self._ppc
         m.submodules.port = port = MigPort()
-        m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc, rows=self._rows)
+        m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc, rows=self._rows,
+                                               early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
             layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
         m.submodules.nuc = nuc = self._core()
