@@ -101,7 +101,8 @@ class CdsDdr(wiring.Component):
         lay = self.layout
         m.submodules.port = port = MigPort()
         ppc = self._ppc
-        m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows)
+        m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows,
+                                               early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
             layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
         m.submodules.cds = cds = Cds(pixel_bits=lay.pixel_bits, ppc=ppc)

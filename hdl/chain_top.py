@@ -47,7 +47,8 @@ class LaneStage:
         A top-level port (of this stage) giving the number of incoming frames grouped into
         one frame before the block (see :func:`frame_group`).
     out_slice : bool
-        The block's output is not registered (e.g. read straight from a memory): a
+        The block's output is not registered (e.g. read straight from a memory), or the
+        next block's ready would run on through its handshake (a DDR block's read launch): a
         :func:`register_slice` follows it when another stage takes its output.
     pins : tuple of str
         Ports of the component (either direction) that are each lane's own top-level ports

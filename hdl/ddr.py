@@ -69,11 +69,18 @@ class LineWriter(wiring.Component):
     last word, ``wr_first`` its frame-start flag (``first`` on the line's first beat).
     ``line_ok`` low holds the first beat of a new line (the user's line-lead limit).
     Lines are cut by count; a ``last`` that disagrees counts in ``line_errors``.
+
+    ``early_sums``: the next word's address added from registers only (line 0's base, the
+    line's base and the current address, each plus the step), the beat's markers selecting
+    among the sums, instead of the markers selecting the address before one adder (the
+    whole Ning et al. 2019 camera at ppc 8: ``nuc_ddr``'s coefficient writer, the beat's
+    ``first`` into the 24-bit increment, 9.43 ns); the same addresses.
     """
 
     @quiet_reject
-    def __init__(self, *, layout, elements, rows, addr_bits=ADDR_BITS):
+    def __init__(self, *, layout, elements, rows, addr_bits=ADDR_BITS, early_sums=False):
         self._lay, self._e, self._rows, self._aw = layout, elements, rows, addr_bits
+        self._early = early_sums
         if layout.values_per_line % elements:
             raise TdicamError(f"a line of {layout.values_per_line} values is not a whole "
                               f"number of {elements}-value beats")
@@ -130,6 +137,13 @@ class LineWriter(wiring.Component):
                      self.wr_first.eq(o_first)]
         ofire = o_valid & self.wr_ready
         cur_addr = Mux(line_start, next_base, waddr)
+
+        def after(step):
+            """``cur_addr + step`` (the address ``step`` units on)."""
+            if not self._early:
+                return cur_addr + step
+            return Mux(line_start, Mux(restart, Const(lay.base + step), line_base + step),
+                       waddr + step)
         cur_first = Mux(line_start, i.payload.first, first_flag)
         if R == 1:
             k = Signal(range(max(G, 2)))
@@ -153,7 +167,7 @@ class LineWriter(wiring.Component):
                     with m.If(last_col):
                         m.d.sync += [col.eq(0), line_base.eq(next_line), waddr.eq(next_line)]
                     with m.Else():
-                        m.d.sync += [col.eq(col + 1), waddr.eq(cur_addr + ADDR_PER_WORD)]
+                        m.d.sync += [col.eq(col + 1), waddr.eq(after(ADDR_PER_WORD))]
                         with m.If(line_start):
                             m.d.sync += line_base.eq(next_base)
                 with m.Else():
@@ -186,7 +200,7 @@ class LineWriter(wiring.Component):
                 with m.If(last_col):
                     m.d.sync += [col.eq(0), line_base.eq(next_line), waddr.eq(next_line)]
                 with m.Else():
-                    m.d.sync += [col.eq(col + 1), waddr.eq(cur_addr + R * ADDR_PER_WORD)]
+                    m.d.sync += [col.eq(col + 1), waddr.eq(after(R * ADDR_PER_WORD))]
                     with m.If(line_start):
                         m.d.sync += line_base.eq(next_base)
             with m.Elif(ofire):

@@ -138,7 +138,7 @@ class NucDdr(wiring.Component):
         lay, ppc = self.layout, self._ppc
         m.submodules.port = port = MigPort()
         m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc,
-                                              rows=self._image_rows)
+                                              rows=self._image_rows, early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
             layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
         m.submodules.nuc = nuc = self._core()

@@ -38,6 +38,16 @@ def test_synth_cds_parses_tool_output(tmp_path):
 
 
 @needs_tools
+def test_synth_without_abc9_maps_with_abc(tmp_path):
+    # --no-abc9: synth_ecp5's LUT mapping by the older ABC (yosys 0.70 has no -noabc9; an
+    # unknown option would be ignored and ABC9 run anyway), the same cells otherwise
+    r = synth("cds", {"pixel_bits": 12}, seeds=1, xilinx=False, workdir=tmp_path, abc9=False)
+    log = (tmp_path / "yosys-ecp5-harness.full.log").read_text()
+    assert "Executing ABC pass" in log and "Executing ABC9 pass" not in log
+    assert r.abc9 is False and r.ff == 15 and r.lut4 > 0 and 100 < r.fmax_mhz < 1000
+
+
+@needs_tools
 def test_synth_reference_markdown_row(capsys):
     assert main(["synth", "--reference", "cds", "--seeds", "1", "--no-xilinx",
                  "--markdown"]) == 0

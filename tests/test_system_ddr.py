@@ -189,6 +189,21 @@ def test_the_nand_load_widens_to_the_chain_s_pixels_per_clock(ppc):
     assert not any(n.startswith("nuc_ddr_widen") for n in one)
 
 
+@pytest.mark.parametrize("ppc", [1, 8])
+def test_a_register_slice_follows_each_ddr_block_above_1_pixel_a_clock(ppc):
+    """At ppc >= 2 each lane's cds_ddr and nuc_ddr hand their output on through a register
+    slice, so hdr's input ready stops there instead of running through both DDR blocks'
+    handshakes into cds_ddr's read launch (the whole camera's slowest path at ppc 8); at
+    ppc 1 neither has one (the top as it was)."""
+    from amaranth.hdl import Fragment
+    p = design.chain_plan(_scene(run={"lines": 3, "rtl": {"pixels_per_clock": ppc}}))
+    assert p.ppc == ppc and [s.block for s in p.steps[:2]] == ["cds_ddr", "nuc_ddr"]
+    names = _subfragments(Fragment.get(design.top(p), None))
+    slices = {f"{b}_{lane}_slice" for b in ("cds_ddr", "nuc_ddr") for lane in (0, 1)}
+    assert slices <= names if ppc > 1 else not slices & names
+    assert {"cds_ddr_0", "nuc_ddr_1"} <= names
+
+
 def _subfragments(frag):
     """The last names of every subfragment of ``frag``, at any depth."""
     names = set()

@@ -206,7 +206,11 @@ def _pipeline_hw(step, data, *, ecp5=False):
     """Every lane's :class:`~tdicam.hdl.cds_ddr.CdsDdr` with its MIG user interface at the
     top's ports (``cds_ddr_app_*``, ``cds_ddr_app_*_1``: a DDR3 part per channel, as the
     paper's two) and, for co-simulation, the simulation MIG model (DRAM timing and the
-    block's stall pattern) beside the top on them."""
+    block's stall pattern) beside the top on them. At ``ppc`` >= 2 a register slice follows
+    the stage (``out_slice``): without it the next block's ready reached the launch of the
+    reset frame's reads in one cycle (the whole Ning et al. 2019 camera at ppc 8: 84.9 MHz,
+    hdr's input ready through ``nuc_ddr`` into ``cds_ddr``'s launch register, 11.8 ns);
+    at ppc 1 the top is as it was."""
     from tdicam.hdl.chain_board import Device
     from tdicam.hdl.chain_top import LaneStage
     from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
@@ -220,7 +224,8 @@ def _pipeline_hw(step, data, *, ecp5=False):
                       {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
                        "ddr_stalls": "stalls"})
     return LaneStage(step.block, lambda lane: _core(p), ports=tuple(step.ports),
-                     pins=MIG_PORT_NAMES, device=device, waits=True)
+                     pins=MIG_PORT_NAMES, device=device, waits=True,
+                     out_slice=p["ppc"] > 1)
 
 
 def _frame_words(params):

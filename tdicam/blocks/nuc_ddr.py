@@ -258,7 +258,11 @@ def _pipeline_hw(step, data, *, ecp5=False):
     calibration ROM through :class:`~tdicam.hdl.calib.CalibReader`; the coefficient frame
     goes to DDR once, then every pixel frame reads it. ``nuc_ddr_calib_loaded`` (each lane):
     the frame was handed to the block (the top holds its input until then). For
-    co-simulation the stage's devices are the MIG model (and the NAND part)."""
+    co-simulation the stage's devices are the MIG model (and the NAND part). At ``ppc`` >= 2
+    a register slice follows the stage (``out_slice``), as :mod:`~tdicam.blocks.cds_ddr`'s:
+    hdr's input ready (its frame-start decision) reached through both DDR blocks'
+    handshakes into ``cds_ddr``'s launch register in one cycle (the whole Ning et al. 2019
+    camera at ppc 8: 84.9 MHz, that path 11.8 ns); at ppc 1 the top is as it was."""
     from amaranth.lib.wiring import Out
     from tdicam.blocks import nuc as _nuc
     from tdicam.hdl.chain_board import Device
@@ -277,7 +281,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
                        "ddr_stalls": "stalls"})
     loaded = {"calib_loaded": Out(1)}
     common = dict(pins=MIG_PORT_NAMES, ready="calib_loaded", load="frame_kind",
-                  load_rows=rows, waits=True)
+                  load_rows=rows, waits=True, out_slice=ppc > 1)
     if not step.device:
         side = _nuc._pipeline_side(step, data, ecp5)
         return LaneStage(step.block, lambda lane: _core(p), side=lambda m, lane, io: side(m, lane),

@@ -153,16 +153,17 @@ def clock_target(name, given, derived):
 
 
 def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
-                  xilinx=True):
+                  xilinx=True, abc9=True):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
     chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F.
     ``record(rows)``, when given, receives the result as a synthesis-record row (block
     ``pipeline``, parameters ``scene`` (file name), ``blocks``, ``width``, ``stages``,
     ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
-    synth_xilinx cell counts (``--no-xilinx``: not)."""
+    synth_xilinx cell counts (``--no-xilinx``: not). ``abc9``: False maps with
+    ``synth_ecp5 -noabc9`` (``--no-abc9``)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
     blk = PipelineBlock(p, data, csr=ns.csr, bus=ns.bus)
-    res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx)
+    res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx, abc9=abc9)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
         ppc = p.ppc

