@@ -9,13 +9,17 @@ ports the map stands for; every other port of the wrapped top keeps its name. An
 address reads 0 and ignores writes.
 """
 
+from functools import reduce
+from operator import or_
+
 from amaranth.hdl import Cat, Const, Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
+from amaranth.utils import bits_for
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.csr_map import ADDR_BITS, DATA_BITS
+from tdicam.hdl.csr_map import ADDR_BITS, BLOCK_STRIDE, DATA_BITS
 
 __all__ = ["CsrTop", "BUSES", "AXIL_PORTS", "WB_PORTS", "BUS_PREFIXES", "bus_names",
            "cross"]
@@ -169,13 +173,12 @@ class CsrTop(wiring.Component):
                     m.d.comb += getattr(core, r.port).eq(reg)
                 else:
                     settings.setdefault((r.domain, r.hold), []).append((r, reg))
-                regs[r.offset] = (reg, _rw(reg, wdata, wmask))
+                regs[r.offset] = (reg, _rw(reg, wdata, strobe))
             elif r.access == "w1c":
                 base = Signal(r.width, name=f"csr_{r.port}_base")
                 shown = Signal(r.width, name=f"csr_{r.port}_shown")
                 m.d.comb += shown.eq(live - base)
-                regs[r.offset] = (shown, lambda base=base, shown=shown, live=live: [
-                    base.eq(live - (shown & ~(wdata & wmask)[:len(shown)]))])
+                regs[r.offset] = (shown, _w1c(base, shown, live, wdata & wmask))
             else:
                 regs[r.offset] = (live, None)
             if r.fault:
@@ -198,18 +201,18 @@ class CsrTop(wiring.Component):
                 value = own[r.name]
                 # irq_status's clear is below (a new fault wins over it)
                 regs[r.offset] = (Const(r.reset, 32), None) if value is None else \
-                    (value, _rw(value, wdata, wmask) if r.name == "irq_enable" else None)
+                    (value, _rw(value, wdata, strobe) if r.name == "irq_enable" else None)
         status_off = self._map.get("camera", "irq_status").offset
 
         take_w, waddr = self._axil_write(m) if axil else self._wishbone(m, regs)
-        with m.If(take_w):
-            with m.Switch(waddr):
-                for off, (_, write) in regs.items():
-                    if write is not None:
-                        with m.Case(off >> 2):
-                            m.d.sync += write()
+        hits = _hits(waddr, [off for off, (_, write) in regs.items() if write is not None]
+                     + [status_off])
+        for off, (_, write) in regs.items():
+            if write is not None:
+                with m.If(take_w & hits[off]):
+                    write(m)
         cleared = Signal(len(irq_status), name="csr_irq_cleared")
-        with m.If(take_w & (waddr == status_off >> 2)):
+        with m.If(take_w & hits[status_off]):
             m.d.comb += cleared.eq((wdata & wmask)[:len(irq_status)])
         m.d.sync += irq_status.eq((irq_status & ~cleared) | (Cat(*events) if events else 0))
         if axil:
@@ -237,11 +240,13 @@ class CsrTop(wiring.Component):
         rdata = Signal(DATA_BITS, name="csr_rdata")
         m.d.comb += [self.s_axil_arready.eq(~rvalid), self.s_axil_rvalid.eq(rvalid),
                      self.s_axil_rdata.eq(rdata), self.s_axil_rresp.eq(0)]
-        with m.If(self.s_axil_arvalid & ~rvalid):
+        take = Signal(name="csr_take_r")
+        m.d.comb += take.eq(self.s_axil_arvalid & ~rvalid)
+        with m.If(take):
             m.d.sync += rvalid.eq(1)
-            _read(m, regs, self.s_axil_araddr[2:], rdata)
         with m.Elif(rvalid & self.s_axil_rready):
             m.d.sync += rvalid.eq(0)
+        _read(m, regs, self.s_axil_araddr[2:], rdata, take)
 
     def _wishbone(self, m, regs):
         """The Wishbone B4 slave on ``regs``: (the write's take, its word address). An
@@ -253,8 +258,7 @@ class CsrTop(wiring.Component):
         m.d.comb += [take.eq(self.wb_cyc & self.wb_stb & ~ack), self.wb_ack.eq(ack),
                      self.wb_stall.eq(ack), self.wb_dat_r.eq(rdata)]
         m.d.sync += ack.eq(take)
-        with m.If(take & ~self.wb_we):
-            _read(m, regs, self.wb_adr, rdata)
+        _read(m, regs, self.wb_adr, rdata, take & ~self.wb_we)
         take_w = Signal(name="csr_take_w")
         m.d.comb += take_w.eq(take & self.wb_we)
         return take_w, self.wb_adr
@@ -306,14 +310,45 @@ def cross(m, value, src, dst, name, *, init=0, hold=None):
     return out
 
 
-def _read(m, regs, word, rdata):
-    """``rdata`` takes the value of the register at word address ``word`` (0 unmapped)."""
-    with m.Switch(word):
-        for off, (value, _) in regs.items():
-            with m.Case(off >> 2):
-                m.d.sync += rdata.eq(value)
-        with m.Default():
-            m.d.sync += rdata.eq(0)
+def _read(m, regs, word, rdata, take):
+    """``rdata`` takes, when ``take``, the value of the register at word address ``word``
+    (0 unmapped). Not one decode of the whole address per register: in each register block
+    a multiplexer on the low address bits that tell its registers apart, gated by the
+    block's :func:`_pages` match, the blocks' selections ORed."""
+    terms = []
+    for page, (nb, words, hit) in _pages(word, regs).items():
+        sel = Signal(DATA_BITS, name=f"csr_sel_{page}")
+        with m.Switch(word[:nb]):
+            for w in words:
+                with m.Case(w):
+                    m.d.comb += sel.eq(regs[page * BLOCK_STRIDE + 4 * w][0])
+            with m.Default():
+                m.d.comb += sel.eq(0)
+        terms.append(sel & hit.replicate(DATA_BITS))
+    with m.If(take):
+        m.d.sync += rdata.eq(reduce(or_, terms))
+
+
+def _pages(word, offsets):
+    """{register block: (the low word-address bits that tell its registers apart, its
+    registers' word indices in it, whether word address ``word`` is in it)}: a block
+    (:data:`~tdicam.hdl.csr_map.BLOCK_STRIDE`) matches when the other bits are its page and
+    zeros, one compare per block instead of a whole-address one per register."""
+    pages = {}
+    for off in offsets:
+        pages.setdefault(off // BLOCK_STRIDE, []).append(off % BLOCK_STRIDE >> 2)
+    out = {}
+    for page, words in sorted(pages.items()):
+        nb = bits_for(max(words))
+        out[page] = (nb, words, word[nb:] == (page * BLOCK_STRIDE >> 2) >> nb)
+    return out
+
+
+def _hits(word, offsets):
+    """{offset: whether word address ``word`` is its} (its block's :func:`_pages` match
+    and the low bits)."""
+    return {page * BLOCK_STRIDE + 4 * w: hit & (word[:nb] == w)
+            for page, (nb, words, hit) in _pages(word, offsets).items() for w in words}
 
 
 def _packed(rs):
@@ -325,10 +360,24 @@ def _packed(rs):
     return out
 
 
-def _rw(reg, wdata, wmask):
-    """The write of a read-write register: the strobed bytes of the data."""
+def _rw(reg, wdata, strobe):
+    """The write of a read-write register (a function of the module): the strobed bytes
+    of the data, each byte's strobe its flip-flops' enable."""
     n = len(reg)
-    return lambda: [reg.eq((reg & ~wmask[:n]) | (wdata & wmask)[:n])]
+
+    def write(m):
+        for b in range(0, n, 8):
+            with m.If(strobe[b // 8]):
+                m.d.sync += reg[b:b + 8].eq(wdata[b:min(n, b + 8)])
+    return write
+
+
+def _w1c(base, shown, live, data):
+    """The write of a fault counter (a function of the module): its base moves so that
+    ``shown`` (``live - base``) loses the bits ``data`` (the strobed data) sets."""
+    def write(m):
+        m.d.sync += base.eq(live - (shown & ~data[:len(shown)]))
+    return write
 
 
 def core_holds(core):
