@@ -60,8 +60,8 @@ BUS_PREFIXES = tuple(prefix for prefix, _ in _PORTS.values())
 def bus_names(bus):
     """(the bus's name, the slave's port prefix, the write task, the read task) of ``bus``
     and its testbench master (:mod:`tdicam.cosim.tbbus`), for the text that names them."""
-    return {"axi4-lite": ("AXI4-Lite", "s_axil_", "axil_write", "axil_read"),
-            "wishbone": ("Wishbone", "wb_", "wb_write", "wb_read")}[bus]
+    name, task = {"axi4-lite": ("AXI4-Lite", "axil"), "wishbone": ("Wishbone", "wb")}[bus]
+    return name, _PORTS[bus][0], f"{task}_write", f"{task}_read"
 
 
 class CsrTop(wiring.Component):

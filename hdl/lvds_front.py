@@ -44,6 +44,7 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.lvds import eye_ports, lane_ports, rx_ports
+from tdicam.model.lvds_front import last_word_columns, line_words
 from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.hdl.util import quiet_reject
 
@@ -322,7 +323,6 @@ class LvdsFront(wiring.Component):
         self._w = check_choice("word_bits", word_bits, (10, 12))
         self._bits = check_range("bits", bits, 1, word_bits)
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
-        from tdicam.model.lvds_front import last_word_columns, line_words
         if columns < L:
             raise TdicamError(f"lanes_per_gain = {L} is more lanes than columns = {columns}")
         p = line_words(columns, L) - 2

@@ -42,11 +42,11 @@ import numpy as np
 from tdicam.errors import TdicamError, check_range
 from tdicam.model import lvds
 
-__all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "padded_slots", "last_word_columns", "check_geometry", "header_word", "wire_code",
-           "lane_payload",
+__all__ = ["GMAX0504", "scene_untrained_lanes", "line_words", "padded_slots",
+           "last_word_columns", "check_geometry", "header_word", "wire_code", "lane_payload",
            "blank_line", "segment_payload", "column_lane", "invalid_columns", "receive",
-           "data_words", "frames_from_lanes", "min_proc_mhz", "fifo_depth", "eye_lane", "scene_lanes",
-           "untrained_lanes", "lane_mask", "cut_frame", "lane_death"]
+           "data_words", "frames_from_lanes", "min_proc_mhz", "fifo_depth", "eye_lane",
+           "scene_lanes", "untrained_lanes", "lane_mask", "cut_frame", "lane_death"]
 
 #: The GMAX0504 front of Ning et al. 2019: lanes per gain channel, word bits, bit rate.
 GMAX0504 = {"lanes_per_gain": 40, "word_bits": 12, "bit_rate_mbps": 300.0}

@@ -16,8 +16,8 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["PPC_CHOICES", "check_ppc", "Beats", "BeatStream", "frames_to_beats", "beats_to_frames",
-           "mark_resets", "cut_frames_beats"]
+__all__ = ["PPC_CHOICES", "check_ppc", "Beats", "BeatStream", "frames_to_beats",
+           "beats_to_frames", "mark_resets", "cut_frames_beats"]
 
 #: Pixels a beat carries (pixels per clock): the one legal set of every stream block, of a
 #: chain's top and of the scene key ``[run.rtl].pixels_per_clock``.

@@ -7,6 +7,8 @@ the format allows (word clock faster and slower than the processing clock's shar
 whose eye is too narrow to train, a lane that dies mid-run and the retrain after it.
 """
 
+import os
+
 import numpy as np
 import pytest
 
@@ -438,7 +440,7 @@ def test_front_publishes_the_eyes_the_golden_model_predicts(tmp_path):
 
 
 # ---------------------------------------------------------------- property: every geometry
-FULL = __import__("os").environ.get("TDICAM_FULL") == "1"
+FULL = os.environ.get("TDICAM_FULL") == "1"
 
 
 def _front_geometry(data):
