@@ -40,7 +40,10 @@ from tdicam.hdl.util import equals
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 
 __all__ = ["NandCalibStore", "NandDeviceSim", "NandCalibTop", "LOAD_PAGE", "LOAD_SLOT",
-           "LOAD_MARKER", "LOAD_GO", "BUS_PORTS", "NandPart"]
+           "LOAD_MARKER", "LOAD_GO", "BUS_PORTS", "NandPart", "MAX_SLOTS"]
+
+#: programmed pages :class:`NandDeviceSim` holds at most (a page's slot is one byte)
+MAX_SLOTS = 255
 
 #: loader operations of :class:`NandDeviceSim` / :class:`NandCalibTop` (beat bits 31:30)
 LOAD_PAGE, LOAD_SLOT, LOAD_MARKER, LOAD_GO = 0, 1, 2, 3
@@ -298,7 +301,7 @@ class NandDeviceSim(wiring.Component):
     page_bytes, pages_per_block, blocks : int
         Geometry (:class:`tdicam.model.nand_store.Geometry`).
     slots : int
-        Programmed pages it can hold, 1..255 (data areas in one memory).
+        Programmed pages it can hold, 1..:data:`MAX_SLOTS` (data areas in one memory).
     busy_cycles : int
         R/B# low time after ``30h`` and ``FFh`` (t_R in clocks), 3..65535.
 
@@ -334,10 +337,11 @@ class NandDeviceSim(wiring.Component):
         if image is not None:
             g = self._geo
             rows = [r for r in sorted(image.pages) if (image.pages[r][:g.page_bytes] != 0xFF).any()]
+            self._image = (rows, image)
             slots = max(1, len(rows))
-            data = [int(b) for r in rows for b in image.pages[r][:g.page_bytes]]
-            self._image = (rows, data, [int(image.marker(b)) for b in range(g.blocks)])
-        self._slots = check_range("slots", slots, 1, 255)
+        else:
+            check_range("slots", slots, 1, MAX_SLOTS)
+        self._slots = slots
         self._busy = check_range("busy_cycles", busy_cycles, 3, 65535)
         super().__init__({
             "cle": In(1), "ale": In(1), "we_n": In(1), "re_n": In(1), "dq_in": In(8),
@@ -349,12 +353,21 @@ class NandDeviceSim(wiring.Component):
     busy_cycles = property(lambda self: self._busy)
 
     def elaborate(self, platform):
-        m = Module()
         g = self._geo
         pb_bits = (g.page_bytes - 1).bit_length()
         ppb_bits = (g.pages_per_block - 1).bit_length()
         n_rows = g.blocks * g.pages_per_block
         img = self._image
+        if img is not None:
+            if self._slots > MAX_SLOTS:     # before the Module: nothing left unused
+                raise TdicamError(
+                    f"NAND part: its image programs {self._slots} pages, the simulation "
+                    f"model holds at most {MAX_SLOTS}; simulate a cut of fewer rows "
+                    f"(the Verilog of the camera top does not hold the part)")
+            rows, image = img
+            img = (rows, [int(b) for r in rows for b in image.pages[r][:g.page_bytes]],
+                   [int(image.marker(b)) for b in range(g.blocks)])
+        m = Module()
         m.submodules.pages = pages = Memory(shape=unsigned(8), depth=self._slots * g.page_bytes,
                                             init=[0xFF] * (self._slots * g.page_bytes)
                                             if img is None else img[1])

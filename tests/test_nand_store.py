@@ -407,3 +407,20 @@ def test_too_few_model_slots_are_refused_before_the_work():
     with pytest.raises(TdicamError, match=r"slots = 1: .* program 2 pages .*give slots >= 2"):
         blocks.get("nand_store").resolve({"rows": 1, "cols": 1, "slots": 1, "page_bytes": 512,
                                           "pages_per_block": 1, "blocks": 2, "device": True})
+
+
+def test_part_beyond_the_model_builds_for_its_pins_and_refuses_to_elaborate():
+    """A part whose image programs more pages than the simulation model holds (the whole
+    camera's per-pixel coefficient image) is still built for its pins (the register map
+    asks every device for them); elaborating it, i.e. simulating it, is a one-line error."""
+    from amaranth.back import rtlil
+    from tdicam.hdl.nand_store import MAX_SLOTS, NandPart
+    g = nand_store.Geometry(page_bytes=512, pages_per_block=1, blocks=MAX_SLOTS + 2)
+    dev = nand_store.NandDevice(g)
+    for b in range(MAX_SLOTS + 1):
+        dev.program_page(b, 0, np.zeros(g.page_size, np.uint8))
+    part = NandPart(dev, page_bytes=512, pages_per_block=1, blocks=g.blocks)
+    assert "dq_out" in part.signature.members
+    with pytest.raises(TdicamError, match=rf"programs {MAX_SLOTS + 1} pages, .* at most "
+                                          rf"{MAX_SLOTS}; simulate a cut of fewer rows"):
+        rtlil.convert(part)

@@ -16,7 +16,8 @@ import numpy as np
 
 from tdicam.beats import Beats
 from tdicam.hdl.interfaces.axis import AxisTop
-from tdicam.hdl.nand_store import LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, NandCalibTop
+from tdicam.hdl.nand_store import (LOAD_GO, LOAD_MARKER, LOAD_PAGE, LOAD_SLOT, MAX_SLOTS,
+                                   NandCalibTop)
 from tdicam.model import calib, nand_store
 from tdicam.model.nuc import NucFormat
 from tdicam.errors import TdicamError
@@ -233,7 +234,7 @@ BLOCK = Block(
         Param("blocks", 4096, "blocks of the part", lo=2, hi=65536),
         Param("device", False, "attach the simulation model of the part (co-simulation); "
                                "else the bus is ports", type=bool),
-        Param("slots", 8, "programmed pages the simulation model holds", lo=1, hi=255),
+        Param("slots", 8, "programmed pages the simulation model holds", lo=1, hi=MAX_SLOTS),
         Param("busy_cycles", 16, "simulation model: R/B# low time after 30h/FFh (t_R)",
               lo=3, hi=65535),
     ),
