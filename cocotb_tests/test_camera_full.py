@@ -4,13 +4,19 @@ reset frame (written to the channel's DDR model and read back) and a signal fram
 model's coefficient image (a line a sensor row of the cut: every pixel its own gain and
 offset) loaded into DDR at power-up and row r's line read back with row r, both DDR
 users of a channel behind its DdrArbiter, at the camera plan's 8 pixels a clock; the top's
-pixel input fed directly (ideal lanes: the scene has no ``[sensor.lvds]``). Every block's
-output (tap) is compared; a mismatch names its block, frame, line and column.
+input the sensor's lanes (the scene's ``[sensor.lvds]``), driven with the lines' words by
+the chain's own lane model (training, then sync, header and pixel words on every lane, the
+padded last slots of the lanes a column short), the word clock at 25 MHz, the processing
+clock at 200 MHz. Every block's output (tap) is compared, the front's included; a mismatch
+names its block, frame, line and column.
 
-Default run: a 40-column, 8-line cut of the camera (16-block NAND parts: a short scan) on
-Icarus, and the same cut with one golden pixel changed (the check fails, naming it). With
-``TDICAM_FULL=1``: all 5144 columns, 8 lines, the scene's 4096-block NAND parts, on
-Verilator (6 min 51 s with the build at load 4.4, 2026-12-02; seconds cached).
+Default run: a 40-column, 8-line cut of the camera on 16 lanes a gain (3 words a line, the
+last word clock 8 columns and 8 padded slots a gain, as the whole camera's 40 lanes have
+16; 16-block NAND parts: a short scan) on Icarus, and the same run compared with one golden
+pixel changed (the check fails, naming it): 24 s at load 1.6, 2026-12-03. With
+``TDICAM_FULL=1``: all 5144 columns from the 80 lanes, 8 lines, the scene's 4096-block
+NAND parts, on Verilator (21.4 s of simulator, 66 s after the build, at load 2.2; 1 min
+58 s at load 6.4; the build 712 s at load 7.2; 2026-12-03).
 """
 
 import math
@@ -21,24 +27,53 @@ import pytest
 from tdicam.bench.camera import camera_cut, camera_run, extrapolate
 from tdicam.cosim.testing import FULL
 
-_CUT = {"lines": 8, "columns": 40, "nand_blocks": 16}
+_CUT = {"lines": 8, "columns": 40, "nand_blocks": 16, "lanes_per_gain": 16}
 
 
-def _check(rep, columns, lines):
+@pytest.fixture(scope="module")
+def one_icarus_run():
+    """The short cut's simulator run made once for the module: the match and the mutation
+    check compare the same RTL output (``tdicam.chain.cosim.run_top`` memoised by its plan
+    and its arguments), each with its own golden chain (the mutant's with a pixel
+    changed)."""
+    from tdicam.chain import cosim
+    runs, real = {}, cosim.run_top
+
+    def once(p, data, sim, **kw):
+        key = (sim, p.source, repr([(s.block, s.params) for s in p.steps]), repr(kw))
+        if key not in runs:
+            runs[key] = real(p, data, sim, **kw)
+        return runs[key]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cosim, "run_top", once)
+        yield runs
+
+
+def _check(rep, columns, lines, lanes_per_gain):
     assert not rep["timeout"], rep["message"]
     assert rep["mismatches"] == 0 and rep["tap_mismatches"] == 0, rep["message"]
     p = rep["plan"]
-    assert [s.block for s in p.steps] == ["cds_ddr", "nuc_ddr", "hdr", "tdi", "median3"]
+    assert [s.block for s in p.steps] == ["lvds", "cds_ddr", "nuc_ddr", "hdr", "tdi",
+                                          "median3"]
     assert p.ppc == 8 and p.width == columns and p.lanes == 2 and p.stages == 1
+    assert p.steps[0].params["lanes"] == 2 * lanes_per_gain
     assert rep["pixels_compared"] == lines * columns
     for t in rep["taps"]:
         assert t["mismatches"] == 0 and t["received"] == t["beats"], t
-        assert t["pixels"] == lines * columns
+        # the front's taps carry the reset frames too (a reset and a signal line a line)
+        assert t["pixels"] == lines * columns * (2 if t["tap"].startswith("lvds") else 1)
+    # every lane trained and locked, every frame the sensor sent released whole, nothing
+    # lost in the crossing (the lane words were the padded line format)
+    assert rep["lanes"]["problems"] == []
+    st = rep["status_outputs"]
+    n = 2 * lanes_per_gain
+    assert st["lvds_lane_locked"] == (1 << n) - 1 and st["lvds_lane_error"] == 0
+    assert st["lvds_frames_out"] == 2 * lines and st["lvds_frames_dropped"] == 0
+    assert st["lvds_fifo_overflow"] == 0
     # each channel's DDR: the coefficient image (a line a sensor row: gain and offset, 16 a
     # word) written once, row r's line read with row r; the reset line (24 pixels a word)
     # written and read every line
     coeff, reset = math.ceil(2 * columns / 16), math.ceil(columns / 24)
-    st = rep["status_outputs"]
     for sfx in ("", "_1"):
         assert st[f"nuc_ddr_calib_loaded{sfx}"] == 1 and st[f"nuc_ddr_calib_error{sfx}"] == 0
         assert st[f"ddr_writes{sfx}"] == lines * (coeff + reset)
@@ -46,9 +81,9 @@ def _check(rep, columns, lines):
         assert st[f"ddr_error{sfx}"] == 0
 
 
-def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus():
+def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus(one_icarus_run):
     rep = camera_run(sim="icarus", **_CUT)
-    _check(rep, _CUT["columns"], _CUT["lines"])
+    _check(rep, _CUT["columns"], _CUT["lines"], _CUT["lanes_per_gain"])
 
 
 def test_every_row_is_corrected_with_its_own_coefficients():
@@ -59,8 +94,7 @@ def test_every_row_is_corrected_with_its_own_coefficients():
     chain that reused row 0 would fail it."""
     from dataclasses import replace
     from tdicam.chain import design
-    p, data = camera_cut(_CUT["lines"], columns=_CUT["columns"],
-                         nand_blocks=_CUT["nand_blocks"])
+    p, data = camera_cut(**_CUT)
     lines = _CUT["lines"]
     step = next(s for s in p.steps if s.block == "nuc_ddr")
     assert step.params["image_rows"] == lines
@@ -78,17 +112,31 @@ def test_every_row_is_corrected_with_its_own_coefficients():
         "a row corrected with row 0's coefficients went unnoticed"
 
 
-def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column():
+def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column(one_icarus_run):
     def corrupt(gold):
-        name, block, a = gold[4]                  # hdr
+        k = next(i for i, (_, block, _) in enumerate(gold) if block == "hdr")
+        name, block, a = gold[k]
         a = a.copy()
         a[5, 0, 17] ^= 1
-        gold[4] = (name, block, a)
+        gold[k] = (name, block, a)
     rep = camera_run(sim="icarus", corrupt=corrupt, **_CUT)
     assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 0     # the output is right
     first = rep["first_mismatch"]
     assert (first["block"], first["frame"], first["line"], first["column"]) == ("hdr", 5, 0, 17)
     assert "block hdr" in rep["message"] and "frame 5, line 0, column 17" in rep["message"]
+
+
+def test_a_processing_clock_too_slow_for_the_lanes_is_refused():
+    """The lanes' co-simulation refuses, in one line and before the conversion, a processing
+    clock that cannot take a line's beats in the line's word clocks (here words at 200 MHz
+    on 16 lanes a gain, a line of 40 columns at 8 pixels a clock in 5 word clocks: 200 MHz
+    needed, 100 given)."""
+    from tdicam.chain.cosim import cosimulate
+    from tdicam.errors import TdicamError
+    p, data = camera_cut(**_CUT)
+    with pytest.raises(TdicamError, match=r"processing clock .*\(10 ns\) cannot take 32 "
+                                          r"lanes' words at 5 ns: .*>= 200 MHz"):
+        cosimulate(p, data, "icarus", front={"word_ns": 5.0, "proc_ns": 10.0})
 
 
 def test_the_whole_frame_is_extrapolated_linearly_in_the_lines():
@@ -99,9 +147,10 @@ def test_the_whole_frame_is_extrapolated_linearly_in_the_lines():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not FULL, reason="full-width Verilator build (~2 min): TDICAM_FULL=1")
+@pytest.mark.skipif(not FULL, reason="full width from the 80 lanes on Verilator (the build "
+                    "~12 min, the run ~2 min): TDICAM_FULL=1")
 def test_the_full_width_camera_matches_the_golden_chain_on_verilator():
     rep = camera_run(8, "verilator")
-    _check(rep, 5144, 8)
+    _check(rep, 5144, 8, 40)
     assert rep["startup_cycles"] > 0
     assert np.isfinite(rep["cycles"] / rep["run_seconds"])

@@ -223,3 +223,29 @@ def test_lanes_from_the_scene_and_other_plans_unchanged():
     from tdicam.planning.sizing import plan_report
     rep = plan_report([load_scene("scenes/ning2019_gmax0504_system_lanes.toml")])
     assert "camera" not in rep
+
+
+def test_the_full_scene_starts_from_its_80_lanes_and_its_lane_rows_agree():
+    """The full scene's [sensor.lvds] (40 lanes a gain, 5144 columns: 129 words a lane, 16
+    padded slots a gain) makes the front the chain's source, and the system plan's lane
+    pixel rate is the lane model's: 2 gains x 5144 columns every 131 word clocks (a padded
+    slot carries no pixel), the camera budget's row the same 131 words a lane."""
+    from tdicam.chain import design
+    from tdicam.model import lvds_front
+    from tdicam.planning.sizing import system_plan
+    sc = load_scene(SCENE)
+    lv = sc.sensor.lvds
+    assert (lv.lanes_per_gain, lv.word_bits, lv.bit_rate_mbps) == (40, 12, 300.0)
+    p = design.chain_plan(sc, ppc=8, lines=4)
+    assert p.steps[0].block == "lvds"
+    assert {k: p.steps[0].params[k] for k in ("lanes", "lanes_per_gain", "columns")} == \
+        {"lanes": 80, "lanes_per_gain": 40, "columns": 5144}
+    assert lvds_front.line_words(5144, 40) == 131 and lvds_front.padded_slots(5144, 40) == 16
+    word_hz = 300e6 / 12
+    rows = system_plan(sc, {"stages": 1, "line_period_s": 1e-3}, ddr_bits=256,
+                       ddr_clock_hz=100e6)
+    rate = next(r for r in rows if r["name"] == "lane pixel rate")
+    assert rate["value"] == pytest.approx(2 * 5144 * word_hz / 131)
+    assert "16 padded slot(s) a gain" in rate["text"]
+    budget = _rows(camera_plan(sc)["scene"])["lanes"]
+    assert budget["need"] == pytest.approx(80 * 131 * 12 * ROWS * 2 * FPS)

@@ -167,6 +167,28 @@ def test_scenario_in_amaranth(name):
     assert check(name, case, run_amaranth(case)) == []
 
 
+def test_steady_lane_table_drives_the_front_as_the_whole_table():
+    """The whole camera's lane table is cut to every tap during the training and the
+    trained tap after it (:func:`tdicam.cosim.lvds_front.driver_tables`): the front driven
+    from it passes the scenario as from the whole table, its words at the trained taps are
+    the whole table's, and a table whose trained tap is wrong is refused (the lane sampled
+    at another tap after the training is named)."""
+    from tdicam.cosim.lvds_front import driver_tables, raw_table
+    case = scenario("cdc_fast")
+    raw, steady = driver_tables(case, steady_above=0)
+    assert steady is not None and driver_tables(case)[1] is None    # small: the whole table
+    k0, taps, words = steady
+    assert raw.shape[2] == k0 < case.cycles
+    whole = raw_table(case.link, case.cycles)
+    assert (whole[:, :, :k0] == raw).all()
+    assert all((whole[i, t, k0:] == words[i]).all() for i, t in enumerate(taps))
+    res = run_amaranth(case, steady=(raw, steady))
+    assert check("cdc_fast", case, res) == [] and "steady_miss" not in res
+    wrong = (raw, (k0, [taps[0] ^ 1] + taps[1:], words))
+    assert run_amaranth(case, steady=wrong)["steady_miss"][1:] == [0, taps[0], taps[0] ^ 1]
+    assert driver_tables(scenario("lane_dies"), steady_above=0)[1] is None   # a retrain
+
+
 def test_golden_front_of_a_lane_death():
     """The golden front when a lane dies mid-frame: the cut frame healthy up to the death,
     the dead lane's words as seen until the fill, 0s from the fill (the first word from

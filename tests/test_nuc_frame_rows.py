@@ -17,7 +17,9 @@ from tdicam.paths import SCENES
 from tdicam.scene.loader import load_scene
 
 _FULL = SCENES / "ning2019_gmax0504_full.toml"
-_NARROW = {"sensor": {"columns": 48}, "run": {"lines": 12}}
+#: A narrow cut of it: 48 columns on 8 lanes a gain (the scene's 40 need >= 40 columns; the
+#: crop below is 16).
+_NARROW = {"sensor": {"columns": 48, "lvds": {"lanes_per_gain": 8}}, "run": {"lines": 12}}
 #: The scene's [pipeline.nuc] (an override replaces a sub-table whole).
 _NUC = {"flash": "nand", "memory": "ddr", "coefficients": "frame"}
 

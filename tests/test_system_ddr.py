@@ -160,17 +160,19 @@ def test_the_full_camera_plans_its_coefficients_in_ddr():
     full = ROOT / "scenes" / "ning2019_gmax0504_full.toml"
     sc = load_scene(full)
     p = design.chain_plan(sc)
-    assert [s.block for s in p.steps][:2] == ["cds_ddr", "nuc_ddr"] and p.width == 5144
-    assert p.steps[1].device                       # the NAND part, as the scene's
+    # the sensor's 80 lanes ([sensor.lvds]) first, the chain's source
+    assert [s.block for s in p.steps][:3] == ["lvds", "cds_ddr", "nuc_ddr"]
+    assert p.width == 5144 and p.steps[0].params["lanes"] == 80
+    assert p.steps[2].device                       # the NAND part, as the scene's
     # per pixel: a coefficient line a sensor row of the whole frame (the frames one row)
-    assert (p.steps[1].params["rows"], p.steps[1].params["image_rows"]) == (1, 3800)
-    cds, nuc = p.steps[:2]
+    assert (p.steps[2].params["rows"], p.steps[2].params["image_rows"]) == (1, 3800)
+    cds, nuc = p.steps[1:3]
     assert nuc.params["base"] == design.uses()["cds_ddr"].memory.ddr_end(cds) > 0
     top = _members(design.top(p))
     assert top["ddr_app_en_1"] == "Out" and "cds_ddr_app_en" not in top
     p8 = design.chain_plan(sc, ppc=8)
-    assert p8.ppc == 8 and p8.steps[1].block == "nuc_ddr" and p8.steps[1].device
-    assert p8.steps[1].params["ppc"] == 8
+    assert p8.ppc == 8 and p8.steps[2].block == "nuc_ddr" and p8.steps[2].device
+    assert p8.steps[2].params["ppc"] == 8
 
 
 @pytest.mark.parametrize("ppc", PPC_CHOICES[1:])

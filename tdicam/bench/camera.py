@@ -1,8 +1,8 @@
 """The whole camera of Ning et al. 2019 at full width, co-simulated and timed.
 
 A cut of ``scenes/ning2019_gmax0504_full.toml`` (all 5144 columns, both gains, the scene's
-chain cds_ddr -> nuc_ddr -> hdr -> tdi -> median3 at the camera plan's pixels per clock)
-runs through the generated top on Verilator's standalone binary (:func:`camera_cut`,
+chain lvds -> cds_ddr -> nuc_ddr -> hdr -> tdi -> median3 at the camera plan's pixels per
+clock) runs through the generated top on Verilator with cocotb (:func:`camera_cut`,
 :func:`camera_run`): at power-up each gain channel's NAND model is scanned and its
 coefficient image written to the channel's DDR model, then every line the reset line is
 written to DDR, the signal line read beside the reset line and the coefficients read back,
@@ -14,8 +14,16 @@ line each a gain (the frame pair's first ``lines`` rows). Its NUC is per pixel
 cut (``lines`` x columns, each row its own gain and offset), loaded from the NAND model into
 DDR, and row ``r`` is read against coefficient line ``r`` (nuc_ddr's ``image_rows``), in
 the gateware and in the golden chain.
-The top's pixel input is fed directly (ideal lanes): the scene has no ``[sensor.lvds]``
-(its 129-slot padded lane convention is the plan's, not the lane model's).
+The top's input is the sensor's lanes (the scene's ``[sensor.lvds]``: 40 lanes a gain, 80
+in all, 12-bit words at 300 Mbit/s): the cut's reset and signal lines are sent on them by
+the chain's own lane model (:func:`tdicam.cosim.lvds_front.plan_case`: the lanes' training,
+then each line as sync, header and 129 pixel words a lane, lanes 24..39 a padded last
+slot), the word clock at 25 MHz beside the processing clock at ``[camera].clock_mhz`` (200
+MHz: a line's 643 beats in its 131 word clocks need >= 122.7 MHz,
+:func:`tdicam.model.lvds_front.min_proc_mhz`), as the system lanes co-simulation runs
+(:func:`tdicam.chain.cosim.run_top`). A narrower cut takes fewer lanes
+(``lanes_per_gain``: a multiple of the pixels per clock, at most the columns, whose line's
+last word clock carries a multiple of them).
 
 :func:`camera_rows` makes the ``tdicam bench camera`` rows: two cuts measured, the whole
 5144 x 3800 frame pair extrapolated from them (start-up, then cycles and seconds a line).
@@ -27,8 +35,8 @@ from dataclasses import replace
 from tdicam.bench.util import na_row, row
 from tdicam.paths import SCENES
 
-__all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_run", "camera_rows",
-           "extrapolate", "legend"]
+__all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_front", "camera_run",
+           "camera_rows", "extrapolate", "legend"]
 
 #: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
 CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
@@ -39,7 +47,7 @@ CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
 CUT_LINES = (8, 16)
 
 
-def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
+def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_gain=None):
     """``(plan, data)`` of the first ``lines`` lines of :data:`CAMERA_SCENE`.
 
     Parameters
@@ -50,6 +58,9 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
         A narrower sensor (the short form of the test); None: the scene's 5144.
     nand_blocks : int or None
         Blocks of each NAND model (a shorter power-up scan); None: the scene's part.
+    lanes_per_gain : int or None
+        The sensor's lanes a gain for a narrower cut (``[sensor.lvds].lanes_per_gain``, the
+        section's other keys their defaults); None: the scene's 40.
 
     The pixels per clock are the whole camera's plan's, whatever ``columns``
     (:func:`tdicam.planning.camera.camera_plan`: the fewest that carry the scene's samples
@@ -57,13 +68,7 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
     """
     from tdicam.chain import design
     from tdicam.chain.cosim import scene_data
-    from tdicam.planning.camera import camera_plan
-    from tdicam.scene.loader import load_scene
-    over = {"run": {"lines": int(lines)}}
-    ppc = camera_plan(load_scene(CAMERA_SCENE, overrides=over))["scene"]["ppc"]
-    if columns is not None:
-        over["sensor"] = {"columns": int(columns)}
-    sc = load_scene(CAMERA_SCENE, overrides=over)
+    sc, ppc = _cut_scene(lines, columns, lanes_per_gain)
     m = int(sc.tdi.stages[0])
     p = design.chain_plan(sc, stages=m, lines=int(lines), ppc=ppc)
     if nand_blocks is not None:
@@ -73,16 +78,47 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None):
     return p, data
 
 
+def _cut_scene(lines, columns=None, lanes_per_gain=None):
+    """``(scene, ppc)`` of a cut (:func:`camera_cut`'s arguments): the scene with its
+    overrides, the whole camera's plan's pixels per clock."""
+    from tdicam.planning.camera import camera_plan
+    from tdicam.scene.loader import load_scene
+    over = {"run": {"lines": int(lines)}}
+    ppc = camera_plan(load_scene(CAMERA_SCENE, overrides=over))["scene"]["ppc"]
+    if columns is not None:
+        over["sensor"] = {"columns": int(columns)}
+    if lanes_per_gain is not None:
+        over.setdefault("sensor", {})["lvds"] = {"lanes_per_gain": int(lanes_per_gain)}
+    return load_scene(CAMERA_SCENE, overrides=over), ppc
+
+
+def camera_front(p, lines=CUT_LINES[0], *, columns=None, lanes_per_gain=None):
+    """``front`` of :func:`tdicam.chain.cosim.cosimulate` for a cut's plan ``p`` (the other
+    arguments :func:`camera_cut`'s): the cut's lanes (:func:`tdicam.chain.cosim.lanes_of`:
+    ideal eyes), the word clock of the front's step, the processing clock at the scene's
+    ``[camera].clock_mhz``."""
+    from tdicam.chain.cosim import lanes_of
+    from tdicam.hdl.lvds_front import WORD_DOMAIN
+    sc, _ = _cut_scene(lines, columns, lanes_per_gain)
+    return {"lanes": lanes_of(sc.sensor.lvds, p.lanes),
+            "word_ns": 1e3 / p.steps[0].clocks[WORD_DOMAIN],
+            "proc_ns": 1e3 / sc.camera.clock_mhz}
+
+
 def camera_run(lines=CUT_LINES[0], sim="verilator", *, columns=None, nand_blocks=None,
-               corrupt=None):
-    """One cut (:func:`camera_cut`) through the top, every tap compared with the golden
-    chain (:func:`tdicam.chain.cosim.cosimulate`). Returns its report plus ``plan``,
-    ``lines``, ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the
-    output's), ``startup_cycles`` (the NAND scan and load before the first line),
-    ``load`` (the 1-minute load average after the run)."""
+               corrupt=None, lanes_per_gain=None):
+    """One cut (:func:`camera_cut`) from the sensor's lanes (:func:`camera_front`) through
+    the top, every tap compared with the golden chain
+    (:func:`tdicam.chain.cosim.cosimulate`). Returns its report plus ``plan``, ``lines``,
+    ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the output's
+    and the front's status against its golden model), ``startup_cycles`` (the NAND scan and
+    load before the first line), ``load`` (the 1-minute load average after the run)."""
     from tdicam.chain.cosim import cosimulate
-    p, data = camera_cut(lines, columns=columns, nand_blocks=nand_blocks)
-    rep = cosimulate(p, data, sim, corrupt=corrupt)
+    p, data = camera_cut(lines, columns=columns, nand_blocks=nand_blocks,
+                         lanes_per_gain=lanes_per_gain)
+    rep = cosimulate(p, data, sim, corrupt=corrupt,
+                     front=camera_front(p, lines, columns=columns,
+                                        lanes_per_gain=lanes_per_gain))
     rep.update({"plan": p, "lines": int(lines), "load": os.getloadavg()[0],
                 "tap_mismatches": sum(t["mismatches"] for t in rep["taps"]),
                 "startup_cycles": int(rep.get("status_outputs", {}).get("startup_cycles", 0))})
@@ -144,8 +180,9 @@ def legend(*, stalls, quick):
             f"{CAMERA_SCENE.name} (all its columns, both gains: each line a reset frame and a "
             f"signal frame; the NAND scan and coefficient load into DDR at power-up, the "
             f"reset lines and coefficients through each channel's DdrArbiter and MIG model) "
-            f"through the generated top on Verilator's standalone binary, the top's pixel "
-            f"input fed directly (ideal lanes; the scene has no [sensor.lvds]), no idle or "
+            f"through the generated top on Verilator (cocotb), from the sensor's 80 lanes "
+            f"(the lanes' training, then every line's words on them: the chain's lane model, "
+            f"the word clock at 25 MHz beside the 200 MHz processing clock), no idle or "
             f"backpressure (--stalls not used), every block's output compared bit for bit "
             f"with the golden chain; median s = the simulator run's wall time (one run); "
             f"build s: that run's own build (0.0: cached). The extrapolated row: the whole "

@@ -314,15 +314,17 @@ def _front_system(step, ctx):
     prm = get("lvds").resolve(step.params)
     lanes, w = prm["lanes"], prm["word_bits"]
     word_hz = lv.bit_rate_mbps * 1e6 / w
-    per_line = ctx["width"] // prm["lanes_per_gain"]              # pixel words a lane a line
-    rate = lanes * word_hz * per_line / (per_line + 2)           # pixels/s, all channels
+    lpg = prm["lanes_per_gain"]
+    per_line = ctx["width"] / lpg             # columns a lane a line (a padded slot is none)
+    rate = lanes * word_hz * per_line / lvds_front.line_words(ctx["width"], lpg)  # pixels/s
     need = ctx["lanes"] * ctx["rows"] * ctx["width"] / ctx["line_period_s"]
     train = lvds.training_words(w, step.ports["n_check"], prm["settle"]) / word_hz
     return [{"name": "lane pixel rate", "value": rate, "unit": "pixel/s", "ok": rate >= need,
              "needed": need,
              "text": f"sensor lanes: {lanes} lanes x {lv.bit_rate_mbps:g} Mbit/s / {w} bit = "
                      f"{lanes * word_hz / 1e6:.1f} M words/s, {rate / 1e6:.1f} M pixels/s "
-                     f"after each line's sync and header words; the window needs "
+                     f"after each line's sync and header words"
+                     f"{_padded_text(ctx['width'], lpg)}; the window needs "
                      f"{need / 1e6:.2f} M pixels/s: {'OK' if rate >= need else 'NO'}"},
             _fifo_row(step, prm, lv, ctx),
             {"name": "lane training", "value": train, "unit": "s", "ok": None,
@@ -330,6 +332,14 @@ def _front_system(step, ctx):
                      f"({lvds.training_words(w, step.ports['n_check'], prm['settle'])} word "
                      f"clocks: {lvds.N_TAPS} taps scanned and {w} bitslips)"},
             *_eye_rows(ctx["scene"], lanes, step.ports["n_check"], prm["settle"])]
+
+
+def _padded_text(columns, lanes_per_gain):
+    """The plan's words on a line's padded slots ('' when the lanes divide the columns)."""
+    pad = lvds_front.padded_slots(columns, lanes_per_gain)
+    return "" if not pad else (f" and {pad} padded slot(s) a gain (a line of {columns} columns "
+                               f"is {lvds_front.line_words(columns, lanes_per_gain)} words a "
+                               f"lane)")
 
 
 def _eye_rows(scene, lanes, n_check, settle):

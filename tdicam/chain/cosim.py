@@ -480,7 +480,9 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     (reset frames before their signal frames when the chain keeps them) sent on the lanes
     after its training (:func:`tdicam.cosim.lvds_front.plan_case`), the first frame after
     the top's start-up bound (the calibration load), the word clock at ``front["word_ns"]``
-    (default 40 ns: 300 Mbit/s of 12-bit words), the processing clock at :data:`PROC_NS`;
+    (default 40 ns: 300 Mbit/s of 12-bit words), the processing clock at
+    ``front["proc_ns"]`` (default :data:`PROC_NS`; it must take a line's beats in the line's
+    word clocks: :func:`tdicam.model.lvds_front.min_proc_mhz`);
     ``front["lanes"]``: the lanes (default ideal eyes). ``info["startup"]``: the word clock
     at which the lanes had trained, each holding stage's ready port came up, and frames
     were released."""
@@ -490,17 +492,24 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     from tdicam.hdl.csr import BUS_PREFIXES
     from tdicam.chain import design
     from tdicam.cosim import codec
-    from tdicam.cosim.lvds_front import plan_case, raw_table
+    from tdicam.cosim.lvds_front import driver_tables, plan_case
     from tdicam.hw.verilog import convert
     from tdicam.model import lvds
+    from tdicam.model.lvds_front import min_proc_mhz
     word_ns = float(front.get("word_ns", 40.0))
+    proc_ns = float(front.get("proc_ns", PROC_NS))
     step = p.steps[0]
     n = step.params["lanes"]
     lanes = front.get("lanes") or ideal_lanes(n)
     prm = blocks.get("lvds").resolve(step.params)
+    slowest = min_proc_mhz(prm["lanes_per_gain"], prm["ppc"], prm["columns"], 1e3 / word_ns)
+    if 1e3 / proc_ns < slowest * (1 - 1e-9):
+        raise TdicamError(f"the processing clock of the lanes' co-simulation ({proc_ns:g} ns) "
+                          f"cannot take {prm['lanes']} lanes' words at {word_ns:g} ns: a "
+                          f"period <= {1e3 / slowest:.4g} ns (>= {slowest:.4g} MHz) is needed")
     tw = lvds.training_words(prm["word_bits"], step.ports["n_check"], prm["settle"])
-    lead = max(40, math.ceil(ax.core.startup_bound * PROC_NS / word_ns) - tw + 40)
-    kw = dict(word_ns=word_ns, proc_ns=PROC_NS, n_check=step.ports["n_check"], lead=lead,
+    lead = max(40, math.ceil(ax.core.startup_bound * proc_ns / word_ns) - tw + 40)
+    kw = dict(word_ns=word_ns, proc_ns=proc_ns, n_check=step.ports["n_check"], lead=lead,
               tail=40, walk=bool(prm["eye"]), track=prm["track"])
     died, segs = None, None
     if front.get("dies") is not None:
@@ -527,21 +536,30 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                                         top="pipeline")
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
-    np.save(rundir / "raw.npy", raw_table(case.link, case.cycles).astype(np.int32))
+    raw, steady = driver_tables(case)
+    np.save(rundir / "raw.npy", raw.astype(np.int32))
+    if steady is not None:            # the lanes on their trained taps from steady[0] on
+        np.save(rundir / "steady.npy", steady[2].astype(np.int32))
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)
-    job = {"word_ps": int(word_ns * 1000), "proc_ps": int(PROC_NS * 1000),
+    job = {"word_ps": int(word_ns * 1000), "proc_ps": int(proc_ns * 1000),
            "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
            "n_out": n_out, "drain": 2000,
-           "max_cycles": math.ceil(case.cycles * word_ns / PROC_NS) + 100_000,
+           "max_cycles": math.ceil(case.cycles * word_ns / proc_ns) + 100_000,
            "taps": [f"tap{k}_{name}" for k, (name, _, _) in enumerate(tap_shapes)],
            "ready": ready, "status": [name for name, _ in status_ports(ax)
                                       if not name.startswith(BUS_PREFIXES)],
-           "retrains": list(case.retrains), "track": case.track}
+           "retrains": list(case.retrains), "track": case.track,
+           "steady": None if steady is None else {"k0": steady[0], "taps": steady[1]}}
     if regmap is not None:
         job.update(_bus_job(regmap, ready, rundir))
     (rundir / "job.json").write_text(json.dumps(job))
     res, wall, cpu = _run_tb(bdir, sim, "system_lanes_tb", rundir, [], "result.json",
                              "the pipeline from the lanes", top="pipeline")
+    if res.get("steady_miss"):
+        k, i, t, want = res["steady_miss"]
+        raise TdicamError(f"the lanes' co-simulation: lane {i} sampled at tap {t} at word "
+                          f"clock {k}, after its training to tap {want} (the golden "
+                          f"receiver's); the steady lane table holds the trained taps only")
     from tdicam.beats import Beats
 
     def beats(rows, bits, count, stride):
@@ -565,7 +583,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     got.update(enumerate(listed))
     from tdicam.model import lvds_front
     info = {"cycles": res["cycles"], "timeout": res["timeout"], "status": res["status"],
-            "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": PROC_NS,
+            "startup": {**res["startup"], "word_clock_ns": word_ns, "proc_clock_ns": proc_ns,
                         "first_frame_sent": case.segment_starts[0]},
             "front": {"frame_status": res["frame_status"], "retrains": len(case.retrains),
                       "frames_sent": len(case.frames[0]), "died_word": died,

@@ -22,8 +22,8 @@ from tdicam.hdl.lvds import EYE_STATUS, RUN_BITS, SLIP_BITS, TAP_BITS
 from tdicam.model import lvds
 from tdicam.model import lvds_front
 
-__all__ = ["FrontCase", "raw_table", "STATUS", "EYE_PORTS", "WordDriver", "run_amaranth", "frames_of",
-           "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
+__all__ = ["FrontCase", "raw_table", "STEADY_ENTRIES", "driver_tables", "STATUS", "EYE_PORTS",
+           "WordDriver", "run_amaranth", "frames_of", "GEOMETRY", "GOOD_LANES", "CLOCKS", "SCENARIOS", "scenario_frames", "cds_kinds",
            "scenario_lanes", "scenario", "check", "run_cocotb", "plan_case", "lane_eyes"]
 
 
@@ -117,6 +117,38 @@ def raw_table(link, cycles):
                      for i in range(len(link.lanes))])
 
 
+#: Entries (lanes x taps x word clocks) above which :func:`driver_tables` gives a steady
+#: table: 2**24 (64 MiB of int32; the whole camera's 80 lanes over its start-up are 170 M).
+STEADY_ENTRIES = 1 << 24
+
+
+def driver_tables(case, *, steady_above=STEADY_ENTRIES, margin=8):
+    """What a testbench's :class:`WordDriver` looks the lanes' raw words up in: ``(raw,
+    steady)``.
+
+    ``raw`` is :func:`raw_table` of the first ``k0`` word clocks and ``steady`` None
+    (``k0`` = the whole run) or ``(k0, taps, words)``: from word clock ``k0`` on, each
+    lane's raw words at ``taps[lane]`` only (``words[lane, k - k0]``), the tap the golden
+    receiver (:meth:`FrontCase.golden_run`) trained the lane to. A steady table is made
+    when the whole table would exceed ``steady_above`` entries and the run keeps every
+    lane on its trained tap: every lane locks (no error) by ``k0`` (its last lock ``+
+    margin`` word clocks), no retrain, no tracking, no lane that changes or drifts. The
+    driver then refuses (``res["steady_miss"]``) a lane sampled at another tap after ``k0``.
+    """
+    n = len(case.lanes)
+    if n * lvds.N_TAPS * case.cycles <= steady_above or case.retrains or case.track or any(
+            ln.change_at is not None or ln.drift_taps for ln in case.lanes):
+        return raw_table(case.link, case.cycles), None
+    runs = case.golden_run().trainings[-1]
+    if not all(r.events and r.events[-1][1] == 1 and r.events[-1][2] == 0 for r in runs):
+        return raw_table(case.link, case.cycles), None
+    k0 = min(case.cycles, max(r.events[-1][0] for r in runs) + margin)
+    taps = [int(r.tap) for r in runs]
+    ks = np.arange(k0, case.cycles, dtype=np.int64)
+    words = np.stack([lvds.raw_words(case.link, i, t, ks) for i, t in enumerate(taps)])
+    return raw_table(case.link, k0), (k0, taps, words)
+
+
 def frames_of(beats, rows, columns, ppc, gains):
     """Output beats ``(first, last, data elements)`` -> frames ``(G, F, R, C)``: a frame
     starts at a ``first`` beat; beats before the first ``first`` are an error."""
@@ -157,15 +189,30 @@ class WordDriver:
     :meth:`observe` with the status ports read in that cycle.
     """
 
-    def __init__(self, raw, word_bits, retrains, res):
+    def __init__(self, raw, word_bits, retrains, res, steady=None):
         self.raw, self.w, self.retrains, self.res = raw, word_bits, set(retrains), res
         self.n = raw.shape[0]
+        # a steady table (driver_tables): from k0 on, every lane's word packed per clock
+        self.k0, self.steady = raw.shape[2], None
+        if steady is not None:
+            k0, taps, words = steady
+            bits = (np.asarray(words, np.int64).T[:, :, None] >> np.arange(word_bits)) & 1
+            packed = np.packbits(bits.reshape(len(bits), -1).astype(np.uint8), axis=1,
+                                 bitorder="little")
+            self.k0, self.steady = int(k0), ([int(t) for t in taps], packed)
         self.tapq, self.tap2 = [0] * self.n, [0] * self.n
         self.mq, self.m2 = [0] * self.n, [0] * self.n
-        self.prev, self.out_seen = [(0, 0)] * self.n, 0
+        self.prev, self.out_seen, self.seen = [(0, 0)] * self.n, 0, (0, 0)
         self.last_tap = [None] * self.n
 
     def inputs(self, k):
+        if k >= self.k0:
+            taps, packed = self.steady
+            if self.tap2 != taps and "steady_miss" not in self.res:
+                i = next(i for i in range(self.n) if self.tap2[i] != taps[i])
+                self.res["steady_miss"] = [k, i, self.tap2[i], taps[i]]
+            return int.from_bytes(packed[k - self.k0].tobytes(), "little"), \
+                int(k in self.retrains)
         raw = sum(int(self.raw[i, self.tap2[i], k]) << (i * self.w) for i in range(self.n))
         return raw, int(k in self.retrains)
 
@@ -192,21 +239,24 @@ class WordDriver:
                     and cur != self.last_tap[i]:
                 log.append((k + lvds.LINK_LATENCY, i, cur))
             self.last_tap[i] = cur
-        for i in range(self.n):
-            st = ((locked >> i) & 1, (error >> i) & 1)
-            if st != self.prev[i]:
-                self.res["events"].append((k, i) + st)
-                self.prev[i] = st
+        if (locked, error) != self.seen:         # a lane's status changed (rare)
+            self.seen = (locked, error)
+            for i in range(self.n):
+                st = ((locked >> i) & 1, (error >> i) & 1)
+                if st != self.prev[i]:
+                    self.res["events"].append((k, i) + st)
+                    self.prev[i] = st
         if frames_out != self.out_seen:
             self.res["frame_status"].append(frame_invalid())
             self.out_seen = frames_out
-        for i in range(self.n):          # the tap reaches the sampler 2 words after its load
-            self.tap2[i] = self.tapq[i]
+        self.tap2 = list(self.tapq)      # the tap reaches the sampler 2 words after its load
+        for i in range(self.n) if ld else ():
             if (ld >> i) & 1:
                 self.tapq[i] = (tap >> TAP_BITS * i) & ((1 << TAP_BITS) - 1)
 
 
-def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=None):
+def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=None,
+                 steady=None):
     """Run ``case`` on :class:`~tdicam.hdl.lvds_front.LvdsFront` in Amaranth's simulator.
 
     Returns a dict: ``beats`` (first, last, elements) in order, ``kinds`` (``frame_kind`` at
@@ -218,6 +268,8 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     ``dut`` may be a pipeline (:class:`tdicam.hdl.chain_top.Pipeline`) whose source is the
     front: ``prefix`` is its ports' prefix (``"lvds_"``), ``settings`` the values of its
     other input ports, ``elems`` the output elements per beat (default ``ppc * gains``).
+    ``steady``: the driver's tables (:func:`driver_tables`); None: :func:`raw_table` of the
+    whole run.
     """
     from amaranth.sim import Simulator
 
@@ -234,7 +286,7 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
     def port(name):
         return getattr(dut, prefix + name)
     kind_port = getattr(dut, "frame_kind", None)
-    raw = raw_table(case.link, case.cycles)
+    raw, steady = (raw_table(case.link, case.cycles), None) if steady is None else steady
     res = {"beats": [], "kinds": [], "frame_status": [], "events": [], "status": {}}
     if case.track:
         res["corrections"] = []
@@ -247,7 +299,7 @@ def run_amaranth(case, *, dut=None, hook=None, prefix="", settings=None, elems=N
             ctx.set(port(name), v)
         for name, v in (settings or {}).items():
             ctx.set(getattr(dut, name), v)
-        drv = WordDriver(raw, w, case.retrains, res)
+        drv = WordDriver(raw, w, case.retrains, res, steady)
         for k in range(case.cycles):
             lane_raw, retrain = drv.inputs(k)
             ctx.set(port("lane_raw"), lane_raw)

@@ -90,7 +90,7 @@ def camera_budget(scene, cam):
         f"{k * R * per_lane * wb * F / 1e6:.1f} Mbit/s a lane (faster lanes) or fewer rows",
         f"{L * G} lanes x {bit_rate / 1e6:g} Mbit/s of {wb}-bit words ({lane_src}) = "
         f"{cap / 1e9:.2f} Gbit/s; {k} x {R} lines x {per_lane} words a lane ({per_lane - 2} "
-        f"pixel words, {L * (per_lane - 2) - C} padded slots a gain, sync and header) at "
+        f"pixel words, {lvds_front.padded_slots(C, L)} padded slots a gain, sync and header) at "
         f"{F:g} frame/s need {need / 1e9:.2f} Gbit/s", limit=lim / k))
 
     samples = samples_per_s(scene, cam, reset)

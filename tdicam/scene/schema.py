@@ -64,8 +64,10 @@ The line period either gives must lie in 1e-8..100 s.
     ``[high, low]`` with high > low (Ning et al. 2019: ``[4.9, 0.8]``), each > 0.
 ``[sensor.lvds]`` (optional; without it the lanes are ideal and no link is simulated)
     The sensor's serial LVDS lanes (:mod:`tdicam.model.lvds_front`; defaults the GMAX0504 of
-    Ning et al. 2019): ``lanes_per_gain`` [40], 1..128, dividing ``columns`` (at most 128 lanes
-    in all the gains a merging block takes: 64 a gain with hdr); ``word_bits``
+    Ning et al. 2019): ``lanes_per_gain`` [40], 1..128, at most ``columns`` (at most 128 lanes
+    in all the gains a merging block takes: 64 a gain with hdr; every lane sends
+    ``ceil(columns / lanes_per_gain)`` pixel words a line, a lane with a column fewer a
+    padded last slot); ``word_bits``
     [12], 10 or 12, >= ``bits`` (with ``bits = word_bits`` the all-ones code is the sync
     word: full scale is sent as ``2**bits - 2``); ``bit_rate_mbps`` [300], 1..2000;
     ``mapping`` ["interleaved"], the only one: lane ``g L + k`` carries columns ``k, k+L,

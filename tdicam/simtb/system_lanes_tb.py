@@ -2,15 +2,18 @@
 :func:`tdicam.chain.cosim.run_top` with a ``[sensor.lvds]`` scene).
 
 The DUT is the generated pipeline top whose input is the front's lanes (``lvds_lane_raw``,
-the word clock ``word_clk``) with the simulation models of its external parts beside it.
-The testbench resets both domains, sets the run-time ports of ``job.json`` (``settings``),
-and runs two coroutines: the word side serves each lane's raw word from ``raw.npy``
-(``[lane, tap, cycle]``, :class:`tdicam.cosim.lvds_front.WordDriver`) and notes the word
-clock at which the lanes have trained, the calibration is loaded and frames are released;
-the processing side takes every output beat and every tap's beats with the processing
-cycle. It stops ``drain`` processing clocks after the last expected output beat (or at
-``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the
-end of the sensor's words, the other status outputs at the end).
+the word clock ``word_clk``) with the simulation models of its external parts beside it. The
+testbench resets both domains, sets the run-time ports of ``job.json`` (``settings``), and
+runs two coroutines: the word side serves each lane's raw word from ``raw.npy`` (``[lane,
+tap, cycle]``, :class:`tdicam.cosim.lvds_front.WordDriver`; with ``job["steady"]`` the first
+``k0`` cycles, the trained taps' words after them in ``steady.npy``:
+:func:`tdicam.cosim.lvds_front.driver_tables`) and notes the word clock at which the lanes
+have trained, the calibration is loaded and frames are released; the processing side takes
+every output beat and every tap's beats with the processing cycle (until the front first
+releases a frame it waits on ``lvds_releasing`` instead of every clock: no beat comes
+before). It stops ``drain`` processing clocks after the last expected output beat (or at
+``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the end
+of the sensor's words, the other status outputs at the end).
 
 With ``job["csr"]`` the top has the control bus (``--csr``): the front's status is read
 through it (:class:`tdicam.simtb.lanes_bus.LaneBus`: the frame status, the start-up, the
@@ -22,7 +25,8 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
-from cocotb.triggers import FallingEdge, Timer
+from cocotb.triggers import FallingEdge, First, RisingEdge, Timer
+from cocotb.utils import get_sim_time
 
 from tdicam.cosim.lvds_front import WordDriver
 from tdicam.simtb.lvds_front_tb import start
@@ -51,12 +55,16 @@ async def run_job(dut):
     taps = [[getattr(dut, f"{base}_{s}") for s in ("valid", "ready", "first", "last", "data")]
             for base in job["taps"]]
 
+    # no beat before the front first releases a frame (its ``releasing`` rises at the first
+    # released frame's header, before its pixels): until then the processing side waits on
+    # that port instead of every clock, its cycles counted from the simulation time
+    skip = [bus_idle == [] and hasattr(dut, "lvds_releasing")]
+
     async def proc_side():
-        cyc = 0
         dut.m_axis_tready.value = 1
+        await FallingEdge(dut.clk)
+        t1, cyc = get_sim_time(unit="ps"), 1
         while True:
-            await FallingEdge(dut.clk)
-            cyc += 1
             if _get(dut.m_axis_tvalid):
                 res["beats"].append([_get(dut.m_axis_tuser), _get(dut.m_axis_tlast),
                                      str(_get(dut.m_axis_tdata)), cyc])
@@ -71,9 +79,18 @@ async def run_job(dut):
                 res.setdefault("cycles", cyc)
                 res["timeout"] = not done[0]
                 return
+            if skip[0]:
+                skip[0] = False
+                if not _get(dut.lvds_releasing):
+                    await First(RisingEdge(dut.lvds_releasing),
+                                Timer((job["max_cycles"] - cyc) * job["proc_ps"], unit="ps"))
+            await FallingEdge(dut.clk)
+            cyc = 1 + round((get_sim_time(unit="ps") - t1) / job["proc_ps"])
 
     proc = cocotb.start_soon(proc_side())
-    drv = WordDriver(raw, job["word_bits"], job.get("retrains", ()), res)
+    st = job.get("steady")
+    drv = WordDriver(raw, job["word_bits"], job.get("retrains", ()), res,
+                     None if st is None else (st["k0"], st["taps"], np.load("steady.npy")))
     watch = {"lanes_trained": "lvds_trained", "frames_released": "lvds_releasing"}
     now = [0]
     bus = None
@@ -86,9 +103,14 @@ async def run_job(dut):
         watch[f"{name}_done"] = name
     front = (lambda x: _get(getattr(dut, "lvds_" + x))) if bus is None else \
         (lambda x: _get(getattr(dut, "lvds_" + x)) if x in ("lane_ld", "lane_tap") else 0)
+    last = [0, 0]                           # start() set both to 0
     for kk in range(job["word_cycles"]):
         now[0] = kk
-        dut.lvds_lane_raw.value, dut.lvds_retrain.value = drv.inputs(kk)
+        lane_raw, retrain = drv.inputs(kk)
+        if lane_raw != last[0]:              # the lanes' words written when they change
+            dut.lvds_lane_raw.value = last[0] = lane_raw
+        if retrain != last[1]:
+            dut.lvds_retrain.value = last[1] = retrain
         if track:
             dut.lvds_lane_mon_raw.value = drv.mon_inputs(kk)
             drv.mon_observe(_get(dut.lvds_lane_mon_ld), _get(dut.lvds_lane_mon_tap))
