@@ -120,7 +120,8 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         out["corrections"] = rep["lanes"]["corrections"]
     if rt.phy != "generic":
         from tdicam.chain.phy_check import phy_check
-        out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator)]
+        out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator,
+                                       drift_words=rep.get("lanes", {}).get("drift_words"))]
     summary = {k: v for k, v in rep.items() if k != "taps"}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
@@ -578,6 +579,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                       "trained_taps": [next((ev[3] for ev in r.events if ev[1]), None)
                                        for r in case.golden_run().trainings[-1]],
                       "corrections": res.get("corrections"),
+                      "drift_words": next((ln.drift_words for ln in lanes if ln.drift_taps),
+                                          None),
                       "corrections_golden": _corrections(case) if case.track else None},
             **({"registers": res["registers"], "irq": res["irq"]} if regmap is not None
                else {}),
@@ -685,6 +688,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
         # it measured), the golden chain on them
         delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
+        if info["front"]["drift_words"] is not None:
+            lane_fault["drift_words"] = int(info["front"]["drift_words"])
         if info["front"]["corrections_golden"] is not None:
             lane_fault["corrections"] = _tracking(info["front"], lane_fault["lanes"])
             lane_fault["problems"] += lane_fault["corrections"]["problems"]
