@@ -79,7 +79,7 @@ def test_judge_fails():
     data = np.stack([lvds.sent_words(link, i, nd + np.arange(50)) for i in range(4)], axis=1)
     final = [{"tap": p.tap, "slip": p.slip, "locked": 1, "error": 0, "scan": p.scan_mask}
              for p in pred]
-    good = lvds_pins.PinRun(final, (ks, np.ones(50, bool), data), 0.0, 0.0, 1)
+    good = lvds_pins.PinRun(final, (ks, np.ones(50, bool), data), 0.0, 0.0, nd + 60)
     assert judge(link, phy, good, nd)["problems"] == []
     final[2] = dict(final[2], tap=pred[2].tap + 3)
     data = data.copy()

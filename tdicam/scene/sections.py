@@ -14,7 +14,7 @@ from typing import Any
 from tdicam import blocks
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError
-from tdicam.hdl.lvds_phy import PHYS
+from tdicam.hdl.lvds_phy import PHYS, TRACKING_WORD_BITS
 from tdicam.model import lvds_front
 from tdicam.model.physics import camera
 from tdicam.model.physics.camera import Camera
@@ -656,6 +656,14 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
         phy = r.choice("phy", "generic", RTL_PHYS)
         if phy != "generic" and sensor.lvds is None:
             r.fail("phy", f"{phy} needs the sensor's lanes ([sensor.lvds])")
+        if phy != "generic" and sensor.lvds.tracking and \
+                TRACKING_WORD_BITS.get(phy) != sensor.lvds.word_bits:
+            r.fail("phy", f"{phy} with [sensor.lvds].tracking = true and word_bits = "
+                          f"{sensor.lvds.word_bits}: the receiver tracks from serial bits "
+                          f"only as " + ", ".join(f'{p} with {b}-bit words' for p, b in
+                                                  TRACKING_WORD_BITS.items())
+                          + " (a monitor sampler); give phy = \"xilinx7\" and word_bits = "
+                            "12, or tracking = false")
         csr = r.boolean("csr", False)
         if csr and sensor.lvds is None:
             r.fail("csr", "true needs the sensor's lanes ([sensor.lvds]): tdicam run's bus "
