@@ -3,6 +3,8 @@ lanes scene's link from serial bits through a device PHY (:mod:`tdicam.chain.phy
 0 mismatches and every tap as predicted; a lane with no eye reported as a lane error, not a
 traceback; the report's row. One PHY on Icarus in CI, the other with TDICAM_FULL=1."""
 
+import dataclasses
+import functools
 import os
 from dataclasses import replace
 
@@ -152,3 +154,117 @@ def test_run_pins_scene(tmp_path):
         ("xilinx7", 0, True, []), row
     assert len(rtl["blocks"]) == 10 and all((b["status"], b["mismatches"]) == ("ran", 0)
                                             for b in rtl["blocks"]), rtl["blocks"]
+
+
+DRIFT = "scenes/ning2019_gmax0504_system_lanes_drift.toml"
+#: The drift's span for the CI form: the drift scene's 20 frames as its co-simulation sends
+#: them (the 32-column crop's frames of 8 rows x 18 words a lane); ``tdicam run`` passes
+#: the chain's own (test_run_drift_scene).
+DRIFT_WORDS = 20 * 8 * 18
+
+
+def _as_row(row):
+    """A judgement as phy_check's row (the run's own keys added)."""
+    return dict(row, phy="xilinx7", simulator="icarus", status="ran", wall_seconds=1.0)
+
+
+@functools.lru_cache(maxsize=None)
+def _drift_run(tracking):
+    """The drift scene's lanes from the pins (xilinx7, Icarus), tracking on or off: the
+    link, its data start, the run and the row."""
+    from tdicam.chain.phy_check import pin_link
+    from tdicam.cosim import lvds_pins
+    sc = load_scene(DRIFT).replace({"sensor.lvds.tracking": tracking})
+    lv = sc.sensor.lvds
+    link, nd, cycles, track, _ = pin_link(lv, lanes_of(lv, 2), "xilinx7",
+                                          drift_words=DRIFT_WORDS)
+    res = lvds_pins.run_pins(link, "xilinx7", cycles=cycles, sim="icarus", eye=True,
+                             track=track)
+    return link, nd, res, judge(link, "xilinx7", res, nd, track=track, eye=True)
+
+
+def test_drift_from_pins_tracking():
+    """The drift scene from serial bits through the 7-series receiver with tracking: eyes
+    drifting 6 taps (up, down, still, up) over 20 frames' words: 0 mismatches, no lane in
+    error, every correction (count, new tap, effect word) the golden tracker's, one tap at a
+    time towards the drift; the device's eye status in the row (masks, the trained and the
+    tracked tap) as predicted."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.cosim import lvds_pins
+    link, nd, res, row = _drift_run(True)
+    assert (row["mismatches"], row["taps_as_predicted"], row["lane_errors"],
+            row["problems"], row["corrections_as_predicted"]) == (0, True, [], [], True), row
+    assert row["words_compared"] > 4 * DRIFT_WORDS
+    gold = lvds_pins.predict(link, "xilinx7", word_phase=lvds_pins.run_phase(link, "xilinx7",
+                                                                              res),
+                             jitter=False, track=4, k_stop=res.cycles, eye=True)
+    assert [len(c) for c in row["corrections"]] == [p.count for p in gold]
+    for lane, c in zip(link.lanes, row["corrections"]):
+        taps = [t for _, t in c]
+        sign = int(np.sign(lane.drift_taps))
+        assert taps == [taps[0] + sign * j for j in range(len(taps))]
+        assert bool(taps) == bool(sign)
+    for e, f, lane, c in zip(row["eyes"], res.final, link.lanes, row["corrections"]):
+        assert (e["mask"], e["tap"], e["agree"], e["walk_ok"]) == (f["scan"], f["tap"], True,
+                                                                   True)
+        assert e["tap"] == e["trained_tap"] + int(np.sign(lane.drift_taps)) * len(c)
+    assert not rtl_failed({"blocks": [], "phy_checks": [_as_row(row)]})
+    md = "\n".join(phy_lines([_as_row(row)]))
+    assert "| xilinx7 | icarus | 4 |" in md and "(as predicted)" in md
+    assert f"* lane 0: {gold[0].count} correction(s): " in md
+    assert md.count("as the golden tracker predicts") == 4
+
+
+def test_drift_from_pins_no_tracking():
+    """The same drift without tracking: the drifting lanes in error at the end, as the
+    golden model predicts (the row's lane errors, no problem: not a failure of the run),
+    their words judged up to their predicted first wrong word, the still lane's all."""
+    from tdicam.commands.run import rtl_failed
+    link, nd, res, row = _drift_run(False)
+    drifting = [i for i, ln in enumerate(link.lanes) if ln.drift_taps]
+    assert (row["mismatches"], row["taps_as_predicted"], row["problems"]) == (0, True, []), row
+    assert row["lane_errors"] == drifting and "corrections" not in row
+    assert sorted(int(i) for i in row["words_judged_until"]) == drifting
+    assert all(100 < n < len(res.outputs[0]) for n in row["words_judged_until"].values())
+    assert not rtl_failed({"blocks": [], "phy_checks": [_as_row(row)]})
+    md = "\n".join(phy_lines([_as_row(row)]))
+    assert f"{', '.join(map(str, drifting))} (as predicted)" in md
+
+
+def test_drift_judge_fails():
+    """The judgement of a drift names a correction one probe pair late, a lost correction
+    and a changed word before the predicted error; the run then fails."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.model import lvds_track
+    link, nd, res, row = _drift_run(True)
+    q = 2 * lvds_track.probe_words(8, 16)
+    corr = list(res.corrections)
+    e, lane, t = corr[2]
+    late = dataclasses.replace(res, corrections=corr[:2] + [(e + q, lane, t)] + corr[3:])
+    bad = judge(link, "xilinx7", late, nd, track=4, eye=True)
+    assert not bad["corrections_as_predicted"]
+    assert any(p.startswith(f"lane {lane}: corrections") for p in bad["problems"])
+    assert rtl_failed({"blocks": [], "phy_checks": [_as_row(bad)]})
+    lost = dataclasses.replace(res, corrections=corr[1:])
+    assert judge(link, "xilinx7", lost, nd, track=4, eye=True)["problems"]
+    link, nd, res, row = _drift_run(False)
+    i = int(next(iter(row["words_judged_until"])))
+    ks, syncs, data = res.outputs
+    data = data.copy()
+    data[row["words_judged_until"][str(i)] - 1, i] ^= 1
+    off = judge(link, "xilinx7", dataclasses.replace(res, outputs=(ks, syncs, data)), nd,
+                eye=True)
+    assert off["mismatches"] == 1 and off["problems"] == [f"lane {i}: 1 words differ from "
+                                                          f"those sent"]
+
+
+def test_tracking_phy_refused():
+    """Tracking from the pins needs the 7-series PHY with 12-bit words: ecp5 (or 10-bit
+    words) with tracking refused when the scene is read, in one line."""
+    for change, what in (({"run.rtl.phy": "ecp5"}, "ecp5"),
+                         ({"sensor.lvds.word_bits": 10, "sensor.rows": 1000},
+                          "word_bits = 10")):
+        with pytest.raises(TdicamError, match=rf"phy.*{what}.*tracks from serial bits only "
+                                              r"as xilinx7 with 12-bit words") as e:
+            load_scene(DRIFT).replace(change)
+        assert "\n" not in str(e.value)
