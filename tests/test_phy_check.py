@@ -5,6 +5,7 @@ traceback; the report's row. One PHY on Icarus in CI, the other with TDICAM_FULL
 
 import dataclasses
 import functools
+import json
 import os
 from dataclasses import replace
 
@@ -154,6 +155,13 @@ def test_run_pins_scene(tmp_path):
         ("xilinx7", 0, True, []), row
     assert len(rtl["blocks"]) == 10 and all((b["status"], b["mismatches"]) == ("ran", 0)
                                             for b in rtl["blocks"]), rtl["blocks"]
+    # the eye status from the device PHY (eye_status): every lane's mask, tap and walking
+    # check as predicted, the picture beside the chain's
+    assert row["problems"] == [] and [e["agree"] for e in row["eyes"]] == [True] * 4
+    assert [e["mask"] for e in row["eyes"]] == row["scans"]
+    assert {"eyes.png", "eyes_xilinx7.png"} <= set(rep["files"])
+    md = (tmp_path / "report.md").read_text()
+    assert "picture eyes_xilinx7.png" in md and "lane 1 (xilinx7): locked, eye " in md
 
 
 DRIFT = "scenes/ning2019_gmax0504_system_lanes_drift.toml"
@@ -268,3 +276,32 @@ def test_tracking_phy_refused():
                                               r"as xilinx7 with 12-bit words") as e:
             load_scene(DRIFT).replace(change)
         assert "\n" not in str(e.value)
+
+
+@pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: tdicam run of the bundled drift scene")
+def test_run_drift_scene(tmp_path):
+    """``tdicam run`` of the bundled drift scene: the chain's co-simulation (generic PHY,
+    tracking) with 0 mismatches, and the same lanes drifting the same 6 taps over the same
+    20 frames' words from serial bits through the 7-series receiver with tracking: 0
+    mismatches, no lane in error, every correction the golden tracker's, listed in
+    report.json and report.md; the device's eye picture written; exit status 0."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.run.runner import run_scene
+    rep = run_scene(load_scene(DRIFT), tmp_path, impact=False, progress=False)
+    rtl = rep["rtl"]
+    (row,) = rtl["phy_checks"]
+    assert (row["phy"], row["mismatches"], row["taps_as_predicted"], row["lane_errors"],
+            row["problems"], row["corrections_as_predicted"]) == \
+        ("xilinx7", 0, True, [], [], True), row
+    chain = rtl["blocks"][-1]
+    assert row["drift"]["words"] == chain["lanes"]["drift_words"]
+    assert row["drift"]["taps"] == [6.0, -6.0, 0.0, 6.0]
+    assert [bool(c) for c in row["corrections"]] == [True, True, False, True]
+    assert not rtl_failed(rtl) and "eyes_xilinx7.png" in rep["files"]
+    saved = json.loads((tmp_path / "report.json").read_text())["rtl"]["phy_checks"][0]
+    assert saved["corrections"] == row["corrections"]
+    md = (tmp_path / "report.md").read_text()
+    for i, c in enumerate(row["corrections"]):
+        text = ", ".join(f"{e} ({t})" for e, t in c) or "none"
+        assert f"* lane {i}: {len(c)} correction(s): {text}; as the golden tracker " \
+               f"predicts" in md
