@@ -83,8 +83,9 @@ The line period either gives must lie in 1e-8..100 s.
     many taps (+: to higher taps) over ``drift_frames`` [20], >= 1, frames as the sensor
     sends them (from its first frame on; :class:`tdicam.model.lvds.Lane` drift), as
     temperature moves it over an orbit; ``tracking`` [false]: the receiver follows each
-    locked lane's eye with a monitor sampler (:mod:`tdicam.hdl.lvds_track`, the generic PHY)
-    and reports every correction. Without tracking a drift past the sampling tap's margin
+    locked lane's eye with a monitor sampler (:mod:`tdicam.hdl.lvds_track`: the generic
+    PHY of the chain's co-simulation; from serial bits with ``[run.rtl] phy = "xilinx7"``
+    and 12-bit words, any other PHY refused with tracking) and reports every correction. Without tracking a drift past the sampling tap's margin
     puts the lane in error.
 
 ``[optics]`` (optional)

@@ -292,7 +292,8 @@ SENSOR_LVDS_KEYS = {
     "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
                              "chosen tap and slip, eye width) and checks every bit with "
                              "walking-1/0 patterns after lock; tdicam run reports them "
-                             "(eyes.png); adds ports to the pipeline top"),
+                             "(eyes.png; with [run.rtl].phy the device PHY's too: "
+                             "eyes_<phy>.png); adds ports to the pipeline top"),
     "drift_taps": KeyDoc("taps", "slow drift of each eye's centre over drift_frames "
                                  "(+: to higher taps), as temperature moves it",
                          type="number or list (one per lane)", default="0",
@@ -301,7 +302,9 @@ SENSOR_LVDS_KEYS = {
                                      "over which the eyes drift by drift_taps"),
     "tracking": KeyDoc("", "the receiver follows each locked lane's eye with a monitor "
                            "sampler 4 taps either side and reports every correction "
-                           "(generic PHY); adds ports to the pipeline top"),
+                           "(the chain's generic PHY; from serial bits with [run.rtl].phy "
+                           "= \"xilinx7\" and 12-bit words); adds ports to the pipeline "
+                           "top"),
 }
 
 
@@ -591,8 +594,12 @@ RUN_RTL_KEYS = {
     "phy": KeyDoc("", "the LVDS receiver's PHY checked from serial bits beside the chain "
                       "(which the generic PHY feeds): the scene's lanes through that "
                       "PHY's receiver, its words against the golden link model's, every "
-                      "lane's tap and slip against the prediction for the PHY",
-                  default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]"),
+                      "lane's tap and slip (with eye_status its eye status, with drift and "
+                      "tracking every correction; a lane in error as predicted is no "
+                      "failure) against the prediction for the PHY",
+                  default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]; "
+                                                              "tracking: xilinx7, 12-bit "
+                                                              "words"),
     "csr": KeyDoc("", "the co-simulated top with its control bus (AXI4-Lite, as tdicam "
                       "verilog pipeline writes it by default): the sensor front end's "
                       "status read through the bus while the lanes run, every register "
