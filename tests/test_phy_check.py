@@ -60,7 +60,7 @@ def test_phy_check(tmp_path, phy):
     assert (bad["mismatches"], bad["taps_as_predicted"], bad["lane_errors"]) == \
         (0, True, [1]), bad
     md = "\n".join(phy_lines([row, bad]))
-    assert f"| {phy} | icarus | 4 |" in md and "| 1 |" in md
+    assert f"| {phy} | icarus | 4 |" in md and "| 1 (as predicted) |" in md
 
 
 def test_judge_fails():
