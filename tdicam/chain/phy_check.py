@@ -174,7 +174,6 @@ def judge(link, phy, res, nd, *, track=0, eye=False, eye_taps=None):
            for i in range(len(link.lanes))}
     for i, (lane, f) in enumerate(zip(link.lanes, res.final)):
         band = lvds_pins.band_taps(lane)
-        free = None
         first = None
         for cand in _candidates(link, i):
             seen = lvds_pins.seen_link(cand, word_phase=phase, jitter=False)

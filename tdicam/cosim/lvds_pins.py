@@ -67,8 +67,9 @@ from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
                                _settings_args, sched_words)
 
-__all__ = ["PinRun", "run_pins", "predict", "seen_link", "run_phase", "judged_phase", "band_taps",
-           "eye_problems", "word_problems", "trained_tap", "band_mask", "ui_fs", "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
+__all__ = ["PinRun", "run_pins", "predict", "seen_link", "run_phase", "judged_phase",
+           "band_taps", "band_mask", "eye_problems", "word_problems", "trained_tap", "ui_fs",
+           "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
 
 #: The PHYs simulated from pins: {phy: primitive model module}.
 PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
