@@ -167,6 +167,12 @@ class Pipeline(wiring.Component):
     bram : {"generic", "ecp5"}
         The width converters' FIFO memories (:class:`Narrower`): ``"ecp5"`` in the ECP5
         synthesis top.
+    links : :class:`~tdicam.blocks.steps.LinkPlan` or None
+        The top ends in the camera's output links instead of ``o_stream``: the last
+        stage's output through a :class:`~tdicam.hdl.frame_select.FrameSelect` (one image
+        of ``image_rows`` rows in ``keep``) into a :class:`~tdicam.hdl.tlk2711.Tlk2711`
+        (``pins``, ``crossing``: the framers in the link clock's domain, ports
+        ``link_clk``/``link_rst``).
 
     Attributes
     ----------
@@ -174,7 +180,10 @@ class Pipeline(wiring.Component):
         ``ppc * lanes * lane_elems`` elements of ``in_bits``, pixel-major: pixel 0's lane
         0 elements first, then its lane 1 elements, then pixel 1's.
     o_stream : Out(pixel stream)
-        The last stage's output.
+        The last stage's output (not with ``links``).
+    link{L}_txd, link{L}_tklsb, link{L}_tkmsb : Out(16), Out(1), Out(1)
+        With ``links``: link ``L``'s TLK2711 parallel port, one word a link clock
+        (:func:`~tdicam.hdl.tlk2711.pin_names`).
     <stage>_<port> : In
         The stages' run-time settings (e.g. TDI's stages and direction, the median's frame
         height), presented to every lane's component.
@@ -203,7 +212,7 @@ class Pipeline(wiring.Component):
     """
 
     def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1,
-                 width=None, bram="generic"):
+                 width=None, bram="generic", links=None):
         self._stages = list(stages)
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
         self._taps, self._ppc, self._width, self._bram = taps, ppc, width, bram
@@ -215,7 +224,11 @@ class Pipeline(wiring.Component):
             carried.add(self._stages[0].gate)
         members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
             in_bits, ppc * lanes * lane_elems)))}
-        members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
+        self._links = links
+        if links is None:
+            members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
+        else:
+            members.update(self._link_members())
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
                 if pname in ("i_stream", "o_stream") or pname in carried or pname == st.load:
@@ -249,6 +262,32 @@ class Pipeline(wiring.Component):
                 members[f"tap{k}_{name}_data"] = Out(bits * count)
         super().__init__(members)
 
+    def _link_members(self):
+        """The output links' pins (the :class:`~tdicam.hdl.tlk2711.Tlk2711`'s own members);
+        its component and the frame selector made once here (their parameters checked)."""
+        from tdicam.hdl.frame_select import FrameSelect
+        from tdicam.hdl.tlk2711 import Tlk2711, pin_names
+        lk, (bits, count) = self._links, self._out_shape
+        if bits > lk.pixel_bits:
+            raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
+                              f"[camera].link_pixel_bits = {lk.pixel_bits} would drop bits; "
+                              f"give link_pixel_bits >= {bits}")
+        rows = lk.frame_rows
+        if lk.image_rows % rows:
+            raise TdicamError(f"pipeline: an image of {lk.image_rows} rows for the links is "
+                              f"not a whole number of the chain's {rows}-row frames")
+        self._select = FrameSelect(bits=lk.pixel_bits, count=count, keep=lk.keep,
+                                   image_frames=lk.image_rows // rows)
+        self._tlk = Tlk2711(pixel_bits=lk.pixel_bits, ppc=count, links=lk.links, pins=True,
+                            crossing=True)
+        mem = self._tlk.signature.members
+        return {n: mem[n] for k in range(lk.links) for n in pin_names(k)}
+
+    @property
+    def links(self):
+        """The output links' :class:`~tdicam.blocks.steps.LinkPlan`, or None."""
+        return self._links
+
     def _shared_ddr(self):
         """{lane: [stage index, ...]} of the lanes whose DDR interface two or more stages
         share (the stages with a MIG user interface on their pins, in stream order)."""
@@ -275,8 +314,12 @@ class Pipeline(wiring.Component):
     @property
     def port_domains(self):
         """{top port: clock domain} of the ports its components have outside the processing
-        clock (their ``port_domains``; e.g. the sensor front end's word-clock ports)."""
-        return self._top_names("port_domains")
+        clock (their ``port_domains``; e.g. the sensor front end's word-clock ports, the
+        output links' pins)."""
+        out = self._top_names("port_domains")
+        if self._links is not None:
+            out.update(self._tlk.port_domains)
+        return out
 
     @property
     def pin_ports(self):
@@ -495,12 +538,23 @@ class Pipeline(wiring.Component):
         if len(lanes) != 1 and self._stages:
             raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "
                               f"merging block (hdr) must join them")
-        o = self.o_stream
-        if self._stages:
-            lanes[0].feed(m, o, who="pipeline output")
+        last = lanes[0] if self._stages else whole
+        if self._links is not None:
+            self._elaborate_links(m, last)
         else:
-            whole.feed(m, o, who="pipeline output")
+            last.feed(m, self.o_stream, who="pipeline output")
         return m
+
+    def _elaborate_links(self, m, last):
+        """The last stage's output -> frame selector -> the links' framers (pins)."""
+        from tdicam.hdl.tlk2711 import pin_names
+        m.submodules.frame_select = sel = self._select
+        m.submodules.links = tlk = self._tlk
+        last.feed(m, sel.i_stream, who="the output links' frame selector")
+        wiring.connect(m, sel.o_stream, tlk.i_stream)
+        for k in range(self._links.links):
+            for n in pin_names(k):
+                m.d.comb += getattr(self, n).eq(getattr(tlk, n))
 
     def _wire_ports(self, m, st, core, k, user=None):
         """Stage ``st``'s component ``core`` (lane ``k``): run-time inputs from the top's

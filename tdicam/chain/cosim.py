@@ -223,12 +223,17 @@ def ideal_lanes(n):
 
 
 def status_ports(axis_top):
-    """[(name, width)] of the top's status outputs: its ``Out`` ports besides the streams
-    and the taps (the stages' status, the start-up counter, the external parts' models')."""
+    """[(name, width)] of the top's status outputs: its ``Out`` ports besides the streams,
+    the taps and the output links' pins (the stages' status, the start-up counter, the
+    external parts' models')."""
     from amaranth.hdl import Shape
     from amaranth.lib import wiring
+    from tdicam.hdl.tlk2711 import pin_names
+    from tdicam.model.tlk2711 import LINKS
+    pins = {n for k in range(max(LINKS)) for n in pin_names(k)}       # the output links'
     return [(n, Shape.cast(mem.shape).width) for n, mem in axis_top.signature.members.items()
-            if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))]
+            if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))
+            and n not in pins]
 
 
 def system_figures(p, rep):
@@ -243,14 +248,23 @@ def system_figures(p, rep):
                 "lanes": rep.get("lanes")})]
 
 
-def _testbench(axis_top, taps, *, wave, standalone):
+#: Bits of a link word in the output file of a top with the output links (the 18-bit word
+#: ``TXD | TKLSB << 16 | TKMSB << 17`` zero-padded to whole bytes).
+LINK_PADDED = 24
+
+
+def _testbench(axis_top, taps, *, wave, standalone, links=None):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
     file's format) and its cycle to ``tap<k>.cyc``, and every status output's value at the
     end of the run to ``status.txt`` (``name value`` lines, decimal); with ``wave`` tbgen's
     waveform window (``wave.fst`` of cycles ``+wave_from .. +wave_to``); ``standalone``:
-    tbgen's standalone form (clock from the C++ loop, no cocotb)."""
+    tbgen's standalone form (clock from the C++ loop, no cocotb); ``links`` (a top that
+    ends in the output links, :class:`~tdicam.blocks.steps.LinkPlan`): the links' words
+    as the output (:func:`_link_capture`)."""
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
+    if links is not None:
+        out_bits = LINK_PADDED * links.links
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
                                 ctrl_ports=ctrl, wave=wave, per_beat=False,
                                 standalone=standalone)
@@ -289,6 +303,8 @@ def _testbench(axis_top, taps, *, wave, standalone):
         raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
                           "tdicam.chain.design._testbench")
     tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
+    if links is not None:
+        tb = _link_capture(tb, links.links)
     body = ["  initial begin", *opens, "  end",
             "  always @(posedge clk) begin",
             "    if (running && !rst) begin", *writes, "    end",
@@ -297,6 +313,35 @@ def _testbench(axis_top, taps, *, wave, standalone):
     body.append("  end\n")
     i = tb.rindex("endmodule")
     return tb[:i] + "\n".join(body) + tb[i:]
+
+
+def _link_capture(tb, n):
+    """The testbench of a top that ends in ``n`` output links: the link clock ``link_clk``
+    at half the processing clock (a register toggled on every ``clk`` edge: the whole
+    camera's 100 MHz links beside its 200 MHz blocks), ``link_rst`` the reset, and in
+    place of ``m_axis`` the links' words: every link clock on which link 0 sends a word
+    other than IDLE (the links send their IDLEs together, in lockstep) is one output beat
+    of every link's word (element ``L`` link ``L``'s), written to ``out.hex`` as an output
+    beat would be; the run ends ``drain`` cycles after the last such word."""
+    from tdicam.hdl.tlk2711 import pin_names
+    from tdicam.model.tlk2711 import IDLE
+    old = "".join(f"    .m_axis_{s}(m_{s}){',' if s != 'tlast' else ''}\n"
+                  for s in ("tdata", "tvalid", "tready", "tuser", "tlast"))
+    if old not in tb:
+        raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
+                          "tdicam.chain.cosim._link_capture")
+    words = [f"{{l{k}_tkmsb, l{k}_tklsb, l{k}_txd}}" for k in range(n)]
+    pins = ",\n".join(f"    .{p}({q})" for k in range(n) for p, q in zip(
+        pin_names(k), (f"l{k}_txd", f"l{k}_tklsb", f"l{k}_tkmsb")))
+    tb = tb.replace(old, "    .link_clk(link_clk),\n    .link_rst(rst),\n" + pins + "\n")
+    pad = LINK_PADDED - 18
+    decl = ["  reg link_clk = 1'b0;", "  always @(posedge clk) link_clk <= ~link_clk;"]
+    decl += [f"  wire [15:0] l{k}_txd;\n  wire l{k}_tklsb, l{k}_tkmsb;" for k in range(n)]
+    decl += [f"  assign m_tvalid = link_clk && {words[0]} != 18'h{IDLE:05x};",
+             f"  assign m_tdata = {{{', '.join(f'{pad}' + chr(39) + 'd0, ' + w for w in reversed(words))}}};",
+             "  assign m_tuser = 1'b0;", "  assign m_tlast = 1'b0;", ""]
+    marker = "  pipeline dut (\n"
+    return tb.replace(marker, "\n".join(decl) + "\n" + marker, 1)
 
 
 def _hexcol(raw, digits):
@@ -350,7 +395,11 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     # Verilator: the standalone testbench (no cocotb, no timing scheduler; ~2x the cycles
     # per second); Icarus (and its waveform re-run): cocotb starts the engine
     standalone = sim == "verilator" and wave is None
-    tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone)
+    if p.links is not None and backpressure:
+        raise TdicamError("the output links take no backpressure (their word clock sets "
+                          "the pace): give backpressure = 0")
+    tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone,
+                    links=p.links)
     key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
            "taps": taps, "wave": wave is not None, "standalone": standalone} | \
         ({"ecp5": True} if ecp5 else {})
@@ -366,6 +415,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     bits, count, padded, _ = ax._in
     n_in = len(stim)
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)       # output beats
+    out_padded, out_count = (ax._out[2], ax._out[1]) if p.links is None else \
+        (LINK_PADDED, p.links.links)
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
         else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -375,8 +426,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
            "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
            "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
-           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": ax._out[2],
-           "out_count": ax._out[1]}
+           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": out_padded,
+           "out_count": out_count}
     (rundir / "job.json").write_text(json.dumps(job))
     plus = [f"+n_in={n_in}", f"+n_out={n_out}", f"+max_cycles={max_cycles}", "+drain=2000",
             f"+idle={round(idle * 256)}", f"+bp={round(backpressure * 256)}",
@@ -389,7 +440,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     info["status"] = {} if not st.exists() else {
         ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
     got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
-                                      elem_padded_bits=ax._out[2], count=ax._out[1])}
+                                      elem_padded_bits=out_padded, count=out_count)}
     for k, (name, b, c) in enumerate(tap_shapes):
         got[k] = (codec.decode_output((rundir / f"tap{k}.hex").read_bytes(),
                                       elem_padded_bits=-(-b // 8) * 8, count=c),
@@ -724,11 +775,18 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             first = _first_pixel(arr.shape, d, g, exp, ppc)
             cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
             first.update({"block": block, "tap": name, "cycle": cycle})
-    exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
     out = got["out"]
+    if p.links is None:
+        exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
+    else:
+        exp_out = _link_beats(design.link_words(p, gold))
+        rep["link_words"] = out.data.T.astype(np.uint32)
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))
     rep["pixels_compared"] = int(n) * int(out.data.shape[1])
+    if p.links is not None:
+        rep["words_compared"] = rep.pop("pixels_compared")
+        rep["pixels_compared"] = int(sum(im.size for im in _kept(p, gold)))
     rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
                              | (out.first[:n] != exp_out.first[:n])
                              | (out.last[:n] != exp_out.last[:n])).sum()) \
@@ -746,6 +804,13 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
                                         backpressure)
             rep["message"] += f"; waveform {rep['waveform']}"
+    elif d is not None and p.links is not None:
+        rep["message"] = (f"the output links' word {d} (IDLEs not counted) differs from "
+                          f"the golden chain's through the frame selector and "
+                          f"model.tlk2711: received "
+                          f"{[hex(int(x)) for x in out.data[d]] if d < len(out) else None}, "
+                          f"expected "
+                          f"{[hex(int(x)) for x in exp_out.data[d]] if d < len(exp_out) else None}")
     elif d is not None:
         rep["message"] = f"output beat {d} differs"
     elif problems:
@@ -754,6 +819,22 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     else:
         rep["message"] = "match"
     return rep
+
+
+def _link_beats(words):
+    """The golden link words ``(links, n)`` as the testbench captures them: one beat a word
+    slot that is not IDLE (the links send their IDLEs together), every link's word in it."""
+    from tdicam.beats import Beats
+    from tdicam.model.tlk2711 import IDLE
+    w = words[:, words[0] != IDLE].T.astype(np.uint64)
+    z = np.zeros(len(w), bool)
+    return Beats(w, z, z.copy())
+
+
+def _kept(p, gold):
+    """The images the links of plan ``p`` carry of the golden chain's output."""
+    from tdicam.model.frame_select import link_images
+    return link_images(gold[-1][2], image_rows=p.links.image_rows, keep=p.links.keep)
 
 
 def _tracking(front, n):

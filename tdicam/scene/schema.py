@@ -412,6 +412,7 @@ class Pipeline:
 
     blocks: tuple[str, ...]
     options: tuple = ()
+    output: str = "stream"
 
     def __getattr__(self, name):
         # scene.pipeline.<block>: the block's options (dunder and private names are not
