@@ -73,3 +73,43 @@ def test_images_of_the_last_partial_image():
     imgs = frame_select.images(frames, 2)
     assert [im.shape for im in imgs] == [(2, 2), (2, 2), (1, 2)]
     assert [im[0, 0] for im in frame_select.select(frames, image_frames=2, keep=2)] == [0, 8]
+
+
+# ---- the scene key: [pipeline].output
+
+FULL_SCENE = "ning2019_gmax0504_full.toml"
+
+
+def _load(name, **over):
+    from tdicam.paths import SCENES
+    from tdicam.scene.loader import load_scene
+    return load_scene(SCENES / name, overrides=over)
+
+
+def test_the_whole_camera_ends_in_its_links():
+    from tdicam.chain import design
+    sc = _load(FULL_SCENE, run={"lines": 8}, sensor={"columns": 40})
+    assert sc.pipeline.output == "links"
+    p = design.chain_plan(sc, stages=1, lines=8, ppc=8)
+    lk = p.links
+    assert (lk.links, lk.pixel_bits, lk.clock_mhz, lk.keep) == (2, 16, 100.0, 5)
+    assert (lk.image_rows, lk.frame_rows) == (8, 8)      # median3 frames the cut's lines
+
+
+def test_output_links_needs_camera_and_a_whole_ratio():
+    with pytest.raises(TdicamError, match=r"\[pipeline\]\.output: 'links' .* give a "
+                                          r"\[camera\] section"):
+        _load("orbit_chain.toml", pipeline={"output": "links"})
+    with pytest.raises(TdicamError, match="2.5 is not a whole number"):
+        _load(FULL_SCENE, camera={"output_frame_rate_hz": 10.0})
+    with pytest.raises(TdicamError, match="did you mean 'links'"):
+        _load(FULL_SCENE, pipeline={"output": "link"})
+
+
+def test_a_scene_without_the_key_is_as_before():
+    """The default is the pixel stream, absent from the scene's dict (reports unchanged),
+    and its plan has no links."""
+    from tdicam.chain import design
+    sc = _load("orbit_chain.toml")
+    assert sc.pipeline.output == "stream" and "output" not in sc.to_dict()["pipeline"]
+    assert design.chain_plan(sc).links is None
