@@ -117,15 +117,16 @@ def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column():
 
 def test_a_changed_output_pixel_is_a_link_word_mismatch():
     """The links' check can fail: median3's golden output with one pixel changed makes its
-    tap and the links' words differ (the link word named); a changed captured word fails
-    its row's CRC in the decoder."""
+    tap and two of the links' words differ (the pixel's and its row's CRC); a changed
+    captured word fails its row's CRC in the decoder."""
     def corrupt(gold):
         name, block, a = gold[-1]                 # median3, the links' image
         a = a.copy()
         a[0, 3, 17] ^= 1
         gold[-1] = (name, block, a)
     rep = camera_run(sim="icarus", corrupt=corrupt, **_CUT)
-    assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 1
+    # the pixel's word and its row's CRC differ
+    assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 2
     assert "the output links' word" in rep["message"] or "block median3" in rep["message"]
     w = rep["link_words"].copy()
     w[1, 40] ^= 1

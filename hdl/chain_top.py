@@ -23,7 +23,12 @@ from tdicam.hdl.chain_links import (Link, eager_fork, fork, frame_group, join, n
 from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import Narrower, channels_shape, element_bits, pixel_signature
 
-__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR"]
+__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR",
+           "LINKS_FRAME"]
+
+#: The status port of a top that ends in the output links: high on the cycle an image's
+#: first beat enters the links (the control bus counts them as ``frame_count``).
+LINKS_FRAME = "links_frame"
 
 
 @dataclass
@@ -184,6 +189,8 @@ class Pipeline(wiring.Component):
     link{L}_txd, link{L}_tklsb, link{L}_tkmsb : Out(16), Out(1), Out(1)
         With ``links``: link ``L``'s TLK2711 parallel port, one word a link clock
         (:func:`~tdicam.hdl.tlk2711.pin_names`).
+    links_frame : Out(1)
+        With ``links``: :data:`LINKS_FRAME`.
     <stage>_<port> : In
         The stages' run-time settings (e.g. TDI's stages and direction, the median's frame
         height), presented to every lane's component.
@@ -281,7 +288,7 @@ class Pipeline(wiring.Component):
         self._tlk = Tlk2711(pixel_bits=lk.pixel_bits, ppc=count, links=lk.links, pins=True,
                             crossing=True)
         mem = self._tlk.signature.members
-        return {n: mem[n] for k in range(lk.links) for n in pin_names(k)}
+        return {LINKS_FRAME: Out(1)} | {n: mem[n] for k in range(lk.links) for n in pin_names(k)}
 
     @property
     def links(self):
@@ -552,6 +559,8 @@ class Pipeline(wiring.Component):
         m.submodules.links = tlk = self._tlk
         last.feed(m, sel.i_stream, who="the output links' frame selector")
         wiring.connect(m, sel.o_stream, tlk.i_stream)
+        o = sel.o_stream
+        m.d.comb += getattr(self, LINKS_FRAME).eq(o.valid & o.ready & o.payload.first)
         for k in range(self._links.links):
             for n in pin_names(k):
                 m.d.comb += getattr(self, n).eq(getattr(tlk, n))

@@ -541,11 +541,15 @@ class PipelineBlock:
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
-        domains (the sensor lanes' word clock, ``word_clk``) and its PHY's clock pins (the
-        ECP5 PHY's edge clock ``lvds_clk_eclk`` at half the bit rate)."""
+        domains (the sensor lanes' word clock, ``word_clk``), its PHY's clock pins (the
+        ECP5 PHY's edge clock ``lvds_clk_eclk`` at half the bit rate) and the output links'
+        word clock (``link_clk``, ``[camera].link_clock_mhz``)."""
         from tdicam.hdl.lvds_front import WORD_DOMAIN
         from tdicam.hdl.lvds_phy import pin_clocks
+        from tdicam.hdl.tlk2711 import LINK_DOMAIN
         out = {f"{dom}_clk": mhz for s in self._p.steps for dom, mhz in s.clocks.items()}
+        if self._p.links is not None:
+            out[f"{LINK_DOMAIN}_clk"] = self._p.links.clock_mhz
         for s in self._p.steps:      # a PHY's pin clocks (the ECP5 edge clock) by their port
             if WORD_DOMAIN in s.clocks and "word_bits" in s.params:
                 out.update({f"{s.block}_{name}": mhz for name, mhz in pin_clocks(
