@@ -287,6 +287,8 @@ class Pipeline(wiring.Component):
                                    image_frames=lk.image_rows // rows)
         self._tlk = Tlk2711(pixel_bits=lk.pixel_bits, ppc=count, links=lk.links, pins=True,
                             crossing=True)
+        # (elaborated with the top; a top made for its ports only must not warn of them)
+        self._select._MustUse__silence = self._tlk._MustUse__silence = True
         mem = self._tlk.signature.members
         return {LINKS_FRAME: Out(1)} | {n: mem[n] for k in range(lk.links) for n in pin_names(k)}
 
