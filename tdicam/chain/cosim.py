@@ -417,6 +417,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)       # output beats
     out_padded, out_count = (ax._out[2], ax._out[1]) if p.links is None else \
         (LINK_PADDED, p.links.links)
+    if p.links is not None:             # the output beats are the links' words
+        n_out = design.link_word_count(p)
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
         else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -580,6 +582,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     rundir.mkdir(parents=True)
     np.save(rundir / "raw.npy", raw_table(case.link, case.cycles).astype(np.int32))
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)
+    if p.links is not None:             # the output beats are the links' words
+        n_out = design.link_word_count(p)
     job = {"word_ps": int(word_ns * 1000), "proc_ps": int(PROC_NS * 1000),
            "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
            "n_out": n_out, "drain": 2000,
@@ -588,6 +592,10 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
            "ready": ready, "status": [name for name, _ in status_ports(ax)
                                       if not name.startswith(BUS_PREFIXES)],
            "retrains": list(case.retrains), "track": case.track}
+    if p.links is not None:
+        from tdicam.model.tlk2711 import IDLE
+        job["links"] = {"links": p.links.links, "link_ps": round(1e6 / p.links.clock_mhz),
+                        "idle": IDLE, "padded": LINK_PADDED}
     if regmap is not None:
         job.update(_bus_job(regmap, ready, rundir))
     (rundir / "job.json").write_text(json.dumps(job))
@@ -601,7 +609,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
         return Beats(np.asarray(data_, np.uint64).reshape(len(rows), count),
                      [r[0] for r in rows], [r[1] for r in rows]), \
             np.asarray([r[3] for r in rows], np.int64)
-    ob, oc, opad, _ = ax._out
+    ob, oc, opad, _ = ax._out if p.links is None else (18, p.links.links, LINK_PADDED, None)
     got = {"out": beats(res["beats"], ob, oc, opad)[0]}
     listed = []
     for k, (name, b, c) in enumerate(tap_shapes):

@@ -31,7 +31,8 @@ __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan"
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
            "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "run_values", "register_map",
            "MEMORY", "scene_ppc", "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text",
-           "load_pipeline_scene", "link_plan", "link_words"]
+           "load_pipeline_scene", "link_plan", "link_words",
+           "link_word_count"]
 
 
 # --------------------------------------------------------------------------------------
@@ -245,6 +246,20 @@ def link_plan(scene, p):
                     clock_mhz=cam.link_clock_mhz,
                     keep=keep_every(cam.frame_rate_hz, cam.output_frame_rate_hz),
                     image_rows=image, frame_rows=rows)
+
+
+def link_word_count(p):
+    """Words a link of plan ``p`` sends besides its IDLEs (the frames' SOF and number, every
+    row's SOL, number, payload, EOL and CRC) for the chain's output: what the links'
+    co-simulation waits for."""
+    from tdicam.model import tlk2711
+    lk = p.links
+    frames, rows, w = output_shape(p)
+    total = frames * rows
+    heights = [lk.image_rows] * (total // lk.image_rows) + \
+        ([total % lk.image_rows] if total % lk.image_rows else [])
+    per_row = tlk2711.line_words(w, pixel_bits=lk.pixel_bits, links=lk.links) - 2
+    return sum(2 + h * per_row for h in heights[::lk.keep])
 
 
 def link_words(p, gold):
