@@ -23,12 +23,7 @@ from tdicam.hdl.chain_links import (Link, eager_fork, fork, frame_group, join, n
 from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import Narrower, channels_shape, element_bits, pixel_signature
 
-__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR",
-           "LINKS_FRAME"]
-
-#: The status port of a top that ends in the output links: high on the cycle an image's
-#: first beat enters the links (the control bus counts them as ``frame_count``).
-LINKS_FRAME = "links_frame"
+__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR"]
 
 
 @dataclass
@@ -174,10 +169,9 @@ class Pipeline(wiring.Component):
         synthesis top.
     links : :class:`~tdicam.blocks.steps.LinkPlan` or None
         The top ends in the camera's output links instead of ``o_stream``: the last
-        stage's output through a :class:`~tdicam.hdl.frame_select.FrameSelect` (one image
-        of ``image_rows`` rows in ``keep``) into a :class:`~tdicam.hdl.tlk2711.Tlk2711`
-        (``pins``, ``crossing``: the framers in the link clock's domain, ports
-        ``link_clk``/``link_rst``).
+        stage's output into an :class:`~tdicam.hdl.output_links.OutputLinks` (the frame
+        selector, one image of ``image_rows`` rows in ``keep``, and the TLK2711 framers in
+        the link clock's domain, ports ``link_clk``/``link_rst``).
 
     Attributes
     ----------
@@ -190,7 +184,7 @@ class Pipeline(wiring.Component):
         With ``links``: link ``L``'s TLK2711 parallel port, one word a link clock
         (:func:`~tdicam.hdl.tlk2711.pin_names`).
     links_frame : Out(1)
-        With ``links``: :data:`LINKS_FRAME`.
+        With ``links``: :data:`~tdicam.hdl.output_links.LINKS_FRAME`.
     <stage>_<port> : In
         The stages' run-time settings (e.g. TDI's stages and direction, the median's frame
         height), presented to every lane's component.
@@ -235,7 +229,13 @@ class Pipeline(wiring.Component):
         if links is None:
             members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         else:
-            members.update(self._link_members())
+            from tdicam.hdl.output_links import OutputLinks
+            self._out_links = OutputLinks(links, bits=self._out_shape[0],
+                                          count=self._out_shape[1])
+            # (elaborated with the top; a top made for its ports only must not warn of it)
+            self._out_links._MustUse__silence = True
+            members.update({n: mem for n, mem in self._out_links.signature.members.items()
+                            if n != "i_stream"})
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
                 if pname in ("i_stream", "o_stream") or pname in carried or pname == st.load:
@@ -268,29 +268,6 @@ class Pipeline(wiring.Component):
                     members[f"tap{k}_{name}_{s}"] = Out(1)
                 members[f"tap{k}_{name}_data"] = Out(bits * count)
         super().__init__(members)
-
-    def _link_members(self):
-        """The output links' pins (the :class:`~tdicam.hdl.tlk2711.Tlk2711`'s own members);
-        its component and the frame selector made once here (their parameters checked)."""
-        from tdicam.hdl.frame_select import FrameSelect
-        from tdicam.hdl.tlk2711 import Tlk2711, pin_names
-        lk, (bits, count) = self._links, self._out_shape
-        if bits > lk.pixel_bits:
-            raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
-                              f"[camera].link_pixel_bits = {lk.pixel_bits} would drop bits; "
-                              f"give link_pixel_bits >= {bits}")
-        rows = lk.frame_rows
-        if lk.image_rows % rows:
-            raise TdicamError(f"pipeline: an image of {lk.image_rows} rows for the links is "
-                              f"not a whole number of the chain's {rows}-row frames")
-        self._select = FrameSelect(bits=lk.pixel_bits, count=count, keep=lk.keep,
-                                   image_frames=lk.image_rows // rows)
-        self._tlk = Tlk2711(pixel_bits=lk.pixel_bits, ppc=count, links=lk.links, pins=True,
-                            crossing=True)
-        # (elaborated with the top; a top made for its ports only must not warn of them)
-        self._select._MustUse__silence = self._tlk._MustUse__silence = True
-        mem = self._tlk.signature.members
-        return {LINKS_FRAME: Out(1)} | {n: mem[n] for k in range(lk.links) for n in pin_names(k)}
 
     @property
     def links(self):
@@ -327,7 +304,7 @@ class Pipeline(wiring.Component):
         output links' pins)."""
         out = self._top_names("port_domains")
         if self._links is not None:
-            out.update(self._tlk.port_domains)
+            out.update(self._out_links.port_domains)
         return out
 
     @property
@@ -549,23 +526,14 @@ class Pipeline(wiring.Component):
                               f"merging block (hdr) must join them")
         last = lanes[0] if self._stages else whole
         if self._links is not None:
-            self._elaborate_links(m, last)
+            m.submodules.output_links = ol = self._out_links
+            last.feed(m, ol.i_stream, who="the output links")
+            for n, mem in ol.signature.members.items():
+                if n != "i_stream":
+                    m.d.comb += getattr(self, n).eq(getattr(ol, n))
         else:
             last.feed(m, self.o_stream, who="pipeline output")
         return m
-
-    def _elaborate_links(self, m, last):
-        """The last stage's output -> frame selector -> the links' framers (pins)."""
-        from tdicam.hdl.tlk2711 import pin_names
-        m.submodules.frame_select = sel = self._select
-        m.submodules.links = tlk = self._tlk
-        last.feed(m, sel.i_stream, who="the output links' frame selector")
-        wiring.connect(m, sel.o_stream, tlk.i_stream)
-        o = sel.o_stream
-        m.d.comb += getattr(self, LINKS_FRAME).eq(o.valid & o.ready & o.payload.first)
-        for k in range(self._links.links):
-            for n in pin_names(k):
-                m.d.comb += getattr(self, n).eq(getattr(tlk, n))
 
     def _wire_ports(self, m, st, core, k, user=None):
         """Stage ``st``'s component ``core`` (lane ``k``): run-time inputs from the top's

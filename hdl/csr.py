@@ -19,7 +19,7 @@ from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.errors import TdicamError
-from tdicam.hdl.chain_top import LINKS_FRAME
+from tdicam.hdl.output_links import LINKS_FRAME
 from tdicam.hdl.csr_map import ADDR_BITS, BLOCK_STRIDE, DATA_BITS
 
 __all__ = ["CsrTop", "BUSES", "AXIL_PORTS", "WB_PORTS", "BUS_PREFIXES", "bus_names",

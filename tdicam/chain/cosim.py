@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from tdicam.chain import link_check
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
@@ -121,7 +122,7 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
     if rt.phy != "generic":
         from tdicam.chain.phy_check import phy_check
         out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator)]
-    summary = {k: v for k, v in rep.items() if k != "taps"}
+    summary = {k: v for k, v in rep.items() if k not in ("taps", "link_words")}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
     out["blocks"].append(summary)
@@ -248,11 +249,6 @@ def system_figures(p, rep):
                 "lanes": rep.get("lanes")})]
 
 
-#: Bits of a link word in the output file of a top with the output links (the 18-bit word
-#: ``TXD | TKLSB << 16 | TKMSB << 17`` zero-padded to whole bytes).
-LINK_PADDED = 24
-
-
 def _testbench(axis_top, taps, *, wave, standalone, links=None):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
     file's format) and its cycle to ``tap<k>.cyc``, and every status output's value at the
@@ -264,7 +260,7 @@ def _testbench(axis_top, taps, *, wave, standalone, links=None):
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
     if links is not None:
-        out_bits = LINK_PADDED * links.links
+        out_bits = link_check.PADDED * links.links
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
                                 ctrl_ports=ctrl, wave=wave, per_beat=False,
                                 standalone=standalone)
@@ -304,7 +300,7 @@ def _testbench(axis_top, taps, *, wave, standalone, links=None):
                           "tdicam.chain.design._testbench")
     tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
     if links is not None:
-        tb = _link_capture(tb, links.links)
+        tb = link_check.capture_testbench(tb, links.links)
     body = ["  initial begin", *opens, "  end",
             "  always @(posedge clk) begin",
             "    if (running && !rst) begin", *writes, "    end",
@@ -313,35 +309,6 @@ def _testbench(axis_top, taps, *, wave, standalone, links=None):
     body.append("  end\n")
     i = tb.rindex("endmodule")
     return tb[:i] + "\n".join(body) + tb[i:]
-
-
-def _link_capture(tb, n):
-    """The testbench of a top that ends in ``n`` output links: the link clock ``link_clk``
-    at half the processing clock (a register toggled on every ``clk`` edge: the whole
-    camera's 100 MHz links beside its 200 MHz blocks), ``link_rst`` the reset, and in
-    place of ``m_axis`` the links' words: every link clock on which link 0 sends a word
-    other than IDLE (the links send their IDLEs together, in lockstep) is one output beat
-    of every link's word (element ``L`` link ``L``'s), written to ``out.hex`` as an output
-    beat would be; the run ends ``drain`` cycles after the last such word."""
-    from tdicam.hdl.tlk2711 import pin_names
-    from tdicam.model.tlk2711 import IDLE
-    old = "".join(f"    .m_axis_{s}(m_{s}){',' if s != 'tlast' else ''}\n"
-                  for s in ("tdata", "tvalid", "tready", "tuser", "tlast"))
-    if old not in tb:
-        raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
-                          "tdicam.chain.cosim._link_capture")
-    words = [f"{{l{k}_tkmsb, l{k}_tklsb, l{k}_txd}}" for k in range(n)]
-    pins = ",\n".join(f"    .{p}({q})" for k in range(n) for p, q in zip(
-        pin_names(k), (f"l{k}_txd", f"l{k}_tklsb", f"l{k}_tkmsb")))
-    tb = tb.replace(old, "    .link_clk(link_clk),\n    .link_rst(rst),\n" + pins + "\n")
-    pad = LINK_PADDED - 18
-    decl = ["  reg link_clk = 1'b0;", "  always @(posedge clk) link_clk <= ~link_clk;"]
-    decl += [f"  wire [15:0] l{k}_txd;\n  wire l{k}_tklsb, l{k}_tkmsb;" for k in range(n)]
-    decl += [f"  assign m_tvalid = link_clk && {words[0]} != 18'h{IDLE:05x};",
-             f"  assign m_tdata = {{{', '.join(f'{pad}' + chr(39) + 'd0, ' + w for w in reversed(words))}}};",
-             "  assign m_tuser = 1'b0;", "  assign m_tlast = 1'b0;", ""]
-    marker = "  pipeline dut (\n"
-    return tb.replace(marker, "\n".join(decl) + "\n" + marker, 1)
 
 
 def _hexcol(raw, digits):
@@ -416,7 +383,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     n_in = len(stim)
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)       # output beats
     out_padded, out_count = (ax._out[2], ax._out[1]) if p.links is None else \
-        (LINK_PADDED, p.links.links)
+        (link_check.PADDED, p.links.links)
     if p.links is not None:             # the output beats are the links' words
         n_out = design.link_word_count(p)
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
@@ -595,7 +562,7 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     if p.links is not None:
         from tdicam.model.tlk2711 import IDLE
         job["links"] = {"links": p.links.links, "link_ps": round(1e6 / p.links.clock_mhz),
-                        "idle": IDLE, "padded": LINK_PADDED}
+                        "idle": IDLE, "padded": link_check.PADDED}
     if regmap is not None:
         job.update(_bus_job(regmap, ready, rundir))
     (rundir / "job.json").write_text(json.dumps(job))
@@ -609,7 +576,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
         return Beats(np.asarray(data_, np.uint64).reshape(len(rows), count),
                      [r[0] for r in rows], [r[1] for r in rows]), \
             np.asarray([r[3] for r in rows], np.int64)
-    ob, oc, opad, _ = ax._out if p.links is None else (18, p.links.links, LINK_PADDED, None)
+    ob, oc, opad, _ = ax._out if p.links is None else \
+        (18, p.links.links, link_check.PADDED, None)        # the links' words
     got = {"out": beats(res["beats"], ob, oc, opad)[0]}
     listed = []
     for k, (name, b, c) in enumerate(tap_shapes):
@@ -728,7 +696,12 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         the top and its parts' models at the end of the run, {port: value}) and, on a
         mismatch, ``first_mismatch`` (block,
         tap, beat, frame, line, column of its first differing pixel,
-        expected, received, cycle) and ``waveform``.
+        expected, received, cycle) and ``waveform``. A top that ends in the output links
+        (``p.links``): ``mismatches`` counts the link words (IDLEs dropped, every link's
+        word of a slot one beat) that differ from :func:`tdicam.chain.design.link_words`
+        of the golden output (plus missing or extra ones), ``words_compared`` the words of
+        every link, ``pixels_compared`` the kept images' pixels, ``link_words`` the words
+        received, ``(links, n)`` uint32 (:func:`tdicam.model.tlk2711.decode` reads them).
     """
     from tdicam.chain import design
     from tdicam.beats import frames_to_beats
@@ -787,14 +760,14 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     if p.links is None:
         exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
     else:
-        exp_out = _link_beats(design.link_words(p, gold))
+        exp_out = link_check.golden_beats(design.link_words(p, gold))
         rep["link_words"] = out.data.T.astype(np.uint32)
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))
     rep["pixels_compared"] = int(n) * int(out.data.shape[1])
     if p.links is not None:
         rep["words_compared"] = rep.pop("pixels_compared")
-        rep["pixels_compared"] = int(sum(im.size for im in _kept(p, gold)))
+        rep["pixels_compared"] = int(sum(im.size for im in link_check.kept_images(p, gold)))
     rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
                              | (out.first[:n] != exp_out.first[:n])
                              | (out.last[:n] != exp_out.last[:n])).sum()) \
@@ -827,22 +800,6 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     else:
         rep["message"] = "match"
     return rep
-
-
-def _link_beats(words):
-    """The golden link words ``(links, n)`` as the testbench captures them: one beat a word
-    slot that is not IDLE (the links send their IDLEs together), every link's word in it."""
-    from tdicam.beats import Beats
-    from tdicam.model.tlk2711 import IDLE
-    w = words[:, words[0] != IDLE].T.astype(np.uint64)
-    z = np.zeros(len(w), bool)
-    return Beats(w, z, z.copy())
-
-
-def _kept(p, gold):
-    """The images the links of plan ``p`` carry of the golden chain's output."""
-    from tdicam.model.frame_select import link_images
-    return link_images(gold[-1][2], image_rows=p.links.image_rows, keep=p.links.keep)
 
 
 def _tracking(front, n):
