@@ -52,14 +52,14 @@ class OutputLinks(wiring.Component):
     ------
     TdicamError
         Pixels wider than ``plan.pixel_bits``, an image not a whole number of the input's
-        frames (one line).
+        frames (one line; :func:`tdicam.chain.design.link_plan` refuses the first for a
+        scene, naming its keys).
     """
 
     def __init__(self, plan, *, bits, count):
         if bits > plan.pixel_bits:
-            raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
-                              f"[camera].link_pixel_bits = {plan.pixel_bits} would drop bits; "
-                              f"give link_pixel_bits >= {bits}")
+            raise TdicamError(f"output links: {bits}-bit pixels do not fit the links' "
+                              f"{plan.pixel_bits}")
         if plan.image_rows % plan.frame_rows:
             raise TdicamError(f"pipeline: an image of {plan.image_rows} rows for the links "
                               f"is not a whole number of the chain's {plan.frame_rows}-row "

@@ -113,3 +113,13 @@ def test_a_scene_without_the_key_is_as_before():
     sc = _load("orbit_chain.toml")
     assert sc.pipeline.output == "stream" and "output" not in sc.to_dict()["pipeline"]
     assert design.chain_plan(sc).links is None
+
+
+def test_links_narrower_than_the_chain_s_pixels_are_refused_in_one_line():
+    from tdicam.chain import design
+    sc = _load(FULL_SCENE, run={"lines": 8}, sensor={"columns": 40},
+               camera={"link_pixel_bits": 12})
+    with pytest.raises(TdicamError, match=r"output is 1\d-bit pixels, \[camera\]"
+                                          r"\.link_pixel_bits = 12 would drop bits") as e:
+        design.chain_plan(sc, stages=1, lines=8, ppc=8)
+    assert "\n" not in str(e.value)

@@ -221,12 +221,14 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                      ddr_interfaces=None if getattr(scene, "camera", None) is None
                      else scene.camera.ddr_interfaces)
     return plan if scene.pipeline.output != "links" else replace(
-        plan, links=link_plan(scene, plan))
+        plan, links=link_plan(scene, plan, ctx.bits))
 
 
-def link_plan(scene, p):
+def link_plan(scene, p, bits):
     """The :class:`~tdicam.blocks.steps.LinkPlan` of a scene whose ``[pipeline].output`` is
-    ``"links"``, for its chain plan ``p``: ``[camera]``'s links, word clock and pixel bits;
+    ``"links"``, for its chain plan ``p`` whose output is ``bits``-bit pixels:
+    ``[camera]``'s links, word clock and pixel bits (at least ``bits``, else a one-line
+    error);
     ``keep`` = ``frame_rate_hz / output_frame_rate_hz`` (a whole number,
     :func:`tdicam.model.frame_select.keep_every`).
 
@@ -240,6 +242,10 @@ def link_plan(scene, p):
     from tdicam.blocks.steps import LinkPlan
     from tdicam.model.frame_select import keep_every
     cam = scene.camera
+    if bits > cam.link_pixel_bits:
+        raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
+                          f"[camera].link_pixel_bits = {cam.link_pixel_bits} would drop bits; "
+                          f"give link_pixel_bits >= {bits}")
     frames, rows, _ = output_shape(p)
     image = rows if rows > 1 else min(int(scene.sensor.rows), max(frames, 1))
     return LinkPlan(links=cam.links, pixel_bits=cam.link_pixel_bits,
