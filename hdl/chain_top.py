@@ -408,8 +408,11 @@ class Pipeline(wiring.Component):
     @property
     def latency(self):
         """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
-        when a block's latency varies (a block with its memory in DDR)."""
+        when a block's latency varies (a block with its memory in DDR) or the top ends in
+        the output links (their clock crossing)."""
         lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
+        if self._links is not None:     # the links' clock crossing: no fixed latency
+            return None
         return None if None in lats else \
             sum(lats) + len(self._slices) + (Narrower.LATENCY + 1) * sum(self._narrows)
 

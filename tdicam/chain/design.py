@@ -302,12 +302,17 @@ def chain_text(p):
     """The blocks of plan ``p`` in order with their pixels per clock, and the width
     converters between them: ``"nuc -> tdi -> median3 at 8 pixels per clock"``, or
     ``"nuc -> tdi (8 pixels per clock) -> 8:1 width converter -> median3 (1 pixel per
-    clock)"``."""
+    clock)"``; a plan that ends in the output links says so after them."""
     def at(n):
         return f"{n} pixel{'s' if n > 1 else ''} per clock"
+    lk = p.links
+    links = "" if lk is None else (
+        f" -> frame selector (1 image in {lk.keep}) -> {lk.links} TLK2711 link"
+        f"{'s' if lk.links > 1 else ''} ({lk.pixel_bits}-bit pixels, link_clk "
+        f"{lk.clock_mhz:g} MHz)")
     ppcs = [step_ppc(s) for s in p.steps]
     if len(set(ppcs + [p.ppc])) <= 1:
-        return f"{' -> '.join(s.block for s in p.steps)} at {at(p.ppc)}"
+        return f"{' -> '.join(s.block for s in p.steps)} at {at(p.ppc)}{links}"
     parts, cur = [], p.ppc
     for s, n in zip(p.steps, ppcs):
         if n < cur:
@@ -315,7 +320,7 @@ def chain_text(p):
             parts.append(f"{cur // n}:1 width converter")
         parts.append(s.block)
         cur = n
-    return " -> ".join(parts) + f" ({at(cur)})"
+    return " -> ".join(parts) + f" ({at(cur)}){links}"
 
 
 def _at_ppc(step, out_bits, ppc):
