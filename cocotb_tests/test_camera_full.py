@@ -5,12 +5,18 @@ model's coefficient image (a line a sensor row of the cut: every pixel its own g
 offset) loaded into DDR at power-up and row r's line read back with row r, both DDR
 users of a channel behind its DdrArbiter, at the camera plan's 8 pixels a clock; the top's
 pixel input fed directly (ideal lanes: the scene has no ``[sensor.lvds]``). Every block's
-output (tap) is compared; a mismatch names its block, frame, line and column.
+output (tap) is compared; a mismatch names its block, frame, line and column. The top ends
+in the camera's 2 TLK2711 links (``[pipeline].output = "links"``, their own clock
+``link_clk``): their words are compared with the golden chain's output through the frame
+selector and ``model.tlk2711``, and decoded here with ``model.tlk2711.decode`` back into the
+golden image.
 
 Default run: a 40-column, 8-line cut of the camera (16-block NAND parts: a short scan) on
 Icarus, and the same cut with one golden pixel changed (the check fails, naming it). With
 ``TDICAM_FULL=1``: all 5144 columns, 8 lines, the scene's 4096-block NAND parts, on
-Verilator (6 min 51 s with the build at load 4.4, 2026-12-02; seconds cached).
+Verilator (the top with the links, 2026-12-03: the build 625 s at load 4-6, then the run
+1.9 s of simulation and the test 34 s cached at load 2.4). The short form takes 10.6 s a
+cut run (cached build, load 2.3).
 """
 
 import math
@@ -20,6 +26,8 @@ import pytest
 
 from tdicam.bench.camera import camera_cut, camera_run, extrapolate
 from tdicam.cosim.testing import FULL
+from tdicam.errors import TdicamError
+from tdicam.model import tlk2711
 
 _CUT = {"lines": 8, "columns": 40, "nand_blocks": 16}
 
@@ -44,6 +52,24 @@ def _check(rep, columns, lines):
         assert st[f"ddr_writes{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_reads{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_error{sfx}"] == 0
+    _check_links(rep, columns, lines)
+
+
+def _check_links(rep, columns, lines):
+    """The links' words decode (every row's number, length and CRC checked) into the golden
+    chain's last image: the cut's ``lines`` rows, one image (the first of K = 5 is kept)."""
+    from tdicam.chain import design
+    p = rep["plan"]
+    lk = p.links
+    assert (lk.links, lk.pixel_bits, lk.keep, lk.image_rows) == (2, 16, 5, lines)
+    words = rep["link_words"]
+    assert words.shape == (2, rep["words_compared"] // 2)
+    got = tlk2711.decode(words, width=columns, pixel_bits=16, links=2)
+    _, data = camera_cut(lines, columns=None if columns == 5144 else columns,
+                         nand_blocks=None if columns == 5144 else _CUT["nand_blocks"])
+    want = design.golden(p, data)[-1][2]
+    assert got.numbers == [0] and len(got.frames) == 1
+    assert np.array_equal(got.frames[0], want.reshape(lines, columns))
 
 
 def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus():
@@ -79,16 +105,25 @@ def test_every_row_is_corrected_with_its_own_coefficients():
 
 
 def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column():
+    """The checks can fail (one run): hdr's golden output with one pixel changed is named
+    by block, frame, line and column; median3's (the links' image) with one pixel changed
+    makes its tap and two of the links' words differ (the pixel's and its row's CRC); a
+    changed received word fails its row's CRC in the decoder."""
     def corrupt(gold):
-        name, block, a = gold[4]                  # hdr
-        a = a.copy()
-        a[5, 0, 17] ^= 1
-        gold[4] = (name, block, a)
+        for k, at in ((4, (5, 0, 17)), (-1, (0, 3, 17))):     # hdr, median3
+            name, block, a = gold[k]
+            a = a.copy()
+            a[at] ^= 1
+            gold[k] = (name, block, a)
     rep = camera_run(sim="icarus", corrupt=corrupt, **_CUT)
-    assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 0     # the output is right
+    assert rep["tap_mismatches"] == 2 and rep["mismatches"] == 2
     first = rep["first_mismatch"]
     assert (first["block"], first["frame"], first["line"], first["column"]) == ("hdr", 5, 0, 17)
     assert "block hdr" in rep["message"] and "frame 5, line 0, column 17" in rep["message"]
+    w = rep["link_words"].copy()
+    w[1, 40] ^= 1                                   # a payload word of row 1 on link 1
+    with pytest.raises(TdicamError, match="CRC"):
+        tlk2711.decode(w, width=_CUT["columns"], pixel_bits=16, links=2)
 
 
 def test_the_whole_frame_is_extrapolated_linearly_in_the_lines():

@@ -424,13 +424,23 @@ PIPELINE_KEYS = {
     "blocks": KeyDoc("", "the ordered processing chain, from cds, nuc, hdr, tdi, median3; "
                          "tdi exactly once, no repeats",
                      type="list of strings", range="order rules above"),
+    "output": KeyDoc("", "where the generated top's pixels go: stream, the last block's "
+                         "AXI4-Stream (m_axis); links, the camera's output links of "
+                         "[camera] (links, link_clock_mhz, link_pixel_bits): one frame of "
+                         "the sensor's rows in K = frame_rate_hz / output_frame_rate_hz "
+                         "kept, framed on TLK2711 parallel ports (link{k}_txd, _tklsb, "
+                         "_tkmsb) in the link clock's domain (link_clk, link_rst)",
+                     default="stream", range="stream, links; links needs [camera]"),
 }
+
+#: ``[pipeline].output`` choices: the top ends in its pixel stream, or in the output links.
+OUTPUTS = ("stream", "links")
 
 
 def read_pipeline(sec: Section, sensor: Sensor, labels) -> Pipeline:
     listed = blocks.scene_blocks()
     with_options = [b for b in listed if b.pipeline.options is not None]
-    sec.check_keys(("blocks",) + tuple(b.name for b in with_options))
+    sec.check_keys(("blocks", "output") + tuple(b.name for b in with_options))
     line_block = next(b.name for b in listed if b.pipeline.lines)
     per_frame = [b.name for b in listed if b.pipeline.per_frame]
     raw = sec.raw("blocks", [line_block])
@@ -461,7 +471,8 @@ def read_pipeline(sec: Section, sensor: Sensor, labels) -> Pipeline:
         s = Section(f"{sec.name}.{b.name}", sec.data.get(b.name), labels)
         s.check_keys(tuple(opts.keys))
         options.append((b.name, opts.read(s, sensor)))
-    return Pipeline(blocks=tuple(raw), options=tuple(options))
+    return Pipeline(blocks=tuple(raw), options=tuple(options),
+                    output=sec.choice("output", "stream", OUTPUTS))
 
 
 #: ``[camera]``: unit and meaning of every key (:class:`tdicam.blocks.KeyDoc`).
