@@ -8,15 +8,20 @@ input the sensor's lanes (the scene's ``[sensor.lvds]``), driven with the lines'
 the chain's own lane model (training, then sync, header and pixel words on every lane, the
 padded last slots of the lanes a column short), the word clock at 25 MHz, the processing
 clock at 200 MHz. Every block's output (tap) is compared, the front's included; a mismatch
-names its block, frame, line and column.
+names its block, frame, line and column. The top ends in the camera's 2 TLK2711 links
+(``[pipeline].output = "links"``, their own clock ``link_clk``): their words are compared
+with the golden chain's output through the frame selector and ``model.tlk2711``, and
+decoded here with ``model.tlk2711.decode`` back into the golden image.
 
 Default run: a 40-column, 8-line cut of the camera on 16 lanes a gain (3 words a line, the
 last word clock 8 columns and 8 padded slots a gain, as the whole camera's 40 lanes have
 16; 16-block NAND parts: a short scan) on Icarus, and the same run compared with one golden
-pixel changed (the check fails, naming it): 24 s at load 1.6, 2026-12-03. With
-``TDICAM_FULL=1``: all 5144 columns from the 80 lanes, 8 lines, the scene's 4096-block
-NAND parts, on Verilator (21.4 s of simulator, 66 s after the build, at load 2.2; 1 min
-58 s at load 6.4; the build 712 s at load 7.2; 2026-12-03).
+pixel changed (the check fails, naming it). With ``TDICAM_FULL=1``: all 5144 columns from
+the 80 lanes, 8 lines, the scene's 4096-block NAND parts, on Verilator. Before the merge of
+the lanes and the links (2026-12-03): from the lanes without the links, the short form 24 s
+at load 1.6, the full width 21.4 s of simulator, 66 s after the build at load 2.2 (the
+build 712 s at load 7.2); the links without the lanes, the build 625 s at load 4-6, the run
+1.9 s of simulation.
 """
 
 import math
@@ -26,6 +31,8 @@ import pytest
 
 from tdicam.bench.camera import camera_cut, camera_run, extrapolate
 from tdicam.cosim.testing import FULL
+from tdicam.errors import TdicamError
+from tdicam.model import tlk2711
 
 _CUT = {"lines": 8, "columns": 40, "nand_blocks": 16, "lanes_per_gain": 16}
 
@@ -79,6 +86,26 @@ def _check(rep, columns, lines, lanes_per_gain):
         assert st[f"ddr_writes{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_reads{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_error{sfx}"] == 0
+    _check_links(rep, columns, lines)
+
+
+def _check_links(rep, columns, lines):
+    """The links' words decode (every row's number, length and CRC checked) into the golden
+    chain's last image: the cut's ``lines`` rows, one image (the first of K = 5 is kept)."""
+    from tdicam.chain import design
+    p = rep["plan"]
+    lk = p.links
+    assert (lk.links, lk.pixel_bits, lk.keep, lk.image_rows) == (2, 16, 5, lines)
+    words = rep["link_words"]
+    assert words.shape == (2, rep["words_compared"] // 2)
+    got = tlk2711.decode(words, width=columns, pixel_bits=16, links=2)
+    narrow = columns != 5144
+    _, data = camera_cut(lines, columns=columns if narrow else None,
+                         nand_blocks=_CUT["nand_blocks"] if narrow else None,
+                         lanes_per_gain=_CUT["lanes_per_gain"] if narrow else None)
+    want = design.golden(p, data)[-1][2]
+    assert got.numbers == [0] and len(got.frames) == 1
+    assert np.array_equal(got.frames[0], want.reshape(lines, columns))
 
 
 def test_a_cut_of_the_full_camera_matches_the_golden_chain_on_icarus(one_icarus_run):
@@ -113,17 +140,26 @@ def test_every_row_is_corrected_with_its_own_coefficients():
 
 
 def test_a_changed_golden_pixel_is_named_by_block_frame_line_and_column(one_icarus_run):
+    """The checks can fail (the match's run): hdr's golden output with one pixel changed is
+    named by block, frame, line and column; median3's (the links' image) with one pixel
+    changed makes its tap and two of the links' words differ (the pixel's and its row's
+    CRC); a changed received word fails its row's CRC in the decoder."""
     def corrupt(gold):
-        k = next(i for i, (_, block, _) in enumerate(gold) if block == "hdr")
-        name, block, a = gold[k]
-        a = a.copy()
-        a[5, 0, 17] ^= 1
-        gold[k] = (name, block, a)
+        hdr = next(i for i, (_, block, _) in enumerate(gold) if block == "hdr")
+        for k, at in ((hdr, (5, 0, 17)), (-1, (0, 3, 17))):     # hdr, median3
+            name, block, a = gold[k]
+            a = a.copy()
+            a[at] ^= 1
+            gold[k] = (name, block, a)
     rep = camera_run(sim="icarus", corrupt=corrupt, **_CUT)
-    assert rep["tap_mismatches"] == 1 and rep["mismatches"] == 0     # the output is right
+    assert rep["tap_mismatches"] == 2 and rep["mismatches"] == 2
     first = rep["first_mismatch"]
     assert (first["block"], first["frame"], first["line"], first["column"]) == ("hdr", 5, 0, 17)
     assert "block hdr" in rep["message"] and "frame 5, line 0, column 17" in rep["message"]
+    w = rep["link_words"].copy()
+    w[1, 40] ^= 1                                   # a payload word of row 1 on link 1
+    with pytest.raises(TdicamError, match="CRC"):
+        tlk2711.decode(w, width=_CUT["columns"], pixel_bits=16, links=2)
 
 
 def test_a_processing_clock_too_slow_for_the_lanes_is_refused():

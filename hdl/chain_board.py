@@ -62,6 +62,7 @@ class Board(wiring.Component):
     tap_shapes = property(lambda self: self._top.tap_shapes)
     startup_bound = property(lambda self: self._top.startup_bound)
     latency = property(lambda self: self._top.latency)
+    links = property(lambda self: self._top.links)
 
     def elaborate(self, platform):
         m = Module()
@@ -92,5 +93,6 @@ class Board(wiring.Component):
                 m.d.comb += getattr(self, name).eq(getattr(top, name))
         if "i_stream" in self.signature.members:       # (none after a source stage)
             wiring.connect(m, wiring.flipped(self.i_stream), top.i_stream)
-        wiring.connect(m, top.o_stream, wiring.flipped(self.o_stream))
+        if "o_stream" in self.signature.members:       # (none with the output links)
+            wiring.connect(m, top.o_stream, wiring.flipped(self.o_stream))
         return m

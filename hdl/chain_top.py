@@ -167,6 +167,11 @@ class Pipeline(wiring.Component):
     bram : {"generic", "ecp5"}
         The width converters' FIFO memories (:class:`Narrower`): ``"ecp5"`` in the ECP5
         synthesis top.
+    links : :class:`~tdicam.blocks.steps.LinkPlan` or None
+        The top ends in the camera's output links instead of ``o_stream``: the last
+        stage's output into an :class:`~tdicam.hdl.output_links.OutputLinks` (the frame
+        selector, one image of ``image_rows`` rows in ``keep``, and the TLK2711 framers in
+        the link clock's domain, ports ``link_clk``/``link_rst``).
 
     Attributes
     ----------
@@ -174,7 +179,12 @@ class Pipeline(wiring.Component):
         ``ppc * lanes * lane_elems`` elements of ``in_bits``, pixel-major: pixel 0's lane
         0 elements first, then its lane 1 elements, then pixel 1's.
     o_stream : Out(pixel stream)
-        The last stage's output.
+        The last stage's output (not with ``links``).
+    link{L}_txd, link{L}_tklsb, link{L}_tkmsb : Out(16), Out(1), Out(1)
+        With ``links``: link ``L``'s TLK2711 parallel port, one word a link clock
+        (:func:`~tdicam.hdl.tlk2711.pin_names`).
+    links_frame : Out(1)
+        With ``links``: :data:`~tdicam.hdl.output_links.LINKS_FRAME`.
     <stage>_<port> : In
         The stages' run-time settings (e.g. TDI's stages and direction, the median's frame
         height), presented to every lane's component.
@@ -203,7 +213,7 @@ class Pipeline(wiring.Component):
     """
 
     def __init__(self, stages, *, in_bits, lanes=1, lane_elems=1, taps=False, ppc=1,
-                 width=None, bram="generic"):
+                 width=None, bram="generic", links=None):
         self._stages = list(stages)
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
         self._taps, self._ppc, self._width, self._bram = taps, ppc, width, bram
@@ -215,7 +225,17 @@ class Pipeline(wiring.Component):
             carried.add(self._stages[0].gate)
         members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
             in_bits, ppc * lanes * lane_elems)))}
-        members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
+        self._links = links
+        if links is None:
+            members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
+        else:
+            from tdicam.hdl.output_links import OutputLinks
+            self._out_links = OutputLinks(links, bits=self._out_shape[0],
+                                          count=self._out_shape[1])
+            # (elaborated with the top; a top made for its ports only must not warn of it)
+            self._out_links._MustUse__silence = True
+            members.update({n: mem for n, mem in self._out_links.signature.members.items()
+                            if n != "i_stream"})
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
                 if pname in ("i_stream", "o_stream") or pname in carried or pname == st.load:
@@ -249,6 +269,11 @@ class Pipeline(wiring.Component):
                 members[f"tap{k}_{name}_data"] = Out(bits * count)
         super().__init__(members)
 
+    @property
+    def links(self):
+        """The output links' :class:`~tdicam.blocks.steps.LinkPlan`, or None."""
+        return self._links
+
     def _shared_ddr(self):
         """{lane: [stage index, ...]} of the lanes whose DDR interface two or more stages
         share (the stages with a MIG user interface on their pins, in stream order)."""
@@ -275,8 +300,12 @@ class Pipeline(wiring.Component):
     @property
     def port_domains(self):
         """{top port: clock domain} of the ports its components have outside the processing
-        clock (their ``port_domains``; e.g. the sensor front end's word-clock ports)."""
-        return self._top_names("port_domains")
+        clock (their ``port_domains``; e.g. the sensor front end's word-clock ports, the
+        output links' pins)."""
+        out = self._top_names("port_domains")
+        if self._links is not None:
+            out.update(self._out_links.port_domains)
+        return out
 
     @property
     def pin_ports(self):
@@ -379,8 +408,11 @@ class Pipeline(wiring.Component):
     @property
     def latency(self):
         """Sum of the blocks' latencies (cycles, no stall; see the class notes), or None
-        when a block's latency varies (a block with its memory in DDR)."""
+        when a block's latency varies (a block with its memory in DDR) or the top ends in
+        the output links (their clock crossing)."""
         lats = [getattr(cs[0], "latency", 0) for cs in self._cores]
+        if self._links is not None:     # the links' clock crossing: no fixed latency
+            return None
         return None if None in lats else \
             sum(lats) + len(self._slices) + (Narrower.LATENCY + 1) * sum(self._narrows)
 
@@ -495,11 +527,15 @@ class Pipeline(wiring.Component):
         if len(lanes) != 1 and self._stages:
             raise TdicamError(f"pipeline: {len(lanes)} channel lanes reach the output; a "
                               f"merging block (hdr) must join them")
-        o = self.o_stream
-        if self._stages:
-            lanes[0].feed(m, o, who="pipeline output")
+        last = lanes[0] if self._stages else whole
+        if self._links is not None:
+            m.submodules.output_links = ol = self._out_links
+            last.feed(m, ol.i_stream, who="the output links")
+            for n, mem in ol.signature.members.items():
+                if n != "i_stream":
+                    m.d.comb += getattr(self, n).eq(getattr(ol, n))
         else:
-            whole.feed(m, o, who="pipeline output")
+            last.feed(m, self.o_stream, who="pipeline output")
         return m
 
     def _wire_ports(self, m, st, core, k, user=None):

@@ -19,6 +19,7 @@ from amaranth.lib.wiring import In, Out
 from amaranth.utils import bits_for
 
 from tdicam.errors import TdicamError
+from tdicam.hdl.output_links import LINKS_FRAME
 from tdicam.hdl.csr_map import ADDR_BITS, BLOCK_STRIDE, DATA_BITS
 
 __all__ = ["CsrTop", "BUSES", "AXIL_PORTS", "WB_PORTS", "BUS_PREFIXES", "bus_names",
@@ -110,7 +111,8 @@ class CsrTop(wiring.Component):
         if missing:
             raise TdicamError(f"csr: the register map names port(s) {', '.join(missing)} "
                               f"the top does not have; make the map from this top")
-        members = {n: m for n, m in core.signature.members.items() if n not in covered}
+        members = {n: m for n, m in core.signature.members.items()
+                   if n not in covered and n != LINKS_FRAME}
         prefix, ports = _PORTS[bus]
         for name, width, d in ports:
             members[f"{prefix}{name}"] = (In if d == "in" else Out)(width)
@@ -138,13 +140,18 @@ class CsrTop(wiring.Component):
                 m.d.comb += getattr(self, name).eq(getattr(core, name))
         if "i_stream" in self.signature.members:
             wiring.connect(m, wiring.flipped(self.i_stream), core.i_stream)
-        wiring.connect(m, core.o_stream, wiring.flipped(self.o_stream))
+        if "o_stream" in self.signature.members:      # (none: the output links' top)
+            wiring.connect(m, core.o_stream, wiring.flipped(self.o_stream))
 
         faults = self._map.faults
         nf = len(faults)
         frames = Signal(32, name="csr_frame_count")
-        o = core.o_stream
-        with m.If(o.valid & o.ready & o.payload.first):
+        if "o_stream" in core.signature.members:
+            o = core.o_stream
+            start = o.valid & o.ready & o.payload.first
+        else:                           # the frames sent on the output links
+            start = getattr(core, LINKS_FRAME)
+        with m.If(start):
             m.d.sync += frames.eq(frames + 1)
         released = Cat(*(getattr(core, f"{st.name}_{st.ready}" + (f"_{k}" if k else ""))
                          for st, n in core_holds(core) for k in range(n))).all() \

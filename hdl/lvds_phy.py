@@ -20,7 +20,7 @@ from tdicam.hdl.lvds import TAP_BITS, LvdsRx, LvdsXilinx, eye_ports, forward_cor
     rx_ports
 from tdicam.hdl.util import quiet_reject
 
-__all__ = ["LvdsEcp5", "PHYS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps", "pin_ports",
+__all__ = ["LvdsEcp5", "PHYS", "TRACKING_WORD_BITS", "DELAYF_STEP_PS", "ECP5_STEPS", "tap_ps", "pin_ports",
            "pin_clocks", "derived_clocks", "SCLK_DIV"]
 
 #: DELAYF's delay step (ps) and the number of its counts (0..127).
@@ -186,6 +186,10 @@ class LvdsEcp5(wiring.Component):
 
 #: Every PHY: {name: receiver class}.
 PHYS = {"none": LvdsRx, "xilinx7": LvdsXilinx, "ecp5": LvdsEcp5}
+#: The device PHYs that track the eyes (``track``) and the word size each needs: the
+#: 7-series' monitor sampler is the N pin's IDELAYE2 -> ISERDESE2 path, a free one with
+#: 12-bit words (:class:`tdicam.hdl.lvds.LvdsXilinx`); the ECP5 PHY has none.
+TRACKING_WORD_BITS = {"xilinx7": 12}
 
 
 def tap_ps(phy):

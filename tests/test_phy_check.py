@@ -3,6 +3,9 @@ lanes scene's link from serial bits through a device PHY (:mod:`tdicam.chain.phy
 0 mismatches and every tap as predicted; a lane with no eye reported as a lane error, not a
 traceback; the report's row. One PHY on Icarus in CI, the other with TDICAM_FULL=1."""
 
+import dataclasses
+import functools
+import json
 import os
 from dataclasses import replace
 
@@ -57,7 +60,7 @@ def test_phy_check(tmp_path, phy):
     assert (bad["mismatches"], bad["taps_as_predicted"], bad["lane_errors"]) == \
         (0, True, [1]), bad
     md = "\n".join(phy_lines([row, bad]))
-    assert f"| {phy} | icarus | 4 |" in md and "| 1 |" in md
+    assert f"| {phy} | icarus | 4 |" in md and "| 1 (as predicted) |" in md
 
 
 def test_judge_fails():
@@ -79,7 +82,7 @@ def test_judge_fails():
     data = np.stack([lvds.sent_words(link, i, nd + np.arange(50)) for i in range(4)], axis=1)
     final = [{"tap": p.tap, "slip": p.slip, "locked": 1, "error": 0, "scan": p.scan_mask}
              for p in pred]
-    good = lvds_pins.PinRun(final, (ks, np.ones(50, bool), data), 0.0, 0.0, 1)
+    good = lvds_pins.PinRun(final, (ks, np.ones(50, bool), data), 0.0, 0.0, nd + 60)
     assert judge(link, phy, good, nd)["problems"] == []
     final[2] = dict(final[2], tap=pred[2].tap + 3)
     data = data.copy()
@@ -152,3 +155,153 @@ def test_run_pins_scene(tmp_path):
         ("xilinx7", 0, True, []), row
     assert len(rtl["blocks"]) == 10 and all((b["status"], b["mismatches"]) == ("ran", 0)
                                             for b in rtl["blocks"]), rtl["blocks"]
+    # the eye status from the device PHY (eye_status): every lane's mask, tap and walking
+    # check as predicted, the picture beside the chain's
+    assert row["problems"] == [] and [e["agree"] for e in row["eyes"]] == [True] * 4
+    assert [e["mask"] for e in row["eyes"]] == row["scans"]
+    assert {"eyes.png", "eyes_xilinx7.png"} <= set(rep["files"])
+    md = (tmp_path / "report.md").read_text()
+    assert "picture eyes_xilinx7.png" in md and "lane 1 (xilinx7): locked, eye " in md
+
+
+DRIFT = "scenes/ning2019_gmax0504_system_lanes_drift.toml"
+#: The drift's span for the CI form: the drift scene's 20 frames as its co-simulation sends
+#: them (the 32-column crop's frames of 8 rows x 18 words a lane); ``tdicam run`` passes
+#: the chain's own (test_run_drift_scene).
+DRIFT_WORDS = 20 * 8 * 18
+
+
+def _as_row(row):
+    """A judgement as phy_check's row (the run's own keys added)."""
+    return dict(row, phy="xilinx7", simulator="icarus", status="ran", wall_seconds=1.0)
+
+
+@functools.lru_cache(maxsize=None)
+def _drift_run(tracking):
+    """The drift scene's lanes from the pins (xilinx7, Icarus), tracking on or off: the
+    link, its data start, the run and the row."""
+    from tdicam.chain.phy_check import pin_link
+    from tdicam.cosim import lvds_pins
+    sc = load_scene(DRIFT).replace({"sensor.lvds.tracking": tracking})
+    lv = sc.sensor.lvds
+    link, nd, cycles, track, _ = pin_link(lv, lanes_of(lv, 2), "xilinx7",
+                                          drift_words=DRIFT_WORDS)
+    res = lvds_pins.run_pins(link, "xilinx7", cycles=cycles, sim="icarus", eye=True,
+                             track=track)
+    return link, nd, res, judge(link, "xilinx7", res, nd, track=track, eye=True)
+
+
+def test_drift_from_pins_tracking():
+    """The drift scene from serial bits through the 7-series receiver with tracking: eyes
+    drifting 6 taps (up, down, still, up) over 20 frames' words: 0 mismatches, no lane in
+    error, every correction (count, new tap, effect word) the golden tracker's, one tap at a
+    time towards the drift; the device's eye status in the row (masks, the trained and the
+    tracked tap) as predicted."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.cosim import lvds_pins
+    link, nd, res, row = _drift_run(True)
+    assert (row["mismatches"], row["taps_as_predicted"], row["lane_errors"],
+            row["problems"], row["corrections_as_predicted"]) == (0, True, [], [], True), row
+    assert row["words_compared"] > 4 * DRIFT_WORDS
+    gold = lvds_pins.predict(link, "xilinx7", word_phase=lvds_pins.run_phase(link, "xilinx7",
+                                                                              res),
+                             jitter=False, track=4, k_stop=res.cycles, eye=True)
+    assert [len(c) for c in row["corrections"]] == [p.count for p in gold]
+    for lane, c in zip(link.lanes, row["corrections"]):
+        taps = [t for _, t in c]
+        sign = int(np.sign(lane.drift_taps))
+        assert taps == [taps[0] + sign * j for j in range(len(taps))]
+        assert bool(taps) == bool(sign)
+    for e, f, lane, c in zip(row["eyes"], res.final, link.lanes, row["corrections"]):
+        assert (e["mask"], e["tap"], e["agree"], e["walk_ok"]) == (f["scan"], f["tap"], True,
+                                                                   True)
+        assert e["tap"] == e["trained_tap"] + int(np.sign(lane.drift_taps)) * len(c)
+    assert not rtl_failed({"blocks": [], "phy_checks": [_as_row(row)]})
+    md = "\n".join(phy_lines([_as_row(row)]))
+    assert "| xilinx7 | icarus | 4 |" in md and "(as predicted)" in md
+    assert f"* lane 0: {gold[0].count} correction(s): " in md
+    assert md.count("as the golden tracker predicts") == 4
+
+
+def test_drift_from_pins_no_tracking():
+    """The same drift without tracking: the drifting lanes in error at the end, as the
+    golden model predicts (the row's lane errors, no problem: not a failure of the run),
+    their words judged up to their predicted first wrong word, the still lane's all."""
+    from tdicam.commands.run import rtl_failed
+    link, nd, res, row = _drift_run(False)
+    drifting = [i for i, ln in enumerate(link.lanes) if ln.drift_taps]
+    assert (row["mismatches"], row["taps_as_predicted"], row["problems"]) == (0, True, []), row
+    assert row["lane_errors"] == drifting and "corrections" not in row
+    assert sorted(int(i) for i in row["words_judged_until"]) == drifting
+    assert all(100 < n < len(res.outputs[0]) for n in row["words_judged_until"].values())
+    assert not rtl_failed({"blocks": [], "phy_checks": [_as_row(row)]})
+    md = "\n".join(phy_lines([_as_row(row)]))
+    assert f"{', '.join(map(str, drifting))} (as predicted)" in md
+
+
+def test_drift_judge_fails():
+    """The judgement of a drift names a correction one probe pair late, a lost correction
+    and a changed word before the predicted error; the run then fails."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.model import lvds_track
+    link, nd, res, row = _drift_run(True)
+    q = 2 * lvds_track.probe_words(8, 16)
+    corr = list(res.corrections)
+    e, lane, t = corr[2]
+    late = dataclasses.replace(res, corrections=corr[:2] + [(e + q, lane, t)] + corr[3:])
+    bad = judge(link, "xilinx7", late, nd, track=4, eye=True)
+    assert not bad["corrections_as_predicted"]
+    assert any(p.startswith(f"lane {lane}: corrections") for p in bad["problems"])
+    assert rtl_failed({"blocks": [], "phy_checks": [_as_row(bad)]})
+    lost = dataclasses.replace(res, corrections=corr[1:])
+    assert judge(link, "xilinx7", lost, nd, track=4, eye=True)["problems"]
+    link, nd, res, row = _drift_run(False)
+    i = int(next(iter(row["words_judged_until"])))
+    ks, syncs, data = res.outputs
+    data = data.copy()
+    data[row["words_judged_until"][str(i)] - 1, i] ^= 1
+    off = judge(link, "xilinx7", dataclasses.replace(res, outputs=(ks, syncs, data)), nd,
+                eye=True)
+    assert off["mismatches"] == 1 and off["problems"] == [f"lane {i}: 1 words differ from "
+                                                          f"those sent"]
+
+
+def test_tracking_phy_refused():
+    """Tracking from the pins needs the 7-series PHY with 12-bit words: ecp5 (or 10-bit
+    words) with tracking refused when the scene is read, in one line."""
+    for change, what in (({"run.rtl.phy": "ecp5"}, "ecp5"),
+                         ({"sensor.lvds.word_bits": 10, "sensor.rows": 1000},
+                          "word_bits = 10")):
+        with pytest.raises(TdicamError, match=rf"phy.*{what}.*tracks from serial bits only "
+                                              r"as xilinx7 with 12-bit words") as e:
+            load_scene(DRIFT).replace(change)
+        assert "\n" not in str(e.value)
+
+
+@pytest.mark.skipif(not FULL, reason="TDICAM_FULL=1: tdicam run of the bundled drift scene")
+def test_run_drift_scene(tmp_path):
+    """``tdicam run`` of the bundled drift scene: the chain's co-simulation (generic PHY,
+    tracking) with 0 mismatches, and the same lanes drifting the same 6 taps over the same
+    20 frames' words from serial bits through the 7-series receiver with tracking: 0
+    mismatches, no lane in error, every correction the golden tracker's, listed in
+    report.json and report.md; the device's eye picture written; exit status 0."""
+    from tdicam.commands.run import rtl_failed
+    from tdicam.run.runner import run_scene
+    rep = run_scene(load_scene(DRIFT), tmp_path, impact=False, progress=False)
+    rtl = rep["rtl"]
+    (row,) = rtl["phy_checks"]
+    assert (row["phy"], row["mismatches"], row["taps_as_predicted"], row["lane_errors"],
+            row["problems"], row["corrections_as_predicted"]) == \
+        ("xilinx7", 0, True, [], [], True), row
+    chain = rtl["blocks"][-1]
+    assert row["drift"]["words"] == chain["lanes"]["drift_words"]
+    assert row["drift"]["taps"] == [6.0, -6.0, 0.0, 6.0]
+    assert [bool(c) for c in row["corrections"]] == [True, True, False, True]
+    assert not rtl_failed(rtl) and "eyes_xilinx7.png" in rep["files"]
+    saved = json.loads((tmp_path / "report.json").read_text())["rtl"]["phy_checks"][0]
+    assert saved["corrections"] == row["corrections"]
+    md = (tmp_path / "report.md").read_text()
+    for i, c in enumerate(row["corrections"]):
+        text = ", ".join(f"{e} ({t})" for e, t in c) or "none"
+        assert f"* lane {i}: {len(c)} correction(s): {text}; as the golden tracker " \
+               f"predicts" in md

@@ -24,6 +24,14 @@ MHz: a line's 643 beats in its 131 word clocks need >= 122.7 MHz,
 (:func:`tdicam.chain.cosim.run_top`). A narrower cut takes fewer lanes
 (``lanes_per_gain``: a multiple of the pixels per clock, at most the columns, whose line's
 last word clock carries a multiple of them).
+The top ends in the camera's output links (``[pipeline].output = "links"``): median3's
+image through the frame selector (one image in K = 25 / 5 kept; the cut's lines are one
+image, the first, kept) into the 2 TLK2711 framers on their own clock (``link_clk``, half
+the blocks' clock in the testbench: the scene's 100 MHz links beside its 200 MHz blocks);
+the links' words (IDLEs dropped) are compared with the golden chain's output through
+:func:`tdicam.model.frame_select.link_images` and :func:`tdicam.model.tlk2711.tlk2711`
+(``mismatches``; the report's ``link_words``, every link's words as captured, decode with
+:func:`tdicam.model.tlk2711.decode`).
 
 :func:`camera_rows` makes the ``tdicam bench camera`` rows: two cuts measured, the whole
 5144 x 3800 frame pair extrapolated from them (start-up, then cycles and seconds a line).
@@ -110,9 +118,10 @@ def camera_run(lines=CUT_LINES[0], sim="verilator", *, columns=None, nand_blocks
     """One cut (:func:`camera_cut`) from the sensor's lanes (:func:`camera_front`) through
     the top, every tap compared with the golden chain
     (:func:`tdicam.chain.cosim.cosimulate`). Returns its report plus ``plan``, ``lines``,
-    ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the output's
-    and the front's status against its golden model), ``startup_cycles`` (the NAND scan and
-    load before the first line), ``load`` (the 1-minute load average after the run)."""
+    ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the output
+    links' words that differ and the front's status against its golden model,
+    ``words_compared`` the words of every link), ``startup_cycles`` (the NAND scan and load
+    before the first line), ``load`` (the 1-minute load average after the run)."""
     from tdicam.chain.cosim import cosimulate
     p, data = camera_cut(lines, columns=columns, nand_blocks=nand_blocks,
                          lanes_per_gain=lanes_per_gain)
@@ -155,8 +164,8 @@ def camera_rows(*, sims, repeat, quick, stalls, build):
             input=f"{p.width} x {r['lines']} lines x {p.lanes} gains", build_s=r["build_seconds"],
             mismatches=bad, accuracy="bit-exact" if bad == 0 else f"{bad} mismatching",
             note=f"{r['cycles']:,} cycles ({r['startup_cycles']:,} the NAND scan and load), "
-                 f"{r['cycles'] / r['run_seconds']:,.0f} cycles/s; every tap compared; "
-                 f"load {r['load']:.1f}"))
+                 f"{r['cycles'] / r['run_seconds']:,.0f} cycles/s; every tap and the "
+                 f"{r.get('words_compared', 0):,} link words compared; load {r['load']:.1f}"))
     rows_full = int(_full_rows())
     cyc, secs = extrapolate(runs[0], runs[1], rows_full)
     p = runs[0]["plan"]
@@ -184,6 +193,7 @@ def legend(*, stalls, quick):
             f"(the lanes' training, then every line's words on them: the chain's lane model, "
             f"the word clock at 25 MHz beside the 200 MHz processing clock), no idle or "
             f"backpressure (--stalls not used), every block's output compared bit for bit "
-            f"with the golden chain; median s = the simulator run's wall time (one run); "
+            f"with the golden chain, and the 2 TLK2711 links' words (their own clock) with the "
+            f"golden output through the frame selector and model.tlk2711; median s = the simulator run's wall time (one run); "
             f"build s: that run's own build (0.0: cached). The extrapolated row: the whole "
             f"frame pair's cycles and seconds, linear in the lines from the two cuts.")

@@ -18,7 +18,7 @@ import numpy as np
 
 from tdicam.errors import TdicamError
 
-__all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "Frames", "Sim", "RunView"]
+__all__ = ["Step", "ChainPlan", "LinkPlan", "SceneData", "StepContext", "Frames", "Sim", "RunView"]
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,8 @@ class ChainPlan:
     :attr:`tdicam.blocks.Use.reset_frames`), instead of beside each pixel;
     ``ddr_interfaces``: the scene's ``[camera].ddr_interfaces`` (None without ``[camera]``):
     the top has one DDR interface a channel lane, and refuses another count when its DDR
-    users share them."""
+    users share them; ``links``: the output links the top ends in (None: its pixel
+    stream)."""
 
     steps: tuple
     lanes: int
@@ -65,10 +66,27 @@ class ChainPlan:
     ppc: int = 1
     reset_frames: bool = False
     ddr_interfaces: int | None = None
+    links: LinkPlan | None = None
 
     @property
     def input_pixels(self):
         return self.frames * self.stages * self.width * self.lanes
+
+
+@dataclass(frozen=True)
+class LinkPlan:
+    """The camera's output links at the end of a chain (``[pipeline].output = "links"``,
+    the numbers ``[camera]``'s): ``links`` TLK2711s (1, 2) of ``pixel_bits`` a pixel at
+    ``clock_mhz``; images of ``image_rows`` rows (the sensor's, or a shorter run's lines)
+    made of the chain's frames of ``frame_rows`` rows each, one image in ``keep`` sent
+    (:mod:`tdicam.model.frame_select`)."""
+
+    links: int
+    pixel_bits: int
+    clock_mhz: float
+    keep: int
+    image_rows: int
+    frame_rows: int = 1
 
 
 @dataclass

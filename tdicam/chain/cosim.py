@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from tdicam.chain import link_check
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
 from tdicam.errors import TdicamError
 
@@ -120,8 +121,9 @@ def cosim_scene(scene, res, crop, *, out_dir=None, corrupt=None):
         out["corrections"] = rep["lanes"]["corrections"]
     if rt.phy != "generic":
         from tdicam.chain.phy_check import phy_check
-        out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator)]
-    summary = {k: v for k, v in rep.items() if k != "taps"}
+        out["phy_checks"] = [phy_check(lv, front["lanes"], rt.phy, rt.simulator,
+                                       drift_words=rep.get("lanes", {}).get("drift_words"))]
+    summary = {k: v for k, v in rep.items() if k not in ("taps", "link_words")}
     summary.update({"block": "pipeline", "status": "ran", "engine_agrees": agree,
                     "scene_data_seconds": golden_s})
     out["blocks"].append(summary)
@@ -223,12 +225,17 @@ def ideal_lanes(n):
 
 
 def status_ports(axis_top):
-    """[(name, width)] of the top's status outputs: its ``Out`` ports besides the streams
-    and the taps (the stages' status, the start-up counter, the external parts' models')."""
+    """[(name, width)] of the top's status outputs: its ``Out`` ports besides the streams,
+    the taps and the output links' pins (the stages' status, the start-up counter, the
+    external parts' models')."""
     from amaranth.hdl import Shape
     from amaranth.lib import wiring
+    from tdicam.hdl.tlk2711 import pin_names
+    from tdicam.model.tlk2711 import LINKS
+    pins = {n for k in range(max(LINKS)) for n in pin_names(k)}       # the output links'
     return [(n, Shape.cast(mem.shape).width) for n, mem in axis_top.signature.members.items()
-            if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))]
+            if mem.flow == wiring.Out and not n.startswith(("m_axis_", "s_axis_", "tap"))
+            and n not in pins]
 
 
 def system_figures(p, rep):
@@ -243,14 +250,18 @@ def system_figures(p, rep):
                 "lanes": rep.get("lanes")})]
 
 
-def _testbench(axis_top, taps, *, wave, standalone):
+def _testbench(axis_top, taps, *, wave, standalone, links=None):
     """tbgen's fast-mode testbench with every tap written to ``tap<k>.hex`` (the output
     file's format) and its cycle to ``tap<k>.cyc``, and every status output's value at the
     end of the run to ``status.txt`` (``name value`` lines, decimal); with ``wave`` tbgen's
     waveform window (``wave.fst`` of cycles ``+wave_from .. +wave_to``); ``standalone``:
-    tbgen's standalone form (clock from the C++ loop, no cocotb)."""
+    tbgen's standalone form (clock from the C++ loop, no cocotb); ``links`` (a top that
+    ends in the output links, :class:`~tdicam.blocks.steps.LinkPlan`): the links' words
+    as the output (:func:`_link_capture`)."""
     from tdicam.cosim import stream_ports, tbgen
     in_bits, out_bits, ctrl = stream_ports(axis_top)
+    if links is not None:
+        out_bits = link_check.PADDED * links.links
     tb = tbgen.stream_testbench("pipeline", in_bits=in_bits, out_bits=out_bits,
                                 ctrl_ports=ctrl, wave=wave, per_beat=False,
                                 standalone=standalone)
@@ -289,6 +300,8 @@ def _testbench(axis_top, taps, *, wave, standalone):
         raise TdicamError("pipeline: the fast-mode testbench changed shape; update "
                           "tdicam.chain.design._testbench")
     tb = tb.replace(marker, extra + marker + "\n".join(conn) + "\n")
+    if links is not None:
+        tb = link_check.capture_testbench(tb, links.links)
     body = ["  initial begin", *opens, "  end",
             "  always @(posedge clk) begin",
             "    if (running && !rst) begin", *writes, "    end",
@@ -350,7 +363,11 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     # Verilator: the standalone testbench (no cocotb, no timing scheduler; ~2x the cycles
     # per second); Icarus (and its waveform re-run): cocotb starts the engine
     standalone = sim == "verilator" and wave is None
-    tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone)
+    if p.links is not None and backpressure:
+        raise TdicamError("the output links take no backpressure (their word clock sets "
+                          "the pace): give backpressure = 0")
+    tb = _testbench(ax, tap_shapes, wave=wave is not None, standalone=standalone,
+                    links=p.links)
     key = {"plan": p.source, "steps": [[s.block, s.params] for s in p.steps],
            "taps": taps, "wave": wave is not None, "standalone": standalone} | \
         ({"ecp5": True} if ecp5 else {})
@@ -366,6 +383,10 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     bits, count, padded, _ = ax._in
     n_in = len(stim)
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)       # output beats
+    out_padded, out_count = (ax._out[2], ax._out[1]) if p.links is None else \
+        (link_check.PADDED, p.links.links)
+    if p.links is not None:             # the output beats are the links' words
+        n_out = design.link_word_count(p)
     max_cycles = (n_in + n_out) * 4 + 100_000 + ax.core.startup_bound if wave is None \
         else int(wave[1]) + 2
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
@@ -375,8 +396,8 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     job = {"mode": "fast", "n_in": n_in, "n_out": n_out, "idle": idle,
            "backpressure": backpressure, "seed": int(seed), "max_cycles": max_cycles,
            "drain": 2000, "rst_cycles": tbgen.RST_CYCLES, "in_padded": padded,
-           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": ax._out[2],
-           "out_count": ax._out[1]}
+           "in_count": count, "ctrl_bits": ctrl_bits, "out_padded": out_padded,
+           "out_count": out_count}
     (rundir / "job.json").write_text(json.dumps(job))
     plus = [f"+n_in={n_in}", f"+n_out={n_out}", f"+max_cycles={max_cycles}", "+drain=2000",
             f"+idle={round(idle * 256)}", f"+bp={round(backpressure * 256)}",
@@ -389,7 +410,7 @@ def run_top(p, data, sim, *, taps=True, wave=None, seed=1, idle=0.0, backpressur
     info["status"] = {} if not st.exists() else {
         ln.split()[0]: int(ln.split()[1]) for ln in st.read_text().splitlines() if ln.strip()}
     got = {"out": codec.decode_output((rundir / "out.hex").read_bytes(),
-                                      elem_padded_bits=ax._out[2], count=ax._out[1])}
+                                      elem_padded_bits=out_padded, count=out_count)}
     for k, (name, b, c) in enumerate(tap_shapes):
         got[k] = (codec.decode_output((rundir / f"tap{k}.hex").read_bytes(),
                                       elem_padded_bits=-(-b // 8) * 8, count=c),
@@ -541,6 +562,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
     if steady is not None:            # the lanes on their trained taps from steady[0] on
         np.save(rundir / "steady.npy", steady[2].astype(np.int32))
     n_out = int(np.prod(design.output_shape(p))) // design.out_ppc(p)
+    if p.links is not None:             # the output beats are the links' words
+        n_out = design.link_word_count(p)
     job = {"word_ps": int(word_ns * 1000), "proc_ps": int(proc_ns * 1000),
            "settings": settings, "word_bits": case.word_bits, "word_cycles": case.cycles,
            "n_out": n_out, "drain": 2000,
@@ -550,6 +573,10 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                                       if not name.startswith(BUS_PREFIXES)],
            "retrains": list(case.retrains), "track": case.track,
            "steady": None if steady is None else {"k0": steady[0], "taps": steady[1]}}
+    if p.links is not None:
+        from tdicam.model.tlk2711 import IDLE
+        job["links"] = {"links": p.links.links, "link_ps": round(1e6 / p.links.clock_mhz),
+                        "idle": IDLE, "padded": link_check.PADDED}
     if regmap is not None:
         job.update(_bus_job(regmap, ready, rundir))
     (rundir / "job.json").write_text(json.dumps(job))
@@ -568,7 +595,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
         return Beats(np.asarray(data_, np.uint64).reshape(len(rows), count),
                      [r[0] for r in rows], [r[1] for r in rows]), \
             np.asarray([r[3] for r in rows], np.int64)
-    ob, oc, opad, _ = ax._out
+    ob, oc, opad, _ = ax._out if p.links is None else \
+        (18, p.links.links, link_check.PADDED, None)        # the links' words
     got = {"out": beats(res["beats"], ob, oc, opad)[0]}
     listed = []
     for k, (name, b, c) in enumerate(tap_shapes):
@@ -596,6 +624,8 @@ def _run_lanes(p, data, sim, ax, taps, front, keep, t0):
                       "trained_taps": [next((ev[3] for ev in r.events if ev[1]), None)
                                        for r in case.golden_run().trainings[-1]],
                       "corrections": res.get("corrections"),
+                      "drift_words": next((ln.drift_words for ln in lanes if ln.drift_taps),
+                                          None),
                       "corrections_golden": _corrections(case) if case.track else None},
             **({"registers": res["registers"], "irq": res["irq"]} if regmap is not None
                else {}),
@@ -687,7 +717,12 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         the top and its parts' models at the end of the run, {port: value}) and, on a
         mismatch, ``first_mismatch`` (block,
         tap, beat, frame, line, column of its first differing pixel,
-        expected, received, cycle) and ``waveform``.
+        expected, received, cycle) and ``waveform``. A top that ends in the output links
+        (``p.links``): ``mismatches`` counts the link words (IDLEs dropped, every link's
+        word of a slot one beat) that differ from :func:`tdicam.chain.design.link_words`
+        of the golden output (plus missing or extra ones), ``words_compared`` the words of
+        every link, ``pixels_compared`` the kept images' pixels, ``link_words`` the words
+        received, ``(links, n)`` uint32 (:func:`tdicam.model.tlk2711.decode` reads them).
     """
     from tdicam.chain import design
     from tdicam.beats import frames_to_beats
@@ -703,6 +738,8 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
         # what the front delivered: the golden front's frames (a dead lane's cut frame as
         # it measured), the golden chain on them
         delivered, lane_fault = _delivered(p, data, got, info["front"], dies)
+        if info["front"]["drift_words"] is not None:
+            lane_fault["drift_words"] = int(info["front"]["drift_words"])
         if info["front"]["corrections_golden"] is not None:
             lane_fault["corrections"] = _tracking(info["front"], lane_fault["lanes"])
             lane_fault["problems"] += lane_fault["corrections"]["problems"]
@@ -742,11 +779,18 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             first = _first_pixel(arr.shape, d, g, exp, ppc)
             cycle = int(cyc[min(d, len(cyc) - 1)]) if len(cyc) else int(info["cycles"])
             first.update({"block": block, "tap": name, "cycle": cycle})
-    exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
     out = got["out"]
+    if p.links is None:
+        exp_out = frames_to_beats(gold[-1][2], ppc=design.out_ppc(p))
+    else:
+        exp_out = link_check.golden_beats(design.link_words(p, gold))
+        rep["link_words"] = out.data.T.astype(np.uint32)
     d = _first_diff(out, exp_out)
     n = min(len(out), len(exp_out))
     rep["pixels_compared"] = int(n) * int(out.data.shape[1])
+    if p.links is not None:
+        rep["words_compared"] = rep.pop("pixels_compared")
+        rep["pixels_compared"] = int(sum(im.size for im in link_check.kept_images(p, gold)))
     rep["mismatches"] = int(((out.data[:n] != exp_out.data[:n]).any(axis=1)
                              | (out.first[:n] != exp_out.first[:n])
                              | (out.last[:n] != exp_out.last[:n])).sum()) \
@@ -764,6 +808,13 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             rep["waveform"] = _waveform(p, data, first["cycle"], wave_dir, seed, idle,
                                         backpressure)
             rep["message"] += f"; waveform {rep['waveform']}"
+    elif d is not None and p.links is not None:
+        rep["message"] = (f"the output links' word {d} (IDLEs not counted) differs from "
+                          f"the golden chain's through the frame selector and "
+                          f"model.tlk2711: received "
+                          f"{[hex(int(x)) for x in out.data[d]] if d < len(out) else None}, "
+                          f"expected "
+                          f"{[hex(int(x)) for x in exp_out.data[d]] if d < len(exp_out) else None}")
     elif d is not None:
         rep["message"] = f"output beat {d} differs"
     elif problems:

@@ -18,6 +18,7 @@ its side inputs from. The orchestration below names no block.
 from __future__ import annotations
 
 
+import dataclasses
 from dataclasses import replace
 
 import numpy as np
@@ -30,7 +31,8 @@ __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan"
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
            "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "run_values", "register_map",
            "MEMORY", "scene_ppc", "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text",
-           "load_pipeline_scene"]
+           "load_pipeline_scene", "link_plan", "link_words",
+           "link_word_count"]
 
 
 # --------------------------------------------------------------------------------------
@@ -211,13 +213,71 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     # a first block taking the reset frames in the stream gets them from the lanes too:
     # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
-    return ChainPlan(tuple(steps), lanes=2 if merge else 1,
+    plan = ChainPlan(tuple(steps), lanes=2 if merge else 1,
                      lane_elems=first.elems if first else 1, in_bits=scene.sensor.bits,
                      stages=m, width=w, frames=n_lines + m - 1, lines=n_lines,
                      source=str(scene.source), ppc=ppc,
                      reset_frames=bool(first and first.reset_frames),
                      ddr_interfaces=None if getattr(scene, "camera", None) is None
                      else scene.camera.ddr_interfaces)
+    return plan if scene.pipeline.output != "links" else replace(
+        plan, links=link_plan(scene, plan, ctx.bits))
+
+
+def link_plan(scene, p, bits):
+    """The :class:`~tdicam.blocks.steps.LinkPlan` of a scene whose ``[pipeline].output`` is
+    ``"links"``, for its chain plan ``p`` whose output is ``bits``-bit pixels:
+    ``[camera]``'s links, word clock and pixel bits (at least ``bits``, else a one-line
+    error);
+    ``keep`` = ``frame_rate_hz / output_frame_rate_hz`` (a whole number,
+    :func:`tdicam.model.frame_select.keep_every`).
+
+    The images and where the links learn a frame's end: the chain's frame markers (a
+    frame ends where the next one's ``first`` comes). A 2-D block after TDI (median3)
+    already frames the run's lines into one image (its group, ``[run].lines`` rows: the
+    sensor's 3800 for the whole frame, a cut's lines for a cut); those frames are the
+    links' images. A chain whose output frames are single lines (no 2-D block) is
+    gathered by the selector, ``image_rows`` frames an image: the sensor's rows, or the
+    run's lines when it runs fewer."""
+    from tdicam.blocks.steps import LinkPlan
+    from tdicam.model.frame_select import keep_every
+    cam = scene.camera
+    if bits > cam.link_pixel_bits:
+        raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
+                          f"[camera].link_pixel_bits = {cam.link_pixel_bits} would drop bits; "
+                          f"give link_pixel_bits >= {bits}")
+    frames, rows, _ = output_shape(p)
+    image = rows if rows > 1 else min(int(scene.sensor.rows), max(frames, 1))
+    return LinkPlan(links=cam.links, pixel_bits=cam.link_pixel_bits,
+                    clock_mhz=cam.link_clock_mhz,
+                    keep=keep_every(cam.frame_rate_hz, cam.output_frame_rate_hz),
+                    image_rows=image, frame_rows=rows)
+
+
+def link_word_count(p):
+    """Words a link of plan ``p`` sends besides its IDLEs (the frames' SOF and number, every
+    row's SOL, number, payload, EOL and CRC) for the chain's output: what the links'
+    co-simulation waits for."""
+    from tdicam.model import tlk2711
+    lk = p.links
+    frames, rows, w = output_shape(p)
+    total = frames * rows
+    heights = [lk.image_rows] * (total // lk.image_rows) + \
+        ([total % lk.image_rows] if total % lk.image_rows else [])
+    per_row = tlk2711.line_words(w, pixel_bits=lk.pixel_bits, links=lk.links) - 2
+    return sum(2 + h * per_row for h in heights[::lk.keep])
+
+
+def link_words(p, gold):
+    """The words the links of plan ``p`` send for the golden chain's output ``gold`` (the
+    last of :func:`golden`'s stages): its frames gathered into images, one in ``keep``
+    (:func:`tdicam.model.frame_select.link_images`), through
+    :func:`tdicam.model.tlk2711.tlk2711`; ``(links, n)`` uint32."""
+    from tdicam.model import tlk2711
+    from tdicam.model.frame_select import link_images
+    lk = p.links
+    imgs = link_images(gold[-1][2], image_rows=lk.image_rows, keep=lk.keep)
+    return tlk2711.tlk2711(imgs, pixel_bits=lk.pixel_bits, links=lk.links)
 
 
 def rate_ppc(ppc, slower):
@@ -242,12 +302,17 @@ def chain_text(p):
     """The blocks of plan ``p`` in order with their pixels per clock, and the width
     converters between them: ``"nuc -> tdi -> median3 at 8 pixels per clock"``, or
     ``"nuc -> tdi (8 pixels per clock) -> 8:1 width converter -> median3 (1 pixel per
-    clock)"``."""
+    clock)"``; a plan that ends in the output links says so after them."""
     def at(n):
         return f"{n} pixel{'s' if n > 1 else ''} per clock"
+    lk = p.links
+    links = "" if lk is None else (
+        f" -> frame selector (1 image in {lk.keep}) -> {lk.links} TLK2711 link"
+        f"{'s' if lk.links > 1 else ''} ({lk.pixel_bits}-bit pixels, link_clk "
+        f"{lk.clock_mhz:g} MHz)")
     ppcs = [step_ppc(s) for s in p.steps]
     if len(set(ppcs + [p.ppc])) <= 1:
-        return f"{' -> '.join(s.block for s in p.steps)} at {at(p.ppc)}"
+        return f"{' -> '.join(s.block for s in p.steps)} at {at(p.ppc)}{links}"
     parts, cur = [], p.ppc
     for s, n in zip(p.steps, ppcs):
         if n < cur:
@@ -255,7 +320,7 @@ def chain_text(p):
             parts.append(f"{cur // n}:1 width converter")
         parts.append(s.block)
         cur = n
-    return " -> ".join(parts) + f" ({at(cur)})"
+    return " -> ".join(parts) + f" ({at(cur)}){links}"
 
 
 def _at_ppc(step, out_bits, ppc):
@@ -320,7 +385,7 @@ def top(p, data=None, *, taps=False, ecp5=False, board=False, csr=False, bus="ax
     try:
         core = Pipeline(stages, in_bits=p.in_bits, lanes=p.lanes, lane_elems=p.lane_elems,
                         taps=taps, ppc=p.ppc, width=p.width,
-                        bram="ecp5" if ecp5 else "generic")
+                        bram="ecp5" if ecp5 else "generic", links=p.links)
     except TdicamError as exc:
         raise TdicamError(str(exc)) from None
     shared = core.shared_ddr
@@ -377,7 +442,8 @@ def verilog_header(p, *, taps=False, csr=False, bus="axi4-lite"):
         "scene": os.path.basename(p.source), "blocks": " -> ".join(s.block for s in p.steps),
         "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
         "taps": taps} | ({"csr": bus} if csr else {})
-        | {s.block: s.params for s in p.steps})
+        | {s.block: s.params for s in p.steps}
+        | ({} if p.links is None else {"links": dataclasses.asdict(p.links)}))
 
 
 def golden(p, data):
@@ -501,11 +567,15 @@ class PipelineBlock:
 
     def clocks(self, params=None):
         """The top's clocks besides ``clk`` ({clock port: MHz}): each step's other clock
-        domains (the sensor lanes' word clock, ``word_clk``) and its PHY's clock pins (the
-        ECP5 PHY's edge clock ``lvds_clk_eclk`` at half the bit rate)."""
+        domains (the sensor lanes' word clock, ``word_clk``), its PHY's clock pins (the
+        ECP5 PHY's edge clock ``lvds_clk_eclk`` at half the bit rate) and the output links'
+        word clock (``link_clk``, ``[camera].link_clock_mhz``)."""
         from tdicam.hdl.lvds_front import WORD_DOMAIN
         from tdicam.hdl.lvds_phy import pin_clocks
+        from tdicam.hdl.tlk2711 import LINK_DOMAIN
         out = {f"{dom}_clk": mhz for s in self._p.steps for dom, mhz in s.clocks.items()}
+        if self._p.links is not None:
+            out[f"{LINK_DOMAIN}_clk"] = self._p.links.clock_mhz
         for s in self._p.steps:      # a PHY's pin clocks (the ECP5 edge clock) by their port
             if WORD_DOMAIN in s.clocks and "word_bits" in s.params:
                 out.update({f"{s.block}_{name}": mhz for name, mhz in pin_clocks(

@@ -87,6 +87,11 @@ def dry_run(scene, out, args, labels):
 
 
 def rtl_failed(rtl) -> bool:
-    """True when a ``[run.rtl]`` co-simulation ran into an error or found a mismatch."""
-    return rtl is not None and any(b.get("status") != "ran" or b.get("mismatches")
-                                   for b in rtl["blocks"])
+    """True when a ``[run.rtl]`` co-simulation ran into an error or found a mismatch, the
+    lanes from serial bits (``[run.rtl].phy``) included: a check that could not run or
+    found what its prediction does not say (a lane in error as predicted is not a
+    failure: :mod:`tdicam.chain.phy_check`)."""
+    return rtl is not None and (
+        any(b.get("status") != "ran" or b.get("mismatches") for b in rtl["blocks"])
+        or any(r.get("status") != "ran" or r.get("problems") or r.get("mismatches")
+               for r in rtl.get("phy_checks") or []))

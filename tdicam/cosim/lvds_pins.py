@@ -67,8 +67,9 @@ from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.lvds import (_BIASW, _NSCHED, _hex_lines, _link_functions, _parse, _ports,
                                _settings_args, sched_words)
 
-__all__ = ["PinRun", "run_pins", "predict", "run_phase", "judged_phase", "band_taps",
-           "eye_problems", "word_problems", "ui_fs", "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
+__all__ = ["PinRun", "run_pins", "predict", "seen_link", "run_phase", "judged_phase",
+           "band_taps", "band_mask", "eye_problems", "word_problems", "trained_tap", "ui_fs",
+           "rate_for_ui", "PIN_PHYS", "WORD_PHASE"]
 
 #: The PHYs simulated from pins: {phy: primitive model module}.
 PIN_PHYS = {"xilinx7": xilinx7_io, "ecp5": ecp5_io}
@@ -407,6 +408,16 @@ def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settl
     ``walk`` it records; the ECP5 PHY trains later than the golden step count, which
     changes no status as long as the lanes lock before the walking patterns come);
     ``track``: with eye tracking of that margin (:mod:`tdicam.model.lvds_track`)."""
+    eq = seen_link(link, dcd=dcd, word_phase=word_phase, jitter=jitter)
+    return [lvds.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
+                            pick=pick, eye=eye, k_stop=k_stop, track=track)
+            for i in range(len(eq.lanes))]
+
+
+def seen_link(link, *, dcd=None, word_phase=0, jitter=True):
+    """``link`` as the PHY's deserializer sees it (:func:`predict`): each lane's eye less its
+    ``dcd``, its samples shifted by the PHY's ``word_phase``; ``jitter=False``: none. Its
+    port cycle ``k`` is the PHY's."""
     dcd = tuple(dcd) if dcd is not None else (0.0,) * len(link.lanes)
     w = link.word_bits
     lanes = []
@@ -415,10 +426,7 @@ def predict(link, phy, *, dcd=None, word_phase=0, jitter=True, n_check=16, settl
         lanes.append(replace(lane, eye_ps=max(lane.eye_ps - d, 0.0),
                              skew_ps=lane.skew_ps + shift,
                              jitter_ps=lane.jitter_ps if jitter else 0.0))
-    eq = replace(link, lanes=tuple(lanes))
-    return [lvds.train_lane(eq, i, 0, n_check=n_check, settle=settle, min_run=min_run,
-                            pick=pick, eye=eye, k_stop=k_stop, track=track)
-            for i in range(len(lanes))]
+    return replace(link, lanes=tuple(lanes))
 
 
 def run_phase(link, phy, run, *, dcd=None, n_check=16):
@@ -444,7 +452,7 @@ def band_taps(lane):
     return math.ceil(lane.jitter_ps / lane.tap_ps) if lane.jitter_ps else 0
 
 
-def _band_mask(scan, band):
+def band_mask(scan, band):
     """The taps of ``scan`` (a pass mask) within ``band`` taps of either end of one of its
     runs of consecutive passing taps."""
     out, t = 0, 0
@@ -462,7 +470,8 @@ def _band_mask(scan, band):
     return out
 
 
-def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, pick=5):
+def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, pick=5,
+                 track=0, pred=None):
     """What differs between a pin-level run with the eye status (:func:`run_pins` ``eye``)
     and the golden link model (empty: every lane as predicted).
 
@@ -476,28 +485,39 @@ def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, p
       no tap passes, since jitter only narrows the pin-level eye;
     * eye width (``run``) and chosen tap (``tap`` and ``chosen_tap``): what the golden
       decision (:func:`tdicam.model.lvds.decide`) makes of the mask the lane reported (with
-      ``b = 0``: the predicted ones; 0 for a lane in error);
+      ``b = 0``: the predicted ones; 0 for a lane that never locked; a lane in error after
+      its lock keeps its tap), moved by the predicted corrections with tracking (``track``:
+      the ports show the tap at the end);
     * ``locked``, ``error``, ``slip``, ``slip_pass``, ``walk`` equal to the prediction;
       ``walk_ok`` = ``walk`` has all ``2 W`` patterns. A lane with no eye must report
       ``error`` (its eye width below ``min_run``, tap, slip and masks 0).
+
+    ``pred``: the per-lane predictions to judge against instead (each with ``eye``; e.g.
+    the tie of an eye edge on a tap's sample that agrees with the run,
+    :func:`tdicam.chain.phy_check.judge`).
     """
     w = link.word_bits
-    phase = judged_phase(link, phy, run, dcd=dcd, n_check=n_check)
-    pred = predict(link, phy, dcd=dcd, word_phase=phase, jitter=False,
-                   n_check=n_check, settle=settle, min_run=min_run, pick=pick, eye=True,
-                   k_stop=run.cycles)
+    if pred is None:
+        phase = judged_phase(link, phy, run, dcd=dcd, n_check=n_check)
+        pred = predict(link, phy, dcd=dcd, word_phase=phase, jitter=False,
+                       n_check=n_check, settle=settle, min_run=min_run, pick=pick, eye=True,
+                       k_stop=run.cycles, track=track)
     full = (1 << 2 * w) - 1
     problems = []
     for i, (lane, p, f) in enumerate(zip(link.lanes, pred, run.final)):
         b = band_taps(lane)
-        free = _band_mask(p.scan_mask, b)
+        free = band_mask(p.scan_mask, b)
         if (f["scan"] ^ p.scan_mask) & ~free:
             problems.append(f"lane {i}: pass mask {f['scan']:#010x}, predicted "
                             f"{p.scan_mask:#010x} (random band {free:#010x})")
         mask = [f["scan"] >> t & 1 for t in range(lvds.N_TAPS)]
         _, run_len, tap = lvds.decide(mask, p.words, min_run=min_run, pick=pick)
+        if p.lock_k is None or tap is None:
+            tap = 0
+        else:
+            tap += p.tap - trained_tap(p)
         exp = {"locked": int(p.locked), "error": int(p.error), "run": run_len,
-               "tap": tap if p.locked else 0, "chosen_tap": tap if p.locked else 0,
+               "tap": tap, "chosen_tap": tap,
                "slip": p.slip, "slip_pass": p.slip_pass, "walk": p.walk,
                "walk_ok": int(p.walk == full)}
         bad = {k: (f[k], v) for k, v in exp.items() if f[k] != v}
@@ -509,21 +529,32 @@ def eye_problems(link, phy, run, *, dcd=None, n_check=16, settle=8, min_run=9, p
     return problems
 
 
-def word_problems(link, run, nd):
+def trained_tap(p):
+    """The tap training chose for a :class:`tdicam.model.lvds.LaneResult` ``p`` (its lock's;
+    ``p.tap`` is the tap at the end, moved by tracking), None when it never locked."""
+    return next((ev[3] for ev in p.events if ev[1]), None)
+
+
+def word_problems(link, run, nd, until=None):
     """``(mismatches, problems)`` of a pin-level run's delivered words (``run.outputs``),
     data from link word ``nd``: the receiver must deliver one run of consecutive words
     from the data start (else one mismatch and its problem line), and every locked lane
     the words :func:`tdicam.model.lvds.sent_words` sent (an unlocked lane 0s); each lane
-    that differs a problem line with its count. ``(0, [])`` when all is as sent."""
+    that differs a problem line with its count. ``until``: {lane: n}, a lane whose first
+    ``n`` delivered words only are judged, as sent (a lane in error after its lock: its
+    words up to its predicted first wrong one). ``(0, [])`` when all is as sent."""
     ks, syncs, data = run.outputs
     problems, mism = [], 0
+    until = until or {}
     if len(ks) == 0 or not syncs[0] or not np.array_equal(ks, ks[0] + np.arange(len(ks))):
         problems.append("the receiver delivered no run of consecutive words from the data "
                         "start")
         mism += 1
     for i, f in enumerate(run.final):
-        exp = lvds.sent_words(link, i, nd + np.arange(len(ks))) if f["locked"] else 0
-        bad = int(np.count_nonzero(data[:, i] != exp)) if len(ks) else 0
+        n = min(max(until.get(i, len(ks)), 0), len(ks))
+        exp = lvds.sent_words(link, i, nd + np.arange(n)) if f["locked"] or i in until \
+            else 0
+        bad = int(np.count_nonzero(data[:n, i] != exp)) if n else 0
         if bad:
             problems.append(f"lane {i}: {bad} words differ from those sent")
         mism += bad

@@ -29,7 +29,8 @@ MODES = ("beat", "fast")
 
 
 def stream_ports(top):
-    """(in tdata bits, out tdata bits, ctrl ports [(name, width)]) of an :class:`AxisTop`
+    """(in tdata bits, out tdata bits (None: no ``m_axis``, a top that ends in the output
+    links), ctrl ports [(name, width)]) of an :class:`AxisTop`
     (the control bus's inputs, ``s_axil_*`` or ``wb_*``, are not ctrl ports:
     :mod:`tdicam.cosim.tbbus`)."""
     from tdicam.hdl.csr import BUS_PREFIXES
@@ -37,7 +38,7 @@ def stream_ports(top):
     for name, member in top.signature.members.items():
         if member.flow.name == "In" and not name.startswith(("s_axis_", "m_axis_", *BUS_PREFIXES)):
             ctrl.append((name, Shape.cast(member.shape).width))
-    return top._in[3], top._out[3], ctrl
+    return top._in[3], None if top._out is None else top._out[3], ctrl
 
 
 def _build(blk, params, sim, wave=False, ecp5=False):

@@ -1,18 +1,27 @@
-"""The lanes' eye-mask picture of ``tdicam run`` (``eyes.png``): lanes x delay taps, each
-tap passed or failed in the receiver's training scan, the chosen tap marked, a lane in
-error labelled. Its numbers are report.json's ``rtl.eyes`` (one entry a lane:
-:func:`tdicam.cosim.lvds_front.lane_eyes`)."""
+"""The lanes' eye-mask pictures of ``tdicam run``: lanes x delay taps, each tap passed or
+failed in the receiver's training scan, the chosen tap marked, a lane in error labelled.
+``eyes.png``: as the chain's co-simulation measured it (the generic PHY's eye-status ports,
+the link model's captures in; report.json's ``rtl.eyes``, one entry a lane:
+:func:`tdicam.cosim.lvds_front.lane_eyes`); ``eyes_<phy>.png`` (:func:`device_png`): as the
+device PHY's receiver measured it from serial bits (``[run.rtl].phy``; report.json's
+``rtl.phy_checks[].eyes``: :func:`tdicam.chain.phy_check.device_eyes`)."""
 
 import numpy as np
 
-__all__ = ["EYES_PNG", "eye_figure"]
+__all__ = ["EYES_PNG", "eye_figure", "device_png"]
 
 #: The picture's file name in a run's output folder.
 EYES_PNG = "eyes.png"
 
 
-def eye_figure(eyes, path):
-    """Write the eye-mask picture of ``eyes`` (report.json's ``rtl.eyes``) to ``path``."""
+def device_png(phy):
+    """The file name of the eye-mask picture the device PHY ``phy`` measured from the pins."""
+    return f"eyes_{phy}.png"
+
+
+def eye_figure(eyes, path, *, title="Lane training: pass mask over the delay taps"):
+    """Write the eye-mask picture of ``eyes`` (report.json's ``rtl.eyes``, or a phy check's
+    ``eyes``) to ``path``, under ``title``."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -39,7 +48,7 @@ def eye_figure(eyes, path):
     ax.set_yticklabels([f"lane {e['lane']}" for e in eyes])
     ax.set_xlabel("delay tap (green: the training word passed; x: the chosen tap"
                   + (";\no: the tap at the end, tracking the drifting eye)" if moved else ")"))
-    ax.set_title("Lane training: pass mask over the delay taps")
+    ax.set_title(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -13,7 +13,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from tdicam.run.eyes import device_png
 from tdicam.run.quality_report import markdown_lines, summary_lines
+from tdicam.scene.sections import RTL_PHYS
 
 __all__ = ["configuration", "config_lines", "summary", "markdown", "FILE_NOTES", "PAPERS",
            "phy_lines"]
@@ -61,9 +63,15 @@ FILE_NOTES = {
                       "minus the ideal target, the whole image",
     "snr_vs_stages.png": "flat target: measured SNR gain against the stage count, with the "
                          "planning model and Tao et al. 2012 eq 28",
-    "eyes.png": "the sensor lanes' training: lanes x delay taps, the taps where the training "
-                "word passed (green), the chosen tap (x), with tracking the tap at the end "
-                "(o), lanes in error labelled; the numbers are report.json's rtl.eyes",
+    "eyes.png": "the sensor lanes' training as the chain's co-simulation measured it (the "
+                "generic PHY's eye-status ports, the link model's captures in): lanes x "
+                "delay taps, the taps where the training word passed (green), the chosen "
+                "tap (x), with tracking the tap at the end (o), lanes in error labelled; "
+                "the numbers are report.json's rtl.eyes",
+    **{device_png(phy): f"the sensor lanes' training as the {phy} PHY's receiver measured "
+                        f"it from serial bits ([run.rtl].phy; its eye-status ports, over its "
+                        f"own delay taps), drawn as eyes.png; the numbers are report.json's "
+                        f"rtl.phy_checks[].eyes" for phy in RTL_PHYS if phy != "generic"},
     "mtf.png": "bar target: measured MTF with the planning model, Yuan et al. 2013's model "
                "and the footprint model",
     "pipeline_mismatch.fst": "RTL co-simulation: waveform around the first mismatch "
@@ -246,32 +254,92 @@ def summary(scene, rep):
                 lines.append(f"  RTL {b['block']}: {b.get('status')}")
         for r in rep["rtl"].get("phy_checks") or []:
             lines.append(f"  RTL lanes from serial bits, {r['phy']} PHY: " + (
-                f"{r['words_compared']} words compared, {r['mismatches']} mismatches, taps "
-                f"{'as' if r['taps_as_predicted'] else 'NOT as'} predicted"
+                f"{r['words_compared']} words compared, {r['mismatches']} mismatches, "
+                f"training {'as' if r['taps_as_predicted'] else 'NOT as'} predicted"
+                + _errors_text(r) + _corrections_text(r)
                 if r["status"] == "ran" else r["status"]))
     return "\n".join(lines)
 
 
+def _errors_text(r):
+    """', lanes 0, 1 in error (as predicted)' of a phy check row, '' with none."""
+    if not r["lane_errors"]:
+        return ""
+    return (f", lane(s) {', '.join(map(str, r['lane_errors']))} in error"
+            + (" (as predicted)" if r["taps_as_predicted"] else ""))
+
+
+def _corrections_text(r):
+    """', 17 tracking corrections (as predicted)' of a phy check row with tracking."""
+    if "corrections" not in r:
+        return ""
+    n = sum(len(c) for c in r["corrections"])
+    return (f", {n} tracking correction(s)"
+            + (" (as predicted)" if r["corrections_as_predicted"] else " (NOT as predicted)"))
+
+
 def phy_lines(rows):
-    """report.md's rows of the ``[run.rtl] phy`` checks (:mod:`tdicam.chain.phy_check`)."""
+    """report.md's rows of the ``[run.rtl] phy`` checks (:mod:`tdicam.chain.phy_check`):
+    the table, the drift, every tracking correction against the golden tracker's, each
+    lane's training as the device PHY published it, the problems."""
     md = ["The sensor's lanes from serial bits through the device PHY's receiver "
           "([run.rtl].phy), beside the chain's co-simulation above (which the generic PHY, "
-          "words in, feeds): each lane's words against the golden link model's, its tap "
-          "and slip against the prediction for the PHY.", "",
-          "| PHY | simulator | lanes | words compared | mismatches | taps as predicted | "
-          "lanes in error | wall (s) |", "|---|---|---|---|---|---|---|---|"]
+          "words in, feeds): each lane's words against the golden link model's, its "
+          "training (tap, slip, locked or in error at the end) and with tracking every "
+          "correction against the prediction for the PHY. A lane in error that the golden "
+          "model predicts (a drift without tracking) is the scene's finding, not a failure: "
+          "its words are judged up to its predicted first wrong one. Only what differs from "
+          "the prediction is listed as a problem below, and makes the co-simulation fail.",
+          "", "| PHY | simulator | lanes | words compared | mismatches | training as "
+          "predicted | lanes in error | tracking corrections | wall (s) |",
+          "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["status"] != "ran":
-            md.append(f"| {r['phy']} | {r['simulator']} | {r['status']} | - | - | - | - | "
+            md.append(f"| {r['phy']} | {r['simulator']} | {r['status']} | - | - | - | - | - | "
                       f"{r['wall_seconds']:.1f} |")
             continue
+        errs = ", ".join(map(str, r["lane_errors"])) or "none"
+        if r["lane_errors"] and r["taps_as_predicted"]:
+            errs += " (as predicted)"
+        corr = "-" if "corrections" not in r else (
+            f"{sum(len(c) for c in r['corrections'])} "
+            f"({'as' if r['corrections_as_predicted'] else 'NOT as'} predicted)")
         md.append(f"| {r['phy']} | {r['simulator']} | {r['lanes']} | {r['words_compared']} "
                   f"| {r['mismatches']} | {'yes' if r['taps_as_predicted'] else 'no'} | "
-                  f"{', '.join(map(str, r['lane_errors'])) or 'none'} | "
-                  f"{r['wall_seconds']:.1f} |")
+                  f"{errs} | {corr} | {r['wall_seconds']:.1f} |")
     md.append("")
+    for r in rows:
+        md += _drift_lines(r)
     md += [f"* {r['phy']}: {t}" for r in rows for t in r.get("problems", [])]
     return md + ([""] if any(r.get("problems") for r in rows) else [])
+
+
+def _drift_lines(r):
+    """report.md's lines of one phy check's drift, corrections and eye status."""
+    md = []
+    d = r.get("drift")
+    if d:
+        md += [f"{r['phy']}: the eyes drift {', '.join(f'{t:g}' for t in d['taps'])} taps "
+               f"(of {d['tap_ps']:g} ps, lane by lane) over {d['words']} words from word "
+               f"{d['from_word']} (the chain's co-simulation's frames), as "
+               f"[sensor.lvds].drift_taps / drift_frames state them.", ""]
+    if "corrections" in r:
+        md += [f"{r['phy']}: every tracking correction from the pins, each as (the word it "
+               f"takes effect at: the first raw word sampled with the new tap, port cycles of "
+               f"the pin run; the new tap), beside the golden tracker's "
+               f"(tdicam.model.lvds_track):", ""]
+        for i, (got, want) in enumerate(zip(r["corrections"], r["predicted_corrections"])):
+            text = ", ".join(f"{e} ({t})" for e, t in got) or "none"
+            md.append(f"* lane {i}: {len(got)} correction(s): {text}; "
+                      + ("as the golden tracker predicts" if got == want else
+                         "the golden tracker predicts " +
+                         (", ".join(f"{e} ({t})" for e, t in want) or "none")))
+        md.append("")
+    if r.get("eyes"):
+        md += [f"{r['phy']}: each lane's training as its receiver published it from the pins "
+               f"(eye-status ports; picture {device_png(r['phy'])}):", ""]
+        md += [f"* {e['text']}" for e in r["eyes"]] + [""]
+    return md
 
 
 def plan_lines(verdict):

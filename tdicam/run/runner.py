@@ -221,8 +221,18 @@ def _write(run, out_dir, stage, bar):
         if (rtl_report or {}).get("eyes"):
             from tdicam.run.eyes import EYES_PNG, eye_figure
             with writing_in(out_dir):
-                eye_figure(rtl_report["eyes"], out_dir / EYES_PNG)
+                eye_figure(rtl_report["eyes"], out_dir / EYES_PNG,
+                           title="The chain's co-simulation (generic PHY): pass mask over "
+                                 "the delay taps")
             files.append(EYES_PNG)
+        for row in (rtl_report or {}).get("phy_checks") or []:
+            if row.get("eyes"):
+                from tdicam.run.eyes import device_png, eye_figure
+                with writing_in(out_dir):
+                    eye_figure(row["eyes"], out_dir / device_png(row["phy"]),
+                               title=f"The {row['phy']} receiver from serial bits: pass "
+                                     f"mask over its delay taps")
+                files.append(device_png(row["phy"]))
     real_time = 1.0 / scene.line_period_s
     requested = fidelity or scene.run.fidelity
     bar.stage("the report")

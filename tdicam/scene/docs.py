@@ -88,7 +88,9 @@ SECTIONS = {
     "camera": "Optional: the whole camera's rate budget that tdicam plan prints (lanes, "
               "processing clock, DDR traffic of the coefficients and reset frames, NAND "
               "load, output links; Ning et al. 2019), defaults the paper's camera. The "
-              "golden chain and the gateware do not read it.",
+              "golden chain does not read it; the gateware reads its links, "
+              "link_clock_mhz, link_pixel_bits and the two frame rates only with "
+              "[pipeline].output = 'links', which needs their ratio a whole number.",
     "run": "How much to simulate and how exactly.",
     "run.rtl": "Optional: co-simulate the scene's blocks cycle-accurately on a crop of the "
                "output (generated Verilog on Icarus or Verilator) and compare every pixel. "

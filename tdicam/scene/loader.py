@@ -287,6 +287,8 @@ class Scene:
         rtl = d["run"]["rtl"]
         if rtl is not None and rtl["lane_dies"] is None:      # no fault: the dict of before
             del rtl["lane_dies"]
+        if d["pipeline"]["output"] == "stream":     # the pixel stream out: as before
+            del d["pipeline"]["output"]
         if d["camera"] is None:             # no camera budget: the dict of before
             del d["camera"]
         if d["run"]["figure_crop"] is None:     # a centred crop: the dict of before
@@ -362,6 +364,19 @@ def _check_digital_tdi(tdi_sec: Section, sensor_sec: Section, scene: Scene) -> N
         if why is not None:
             key, _, msg = why.partition(": ")
             (tdi_sec if key == "stages" else sensor_sec).fail(key, msg)
+
+
+def _check_output(sec: Section, scene: Scene) -> None:
+    """``[pipeline].output = "links"``: the links are those of ``[camera]``, which must be
+    given, its frame rates a whole ratio (one frame sent in K)."""
+    if scene.pipeline.output != "links":
+        return
+    if scene.camera is None:
+        sec.fail("output", "'links' sends the chain on the output links of [camera] (links, "
+                           "link_clock_mhz, link_pixel_bits, output_frame_rate_hz): give a "
+                           "[camera] section, or output = 'stream'")
+    from tdicam.model.frame_select import keep_every
+    keep_every(scene.camera.frame_rate_hz, scene.camera.output_frame_rate_hz)
 
 
 def _check_chain(sec: Section, scene: Scene, labels) -> None:
@@ -476,6 +491,7 @@ def scene_from_dict(data: Mapping[str, Any], *, base_dir: str | Path | None = No
     _check_stages(tdi_sec, scene, window)
     _check_digital_tdi(tdi_sec, section("sensor"), scene)
     _check_chain(section("pipeline"), scene, labels)
+    _check_output(section("pipeline"), scene)
     _check_extent(section("target"), section("run"), scene)
     _check_line_period(section("orbit" if orbit is not None else "turntable"), scene)
     if run.rtl is not None and tdi.domain != "digital":

@@ -85,8 +85,9 @@ The line period either gives must lie in 1e-8..100 s.
     many taps (+: to higher taps) over ``drift_frames`` [20], >= 1, frames as the sensor
     sends them (from its first frame on; :class:`tdicam.model.lvds.Lane` drift), as
     temperature moves it over an orbit; ``tracking`` [false]: the receiver follows each
-    locked lane's eye with a monitor sampler (:mod:`tdicam.hdl.lvds_track`, the generic PHY)
-    and reports every correction. Without tracking a drift past the sampling tap's margin
+    locked lane's eye with a monitor sampler (:mod:`tdicam.hdl.lvds_track`: the generic
+    PHY of the chain's co-simulation; from serial bits with ``[run.rtl] phy = "xilinx7"``
+    and 12-bit words, any other PHY refused with tracking) and reports every correction. Without tracking a drift past the sampling tap's margin
     puts the lane in error.
 
 ``[optics]`` (optional)
@@ -111,7 +112,17 @@ The line period either gives must lie in 1e-8..100 s.
     ``blocks`` [["tdi"]]: the ordered processing chain from ``cds``, ``nuc``, ``hdr``,
     ``tdi``, ``median3``; ``tdi`` exactly once, no repeats; ``cds``, ``nuc`` and ``hdr``
     act on single exposures, so they come before ``tdi`` and in that order; ``median3`` may
-    come before or after ``tdi``. Block options, only for listed blocks:
+    come before or after ``tdi``. ``output`` ["stream"]: where the generated top's
+    pixels go: ``"stream"``, the last block's AXI4-Stream (``m_axis``); ``"links"``, the
+    camera's output links of ``[camera]`` (needed): a frame selector keeping one image in
+    ``K = frame_rate_hz / output_frame_rate_hz`` (a whole number, else a one-line error),
+    then ``links`` TLK2711 framers of ``link_pixel_bits`` a pixel
+    (:class:`tdicam.hdl.tlk2711.Tlk2711`, pins ``link<k>_txd``/``_tklsb``/``_tkmsb``) in
+    the link clock's domain (ports ``link_clk``/``link_rst``, ``link_clock_mhz``). An
+    image is a frame of the chain's output (median3 frames the run's lines: the sensor's
+    rows, or a cut's lines), or with single-line frames the sensor's rows of them; the
+    links learn a frame's end from the chain's frame markers (the next ``first``). Block
+    options, only for listed blocks:
     ``[pipeline.cds]`` ``reset_level_dn`` [0.0], >= 0 and < 2**bits;
     ``[pipeline.nuc]`` ``gain_frac_bits`` [12], 4..16 (the golden model's range), ``ecc``
     [true] (the coefficients pass a 64/72 SECDED round trip without faults), ``flash``
@@ -152,7 +163,8 @@ The line period either gives must lie in 1e-8..100 s.
     :data:`tdicam.model.physics.camera.KEYS`. ``frame_rate_hz`` defaults to
     ``[sensor].max_frame_rate_hz`` (one of the two is needed), ``output_frame_rate_hz`` to
     ``frame_rate_hz`` and not above it; ``links`` must divide ``[sensor].columns``. The
-    golden chain and the gateware do not read it.
+    golden chain does not read it; the gateware reads the links' keys and the frame rates'
+    ratio only with ``[pipeline].output = "links"``.
 
 ``[run]``
     ``lines`` [256]: output lines, >= 1, with ``columns x lines`` at most 2**27 output
@@ -414,6 +426,7 @@ class Pipeline:
 
     blocks: tuple[str, ...]
     options: tuple = ()
+    output: str = "stream"
 
     def __getattr__(self, name):
         # scene.pipeline.<block>: the block's options (dunder and private names are not

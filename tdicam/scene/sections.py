@@ -14,7 +14,7 @@ from typing import Any
 from tdicam import blocks
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError
-from tdicam.hdl.lvds_phy import PHYS
+from tdicam.hdl.lvds_phy import PHYS, TRACKING_WORD_BITS
 from tdicam.model import lvds_front
 from tdicam.model.physics import camera
 from tdicam.model.physics.camera import Camera
@@ -292,7 +292,8 @@ SENSOR_LVDS_KEYS = {
     "eye_status": KeyDoc("", "the receiver publishes its training (tap pass masks, "
                              "chosen tap and slip, eye width) and checks every bit with "
                              "walking-1/0 patterns after lock; tdicam run reports them "
-                             "(eyes.png); adds ports to the pipeline top"),
+                             "(eyes.png; with [run.rtl].phy the device PHY's too: "
+                             "eyes_<phy>.png); adds ports to the pipeline top"),
     "drift_taps": KeyDoc("taps", "slow drift of each eye's centre over drift_frames "
                                  "(+: to higher taps), as temperature moves it",
                          type="number or list (one per lane)", default="0",
@@ -301,7 +302,9 @@ SENSOR_LVDS_KEYS = {
                                      "over which the eyes drift by drift_taps"),
     "tracking": KeyDoc("", "the receiver follows each locked lane's eye with a monitor "
                            "sampler 4 taps either side and reports every correction "
-                           "(generic PHY); adds ports to the pipeline top"),
+                           "(the chain's generic PHY; from serial bits with [run.rtl].phy "
+                           "= \"xilinx7\" and 12-bit words); adds ports to the pipeline "
+                           "top"),
 }
 
 
@@ -421,13 +424,23 @@ PIPELINE_KEYS = {
     "blocks": KeyDoc("", "the ordered processing chain, from cds, nuc, hdr, tdi, median3; "
                          "tdi exactly once, no repeats",
                      type="list of strings", range="order rules above"),
+    "output": KeyDoc("", "where the generated top's pixels go: stream, the last block's "
+                         "AXI4-Stream (m_axis); links, the camera's output links of "
+                         "[camera] (links, link_clock_mhz, link_pixel_bits): one frame of "
+                         "the sensor's rows in K = frame_rate_hz / output_frame_rate_hz "
+                         "kept, framed on TLK2711 parallel ports (link{k}_txd, _tklsb, "
+                         "_tkmsb) in the link clock's domain (link_clk, link_rst)",
+                     default="stream", range="stream, links; links needs [camera]"),
 }
+
+#: ``[pipeline].output`` choices: the top ends in its pixel stream, or in the output links.
+OUTPUTS = ("stream", "links")
 
 
 def read_pipeline(sec: Section, sensor: Sensor, labels) -> Pipeline:
     listed = blocks.scene_blocks()
     with_options = [b for b in listed if b.pipeline.options is not None]
-    sec.check_keys(("blocks",) + tuple(b.name for b in with_options))
+    sec.check_keys(("blocks", "output") + tuple(b.name for b in with_options))
     line_block = next(b.name for b in listed if b.pipeline.lines)
     per_frame = [b.name for b in listed if b.pipeline.per_frame]
     raw = sec.raw("blocks", [line_block])
@@ -458,7 +471,8 @@ def read_pipeline(sec: Section, sensor: Sensor, labels) -> Pipeline:
         s = Section(f"{sec.name}.{b.name}", sec.data.get(b.name), labels)
         s.check_keys(tuple(opts.keys))
         options.append((b.name, opts.read(s, sensor)))
-    return Pipeline(blocks=tuple(raw), options=tuple(options))
+    return Pipeline(blocks=tuple(raw), options=tuple(options),
+                    output=sec.choice("output", "stream", OUTPUTS))
 
 
 #: ``[camera]``: unit and meaning of every key (:class:`tdicam.blocks.KeyDoc`).
@@ -591,8 +605,12 @@ RUN_RTL_KEYS = {
     "phy": KeyDoc("", "the LVDS receiver's PHY checked from serial bits beside the chain "
                       "(which the generic PHY feeds): the scene's lanes through that "
                       "PHY's receiver, its words against the golden link model's, every "
-                      "lane's tap and slip against the prediction for the PHY",
-                  default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]"),
+                      "lane's tap and slip (with eye_status its eye status, with drift and "
+                      "tracking every correction; a lane in error as predicted is no "
+                      "failure) against the prediction for the PHY",
+                  default="generic", range=", ".join(RTL_PHYS) + "; needs [sensor.lvds]; "
+                                                              "tracking: xilinx7, 12-bit "
+                                                              "words"),
     "csr": KeyDoc("", "the co-simulated top with its control bus (AXI4-Lite, as tdicam "
                       "verilog pipeline writes it by default): the sensor front end's "
                       "status read through the bus while the lanes run, every register "
@@ -656,6 +674,14 @@ def read_run(sec: Section, sensor: Sensor, labels) -> Run:
         phy = r.choice("phy", "generic", RTL_PHYS)
         if phy != "generic" and sensor.lvds is None:
             r.fail("phy", f"{phy} needs the sensor's lanes ([sensor.lvds])")
+        if phy != "generic" and sensor.lvds.tracking and \
+                TRACKING_WORD_BITS.get(phy) != sensor.lvds.word_bits:
+            r.fail("phy", f"{phy} with [sensor.lvds].tracking = true and word_bits = "
+                          f"{sensor.lvds.word_bits}: the receiver tracks from serial bits "
+                          f"only as " + ", ".join(f'{p} with {b}-bit words' for p, b in
+                                                  TRACKING_WORD_BITS.items())
+                          + " (a monitor sampler); give phy = \"xilinx7\" and word_bits = "
+                            "12, or tracking = false")
         csr = r.boolean("csr", False)
         if csr and sensor.lvds is None:
             r.fail("csr", "true needs the sensor's lanes ([sensor.lvds]): tdicam run's bus "

@@ -15,6 +15,13 @@ before). It stops ``drain`` processing clocks after the last expected output bea
 ``max_cycles``) and writes ``result.json`` (the front's status ports as they were at the end
 of the sensor's words, the other status outputs at the end).
 
+With ``job["links"]`` the top ends in the output links (``[pipeline].output = "links"``):
+the link clock ``link_clk`` runs at ``job["links"]["link_ps"]`` (its reset ``link_rst``
+with the processing one), and the output beats are the links' words instead of
+``m_axis``: every link clock on which link 0 sends a word other than IDLE (the links send
+their IDLEs together) is one beat, every link's word in it (link ``L``'s at bit
+``L * job["links"]["padded"]``).
+
 With ``job["csr"]`` the top has the control bus (``--csr``): the front's status is read
 through it (:class:`tdicam.simtb.lanes_bus.LaneBus`: the frame status, the start-up, the
 interrupts served), and the registers standing for status ports give those ports' values.
@@ -25,6 +32,7 @@ from pathlib import Path
 
 import cocotb
 import numpy as np
+from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, First, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
@@ -48,24 +56,46 @@ async def run_job(dut):
     bus_idle = [getattr(dut, f"s_axil_{x}") for x in ("awvalid", "wvalid", "bready",
                                                        "arvalid", "rready")] \
         if job.get("csr") else []
+    links = job.get("links")
+    lclk = None
+    if links is not None:               # the links' clock, reset with the processing side
+        lclk = Clock(dut.link_clk, links["link_ps"], unit="ps")
+        lclk.start()
+        dut.link_rst.value = 1
     wclk, pclk = await start(dut, job["word_ps"], job["proc_ps"], job["settings"],
-                             (dut.lvds_lane_raw, dut.lvds_retrain, dut.m_axis_tready,
-                              *bus_idle))
+                             (dut.lvds_lane_raw, dut.lvds_retrain, *bus_idle,
+                              *(() if links else (dut.m_axis_tready,))))
+    if links is not None:
+        await FallingEdge(dut.link_clk)
+        dut.link_rst.value = 0
     done = [False]
     taps = [[getattr(dut, f"{base}_{s}") for s in ("valid", "ready", "first", "last", "data")]
             for base in job["taps"]]
 
+    async def link_side():
+        pins = [[getattr(dut, f"link{k}_{x}") for x in ("txd", "tklsb", "tkmsb")]
+                for k in range(links["links"])]
+        while True:
+            await FallingEdge(dut.link_clk)
+            words = [_get(t) | _get(lo) << 16 | _get(hi) << 17 for t, lo, hi in pins]
+            if words[0] != links["idle"]:
+                res["beats"].append([0, 0, str(sum(w << (k * links["padded"])
+                                                   for k, w in enumerate(words))), cyc_now[0]])
+
+    cyc_now = [0]
     # no beat before the front first releases a frame (its ``releasing`` rises at the first
     # released frame's header, before its pixels): until then the processing side waits on
     # that port instead of every clock, its cycles counted from the simulation time
     skip = [bus_idle == [] and hasattr(dut, "lvds_releasing")]
 
     async def proc_side():
-        dut.m_axis_tready.value = 1
+        if links is None:
+            dut.m_axis_tready.value = 1
         await FallingEdge(dut.clk)
         t1, cyc = get_sim_time(unit="ps"), 1
         while True:
-            if _get(dut.m_axis_tvalid):
+            cyc_now[0] = cyc
+            if links is None and _get(dut.m_axis_tvalid):
                 res["beats"].append([_get(dut.m_axis_tuser), _get(dut.m_axis_tlast),
                                      str(_get(dut.m_axis_tdata)), cyc])
             for k, (v, r, f, la, d) in enumerate(taps):
@@ -88,6 +118,8 @@ async def run_job(dut):
             cyc = 1 + round((get_sim_time(unit="ps") - t1) / job["proc_ps"])
 
     proc = cocotb.start_soon(proc_side())
+    if links is not None:
+        cocotb.start_soon(link_side())
     st = job.get("steady")
     drv = WordDriver(raw, job["word_bits"], job.get("retrains", ()), res,
                      None if st is None else (st["k0"], st["taps"], np.load("steady.npy")))
@@ -138,5 +170,7 @@ async def run_job(dut):
         res["registers"] = await bus.read_all()
     wclk.stop()
     pclk.stop()
+    if lclk is not None:
+        lclk.stop()
     await Timer(1, unit="ns")
     Path("result.json").write_text(json.dumps(res))
