@@ -247,7 +247,7 @@ def test_drifting_eyes_with_and_without_tracking_on_icarus(tracking):
         "run": {"lines": 18, "rtl": {"crop": None, "simulator": "icarus"}}})
     sc = replace(sc, sensor=replace(sc.sensor, lvds=replace(sc.sensor.lvds,
                                                             tracking=tracking)))
-    from tdicam.chain.cosim import lanes_of
+    from tdicam.chain.lane_cosim import lanes_of
     p = design.chain_plan(sc)
     p = replace(p, steps=tuple(replace(s, device={**s.device, "blocks": 16}) if s.device
                                else s for s in p.steps))

@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tdicam.chain.cosim import lanes_of
+from tdicam.chain.lane_cosim import lanes_of
 from tdicam.chain.phy_check import judge, phy_check
 from tdicam.errors import TdicamError
 from tdicam.run.report import phy_lines

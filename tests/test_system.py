@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from tdicam.chain import design
-from tdicam.chain.cosim import scene_data, status_ports
+from tdicam.chain.cosim import scene_data
+from tdicam.chain.tbrun import status_ports
 from tdicam.errors import TdicamError
 from tdicam.scene.loader import load_scene
 

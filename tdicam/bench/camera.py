@@ -102,10 +102,10 @@ def _cut_scene(lines, columns=None, lanes_per_gain=None):
 
 def camera_front(p, lines=CUT_LINES[0], *, columns=None, lanes_per_gain=None):
     """``front`` of :func:`tdicam.chain.cosim.cosimulate` for a cut's plan ``p`` (the other
-    arguments :func:`camera_cut`'s): the cut's lanes (:func:`tdicam.chain.cosim.lanes_of`:
+    arguments :func:`camera_cut`'s): the cut's lanes (:func:`tdicam.chain.lane_cosim.lanes_of`:
     ideal eyes), the word clock of the front's step, the processing clock at the scene's
     ``[camera].clock_mhz``."""
-    from tdicam.chain.cosim import lanes_of
+    from tdicam.chain.lane_cosim import lanes_of
     from tdicam.hdl.lvds_front import WORD_DOMAIN
     sc, _ = _cut_scene(lines, columns, lanes_per_gain)
     return {"lanes": lanes_of(sc.sensor.lvds, p.lanes),

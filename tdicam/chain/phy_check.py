@@ -2,7 +2,7 @@
 through a device PHY's receiver (:func:`tdicam.cosim.lvds_pins.run_pins`), beside the
 chain's own co-simulation (which the generic PHY, words in, feeds as before).
 
-The link is the scene's ``[sensor.lvds]``: its lanes (:func:`tdicam.chain.cosim.lanes_of`:
+The link is the scene's ``[sensor.lvds]``: its lanes (:func:`tdicam.chain.lane_cosim.lanes_of`:
 skews, eyes and jitter in ps as the scene states them) seen through the PHY's delay tap
 (:func:`tdicam.hdl.lvds_phy.tap_ps`), at the scene's bit rate made a whole number of fs a
 bit (:func:`tdicam.cosim.lvds_pins.rate_for_ui`), the link model's own data after the
@@ -60,7 +60,7 @@ DRIFT_SLACK = 6
 
 def phy_check(lv, lanes, phy, sim, *, drift_words=None):
     """One report row: the scene's lanes (``lv``: :class:`tdicam.scene.schema.Lvds`;
-    ``lanes``: the chain's, :func:`tdicam.chain.cosim.lanes_of`) from serial
+    ``lanes``: the chain's, :func:`tdicam.chain.lane_cosim.lanes_of`) from serial
     bits through ``phy``'s receiver on ``sim``; ``drift_words``: the words the scene's drift
     spans (the chain's co-simulation's; needed with ``drift_taps``). ``lanes``,
     ``words_compared``, ``mismatches``, ``taps_as_predicted`` (every lane's training and
