@@ -74,7 +74,10 @@ class LineWriter(wiring.Component):
     line's base and the current address, each plus the step), the beat's markers selecting
     among the sums, instead of the markers selecting the address before one adder (the
     whole Ning et al. 2019 camera at ppc 8: ``nuc_ddr``'s coefficient writer, the beat's
-    ``first`` into the 24-bit increment, 9.43 ns); the same addresses.
+    ``first`` into the 24-bit increment, 9.43 ns); the same addresses. With it, when a beat
+    fills less than a word or exactly one (``elements`` divides ``pixels_per_word``), the
+    word's registers load whenever the output is free and the gathered values every
+    cycle, so the beat's ``valid`` reaches no wide enable; the same words.
     """
 
     @quiet_reject
@@ -159,11 +162,20 @@ class LineWriter(wiring.Component):
                 nv = Mux(equals(k, g), beat[e], Mux(~k.any(), 0, vals[j])) if G > 1 else beat[e]
                 new_vals.append(nv)
             word = Cat(*[new_vals[j] for j in reversed(range(P))], Const(0, WORD_BITS - P * B))
-            with m.If(fire):
+            held = [o_data.eq(word), o_addr.eq(cur_addr), o_eol.eq(last_col),
+                    o_first.eq(cur_first)]
+            if self._early:
+                # the word's registers load whenever the output is free (a beat or not:
+                # o_valid says which), the values every cycle (k moves on a beat only):
+                # the beat's valid (the frame kind before it) reaches no wide enable
                 m.d.sync += [v.eq(nv) for v, nv in zip(vals, new_vals)]
+                with m.If(~o_valid | self.wr_ready):
+                    m.d.sync += held
+            with m.If(fire):
+                if not self._early:
+                    m.d.sync += [v.eq(nv) for v, nv in zip(vals, new_vals)]
                 with m.If(completes):
-                    m.d.sync += [o_valid.eq(1), o_data.eq(word), o_addr.eq(cur_addr),
-                                 o_eol.eq(last_col), o_first.eq(cur_first), k.eq(0)]
+                    m.d.sync += [o_valid.eq(1), *(() if self._early else held), k.eq(0)]
                     with m.If(last_col):
                         m.d.sync += [col.eq(0), line_base.eq(next_line), waddr.eq(next_line)]
                     with m.Else():
