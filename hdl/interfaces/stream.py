@@ -84,7 +84,7 @@ class StreamRegister(wiring.Component):
         return m
 
 
-class PairBuffer(wiring.Component):
+class PairBuffer(StreamRegister):
     """:class:`StreamRegister`'s handshake, cycle for cycle, as a two-beat FIFO: the
     consumer's ``ready`` reaches no payload register's enable.
 
@@ -105,13 +105,6 @@ class PairBuffer(wiring.Component):
     payload_shape : shape-like
         The stream's payload.
     """
-
-    def __init__(self, payload_shape):
-        super().__init__({"i_stream": In(stream.Signature(payload_shape)),
-                          "o_stream": Out(stream.Signature(payload_shape))})
-
-    latency = property(lambda self: 1, doc="Cycles from an accepted input beat to its "
-                                           "output beat being valid.")
 
     def elaborate(self, platform):
         m = Module()
