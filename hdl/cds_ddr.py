@@ -105,7 +105,8 @@ class CdsDdr(wiring.Component):
         m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows,
                                                early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
-            layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
+            layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3,
+            early_last=ppc > 1)
         m.submodules.cds = cds = Cds(pixel_bits=lay.pixel_bits, ppc=ppc)
         connect_mig(m, port, self)
         wiring.connect(m, cds.o_stream, wiring.flipped(self.o_stream))

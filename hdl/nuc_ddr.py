@@ -141,7 +141,8 @@ class NucDdr(wiring.Component):
         m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc,
                                               rows=self._image_rows, early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
-            layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
+            layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3,
+            early_last=ppc > 1)
         m.submodules.nuc = nuc = self._core()
         connect_mig(m, port, self)
         wiring.connect(m, nuc.o_stream, wiring.flipped(self.o_stream))
