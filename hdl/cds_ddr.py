@@ -14,7 +14,8 @@ from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr import ADDR_BITS, CAPACITY_BYTES, WORD_BITS, check_capacity
 from tdicam.hdl.ddr import LineReader, LineWriter, _layout
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
-from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import (PairBuffer, StreamRegister, channels_shape,
+                                          pixel_signature)
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["CdsDdr", "default_pixels_per_word", "port_wiring", "frame_requests", "track_kinds"]
@@ -104,7 +105,8 @@ class CdsDdr(wiring.Component):
         m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows,
                                                early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
-            layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
+            layout=lay, elements=ppc, max_lines=port.rd_depth // lay.words_per_line + 3,
+            early_last=ppc > 1)
         m.submodules.cds = cds = Cds(pixel_bits=lay.pixel_bits, ppc=ppc)
         connect_mig(m, port, self)
         wiring.connect(m, cds.o_stream, wiring.flipped(self.o_stream))
@@ -122,8 +124,10 @@ class CdsDdr(wiring.Component):
             m.d.sync += [launched.eq(1), *start]
         # the reset pixels through a register slice: the reader's word-to-value select and
         # the subtraction in one cycle, and the ready chain back into the MIG port, held the
-        # block near 100 MHz on the ECP5
-        m.submodules.reset_reg = reg = StreamRegister(rd.o_stream.payload.shape())
+        # block near 100 MHz on the ECP5; at ppc >= 2 a PairBuffer (the beat's kind and the
+        # core's ready reach its read pointer, not the reset pixels' enable)
+        slice_kind = PairBuffer if ppc > 1 else StreamRegister
+        m.submodules.reset_reg = reg = slice_kind(rd.o_stream.payload.shape())
         wiring.connect(m, rd.o_stream, reg.i_stream)
         rs = reg.o_stream
         sig_ok = cds.i_stream.ready & (~have_reset | (rs.valid & (~i.payload.first | launched)))

@@ -20,7 +20,8 @@ from tdicam.model.nuc_ddr import check_image_rows, coeff_layout
 from tdicam.hdl.cds_ddr import frame_requests, port_wiring, track_kinds
 from tdicam.hdl.ddr import LineReader, LineWriter
 from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
-from tdicam.hdl.interfaces.stream import StreamRegister, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import (PairBuffer, StreamRegister, channels_shape,
+                                          pixel_signature)
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["NucDdr"]
@@ -140,7 +141,8 @@ class NucDdr(wiring.Component):
         m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc,
                                               rows=self._image_rows, early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(
-            layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3)
+            layout=lay, elements=2 * ppc, max_lines=port.rd_depth // lay.words_per_line + 3,
+            early_last=ppc > 1)
         m.submodules.nuc = nuc = self._core()
         connect_mig(m, port, self)
         wiring.connect(m, nuc.o_stream, wiring.flipped(self.o_stream))
@@ -169,8 +171,11 @@ class NucDdr(wiring.Component):
             with m.If(i.valid & i.ready & cur_kind & i.payload.first):
                 m.d.sync += [seg.eq(0), seg_base.eq(lay.base)]
         # the coefficients through a register slice (the reader's word-to-value select off
-        # the multiplier's input registers, the ready chain back into the MIG port cut)
-        m.submodules.coeff_reg = reg = StreamRegister(rd.o_stream.payload.shape())
+        # the multiplier's input registers, the ready chain back into the MIG port cut);
+        # at ppc >= 2 a PairBuffer: the beat's kind and the core's ready (cs.ready) reach
+        # its read pointer, not the enable of its 2 * ppc coefficients
+        slice_kind = PairBuffer if ppc > 1 else StreamRegister
+        m.submodules.coeff_reg = reg = slice_kind(rd.o_stream.payload.shape())
         wiring.connect(m, rd.o_stream, reg.i_stream)
         cs = reg.o_stream
         coeffs_ok = ~have | (cs.valid & (~i.payload.first | launched))

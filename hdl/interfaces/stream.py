@@ -16,7 +16,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.hdl.util import equals, pick
 
 __all__ = ["pixel_layout", "pixel_signature", "channels_shape", "StreamRegister",
-           "AdvanceBuffer", "Narrower"]
+           "PairBuffer", "AdvanceBuffer", "Narrower"]
 
 
 def pixel_layout(data_shape):
@@ -81,6 +81,49 @@ class StreamRegister(wiring.Component):
                 m.d.sync += [o.valid.eq(i.valid), o.payload.eq(i.payload)]
         with m.Elif(i.valid & ~skid_valid):
             m.d.sync += [skid.eq(i.payload), skid_valid.eq(1)]
+        return m
+
+
+class PairBuffer(StreamRegister):
+    """:class:`StreamRegister`'s handshake, cycle for cycle, as a two-beat FIFO: the
+    consumer's ``ready`` reaches no payload register's enable.
+
+    A skid buffer's output register loads on the consumer's ``ready``, so that ready (a
+    block's logic, several LUTs deep) fans out to every bit of a wide beat (``nuc_ddr``'s
+    coefficient slice at 8 pixels per clock, 258 bits: the whole Ning et al. 2019 camera's
+    slowest path, its input beat's frame kind into that enable, 8.61 ns). Here each beat
+    is written into one of two slots on the producer's side alone (``i.valid`` and the
+    register ``i.ready``); ``ready`` moves the read pointer and the two flags; ``payload``
+    is the read pointer's slot (a 2:1 select after the registers).
+
+    Same behaviour as :class:`StreamRegister` under every ``valid`` and ``ready`` pattern:
+    ``i.ready`` = fewer than 2 beats held (a register), ``o.valid`` = a beat held (a
+    register), the beats in order, :attr:`latency` 1 cycle.
+
+    Parameters
+    ----------
+    payload_shape : shape-like
+        The stream's payload.
+    """
+
+    def elaborate(self, platform):
+        m = Module()
+        i, o = self.i_stream, self.o_stream
+        slots = [Signal.like(i.payload, name=f"slot{k}") for k in range(2)]
+        wp, rp, full = Signal(), Signal(), Signal()
+        push, pop = i.valid & ~full, o.valid & o.ready
+        m.d.comb += [i.ready.eq(~full), o.payload.eq(Mux(rp, slots[1], slots[0]))]
+        with m.If(push):
+            m.d.sync += wp.eq(~wp)
+        for k, slot in enumerate(slots):
+            with m.If(push & (wp if k else ~wp)):
+                m.d.sync += slot.eq(i.payload)
+        with m.If(pop):
+            m.d.sync += rp.eq(~rp)
+        with m.If(push & ~pop):
+            m.d.sync += [o.valid.eq(1), full.eq(o.valid)]
+        with m.Elif(pop & ~push):
+            m.d.sync += [o.valid.eq(full), full.eq(0)]
         return m
 
 
