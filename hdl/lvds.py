@@ -19,7 +19,7 @@ One module (~600 lines) on purpose: the lane trainer, the deskew and the two rec
 share the lane status layout and the settings checks, and are verified together.
 """
 
-from amaranth.hdl import Array, Cat, ClockDomain, ClockSignal, Const, Instance, Module, \
+from amaranth.hdl import Cat, ClockDomain, ClockSignal, Const, Instance, Module, \
     Mux, ResetSignal, Signal
 from amaranth.lib import memory, wiring
 from amaranth.lib.wiring import In, Out
@@ -30,13 +30,39 @@ from tdicam.model.lvds_track import COUNT_BITS
 from tdicam.hdl.util import quiet_reject
 
 __all__ = ["LaneTrainer", "Deskew", "LvdsRx", "LvdsXilinx", "TAP_BITS", "SLIP_BITS",
-           "RUN_BITS", "forward_core", "rx_ports", "lane_ports", "eye_ports", "EYE_STATUS"]
+           "RUN_BITS", "forward_core", "settings_registers", "rx_ports", "lane_ports", "eye_ports", "EYE_STATUS"]
 
 TAP_BITS = 5
 SLIP_BITS = 4
 RUN_BITS = 6
 # state codes start at 1: yosys writes "x == 0" as "!x", which lints as WIDTHTRUNC
 _SCAN, _DECIDE, _SLIP, _LOCKED, _ERROR = range(1, 6)
+
+
+def _settings_shapes(w, settle):
+    """{name: shape} of a lane's registered settings (:func:`settings_registers`)."""
+    top = settle + 255 + VERDICT_WORDS - 1
+    return {"train_word": w, "sync_word": w, "line_words": 16, "chk_end": range(top + 1),
+            "last_at": range(top + 1)}
+
+
+def settings_registers(m, settle, train_word, sync_word, n_check, line_words):
+    """The lanes' quasi-static settings registered (one cycle after they change; a lane
+    first uses them >= ``settle`` cycles into a step): ``(train_word, sync_word,
+    line_words, chk_end, last_at)``, the last two the step's check end ``settle +
+    max(n_check, 1)`` and verdict cycle (:data:`VERDICT_WORDS` - 1 after it). Made by each
+    :class:`LaneTrainer` for itself, or once for all the lanes of :class:`LvdsRx`."""
+    shapes = _settings_shapes(len(train_word), settle)
+    top = shapes["last_at"].stop - 1
+    regs = {name: Signal(shape, reset_less=True, name=f"reg_{name}",
+                         init={"chk_end": settle + 1, "last_at": top}.get(name, 0))
+            for name, shape in shapes.items()}
+    n_eff = Mux(n_check.any(), n_check, 1)
+    m.d.sync += [regs["chk_end"].eq(settle + n_eff),
+                 regs["last_at"].eq(settle + n_eff + (VERDICT_WORDS - 1)),
+                 regs["train_word"].eq(train_word), regs["sync_word"].eq(sync_word),
+                 regs["line_words"].eq(line_words)]
+    return tuple(regs[name] for name in shapes)
 
 
 def _check_common(word_bits, settle, min_run, pick):
@@ -73,6 +99,11 @@ class LaneTrainer(wiring.Component):
         Sync word period in data mode (>= 2).
     restart : In(1)
         Restart training next cycle (retrain request).
+    reg_train_word, reg_sync_word, reg_line_words, reg_chk_end, reg_last_at : In, with
+    ``shared=True`` only
+        In place of the four settings above: their registers made once for all lanes by
+        :func:`settings_registers` (what a lane makes for itself without ``shared``), so N
+        lanes hold one copy; the same cycles.
     hold : In(1), with ``hold=True`` only
         The delay line is still moving to the step's tap (a delay stepped one count at a
         time, the ECP5 DELAYF): the step's word counter stays at 0 while it is high, so the
@@ -111,14 +142,18 @@ class LaneTrainer(wiring.Component):
 
     @quiet_reject
     def __init__(self, *, word_bits=10, settle=8, min_run=9, pick=5, hold=False, eye=False,
-                 track=False):
+                 track=False, shared=False):
         _check_common(word_bits, settle, min_run, pick)
         self._w, self._settle, self._min_run, self._pick = word_bits, settle, min_run, pick
         self._hold, self._eye, self._track = bool(hold), bool(eye), bool(track)
+        self._shared = bool(shared)
         w = word_bits
+        settings = ({f"reg_{name}": In(shape) for name, shape in
+                     _settings_shapes(w, settle).items()} if shared else
+                    {"train_word": In(w), "sync_word": In(w), "n_check": In(8),
+                     "line_words": In(16)})
         ports = {
-            "raw": In(w), "train_word": In(w), "sync_word": In(w), "n_check": In(8),
-            "line_words": In(16), "restart": In(1),
+            "raw": In(w), **settings, "restart": In(1),
             "tap": Out(TAP_BITS), "ld": Out(1, init=1), "slip": Out(SLIP_BITS),
             "locked": Out(1), "error": Out(1), "run": Out(RUN_BITS), "scan": Out(N_TAPS),
             "word": Out(w), "word_sync": Out(1),
@@ -152,17 +187,12 @@ class LaneTrainer(wiring.Component):
         w, settle = self._w, self._settle
         state = Signal(3, init=_SCAN)
         cnt = Signal(range(settle + 256 + VERDICT_WORDS))
-        # quasi-static settings registered in the lane (local fanout, timing): they take
-        # effect one cycle after they change; the first use is >= settle cycles into a step
-        top = settle + 255 + VERDICT_WORDS - 1
-        chk_end = Signal(range(top + 1), init=settle + 1, reset_less=True)
-        last_at = Signal(range(top + 1), init=top, reset_less=True)
-        train_word, sync_word = (Signal(w, reset_less=True), Signal(w, reset_less=True))
-        line_words = Signal(16, reset_less=True)
-        n_eff = Mux(self.n_check.any(), self.n_check, 1)
-        m.d.sync += [chk_end.eq(settle + n_eff), last_at.eq(settle + n_eff + (VERDICT_WORDS - 1)),
-                     train_word.eq(self.train_word), sync_word.eq(self.sync_word),
-                     line_words.eq(self.line_words)]
+        if self._shared:
+            train_word, sync_word, line_words, chk_end, last_at = (
+                getattr(self, f"reg_{name}") for name in _settings_shapes(w, settle))
+        else:
+            train_word, sync_word, line_words, chk_end, last_at = settings_registers(
+                m, settle, self.train_word, self.sync_word, self.n_check, self.line_words)
         last = cnt == last_at
         in_step = (state == _SCAN) | (state == _SLIP)
 
@@ -170,9 +200,9 @@ class LaneTrainer(wiring.Component):
         prev = Signal(w)
         m.d.sync += prev.eq(self.raw)
         both = Cat(self.raw, prev)
-        # (padded to 16 entries so the generated case statement is complete)
-        g = Array([both[w - s:2 * w - s] for s in range(w)]
-                  + [both[:w]] * (16 - w))[self.slip]
+        # as a shifter: (both << slip)[W:2W] = both[W-slip:2W-slip] (slip 0..W-1; a
+        # 16-entry case on the slip maps to about twice the LUTs)
+        g = (both << self.slip)[w:2 * w]
 
         # stage A: aligned word and what to do with it (decided at port time)
         w_a, chk_a, first_a, mon_a, scan_a = (Signal(w), Signal(), Signal(), Signal(),
@@ -592,8 +622,12 @@ class LvdsRx(wiring.Component):
         n, w = self._n, self._w
         m.submodules.deskew = dsk = Deskew(lanes=n, word_bits=w, depth=self._depth)
         done = []
+        # the settings registered once for every lane (not a copy in each)
+        shared = dict(zip((f"reg_{name}" for name in _settings_shapes(w, self._kw["settle"])),
+                          settings_registers(m, self._kw["settle"], self.train_word,
+                                             self.sync_word, self.n_check, self.line_words)))
         for i in range(n):
-            t = LaneTrainer(**self._kw, track=bool(self._track))
+            t = LaneTrainer(**self._kw, track=bool(self._track), shared=True)
             m.submodules[f"lane{i}"] = t
             if self._track:
                 from tdicam.hdl.lvds_track import LaneTracker
@@ -609,8 +643,7 @@ class LvdsRx(wiring.Component):
                 ]
             m.d.comb += [
                 t.raw.eq(self.lane_raw[i * w:(i + 1) * w]),
-                t.train_word.eq(self.train_word), t.sync_word.eq(self.sync_word),
-                t.n_check.eq(self.n_check), t.line_words.eq(self.line_words),
+                *(getattr(t, name).eq(reg) for name, reg in shared.items()),
                 t.restart.eq(self.retrain),
                 self.lane_tap[i * TAP_BITS:(i + 1) * TAP_BITS].eq(t.tap),
                 self.lane_ld[i].eq(t.ld),
