@@ -20,8 +20,9 @@ from tdicam.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 #: sha256 of ``tdicam verilog pipeline --no-csr`` of the system lanes scene (the tdicam
-#: version in its header as ``VERSION``): the top of before the control bus was the default.
-NO_CSR_LANES_SHA256 = "717850894007946bdeae819247dce9aab4c4aad72195350a830fe1d7727f9723"
+#: version in its header as ``VERSION``): the top of before the control bus was the default,
+#: its lane trainers' gearbox a shifter and their settings registered once (issue 45).
+NO_CSR_LANES_SHA256 = "fb369291d606a0ccd955ff3f468b7bf8314506be8742a9c6c1a6f2dae1016c5e"
 CHAIN = ROOT / "scenes" / "ning2019_chain.toml"
 SYSTEM = {"cds": {"memory": "ddr"}, "nuc": {"flash": "nand", "bad_blocks": 20,
                                              "flip_single": 0.25, "flip_double": 0.05}}
