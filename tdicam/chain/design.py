@@ -25,13 +25,13 @@ import numpy as np
 
 from tdicam.beats import PPC_CHOICES, check_ppc
 from tdicam.blocks.steps import ChainPlan, SceneData, Step, StepContext
-from tdicam.errors import TdicamError, check_range
+from tdicam.errors import TdicamError, check_choice, check_range
 
 __all__ = ["Step", "ChainPlan", "SceneData", "StepContext", "uses", "chain_plan", "top", "golden",
            "stimulus", "output_shape", "verilog", "identity_data", "PipelineBlock",
            "check_options", "ECP5_85F", "XC7K325T", "xc7_share", "run_values", "register_map",
            "MEMORY", "scene_ppc", "sourced", "rate_ppc", "step_ppc", "out_ppc", "chain_text",
-           "load_pipeline_scene", "link_plan", "link_words",
+           "load_pipeline_scene", "link_plan", "link_words", "PARTS",
            "link_word_count"]
 
 
@@ -98,8 +98,14 @@ def scene_ppc(scene):
     return 1 if scene.run.rtl is None else int(scene.run.rtl.pixels_per_clock)
 
 
+#: The parts of a camera's top that ``part`` builds (:func:`chain_plan`): the whole top; only
+#: its source (the sensor's front end, from the lanes to the pixel stream: one device of a
+#: two-device split); everything after it (from the pixel stream to the top's output).
+PARTS = ("whole", "front", "chain")
+
+
 def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill=None,
-               device="ecp5-85f", ppc=None, phy=None):
+               device="ecp5-85f", ppc=None, phy=None, part="whole"):
     """The :class:`ChainPlan` of ``scene``'s ``[pipeline]`` (or of ``blocks`` in that order).
 
     ``ppc``: pixels per clock of the chain's input and of every block before a line-making
@@ -123,6 +129,12 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     ``[sensor.lvds]`` section): ``"none"`` the generic simulated one, ``"xilinx7"`` the
     7-series primitives (its ``phy`` parameter); None: the block's default.
 
+    ``part``: one of :data:`PARTS`: ``"whole"`` the top as the scene has it; with the
+    sensor's lanes, ``"front"`` the plan of the front end alone (the top from the lanes to
+    the pixel stream, no links) or ``"chain"`` the plan without it (the top from the pixel
+    stream, as a scene without ``[sensor.lvds]``, to its output): the two devices of a
+    split camera, each synthesized on its own (``tdicam synth pipeline --part``).
+
     Raises a one-line :class:`TdicamError` naming the blocks when the chain cannot be built:
     a block without a gateware stage, a per-exposure block after a line-making one, a
     merging block without two channels, a pixel width a block cannot take, a memory that
@@ -131,6 +143,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     width not a multiple of ``ppc`` or too narrow for a block at it.
     """
     import tdicam.blocks
+    check_choice("part", part, PARTS)
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
         raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
@@ -189,7 +202,7 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     stall = max([worst_stall(q) for q in held if set(DEFAULT_STALLS) <= set(q)] or [0])
     sourced = False
     for name, u in _uses_table().items():
-        if u.source is not None and u.source(scene):
+        if u.source is not None and u.source(scene) and part != "chain":
             src = StepContext(scene, m, w, n_lines, scene.sensor.bits, ppc=ppc, block=name,
                               lanes=2 if merge else 1, stall_cycles=stall,
                               reset_frames=bool(steps) and bool(_use(steps[0].block).reset_frames))
@@ -209,7 +222,12 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
             sourced = True
     if phy not in (None, "none") and not sourced:
         raise TdicamError(f"pipeline: --phy = {phy} needs the sensor's lanes in the chain "
-                          f"(a [sensor.lvds] section in the scene)")
+                          f"(a [sensor.lvds] section in the scene)"
+                          + (" and not --part chain" if part == "chain" else ""))
+    if part != "whole" and not (sourced or any(
+            u.source is not None and u.source(scene) for u in _uses_table().values())):
+        raise TdicamError(f"pipeline: --part {part} splits a camera at its front end, and "
+                          f"this scene has none (no [sensor.lvds] section): use --part whole")
     # a first block taking the reset frames in the stream gets them from the lanes too:
     # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
@@ -220,6 +238,8 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
                      reset_frames=bool(first and first.reset_frames),
                      ddr_interfaces=None if getattr(scene, "camera", None) is None
                      else scene.camera.ddr_interfaces)
+    if part == "front":           # the front end alone: its pixel stream is the top's output
+        return replace(plan, steps=plan.steps[:1], reset_frames=False)
     return plan if scene.pipeline.output != "links" else replace(
         plan, links=link_plan(scene, plan, ctx.bits))
 

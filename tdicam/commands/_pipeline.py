@@ -11,7 +11,7 @@ import numpy as np
 
 from tdicam.blocks.steps import SceneData
 from tdicam.beats import PPC_CHOICES
-from tdicam.chain.design import (ECP5_85F, MEMORY, PipelineBlock, chain_plan, chain_text,
+from tdicam.chain.design import (ECP5_85F, MEMORY, PARTS, PipelineBlock, chain_plan, chain_text,
                                  check_options, load_pipeline_scene, top, verilog_header,
                                  xc7_share)
 from tdicam.commands._parsing import ArgsParser, add_source, source_path
@@ -75,6 +75,10 @@ def scene_design(prog, extra):
                     help="with the sensor's lanes ([sensor.lvds]): the generic simulated "
                          "PHY (default), the 7-series IDELAYE2/ISERDESE2 or the ECP5 "
                          "DELAYF/IDDRX2F primitives")
+    ap.add_argument("--part", choices=PARTS, default=PARTS[0],
+                    help="with the sensor's lanes: the whole top (default), only its front "
+                         "end (lanes to pixel stream) or the chain after it (pixel stream "
+                         "to output): the two devices of a split camera")
     ns = ap.parse_args(list(extra))
     ns.scene = source_path(ns)
     sc = load_pipeline_scene(ns.scene, ns.stages)
@@ -82,7 +86,7 @@ def scene_design(prog, extra):
     images = [load_image(path) for path in ns.calib]     # a missing file is named first
     p = chain_plan(sc, stages=ns.stages, lines=ns.lines, device=ns.device, ppc=ns.ppc,
                    spill=MEMORY.get(ns.memory),
-                   phy=ns.phy)
+                   phy=ns.phy, part=ns.part)
     data = None
     if ns.calib:
         if len(ns.calib) != p.lanes:
@@ -172,6 +176,9 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
         if ns.phy not in (None, "none"):       # the lanes behind a device's primitives
             params["phy"] = ns.phy
         label = f"{Path(ns.scene).stem} chain ppc={ppc}"
+        if ns.part != "whole":                 # a device of the split camera
+            params["part"] = ns.part
+            label += f" part={ns.part}"
         if ns.csr:                             # the control bus on the top
             params["bus"] = ns.bus
             label += f" bus={ns.bus}"

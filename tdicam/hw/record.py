@@ -254,9 +254,19 @@ README_CHAINS = (
      "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
      "ECLK / 2 through CLKDIVF, 75 MHz)"),
     ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera, 5144 x "
-     "3800, 2 gains: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> median3, reset "
-     "frames and per-pixel NUC coefficients in DDR through a DdrArbiter an interface"),
+     "3800, 2 gains, from its 80 lanes to its 2 output links on one device"),
+    ("ning2019_gmax0504_full.toml", 8, {"part": "front"}, "the same camera split over two "
+     "devices (`--part`), the first: the front end, 80 lanes (training, deskew) to the "
+     "pixel stream of both gains"),
+    ("ning2019_gmax0504_full.toml", 8, {"part": "chain"}, "the second device: the pixel "
+     "stream to the 2 TLK2711 links: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> "
+     "median3 -> frame selector, reset frames and per-pixel NUC coefficients in DDR through "
+     "a DdrArbiter an interface"),
 )
+
+#: The parameters that tell a scene's rows apart in :data:`README_CHAINS` (a row without
+#: one: ``"none"``).
+VARIANT_KEYS = ("phy", "bus", "part")
 
 
 def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
@@ -271,7 +281,7 @@ def readme_table(rows: list[Row] | None = None, *, limits: dict) -> str:
     for scene, ppc, variant, what in README_CHAINS:
         found = [r for r in find("pipeline", rows, scene=scene)
                  if int(r.params.get("ppc", 1)) == ppc and all(
-                     r.params.get(k, "none") == variant.get(k, "none") for k in ("phy", "bus"))]
+                     r.params.get(k, "none") == variant.get(k, "none") for k in VARIANT_KEYS)]
         if not found:
             continue
         r = _newest(found)

@@ -65,7 +65,8 @@ def _gateware_lines(g) -> list[str]:
     lines.append(f"                 {g['source']}: {have}; {how}: {_yes(g['ok'])} "
                  f"(margin {g['margin'] * 100:+.1f} %)")
     for c in g.get("chain") or ():
-        lines.append(f"  whole chain    {c['label']} (synthesis record {c['date']}, "
+        part = "" if c.get("part", "whole") == "whole" else f", the split's {c['part']} device"
+        lines.append(f"  whole chain    {c['label']} (synthesis record {c['date']}{part}, "
                      f"{c['width']} columns, {c['seeds']} seed(s)): ppc {c['ppc']} at "
                      f"{c['fmax_mhz']:g} MHz = {_px(c['pixel_rate'])}, needs "
                      f"{_px(c['need'])} ({c['need_what']}); keeps up with the sensor: "

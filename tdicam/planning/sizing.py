@@ -315,12 +315,15 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     need = chain_rate or rate
     need_what = ("a gain channel's samples at [camera].frame_rate_hz" if chain_rate
                  else "the sensor's window every line period")
+    def clk(r):            # the processing clock's Fmax (the clock the pixels need)
+        return (r.fmax_clocks or {}).get("clk", r.fmax_mhz)
+
     chain = None if scene_file is None or fpga_clock_mhz is not None else [
-        {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": r.fmax_mhz,
+        {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": clk(r),
          "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
-         "pixel_rate": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)),
-         "meets": r.fmax_mhz * 1e6 * int(r.params.get("ppc", 1)) >= need,
-         "need": need, "need_what": need_what}
+         "pixel_rate": clk(r) * 1e6 * int(r.params.get("ppc", 1)),
+         "meets": clk(r) * 1e6 * int(r.params.get("ppc", 1)) >= need,
+         "need": need, "need_what": need_what, "part": r.params.get("part", "whole")}
         for r in record.find("pipeline", scene=scene_file)
         if "bus" not in r.params] or None     # a bus row is the control bus's cost
     return {
@@ -334,8 +337,23 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
         "ok": None if best is None else bool(meeting),
         "margin": None if best is None else best["pixel_rate"] / rate - 1.0,
         "chain": chain,
-        "chain_ok": None if chain is None else any(c["meets"] for c in chain),
+        "chain_ok": None if chain is None else _chain_ok(chain),
     }
+
+
+def _chain_ok(chain):
+    """Whether the recorded chain keeps up: a whole top's row that does, or a split camera
+    (rows of ``part`` front and chain, ``tdicam synth pipeline --part``) whose every part
+    does (the newest row of each)."""
+    from tdicam.chain.design import PARTS
+    if any(c["meets"] for c in chain if c["part"] == "whole"):
+        return True
+    newest = {}
+    for c in chain:
+        if c["part"] != "whole" and (c["part"] not in newest
+                                     or c["date"] >= newest[c["part"]]["date"]):
+            newest[c["part"]] = c
+    return set(newest) == set(PARTS[1:]) and all(c["meets"] for c in newest.values())
 
 
 def _snr(scene, stages):
