@@ -48,6 +48,23 @@ def test_synth_without_abc9_maps_with_abc(tmp_path):
 
 
 @needs_tools
+def test_synth_without_pnr_counts_cells_only(tmp_path):
+    # pnr=False (--no-pnr, for a top too large to place): yosys's counts, no nextpnr run
+    r = synth("cds", {"pixel_bits": 12}, seeds=1, workdir=tmp_path, pnr=False)
+    assert r.pnr is False and r.ff == 15 and r.lut4 > 0 and r.xilinx["FF"] == 15
+    assert r.fmax_mhz == 0 and r.fmax_seeds == [] and r.comb == 0
+    assert not list(tmp_path.glob("nextpnr*"))
+
+
+def test_synth_no_pnr_refused_where_it_cannot_apply(capsys):
+    for args in (["synth", "cds", "--no-pnr"],
+                 ["synth", "pipeline", "--no-pnr", "--record", "x.json"]):
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--no-pnr" in err[0] and "Traceback" not in err[0]
+
+
+@needs_tools
 def test_synth_reference_markdown_row(capsys):
     assert main(["synth", "--reference", "cds", "--seeds", "1", "--no-xilinx",
                  "--markdown"]) == 0

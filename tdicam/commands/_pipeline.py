@@ -157,17 +157,18 @@ def clock_target(name, given, derived):
 
 
 def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
-                  xilinx=True, abc9=True):
+                  xilinx=True, abc9=True, pnr=True):
     """``tdicam synth pipeline --scene S.toml [--seeds N] [--freq MHz] [--json]``: the whole
     chain's cost (:func:`tdicam.hw.synth.synth`) and whether it fits an ECP5-85F.
     ``record(rows)``, when given, receives the result as a synthesis-record row (block
     ``pipeline``, parameters ``scene`` (file name), ``blocks``, ``width``, ``stages``,
     ``ppc``) for ``tdicam plan`` (:mod:`tdicam.hw.record`). ``xilinx``: also the
     synth_xilinx cell counts (``--no-xilinx``: not). ``abc9``: False maps with
-    ``synth_ecp5 -noabc9`` (``--no-abc9``)."""
+    ``synth_ecp5 -noabc9`` (``--no-abc9``). ``pnr`` False: the cell counts alone
+    (``--no-pnr``)."""
     ns, p, data = scene_design("tdicam synth pipeline", extra)
     blk = PipelineBlock(p, data, csr=ns.csr, bus=ns.bus)
-    res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx, abc9=abc9)
+    res = synth(blk, seeds=seeds, freq_mhz=freq_mhz, xilinx=xilinx, abc9=abc9, pnr=pnr)
     if record is not None:
         blocks = " -> ".join(s.block for s in p.steps)
         ppc = p.ppc
@@ -184,17 +185,21 @@ def synth_command(extra, *, seeds=3, freq_mhz=150.0, as_json=False, record=None,
             label += f" bus={ns.bus}"
         record([row_of(label, "pipeline", params, res,
                        target_mhz=freq_mhz, tools=", ".join(tool_versions().values()))])
+    if not pnr:          # not packed: the logic and carry cells' slots as the COMB floor
+        res.comb = res.lut4 + 2 * res.ccu2c
     fits = {k: getattr(res, k) <= v for k, v in ECP5_85F.items()}
     if as_json:
         print(json.dumps({**res.to_dict(), "ecp5_85f": ECP5_85F, "fits": fits,
                           "xc7k325t": xc7_share(res.xilinx) if res.xilinx else None},
                          indent=1))
         return 0
+    timing = (f"Fmax {res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g})"
+              if pnr else "not placed and routed (--no-pnr: COMB is LUT4 + 2 x CCU2C, "
+              "before packing)")
     print(f"pipeline {chain_text(p)} ({p.width} x {p.stages}, "
           f"{p.lanes} channel(s)): COMB {res.comb}, LUT4 {res.lut4}, CCU2C {res.ccu2c}, "
-          f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, Fmax "
-          f"{res.fmax_mhz:.1f} MHz (seeds {res.fmax_seeds}, target {freq_mhz:g}); xc7 "
-          f"{res.xilinx}")
+          f"FF {res.ff}, DP16KD {res.dp16kd}, MULT18X18D {res.mult18}, "
+          f"TRELLIS_DPR16X4 {res.dpr16x4}, {timing}; xc7 {res.xilinx}")
     if len(res.fmax_clocks) > 1:
         want = {"clk": freq_mhz, **blk.clocks()}
         derived = blk.derived_clocks()

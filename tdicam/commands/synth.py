@@ -38,6 +38,10 @@ def register(sub):
     p.add_argument("--no-abc9", action="store_true",
                    help="map LUTs with synth_ecp5 -noabc9 (the older ABC; for a netlist on "
                         "which ABC9 fails)")
+    p.add_argument("--no-pnr", action="store_true",
+                   help="pipeline only: the cell counts of yosys (ECP5 and xc7) without "
+                        "place and route, for a top too large to place (no Fmax; no "
+                        "--record)")
     p.add_argument("--markdown", action="store_true", help="print a markdown table")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--record", nargs="?", const="", default=None, metavar="FILE",
@@ -148,6 +152,10 @@ def _markdown(rows):
 def _run(args):
     check_range("--seeds", args.seeds, 1, 100)
     check_range("--freq", args.freq, 1, 2000, integer=False)
+    if args.no_pnr and (args.block != "pipeline" or args.record is not None):
+        raise TdicamError("--no-pnr counts a pipeline's cells without an Fmax: use it with "
+                          "'tdicam synth pipeline' and without --record (a record row "
+                          "needs its place and route)")
     if args.record is not None:        # before the tools' minutes, not after them
         record.check_destination(args.record or None)
     if args.reference:
@@ -156,7 +164,8 @@ def _run(args):
         from tdicam.commands._pipeline import synth_command
         return synth_command(args.extra, seeds=args.seeds, freq_mhz=args.freq,
                              as_json=args.json, xilinx=not args.no_xilinx,
-                             abc9=not args.no_abc9, record=None if args.record is None else
+                             abc9=not args.no_abc9, pnr=not args.no_pnr,
+                             record=None if args.record is None else
                              lambda rows: _record(rows, args))
     if args.block is None:
         raise TdicamError(f"which block? valid: {', '.join(blocks.names())} (or --reference)")

@@ -145,6 +145,7 @@ class SynthResult:
     freq_mhz: float = 150.0
     critical: list = field(default_factory=list)
     abc9: bool = True
+    pnr: bool = True
 
     def to_dict(self):
         return asdict(self)
@@ -292,8 +293,11 @@ def tool_versions():
 
 
 def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=None,
-          harness=True, abc9=True):
+          harness=True, abc9=True, pnr=True):
     """Synthesize, place and route ``block``; returns a :class:`SynthResult`.
+
+    ``pnr``: False stops after yosys (the ECP5 and xc7 cell counts only; no Fmax, COMB 0:
+    nextpnr's packing makes it), for a top too large to place.
 
     ``abc9``: ``synth_ecp5``'s LUT mapping (ABC9); False: :data:`_ABC_LUTS` instead (the
     older ABC, as yosys's retired ``synth_ecp5 -noabc9``), for a netlist on which ABC9 fails.
@@ -352,7 +356,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
         nets = _buffer_nets(wd / pnr_json, [n for n in pins if n in clocks])
         _write_if_changed(wd / "clocks.lpf", clock_constraints(clocks, pins, nets))
         lpf = ["--lpf", "clocks.lpf", "--lpf-allow-unconstrained"]
-    for seed in range(1, seeds + 1):
+    for seed in range(1, seeds + 1 if pnr else 1):
         rp = f"nextpnr_{'harness_' if harness else ''}seed{seed}.json"
         tool_s += _run([nextpnr, *ECP5_DEVICE, "--json", pnr_json, "--report", rp,
                         "--seed", str(seed), "--freq", str(float(freq_mhz)), *lpf,
@@ -362,7 +366,7 @@ def synth(block, params=None, *, seeds=3, freq_mhz=150, xilinx=True, workdir=Non
         reports.append(wd / rp)
     res = SynthResult(blk.name, shown,
                       **parse_ecp5(wd / stat, blk.name, reports, module=stat_module))
-    res.harness, res.freq_mhz, res.abc9 = harness, freq_mhz, abc9
+    res.harness, res.freq_mhz, res.abc9, res.pnr = harness, freq_mhz, abc9, pnr
     if xilinx:
         script = (f"read_rtlil top.il; synth_xilinx -family xc7 -flatten -top {blk.name}; "
                   f"tee -q -o xc7_stat.json stat -json")
