@@ -100,8 +100,8 @@ class CdsDdr(wiring.Component):
         from tdicam.hdl.cds import Cds
         m = Module()
         lay = self.layout
-        m.submodules.port = port = MigPort()
         ppc = self._ppc
+        m.submodules.port = port = MigPort(early_count=ppc > 1)
         m.submodules.writer = wr = LineWriter(layout=lay, elements=ppc, rows=self._rows,
                                                early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(

@@ -137,7 +137,7 @@ class NucDdr(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         lay, ppc = self.layout, self._ppc
-        m.submodules.port = port = MigPort()
+        m.submodules.port = port = MigPort(early_count=ppc > 1)
         m.submodules.writer = wr = LineWriter(layout=lay, elements=2 * ppc,
                                               rows=self._image_rows, early_sums=ppc > 1)
         m.submodules.reader = rd = LineReader(

@@ -92,10 +92,17 @@ class MigPort(wiring.Component):
     ``rdata``), because ``app_rd_data_valid`` cannot be stalled. Commands, data and read
     data each move one per cycle: ``app_en`` and ``app_wdf_wren`` never depend on the
     ready signals.
+
+    ``early_count``: the count of reserved read words steps by selecting ``count + 1`` or
+    ``count - 1`` (summed from the register) with the cycle's queue and take, instead of
+    adding them (``rdata_ready`` then drives a select, not a carry chain: the whole
+    Ning et al. 2019 camera's slowest path at ppc 8); the same counts every cycle.
     """
 
-    def __init__(self, *, addr_bits=ADDR_BITS, cmd_depth=16, wdata_depth=16, rd_depth=64):
+    def __init__(self, *, addr_bits=ADDR_BITS, cmd_depth=16, wdata_depth=16, rd_depth=64,
+                 early_count=False):
         self._aw, self._cq, self._wq, self._rd = addr_bits, cmd_depth, wdata_depth, rd_depth
+        self._early = bool(early_count)
         super().__init__({
             "wr_valid": In(1), "wr_ready": Out(1), "wr_addr": In(addr_bits),
             "wr_data": In(WORD_BITS),
@@ -139,6 +146,15 @@ class MigPort(wiring.Component):
         m.d.comb += [rq.w_en.eq(self.app_rd_data_valid), rq.w_data.eq(self.app_rd_data),
                      self.rdata.eq(rq.r_data), self.rdata_valid.eq(rq.r_rdy),
                      rq.r_en.eq(self.rdata_ready)]
-        m.d.sync += out_n.eq(out_n + push_r - (rq.r_rdy & self.rdata_ready))
+        pop = rq.r_rdy & self.rdata_ready
+        if self._early:
+            up, down = Signal.like(out_n), Signal.like(out_n)
+            m.d.comb += [up.eq(out_n + 1), down.eq(out_n - 1)]
+            with m.If(push_r & ~pop):
+                m.d.sync += out_n.eq(up)
+            with m.Elif(pop & ~push_r):
+                m.d.sync += out_n.eq(down)
+        else:
+            m.d.sync += out_n.eq(out_n + push_r - pop)
         m.d.comb += self.idle.eq(~cmdq.r_rdy & ~cmdq.level.any() & ~wq.r_rdy)
         return m
