@@ -61,7 +61,8 @@ def test_plan_reads_the_tdi_fmax_from_the_record():
 
 def _with_chain(tmp_path, monkeypatch, fmax):
     """A copy of the bundled record whose Ning et al. 2019 chain row has Fmax ``fmax``."""
-    rows = [replace(r, fmax_mhz=fmax, fmax_seeds=[fmax]) if r.block == "pipeline" else r
+    rows = [replace(r, fmax_mhz=fmax, fmax_seeds=[fmax], fmax_clocks=r.fmax_clocks and {
+        k: fmax for k in r.fmax_clocks}) if r.block == "pipeline" else r
             for r in record.load()]
     path = tmp_path / "silicon.json"
     record.update(rows, path)

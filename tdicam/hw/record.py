@@ -254,7 +254,8 @@ README_CHAINS = (
      "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
      "ECLK / 2 through CLKDIVF, 75 MHz)"),
     ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera, 5144 x "
-     "3800, 2 gains, from its 80 lanes to its 2 output links on one device"),
+     "3800, 2 gains: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> median3, reset "
+     "frames and per-pixel NUC coefficients in DDR through a DdrArbiter an interface"),
     ("ning2019_gmax0504_full.toml", 8, {"part": "front"}, "the same camera split over two "
      "devices (`--part`), the first: the front end, 80 lanes (training, deskew) to the "
      "pixel stream of both gains"),
