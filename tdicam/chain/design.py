@@ -144,6 +144,10 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     """
     import tdicam.blocks
     check_choice("part", part, PARTS)
+    if part != "whole" and not any(u.source is not None and u.source(scene)
+                                   for u in _uses_table().values()):
+        raise TdicamError(f"pipeline: --part {part} splits a camera at its front end, and "
+                          f"this scene has none (no [sensor.lvds] section): use --part whole")
     names = list(scene.pipeline.blocks if blocks is None else blocks)
     if scene.tdi.domain != "digital":
         raise TdicamError("pipeline: [tdi].domain = 'charge' sums in the sensor; only a "
@@ -224,10 +228,6 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
         raise TdicamError(f"pipeline: --phy = {phy} needs the sensor's lanes in the chain "
                           f"(a [sensor.lvds] section in the scene)"
                           + (" and not --part chain" if part == "chain" else ""))
-    if part != "whole" and not (sourced or any(
-            u.source is not None and u.source(scene) for u in _uses_table().values())):
-        raise TdicamError(f"pipeline: --part {part} splits a camera at its front end, and "
-                          f"this scene has none (no [sensor.lvds] section): use --part whole")
     # a first block taking the reset frames in the stream gets them from the lanes too:
     # the sensor sends each reset frame before its signal frame, its kind in the row headers
     first = _use(steps[int(sourced)].block) if len(steps) > int(sourced) else None
