@@ -30,6 +30,11 @@ Clock domains and start-up::
                                                                       |      pixels x G channels
                                                                       |   -> o_stream, frame_kind
 
+At ``ppc >= 2`` the read side registers the FIFO's head (an entry register) and its beats
+(a :class:`~tdicam.hdl.interfaces.stream.PairBuffer`): the block RAM's read data reaches no
+read address and ``o_stream.ready`` neither the FIFO nor the entry; at ``ppc = 1`` the beats
+come straight off the FIFO's read data.
+
 Status outputs are in the word-clock domain (quasi-static registers and counters, for a
 processor to read through its own synchronizer); the run-time inputs too (``train_word``,
 ``sync_word``, ``n_check``, ``frame_rows``, ``retrain``).
@@ -37,12 +42,13 @@ processor to read through its own synchronizer); the run-time inputs too (``trai
 
 from amaranth.hdl import Array, Cat, Const, DomainRenamer, Module, Mux, Signal
 from amaranth.lib import fifo, wiring
+from amaranth.lib.data import StructLayout
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_choice, check_range
-from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
+from tdicam.hdl.interfaces.stream import PairBuffer, channels_shape, pixel_signature
 from tdicam.hdl.lvds import eye_ports, lane_ports, rx_ports
 from tdicam.model.lvds_front import last_word_columns, line_words
 from tdicam.model.lvds_track import COUNT_BITS
@@ -400,7 +406,7 @@ class LvdsFront(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
+        bits, n = self._bits, self._L * self._g
         ws = _WordSide(n=n, w=self._w, bits=bits, p=self._p, rx=self._rx, phy=self._phy,
                        pairs=self._pairs, eye=self._eye, track=self._track)
         m.submodules.word_side = DomainRenamer({"sync": WORD_DOMAIN})(ws)
@@ -422,27 +428,80 @@ class LvdsFront(wiring.Component):
 
         # read side: one entry = L columns a channel -> L/ppc beats (a line's last entry
         # with padded slots: rem/ppc)
+        if self._ppc == 1:
+            self._read_direct(m, cdc)
+        else:
+            self._read_registered(m, cdc)
+        return m
+
+    def _beats(self, m, d, beat):
+        """(the beats of entry ``d`` selected by ``beat``, first, last, kind, end: the
+        beat is the entry's last)."""
+        L, g, bits, ppc, n = self._L, self._g, self._bits, self._ppc, self._L * self._g
         k = L // ppc
-        beat = Signal(range(max(k, 2)))
-        d = cdc.r_data
         pix = [d[i * bits:(i + 1) * bits] for i in range(n)]
         first, last, kind = d[n * bits], d[n * bits + 1], d[n * bits + 2]
         beats = [Cat(*(pix[c * L + b * ppc + q] for q in range(ppc) for c in range(g)))
                  for b in range(k)]
-        o = self.o_stream
         if self._rem == L:
             end = beat == k - 1
         else:
             end = Signal()
             m.d.comb += end.eq(beat == Mux(last, self._rem // ppc - 1, k - 1))
+        data = Array(beats)[beat] if k > 1 else beats[0]
+        return data, first & (beat == 0), last & end, kind, end
+
+    def _read_direct(self, m, cdc):
+        """ppc 1: the beats straight off the FIFO's read data; ``o_stream.ready`` moves the
+        FIFO (its read address)."""
+        beat = Signal(range(max(self._L // self._ppc, 2)))
+        data, first, last, kind, end = self._beats(m, cdc.r_data, beat)
+        o = self.o_stream
         m.d.comb += [
-            o.valid.eq(cdc.r_rdy),
-            o.payload.data.eq(Array(beats)[beat] if k > 1 else beats[0]),
-            o.payload.first.eq(first & (beat == 0)),
-            o.payload.last.eq(last & end),
-            self.frame_kind.eq(kind),
+            o.valid.eq(cdc.r_rdy), o.payload.data.eq(data), o.payload.first.eq(first),
+            o.payload.last.eq(last), self.frame_kind.eq(kind),
             cdc.r_en.eq(o.ready & end),
         ]
         with m.If(o.valid & o.ready):
             m.d.sync += beat.eq(Mux(end, 0, beat + 1))
-        return m
+
+    def _read_registered(self, m, cdc):
+        """ppc >= 2: the FIFO's head taken into an entry register, its beats through a
+        :class:`~tdicam.hdl.interfaces.stream.PairBuffer` (with the frame kind). No path
+        from the block RAM's read data (its clock-to-out, ~4 ns on the ECP5) into the
+        FIFO's read address (the whole camera's front at ppc 8: the entry's ``last`` bit
+        -> the beat's end -> ``r_en`` -> the read pointer's adder -> the DP16KDs' address,
+        10.7 ns), nor from ``o_stream.ready`` into the FIFO or the entry register (the
+        output's registered ready). The same beats in the same order; an entry is taken
+        as its predecessor's last beat goes out, so the rate is the direct read's."""
+        beat = Signal(range(max(self._L // self._ppc, 2)))
+        ent = Signal(len(cdc.r_data), reset_less=True)
+        held = Signal()
+        data, first, last, kind, end = self._beats(m, ent, beat)
+        o = self.o_stream
+        m.submodules.out = out = PairBuffer(_out_layout(o))
+        emit = held & out.i_stream.ready
+        take = cdc.r_rdy & (~held | (emit & end))
+        m.d.comb += [
+            out.i_stream.valid.eq(held),
+            out.i_stream.payload.data.eq(data), out.i_stream.payload.first.eq(first),
+            out.i_stream.payload.last.eq(last), out.i_stream.payload.kind.eq(kind),
+            cdc.r_en.eq(take),
+            o.valid.eq(out.o_stream.valid), o.payload.data.eq(out.o_stream.payload.data),
+            o.payload.first.eq(out.o_stream.payload.first),
+            o.payload.last.eq(out.o_stream.payload.last),
+            self.frame_kind.eq(out.o_stream.payload.kind),
+            out.o_stream.ready.eq(o.ready),
+        ]
+        with m.If(take):
+            m.d.sync += [ent.eq(cdc.r_data), held.eq(1)]
+        with m.Elif(emit & end):
+            m.d.sync += held.eq(0)
+        with m.If(emit):
+            m.d.sync += beat.eq(Mux(end, 0, beat + 1))
+
+
+def _out_layout(o):
+    """The registered read side's beat: ``o``'s payload fields and the frame kind."""
+    return StructLayout({"data": o.payload.shape()["data"].shape, "first": 1, "last": 1,
+                         "kind": 1})
