@@ -9,10 +9,11 @@ asserted equal to the map's (the cocotb test, cocotb_tests/test_csr.py, reads th
 the header's offsets); the IP-XACT component's offsets the map's; ``tdicam verilog pipeline
 -o DIR`` (the bus on by default) writes the files beside the Verilog (``--html`` the HTML
 reference too), a missing tool one line naming the extra; the top with ``--no-csr`` keeps
-its loose ports, its Verilog that of before (sha256 pinned); the AXI4-Lite slave's
-handshakes, byte strobes, write-1-to-clear and interrupt, the Wishbone slave's (classic and
-pipelined) the same register file, and the clock-domain crossing of another domain's
-settings and status, in Amaranth's simulator.
+its loose ports, its Verilog that of before (sha256 pinned); every word of the 12-bit space
+reading its register's live value or 0 on both buses; the AXI4-Lite slave's handshakes,
+byte strobes, write-1-to-clear and interrupt, the Wishbone slave's (classic and pipelined)
+the same register file, and the clock-domain crossing of another domain's settings and
+status, in Amaranth's simulator.
 """
 
 import importlib.util
