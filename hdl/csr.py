@@ -12,7 +12,7 @@ address reads 0 and ignores writes.
 from functools import reduce
 from operator import or_
 
-from amaranth.hdl import Cat, Const, Module, Signal
+from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
@@ -244,7 +244,7 @@ class CsrTop(wiring.Component):
         """The AXI4-Lite read channels on ``regs`` ({offset: (value read, write)}): a read
         returns the value of the cycle its address is taken."""
         rvalid = Signal(name="csr_rvalid")
-        rdata = Signal(DATA_BITS, name="csr_rdata")
+        rdata = Signal(DATA_BITS, name="csr_rdata", reset_less=True)
         m.d.comb += [self.s_axil_arready.eq(~rvalid), self.s_axil_rvalid.eq(rvalid),
                      self.s_axil_rdata.eq(rdata), self.s_axil_rresp.eq(0)]
         take = Signal(name="csr_take_r")
@@ -261,7 +261,7 @@ class CsrTop(wiring.Component):
         next cycle (``stall`` high then)."""
         ack = Signal(name="csr_wb_ack")
         take = Signal(name="csr_wb_take")
-        rdata = Signal(DATA_BITS, name="csr_rdata")
+        rdata = Signal(DATA_BITS, name="csr_rdata", reset_less=True)
         m.d.comb += [take.eq(self.wb_cyc & self.wb_stb & ~ack), self.wb_ack.eq(ack),
                      self.wb_stall.eq(ack), self.wb_dat_r.eq(rdata)]
         m.d.sync += ack.eq(take)
@@ -319,21 +319,33 @@ def cross(m, value, src, dst, name, *, init=0, hold=None):
 
 def _read(m, regs, word, rdata, take):
     """``rdata`` takes, when ``take``, the value of the register at word address ``word``
-    (0 unmapped). Not one decode of the whole address per register: in each register block
-    a multiplexer on the low address bits that tell its registers apart, gated by the
-    block's :func:`_pages` match, the blocks' selections ORed."""
-    terms = []
-    for page, (nb, words, hit) in _pages(word, regs).items():
-        sel = Signal(DATA_BITS, name=f"csr_sel_{page}")
-        with m.Switch(word[:nb]):
-            for w in words:
-                with m.Case(w):
-                    m.d.comb += sel.eq(regs[page * BLOCK_STRIDE + 4 * w][0])
-            with m.Default():
-                m.d.comb += sel.eq(0)
-        terms.append(sel & hit.replicate(DATA_BITS))
+    (0 unmapped): a multiplexer tree on the address bits that tell the mapped words apart
+    (:func:`_select`; an unmapped word's bits are not decoded there), and the register's
+    synchronous reset when the address is none of them (the registers' :func:`_hits`
+    ORed). ``rdata`` has no other reset (``reset_less``: it is only looked at with its
+    response)."""
+    hits = _hits(word, list(regs))
     with m.If(take):
-        m.d.sync += rdata.eq(reduce(or_, terms))
+        with m.If(reduce(or_, hits.values())):
+            m.d.sync += rdata.eq(_select(word, {off >> 2: v for off, (v, _) in regs.items()}))
+        with m.Else():
+            m.d.sync += rdata.eq(0)
+
+
+def _select(word, values):
+    """The value of ``values`` ({word address: value}) at word address ``word`` when it is
+    one of them (otherwise any): a tree of 2-way multiplexers, each on the address bit that
+    splits its words most evenly (the lowest such bit)."""
+    if len(values) == 1:
+        return next(iter(values.values()))
+    n = len(values)
+
+    def balance(b):
+        ones = sum(w >> b & 1 for w in values)
+        return (abs(2 * ones - n) if 0 < ones < n else 2 * n, b)
+    b = min(range(len(word)), key=balance)
+    return Mux(word[b], _select(word, {w: v for w, v in values.items() if w >> b & 1}),
+               _select(word, {w: v for w, v in values.items() if not w >> b & 1}))
 
 
 def _pages(word, offsets):
