@@ -30,10 +30,13 @@ Clock domains and start-up::
                                                                       |      pixels x G channels
                                                                       |   -> o_stream, frame_kind
 
-At ``ppc >= 2`` the read side registers the FIFO's head (an entry register) and its beats
-(a :class:`~tdicam.hdl.interfaces.stream.PairBuffer`): the block RAM's read data reaches no
-read address and ``o_stream.ready`` neither the FIFO nor the entry; at ``ppc = 1`` the beats
-come straight off the FIFO's read data.
+At ``ppc >= 2`` the crossing is a
+:class:`~tdicam.hdl.interfaces.crossing.RegisteredAsyncFIFO` (its read address a choice of
+two registers, ``r_rdy`` a register) and the read side registers the FIFO's head (an entry
+register) and its beats (a :class:`~tdicam.hdl.interfaces.stream.PairBuffer`): the block
+RAM's read data reaches no read address and ``o_stream.ready`` neither the FIFO nor the
+entry; at ``ppc = 1`` an :class:`amaranth.lib.fifo.AsyncFIFO` and the beats straight off its
+read data.
 
 Status outputs are in the word-clock domain (quasi-static registers and counters, for a
 processor to read through its own synchronizer); the run-time inputs too (``train_word``,
@@ -49,6 +52,7 @@ from amaranth.lib.wiring import In, Out
 from tdicam.beats import PPC_CHOICES
 from tdicam.errors import TdicamError, check_choice, check_range
 from tdicam.hdl.interfaces.stream import PairBuffer, channels_shape, pixel_signature
+from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
 from tdicam.hdl.lvds import eye_ports, lane_ports, rx_ports
 from tdicam.model.lvds_front import last_word_columns, line_words
 from tdicam.model.lvds_track import COUNT_BITS
@@ -415,8 +419,10 @@ class LvdsFront(wiring.Component):
         m.d.sync += release_q.eq(self.release)
         m.submodules.release_sync = FFSynchronizer(release_q, ws.released,
                                                    o_domain=WORD_DOMAIN, init=0)
-        m.submodules.cdc = cdc = fifo.AsyncFIFO(width=n * bits + 3, depth=self._depth,
-                                                r_domain="sync", w_domain=WORD_DOMAIN)
+        # ppc >= 2: no adder or comparison before the wide FIFO's read address
+        queue = fifo.AsyncFIFO if self._ppc == 1 else RegisteredAsyncFIFO
+        m.submodules.cdc = cdc = queue(width=n * bits + 3, depth=self._depth,
+                                       r_domain="sync", w_domain=WORD_DOMAIN)
         outer = {**lane_ports(self._phy, n, self._w, bool(self._track)),
                  **_status_ports(n, self._w, self._eye, self._track)}
         for name, member in outer.items():

@@ -225,3 +225,125 @@ def test_narrower_refuses_impossible_shapes_in_one_line(args):
     with pytest.raises(ValueError, match="Narrower") as e:
         Narrower(*args)
     assert "\n" not in str(e.value)
+
+
+def _run_crossing(fifo, *, w_period, r_period, n, p_w, p_r, seed, reset_at=None):
+    """Drive ``fifo`` (write domain ``write``, read ``read``) with ``n`` entries offered
+    with probability ``p_w`` a write cycle and taken with ``p_r`` a read cycle; the
+    write domain reset (one write cycle) after ``reset_at`` writes, if given. Returns
+    (written, read, read cycles with r_rdy & r_en)."""
+    from amaranth.hdl import ClockDomain
+    m = Module()
+    m.domains.write, m.domains.read = wdom, _ = ClockDomain("write"), ClockDomain("read")
+    m.submodules.q = fifo
+    sim = Simulator(m)
+    sim.add_clock(w_period, domain="write")
+    sim.add_clock(r_period, domain="read")
+    rng = np.random.default_rng(seed)
+    vals = rng.integers(0, 1 << fifo.width, n).tolist()
+    written, got, takes = [], [], []
+    done = [False]
+
+    async def writer(ctx):
+        k, cycles = 0, 0
+        while k < n and cycles < 50 * n:          # bounded: a stuck queue ends the run
+            cycles += 1
+            en = bool(rng.random() < p_w)
+            ctx.set(fifo.w_en, en)
+            ctx.set(fifo.w_data, vals[k])
+            _, _, rdy = await ctx.tick("write").sample(fifo.w_rdy)
+            if en and rdy:
+                written.append(vals[k])
+                k += 1
+                if reset_at is not None and k == reset_at:
+                    ctx.set(fifo.w_en, 0)
+                    await ctx.tick("write")
+                    ctx.set(wdom.rst, 1)
+                    await ctx.tick("write")
+                    ctx.set(wdom.rst, 0)
+                    written.append(None)
+                    for _ in range(8):
+                        await ctx.tick("write")
+        ctx.set(fifo.w_en, 0)
+        done[0] = True
+
+    async def reader(ctx):
+        cyc, idle = 0, 0
+        while idle < 200:
+            en = bool(rng.random() < p_r)
+            ctx.set(fifo.r_en, en)
+            _, _, rdy, data = await ctx.tick("read").sample(fifo.r_rdy, fifo.r_data)
+            if en and rdy:
+                got.append(data)
+                takes.append(cyc)
+                idle = 0
+            elif done[0]:
+                idle += 1
+            cyc += 1
+
+    sim.add_testbench(writer)
+    sim.add_testbench(reader)
+    sim.run()
+    return written, got, takes
+
+
+@pytest.mark.parametrize("depth,w_period,r_period,p_w,p_r,seed", [
+    (2, 7e-9, 3e-9, 0.8, 0.9, 1), (4, 3e-9, 7e-9, 1.0, 0.5, 2), (16, 40e-9, 8e-9, 1.0, 1.0, 3),
+    (64, 5e-9, 5.5e-9, 0.6, 0.4, 4), (8, 8e-9, 40e-9, 0.9, 1.0, 5)])
+def test_registered_async_fifo_passes_every_entry_once_in_order(depth, w_period, r_period,
+                                                                 p_w, p_r, seed):
+    """Random writes and reads on two unrelated clocks (either faster, the queue full and
+    empty): every entry read once, in order; the same entries as Amaranth's AsyncFIFO."""
+    from amaranth.lib.fifo import AsyncFIFO
+    from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
+    n = 300
+    ref = _run_crossing(AsyncFIFO(width=12, depth=depth, r_domain="read", w_domain="write"),
+                        w_period=w_period, r_period=r_period, n=n, p_w=p_w, p_r=p_r,
+                        seed=seed)
+    ours = _run_crossing(RegisteredAsyncFIFO(width=12, depth=depth, r_domain="read",
+                                             w_domain="write"),
+                         w_period=w_period, r_period=r_period, n=n, p_w=p_w, p_r=p_r,
+                         seed=seed)
+    for written, got, _ in (ref, ours):
+        assert got == written and len(got) == n
+
+
+def test_registered_async_fifo_reads_every_cycle_and_sees_a_write_one_cycle_late():
+    """Writes far faster than reads, read every cycle: once the queue holds entries, one
+    leaves every read cycle (no bubble after a read); the first is readable exactly one
+    read cycle after Amaranth's AsyncFIFO has it."""
+    from amaranth.lib.fifo import AsyncFIFO
+    from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
+    kw = dict(w_period=2e-9, r_period=10e-9, n=40, p_w=1.0, p_r=1.0, seed=7)
+    _, _, t_ref = _run_crossing(AsyncFIFO(width=8, depth=64, r_domain="read",
+                                          w_domain="write"), **kw)
+    _, got, t = _run_crossing(RegisteredAsyncFIFO(width=8, depth=64, r_domain="read",
+                                                  w_domain="write"), **kw)
+    assert len(got) == 40
+    assert t[0] == t_ref[0] + 1
+    assert np.all(np.diff(t) == 1)
+
+
+def test_registered_async_fifo_write_reset_empties_it():
+    """The write domain's reset mid-stream, entries in the queue: the reader gets what
+    Amaranth's AsyncFIFO gives (the same entries as the reset reaches the read side), then
+    every entry written after the reset, in order, and not all of those written before."""
+    from amaranth.lib.fifo import AsyncFIFO
+    from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
+    kw = dict(w_period=2e-9, r_period=9e-9, n=60, p_w=1.0, p_r=0.5, seed=3, reset_at=30)
+    _, ref, _ = _run_crossing(AsyncFIFO(width=10, depth=16, r_domain="read",
+                                        w_domain="write"), **kw)
+    written, got, _ = _run_crossing(RegisteredAsyncFIFO(width=10, depth=16, r_domain="read",
+                                                        w_domain="write"), **kw)
+    cut = written.index(None)
+    after = written[cut + 1:]
+    assert got == ref
+    assert got[len(got) - len(after):] == after and len(got) < len(written) - 1
+
+
+def test_registered_async_fifo_refuses_a_depth_not_a_power_of_two():
+    from tdicam.errors import TdicamError
+    from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
+    for depth in (12, 1):
+        with pytest.raises(TdicamError, match=f"depth = {depth} must be a power of two"):
+            RegisteredAsyncFIFO(width=8, depth=depth)
