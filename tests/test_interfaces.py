@@ -341,9 +341,11 @@ def test_registered_async_fifo_write_reset_empties_it():
     assert got[len(got) - len(after):] == after and len(got) < len(written) - 1
 
 
-def test_registered_async_fifo_refuses_a_depth_not_a_power_of_two():
+def test_registered_async_fifo_refuses_a_depth_not_a_power_of_two_and_no_width():
     from tdicam.errors import TdicamError
     from tdicam.hdl.interfaces.crossing import RegisteredAsyncFIFO
     for depth in (12, 1):
         with pytest.raises(TdicamError, match=f"depth = {depth} must be a power of two"):
             RegisteredAsyncFIFO(width=8, depth=depth)
+    with pytest.raises(TdicamError, match="width = 0 must be a whole number of bits"):
+        RegisteredAsyncFIFO(width=0, depth=4)

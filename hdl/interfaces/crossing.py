@@ -47,7 +47,7 @@ class RegisteredAsyncFIFO(Elaboratable):
     Parameters
     ----------
     width : int
-        Bits an entry.
+        Bits an entry, >= 1.
     depth : int
         Entries; a power of two >= 2 (else a one-line :class:`~tdicam.errors.TdicamError`).
     r_domain, w_domain : str
@@ -71,7 +71,10 @@ class RegisteredAsyncFIFO(Elaboratable):
     """
 
     def __init__(self, *, width, depth, r_domain="read", w_domain="write"):
-        if depth < 2 or depth & (depth - 1):
+        if not isinstance(width, int) or width < 1:
+            raise TdicamError(f"RegisteredAsyncFIFO: width = {width!r} must be a whole "
+                              f"number of bits >= 1")
+        if not isinstance(depth, int) or depth < 2 or depth & (depth - 1):
             raise TdicamError(f"RegisteredAsyncFIFO: depth = {depth} must be a power of two "
                               f">= 2")
         self._width, self._depth = width, depth
