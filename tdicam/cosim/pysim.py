@@ -17,7 +17,7 @@ from amaranth.sim import Simulator
 from tdicam import blocks
 from tdicam.beats import Beats
 from tdicam.cosim.pauses import StreamDriver
-from tdicam.cosim.stream import cycle_budget, stream_ports
+from tdicam.cosim.stream import cycle_budget, drain_cycles, stream_ports
 from tdicam.cosim.streamsim import StreamEnds, drive, set_ports
 from tdicam.cosim.tbgen import RST_CYCLES
 
@@ -31,10 +31,11 @@ def _pack(values, padded):
     return word
 
 
-def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=200,
+def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=None,
               max_cycles=None, trace=None, n_out=None):
     """Simulate ``stim`` through ``block``; returns (output Beats, cycles, wall seconds,
-    timed out). The run stops ``drain`` quiet cycles after the last transfer, or at
+    timed out). The run stops ``drain`` quiet cycles after the last transfer (default
+    :func:`tdicam.cosim.stream.drain_cycles` of 200), or at
     ``max_cycles`` (default :func:`tdicam.cosim.stream.cycle_budget` for ``n_out`` expected
     outputs, ``len(stim)`` when not given): then it timed out.
 
@@ -54,7 +55,8 @@ def run_pysim(block, params, stim, *, idle=0.0, backpressure=0.0, seed=1, drain=
     words = [_pack(stim.data[i], padded) for i in range(n_in)]
     ctrl_vals = stim.ctrl.tolist()
     drv = StreamDriver(stim.rst, seed=seed, idle=idle, backpressure=backpressure,
-                       rst_cycles=RST_CYCLES, drain=drain,
+                       rst_cycles=RST_CYCLES,
+                       drain=drain_cycles(params, 200) if drain is None else drain,
                        max_cycles=max_cycles or cycle_budget(
                            params, n_in, n_in if n_out is None else n_out, idle, backpressure))
     out = {"data": [], "first": [], "last": [], "seg": []}

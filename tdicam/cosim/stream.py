@@ -23,7 +23,7 @@ from tdicam.cosim import codec, dp16kd, mult18x18d, tbgen
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.cosim.pauses import check_seed, thresholds
 
-__all__ = ["MODES", "SimResult", "stream_ports", "run_stream", "cycle_budget"]
+__all__ = ["MODES", "SimResult", "stream_ports", "run_stream", "cycle_budget", "drain_cycles"]
 
 MODES = ("beat", "fast")
 
@@ -88,6 +88,16 @@ def cycle_budget(params, n_in, n_out, idle=0.0, backpressure=0.0):
     return int((n_in + n_out) * 4 * slow) + 100_000
 
 
+def drain_cycles(params, base):
+    """Quiet cycles a co-simulation runs on after its last input was taken and its last
+    output moved before it ends (so missing and extra outputs both show): ``base`` (the
+    harness's figure), times, for a block with DDR stall parameters, the memory model's
+    slowdown (:func:`tdicam.model.dram.slowdown`): a block that buffers its input beats
+    may still owe outputs that wait on the memory (at ``drop = 255`` a grant comes every
+    256 cycles on average)."""
+    return int(base * max(1.0, dram.slowdown(params))) if dram.has_stalls(params) else base
+
+
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
                seed=1, max_cycles=None, drain=None, keep=False, trace=False, wave=None,
                ecp5=False):
@@ -133,7 +143,7 @@ def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpr
     if wave is not None:
         max_cycles = min(max_cycles, int(wave[1]) + 2)
     if drain is None:
-        drain = 2000
+        drain = drain_cycles(params, 2000)
     rundir = bdir / f"run-{os.getpid()}-{time.monotonic_ns()}"
     rundir.mkdir(parents=True)
     for name, data in tbgen.stimulus_files(stim, elem_padded_bits=padded, ctrl_bits=ctrl_bits):
