@@ -5,11 +5,8 @@
 :class:`~tdicam.hdl.ddr.LineReader` while the signal frame streams in.
 """
 
-from types import SimpleNamespace
-
 from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
-from amaranth.lib.data import StructLayout
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError, check_choice, check_multiple, check_range
@@ -96,9 +93,8 @@ class CdsDdr(wiring.Component):
     rows = property(lambda self: self._rows)
     pixel_bits = property(lambda self: self.layout.pixel_bits)
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
-    latency = property(lambda self: 1 if self._ppc == 1 else 2,
-                       doc="Cycles from an accepted signal beat to its output beat being "
-                           "valid: 1 at ppc 1, 2 at ppc >= 2 (the input's PairBuffer).")
+    latency = property(lambda self: 1, doc="Cycles from an accepted signal beat to its "
+                                           "output beat being valid (1 at every ppc).")
 
     def elaborate(self, platform):
         from tdicam.hdl.cds import Cds
@@ -116,15 +112,13 @@ class CdsDdr(wiring.Component):
         wiring.connect(m, cds.o_stream, wiring.flipped(self.o_stream))
         m.d.comb += [self.line_errors.eq(wr.line_errors), wr.line_ok.eq(1),
                      *port_wiring(port, wr, rd)]
-        i, frame_kind = self.i_stream, self.frame_kind
-        if ppc > 1:
-            i, frame_kind = _input_buffer(m, i, frame_kind)
+        i = self.i_stream
         kind = Signal()
-        cur_kind = Mux(i.payload.first, frame_kind, kind)
+        cur_kind = Mux(i.payload.first, self.frame_kind, kind)
         have_reset = Signal()
         launched = Signal()
         left, start = frame_requests(m, rd, lay, self._rows)
-        launch = i.valid & i.payload.first & ~frame_kind & have_reset & ~launched \
+        launch = i.valid & i.payload.first & ~self.frame_kind & have_reset & ~launched \
             & ~left.any() & ~wr.busy
         with m.If(launch):
             m.d.sync += [launched.eq(1), *start]
@@ -153,22 +147,6 @@ class CdsDdr(wiring.Component):
         ]
         track_kinds(m, i, kind, cur_kind, have_reset, launched)
         return m
-
-
-def _input_buffer(m, i, frame_kind):
-    """``i`` and its frame kind through a :class:`~tdicam.hdl.interfaces.stream.PairBuffer`
-    (submodule ``in_reg``): the block's logic (the beat's kind -> the writer's and CDS's
-    enables -> the writer's counters) starts at registers, not at the stream's source (the
-    split camera's chain part at ppc 8: the top's input -> ``cds_ddr_1``'s kind -> the
-    line writer's fire -> its line-error count, 8.68 ns, 7.2 of it routing). Returns the
-    buffered stream (``valid``, ``ready``, ``payload``) and kind."""
-    m.submodules.in_reg = buf = PairBuffer(StructLayout({"px": i.payload.shape(),
-                                                          "kind": 1}))
-    m.d.comb += [buf.i_stream.valid.eq(i.valid), buf.i_stream.payload.px.eq(i.payload),
-                 buf.i_stream.payload.kind.eq(frame_kind), i.ready.eq(buf.i_stream.ready)]
-    o = buf.o_stream
-    return SimpleNamespace(valid=o.valid, ready=o.ready, payload=o.payload.px), \
-        o.payload.kind
 
 
 def port_wiring(port, wr, rd):
