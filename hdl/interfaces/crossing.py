@@ -98,15 +98,15 @@ class RegisteredAsyncFIFO(Elaboratable):
         do_write = Signal()
         produce_bin, produce_nxt = Signal(bits), Signal(bits)
         produce_gry, consume_w_gry = Signal(bits), Signal(bits)
-        m.submodules.consume_cdc = FFSynchronizer(Signal(bits, name="consume_gry_out"),
-                                                  consume_w_gry, o_domain=self._w_domain)
+        cur_gry = Signal(bits, reset_less=True)         # the read pointer's Gray code
+        m.submodules.consume_cdc = FFSynchronizer(cur_gry, consume_w_gry,
+                                                  o_domain=self._w_domain)
         full = Signal()
         m.d.comb += [
+            # (the low bits' equality is 1 when there are none: depth 2)
             full.eq((produce_gry[-1] != consume_w_gry[-1])
                     & (produce_gry[-2] != consume_w_gry[-2])
-                    & (produce_gry[:-2] == consume_w_gry[:-2])) if bits > 2 else
-            full.eq((produce_gry[-1] != consume_w_gry[-1])
-                    & (produce_gry[-2] != consume_w_gry[-2])),
+                    & (produce_gry[:-2] == consume_w_gry[:-2])),
             self.w_rdy.eq(~full),
             do_write.eq(self.w_rdy & self.w_en),
             produce_nxt.eq(produce_bin + do_write),
@@ -118,10 +118,8 @@ class RegisteredAsyncFIFO(Elaboratable):
         m.submodules.produce_cdc = FFSynchronizer(produce_gry, produce_r_gry,
                                                   o_domain=self._r_domain)
         cur, inc = Signal(bits, reset_less=True), Signal(bits, reset_less=True, init=1)
-        cur_gry = Signal(bits, reset_less=True)
         inc_gry = Signal(bits, reset_less=True, init=1)
         rdy = Signal(reset_less=True)
-        m.d.comb += m.submodules.consume_cdc.i.eq(cur_gry)
         r_rst = Signal()
         m.submodules.rst_cdc = AsyncFFSynchronizer(
             ResetSignal(self._w_domain, allow_reset_less=True), r_rst,

@@ -95,7 +95,7 @@ def drain_cycles(params, base):
     slowdown (:func:`tdicam.model.dram.slowdown`): a block that buffers its input beats
     may still owe outputs that wait on the memory (at ``drop = 255`` a grant comes every
     256 cycles on average)."""
-    return int(base * max(1.0, dram.slowdown(params))) if dram.has_stalls(params) else base
+    return int(base * dram.slowdown(params))           # 1.0 for a block without DDR
 
 
 def run_stream(block, params, stim, *, n_out, sim, mode="fast", idle=0.0, backpressure=0.0,
