@@ -253,12 +253,11 @@ README_CHAINS = (
      "the ECP5 PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
      "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
      "ECLK / 2 through CLKDIVF, 75 MHz)"),
-    ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera, 5144 x "
-     "3800, 2 gains: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> median3, reset "
-     "frames and per-pixel NUC coefficients in DDR through a DdrArbiter an interface"),
-    ("ning2019_gmax0504_full.toml", 8, {"part": "front"}, "the same camera split over two "
-     "devices (`--part`), the first: the front end, 80 lanes (training, deskew) to the "
-     "pixel stream of both gains"),
+    ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera on one "
+     "device, 5144 x 3800, 2 gains, from its 80 lanes to its 2 TLK2711 links"),
+    ("ning2019_gmax0504_full.toml", 8, {"part": "front"}, "the whole Ning et al. 2019 "
+     "camera, 5144 x 3800, split over two devices (`--part`), the first: the front end, "
+     "80 lanes (training, deskew) to the pixel stream of both gains"),
     ("ning2019_gmax0504_full.toml", 8, {"part": "chain"}, "the second device: the pixel "
      "stream to the 2 TLK2711 links: cds_ddr -> nuc_ddr (NAND) -> hdr -> tdi (1 stage) -> "
      "median3 -> frame selector, reset frames and per-pixel NUC coefficients in DDR through "
