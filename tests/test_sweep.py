@@ -373,7 +373,9 @@ def test_ctrl_c_then_rerun(reference, tmp_path):
         pytest.skip("the sweep finished before SIGINT")
     assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1, err
-    assert 1 <= done < 12
+    # under load the signal can arrive after the last point, while the table is written:
+    # every point is then on disk and the rerun only reuses them
+    assert 1 <= done <= 12
     res = run_sweep(load_sweep(path), out, serial=True, progress=False)
     assert (res.reused, res.computed) == (done, 12 - done)
     assert_same(read_table(out), ref)
