@@ -10,6 +10,7 @@ import pytest
 from tdicam.chain import design
 from tdicam.errors import TdicamError
 from tdicam.hw import record
+from tdicam.planning.camera import _silicon
 from tdicam.planning.sizing import _chain_ok
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,7 +58,7 @@ def test_parts_refused():
 
 
 def _row(part, meets, date="2026-12-03"):
-    return {"part": part, "meets": meets, "date": date}
+    return {"part": part, "meets": meets, "date": date, "pixel_rate": 2.0 if meets else 1.0}
 
 
 def test_split_verdict_needs_both_parts():
@@ -84,3 +85,28 @@ def test_readme_table_tells_parts_apart():
     assert len(lines) == 2
     assert "front end" in lines[0] and "clk 130.0" in lines[0]
     assert "TLK2711" in lines[1] and "clk 125.0" in lines[1]
+
+
+def _rate_row(part, rate, date="2026-12-03", need=100.0):
+    return {"part": part, "label": part, "ppc": 8, "fmax_mhz": rate / 8, "seeds": 3,
+            "date": date, "pixel_rate": rate, "meets": rate >= need}
+
+
+def test_silicon_frame_rate_is_the_slowest_recorded_part():
+    """The camera on the record: the slower part of the split (its newest row) sets the frame
+    rate read when it is below the budget's other read limits; a whole top that keeps up
+    stands alone; no record, or a split missing a part, gives none."""
+    budget = {"frame_rate_hz": 25.0, "samples_per_gain_s": 100.0,
+              "limits": {"lanes": 30.0, "processing": 40.0, "DDR interface": 35.0,
+                         "output links": 10.0}}
+    si = _silicon([_rate_row("front", 120.0), _rate_row("chain", 90.0, "2026-12-01"),
+                   _rate_row("chain", 96.0)], budget)
+    assert si["read_limiter"] == "chain device" and si["read_limit_hz"] == 24.0
+    assert si["pixel_rate"] == 96.0 and not si["ok"]
+    si = _silicon([_rate_row("front", 200.0), _rate_row("chain", 200.0)], budget)
+    assert si["read_limiter"] == "lanes" and si["read_limit_hz"] == 30.0 and si["ok"]
+    si = _silicon([_rate_row("whole", 110.0), _rate_row("front", 200.0),
+                   _rate_row("chain", 90.0)], budget)
+    assert [r["part"] for r in si["rows"]] == ["whole"] and si["ok"]
+    assert _silicon([_rate_row("front", 200.0)], budget) is None
+    assert _silicon(None, budget) is None

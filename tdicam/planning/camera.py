@@ -21,7 +21,7 @@ from tdicam.model import lvds_front
 from tdicam.model.physics import camera
 from tdicam.beats import PPC_CHOICES
 
-__all__ = ["camera_budget", "camera_plan", "camera_lines"]
+__all__ = ["camera_budget", "camera_plan", "camera_lines", "chain_silicon"]
 
 
 def _lanes(scene):
@@ -176,6 +176,48 @@ def camera_budget(scene, cam):
             "config": dataclasses.asdict(cam)}
 
 
+def chain_silicon(chain):
+    """The synthesis record's rows that stand for the chain as built, from the plan's
+    ``gateware.chain`` entries (each ``part``, ``date``, ``pixel_rate``, ``meets``): the
+    fastest whole top's row (``[row]``) when it keeps up or the record holds no split
+    camera with every part; else the newest row of each part of the split (``tdicam synth
+    pipeline --part``: front, chain). None when the record has neither."""
+    from tdicam.chain.design import PARTS
+    whole = [c for c in chain if c["part"] == "whole"]
+    best = max(whole, key=lambda c: c["pixel_rate"]) if whole else None
+    newest = {}
+    for c in chain:
+        if c["part"] != "whole" and (c["part"] not in newest
+                                     or c["date"] >= newest[c["part"]]["date"]):
+            newest[c["part"]] = c
+    split = [newest[p] for p in PARTS[1:]] if set(newest) == set(PARTS[1:]) else None
+    if best is not None and (best["meets"] or split is None):
+        return [best]
+    return split
+
+
+def _silicon(chain, budget):
+    """The scene's camera on the recorded silicon: the chain's rows
+    (:func:`chain_silicon`), the slowest one's pixel rate a gain channel, the frame rate it
+    reads (``F x rate / samples``), the lanes' and DDR's limits beside it, the limiting
+    part; None without a record."""
+    rows = None if not chain else chain_silicon(chain)
+    if rows is None:
+        return None
+    slow = min(rows, key=lambda c: c["pixel_rate"])
+    F = budget["frame_rate_hz"]
+    limits = {n: v for n, v in budget["limits"].items()
+              if n not in ("processing", "output links")}
+    limits[f"{slow['part']} device" if slow["part"] != "whole" else "whole top"] = (
+        F * slow["pixel_rate"] / budget["samples_per_gain_s"])
+    limiter = min(limits, key=limits.get)
+    return {"rows": [{k: c[k] for k in ("part", "label", "ppc", "fmax_mhz", "seeds", "date",
+                                       "pixel_rate", "meets")} for c in rows],
+            "pixel_rate": slow["pixel_rate"], "read_limit_hz": limits[limiter],
+            "read_limiter": limiter, "ok": all(c["meets"] for c in rows)
+            and limits[limiter] >= F * (1 - 1e-12)}
+
+
 def _options(scene, paper):
     """The configurations that carry the coefficients where the paper's DDR does not."""
     out = []
@@ -191,10 +233,14 @@ def _options(scene, paper):
     return out
 
 
-def camera_plan(scene):
+def camera_plan(scene, chain=None):
     """The plan's ``camera`` entry for a scene with ``[camera]`` (None without): the budget
     with the scene's configuration, with the paper's (the keys' defaults at the scene's
-    frame rates) and, when the paper's DDR cannot carry the traffic, the options."""
+    frame rates) and, when the paper's DDR cannot carry the traffic, the options;
+    ``silicon``: the scene's camera at the clocks its synthesis record reached (``chain``:
+    the plan's ``gateware.chain`` rows; :func:`_silicon`), None without a record. The
+    budget's processing row is the scene's ``[camera].clock_mhz`` (the device the scene
+    names, the paper's XC7K325T); the record is the ECP5-85F's."""
     cam = scene.camera
     if cam is None:
         return None
@@ -202,7 +248,8 @@ def camera_plan(scene):
                         output_frame_rate_hz=cam.output_frame_rate_hz)
     pb = camera_budget(scene, paper)
     ddr_ok = next(r for r in pb["rows"] if r["name"] == "DDR interface")["ok"]
-    return {"scene": camera_budget(scene, cam), "paper": pb,
+    sb = camera_budget(scene, cam)
+    return {"scene": sb, "paper": pb, "silicon": _silicon(chain, sb),
             "paper_ddr_ok": ddr_ok,
             "options": None if ddr_ok else _options(scene, paper)}
 
@@ -241,6 +288,15 @@ def camera_lines(c) -> list[str]:
     out.append(f"  camera at {sb['frame_rate_hz']:g} frame/s read, "
                f"{sb['output_frame_rate_hz']:g} out: "
                + ("yes" if sb["feasible"] else f"NO ({', '.join(sb['infeasible'])})"))
+    si = c.get("silicon")
+    if si is not None:
+        parts = ", ".join(f"{'the ' + r['part'] + ' device' if r['part'] != 'whole' else 'the top'}"
+                          f" {r['fmax_mhz']:.1f} MHz x ppc {r['ppc']} = "
+                          f"{r['pixel_rate'] / 1e6:.1f} M/s ({r['seeds']} seed(s), {r['date']})"
+                          for r in si["rows"])
+        out.append(f"  on the synthesis record's ECP5-85F ({parts}): reads up to "
+                   f"{si['read_limit_hz']:.2f} frame/s (limited by the {si['read_limiter']})"
+                   f": {'yes' if si['ok'] else 'NO'} at {sb['frame_rate_hz']:g} frame/s")
     out.append("For comparison, the paper's configuration (Ning et al. 2019: 2 DDR interfaces of 32 "
                "bit, 1600 MT/s, user clock 100 MHz, 16-bit coefficients, processing at "
                "100 MHz, 2 TLK2711 at 100 MHz; not the scene's verdict):")

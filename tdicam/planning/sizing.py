@@ -36,7 +36,7 @@ from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr_traces import PATTERNS
 from tdicam.model.ddr_efficiency import tdi_spill_efficiency
-from tdicam.planning.camera import camera_plan, samples_per_s
+from tdicam.planning.camera import camera_plan, chain_silicon, samples_per_s
 from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
@@ -342,18 +342,9 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
 
 
 def _chain_ok(chain):
-    """Whether the recorded chain keeps up: a whole top's row that does, or a split camera
-    (rows of ``part`` front and chain, ``tdicam synth pipeline --part``) whose every part
-    does (the newest row of each)."""
-    from tdicam.chain.design import PARTS
-    if any(c["meets"] for c in chain if c["part"] == "whole"):
-        return True
-    newest = {}
-    for c in chain:
-        if c["part"] != "whole" and (c["part"] not in newest
-                                     or c["date"] >= newest[c["part"]]["date"]):
-            newest[c["part"]] = c
-    return set(newest) == set(PARTS[1:]) and all(c["meets"] for c in newest.values())
+    """Whether the recorded chain keeps up (:func:`chain_silicon`'s rows all do)."""
+    rows = chain_silicon(chain)
+    return rows is not None and all(c["meets"] for c in rows)
 
 
 def _snr(scene, stages):
@@ -603,7 +594,7 @@ def plan_report(scenes, *, onchip_budget_bits=None, ddr_bits=plan.DDR_WORD_BITS,
     no = _verdict(points[design])
     system = system_plan(first, points[design], ddr_bits=ddr_bits, ddr_clock_hz=ddr_clock_hz)
     no += [r["name"] for r in system or () if r["ok"] is False]
-    camera = camera_plan(first)         # the whole camera's rate budget ([camera])
+    camera = camera_plan(first, chain=points[design]["gateware"]["chain"])  # [camera]'s budget
     no += [f"camera {n}" for n in (camera["scene"]["infeasible"] if camera else ())]
     out = {
         "scene": None if first.source == "<command line>" else first.source,
