@@ -89,22 +89,25 @@ def test_readme_table_tells_parts_apart():
 
 def _rate_row(part, rate, date="2026-12-03", need=100.0):
     return {"part": part, "label": part, "ppc": 8, "fmax_mhz": rate / 8, "seeds": 3,
-            "date": date, "pixel_rate": rate, "meets": rate >= need}
+            "date": date, "pixel_rate": rate, "need": need, "meets": rate >= need}
 
 
 def test_silicon_frame_rate_is_the_slowest_recorded_part():
-    """The camera on the record: the slower part of the split (its newest row) sets the frame
-    rate read when it is below the budget's other read limits; a whole top that keeps up
-    stands alone; no record, or a split missing a part, gives none."""
+    """The camera on the record: the chain device's newest row sets the frame rate read
+    when it is below the budget's other read limits; a front device that cannot take a line
+    from the lanes reads none; a whole top that keeps up stands alone; no record, or a split
+    missing a part, gives none."""
     budget = {"frame_rate_hz": 25.0, "samples_per_gain_s": 100.0,
               "limits": {"lanes": 30.0, "processing": 40.0, "DDR interface": 35.0,
                          "output links": 10.0}}
     si = _silicon([_rate_row("front", 120.0), _rate_row("chain", 90.0, "2026-12-01"),
                    _rate_row("chain", 96.0)], budget)
     assert si["read_limiter"] == "chain device" and si["read_limit_hz"] == 24.0
-    assert si["pixel_rate"] == 96.0 and not si["ok"]
+    assert [r["pixel_rate"] for r in si["rows"]] == [120.0, 96.0] and not si["ok"]
     si = _silicon([_rate_row("front", 200.0), _rate_row("chain", 200.0)], budget)
     assert si["read_limiter"] == "lanes" and si["read_limit_hz"] == 30.0 and si["ok"]
+    si = _silicon([_rate_row("front", 99.0), _rate_row("chain", 200.0)], budget)
+    assert si["read_limiter"] == "front device" and si["read_limit_hz"] == 0 and not si["ok"]
     si = _silicon([_rate_row("whole", 110.0), _rate_row("front", 200.0),
                    _rate_row("chain", 90.0)], budget)
     assert [r["part"] for r in si["rows"]] == ["whole"] and si["ok"]

@@ -21,7 +21,7 @@ from tdicam.model import lvds_front
 from tdicam.model.physics import camera
 from tdicam.beats import PPC_CHOICES
 
-__all__ = ["camera_budget", "camera_plan", "camera_lines", "chain_silicon"]
+__all__ = ["camera_budget", "camera_plan", "camera_lines", "chain_silicon", "front_rate"]
 
 
 def _lanes(scene):
@@ -67,6 +67,19 @@ def samples_per_s(scene, cam, reset=None):
     s = scene.sensor
     reset = _chain_facts(scene)[0] if reset is None else reset
     return (2 if reset else 1) * s.columns * s.rows * cam.frame_rate_hz
+
+
+def front_rate(scene):
+    """Pixels a second a gain channel the lanes' front end takes while a line arrives (its
+    ``columns`` in the line's ``P + 2`` word clocks, :func:`tdicam.model.lvds_front.min_proc_mhz`
+    x ppc): what the processing clock x ppc behind the crossing FIFO must carry, a little
+    above the samples a second when the sensor's lines follow with no blanking; None without
+    ``[sensor.lvds]``."""
+    lv = scene.sensor.lvds
+    if lv is None:
+        return None
+    return 1e6 * lvds_front.min_proc_mhz(lv.lanes_per_gain, 1, scene.sensor.columns,
+                                         lv.bit_rate_mbps / lv.word_bits)
 
 
 def camera_budget(scene, cam):
@@ -198,24 +211,28 @@ def chain_silicon(chain):
 
 def _silicon(chain, budget):
     """The scene's camera on the recorded silicon: the chain's rows
-    (:func:`chain_silicon`), the slowest one's pixel rate a gain channel, the frame rate it
-    reads (``F x rate / samples``), the lanes' and DDR's limits beside it, the limiting
-    part; None without a record."""
+    (:func:`chain_silicon`); the frame rate each reads, ``F x pixel rate / samples`` a gain
+    (a split's front device: any while it takes a line from the lanes as fast as they send
+    it, its ``meets``, none when it does not: it loses words whatever the frame rate),
+    beside the budget's lanes' and DDR's limits; the lowest is the frame rate the camera
+    reads and its part the limit. None without a record."""
     rows = None if not chain else chain_silicon(chain)
     if rows is None:
         return None
-    slow = min(rows, key=lambda c: c["pixel_rate"])
     F = budget["frame_rate_hz"]
     limits = {n: v for n, v in budget["limits"].items()
               if n not in ("processing", "output links")}
-    limits[f"{slow['part']} device" if slow["part"] != "whole" else "whole top"] = (
-        F * slow["pixel_rate"] / budget["samples_per_gain_s"])
+    for c in rows:
+        name = "whole top" if c["part"] == "whole" else f"{c['part']} device"
+        if c["part"] != "front":
+            limits[name] = F * c["pixel_rate"] / budget["samples_per_gain_s"]
+        elif not c["meets"]:
+            limits[name] = 0.0
     limiter = min(limits, key=limits.get)
     return {"rows": [{k: c[k] for k in ("part", "label", "ppc", "fmax_mhz", "seeds", "date",
-                                       "pixel_rate", "meets")} for c in rows],
-            "pixel_rate": slow["pixel_rate"], "read_limit_hz": limits[limiter],
-            "read_limiter": limiter, "ok": all(c["meets"] for c in rows)
-            and limits[limiter] >= F * (1 - 1e-12)}
+                                       "pixel_rate", "need", "meets")} for c in rows],
+            "read_limit_hz": limits[limiter], "read_limiter": limiter,
+            "ok": all(c["meets"] for c in rows) and limits[limiter] >= F * (1 - 1e-12)}
 
 
 def _options(scene, paper):
@@ -292,7 +309,8 @@ def camera_lines(c) -> list[str]:
     if si is not None:
         parts = ", ".join(f"{'the ' + r['part'] + ' device' if r['part'] != 'whole' else 'the top'}"
                           f" {r['fmax_mhz']:.1f} MHz x ppc {r['ppc']} = "
-                          f"{r['pixel_rate'] / 1e6:.1f} M/s ({r['seeds']} seed(s), {r['date']})"
+                          f"{r['pixel_rate'] / 1e6:.1f} M/s, needs {r['need'] / 1e6:.1f} "
+                          f"({r['seeds']} seed(s), {r['date']})"
                           for r in si["rows"])
         out.append(f"  on the synthesis record's ECP5-85F ({parts}): reads up to "
                    f"{si['read_limit_hz']:.2f} frame/s (limited by the {si['read_limiter']})"

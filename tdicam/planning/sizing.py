@@ -36,7 +36,7 @@ from tdicam.model.physics import plan
 from tdicam.beats import PPC_CHOICES
 from tdicam.model.ddr_traces import PATTERNS
 from tdicam.model.ddr_efficiency import tdi_spill_efficiency
-from tdicam.planning.camera import camera_plan, chain_silicon, samples_per_s
+from tdicam.planning.camera import camera_plan, chain_silicon, front_rate, samples_per_s
 from tdicam.planning.predict import mtf_left_out, mtf_prediction, snr_prediction
 from tdicam.planning.report import figures, report_text
 from tdicam.scene.loader import BOUNDS, load_scene
@@ -277,7 +277,7 @@ def plan_scenes(scene_path, given: dict):
 
 
 def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_file=None,
-                  chain_rate=None) -> dict:
+                  chain_rate=None, front_rate=None) -> dict:
     """What the TDI gateware must do for the camera, and whether the measured synthesis does.
 
     The TDI block receives the M-row window, ``M x W`` pixels, every line period:
@@ -292,7 +292,10 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     per recorded ppc its Fmax, pixel rate ``Fmax x ppc`` and whether that reaches ``rate``
     (every block before TDI takes the M-row window at the same rate), or ``chain_rate`` when
     given (an area camera's ``[camera]``: the samples a gain channel a second its frames
-    bring, :func:`tdicam.planning.camera.samples_per_s`); the best row decides ``chain_ok``. None without a record of the scene (``tdicam synth pipeline --scene S
+    bring, :func:`tdicam.planning.camera.samples_per_s`); a split camera's front device
+    (``part`` front) against ``front_rate`` when given instead (the pixels a second its
+    crossing FIFO takes during a line from the lanes, :func:`tdicam.planning.camera.front_rate`);
+    the best row decides ``chain_ok``. None without a record of the scene (``tdicam synth pipeline --scene S
     --record`` makes one) or with ``fpga_clock_mhz``.
     """
     rate = stages * width / line_period_s
@@ -318,13 +321,18 @@ def gateware_plan(stages, width, line_period_s, *, fpga_clock_mhz=None, scene_fi
     def clk(r):            # the processing clock's Fmax (the clock the pixels need)
         return (r.fmax_clocks or {}).get("clk", r.fmax_mhz)
 
+    def row(r):
+        part = r.params.get("part", "whole")
+        n, what = ((front_rate, "a line from the lanes in its line's word clocks")
+                   if part == "front" and front_rate else (need, need_what))
+        rate_ = clk(r) * 1e6 * int(r.params.get("ppc", 1))
+        return {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": clk(r),
+                "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
+                "pixel_rate": rate_, "meets": rate_ >= n, "need": n, "need_what": what,
+                "part": part}
+
     chain = None if scene_file is None or fpga_clock_mhz is not None else [
-        {"label": r.label, "ppc": int(r.params.get("ppc", 1)), "fmax_mhz": clk(r),
-         "seeds": len(r.fmax_seeds), "width": r.params.get("width"), "date": r.date,
-         "pixel_rate": clk(r) * 1e6 * int(r.params.get("ppc", 1)),
-         "meets": clk(r) * 1e6 * int(r.params.get("ppc", 1)) >= need,
-         "need": need, "need_what": need_what, "part": r.params.get("part", "whole")}
-        for r in record.find("pipeline", scene=scene_file)
+        row(r) for r in record.find("pipeline", scene=scene_file)
         if "bus" not in r.params] or None     # a bus row is the control bus's cost
     return {
         "pixel_rate": rate, "stages": stages, "width": width,
@@ -434,7 +442,8 @@ def _point(scene, stages, *, onchip_budget_bits, ddr_bits, ddr_clock_hz, ddr_eff
         "gateware": gateware_plan(
             stages, s.columns, t_line, fpga_clock_mhz=fpga_clock_mhz,
             scene_file=None if scene.source == "<command line>" else Path(scene.source).name,
-            chain_rate=None if scene.camera is None else samples_per_s(scene, scene.camera)),
+            chain_rate=None if scene.camera is None else samples_per_s(scene, scene.camera),
+            front_rate=front_rate(scene)),
         "snr": _snr(scene, stages),
         "mtf_nyquist": [mtf_prediction(scene, stages, dv) for dv in scene.motion.dv_over_v],
         "mtf_left_out": list(mtf_left_out(scene)),
