@@ -82,21 +82,39 @@ def test_ddr_traffic_by_hand(plan):
     # one gain an interface: its coefficients read, its reset frame written and read back
     bits_a_s = (coeff_line + 2 * reset_line) * ROWS * UI_BITS * FPS
     assert bits_a_s == pytest.approx(26.095e9, rel=1e-4)
+    # the frame buffer before the links (25 frame/s read, the links carry 10.21): an image
+    # line of 5144 16-bit pixels is 322 words, written at 25 frame/s and read at the links'
+    # pace, shared by the 2 interfaces
+    link_fps = 100e6 / (4 + ROWS * (4 + COLS // 2 + 2))
+    image_line = math.ceil(COLS * 16 / UI_BITS)
+    assert image_line == 322
+    image = image_line * ROWS * UI_BITS * (FPS + link_fps) / 2
+    assert image == pytest.approx(5.514e9, rel=1e-3)
     paper = _rows(plan["paper"])["DDR interface"]
-    assert paper["need"] == pytest.approx(bits_a_s)
+    assert paper["need"] == pytest.approx(bits_a_s + image)
+    assert plan["paper"]["frame_buffer"] == {"line_words": 322, "images": 1, "built": False}
+    # the frame rate it reads: the per-frame words at F, the image read at the links' pace
+    per_frame = (coeff_line + 2 * reset_line) * ROWS * UI_BITS + image_line * ROWS * UI_BITS / 2
+    assert paper["frame_rate_limit"] == pytest.approx(
+        (256 * 100e6 * eff - image_line * ROWS * UI_BITS * link_fps / 2) / per_frame)
     # the paper's MIG: 256 bit x 100 MHz (the 1600 MT/s x 32-bit pins would give twice it)
     assert paper["available"] == pytest.approx(256 * 100e6 * eff)
     assert not paper["ok"] and plan["paper_ddr_ok"] is False
     scene = _rows(plan["scene"])["DDR interface"]
     assert scene["available"] == pytest.approx(256 * 200e6 * eff) and scene["ok"]
     opts = {o["option"]: o for o in plan["options"]}
-    assert all(o["ok"] for o in opts.values())
+    # with the frame buffer beside them, fewer coefficient bits or NUC after the merge no
+    # longer fit the paper's 18.74 Gbit/s; a faster user clock or more interfaces do
+    assert {n for n, o in opts.items() if o["ok"]} == {
+        "DDR user clock 200 MHz (1600 MT/s at 4:1)", "4 interfaces (8 SDRAMs x16)"}
     # 8-bit coefficients halve the coefficient words: 322 a line
     assert opts["8-bit coefficients"]["need_bps"] == pytest.approx(
-        (math.ceil(COLS * 2 * 8 / UI_BITS) + 2 * reset_line) * ROWS * UI_BITS * FPS)
+        (math.ceil(COLS * 2 * 8 / UI_BITS) + 2 * reset_line) * ROWS * UI_BITS * FPS + image)
     # after the HDR merge: one coefficient image over the 2 interfaces
     assert opts["NUC after the HDR merge (one channel)"]["need_bps"] == pytest.approx(
-        (coeff_line + 2 * 2 * reset_line) * ROWS * UI_BITS * FPS / 2)
+        (coeff_line + 2 * 2 * reset_line) * ROWS * UI_BITS * FPS / 2 + image)
+    assert opts["4 interfaces (8 SDRAMs x16)"]["need_bps"] == pytest.approx(
+        (bits_a_s + image) / 2)
 
 
 def test_reset_frame_on_chip_leaves_the_coefficients():
@@ -105,9 +123,12 @@ def test_reset_frame_on_chip_leaves_the_coefficients():
     b = _plan()
     sc = load_scene(SCENE, overrides={"pipeline": {"cds": {"memory": "chip"}}})
     chip = camera_plan(sc)["scene"]
-    assert chip["ddr_words_per_frame"] == {"coefficients": 2 * ROWS * 643, "reset write": 0,
-                                           "reset read": 0}
-    assert _rows(chip)["DDR interface"]["need"] == pytest.approx(ROWS * 643 * UI_BITS * FPS)
+    words = dict(chip["ddr_words_per_frame"])
+    image_write, image_read = words.pop("image write"), words.pop("image read")
+    assert words == {"coefficients": 2 * ROWS * 643, "reset write": 0, "reset read": 0}
+    assert image_write == ROWS * 322
+    assert _rows(chip)["DDR interface"]["need"] == pytest.approx(
+        (ROWS * 643 + (image_write + image_read) / 2) * UI_BITS * FPS)
     assert chip["samples_per_gain_s"] == b["scene"]["samples_per_gain_s"]
 
 
@@ -263,3 +284,20 @@ def test_the_full_scene_starts_from_its_80_lanes_and_its_lane_rows_agree():
     assert "16 padded slot(s) a gain" in rate["text"]
     budget = _rows(camera_plan(sc)["scene"])["lanes"]
     assert budget["need"] == pytest.approx(80 * 131 * 12 * ROWS * 2 * FPS)
+
+
+def test_frame_buffer_only_when_the_links_are_slower():
+    """No image waits when the links carry the sensor's frames (a 1280-column window at
+    5 frame/s); 5144 columns at 25 frame/s: one image of 322-word lines, written a frame,
+    read at the links' 10.21 frame/s."""
+    from tdicam.model.physics.camera import frame_buffer_words
+    assert frame_buffer_words(1280, 1024, pixel_bits=16, frame_rate_hz=5.0,
+                              output_frame_rate_hz=5.0, link_frame_rate_hz=40.0) == (0, 0, 0, 0)
+    line, write, read, images = frame_buffer_words(
+        COLS, ROWS, pixel_bits=16, frame_rate_hz=25.0, output_frame_rate_hz=5.0,
+        link_frame_rate_hz=10.21)
+    assert (line, write, images) == (322, 322 * ROWS, 1)
+    assert read == pytest.approx(write * 10.21 / 25)
+    sc = load_scene(SCENE, overrides={"camera": {"frame_rate_hz": 10.0,
+                                                 "output_frame_rate_hz": 10.0}})
+    assert camera_plan(sc)["scene"]["frame_buffer"] is None

@@ -31,6 +31,13 @@ Arithmetic (``C`` columns, ``R`` rows, ``G`` gain channels)
   merge). The traffic is shared evenly by ``ddr_interfaces`` interfaces, each of peak
   ``min(data_bits x data_rate, 8 data_bits x user_clock)`` (a MIG user word of BL8 = 8
   data words) times the measured efficiency.
+* frame buffer: when the sensor's frames come faster than the links carry them (``F`` above
+  the links' frame rate ``F_l``), each image sent waits in DDR: written as the chain makes it
+  (``R`` lines of ``ceil(C / min(256 / link_pixel_bits, 24))`` words, at ``F``: while it
+  arrives), read at the links' pace (the same words at ``F_l``); one image of room when its
+  read (``1 / F_l``) ends before the next image sent begins (``F / F_o`` frames later:
+  :func:`frame_buffer_words`), two else. The paper stores whole frames in its SDRAM (§4.2)
+  and sends a full frame at 5 frame/s (§5).
 * NAND: :func:`tdicam.model.nand_store.timing` of each coefficient image (its scan once a
   part); images of one part load one after the other.
 * links: :func:`tdicam.model.tlk2711.frame_rate_limit` (framing included).
@@ -46,7 +53,7 @@ from tdicam.beats import PPC_CHOICES
 
 __all__ = ["KEYS", "NUC_PLACES", "Camera", "lane_words_per_line", "lane_figures",
            "processing_figures", "ddr_words_per_frame", "ddr_peak_bps", "ddr_efficiency",
-           "nand_figures", "link_figures"]
+           "nand_figures", "link_figures", "frame_buffer_words"]
 
 #: where the per-pixel coefficients are applied: on each gain channel before the HDR
 #: merge (the paper's and the golden chain's order) or on the merged image (one channel)
@@ -188,3 +195,22 @@ def link_figures(rows, columns, *, frames_per_s, pixel_bits, links, clock_hz):
     limit = tlk2711.frame_rate_limit(rows, columns, pixel_bits=pixel_bits, links=links,
                                      word_clock_hz=clock_hz)
     return need, payload, float(limit)
+
+
+def frame_buffer_words(columns, rows, *, pixel_bits, frame_rate_hz, output_frame_rate_hz,
+                       link_frame_rate_hz):
+    """``(line_words, write, read, images)`` of the frame buffer before the output links:
+    the 256-bit words of an image line (``ceil(columns / min(256 // pixel_bits, 24))``),
+    the words written and read a sensor frame while an image is sent (``rows x line_words``
+    written, at the frame rate; ``rows x line_words x link_frame_rate / frame_rate`` read,
+    at the links' pace) and the images of room (1 when an image's read, ``1 /
+    link_frame_rate``, ends within the ``frame_rate / output_frame_rate`` frames before the
+    next image sent, else 2); all 0 when the links keep up with the sensor's frames
+    (``frame_rate <= link_frame_rate``: no image waits)."""
+    if frame_rate_hz <= link_frame_rate_hz * (1 + 1e-12):
+        return 0, 0, 0.0, 0
+    line = -(-int(columns) // _per_word(pixel_bits))
+    write = int(rows) * line
+    read = write * link_frame_rate_hz / frame_rate_hz
+    images = 1 if 1 / link_frame_rate_hz <= 1 / output_frame_rate_hz * (1 + 1e-12) else 2
+    return line, write, read, images

@@ -121,6 +121,13 @@ def camera_budget(scene, cam):
     traffic, reset_line, coeff_line = camera.ddr_words_per_frame(
         C, R, pixel_bits=s.bits, gains=G, reset=reset_ddr, coeff_bits=cam.coeff_bits,
         coeff_channels=coeff_ch)
+    lneed, payload, llim = camera.link_figures(R, C, frames_per_s=Fo,
+                                             pixel_bits=cam.link_pixel_bits,
+                                             links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
+    fb_line, fb_write, fb_read, fb_images = camera.frame_buffer_words(
+        C, R, pixel_bits=cam.link_pixel_bits, frame_rate_hz=F, output_frame_rate_hz=Fo,
+        link_frame_rate_hz=llim)
+    traffic = {**traffic, "image write": fb_write, "image read": fb_read}
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
                                          cam.ddr_user_clock_mhz)
@@ -128,6 +135,9 @@ def camera_budget(scene, cam):
     avail = peak * eff
     words = sum(traffic.values()) / n_if
     dneed = words * _ddr.WORD_BITS * F
+    # the frame buffer's read goes at the links' pace, whatever the sensor's frame rate
+    fixed = fb_read / n_if * _ddr.WORD_BITS * F
+    per_frame = dneed / F - fixed / F
     parts = ", ".join(f"{n} {v / n_if * _ddr.WORD_BITS * F / 1e9:.2f}"
                       for n, v in traffic.items() if v)
     rows.append(_row(
@@ -138,19 +148,25 @@ def camera_budget(scene, cam):
         f"{user / 1e9:.1f} Gbit/s; peak {peak / 1e9:.1f} x {eff:.1%} = {avail / 1e9:.2f} "
         f"Gbit/s, {eff_src}) moves {parts} Gbit/s (coefficients {coeff_line} words a line "
         f"of {cam.coeff_bits}-bit gain and offset, {coeff_ch} channel(s); reset lines "
-        f"{reset_line} words, 24 pixels a word)", limit=F * avail / dneed if dneed else None))
+        f"{reset_line} words, 24 pixels a word"
+        + (f"; the frame buffer before the links: an image sent written at {F:g} frame/s "
+           f"as the chain makes it and read at the links' {llim:.2f}, {fb_line} words a "
+           f"line of {cam.link_pixel_bits}-bit pixels" if fb_write else "")
+        + ")", limit=max(avail - fixed, 0.0) / per_frame if per_frame else None))
 
     # capacity: a line at a power-of-two stride (Table 2: 4096 addresses for 512 words)
     def stride(w):
         return 1 << (max(w, 1) - 1).bit_length() if w else 0
-    lines = coeff_ch * R * stride(coeff_line) + (G * R * stride(reset_line) if reset_ddr else 0)
+    lines = coeff_ch * R * stride(coeff_line) + (G * R * stride(reset_line) if reset_ddr else 0) \
+        + fb_images * R * stride(fb_line)
     used = lines * _ddr.WORD_BITS / 8 / n_if
     capacity = _ddr.CAPACITY_BYTES * cam.ddr_data_bits / 32
     rows.append(_row(
         "DDR capacity", used, capacity, "B", "more or larger SDRAMs",
         f"{used / 2**20:.0f} MiB an interface (lines at a power-of-two stride: reset "
-        f"{stride(reset_line)} words, coefficients {stride(coeff_line)}) of "
-        f"{capacity / 2**30:g} GiB"))
+        f"{stride(reset_line)} words, coefficients {stride(coeff_line)}"
+        + (f", {fb_images} image(s) of the frame buffer {stride(fb_line)}" if fb_images else "")
+        + f") of {capacity / 2**30:g} GiB"))
 
     if coeff_ch:
         secs, used_b, free_b, one = camera.nand_figures(R, C, coeff_ch, cam.nand_parts)
@@ -163,9 +179,6 @@ def camera_budget(scene, cam):
             f"blocks a part"))
         rows[-1]["seconds"] = secs
 
-    lneed, payload, llim = camera.link_figures(R, C, frames_per_s=Fo,
-                                             pixel_bits=cam.link_pixel_bits,
-                                             links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
     rows.append(_row(
         "output links", Fo, llim, "frame/s",
         f"output_frame_rate_hz <= {llim:.2f} (a window of fewer rows, more links, or "
@@ -173,7 +186,12 @@ def camera_budget(scene, cam):
         f"{cam.links} TLK2711 x 16 bit x {cam.link_clock_mhz:g} MHz = {payload / 1e9:.2f} "
         f"Gbit/s; the {C} x {R} image of {cam.link_pixel_bits}-bit pixels at {Fo:g} "
         f"frame/s is {lneed / 1e9:.2f} Gbit/s; with the framing the links carry "
-        f"{llim:.2f} frame/s", limit=llim))
+        f"{llim:.2f} frame/s"
+        + (f"; an image sent takes {1e3 / llim:.1f} ms on them against the "
+           f"{1e3 / F:.1f} ms the sensor reads it in, so it waits in a DDR frame buffer "
+           f"({fb_images} image(s) of room; the generated top has none: it holds the chain "
+           f"while the links send, which a sensor cannot wait for)" if fb_write else ""),
+        limit=llim))
 
     limits = {r["name"]: r["frame_rate_limit"] for r in rows
               if r["frame_rate_limit"] is not None}
@@ -182,6 +200,8 @@ def camera_budget(scene, cam):
     read_limiter = min(read, key=read.get)
     no = [r["name"] for r in rows if not r["ok"]]
     return {"rows": rows, "frame_rate_hz": F, "output_frame_rate_hz": Fo,
+            "frame_buffer": {"line_words": fb_line, "images": fb_images,
+                             "built": False} if fb_write else None,
             "samples_per_gain_s": samples, "ppc": ppc, "ddr_words_per_frame": traffic,
             "ddr_efficiency": eff, "limits": limits, "sustained_hz": limits[limiter],
             "limiter": limiter, "read_limit_hz": read[read_limiter],
