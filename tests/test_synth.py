@@ -341,3 +341,23 @@ def test_xc7_share_counts_ramb18_as_half_a_ramb36():
     assert s["LUT"] == (20380, XC7K325T["LUT"], 10.0)
     assert s["RAMB36"] == (29.0, 445, 6.5)
     assert s["DSP48"] == (7, 840, 0.8) and s["FF"][2] == 3.2
+
+
+def test_a_quiet_tool_failure_names_the_full_logs_error_and_the_abc9_fix(tmp_path):
+    """yosys run with ``-q -l FILE`` says nothing on failure: the error line comes from
+    its full log, and an assertion inside ABC9 names --no-abc9 as the fix."""
+    from tdicam.hw.synth import _ABC_LUTS, _failure
+    full = tmp_path / "y.full.log"
+    full.write_text("3.46.23.5. Executing ABC9.\nRunning ABC command\n"
+                    "ERROR: Assert `GetSize(conn.first) == GetSize(conn.second)' failed\n")
+    cmd = ["yosys", "-q", "-l", "y.full.log", "-p", "synth_ecp5 -top x"]
+    msg = _failure("yosys-ecp5", tmp_path, cmd, "")
+    assert "ERROR: Assert" in msg and "--no-abc9" in msg and "y.full.log" in msg
+    assert "\n" not in msg
+    # without ABC9 in the script (the older ABC) there is no such fix to name
+    msg = _failure("yosys-ecp5", tmp_path, cmd[:-1] + [f"synth_ecp5 -run :map_luts; {_ABC_LUTS}"], "")
+    assert "ERROR: Assert" in msg and "--no-abc9" not in msg
+    # a tool that printed its error itself: that line, and the tool's own log
+    msg = _failure("nextpnr", tmp_path, ["nextpnr", "--json", "a"], "Info: x\nERROR: no fit\n")
+    assert msg.startswith("nextpnr failed for") and "ERROR: no fit" in msg and "nextpnr.log" in msg
+    assert "no output" in _failure("nextpnr", tmp_path, ["nextpnr"], "")

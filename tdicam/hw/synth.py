@@ -169,13 +169,28 @@ def _run(cmd, cwd, what, inputs=(), outputs=()):
     seconds = time.perf_counter() - t0
     (Path(cwd) / f"{what}.log").write_text(proc.stdout + proc.stderr)
     if proc.returncode != 0:
-        lines = [l for l in (proc.stdout + proc.stderr).splitlines()
-                 if "ERROR" in l or "Error" in l] or (proc.stdout + proc.stderr).splitlines()
-        raise TdicamError(f"{what} failed for {Path(cwd).name}: "
-                          f"{lines[-1].strip() if lines else 'no output'} "
-                          f"(log: {Path(cwd) / (what + '.log')})")
+        raise TdicamError(_failure(what, cwd, cmd, proc.stdout + proc.stderr))
     stamp.write_text(f"{key}\n{seconds:.1f}\n")
     return seconds
+
+
+def _failure(what, cwd, cmd, output):
+    """The one line that says why ``what`` failed: its last error line, looked for in the
+    tool's output and, when it ran quietly (yosys ``-q -l FILE``), in its full log; for an
+    ABC9 failure (an assertion inside ``abc9``, as yosys has on some netlists) the fix."""
+    log = Path(cwd) / f"{what}.log"
+    if "-l" in cmd:
+        full = Path(cwd) / str(cmd[cmd.index("-l") + 1])
+        if full.exists():
+            output += "\n" + full.read_text(errors="replace")[-200_000:]
+            log = full
+    text = output.splitlines()
+    errors = [l for l in text if "ERROR" in l or "Error" in l]
+    why = (errors or [l for l in text if l.strip()] or ["no output"])[-1].strip()
+    hint = ""
+    if errors and any("ABC9" in l for l in text[-400:]) and _ABC_LUTS not in " ".join(map(str, cmd)):
+        hint = "; ABC9 failed on this netlist: run again with --no-abc9 (the older ABC)"
+    return f"{what} failed for {Path(cwd).name}: {why}{hint} (log: {log})"
 
 
 def _cells(stat_path, top, module=None):
