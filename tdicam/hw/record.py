@@ -249,10 +249,11 @@ README_CHAINS = (
      "median3 (at 1 after an 8:1 width converter), 256 columns"),
     ("ning2019_gmax0504_system_lanes.toml", 1, {}, "Ning et al. 2019 camera from the "
      "sensor's lanes: lvds -> cds_ddr -> nuc (NAND) -> hdr -> tdi -> median3, 256 columns"),
-    ("ning2019_gmax0504_system_lanes.toml", 1, {"phy": "ecp5"}, "the same camera behind "
-     "the ECP5 PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit clock ECLK constrained at "
-     "150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr times no path on it; sclk = "
-     "ECLK / 2 through CLKDIVF, 75 MHz)"),
+    ("ning2019_gmax0504_system_lanes.toml", 1, {"phy": "ecp5", "bus": "axi4-lite"}, "the "
+     "same camera behind the ECP5 PHY (`--phy ecp5`: LVDS pins -> DELAYF -> IDDRX2F; the bit "
+     "clock ECLK constrained at 150 MHz, 300 Mbit/s DDR, clocks only the IDDRX2F: nextpnr "
+     "times no path on it; sclk = ECLK / 2 through CLKDIVF, 75 MHz), with its control bus "
+     "(AXI4-Lite), LUTs mapped by the older ABC (`--no-abc9`: ABC9 fails on this netlist)"),
     ("ning2019_gmax0504_full.toml", 8, {}, "the whole Ning et al. 2019 camera on one "
      "device, 5144 x 3800, 2 gains, from its 80 lanes to its 2 TLK2711 links"),
     ("ning2019_gmax0504_full.toml", 8, {"part": "front"}, "the whole Ning et al. 2019 "
