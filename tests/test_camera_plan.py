@@ -301,3 +301,19 @@ def test_frame_buffer_only_when_the_links_are_slower():
     sc = load_scene(SCENE, overrides={"camera": {"frame_rate_hz": 10.0,
                                                  "output_frame_rate_hz": 10.0}})
     assert camera_plan(sc)["scene"]["frame_buffer"] is None
+
+
+def test_the_links_keep_up_with_the_lanes_only_on_the_narrow_cut():
+    """The generated top has no frame buffer: at full width a kept row on the 2 links
+    (2,578 words at 100 MHz, 25.78 us) is slower than the lanes' next reset and signal line
+    (2 x 131 words of 40 ns, 10.48 us), so the full-width cut from the lanes ends at the
+    stream; the 40-column cut on 16 lanes a gain (26 words, 0.26 us against 2 x 5 x 40 ns)
+    keeps its links."""
+    from tdicam.bench.camera import _cut_scene, camera_cut, links_keep_up
+    from tdicam.model.tlk2711 import line_words
+    assert line_words(5144, links=2) == 2578 and line_words(40, links=2) == 26
+    assert not links_keep_up(_cut_scene(8)[0])
+    assert links_keep_up(_cut_scene(8, 40, 16)[0])
+    p, _ = camera_cut(8, links=False)
+    assert p.links is None
+    assert camera_cut(8, columns=40, lanes_per_gain=16, nand_blocks=16)[0].links is not None
