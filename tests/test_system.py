@@ -437,3 +437,15 @@ def test_two_clock_verilog_is_the_same_in_every_process(tmp_path):
     import tdicam
     assert hashlib.sha256(texts[0].replace(tdicam.__version__, "VERSION").encode()
                           ).hexdigest() == NO_CSR_LANES_SHA256
+
+
+def test_a_failing_run_names_the_fronts_lost_words_first():
+    from tdicam.chain.cosim import OVERFLOW, lead_with_overflow
+    bad = "first mismatch in block median3 (tap median3): frame 1, line 0, column 7"
+    lost = lead_with_overflow({"message": bad, "status_outputs": {OVERFLOW: 1}})
+    assert lost.startswith("the front's crossing FIFO overflowed (lvds_fifo_overflow = 1")
+    assert lost.endswith("; " + bad) and "\n" not in lost
+    # no overflow, no status, or a match: the message as it was
+    assert lead_with_overflow({"message": bad, "status_outputs": {OVERFLOW: 0}}) == bad
+    assert lead_with_overflow({"message": bad}) == bad
+    assert lead_with_overflow({"message": "match", "status_outputs": {OVERFLOW: 1}}) == "match"

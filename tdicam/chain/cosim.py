@@ -33,7 +33,11 @@ from tdicam.errors import TdicamError
 
 __all__ = ["cosim_scene", "check_rtl_design", "scene_data", "cosimulate", "run_top",
            "beats_differ", "WAVE_WINDOW",
-           "system_figures", "lane_fault_cut"]
+           "system_figures", "lane_fault_cut", "OVERFLOW", "lead_with_overflow"]
+
+#: The front's status output that says a lane word was lost in its crossing FIFO (named
+#: first in a failing run's message: the mismatches that follow are its consequence).
+OVERFLOW = "lvds_fifo_overflow"
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):
@@ -540,7 +544,24 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
             "; ".join(problems)
     else:
         rep["message"] = "match"
+    rep["message"] = lead_with_overflow(rep)
     return rep
+
+
+def lead_with_overflow(rep):
+    """``rep["message"]``, led by the front's lost words when its status shows them.
+
+    A lane cannot wait: when the top does not take its words as fast as they come, the
+    front's crossing FIFO overflows (status output :data:`OVERFLOW` = 1) and every mismatch
+    after it follows from that, so a failing run names the cause first. A matching run, or
+    one whose status has no overflow, keeps its message as it is.
+    """
+    msg = rep["message"]
+    if msg != "match" and rep.get("status_outputs", {}).get(OVERFLOW):
+        return (f"the front's crossing FIFO overflowed ({OVERFLOW} = 1: the top did not "
+                f"take the lanes' words as fast as they came, and lanes cannot wait); "
+                + msg)
+    return msg
 
 
 def _waveform(p, data, cycle, wave_dir, seed, idle, backpressure):
