@@ -309,9 +309,11 @@ def test_the_links_keep_up_with_the_lanes_only_on_the_narrow_cut():
     (2 x 131 words of 40 ns, 10.48 us), so the full-width cut from the lanes ends at the
     stream; the 40-column cut on 16 lanes a gain (26 words, 0.26 us against 2 x 5 x 40 ns)
     keeps its links."""
-    from tdicam.bench.camera import _cut_scene, camera_cut, links_keep_up
+    from tdicam.bench.camera import _cut_scene, camera_cut, link_times, links_keep_up
     from tdicam.model.tlk2711 import line_words
     assert line_words(5144, links=2) == 2578 and line_words(40, links=2) == 26
+    assert link_times(_cut_scene(8)[0]) == pytest.approx((2578 / 100, 2 * 131 * 0.04))
+    assert link_times(_cut_scene(8, 40, 16)[0]) == pytest.approx((26 / 100, 2 * 5 * 0.04))
     assert not links_keep_up(_cut_scene(8)[0])
     assert links_keep_up(_cut_scene(8, 40, 16)[0])
     p, _ = camera_cut(8, links=False)

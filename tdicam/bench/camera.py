@@ -46,8 +46,8 @@ from dataclasses import replace
 from tdicam.bench.util import na_row, row
 from tdicam.paths import SCENES
 
-__all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_front", "camera_run", "links_keep_up",
-           "camera_rows", "extrapolate", "legend"]
+__all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_front", "camera_run",
+           "link_times", "links_keep_up", "camera_rows", "extrapolate", "legend"]
 
 #: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
 CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
@@ -93,21 +93,30 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_
     return p, data
 
 
-def links_keep_up(sc):
-    """Whether the top's output links can take the lanes' rate of a scene ``sc`` (a cut):
-    a kept row's :func:`tdicam.model.tlk2711.line_words` a link at the links' clock within
-    the time the lanes bring the next line pair (a reset and a signal line of
-    ``ceil(columns / lanes_per_gain) + 2`` words a lane at ``bit_rate_mbps / word_bits``).
-    The generated top has no frame buffer before its links: slower links hold the chain,
-    which a sensor's lanes cannot wait for (the front's crossing FIFO overflows,
-    ``lvds_fifo_overflow``). The whole camera's row: 2,578 words a link, 25.8 us at 100 MHz,
-    against 10.5 us (False); the 40-column cut on 16 lanes a gain: 0.26 against 0.40 us."""
+def link_times(sc):
+    """``(links_us, lanes_us)`` of a scene ``sc`` (a cut): a kept row's
+    :func:`tdicam.model.tlk2711.line_words` a link at the links' clock, and the time the
+    lanes bring the next line pair (a reset and a signal line of
+    ``ceil(columns / lanes_per_gain) + 2`` words a lane at ``bit_rate_mbps / word_bits``),
+    both in microseconds. The whole camera: 25.8 against 10.5 us."""
     import math
     from tdicam.model.tlk2711 import line_words
     lv, cam = sc.sensor.lvds, sc.camera
     word_us = lv.word_bits / lv.bit_rate_mbps
     lanes_us = 2 * (math.ceil(sc.sensor.columns / lv.lanes_per_gain) + 2) * word_us
     links_us = line_words(sc.sensor.columns, links=cam.links) / cam.link_clock_mhz
+    return links_us, lanes_us
+
+
+def links_keep_up(sc):
+    """Whether the top's output links can take the lanes' rate of a scene ``sc`` (a cut):
+    a kept row on the links within the time the lanes bring the next line pair
+    (:func:`link_times`). The generated top has no frame buffer before its links: slower
+    links hold the chain, which a sensor's lanes cannot wait for (the front's crossing FIFO
+    overflows, ``lvds_fifo_overflow``). The whole camera's row: 2,578 words a link, 25.8 us
+    at 100 MHz, against 10.5 us (False); the 40-column cut on 16 lanes a gain: 0.26
+    against 0.40 us."""
+    links_us, lanes_us = link_times(sc)
     return links_us <= lanes_us
 
 
@@ -219,6 +228,8 @@ def _full_rows():
 
 def legend(*, stalls, quick):
     """What the ``camera`` rows of :func:`camera_rows` mean (lines under the table)."""
+    from tdicam.scene.loader import load_scene
+    links_us, lanes_us = link_times(load_scene(CAMERA_SCENE))
     return (f"camera rows: the first {' and '.join(map(str, CUT_LINES))} lines of "
             f"{CAMERA_SCENE.name} (all its columns, both gains: each line a reset frame and a "
             f"signal frame; the NAND scan and coefficient load into DDR at power-up, the "
@@ -228,7 +239,8 @@ def legend(*, stalls, quick):
             f"the word clock at 25 MHz beside the 200 MHz processing clock), no idle or "
             f"backpressure (--stalls not used), every block's output compared bit for bit "
             f"with the golden chain; the top ends at median3's stream, not the 2 TLK2711 links: "
-            f"the generated top has no frame buffer, and a kept row on the links (25.8 us) "
-            f"is slower than the lanes' next line pair (10.5 us), which cannot wait; median s = the simulator run's wall time (one run); "
+            f"the generated top has no frame buffer, and a kept row on the links "
+            f"({links_us:.1f} us) is slower than the lanes' next line pair ({lanes_us:.1f} us), "
+            f"which cannot wait; median s = the simulator run's wall time (one run); "
             f"build s: that run's own build (0.0: cached). The extrapolated row: the whole "
             f"frame pair's cycles and seconds, linear in the lines from the two cuts.")
