@@ -30,7 +30,8 @@ def register(sub):
                    f"also {', '.join(suite.EXTRA)} (pipeline: the orbit scene's whole camera "
                    "pipeline through its generated top, minutes; --quick: 8 lines of the Ning "
                    "et al. 2019 chain; camera: the full-width Ning et al. 2019 camera, 5144 "
-                   "columns, through its top on Verilator, ~2 min with its build)")
+                   "columns, through its top on Verilator: two builds of 5-10 min, then 1-2 min a "
+                   "cut)")
     p.add_argument("--repeat", type=int, default=None,
                    help=f"runs per level, 1..{suite.MAX_REPEAT} (3; --quick: 1); pipeline "
                         f"runs once")
