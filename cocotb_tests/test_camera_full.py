@@ -16,14 +16,13 @@ decoded here with ``model.tlk2711.decode`` back into the golden image.
 Default run: a 40-column, 8-line cut of the camera on 16 lanes a gain (3 words a line, the
 last word clock 8 columns and 8 padded slots a gain, as the whole camera's 40 lanes have
 16; 16-block NAND parts: a short scan) on Icarus, and the same run compared with one golden
-pixel changed (the check fails, naming it). With ``TDICAM_FULL=1``: all 5144 columns from
-the 80 lanes, 8 lines, the scene's 4096-block NAND parts, on Verilator, to median3's
-stream (the links cannot keep up with the lanes at full width without a frame buffer:
-``tdicam.bench.camera.links_keep_up``; the full-width links run from the pixels). Before the merge of
-the lanes and the links (2026-12-03): from the lanes without the links, the short form 24 s
-at load 1.6, the full width 21.4 s of simulator, 66 s after the build at load 2.2 (the
-build 712 s at load 7.2); the links without the lanes, the build 625 s at load 4-6, the run
-1.9 s of simulation.
+pixel changed (the check fails, naming it); its links keep up with its lanes, so its top
+has no frame buffer. A 48-column cut on 24 lanes a gain with 80 MHz links sends a row
+slower than its lanes bring one: its top has the DDR frame buffer before the links
+(:func:`tdicam.chain.design.link_plan`) and the run checks the buffer's words in its MIG
+model. With ``TDICAM_FULL=1``: all 5144 columns from the 80 lanes, 8 lines, the scene's
+4096-block NAND parts, on Verilator, to the links behind the whole camera's frame buffer
+(a kept row 25.8 us on the links against the lanes' 10.5 us a line pair).
 """
 
 import math
@@ -32,6 +31,7 @@ import numpy as np
 import pytest
 
 from tdicam.bench.camera import camera_cut, camera_run, extrapolate
+from tdicam.chain.cosim import OVERFLOW, system_figures
 from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
 from tdicam.model import tlk2711
@@ -78,7 +78,7 @@ def _check(rep, columns, lines, lanes_per_gain):
     n = 2 * lanes_per_gain
     assert st["lvds_lane_locked"] == (1 << n) - 1 and st["lvds_lane_error"] == 0
     assert st["lvds_frames_out"] == 2 * lines and st["lvds_frames_dropped"] == 0
-    assert st["lvds_fifo_overflow"] == 0
+    assert st[OVERFLOW] == 0
     # each channel's DDR: the coefficient image (a line a sensor row: gain and offset, 16 a
     # word) written once, row r's line read with row r; the reset line (24 pixels a word)
     # written and read every line
@@ -88,14 +88,36 @@ def _check(rep, columns, lines, lanes_per_gain):
         assert st[f"ddr_writes{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_reads{sfx}"] == lines * (coeff + reset)
         assert st[f"ddr_error{sfx}"] == 0
-    # the links where they keep up with the lanes (the narrow cut; at full width the top,
-    # without a frame buffer, ends at median3's stream: links_keep_up)
-    assert rep["links"] == (columns < 5144)
-    if rep["links"]:
-        _check_links(rep, columns, lines)
+    # the links, behind the frame buffer where they are slower than the lanes: every kept
+    # row's words (16 pixels a word) written once to its MIG model and read once
+    _check_links(rep, columns, lines, lanes_per_gain)
+    buffered = p.links.buffer_rows
+    assert buffered in (0, lines)
+    fb = rep.get("frame_buffer")
+    if buffered:
+        assert fb == {"writes": lines * math.ceil(columns / 16),
+                      "reads": lines * math.ceil(columns / 16),
+                      "stalls": fb["stalls"], "error": 0}
+    else:
+        assert fb is None
 
 
-def _check_links(rep, columns, lines):
+def test_a_cut_whose_links_are_slower_than_its_lanes_runs_through_the_frame_buffer():
+    """48 columns on 24 lanes a gain, the links at 80 MHz: a kept row takes 30 words (0.375
+    us) against the lanes' 0.32 us a line pair, so the top buffers the image in DDR before
+    the links; every tap and link word matches, the buffer's MIG model saw each of the 8
+    rows' 3 words written and read once, and the front lost no word."""
+    rep = camera_run(sim="icarus", lines=8, columns=48, nand_blocks=16, lanes_per_gain=24,
+                     link_clock_mhz=80.0)
+    assert rep["plan"].links.buffer_rows == 8 and rep["plan"].links.clock_mhz == 80.0
+    _check(rep, 48, 8, 24)
+    # the report's figure (tdicam run's system rows)
+    fig = next(r for r in system_figures(rep["plan"], rep)
+               if r["name"] == "frame buffer DDR traffic")
+    assert fig["value"] == 2 * 8 * 3 and fig["ok"] and "8 rows" in fig["text"]
+
+
+def _check_links(rep, columns, lines, lanes_per_gain):
     """The links' words decode (every row's number, length and CRC checked) into the golden
     chain's last image: the cut's ``lines`` rows, one image (the first of K = 5 is kept)."""
     from tdicam.chain import design
@@ -108,7 +130,7 @@ def _check_links(rep, columns, lines):
     narrow = columns != 5144
     _, data = camera_cut(lines, columns=columns if narrow else None,
                          nand_blocks=_CUT["nand_blocks"] if narrow else None,
-                         lanes_per_gain=_CUT["lanes_per_gain"] if narrow else None)
+                         lanes_per_gain=lanes_per_gain if narrow else None)
     want = design.golden(p, data)[-1][2]
     assert got.numbers == [0] and len(got.frames) == 1
     assert np.array_equal(got.frames[0], want.reshape(lines, columns))

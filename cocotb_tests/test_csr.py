@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 from tdicam.chain import design, registers
-from tdicam.chain.cosim import scene_data
+from tdicam.chain.cosim import OVERFLOW, scene_data
 from tdicam.cosim.build import build_sources, run_cocotb
 from tdicam.hdl.csr_map import CAMERA_ID, version_word
 from tdicam.hw.verilog import convert
@@ -264,7 +264,7 @@ def test_lane_fault_in_the_status_registers_and_the_interrupt(lanes_fault):
     assert (st["lvds_lane_error"], st["lvds_lane_locked"]) == (0b1001, 0b0110)
     assert (st["lvds_frames_out"], st["lvds_frames_affected"]) == (8, 8)
     assert st["lvds_frames_dropped"] >= 2 and st["lvds_lane_errors"] >= 2
-    assert st["lvds_fifo_overflow"] == 0 and regs["lvds.lane_error"] == 0b1111
+    assert st[OVERFLOW] == 0 and regs["lvds.lane_error"] == 0b1111
     assert regs["lvds.train_word"] == p.steps[0].ports["train_word"]
     faults = [f"{r.block}.{r.name}" for r in design.register_map(p).faults]
     bit = 1 << faults.index("lvds.lane_error")

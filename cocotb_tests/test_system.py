@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from tdicam.chain import design
-from tdicam.chain.cosim import cosimulate, scene_data, system_figures
+from tdicam.chain.cosim import OVERFLOW, cosimulate, scene_data, system_figures
 from tdicam.model import nand_store
 from tdicam.scene.loader import load_scene
 
@@ -120,7 +120,7 @@ def test_system_from_the_serial_lanes_matches_on_icarus():
     assert [t["tap"] for t in rep["taps"]][:2] == ["lvds_0", "lvds_1"]
     assert all(t["mismatches"] == 0 and t["received"] == t["beats"] > 0 for t in rep["taps"])
     st, up = rep["status_outputs"], rep["startup"]
-    assert st["lvds_frames_out"] == 2 * p.frames and st["lvds_fifo_overflow"] == 0
+    assert st["lvds_frames_out"] == 2 * p.frames and st[OVERFLOW] == 0
     assert (st["lvds_lane_locked"], st["lvds_lane_error"], st["lvds_need_retrain"]) == \
         (15, 0, 0)                                  # 4 lanes locked, none lost
     assert max(up["lanes_trained"], up["nuc_calib_loaded_done"],
@@ -150,7 +150,7 @@ def test_system_from_the_lanes_survives_a_narrow_eye_and_a_dead_lane_on_icarus()
     assert lanes["died_at_word"] <= lanes["filled_from_word"] <= 3 * 8     # in the frame
     assert (st["lvds_frames_out"], st["lvds_frames_dropped"], st["lvds_frames_affected"]) \
         == (8, 2, 8)
-    assert lanes["retrains"] == 1 and st["lvds_fifo_overflow"] == 0
+    assert lanes["retrains"] == 1 and st[OVERFLOW] == 0
     rows = {r["name"]: r for r in system_figures(p, rep)}
     assert rows["sensor lanes"]["untrained"] == [3] and rows["sensor lanes"]["died"] == 0
     assert "lane 0 died in frame 3" in rows["sensor lanes"]["text"]
@@ -178,7 +178,7 @@ def test_system_scene_runs_whole_on_verilator(tmp_path, scene):
         lanes, st = pipe["lanes"], pipe["status_outputs"]
         assert lanes["untrained"] == [3] and lanes["died"] == 0 and lanes["problems"] == []
         assert (lanes["frames_dropped"], lanes["retrains"]) == (2, 1)
-        assert lanes["frame_status"][5] == 0b1111 and st["lvds_fifo_overflow"] == 0
+        assert lanes["frame_status"][5] == 0b1111 and st[OVERFLOW] == 0
         rows = {r["name"]: r for r in rep["rtl"]["system"]}
         assert rows["sensor frames"]["dropped"] == 2
         assert rows["CDS DDR traffic, channel 0"]["stall_cycles"] > 0

@@ -1,6 +1,6 @@
 """The co-simulation's device under test: a pipeline top (:class:`tdicam.hdl.chain_top.Pipeline`)
 with the simulation models of its external parts (:class:`Device`: the reset frame's DDR,
-the coefficients' NAND) wired to its pins."""
+the coefficients' NAND, the output links' frame buffer's DDR) wired to its pins."""
 
 from dataclasses import dataclass, field
 
@@ -8,9 +8,10 @@ from amaranth.hdl import Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import Out
 
-from tdicam.hdl.chain_top import Pipeline, core_name
+from tdicam.hdl.chain_top import FRAME_BUFFER_STAGE, Pipeline, core_name
+from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
 
-__all__ = ["Device", "Board"]
+__all__ = ["Device", "Board", "mig_device"]
 
 
 @dataclass
@@ -34,6 +35,20 @@ class Device:
     status: dict = field(default_factory=dict)
 
 
+def mig_device(words, **stalls):
+    """The simulation MIG model (:class:`~tdicam.hdl.simmodels.mig_model.MigModel`) of
+    ``words`` 256-bit words (at least 1; ``stalls`` its stall pattern and latency, default
+    its own) as a :class:`Device` on a MIG user interface: every pin of
+    :data:`~tdicam.hdl.interfaces.mig.MIG_PORT_NAMES` to the model's port of that name, the
+    model's ``error``, ``writes``, ``reads`` and ``stalls`` as the status ``ddr_error``,
+    ``ddr_writes``, ``ddr_reads``, ``ddr_stalls``."""
+    from tdicam.hdl.simmodels.mig_model import MigModel
+    return Device(MigModel(depth_words=max(1, words), count_stalls=True, **stalls),
+                  {n: n for n in MIG_PORT_NAMES},
+                  {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
+                   "ddr_stalls": "stalls"})
+
+
 class Board(wiring.Component):
     """A :class:`Pipeline` top with the simulation models of its external parts beside it:
     the co-simulation's device under test. The top keeps its pins (the synthesized design's
@@ -46,8 +61,13 @@ class Board(wiring.Component):
     """
 
     def __init__(self, top):
+        from tdicam.model.ddr import ADDR_PER_WORD
         self._top = top
-        self._devices = top.devices()
+        self._devices = list(top.devices())
+        fb = top.frame_buffer            # the output links' buffer: a MIG model of its own
+        if fb is not None:
+            self._devices.append((FRAME_BUFFER_STAGE, 0, mig_device(
+                fb.layout.end_addr(fb.rows) // ADDR_PER_WORD)))
         used, extra = set(), {}
         for st, k, dev in self._devices:
             used.update(Pipeline._status(st, pin, k) for pin in dev.pins)

@@ -21,9 +21,11 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.chain_links import (Link, eager_fork, fork, frame_group, join, narrow,
                                     prepend, register_slice)
 from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_user_ports
+from tdicam.hdl.output_links import FRAME_BUFFER
 from tdicam.hdl.interfaces.stream import Narrower, channels_shape, element_bits, pixel_signature
 
-__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR"]
+__all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR",
+           "FRAME_BUFFER_STAGE"]
 
 
 @dataclass
@@ -140,6 +142,10 @@ class SourceStage(LaneStage):
 #: and its MIG model's status in a :class:`~tdicam.hdl.chain_board.Board` (``ddr_writes``).
 SHARED_DDR = SimpleNamespace(name="ddr")
 
+#: The same for the output links' frame buffer (``frame_buffer_app_*``, ``frame_buffer_ddr_writes``).
+FRAME_BUFFER_STAGE = SimpleNamespace(name=FRAME_BUFFER)
+
+
 
 class Pipeline(wiring.Component):
     """The camera's blocks chained in order, their side inputs wired, taps exposed.
@@ -231,7 +237,7 @@ class Pipeline(wiring.Component):
         else:
             from tdicam.hdl.output_links import OutputLinks
             self._out_links = OutputLinks(links, bits=self._out_shape[0],
-                                          count=self._out_shape[1])
+                                          count=self._out_shape[1], width=width)
             # (elaborated with the top; a top made for its ports only must not warn of it)
             self._out_links._MustUse__silence = True
             members.update({n: mem for n, mem in self._out_links.signature.members.items()
@@ -273,6 +279,12 @@ class Pipeline(wiring.Component):
     def links(self):
         """The output links' :class:`~tdicam.blocks.steps.LinkPlan`, or None."""
         return self._links
+
+    @property
+    def frame_buffer(self):
+        """The output links' :class:`~tdicam.hdl.ddr.DdrFrameBuffer` (its MIG user interface
+        the ports ``frame_buffer_app_*``), or None."""
+        return None if self._links is None else self._out_links.frame_buffer
 
     def _shared_ddr(self):
         """{lane: [stage index, ...]} of the lanes whose DDR interface two or more stages
@@ -532,8 +544,12 @@ class Pipeline(wiring.Component):
             m.submodules.output_links = ol = self._out_links
             last.feed(m, ol.i_stream, who="the output links")
             for n, mem in ol.signature.members.items():
-                if n != "i_stream":
+                if n == "i_stream":
+                    continue
+                if mem.flow == wiring.Out:
                     m.d.comb += getattr(self, n).eq(getattr(ol, n))
+                else:                       # (the frame buffer's MIG inputs)
+                    m.d.comb += getattr(ol, n).eq(getattr(self, n))
         else:
             last.feed(m, self.o_stream, who="pipeline output")
         return m

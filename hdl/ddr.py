@@ -355,6 +355,18 @@ class DdrFrameBuffer(wiring.Component):
         The packing and addresses (:class:`tdicam.model.ddr.LineLayout`).
     capacity_bytes : int
         DDR size for the address check.
+    early : bool
+        The writer's ``early_sums`` and the reader's ``early_last`` (:class:`LineWriter`,
+        :class:`LineReader`: fewer logic levels behind the beat's handshake, the same words
+        and beats): the output links' buffer in the whole camera's top.
+    paced : bool
+        The output is drained slower than lines come in (the output links): a line's reads
+        start only when the read-data FIFO has room for all of them (``rd_depth`` raised to
+        a power of two of at least a line's words), so a line's reads never wait on the
+        sink while the writes wait behind them; the write-behind FIFO holds a line too
+        (the same power of two), so the input does not stall while a line's reads go out. Without it a slow sink holds the port with
+        a half-queued line and the input stalls (the whole camera's links: a line drains in
+        5,000 cycles, the write-behind FIFO holds 32 words).
 
     Attributes
     ----------
@@ -383,8 +395,13 @@ class DdrFrameBuffer(wiring.Component):
     @quiet_reject
     def __init__(self, *, width, rows, channels=1, elements=None, pixel_bits=10,
                  pixels_per_word=24, line_stride=None, base=0, capacity_bytes=CAPACITY_BYTES,
-                 rd_depth=64):
+                 rd_depth=64, early=False, paced=False):
         self.layout = _layout(width, channels, pixel_bits, pixels_per_word, line_stride, base)
+        self._early, self._paced = bool(early), bool(paced)
+        self._wb = self.WRITE_BEHIND
+        if paced:
+            line = 1 << (self.layout.words_per_line - 1).bit_length()
+            rd_depth, self._wb = max(rd_depth, line), max(self._wb, line)
         check_range("rows", rows, 1, 1 << 16)
         self._e = channels if elements is None else elements
         _gear(self._e, pixels_per_word)
@@ -397,14 +414,19 @@ class DdrFrameBuffer(wiring.Component):
 
     elements = property(lambda self: self._e)
     rows = property(lambda self: self._rows)
+    early = property(lambda self: self._early)
+    paced = property(lambda self: self._paced)
+    rd_depth = property(lambda self: self._rd, doc="Words of the port's read-data FIFO.")
 
     def elaborate(self, platform):
         m = Module()
         lay = self.layout
         m.submodules.port = port = MigPort(rd_depth=self._rd)
-        m.submodules.writer = wr = LineWriter(layout=lay, elements=self._e, rows=self._rows)
+        m.submodules.writer = wr = LineWriter(layout=lay, elements=self._e, rows=self._rows,
+                                              early_sums=self._early)
         fl = self._rd // lay.words_per_line + 3
-        m.submodules.reader = rd = LineReader(layout=lay, elements=self._e, max_lines=fl)
+        m.submodules.reader = rd = LineReader(layout=lay, elements=self._e, max_lines=fl,
+                                              early_last=self._early)
         m.submodules.desc = desc = SyncFIFOBuffered(width=ADDR_BITS + 1, depth=self._rows + 1)
         wiring.connect(m, wiring.flipped(self.i_stream), wr.i_stream)
         wiring.connect(m, rd.o_stream, wiring.flipped(self.o_stream))
@@ -414,8 +436,7 @@ class DdrFrameBuffer(wiring.Component):
         # word); no write enters the port while the reader issues a line's reads, so the
         # controller sees reads and writes in blocks of a line (DRAM turnarounds)
         AW = ADDR_BITS
-        m.submodules.wfifo = wf = SyncFIFOBuffered(width=AW + 2 + WORD_BITS,
-                                                   depth=self.WRITE_BEHIND)
+        m.submodules.wfifo = wf = SyncFIFOBuffered(width=AW + 2 + WORD_BITS, depth=self._wb)
         m.d.comb += [wf.w_en.eq(wr.wr_valid), wr.wr_ready.eq(wf.w_rdy),
                      wf.w_data.eq(Cat(wr.wr_addr, wr.wr_eol, wr.wr_first, wr.wr_data))]
         w_addr, w_eol = wf.r_data[:AW], wf.r_data[AW]
@@ -426,9 +447,19 @@ class DdrFrameBuffer(wiring.Component):
                      desc.w_en.eq(w_go & w_eol & port.wr_ready),
                      desc.w_data.eq(Cat((w_addr - (lay.words_per_line - 1) * ADDR_PER_WORD)[:AW],
                                         wf.r_data[AW + 1]))]
-        # descriptors -> reader -> port
-        m.d.comb += [rd.req_valid.eq(desc.r_rdy & ~self.hold_reads),
-                     desc.r_en.eq(rd.req_ready & ~self.hold_reads),
+        # descriptors -> reader -> port (paced: a line only when its words have room)
+        hold = self.hold_reads
+        if self._paced:
+            WPL = lay.words_per_line
+            pending = Signal(range(self._rd + 1))       # words queued, not yet taken
+            room = Signal()
+            up = port.rd_valid & port.rd_ready
+            down = port.rdata_valid & port.rdata_ready
+            m.d.sync += pending.eq(pending + up - down)
+            m.d.comb += room.eq(pending <= self._rd - WPL)
+            hold = hold | ~room
+        m.d.comb += [rd.req_valid.eq(desc.r_rdy & ~hold),
+                     desc.r_en.eq(rd.req_ready & ~hold),
                      rd.req_addr.eq(desc.r_data[:ADDR_BITS]),
                      rd.req_first.eq(desc.r_data[ADDR_BITS]),
                      port.rd_valid.eq(rd.rd_valid), rd.rd_ready.eq(port.rd_ready),

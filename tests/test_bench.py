@@ -330,7 +330,10 @@ def test_camera_is_named_not_default_and_extrapolates_the_whole_frame(monkeypatc
         return {"plan": P, "lines": lines, "input_pixels": 4 * 5144 * lines,
                 "cycles": 1000 + 100 * lines, "run_seconds": 1.0 + 0.01 * lines,
                 "build_seconds": 9.0 if lines == 8 else 0.0, "startup_cycles": 1000,
-                "mismatches": 0, "tap_mismatches": 0 if lines == 8 else 2, "load": 1.0, "links": lines == 8}
+                "mismatches": 0, "tap_mismatches": 0 if lines == 8 else 2, "load": 1.0,
+                "links": True, "words_compared": 2578 * 2 * lines,
+                "frame_buffer": {"writes": 322 * lines, "reads": 322 * lines, "stalls": 7,
+                                 "error": 0}}
     monkeypatch.setattr(camera, "camera_run", fake)
     rows = suite.run(["camera"], sims=("icarus", "verilator"), repeat=1, quick=False)
     assert seen == [(n, "verilator") for n in camera.CUT_LINES]
@@ -340,5 +343,6 @@ def test_camera_is_named_not_default_and_extrapolates_the_whole_frame(monkeypatc
         2 * 3800 * 5144 * 2
     assert whole["seconds"] == pytest.approx(1.0 + 0.01 * 3800)
     assert f"{1000 + 100 * 3800:,} cycles" in whole["note"]
-    # each cut says whether its links were compared or the top ended at the stream
-    assert "link words compared" in rows[1]["note"] and "median3's stream" in rows[2]["note"]
+    # each cut says its links' words were compared and what went through the frame buffer
+    assert "the 41,248 link words compared" in rows[1]["note"]
+    assert "(the frame buffer: 5,152 words written, 5,152 read)" in rows[2]["note"]

@@ -92,7 +92,8 @@ def test_ddr_traffic_by_hand(plan):
     assert image == pytest.approx(5.514e9, rel=1e-3)
     paper = _rows(plan["paper"])["DDR interface"]
     assert paper["need"] == pytest.approx(bits_a_s + image)
-    assert plan["paper"]["frame_buffer"] == {"line_words": 322, "images": 1, "built": False}
+    # (built: the scene's top has it before its links, tdicam.chain.design.link_plan)
+    assert plan["paper"]["frame_buffer"] == {"line_words": 322, "images": 1, "built": True}
     # the frame rate it reads: the per-frame words at F, the image read at the links' pace
     per_frame = (coeff_line + 2 * reset_line) * ROWS * UI_BITS + image_line * ROWS * UI_BITS / 2
     assert paper["frame_rate_limit"] == pytest.approx(
@@ -303,19 +304,34 @@ def test_frame_buffer_only_when_the_links_are_slower():
     assert camera_plan(sc)["scene"]["frame_buffer"] is None
 
 
-def test_the_links_keep_up_with_the_lanes_only_on_the_narrow_cut():
-    """The generated top has no frame buffer: at full width a kept row on the 2 links
-    (2,578 words at 100 MHz, 25.78 us) is slower than the lanes' next reset and signal line
-    (2 x 131 words of 40 ns, 10.48 us), so the full-width cut from the lanes ends at the
-    stream; the 40-column cut on 16 lanes a gain (26 words, 0.26 us against 2 x 5 x 40 ns)
-    keeps its links."""
-    from tdicam.bench.camera import _cut_scene, camera_cut, link_times, links_keep_up
+def test_the_top_buffers_its_images_where_the_links_are_slower():
+    """At full width a kept row on the 2 links (2,578 words at 100 MHz, 25.78 us) is slower
+    than the lanes' next reset and signal line (2 x 131 words of 40 ns, 10.48 us) and the
+    links carry 10.2 whole frames a second against the sensor's 25: the top has a DDR
+    frame buffer of the cut's rows before them (the frame-rate budget's one image), and so
+    does the chain part from the pixels. The 40-column cut on 16 lanes a gain (26 words,
+    0.26 us against 2 x 5 x 40 ns) keeps up: no buffer, its top as before. The 48-column
+    cut on 24 lanes a gain with 80 MHz links (30 words, 0.375 us against 2 x 4 x 40 ns)
+    carries the frames but not the lines: one image of room from the lanes' rule alone."""
+    from tdicam.bench.camera import _cut_scene, camera_cut
+    from tdicam.chain import design
     from tdicam.model.tlk2711 import line_words
+    from tdicam.chain.link_rates import link_buffer_images, link_times, links_keep_up
     assert line_words(5144, links=2) == 2578 and line_words(40, links=2) == 26
-    assert link_times(_cut_scene(8)[0]) == pytest.approx((2578 / 100, 2 * 131 * 0.04))
-    assert link_times(_cut_scene(8, 40, 16)[0]) == pytest.approx((26 / 100, 2 * 5 * 0.04))
-    assert not links_keep_up(_cut_scene(8)[0])
-    assert links_keep_up(_cut_scene(8, 40, 16)[0])
-    p, _ = camera_cut(8, links=False)
-    assert p.links is None
-    assert camera_cut(8, columns=40, lanes_per_gain=16, nand_blocks=16)[0].links is not None
+    assert line_words(48, links=2) == 30
+    full, narrow = _cut_scene(8)[0], _cut_scene(8, 40, 16)[0]
+    slow = _cut_scene(8, 48, 24, link_clock_mhz=80.0)[0]
+    assert link_times(full) == pytest.approx((2578 / 100, 2 * 131 * 0.04))
+    assert link_times(narrow) == pytest.approx((26 / 100, 2 * 5 * 0.04))
+    assert link_times(slow) == pytest.approx((30 / 80, 2 * 4 * 0.04))
+    assert (links_keep_up(full), link_buffer_images(full)) == (False, 1)
+    assert (links_keep_up(narrow), link_buffer_images(narrow)) == (True, 0)
+    assert (links_keep_up(slow), link_buffer_images(slow)) == (False, 0)
+    assert camera_cut(8, links=False)[0].links is None
+    assert camera_cut(8)[0].links.buffer_rows == 8
+    assert camera_cut(16)[0].links.buffer_rows == 16
+    assert camera_cut(8, columns=40, lanes_per_gain=16, nand_blocks=16)[0].links.buffer_rows == 0
+    assert camera_cut(8, columns=48, lanes_per_gain=24, nand_blocks=16,
+                      link_clock_mhz=80.0)[0].links.buffer_rows == 8
+    assert design.chain_plan(full, lines=8, part="chain").links.buffer_rows == 8
+    assert design.chain_plan(slow, lines=8, part="chain").links.buffer_rows == 0

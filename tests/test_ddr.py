@@ -4,8 +4,11 @@ and Amaranth simulations of the writer/reader/CDS/TDI users."""
 import numpy as np
 import pytest
 from amaranth.sim import Simulator
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from tdicam import blocks
+from tdicam.cosim.testing import FULL
 from tdicam.errors import TdicamError
 from tdicam.hdl.cds_ddr import CdsDdr
 from tdicam.hdl.ddr import DdrFrameBuffer
@@ -244,12 +247,17 @@ def _run_stream(top, beats, first, last, ctrl=None, n_out=None, bp=0.3, idle=0.2
             if len(got) == n_out or cycles > limit:
                 break
 
+    _simulate(top, src, sink)
+    return got
+
+
+def _simulate(top, *benches):
+    """Run ``top`` at 100 MHz with its async testbenches until they end."""
     sim = Simulator(top)
     sim.add_clock(1e-8)
-    sim.add_testbench(src)
-    sim.add_testbench(sink)
+    for b in benches:
+        sim.add_testbench(b)
     sim.run()
-    return got
 
 
 def test_frame_buffer_amaranth_sim_72ch_and_memory_layout():
@@ -266,6 +274,104 @@ def test_frame_buffer_amaranth_sim_72ch_and_memory_layout():
     assert [g[0] for g in got] == beats.tolist()
     assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()
     assert core.elements == 72 and core.layout.words_per_line == 12
+
+
+@pytest.mark.parametrize("elements,width,bits,early,paced", [
+    (8, 40, 16, True, True), (8, 40, 16, False, False), (1, 23, 12, True, True),
+    (2, 30, 12, True, False), (8, 1600, 16, True, True)])
+def test_links_frame_buffer_passes_every_beat_under_a_slow_sink(elements, width, bits, early,
+                                                                paced):
+    """The output links' frame buffer (:class:`~tdicam.hdl.output_links.OutputLinks`: 16
+    pixels a word at any ppc, ``early``, ``paced``): 3 frames of 3 lines, a partial last
+    word (40 = 2.5 words of 16), lines of 100 words (more than the default 64-word read
+    FIFO: paced raises it to 128), random idle cycles and a sink that takes one beat in
+    four (the links slower than the chain): every beat out as it came in, markers
+    included."""
+    from tdicam.hdl.output_links import buffer_packing
+    ppw = buffer_packing(bits, elements)
+    core = DdrFrameBuffer(width=width, rows=3, channels=1, elements=elements,
+                          pixel_bits=bits, pixels_per_word=ppw, early=early, paced=paced)
+    assert core.rd_depth == (128 if width == 1600 else 64)
+    top = SimTop(core, depth_words=core.layout.end_addr(3) // 8)
+    per = width // elements
+    fr = np.random.default_rng(elements + width).integers(0, 1 << bits, (3, 3, width))
+    fr[1] = (1 << bits) - 1                                   # a full-scale frame
+    beats = fr.reshape(-1, elements)
+    n = len(beats)
+    first = np.arange(n) % (3 * per) == 0
+    last = np.arange(n) % per == per - 1
+    got = _run_stream(top, beats, first, last, n_out=n, bp=0.75)
+    assert [g[0] for g in got] == beats.tolist()
+    assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()
+    assert core.early == early and core.paced == paced
+
+
+def _longest_input_wait(paced, *, width=1600, elements=8, rows=4, frames=1, every=2,
+                        take=8):
+    """The longest run of cycles the source of a :class:`DdrFrameBuffer` (16-bit pixels,
+    16 a word) waited on ``ready`` while offering a beat every ``every`` cycles (a sensor's
+    pace), the sink taking a beat every ``take`` cycles (the links'); and the beats out."""
+    core = DdrFrameBuffer(width=width, rows=rows, channels=1, elements=elements,
+                          pixel_bits=16, pixels_per_word=16, early=True, paced=paced)
+    top = SimTop(core, depth_words=core.layout.end_addr(rows) // 8)
+    per = width // elements
+    n = frames * rows * per
+    beats = np.random.default_rng(7).integers(0, 1 << 16, (n, elements))
+    state = {"wait": 0, "longest": 0, "out": []}
+
+    async def src(ctx):
+        d = top.i_stream.payload.data
+        for k in range(n):
+            for e in range(elements):
+                ctx.set(d[e], int(beats[k, e]))
+            ctx.set(top.i_stream.payload.first, k % (rows * per) == 0)
+            ctx.set(top.i_stream.payload.last, k % per == per - 1)
+            ctx.set(top.i_stream.valid, 1)
+            await ctx.tick()
+            while not ctx.get(top.i_stream.ready):      # (sampled before the edge)
+                state["wait"] += 1
+                state["longest"] = max(state["longest"], state["wait"])
+                await ctx.tick()
+            state["wait"] = 0
+            ctx.set(top.i_stream.valid, 0)
+            for _ in range(every - 1):
+                await ctx.tick()
+
+    async def sink(ctx):
+        c = 0
+        async for _, _, v, r, d in ctx.tick().sample(top.o_stream.valid, top.o_stream.ready,
+                                                     top.o_stream.payload.data):
+            if v and r:
+                state["out"].append([int(x) for x in d])
+            ctx.set(top.o_stream.ready, int(c % take == 0))
+            c += 1
+            if len(state["out"]) == n or c > 40 * n * take:
+                break
+
+    _simulate(top, src, sink)
+    assert state["out"] == beats.tolist()
+    return state["longest"]
+
+
+def test_a_paced_buffer_never_holds_its_input_for_a_slow_sink():
+    """The output links' buffer (``paced``) against the plain one, one image of 4 lines of
+    100 words (the buffer's room: the frame selector passes only kept images), a sensor's
+    pace in (a beat every 2 cycles) and the links' out (a beat every 8): the paced buffer
+    does not hold its input beyond a MIG model refresh (44 cycles; 0 measured); the plain
+    one holds it while a half-queued line waits for the sink (1,200 cycles measured: a
+    sensor's lanes would overflow the front's FIFO, as the whole camera's did)."""
+    paced, plain = _longest_input_wait(True), _longest_input_wait(False)
+    assert paced < 80 < 300 < plain, (paced, plain)
+
+
+def test_links_buffer_packing():
+    """Pixels a word of the links' buffer: ``min(256 // bits, 24)`` when the beat divides it
+    or fills whole words, else the most below that does."""
+    from tdicam.hdl.output_links import buffer_packing
+    assert [buffer_packing(16, c) for c in (1, 2, 4, 8)] == [16] * 4
+    assert [buffer_packing(10, c) for c in (1, 2, 4, 8)] == [24] * 4
+    assert [buffer_packing(12, c) for c in (1, 2, 4, 8)] == [21, 20, 20, 16]
+    assert buffer_packing(14, 8) == 16 and buffer_packing(14, 4) == 16
 
 
 def test_cds_ddr_amaranth_sim():
@@ -551,3 +657,56 @@ def test_mig_port_early_count_is_cycle_equal(seed):
     sim.add_testbench(bench)
     sim.run()
     assert any(full)
+
+
+# ---- property: the frame buffer over its legal parameters
+
+@st.composite
+def _buffer_case(draw):
+    """A legal :class:`DdrFrameBuffer` (ppc 1-8 x 1-3 channels a beat, 8-16 bit values, a
+    packing that divides the beat or that the beat divides, 1-4 rows, ``early``,
+    ``paced``) and its frames: random, zero, full-scale or constant, 1-3 of them."""
+    bits = draw(st.sampled_from([8, 10, 12, 16]) | st.integers(8, 16))
+    ppc = draw(st.sampled_from([1, 2, 4, 8]))
+    ch = draw(st.integers(1, 3))
+    e = ppc * ch
+    packs = [n for n in range(1, min(256 // bits, 24) + 1)
+             if (n % e == 0 or e % n == 0) and e // n <= 16]
+    ppw = draw(st.sampled_from(packs))
+    width = ppc * draw(st.integers(1, 12))
+    rows = draw(st.integers(1, 4))
+    frames = draw(st.integers(1, 3))
+    kind = draw(st.sampled_from(["random", "zero", "full", "constant"]))
+    seed = draw(st.integers(0, 2 ** 16))
+    rng = np.random.default_rng(seed)
+    shape = (frames, rows, width, ch)
+    top = (1 << bits) - 1
+    fr = {"random": lambda: rng.integers(0, top + 1, shape),
+          "zero": lambda: np.zeros(shape, np.int64),
+          "full": lambda: np.full(shape, top),
+          "constant": lambda: np.full(shape, int(rng.integers(0, top + 1)))}[kind]()
+    return dict(width=width, rows=rows, channels=ch, elements=e, pixel_bits=bits,
+                pixels_per_word=ppw, early=draw(st.booleans()), paced=draw(st.booleans())), \
+        fr, seed, draw(st.sampled_from([0.0, 0.3, 0.7])), draw(st.sampled_from([0.0, 0.3]))
+
+
+@settings(max_examples=60 if FULL else 6, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(_buffer_case())
+def test_frame_buffer_equals_its_input_over_legal_parameters(case):
+    """The buffer's golden model is the identity (values, ``first``, ``last``): the
+    gateware with a drawn legal parameter set, random idle cycles and backpressure, in
+    Amaranth's simulator with the MIG model (its refresh and dropped readies) returns every
+    beat as it came. Short form 6 examples; ``TDICAM_FULL=1``: 60."""
+    kw, fr, seed, bp, idle = case
+    core = DdrFrameBuffer(**kw)
+    top = SimTop(core, depth_words=core.layout.end_addr(kw["rows"]) // 8)
+    e = kw["elements"]
+    beats = fr.reshape(-1, e)
+    per = kw["width"] * kw["channels"] // e
+    n = len(beats)
+    first = np.arange(n) % (kw["rows"] * per) == 0
+    last = np.arange(n) % per == per - 1
+    got = _run_stream(top, beats, first, last, n_out=n, bp=bp, idle=idle, seed=seed)
+    assert [g[0] for g in got] == beats.tolist()
+    assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()

@@ -449,3 +449,24 @@ def test_a_failing_run_names_the_fronts_lost_words_first():
     assert lead_with_overflow({"message": bad, "status_outputs": {OVERFLOW: 0}}) == bad
     assert lead_with_overflow({"message": bad}) == bad
     assert lead_with_overflow({"message": "match", "status_outputs": {OVERFLOW: 1}}) == "match"
+
+
+def test_the_frame_buffers_model_error_and_the_fronts_problems_are_counted():
+    """A run's status beside its taps: the front's problems (each one counted) in one
+    message, the output links' frame buffer's MIG model error in another; without a frame
+    buffer among the status outputs, none of it."""
+    from tdicam.chain.cosim import frame_buffer_traffic, status_problems
+    ok = {"frame_buffer_ddr_writes": 24, "frame_buffer_ddr_reads": 24,
+          "frame_buffer_ddr_stalls": 5, "frame_buffer_ddr_error": 0}
+    assert frame_buffer_traffic(ok) == {"writes": 24, "reads": 24, "stalls": 5, "error": 0}
+    assert frame_buffer_traffic({"ddr_writes": 3}) is None
+    assert status_problems([], ok) == ([], 0, frame_buffer_traffic(ok))
+    msgs, n, fb = status_problems(["lane 3 unlocked", "lane 5 unlocked"],
+                                  {**ok, "frame_buffer_ddr_error": 1})
+    assert n == 3 and fb["error"] == 1 and len(msgs) == 2
+    assert msgs[0] == ("the front's status differs from its golden model: lane 3 unlocked; "
+                       "lane 5 unlocked")
+    assert msgs[1].startswith("the frame buffer's MIG model flagged an error "
+                              "(frame_buffer_ddr_error = 1")
+    assert status_problems(["x"], {}) == (
+        ["the front's status differs from its golden model: x"], 1, None)

@@ -53,7 +53,7 @@ from tdicam.beats import PPC_CHOICES
 
 __all__ = ["KEYS", "NUC_PLACES", "Camera", "lane_words_per_line", "lane_figures",
            "processing_figures", "ddr_words_per_frame", "ddr_peak_bps", "ddr_efficiency",
-           "nand_figures", "link_figures", "frame_buffer_words"]
+           "nand_figures", "link_figures", "frame_buffer_words", "frame_buffer_of"]
 
 #: where the per-pixel coefficients are applied: on each gain channel before the HDR
 #: merge (the paper's and the golden chain's order) or on the merged image (one channel)
@@ -214,3 +214,17 @@ def frame_buffer_words(columns, rows, *, pixel_bits, frame_rate_hz, output_frame
     read = write * link_frame_rate_hz / frame_rate_hz
     images = 1 if 1 / link_frame_rate_hz <= 1 / output_frame_rate_hz * (1 + 1e-12) else 2
     return line, write, read, images
+
+
+def frame_buffer_of(columns, rows, *, pixel_bits, frame_rate_hz, output_frame_rate_hz, links,
+                    link_clock_hz):
+    """:func:`frame_buffer_words` of a camera whose ``links`` run at ``link_clock_hz``
+    (their frame rate :func:`link_figures`'s), and that frame rate last:
+    ``(line_words, write, read, images, link_frame_rate_hz)``. The plan's budget and the
+    generated top's buffer (:func:`tdicam.chain.design.link_plan`) both come from here."""
+    _, _, limit = link_figures(rows, columns, frames_per_s=output_frame_rate_hz,
+                               pixel_bits=pixel_bits, links=links, clock_hz=link_clock_hz)
+    return (*frame_buffer_words(columns, rows, pixel_bits=pixel_bits,
+                                frame_rate_hz=frame_rate_hz,
+                                output_frame_rate_hz=output_frame_rate_hz,
+                                link_frame_rate_hz=limit), limit)

@@ -24,10 +24,12 @@ MHz: a line's 643 beats in its 131 word clocks need >= 122.7 MHz,
 (:func:`tdicam.chain.cosim.run_top`). A narrower cut takes fewer lanes
 (``lanes_per_gain``: a multiple of the pixels per clock, at most the columns, whose line's
 last word clock carries a multiple of them).
-The top ends in the camera's output links (``[pipeline].output = "links"``) when they keep
-up with the lanes (:func:`links_keep_up`: the generated top has no frame buffer before them,
-so at full width, where a kept row takes 25.8 us on the links against the lanes' 10.5 us a
-line pair, the cut ends at median3's stream instead): median3's
+The top ends in the camera's output links (``[pipeline].output = "links"``), behind the
+DDR frame buffer its plan gives it (:func:`tdicam.chain.design.link_plan`: at full width a
+kept row takes 25.8 us on the links against the lanes' 10.5 us a line pair,
+:func:`tdicam.chain.link_rates.link_times`, and the links carry 10.2 whole frames a second
+against the sensor's 25; the buffer, an image of the cut's rows, has its own MIG model):
+median3's
 image through the frame selector (one image in K = 25 / 5 kept; the cut's lines are one
 image, the first, kept) into the 2 TLK2711 framers on their own clock (``link_clk``, half
 the blocks' clock in the testbench: the scene's 100 MHz links beside its 200 MHz blocks);
@@ -47,7 +49,7 @@ from tdicam.bench.util import na_row, row
 from tdicam.paths import SCENES
 
 __all__ = ["CAMERA_SCENE", "CUT_LINES", "camera_cut", "camera_front", "camera_run",
-           "link_times", "links_keep_up", "camera_rows", "extrapolate", "legend"]
+           "camera_rows", "extrapolate", "legend"]
 
 #: The whole camera of Ning et al. 2019 (5144 x 3800, two gains, coefficients in DDR).
 CAMERA_SCENE = SCENES / "ning2019_gmax0504_full.toml"
@@ -59,7 +61,7 @@ CUT_LINES = (8, 16)
 
 
 def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_gain=None,
-               links=True):
+               links=True, link_clock_mhz=None):
     """``(plan, data)`` of the first ``lines`` lines of :data:`CAMERA_SCENE`.
 
     Parameters
@@ -75,7 +77,11 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_
         section's other keys their defaults); None: the scene's 40.
     links : bool
         False: the top ends at median3's stream (``[pipeline].output = "stream"``), not at
-        the scene's links (:func:`links_keep_up`).
+        the scene's links.
+    link_clock_mhz : float or None
+        The links' word clock (``[camera].link_clock_mhz``); None: the scene's 100 MHz. A
+        narrow cut with slower links than its lanes gets the frame buffer the whole camera
+        has (:func:`tdicam.chain.design.link_plan`).
 
     The pixels per clock are the whole camera's plan's, whatever ``columns``
     (:func:`tdicam.planning.camera.camera_plan`: the fewest that carry the scene's samples
@@ -83,7 +89,7 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_
     """
     from tdicam.chain import design
     from tdicam.chain.cosim import scene_data
-    sc, ppc = _cut_scene(lines, columns, lanes_per_gain, links)
+    sc, ppc = _cut_scene(lines, columns, lanes_per_gain, links, link_clock_mhz)
     m = int(sc.tdi.stages[0])
     p = design.chain_plan(sc, stages=m, lines=int(lines), ppc=ppc)
     if nand_blocks is not None:
@@ -93,34 +99,7 @@ def camera_cut(lines=CUT_LINES[0], *, columns=None, nand_blocks=None, lanes_per_
     return p, data
 
 
-def link_times(sc):
-    """``(links_us, lanes_us)`` of a scene ``sc`` (a cut): a kept row's
-    :func:`tdicam.model.tlk2711.line_words` a link at the links' clock, and the time the
-    lanes bring the next line pair (a reset and a signal line of
-    ``ceil(columns / lanes_per_gain) + 2`` words a lane at ``bit_rate_mbps / word_bits``),
-    both in microseconds. The whole camera: 25.8 against 10.5 us."""
-    import math
-    from tdicam.model.tlk2711 import line_words
-    lv, cam = sc.sensor.lvds, sc.camera
-    word_us = lv.word_bits / lv.bit_rate_mbps
-    lanes_us = 2 * (math.ceil(sc.sensor.columns / lv.lanes_per_gain) + 2) * word_us
-    links_us = line_words(sc.sensor.columns, links=cam.links) / cam.link_clock_mhz
-    return links_us, lanes_us
-
-
-def links_keep_up(sc):
-    """Whether the top's output links can take the lanes' rate of a scene ``sc`` (a cut):
-    a kept row on the links within the time the lanes bring the next line pair
-    (:func:`link_times`). The generated top has no frame buffer before its links: slower
-    links hold the chain, which a sensor's lanes cannot wait for (the front's crossing FIFO
-    overflows, ``lvds_fifo_overflow``). The whole camera's row: 2,578 words a link, 25.8 us
-    at 100 MHz, against 10.5 us (False); the 40-column cut on 16 lanes a gain: 0.26
-    against 0.40 us."""
-    links_us, lanes_us = link_times(sc)
-    return links_us <= lanes_us
-
-
-def _cut_scene(lines, columns=None, lanes_per_gain=None, links=True):
+def _cut_scene(lines, columns=None, lanes_per_gain=None, links=True, link_clock_mhz=None):
     """``(scene, ppc)`` of a cut (:func:`camera_cut`'s arguments): the scene with its
     overrides, the whole camera's plan's pixels per clock."""
     from tdicam.planning.camera import camera_plan
@@ -133,6 +112,8 @@ def _cut_scene(lines, columns=None, lanes_per_gain=None, links=True):
         over.setdefault("sensor", {})["lvds"] = {"lanes_per_gain": int(lanes_per_gain)}
     if not links:
         over["pipeline"] = {"output": "stream"}
+    if link_clock_mhz is not None:
+        over["camera"] = {"link_clock_mhz": float(link_clock_mhz)}
     return load_scene(CAMERA_SCENE, overrides=over), ppc
 
 
@@ -150,21 +131,19 @@ def camera_front(p, lines=CUT_LINES[0], *, columns=None, lanes_per_gain=None):
 
 
 def camera_run(lines=CUT_LINES[0], sim="verilator", *, columns=None, nand_blocks=None,
-               corrupt=None, lanes_per_gain=None, links=None):
+               corrupt=None, lanes_per_gain=None, links=True, link_clock_mhz=None):
     """One cut (:func:`camera_cut`) from the sensor's lanes (:func:`camera_front`) through
-    the top, to the scene's links when they keep up with the lanes (``links`` None:
-    :func:`links_keep_up`; the whole camera's row does not: its top ends at median3's
-    stream), every tap compared with the golden chain
+    the top, to the scene's links (``links``; False: to median3's stream), every tap
+    compared with the golden chain
     (:func:`tdicam.chain.cosim.cosimulate`). Returns its report plus ``plan``, ``lines``,
     ``tap_mismatches`` (beats of every tap that differ: ``mismatches`` counts the output
     links' words that differ and the front's status against its golden model,
     ``words_compared`` the words of every link), ``startup_cycles`` (the NAND scan and load
     before the first line), ``load`` (the 1-minute load average after the run)."""
     from tdicam.chain.cosim import cosimulate
-    if links is None:
-        links = links_keep_up(_cut_scene(lines, columns, lanes_per_gain)[0])
     p, data = camera_cut(lines, columns=columns, nand_blocks=nand_blocks,
-                         lanes_per_gain=lanes_per_gain, links=links)
+                         lanes_per_gain=lanes_per_gain, links=links,
+                         link_clock_mhz=link_clock_mhz)
     rep = cosimulate(p, data, sim, corrupt=corrupt,
                      front=camera_front(p, lines, columns=columns,
                                         lanes_per_gain=lanes_per_gain))
@@ -205,9 +184,9 @@ def camera_rows(*, sims, repeat, quick, stalls, build):
             mismatches=bad, accuracy="bit-exact" if bad == 0 else f"{bad} mismatching",
             note=f"{r['cycles']:,} cycles ({r['startup_cycles']:,} the NAND scan and load), "
                  f"{r['cycles'] / r['run_seconds']:,.0f} cycles/s; "
-                 + (f"every tap and the {r.get('words_compared', 0):,} link words compared"
-                    if r["links"] else "every tap compared, the top ending at median3's "
-                    "stream (no frame buffer: the links cannot keep up with the lanes)")
+                 + f"every tap and the {r.get('words_compared', 0):,} link words compared"
+                 + (f" (the frame buffer: {r['frame_buffer']['writes']:,} words written, "
+                    f"{r['frame_buffer']['reads']:,} read)" if r.get("frame_buffer") else "")
                  + f"; load {r['load']:.1f}"))
     rows_full = int(_full_rows())
     cyc, secs = extrapolate(runs[0], runs[1], rows_full)
@@ -228,6 +207,7 @@ def _full_rows():
 
 def legend(*, stalls, quick):
     """What the ``camera`` rows of :func:`camera_rows` mean (lines under the table)."""
+    from tdicam.chain.link_rates import link_times
     from tdicam.scene.loader import load_scene
     links_us, lanes_us = link_times(load_scene(CAMERA_SCENE))
     return (f"camera rows: the first {' and '.join(map(str, CUT_LINES))} lines of "
@@ -238,9 +218,10 @@ def legend(*, stalls, quick):
             f"(the lanes' training, then every line's words on them: the chain's lane model, "
             f"the word clock at 25 MHz beside the 200 MHz processing clock), no idle or "
             f"backpressure (--stalls not used), every block's output compared bit for bit "
-            f"with the golden chain; the top ends at median3's stream, not the 2 TLK2711 links: "
-            f"the generated top has no frame buffer, and a kept row on the links "
-            f"({links_us:.1f} us) is slower than the lanes' next line pair ({lanes_us:.1f} us), "
-            f"which cannot wait; median s = the simulator run's wall time (one run); "
+            f"with the golden chain; the top ends in the 2 TLK2711 links, their words "
+            f"compared with the golden chain's through the frame selector and model.tlk2711, "
+            f"behind the DDR frame buffer (an image of the cut's rows, its own MIG model): a "
+            f"kept row on the links ({links_us:.1f} us) is slower than the lanes' next line "
+            f"pair ({lanes_us:.1f} us), which cannot wait; median s = the simulator run's wall time (one run); "
             f"build s: that run's own build (0.0: cached). The extrapolated row: the whole "
             f"frame pair's cycles and seconds, linear in the lines from the two cuts.")

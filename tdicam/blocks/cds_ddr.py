@@ -211,18 +211,14 @@ def _pipeline_hw(step, data, *, ecp5=False):
     reset frame's reads in one cycle (the whole Ning et al. 2019 camera at ppc 8: 84.9 MHz,
     hdr's input ready through ``nuc_ddr`` into ``cds_ddr``'s launch register, 11.8 ns);
     at ppc 1 the top is as it was."""
-    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.chain_board import mig_device
     from tdicam.hdl.chain_top import LaneStage
     from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
-    from tdicam.hdl.simmodels.mig_model import MigModel
     p = BLOCK.resolve(step.params)
 
     def device(lane):
         words = _layout(p).end_addr(p["rows"]) // ADDR_PER_WORD
-        return Device(MigModel(depth_words=max(1, words), count_stalls=True, **stalls_of(p)),
-                      {n: n for n in MIG_PORT_NAMES},
-                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
-                       "ddr_stalls": "stalls"})
+        return mig_device(words, **stalls_of(p))
     return LaneStage(step.block, lambda lane: _core(p), ports=tuple(step.ports),
                      pins=MIG_PORT_NAMES, device=device, waits=True,
                      out_slice=p["ppc"] > 1)

@@ -34,7 +34,11 @@ TRACK_MARGIN = 4
 MAX_LANES = 128
 FIFO_DEPTHS = (4, 8, 16, 32, 64, 128, 256)
 
-__all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link"]
+__all__ = ["BLOCK", "link_from_arrays", "link_arrays", "golden_arrays", "case_link", "OVERFLOW"]
+
+#: The front's status output (the top's port: stage ``lvds``, the front's ``fifo_overflow``)
+#: that says a lane word was lost in its crossing FIFO.
+OVERFLOW = "lvds_fifo_overflow"
 
 
 def _top(*, lanes, word_bits, settle, min_run, pick, deskew_depth, phy, lanes_per_gain=0,
@@ -389,7 +393,7 @@ def _front_measured(step, status, info):
               f"start-up), {status['lvds_frames_affected']} with invalid columns, "
               f"{lanes.get('retrains', 0)} retrain(s), {status['lvds_lane_errors']} lane "
               f"error event(s); crossing FIFO "
-              + ("OVERFLOWED (pixels lost)" if status["lvds_fifo_overflow"] else
+              + ("OVERFLOWED (pixels lost)" if status[OVERFLOW] else
                  f"no overflow (depth {step.params.get('fifo_depth', 16)})"))
     eyes = [{"name": f"lane {e['lane']} eye", "value": e["eye_taps_found"], "unit": "taps",
              "ok": bool(e["locked"] and e["walk_ok"]) if e["agree"] else False,
@@ -410,7 +414,7 @@ def _front_measured(step, status, info):
              "dropped": status["lvds_frames_dropped"],
              "affected": status["lvds_frames_affected"],
              "retrains": lanes.get("retrains", 0), "lane_errors": status["lvds_lane_errors"],
-             "fifo_overflow": status["lvds_fifo_overflow"],
+             "fifo_overflow": status[OVERFLOW],
              "frame_status": lanes.get("frame_status"), "text": frames}]
 
 

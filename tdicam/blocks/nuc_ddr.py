@@ -265,20 +265,15 @@ def _pipeline_hw(step, data, *, ecp5=False):
     camera at ppc 8: 84.9 MHz, that path 11.8 ns); at ppc 1 the top is as it was."""
     from amaranth.lib.wiring import Out
     from tdicam.blocks import nuc as _nuc
-    from tdicam.hdl.chain_board import Device
+    from tdicam.hdl.chain_board import mig_device
     from tdicam.hdl.chain_top import LaneStage
     from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
-    from tdicam.hdl.simmodels.mig_model import MigModel
     from tdicam.model import nand_store
     p = BLOCK.resolve(step.params)
     rows, cols, ppc = _image_rows(p), p["width"], p["ppc"]
 
     def mig(lane):
-        return Device(MigModel(depth_words=max(1, _pipeline_end(step) // ADDR_PER_WORD),
-                               count_stalls=True, **stalls_of(p)),
-                      {n: n for n in MIG_PORT_NAMES},
-                      {"ddr_error": "error", "ddr_writes": "writes", "ddr_reads": "reads",
-                       "ddr_stalls": "stalls"})
+        return mig_device(_pipeline_end(step) // ADDR_PER_WORD, **stalls_of(p))
     loaded = {"calib_loaded": Out(1)}
     common = dict(pins=MIG_PORT_NAMES, ready="calib_loaded", load="frame_kind",
                   load_rows=rows, waits=True, out_slice=ppc > 1)

@@ -79,7 +79,9 @@ class LinkPlan:
     the numbers ``[camera]``'s): ``links`` TLK2711s (1, 2) of ``pixel_bits`` a pixel at
     ``clock_mhz``; images of ``image_rows`` rows (the sensor's, or a shorter run's lines)
     made of the chain's frames of ``frame_rows`` rows each, one image in ``keep`` sent
-    (:mod:`tdicam.model.frame_select`)."""
+    (:mod:`tdicam.model.frame_select`); ``buffer_rows`` > 0: the kept images wait in a
+    DDR frame buffer of that many rows before the links
+    (:class:`~tdicam.hdl.output_links.OutputLinks`), 0: none."""
 
     links: int
     pixel_bits: int
@@ -87,6 +89,7 @@ class LinkPlan:
     keep: int
     image_rows: int
     frame_rows: int = 1
+    buffer_rows: int = 0
 
 
 @dataclass

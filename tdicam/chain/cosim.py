@@ -26,6 +26,8 @@ import numpy as np
 
 from tdicam.chain import link_check
 from tdicam.chain.tbrun import run_tb, status_ports
+from tdicam.blocks.lvds import OVERFLOW as _OVERFLOW
+from tdicam.hdl.output_links import FRAME_BUFFER
 from tdicam.chain.lane_cosim import (check_lane_death, eye_rows, front_delivered, lanes_of,
                                      run_lanes, tracking_rows)
 from tdicam.cosim import WAVE_WINDOW, keep_wave, wave_window
@@ -33,11 +35,13 @@ from tdicam.errors import TdicamError
 
 __all__ = ["cosim_scene", "check_rtl_design", "scene_data", "cosimulate", "run_top",
            "beats_differ", "WAVE_WINDOW",
-           "system_figures", "lane_fault_cut", "OVERFLOW", "lead_with_overflow"]
+           "system_figures", "lane_fault_cut", "OVERFLOW", "lead_with_overflow",
+           "status_problems", "frame_buffer_traffic"]
 
-#: The front's status output that says a lane word was lost in its crossing FIFO (named
-#: first in a failing run's message: the mismatches that follow are its consequence).
-OVERFLOW = "lvds_fifo_overflow"
+#: The front's status output that says a lane word was lost in its crossing FIFO
+#: (:data:`tdicam.blocks.lvds.OVERFLOW`), named first in a failing run's message: the
+#: mismatches that follow are its consequence.
+OVERFLOW = _OVERFLOW
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):
@@ -177,10 +181,19 @@ def system_figures(p, rep):
     :func:`cosimulate` report ``rep`` of plan ``p``; [] when no block has any."""
     from tdicam.chain import design
     uses = design.uses()
-    return [r for s in p.steps if uses[s.block].measured is not None
-            for r in uses[s.block].measured(s, rep.get("status_outputs", {}), {
-                "cycles": rep["cycles"], "rows": p.stages, "width": p.width,
-                "lanes": rep.get("lanes")})]
+    out = [r for s in p.steps if uses[s.block].measured is not None
+           for r in uses[s.block].measured(s, rep.get("status_outputs", {}), {
+               "cycles": rep["cycles"], "rows": p.stages, "width": p.width,
+               "lanes": rep.get("lanes")})]
+    fb = frame_buffer_traffic(rep.get("status_outputs", {}))
+    if fb is not None:
+        out.append({"name": "frame buffer DDR traffic", "value": fb["writes"] + fb["reads"],
+                    "unit": "words", "stall_cycles": fb["stalls"], "ok": not fb["error"],
+                    "text": f"the output links' frame buffer ({p.links.buffer_rows} rows): "
+                            f"{fb['writes']} words written, {fb['reads']} read back, "
+                            f"{fb['stalls']} cycles waited on its MIG model"
+                            + (", MIG model ERROR" if fb["error"] else "")})
+    return out
 
 
 def _testbench(axis_top, taps, *, wave, standalone, links=None):
@@ -517,9 +530,12 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
                              | (out.first[:n] != exp_out.first[:n])
                              | (out.last[:n] != exp_out.last[:n])).sum()) \
         + abs(len(out) - len(exp_out))
-    problems = [] if lane_fault is None else lane_fault["problems"]
-    if problems:              # the front's status is part of the result: never silent
-        rep["mismatches"] += len(problems)
+    problems, count, fb = status_problems(
+        [] if lane_fault is None else lane_fault["problems"], rep.get("status_outputs", {}))
+    if fb is not None:
+        rep["frame_buffer"] = fb
+    # the front's status and the buffer's model are part of the result: never silent
+    rep["mismatches"] += count
     if first is not None:
         rep["first_mismatch"] = first
         rep["message"] = (f"first mismatch in block {first['block']} (tap {first['tap']}): "
@@ -540,12 +556,35 @@ def cosimulate(p, data, sim="verilator", *, gold=None, corrupt=None, wave_dir=No
     elif d is not None:
         rep["message"] = f"output beat {d} differs"
     elif problems:
-        rep["message"] = "the front's status differs from its golden model: " + \
-            "; ".join(problems)
+        rep["message"] = "; ".join(problems)
     else:
         rep["message"] = "match"
     rep["message"] = lead_with_overflow(rep)
     return rep
+
+
+def status_problems(front, status):
+    """``(messages, count, frame_buffer)`` of what a run's status says went wrong beside its
+    taps: the front's problems against its golden model (``front``, each counted) in one
+    message, and the output links' frame buffer's MIG model error (status
+    ``frame_buffer_ddr_error``) in another; ``frame_buffer`` :func:`frame_buffer_traffic`."""
+    messages = [] if not front else \
+        ["the front's status differs from its golden model: " + "; ".join(front)]
+    fb = frame_buffer_traffic(status)
+    if fb is not None and fb["error"]:
+        messages.append(f"the frame buffer's MIG model flagged an error ({FRAME_BUFFER}_ddr_error"
+                        f" = 1: an address outside its memory or a malformed command)")
+    return messages, len(front) + int(bool(fb and fb["error"])), fb
+
+
+def frame_buffer_traffic(status):
+    """The output links' DDR frame buffer as its MIG model saw it (status outputs
+    ``frame_buffer_ddr_*``): ``{"writes", "reads", "stalls", "error"}`` (256-bit words, the
+    cycles the buffer waited on the model), or None without a frame buffer."""
+    key = f"{FRAME_BUFFER}_ddr_"
+    if f"{key}writes" not in status:
+        return None
+    return {n: int(status.get(key + n, 0)) for n in ("writes", "reads", "stalls", "error")}
 
 
 def lead_with_overflow(rep):

@@ -258,9 +258,19 @@ def link_plan(scene, p, bits):
     sensor's 3800 for the whole frame, a cut's lines for a cut); those frames are the
     links' images. A chain whose output frames are single lines (no 2-D block) is
     gathered by the selector, ``image_rows`` frames an image: the sensor's rows, or the
-    run's lines when it runs fewer."""
+    run's lines when it runs fewer.
+
+    The frame buffer: when the links carry fewer frames a second than the sensor makes
+    (:func:`tdicam.chain.link_rates.link_buffer_images` > 0, the whole frame's budget: the
+    camera of Ning et al. 2019, 25 frame/s against the links' 10.2), the kept images wait
+    in DDR before the links: ``buffer_rows`` = that many images of ``image_rows`` (a cut
+    keeps the whole camera's buffer on its own rows). A chain from the lanes whose links
+    send a row slower than the lanes bring one
+    (:func:`tdicam.chain.link_rates.links_keep_up` False) has one image of room even when
+    the frame rate fits: lanes cannot wait for the links."""
     from tdicam.blocks.steps import LinkPlan
     from tdicam.model.frame_select import keep_every
+    from tdicam.chain.link_rates import link_buffer_images, links_keep_up
     cam = scene.camera
     if bits > cam.link_pixel_bits:
         raise TdicamError(f"pipeline: the chain's output is {bits}-bit pixels, "
@@ -268,10 +278,14 @@ def link_plan(scene, p, bits):
                           f"give link_pixel_bits >= {bits}")
     frames, rows, _ = output_shape(p)
     image = rows if rows > 1 else min(int(scene.sensor.rows), max(frames, 1))
+    images = link_buffer_images(scene)
+    if not images and sourced(p) and not links_keep_up(scene):
+        images = 1
     return LinkPlan(links=cam.links, pixel_bits=cam.link_pixel_bits,
                     clock_mhz=cam.link_clock_mhz,
                     keep=keep_every(cam.frame_rate_hz, cam.output_frame_rate_hz),
-                    image_rows=image, frame_rows=rows)
+                    image_rows=image, frame_rows=rows,
+                    buffer_rows=images * image)
 
 
 def link_word_count(p):
@@ -463,7 +477,9 @@ def verilog_header(p, *, taps=False, csr=False, bus="axi4-lite"):
         "channels": p.lanes, "frame": f"{p.width}x{p.stages}", "lines": p.lines,
         "taps": taps} | ({"csr": bus} if csr else {})
         | {s.block: s.params for s in p.steps}
-        | ({} if p.links is None else {"links": dataclasses.asdict(p.links)}))
+        | ({} if p.links is None else {"links": {
+            k: v for k, v in dataclasses.asdict(p.links).items()
+            if k != "buffer_rows" or v}}))   # (a top without a buffer: as it was)
 
 
 def golden(p, data):

@@ -19,6 +19,7 @@ from tdicam import blocks as _blocks
 from tdicam.model import ddr as _ddr
 from tdicam.model import lvds_front
 from tdicam.model.physics import camera
+from tdicam.chain.link_rates import link_buffer_images
 from tdicam.beats import PPC_CHOICES
 
 __all__ = ["camera_budget", "camera_plan", "camera_lines", "chain_silicon", "front_rate"]
@@ -121,12 +122,14 @@ def camera_budget(scene, cam):
     traffic, reset_line, coeff_line = camera.ddr_words_per_frame(
         C, R, pixel_bits=s.bits, gains=G, reset=reset_ddr, coeff_bits=cam.coeff_bits,
         coeff_channels=coeff_ch)
-    lneed, payload, llim = camera.link_figures(R, C, frames_per_s=Fo,
-                                             pixel_bits=cam.link_pixel_bits,
-                                             links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
-    fb_line, fb_write, fb_read, fb_images = camera.frame_buffer_words(
+    lneed, payload, _ = camera.link_figures(R, C, frames_per_s=Fo,
+                                            pixel_bits=cam.link_pixel_bits,
+                                            links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
+    # the scene's own top builds its buffer (tdicam.chain.design.link_plan) from its [camera]
+    built = scene.pipeline.output == "links" and link_buffer_images(scene) > 0
+    fb_line, fb_write, fb_read, fb_images, llim = camera.frame_buffer_of(
         C, R, pixel_bits=cam.link_pixel_bits, frame_rate_hz=F, output_frame_rate_hz=Fo,
-        link_frame_rate_hz=llim)
+        links=cam.links, link_clock_hz=cam.link_clock_mhz * 1e6)
     traffic = {**traffic, "image write": fb_write, "image read": fb_read}
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
@@ -189,8 +192,9 @@ def camera_budget(scene, cam):
         f"{llim:.2f} frame/s"
         + (f"; an image sent takes {1e3 / llim:.1f} ms on them against the "
            f"{1e3 / F:.1f} ms the sensor reads it in, so it waits in a DDR frame buffer "
-           f"({fb_images} image(s) of room; the generated top has none: it holds the chain "
-           f"while the links send, which a sensor cannot wait for)" if fb_write else ""),
+           f"({fb_images} image(s) of room"
+           + ("; the generated top has it before its links, on a MIG user interface of "
+              "its own, frame_buffer_app_*)" if built else ")") if fb_write else ""),
         limit=llim))
 
     limits = {r["name"]: r["frame_rate_limit"] for r in rows
@@ -201,7 +205,7 @@ def camera_budget(scene, cam):
     no = [r["name"] for r in rows if not r["ok"]]
     return {"rows": rows, "frame_rate_hz": F, "output_frame_rate_hz": Fo,
             "frame_buffer": {"line_words": fb_line, "images": fb_images,
-                             "built": False} if fb_write else None,
+                             "built": built} if fb_write else None,
             "samples_per_gain_s": samples, "ppc": ppc, "ddr_words_per_frame": traffic,
             "ddr_efficiency": eff, "limits": limits, "sustained_hz": limits[limiter],
             "limiter": limiter, "read_limit_hz": read[read_limiter],
