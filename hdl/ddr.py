@@ -363,8 +363,10 @@ class DdrFrameBuffer(wiring.Component):
         The output is drained slower than lines come in (the output links): a line's reads
         start only when the read-data FIFO has room for all of them (``rd_depth`` raised to
         a power of two of at least a line's words), so a line's reads never wait on the
-        sink while the writes wait behind them; the write-behind FIFO holds a line too
-        (the same power of two), so the input does not stall while a line's reads go out. Without it a slow sink holds the port with
+        sink while the writes wait behind them; and writes go before a line's reads from
+        when the write-behind FIFO is half full until it is empty (a registered flag), so
+        the input does not stall while a line's reads go out, reads and writes in blocks of
+        16 words or more (DRAM turnarounds). Without it a slow sink holds the port with
         a half-queued line and the input stalls (the whole camera's links: a line drains in
         5,000 cycles, the write-behind FIFO holds 32 words).
 
@@ -398,10 +400,8 @@ class DdrFrameBuffer(wiring.Component):
                  rd_depth=64, early=False, paced=False):
         self.layout = _layout(width, channels, pixel_bits, pixels_per_word, line_stride, base)
         self._early, self._paced = bool(early), bool(paced)
-        self._wb = self.WRITE_BEHIND
         if paced:
-            line = 1 << (self.layout.words_per_line - 1).bit_length()
-            rd_depth, self._wb = max(rd_depth, line), max(self._wb, line)
+            rd_depth = max(rd_depth, 1 << (self.layout.words_per_line - 1).bit_length())
         check_range("rows", rows, 1, 1 << 16)
         self._e = channels if elements is None else elements
         _gear(self._e, pixels_per_word)
@@ -436,12 +436,21 @@ class DdrFrameBuffer(wiring.Component):
         # word); no write enters the port while the reader issues a line's reads, so the
         # controller sees reads and writes in blocks of a line (DRAM turnarounds)
         AW = ADDR_BITS
-        m.submodules.wfifo = wf = SyncFIFOBuffered(width=AW + 2 + WORD_BITS, depth=self._wb)
+        m.submodules.wfifo = wf = SyncFIFOBuffered(width=AW + 2 + WORD_BITS,
+                                                   depth=self.WRITE_BEHIND)
         m.d.comb += [wf.w_en.eq(wr.wr_valid), wr.wr_ready.eq(wf.w_rdy),
                      wf.w_data.eq(Cat(wr.wr_addr, wr.wr_eol, wr.wr_first, wr.wr_data))]
         w_addr, w_eol = wf.r_data[:AW], wf.r_data[AW]
         w_go = Signal()
-        m.d.comb += [w_go.eq(wf.r_rdy & ~rd.rd_valid & (~w_eol | desc.w_rdy)),
+        reads_first = rd.rd_valid
+        if self._paced:     # from half full until empty the writes go first (a register)
+            urgent = Signal()
+            with m.If(wf.level >= self.WRITE_BEHIND // 2):
+                m.d.sync += urgent.eq(1)
+            with m.Elif(wf.level == 0):
+                m.d.sync += urgent.eq(0)
+            reads_first = rd.rd_valid & ~urgent
+        m.d.comb += [w_go.eq(wf.r_rdy & ~reads_first & (~w_eol | desc.w_rdy)),
                      port.wr_valid.eq(w_go), wf.r_en.eq(w_go & port.wr_ready),
                      port.wr_addr.eq(w_addr), port.wr_data.eq(wf.r_data[AW + 2:]),
                      desc.w_en.eq(w_go & w_eol & port.wr_ready),
