@@ -146,7 +146,6 @@ SHARED_DDR = SimpleNamespace(name="ddr")
 FRAME_BUFFER_STAGE = SimpleNamespace(name=FRAME_BUFFER)
 
 
-
 class Pipeline(wiring.Component):
     """The camera's blocks chained in order, their side inputs wired, taps exposed.
 

@@ -15,13 +15,15 @@ Structure::
          (:mod:`tdicam.hdl.tlk2711`; golden :mod:`tdicam.model.tlk2711`)
 """
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from tdicam.errors import TdicamError
 from tdicam.hdl.frame_select import FrameSelect
-from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES
+from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig
 from tdicam.hdl.interfaces.stream import channels_shape, pixel_signature
 from tdicam.hdl.tlk2711 import Tlk2711, pin_names
 
@@ -132,12 +134,8 @@ class OutputLinks(wiring.Component):
             m.submodules.frame_buffer = fb = self._buffer
             wiring.connect(m, sel.o_stream, fb.i_stream)
             wiring.connect(m, fb.o_stream, tlk.i_stream)
-            for n in MIG_PORT_NAMES:
-                a, b = getattr(self, f"{FRAME_BUFFER}_{n}"), getattr(fb, n)
-                if fb.signature.members[n].flow == Out:
-                    m.d.comb += a.eq(b)
-                else:
-                    m.d.comb += b.eq(a)
+            connect_mig(m, fb, SimpleNamespace(**{
+                n: getattr(self, f"{FRAME_BUFFER}_{n}") for n in MIG_PORT_NAMES}))
         o = sel.o_stream
         m.d.comb += getattr(self, LINKS_FRAME).eq(o.valid & o.ready & o.payload.first)
         for k in range(self._plan.links):

@@ -220,8 +220,9 @@ def frame_buffer_of(columns, rows, *, pixel_bits, frame_rate_hz, output_frame_ra
                     link_clock_hz):
     """:func:`frame_buffer_words` of a camera whose ``links`` run at ``link_clock_hz``
     (their frame rate :func:`link_figures`'s), and that frame rate last:
-    ``(line_words, write, read, images, link_frame_rate_hz)``. The plan's budget and the
-    generated top's buffer (:func:`tdicam.chain.design.link_plan`) both come from here."""
+    ``(line_words, write, read, images, link_frame_rate_hz)``: the generated top's buffer
+    (:func:`tdicam.chain.link_rates.link_buffer_images`); the plan's budget calls the same
+    two functions with the same figures."""
     _, _, limit = link_figures(rows, columns, frames_per_s=output_frame_rate_hz,
                                pixel_bits=pixel_bits, links=links, clock_hz=link_clock_hz)
     return (*frame_buffer_words(columns, rows, pixel_bits=pixel_bits,

@@ -26,7 +26,7 @@ import numpy as np
 
 from tdicam.chain import link_check
 from tdicam.chain.tbrun import run_tb, status_ports
-from tdicam.blocks.lvds import OVERFLOW as _OVERFLOW
+from tdicam.blocks.lvds import OVERFLOW
 from tdicam.hdl.output_links import FRAME_BUFFER
 from tdicam.chain.lane_cosim import (check_lane_death, eye_rows, front_delivered, lanes_of,
                                      run_lanes, tracking_rows)
@@ -38,10 +38,9 @@ __all__ = ["cosim_scene", "check_rtl_design", "scene_data", "cosimulate", "run_t
            "system_figures", "lane_fault_cut", "OVERFLOW", "lead_with_overflow",
            "status_problems", "frame_buffer_traffic"]
 
-#: The front's status output that says a lane word was lost in its crossing FIFO
-#: (:data:`tdicam.blocks.lvds.OVERFLOW`), named first in a failing run's message: the
-#: mismatches that follow are its consequence.
-OVERFLOW = _OVERFLOW
+# OVERFLOW (tdicam.blocks.lvds): the front's status output that says a lane word was lost in
+# its crossing FIFO, named first in a failing run's message (the mismatches that follow are
+# its consequence).
 
 
 def scene_data(scene, *, stages, dv_over_v, lines):

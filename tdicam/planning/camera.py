@@ -122,14 +122,14 @@ def camera_budget(scene, cam):
     traffic, reset_line, coeff_line = camera.ddr_words_per_frame(
         C, R, pixel_bits=s.bits, gains=G, reset=reset_ddr, coeff_bits=cam.coeff_bits,
         coeff_channels=coeff_ch)
-    lneed, payload, _ = camera.link_figures(R, C, frames_per_s=Fo,
-                                            pixel_bits=cam.link_pixel_bits,
-                                            links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
+    lneed, payload, llim = camera.link_figures(R, C, frames_per_s=Fo,
+                                             pixel_bits=cam.link_pixel_bits,
+                                             links=cam.links, clock_hz=cam.link_clock_mhz * 1e6)
     # the scene's own top builds its buffer (tdicam.chain.design.link_plan) from its [camera]
     built = scene.pipeline.output == "links" and link_buffer_images(scene) > 0
-    fb_line, fb_write, fb_read, fb_images, llim = camera.frame_buffer_of(
+    fb_line, fb_write, fb_read, fb_images = camera.frame_buffer_words(
         C, R, pixel_bits=cam.link_pixel_bits, frame_rate_hz=F, output_frame_rate_hz=Fo,
-        links=cam.links, link_clock_hz=cam.link_clock_mhz * 1e6)
+        link_frame_rate_hz=llim)
     traffic = {**traffic, "image write": fb_write, "image read": fb_read}
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
