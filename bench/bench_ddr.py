@@ -10,7 +10,8 @@ reset frame in DDR and TDI with partial sums in DDR, with the sustained rate in 
 beats per clock (TDI on chip: 1 beat/clock).
 
 Table 4 (``--arbiter``, needs the ``ddrref`` extra): the camera's shared DDR order, nuc_ddr's
-coefficient reads beside cds_ddr's reset frame writes and reads behind one
+coefficient reads beside cds_ddr's reset frame writes and reads and the output links' frame
+buffer's line writes and reads behind one
 :class:`~tdicam.hdl.ddr_arbiter.DdrArbiter` (:func:`tdicam.cosim.shared_ddr.camera_trace`,
 recorded now), on the memory model and LiteDRAM, as Table 3's rows (``--fixture FILE``
 writes tests/ddr_arbiter_litedram.json).
@@ -189,8 +190,9 @@ def _row(kind, name, trace, lines, windows=None):
 def arbiter():
     """Table 4's row: the camera's shared DDR order (:func:`tdicam.cosim.shared_ddr.
     camera_trace`: nuc_ddr's coefficient reads beside cds_ddr's reset writes and reads,
-    512 x 16 frames at 8 pixels a clock, behind one DdrArbiter) recorded now, on the
-    memory model and LiteDRAM over the steady-state window."""
+    512 x 16 frames at 8 pixels a clock, and the output links' frame buffer at its planned
+    share, behind one DdrArbiter) recorded now, on the memory model and LiteDRAM over the
+    steady-state window."""
     from tdicam.cosim.shared_ddr import CAMERA_TRACE, camera_trace
     t = time.time()
     tr = camera_trace()
@@ -259,8 +261,9 @@ def parse_args(argv=None):
     ap.add_argument("--litedram", action="store_true",
                     help="only Table 3: memory model vs LiteDRAM (slow; ddrref extra)")
     ap.add_argument("--arbiter", action="store_true",
-                    help="only Table 4: the camera's shared DDR order (nuc_ddr and cds_ddr "
-                         "behind one DdrArbiter) on the memory model and LiteDRAM (slow; "
+                    help="only Table 4: the camera's shared DDR order (nuc_ddr, cds_ddr and "
+                         "the links' frame buffer behind one DdrArbiter) on the memory model "
+                         "and LiteDRAM (slow; "
                          "ddrref extra); with --fixture: write it as "
                          "tests/ddr_arbiter_litedram.json")
     ap.add_argument("--fixture", metavar="FILE",

@@ -63,11 +63,9 @@ class Board(wiring.Component):
     def __init__(self, top):
         from tdicam.model.ddr import ADDR_PER_WORD
         self._top = top
-        self._devices = list(top.devices())
-        fb = top.frame_buffer            # the output links' buffer: a MIG model of its own
-        if fb is not None:
-            self._devices.append((FRAME_BUFFER_STAGE, 0, mig_device(
-                fb.layout.end_addr(fb.rows) // ADDR_PER_WORD)))
+        self._devices = list(top.devices()) + [   # a buffer without a DDR block: its own
+            (FRAME_BUFFER_STAGE, j, mig_device(fb.layout.end_addr(fb.rows) // ADDR_PER_WORD))
+            for j, fb in top.own_frame_buffers]
         used, extra = set(), {}
         for st, k, dev in self._devices:
             used.update(Pipeline._status(st, pin, k) for pin in dev.pins)

@@ -21,7 +21,7 @@ from tdicam.errors import TdicamError
 from tdicam.hdl.chain_links import (Link, eager_fork, fork, frame_group, join, narrow,
                                     prepend, register_slice)
 from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig, mig_user_ports
-from tdicam.hdl.output_links import FRAME_BUFFER
+from tdicam.hdl.output_links import FRAME_BUFFER, buffer_port, lane_port
 from tdicam.hdl.interfaces.stream import Narrower, channels_shape, element_bits, pixel_signature
 
 __all__ = ["LaneStage", "MergeStage", "SourceStage", "Pipeline", "core_name", "SHARED_DDR",
@@ -176,7 +176,11 @@ class Pipeline(wiring.Component):
         The top ends in the camera's output links instead of ``o_stream``: the last
         stage's output into an :class:`~tdicam.hdl.output_links.OutputLinks` (the frame
         selector, one image of ``image_rows`` rows in ``keep``, and the TLK2711 framers in
-        the link clock's domain, ports ``link_clk``/``link_rst``).
+        the link clock's domain, ports ``link_clk``/``link_rst``). With
+        ``links.buffer_rows``, a DDR frame buffer before the links on each lane's DDR
+        interface (the lanes with a DDR block; one of its own, ``frame_buffer_app_*``,
+        when none has), behind the lane's :class:`~tdicam.hdl.ddr_arbiter.DdrArbiter`
+        as its last port, line y of an image on lane ``y mod lanes``.
 
     Attributes
     ----------
@@ -223,6 +227,8 @@ class Pipeline(wiring.Component):
         self._in_bits, self._lanes, self._lane_elems = in_bits, lanes, lane_elems
         self._taps, self._ppc, self._width, self._bram = taps, ppc, width, bram
         self._cores = self._plan()
+        self._links = links
+        self._fb_lanes = self._frame_buffer_lanes()
         self._shared = self._shared_ddr()
         self._source = bool(self._stages) and self._stages[0].source
         carried = set(self._stages[0].carries) if self._source else set()
@@ -236,11 +242,13 @@ class Pipeline(wiring.Component):
         else:
             from tdicam.hdl.output_links import OutputLinks
             self._out_links = OutputLinks(links, bits=self._out_shape[0],
-                                          count=self._out_shape[1], width=width)
+                                          count=self._out_shape[1], width=width,
+                                          buffers=max(1, self._fb_lanes))
             # (elaborated with the top; a top made for its ports only must not warn of it)
             self._out_links._MustUse__silence = True
+            fb_pins = {buffer_port(n, j) for j in self._shared_buffers() for n in MIG_PORT_NAMES}
             members.update({n: mem for n, mem in self._out_links.signature.members.items()
-                            if n != "i_stream"})
+                            if n != "i_stream" and n not in fb_pins})
         for st, cores in zip(self._stages, self._cores):
             for pname, member in cores[0].signature.members.items():
                 if pname in ("i_stream", "o_stream") or pname in carried or pname == st.load:
@@ -280,23 +288,54 @@ class Pipeline(wiring.Component):
         return self._links
 
     @property
-    def frame_buffer(self):
-        """The output links' :class:`~tdicam.hdl.ddr.DdrFrameBuffer` (its MIG user interface
-        the ports ``frame_buffer_app_*``), or None."""
-        return None if self._links is None else self._out_links.frame_buffer
+    def frame_buffers(self):
+        """The output links' :class:`~tdicam.hdl.ddr.DdrFrameBuffer` s (buffer j on lane j's
+        DDR interface, or on its own ``frame_buffer_app_*`` without DDR blocks), or []."""
+        return [] if self._links is None else self._out_links.frame_buffers
+
+    @property
+    def own_frame_buffers(self):
+        """[(j, buffer)] of the frame buffers on a MIG user interface of their own (ports
+        ``frame_buffer_app_*[_j]``: a top without DDR blocks), not behind a lane's
+        arbiter (those share its MIG model in :meth:`devices`)."""
+        shared = self._shared_buffers()
+        return [(j, fb) for j, fb in enumerate(self.frame_buffers) if j not in shared]
+
+    def _ddr_users(self):
+        """Indices of the stages with a MIG user interface on their pins."""
+        return [i for i, st in enumerate(self._stages) if set(MIG_PORT_NAMES) <= set(st.pins)]
+
+    def _frame_buffer_lanes(self):
+        """The lanes with a DDR block, when the links have a frame buffer (it goes on each
+        of their interfaces), else 0."""
+        if self._links is None or not self._links.buffer_rows:
+            return 0
+        return max([len(self._cores[i]) for i in self._ddr_users()] or [0])
+
+    def _shared_buffers(self):
+        """The frame buffers (their index = the lane) on a lane's shared DDR interface."""
+        from tdicam.hdl.output_links import buffer_share
+        if not self._fb_lanes:
+            return []
+        return list(range(len(buffer_share(self._links, self._fb_lanes))))
 
     def _shared_ddr(self):
-        """{lane: [stage index, ...]} of the lanes whose DDR interface two or more stages
-        share (the stages with a MIG user interface on their pins, in stream order)."""
-        users = [i for i, st in enumerate(self._stages) if set(MIG_PORT_NAMES) <= set(st.pins)]
+        """{lane: [stage index, ...]} of the lanes whose DDR interface two or more users
+        share (the stages with a MIG user interface on their pins, in stream order, and
+        the lane's frame buffer after them: :meth:`_shared_buffers`)."""
+        users = self._ddr_users()
         lanes = max([len(self._cores[i]) for i in users] or [0])
         out = {k: [i for i in users if k < len(self._cores[i])] for k in range(lanes)}
-        return {k: v for k, v in out.items() if len(v) > 1}
+        fb = self._shared_buffers()
+        return {k: v for k, v in out.items() if len(v) + (k in fb) > 1}
 
     @property
     def shared_ddr(self):
-        """{lane: [stage name, ...]} of the lanes whose DDR interface stages share."""
-        return {k: [self._stages[i].name for i in v] for k, v in self._shared.items()}
+        """{lane: [user name, ...]} of the lanes whose DDR interface users share (the
+        stages', then ``frame_buffer`` for the lane's frame buffer)."""
+        fb = self._shared_buffers()
+        return {k: [self._stages[i].name for i in v] + ([FRAME_BUFFER] if k in fb else [])
+                for k, v in self._shared.items()}
 
     def _shares(self, st, pname, k):
         """Whether stage ``st``'s pin ``pname`` of lane ``k`` goes to the lane's shared DDR."""
@@ -341,12 +380,14 @@ class Pipeline(wiring.Component):
         return max([st.startup for st in self._stages] or [0])
 
     def has_devices(self):
-        """Whether a stage has an external part (:class:`Device`) on its pins."""
-        return any(st.device is not None for st in self._stages)
+        """Whether a stage or the links' frame buffer has an external part
+        (:class:`Device`) on its pins."""
+        return any(st.device is not None for st in self._stages) or bool(self.frame_buffers)
 
     def devices(self):
         """[(stage, lane, :class:`Device`)] of the stages' external parts (simulation; made
-        once, for the :class:`Board` around this top)."""
+        once, for the :class:`Board` around this top; a lane's shared DDR model deep enough
+        for the lane's frame buffer too; :attr:`own_frame_buffers` the Board's)."""
         if not hasattr(self, "_devices"):
             out, shared = [], {k: [] for k in self._shared}
             for st, cs in zip(self._stages, self._cores):
@@ -358,8 +399,14 @@ class Pipeline(wiring.Component):
                             shared[k].append(dev)
                         else:
                             out.append((st, k, dev))
+            from tdicam.model.ddr import ADDR_PER_WORD
+            ends = [fb.layout.end_addr(fb.rows) // ADDR_PER_WORD for fb in self.frame_buffers]
+            shared_fb = self._shared_buffers()
             for k, devs in shared.items():
                 deep = max(devs, key=lambda d: d.model.depth_words)
+                if k in shared_fb and ends[k] > deep.model.depth_words:
+                    # (the buffer's region above the blocks': the same model, deeper)
+                    deep = replace(deep, model=deep.model.with_depth(ends[k]))
                 out.append((SHARED_DDR, k, replace(
                     deep, pins={n: n for n in MIG_PORT_NAMES},
                     status={n.removeprefix("ddr_"): port for n, port in deep.status.items()})))
@@ -368,7 +415,7 @@ class Pipeline(wiring.Component):
 
     @staticmethod
     def _status(st, pname, lane):
-        return f"{st.name}_{pname}" + (f"_{lane}" if lane else "")
+        return f"{st.name}_{lane_port(pname, lane)}"
 
     def _plan(self):
         """Make every component once; check lane counts and widths (one-line errors)."""
@@ -437,10 +484,11 @@ class Pipeline(wiring.Component):
         ppc = self._ppc         # pixels a beat of the streams reaching the next stage
         tap = 0
         self._arbiters = {}
+        fb = self._shared_buffers()
         for k, users in self._shared.items():
             from tdicam.hdl.ddr_arbiter import DdrArbiter
             m.submodules[core_name(SHARED_DDR, k, 2) + "_arbiter"] = arb = DdrArbiter(
-                n_ports=len(users))
+                n_ports=len(users) + (k in fb))
             connect_mig(m, arb, SimpleNamespace(**{
                 n: getattr(self, self._status(SHARED_DDR, n, k)) for n in MIG_PORT_NAMES}))
             self._arbiters[k] = arb
@@ -542,8 +590,12 @@ class Pipeline(wiring.Component):
         if self._links is not None:
             m.submodules.output_links = ol = self._out_links
             last.feed(m, ol.i_stream, who="the output links")
+            for k in self._shared_buffers():      # buffer k: lane k's arbiter's last port
+                arb = self._arbiters[k].port(len(self._shared[k]))
+                connect_mig(m, SimpleNamespace(**{
+                    n: getattr(ol, buffer_port(n, k)) for n in MIG_PORT_NAMES}), arb)
             for n, mem in ol.signature.members.items():
-                if n == "i_stream":
+                if n == "i_stream" or n not in self.signature.members:
                     continue
                 if mem.flow == wiring.Out:
                     m.d.comb += getattr(self, n).eq(getattr(ol, n))

@@ -333,7 +333,10 @@ def test_camera_is_named_not_default_and_extrapolates_the_whole_frame(monkeypatc
                 "mismatches": 0, "tap_mismatches": 0 if lines == 8 else 2, "load": 1.0,
                 "links": True, "words_compared": 2578 * 2 * lines,
                 "frame_buffer": {"writes": 322 * lines, "reads": 322 * lines, "stalls": 7,
-                                 "error": 0}}
+                                 "error": 0} if lines == 16 else None,
+                "status_outputs": {} if lines == 16 else {
+                    "ddr_writes": 1200, "ddr_reads": 1201, "ddr_writes_1": 1300,
+                    "ddr_reads_1": 1301}}
     monkeypatch.setattr(camera, "camera_run", fake)
     rows = suite.run(["camera"], sims=("icarus", "verilator"), repeat=1, quick=False)
     assert seen == [(n, "verilator") for n in camera.CUT_LINES]
@@ -346,3 +349,7 @@ def test_camera_is_named_not_default_and_extrapolates_the_whole_frame(monkeypatc
     # each cut says its links' words were compared and what went through the frame buffer
     assert "the 41,248 link words compared" in rows[1]["note"]
     assert "(the frame buffer: 5,152 words written, 5,152 read)" in rows[2]["note"]
+    # (a buffer on the gains' shared DDR: each interface's words)
+    assert "frame buffer:" not in rows[1]["note"] and "each gain's DDR 1,200 words written " \
+        "and 1,201 read, 1,300 words written and 1,301 read" in rows[1]["note"]
+    assert "each gain's DDR" not in rows[2]["note"]

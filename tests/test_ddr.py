@@ -3,6 +3,8 @@ and Amaranth simulations of the writer/reader/CDS/TDI users."""
 
 import numpy as np
 import pytest
+from amaranth.lib import wiring
+from amaranth.lib.wiring import Out
 from amaranth.sim import Simulator
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -211,7 +213,10 @@ def test_hdl_model_dram_timing_is_cycle_equal(name, lines, stalls):
 # ---- Amaranth simulations of the users
 
 def _run_stream(top, beats, first, last, ctrl=None, n_out=None, bp=0.3, idle=0.2, seed=1,
-                limit=200000):
+                limit=200000, status=None):
+    """``top``'s output beats ``[(values, first, last)]`` for ``beats`` in, with random idle
+    cycles and backpressure; ``status``: a dict whose keys (``top``'s output ports) get
+    their values at the end."""
     rng = np.random.default_rng(seed)
     got = []
     n = len(beats)
@@ -246,6 +251,8 @@ def _run_stream(top, beats, first, last, ctrl=None, n_out=None, bp=0.3, idle=0.2
             cycles += 1
             if len(got) == n_out or cycles > limit:
                 break
+        for name in status or ():
+            status[name] = ctx.get(getattr(top, name))
 
     _simulate(top, src, sink)
     return got
@@ -720,3 +727,106 @@ def test_frame_buffer_equals_its_input_over_legal_parameters(case):
     got = _run_stream(top, beats, first, last, n_out=n, bp=bp, idle=idle, seed=seed)
     assert [g[0] for g in got] == beats.tolist()
     assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()
+
+
+class _SpreadTop(wiring.Component):
+    """A :class:`~tdicam.hdl.output_links.SpreadFrameBuffer` with a MIG model (refresh,
+    dropped readies) on each buffer's interface; ``writes{j}``: model j's words written."""
+
+    def __init__(self, core):
+        self.core = core
+        self.models = [MigModel(depth_words=b.layout.end_addr(b.rows) // 8)
+                       for b in core.buffers]
+        mem = core.signature.members
+        super().__init__({"i_stream": mem["i_stream"], "o_stream": mem["o_stream"]}
+                         | {f"writes{j}": Out(32) for j in range(len(self.models))})
+
+    def elaborate(self, platform):
+        from types import SimpleNamespace
+        from amaranth.hdl import Module
+        from tdicam.hdl.interfaces.mig import MIG_PORT_NAMES, connect_mig
+        from tdicam.hdl.output_links import lane_port
+        m = Module()
+        m.submodules.core = self.core
+        wiring.connect(m, wiring.flipped(self.i_stream), self.core.i_stream)
+        wiring.connect(m, self.core.o_stream, wiring.flipped(self.o_stream))
+        for j, mdl in enumerate(self.models):
+            m.submodules[f"model{j}"] = mdl
+            connect_mig(m, SimpleNamespace(**{n: getattr(self.core, lane_port(n, j))
+                                              for n in MIG_PORT_NAMES}), mdl)
+            m.d.comb += getattr(self, f"writes{j}").eq(mdl.writes)
+        return m
+
+
+def _spread_run(*, buffers, image_rows, images, width, elements, bits, bp=0.5, idle=0.2,
+                seed=1, kind="random"):
+    """A SpreadFrameBuffer's output beats for ``images`` images (each one frame) in, and
+    each MIG model's words written."""
+    from tdicam.blocks.steps import LinkPlan
+    from tdicam.hdl.output_links import SpreadFrameBuffer, buffer_packing
+    plan = LinkPlan(links=1, pixel_bits=bits, clock_mhz=100.0, keep=1, image_rows=image_rows,
+                    frame_rows=image_rows, buffer_rows=image_rows, buffer_base=64)
+    core = SpreadFrameBuffer(plan, width=width, count=elements, buffers=buffers)
+    top = _SpreadTop(core)
+    rng = np.random.default_rng(seed)
+    full = (1 << bits) - 1
+    fr = {"random": lambda s: rng.integers(0, full + 1, s), "zero": np.zeros,
+          "full": lambda s: np.full(s, full)}[kind]((images, image_rows, width))
+    if kind == "random" and images > 1:
+        fr[1] = full                                    # a full-scale image
+    beats = fr.reshape(-1, elements)
+    per = width // elements
+    n = len(beats)
+    first = np.arange(n) % (image_rows * per) == 0
+    last = np.arange(n) % per == per - 1
+    status = {f"writes{j}": None for j in range(len(core.buffers))}
+    got = _run_stream(top, beats, first, last, n_out=n, bp=bp, idle=idle, seed=seed,
+                      status=status)
+    writes = {j: status[f"writes{j}"] for j in range(len(core.buffers))}
+    assert [g[0] for g in got] == beats.tolist()
+    assert [g[1] for g in got] == first.tolist() and [g[2] for g in got] == last.tolist()
+    return core, writes
+
+
+@pytest.mark.parametrize("buffers,image_rows,images", [(2, 3, 3), (2, 4, 2), (3, 5, 2),
+                                                       (2, 1, 3), (1, 3, 2)])
+def test_spread_frame_buffer_deals_lines_in_turn_and_returns_them_in_order(
+        buffers, image_rows, images):
+    """The links' frame buffer over ``buffers`` DDR interfaces: line y of each image on
+    interface ``y mod buffers`` (an odd image height starts each image on buffer 0 again;
+    a 1-row image leaves one buffer), every beat out in its order with its markers, under
+    random idle cycles and a sink taking half the cycles; each model saw exactly its
+    lines' words (40 pixels of 16 bit: 3 words a line)."""
+    core, writes = _spread_run(buffers=buffers, image_rows=image_rows, images=images,
+                               width=40, elements=8, bits=16)
+    n = min(buffers, image_rows)
+    assert len(core.buffers) == n
+    assert [b.rows for b in core.buffers] == [len(range(j, image_rows, n)) for j in range(n)]
+    assert writes == {j: images * len(range(j, image_rows, n)) * 3 for j in range(n)}
+
+
+@settings(max_examples=40 if FULL else 5, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(1, 3), st.integers(1, 5), st.integers(1, 3), st.sampled_from([1, 2, 4, 8]),
+       st.integers(1, 6), st.sampled_from([12, 16]), st.sampled_from([0.0, 0.3, 0.7]),
+       st.sampled_from(["random", "zero", "full"]), st.integers(0, 1 << 16))
+def test_spread_frame_buffer_equals_its_input_over_legal_parameters(
+        buffers, image_rows, images, elements, beats, bits, bp, kind, seed):
+    """The identity (values, markers) over drawn buffers, image heights, beats of 1-8
+    pixels, widths, pixel widths, backpressure and image kinds. Short form 5 examples;
+    ``TDICAM_FULL=1``: 40."""
+    _spread_run(buffers=buffers, image_rows=image_rows, images=images,
+                width=elements * beats, elements=elements, bits=bits, bp=bp, seed=seed,
+                kind=kind)
+
+
+def test_spread_frame_buffer_refuses_bad_parameters_in_one_line():
+    from tdicam.blocks.steps import LinkPlan
+    from tdicam.hdl.output_links import SpreadFrameBuffer
+    plan = LinkPlan(links=1, pixel_bits=16, clock_mhz=100.0, keep=1, image_rows=4,
+                    frame_rows=4, buffer_rows=4)
+    with pytest.raises(TdicamError, match=r"^buffers = 0 .*$"):
+        SpreadFrameBuffer(plan, width=40, count=8, buffers=0)
+    with pytest.raises(TdicamError, match=r"^frame buffer: a line of 41 pixels is not a "
+                                          r"whole number of 8-pixel beats$"):
+        SpreadFrameBuffer(plan, width=41, count=8, buffers=2)

@@ -3,8 +3,9 @@ simulator, under random command streams, idle cycles and the model's random stal
 dropped readies, DRAM timing): every read returns, to the port that asked, the word that
 port last wrote there (data bit-exact, per-port order kept); the grant and take of every
 cycle equal the golden model's (:func:`tdicam.model.ddr_arbiter.grants`) on the recorded
-requests; the model's round-robin bound; one-line refusals; the camera's shared order (nuc_ddr beside cds_ddr behind
-the arbiter) on the memory model within 3 points of LiteDRAM (tests/ddr_arbiter_litedram.json)."""
+requests; the model's round-robin bound; one-line refusals; the camera's shared order (nuc_ddr
+and cds_ddr saturated beside the output links' frame buffer at its planned share, behind the
+arbiter) on the memory model within 3 points of LiteDRAM (tests/ddr_arbiter_litedram.json)."""
 
 import json
 from pathlib import Path
@@ -163,7 +164,8 @@ def test_bad_parameters_are_one_line(kw, words):
 
 
 #: LiteDRAM's figure on the camera's shared DDR order (nuc_ddr's coefficient reads beside
-#: cds_ddr's reset frame writes and reads behind one DdrArbiter), the order as runs;
+#: cds_ddr's reset frame writes and reads and the output links' frame buffer's image line
+#: writes and reads, behind one DdrArbiter), the order as runs;
 #: regenerate: ``python bench/bench_ddr.py --arbiter --fixture tests/ddr_arbiter_litedram.json``
 _FIXTURE = Path(__file__).with_name("ddr_arbiter_litedram.json")
 
@@ -187,14 +189,27 @@ def test_arbiter_order_on_the_model_within_3_points_of_litedram():
     assert round(100 * eff, 2) == fx["model"]
     assert abs(100 * eff - fx["efficiency"]) <= 3, (100 * eff, fx["efficiency"])
     assert fx["mismatches"] == 0 and fx["violations"] == 0
-    # both users in the order: coefficient reads and the CDS reset frame's writes and reads
-    kinds = {(rd, a0 >= 512) for rd, a0, n in fx["runs"]}   # the coefficients from word 512
-    assert kinds == {(1, True), (0, False), (1, False)}
+    # the three users in the order: the CDS reset frame's writes and reads below word 512,
+    # the coefficient reads from word 512, the frame buffer's writes and reads from word
+    # 1536 (above the coefficients' 16 lines of 64 words); no run crosses a region's edge
+    def region(a):
+        return ("cds", "nuc", "fb")[(a >= 512) + (a >= 1536)]
+    assert all(region(a0) == region(a0 + n - 1) for _, a0, n in fx["runs"])
+    kinds = {(rd, region(a0)) for rd, a0, n in fx["runs"]}
+    assert kinds == {(0, "cds"), (1, "cds"), (1, "nuc"), (0, "fb"), (1, "fb")}
+    # the frame buffer at its planned share: its writes ~FB_WRITE_SHARE of the others'
+    # words (10 %), its reads FB_READ_SHARE of its writes (to a 32-word line: read by lines)
+    from tdicam.cosim.shared_ddr import FB_READ_SHARE, FB_WRITE_SHARE
+    fw = sum(n for rd, a0, n in fx["runs"] if not rd and region(a0) == "fb")
+    fr = sum(n for rd, a0, n in fx["runs"] if rd and region(a0) == "fb")
+    others = sum(n for _, _, n in fx["runs"]) - fw - fr
+    assert abs(fw / others / FB_WRITE_SHARE - 1) <= 0.1, (fw, others)
+    assert abs(fr - FB_READ_SHARE * fw) <= 32, (fr, fw)
 
 
 def test_the_plan_s_shared_figure_is_the_fixture_s():
     """tdicam.model.ddr_efficiency.SHARED_EFFICIENCY (what the camera plan counts on for an
-    interface both users share) is the fixture's model and LiteDRAM figures."""
+    interface its users share) is the fixture's model and LiteDRAM figures."""
     from tdicam.model.ddr_efficiency import SHARED_EFFICIENCY
     fx = _fixture()
     assert SHARED_EFFICIENCY == (round(fx["model"], 1), round(fx["efficiency"], 1))
@@ -214,7 +229,7 @@ def test_benchmarks_page_quotes_the_fixture():
                             f"{fx['efficiency']:.1f}")
 
 
-@pytest.mark.skipif(not FULL, reason="records the camera's order (~2 min): TDICAM_FULL=1")
+@pytest.mark.skipif(not FULL, reason="records the camera's order (~70 s): TDICAM_FULL=1")
 def test_arbiter_order_recorded_now_is_the_fixtures():
     from tdicam.cosim.litedram import trace_runs
     from tdicam.cosim.shared_ddr import camera_trace

@@ -80,6 +80,13 @@ class MigModel(wiring.Component):
     depth_words = property(lambda self: self._depth)
     dram = property(lambda self: self._dram)
 
+    def with_depth(self, depth_words):
+        """The same model (stalls, timing, counters) holding ``depth_words`` words."""
+        lo, hi, period, rcyc, drop, seed = self._p
+        return MigModel(depth_words=depth_words, addr_bits=self._aw, lat_lo=lo, lat_hi=hi,
+                        refresh_period=period, refresh_cycles=rcyc, drop=drop, seed=seed,
+                        dram=self._dram, count_stalls=self._count)
+
     def elaborate(self, platform):
         m = Module()
         lo, hi, period, rcyc, drop, seed = self._p

@@ -157,13 +157,14 @@ def ddr_efficiency(shared=False):
     """``(efficiency, source text)`` counted on for an interface's mixed traffic, the
     lower of the memory model's and LiteDRAM's figures less
     :data:`tdicam.model.ddr_efficiency.PLAN_MARGIN`: with ``shared`` (the coefficient reads
-    and the reset frames on one interface, behind the top's DdrArbiter) the arbiter's
-    measured order (:data:`~tdicam.model.ddr_efficiency.SHARED_EFFICIENCY`); else the DDR
+    and the reset frames on one interface, behind the top's DdrArbiter with the output
+    links' frame buffer) the arbiter's measured order (:data:`~tdicam.model.ddr_efficiency.SHARED_EFFICIENCY`); else the DDR
     block whose measured order is closest to a line written and lines read, CDS with its
     reset frame in DDR at 4096 columns."""
     if shared:
-        (model, lite), what = _ddr_efficiency.SHARED_EFFICIENCY, \
-            "the DdrArbiter's shared order (coefficient reads beside the reset frames)"
+        (model, lite), what = _ddr_efficiency.SHARED_EFFICIENCY, (
+            "the DdrArbiter's shared order (coefficient reads beside the reset frames and the "
+            "frame buffer's lines)")
     else:
         (model, lite), what = _ddr_efficiency.MEASURED_EFFICIENCY["cds_ddr_wide"], \
             "cds_ddr_wide's"

@@ -187,6 +187,7 @@ def camera_rows(*, sims, repeat, quick, stalls, build):
                  + f"every tap and the {r.get('words_compared', 0):,} link words compared"
                  + (f" (the frame buffer: {r['frame_buffer']['writes']:,} words written, "
                     f"{r['frame_buffer']['reads']:,} read)" if r.get("frame_buffer") else "")
+                 + _ddr_words(r.get("status_outputs", {}))
                  + f"; load {r['load']:.1f}"))
     rows_full = int(_full_rows())
     cyc, secs = extrapolate(runs[0], runs[1], rows_full)
@@ -198,6 +199,15 @@ def camera_rows(*, sims, repeat, quick, stalls, build):
         note=f"the whole frame pair, linear from the {CUT_LINES[0]}- and {CUT_LINES[1]}-line "
              f"cuts: {cyc:,.0f} cycles; not run"))
     return rows
+
+
+def _ddr_words(status):
+    """The note's DDR words of each gain channel's interface (its blocks' and its share of
+    the frame buffer's), from a run's status; "" without a shared interface."""
+    sfx = [s for s in ("", "_1") if f"ddr_writes{s}" in status]
+    return "" if not sfx else "; each gain's DDR " + ", ".join(
+        f"{status[f'ddr_writes{s}']:,} words written and {status[f'ddr_reads{s}']:,} read"
+        for s in sfx)
 
 
 def _full_rows():

@@ -81,7 +81,9 @@ class LinkPlan:
     made of the chain's frames of ``frame_rows`` rows each, one image in ``keep`` sent
     (:mod:`tdicam.model.frame_select`); ``buffer_rows`` > 0: the kept images wait in a
     DDR frame buffer of that many rows before the links
-    (:class:`~tdicam.hdl.output_links.OutputLinks`), 0: none."""
+    (:class:`~tdicam.hdl.output_links.OutputLinks`), 0: none; its lines from DDR address
+    ``buffer_base`` on (above the chain's other DDR regions: the buffer shares their
+    interfaces)."""
 
     links: int
     pixel_bits: int
@@ -90,6 +92,7 @@ class LinkPlan:
     image_rows: int
     frame_rows: int = 1
     buffer_rows: int = 0
+    buffer_base: int = 0
 
 
 @dataclass

@@ -241,10 +241,10 @@ def chain_plan(scene, *, stages=None, lines=None, width=None, blocks=None, spill
     if part == "front":           # the front end alone: its pixel stream is the top's output
         return replace(plan, steps=plan.steps[:1], reset_frames=False)
     return plan if scene.pipeline.output != "links" else replace(
-        plan, links=link_plan(scene, plan, ctx.bits))
+        plan, links=link_plan(scene, plan, ctx.bits, ddr_base=ctx.ddr_base))
 
 
-def link_plan(scene, p, bits):
+def link_plan(scene, p, bits, *, ddr_base=0):
     """The :class:`~tdicam.blocks.steps.LinkPlan` of a scene whose ``[pipeline].output`` is
     ``"links"``, for its chain plan ``p`` whose output is ``bits``-bit pixels:
     ``[camera]``'s links, word clock and pixel bits (at least ``bits``, else a one-line
@@ -267,7 +267,10 @@ def link_plan(scene, p, bits):
     keeps the whole camera's buffer on its own rows). A chain from the lanes whose links
     send a row slower than the lanes bring one
     (:func:`tdicam.chain.link_rates.links_keep_up` False) has one image of room even when
-    the frame rate fits: lanes cannot wait for the links."""
+    the frame rate fits: lanes cannot wait for the links. The buffer's lines start at
+    ``ddr_base`` (the first address above the chain's DDR blocks' regions): it shares
+    their DDR interfaces, its lines dealt to them in turn
+    (:class:`~tdicam.hdl.output_links.OutputLinks`)."""
     from tdicam.blocks.steps import LinkPlan
     from tdicam.model.frame_select import keep_every
     from tdicam.chain.link_rates import link_buffer_images, links_keep_up
@@ -285,7 +288,7 @@ def link_plan(scene, p, bits):
                     clock_mhz=cam.link_clock_mhz,
                     keep=keep_every(cam.frame_rate_hz, cam.output_frame_rate_hz),
                     image_rows=image, frame_rows=rows,
-                    buffer_rows=images * image)
+                    buffer_rows=images * image, buffer_base=ddr_base if images else 0)
 
 
 def link_word_count(p):
@@ -479,7 +482,7 @@ def verilog_header(p, *, taps=False, csr=False, bus="axi4-lite"):
         | {s.block: s.params for s in p.steps}
         | ({} if p.links is None else {"links": {
             k: v for k, v in dataclasses.asdict(p.links).items()
-            if k != "buffer_rows" or v}}))   # (a top without a buffer: as it was)
+            if k not in ("buffer_rows", "buffer_base") or v}}))   # (no buffer: as it was)
 
 
 def golden(p, data):

@@ -131,6 +131,10 @@ def camera_budget(scene, cam):
         C, R, pixel_bits=cam.link_pixel_bits, frame_rate_hz=F, output_frame_rate_hz=Fo,
         link_frame_rate_hz=llim)
     traffic = {**traffic, "image write": fb_write, "image read": fb_read}
+    # where the top puts it (tdicam.hdl.chain_top.Pipeline): beside the DDR blocks, or alone
+    fb_where = (f"its rows dealt in turn to the {G} channels' DDR interfaces, each behind the "
+                f"interface's DdrArbiter beside the blocks there" if coeff_ch or reset_ddr
+                else "on a MIG user interface of its own, frame_buffer_app_*")
     n_if = cam.ddr_interfaces
     peak, pins, user = camera.ddr_peak_bps(cam.ddr_data_bits, cam.ddr_data_rate_mts,
                                          cam.ddr_user_clock_mhz)
@@ -193,8 +197,8 @@ def camera_budget(scene, cam):
         + (f"; an image sent takes {1e3 / llim:.1f} ms on them against the "
            f"{1e3 / F:.1f} ms the sensor reads it in, so it waits in a DDR frame buffer "
            f"({fb_images} image(s) of room"
-           + ("; the generated top has it before its links, on a MIG user interface of "
-              "its own, frame_buffer_app_*)" if built else ")") if fb_write else ""),
+           + (f"; the generated top has it before its links, {fb_where})" if built else ")")
+           if fb_write else ""),
         limit=llim))
 
     limits = {r["name"]: r["frame_rate_limit"] for r in rows
