@@ -29,7 +29,7 @@ __all__ = ["SharedDdr", "Pace", "record_shared", "camera_trace", "CAMERA_TRACE",
            "FB_WRITE_SHARE", "FB_READ_SHARE", "FB_OFFER"]
 
 #: the name of :func:`camera_trace`'s order (the benchmark's row, the fixture's key)
-CAMERA_TRACE = "nuc_cds_fb_arbiter"
+CAMERA_TRACE = "cds_nuc_fb_arbiter"
 #: the frame buffer's written words per word of the coefficient reads and the reset frame's
 #: writes and reads, as the camera plan budgets one interface
 #: (``tdicam plan --scene scenes/ning2019_gmax0504_full.toml``: image write 3.92 Gbit/s
