@@ -236,7 +236,6 @@ class Pipeline(wiring.Component):
             carried.add(self._stages[0].gate)
         members = {} if self._source else {"i_stream": In(pixel_signature(channels_shape(
             in_bits, ppc * lanes * lane_elems)))}
-        self._links = links
         if links is None:
             members["o_stream"] = Out(pixel_signature(channels_shape(*self._out_shape)))
         else:
