@@ -23,6 +23,7 @@ from tdicam.hdl.interfaces.mig import MigPort, connect_mig, mig_user_ports
 from tdicam.hdl.interfaces.stream import (PairBuffer, StreamRegister, channels_shape,
                                           pixel_signature)
 from tdicam.hdl.util import quiet_reject
+from tdicam.hdl.vendor import ecp5_dsp
 
 __all__ = ["NucDdr"]
 
@@ -52,6 +53,11 @@ class NucDdr(wiring.Component):
         frame reads the whole image; the gateware as it was).
     ppc : int
         Pixels per clock (per beat): 1, 2, 4 or 8; ``width`` a multiple of it.
+    dsp : str
+        The :class:`~tdicam.hdl.nuc.Nuc` datapath's multipliers (:attr:`DSPS`):
+        ``"generic"`` (default: a ``*`` between fabric registers) or ``"ecp5"`` (the ECP5
+        synthesis tops: each lane's input registers a MULT18X18D's own; the same ports,
+        latency and cycles, a simulator needs :mod:`tdicam.cosim.mult18x18d`).
 
     Attributes
     ----------
@@ -89,11 +95,15 @@ class NucDdr(wiring.Component):
         than 16 bits, the image beyond the capacity (one line each).
     """
 
+    #: Multiplier descriptions (``dsp=``), :attr:`tdicam.hdl.nuc.Nuc.DSPS`.
+    DSPS = ecp5_dsp.DSPS
+
     @quiet_reject
     def __init__(self, *, width, rows, pixel_bits=12, gain_int_bits=2, gain_frac_bits=14,
                  offset_bits=16, offset_frac_bits=0, out_bits=None, line_stride=None, base=0,
-                 capacity_bytes=CAPACITY_BYTES, ppc=1, image_rows=None):
+                 capacity_bytes=CAPACITY_BYTES, ppc=1, image_rows=None, dsp="generic"):
         self._ppc = check_choice("ppc", ppc, PPC_CHOICES)
+        self._dsp = check_choice("dsp", dsp, self.DSPS)
         self._out_bits = check_nuc_params(
             pixel_bits=pixel_bits, gain_int_bits=gain_int_bits, gain_frac_bits=gain_frac_bits,
             offset_bits=offset_bits, offset_frac_bits=offset_frac_bits, out_bits=out_bits)
@@ -120,11 +130,12 @@ class NucDdr(wiring.Component):
     elem_bits = property(lambda self: self._elem_bits,
                          doc="Width of each input element: max(pixel, gain, offset bits).")
     ppc = property(lambda self: self._ppc, doc="Pixels per clock (per beat).")
+    dsp = property(lambda self: self._dsp, doc="Multiplier description, one of :attr:`DSPS`.")
 
     def _core(self):
         from tdicam.hdl.nuc import Nuc
         return Nuc(pixel_bits=self._pixel_bits, out_bits=self._out_bits, ppc=self._ppc,
-                   **self._fmt.params())
+                   dsp=self._dsp, **self._fmt.params())
 
     @property
     def latency(self):

@@ -118,3 +118,30 @@ def test_an_image_of_more_lines_gives_each_frame_its_own():
     assert (got == np.stack(want)).all()
     with pytest.raises(TdicamError, match="give image_rows = 6"):
         nuc_ddr_frames(x, g, o, kinds)
+
+
+@pytest.mark.filterwarnings("ignore:.*created but never used")   # inspected only
+@pytest.mark.parametrize("ppc", [1, 8])
+def test_ecp5_multipliers_are_dsp_blocks_with_their_input_registers(ppc):
+    """``dsp="ecp5"`` (the ECP5 synthesis tops): one MULT18X18D a lane with its input
+    registers on CLK0 and no output register, the same latency and ports as the generic
+    description; the block's ECP5 top (what ``tdicam synth nuc_ddr`` places) has them, its
+    plain top none; an unknown ``dsp`` is one line naming it and the valid values."""
+    from amaranth.back import rtlil
+    from tdicam import blocks
+    from tdicam.hdl.nuc_ddr import NucDdr
+    dut = NucDdr(width=16, rows=2, ppc=ppc, dsp="ecp5")
+    plain = NucDdr(width=16, rows=2, ppc=ppc)
+    assert dut.dsp == "ecp5" and plain.dsp == "generic"
+    assert dut.latency == plain.latency and dut.signature == plain.signature
+    text = rtlil.convert(dut)
+    assert text.count("cell \\MULT18X18D") == ppc
+    assert text.count('parameter \\REG_INPUTA_CLK "CLK0"') == ppc
+    assert text.count('parameter \\REG_OUTPUT_CLK "NONE"') == ppc
+    blk = blocks.get("nuc_ddr")
+    params = {"width": 16, "rows": 2, "ppc": ppc}
+    assert rtlil.convert(blk.build(params, ecp5=True)).count("cell \\MULT18X18D") == ppc
+    assert "MULT18X18D" not in rtlil.convert(blk.build(params))
+    with pytest.raises(TdicamError, match=r"dsp.*'xilinx'.*generic, ecp5") as e:
+        NucDdr(width=16, rows=2, dsp="xilinx")
+    assert "\n" not in str(e.value)

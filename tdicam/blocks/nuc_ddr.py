@@ -54,9 +54,10 @@ def _image_rows(p):
     return check_image_rows(p["rows"], p["image_rows"])
 
 
-def _core(p):
+def _core(p, dsp="generic"):
+    """The block's gateware for resolved parameters ``p`` (``dsp``: :attr:`NucDdr.DSPS`)."""
     return NucDdr(width=p["width"], rows=p["rows"], ppc=p["ppc"],
-                  capacity_bytes=p["capacity_mib"] << 20,
+                  capacity_bytes=p["capacity_mib"] << 20, dsp=dsp,
                   **{k: p[k] for k in _MODEL_KEYS})
 
 
@@ -67,9 +68,10 @@ def _top(**p):
 
 def _synth_top(**p):
     """What ``tdicam synth`` places: the core with its MIG user interface at the ports (the
-    memory model of :func:`_top` is simulation only)."""
+    memory model of :func:`_top` is simulation only), each lane's multiplier a MULT18X18D
+    with its own input registers (``dsp="ecp5"``, as ``nuc``'s ECP5 top)."""
     from tdicam.hdl.interfaces.axis import AxisTop
-    return AxisTop(_core(p))
+    return AxisTop(_core(p, "ecp5"))
 
 
 # ---- cases
@@ -262,7 +264,9 @@ def _pipeline_hw(step, data, *, ecp5=False):
     a register slice follows the stage (``out_slice``), as :mod:`~tdicam.blocks.cds_ddr`'s:
     hdr's input ready (its frame-start decision) reached through both DDR blocks'
     handshakes into ``cds_ddr``'s launch register in one cycle (the whole Ning et al. 2019
-    camera at ppc 8: 84.9 MHz, that path 11.8 ns); at ppc 1 the top is as it was."""
+    camera at ppc 8: 84.9 MHz, that path 11.8 ns); at ppc 1 the top is as it was. ``ecp5``
+    (the synthesis top): each lane's multipliers MULT18X18D with their own input registers
+    (``dsp="ecp5"``)."""
     from amaranth.lib.wiring import Out
     from tdicam.blocks import nuc as _nuc
     from tdicam.hdl.chain_board import mig_device
@@ -271,6 +275,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
     from tdicam.model import nand_store
     p = BLOCK.resolve(step.params)
     rows, cols, ppc = _image_rows(p), p["width"], p["ppc"]
+    dsp = "ecp5" if ecp5 else "generic"
 
     def mig(lane):
         return mig_device(_pipeline_end(step) // ADDR_PER_WORD, **stalls_of(p))
@@ -279,7 +284,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
                   load_rows=rows, waits=True, out_slice=ppc > 1)
     if not step.device:
         side = _nuc._pipeline_side(step, data, ecp5)
-        return LaneStage(step.block, lambda lane: _core(p), side=lambda m, lane, io: side(m, lane),
+        return LaneStage(step.block, lambda lane: _core(p, dsp), side=lambda m, lane, io: side(m, lane),
                          io=loaded, device=mig, startup=rows * cols // ppc + 10_000,
                          **common)
     from tdicam.hdl.chain_links import Link, widen
@@ -294,7 +299,7 @@ def _pipeline_hw(step, data, *, ecp5=False):
 
     t = nand_store.timing(rows, cols, nand_store.Geometry(**geo),
                           busy_cycles=step.device["busy_cycles"])
-    return LaneStage(step.block, lambda lane: _core(p), side=side, io=_nuc.nand_io(),
+    return LaneStage(step.block, lambda lane: _core(p, dsp), side=side, io=_nuc.nand_io(),
                      device=lambda lane: [_nuc.nand_device(step, data, lane), mig(lane)],
                      startup=t.scan_cycles + t.load_cycles + rows * cols + 10_000, **common)
 
